@@ -1,0 +1,1 @@
+//! Bond stiffness assignment. To be written.

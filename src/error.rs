@@ -1,0 +1,56 @@
+//! One error type for the library: every variant says which input is wrong and what was
+//! expected, so the CLI can print it as it is and exit non-zero.
+
+use std::path::Path;
+
+/// Everything that can go wrong in anisobond.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A line of an input file could not be understood.
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        /// The file (or `<stdin>`, `<embedded>`).
+        path: String,
+        /// 1-based line number (0 when the file as a whole is wrong).
+        line: usize,
+        /// What was found and what was expected.
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A model (scheme parameters, geometry, bonding) is not admissible.
+    #[error("invalid model: {0}")]
+    Model(String),
+    /// Any other invalid input (packing, target tensor, option values).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Result with the library's [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    /// A parse error at `line` (1-based) of `path`.
+    pub fn parse(path: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
+        Error::Parse {
+            path: path.as_ref().display().to_string(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    /// An I/O error on `path`.
+    pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.as_ref().display().to_string(),
+            source,
+        }
+    }
+}

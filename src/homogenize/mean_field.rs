@@ -1,0 +1,1 @@
+//! Mean-field (continuous orientation average) stiffness. To be written.

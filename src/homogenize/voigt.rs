@@ -1,0 +1,1 @@
+//! Voigt (uniform-strain) sum over bonds. To be written.

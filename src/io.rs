@@ -1,0 +1,41 @@
+//! Atomic file output: everything the library writes goes to a temporary file in the
+//! target's directory and is renamed into place only when complete, so a failure never
+//! leaves a half-written file behind.
+
+use crate::{Error, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// Write `path` atomically: `fill` writes the content into a buffered temporary file,
+/// which is flushed, synced and renamed onto `path` only if `fill` succeeds.
+pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> Result<()>,
+{
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(path, e))?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file());
+        fill(&mut w)?;
+        w.flush().map_err(|e| Error::io(path, e))?;
+    }
+    tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
+    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
+}
+
+/// Write a whole string atomically.
+pub fn write_string_atomic(path: &Path, content: &str) -> Result<()> {
+    write_atomic(path, |w| {
+        w.write_all(content.as_bytes())
+            .map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Read a whole text file, mapping the error to the file's name.
+pub fn read_to_string(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+}

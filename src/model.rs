@@ -1,0 +1,1 @@
+//! Model files. To be written.

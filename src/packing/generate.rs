@@ -1,0 +1,1 @@
+//! Packing generation. To be written.

@@ -1,0 +1,1 @@
+//! Packing file formats. To be written.

@@ -1,0 +1,177 @@
+//! Spheres and their container: positions (m), radii (m) and an optional periodic cell.
+//!
+//! Submodules: [`io`] reads and writes the SPEC text format, YADE SpherePack text and
+//! LIGGGHTS `atom_style granular` data files; [`neighbours`] finds all pairs within a
+//! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings.
+
+pub mod generate;
+pub mod io;
+pub mod neighbours;
+
+use crate::{Error, Result, Vec3};
+
+/// Orthorhombic periodic cell [0, Lx) × [0, Ly) × [0, Lz) (lengths in m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PeriodicCell {
+    /// Edge lengths Lx, Ly, Lz (m).
+    pub lengths: Vec3,
+}
+
+impl PeriodicCell {
+    /// A cell with the given edge lengths; each must be finite and positive.
+    pub fn new(lengths: Vec3) -> Result<Self> {
+        if lengths.iter().any(|l| !l.is_finite() || *l <= 0.0) {
+            return Err(Error::Invalid(format!(
+                "periodic cell lengths must be finite and > 0, got {} {} {}",
+                lengths.x, lengths.y, lengths.z
+            )));
+        }
+        Ok(PeriodicCell { lengths })
+    }
+
+    /// Cell volume (m³).
+    pub fn volume(&self) -> f64 {
+        self.lengths.x * self.lengths.y * self.lengths.z
+    }
+
+    /// Wrap a position into the cell; returns the wrapped position and the integer shift
+    /// that was removed (`p = wrapped + shift ∘ L`).
+    pub fn wrap(&self, p: Vec3) -> (Vec3, [i32; 3]) {
+        let mut out = p;
+        let mut shift = [0i32; 3];
+        for k in 0..3 {
+            let l = self.lengths[k];
+            let s = (p[k] / l).floor();
+            let mut w = p[k] - s * l;
+            let mut s = s as i32;
+            // Guard against w == l from rounding.
+            if w >= l {
+                w -= l;
+                s += 1;
+            }
+            if w < 0.0 {
+                w = 0.0;
+            }
+            out[k] = w;
+            shift[k] = s;
+        }
+        (out, shift)
+    }
+
+    /// Minimum-image branch vector for a raw difference `d = x_j − x_i` of wrapped
+    /// positions: returns `(d + image ∘ L, image)` with every component in [−L/2, L/2].
+    pub fn minimum_image(&self, d: Vec3) -> (Vec3, [i32; 3]) {
+        let mut out = d;
+        let mut image = [0i32; 3];
+        for k in 0..3 {
+            let l = self.lengths[k];
+            let s = -(d[k] / l).round();
+            out[k] = d[k] + s * l;
+            image[k] = s as i32;
+        }
+        (out, image)
+    }
+
+    /// The shift vector `image ∘ L` (m).
+    pub fn shift(&self, image: [i32; 3]) -> Vec3 {
+        Vec3::new(
+            image[0] as f64 * self.lengths.x,
+            image[1] as f64 * self.lengths.y,
+            image[2] as f64 * self.lengths.z,
+        )
+    }
+}
+
+/// A set of spheres, stored as structure of arrays.
+#[derive(Clone, Debug, Default)]
+pub struct Packing {
+    /// Sphere centres (m); wrapped into the cell when the packing is periodic.
+    pub positions: Vec<Vec3>,
+    /// Sphere radii (m), all > 0.
+    pub radii: Vec<f64>,
+    /// The periodic cell, or `None` for a free (non-periodic) assembly.
+    pub cell: Option<PeriodicCell>,
+}
+
+impl Packing {
+    /// Build a packing, checking finite positions and positive radii, and wrapping positions
+    /// into the cell.
+    pub fn new(positions: Vec<Vec3>, radii: Vec<f64>, cell: Option<PeriodicCell>) -> Result<Self> {
+        if positions.len() != radii.len() {
+            return Err(Error::Invalid(format!(
+                "packing has {} positions but {} radii",
+                positions.len(),
+                radii.len()
+            )));
+        }
+        for (k, (p, r)) in positions.iter().zip(&radii).enumerate() {
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(Error::Invalid(format!("sphere {k}: position is not finite")));
+            }
+            if !r.is_finite() || *r <= 0.0 {
+                return Err(Error::Invalid(format!(
+                    "sphere {k}: radius must be finite and > 0, got {r}"
+                )));
+            }
+        }
+        let positions = match &cell {
+            Some(c) => positions.into_iter().map(|p| c.wrap(p).0).collect(),
+            None => positions,
+        };
+        Ok(Packing {
+            positions,
+            radii,
+            cell,
+        })
+    }
+
+    /// Number of spheres.
+    pub fn len(&self) -> usize {
+        self.radii.len()
+    }
+
+    /// True when there are no spheres.
+    pub fn is_empty(&self) -> bool {
+        self.radii.is_empty()
+    }
+
+    /// Mean radius R̄ (m).
+    pub fn mean_radius(&self) -> f64 {
+        self.radii.iter().sum::<f64>() / self.len().max(1) as f64
+    }
+
+    /// Volume (m³): the cell's when periodic, else the axis-aligned bounding box of the
+    /// spheres (surfaces included).
+    pub fn volume(&self) -> f64 {
+        match &self.cell {
+            Some(c) => c.volume(),
+            None => {
+                let (lo, hi) = self.bounding_box();
+                (hi - lo).iter().product()
+            }
+        }
+    }
+
+    /// Axis-aligned bounding box of the spheres including their radii.
+    pub fn bounding_box(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::repeat(f64::INFINITY);
+        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
+        for (p, r) in self.positions.iter().zip(&self.radii) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k] - r);
+                hi[k] = hi[k].max(p[k] + r);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Solid fraction φ = Σ(4/3)πR³ / V (overlaps counted twice).
+    pub fn solid_fraction(&self) -> f64 {
+        let vs: f64 = self
+            .radii
+            .iter()
+            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+            .sum();
+        vs / self.volume()
+    }
+}

@@ -1,0 +1,1 @@
+//! Neighbour search by cell lists. To be written.

@@ -1,0 +1,1 @@
+//! Cross-anisotropic elliptic scheme (Šmilauer). To be written.

@@ -1,0 +1,1 @@
+//! Cubic spheroid scheme (Truszkowska 2018). To be written.

@@ -1,0 +1,1 @@
+//! Isotropic scheme. To be written.

@@ -1,0 +1,22 @@
+//! 6×6 Voigt stiffness tensors (order 11, 22, 33, 23, 13, 12; engineering shear strain;
+//! C6[a,b] = C_ijkl with no factors of 2 or √2; energy w = ½ eᵀC6e).
+
+/// A 6×6 Voigt stiffness matrix (Pa).
+pub type Stiffness6 = nalgebra::Matrix6<f64>;
+/// A 6-vector in Voigt order (stress in Pa, or engineering strain).
+pub type Voigt6 = nalgebra::Vector6<f64>;
+
+/// Voigt index of the tensor index pair (i, j), order 11, 22, 33, 23, 13, 12.
+pub const fn voigt_index(i: usize, j: usize) -> usize {
+    match (i, j) {
+        (0, 0) => 0,
+        (1, 1) => 1,
+        (2, 2) => 2,
+        (1, 2) | (2, 1) => 3,
+        (0, 2) | (2, 0) => 4,
+        _ => 5,
+    }
+}
+
+/// Tensor index pair of Voigt index `a` (inverse of [`voigt_index`]).
+pub const VOIGT_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
