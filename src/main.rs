@@ -1,3 +1,10 @@
+//! The `anisobond` command: thin layer over the library; prints, reports errors, exits.
+
+mod cli;
+
 fn main() {
-    println!("anisobond");
+    if let Err(e) = cli::run() {
+        eprintln!("error: {e}");
+        std::process::exit(1);
+    }
 }

@@ -13,6 +13,7 @@ use crate::packing::Packing;
 use crate::Vec3;
 
 pub use rules::BondingRule;
+pub use stiffness::{assign_stiffness, BondStiffness};
 
 
 /// The bonds of a packing, structure of arrays (one entry per bond in every vector).

@@ -4,7 +4,11 @@
 //!   Šmilauer's microplane integral), no packing needed.
 //! - [`voigt`]: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
 
+pub mod laf;
 pub mod mean_field;
+pub mod network;
+pub mod relaxed;
+pub mod report;
 pub mod voigt;
 
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};

@@ -1,0 +1,78 @@
+//! Throughput of the core pipeline (BENCHMARKS.md): neighbour search + bonding and the bond
+//! table of ~1e6 particles / bonds. Run with `cargo bench --bench core` (release build;
+//! RAYON_NUM_THREADS sets the thread count). Sizes via ANISOBOND_BENCH_PARTICLES.
+//!
+//! The packing is a jittered FCC lattice at solid fraction 0.60 with radii R̄ ± R̄/6, so
+//! the bonding workload (≈ 7–8 bonds per particle at gap 0.17 R̄) is that of a dense
+//! random packing without spending minutes generating one.
+
+use anisobond::bonds::{assign_stiffness, rules::build_bonds, table, BondingRule};
+use anisobond::model::Model;
+use anisobond::packing::{Packing, PeriodicCell};
+use anisobond::Vec3;
+use rand::{Rng, SeedableRng};
+use std::time::Instant;
+
+fn jittered_fcc(n_target: usize, seed: u64) -> Packing {
+    let cells = ((n_target as f64 / 4.0).cbrt().round() as usize).max(2);
+    let r_mean = 1e-3;
+    // FCC touching: a = 2√2 R gives φ = 0.7405; scale the lattice to φ = 0.60.
+    let a = 2.0 * std::f64::consts::SQRT_2 * r_mean * (0.7405 / 0.60_f64).cbrt();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let basis = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+    let mut pos = Vec::new();
+    let mut rad = Vec::new();
+    for i in 0..cells {
+        for j in 0..cells {
+            for k in 0..cells {
+                for b in basis {
+                    let jitter = Vec3::new(rng.gen(), rng.gen(), rng.gen()) * 0.05 * a;
+                    pos.push(Vec3::new((i as f64 + b[0]) * a, (j as f64 + b[1]) * a, (k as f64 + b[2]) * a) + jitter);
+                    rad.push(r_mean * (1.0 + (rng.gen::<f64>() - 0.5) / 3.0));
+                }
+            }
+        }
+    }
+    let l = cells as f64 * a;
+    Packing::new(pos, rad, Some(PeriodicCell::new(Vec3::repeat(l)).unwrap())).unwrap()
+}
+
+fn main() {
+    let n: usize = std::env::var("ANISOBOND_BENCH_PARTICLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
+    let threads = rayon::current_num_threads();
+    let p = jittered_fcc(n, 1);
+    println!("packing: {} particles (jittered FCC, φ = {:.3}), {threads} threads", p.len(), p.solid_fraction());
+
+    let t = Instant::now();
+    let bonds = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonding");
+    let t_bond = t.elapsed().as_secs_f64();
+    println!(
+        "neighbour search + bonding: {:.3} s ({} bonds, Z = {:.2})",
+        t_bond,
+        bonds.len(),
+        bonds.coordination(p.len())
+    );
+
+    let model = Model::truszkowska_mrv();
+    let scheme = model.build_scheme(None).expect("scheme");
+    let t = Instant::now();
+    let k = assign_stiffness(&p, &bonds, scheme.as_ref(), &model.geometry).expect("stiffness");
+    let t_assign = t.elapsed().as_secs_f64();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("bonds.csv");
+    let t = Instant::now();
+    table::write_bond_table(&path, &bonds, &k).expect("write");
+    let t_write = t.elapsed().as_secs_f64();
+    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "bond table of {} bonds: stiffness {:.3} s + CSV write {:.3} s = {:.3} s ({:.1} MB)",
+        bonds.len(),
+        t_assign,
+        t_write,
+        t_assign + t_write,
+        size as f64 / 1e6
+    );
+}

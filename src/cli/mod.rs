@@ -1,0 +1,274 @@
+//! Command-line interface (SPEC.md "Command line"). Every command reads its inputs, calls
+//! the library, prints human-readable results with units, and writes files atomically.
+
+mod demo;
+mod output;
+
+use anisobond::bonds::{self, table, BondSet, BondStiffness};
+use anisobond::homogenize::{mean_field, report::TensorReport, voigt};
+use anisobond::model::Model;
+use anisobond::packing::{self, Packing};
+use anisobond::tensor::Stiffness6;
+use anisobond::{Error, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+
+/// Bonded-particle DEM models of anisotropic elastic solids.
+///
+/// Units: SI throughout (m, N, Pa; springs in N/m, rotational springs in N·m/rad).
+/// Stiffness tensors are 6×6 Voigt matrices (order 11, 22, 33, 23, 13, 12, engineering
+/// shear strain), printed in GPa and written to JSON in Pa.
+#[derive(Parser)]
+#[command(name = "anisobond", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The main job on an embedded default: generate a periodic packing, bond it, assign the
+    /// cubic Zener>1 stiffness of Truszkowska 2018 and print its stiffness tensor by every
+    /// available method beside the paper's values; write the files into DIR.
+    Demo(demo::DemoArgs),
+    /// Generate a seeded periodic random packing (SPEC packing text: `x y z r` in m).
+    Pack(PackArgs),
+    /// Bond a packing and write the bond-stiffness table (CSV: i,j,nx,ny,nz,length [m],
+    /// radius [m],kn [N/m],ks [N/m],kr [N·m/rad],ktw [N·m/rad],ix,iy,iz).
+    Bonds(BondsArgs),
+    /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
+    /// sum over the actual bonds.
+    Tensor(TensorArgs),
+}
+
+#[derive(clap::Args)]
+struct PackArgs {
+    /// Number of particles.
+    #[arg(long, default_value_t = 2000)]
+    particles: usize,
+    /// Solid fraction φ (volume of spheres / cell volume).
+    #[arg(long, default_value_t = 0.6)]
+    solid_fraction: f64,
+    /// Radius polydispersity ΔR/R̄: radii uniform in [R̄−ΔR, R̄+ΔR] (Truszkowska: 1/6).
+    #[arg(long, default_value_t = 1.0 / 6.0)]
+    polydispersity: f64,
+    /// Mean radius R̄ (m).
+    #[arg(long, default_value_t = 1e-3)]
+    mean_radius: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output packing file (SPEC text).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(clap::Args)]
+struct BondsArgs {
+    /// Packing file (SPEC text `x y z r`, YADE SpherePack text, or LIGGGHTS data).
+    packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    model: PathBuf,
+    /// Output bond table (CSV).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum Method {
+    /// Continuous orientation integral (needs no packing).
+    MeanField,
+    /// Sum over the actual bonds (uniform strain).
+    Voigt,
+}
+
+#[derive(clap::Args)]
+struct TensorArgs {
+    /// Packing file; optional for mean-field (then --coordination, --solid-fraction and
+    /// --radius describe an equal-sphere assembly).
+    packing: Option<PathBuf>,
+    /// Model file (TOML or JSON).
+    #[arg(long)]
+    model: PathBuf,
+    /// Homogenisation method.
+    #[arg(long, value_enum)]
+    method: Method,
+    /// Print the SPEC tensor report as JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Also write the JSON report to this file.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Mean field without a packing: mean bonds per particle Z.
+    #[arg(long, default_value_t = 7.7)]
+    coordination: f64,
+    /// Mean field without a packing: solid fraction φ.
+    #[arg(long, default_value_t = 0.6)]
+    solid_fraction: f64,
+    /// Mean field without a packing: sphere radius R (m).
+    #[arg(long, default_value_t = 1e-3)]
+    radius: f64,
+}
+
+/// Parse the command line and run it.
+pub fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Demo(a) => demo::run(a),
+        Command::Pack(a) => pack(a),
+        Command::Bonds(a) => bonds_cmd(a),
+        Command::Tensor(a) => tensor_cmd(a),
+    }
+}
+
+fn pack(a: PackArgs) -> Result<()> {
+    let opts = packing::generate::GenerateOptions {
+        n_particles: a.particles,
+        solid_fraction: a.solid_fraction,
+        mean_radius: a.mean_radius,
+        polydispersity: packing::generate::Polydispersity::Uniform {
+            half_width: a.polydispersity,
+        },
+        seed: a.seed,
+        ..Default::default()
+    };
+    let p = output::generate_with_progress(&opts)?;
+    packing::io::write_packing(&a.output, &p)?;
+    println!(
+        "wrote {} ({} particles, solid fraction {:.4}, cell {:.4e} × {:.4e} × {:.4e} m)",
+        a.output.display(),
+        p.len(),
+        p.solid_fraction(),
+        p.cell.map_or(0.0, |c| c.lengths.x),
+        p.cell.map_or(0.0, |c| c.lengths.y),
+        p.cell.map_or(0.0, |c| c.lengths.z)
+    );
+    Ok(())
+}
+
+/// A packing, its bonds and their springs under a model.
+pub struct Bonded {
+    pub packing: Packing,
+    pub bonds: BondSet,
+    pub stiffness: BondStiffness,
+}
+
+/// Read a packing, bond it by the model's rule and assign springs.
+fn load_bonded(packing_path: &Path, model: &Model) -> Result<Bonded> {
+    let packing = packing::io::read_packing(packing_path)?;
+    bond_packing(packing, model)
+}
+
+fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
+    let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid(
+            "the bonding rule produced no bonds: increase the gap/factor value".into(),
+        ));
+    }
+    let scheme = model.build_scheme(Some((&packing, &bonds)))?;
+    let stiffness = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+    Ok(Bonded {
+        packing,
+        bonds,
+        stiffness,
+    })
+}
+
+fn bonds_cmd(a: BondsArgs) -> Result<()> {
+    let model = Model::from_path(&a.model)?;
+    let b = load_bonded(&a.packing, &model)?;
+    table::write_bond_table(&a.output, &b.bonds, &b.stiffness)?;
+    println!(
+        "wrote {}: {} bonds between {} particles (coordination Z = {:.3})",
+        a.output.display(),
+        b.bonds.len(),
+        b.packing.len(),
+        b.bonds.coordination(b.packing.len())
+    );
+    Ok(())
+}
+
+/// Mean-field prefactor N_c⟨l²·g⟩/V of a bonded packing (g = the geometry factor).
+fn packing_prefactor(b: &Bonded, model: &Model) -> f64 {
+    let s: f64 = (0..b.bonds.len())
+        .map(|k| {
+            let ri = b.packing.radii[b.bonds.i[k] as usize];
+            let rj = b.packing.radii[b.bonds.j[k] as usize];
+            let l = b.bonds.length[k];
+            l * l * model.geometry.factor(ri, rj, l)
+        })
+        .sum();
+    s / b.packing.volume()
+}
+
+/// Compute the tensor of a bonded packing by `method`.
+fn tensor_of(b: &Bonded, model: &Model, method: Method) -> Result<Stiffness6> {
+    Ok(match method {
+        Method::Voigt => voigt::voigt_tensor(&b.bonds, &b.stiffness, b.packing.volume()),
+        Method::MeanField => {
+            let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
+            mean_field::mean_field(
+                scheme.as_ref(),
+                packing_prefactor(b, model),
+                mean_field::DEFAULT_ORDER,
+            )
+        }
+    })
+}
+
+fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::MeanField => "mean-field",
+        Method::Voigt => "voigt",
+    }
+}
+
+fn tensor_cmd(a: TensorArgs) -> Result<()> {
+    let model = Model::from_path(&a.model)?;
+    let report = match (&a.packing, a.method) {
+        (Some(p), m) => {
+            let b = load_bonded(p, &model)?;
+            let c = tensor_of(&b, &model, m)?;
+            TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))
+        }
+        (None, Method::MeanField) => {
+            if model.needs_packing() {
+                return Err(Error::Invalid(
+                    "the cross-anisotropic scheme needs a PACKING (its lattice scaling μ comes from the bonds)".into(),
+                ));
+            }
+            for (name, v) in [
+                ("--coordination", a.coordination),
+                ("--solid-fraction", a.solid_fraction),
+                ("--radius", a.radius),
+            ] {
+                if !v.is_finite() || v <= 0.0 {
+                    return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
+                }
+            }
+            let scheme = model.build_scheme(None)?;
+            let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
+            let pre = mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius) * g;
+            let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+            let mut r = TensorReport::new("mean-field", c, None);
+            r.coordination = Some(a.coordination);
+            r
+        }
+        (None, Method::Voigt) => {
+            return Err(Error::Invalid(
+                "--method voigt sums over actual bonds: give a PACKING".into(),
+            ))
+        }
+    };
+    if let Some(out) = &a.output {
+        output::write_json(out, &report)?;
+    }
+    if a.json {
+        println!("{}", report.to_json());
+    } else {
+        output::print_report(&report);
+    }
+    Ok(())
+}

@@ -1,0 +1,57 @@
+//! Printing and file helpers of the CLI: tables in GPa, JSON files, progress bars.
+
+use anisobond::homogenize::report::TensorReport;
+use anisobond::packing::{generate, Packing};
+use anisobond::Result;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::Path;
+
+/// Write a JSON report atomically.
+pub fn write_json(path: &Path, report: &TensorReport) -> Result<()> {
+    anisobond::io::write_string_atomic(path, &(report.to_json() + "\n"))
+}
+
+/// Print a tensor report as a human-readable table (GPa).
+pub fn print_report(r: &TensorReport) {
+    println!("stiffness tensor, method {} (GPa; Voigt order 11 22 33 23 13 12):", r.method);
+    for row in &r.c {
+        let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
+        println!("  {}", cells.join(" "));
+    }
+    if let (Some(n), Some(nb), Some(z)) = (r.n_particles, r.n_bonds, r.coordination) {
+        println!("particles {n}, bonds {nb}, coordination Z = {z:.3}");
+    } else if let Some(z) = r.coordination {
+        println!("equal-sphere mean field at coordination Z = {z:.3}");
+    }
+    let c = &r.cubic;
+    println!(
+        "cubic projection: C11 = {:.4} GPa, C12 = {:.4} GPa, C44 = {:.4} GPa; C12/C11 = {:.4}, C44/C11 = {:.4}, Zener = {:.4}",
+        c.c11 / 1e9,
+        c.c12 / 1e9,
+        c.c44 / 1e9,
+        c.c12 / c.c11,
+        c.c44 / c.c11,
+        c.zener
+    );
+    println!(
+        "  uncertainty (GPa): C11 {:.3e}, C12 {:.3e}, C44 {:.3e}, terms that should be zero {:.3e}",
+        c.uncertainty.c11 / 1e9,
+        c.uncertainty.c12 / 1e9,
+        c.uncertainty.c44 / 1e9,
+        c.uncertainty.zero_terms / 1e9
+    );
+}
+
+/// Generate a packing with a progress bar on stderr.
+pub fn generate_with_progress(opts: &generate::GenerateOptions) -> Result<Packing> {
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template("generating packing [{bar:40}] {percent:>3}% {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let result = generate::generate(opts, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    result
+}

@@ -1,0 +1,349 @@
+//! The linearised bond network shared by the static methods (relaxed, local adjustment
+//! field): per-bond element matrices in the generalised displacements of the particles
+//! (Kruyt 2014 Eqs. 10–14), after removing the particles that carry no load.
+//!
+//! For a bond from i to the image of j with unit normal n and contact arms r_i, r_j:
+//! Δ = u_j − u_i + (r_i n)×ω_i + (r_j n)×ω_j + ε·l = B_i q_i + B_j q_j + L e,
+//! f = SΔ with S = k_t I + (k_n − k_t) nn, and the relative rotation θ = ω_j − ω_i loads
+//! k_r (part ⟂ n) and k_tw (part ∥ n). The energy ½[q; e]ᵀ[[K, G], [Gᵀ, H]][q; e] defines
+//! the stiffness K (6N×6N), the load G (6N×6) and the affine stiffness H (6×6).
+
+use crate::bonds::{BondSet, BondStiffness};
+use crate::packing::Packing;
+use crate::{Error, Mat3, Result, Vec3};
+use nalgebra::{Matrix3x6, Matrix6};
+use rayon::prelude::*;
+
+/// A 6×6 block (DOFs × DOFs, or DOFs × load cases).
+pub type Block6 = Matrix6<f64>;
+
+/// Where the contact point (lever arm) of a bond sits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LeverArm {
+    /// Mid-gap, as YADE's ScGeom: r_i = R_i + gap/2, gap = |l| − R_i − R_j.
+    #[default]
+    MidGap,
+    /// Proportional to the radii: r_i = |l|·R_i/(R_i + R_j).
+    Proportional,
+}
+
+impl LeverArm {
+    /// Contact arms (r_i, r_j) of a bond of centre distance `l` between radii `ri`, `rj`.
+    pub fn arms(self, ri: f64, rj: f64, l: f64) -> (f64, f64) {
+        match self {
+            LeverArm::MidGap => {
+                let gap = l - ri - rj;
+                (ri + 0.5 * gap, rj + 0.5 * gap)
+            }
+            LeverArm::Proportional => (l * ri / (ri + rj), l * rj / (ri + rj)),
+        }
+    }
+}
+
+/// What makes the stiffness matrix singular, as found and handled.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct NullSpaceReport {
+    /// Particles removed because they had fewer than two bonds (after repeated pruning):
+    /// they carry no load.
+    pub removed_particles: usize,
+    /// Bonds removed with them.
+    pub removed_bonds: usize,
+    /// Remaining particles with exactly two bonds: each has a free rotation about the line
+    /// through its two contact points.
+    pub two_bond_particles: usize,
+    /// Rigid translations of the whole periodic assembly (3 when any bond remains).
+    pub rigid_translations: usize,
+    /// Remaining particles whose own 6×6 stiffness block is singular beyond the two-bond
+    /// rotation (local mechanisms, e.g. collinear bonds without rotational springs).
+    pub other_singular_particles: usize,
+}
+
+/// Element matrices of one bond: K blocks B_iᵀSB_i, B_jᵀSB_j, B_iᵀSB_j (plus rotational
+/// springs), load rows B_iᵀSL, B_jᵀSL, and H = LᵀSL.
+#[derive(Clone, Debug)]
+pub struct Element {
+    /// K_ii contribution.
+    pub kii: Block6,
+    /// K_jj contribution.
+    pub kjj: Block6,
+    /// K_ij contribution (K_ji is its transpose).
+    pub kij: Block6,
+    /// G row block of particle i.
+    pub gi: Block6,
+    /// G row block of particle j.
+    pub gj: Block6,
+    /// Affine stiffness LᵀSL.
+    pub h: Block6,
+}
+
+/// Skew matrix [a]× with [a]× v = a × v.
+fn skew(a: &Vec3) -> Mat3 {
+    Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
+}
+
+/// L: the affine relative displacement ε·l as a linear map of the Voigt engineering strain.
+pub fn affine_map(l: &Vec3) -> Matrix3x6<f64> {
+    let mut m = Matrix3x6::zeros();
+    for (a, &(i, j)) in crate::tensor::VOIGT_PAIRS.iter().enumerate() {
+        if i == j {
+            m[(i, a)] = l[i];
+        } else {
+            // ε_ij = ε_ji = e_a/2.
+            m[(i, a)] += 0.5 * l[j];
+            m[(j, a)] += 0.5 * l[i];
+        }
+    }
+    m
+}
+
+/// The springs and geometry of one bond, as the element needs them.
+#[derive(Clone, Copy, Debug)]
+pub struct BondLaw {
+    /// Unit normal from i to j.
+    pub normal: Vec3,
+    /// Centre distance (m).
+    pub length: f64,
+    /// Contact arms r_i, r_j (m).
+    pub arms: (f64, f64),
+    /// Normal, shear (N/m), bending, twisting (N·m/rad) springs.
+    pub kn: f64,
+    /// Shear spring.
+    pub ks: f64,
+    /// Bending spring.
+    pub kr: f64,
+    /// Twisting spring.
+    pub ktw: f64,
+}
+
+/// Element matrices of a bond; `rotations = false` locks the particle rotations.
+pub fn element(law: &BondLaw, rotations: bool) -> Element {
+    let n = law.normal;
+    let nn = n * n.transpose();
+    let s = Mat3::identity() * law.ks + nn * (law.kn - law.ks);
+    let mut bi = Matrix3x6::zeros();
+    let mut bj = Matrix3x6::zeros();
+    bi.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Mat3::identity()));
+    bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+    if rotations {
+        bi.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew(&(n * law.arms.0)));
+        bj.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew(&(n * law.arms.1)));
+    }
+    let lmap = affine_map(&(n * law.length));
+    let sbi = s * bi;
+    let sbj = s * bj;
+    let sl = s * lmap;
+    let mut kii = bi.transpose() * sbi;
+    let mut kjj = bj.transpose() * sbj;
+    let mut kij = bi.transpose() * sbj;
+    if rotations && (law.kr != 0.0 || law.ktw != 0.0) {
+        let rm = (Mat3::identity() - nn) * law.kr + nn * law.ktw;
+        for (blk, sign) in [(&mut kii, 1.0), (&mut kjj, 1.0), (&mut kij, -1.0)] {
+            let mut v = blk.fixed_view_mut::<3, 3>(3, 3);
+            v += rm * sign;
+        }
+    }
+    Element {
+        kii,
+        kjj,
+        kij,
+        gi: bi.transpose() * sl,
+        gj: bj.transpose() * sl,
+        h: lmap.transpose() * sl,
+    }
+}
+
+/// Remove particles with fewer than two bonds, repeatedly. Returns the active flag of every
+/// bond and the number of active bonds of every particle.
+fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
+    let mut degree = bonds.degrees(n_particles);
+    let mut active = vec![true; bonds.len()];
+    // Adjacency: bonds of each particle.
+    let mut start = vec![0usize; n_particles + 1];
+    for (&i, &j) in bonds.i.iter().zip(&bonds.j) {
+        start[i as usize + 1] += 1;
+        start[j as usize + 1] += 1;
+    }
+    for p in 0..n_particles {
+        start[p + 1] += start[p];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0usize; start[n_particles]];
+    for b in 0..bonds.len() {
+        for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
+            adj[fill[p]] = b;
+            fill[p] += 1;
+        }
+    }
+    let mut stack: Vec<usize> = (0..n_particles).filter(|&p| degree[p] == 1).collect();
+    while let Some(p) = stack.pop() {
+        if degree[p] != 1 {
+            continue;
+        }
+        for &b in &adj[start[p]..start[p + 1]] {
+            if active[b] {
+                active[b] = false;
+                let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+                degree[i] -= 1;
+                degree[j] -= 1;
+                let other = if i == p { j } else { i };
+                if degree[other] == 1 {
+                    stack.push(other);
+                }
+            }
+        }
+    }
+    (active, degree)
+}
+
+
+/// The active (load-carrying) network of a periodic bonded packing with its element
+/// matrices.
+pub struct Network {
+    /// Number of active particles.
+    pub n_active: usize,
+    /// Active index of every original particle (`u32::MAX` if removed).
+    pub index: Vec<u32>,
+    /// Original index of every active particle.
+    pub original: Vec<u32>,
+    /// Active end indices of every active bond.
+    pub ends: Vec<(u32, u32)>,
+    /// Original bond index of every active bond.
+    pub bond: Vec<usize>,
+    /// Element matrices of every active bond.
+    pub elements: Vec<Element>,
+    /// Number of active bonds of every active particle.
+    pub degree: Vec<u32>,
+    /// Load G per active particle (6 DOFs × 6 strains).
+    pub g: Vec<Block6>,
+    /// Affine stiffness H = Σ LᵀSL (N·m, i.e. Pa·m³).
+    pub h: Block6,
+    /// Cell volume (m³).
+    pub volume: f64,
+    /// Singular modes found so far.
+    pub null_space: NullSpaceReport,
+}
+
+impl Network {
+    /// Prune the packing's bonds to the load-carrying network and build the elements.
+    pub fn build(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+    ) -> Result<Network> {
+        if packing.cell.is_none() {
+            return Err(Error::Invalid(
+                "static stiffness methods need a periodic packing (a `# periodic Lx Ly Lz` header)"
+                    .into(),
+            ));
+        }
+        if k.len() != bonds.len() {
+            return Err(Error::Invalid(format!(
+                "{} bonds but {} stiffness entries",
+                bonds.len(),
+                k.len()
+            )));
+        }
+        let n = packing.len();
+        let (bond_active, degree_all) = prune(n, bonds);
+        let mut index = vec![u32::MAX; n];
+        let mut original = Vec::new();
+        for p in 0..n {
+            if degree_all[p] >= 2 {
+                index[p] = original.len() as u32;
+                original.push(p as u32);
+            }
+        }
+        let m = original.len();
+        let bond: Vec<usize> = (0..bonds.len()).filter(|&b| bond_active[b]).collect();
+        let ends: Vec<(u32, u32)> = bond
+            .iter()
+            .map(|&b| (index[bonds.i[b] as usize], index[bonds.j[b] as usize]))
+            .collect();
+        let elements: Vec<Element> = bond
+            .par_iter()
+            .map(|&b| {
+                let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+                let law = BondLaw {
+                    normal: bonds.normal[b],
+                    length: bonds.length[b],
+                    arms: lever_arm.arms(packing.radii[i], packing.radii[j], bonds.length[b]),
+                    kn: k.kn[b],
+                    ks: k.ks[b],
+                    kr: k.kr[b],
+                    ktw: k.ktw[b],
+                };
+                element(&law, rotations)
+            })
+            .collect();
+        let mut h = Block6::zeros();
+        let mut g = vec![Block6::zeros(); m];
+        for (e, &(pi, pj)) in elements.iter().zip(&ends) {
+            h += e.h;
+            g[pi as usize] += e.gi;
+            g[pj as usize] += e.gj;
+        }
+        let degree: Vec<u32> = original.iter().map(|&p| degree_all[p as usize]).collect();
+        let null_space = NullSpaceReport {
+            removed_particles: n - m,
+            removed_bonds: bonds.len() - bond.len(),
+            two_bond_particles: degree.iter().filter(|&&d| d == 2).count(),
+            rigid_translations: if bond.is_empty() { 0 } else { 3 },
+            other_singular_particles: 0,
+        };
+        Ok(Network {
+            n_active: m,
+            index,
+            original,
+            ends,
+            bond,
+            elements,
+            degree,
+            g,
+            h,
+            volume: packing.volume(),
+            null_space,
+        })
+    }
+
+    /// Active neighbours of every active particle (CSR: start offsets, neighbour list).
+    pub fn adjacency(&self) -> (Vec<usize>, Vec<u32>) {
+        let m = self.n_active;
+        let mut start = vec![0usize; m + 1];
+        for &(a, b) in &self.ends {
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
+        }
+        for p in 0..m {
+            start[p + 1] += start[p];
+        }
+        let mut fill = start.clone();
+        let mut nb = vec![0u32; start[m]];
+        for &(a, b) in &self.ends {
+            nb[fill[a as usize]] = b;
+            fill[a as usize] += 1;
+            nb[fill[b as usize]] = a;
+            fill[b as usize] += 1;
+        }
+        (start, nb)
+    }
+}
+
+/// Pseudo-inverse of a symmetric positive semi-definite 6×6 block, and its numerical rank.
+pub fn pinv_psd(m: &Block6) -> (Block6, usize) {
+    let eig = nalgebra::SymmetricEigen::new(*m);
+    let max = eig.eigenvalues.iter().cloned().fold(0.0_f64, f64::max);
+    let mut inv = Block6::zeros();
+    let mut rank = 0;
+    for k in 0..6 {
+        let lam = eig.eigenvalues[k];
+        if max > 0.0 && lam > 1e-10 * max {
+            let v = eig.eigenvectors.column(k);
+            inv += v * v.transpose() / lam;
+            rank += 1;
+        }
+    }
+    (inv, rank)
+}

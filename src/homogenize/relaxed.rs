@@ -1,0 +1,294 @@
+//! The exact fully relaxed (quasi-static) stiffness tensor of a bonded periodic assembly.
+//!
+//! With the network of [`super::network`] (six DOFs per particle, Kruyt 2014 Eqs. 10–14),
+//! minimising the stored energy over the fluctuations gives
+//! C_relaxed = (H − Gᵀ K⁺ G)/V, with C_affine = H/V the Voigt sum (REFERENCES.md).
+//!
+//! K is assembled once in 6×6 block-sparse form and the six load cases are solved together
+//! by conjugate gradients with a block-Jacobi preconditioner. The tensor is evaluated in
+//! the variational form C = (H − GᵀQ − QᵀG + QᵀKQ)/V (Q solving KQ = G), whose error is
+//! quadratic in the solver's error and which is symmetric by construction; at equilibrium
+//! it equals the Love-stress tensor σ = (1/V)Σ f⊗l.
+//!
+//! Singular modes are detected and reported ([`NullSpaceReport`]), not regularised away:
+//! the right-hand sides are orthogonal to them, so CG converges in the range of K.
+
+use super::network::{pinv_psd, Block6, LeverArm, Network, NullSpaceReport};
+use crate::bonds::{BondSet, BondStiffness};
+use crate::packing::Packing;
+use crate::tensor::Stiffness6;
+use crate::{Error, Result};
+use nalgebra::Vector6;
+use rayon::prelude::*;
+
+/// Options of the relaxed solver.
+#[derive(Clone, Copy, Debug)]
+pub struct RelaxedOptions {
+    /// Contact point convention.
+    pub lever_arm: LeverArm,
+    /// CG stops when every load case's residual, relative to its right-hand side, is below
+    /// this. The tensor's relative error is of the order of its square.
+    pub tolerance: f64,
+    /// Iteration limit; exceeding it is an error naming the residual reached.
+    pub max_iterations: usize,
+    /// `false` suppresses all fluctuations: the result is then the affine (Voigt) tensor.
+    pub fluctuations: bool,
+    /// `false` locks particle rotations (translations still relax): a tensor between the
+    /// affine and the fully relaxed one.
+    pub rotations: bool,
+}
+
+impl Default for RelaxedOptions {
+    fn default() -> Self {
+        RelaxedOptions {
+            lever_arm: LeverArm::MidGap,
+            tolerance: 1e-6,
+            max_iterations: 50_000,
+            fluctuations: true,
+            rotations: true,
+        }
+    }
+}
+
+/// Result of [`relaxed_tensor`].
+#[derive(Clone, Debug)]
+pub struct RelaxedResult {
+    /// The relaxed stiffness tensor (Pa).
+    pub c: Stiffness6,
+    /// The affine (Voigt) tensor of the same active network, H/V (Pa).
+    pub c_affine: Stiffness6,
+    /// CG iterations used.
+    pub iterations: usize,
+    /// Largest final relative residual over the six load cases.
+    pub relative_residual: f64,
+    /// Particles that take part.
+    pub active_particles: usize,
+    /// Bonds that take part.
+    pub active_bonds: usize,
+    /// Singular modes found.
+    pub null_space: NullSpaceReport,
+}
+
+/// Block-sparse symmetric matrix with 6×6 blocks, stored by rows (both triangles).
+pub struct BlockSparse {
+    row_start: Vec<usize>,
+    col: Vec<u32>,
+    block: Vec<Block6>,
+}
+
+impl BlockSparse {
+    /// Assemble K of a network.
+    pub fn assemble(net: &Network) -> BlockSparse {
+        let m = net.n_active;
+        // (row, col, element, kind: 0 = kii, 1 = kjj, 2 = kij, 3 = kijᵀ)
+        let mut entries: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(4 * net.ends.len());
+        for (e, &(pi, pj)) in net.ends.iter().enumerate() {
+            entries.push((pi, pi, e as u32, 0));
+            entries.push((pj, pj, e as u32, 1));
+            entries.push((pi, pj, e as u32, 2));
+            entries.push((pj, pi, e as u32, 3));
+        }
+        entries.par_sort_unstable();
+        let mut row_start = vec![0usize; m + 1];
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        let mut k0 = 0;
+        while k0 < entries.len() {
+            let (r, c) = (entries[k0].0, entries[k0].1);
+            let mut acc = Block6::zeros();
+            let mut k1 = k0;
+            while k1 < entries.len() && entries[k1].0 == r && entries[k1].1 == c {
+                let e = &net.elements[entries[k1].2 as usize];
+                match entries[k1].3 {
+                    0 => acc += e.kii,
+                    1 => acc += e.kjj,
+                    2 => acc += e.kij,
+                    _ => acc += e.kij.transpose(),
+                }
+                k1 += 1;
+            }
+            col.push(c);
+            block.push(acc);
+            row_start[r as usize + 1] = col.len();
+            k0 = k1;
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
+    }
+
+    /// Y = K X for a block vector X (one 6×6 block per particle: DOF × load case).
+    pub fn apply(&self, x: &[Block6], y: &mut [Block6]) {
+        y.par_iter_mut().enumerate().for_each(|(p, yp)| {
+            let mut acc = Block6::zeros();
+            for k in self.row_start[p]..self.row_start[p + 1] {
+                acc += self.block[k] * x[self.col[k] as usize];
+            }
+            *yp = acc;
+        });
+    }
+
+    /// The diagonal block of row `p`.
+    pub fn diagonal(&self, p: usize) -> Block6 {
+        (self.row_start[p]..self.row_start[p + 1])
+            .find(|&k| self.col[k] as usize == p)
+            .map(|k| self.block[k])
+            .unwrap_or_else(Block6::zeros)
+    }
+
+    /// Memory held by the matrix (bytes).
+    pub fn bytes(&self) -> usize {
+        self.block.len() * std::mem::size_of::<Block6>() + self.col.len() * 4 + self.row_start.len() * 8
+    }
+}
+
+/// Per-column dot products Σ_p (a_p ∘ b_p) summed over rows, deterministic (fixed chunks).
+fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
+    const CH: usize = 2048;
+    let parts: Vec<[f64; 6]> = a
+        .par_chunks(CH)
+        .zip(b.par_chunks(CH))
+        .map(|(ca, cb)| {
+            let mut s = [0.0; 6];
+            for (x, y) in ca.iter().zip(cb) {
+                for (c, sc) in s.iter_mut().enumerate() {
+                    *sc += x.column(c).dot(&y.column(c));
+                }
+            }
+            s
+        })
+        .collect();
+    let mut s = [0.0; 6];
+    for part in parts {
+        for c in 0..6 {
+            s[c] += part[c];
+        }
+    }
+    s
+}
+
+/// The exact relaxed 6×6 stiffness (Pa) of a periodic bonded packing.
+pub fn relaxed_tensor(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &RelaxedOptions,
+) -> Result<RelaxedResult> {
+    let mut net = Network::build(packing, bonds, k, opts.lever_arm, opts.rotations)?;
+    let c_affine = net.h / net.volume;
+    if !opts.fluctuations || net.n_active == 0 {
+        return Ok(RelaxedResult {
+            c: c_affine,
+            c_affine,
+            iterations: 0,
+            relative_residual: 0.0,
+            active_particles: net.n_active,
+            active_bonds: net.ends.len(),
+            null_space: net.null_space,
+        });
+    }
+    let kmat = BlockSparse::assemble(&net);
+    let pre: Vec<(Block6, usize)> = (0..net.n_active)
+        .into_par_iter()
+        .map(|p| pinv_psd(&kmat.diagonal(p)))
+        .collect();
+    net.null_space.other_singular_particles = (0..net.n_active)
+        .filter(|&p| {
+            let full = if net.degree[p] == 2 { 5 } else { 6 };
+            let full = if opts.rotations { full } else { 3 };
+            pre[p].1 < full
+        })
+        .count();
+    let (q, iterations, residual) = pcg(&kmat, &net.g, &pre, opts)?;
+    let mut kq = vec![Block6::zeros(); net.n_active];
+    kmat.apply(&q, &mut kq);
+    let mut gtq = Block6::zeros();
+    let mut qtkq = Block6::zeros();
+    for p in 0..net.n_active {
+        gtq += net.g[p].transpose() * q[p];
+        qtkq += q[p].transpose() * kq[p];
+    }
+    let c = net.h - gtq - gtq.transpose() + qtkq;
+    let c = (c + c.transpose()) * (0.5 / net.volume);
+    Ok(RelaxedResult {
+        c,
+        c_affine,
+        iterations,
+        relative_residual: residual,
+        active_particles: net.n_active,
+        active_bonds: net.ends.len(),
+        null_space: net.null_space,
+    })
+}
+
+/// Preconditioned conjugate gradients on the six load cases together: K X = B.
+fn pcg(
+    k: &BlockSparse,
+    b: &[Block6],
+    pre: &[(Block6, usize)],
+    opts: &RelaxedOptions,
+) -> Result<(Vec<Block6>, usize, f64)> {
+    let m = b.len();
+    let precondition = |r: &[Block6], z: &mut [Block6]| {
+        z.par_iter_mut()
+            .zip(r.par_iter())
+            .zip(pre.par_iter())
+            .for_each(|((z, r), (p, _))| *z = p * r);
+    };
+    let mut x = vec![Block6::zeros(); m];
+    let mut r = b.to_vec();
+    let mut z = vec![Block6::zeros(); m];
+    precondition(&r, &mut z);
+    let mut p = z.clone();
+    let mut ap = vec![Block6::zeros(); m];
+    let bnorm = column_dots(b, b).map(f64::sqrt);
+    let mut rz = column_dots(&r, &z);
+    let mut worst = 0.0;
+    for it in 0..=opts.max_iterations {
+        let rr = column_dots(&r, &r);
+        worst = (0..6)
+            .map(|c| if bnorm[c] > 0.0 { rr[c].sqrt() / bnorm[c] } else { 0.0 })
+            .fold(0.0, f64::max);
+        if worst <= opts.tolerance {
+            return Ok((x, it, worst));
+        }
+        if it == opts.max_iterations {
+            break;
+        }
+        k.apply(&p, &mut ap);
+        let pap = column_dots(&p, &ap);
+        let alpha = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
+            if pap[c] > 0.0 {
+                rz[c] / pap[c]
+            } else {
+                0.0
+            }
+        }));
+        x.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(p.par_iter().zip(ap.par_iter()))
+            .for_each(|((x, r), (p, ap))| {
+                *x += p * alpha;
+                *r -= ap * alpha;
+            });
+        precondition(&r, &mut z);
+        let rz_new = column_dots(&r, &z);
+        let beta = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
+            if rz[c] > 0.0 {
+                rz_new[c] / rz[c]
+            } else {
+                0.0
+            }
+        }));
+        p.par_iter_mut()
+            .zip(z.par_iter())
+            .for_each(|(p, z)| *p = z + *p * beta);
+        rz = rz_new;
+    }
+    Err(Error::Invalid(format!(
+        "relaxed solver: no convergence in {} iterations (relative residual {worst:.3e} > tolerance {:.1e}); the bond network may contain a mechanism",
+        opts.max_iterations, opts.tolerance
+    )))
+}
