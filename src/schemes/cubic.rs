@@ -146,7 +146,10 @@ fn push_unique_plane(planes: &mut Vec<Vec3>, p: Vec3) {
         return;
     }
     let u = p / norm;
-    if planes.iter().all(|q| (q - u).norm() > 1e-9 && (q + u).norm() > 1e-9) {
+    if planes
+        .iter()
+        .all(|q| (q - u).norm() > 1e-9 && (q + u).norm() > 1e-9)
+    {
         planes.push(u);
     }
 }
@@ -395,7 +398,8 @@ pub fn minimum_on_sphere(f: impl Fn(&Vec3) -> f64) -> (f64, Vec3) {
         p.normalize()
     };
     // Dense grid, in a fixed order.
-    let mut samples: Vec<(f64, f64, f64)> = Vec::with_capacity((DIVISIONS + 1) * (DIVISIONS + 2) / 2);
+    let mut samples: Vec<(f64, f64, f64)> =
+        Vec::with_capacity((DIVISIONS + 1) * (DIVISIONS + 2) / 2);
     let step = 1.0 / DIVISIONS as f64;
     for i in 0..=DIVISIONS {
         for j in 0..=(DIVISIONS - i) {
@@ -491,7 +495,9 @@ pub fn rotation_from_euler_zyz_deg(alpha: f64, beta: f64, gamma: f64) -> Mat3 {
 /// with det ≤ 0.
 pub fn orthonormalize_rotation(m: Mat3) -> Result<Mat3> {
     check_rotation(&m, PRINTED_ROTATION_TOLERANCE).map_err(|why| {
-        Error::Model(format!("rotation matrix is not a (printed) rotation: {why}"))
+        Error::Model(format!(
+            "rotation matrix is not a (printed) rotation: {why}"
+        ))
     })?;
     let svd = m.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
@@ -501,7 +507,9 @@ pub fn orthonormalize_rotation(m: Mat3) -> Result<Mat3> {
     };
     let r = u * v_t;
     check_rotation(&r, ROTATION_TOLERANCE).map_err(|why| {
-        Error::Model(format!("rotation matrix could not be re-orthonormalised: {why}"))
+        Error::Model(format!(
+            "rotation matrix could not be re-orthonormalised: {why}"
+        ))
     })?;
     Ok(r)
 }
