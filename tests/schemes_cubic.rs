@@ -522,3 +522,66 @@ fn kink_planes_separate_every_branch_switch() {
     let smooth = CubicSpheroid::new(CubicModel::ZenerAbove1, false, 1.0, 1.0, 1.0, 1.0, r).unwrap();
     assert!(smooth.kink_planes().is_empty());
 }
+
+#[test]
+fn extended_models_turn_negative_at_closed_form_thresholds() {
+    // Hand-derived from Eqs. 9–15 with the closed forms of REFERENCES.md:
+    // above-1, a > 1, at [110]: r100 = r(1/√2), r110 = a^(2/3), so
+    //   f_s = a^(2/3)[1/√((1 + a²)/2) − ½] < 0 ⇔ a² > 7;
+    // below-1, a > 1, at [110]: r111 = r(√(2/3)), f_s < 0 ⇔ (2 + a²)/3 > 4 ⇔ a² > 10;
+    // both, a < 1, at [111] resp. [100]: r_base = r(1/√3), r110 = r(0) = a^(−1/3), so
+    //   f_s < 0 ⇔ 12a² < 1 + 2a² ⇔ a² < 1/10.
+    let cases = [
+        (CubicModel::ZenerAbove1, 7f64.sqrt(), 1.0),
+        (CubicModel::ZenerBelow1, 10f64.sqrt(), 1.0),
+        (CubicModel::ZenerAbove1, 0.1f64.sqrt(), -1.0),
+        (CubicModel::ZenerBelow1, 0.1f64.sqrt(), -1.0),
+    ];
+    let id = Mat3::identity();
+    for (model, threshold, side) in cases {
+        let inside = threshold * (1.0 - side * 1e-4);
+        let outside = threshold * (1.0 + side * 1e-4);
+        assert!(
+            CubicSpheroid::new(model, true, A_N, inside, 1.0, 1.0, id).is_ok(),
+            "{model:?} a_s = {inside}"
+        );
+        let err = CubicSpheroid::new(model, true, A_N, outside, 1.0, 1.0, id).unwrap_err();
+        assert!(
+            err.to_string().contains("negative shear stiffness"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn minimum_search_beats_a_brute_force_grid() {
+    // The search must never be above the minimum of a dense grid over the whole sphere
+    // (which uses no symmetry), for prolate and oblate spheroids and sharp lobes.
+    let grid = 200;
+    let mut directions = Vec::new();
+    for i in 0..=grid {
+        let theta = PI * i as f64 / grid as f64;
+        for j in 0..(2 * grid) {
+            let phi = PI * j as f64 / grid as f64;
+            let (st, ct) = theta.sin_cos();
+            directions.push(Vec3::new(st * phi.cos(), st * phi.sin(), ct));
+        }
+    }
+    for (model, extended) in all_models() {
+        for (a_n, a_s) in [(0.05, 0.3), (0.3, 40.0), (2.5, 0.02), (40.0, 1.7)] {
+            let s =
+                CubicSpheroid::new_unchecked(model, extended, a_n, a_s, 1.0, 1.0, Mat3::identity())
+                    .unwrap();
+            let (min_n, min_s) = s.min_factors();
+            let (mut grid_n, mut grid_s) = (f64::INFINITY, f64::INFINITY);
+            for n in &directions {
+                let (f_n, f_s) = s.factors(n);
+                grid_n = grid_n.min(f_n);
+                grid_s = grid_s.min(f_s);
+            }
+            let label = format!("{} a_n = {a_n}, a_s = {a_s}", s.name());
+            assert!(min_n <= grid_n + 1e-12, "{label}: f_n {min_n} > {grid_n}");
+            assert!(min_s <= grid_s + 1e-12, "{label}: f_s {min_s} > {grid_s}");
+        }
+    }
+}
