@@ -2,9 +2,9 @@
 //! rotated tensor (Truszkowska 2018 Eqs. 30–32) and symmetry invariances.
 
 use anisobond::tensor::{
-    from_fourth_order, isotropic_stiffness, orthonormalize_rotation, relative_difference,
-    rotate, rotate_fourth_order, rotation_to_z, rotation_x, rotation_y, rotation_z,
-    to_fourth_order, Stiffness6, VOIGT_PAIRS,
+    from_fourth_order, isotropic_stiffness, orthonormalize_rotation, relative_difference, rotate,
+    rotate_fourth_order, rotation_to_z, rotation_x, rotation_y, rotation_z, to_fourth_order,
+    Stiffness6, VOIGT_PAIRS,
 };
 use anisobond::{Mat3, Vec3};
 use rand::{Rng, SeedableRng};
@@ -116,7 +116,10 @@ fn truszkowska_eq32_from_eq30() {
     let deviation = (lab - eq32).amax();
     eprintln!("Eq. 32 max deviation {deviation:.4} GPa");
     // REFERENCES.md: max deviation 0.044 GPa (rounding of the printed entries).
-    assert!(deviation < 0.05, "max deviation from Eq. 32: {deviation} GPa");
+    assert!(
+        deviation < 0.05,
+        "max deviation from Eq. 32: {deviation} GPa"
+    );
     // The other convention (rotate with R) is far off (REFERENCES.md: 5.95 GPa).
     let wrong = (rotate(&c30, &r) - eq32).amax();
     eprintln!("with R instead of Rᵀ: {wrong:.3} GPa");
@@ -142,7 +145,13 @@ fn cubic_symmetry_operations_leave_a_cubic_tensor_unchanged() {
     let pi2 = std::f64::consts::FRAC_PI_2;
     let three_fold = Mat3::new(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0); // 120° about [111]
     let two_fold_110 = Mat3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0); // 180° about [110]
-    for q in [rotation_x(pi2), rotation_y(pi2), rotation_z(pi2), three_fold, two_fold_110] {
+    for q in [
+        rotation_x(pi2),
+        rotation_y(pi2),
+        rotation_z(pi2),
+        three_fold,
+        two_fold_110,
+    ] {
         assert!(relative_difference(&rotate(&c, &q), &c) < 1e-14);
     }
     // …but a 45° rotation about z changes it (the test can fail): C11' = (C11+C12)/2 + C44.

@@ -1,8 +1,7 @@
 //! Cubic and transversely isotropic projections (Truszkowska 2018 Sec. 4.4, Eqs. 29–30).
 
 use anisobond::tensor::{
-    relative_difference, rotate, rotation_to_z, CubicProjection, Stiffness6,
-    TransverseProjection,
+    relative_difference, rotate, rotation_to_z, CubicProjection, Stiffness6, TransverseProjection,
 };
 use anisobond::Vec3;
 use rand::{Rng, SeedableRng};
@@ -85,7 +84,10 @@ fn projection_of_a_transverse_tensor_returns_it() {
     let c = transverse(130e6, 55e6, 28e6, 40e6, 32.25e6);
     let p = TransverseProjection::from_stiffness(&c);
     assert!(relative_difference(&p.to_matrix(), &c) < 1e-15);
-    assert_eq!((p.c11, p.c33, p.c13, p.c12, p.c44), (130e6, 55e6, 28e6, 40e6, 32.25e6));
+    assert_eq!(
+        (p.c11, p.c33, p.c13, p.c12, p.c44),
+        (130e6, 55e6, 28e6, 40e6, 32.25e6)
+    );
     assert!((p.c66 - 45e6).abs() < 1e-6);
     let u = p.uncertainty;
     for v in [u.c11, u.c33, u.c13, u.c12, u.c44, u.c66, u.zero_terms] {

@@ -55,7 +55,7 @@ fn check_paths(strain_rates: &[Voigt6], stress_rates: &[Voigt6]) -> Result<()> {
     let sv = strains.singular_values();
     let largest = sv.max();
     let smallest = sv.min();
-    if !(smallest > 1e-10 * largest) {
+    if smallest.is_nan() || smallest <= 1e-10 * largest {
         return Err(Error::Invalid(format!(
             "stiffness fit: the strain rates of the {k} paths do not span all 6 strain \
              components (singular values {largest:.3e} … {smallest:.3e}); add independent \
@@ -105,10 +105,7 @@ pub fn fit_symmetric(strain_rates: &[Voigt6], stress_rates: &[Voigt6]) -> Result
 /// a_i^(k) + a_k^(i) = C_ij b_j^(k) + C_kj b_j^(i), i ≤ k, with a^(k) = σ̇ and b^(k) = ε̇ of
 /// path k (paths numbered like the Voigt components they load). Needs exactly 6 paths;
 /// error if the system is singular. See [`fit_symmetric`] for how the two differ.
-pub fn fit_symmetric_eq27(
-    strain_rates: &[Voigt6],
-    stress_rates: &[Voigt6],
-) -> Result<Stiffness6> {
+pub fn fit_symmetric_eq27(strain_rates: &[Voigt6], stress_rates: &[Voigt6]) -> Result<Stiffness6> {
     check_paths(strain_rates, stress_rates)?;
     if strain_rates.len() != 6 {
         return Err(Error::Invalid(format!(

@@ -1,5 +1,5 @@
 //! Conversion between the 6×6 Voigt matrix and the full 4th-order stiffness tensor
-//! C_ijkl (C6[a,b] = C_ijkl with (i,j) = VOIGT_PAIRS[a], (k,l) = VOIGT_PAIRS[b], no
+//! C_ijkl (`C6[a,b] = C_ijkl` with `(i,j) = VOIGT_PAIRS[a]`, `(k,l) = VOIGT_PAIRS[b]`, no
 //! factors of 2 or √2; REFERENCES.md "Conventions"), and the explicit 4th-order rotation.
 
 use super::{Stiffness6, VOIGT_PAIRS};
@@ -8,7 +8,7 @@ use crate::Mat3;
 /// A full 4th-order tensor C_ijkl (indices 0..3), e.g. a stiffness in Pa.
 pub type Tensor4 = [[[[f64; 3]; 3]; 3]; 3];
 
-/// The 4th-order tensor of a Voigt matrix: C_ijkl = C6[voigt(i,j), voigt(k,l)], which has
+/// The 4th-order tensor of a Voigt matrix: `C_ijkl = C6[voigt(i,j), voigt(k,l)]`, which has
 /// the minor symmetries C_ijkl = C_jikl = C_ijlk by construction.
 pub fn to_fourth_order(c: &Stiffness6) -> Tensor4 {
     let mut t = [[[[0.0; 3]; 3]; 3]; 3];
@@ -24,7 +24,7 @@ pub fn to_fourth_order(c: &Stiffness6) -> Tensor4 {
     t
 }
 
-/// The Voigt matrix of a 4th-order tensor: C6[a,b] = C_ijkl, averaged over the four
+/// The Voigt matrix of a 4th-order tensor: `C6[a,b] = C_ijkl`, averaged over the four
 /// minor-symmetric index orders (ij|ji, kl|lk) so a tensor lacking the minor symmetries
 /// is mapped to its minor-symmetric part. Exact inverse of [`to_fourth_order`].
 pub fn from_fourth_order(t: &Tensor4) -> Stiffness6 {
@@ -38,8 +38,8 @@ pub fn from_fourth_order(t: &Tensor4) -> Stiffness6 {
 }
 
 /// Explicit rotation of a 4th-order tensor, C'_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd
-/// (REFERENCES.md "Conventions"). O(3⁸) — the reference that [`super::rotate`] is tested
-/// against; use [`super::rotate`] in practice.
+/// (REFERENCES.md "Conventions"). O(3⁸) — the reference that [`rotate`](super::rotate::rotate) is tested
+/// against; use [`rotate`](super::rotate::rotate) in practice.
 pub fn rotate_fourth_order(t: &Tensor4, q: &Mat3) -> Tensor4 {
     let mut out = [[[[0.0; 3]; 3]; 3]; 3];
     for (i, oi) in out.iter_mut().enumerate() {

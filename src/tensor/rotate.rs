@@ -32,19 +32,19 @@ pub fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
     m * c * m.transpose()
 }
 
-/// Active right-handed rotation by `angle` (rad) about x: [[1,0,0],[0,c,−s],[0,s,c]].
+/// Active right-handed rotation by `angle` (rad) about x: `[[1,0,0],[0,c,−s],[0,s,c]]`.
 pub fn rotation_x(angle: f64) -> Mat3 {
     let (s, c) = angle.sin_cos();
     Mat3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 }
 
-/// Active right-handed rotation by `angle` (rad) about y: [[c,0,s],[0,1,0],[−s,0,c]].
+/// Active right-handed rotation by `angle` (rad) about y: `[[c,0,s],[0,1,0],[−s,0,c]]`.
 pub fn rotation_y(angle: f64) -> Mat3 {
     let (s, c) = angle.sin_cos();
     Mat3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 }
 
-/// Active right-handed rotation by `angle` (rad) about z: [[c,−s,0],[s,c,0],[0,0,1]].
+/// Active right-handed rotation by `angle` (rad) about z: `[[c,−s,0],[s,c,0],[0,0,1]]`.
 pub fn rotation_z(angle: f64) -> Mat3 {
     let (s, c) = angle.sin_cos();
     Mat3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
