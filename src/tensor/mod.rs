@@ -20,3 +20,26 @@ pub const fn voigt_index(i: usize, j: usize) -> usize {
 
 /// Tensor index pair of Voigt index `a` (inverse of [`voigt_index`]).
 pub const VOIGT_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
+
+pub mod compare;
+pub mod elastic;
+pub mod fit;
+pub mod fourth;
+pub mod rotate;
+pub mod symmetry;
+
+pub use compare::relative_difference;
+pub use elastic::{
+    check_positive_definite, compliance, cross_anisotropic_from_engineering,
+    isotropic_from_bulk_shear, isotropic_moduli, isotropic_stiffness, kelvin_moduli, poisson_100,
+    reuss_average, voigt_average, zener_ratio, EngineeringConstants, IsotropicModuli,
+};
+pub use fit::{fit_symmetric, fit_symmetric_eq27};
+pub use fourth::{from_fourth_order, rotate_fourth_order, to_fourth_order, Tensor4};
+pub use rotate::{
+    bond_matrix, orthonormalize_rotation, rotate, rotation_to_z, rotation_x, rotation_y, rotation_z,
+};
+pub use symmetry::{
+    CubicProjection, CubicUncertainty, TransverseProjection, TransverseUncertainty,
+    OFF_SYMMETRY_TERMS,
+};

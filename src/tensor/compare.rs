@@ -1,0 +1,26 @@
+//! Comparing stiffness tensors.
+
+use super::Stiffness6;
+
+/// Relative difference of `a` from the reference `b`: max_ab |a − b| / max_ab |b|
+/// (entry-wise max norm of the Voigt matrices). When `b` is all zeros the result is 0 if
+/// `a` is too and +∞ otherwise; any NaN entry makes the result NaN.
+pub fn relative_difference(a: &Stiffness6, b: &Stiffness6) -> f64 {
+    let mut diff: f64 = 0.0;
+    let mut scale: f64 = 0.0;
+    for (x, y) in a.iter().zip(b.iter()) {
+        let d = (x - y).abs();
+        if d.is_nan() {
+            return f64::NAN;
+        }
+        diff = diff.max(d);
+        scale = scale.max(y.abs());
+    }
+    if scale > 0.0 {
+        diff / scale
+    } else if diff == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    }
+}
