@@ -36,6 +36,10 @@ const ON_PLANE_TOL: f64 = 1e-12;
 /// Tolerance on |n̂_a × n̂_b| under which two kink planes are the same plane.
 const SAME_PLANE_TOL: f64 = 1e-12;
 
+/// Pieces with an edge chord longer than this (a 60° arc, plus rounding slack) are
+/// subdivided in four.
+const MAX_EDGE_CHORD: f64 = 1.0 + 1e-9;
+
 /// Directions per rayon task; fixed so that sums do not depend on the thread count.
 const CHUNK: usize = 1024;
 
@@ -99,6 +103,9 @@ fn legendre_with_derivative(n: usize, z: f64) -> (f64, f64) {
 /// p = v0 + s(v1−v0) + t(v2−v0), n = p/|p|, dΩ = |((v1−v0)×(v2−v0))·p|/|p|³ ds dt,
 /// with a collapsed (Duffy) Gauss–Legendre product rule: s = u(1−v), t = uv, ds dt = u du dv,
 /// `order` Gauss–Legendre points in each of u and v on [0, 1]. Weights are divided by 4π.
+/// Pieces with an edge longer than 60° are first subdivided in four at the arc midpoints
+/// (so the bare octahedron becomes 32 triangles); the 48 O_h fundamental triangles of the
+/// cubic scheme are left as they are.
 #[derive(Clone, Debug, Default)]
 pub struct SphereQuadrature {
     /// Unit directions nᵢ.
@@ -183,7 +190,27 @@ fn split_sphere(kink_planes: &[Vec3]) -> Vec<SphericalTriangle> {
         }
         triangles = next;
     }
-    triangles
+    // Large smooth pieces (the bare octants) are halved along their edges until no edge
+    // spans more than 60°: the radial-projection Jacobian varies less, and smooth schemes
+    // converge as fast as the kinked cubic ones on their 48 fundamental triangles.
+    let mut out = Vec::with_capacity(triangles.len());
+    while let Some(tri) = triangles.pop() {
+        let longest = (0..3)
+            .map(|k| (tri[(k + 1) % 3] - tri[k]).norm())
+            .fold(0.0, f64::max);
+        if longest > MAX_EDGE_CHORD {
+            let m = |a: &Vec3, b: &Vec3| (a + b).normalize();
+            let (m01, m12, m20) = (m(&tri[0], &tri[1]), m(&tri[1], &tri[2]), m(&tri[2], &tri[0]));
+            triangles.push([tri[0], m01, m20]);
+            triangles.push([m01, tri[1], m12]);
+            triangles.push([m20, m12, tri[2]]);
+            triangles.push([m01, m12, m20]);
+        } else {
+            out.push(tri);
+        }
+    }
+    out.reverse();
+    out
 }
 
 /// Normalised kink-plane normals without duplicates (n and −n are the same plane).
@@ -413,10 +440,27 @@ mod tests {
     }
 
     #[test]
-    fn straddling_triangle_splits_in_three() {
-        let q = SphereQuadrature::new(&[Vec3::new(1.0, 2.0, 3.0)], 1);
-        // Octant (sx, sy, sz) has vertex values sx·1, sy·2, sz·3 on this plane: it is
-        // straddled unless all signs agree (2 octants), and no vertex lies on the plane.
-        assert_eq!(q.len(), 2 + 6 * 3);
+    fn octant_is_cut_in_three_two_or_not_at_all() {
+        let octant = [Vec3::x(), Vec3::y(), Vec3::z()];
+        let count = |n: Vec3| {
+            let mut out = Vec::new();
+            split_triangle(&octant, &n.normalize(), &mut out);
+            out
+        };
+        // z alone on the negative side: a triangle and a quadrilateral (two triangles).
+        let pieces = count(Vec3::new(1.0, 2.0, -3.0));
+        assert_eq!(pieces.len(), 3);
+        // The plane x = y passes through vertex z: two triangles meeting at (1,1,0)/√2.
+        let pieces = count(Vec3::new(1.0, -1.0, 0.0));
+        assert_eq!(pieces.len(), 2);
+        let mid = Vec3::new(1.0, 1.0, 0.0).normalize();
+        assert!(pieces.iter().all(|t| t.iter().any(|v| (v - mid).norm() < 1e-15)));
+        // Planes that only touch the octant (an edge or a vertex) or miss it leave it whole.
+        assert_eq!(count(Vec3::x()).len(), 1);
+        assert_eq!(count(Vec3::new(1.0, 1.0, 0.0)).len(), 1);
+        // A vertex within the tolerance of the plane counts as on it: no sliver triangle.
+        assert_eq!(count(Vec3::new(1e-14, 1.0, -1.0)).len(), 2);
+        assert_eq!(count(Vec3::new(1e-9, 1.0, -1.0)).len(), 3);
+        assert_eq!(count(Vec3::new(1.0, 1.0, 1.0)).len(), 1);
     }
 }
