@@ -67,8 +67,14 @@ struct LocalCubic {
 impl LocalCubic {
     fn zener_above_1() -> Self {
         LocalCubic {
-            normal_envelope: Envelope { axes: axes_111(), a: 4.31 },
-            shear_envelope: Envelope { axes: axes_100(), a: 10.0 },
+            normal_envelope: Envelope {
+                axes: axes_111(),
+                a: 4.31,
+            },
+            shear_envelope: Envelope {
+                axes: axes_100(),
+                a: 10.0,
+            },
             normal: 1e13,
             shear: 3.55e12,
             rotation: Mat3::identity(),
@@ -77,8 +83,14 @@ impl LocalCubic {
 
     fn zener_below_1() -> Self {
         LocalCubic {
-            normal_envelope: Envelope { axes: axes_100(), a: 4.31 },
-            shear_envelope: Envelope { axes: axes_111(), a: 10.0 },
+            normal_envelope: Envelope {
+                axes: axes_100(),
+                a: 4.31,
+            },
+            shear_envelope: Envelope {
+                axes: axes_111(),
+                a: 10.0,
+            },
             normal: 1e13,
             shear: 3.55e12,
             rotation: Mat3::identity(),
@@ -181,8 +193,16 @@ fn local_scheme_matches_references_factor_table() {
     ];
     for (n, fnn, fs) in cases {
         let m = s.magnitudes(&n);
-        assert!((m.normal / 1e13 - fnn).abs() < 5e-5, "{n}: {}", m.normal / 1e13);
-        assert!((m.shear / 3.55e12 - fs).abs() < 5e-5, "{n}: {}", m.shear / 3.55e12);
+        assert!(
+            (m.normal / 1e13 - fnn).abs() < 5e-5,
+            "{n}: {}",
+            m.normal / 1e13
+        );
+        assert!(
+            (m.shear / 3.55e12 - fs).abs() < 5e-5,
+            "{n}: {}",
+            m.shear / 3.55e12
+        );
     }
 }
 
@@ -192,7 +212,11 @@ fn spheroid_volume_is_constant_average_r_cubed_is_one() {
     let q = SphereQuadrature::new(&[], 48);
     for a in [0.5, 1.0, 4.31, 10.0] {
         let avg = q.average(|n| spheroid(n.z, a).powi(3));
-        assert!((avg - 1.0).abs() < 1e-13, "a = {a}: <r^3> - 1 = {:e}", avg - 1.0);
+        assert!(
+            (avg - 1.0).abs() < 1e-13,
+            "a = {a}: <r^3> - 1 = {:e}",
+            avg - 1.0
+        );
     }
     // A generic axis: split the sphere by two planes through it so that the peak sits on a
     // vertex of the pieces, as the cubic kink planes do for <100> and <111>.
@@ -202,7 +226,11 @@ fn spheroid_volume_is_constant_average_r_cubed_is_one() {
     let q = SphereQuadrature::new(&[p1, p2], 48);
     for a in [4.31, 10.0] {
         let avg = q.average(|n| spheroid(n.dot(&d), a).powi(3));
-        assert!((avg - 1.0).abs() < 1e-12, "a = {a}: <r^3> - 1 = {:e}", avg - 1.0);
+        assert!(
+            (avg - 1.0).abs() < 1e-12,
+            "a = {a}: <r^3> - 1 = {:e}",
+            avg - 1.0
+        );
     }
 }
 
@@ -262,7 +290,11 @@ fn check_cubic_table(t: &Stiffness6, t11: f64, t12: f64, t44: f64) {
                 _ if a < 3 && b < 3 => t[(0, 1)],
                 _ => 0.0,
             };
-            assert!((t[(a, b)] - want).abs() < tol, "T[{a}][{b}] = {}", t[(a, b)]);
+            assert!(
+                (t[(a, b)] - want).abs() < tol,
+                "T[{a}][{b}] = {}",
+                t[(a, b)]
+            );
         }
     }
 }
@@ -284,11 +316,22 @@ fn isotropic_average_is_one_sixth_of_the_microplane_tensor() {
     // Šmilauer paper 002 Eq. eq-c1111-iso: C11 = (6E_N+4E_T)/5, C12 = (2E_N−2E_T)/5,
     // C44 = (2E_N+3E_T)/5, and C_micro = 6·T.
     let (en, et) = (3.7e9, 1.3e9);
-    let t = mean_field(&Constant { normal: en, shear: et }, 1.0, DEFAULT_ORDER);
+    let t = mean_field(
+        &Constant {
+            normal: en,
+            shear: et,
+        },
+        1.0,
+        DEFAULT_ORDER,
+    );
     let mut c = Stiffness6::zeros();
     for a in 0..3 {
         for b in 0..3 {
-            c[(a, b)] = if a == b { (6.0 * en + 4.0 * et) / 5.0 } else { (2.0 * en - 2.0 * et) / 5.0 };
+            c[(a, b)] = if a == b {
+                (6.0 * en + 4.0 * et) / 5.0
+            } else {
+                (2.0 * en - 2.0 * et) / 5.0
+            };
         }
         c[(a + 3, a + 3)] = (2.0 * en + 3.0 * et) / 5.0;
     }

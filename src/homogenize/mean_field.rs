@@ -200,7 +200,11 @@ fn split_sphere(kink_planes: &[Vec3]) -> Vec<SphericalTriangle> {
             .fold(0.0, f64::max);
         if longest > MAX_EDGE_CHORD {
             let m = |a: &Vec3, b: &Vec3| (a + b).normalize();
-            let (m01, m12, m20) = (m(&tri[0], &tri[1]), m(&tri[1], &tri[2]), m(&tri[2], &tri[0]));
+            let (m01, m12, m20) = (
+                m(&tri[0], &tri[1]),
+                m(&tri[1], &tri[2]),
+                m(&tri[2], &tri[0]),
+            );
             triangles.push([tri[0], m01, m20]);
             triangles.push([m01, tri[1], m12]);
             triangles.push([m20, m12, tri[2]]);
@@ -375,8 +379,16 @@ mod tests {
             let (x, w) = gauss_legendre(n);
             // ∫_{-1}^{1} x^k dx = 2/(k+1) for even k, 0 for odd k.
             for k in 0..(2 * n) {
-                let q: f64 = x.iter().zip(&w).map(|(xi, wi)| wi * xi.powi(k as i32)).sum();
-                let exact = if k % 2 == 0 { 2.0 / (k as f64 + 1.0) } else { 0.0 };
+                let q: f64 = x
+                    .iter()
+                    .zip(&w)
+                    .map(|(xi, wi)| wi * xi.powi(k as i32))
+                    .sum();
+                let exact = if k % 2 == 0 {
+                    2.0 / (k as f64 + 1.0)
+                } else {
+                    0.0
+                };
                 assert!((q - exact).abs() < 1e-14, "n={n} k={k}: {q} vs {exact}");
             }
             // Nodes are roots of P_n to 1e-15 (scaled by the derivative).
@@ -454,7 +466,9 @@ mod tests {
         let pieces = count(Vec3::new(1.0, -1.0, 0.0));
         assert_eq!(pieces.len(), 2);
         let mid = Vec3::new(1.0, 1.0, 0.0).normalize();
-        assert!(pieces.iter().all(|t| t.iter().any(|v| (v - mid).norm() < 1e-15)));
+        assert!(pieces
+            .iter()
+            .all(|t| t.iter().any(|v| (v - mid).norm() < 1e-15)));
         // Planes that only touch the octant (an edge or a vertex) or miss it leave it whole.
         assert_eq!(count(Vec3::x()).len(), 1);
         assert_eq!(count(Vec3::new(1.0, 1.0, 0.0)).len(), 1);

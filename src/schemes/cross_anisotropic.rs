@@ -152,7 +152,14 @@ impl CrossAnisotropic {
     /// Eq. eq-Eelliptic-micro). C44 is not free: it becomes (C11 + C33)/4 − C13/2.
     /// Refuses non-finite input, μ ≤ 0, a target that is not positive definite together with
     /// that C44, and a target that needs a negative lattice modulus.
-    pub fn from_target(c11: f64, c33: f64, c13: f64, c12: f64, axis: Vec3, mu: f64) -> Result<Self> {
+    pub fn from_target(
+        c11: f64,
+        c33: f64,
+        c13: f64,
+        c12: f64,
+        axis: Vec3,
+        mu: f64,
+    ) -> Result<Self> {
         let c = [c11, c33, c13, c12];
         let names = ["C11", "C33", "C13", "C12"];
         for (name, &v) in names.iter().zip(c.iter()) {
@@ -173,12 +180,18 @@ impl CrossAnisotropic {
         // Eigen-conditions of a transversely isotropic stiffness: C66 > 0 (i.e. C11 > C12),
         // C44 > 0, and the (C11 + C12, √2·C13; √2·C13, C33) block positive definite.
         let checks = [
-            (c66 > 0.0, format!("C66 = (C11 - C12)/2 = {c66} must be > 0")),
+            (
+                c66 > 0.0,
+                format!("C66 = (C11 - C12)/2 = {c66} must be > 0"),
+            ),
             (
                 c44 > 0.0,
                 format!("the dependent C44 = (C11 + C33)/4 - C13/2 = {c44} must be > 0"),
             ),
-            (c11 + c12 > 0.0, format!("C11 + C12 = {} must be > 0", c11 + c12)),
+            (
+                c11 + c12 > 0.0,
+                format!("C11 + C12 = {} must be > 0", c11 + c12),
+            ),
             (c33 > 0.0, format!("C33 = {c33} must be > 0")),
             (
                 (c11 + c12) * c33 > 2.0 * c13 * c13,
