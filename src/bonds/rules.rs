@@ -20,3 +20,143 @@ impl Default for BondingRule {
         BondingRule::Gap(0.17)
     }
 }
+
+use super::BondSet;
+use crate::packing::neighbours::{pairs_within, pairs_within_centre_distance, Pair};
+use crate::packing::Packing;
+use crate::{Error, Result};
+
+/// Largest gap cutoff (in units of the mean radius R̄) that a
+/// [`BondingRule::Coordination`] target may need; a target not reached with every pair
+/// within this gap is refused.
+pub const COORDINATION_MAX_GAP: f64 = 1.0;
+
+/// The bonds of `packing` under `rule`, sorted canonically by `(i, j, image)`.
+///
+/// - `Gap(g)`: |l| − (R_i + R_j) ≤ g·R̄ with R̄ the mean radius (Truszkowska 2018, Eq. 4).
+/// - `Factor(κ)`: |l| ≤ κ·(R_i + R_j) (Kumar 2016, Eq. 10; Šmilauer's contact radius I_R).
+/// - `Coordination(Z)`: the gap cutoff whose bond count gives Z = 2·N_b/N as closely as
+///   the discrete counts allow (see [`coordination_gap`]).
+///
+/// Errors on a value that is not finite and > 0, and on coincident spheres (a bond needs a
+/// non-zero branch vector).
+pub fn build_bonds(packing: &Packing, rule: BondingRule) -> Result<BondSet> {
+    let pairs = match rule {
+        BondingRule::Gap(g) => {
+            check_rule_value("gap", g)?;
+            gap_pairs(packing, g)?
+        }
+        BondingRule::Factor(kappa) => {
+            check_rule_value("factor", kappa)?;
+            let r_max = packing.radii.iter().copied().fold(0.0, f64::max);
+            pairs_within_centre_distance(packing, kappa * 2.0 * r_max, |ri, rj, dist| {
+                dist <= kappa * (ri + rj)
+            })?
+        }
+        BondingRule::Coordination(z) => {
+            check_rule_value("coordination", z)?;
+            coordination_selection(packing, z)?.1
+        }
+    };
+    bonds_from_pairs(&pairs)
+}
+
+/// The gap cutoff g (in units of R̄, Truszkowska 2018 Eq. 4) at which the bonded packing
+/// reaches the mean coordination `target_z` = 2·N_b/N as closely as the discrete bond
+/// counts allow. The value returned lies midway between the gap of the last pair bonded
+/// and the next one, so `BondingRule::Gap(g)` rebuilds the same bonds.
+///
+/// The candidate pairs are found once (gap ≤ [`COORDINATION_MAX_GAP`]·R̄) and sorted by
+/// gap: no repeated searches. Errors if the target exceeds the coordination reached with
+/// every candidate by more than one bond.
+pub fn coordination_gap(packing: &Packing, target_z: f64) -> Result<f64> {
+    check_rule_value("coordination", target_z)?;
+    Ok(coordination_selection(packing, target_z)?.0)
+}
+
+fn check_rule_value(name: &str, value: f64) -> Result<()> {
+    if !value.is_finite() || value <= 0.0 {
+        return Err(Error::Model(format!(
+            "bonding rule `{name}`: value must be finite and > 0, got {value}"
+        )));
+    }
+    Ok(())
+}
+
+fn gap_pairs(packing: &Packing, g: f64) -> Result<Vec<Pair>> {
+    let max_gap = g * packing.mean_radius();
+    pairs_within(packing, |_, _| max_gap, max_gap)
+}
+
+/// (gap cutoff / R̄, selected pairs) for a coordination target.
+fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<Pair>)> {
+    let n = packing.len();
+    if n < 2 {
+        return Err(Error::Model(format!(
+            "bonding rule `coordination`: a packing of {n} sphere(s) cannot reach Z = {target_z}"
+        )));
+    }
+    let r_mean = packing.mean_radius();
+    let candidates = gap_pairs(packing, COORDINATION_MAX_GAP)?;
+    let mut ranked: Vec<(f64, Pair)> = candidates
+        .into_iter()
+        .map(|p| (p.gap(packing) / r_mean, p))
+        .collect();
+    // Sort by gap; ties broken by the canonical order so the choice is deterministic.
+    ranked.sort_by(|a, b| {
+        a.0.total_cmp(&b.0)
+            .then((a.1.i, a.1.j, a.1.image).cmp(&(b.1.i, b.1.j, b.1.image)))
+    });
+    let m = ranked.len();
+    let target_bonds = target_z * n as f64 / 2.0;
+    if (m as f64) < target_bonds - 1.0 {
+        return Err(Error::Model(format!(
+            "bonding rule `coordination`: target Z = {target_z} is unreachable; bonding every \
+             pair with a gap up to {COORDINATION_MAX_GAP}·R̄ gives only Z = {:.4}",
+            2.0 * m as f64 / n as f64
+        )));
+    }
+    // Admissible counts k: a cutoff can separate the first k pairs from the rest only
+    // where the gap strictly increases.
+    let mut best_k = 0usize;
+    let mut best_miss = target_bonds;
+    for k in 1..=m {
+        if k < m && ranked[k - 1].0 >= ranked[k].0 {
+            continue;
+        }
+        let miss = (k as f64 - target_bonds).abs();
+        if miss < best_miss {
+            best_miss = miss;
+            best_k = k;
+        }
+    }
+    let gap = if best_k == m {
+        COORDINATION_MAX_GAP
+    } else if best_k == 0 {
+        ranked[0].0 - 0.5 * ranked[0].0.abs().max(1e-12)
+    } else {
+        0.5 * (ranked[best_k - 1].0 + ranked[best_k].0)
+    };
+    ranked.truncate(best_k);
+    let mut pairs: Vec<Pair> = ranked.into_iter().map(|(_, p)| p).collect();
+    pairs.sort_by(|a, b| (a.i, a.j, a.image).cmp(&(b.i, b.j, b.image)));
+    Ok((gap, pairs))
+}
+
+/// Turn found pairs into bonds, refusing zero-length branch vectors.
+fn bonds_from_pairs(pairs: &[Pair]) -> Result<BondSet> {
+    let mut bonds = BondSet::default();
+    for p in pairs {
+        let len = p.distance();
+        if len == 0.0 || !len.is_finite() {
+            return Err(Error::Invalid(format!(
+                "spheres {} and {} are coincident (centre distance {len}): a bond needs a \
+                 non-zero branch vector",
+                p.i, p.j
+            )));
+        }
+        bonds.push(p.i, p.j, p.branch, p.image);
+    }
+    bonds.sort_canonical();
+    Ok(bonds)
+}

@@ -1,1 +1,583 @@
-//! Packing file formats. To be written.
+//! Packing files: the SPEC text format (YADE `ymport.text` / `export.text` compatible),
+//! YADE `SpherePack` text and LIGGGHTS `atom_style granular` data files.
+//!
+//! - SPEC text: one sphere per line `x y z r`, whitespace-separated, `#` starts a comment;
+//!   a header comment `# periodic Lx Ly Lz` declares the periodic cell [0,Lx)×[0,Ly)×[0,Lz)
+//!   (positions outside are wrapped). `#format x_y_z_r` lines (YADE `export.text`) are
+//!   accepted, as is `#format x_y_z_r_matId` (the fifth column is read and ignored).
+//! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then `x y z r`.
+//! - LIGGGHTS data (LAMMPS data format): title line, header (`N atoms`, `xlo xhi`, …),
+//!   `Atoms` section with `id type diameter density x y z` (diameter, not radius).
+//!
+//! Numbers are written in the shortest form that reads back to the same `f64`, so a
+//! write–read round trip is bit-exact.
+
+use super::{Packing, PeriodicCell};
+use crate::{Error, Result, Vec3};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Read a packing file, detecting its format from the content: an `Atoms` section or an
+/// `N atoms` header line means LIGGGHTS data (read as periodic, `boundary p p p`); a
+/// `##PERIODIC::` line means YADE SpherePack text; anything else is SPEC text.
+pub fn read_packing(path: &Path) -> Result<Packing> {
+    let text = crate::io::read_to_string(path)?;
+    parse_packing(&text, &path.display().to_string())
+}
+
+/// Parse packing text in any supported format (see [`read_packing`]); `source_name` names
+/// the input in error messages.
+pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
+    match detect_format(text) {
+        PackingFormat::LiggghtsData => parse_liggghts_data(text, source_name, true),
+        PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
+            parse_sphere_text(text, source_name)
+        }
+    }
+}
+
+/// The file formats [`parse_packing`] understands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PackingFormat {
+    /// `x y z r` lines, `# periodic Lx Ly Lz` header (also YADE `export.text`).
+    SpecText,
+    /// YADE `SpherePack.save`: `##PERIODIC:: Lx Ly Lz` then `x y z r`.
+    YadeSpherePack,
+    /// LIGGGHTS / LAMMPS data file, `atom_style granular`.
+    LiggghtsData,
+}
+
+/// Guess the format of packing text from its content.
+pub fn detect_format(text: &str) -> PackingFormat {
+    let mut yade = false;
+    for line in text.lines() {
+        let t = line.trim();
+        if t.starts_with("##PERIODIC::") {
+            yade = true;
+        }
+        let body = t.split('#').next().unwrap_or("").trim();
+        let words: Vec<&str> = body.split_whitespace().collect();
+        if words.first() == Some(&"Atoms") {
+            return PackingFormat::LiggghtsData;
+        }
+        if words.len() == 2 && words[1] == "atoms" && words[0].parse::<u64>().is_ok() {
+            return PackingFormat::LiggghtsData;
+        }
+    }
+    if yade {
+        PackingFormat::YadeSpherePack
+    } else {
+        PackingFormat::SpecText
+    }
+}
+
+fn parse_number(word: &str, what: &str, source: &str, line: usize) -> Result<f64> {
+    let v: f64 = word.parse().map_err(|_| {
+        Error::parse(
+            source,
+            line,
+            format!("expected a number for {what}, found `{word}`"),
+        )
+    })?;
+    if v.is_nan() {
+        return Err(Error::parse(source, line, format!("{what} is NaN")));
+    }
+    if !v.is_finite() {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("{what} must be finite, found `{word}`"),
+        ));
+    }
+    Ok(v)
+}
+
+fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -> Result<Vec3> {
+    if words.len() != 3 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "expected `{header} Lx Ly Lz` with 3 cell lengths, found {} value(s)",
+                words.len()
+            ),
+        ));
+    }
+    let mut l = Vec3::zeros();
+    for (k, w) in words.iter().enumerate() {
+        let name = ["Lx", "Ly", "Lz"][k];
+        l[k] = parse_number(w, &format!("cell length {name}"), source, line)?;
+        if l[k] <= 0.0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("cell length {name} must be > 0, found {}", l[k]),
+            ));
+        }
+    }
+    Ok(l)
+}
+
+/// Parse SPEC text or YADE SpherePack / `export.text` text.
+fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
+    let mut positions = Vec::new();
+    let mut radii = Vec::new();
+    let mut cell: Option<(Vec3, usize)> = None;
+    let mut columns = 4usize;
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let t = raw.trim();
+        if let Some(rest) = t.strip_prefix("##PERIODIC::") {
+            let words: Vec<&str> = rest.split_whitespace().collect();
+            let l = parse_cell_lengths(&words, source, line, "##PERIODIC::")?;
+            set_cell(&mut cell, l, source, line)?;
+            continue;
+        }
+        if let Some(comment) = t.strip_prefix('#') {
+            let words: Vec<&str> = comment.split_whitespace().collect();
+            if words.first().is_some_and(|w| w.eq_ignore_ascii_case("periodic")) {
+                let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
+                set_cell(&mut cell, l, source, line)?;
+            } else if t.starts_with("#format") {
+                columns = match words.get(1).copied() {
+                    Some("x_y_z_r") => 4,
+                    Some("x_y_z_r_matId") => 5,
+                    other => {
+                        return Err(Error::parse(
+                            source,
+                            line,
+                            format!(
+                                "unsupported `#format {}`: expected `x_y_z_r` or `x_y_z_r_matId`",
+                                other.unwrap_or("")
+                            ),
+                        ))
+                    }
+                };
+            }
+            continue;
+        }
+        let body = t.split('#').next().unwrap_or("");
+        let words: Vec<&str> = body.split_whitespace().collect();
+        if words.is_empty() {
+            continue;
+        }
+        if words.len() != columns {
+            let expected = if columns == 4 {
+                "4 numbers `x y z r`"
+            } else {
+                "5 numbers `x y z r matId`"
+            };
+            return Err(Error::parse(
+                source,
+                line,
+                format!("expected {expected}, found {}", words.len()),
+            ));
+        }
+        let x = parse_number(words[0], "x", source, line)?;
+        let y = parse_number(words[1], "y", source, line)?;
+        let z = parse_number(words[2], "z", source, line)?;
+        let r = parse_number(words[3], "radius r", source, line)?;
+        if r <= 0.0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("radius must be > 0, found {r}"),
+            ));
+        }
+        if columns == 5 {
+            parse_number(words[4], "matId", source, line)?;
+        }
+        positions.push(Vec3::new(x, y, z));
+        radii.push(r);
+    }
+    let cell = match cell {
+        Some((l, line)) => {
+            Some(PeriodicCell::new(l).map_err(|e| Error::parse(source, line, e.to_string()))?)
+        }
+        None => None,
+    };
+    Packing::new(positions, radii, cell).map_err(|e| Error::parse(source, 0, e.to_string()))
+}
+
+fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
+    if let Some((_, first)) = cell {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("second periodic cell header (the first is on line {first})"),
+        ));
+    }
+    *cell = Some((l, line));
+    Ok(())
+}
+
+/// Read a LIGGGHTS `atom_style granular` data file. With `periodic` the box is the
+/// periodic cell (`boundary p p p` assumed) and positions are shifted by the box origin
+/// into [0, L); without it the packing is free and positions are kept as written.
+pub fn read_liggghts_data(path: &Path, periodic: bool) -> Result<Packing> {
+    let text = crate::io::read_to_string(path)?;
+    parse_liggghts_data(&text, &path.display().to_string(), periodic)
+}
+
+/// Words of a LAMMPS data file line after removing the `#` comment.
+fn data_words(raw: &str) -> Vec<&str> {
+    raw.split('#')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect()
+}
+
+const LAMMPS_SECTIONS: &[&str] = &[
+    "Atoms",
+    "Velocities",
+    "Masses",
+    "Bonds",
+    "Angles",
+    "Dihedrals",
+    "Impropers",
+    "Ellipsoids",
+    "Lines",
+    "Triangles",
+    "Bodies",
+    "Pair",
+    "PairIJ",
+    "Bond",
+    "Angle",
+    "Dihedral",
+    "Improper",
+    "BondBond",
+    "BondAngle",
+    "MiddleBondTorsion",
+    "EndBondTorsion",
+    "AngleTorsion",
+    "AngleAngleTorsion",
+    "BondBond13",
+    "AngleAngle",
+];
+
+/// Parse LIGGGHTS data text (see [`read_liggghts_data`]). Atoms are sorted by id.
+pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<Packing> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut n_atoms: Option<(usize, usize)> = None;
+    let mut bounds: [Option<(f64, f64)>; 3] = [None; 3];
+    let mut atoms: Vec<(u64, Vec3, f64, usize)> = Vec::new();
+    let mut atoms_line: Option<usize> = None;
+    // Line 1 is the title and always skipped (LAMMPS rule).
+    let mut k = 1;
+    // Header.
+    while k < lines.len() {
+        let line = k + 1;
+        let words = data_words(lines[k]);
+        if words.is_empty() {
+            k += 1;
+            continue;
+        }
+        if LAMMPS_SECTIONS.contains(&words[0]) {
+            break;
+        }
+        let n_words = words.len();
+        if n_words == 2 && words[1] == "atoms" {
+            let n: usize = words[0].parse().map_err(|_| {
+                Error::parse(
+                    source,
+                    line,
+                    format!("expected an atom count in `N atoms`, found `{}`", words[0]),
+                )
+            })?;
+            n_atoms = Some((n, line));
+        } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
+            let axis = match (words[2], words[3]) {
+                ("xlo", "xhi") => 0,
+                ("ylo", "yhi") => 1,
+                ("zlo", "zhi") => 2,
+                _ => {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "expected `lo hi xlo xhi` (or ylo yhi, zlo zhi), found `{} {}`",
+                            words[2], words[3]
+                        ),
+                    ))
+                }
+            };
+            let name = ["x", "y", "z"][axis];
+            let lo = parse_number(words[0], &format!("{name}lo"), source, line)?;
+            let hi = parse_number(words[1], &format!("{name}hi"), source, line)?;
+            if hi <= lo {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("box bound {name}hi = {hi} must exceed {name}lo = {lo}"),
+                ));
+            }
+            bounds[axis] = Some((lo, hi));
+        } else if n_words == 6 && words[3..] == ["xy", "xz", "yz"] {
+            for w in &words[..3] {
+                let t = parse_number(w, "tilt factor", source, line)?;
+                if t != 0.0 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        "triclinic boxes are not supported: expected tilt factors 0 0 0",
+                    ));
+                }
+            }
+        }
+        // Other header lines (atom types, bonds, extra bond per atom, …) are irrelevant.
+        k += 1;
+    }
+    // Sections.
+    while k < lines.len() {
+        let line = k + 1;
+        let words = data_words(lines[k]);
+        if words.is_empty() {
+            k += 1;
+            continue;
+        }
+        if !LAMMPS_SECTIONS.contains(&words[0]) {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("expected a section name such as `Atoms`, found `{}`", lines[k].trim()),
+            ));
+        }
+        let is_atoms = words[0] == "Atoms";
+        if is_atoms {
+            if let Some(first) = atoms_line {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("second `Atoms` section (the first is on line {first})"),
+                ));
+            }
+            atoms_line = Some(line);
+            if let Some(style) = lines[k].split('#').nth(1).map(str::trim) {
+                if !style.is_empty() && style != "granular" {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!("expected `Atoms # granular`, found atom style `{style}`"),
+                    ));
+                }
+            }
+        }
+        k += 1;
+        // Section body: lines up to the next section name.
+        while k < lines.len() {
+            let line = k + 1;
+            let words = data_words(lines[k]);
+            if words.is_empty() {
+                k += 1;
+                continue;
+            }
+            if LAMMPS_SECTIONS.contains(&words[0]) {
+                break;
+            }
+            if is_atoms {
+                if words.len() != 7 && words.len() != 10 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "expected 7 values `id type diameter density x y z` (optionally \
+                             followed by 3 image flags), found {}",
+                            words.len()
+                        ),
+                    ));
+                }
+                let id: u64 = words[0].parse().map_err(|_| {
+                    Error::parse(
+                        source,
+                        line,
+                        format!("expected a positive integer atom id, found `{}`", words[0]),
+                    )
+                })?;
+                let d = parse_number(words[2], "diameter", source, line)?;
+                if d <= 0.0 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!("diameter must be > 0, found {d}"),
+                    ));
+                }
+                parse_number(words[3], "density", source, line)?;
+                let x = parse_number(words[4], "x", source, line)?;
+                let y = parse_number(words[5], "y", source, line)?;
+                let z = parse_number(words[6], "z", source, line)?;
+                atoms.push((id, Vec3::new(x, y, z), 0.5 * d, line));
+            }
+            k += 1;
+        }
+    }
+    let (n, n_line) = n_atoms.ok_or_else(|| {
+        Error::parse(source, 0, "LIGGGHTS data: missing header line `N atoms`")
+    })?;
+    let Some(atoms_first) = atoms_line else {
+        return Err(Error::parse(
+            source,
+            0,
+            "LIGGGHTS data: missing `Atoms` section",
+        ));
+    };
+    if atoms.len() != n {
+        return Err(Error::parse(
+            source,
+            atoms_first,
+            format!(
+                "the header (line {n_line}) declares {n} atoms but the Atoms section has {}",
+                atoms.len()
+            ),
+        ));
+    }
+    atoms.sort_by_key(|a| a.0);
+    for w in atoms.windows(2) {
+        if w[0].0 == w[1].0 {
+            return Err(Error::parse(
+                source,
+                w[1].3,
+                format!("atom id {} appears twice (also line {})", w[1].0, w[0].3),
+            ));
+        }
+    }
+    let mut positions: Vec<Vec3> = atoms.iter().map(|a| a.1).collect();
+    let radii: Vec<f64> = atoms.iter().map(|a| a.2).collect();
+    let cell = if periodic {
+        let mut lo = Vec3::zeros();
+        let mut len = Vec3::zeros();
+        for axis in 0..3 {
+            let name = ["x", "y", "z"][axis];
+            let (l, h) = bounds[axis].ok_or_else(|| {
+                Error::parse(
+                    source,
+                    0,
+                    format!("LIGGGHTS data: missing header line `{name}lo {name}hi`"),
+                )
+            })?;
+            lo[axis] = l;
+            len[axis] = h - l;
+        }
+        if lo != Vec3::zeros() {
+            for p in &mut positions {
+                *p -= lo;
+            }
+        }
+        Some(PeriodicCell::new(len)?)
+    } else {
+        None
+    };
+    Packing::new(positions, radii, cell).map_err(|e| Error::parse(source, 0, e.to_string()))
+}
+
+/// Shortest text that parses back to exactly `v`.
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || (1e-4..1e7).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
+    move |e| Error::io(path, e)
+}
+
+/// Write `p` in the SPEC text format (readable by YADE `ymport.text`), atomically, with
+/// every number written so that it reads back bit-identical.
+pub fn write_packing(path: &Path, p: &Packing) -> Result<()> {
+    let text = format_packing(p);
+    crate::io::write_string_atomic(path, &text)
+}
+
+/// The SPEC text of `p` (see [`write_packing`]).
+pub fn format_packing(p: &Packing) -> String {
+    let mut s = String::with_capacity(64 * p.len() + 128);
+    s.push_str("#format x_y_z_r\n");
+    let _ = writeln!(
+        s,
+        "# anisobond packing: {} spheres, one per line `x y z r` (m)",
+        p.len()
+    );
+    if let Some(c) = &p.cell {
+        let l = c.lengths;
+        let _ = writeln!(s, "# periodic {} {} {}", num(l.x), num(l.y), num(l.z));
+    }
+    for (x, r) in p.positions.iter().zip(&p.radii) {
+        let _ = writeln!(s, "{} {} {} {}", num(x.x), num(x.y), num(x.z), num(*r));
+    }
+    s
+}
+
+/// Write `p` as a YADE `SpherePack` text file (`SpherePack.load`): `##PERIODIC:: Lx Ly Lz`
+/// when periodic, then `x y z r` lines.
+pub fn write_yade_spherepack(path: &Path, p: &Packing) -> Result<()> {
+    write_lines(path, |w| {
+        if let Some(c) = &p.cell {
+            let l = c.lengths;
+            writeln!(w, "##PERIODIC:: {} {} {}", num(l.x), num(l.y), num(l.z))?;
+        }
+        for (x, r) in p.positions.iter().zip(&p.radii) {
+            writeln!(w, "{} {} {} {}", num(x.x), num(x.y), num(x.z), num(*r))?;
+        }
+        Ok(())
+    })
+}
+
+/// Write `p` as a LIGGGHTS `atom_style granular` data file (ids 1…N in packing order, one
+/// atom type, `density` in kg/m³). A periodic packing's box is its cell (use
+/// `boundary p p p`); a free packing's box is its bounding box.
+pub fn write_liggghts_data(path: &Path, p: &Packing, density: f64) -> Result<()> {
+    if !density.is_finite() || density <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "LIGGGHTS data: density must be finite and > 0, got {density}"
+        )));
+    }
+    let (lo, hi) = match &p.cell {
+        Some(c) => (Vec3::zeros(), c.lengths),
+        None if p.is_empty() => (Vec3::zeros(), Vec3::repeat(1.0)),
+        None => p.bounding_box(),
+    };
+    let boundary = if p.cell.is_some() {
+        "boundary p p p"
+    } else {
+        "non-periodic"
+    };
+    write_lines(path, |w| {
+        writeln!(
+            w,
+            "LIGGGHTS data file written by anisobond (atom_style granular, {boundary})"
+        )?;
+        writeln!(w)?;
+        writeln!(w, "{} atoms", p.len())?;
+        writeln!(w, "1 atom types")?;
+        writeln!(w)?;
+        for (k, name) in ["x", "y", "z"].iter().enumerate() {
+            writeln!(w, "{} {} {name}lo {name}hi", num(lo[k]), num(hi[k]))?;
+        }
+        writeln!(w)?;
+        writeln!(w, "Atoms # granular")?;
+        writeln!(w)?;
+        for (k, (x, r)) in p.positions.iter().zip(&p.radii).enumerate() {
+            writeln!(
+                w,
+                "{} 1 {} {} {} {} {}",
+                k + 1,
+                num(2.0 * r),
+                num(density),
+                num(x.x),
+                num(x.y),
+                num(x.z)
+            )?;
+        }
+        Ok(())
+    })
+}
+
+fn write_lines(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+) -> Result<()> {
+    crate::io::write_atomic(path, |w| fill(w).map_err(io_err(path)))
+}
