@@ -3,7 +3,7 @@
 
 use crate::bonds::BondSet;
 use crate::packing::Packing;
-use crate::tensor::{cubic_projection, transverse_projection, Stiffness6};
+use crate::tensor::{CubicProjection, Stiffness6, TransverseProjection};
 use serde::Serialize;
 
 /// Cubic projection: C11, C12, C44 (Pa), Zener ratio and the paper's uncertainty.
@@ -88,8 +88,8 @@ pub struct TensorReport {
 impl TensorReport {
     /// Build the report of tensor `c` computed by `method`, with the packing's counts.
     pub fn new(method: &str, c: Stiffness6, bonded: Option<(&Packing, &BondSet)>) -> Self {
-        let cp = cubic_projection(&c);
-        let tp = transverse_projection(&c);
+        let cp = CubicProjection::from_stiffness(&c);
+        let tp = TransverseProjection::from_stiffness(&c);
         TensorReport {
             method: method.to_string(),
             units: "Pa".to_string(),
