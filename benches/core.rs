@@ -19,7 +19,12 @@ fn jittered_fcc(n_target: usize, seed: u64) -> Packing {
     // FCC touching: a = 2√2 R gives φ = 0.7405; scale the lattice to φ = 0.60.
     let a = 2.0 * std::f64::consts::SQRT_2 * r_mean * (0.7405 / 0.60_f64).cbrt();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let basis = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+    let basis = [
+        [0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0],
+        [0.5, 0.0, 0.5],
+        [0.0, 0.5, 0.5],
+    ];
     let mut pos = Vec::new();
     let mut rad = Vec::new();
     for i in 0..cells {
@@ -27,7 +32,13 @@ fn jittered_fcc(n_target: usize, seed: u64) -> Packing {
             for k in 0..cells {
                 for b in basis {
                     let jitter = Vec3::new(rng.gen(), rng.gen(), rng.gen()) * 0.05 * a;
-                    pos.push(Vec3::new((i as f64 + b[0]) * a, (j as f64 + b[1]) * a, (k as f64 + b[2]) * a) + jitter);
+                    pos.push(
+                        Vec3::new(
+                            (i as f64 + b[0]) * a,
+                            (j as f64 + b[1]) * a,
+                            (k as f64 + b[2]) * a,
+                        ) + jitter,
+                    );
                     rad.push(r_mean * (1.0 + (rng.gen::<f64>() - 0.5) / 3.0));
                 }
             }
@@ -44,7 +55,11 @@ fn main() {
         .unwrap_or(1_000_000);
     let threads = rayon::current_num_threads();
     let p = jittered_fcc(n, 1);
-    println!("packing: {} particles (jittered FCC, φ = {:.3}), {threads} threads", p.len(), p.solid_fraction());
+    println!(
+        "packing: {} particles (jittered FCC, φ = {:.3}), {threads} threads",
+        p.len(),
+        p.solid_fraction()
+    );
 
     let t = Instant::now();
     let bonds = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonding");

@@ -146,7 +146,9 @@ fn need(v: Option<f64>, key: &str, kind: &str) -> Result<f64> {
         ))
     })?;
     if !x.is_finite() {
-        return Err(Error::Model(format!("[scheme] {key} must be finite, got {x}")));
+        return Err(Error::Model(format!(
+            "[scheme] {key} must be finite, got {x}"
+        )));
     }
     Ok(x)
 }
@@ -184,7 +186,10 @@ impl Model {
     pub fn from_path(path: &Path) -> Result<Model> {
         let text = crate::io::read_to_string(path)?;
         let name = path.display().to_string();
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
             Model::from_json_str(&text, &name)
         } else {
             Model::from_toml_str(&text, &name)
@@ -202,8 +207,8 @@ impl Model {
 
     /// Parse a JSON model; `name` is used in error messages.
     pub fn from_json_str(text: &str, name: &str) -> Result<Model> {
-        let raw: RawModel = serde_json::from_str(text)
-            .map_err(|e| Error::parse(name, e.line(), e.to_string()))?;
+        let raw: RawModel =
+            serde_json::from_str(text).map_err(|e| Error::parse(name, e.line(), e.to_string()))?;
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
@@ -348,7 +353,8 @@ impl Model {
         if let Some(p) = s.pi_hat {
             if !matches!(scheme, SchemeSpec::CrossAnisotropic { .. }) {
                 return Err(Error::Model(
-                    "[scheme] pi_hat applies to cross-anisotropic only; use [geometry] pi_hat".into(),
+                    "[scheme] pi_hat applies to cross-anisotropic only; use [geometry] pi_hat"
+                        .into(),
                 ));
             }
             geometry.pi_hat = p;

@@ -45,8 +45,15 @@ fn lattice(basis: &[[f64; 3]], cells: usize, a: f64, r: f64, jitter: f64, seed: 
         for j in 0..cells {
             for k in 0..cells {
                 for b in basis {
-                    let d = Vec3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5);
-                    pos.push(Vec3::new(i as f64 + b[0], j as f64 + b[1], k as f64 + b[2]) * a + d * jitter * a);
+                    let d = Vec3::new(
+                        rng.gen::<f64>() - 0.5,
+                        rng.gen::<f64>() - 0.5,
+                        rng.gen::<f64>() - 0.5,
+                    );
+                    pos.push(
+                        Vec3::new(i as f64 + b[0], j as f64 + b[1], k as f64 + b[2]) * a
+                            + d * jitter * a,
+                    );
                     rad.push(r);
                 }
             }
@@ -56,7 +63,12 @@ fn lattice(basis: &[[f64; 3]], cells: usize, a: f64, r: f64, jitter: f64, seed: 
     Packing::new(pos, rad, Some(PeriodicCell::new(Vec3::repeat(l)).unwrap())).unwrap()
 }
 
-const FCC: [[f64; 3]; 4] = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+const FCC: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [0.5, 0.5, 0.0],
+    [0.5, 0.0, 0.5],
+    [0.0, 0.5, 0.5],
+];
 
 fn max_abs(c: &Stiffness6) -> f64 {
     c.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
@@ -75,17 +87,33 @@ fn simple_cubic_and_fcc_relaxed_equal_closed_forms() {
     let p = lattice(&[[0.0; 3]], 4, 2.0 * r, r, 0.0, 0);
     let b = brute_bonds(&p, 1e-3 * r);
     assert_eq!(b.len(), 3 * 64);
-    let res = relaxed_tensor(&p, &b, &uniform_springs(b.len(), kn, kt, 0.0, 0.0), &RelaxedOptions::default()).unwrap();
+    let res = relaxed_tensor(
+        &p,
+        &b,
+        &uniform_springs(b.len(), kn, kt, 0.0, 0.0),
+        &RelaxedOptions::default(),
+    )
+    .unwrap();
     let tol = 1e-9 * kn / r;
     assert!((res.c[(0, 0)] - kn / (2.0 * r)).abs() < tol);
     assert!(res.c[(0, 1)].abs() < tol);
-    assert!((res.c[(3, 3)] - kt / (4.0 * r)).abs() < tol, "{}", res.c[(3, 3)]);
+    assert!(
+        (res.c[(3, 3)] - kt / (4.0 * r)).abs() < tol,
+        "{}",
+        res.c[(3, 3)]
+    );
     // FCC: C11 = (kn+kt)/(√2R), C12 = (kn−kt)/(2√2R), C44 = (kn+kt)/(2√2R).
     let a = 2.0 * std::f64::consts::SQRT_2 * r;
     let p = lattice(&FCC, 3, a, r, 0.0, 0);
     let b = brute_bonds(&p, 1e-3 * r);
     assert_eq!(b.len(), 6 * p.len());
-    let res = relaxed_tensor(&p, &b, &uniform_springs(b.len(), kn, kt, 0.0, 0.0), &RelaxedOptions::default()).unwrap();
+    let res = relaxed_tensor(
+        &p,
+        &b,
+        &uniform_springs(b.len(), kn, kt, 0.0, 0.0),
+        &RelaxedOptions::default(),
+    )
+    .unwrap();
     let s2r = std::f64::consts::SQRT_2 * r;
     assert!((res.c[(0, 0)] - (kn + kt) / s2r).abs() < tol);
     assert!((res.c[(0, 1)] - (kn - kt) / (2.0 * s2r)).abs() < tol);
@@ -116,11 +144,29 @@ fn relaxed_is_below_voigt_symmetric_and_exact_without_fluctuations() {
     assert!(res.c[(3, 3)] < 0.99 * voigt[(3, 3)]);
     // suppressing fluctuations returns the Voigt sum (all bonds active here)
     if res.null_space.removed_bonds == 0 {
-        let affine = relaxed_tensor(&p, &b, &k, &RelaxedOptions { fluctuations: false, ..opts }).unwrap();
+        let affine = relaxed_tensor(
+            &p,
+            &b,
+            &k,
+            &RelaxedOptions {
+                fluctuations: false,
+                ..opts
+            },
+        )
+        .unwrap();
         assert!(max_abs(&(affine.c - voigt)) < 1e-12 * scale);
     }
     // locking rotations or adding rotational springs lands between the two
-    let locked = relaxed_tensor(&p, &b, &k, &RelaxedOptions { rotations: false, ..opts }).unwrap();
+    let locked = relaxed_tensor(
+        &p,
+        &b,
+        &k,
+        &RelaxedOptions {
+            rotations: false,
+            ..opts
+        },
+    )
+    .unwrap();
     assert!(min_eigenvalue(&(locked.c - res.c)) > -1e-10 * scale);
     assert!(min_eigenvalue(&(voigt - locked.c)) > -1e-10 * scale);
     let kb = uniform_springs(b.len(), 1e6, 0.8e6, 1e6 * 1e-6 * 0.25, 1e6 * 1e-6 * 0.5);
@@ -134,9 +180,23 @@ fn relaxed_is_thread_count_independent_and_lever_arms_agree_for_equal_spheres() 
     let (p, b) = disordered(2, 0.25);
     let k = uniform_springs(b.len(), 1e6, 0.5e6, 0.0, 0.0);
     let run = |t: usize, arm| {
-        rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
-            relaxed_tensor(&p, &b, &k, &RelaxedOptions { lever_arm: arm, ..Default::default() }).unwrap().c
-        })
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .unwrap()
+            .install(|| {
+                relaxed_tensor(
+                    &p,
+                    &b,
+                    &k,
+                    &RelaxedOptions {
+                        lever_arm: arm,
+                        ..Default::default()
+                    },
+                )
+                .unwrap()
+                .c
+            })
     };
     let c1 = run(1, LeverArm::MidGap);
     assert_eq!(c1, run(2, LeverArm::MidGap));
@@ -148,17 +208,25 @@ fn relaxed_is_thread_count_independent_and_lever_arms_agree_for_equal_spheres() 
 fn laf_energy_bounds_relaxed_and_decreases_with_shell_order() {
     let (p, b) = disordered(3, 0.2);
     let k = uniform_springs(b.len(), 1e6, 0.8e6, 0.0, 0.0);
-    let relaxed = relaxed_tensor(&p, &b, &k, &RelaxedOptions::default()).unwrap().c;
+    let relaxed = relaxed_tensor(&p, &b, &k, &RelaxedOptions::default())
+        .unwrap()
+        .c;
     let scale = max_abs(&relaxed);
     let mut previous: Option<Stiffness6> = None;
     for m in 1..=3 {
         let laf = laf_tensor(&p, &b, &k, LeverArm::MidGap, m).unwrap();
         // energy-based ≥ relaxed (PSD difference), and ≤ affine
-        assert!(min_eigenvalue(&(laf.c_energy - relaxed)) > -1e-9 * scale, "m = {m}");
+        assert!(
+            min_eigenvalue(&(laf.c_energy - relaxed)) > -1e-9 * scale,
+            "m = {m}"
+        );
         assert!(min_eigenvalue(&(laf.c_affine - laf.c_energy)) > -1e-9 * scale);
         if let Some(prev) = previous {
             // trace decreases toward the relaxed one
-            assert!(laf.c_energy.trace() <= prev.trace() + 1e-9 * scale, "m = {m}");
+            assert!(
+                laf.c_energy.trace() <= prev.trace() + 1e-9 * scale,
+                "m = {m}"
+            );
         }
         let rel_err = (laf.c_stress[(3, 3)] - relaxed[(3, 3)]).abs() / relaxed[(3, 3)];
         eprintln!(

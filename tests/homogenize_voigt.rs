@@ -22,12 +22,10 @@ fn lattice(basis: &[Vec3], neighbours: &[Vec3], cells: usize, a: f64) -> (BondSe
     let n_sites = basis.len() * cells * cells * cells;
     // Only the bond vectors matter for the Voigt sum; each site owns half its neighbour
     // vectors (one of each ± pair).
-    let mut k = 0u32;
-    for _ in 0..n_sites {
+    for k in 0..n_sites as u32 {
         for d in neighbours {
             bonds.push(k, k + 1, *d, [0, 0, 0]);
         }
-        k += 1;
     }
     let volume = (cells as f64 * a).powi(3);
     (bonds, volume)
@@ -42,9 +40,17 @@ fn simple_cubic_lattice_matches_closed_form() {
     let (bonds, v) = lattice(&[Vec3::zeros()], &half, 4, l);
     let c = voigt_tensor(&bonds, &springs(bonds.len(), kn, kt), v);
     let tol = 1e-12 * kn / r;
-    assert!((c[(0, 0)] - kn / (2.0 * r)).abs() < tol, "C11 {}", c[(0, 0)]);
+    assert!(
+        (c[(0, 0)] - kn / (2.0 * r)).abs() < tol,
+        "C11 {}",
+        c[(0, 0)]
+    );
     assert!(c[(0, 1)].abs() < tol, "C12 {}", c[(0, 1)]);
-    assert!((c[(3, 3)] - kt / (4.0 * r)).abs() < tol, "C44 {}", c[(3, 3)]);
+    assert!(
+        (c[(3, 3)] - kt / (4.0 * r)).abs() < tol,
+        "C44 {}",
+        c[(3, 3)]
+    );
     assert!((c[(5, 5)] - kt / (4.0 * r)).abs() < tol);
 }
 
@@ -68,9 +74,21 @@ fn fcc_lattice_matches_closed_form() {
     let c = voigt_tensor(&bonds, &springs(bonds.len(), kn, kt), v);
     let s2r = std::f64::consts::SQRT_2 * r;
     let tol = 1e-12 * kn / r;
-    assert!((c[(0, 0)] - (kn + kt) / s2r).abs() < tol, "C11 {}", c[(0, 0)]);
-    assert!((c[(0, 1)] - (kn - kt) / (2.0 * s2r)).abs() < tol, "C12 {}", c[(0, 1)]);
-    assert!((c[(3, 3)] - (kn + kt) / (2.0 * s2r)).abs() < tol, "C44 {}", c[(3, 3)]);
+    assert!(
+        (c[(0, 0)] - (kn + kt) / s2r).abs() < tol,
+        "C11 {}",
+        c[(0, 0)]
+    );
+    assert!(
+        (c[(0, 1)] - (kn - kt) / (2.0 * s2r)).abs() < tol,
+        "C12 {}",
+        c[(0, 1)]
+    );
+    assert!(
+        (c[(3, 3)] - (kn + kt) / (2.0 * s2r)).abs() < tol,
+        "C44 {}",
+        c[(3, 3)]
+    );
     for (i, j) in [(0, 3), (0, 4), (3, 4), (3, 5)] {
         assert!(c[(i, j)].abs() < tol);
     }
@@ -81,7 +99,7 @@ fn fcc_lattice_matches_closed_form() {
 #[test]
 fn random_isotropic_bonds_approach_kruyt_eq29() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-    let r = 1e-3;
+    let r: f64 = 1e-3;
     let (z, phi) = (6.0, 0.6);
     let n_bonds = 400_000usize;
     let n_particles = 2.0 * n_bonds as f64 / z;
@@ -123,7 +141,11 @@ fn voigt_sum_is_thread_count_independent() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     let mut bonds = BondSet::default();
     for b in 0..50_000u32 {
-        let v = Vec3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5);
+        let v = Vec3::new(
+            rng.gen::<f64>() - 0.5,
+            rng.gen::<f64>() - 0.5,
+            rng.gen::<f64>() - 0.5,
+        );
         bonds.push(b, b + 1, v, [0, 0, 0]);
     }
     let k = springs(bonds.len(), 1e6, 3e5);

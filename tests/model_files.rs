@@ -30,8 +30,18 @@ fn spec_example_parses() {
     let m = Model::from_toml_str(SPEC_EXAMPLE, "model.toml").unwrap();
     assert_eq!(m.bonding, BondingRule::Gap(0.17));
     match m.scheme {
-        SchemeSpec::Cubic { a_n, a_s, normal, shear, extended, .. } => {
-            assert_eq!((a_n, a_s, normal, shear, extended), (4.31, 10.0, 1e13, 3.55e12, false));
+        SchemeSpec::Cubic {
+            a_n,
+            a_s,
+            normal,
+            shear,
+            extended,
+            ..
+        } => {
+            assert_eq!(
+                (a_n, a_s, normal, shear, extended),
+                (4.31, 10.0, 1e13, 3.55e12, false)
+            );
         }
         _ => panic!("not cubic"),
     }
@@ -53,14 +63,21 @@ fn json_model_parses() {
     let m = Model::from_json_str(json, "m.json").unwrap();
     assert_eq!(m.bonding, BondingRule::Factor(1.8));
     match m.scheme {
-        SchemeSpec::CrossAnisotropic { axis, .. } => assert!((axis - anisobond::Vec3::z()).norm() < 1e-15),
+        SchemeSpec::CrossAnisotropic { axis, .. } => {
+            assert!((axis - anisobond::Vec3::z()).norm() < 1e-15)
+        }
         _ => panic!(),
     }
-    assert_eq!(m.geometry.convention, anisobond::schemes::Convention::Modulus);
+    assert_eq!(
+        m.geometry.convention,
+        anisobond::schemes::Convention::Modulus
+    );
 }
 
 fn err(text: &str) -> String {
-    Model::from_toml_str(text, "bad.toml").unwrap_err().to_string()
+    Model::from_toml_str(text, "bad.toml")
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
@@ -69,7 +86,8 @@ fn bad_models_are_clear_errors() {
     let e = err(&SPEC_EXAMPLE.replace("a_n = 4.31", "a_n = 0.0"));
     assert!(e.contains("bad.toml") && e.contains("a_n"), "{e}");
     // syntax error: reports the line
-    let e = Model::from_toml_str("[scheme]\nkind = \"cubic\"\na_n = = 3\n", "bad.toml").unwrap_err();
+    let e =
+        Model::from_toml_str("[scheme]\nkind = \"cubic\"\na_n = = 3\n", "bad.toml").unwrap_err();
     match e {
         Error::Parse { line, ref path, .. } => {
             assert_eq!(line, 3);
@@ -78,18 +96,33 @@ fn bad_models_are_clear_errors() {
         other => panic!("{other}"),
     }
     // unknown key, with its line
-    let e = Model::from_toml_str(&SPEC_EXAMPLE.replace("a_s = 10.0", "a_z = 10.0"), "bad.toml").unwrap_err();
+    let e = Model::from_toml_str(
+        &SPEC_EXAMPLE.replace("a_s = 10.0", "a_z = 10.0"),
+        "bad.toml",
+    )
+    .unwrap_err();
     assert!(matches!(e, Error::Parse { line: 11, .. }), "{e}");
     // unknown kind / model / rule
-    assert!(err(&SPEC_EXAMPLE.replace("kind = \"cubic\"", "kind = \"hexagonal\"")).contains("expected cubic"));
+    assert!(
+        err(&SPEC_EXAMPLE.replace("kind = \"cubic\"", "kind = \"hexagonal\""))
+            .contains("expected cubic")
+    );
     assert!(err(&SPEC_EXAMPLE.replace("zener-above-1", "zener-above-2")).contains("zener-above-1"));
-    assert!(err(&SPEC_EXAMPLE.replace("rule = \"gap\"", "rule = \"radius\"")).contains("expected gap"));
+    assert!(
+        err(&SPEC_EXAMPLE.replace("rule = \"gap\"", "rule = \"radius\"")).contains("expected gap")
+    );
     // extended model at a_s = 10 has negative shear stiffness near <110>: refused
     let e = err(&SPEC_EXAMPLE.replace("extended = false", "extended = true"));
-    assert!(e.to_lowercase().contains("negative") && e.to_lowercase().contains("shear"), "{e}");
+    assert!(
+        e.to_lowercase().contains("negative") && e.to_lowercase().contains("shear"),
+        "{e}"
+    );
     // non-orthogonal rotation
     let e = err(&SPEC_EXAMPLE.replace("[[1,0,0],[0,1,0],[0,0,1]]", "[[1,0,0],[0,2,0],[0,0,1]]"));
-    assert!(e.to_lowercase().contains("orthogonal") || e.to_lowercase().contains("rotation"), "{e}");
+    assert!(
+        e.to_lowercase().contains("orthogonal") || e.to_lowercase().contains("rotation"),
+        "{e}"
+    );
     // NaN magnitude
     let e = err(&SPEC_EXAMPLE.replace("normal = 1.0e13", "normal = nan"));
     assert!(e.contains("normal"), "{e}");
@@ -97,14 +130,21 @@ fn bad_models_are_clear_errors() {
     let cross = "[bonding]\nrule=\"factor\"\nvalue=1.8\n[scheme]\nkind=\"cross-anisotropic\"\nC11=1e6\nC33=1e6\nC13=5e6\nC12=0.0\n";
     let m = Model::from_toml_str(cross, "c.toml").unwrap();
     let p = anisobond::packing::Packing::new(
-        vec![anisobond::Vec3::zeros(), anisobond::Vec3::new(2.0, 0.0, 0.0)],
+        vec![
+            anisobond::Vec3::zeros(),
+            anisobond::Vec3::new(2.0, 0.0, 0.0),
+        ],
         vec![1.0, 1.0],
         None,
     )
     .unwrap();
     let mut b = anisobond::bonds::BondSet::default();
     b.push(0, 1, anisobond::Vec3::new(2.0, 0.0, 0.0), [0, 0, 0]);
-    let e = m.build_scheme(Some((&p, &b))).err().expect("refused").to_string();
+    let e = m
+        .build_scheme(Some((&p, &b)))
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.to_lowercase().contains("positive definite"), "{e}");
 }
 
@@ -116,8 +156,14 @@ fn euler_and_matrix_rotation_agree() {
         "[[1,0,0],[0,1,0],[0,0,1]]",
         "[[-0.3062,-0.9186,0.2500],[0.8839,-0.1768,0.4330],[-0.3536,0.3536,0.8660]]",
     );
-    let euler = SPEC_EXAMPLE.replace("rotation = [[1,0,0],[0,1,0],[0,0,1]]", "euler_zyz_deg = [60.0, 30.0, 45.0]");
-    let (a, b) = (Model::from_toml_str(&printed, "a").unwrap(), Model::from_toml_str(&euler, "b").unwrap());
+    let euler = SPEC_EXAMPLE.replace(
+        "rotation = [[1,0,0],[0,1,0],[0,0,1]]",
+        "euler_zyz_deg = [60.0, 30.0, 45.0]",
+    );
+    let (a, b) = (
+        Model::from_toml_str(&printed, "a").unwrap(),
+        Model::from_toml_str(&euler, "b").unwrap(),
+    );
     match (a.scheme, b.scheme) {
         (SchemeSpec::Cubic { rotation: ra, .. }, SchemeSpec::Cubic { rotation: rb, .. }) => {
             assert!((ra - rb).abs().max() < 1e-4, "{ra} vs {rb}");

@@ -15,7 +15,6 @@ use crate::Vec3;
 pub use rules::BondingRule;
 pub use stiffness::{assign_stiffness, BondStiffness};
 
-
 /// The bonds of a packing, structure of arrays (one entry per bond in every vector).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BondSet {

@@ -58,7 +58,11 @@ fn format_rows(bonds: &BondSet, k: &BondStiffness, range: std::ops::Range<usize>
 }
 
 /// Write the bond table to any writer.
-pub fn write_bond_table_to(w: &mut dyn Write, bonds: &BondSet, k: &BondStiffness) -> std::io::Result<()> {
+pub fn write_bond_table_to(
+    w: &mut dyn Write,
+    bonds: &BondSet,
+    k: &BondStiffness,
+) -> std::io::Result<()> {
     writeln!(w, "{HEADER}")?;
     let n = bonds.len();
     let chunks: Vec<String> = (0..n.div_ceil(CHUNK))
@@ -87,15 +91,26 @@ pub fn read_bond_table(path: &Path) -> Result<(BondSet, BondStiffness)> {
 /// Parse a bond table; `name` is used in error messages. Columns are found by header
 /// name, so extra columns are allowed; every SPEC column is required.
 pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffness)> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines
-        .next()
-        .ok_or_else(|| Error::parse(name, 1, format!("empty file: expected the header `{HEADER}`")))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or_else(|| {
+        Error::parse(
+            name,
+            1,
+            format!("empty file: expected the header `{HEADER}`"),
+        )
+    })?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let mut idx = [0usize; 14];
     for (k, want) in HEADER.split(',').enumerate() {
         idx[k] = cols.iter().position(|c| *c == want).ok_or_else(|| {
-            Error::parse(name, 1, format!("header lacks column `{want}`: expected `{HEADER}`"))
+            Error::parse(
+                name,
+                1,
+                format!("header lacks column `{want}`: expected `{HEADER}`"),
+            )
         })?;
     }
     let mut bonds = BondSet::default();
@@ -107,23 +122,42 @@ pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffnes
             return Err(Error::parse(
                 name,
                 line_no,
-                format!("expected {} comma-separated fields, found {}", cols.len(), fields.len()),
+                format!(
+                    "expected {} comma-separated fields, found {}",
+                    cols.len(),
+                    fields.len()
+                ),
             ));
         }
         let int = |c: usize| -> Result<i64> {
             let f = fields[idx[c]];
             f.parse::<i64>().map_err(|_| {
-                Error::parse(name, line_no, format!("column `{}`: expected an integer, found `{f}`", HEADER.split(',').nth(c).unwrap_or("?")))
+                Error::parse(
+                    name,
+                    line_no,
+                    format!(
+                        "column `{}`: expected an integer, found `{f}`",
+                        HEADER.split(',').nth(c).unwrap_or("?")
+                    ),
+                )
             })
         };
         let num = |c: usize| -> Result<f64> {
             let f = fields[idx[c]];
             let col = HEADER.split(',').nth(c).unwrap_or("?");
             let v = f.parse::<f64>().map_err(|_| {
-                Error::parse(name, line_no, format!("column `{col}`: expected a number, found `{f}`"))
+                Error::parse(
+                    name,
+                    line_no,
+                    format!("column `{col}`: expected a number, found `{f}`"),
+                )
             })?;
             if !v.is_finite() {
-                return Err(Error::parse(name, line_no, format!("column `{col}`: {f} is not finite")));
+                return Err(Error::parse(
+                    name,
+                    line_no,
+                    format!("column `{col}`: {f} is not finite"),
+                ));
             }
             Ok(v)
         };
@@ -138,11 +172,19 @@ pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffnes
         let n = Vec3::new(num(2)?, num(3)?, num(4)?);
         let length = num(5)?;
         if length <= 0.0 {
-            return Err(Error::parse(name, line_no, format!("bond length must be > 0, found {length}")));
+            return Err(Error::parse(
+                name,
+                line_no,
+                format!("bond length must be > 0, found {length}"),
+            ));
         }
         let nn = n.norm();
         if (nn - 1.0).abs() > 1e-6 {
-            return Err(Error::parse(name, line_no, format!("normal must be a unit vector, |n| = {nn}")));
+            return Err(Error::parse(
+                name,
+                line_no,
+                format!("normal must be a unit vector, |n| = {nn}"),
+            ));
         }
         let image = [int(11)?, int(12)?, int(13)?].map(|v| v as i32);
         bonds.i.push(i as u32);
@@ -153,7 +195,11 @@ pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffnes
         let radius = num(6)?;
         let springs = [num(7)?, num(8)?, num(9)?, num(10)?];
         if radius <= 0.0 || springs.iter().any(|v| *v < 0.0) {
-            return Err(Error::parse(name, line_no, "radius must be > 0 and kn, ks, kr, ktw ≥ 0"));
+            return Err(Error::parse(
+                name,
+                line_no,
+                "radius must be > 0 and kn, ks, kr, ktw ≥ 0",
+            ));
         }
         k.radius.push(radius);
         k.kn.push(springs[0]);

@@ -250,7 +250,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             }
             let scheme = model.build_scheme(None)?;
             let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
-            let pre = mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius) * g;
+            let pre =
+                mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius) * g;
             let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
             let mut r = TensorReport::new("mean-field", c, None);
             r.coordination = Some(a.coordination);

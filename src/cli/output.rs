@@ -13,7 +13,10 @@ pub fn write_json(path: &Path, report: &TensorReport) -> Result<()> {
 
 /// Print a tensor report as a human-readable table (GPa).
 pub fn print_report(r: &TensorReport) {
-    println!("stiffness tensor, method {} (GPa; Voigt order 11 22 33 23 13 12):", r.method);
+    println!(
+        "stiffness tensor, method {} (GPa; Voigt order 11 22 33 23 13 12):",
+        r.method
+    );
     for row in &r.c {
         let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
         println!("  {}", cells.join(" "));

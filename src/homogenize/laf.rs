@@ -40,7 +40,14 @@ pub struct LafResult {
 }
 
 /// Free particles of the shell of order `m` around `c`: graph distance < m, centre first.
-fn shell_interior(c: usize, m: usize, start: &[usize], nb: &[u32], mark: &mut Vec<u32>, stamp: u32) -> Vec<usize> {
+fn shell_interior(
+    c: usize,
+    m: usize,
+    start: &[usize],
+    nb: &[u32],
+    mark: &mut [u32],
+    stamp: u32,
+) -> Vec<usize> {
     let mut inner = vec![c];
     mark[c] = stamp;
     let mut frontier = 0;
@@ -105,9 +112,9 @@ pub fn laf_tensor(
                 let mut rhs = DMatrix::<f64>::zeros(n, 6);
                 for (li, &p) in inner.iter().enumerate() {
                     rhs.view_mut((6 * li, 0), (6, 6)).copy_from(&net.g[p]);
-                    for s in start[p]..start[p + 1] {
-                        let e = &net.elements[inc[s] as usize];
-                        let (a, b) = net.ends[inc[s] as usize];
+                    for &ei in &inc[start[p]..start[p + 1]] {
+                        let e = &net.elements[ei as usize];
+                        let (a, b) = net.ends[ei as usize];
                         let (diag, off, other) = if a as usize == p {
                             (e.kii, e.kij, b as usize)
                         } else {

@@ -3,6 +3,10 @@
 //! - [`mean_field`]: the continuous orientation integral (Truszkowska 2018 App. A;
 //!   Šmilauer's microplane integral), no packing needed.
 //! - [`voigt`]: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
+//! - [`relaxed`]: the exact quasi-static tensor from one sparse equilibrium solve.
+//! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
+//! - [`network`]: the linearised bond network the last two share.
+//! - [`report`]: the SPEC tensor report (JSON).
 
 pub mod laf;
 pub mod mean_field;
@@ -14,9 +18,9 @@ pub mod voigt;
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
 use crate::Vec3;
 
-/// The lattice tensor of one bond per unit l²: C_ijkl = k_n n_in_jn_kn_l
-/// + k_t [sym(δ_ik n_j n_l) − n_in_jn_kn_l], symmetrised in (ij) and (kl)
-/// (Šmilauer's lattice tensor; Kruyt 2014 Eq. 27 with S = k_t I + (k_n − k_t) nn).
+/// The lattice tensor of one bond per unit l²:
+/// C_ijkl = k_n·n_in_jn_kn_l + k_t·[sym(δ_ik n_j n_l) − n_in_jn_kn_l], symmetrised in (ij)
+/// and (kl) (Šmilauer's lattice tensor; Kruyt 2014 Eq. 27 with S = k_t I + (k_n − k_t) nn).
 pub fn bond_lattice_tensor(n: &Vec3, kn: f64, kt: f64) -> Stiffness6 {
     let mut c = Stiffness6::zeros();
     let d = |a: usize, b: usize| if a == b { 1.0 } else { 0.0 };

@@ -123,11 +123,14 @@ pub fn element(law: &BondLaw, rotations: bool) -> Element {
     let s = Mat3::identity() * law.ks + nn * (law.kn - law.ks);
     let mut bi = Matrix3x6::zeros();
     let mut bj = Matrix3x6::zeros();
-    bi.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Mat3::identity()));
+    bi.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(-Mat3::identity()));
     bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
     if rotations {
-        bi.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew(&(n * law.arms.0)));
-        bj.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew(&(n * law.arms.1)));
+        bi.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&skew(&(n * law.arms.0)));
+        bj.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&skew(&(n * law.arms.1)));
     }
     let lmap = affine_map(&(n * law.length));
     let sbi = s * bi;
@@ -195,7 +198,6 @@ fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
     }
     (active, degree)
 }
-
 
 /// The active (load-carrying) network of a periodic bonded packing with its element
 /// matrices.

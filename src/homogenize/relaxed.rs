@@ -140,7 +140,9 @@ impl BlockSparse {
 
     /// Memory held by the matrix (bytes).
     pub fn bytes(&self) -> usize {
-        self.block.len() * std::mem::size_of::<Block6>() + self.col.len() * 4 + self.row_start.len() * 8
+        self.block.len() * std::mem::size_of::<Block6>()
+            + self.col.len() * 4
+            + self.row_start.len() * 8
     }
 }
 
@@ -205,8 +207,8 @@ pub fn relaxed_tensor(
     // a right-hand side below 1e-10 of it is zero up to rounding (e.g. a perfect lattice).
     let mut scale = [0.0f64; 6];
     for e in &net.elements {
-        for c in 0..6 {
-            scale[c] += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
+        for (c, sc) in scale.iter_mut().enumerate() {
+            *sc += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
         }
     }
     let scale = scale.map(f64::sqrt);
@@ -261,7 +263,13 @@ fn pcg(
     for it in 0..=opts.max_iterations {
         let rr = column_dots(&r, &r);
         worst = (0..6)
-            .map(|c| if live[c] { rr[c].sqrt() / bnorm[c] } else { 0.0 })
+            .map(|c| {
+                if live[c] {
+                    rr[c].sqrt() / bnorm[c]
+                } else {
+                    0.0
+                }
+            })
             .fold(0.0, f64::max);
         if worst <= opts.tolerance {
             return Ok((x, it, worst));

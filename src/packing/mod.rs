@@ -106,7 +106,9 @@ impl Packing {
         }
         for (k, (p, r)) in positions.iter().zip(&radii).enumerate() {
             if p.iter().any(|c| !c.is_finite()) {
-                return Err(Error::Invalid(format!("sphere {k}: position is not finite")));
+                return Err(Error::Invalid(format!(
+                    "sphere {k}: position is not finite"
+                )));
             }
             if !r.is_finite() || *r <= 0.0 {
                 return Err(Error::Invalid(format!(

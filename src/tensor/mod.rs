@@ -1,5 +1,5 @@
 //! 6×6 Voigt stiffness tensors (order 11, 22, 33, 23, 13, 12; engineering shear strain;
-//! C6[a,b] = C_ijkl with no factors of 2 or √2; energy w = ½ eᵀC6e).
+//! `C6[a,b] = C_ijkl` with no factors of 2 or √2; energy w = ½ eᵀC6e).
 
 /// A 6×6 Voigt stiffness matrix (Pa).
 pub type Stiffness6 = nalgebra::Matrix6<f64>;
