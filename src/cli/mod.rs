@@ -5,7 +5,9 @@ mod demo;
 mod output;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
-use anisobond::homogenize::{mean_field, report::TensorReport, voigt};
+use anisobond::homogenize::network::LeverArm;
+use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::{laf, mean_field, report::TensorReport, voigt};
 use anisobond::model::Model;
 use anisobond::packing::{self, Packing};
 use anisobond::tensor::Stiffness6;
@@ -81,6 +83,44 @@ enum Method {
     MeanField,
     /// Sum over the actual bonds (uniform strain).
     Voigt,
+    /// Exact quasi-static equilibrium of the periodic bond network (sparse solve).
+    Relaxed,
+    /// Kruyt's local-adjustment-field estimate with shells of order --shell.
+    Laf,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum LeverArmArg {
+    /// Contact point mid-gap, r_i = R_i + gap/2 (YADE's ScGeom).
+    MidGap,
+    /// r_i = |l|·R_i/(R_i + R_j).
+    Proportional,
+}
+
+impl From<LeverArmArg> for LeverArm {
+    fn from(a: LeverArmArg) -> Self {
+        match a {
+            LeverArmArg::MidGap => LeverArm::MidGap,
+            LeverArmArg::Proportional => LeverArm::Proportional,
+        }
+    }
+}
+
+/// Options of the static methods (relaxed, laf).
+#[derive(clap::Args, Clone, Copy)]
+struct StaticArgs {
+    /// Contact point (lever arm) of the bonds.
+    #[arg(long, value_enum, default_value_t = LeverArmArg::MidGap)]
+    lever_arm: LeverArmArg,
+    /// Relaxed: CG tolerance on the relative residual (the tensor's error is ~its square).
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// LAF: shell order m (1–6).
+    #[arg(long, default_value_t = 2)]
+    shell: usize,
+    /// LAF: report the energy-based (upper bound) estimate instead of the stress-based one.
+    #[arg(long)]
+    energy: bool,
 }
 
 #[derive(clap::Args)]
@@ -109,6 +149,8 @@ struct TensorArgs {
     /// Mean field without a packing: sphere radius R (m).
     #[arg(long, default_value_t = 1e-3)]
     radius: f64,
+    #[command(flatten)]
+    statics: StaticArgs,
 }
 
 /// Parse the command line and run it.
@@ -154,10 +196,14 @@ pub struct Bonded {
     pub stiffness: BondStiffness,
 }
 
-/// Read a packing, bond it by the model's rule and assign springs.
-fn load_bonded(packing_path: &Path, model: &Model) -> Result<Bonded> {
+/// Read a packing, bond it by the model's rule and assign springs; errors that come from the
+/// model name the model file.
+fn load_bonded(packing_path: &Path, model: &Model, model_path: &Path) -> Result<Bonded> {
     let packing = packing::io::read_packing(packing_path)?;
-    bond_packing(packing, model)
+    bond_packing(packing, model).map_err(|e| match e {
+        Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
+        other => other,
+    })
 }
 
 fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
@@ -178,7 +224,7 @@ fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
 
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
     let model = Model::from_path(&a.model)?;
-    let b = load_bonded(&a.packing, &model)?;
+    let b = load_bonded(&a.packing, &model, &a.model)?;
     table::write_bond_table(&a.output, &b.bonds, &b.stiffness)?;
     println!(
         "wrote {}: {} bonds between {} particles (coordination Z = {:.3})",
@@ -204,8 +250,47 @@ fn packing_prefactor(b: &Bonded, model: &Model) -> f64 {
 }
 
 /// Compute the tensor of a bonded packing by `method`.
-fn tensor_of(b: &Bonded, model: &Model, method: Method) -> Result<Stiffness6> {
+fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<Stiffness6> {
     Ok(match method {
+        Method::Relaxed => {
+            let opts = RelaxedOptions {
+                lever_arm: st.lever_arm.into(),
+                tolerance: st.tolerance,
+                ..Default::default()
+            };
+            let r = relaxed_tensor(&b.packing, &b.bonds, &b.stiffness, &opts)?;
+            let ns = &r.null_space;
+            eprintln!(
+                "relaxed: {} CG iterations, residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
+                r.iterations, r.relative_residual, r.active_particles, r.active_bonds,
+                ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
+            );
+            r.c
+        }
+        Method::Laf => {
+            let r = laf::laf_tensor(
+                &b.packing,
+                &b.bonds,
+                &b.stiffness,
+                st.lever_arm.into(),
+                st.shell,
+            )?;
+            eprintln!(
+                "laf: shell order {}, {:.1} free particles per shell; reporting the {} estimate",
+                r.shell,
+                r.mean_free_particles,
+                if st.energy {
+                    "energy-based (upper bound)"
+                } else {
+                    "stress-based"
+                }
+            );
+            if st.energy {
+                r.c_energy
+            } else {
+                r.c_stress
+            }
+        }
         Method::Voigt => voigt::voigt_tensor(&b.bonds, &b.stiffness, b.packing.volume()),
         Method::MeanField => {
             let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
@@ -222,6 +307,8 @@ fn method_name(m: Method) -> &'static str {
     match m {
         Method::MeanField => "mean-field",
         Method::Voigt => "voigt",
+        Method::Relaxed => "relaxed",
+        Method::Laf => "laf",
     }
 }
 
@@ -229,8 +316,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let model = Model::from_path(&a.model)?;
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {
-            let b = load_bonded(p, &model)?;
-            let c = tensor_of(&b, &model, m)?;
+            let b = load_bonded(p, &model, &a.model)?;
+            let c = tensor_of(&b, &model, m, &a.statics)?;
             TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))
         }
         (None, Method::MeanField) => {
@@ -257,10 +344,11 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             r.coordination = Some(a.coordination);
             r
         }
-        (None, Method::Voigt) => {
-            return Err(Error::Invalid(
-                "--method voigt sums over actual bonds: give a PACKING".into(),
-            ))
+        (None, m) => {
+            return Err(Error::Invalid(format!(
+                "--method {} works on the actual bonds: give a PACKING",
+                method_name(m)
+            )))
         }
     };
     if let Some(out) = &a.output {

@@ -164,13 +164,13 @@ impl CrossAnisotropic {
         let names = ["C11", "C33", "C13", "C12"];
         for (name, &v) in names.iter().zip(c.iter()) {
             if !v.is_finite() {
-                return Err(Error::Invalid(format!(
+                return Err(Error::Model(format!(
                     "cross-anisotropic target {name} = {v}: expected a finite value in Pa"
                 )));
             }
         }
         if !mu.is_finite() || mu <= 0.0 {
-            return Err(Error::Invalid(format!(
+            return Err(Error::Model(format!(
                 "cross-anisotropic lattice scaling mu must be finite and > 0, got {mu}"
             )));
         }
@@ -204,7 +204,7 @@ impl CrossAnisotropic {
         ];
         for (ok, why) in checks {
             if !ok {
-                return Err(Error::Invalid(format!(
+                return Err(Error::Model(format!(
                     "cross-anisotropic target {target} is not a positive definite transversely \
                      isotropic stiffness: {why}"
                 )));

@@ -496,7 +496,7 @@ pub fn rotation_from_euler_zyz_deg(alpha: f64, beta: f64, gamma: f64) -> Mat3 {
 pub fn orthonormalize_rotation(m: Mat3) -> Result<Mat3> {
     check_rotation(&m, PRINTED_ROTATION_TOLERANCE).map_err(|why| {
         Error::Model(format!(
-            "rotation matrix is not a (printed) rotation: {why}"
+            "rotation matrix is not orthogonal (not even a rotation printed to a few decimals): {why}"
         ))
     })?;
     let svd = m.svd(true, true);
