@@ -121,7 +121,8 @@ fn bond_normals_are_isotropic() {
     fabric /= bonds.len() as f64;
     let dev = fabric - Mat3::identity() / 3.0;
     let worst = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-    assert!(worst < 0.03 / 3.0 * 3.0 * 0.34, "fabric {fabric}");
+    // Within 3 % of 1/3 (sampling noise ≈ 0.002 for ~15,000 bonds).
+    assert!(worst < 0.01, "fabric {fabric}");
     assert!((fabric.trace() - 1.0).abs() < 1e-12);
 }
 
