@@ -16,10 +16,18 @@ fn rsa_packing(seed: u64, n: usize, side: f64, periodic: bool) -> Packing {
     let mut pos: Vec<Vec3> = Vec::new();
     let mut rad: Vec<f64> = Vec::new();
     while pos.len() < n {
-        let x = Vec3::new(rng.gen::<f64>() * side, rng.gen::<f64>() * side, rng.gen::<f64>() * side);
+        let x = Vec3::new(
+            rng.gen::<f64>() * side,
+            rng.gen::<f64>() * side,
+            rng.gen::<f64>() * side,
+        );
         let r = rng.gen_range(0.8..1.2);
         let free = pos.iter().zip(&rad).all(|(y, ry)| {
-            let d = if periodic { cell.minimum_image(y - x).0 } else { y - x };
+            let d = if periodic {
+                cell.minimum_image(y - x).0
+            } else {
+                y - x
+            };
             d.norm() >= r + ry
         });
         if free {
@@ -106,7 +114,12 @@ fn simple_cubic_and_fcc_coordination() {
     assert!(b.degrees(64).iter().all(|&d| d == 6));
     // FCC with touching spheres: cube side 2√2 R, 12 neighbours at 2R, next at 2√2 R.
     let fcc = lattice(
-        &[[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]],
+        &[
+            [0.0, 0.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [0.5, 0.0, 0.5],
+            [0.0, 0.5, 0.5],
+        ],
         2.0 * 2f64.sqrt(),
         4,
     );
@@ -114,7 +127,10 @@ fn simple_cubic_and_fcc_coordination() {
     assert_eq!(b.coordination(256), 12.0);
     assert!(b.degrees(256).iter().all(|&d| d == 12));
     // Factor rule: κ = 1.01 gives the same shells.
-    assert_eq!(build_bonds(&fcc, BondingRule::Factor(1.01)).unwrap().len(), b.len());
+    assert_eq!(
+        build_bonds(&fcc, BondingRule::Factor(1.01)).unwrap().len(),
+        b.len()
+    );
     // Coordination target 12 on FCC is met exactly (ties: the whole first shell).
     let b = build_bonds(&fcc, BondingRule::Coordination(12.0)).unwrap();
     assert_eq!(b.coordination(256), 12.0);
@@ -127,12 +143,20 @@ fn simple_cubic_and_fcc_coordination() {
 #[test]
 fn coordination_target_is_hit_within_two_over_n() {
     // A dense random packing (φ = 0.6), where Z up to ~9 lies within a gap of 1.0 R̄.
-    let opts = GenerateOptions { n_particles: 600, seed: 4, ..GenerateOptions::default() };
+    let opts = GenerateOptions {
+        n_particles: 600,
+        seed: 4,
+        ..GenerateOptions::default()
+    };
     let p = generate(&opts, &|_| {}).unwrap();
     let n = p.len();
     for z in [2.0, 4.5, 7.7] {
         let b = build_bonds(&p, BondingRule::Coordination(z)).unwrap();
-        assert!((b.coordination(n) - z).abs() <= 2.0 / n as f64, "Z {}", b.coordination(n));
+        assert!(
+            (b.coordination(n) - z).abs() <= 2.0 / n as f64,
+            "Z {}",
+            b.coordination(n)
+        );
         // The gap returned rebuilds the same bonds through the gap rule.
         let g = coordination_gap(&p, z).unwrap();
         assert!(g > 0.0 && g < COORDINATION_MAX_GAP);
@@ -158,14 +182,23 @@ fn invalid_values_and_coincident_spheres_are_refused() {
         BondingRule::Coordination(f64::NAN),
     ] {
         let err = build_bonds(&p, rule).unwrap_err();
-        assert!(err.to_string().contains("must be finite and > 0"), "{rule:?}: {err}");
+        assert!(
+            err.to_string().contains("must be finite and > 0"),
+            "{rule:?}: {err}"
+        );
     }
     let q = Packing::new(
-        vec![Vec3::new(1.0, 1.0, 1.0), Vec3::new(3.0, 1.0, 1.0), Vec3::new(1.0, 1.0, 1.0)],
+        vec![
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(3.0, 1.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+        ],
         vec![1.0; 3],
         None,
     )
     .unwrap();
-    let err = build_bonds(&q, BondingRule::Gap(0.1)).unwrap_err().to_string();
+    let err = build_bonds(&q, BondingRule::Gap(0.1))
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("spheres 0 and 2 are coincident"), "{err}");
 }

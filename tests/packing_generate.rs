@@ -3,8 +3,7 @@
 use anisobond::bonds::rules::build_bonds;
 use anisobond::bonds::BondingRule;
 use anisobond::packing::generate::{
-    generate, generate_with_report, GenerateOptions, Polydispersity,
-    TRUSZKOWSKA_2018_HALF_WIDTH,
+    generate, generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
 };
 use anisobond::packing::neighbours::pairs_within;
 use anisobond::packing::Packing;
@@ -24,7 +23,10 @@ fn options(n: usize, phi: f64, seed: u64) -> GenerateOptions {
 fn bits(p: &Packing) -> (Vec<[u64; 3]>, Vec<u64>, [u64; 3]) {
     let l = p.cell.unwrap().lengths;
     (
-        p.positions.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect(),
+        p.positions
+            .iter()
+            .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+            .collect(),
         p.radii.iter().map(|r| r.to_bits()).collect(),
         [l.x.to_bits(), l.y.to_bits(), l.z.to_bits()],
     )
@@ -61,16 +63,33 @@ fn deterministic_same_seed_and_any_thread_count() {
 #[test]
 fn solid_fraction_mean_radius_and_overlap_bound() {
     for (phi, poly) in [
-        (0.6, Polydispersity::Uniform { half_width: TRUSZKOWSKA_2018_HALF_WIDTH }),
+        (
+            0.6,
+            Polydispersity::Uniform {
+                half_width: TRUSZKOWSKA_2018_HALF_WIDTH,
+            },
+        ),
         (0.55, Polydispersity::Monodisperse),
-        (0.62, Polydispersity::Uniform { half_width: 1.0 / 6.0 }),
+        (
+            0.62,
+            Polydispersity::Uniform {
+                half_width: 1.0 / 6.0,
+            },
+        ),
     ] {
-        let opts = GenerateOptions { polydispersity: poly, ..options(2000, phi, 7) };
+        let opts = GenerateOptions {
+            polydispersity: poly,
+            ..options(1000, phi, 7)
+        };
         let progress = std::sync::Mutex::new(Vec::new());
         let (p, report) =
             generate_with_report(&opts, &|f| progress.lock().unwrap().push(f)).unwrap();
-        assert_eq!(p.len(), 2000);
-        assert!((p.solid_fraction() - phi).abs() < 1e-9, "φ = {}", p.solid_fraction());
+        assert_eq!(p.len(), 1000);
+        assert!(
+            (p.solid_fraction() - phi).abs() < 1e-9,
+            "φ = {}",
+            p.solid_fraction()
+        );
         // Independently: Σ(4/3)πR³ / L³.
         let l = p.cell.unwrap().lengths;
         let vs: f64 = p.radii.iter().map(|r| 4.0 / 3.0 * PI * r.powi(3)).sum();
@@ -80,19 +99,24 @@ fn solid_fraction_mean_radius_and_overlap_bound() {
         let overlap = max_overlap(&p);
         assert!(overlap < 1e-3 * r_bar, "overlap {} R̄", overlap / r_bar);
         assert!(report.max_overlap < opts.max_overlap);
-        // Radii inside the declared distribution (up to the mean rescaling).
+        // Radii inside the declared distribution, up to the rescaling to the sample mean
+        // (relative shift ~ h/√(3N) ≈ 0.018·h; allow 8 %).
         let h = match poly {
             Polydispersity::Monodisperse => 0.0,
             Polydispersity::Uniform { half_width } => half_width,
         };
         for r in &p.radii {
-            assert!((r / r_bar - 1.0).abs() <= h * 1.01 + 1e-12);
+            assert!((r / r_bar - 1.0).abs() <= h * 1.08 + 1e-12);
         }
         if h > 0.0 {
             // Sample variance of a uniform distribution: h²/3 (relative).
-            let var: f64 =
-                p.radii.iter().map(|r| (r / r_bar - 1.0).powi(2)).sum::<f64>() / 2000.0;
-            assert!((var / (h * h / 3.0) - 1.0).abs() < 0.1, "var {var}");
+            let var: f64 = p
+                .radii
+                .iter()
+                .map(|r| (r / r_bar - 1.0).powi(2))
+                .sum::<f64>()
+                / 1000.0;
+            assert!((var / (h * h / 3.0) - 1.0).abs() < 0.15, "var {var}");
         }
         // Progress: starts at 0, ends at 1, never decreases.
         let pr = progress.lock().unwrap();
@@ -129,10 +153,22 @@ fn bond_normals_are_isotropic() {
 #[test]
 fn bad_options_are_refused() {
     let bad = [
-        GenerateOptions { n_particles: 1, ..options(10, 0.6, 1) },
-        GenerateOptions { solid_fraction: 0.7, ..options(100, 0.6, 1) },
-        GenerateOptions { solid_fraction: f64::NAN, ..options(100, 0.6, 1) },
-        GenerateOptions { mean_radius: -1.0, ..options(100, 0.6, 1) },
+        GenerateOptions {
+            n_particles: 1,
+            ..options(10, 0.6, 1)
+        },
+        GenerateOptions {
+            solid_fraction: 0.7,
+            ..options(100, 0.6, 1)
+        },
+        GenerateOptions {
+            solid_fraction: f64::NAN,
+            ..options(100, 0.6, 1)
+        },
+        GenerateOptions {
+            mean_radius: -1.0,
+            ..options(100, 0.6, 1)
+        },
         GenerateOptions {
             polydispersity: Polydispersity::Uniform { half_width: 1.0 },
             ..options(100, 0.6, 1)
@@ -149,11 +185,27 @@ fn bad_options_are_refused() {
 #[test]
 #[ignore]
 fn timing_and_coordination() {
+    for phi in [0.62, 0.63] {
+        let t = std::time::Instant::now();
+        let (p, rep) = generate_with_report(&options(10_000, phi, 1), &|_| {}).unwrap();
+        let z = build_bonds(&p, BondingRule::Gap(0.17))
+            .unwrap()
+            .coordination(p.len());
+        println!(
+            "φ = {phi}, N = 10000: {:.2} s, {} iterations, Z(0.17) = {z:.3}",
+            t.elapsed().as_secs_f64(),
+            rep.iterations
+        );
+    }
     for n in [1_000usize, 10_000, 30_000] {
         let t = std::time::Instant::now();
         let (p, rep) = generate_with_report(&options(n, 0.6, 1), &|_| {}).unwrap();
         let dt = t.elapsed().as_secs_f64();
-        let z = |g: f64| build_bonds(&p, BondingRule::Gap(g)).unwrap().coordination(n);
+        let z = |g: f64| {
+            build_bonds(&p, BondingRule::Gap(g))
+                .unwrap()
+                .coordination(n)
+        };
         println!(
             "N = {n}: {dt:.2} s, {} iterations, {} rebuilds, max overlap {:.2e} R̄, \
              Z(gap 0) = {:.3}, Z(1e-3) = {:.3}, Z(0.01) = {:.3}, Z(0.17) = {:.3}, threads {}",

@@ -11,7 +11,11 @@ use rand_chacha::ChaCha8Rng;
 
 fn parse_err(text: &str) -> (usize, String) {
     match parse_packing(text, "in.txt") {
-        Err(Error::Parse { path, line, message }) => {
+        Err(Error::Parse {
+            path,
+            line,
+            message,
+        }) => {
             assert_eq!(path, "in.txt");
             (line, message)
         }
@@ -57,7 +61,10 @@ fn yade_formats() {
 fn malformed_lines_report_line_and_expectation() {
     let (line, msg) = parse_err("# periodic 5 5 5\n1 1 1 0.5\n1 2 3\n");
     assert_eq!(line, 3);
-    assert!(msg.contains("expected 4 numbers `x y z r`, found 3"), "{msg}");
+    assert!(
+        msg.contains("expected 4 numbers `x y z r`, found 3"),
+        "{msg}"
+    );
     let (line, msg) = parse_err("1 1 1 0.5\n1 1 x 0.5\n");
     assert_eq!(line, 2);
     assert!(msg.contains("expected a number for z, found `x`"), "{msg}");
@@ -83,7 +90,10 @@ fn bad_periodic_headers() {
     assert_eq!(line, 1);
     assert!(msg.contains("Ly must be > 0"), "{msg}");
     let (_, msg) = parse_err("# periodic 5 five 5\n");
-    assert!(msg.contains("expected a number for cell length Ly"), "{msg}");
+    assert!(
+        msg.contains("expected a number for cell length Ly"),
+        "{msg}"
+    );
     let (line, msg) = parse_err("# periodic 5 5 5\n# periodic 6 6 6\n");
     assert_eq!(line, 2);
     assert!(msg.contains("second periodic cell header"), "{msg}");
@@ -116,7 +126,10 @@ fn liggghts_errors() {
     match parse_packing(&text, "in.data") {
         Err(Error::Parse { line, message, .. }) => {
             assert_eq!(line, 10); // the Atoms line
-            assert!(message.contains("declares 4 atoms but the Atoms section has 3"), "{message}");
+            assert!(
+                message.contains("declares 4 atoms but the Atoms section has 3"),
+                "{message}"
+            );
         }
         other => panic!("{other:?}"),
     }
@@ -124,7 +137,10 @@ fn liggghts_errors() {
     match parse_packing(&text, "in.data") {
         Err(Error::Parse { line, message, .. }) => {
             assert_eq!(line, 14);
-            assert!(message.contains("id type diameter density x y z"), "{message}");
+            assert!(
+                message.contains("id type diameter density x y z"),
+                "{message}"
+            );
         }
         other => panic!("{other:?}"),
     }
@@ -145,7 +161,13 @@ fn random_packing(periodic: bool) -> Packing {
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     let l = Vec3::new(0.0123, 0.0456, 7.89e-3);
     let pos: Vec<Vec3> = (0..500)
-        .map(|_| Vec3::new(rng.gen::<f64>() * l.x, rng.gen::<f64>() * l.y, rng.gen::<f64>() * l.z))
+        .map(|_| {
+            Vec3::new(
+                rng.gen::<f64>() * l.x,
+                rng.gen::<f64>() * l.y,
+                rng.gen::<f64>() * l.z,
+            )
+        })
         .collect();
     let rad: Vec<f64> = (0..500).map(|_| rng.gen_range(1e-5..3e-4)).collect();
     let cell = periodic.then(|| PeriodicCell::new(l).unwrap());
@@ -160,7 +182,10 @@ fn assert_bit_identical(a: &Packing, b: &Packing) {
     for (x, y) in a.radii.iter().zip(&b.radii) {
         assert_eq!(x.to_bits(), y.to_bits());
     }
-    assert_eq!(a.cell.map(|c| c.lengths.map(f64::to_bits)), b.cell.map(|c| c.lengths.map(f64::to_bits)));
+    assert_eq!(
+        a.cell.map(|c| c.lengths.map(f64::to_bits)),
+        b.cell.map(|c| c.lengths.map(f64::to_bits))
+    );
 }
 
 #[test]
@@ -182,7 +207,10 @@ fn round_trips_are_bit_exact() {
     }
     // Extreme magnitudes survive too.
     let p = Packing::new(
-        vec![Vec3::new(1e-300, 12345678.9, 0.1), Vec3::new(-0.0, 1e22, 3.0e-7)],
+        vec![
+            Vec3::new(1e-300, 12345678.9, 0.1),
+            Vec3::new(-0.0, 1e22, 3.0e-7),
+        ],
         vec![5e-310, 1e300],
         None,
     )

@@ -10,7 +10,13 @@ use rand_chacha::ChaCha8Rng;
 fn random_packing(seed: u64, n: usize, side: f64, r_lo: f64, r_hi: f64, periodic: bool) -> Packing {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let positions: Vec<Vec3> = (0..n)
-        .map(|_| Vec3::new(rng.gen::<f64>() * side, rng.gen::<f64>() * side, rng.gen::<f64>() * side))
+        .map(|_| {
+            Vec3::new(
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+            )
+        })
         .collect();
     let radii: Vec<f64> = (0..n).map(|_| rng.gen_range(r_lo..=r_hi)).collect();
     let cell = periodic.then(|| PeriodicCell::new(Vec3::repeat(side)).unwrap());
@@ -29,7 +35,12 @@ fn brute_force(p: &Packing, max_gap_of: impl Fn(f64, f64) -> f64) -> Vec<Pair> {
             };
             let (ri, rj) = (p.radii[i], p.radii[j]);
             if branch.norm() - (ri + rj) <= max_gap_of(ri, rj) {
-                out.push(Pair { i: i as u32, j: j as u32, branch, image });
+                out.push(Pair {
+                    i: i as u32,
+                    j: j as u32,
+                    branch,
+                    image,
+                });
             }
         }
     }

@@ -135,7 +135,10 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         }
         if let Some(comment) = t.strip_prefix('#') {
             let words: Vec<&str> = comment.split_whitespace().collect();
-            if words.first().is_some_and(|w| w.eq_ignore_ascii_case("periodic")) {
+            if words
+                .first()
+                .is_some_and(|w| w.eq_ignore_ascii_case("periodic"))
+            {
                 let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
                 set_cell(&mut cell, l, source, line)?;
             } else if t.starts_with("#format") {
@@ -340,7 +343,10 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             return Err(Error::parse(
                 source,
                 line,
-                format!("expected a section name such as `Atoms`, found `{}`", lines[k].trim()),
+                format!(
+                    "expected a section name such as `Atoms`, found `{}`",
+                    lines[k].trim()
+                ),
             ));
         }
         let is_atoms = words[0] == "Atoms";
@@ -411,9 +417,8 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             k += 1;
         }
     }
-    let (n, n_line) = n_atoms.ok_or_else(|| {
-        Error::parse(source, 0, "LIGGGHTS data: missing header line `N atoms`")
-    })?;
+    let (n, n_line) = n_atoms
+        .ok_or_else(|| Error::parse(source, 0, "LIGGGHTS data: missing header line `N atoms`"))?;
     let Some(atoms_first) = atoms_line else {
         return Err(Error::parse(
             source,
