@@ -43,7 +43,7 @@ fn max_overlap(p: &Packing) -> f64 {
 
 #[test]
 fn deterministic_same_seed_and_any_thread_count() {
-    let opts = options(1500, 0.6, 42);
+    let opts = options(1000, 0.6, 42);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -56,7 +56,7 @@ fn deterministic_same_seed_and_any_thread_count() {
     let c = run(2);
     assert_eq!(bits(&a), bits(&b));
     assert_eq!(bits(&b), bits(&c));
-    let other = generate(&options(1500, 0.6, 43), &|_| {}).unwrap();
+    let other = generate(&options(1000, 0.6, 43), &|_| {}).unwrap();
     assert_ne!(bits(&a), bits(&other));
 }
 
