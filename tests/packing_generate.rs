@@ -43,7 +43,7 @@ fn max_overlap(p: &Packing) -> f64 {
 
 #[test]
 fn deterministic_same_seed_and_any_thread_count() {
-    let opts = options(1500, 0.6, 42);
+    let opts = options(1000, 0.6, 42);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -56,7 +56,7 @@ fn deterministic_same_seed_and_any_thread_count() {
     let c = run(2);
     assert_eq!(bits(&a), bits(&b));
     assert_eq!(bits(&b), bits(&c));
-    let other = generate(&options(1500, 0.6, 43), &|_| {}).unwrap();
+    let other = generate(&options(1000, 0.6, 43), &|_| {}).unwrap();
     assert_ne!(bits(&a), bits(&other));
 }
 
@@ -79,12 +79,12 @@ fn solid_fraction_mean_radius_and_overlap_bound() {
     ] {
         let opts = GenerateOptions {
             polydispersity: poly,
-            ..options(2000, phi, 7)
+            ..options(1000, phi, 7)
         };
         let progress = std::sync::Mutex::new(Vec::new());
         let (p, report) =
             generate_with_report(&opts, &|f| progress.lock().unwrap().push(f)).unwrap();
-        assert_eq!(p.len(), 2000);
+        assert_eq!(p.len(), 1000);
         assert!(
             (p.solid_fraction() - phi).abs() < 1e-9,
             "φ = {}",
@@ -99,13 +99,14 @@ fn solid_fraction_mean_radius_and_overlap_bound() {
         let overlap = max_overlap(&p);
         assert!(overlap < 1e-3 * r_bar, "overlap {} R̄", overlap / r_bar);
         assert!(report.max_overlap < opts.max_overlap);
-        // Radii inside the declared distribution (up to the mean rescaling).
+        // Radii inside the declared distribution, up to the rescaling to the sample mean
+        // (relative shift ~ h/√(3N) ≈ 0.018·h; allow 8 %).
         let h = match poly {
             Polydispersity::Monodisperse => 0.0,
             Polydispersity::Uniform { half_width } => half_width,
         };
         for r in &p.radii {
-            assert!((r / r_bar - 1.0).abs() <= h * 1.01 + 1e-12);
+            assert!((r / r_bar - 1.0).abs() <= h * 1.08 + 1e-12);
         }
         if h > 0.0 {
             // Sample variance of a uniform distribution: h²/3 (relative).
@@ -114,8 +115,8 @@ fn solid_fraction_mean_radius_and_overlap_bound() {
                 .iter()
                 .map(|r| (r / r_bar - 1.0).powi(2))
                 .sum::<f64>()
-                / 2000.0;
-            assert!((var / (h * h / 3.0) - 1.0).abs() < 0.1, "var {var}");
+                / 1000.0;
+            assert!((var / (h * h / 3.0) - 1.0).abs() < 0.15, "var {var}");
         }
         // Progress: starts at 0, ends at 1, never decreases.
         let pr = progress.lock().unwrap();
@@ -144,7 +145,8 @@ fn bond_normals_are_isotropic() {
     fabric /= bonds.len() as f64;
     let dev = fabric - Mat3::identity() / 3.0;
     let worst = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-    assert!(worst < 0.03 / 3.0 * 3.0 * 0.34, "fabric {fabric}");
+    // Within 3 % of 1/3 (sampling noise ≈ 0.002 for ~15,000 bonds).
+    assert!(worst < 0.01, "fabric {fabric}");
     assert!((fabric.trace() - 1.0).abs() < 1e-12);
 }
 
@@ -183,6 +185,18 @@ fn bad_options_are_refused() {
 #[test]
 #[ignore]
 fn timing_and_coordination() {
+    for phi in [0.62, 0.63] {
+        let t = std::time::Instant::now();
+        let (p, rep) = generate_with_report(&options(10_000, phi, 1), &|_| {}).unwrap();
+        let z = build_bonds(&p, BondingRule::Gap(0.17))
+            .unwrap()
+            .coordination(p.len());
+        println!(
+            "φ = {phi}, N = 10000: {:.2} s, {} iterations, Z(0.17) = {z:.3}",
+            t.elapsed().as_secs_f64(),
+            rep.iterations
+        );
+    }
     for n in [1_000usize, 10_000, 30_000] {
         let t = std::time::Instant::now();
         let (p, rep) = generate_with_report(&options(n, 0.6, 1), &|_| {}).unwrap();

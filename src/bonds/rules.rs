@@ -139,7 +139,7 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
     };
     ranked.truncate(best_k);
     let mut pairs: Vec<Pair> = ranked.into_iter().map(|(_, p)| p).collect();
-    pairs.sort_by(|a, b| (a.i, a.j, a.image).cmp(&(b.i, b.j, b.image)));
+    pairs.sort_by_key(|p| (p.i, p.j, p.image));
     Ok((gap, pairs))
 }
 

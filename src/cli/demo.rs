@@ -1,5 +1,5 @@
 //! `anisobond demo`: the main job on an embedded default — Truszkowska 2018's standard
-//! assembly (void fraction 0.40, ΔR = R̄/6, gap cutoff 0.17 R̄) at a size that runs in
+//! assembly (void fraction 0.40, radius range ΔR = R̄/6, gap cutoff 0.17 R̄) at a size that runs in
 //! seconds, her MRV cubic Zener>1 model, and the tensor by every method beside the paper's.
 
 use super::{bond_packing, method_name, output, tensor_of, LeverArmArg, Method, StaticArgs};
@@ -35,13 +35,13 @@ pub fn run(a: DemoArgs) -> Result<()> {
         solid_fraction: 0.60,
         mean_radius: 1e-3,
         polydispersity: generate::Polydispersity::Uniform {
-            half_width: 1.0 / 6.0,
+            half_width: generate::TRUSZKOWSKA_2018_HALF_WIDTH,
         },
         seed: a.seed,
         ..Default::default()
     };
     println!(
-        "anisobond demo: Truszkowska et al. 2018 standard assembly (void fraction 0.40, ΔR = R̄/6, R̄ = 1 mm, gap cutoff 0.17 R̄), {} particles, seed {}",
+        "anisobond demo: Truszkowska et al. 2018 standard assembly (void fraction 0.40, radii uniform over a range ΔR = R̄/6, R̄ = 1 mm, gap cutoff 0.17 R̄), {} particles, seed {}",
         a.particles, a.seed
     );
     println!("model: cubic zener-above-1, a_n = 4.31, a_s = 10.0, normal 1e13 Pa/m, shear 3.55e12 Pa/m (parallel-bond area convention)");

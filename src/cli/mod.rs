@@ -51,8 +51,9 @@ struct PackArgs {
     /// Solid fraction φ (volume of spheres / cell volume).
     #[arg(long, default_value_t = 0.6)]
     solid_fraction: f64,
-    /// Radius polydispersity ΔR/R̄: radii uniform in [R̄−ΔR, R̄+ΔR] (Truszkowska: 1/6).
-    #[arg(long, default_value_t = 1.0 / 6.0)]
+    /// Radius polydispersity h: radii uniform in [R̄(1−h), R̄(1+h)]. Default 1/12: the
+    /// range ΔR = R̄/6 of Truszkowska 2018's standard assembly.
+    #[arg(long, default_value_t = 1.0 / 12.0)]
     polydispersity: f64,
     /// Mean radius R̄ (m).
     #[arg(long, default_value_t = 1e-3)]

@@ -247,7 +247,7 @@ pub fn generate_with_report(
         )));
     }
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
-    let mut x: Vec<Vec3> = (0..n)
+    let x: Vec<Vec3> = (0..n)
         .map(|_| {
             Vec3::new(
                 rng.gen::<f64>() * side,
@@ -257,6 +257,18 @@ pub fn generate_with_report(
         })
         .map(|p| cell.wrap(p).0)
         .collect();
+    // Number the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
+    // neighbours are close in memory; radii were drawn independently of position, so this
+    // does not change the distribution.
+    let grid = ((side / 2.0).floor() as usize).max(1);
+    let cell_key = |p: &Vec3| {
+        let c = |v: f64| ((v / side * grid as f64) as usize).min(grid - 1);
+        (c(p.z) * grid + c(p.y)) * grid + c(p.x)
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&k| (cell_key(&x[k]), k));
+    let mut x: Vec<Vec3> = order.iter().map(|&k| x[k]).collect();
+    let radii: Vec<f64> = order.iter().map(|&k| radii[k]).collect();
 
     // FIRE (Bitzek et al. 2006) with semi-implicit Euler steps, unit masses and stiffness.
     const DT_START: f64 = 0.02;

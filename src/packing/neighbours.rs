@@ -148,7 +148,7 @@ pub(crate) fn pairs_in(
                         }
                     }
                 });
-                out[start_of_i..].sort_by(|a, b| (a.j, a.image).cmp(&(b.j, b.image)));
+                out[start_of_i..].sort_by_key(|p| (p.j, p.image));
             }
             out
         })

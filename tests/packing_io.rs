@@ -1,0 +1,232 @@
+//! Packing files: parsing, errors with line numbers, bit-exact round trips.
+
+use anisobond::packing::io::{
+    detect_format, parse_liggghts_data, parse_packing, read_packing, write_liggghts_data,
+    write_packing, write_yade_spherepack, PackingFormat,
+};
+use anisobond::packing::{Packing, PeriodicCell};
+use anisobond::{Error, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn parse_err(text: &str) -> (usize, String) {
+    match parse_packing(text, "in.txt") {
+        Err(Error::Parse {
+            path,
+            line,
+            message,
+        }) => {
+            assert_eq!(path, "in.txt");
+            (line, message)
+        }
+        other => panic!("expected a parse error, got {other:?}"),
+    }
+}
+
+#[test]
+fn spec_text_with_comments_and_periodic_header() {
+    let text = "# a comment\n# periodic 10 20 30\n\n1 2 3 0.5  # trailing comment\n\
+                -1 25 31 0.25\n";
+    let p = parse_packing(text, "in.txt").unwrap();
+    assert_eq!(p.len(), 2);
+    assert_eq!(p.cell.unwrap().lengths, Vec3::new(10.0, 20.0, 30.0));
+    assert_eq!(p.positions[0], Vec3::new(1.0, 2.0, 3.0));
+    // Wrapped into the cell: −1 → 9, 25 → 5, 31 → 1.
+    assert!((p.positions[1] - Vec3::new(9.0, 5.0, 1.0)).norm() < 1e-12);
+    assert_eq!(p.radii, vec![0.5, 0.25]);
+    // No header: free packing.
+    let p = parse_packing("0 0 0 1\n3 0 0 1\n", "x").unwrap();
+    assert!(p.cell.is_none());
+}
+
+#[test]
+fn yade_formats() {
+    let text = "##PERIODIC:: 4 4 4\n1 1 1 0.5\n5 1 1 0.5\n";
+    assert_eq!(detect_format(text), PackingFormat::YadeSpherePack);
+    let p = parse_packing(text, "pack.txt").unwrap();
+    assert_eq!(p.cell.unwrap().lengths, Vec3::repeat(4.0));
+    assert_eq!(p.positions[1], Vec3::new(1.0, 1.0, 1.0));
+    // YADE export.text.
+    let text = "#format x_y_z_r\n0.1 0.2 0.3 0.05\n";
+    assert_eq!(detect_format(text), PackingFormat::SpecText);
+    assert_eq!(parse_packing(text, "e.txt").unwrap().radii, vec![0.05]);
+    let text = "#format x_y_z_r_matId\n0.1 0.2 0.3 0.05 1\n";
+    assert_eq!(parse_packing(text, "e.txt").unwrap().len(), 1);
+    let (line, msg) = parse_err("#format x_y_z\n0 0 0\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("x_y_z_r"), "{msg}");
+}
+
+#[test]
+fn malformed_lines_report_line_and_expectation() {
+    let (line, msg) = parse_err("# periodic 5 5 5\n1 1 1 0.5\n1 2 3\n");
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("expected 4 numbers `x y z r`, found 3"),
+        "{msg}"
+    );
+    let (line, msg) = parse_err("1 1 1 0.5\n1 1 x 0.5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("expected a number for z, found `x`"), "{msg}");
+    let (line, msg) = parse_err("1 1 1 0.5\n\n1 NaN 1 0.5\n");
+    assert_eq!(line, 3);
+    assert!(msg.contains("NaN"), "{msg}");
+    let (line, msg) = parse_err("1 1 1 0\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("radius must be > 0"), "{msg}");
+    let (line, msg) = parse_err("1 1 1 -2\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("radius must be > 0"), "{msg}");
+    let (_, msg) = parse_err("1 1 inf 1\n");
+    assert!(msg.contains("finite"), "{msg}");
+}
+
+#[test]
+fn bad_periodic_headers() {
+    let (line, msg) = parse_err("1 1 1 0.5\n# periodic 5 5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("3 cell lengths, found 2"), "{msg}");
+    let (line, msg) = parse_err("# periodic 5 -5 5\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("Ly must be > 0"), "{msg}");
+    let (_, msg) = parse_err("# periodic 5 five 5\n");
+    assert!(
+        msg.contains("expected a number for cell length Ly"),
+        "{msg}"
+    );
+    let (line, msg) = parse_err("# periodic 5 5 5\n# periodic 6 6 6\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("second periodic cell header"), "{msg}");
+    let (line, _) = parse_err("##PERIODIC:: 1 2 nan\n");
+    assert_eq!(line, 1);
+}
+
+const LIGGGHTS: &str = "LIGGGHTS data file\n\n3 atoms\n1 atom types\n\n\
+-1.0 1.0 xlo xhi\n-2 2 ylo yhi\n0 3 zlo zhi\n\nAtoms # granular\n\n\
+3 1 0.5 2500 0.5 1.5 2.0\n1 1 0.2 2500 -0.5 0.0 0.5\n2 1 0.4 2500 0.0 -1.5 1.0\n";
+
+#[test]
+fn liggghts_data_sorted_by_id_shifted_and_diameters_halved() {
+    assert_eq!(detect_format(LIGGGHTS), PackingFormat::LiggghtsData);
+    let p = parse_packing(LIGGGHTS, "in.data").unwrap();
+    assert_eq!(p.cell.unwrap().lengths, Vec3::new(2.0, 4.0, 3.0));
+    assert_eq!(p.radii, vec![0.1, 0.2, 0.25]);
+    assert_eq!(p.positions[0], Vec3::new(0.5, 2.0, 0.5));
+    assert_eq!(p.positions[1], Vec3::new(1.0, 0.5, 1.0));
+    assert_eq!(p.positions[2], Vec3::new(1.5, 3.5, 2.0));
+    // Non-periodic choice keeps the coordinates as written.
+    let q = parse_liggghts_data(LIGGGHTS, "in.data", false).unwrap();
+    assert!(q.cell.is_none());
+    assert_eq!(q.positions[0], Vec3::new(-0.5, 0.0, 0.5));
+}
+
+#[test]
+fn liggghts_errors() {
+    let text = LIGGGHTS.replace("3 atoms", "4 atoms");
+    match parse_packing(&text, "in.data") {
+        Err(Error::Parse { line, message, .. }) => {
+            assert_eq!(line, 10); // the Atoms line
+            assert!(
+                message.contains("declares 4 atoms but the Atoms section has 3"),
+                "{message}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = LIGGGHTS.replace("2 1 0.4 2500 0.0 -1.5 1.0", "2 1 0.4 2500 0.0 -1.5");
+    match parse_packing(&text, "in.data") {
+        Err(Error::Parse { line, message, .. }) => {
+            assert_eq!(line, 14);
+            assert!(
+                message.contains("id type diameter density x y z"),
+                "{message}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = LIGGGHTS.replace("3 1 0.5", "3 1 -0.5");
+    let err = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(err.contains("in.data:12: diameter must be > 0"), "{err}");
+    let text = LIGGGHTS.replace("3 1 0.5", "1 1 0.5");
+    let err = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(err.contains("atom id 1 appears twice"), "{err}");
+    let text = LIGGGHTS.replace("Atoms # granular", "Atoms # sphere");
+    assert!(parse_packing(&text, "in.data").is_err());
+    let text = LIGGGHTS.replace("0 3 zlo zhi\n", "");
+    let err = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(err.contains("zlo zhi"), "{err}");
+}
+
+fn random_packing(periodic: bool) -> Packing {
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let l = Vec3::new(0.0123, 0.0456, 7.89e-3);
+    let pos: Vec<Vec3> = (0..500)
+        .map(|_| {
+            Vec3::new(
+                rng.gen::<f64>() * l.x,
+                rng.gen::<f64>() * l.y,
+                rng.gen::<f64>() * l.z,
+            )
+        })
+        .collect();
+    let rad: Vec<f64> = (0..500).map(|_| rng.gen_range(1e-5..3e-4)).collect();
+    let cell = periodic.then(|| PeriodicCell::new(l).unwrap());
+    Packing::new(pos, rad, cell).unwrap()
+}
+
+fn assert_bit_identical(a: &Packing, b: &Packing) {
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.positions.iter().zip(&b.positions) {
+        assert_eq!(x.map(f64::to_bits), y.map(f64::to_bits));
+    }
+    for (x, y) in a.radii.iter().zip(&b.radii) {
+        assert_eq!(x.to_bits(), y.to_bits());
+    }
+    assert_eq!(
+        a.cell.map(|c| c.lengths.map(f64::to_bits)),
+        b.cell.map(|c| c.lengths.map(f64::to_bits))
+    );
+}
+
+#[test]
+fn round_trips_are_bit_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    for periodic in [true, false] {
+        let p = random_packing(periodic);
+        let f = dir.path().join("p.txt");
+        write_packing(&f, &p).unwrap();
+        assert_bit_identical(&p, &read_packing(&f).unwrap());
+        let f = dir.path().join("p.spherepack");
+        write_yade_spherepack(&f, &p).unwrap();
+        assert_bit_identical(&p, &read_packing(&f).unwrap());
+        let f = dir.path().join("p.data");
+        write_liggghts_data(&f, &p, 2650.0).unwrap();
+        let text = std::fs::read_to_string(&f).unwrap();
+        let q = parse_liggghts_data(&text, "p.data", periodic).unwrap();
+        assert_bit_identical(&p, &q);
+    }
+    // Extreme magnitudes survive too.
+    let p = Packing::new(
+        vec![
+            Vec3::new(1e-300, 12345678.9, 0.1),
+            Vec3::new(-0.0, 1e22, 3.0e-7),
+        ],
+        vec![5e-310, 1e300],
+        None,
+    )
+    .unwrap();
+    let f = dir.path().join("x.txt");
+    write_packing(&f, &p).unwrap();
+    assert_bit_identical(&p, &read_packing(&f).unwrap());
+    // Bad density refused, nothing written.
+    let f = dir.path().join("bad.data");
+    assert!(write_liggghts_data(&f, &p, -1.0).is_err());
+    assert!(!f.exists());
+}
+
+#[test]
+fn missing_file_is_an_io_error_naming_it() {
+    let err = read_packing(std::path::Path::new("/nonexistent/p.txt")).unwrap_err();
+    assert!(matches!(err, Error::Io { .. }));
+    assert!(err.to_string().contains("/nonexistent/p.txt"));
+}
