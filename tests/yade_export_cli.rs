@@ -104,7 +104,10 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         (
             "model that bonds nothing",
             cubic_packing(),
-            MODEL.replace("rule = \"gap\"\nvalue = 0.17", "rule = \"factor\"\nvalue = 0.5"),
+            MODEL.replace(
+                "rule = \"gap\"\nvalue = 0.17",
+                "rule = \"factor\"\nvalue = 0.5",
+            ),
             "bonds no pair",
         ),
     ];
@@ -117,15 +120,29 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         let out = export(&p, &m, &dir);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{what}: exit status 0");
-        assert!(stderr.contains("error:"), "{what}: no error message: {stderr}");
-        assert!(stderr.contains(expect), "{what}: message lacks `{expect}`: {stderr}");
-        assert!(entries(&dir).is_empty(), "{what}: files written: {:?}", entries(&dir));
+        assert!(
+            stderr.contains("error:"),
+            "{what}: no error message: {stderr}"
+        );
+        assert!(
+            stderr.contains(expect),
+            "{what}: message lacks `{expect}`: {stderr}"
+        );
+        assert!(
+            entries(&dir).is_empty(),
+            "{what}: files written: {:?}",
+            entries(&dir)
+        );
         eprintln!("{what}: {}", stderr.trim());
 
         // A previous complete export is left exactly as it was.
         let prev = tmp.path().join("out-prev");
         let ok = export(&good_packing, &good_model, &prev);
-        assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+        assert!(
+            ok.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ok.stderr)
+        );
         let before: Vec<Vec<u8>> = entries(&prev)
             .iter()
             .map(|f| std::fs::read(prev.join(f)).unwrap())
@@ -136,7 +153,10 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
             .iter()
             .map(|f| std::fs::read(prev.join(f)).unwrap())
             .collect();
-        assert_eq!(before, after, "{what}: a failed export changed the previous files");
+        assert_eq!(
+            before, after,
+            "{what}: a failed export changed the previous files"
+        );
     }
 }
 
@@ -149,10 +169,20 @@ fn good_export_writes_the_run_directory() {
     write(&m, MODEL);
     let dir = tmp.path().join("yade");
     let out = export(&p, &m, &dir);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(
         entries(&dir),
-        ["anisobond_yade.py", "bonds.csv", "model.toml", "packing.txt", "run.py"]
+        [
+            "anisobond_yade.py",
+            "bonds.csv",
+            "model.toml",
+            "packing.txt",
+            "run.py"
+        ]
     );
     // Simple cubic, spacing 2R, gap 0 ≤ 0.17 R̄: 3 bonds per sphere, 192 bonds.
     let bonds = std::fs::read_to_string(dir.join("bonds.csv")).unwrap();

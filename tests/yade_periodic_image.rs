@@ -81,7 +81,10 @@ fn every_bond_has_the_table_branch_vector_in_yade() {
         }
         expected.push(raw + cell.shift(bond_set.image[b]));
     }
-    assert!(trap > 20, "only {trap} bonds with x_j − x_i < −L/2: the trap is not exercised");
+    assert!(
+        trap > 20,
+        "only {trap} bonds with x_j − x_i < −L/2: the trap is not exercised"
+    );
 
     let dir = tempfile::tempdir().unwrap();
     write_yade_export(
@@ -105,20 +108,25 @@ fn every_bond_has_the_table_branch_vector_in_yade() {
     let wrong = raw
         .iter()
         .enumerate()
-        .filter(|(b, img)| {
-            (0..3).any(|k| img[k].as_i64().unwrap() != bond_set.image[*b][k] as i64)
-        })
+        .filter(|(b, img)| (0..3).any(|k| img[k].as_i64().unwrap() != bond_set.image[*b][k] as i64))
         .count();
     eprintln!(
         "{} bonds, {trap} with x_j − x_i < −L/2; plain createInteraction gets {wrong} images wrong",
         bond_set.len()
     );
-    assert!(wrong > 0, "createInteraction got every image right: trap not exercised");
+    assert!(
+        wrong > 0,
+        "createInteraction got every image right: trap not exercised"
+    );
 
     let fixed = res["fixed"].as_array().unwrap();
     assert_eq!(fixed.len(), bond_set.len());
     let v = |j: &serde_json::Value| {
-        Vec3::new(j[0].as_f64().unwrap(), j[1].as_f64().unwrap(), j[2].as_f64().unwrap())
+        Vec3::new(
+            j[0].as_f64().unwrap(),
+            j[1].as_f64().unwrap(),
+            j[2].as_f64().unwrap(),
+        )
     };
     let mut worst: f64 = 0.0;
     for (b, f) in fixed.iter().enumerate() {
@@ -136,6 +144,12 @@ fn every_bond_has_the_table_branch_vector_in_yade() {
         assert!((f["penetration"].as_f64().unwrap() - pd).abs() < 1e-12 * expected[b].norm());
     }
     eprintln!("worst relative branch-vector difference after the fix: {worst:.2e}");
-    assert_eq!(res["real_after_20_steps"].as_u64(), Some(bond_set.len() as u64));
-    assert_eq!(res["interactions_after_20_steps"].as_u64(), Some(bond_set.len() as u64));
+    assert_eq!(
+        res["real_after_20_steps"].as_u64(),
+        Some(bond_set.len() as u64)
+    );
+    assert_eq!(
+        res["interactions_after_20_steps"].as_u64(),
+        Some(bond_set.len() as u64)
+    );
 }

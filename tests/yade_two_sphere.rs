@@ -135,8 +135,15 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
         // The image fix: YADE's bond is the table's bond.
         let b = &m["built"];
         assert_eq!(b["id1"].as_i64(), Some(0));
-        assert_eq!(b["cellDist"], serde_json::json!([1, 0, 0]), "{mode}: cellDist");
-        assert!(rel(&vec3(&b["branch"]), &branch, len) < 1e-12, "{mode}: branch vector");
+        assert_eq!(
+            b["cellDist"],
+            serde_json::json!([1, 0, 0]),
+            "{mode}: cellDist"
+        );
+        assert!(
+            rel(&vec3(&b["branch"]), &branch, len) < 1e-12,
+            "{mode}: branch vector"
+        );
         assert!(rel(&vec3(&b["normal"]), &n, 1.0) < 1e-12, "{mode}: normal");
         let a = m["amount"].as_f64().unwrap();
         let d = vec3(&m["direction"]);
@@ -166,23 +173,44 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
             want_tj.norm()
         );
         if mode == "normal" || mode == "shear" {
-            assert!(rel(&fj, &want_fj, f_scale) < tol, "{mode}: force on j {fj} vs {want_fj}");
-            assert!(rel(&fi, &(-want_fj), f_scale) < tol, "{mode}: force on i {fi}");
+            assert!(
+                rel(&fj, &want_fj, f_scale) < tol,
+                "{mode}: force on j {fj} vs {want_fj}"
+            );
+            assert!(
+                rel(&fi, &(-want_fj), f_scale) < tol,
+                "{mode}: force on i {fi}"
+            );
         } else {
-            assert!(fj.norm() == 0.0 && fi.norm() == 0.0, "{mode}: forces should vanish");
+            assert!(
+                fj.norm() == 0.0 && fi.norm() == 0.0,
+                "{mode}: forces should vanish"
+            );
         }
         if mode == "normal" {
             assert!(ti.norm() < 1e-12 * f_scale * len && tj.norm() < 1e-12 * f_scale * len);
         } else {
-            assert!(rel(&tj, &want_tj, t_scale) < tol, "{mode}: torque on j {tj} vs {want_tj}");
-            assert!(rel(&ti, &want_ti, t_scale) < tol, "{mode}: torque on i {ti} vs {want_ti}");
+            assert!(
+                rel(&tj, &want_tj, t_scale) < tol,
+                "{mode}: torque on j {tj} vs {want_tj}"
+            );
+            assert!(
+                rel(&ti, &want_ti, t_scale) < tol,
+                "{mode}: torque on i {ti} vs {want_ti}"
+            );
         }
     }
     // The magnitudes, spelled out: YADE's spring force is exactly the exported k·δ.
     let fs = vec3(&res["shear"]["shearForce"]).norm();
     let want_fs = ks * res["shear"]["amount"].as_f64().unwrap();
-    assert!((fs - want_fs).abs() < tol * want_fs, "shear {fs} vs k_s·u = {want_fs}");
+    assert!(
+        (fs - want_fs).abs() < tol * want_fs,
+        "shear {fs} vs k_s·u = {want_fs}"
+    );
     let fnorm = vec3(&res["normal"]["normalForce"]).norm();
     let want_fn = kn * res["normal"]["amount"].as_f64().unwrap();
-    assert!((fnorm - want_fn).abs() < tol * want_fn, "normal {fnorm} vs k_n·δ = {want_fn}");
+    assert!(
+        (fnorm - want_fn).abs() < tol * want_fn,
+        "normal {fnorm} vs k_n·δ = {want_fn}"
+    );
 }

@@ -94,7 +94,10 @@ impl YadeRunOptions {
             return bad(format!("damping must be in [0, 1), got {}", self.damping));
         }
         if !self.density.is_finite() || self.density <= 0.0 {
-            return bad(format!("density must be finite and > 0, got {}", self.density));
+            return bad(format!(
+                "density must be finite and > 0, got {}",
+                self.density
+            ));
         }
         if let Some(dt) = self.time_step {
             if !dt.is_finite() || dt <= 0.0 {
@@ -102,7 +105,10 @@ impl YadeRunOptions {
             }
         }
         if !self.safety.is_finite() || self.safety <= 0.0 || self.safety > 1.0 {
-            return bad(format!("safety factor must be in (0, 1], got {}", self.safety));
+            return bad(format!(
+                "safety factor must be in (0, 1], got {}",
+                self.safety
+            ));
         }
         if self.paths.is_empty() || self.paths.iter().any(|&p| p > 5) {
             return bad(format!(
@@ -219,7 +225,12 @@ pub fn check_exportable(p: &Packing, b: &BondSet, k: &BondStiffness) -> Result<(
                 p.len()
             )));
         }
-        for (name, v) in [("kn", k.kn[n]), ("ks", k.ks[n]), ("kr", k.kr[n]), ("ktw", k.ktw[n])] {
+        for (name, v) in [
+            ("kn", k.kn[n]),
+            ("ks", k.ks[n]),
+            ("kr", k.kr[n]),
+            ("ktw", k.ktw[n]),
+        ] {
             if !v.is_finite() || v < 0.0 {
                 return Err(Error::Invalid(format!(
                     "YADE export: bond {n}: {name} = {v} must be finite and ≥ 0"
@@ -256,8 +267,14 @@ pub fn run_script(opts: &YadeRunOptions, n_particles: usize, n_bonds: usize) -> 
          DEFAULTS = [\n",
     );
     let mut args = vec![
-        ("--packing".to_string(), format!("os.path.join(HERE, {:?})", files::PACKING)),
-        ("--bonds".to_string(), format!("os.path.join(HERE, {:?})", files::BONDS)),
+        (
+            "--packing".to_string(),
+            format!("os.path.join(HERE, {:?})", files::PACKING),
+        ),
+        (
+            "--bonds".to_string(),
+            format!("os.path.join(HERE, {:?})", files::BONDS),
+        ),
         ("--out".to_string(), "HERE".to_string()),
     ];
     let rest = opts.to_args();
@@ -333,8 +350,7 @@ pub fn export_yade(
         )));
     }
     let scheme = model.build_scheme(Some((&packing, &bond_set)))?;
-    let springs =
-        bonds::assign_stiffness(&packing, &bond_set, scheme.as_ref(), &model.geometry)?;
+    let springs = bonds::assign_stiffness(&packing, &bond_set, scheme.as_ref(), &model.geometry)?;
     write_yade_export(dir, &packing, &bond_set, &springs, Some(&model), opts)
 }
 
@@ -361,7 +377,9 @@ pub struct YadeOutput {
 /// YADE's output) when `yade` is missing or exits non-zero.
 pub fn run_yade_script(script: &Path, args: &[String]) -> Result<YadeOutput> {
     let yade = find_yade().ok_or_else(|| {
-        Error::Invalid("`yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)".into())
+        Error::Invalid(
+            "`yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)".into(),
+        )
     })?;
     let dir = match script.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -454,9 +472,10 @@ pub fn read_yade_history(path: &Path) -> Result<Vec<HistoryRow>> {
                 Error::parse(&name, line_no, format!("expected a number, found `{s}`"))
             })
         };
-        let path_index = PATH_LABELS.iter().position(|l| *l == f[0]).ok_or_else(|| {
-            Error::parse(&name, line_no, format!("unknown path `{}`", f[0]))
-        })?;
+        let path_index = PATH_LABELS
+            .iter()
+            .position(|l| *l == f[0])
+            .ok_or_else(|| Error::parse(&name, line_no, format!("unknown path `{}`", f[0])))?;
         let step = f[1]
             .parse::<usize>()
             .map_err(|_| Error::parse(&name, line_no, format!("bad step `{}`", f[1])))?;
@@ -475,7 +494,11 @@ pub fn read_yade_history(path: &Path) -> Result<Vec<HistoryRow>> {
         });
     }
     if !header_seen {
-        return Err(Error::parse(&name, 0, "no header row: not a YADE history file"));
+        return Err(Error::parse(
+            &name,
+            0,
+            "no header row: not a YADE history file",
+        ));
     }
     Ok(rows)
 }
@@ -501,8 +524,8 @@ pub struct YadeTensor {
 pub fn read_yade_tensor(path: &Path) -> Result<YadeTensor> {
     let text = crate::io::read_to_string(path)?;
     let name = path.display().to_string();
-    let json: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::parse(&name, e.line(), e.to_string()))?;
+    let json: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::parse(&name, e.line(), e.to_string()))?;
     let bad = |m: &str| Error::parse(&name, 0, m.to_string());
     let rows = json["C"]
         .as_array()
@@ -512,13 +535,21 @@ pub fn read_yade_tensor(path: &Path) -> Result<YadeTensor> {
         return Err(bad("`C` must have 6 rows"));
     }
     for (i, r) in rows.iter().enumerate() {
-        let r = r.as_array().filter(|r| r.len() == 6).ok_or_else(|| bad("`C` rows must have 6 numbers"))?;
+        let r = r
+            .as_array()
+            .filter(|r| r.len() == 6)
+            .ok_or_else(|| bad("`C` rows must have 6 numbers"))?;
         for (j, v) in r.iter().enumerate() {
-            c[(i, j)] = v.as_f64().ok_or_else(|| bad("`C` entries must be numbers"))?;
+            c[(i, j)] = v
+                .as_f64()
+                .ok_or_else(|| bad("`C` entries must be numbers"))?;
         }
     }
     let y = &json["yade"];
-    let f = |k: &str| y[k].as_f64().ok_or_else(|| bad(&format!("`yade.{k}` missing")));
+    let f = |k: &str| {
+        y[k].as_f64()
+            .ok_or_else(|| bad(&format!("`yade.{k}` missing")))
+    };
     let mut path_seconds = Vec::new();
     if let Some(m) = y["wall_time_s"].as_object() {
         for (k, v) in m {
@@ -537,4 +568,110 @@ pub fn read_yade_tensor(path: &Path) -> Result<YadeTensor> {
         path_seconds,
         json: json.clone(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paths_parse_by_label_and_reject_unknown() {
+        assert_eq!(
+            parse_paths("11,22,33,23,13,12").unwrap(),
+            vec![0, 1, 2, 3, 4, 5]
+        );
+        assert_eq!(parse_paths(" 12 , 11").unwrap(), vec![5, 0]);
+        let e = parse_paths("11,21").unwrap_err().to_string();
+        assert!(e.contains("`21`"), "{e}");
+    }
+
+    #[test]
+    fn options_are_validated() {
+        assert!(YadeRunOptions::default().validate().is_ok());
+        let bad = [
+            YadeRunOptions {
+                strain: 0.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                steps: 0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                damping: 1.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                density: -1.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                time_step: Some(f64::NAN),
+                ..Default::default()
+            },
+            YadeRunOptions {
+                safety: 1.5,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                paths: vec![6],
+                ..Default::default()
+            },
+        ];
+        for o in bad {
+            assert!(o.validate().is_err(), "{o:?} accepted");
+        }
+    }
+
+    #[test]
+    fn run_script_passes_every_option() {
+        let o = YadeRunOptions {
+            strain: 2e-6,
+            steps: 77,
+            damping: 0.0,
+            density: 1234.5,
+            time_step: Some(3e-8),
+            safety: 0.5,
+            paths: vec![3, 0],
+        };
+        let s = run_script(&o, 10, 20);
+        for want in [
+            "\"--strain\", \"2e-6\"",
+            "\"--steps\", \"77\"",
+            "\"--damping\", \"0.0\"",
+            "\"--density\", \"1234.5\"",
+            "\"--dt\", \"3e-8\"",
+            "\"--safety\", \"0.5\"",
+            "\"--paths\", \"23,11\"",
+            "anisobond_yade.main(DEFAULTS + sys.argv[1:])",
+        ] {
+            assert!(s.contains(want), "run.py lacks {want}:\n{s}");
+        }
+    }
+
+    #[test]
+    fn history_reader_reports_bad_rows() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("h.csv");
+        let header = "# c\npath,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\n";
+        std::fs::write(&p, format!("{header}11,0,0.0,1,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        let rows = read_yade_history(&p).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].strain[0], 1.0);
+        assert_eq!(rows[0].stress[0], 5.0);
+        std::fs::write(&p, format!("{header}11,0,0.0,x,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        let e = read_yade_history(&p).unwrap_err().to_string();
+        assert!(e.contains(":3:") && e.contains("`x`"), "{e}");
+        std::fs::write(&p, format!("{header}44,0,0.0,0,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        assert!(read_yade_history(&p).is_err());
+    }
+
+    #[test]
+    fn free_packing_is_refused() {
+        let p = Packing::new(vec![crate::Vec3::zeros()], vec![1.0], None).unwrap();
+        let e = check_exportable(&p, &BondSet::default(), &BondStiffness::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not periodic"), "{e}");
+    }
 }
