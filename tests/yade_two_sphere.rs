@@ -3,7 +3,8 @@
 //! displacement or rotation, one undamped step; YADE's force and torque must equal the
 //! exported springs' closed form k·δ to 1e-10 relative: normal k_n·δ, shear k_s·u (with
 //! the torque of the shear force about each centre through the mid-gap contact point),
-//! bending k_r·θ, twisting k_tw·θ.
+//! bending k_r·θ, twisting k_tw·θ. A fifth case checks NewtonIntegrator's Cundall damping
+//! per component, v₁ = v₀ + a·dt·(1 − λ·sgn(a_k(v₀_k + a_k·dt/2))), against the forces.
 
 mod yade_support;
 
@@ -27,8 +28,9 @@ DT = 1e-7
 out = {}
 def v(x):
     return [float(x[0]), float(x[1]), float(x[2])]
-for mode in ("normal", "shear", "bending", "twisting"):
-    sc = ab.build_scene(packing, bonds, density=1000.0, damping=0.0, dt=DT)
+for mode in ("normal", "shear", "bending", "twisting", "damping"):
+    damping = 0.4 if mode == "damping" else 0.0
+    sc = ab.build_scene(packing, bonds, density=1000.0, damping=damping, dt=DT)
     I = sc.interactions[0]
     j = O.bodies[1]
     built = {"normal": v(I.geom.normal), "branch": v(ab.branch_vector(I)),
@@ -48,14 +50,23 @@ for mode in ("normal", "shear", "bending", "twisting"):
         amount = 1e-3
         j.state.ori = Quaternion(t, amount)
         direction = t
-    else:
+    elif mode == "twisting":
         amount = 1e-3
         j.state.ori = Quaternion(n, amount)
         direction = n
+    else:
+        # Cundall damping: stretch the bond and give j a velocity against the force in x.
+        amount = 1e-4 * L
+        j.state.pos = j.state.pos + n * amount
+        j.state.vel = Vector3(1.0, 0.0, 0.0)
+        direction = n
+    vel0, angvel0 = v(j.state.vel), v(j.state.angVel)
     O.step()
     out[mode] = {
         "amount": amount, "direction": v(direction), "dt": O.dt,
-        "built": built,
+        "built": built, "damping": damping, "mass": j.state.mass,
+        "inertia": v(j.state.inertia), "vel0": vel0, "angvel0": angvel0,
+        "vel1": v(j.state.vel), "angvel1": v(j.state.angVel),
         "force_i": v(O.forces.f(0)), "force_j": v(O.forces.f(1)),
         "torque_i": v(O.forces.t(0)), "torque_j": v(O.forces.t(1)),
         "normalForce": v(I.phys.normalForce), "shearForce": v(I.phys.shearForce),
@@ -130,7 +141,7 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
     // Mid-gap contact arms (YADE ScGeom): R + gap/2.
     let (arm0, arm1) = (r0 + 0.5 * gap, r1 + 0.5 * gap);
     let tol = 1e-10;
-    for mode in ["normal", "shear", "bending", "twisting"] {
+    for mode in ["normal", "shear", "bending", "twisting", "damping"] {
         let m = &res[mode];
         // The image fix: YADE's bond is the table's bond.
         let b = &m["built"];
@@ -149,9 +160,39 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
         let d = vec3(&m["direction"]);
         let (fi, fj) = (vec3(&m["force_i"]), vec3(&m["force_j"]));
         let (ti, tj) = (vec3(&m["torque_i"]), vec3(&m["torque_j"]));
+        // Newton's update of j: v₁ = v₀ + (F/m)·dt·(1 − λ·sgn(F_k(v₀_k + F_k/m·dt/2))) per
+        // component (Cundall), the same for ω with T/I; m = ρ(4/3)πR³, I = (2/5)mR².
+        let mass = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * r1.powi(3);
+        let inertia = 0.4 * mass * r1 * r1;
+        assert!((m["mass"].as_f64().unwrap() - mass).abs() < 1e-14 * mass, "{mode}: mass");
+        assert!(rel(&vec3(&m["inertia"]), &Vec3::repeat(inertia), inertia) < 1e-14);
+        let lambda = m["damping"].as_f64().unwrap();
+        let dt = m["dt"].as_f64().unwrap();
+        let cundall = |x0: Vec3, acc: Vec3| {
+            Vec3::from_fn(|k, _| {
+                let s = (acc[k] * (x0[k] + 0.5 * acc[k] * dt)).signum();
+                let s = if acc[k] * (x0[k] + 0.5 * acc[k] * dt) == 0.0 { 0.0 } else { s };
+                x0[k] + acc[k] * dt * (1.0 - lambda * s)
+            })
+        };
+        let want_v1 = cundall(vec3(&m["vel0"]), fj / mass);
+        let want_w1 = cundall(vec3(&m["angvel0"]), tj / inertia);
+        let v_scale = want_v1.norm().max(1e-300);
+        assert!(rel(&vec3(&m["vel1"]), &want_v1, v_scale) < 1e-12, "{mode}: velocity update");
+        let w1 = vec3(&m["angvel1"]);
+        assert!((w1 - want_w1).norm() <= 1e-12 * want_w1.norm(), "{mode}: angular velocity {w1} vs {want_w1}");
         let (want_fj, want_ti, want_tj) = match mode {
-            // j moved by a·n away from i: tension k_n·a pulls j back.
+            // j moved by a·n away from i: tension k_n·a pulls j back (also in the damping
+            // check, where the velocity of j adds a shear force, checked separately below).
             "normal" => (-kn * a * n, Vec3::zeros(), Vec3::zeros()),
+            "damping" => {
+                let v0 = vec3(&m["vel0"]);
+                let shear = -ks * (v0 - n * n.dot(&v0)) * dt;
+                let f = -kn * a * n + shear;
+                // The contact point is mid-gap of the current (stretched) gap.
+                let (c0, c1) = (arm0 + 0.5 * a, arm1 + 0.5 * a);
+                (f, (c0 * n).cross(&(-f)), (-c1 * n).cross(&f))
+            }
             // j moved by a·t (tangential): shear force −k_s·a·t on j, applied at the
             // contact point, which is −arm1·n from j's centre and +arm0·n from i's.
             "shear" => {
@@ -172,7 +213,7 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
             tj.norm(),
             want_tj.norm()
         );
-        if mode == "normal" || mode == "shear" {
+        if mode == "normal" || mode == "shear" || mode == "damping" {
             assert!(
                 rel(&fj, &want_fj, f_scale) < tol,
                 "{mode}: force on j {fj} vs {want_fj}"
