@@ -153,3 +153,52 @@ fn every_bond_has_the_table_branch_vector_in_yade() {
         Some(bond_set.len() as u64)
     );
 }
+
+/// A bond table whose image disagrees with its length·n (here: one bond's ix changed)
+/// makes the YADE run fail loudly, naming the bond, instead of running a wrong model.
+#[test]
+fn a_bond_table_inconsistent_with_the_packing_fails_loudly() {
+    if !yade_available("a_bond_table_inconsistent_with_the_packing_fails_loudly") {
+        return;
+    }
+    let packing = generate(
+        &GenerateOptions {
+            n_particles: 100,
+            seed: 3,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let model = Model::truszkowska_mrv();
+    let bond_set = build_bonds(&packing, model.bonding).unwrap();
+    let scheme = model.build_scheme(Some((&packing, &bond_set))).unwrap();
+    let springs =
+        bonds::assign_stiffness(&packing, &bond_set, scheme.as_ref(), &model.geometry).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let export = write_yade_export(
+        dir.path(),
+        &packing,
+        &bond_set,
+        &springs,
+        None,
+        &YadeRunOptions {
+            steps: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let table = std::fs::read_to_string(dir.path().join("bonds.csv")).unwrap();
+    let mut lines: Vec<String> = table.lines().map(str::to_string).collect();
+    let mut f: Vec<String> = lines[3].split(',').map(str::to_string).collect();
+    let ix: i32 = f[11].parse().unwrap();
+    f[11] = (ix + 1).to_string();
+    lines[3] = f.join(",");
+    std::fs::write(dir.path().join("bonds.csv"), lines.join("\n") + "\n").unwrap();
+    let err = run_yade_script(&export.run_script, &[])
+        .expect_err("YADE accepted a wrong image")
+        .to_string();
+    assert!(err.contains("BondMismatch"), "{err}");
+    assert!(err.contains("1 of") && err.contains("bond 2 "), "{err}");
+    assert!(!export.tensor.exists() && !export.history.exists());
+}

@@ -164,23 +164,36 @@ fn two_sphere_bond_forces_and_torques_match_springs() {
         // component (Cundall), the same for ω with T/I; m = ρ(4/3)πR³, I = (2/5)mR².
         let mass = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * r1.powi(3);
         let inertia = 0.4 * mass * r1 * r1;
-        assert!((m["mass"].as_f64().unwrap() - mass).abs() < 1e-14 * mass, "{mode}: mass");
+        assert!(
+            (m["mass"].as_f64().unwrap() - mass).abs() < 1e-14 * mass,
+            "{mode}: mass"
+        );
         assert!(rel(&vec3(&m["inertia"]), &Vec3::repeat(inertia), inertia) < 1e-14);
         let lambda = m["damping"].as_f64().unwrap();
         let dt = m["dt"].as_f64().unwrap();
         let cundall = |x0: Vec3, acc: Vec3| {
             Vec3::from_fn(|k, _| {
                 let s = (acc[k] * (x0[k] + 0.5 * acc[k] * dt)).signum();
-                let s = if acc[k] * (x0[k] + 0.5 * acc[k] * dt) == 0.0 { 0.0 } else { s };
+                let s = if acc[k] * (x0[k] + 0.5 * acc[k] * dt) == 0.0 {
+                    0.0
+                } else {
+                    s
+                };
                 x0[k] + acc[k] * dt * (1.0 - lambda * s)
             })
         };
         let want_v1 = cundall(vec3(&m["vel0"]), fj / mass);
         let want_w1 = cundall(vec3(&m["angvel0"]), tj / inertia);
         let v_scale = want_v1.norm().max(1e-300);
-        assert!(rel(&vec3(&m["vel1"]), &want_v1, v_scale) < 1e-12, "{mode}: velocity update");
+        assert!(
+            rel(&vec3(&m["vel1"]), &want_v1, v_scale) < 1e-12,
+            "{mode}: velocity update"
+        );
         let w1 = vec3(&m["angvel1"]);
-        assert!((w1 - want_w1).norm() <= 1e-12 * want_w1.norm(), "{mode}: angular velocity {w1} vs {want_w1}");
+        assert!(
+            (w1 - want_w1).norm() <= 1e-12 * want_w1.norm(),
+            "{mode}: angular velocity {w1} vs {want_w1}"
+        );
         let (want_fj, want_ti, want_tj) = match mode {
             // j moved by a·n away from i: tension k_n·a pulls j back (also in the damping
             // check, where the velocity of j adds a shear force, checked separately below).
