@@ -536,26 +536,34 @@ def run_path(path, strain, steps, damping):
 
 
 def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2600.0,
-                  dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5)):
+                  dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False):
     """Six-path element test (three uniaxial strains, three pure shears, Voigt order).
 
-    For each path the scene is rebuilt (identical initial state), ``strain`` is applied
+    Every path starts from the same initial state: the scene is built (and verified) once
+    and saved with ``O.saveTmp``, later paths restore it with ``O.loadTmp`` (``rebuild=True``
+    builds it anew for every path; the results are the same). ``strain`` is applied
     in one step, and the assembly relaxes for ``steps`` steps with Cundall damping
     ``damping`` (0 = undamped, for step-by-step comparison). C = S E^-1 with S, E the 6x6
     matrices of final stress and strain columns (all six paths needed; with fewer paths
     ``C`` is None and ``columns`` holds stress/strain_a of each path run).
     """
     import numpy as np
+    from yade import O
     histories, timings, dt_used = {}, {}, None
-    for p in paths:
+    for k, p in enumerate(paths):
         t0 = time.time()
-        sc = build_scene(packing, bonds, density=density, damping=damping, dt=dt,
-                         safety=safety)
+        if rebuild or k == 0:
+            sc = build_scene(packing, bonds, density=density, damping=damping, dt=dt,
+                             safety=safety)
+            dt_used = sc.dt
+            if not rebuild:
+                O.saveTmp("anisobond-initial")
+        else:
+            O.loadTmp("anisobond-initial")
         t1 = time.time()
         histories[p] = run_path(p, strain, steps, damping)
         t2 = time.time()
         timings[p] = {"build_s": t1 - t0, "run_s": t2 - t1}
-        dt_used = sc.dt
     columns = {}
     for p in paths:
         _, _, e_end, s_end = histories[p][-1]
