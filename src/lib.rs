@@ -13,6 +13,7 @@
 
 pub mod bonds;
 pub mod error;
+pub mod export;
 pub mod homogenize;
 pub mod io;
 pub mod model;

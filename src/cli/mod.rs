@@ -2,6 +2,7 @@
 //! the library, prints human-readable results with units, and writes files atomically.
 
 mod demo;
+mod export;
 mod output;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
@@ -41,6 +42,8 @@ enum Command {
     /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
     /// sum over the actual bonds.
     Tensor(TensorArgs),
+    /// Export a packing + model to another DEM code (YADE), ready to run there.
+    Export(export::ExportArgs),
 }
 
 #[derive(clap::Args)]
@@ -162,6 +165,7 @@ pub fn run() -> Result<()> {
         Command::Pack(a) => pack(a),
         Command::Bonds(a) => bonds_cmd(a),
         Command::Tensor(a) => tensor_cmd(a),
+        Command::Export(a) => export::run(a),
     }
 }
 

@@ -1,0 +1,677 @@
+//! Export to YADE 2023.02a: a directory that runs as it is with `yade -n -x DIR/run.py`,
+//! and readers for what that run writes (for validation against anisobond's own solvers).
+//!
+//! DIR receives `packing.txt` (SPEC packing), `bonds.csv` (SPEC bond table: the springs
+//! YADE uses, bond by bond), `model.toml`, `anisobond_yade.py` (the reusable module of
+//! `yade-scripts/`, embedded in the binary) and `run.py`. The run performs the six-path
+//! element test in the periodic cell (velocity gradient; strain in one step, Cundall
+//! damping, Truszkowska 2018 Eqs. 17–22 paths) and writes `yade-history.csv` (stress and
+//! strain after every step) and `yade-tensor.json` (SPEC tensor report, method "yade").
+//! The YADE traps the module handles are listed in its docstring and in
+//! `yade-scripts/README.md`.
+
+use crate::bonds::{self, table, BondSet, BondStiffness};
+use crate::model::Model;
+use crate::packing::{self, Packing};
+use crate::tensor::{Stiffness6, Voigt6};
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The Python module `yade-scripts/anisobond_yade.py`, embedded so the binary is
+/// self-contained.
+pub const YADE_MODULE: &str = include_str!("../../yade-scripts/anisobond_yade.py");
+
+/// File names written into the export directory.
+pub mod files {
+    /// SPEC packing.
+    pub const PACKING: &str = "packing.txt";
+    /// SPEC bond table.
+    pub const BONDS: &str = "bonds.csv";
+    /// The model the bonds were made with.
+    pub const MODEL: &str = "model.toml";
+    /// The embedded Python module.
+    pub const MODULE: &str = "anisobond_yade.py";
+    /// The ready-to-run script.
+    pub const RUN: &str = "run.py";
+    /// Stress history written by the run.
+    pub const HISTORY: &str = "yade-history.csv";
+    /// Tensor report written by the run.
+    pub const TENSOR: &str = "yade-tensor.json";
+}
+
+/// Voigt labels of the six strain paths, in order (11, 22, 33, 23, 13, 12).
+pub const PATH_LABELS: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+
+/// Settings of the element test that `run.py` performs (its defaults; each can be
+/// overridden on the YADE command line, e.g. `yade -n -x run.py --damping 0`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct YadeRunOptions {
+    /// Strain of each path, applied in one step (engineering; uniaxial e_aa or shear γ_ab).
+    pub strain: f64,
+    /// Steps after the strain step (relaxation, or the undamped history length).
+    pub steps: usize,
+    /// Cundall non-viscous damping λ of YADE's NewtonIntegrator (0 = undamped).
+    pub damping: f64,
+    /// Particle density (kg/m³): masses (4/3)πR³ρ, inertias (2/5)mR².
+    pub density: f64,
+    /// Time step (s); `None`: `safety` × the Gershgorin bound of the critical step.
+    pub time_step: Option<f64>,
+    /// Fraction of the critical time step used when `time_step` is `None`.
+    pub safety: f64,
+    /// The paths to run (Voigt indices 0–5); all six give the 6×6 tensor.
+    pub paths: Vec<usize>,
+}
+
+impl Default for YadeRunOptions {
+    /// Strain 1e-5 in one step, 200 steps, damping 0.4, density 2600 kg/m³, dt = 0.8 dt_c,
+    /// all six paths.
+    fn default() -> Self {
+        YadeRunOptions {
+            strain: 1e-5,
+            steps: 200,
+            damping: 0.4,
+            density: 2600.0,
+            time_step: None,
+            safety: 0.8,
+            paths: (0..6).collect(),
+        }
+    }
+}
+
+impl YadeRunOptions {
+    /// Check every value; the error names the option and the admissible range.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Invalid(format!("YADE run options: {m}")));
+        if !self.strain.is_finite() || self.strain <= 0.0 || self.strain > 0.01 {
+            return bad(format!("strain must be in (0, 0.01], got {}", self.strain));
+        }
+        if self.steps == 0 {
+            return bad("steps must be at least 1".into());
+        }
+        if !self.damping.is_finite() || !(0.0..1.0).contains(&self.damping) {
+            return bad(format!("damping must be in [0, 1), got {}", self.damping));
+        }
+        if !self.density.is_finite() || self.density <= 0.0 {
+            return bad(format!(
+                "density must be finite and > 0, got {}",
+                self.density
+            ));
+        }
+        if let Some(dt) = self.time_step {
+            if !dt.is_finite() || dt <= 0.0 {
+                return bad(format!("time step must be finite and > 0, got {dt}"));
+            }
+        }
+        if !self.safety.is_finite() || self.safety <= 0.0 || self.safety > 1.0 {
+            return bad(format!(
+                "safety factor must be in (0, 1], got {}",
+                self.safety
+            ));
+        }
+        if self.paths.is_empty() || self.paths.iter().any(|&p| p > 5) {
+            return bad(format!(
+                "paths must be Voigt indices 0–5 (11, 22, 33, 23, 13, 12), got {:?}",
+                self.paths
+            ));
+        }
+        Ok(())
+    }
+
+    /// The options as `anisobond_yade.main` command-line arguments.
+    pub fn to_args(&self) -> Vec<String> {
+        let mut a = vec![
+            "--strain".to_string(),
+            format!("{:e}", self.strain),
+            "--steps".into(),
+            self.steps.to_string(),
+            "--damping".into(),
+            format!("{:?}", self.damping),
+            "--density".into(),
+            format!("{:?}", self.density),
+            "--safety".into(),
+            format!("{:?}", self.safety),
+            "--paths".into(),
+            self.paths
+                .iter()
+                .map(|&p| PATH_LABELS[p])
+                .collect::<Vec<_>>()
+                .join(","),
+        ];
+        if let Some(dt) = self.time_step {
+            a.push("--dt".into());
+            a.push(format!("{dt:e}"));
+        }
+        a
+    }
+}
+
+/// Parse a comma-separated list of path labels (`11,22,33,23,13,12`) into Voigt indices.
+pub fn parse_paths(text: &str) -> Result<Vec<usize>> {
+    text.split(',')
+        .map(str::trim)
+        .filter(|w| !w.is_empty())
+        .map(|w| {
+            PATH_LABELS.iter().position(|l| *l == w).ok_or_else(|| {
+                Error::Invalid(format!(
+                    "unknown strain path `{w}`: expected labels among 11,22,33,23,13,12"
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Paths of the files of an export directory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct YadeExport {
+    /// The directory.
+    pub dir: PathBuf,
+    /// `run.py`.
+    pub run_script: PathBuf,
+    /// Where the run writes its stress history.
+    pub history: PathBuf,
+    /// Where the run writes its tensor report.
+    pub tensor: PathBuf,
+    /// Number of particles.
+    pub n_particles: usize,
+    /// Number of bonds.
+    pub n_bonds: usize,
+}
+
+impl YadeExport {
+    /// The paths of an export directory (whether or not it has been written).
+    pub fn in_dir(dir: &Path) -> YadeExport {
+        YadeExport {
+            dir: dir.to_path_buf(),
+            run_script: dir.join(files::RUN),
+            history: dir.join(files::HISTORY),
+            tensor: dir.join(files::TENSOR),
+            n_particles: 0,
+            n_bonds: 0,
+        }
+    }
+}
+
+/// Check that a bonded packing can be run in YADE's periodic cell: periodic, with bonds,
+/// every bond's indices inside the packing and its springs finite and ≥ 0.
+pub fn check_exportable(p: &Packing, b: &BondSet, k: &BondStiffness) -> Result<()> {
+    if p.cell.is_none() {
+        return Err(Error::Invalid(
+            "YADE export: the packing is not periodic (no `# periodic Lx Ly Lz` header); the \
+             element tests deform a periodic cell"
+                .into(),
+        ));
+    }
+    if b.is_empty() {
+        return Err(Error::Invalid(
+            "YADE export: the model bonds no pair of this packing (increase the bonding value)"
+                .into(),
+        ));
+    }
+    if k.len() != b.len() {
+        return Err(Error::Invalid(format!(
+            "YADE export: {} bonds but {} spring sets",
+            b.len(),
+            k.len()
+        )));
+    }
+    for n in 0..b.len() {
+        if b.j[n] as usize >= p.len() || b.i[n] >= b.j[n] {
+            return Err(Error::Invalid(format!(
+                "YADE export: bond {n} joins {}–{}, expected 0 ≤ i < j < {}",
+                b.i[n],
+                b.j[n],
+                p.len()
+            )));
+        }
+        for (name, v) in [
+            ("kn", k.kn[n]),
+            ("ks", k.ks[n]),
+            ("kr", k.kr[n]),
+            ("ktw", k.ktw[n]),
+        ] {
+            if !v.is_finite() || v < 0.0 {
+                return Err(Error::Invalid(format!(
+                    "YADE export: bond {n}: {name} = {v} must be finite and ≥ 0"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The `run.py` text: imports the module next to it and runs `main` with the files of
+/// the directory and `opts`; arguments given to `yade -n -x run.py …` override them.
+pub fn run_script(opts: &YadeRunOptions, n_particles: usize, n_bonds: usize) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Written by anisobond {}: YADE 2023.02a element tests of {n_particles} particles, \
+         {n_bonds} bonds.",
+        env!("CARGO_PKG_VERSION")
+    );
+    s.push_str(
+        "# Run:  yade -n -x run.py            (all six paths: writes yade-history.csv and \
+         yade-tensor.json here)\n\
+         # Override any default on the command line, e.g. the undamped step-by-step history:\n\
+         #       yade -n -x run.py --damping 0 --steps 1000 --paths 11 --dt 1e-7\n\
+         # Options: --strain --steps --damping --density --dt --safety --paths --history \
+         --tensor\n\
+         import os\n\
+         import sys\n\n\
+         sys.dont_write_bytecode = True\n\
+         HERE = os.path.dirname(os.path.abspath(sys.argv[0]))  # YADE sets no __file__\n\
+         sys.path.insert(0, HERE)\n\
+         import anisobond_yade  # noqa: E402\n\n\
+         DEFAULTS = [\n",
+    );
+    let mut args = vec![
+        (
+            "--packing".to_string(),
+            format!("os.path.join(HERE, {:?})", files::PACKING),
+        ),
+        (
+            "--bonds".to_string(),
+            format!("os.path.join(HERE, {:?})", files::BONDS),
+        ),
+        ("--out".to_string(), "HERE".to_string()),
+    ];
+    let rest = opts.to_args();
+    for pair in rest.chunks(2) {
+        args.push((pair[0].clone(), format!("{:?}", pair[1])));
+    }
+    for (k, v) in args {
+        let _ = writeln!(s, "    {k:?}, {v},");
+    }
+    s.push_str(
+        "]\n\n\
+         anisobond_yade.main(DEFAULTS + sys.argv[1:])\n",
+    );
+    s
+}
+
+/// Write an export directory for a bonded packing (created if missing). Everything is
+/// checked before the first file is written, and every file is written atomically, so a
+/// bad input leaves no file behind and no file is ever half-written. `model` (if given) is
+/// saved as `model.toml` for the record.
+pub fn write_yade_export(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    springs: &BondStiffness,
+    model: Option<&Model>,
+    opts: &YadeRunOptions,
+) -> Result<YadeExport> {
+    check_exportable(packing, bonds, springs)?;
+    opts.validate()?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    packing::io::write_packing(&dir.join(files::PACKING), packing)?;
+    table::write_bond_table(&dir.join(files::BONDS), bonds, springs)?;
+    if let Some(m) = model {
+        crate::io::write_string_atomic(&dir.join(files::MODEL), &m.to_toml_string())?;
+    }
+    crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
+    crate::io::write_string_atomic(
+        &dir.join(files::RUN),
+        &run_script(opts, packing.len(), bonds.len()),
+    )?;
+    let mut out = YadeExport::in_dir(dir);
+    out.n_particles = packing.len();
+    out.n_bonds = bonds.len();
+    Ok(out)
+}
+
+/// Read a packing file and a model file, bond the packing by the model's rule, assign the
+/// springs of its scheme, and write the export directory (`anisobond export yade`).
+/// Inputs are fully read and checked before anything is written.
+pub fn export_yade(
+    packing_path: &Path,
+    model_path: &Path,
+    dir: &Path,
+    opts: &YadeRunOptions,
+) -> Result<YadeExport> {
+    opts.validate()?;
+    let model = Model::from_path(model_path)?;
+    let packing = packing::io::read_packing(packing_path)?;
+    if packing.cell.is_none() {
+        return Err(Error::Invalid(format!(
+            "{}: the packing is not periodic (no `# periodic Lx Ly Lz` header); the YADE \
+             element tests deform a periodic cell",
+            packing_path.display()
+        )));
+    }
+    let bond_set = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if bond_set.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: the bonding rule of {} bonds no pair of this packing (increase its value)",
+            packing_path.display(),
+            model_path.display()
+        )));
+    }
+    let scheme = model.build_scheme(Some((&packing, &bond_set)))?;
+    let springs = bonds::assign_stiffness(&packing, &bond_set, scheme.as_ref(), &model.geometry)?;
+    write_yade_export(dir, &packing, &bond_set, &springs, Some(&model), opts)
+}
+
+/// The `yade` executable on PATH, if any.
+pub fn find_yade() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join("yade"))
+        .find(|p| p.is_file())
+}
+
+/// What a YADE run printed.
+#[derive(Clone, Debug)]
+pub struct YadeOutput {
+    /// Standard output.
+    pub stdout: String,
+    /// Standard error.
+    pub stderr: String,
+    /// Wall-clock time of the whole `yade` process (s), start-up included.
+    pub wall_seconds: f64,
+}
+
+/// Run `yade -n -x SCRIPT ARGS…` in the script's directory and wait for it. Error (with
+/// YADE's output) when `yade` is missing or exits non-zero.
+pub fn run_yade_script(script: &Path, args: &[String]) -> Result<YadeOutput> {
+    let yade = find_yade().ok_or_else(|| {
+        Error::Invalid(
+            "`yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)".into(),
+        )
+    })?;
+    let dir = match script.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = script
+        .file_name()
+        .ok_or_else(|| Error::Invalid(format!("{}: not a script file", script.display())))?;
+    let start = std::time::Instant::now();
+    let out = Command::new(yade)
+        .arg("-n")
+        .arg("-x")
+        .arg(name)
+        .args(args)
+        .current_dir(&dir)
+        .output()
+        .map_err(|e| Error::io(script, e))?;
+    let wall_seconds = start.elapsed().as_secs_f64();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if !out.status.success() {
+        return Err(Error::Invalid(format!(
+            "yade -n -x {} failed ({}):\n{}\n{}",
+            script.display(),
+            out.status,
+            tail(&stdout, 40),
+            tail(&stderr, 40)
+        )));
+    }
+    Ok(YadeOutput {
+        stdout,
+        stderr,
+        wall_seconds,
+    })
+}
+
+fn tail(s: &str, lines: usize) -> String {
+    let v: Vec<&str> = s.lines().collect();
+    v[v.len().saturating_sub(lines)..].join("\n")
+}
+
+/// One row of the YADE stress history: state after `step` steps of path `path`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HistoryRow {
+    /// Voigt index of the strain path (0–5).
+    pub path: usize,
+    /// Step number (0 = before the first step).
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Cell strain, Voigt, engineering (from YADE's `O.cell.trsf`).
+    pub strain: Voigt6,
+    /// Love stress (Pa, tension positive, symmetric part of `utils.getStress()`).
+    pub stress: Voigt6,
+}
+
+/// Read `yade-history.csv` (written by `anisobond_yade.write_history_csv`).
+pub fn read_yade_history(path: &Path) -> Result<Vec<HistoryRow>> {
+    let text = crate::io::read_to_string(path)?;
+    let name = path.display().to_string();
+    let mut rows = Vec::new();
+    let mut header_seen = false;
+    for (k, line) in text.lines().enumerate() {
+        let line_no = k + 1;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        if !header_seen {
+            if !t.starts_with("path,step,time_s,") {
+                return Err(Error::parse(
+                    &name,
+                    line_no,
+                    "expected the header `path,step,time_s,e11,…,s12_Pa`",
+                ));
+            }
+            header_seen = true;
+            continue;
+        }
+        let f: Vec<&str> = t.split(',').collect();
+        if f.len() != 15 {
+            return Err(Error::parse(
+                &name,
+                line_no,
+                format!("expected 15 fields, found {}", f.len()),
+            ));
+        }
+        let num = |s: &str| -> Result<f64> {
+            s.parse::<f64>().map_err(|_| {
+                Error::parse(&name, line_no, format!("expected a number, found `{s}`"))
+            })
+        };
+        let path_index = PATH_LABELS
+            .iter()
+            .position(|l| *l == f[0])
+            .ok_or_else(|| Error::parse(&name, line_no, format!("unknown path `{}`", f[0])))?;
+        let step = f[1]
+            .parse::<usize>()
+            .map_err(|_| Error::parse(&name, line_no, format!("bad step `{}`", f[1])))?;
+        let mut strain = Voigt6::zeros();
+        let mut stress = Voigt6::zeros();
+        for a in 0..6 {
+            strain[a] = num(f[3 + a])?;
+            stress[a] = num(f[9 + a])?;
+        }
+        rows.push(HistoryRow {
+            path: path_index,
+            step,
+            time: num(f[2])?,
+            strain,
+            stress,
+        });
+    }
+    if !header_seen {
+        return Err(Error::parse(
+            &name,
+            0,
+            "no header row: not a YADE history file",
+        ));
+    }
+    Ok(rows)
+}
+
+/// The tensor and run settings of `yade-tensor.json`.
+#[derive(Clone, Debug)]
+pub struct YadeTensor {
+    /// The 6×6 tensor C = S·E⁻¹ from the six paths (Pa).
+    pub c: Stiffness6,
+    /// Time step used (s).
+    pub time_step: f64,
+    /// Damping used.
+    pub damping: f64,
+    /// Steps per path.
+    pub steps: usize,
+    /// Wall time per path inside YADE (scene build + steps, s), in path order.
+    pub path_seconds: Vec<(String, f64, f64)>,
+    /// The whole JSON document.
+    pub json: serde_json::Value,
+}
+
+/// Read `yade-tensor.json` (SPEC tensor report with `method = "yade"` and a `yade` block).
+pub fn read_yade_tensor(path: &Path) -> Result<YadeTensor> {
+    let text = crate::io::read_to_string(path)?;
+    let name = path.display().to_string();
+    let json: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::parse(&name, e.line(), e.to_string()))?;
+    let bad = |m: &str| Error::parse(&name, 0, m.to_string());
+    let rows = json["C"]
+        .as_array()
+        .ok_or_else(|| bad("`C` is not a 6×6 array (were all six paths run?)"))?;
+    let mut c = Stiffness6::zeros();
+    if rows.len() != 6 {
+        return Err(bad("`C` must have 6 rows"));
+    }
+    for (i, r) in rows.iter().enumerate() {
+        let r = r
+            .as_array()
+            .filter(|r| r.len() == 6)
+            .ok_or_else(|| bad("`C` rows must have 6 numbers"))?;
+        for (j, v) in r.iter().enumerate() {
+            c[(i, j)] = v
+                .as_f64()
+                .ok_or_else(|| bad("`C` entries must be numbers"))?;
+        }
+    }
+    let y = &json["yade"];
+    let f = |k: &str| {
+        y[k].as_f64()
+            .ok_or_else(|| bad(&format!("`yade.{k}` missing")))
+    };
+    let mut path_seconds = Vec::new();
+    if let Some(m) = y["wall_time_s"].as_object() {
+        for (k, v) in m {
+            path_seconds.push((
+                k.clone(),
+                v["build_s"].as_f64().unwrap_or(f64::NAN),
+                v["run_s"].as_f64().unwrap_or(f64::NAN),
+            ));
+        }
+    }
+    Ok(YadeTensor {
+        c,
+        time_step: f("dt_s")?,
+        damping: f("damping")?,
+        steps: f("steps")? as usize,
+        path_seconds,
+        json: json.clone(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paths_parse_by_label_and_reject_unknown() {
+        assert_eq!(
+            parse_paths("11,22,33,23,13,12").unwrap(),
+            vec![0, 1, 2, 3, 4, 5]
+        );
+        assert_eq!(parse_paths(" 12 , 11").unwrap(), vec![5, 0]);
+        let e = parse_paths("11,21").unwrap_err().to_string();
+        assert!(e.contains("`21`"), "{e}");
+    }
+
+    #[test]
+    fn options_are_validated() {
+        assert!(YadeRunOptions::default().validate().is_ok());
+        let bad = [
+            YadeRunOptions {
+                strain: 0.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                steps: 0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                damping: 1.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                density: -1.0,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                time_step: Some(f64::NAN),
+                ..Default::default()
+            },
+            YadeRunOptions {
+                safety: 1.5,
+                ..Default::default()
+            },
+            YadeRunOptions {
+                paths: vec![6],
+                ..Default::default()
+            },
+        ];
+        for o in bad {
+            assert!(o.validate().is_err(), "{o:?} accepted");
+        }
+    }
+
+    #[test]
+    fn run_script_passes_every_option() {
+        let o = YadeRunOptions {
+            strain: 2e-6,
+            steps: 77,
+            damping: 0.0,
+            density: 1234.5,
+            time_step: Some(3e-8),
+            safety: 0.5,
+            paths: vec![3, 0],
+        };
+        let s = run_script(&o, 10, 20);
+        for want in [
+            "\"--strain\", \"2e-6\"",
+            "\"--steps\", \"77\"",
+            "\"--damping\", \"0.0\"",
+            "\"--density\", \"1234.5\"",
+            "\"--dt\", \"3e-8\"",
+            "\"--safety\", \"0.5\"",
+            "\"--paths\", \"23,11\"",
+            "anisobond_yade.main(DEFAULTS + sys.argv[1:])",
+        ] {
+            assert!(s.contains(want), "run.py lacks {want}:\n{s}");
+        }
+    }
+
+    #[test]
+    fn history_reader_reports_bad_rows() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("h.csv");
+        let header = "# c\npath,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\n";
+        std::fs::write(&p, format!("{header}11,0,0.0,1,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        let rows = read_yade_history(&p).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].strain[0], 1.0);
+        assert_eq!(rows[0].stress[0], 5.0);
+        std::fs::write(&p, format!("{header}11,0,0.0,x,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        let e = read_yade_history(&p).unwrap_err().to_string();
+        assert!(e.contains(":3:") && e.contains("`x`"), "{e}");
+        std::fs::write(&p, format!("{header}44,0,0.0,0,0,0,0,0,0,5,0,0,0,0,0\n")).unwrap();
+        assert!(read_yade_history(&p).is_err());
+    }
+
+    #[test]
+    fn free_packing_is_refused() {
+        let p = Packing::new(vec![crate::Vec3::zeros()], vec![1.0], None).unwrap();
+        let e = check_exportable(&p, &BondSet::default(), &BondStiffness::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not periodic"), "{e}");
+    }
+}

@@ -1,0 +1,712 @@
+"""anisobond_yade -- run an anisobond bonded packing in YADE (tested with YADE 2023.02a).
+
+Loads a SPEC packing (``# periodic Lx Ly Lz`` header, lines ``x y z r`` in m) and a SPEC
+bond table (CSV ``i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz``), builds a periodic
+YADE scene with exactly those bonds and exactly those springs
+(CohFrictMat / CohFrictPhys / ``Law2_ScGeom6D_CohFrictPhys_CohesionMoment``), and runs
+element tests in the periodic cell (velocity gradient) that give the 6x6 stiffness.
+
+Usage, in your own script run with ``yade -n -x myscript.py`` (``python3`` on PATH does not
+import yade; YADE does not set ``__file__`` for ``-x`` scripts, use ``sys.argv[0]``)::
+
+    import os, sys
+    sys.path.insert(0, "/dir/holding/this/module")
+    import anisobond_yade as ab
+
+    packing = ab.read_packing("packing.txt")
+    bonds = ab.read_bond_table("bonds.csv")
+    scene = ab.build_scene(packing, bonds, density=2600.0)   # resets O, verifies every bond
+    result = ab.element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4)
+    ab.write_history_csv("yade-history.csv", result)
+    ab.write_tensor_json("yade-tensor.json", result, packing, bonds)
+
+or the command line (what the exported ``run.py`` calls)::
+
+    yade -n -x anisobond_yade.py --packing packing.txt --bonds bonds.csv --out DIR \
+         [--strain 1e-5] [--steps 200] [--damping 0.4] [--density 2600] [--dt S] \
+         [--safety 0.8] [--paths 11,22,33,23,13,12]
+
+Undamped step-by-step mode (for comparison with another integrator): ``--damping 0
+--steps 1000`` -- the history records the stress after every step either way.
+
+Conventions: SI units; Voigt order 11, 22, 33, 23, 13, 12 with engineering shear strain;
+stress is YADE's ``utils.getStress()`` = Love stress (1/V) sum f (x) l, tension positive, no
+kinetic term, symmetrised for the Voigt vector. The bond normal points from i to the
+periodic image (ix, iy, iz) of j.
+
+YADE traps handled here (all measured on the Debian package of YADE 2023.02a):
+
+* ``Ig2_Sphere_Sphere_ScGeom6D(avoidGranularRatcheting=True)`` (the default) scales the
+  shear increment by (R1+R2)/d, i.e. the shear spring becomes ks*(R1+R2)/d: we set
+  ``avoidGranularRatcheting=False``. The contact point is then mid-gap (ScGeom),
+  r_i = R_i + gap/2 (anisobond's ``LeverArm::MidGap``).
+* A bond made across a gap starts in tension (Fn = kn*(penetrationDepth - unp), unp = 0):
+  we set ``phys.unp = geom.penetrationDepth`` and ``phys.unpMax = -1`` (stress-free bond).
+* ``utils.createInteraction(i, j)`` picks the wrong periodic image whenever
+  x_j - x_i < -L/2 in a component (it truncates instead of rounding): we set
+  ``I.cellDist`` from the table's image, step once with ``O.dt = 0`` so the geometry is
+  recomputed, and check that every bond's branch vector equals the table's length*n
+  (``BondMismatch`` is raised otherwise).
+* Interactions created without ``setCohesionNow`` have ``cohesionBroken = True`` and a
+  gap bond is erased at the next step: we set ``cohesionBroken = False``, never-breaking
+  adhesion (``normalAdhesion = shearAdhesion = 1e300``, ``fragile = False``), no
+  rolling/twisting plasticity (``maxRollPl = maxTwistPl = -1``), friction 0, and
+  ``initCohesion = False`` so the Ip2 functor never overwrites them.
+* ``momentRotationLaw = True`` on every bond (kr, ktw act; total-rotation form,
+  ``useIncrementalForm = False``).
+* No collider: the scene holds only bonds, so ``InteractionLoop`` runs without
+  ``InsertionSortCollider`` (faster; real interactions are never erased by it).
+* ``GlobalStiffnessTimeStepper`` skips interactions with zero normal force, so on fresh
+  stress-free bonds it returns a time step ~12x too large and the run blows up: the time
+  step is computed here from the bond stiffnesses (``critical_time_step``).
+* ``O.cell.velGrad = L`` only sets ``nextVelGrad``: NewtonIntegrator copies it in the same
+  step and gives the particles the affine velocity (they move in that step), but the cell
+  (``trsf``, ``hSize``) is integrated at the start of the *next* step. The element-test
+  driver sets ``velGrad = strain/dt`` before step 0 and ``velGrad = 0`` after it: the
+  whole strain is then in both the particles and the cell from step 1 on, the forces of
+  step 0 see no strain and those of step 1 the full affine strain.
+* ``NewtonIntegrator(damping=lambda)`` is Cundall's non-viscous damping applied per
+  component to the fluctuating velocity of a periodic cell:
+  a_k <- a_k*(1 - lambda*sgn(a_k*(v_k + a_k*dt/2))).
+* ``utils.getStress()`` is tension-positive Love stress without kinetic terms.
+"""
+
+from __future__ import print_function
+
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+
+VOIGT_LABELS = ("11", "22", "33", "23", "13", "12")
+VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
+BOND_COLUMNS = ("i", "j", "nx", "ny", "nz", "length", "radius", "kn", "ks", "kr", "ktw",
+                "ix", "iy", "iz")
+HUGE_ADHESION = 1e300
+
+
+class InputError(ValueError):
+    """A packing or bond-table file is not what the SPEC describes (file, line, what)."""
+
+
+class BondMismatch(RuntimeError):
+    """A bond's branch vector in YADE differs from the table's length*n."""
+
+
+# --------------------------------------------------------------------------------------
+# Files
+# --------------------------------------------------------------------------------------
+
+class Packing(object):
+    """Spheres: positions (m, list of 3-tuples), radii (m), cell lengths (m) or None."""
+
+    def __init__(self, positions, radii, cell):
+        self.positions = positions
+        self.radii = radii
+        self.cell = cell
+
+    def __len__(self):
+        return len(self.radii)
+
+    def volume(self):
+        return self.cell[0] * self.cell[1] * self.cell[2]
+
+
+def _number(word, what, path, line):
+    try:
+        v = float(word)
+    except ValueError:
+        raise InputError("%s:%d: expected a number for %s, found `%s`" % (path, line, what, word))
+    if math.isnan(v) or math.isinf(v):
+        raise InputError("%s:%d: %s must be finite, found `%s`" % (path, line, what, word))
+    return v
+
+
+def read_packing(path):
+    """Read a SPEC packing (also YADE ``export.text`` / ``SpherePack.save`` text).
+
+    Lines ``x y z r``; ``# periodic Lx Ly Lz`` (or ``##PERIODIC:: Lx Ly Lz``) declares the
+    periodic cell [0,L); ``#format x_y_z_r[_matId]`` is accepted. A periodic cell is
+    required (the element tests deform it).
+    """
+    positions, radii, cell, columns = [], [], None, 4
+    with open(path) as f:
+        for n, raw in enumerate(f, 1):
+            t = raw.strip()
+            header = None
+            if t.startswith("##PERIODIC::"):
+                header = t[len("##PERIODIC::"):].split()
+            elif t.startswith("#"):
+                words = t[1:].split()
+                if words and words[0].lower() == "periodic":
+                    header = words[1:]
+                elif t.startswith("#format"):
+                    fmt = words[1] if len(words) > 1 else ""
+                    if fmt not in ("x_y_z_r", "x_y_z_r_matId"):
+                        raise InputError("%s:%d: unsupported `#format %s`: expected x_y_z_r"
+                                         % (path, n, fmt))
+                    columns = 4 if fmt == "x_y_z_r" else 5
+                    continue
+                else:
+                    continue
+            if header is not None:
+                if cell is not None:
+                    raise InputError("%s:%d: second periodic cell header" % (path, n))
+                if len(header) != 3:
+                    raise InputError("%s:%d: expected `# periodic Lx Ly Lz`" % (path, n))
+                cell = tuple(_number(w, "cell length", path, n) for w in header)
+                if min(cell) <= 0:
+                    raise InputError("%s:%d: cell lengths must be > 0" % (path, n))
+                continue
+            words = t.split("#")[0].split()
+            if not words:
+                continue
+            if len(words) != columns:
+                raise InputError("%s:%d: expected %d numbers `x y z r`, found %d"
+                                 % (path, n, columns, len(words)))
+            x, y, z, r = (_number(w, c, path, n) for w, c in zip(words, "xyzr"))
+            if r <= 0:
+                raise InputError("%s:%d: radius must be > 0, found %r" % (path, n, r))
+            positions.append((x, y, z))
+            radii.append(r)
+    if cell is None:
+        raise InputError("%s: no `# periodic Lx Ly Lz` header: the YADE element tests need "
+                         "a periodic packing" % path)
+    if not radii:
+        raise InputError("%s: no spheres" % path)
+    # Wrap into [0, L) like anisobond does.
+    wrapped = []
+    for p in positions:
+        wrapped.append(tuple(p[k] - math.floor(p[k] / cell[k]) * cell[k] for k in range(3)))
+    return Packing(wrapped, radii, cell)
+
+
+class BondTable(object):
+    """Bond table columns as lists (see ``BOND_COLUMNS``); ``len(table)`` bonds."""
+
+    def __init__(self, columns):
+        self.__dict__.update(columns)
+
+    def __len__(self):
+        return len(self.i)
+
+    def branch(self, b):
+        """Branch vector length*n of bond b (m)."""
+        return (self.length[b] * self.nx[b], self.length[b] * self.ny[b],
+                self.length[b] * self.nz[b])
+
+
+def read_bond_table(path, n_particles=None):
+    """Read a SPEC bond table CSV (columns found by header name)."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    rows = [(n, l) for n, l in enumerate(lines, 1) if l.strip()]
+    if not rows:
+        raise InputError("%s:1: empty file: expected the header `%s`"
+                         % (path, ",".join(BOND_COLUMNS)))
+    header = [c.strip() for c in rows[0][1].split(",")]
+    index = {}
+    for c in BOND_COLUMNS:
+        if c not in header:
+            raise InputError("%s:1: header lacks column `%s`: expected `%s`"
+                             % (path, c, ",".join(BOND_COLUMNS)))
+        index[c] = header.index(c)
+    cols = dict((c, []) for c in BOND_COLUMNS)
+    for n, line in rows[1:]:
+        fields = [w.strip() for w in line.split(",")]
+        if len(fields) != len(header):
+            raise InputError("%s:%d: expected %d fields, found %d"
+                             % (path, n, len(header), len(fields)))
+        for c in BOND_COLUMNS:
+            w = fields[index[c]]
+            if c in ("i", "j", "ix", "iy", "iz"):
+                try:
+                    cols[c].append(int(w))
+                except ValueError:
+                    raise InputError("%s:%d: column `%s`: expected an integer, found `%s`"
+                                     % (path, n, c, w))
+            else:
+                cols[c].append(_number(w, "column `%s`" % c, path, n))
+        i, j = cols["i"][-1], cols["j"][-1]
+        if not 0 <= i < j or (n_particles is not None and j >= n_particles):
+            raise InputError("%s:%d: expected particle indices 0 <= i < j < N, found i=%d j=%d"
+                             % (path, n, i, j))
+        if cols["length"][-1] <= 0:
+            raise InputError("%s:%d: bond length must be > 0" % (path, n))
+        for c in ("kn", "ks", "kr", "ktw"):
+            if cols[c][-1] < 0:
+                raise InputError("%s:%d: %s must be >= 0" % (path, n, c))
+    return BondTable(cols)
+
+
+def _write_atomic(path, text):
+    """Write text to path through a temporary file in the same directory + rename."""
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-", suffix=os.path.basename(path))
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+# --------------------------------------------------------------------------------------
+# Time step
+# --------------------------------------------------------------------------------------
+
+def critical_time_step(packing, bonds, density):
+    """Leapfrog stability limit dt_c = 2/omega_max (s) of the bonded packing.
+
+    omega_max^2 is bounded by Gershgorin's theorem on M^-1/2 K M^-1/2, with K the
+    linearised bond stiffness in the 6 DOFs per particle (translations and rotations,
+    contact point mid-gap as ScGeom) and M the masses m = density*4/3*pi*r^3 and
+    inertias 2/5*m*r^2 that YADE's ``utils.sphere`` gives. The bound is >= the true
+    omega_max, so dt_c is safe; unlike GlobalStiffnessTimeStepper it counts fresh,
+    force-free bonds.
+    """
+    import numpy as np
+    n = len(packing)
+    r = np.asarray(packing.radii, dtype=float)
+    m = density * 4.0 / 3.0 * math.pi * r ** 3
+    inertia = 0.4 * m * r ** 2
+    scale = np.concatenate([np.repeat(m[:, None], 3, 1), np.repeat(inertia[:, None], 3, 1)],
+                           axis=1) ** -0.5  # (n, 6)
+    i = np.asarray(bonds.i)
+    j = np.asarray(bonds.j)
+    if len(i) == 0:
+        raise InputError("no bonds: nothing to run")
+    nv = np.stack([bonds.nx, bonds.ny, bonds.nz], axis=1)
+    nv = nv / np.linalg.norm(nv, axis=1)[:, None]
+    length = np.asarray(bonds.length)
+    kn, ks = np.asarray(bonds.kn), np.asarray(bonds.ks)
+    kr, ktw = np.asarray(bonds.kr), np.asarray(bonds.ktw)
+    gap = length - r[i] - r[j]
+    ai, aj = r[i] + 0.5 * gap, r[j] + 0.5 * gap
+    nb = len(i)
+    eye = np.broadcast_to(np.eye(3), (nb, 3, 3))
+    nn = np.einsum("bi,bj->bij", nv, nv)
+    s = ks[:, None, None] * eye + (kn - ks)[:, None, None] * nn
+
+    def skew(a):
+        z = np.zeros(len(a))
+        return np.stack([np.stack([z, -a[:, 2], a[:, 1]], 1),
+                         np.stack([a[:, 2], z, -a[:, 0]], 1),
+                         np.stack([-a[:, 1], a[:, 0], z], 1)], 1)
+
+    bi = np.concatenate([-eye, skew(nv * ai[:, None])], axis=2)  # (nb, 3, 6)
+    bj = np.concatenate([eye, skew(nv * aj[:, None])], axis=2)
+    rot = kr[:, None, None] * (eye - nn) + ktw[:, None, None] * nn
+    kii = np.einsum("bki,bkl,blj->bij", bi, s, bi)
+    kjj = np.einsum("bki,bkl,blj->bij", bj, s, bj)
+    kij = np.einsum("bki,bkl,blj->bij", bi, s, bj)
+    kii[:, 3:, 3:] += rot
+    kjj[:, 3:, 3:] += rot
+    kij[:, 3:, 3:] -= rot
+    si, sj = scale[i], scale[j]
+    row_i = (np.abs(kii * si[:, :, None] * si[:, None, :]).sum(2)
+             + np.abs(kij * si[:, :, None] * sj[:, None, :]).sum(2))
+    row_j = (np.abs(kjj * sj[:, :, None] * sj[:, None, :]).sum(2)
+             + np.abs(kij.transpose(0, 2, 1) * sj[:, :, None] * si[:, None, :]).sum(2))
+    rows = np.zeros((n, 6))
+    np.add.at(rows, i, row_i)
+    np.add.at(rows, j, row_j)
+    omega2 = rows.max()
+    if not omega2 > 0:
+        raise InputError("all bond springs are zero: no time step")
+    return 2.0 / math.sqrt(omega2)
+
+
+# --------------------------------------------------------------------------------------
+# Scene
+# --------------------------------------------------------------------------------------
+
+class Scene(object):
+    """What ``build_scene`` set up: time step (s), damping, density, counts, timings."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8,
+                branch_tolerance=1e-9, verify=True):
+    """Reset YADE's ``O`` and build the bonded periodic scene.
+
+    Spheres of CohFrictMat (``density`` kg/m^3), one interaction per table row with the
+    table's periodic image and springs, stress-free and unbreakable, engines
+    ForceResetter, InteractionLoop (ScGeom6D without ratcheting correction, CohFrictPhys,
+    CohesionMoment law) and NewtonIntegrator(damping) -- no collider. ``dt`` defaults to
+    ``safety * critical_time_step``. With ``verify`` every bond's branch vector, normal,
+    penetration depth and springs are checked against the table (relative tolerance
+    ``branch_tolerance`` of the bond length); a mismatch raises ``BondMismatch``.
+    Returns a ``Scene``.
+    """
+    from yade import O, utils
+    from yade.wrapper import (CohFrictMat, ForceResetter, InteractionLoop,
+                              Ig2_Sphere_Sphere_ScGeom6D, Ip2_CohFrictMat_CohFrictMat_CohFrictPhys,
+                              Law2_ScGeom6D_CohFrictPhys_CohesionMoment, NewtonIntegrator)
+    from yade.minieigenHP import Matrix3, Vector3, Vector3i
+
+    t0 = time.time()
+    n = len(packing)
+    for b in range(len(bonds)):
+        if bonds.j[b] >= n:
+            raise InputError("bond %d joins particle %d but the packing has %d"
+                             % (b, bonds.j[b], n))
+    if dt is None:
+        dt = safety * critical_time_step(packing, bonds, density)
+    O.reset()
+    O.periodic = True
+    O.cell.setBox(*packing.cell)
+    O.cell.velGrad = Matrix3.Zero
+    mat = O.materials.append(CohFrictMat(
+        young=1.0, poisson=1.0, density=density, frictionAngle=0.0, isCohesive=True,
+        momentRotationLaw=True, normalCohesion=HUGE_ADHESION, shearCohesion=HUGE_ADHESION,
+        etaRoll=-1.0, etaTwist=-1.0, fragile=False, label="anisobond"))
+    O.bodies.append([utils.sphere(Vector3(*p), r, material=mat)
+                     for p, r in zip(packing.positions, packing.radii)])
+    O.engines = [
+        ForceResetter(),
+        InteractionLoop(
+            [Ig2_Sphere_Sphere_ScGeom6D(avoidGranularRatcheting=False)],
+            [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionNow=False,
+                                                      setCohesionOnNewContacts=False)],
+            [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=False,
+                                                       always_use_moment_law=False)]),
+        NewtonIntegrator(damping=damping, gravity=(0, 0, 0), label="newton"),
+    ]
+    interactions = []
+    for b in range(len(bonds)):
+        i, j = bonds.i[b], bonds.j[b]
+        I = utils.createInteraction(i, j)
+        image = Vector3i(bonds.ix[b], bonds.iy[b], bonds.iz[b])
+        # The table's image is that of j seen from i; YADE shifts body id2.
+        I.cellDist = image if I.id1 == i else -image
+        ph = I.phys
+        ph.cohesionBroken = False
+        ph.initCohesion = False
+        ph.fragile = False
+        ph.normalAdhesion = HUGE_ADHESION
+        ph.shearAdhesion = HUGE_ADHESION
+        ph.unpMax = -1.0
+        ph.maxRollPl = -1.0
+        ph.maxTwistPl = -1.0
+        ph.tangensOfFrictionAngle = 0.0
+        ph.momentRotationLaw = True
+        interactions.append(I)
+    # One step with dt = 0: the geometry is recomputed with the corrected images; nothing
+    # moves.
+    O.dt = 0.0
+    O.step()
+    for b, I in enumerate(interactions):
+        if not I.isReal:
+            raise BondMismatch("bond %d (%d-%d) was erased by YADE" % (b, bonds.i[b], bonds.j[b]))
+        ph, g = I.phys, I.geom
+        ph.kn, ph.ks, ph.kr, ph.ktw = bonds.kn[b], bonds.ks[b], bonds.kr[b], bonds.ktw[b]
+        ph.unp = g.penetrationDepth
+        ph.normalForce = Vector3.Zero
+        ph.shearForce = Vector3.Zero
+        ph.moment_twist = Vector3.Zero
+        ph.moment_bending = Vector3.Zero
+    O.dt = dt  # O.iter is now 1 and O.time 0 (the dt = 0 step); O.iter cannot be reset
+    if verify:
+        verify_bonds(packing, bonds, interactions, branch_tolerance)
+    return Scene(dt=dt, damping=damping, density=density, n_particles=n,
+                 n_bonds=len(bonds), interactions=interactions, build_time=time.time() - t0)
+
+
+def branch_vector(I):
+    """Branch vector x_2 + shift - x_1 of interaction I in YADE (m), from id1 to id2."""
+    from yade import O
+    b1, b2 = O.bodies[I.id1], O.bodies[I.id2]
+    return b2.state.pos + O.cell.hSize * I.cellDist - b1.state.pos
+
+
+def verify_bonds(packing, bonds, interactions, tolerance=1e-9):
+    """Check every bond in YADE against the table; raise ``BondMismatch`` listing the bad
+    ones. Checked: the interaction is real and cohesive, its branch vector equals
+    length*n, ScGeom's normal equals n, penetrationDepth = R_i + R_j - length, the four
+    springs are the table's, the bond is stress-free (unp = penetrationDepth).
+    Returns the largest relative branch-vector error."""
+    bad, worst = [], 0.0
+    for b, I in enumerate(interactions):
+        sign = 1.0 if I.id1 == bonds.i[b] else -1.0
+        l = branch_vector(I) * sign
+        want = bonds.branch(b)
+        L = bonds.length[b]
+        err = math.sqrt(sum((l[k] - want[k]) ** 2 for k in range(3))) / L
+        worst = max(worst, err)
+        problems = []
+        if not I.isReal:
+            problems.append("not real")
+        if err > tolerance:
+            problems.append("branch vector %s != table %s" % (tuple(l), want))
+        g, ph = I.geom, I.phys
+        nerr = math.sqrt(sum((g.normal[k] * sign - want[k] / L) ** 2 for k in range(3)))
+        if nerr > tolerance:
+            problems.append("normal %s != table n" % (tuple(g.normal),))
+        pd = packing.radii[bonds.i[b]] + packing.radii[bonds.j[b]] - L
+        if abs(g.penetrationDepth - pd) > tolerance * L:
+            problems.append("penetrationDepth %r != R_i+R_j-length %r" % (g.penetrationDepth, pd))
+        for name in ("kn", "ks", "kr", "ktw"):
+            if getattr(ph, name) != getattr(bonds, name)[b]:
+                problems.append("%s %r != table %r" % (name, getattr(ph, name),
+                                                       getattr(bonds, name)[b]))
+        if ph.cohesionBroken or ph.unp != g.penetrationDepth:
+            problems.append("not a stress-free cohesive bond")
+        if problems:
+            bad.append("bond %d (%d-%d image %d,%d,%d): %s" % (
+                b, bonds.i[b], bonds.j[b], bonds.ix[b], bonds.iy[b], bonds.iz[b],
+                "; ".join(problems)))
+    if bad:
+        raise BondMismatch("%d of %d bonds differ from the table in YADE:\n  %s"
+                           % (len(bad), len(interactions), "\n  ".join(bad[:20])))
+    return worst
+
+
+# --------------------------------------------------------------------------------------
+# Measurements
+# --------------------------------------------------------------------------------------
+
+def stress_voigt():
+    """YADE's Love stress (Pa, tension positive, utils.getStress) as a Voigt 6-vector of
+    its symmetric part."""
+    from yade import utils
+    s = utils.getStress()
+    return [0.5 * (s[a, b] + s[b, a]) for a, b in VOIGT_PAIRS]
+
+
+def strain_voigt():
+    """Cell strain (Voigt, engineering): e_ii = F_ii - 1, gamma_ij = F_ij + F_ji with F the
+    cell's deformation gradient ``O.cell.trsf`` (small strain)."""
+    from yade import O
+    f = O.cell.trsf
+    out = []
+    for a, b in VOIGT_PAIRS:
+        out.append(f[a, a] - 1.0 if a == b else f[a, b] + f[b, a])
+    return out
+
+
+def velocity_gradient(path, strain, dt):
+    """Velocity gradient (1/s) that applies `strain` of path `path` (Voigt index 0-5) in one
+    step: uniaxial e_aa, or pure shear gamma_ab = strain (symmetric gradient, no spin)."""
+    from yade.minieigenHP import Matrix3
+    a, b = VOIGT_PAIRS[path]
+    m = Matrix3.Zero
+    if a == b:
+        m[a, a] = strain / dt
+    else:
+        m[a, b] = 0.5 * strain / dt
+        m[b, a] = 0.5 * strain / dt
+    return m
+
+
+class ElementResult(object):
+    """Result of ``element_tests``: C (6x6 list, Pa), per-path histories, settings."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+def run_path(path, strain, steps, damping):
+    """One element-test path on the current scene (fresh from ``build_scene``): the
+    strain in one step (see the velGrad trap above), then relaxation. Returns the
+    history: a list of (step, time, strain6, stress6) after every step, step 0 first
+    being the unstrained state before any step."""
+    from yade import O
+    from yade.minieigenHP import Matrix3
+    newton = [e for e in O.engines if e.label == "newton"][0]
+    newton.damping = damping
+    hist = [(0, O.time, strain_voigt(), stress_voigt())]
+    O.cell.velGrad = velocity_gradient(path, strain, O.dt)
+    for k in range(1, steps + 1):
+        O.step()
+        if k == 1:
+            O.cell.velGrad = Matrix3.Zero
+        hist.append((k, O.time, strain_voigt(), stress_voigt()))
+    return hist
+
+
+def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2600.0,
+                  dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False):
+    """Six-path element test (three uniaxial strains, three pure shears, Voigt order).
+
+    Every path starts from the same initial state: the scene is built (and verified) once
+    and saved with ``O.saveTmp``, later paths restore it with ``O.loadTmp`` (``rebuild=True``
+    builds it anew for every path; the results are the same). ``strain`` is applied
+    in one step, and the assembly relaxes for ``steps`` steps with Cundall damping
+    ``damping`` (0 = undamped, for step-by-step comparison). C = S E^-1 with S, E the 6x6
+    matrices of final stress and strain columns (all six paths needed; with fewer paths
+    ``C`` is None and ``columns`` holds stress/strain_a of each path run).
+    """
+    import numpy as np
+    from yade import O
+    histories, timings, dt_used = {}, {}, None
+    for k, p in enumerate(paths):
+        t0 = time.time()
+        if rebuild or k == 0:
+            sc = build_scene(packing, bonds, density=density, damping=damping, dt=dt,
+                             safety=safety)
+            dt_used = sc.dt
+            if not rebuild:
+                O.saveTmp("anisobond-initial")
+        else:
+            O.loadTmp("anisobond-initial")
+        t1 = time.time()
+        histories[p] = run_path(p, strain, steps, damping)
+        t2 = time.time()
+        timings[p] = {"build_s": t1 - t0, "run_s": t2 - t1}
+    columns = {}
+    for p in paths:
+        _, _, e_end, s_end = histories[p][-1]
+        _, _, e_0, s_0 = histories[p][0]
+        e = [e_end[k] - e_0[k] for k in range(6)]
+        s = [s_end[k] - s_0[k] for k in range(6)]
+        columns[p] = (e, s, [s[k] / e[p] for k in range(6)])
+    c = None
+    if sorted(paths) == [0, 1, 2, 3, 4, 5]:
+        e_mat = np.array([columns[p][0] for p in range(6)]).T
+        s_mat = np.array([columns[p][1] for p in range(6)]).T
+        c = (s_mat.dot(np.linalg.inv(e_mat))).tolist()
+    return ElementResult(c=c, histories=histories, columns=columns, timings=timings, dt=dt_used,
+                         strain=strain, steps=steps, damping=damping, density=density,
+                         paths=list(paths), safety=safety)
+
+
+# --------------------------------------------------------------------------------------
+# Output
+# --------------------------------------------------------------------------------------
+
+def _g(v):
+    return repr(float(v))
+
+
+def write_history_csv(path, result):
+    """Stress history CSV (written atomically): one row per path and step."""
+    lines = [
+        "# anisobond YADE element test: strain %s in one step, then %d steps, damping %s, "
+        "dt %s s, density %s kg/m^3" % (_g(result.strain), result.steps, _g(result.damping),
+                                        _g(result.dt), _g(result.density)),
+        "# units: time_s in s; e* engineering strain (-) from O.cell.trsf; s* in Pa, "
+        "Love stress utils.getStress() (tension positive, symmetric part); Voigt 11,22,33,23,13,12",
+        "path,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa",
+    ]
+    for p in result.paths:
+        for step, t, e, s in result.histories[p]:
+            lines.append(",".join([VOIGT_LABELS[p], str(step), _g(t)] + [_g(x) for x in e]
+                                  + [_g(x) for x in s]))
+    _write_atomic(path, "\n".join(lines) + "\n")
+
+
+def cubic_projection(c):
+    """Truszkowska 2018 Eq. 30 cubic projection of the symmetric part of C (Pa)."""
+    s = [[0.5 * (c[a][b] + c[b][a]) for b in range(6)] for a in range(6)]
+    diag, off, shear = [(0, 0), (1, 1), (2, 2)], [(0, 1), (0, 2), (1, 2)], [(3, 3), (4, 4), (5, 5)]
+    mean = lambda es: sum(s[a][b] for a, b in es) / 3.0
+    c11, c12, c44 = mean(diag), mean(off), mean(shear)
+    dev = lambda es, v: max(abs(s[a][b] - v) for a, b in es)
+    zero_terms = [(a, b) for a in range(6) for b in range(a + 1, 6) if (a < 3) != (b < 3) or a >= 3]
+    return {"C11": c11, "C12": c12, "C44": c44,
+            "zener": 2.0 * c44 / (c11 - c12) if c11 != c12 else float("nan"),
+            "uncertainty": {"C11": dev(diag, c11), "C12": dev(off, c12), "C44": dev(shear, c44),
+                            "zero_terms": sum(abs(s[a][b]) for a, b in zero_terms) / 12.0}}
+
+
+def transverse_projection(c):
+    """Transversely isotropic (about z) least-squares projection of the symmetric part of
+    C in the Frobenius norm of the Voigt matrix (as anisobond's TransverseProjection)."""
+    s = [[0.5 * (c[a][b] + c[b][a]) for b in range(6)] for a in range(6)]
+    a_, b_, d_ = 0.5 * (s[0][0] + s[1][1]), s[0][1], s[5][5]
+    total, diff = a_ + b_, (4.0 * (a_ - b_) + 2.0 * d_) / 5.0
+    return {"C11": 0.5 * (total + diff), "C33": s[2][2], "C13": 0.5 * (s[0][2] + s[1][2]),
+            "C12": 0.5 * (total - diff), "C44": 0.5 * (s[3][3] + s[4][4])}
+
+
+def yade_version():
+    try:
+        import yade.config
+        return str(yade.config.version)
+    except Exception:
+        return "unknown"
+
+
+def tensor_report(result, packing, bonds):
+    """The SPEC tensor report (dict) of an element-test result, method "yade"."""
+    n = len(packing)
+    rep = {"method": "yade", "units": "Pa", "C": result.c, "n_particles": n,
+           "n_bonds": len(bonds), "coordination": 2.0 * len(bonds) / n,
+           "volume": packing.volume()}
+    if result.c is not None:
+        rep["cubic"] = cubic_projection(result.c)
+        rep["transverse"] = transverse_projection(result.c)
+    rep["yade"] = {
+        "version": yade_version(), "dt_s": result.dt, "damping": result.damping,
+        "strain": result.strain, "steps": result.steps, "density_kg_m3": result.density,
+        "paths": [VOIGT_LABELS[p] for p in result.paths],
+        "columns": dict((VOIGT_LABELS[p], result.columns[p][2]) for p in result.paths),
+        "wall_time_s": dict((VOIGT_LABELS[p], result.timings[p]) for p in result.paths),
+        "lever_arm": "mid-gap",
+    }
+    return rep
+
+
+def write_tensor_json(path, result, packing, bonds):
+    """Write the SPEC tensor report JSON atomically."""
+    _write_atomic(path, json.dumps(tensor_report(result, packing, bonds), indent=2) + "\n")
+
+
+# --------------------------------------------------------------------------------------
+# Command line
+# --------------------------------------------------------------------------------------
+
+def main(argv=None):
+    """Command line: element tests on a packing + bond table, results into --out."""
+    import argparse
+    ap = argparse.ArgumentParser(prog="anisobond_yade",
+                                 description="YADE element tests of an anisobond model")
+    ap.add_argument("--packing", required=True)
+    ap.add_argument("--bonds", required=True)
+    ap.add_argument("--out", required=True, help="output directory")
+    ap.add_argument("--strain", type=float, default=1e-5)
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--damping", type=float, default=0.4)
+    ap.add_argument("--density", type=float, default=2600.0)
+    ap.add_argument("--dt", type=float, default=None, help="time step (s); default safety*dt_c")
+    ap.add_argument("--safety", type=float, default=0.8)
+    ap.add_argument("--paths", default="11,22,33,23,13,12")
+    ap.add_argument("--history", default="yade-history.csv")
+    ap.add_argument("--tensor", default="yade-tensor.json")
+    a = ap.parse_args(argv)
+    try:
+        paths = [VOIGT_LABELS.index(p.strip()) for p in a.paths.split(",") if p.strip()]
+    except ValueError:
+        ap.error("--paths: expected labels among %s" % ",".join(VOIGT_LABELS))
+    if not a.strain > 0 or a.steps < 1 or not 0 <= a.damping < 1 or not a.density > 0:
+        ap.error("need strain > 0, steps >= 1, 0 <= damping < 1, density > 0")
+    packing = read_packing(a.packing)
+    bonds = read_bond_table(a.bonds, len(packing))
+    t0 = time.time()
+    res = element_tests(packing, bonds, strain=a.strain, steps=a.steps, damping=a.damping,
+                        density=a.density, dt=a.dt, safety=a.safety, paths=paths)
+    wall = time.time() - t0
+    write_history_csv(os.path.join(a.out, a.history), res)
+    write_tensor_json(os.path.join(a.out, a.tensor), res, packing, bonds)
+    print("anisobond_yade: %d particles, %d bonds, dt %.6g s, %d paths x %d steps in %.3f s"
+          % (len(packing), len(bonds), res.dt, len(paths), a.steps, wall))
+    if res.c is not None:
+        print("C (GPa):")
+        for row in res.c:
+            print("  " + " ".join("%10.4f" % (x * 1e-9) for x in row))
+    return res
+
+
+if __name__ == "__main__" and os.path.basename(sys.argv[0]).startswith("anisobond_yade"):
+    main(sys.argv[1:])
