@@ -10,8 +10,9 @@ use crate::{Error, Mat3, Result};
 /// Settings of the strain-controlled element tests.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ElementTestOptions {
-    /// Strain magnitude e per path (uniaxial: −e, compression as Eqs. 17–19; shear:
-    /// engineering γ = e, Eqs. 20–22).
+    /// Strain magnitude e per path: every path loads its Voigt component by −e (uniaxial
+    /// compression as Eqs. 17–19; shears with the same sign, engineering γ = −e — with
+    /// mixed signs the pairwise equations of Eq. 27 cancel between uniaxial and shear paths).
     pub strain: f64,
     /// Cundall local damping during the relaxation (YADE measurements use 0.4).
     pub local_damping: f64,
@@ -89,16 +90,17 @@ pub struct DynamicTensor {
 }
 
 /// Displacement gradient of path `k` with magnitude `e` (Truszkowska Eqs. 17–22): uniaxial
-/// compression −e along axis k for k < 3, symmetric pure shear of engineering strain e in
-/// the plane of Voigt component k for k ≥ 3.
+/// compression −e along axis k for k < 3, symmetric pure shear of engineering strain −e in
+/// the plane of Voigt component k for k ≥ 3 (same sign as the uniaxial paths, see
+/// [`ElementTestOptions::strain`]).
 pub fn path_gradient(k: usize, e: f64) -> Mat3 {
     let (a, b) = VOIGT_PAIRS[k.min(5)];
     let mut g = Mat3::zeros();
     if a == b {
         g[(a, a)] = -e;
     } else {
-        g[(a, b)] = 0.5 * e;
-        g[(b, a)] = 0.5 * e;
+        g[(a, b)] = -0.5 * e;
+        g[(b, a)] = -0.5 * e;
     }
     g
 }
