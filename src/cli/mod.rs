@@ -3,6 +3,7 @@
 
 mod demo;
 mod output;
+pub mod run;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::{mean_field, report::TensorReport, voigt};
@@ -39,6 +40,9 @@ enum Command {
     /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
     /// sum over the actual bonds.
     Tensor(TensorArgs),
+    /// The reference DEM integrator on a periodic packing: the six element tests (strain in
+    /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
+    Run(run::RunArgs),
 }
 
 #[derive(clap::Args)]
@@ -81,6 +85,8 @@ enum Method {
     MeanField,
     /// Sum over the actual bonds (uniform strain).
     Voigt,
+    /// Element tests with the reference DEM integrator (needs a periodic packing).
+    Dynamic,
 }
 
 #[derive(clap::Args)]
@@ -109,6 +115,9 @@ struct TensorArgs {
     /// Mean field without a packing: sphere radius R (m).
     #[arg(long, default_value_t = 1e-3)]
     radius: f64,
+    /// Integrator settings of --method dynamic.
+    #[command(flatten)]
+    integrator: run::IntegratorArgs,
 }
 
 /// Parse the command line and run it.
@@ -119,6 +128,7 @@ pub fn run() -> Result<()> {
         Command::Pack(a) => pack(a),
         Command::Bonds(a) => bonds_cmd(a),
         Command::Tensor(a) => tensor_cmd(a),
+        Command::Run(a) => run::run(a),
     }
 }
 
@@ -206,6 +216,7 @@ fn packing_prefactor(b: &Bonded, model: &Model) -> f64 {
 /// Compute the tensor of a bonded packing by `method`.
 fn tensor_of(b: &Bonded, model: &Model, method: Method) -> Result<Stiffness6> {
     Ok(match method {
+        Method::Dynamic => run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &run::IntegratorArgs::default())?,
         Method::Voigt => voigt::voigt_tensor(&b.bonds, &b.stiffness, b.packing.volume()),
         Method::MeanField => {
             let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
@@ -222,6 +233,7 @@ fn method_name(m: Method) -> &'static str {
     match m {
         Method::MeanField => "mean-field",
         Method::Voigt => "voigt",
+        Method::Dynamic => "dynamic",
     }
 }
 
@@ -230,7 +242,10 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {
             let b = load_bonded(p, &model)?;
-            let c = tensor_of(&b, &model, m)?;
+            let c = match m {
+                Method::Dynamic => run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &a.integrator)?,
+                _ => tensor_of(&b, &model, m)?,
+            };
             TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))
         }
         (None, Method::MeanField) => {
@@ -256,10 +271,11 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             r.coordination = Some(a.coordination);
             r
         }
-        (None, Method::Voigt) => {
-            return Err(Error::Invalid(
-                "--method voigt sums over actual bonds: give a PACKING".into(),
-            ))
+        (None, Method::Voigt | Method::Dynamic) => {
+            return Err(Error::Invalid(format!(
+                "--method {} needs a PACKING",
+                method_name(a.method)
+            )))
         }
     };
     if let Some(out) = &a.output {
