@@ -2,7 +2,7 @@
 //! (`relaxed_tensor`, LeverArm::MidGap = YADE's contact point): on a periodic ~2,000-particle
 //! bonded packing the dynamic 6×6 tensor must match within 0.1 %.
 
-use anisobond::bonds::{rules::build_bonds, BondingRule, BondSet, BondStiffness};
+use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
@@ -51,7 +51,16 @@ fn springs(p: &Packing, b: &BondSet, moments: bool) -> BondStiffness {
 fn compare(moments: bool) {
     let (p, b) = bonded(2000, 7);
     let k = springs(&p, &b, moments);
-    let relaxed = relaxed_tensor(&p, &b, &k, &RelaxedOptions { tolerance: 1e-10, ..Default::default() }).unwrap();
+    let relaxed = relaxed_tensor(
+        &p,
+        &b,
+        &k,
+        &RelaxedOptions {
+            tolerance: 1e-10,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
     let sim = Simulation::new(&p, &b, law, &DemOptions::default()).unwrap();
     let opts = ElementTestOptions {
@@ -74,7 +83,10 @@ fn compare(moments: bool) {
         da,
         t0.elapsed().as_secs_f64()
     );
-    assert!(da > 0.02, "the test needs a packing whose relaxation matters");
+    assert!(
+        da > 0.02,
+        "the test needs a packing whose relaxation matters"
+    );
     assert!(d < 1e-3, "dynamic tensor differs from relaxed by {d:.3e}");
 }
 
@@ -98,8 +110,17 @@ fn debug_paths() {
     let sim = Simulation::new(&p, &b, law, &DemOptions::default()).unwrap();
     let dynamic = dynamic_tensor(&sim, &ElementTestOptions::default(), &|_| {}).unwrap();
     for path in &dynamic.paths {
-        println!("path {}: strain {:?} stress {:?}", path.path, path.strain.as_slice(), path.stress.as_slice());
+        println!(
+            "path {}: strain {:?} stress {:?}",
+            path.path,
+            path.strain.as_slice(),
+            path.stress.as_slice()
+        );
     }
-    println!("dt {:e} crit {:e}", sim.time_step(), sim.stability().critical_time_step);
+    println!(
+        "dt {:e} crit {:e}",
+        sim.time_step(),
+        sim.stability().critical_time_step
+    );
     println!("dyn {:.4e}\nrelaxed {:.4e}", dynamic.c, relaxed.c);
 }

@@ -14,7 +14,12 @@ fn pair(kind: LawKind, kn: f64, ks: f64, kr: f64, ktw: f64) -> (Simulation, f64)
     // Two spheres along x with a gap (stress-free at the start).
     let (r1, r2) = (1.0e-3, 1.2e-3);
     let d = r1 + r2 + 0.2e-3;
-    let p = Packing::new(vec![Vec3::zeros(), Vec3::new(d, 0.0, 0.0)], vec![r1, r2], None).unwrap();
+    let p = Packing::new(
+        vec![Vec3::zeros(), Vec3::new(d, 0.0, 0.0)],
+        vec![r1, r2],
+        None,
+    )
+    .unwrap();
     let mut b = BondSet::default();
     b.push(0, 1, Vec3::new(d, 0.0, 0.0), [0, 0, 0]);
     let k = BondStiffness {
@@ -29,7 +34,10 @@ fn pair(kind: LawKind, kn: f64, ks: f64, kr: f64, ktw: f64) -> (Simulation, f64)
     // velocities (re-imposed every step) are the motion.
     let opts = DemOptions {
         time_step: Some(1e-9),
-        mass: anisobond::dem::MassOptions { density: 2600.0, scaling: 1e12 },
+        mass: anisobond::dem::MassOptions {
+            density: 2600.0,
+            scaling: 1e12,
+        },
         ..Default::default()
     };
     let sim = Simulation::new(&p, &b, law, &opts).unwrap();
@@ -74,7 +82,12 @@ fn two_particle_closed_forms_all_laws() {
         // Kumar's viscous normal damping adds η_n·v (Eqs. 5–6).
         let (eta_n, eta_t) = sim.law().viscosity(0);
         let fn_expected = kn * u + eta_n * 1e-3;
-        assert!((f0.x - fn_expected).abs() < 1e-6 * fn_expected, "{kind:?} normal: {} vs {}", f0.x, fn_expected);
+        assert!(
+            (f0.x - fn_expected).abs() < 1e-6 * fn_expected,
+            "{kind:?} normal: {} vs {}",
+            f0.x,
+            fn_expected
+        );
         assert!(f0.y.abs() + f0.z.abs() < 1e-12 * fn_expected);
         // Shear: translate j by w along y → the normal turns; the shear force follows the
         // contact; for small w the force on i is ≈ k_s w ŷ plus the normal part.
@@ -83,26 +96,45 @@ fn two_particle_closed_forms_all_laws() {
         drive(&mut sim, Vec3::new(0.0, 1e-3, 0.0), Vec3::zeros(), steps);
         let fy = sim.force[0].y;
         let expect = ks * w + eta_t * 1e-3;
-        assert!((fy - expect).abs() < 2e-3 * expect, "{kind:?} shear: {fy} vs {expect}");
+        assert!(
+            (fy - expect).abs() < 2e-3 * expect,
+            "{kind:?} shear: {fy} vs {expect}"
+        );
         // Torque on i from the shear force at the mid-gap contact point: r_i' = r1 + gap/2.
         let arm = r1 + 0.5 * (d - r1 - r2);
         let tz = sim.torque[0].z;
-        assert!((tz - arm * fy).abs() < 2e-3 * (arm * fy).abs(), "{kind:?} shear torque {tz} vs {}", arm * fy);
+        assert!(
+            (tz - arm * fy).abs() < 2e-3 * (arm * fy).abs(),
+            "{kind:?} shear torque {tz} vs {}",
+            arm * fy
+        );
         // Bending: rotate j about z by θ → moment k_r θ on i (about +z) and −k_r θ on j.
         let (mut sim, _) = pair(kind, kn, 0.0, 0.3, 0.2);
         let omega = 10.0;
-        let theta = if kind == LawKind::Yade { omega * t_pos } else { omega * t };
+        let theta = if kind == LawKind::Yade {
+            omega * t_pos
+        } else {
+            omega * t
+        };
         drive(&mut sim, Vec3::zeros(), Vec3::new(0.0, 0.0, omega), steps);
         let expect = kr * theta;
         // With k_s = 0 the torques are the moment alone (plus Kumar's twist damping = 0 here).
-        assert!((sim.torque[0].z - expect).abs() < 1e-6 * expect, "{kind:?} bending {} vs {expect}", sim.torque[0].z);
+        assert!(
+            (sim.torque[0].z - expect).abs() < 1e-6 * expect,
+            "{kind:?} bending {} vs {expect}",
+            sim.torque[0].z
+        );
         assert!((sim.torque[1].z + expect).abs() < 1e-6 * expect);
         // Twisting: rotate j about the bond axis x by θ → moment k_tw θ (the contact point
         // does not slide, so k_s adds nothing).
         let (mut sim, _) = pair(kind, kn, ks, 0.3, 0.2);
         drive(&mut sim, Vec3::zeros(), Vec3::new(omega, 0.0, 0.0), steps);
         let expect = ktw * theta;
-        assert!((sim.torque[0].x - expect).abs() < 1e-6 * expect, "{kind:?} twist {} vs {expect}", sim.torque[0].x);
+        assert!(
+            (sim.torque[0].x - expect).abs() < 1e-6 * expect,
+            "{kind:?} twist {} vs {expect}",
+            sim.torque[0].x
+        );
         assert!((sim.torque[1].x + expect).abs() < 1e-6 * expect);
         // The orientation integrator: a constant spin for time t turns by ω t exactly.
         let q: Quat = sim.particles.orientation[1];
@@ -111,13 +143,23 @@ fn two_particle_closed_forms_all_laws() {
 }
 
 fn periodic_bonded(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness) {
-    let p = generate(&GenerateOptions { n_particles: n, seed, ..Default::default() }, &|_| {}).unwrap();
+    let p = generate(
+        &GenerateOptions {
+            n_particles: n,
+            seed,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .unwrap();
     let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
     let r = p.mean_radius();
     let nb = b.len();
     let k = BondStiffness {
         radius: vec![r; nb],
-        kn: (0..nb).map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2))).collect(),
+        kn: (0..nb)
+            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
+            .collect(),
         ks: vec![0.4e6; nb],
         kr: vec![0.1e6 * r * r; nb],
         ktw: vec![0.05e6 * r * r; nb],
@@ -156,21 +198,39 @@ fn undamped_energy_band_shrinks_as_dt_squared() {
     let steps = 20_000;
     let (band1, e1) = energy_band(0.5, steps);
     let (band2, e2) = energy_band(0.25, 2 * steps);
-    println!("energy band: dt {band1:.3e}, dt/2 {band2:.3e}, ratio {:.2}", band1 / band2);
+    println!(
+        "energy band: dt {band1:.3e}, dt/2 {band2:.3e}, ratio {:.2}",
+        band1 / band2
+    );
     assert!((e1 - e2).abs() < 1e-2 * e1);
     assert!(band1 < 5e-2, "energy not conserved: band {band1:.3e}");
     let ratio = band1 / band2;
-    assert!(ratio > 3.0 && ratio < 5.5, "band ratio {ratio:.2} is not ≈ 4 (O(dt²))");
+    assert!(
+        ratio > 3.0 && ratio < 5.5,
+        "band ratio {ratio:.2} is not ≈ 4 (O(dt²))"
+    );
 }
 
 #[test]
 fn one_and_two_threads_give_identical_histories() {
     let (p, b, k) = periodic_bonded(600, 5);
     let history = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
-            let mut sim = Simulation::new(&p, &b, law, &DemOptions { local_damping: 0.3, ..Default::default() }).unwrap();
+            let mut sim = Simulation::new(
+                &p,
+                &b,
+                law,
+                &DemOptions {
+                    local_damping: 0.3,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let g = path_gradient(3, 1e-4);
             sim.set_velocity_gradient(g / sim.time_step()).unwrap();
             let mut out = Vec::new();
@@ -181,9 +241,21 @@ fn one_and_two_threads_give_identical_histories() {
                 }
                 let st = sim.stress();
                 let e = sim.energies();
-                out.push((st.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), e.kinetic.to_bits(), e.elastic.to_bits(), e.local_damping.to_bits()));
+                out.push((
+                    st.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    e.kinetic.to_bits(),
+                    e.elastic.to_bits(),
+                    e.local_damping.to_bits(),
+                ));
             }
-            (out, sim.particles.position.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>())
+            (
+                out,
+                sim.particles
+                    .position
+                    .iter()
+                    .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+                    .collect::<Vec<_>>(),
+            )
         })
     };
     let a = history(1);
@@ -196,7 +268,12 @@ fn weakly_bonded_particles_are_reported_and_stay_bounded() {
     // A chain: particle 0 has one bond, 1 has two, plus a free particle 3.
     let cell = PeriodicCell::new(Vec3::new(0.02, 0.02, 0.02)).unwrap();
     let p = Packing::new(
-        vec![Vec3::new(0.002, 0.01, 0.01), Vec3::new(0.0041, 0.0102, 0.01), Vec3::new(0.0062, 0.0101, 0.0101), Vec3::new(0.015, 0.015, 0.015)],
+        vec![
+            Vec3::new(0.002, 0.01, 0.01),
+            Vec3::new(0.0041, 0.0102, 0.01),
+            Vec3::new(0.0062, 0.0101, 0.0101),
+            Vec3::new(0.015, 0.015, 0.015),
+        ],
         vec![1e-3; 4],
         Some(cell),
     )
@@ -204,9 +281,24 @@ fn weakly_bonded_particles_are_reported_and_stay_bounded() {
     let mut b = BondSet::default();
     b.push(0, 1, p.positions[1] - p.positions[0], [0, 0, 0]);
     b.push(1, 2, p.positions[2] - p.positions[1], [0, 0, 0]);
-    let k = BondStiffness { radius: vec![1e-3; 2], kn: vec![1e6; 2], ks: vec![0.5e6; 2], kr: vec![0.0; 2], ktw: vec![0.0; 2] };
+    let k = BondStiffness {
+        radius: vec![1e-3; 2],
+        kn: vec![1e6; 2],
+        ks: vec![0.5e6; 2],
+        kr: vec![0.0; 2],
+        ktw: vec![0.0; 2],
+    };
     let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
-    let mut sim = Simulation::new(&p, &b, law, &DemOptions { local_damping: 0.4, ..Default::default() }).unwrap();
+    let mut sim = Simulation::new(
+        &p,
+        &b,
+        law,
+        &DemOptions {
+            local_damping: 0.4,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let st = sim.stability().clone();
     assert_eq!(st.one_bond_particles, vec![0, 2]);
     assert_eq!(st.two_bond_particles, vec![1]);
@@ -219,7 +311,11 @@ fn weakly_bonded_particles_are_reported_and_stay_bounded() {
     };
     sim.run(20_000, &|_| {}).unwrap();
     assert!(sim.energies().mechanical() <= e0 * (1.0 + 1e-9));
-    assert!(sim.particles.position.iter().all(|x| x.iter().all(|c| c.is_finite())));
+    assert!(sim
+        .particles
+        .position
+        .iter()
+        .all(|x| x.iter().all(|c| c.is_finite())));
 }
 
 #[test]
@@ -231,7 +327,10 @@ fn too_large_time_step_is_reported_with_the_step_to_use() {
     sim.set_time_step(crit * 5.0).unwrap();
     sim.particles.velocity[0] = Vec3::new(1e-3, 0.0, 0.0);
     let err = sim.run(5000, &|_| {}).unwrap_err().to_string();
-    assert!(err.contains("blew up") && err.contains(&format!("{:.4e}", 0.8 * crit)), "{err}");
+    assert!(
+        err.contains("blew up") && err.contains(&format!("{:.4e}", 0.8 * crit)),
+        "{err}"
+    );
 }
 
 #[test]
@@ -240,19 +339,36 @@ fn element_test_relaxation_speed() {
     let (p, b, k) = periodic_bonded(1000, 11);
     let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
     let sim0 = Simulation::new(&p, &b, law, &DemOptions::default()).unwrap();
-    let opts = ElementTestOptions { history_every: 1, tolerance: 1e-8, ..Default::default() };
+    let opts = ElementTestOptions {
+        history_every: 1,
+        tolerance: 1e-8,
+        ..Default::default()
+    };
     let mut worst = (0usize, 0usize);
     for path in 0..6 {
         let mut sim = sim0.clone();
-        let r = relax_path(&mut sim, path, &path_gradient(path, 1e-5), &opts, &mut |_| {}).unwrap();
+        let r = relax_path(
+            &mut sim,
+            path,
+            &path_gradient(path, 1e-5),
+            &opts,
+            &mut |_| {},
+        )
+        .unwrap();
         let fin = r.stress.norm();
         let settle = |tol: f64| {
-            let last_bad = r.history.iter().rposition(|h| (h.stress - r.stress).norm() > tol * fin);
+            let last_bad = r
+                .history
+                .iter()
+                .rposition(|h| (h.stress - r.stress).norm() > tol * fin);
             last_bad.map_or(0, |k| r.history[k].step as usize)
         };
         let (s1, s01) = (settle(1e-2), settle(1e-3));
         println!("path {path}: within 1 % after {s1} steps, within 0.1 % after {s01} steps");
         worst = (worst.0.max(s1), worst.1.max(s01));
     }
-    assert!(worst.0 <= 60 && worst.1 <= 120, "relaxation too slow: {worst:?}");
+    assert!(
+        worst.0 <= 60 && worst.1 <= 120,
+        "relaxation too slow: {worst:?}"
+    );
 }

@@ -26,7 +26,11 @@ struct Case {
 }
 
 fn yade_available() -> bool {
-    Command::new("yade").arg("--version").output().map(|o| o.status.success()).unwrap_or(false)
+    Command::new("yade")
+        .arg("--version")
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false)
 }
 
 fn r(x: f64) -> String {
@@ -43,7 +47,14 @@ fn yade_script(c: &Case, sim: &Simulation) -> String {
     let mut s = String::new();
     writeln!(s, "from yade import utils\nimport json").unwrap();
     if let Some(cell) = p.cell {
-        writeln!(s, "O.periodic = True\nO.cell.setBox({},{},{})", r(cell.lengths.x), r(cell.lengths.y), r(cell.lengths.z)).unwrap();
+        writeln!(
+            s,
+            "O.periodic = True\nO.cell.setBox({},{},{})",
+            r(cell.lengths.x),
+            r(cell.lengths.y),
+            r(cell.lengths.z)
+        )
+        .unwrap();
     }
     writeln!(
         s,
@@ -100,19 +111,33 @@ fn yade_script(c: &Case, sim: &Simulation) -> String {
         .unwrap();
     }
     for k in 0..p.len() {
-        writeln!(s, "O.bodies[{k}].state.vel = Vector3{}\nO.bodies[{k}].state.angVel = Vector3{}", v3(&c.vel[k]), v3(&c.ang[k])).unwrap();
+        writeln!(
+            s,
+            "O.bodies[{k}].state.vel = Vector3{}\nO.bodies[{k}].state.angVel = Vector3{}",
+            v3(&c.vel[k]),
+            v3(&c.ang[k])
+        )
+        .unwrap();
     }
     writeln!(s, "O.dt = {}", r(sim.time_step())).unwrap();
     if p.cell.is_some() {
         writeln!(s, "def stress(): return utils.getStress()").unwrap();
     } else {
-        writeln!(s, "def stress(): return utils.getStress({})", r(sim.volume())).unwrap();
+        writeln!(
+            s,
+            "def stress(): return utils.getStress({})",
+            r(sim.volume())
+        )
+        .unwrap();
     }
     if let Some(l) = c.vel_grad {
         writeln!(
             s,
             "O.cell.velGrad = Matrix3({})",
-            (0..9).map(|k| r(l[(k / 3, k % 3)])).collect::<Vec<_>>().join(",")
+            (0..9)
+                .map(|k| r(l[(k / 3, k % 3)]))
+                .collect::<Vec<_>>()
+                .join(",")
         )
         .unwrap();
     }
@@ -149,14 +174,24 @@ fn run_case(c: &Case, name: &str) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("run.py");
     std::fs::write(&path, &script).unwrap();
-    let out = Command::new("yade").arg("-n").arg("-x").arg(&path).output().unwrap();
+    let out = Command::new("yade")
+        .arg("-n")
+        .arg("-x")
+        .arg(&path)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     let recs: Vec<serde_json::Value> = text
         .lines()
         .filter_map(|l| l.strip_prefix("REC "))
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(recs.len(), c.steps, "YADE output:\n{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        recs.len(),
+        c.steps,
+        "YADE output:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     for k in 0..c.packing.len() {
         sim.particles.velocity[k] = c.vel[k];
         sim.particles.angular_velocity[k] = c.ang[k];
@@ -164,13 +199,25 @@ fn run_case(c: &Case, name: &str) {
     if let Some(l) = c.vel_grad {
         sim.set_velocity_gradient(l).unwrap();
     }
-    let get = |v: &serde_json::Value| Vec3::new(v[0].as_f64().unwrap(), v[1].as_f64().unwrap(), v[2].as_f64().unwrap());
+    let get = |v: &serde_json::Value| {
+        Vec3::new(
+            v[0].as_f64().unwrap(),
+            v[1].as_f64().unwrap(),
+            v[2].as_f64().unwrap(),
+        )
+    };
     // Scales: the largest magnitude of each quantity over the run.
     let (mut fs, mut ts, mut ss) = (0.0f64, 0.0f64, 0.0f64);
     let mut ours = Vec::new();
     for _ in 0..c.steps {
         sim.step().unwrap();
-        ours.push((sim.force.clone(), sim.torque.clone(), sim.particles.position.clone(), sim.particles.orientation.clone(), sim.stress()));
+        ours.push((
+            sim.force.clone(),
+            sim.torque.clone(),
+            sim.particles.position.clone(),
+            sim.particles.orientation.clone(),
+            sim.stress(),
+        ));
     }
     for rec in &recs {
         for k in 0..c.packing.len() {
@@ -197,7 +244,11 @@ fn run_case(c: &Case, name: &str) {
             et = et.max((t[k] - get(&rec["t"][k])).norm() / ts);
             ex = ex.max((x[k] - get(&rec["x"][k])).norm() / size);
             let qa = &rec["q"][k];
-            let yv = Vec3::new(qa[1].as_f64().unwrap(), qa[2].as_f64().unwrap(), qa[3].as_f64().unwrap()) * qa[0].as_f64().unwrap();
+            let yv = Vec3::new(
+                qa[1].as_f64().unwrap(),
+                qa[2].as_f64().unwrap(),
+                qa[3].as_f64().unwrap(),
+            ) * qa[0].as_f64().unwrap();
             eq = eq.max((q[k].rotation_vector() - yv).norm());
         }
         for a in 0..9 {
@@ -208,27 +259,38 @@ fn run_case(c: &Case, name: &str) {
     println!("{name}: max relative differences over {} steps: force {ef:.2e}, torque {et:.2e}, position {ex:.2e}, rotation {eq:.2e} rad, stress {es:.2e}", c.steps);
     assert!(fs > 0.0 && ts > 0.0 && ss > 0.0);
     // Same formulas: rounding-level agreement over the first steps.
-    assert!(early < 1e-10, "{name}: YADE and anisobond differ by {early:.2e} within {EARLY_STEPS} steps");
+    assert!(
+        early < 1e-10,
+        "{name}: YADE and anisobond differ by {early:.2e} within {EARLY_STEPS} steps"
+    );
     // Later, rounding differences grow: slowly without damping (the normal force is the
     // small difference k_n(δ − δ₀) of nearly equal lengths), fast with Cundall damping
     // (its sign switches are discontinuous, a near-tie flips them), so the long-run bound
     // applies to undamped runs only.
     if c.damping == 0.0 {
-        assert!(ef < 1e-8 && et < 1e-8 && es < 1e-8 && ex < 1e-12 && eq < 1e-10, "{name}: YADE and anisobond drift apart");
+        assert!(
+            ef < 1e-8 && et < 1e-8 && es < 1e-8 && ex < 1e-12 && eq < 1e-10,
+            "{name}: YADE and anisobond drift apart"
+        );
     }
 }
 
 fn three_particle_case(vel_grad: Option<Mat3>, damping: f64) -> Case {
     let cell = PeriodicCell::new(Vec3::new(0.01, 0.01, 0.01)).unwrap();
     let packing = Packing::new(
-        vec![Vec3::new(0.001, 0.005, 0.005), Vec3::new(0.0031, 0.0052, 0.0049), Vec3::new(0.0094, 0.0051, 0.0052)],
+        vec![
+            Vec3::new(0.001, 0.005, 0.005),
+            Vec3::new(0.0031, 0.0052, 0.0049),
+            Vec3::new(0.0094, 0.0051, 0.0052),
+        ],
         vec![0.001, 0.0011, 0.0009],
         Some(cell),
     )
     .unwrap();
     let mut bonds = BondSet::default();
     for (i, j) in [(0u32, 1u32), (0, 2), (1, 2)] {
-        let (l, img) = cell.minimum_image(packing.positions[j as usize] - packing.positions[i as usize]);
+        let (l, img) =
+            cell.minimum_image(packing.positions[j as usize] - packing.positions[i as usize]);
         bonds.push(i, j, l, img);
     }
     let k = BondStiffness {
@@ -242,8 +304,16 @@ fn three_particle_case(vel_grad: Option<Mat3>, damping: f64) -> Case {
         packing,
         bonds,
         k,
-        vel: vec![Vec3::new(0.1, -0.2, 0.05), Vec3::new(-0.15, 0.1, 0.2), Vec3::new(0.0, 0.05, -0.1)],
-        ang: vec![Vec3::new(200.0, -100.0, 50.0), Vec3::new(-50.0, 150.0, 100.0), Vec3::new(80.0, 0.0, -120.0)],
+        vel: vec![
+            Vec3::new(0.1, -0.2, 0.05),
+            Vec3::new(-0.15, 0.1, 0.2),
+            Vec3::new(0.0, 0.05, -0.1),
+        ],
+        ang: vec![
+            Vec3::new(200.0, -100.0, 50.0),
+            Vec3::new(-50.0, 150.0, 100.0),
+            Vec3::new(80.0, 0.0, -120.0),
+        ],
         vel_grad,
         damping,
         steps: 1000,
@@ -252,29 +322,46 @@ fn three_particle_case(vel_grad: Option<Mat3>, damping: f64) -> Case {
 
 #[test]
 fn law_a_matches_yade_undamped_fixed_cell() {
-    run_case(&three_particle_case(None, 0.0), "3 particles, fixed periodic cell, undamped");
+    run_case(
+        &three_particle_case(None, 0.0),
+        "3 particles, fixed periodic cell, undamped",
+    );
 }
 
 #[test]
 fn law_a_matches_yade_with_velocity_gradient_and_damping() {
     let l = Mat3::new(3.0, 1.0, -0.5, 0.2, -2.0, 0.7, 0.4, -0.3, 1.0);
-    run_case(&three_particle_case(Some(l), 0.3), "3 particles, velocity gradient, damping 0.3");
+    run_case(
+        &three_particle_case(Some(l), 0.3),
+        "3 particles, velocity gradient, damping 0.3",
+    );
 }
 
 #[test]
 fn law_a_matches_yade_with_velocity_gradient_undamped() {
     let l = Mat3::new(3.0, 1.0, -0.5, 0.2, -2.0, 0.7, 0.4, -0.3, 1.0);
-    run_case(&three_particle_case(Some(l), 0.0), "3 particles, velocity gradient, undamped");
+    run_case(
+        &three_particle_case(Some(l), 0.0),
+        "3 particles, velocity gradient, undamped",
+    );
 }
 
 #[test]
 fn law_a_matches_yade_damped_fixed_cell() {
-    run_case(&three_particle_case(None, 0.3), "3 particles, fixed cell, damping 0.3");
+    run_case(
+        &three_particle_case(None, 0.3),
+        "3 particles, fixed cell, damping 0.3",
+    );
 }
 
 #[test]
 fn law_a_matches_yade_free_pair() {
-    let packing = Packing::new(vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0021, 0.0003, -0.0002)], vec![0.001, 0.0011], None).unwrap();
+    let packing = Packing::new(
+        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0021, 0.0003, -0.0002)],
+        vec![0.001, 0.0011],
+        None,
+    )
+    .unwrap();
     let mut bonds = BondSet::default();
     bonds.push(0, 1, packing.positions[1] - packing.positions[0], [0, 0, 0]);
     let k = BondStiffness {
@@ -289,7 +376,10 @@ fn law_a_matches_yade_free_pair() {
         bonds,
         k,
         vel: vec![Vec3::new(0.1, -0.2, 0.05), Vec3::new(-0.15, 0.1, 0.2)],
-        ang: vec![Vec3::new(200.0, -100.0, 50.0), Vec3::new(-50.0, 150.0, 100.0)],
+        ang: vec![
+            Vec3::new(200.0, -100.0, 50.0),
+            Vec3::new(-50.0, 150.0, 100.0),
+        ],
         vel_grad: None,
         damping: 0.0,
         steps: 1000,

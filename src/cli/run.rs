@@ -123,7 +123,10 @@ fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
     }
 }
 
-fn bonded(packing_path: &std::path::Path, model_path: &std::path::Path) -> Result<(Packing, BondSet, BondStiffness)> {
+fn bonded(
+    packing_path: &std::path::Path,
+    model_path: &std::path::Path,
+) -> Result<(Packing, BondSet, BondStiffness)> {
     let model = Model::from_path(model_path)?;
     let packing = packing::io::read_packing(packing_path)?;
     let b = bonds::rules::build_bonds(&packing, model.bonding)?;
@@ -171,14 +174,21 @@ fn run_element_tests(
         st.critical_time_step
     );
     let bar = progress_bar("element tests");
-    let result = element::dynamic_tensor(&sim, &opts, &|f: f64| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64));
+    let result = element::dynamic_tensor(&sim, &opts, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
     bar.finish_and_clear();
     result
 }
 
 /// The dynamic (reference-integrator) tensor of a bonded periodic packing (Pa), for
 /// `tensor --method dynamic`.
-pub fn dynamic_tensor(packing: &Packing, bonds: &BondSet, k: &BondStiffness, a: &IntegratorArgs) -> Result<Stiffness6> {
+pub fn dynamic_tensor(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    a: &IntegratorArgs,
+) -> Result<Stiffness6> {
     Ok(run_element_tests(packing, bonds, k, a, false)?.c)
 }
 

@@ -157,8 +157,15 @@ pub fn relax_path(
         }
         if recent.len() == window + 1 {
             let norm = stress.norm();
-            let change = recent.iter().map(|s| (s - stress).norm()).fold(0.0, f64::max);
-            last_change = if norm > 0.0 { change / norm } else { f64::INFINITY };
+            let change = recent
+                .iter()
+                .map(|s| (s - stress).norm())
+                .fold(0.0, f64::max);
+            last_change = if norm > 0.0 {
+                change / norm
+            } else {
+                f64::INFINITY
+            };
             if last_change < opts.tolerance {
                 break;
             }
@@ -184,7 +191,11 @@ pub fn relax_path(
 
 /// Run the six paths from the same initial state and fit C (Truszkowska Eq. 27).
 /// `progress` receives the fraction done (paths counted equally).
-pub fn dynamic_tensor(initial: &Simulation, opts: &ElementTestOptions, progress: &(dyn Fn(f64) + Sync)) -> Result<DynamicTensor> {
+pub fn dynamic_tensor(
+    initial: &Simulation,
+    opts: &ElementTestOptions,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<DynamicTensor> {
     if !(opts.strain.is_finite() && opts.strain > 0.0 && opts.strain < 0.1) {
         return Err(Error::Invalid(format!(
             "element-test strain must be in (0, 0.1), got {}",
@@ -201,7 +212,9 @@ pub fn dynamic_tensor(initial: &Simulation, opts: &ElementTestOptions, progress:
         let mut sim = initial.clone();
         let g = path_gradient(k, opts.strain);
         let max = opts.max_steps.max(1) as f64;
-        let r = relax_path(&mut sim, k, &g, opts, &mut |s| progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0))?;
+        let r = relax_path(&mut sim, k, &g, opts, &mut |s| {
+            progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
+        })?;
         paths.push(r);
     }
     progress(1.0);

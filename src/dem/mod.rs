@@ -39,10 +39,20 @@ pub enum LawKind {
 }
 
 /// Build the bond law `kind` for the springs `k` of `bonds`.
-pub fn build_law(kind: LawKind, packing: &Packing, bonds: &BondSet, k: &BondStiffness) -> Result<Box<dyn BondLaw>> {
+pub fn build_law(
+    kind: LawKind,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+) -> Result<Box<dyn BondLaw>> {
     Ok(match kind {
         LawKind::Yade => Box::new(laws::yade::yade_cohesive_law(k)?),
         LawKind::ParallelBond => Box::new(laws::parallel_bond::parallel_bond_law(k)?),
-        LawKind::Kumar => Box::new(laws::kumar::kumar_law(packing, bonds, k, Some(laws::kumar::KUMAR_DAMPING))?),
+        LawKind::Kumar => Box::new(laws::kumar::kumar_law(
+            packing,
+            bonds,
+            k,
+            Some(laws::kumar::KUMAR_DAMPING),
+        )?),
     })
 }

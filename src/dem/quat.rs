@@ -55,7 +55,8 @@ impl Quat {
     /// Divide by the 4-norm (no-op on the zero quaternion).
     #[inline]
     pub fn normalize(&mut self) {
-        let n = (self.v.x * self.v.x + self.v.y * self.v.y + self.v.z * self.v.z + self.w * self.w).sqrt();
+        let n = (self.v.x * self.v.x + self.v.y * self.v.y + self.v.z * self.v.z + self.w * self.w)
+            .sqrt();
         if n > 0.0 {
             self.w /= n;
             self.v /= n;
@@ -80,7 +81,11 @@ impl Quat {
         let n = self.v.norm();
         if n != 0.0 {
             let angle = 2.0 * n.atan2(self.w.abs());
-            let axis = if self.w < 0.0 { -self.v / n } else { self.v / n };
+            let axis = if self.w < 0.0 {
+                -self.v / n
+            } else {
+                self.v / n
+            };
             (angle, axis)
         } else {
             (0.0, Vec3::new(1.0, 0.0, 0.0))

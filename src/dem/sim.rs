@@ -5,7 +5,8 @@
 use super::laws::{BondContext, BondLaw};
 use super::quat::Quat;
 use super::state::{
-    deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions, Particles,
+    deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions,
+    Particles,
 };
 use crate::bonds::BondSet;
 use crate::homogenize::network::{self, LeverArm};
@@ -140,7 +141,12 @@ impl Clone for Simulation {
 impl Simulation {
     /// Set up a bonded packing at rest: every bond is stress-free in this configuration.
     /// `law` must carry one spring set per bond of `bonds`.
-    pub fn new(packing: &Packing, bonds: &BondSet, law: Box<dyn BondLaw>, opts: &DemOptions) -> Result<Self> {
+    pub fn new(
+        packing: &Packing,
+        bonds: &BondSet,
+        law: Box<dyn BondLaw>,
+        opts: &DemOptions,
+    ) -> Result<Self> {
         if !(opts.local_damping.is_finite() && (0.0..1.0).contains(&opts.local_damping)) {
             return Err(Error::Invalid(format!(
                 "local damping must be in [0, 1), got {}",
@@ -180,13 +186,18 @@ impl Simulation {
             free_volume: packing.volume(),
         };
         let mut law = law;
-        law.initialize(&sim.context_parts().as_context(&sim.particles, &sim.topology))?;
+        law.initialize(
+            &sim.context_parts()
+                .as_context(&sim.particles, &sim.topology),
+        )?;
         sim.law = law;
         sim.stability = sim.compute_stability();
         sim.dt = match opts.time_step {
             Some(dt) if dt.is_finite() && dt > 0.0 => dt,
             Some(dt) => {
-                return Err(Error::Invalid(format!("time step must be finite and > 0 s, got {dt}")));
+                return Err(Error::Invalid(format!(
+                    "time step must be finite and > 0 s, got {dt}"
+                )));
             }
             None => {
                 if !sim.stability.critical_time_step.is_finite() {
@@ -214,7 +225,9 @@ impl Simulation {
     /// Change the time step (s).
     pub fn set_time_step(&mut self, dt: f64) -> Result<()> {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(Error::Invalid(format!("time step must be finite and > 0 s, got {dt}")));
+            return Err(Error::Invalid(format!(
+                "time step must be finite and > 0 s, got {dt}"
+            )));
         }
         self.dt = dt;
         Ok(())
@@ -223,7 +236,9 @@ impl Simulation {
     /// Change the Cundall local damping λ ∈ [0, 1).
     pub fn set_local_damping(&mut self, lambda: f64) -> Result<()> {
         if !(lambda.is_finite() && (0.0..1.0).contains(&lambda)) {
-            return Err(Error::Invalid(format!("local damping must be in [0, 1), got {lambda}")));
+            return Err(Error::Invalid(format!(
+                "local damping must be in [0, 1), got {lambda}"
+            )));
         }
         self.local_damping = lambda;
         Ok(())
@@ -268,7 +283,8 @@ impl Simulation {
         {
             let ctx = self.context_parts();
             let mut loads = std::mem::take(&mut self.loads);
-            self.law.compute(&ctx.as_context(&self.particles, &self.topology), &mut loads);
+            self.law
+                .compute(&ctx.as_context(&self.particles, &self.topology), &mut loads);
             self.loads = loads;
         }
         self.integrate_particles();
@@ -434,13 +450,17 @@ impl Simulation {
     /// bond forces of the last evaluation and the current branch vectors — what YADE's
     /// `utils.getStress()` returns after `O.step()`. Not symmetrised.
     pub fn stress(&self) -> Mat3 {
-        let s = deterministic_sum_mat3(self.topology.len(), |b| self.loads.force_i[b] * self.branch(b).transpose());
+        let s = deterministic_sum_mat3(self.topology.len(), |b| {
+            self.loads.force_i[b] * self.branch(b).transpose()
+        });
         s / self.volume()
     }
 
     /// Small strain of the cell ½(F + Fᵀ) − I (zero for a free assembly).
     pub fn strain(&self) -> Mat3 {
-        self.cell.as_ref().map_or(Mat3::zeros(), |c| c.small_strain())
+        self.cell
+            .as_ref()
+            .map_or(Mat3::zeros(), |c| c.small_strain())
     }
 
     /// YADE's unbalanced force: mean resultant force on the bonded particles over the mean
@@ -449,7 +469,13 @@ impl Simulation {
         let n = self.particles.len();
         let topo = &self.topology;
         let bonded = (0..n).filter(|&p| topo.degree(p) > 0).count().max(1);
-        let fsum = deterministic_sum(n, |p| if topo.degree(p) > 0 { self.force[p].norm() } else { 0.0 });
+        let fsum = deterministic_sum(n, |p| {
+            if topo.degree(p) > 0 {
+                self.force[p].norm()
+            } else {
+                0.0
+            }
+        });
         let nb = topo.len().max(1);
         let bsum = deterministic_sum(topo.len(), |b| self.loads.force_i[b].norm());
         if bsum == 0.0 {
@@ -482,8 +508,22 @@ impl Simulation {
                 },
                 true,
             );
-            let mi = [p.mass[i], p.mass[i], p.mass[i], p.inertia[i], p.inertia[i], p.inertia[i]];
-            let mj = [p.mass[j], p.mass[j], p.mass[j], p.inertia[j], p.inertia[j], p.inertia[j]];
+            let mi = [
+                p.mass[i],
+                p.mass[i],
+                p.mass[i],
+                p.inertia[i],
+                p.inertia[i],
+                p.inertia[i],
+            ];
+            let mj = [
+                p.mass[j],
+                p.mass[j],
+                p.mass[j],
+                p.inertia[j],
+                p.inertia[j],
+                p.inertia[j],
+            ];
             for r in 0..6 {
                 for c in 0..6 {
                     rows[i][r] += e.kii[(r, c)].abs() / (mi[r] * mi[c]).sqrt()
@@ -502,9 +542,17 @@ impl Simulation {
                 stiffest = k;
             }
         }
-        let by_degree = |d: usize| (0..n).filter(|&k| self.topology.degree(k) == d).collect::<Vec<_>>();
+        let by_degree = |d: usize| {
+            (0..n)
+                .filter(|&k| self.topology.degree(k) == d)
+                .collect::<Vec<_>>()
+        };
         StabilityReport {
-            critical_time_step: if worst > 0.0 { 2.0 / worst.sqrt() } else { f64::INFINITY },
+            critical_time_step: if worst > 0.0 {
+                2.0 / worst.sqrt()
+            } else {
+                f64::INFINITY
+            },
             stiffest_particle: stiffest,
             unbonded_particles: by_degree(0),
             one_bond_particles: by_degree(1),
@@ -521,7 +569,11 @@ impl Simulation {
         let e = self.energies();
         let total = e.mechanical();
         let finite = total.is_finite()
-            && self.particles.position.iter().all(|x| x.iter().all(|c| c.is_finite()));
+            && self
+                .particles
+                .position
+                .iter()
+                .all(|x| x.iter().all(|c| c.is_finite()));
         if !finite || {
             self.watch.push(total);
             let w = &self.watch;
@@ -560,7 +612,11 @@ struct ContextParts {
 }
 
 impl ContextParts {
-    fn as_context<'a>(&self, particles: &'a Particles, topology: &'a BondTopology) -> BondContext<'a> {
+    fn as_context<'a>(
+        &self,
+        particles: &'a Particles,
+        topology: &'a BondTopology,
+    ) -> BondContext<'a> {
         BondContext {
             particles,
             topology,

@@ -180,7 +180,9 @@ impl BondTopology {
     pub fn new(bonds: &BondSet, n_particles: usize) -> Result<Self> {
         let nb = bonds.len();
         if nb >= (u32::MAX / 2) as usize {
-            return Err(Error::Invalid(format!("too many bonds ({nb}) for the integrator")));
+            return Err(Error::Invalid(format!(
+                "too many bonds ({nb}) for the integrator"
+            )));
         }
         let mut start = vec![0usize; n_particles + 1];
         for b in 0..nb {

@@ -27,11 +27,23 @@ pub fn kumar_law(
 ) -> Result<LinearBondKernel> {
     let r_star: Vec<f64> = (0..bonds.len())
         .map(|b| {
-            let (ri, rj) = (packing.radii[bonds.i[b] as usize], packing.radii[bonds.j[b] as usize]);
+            let (ri, rj) = (
+                packing.radii[bonds.i[b] as usize],
+                packing.radii[bonds.j[b] as usize],
+            );
             ri * rj / (ri + rj)
         })
         .collect();
     let kr: Vec<f64> = k.kn.iter().zip(&r_star).map(|(kn, r)| kn * r * r).collect();
-    let ktw: Vec<f64> = k.ks.iter().zip(&r_star).map(|(ks, r)| 2.0 * ks * r * r).collect();
-    LinearBondKernel::new("kumar", [&k.kn, &k.ks, &kr, &ktw], MomentForm::Incremental, damping)
+    let ktw: Vec<f64> =
+        k.ks.iter()
+            .zip(&r_star)
+            .map(|(ks, r)| 2.0 * ks * r * r)
+            .collect();
+    LinearBondKernel::new(
+        "kumar",
+        [&k.kn, &k.ks, &kr, &ktw],
+        MomentForm::Incremental,
+        damping,
+    )
 }

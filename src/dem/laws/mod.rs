@@ -146,7 +146,11 @@ impl LinearBondKernel {
         }
         let names = ["kn", "ks", "kr", "ktw"];
         for (s, nm) in springs.iter().zip(names) {
-            if let Some((b, v)) = s.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
+            if let Some((b, v)) = s
+                .iter()
+                .enumerate()
+                .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+            {
                 return Err(Error::Invalid(format!(
                     "bond law `{name}`: bond {b} has {nm} = {v}; expected a finite value ≥ 0"
                 )));
@@ -276,7 +280,8 @@ impl BondLaw for LinearBondKernel {
                 // velocity of j's periodic image.
                 let c1x = cp - xi;
                 let c2x = cp - xj;
-                let mut rel_vel = (p.velocity[j] + wj.cross(&c2x)) - (p.velocity[i] + wi.cross(&c1x));
+                let mut rel_vel =
+                    (p.velocity[j] + wj.cross(&c2x)) - (p.velocity[i] + wi.cross(&c1x));
                 rel_vel += ctx.shift_velocity * ctx.topology.cell_dist[b];
                 let rel_vel_t = rel_vel - n * n.dot(&rel_vel);
                 let shear_inc = rel_vel_t * dt;
@@ -315,8 +320,16 @@ impl BondLaw for LinearBondKernel {
                             }
                             let twist = angle * axis.dot(&n);
                             let bending = axis * angle - n * twist;
-                            st.moment_twist = if c.ktw > 0.0 { n * (twist * c.ktw) } else { Vec3::zeros() };
-                            st.moment_bending = if c.kr > 0.0 { bending * c.kr } else { Vec3::zeros() };
+                            st.moment_twist = if c.ktw > 0.0 {
+                                n * (twist * c.ktw)
+                            } else {
+                                Vec3::zeros()
+                            };
+                            st.moment_bending = if c.kr > 0.0 {
+                                bending * c.kr
+                            } else {
+                                Vec3::zeros()
+                            };
                         }
                     }
                     MomentForm::Incremental => {
@@ -388,7 +401,10 @@ impl BondLaw for LinearBondKernel {
     }
 
     fn bond_forces(&self, b: usize) -> (f64, Vec3) {
-        (self.dyn_state[b].normal_force, self.dyn_state[b].shear_force)
+        (
+            self.dyn_state[b].normal_force,
+            self.dyn_state[b].shear_force,
+        )
     }
 
     fn box_clone(&self) -> Box<dyn BondLaw> {

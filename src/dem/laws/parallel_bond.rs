@@ -14,7 +14,20 @@ use crate::Result;
 /// Law (b) for springs `k` (uses k_n, k_s and the bond radius R_b; the moment springs are
 /// derived from them, any k_r/k_tw in `k` are ignored).
 pub fn parallel_bond_law(k: &BondStiffness) -> Result<LinearBondKernel> {
-    let kr: Vec<f64> = k.kn.iter().zip(&k.radius).map(|(kn, r)| kn * r * r / 4.0).collect();
-    let ktw: Vec<f64> = k.ks.iter().zip(&k.radius).map(|(ks, r)| ks * r * r / 2.0).collect();
-    LinearBondKernel::new("parallel-bond", [&k.kn, &k.ks, &kr, &ktw], MomentForm::Incremental, None)
+    let kr: Vec<f64> =
+        k.kn.iter()
+            .zip(&k.radius)
+            .map(|(kn, r)| kn * r * r / 4.0)
+            .collect();
+    let ktw: Vec<f64> =
+        k.ks.iter()
+            .zip(&k.radius)
+            .map(|(ks, r)| ks * r * r / 2.0)
+            .collect();
+    LinearBondKernel::new(
+        "parallel-bond",
+        [&k.kn, &k.ks, &kr, &ktw],
+        MomentForm::Incremental,
+        None,
+    )
 }

@@ -19,5 +19,10 @@ use crate::Result;
 
 /// Law (a) for springs `k` (k_r, k_tw as given; zero disables that moment).
 pub fn yade_cohesive_law(k: &BondStiffness) -> Result<LinearBondKernel> {
-    LinearBondKernel::new("yade", [&k.kn, &k.ks, &k.kr, &k.ktw], MomentForm::Orientation, None)
+    LinearBondKernel::new(
+        "yade",
+        [&k.kn, &k.ks, &k.kr, &k.ktw],
+        MomentForm::Orientation,
+        None,
+    )
 }
