@@ -99,28 +99,3 @@ fn dynamic_matches_relaxed_without_moments() {
 fn dynamic_matches_relaxed_with_bending_and_twisting() {
     compare(true);
 }
-
-#[test]
-#[ignore]
-fn debug_paths() {
-    let (p, b) = bonded(300, 7);
-    let k = springs(&p, &b, false);
-    let relaxed = relaxed_tensor(&p, &b, &k, &RelaxedOptions::default()).unwrap();
-    let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
-    let sim = Simulation::new(&p, &b, law, &DemOptions::default()).unwrap();
-    let dynamic = dynamic_tensor(&sim, &ElementTestOptions::default(), &|_| {}).unwrap();
-    for path in &dynamic.paths {
-        println!(
-            "path {}: strain {:?} stress {:?}",
-            path.path,
-            path.strain.as_slice(),
-            path.stress.as_slice()
-        );
-    }
-    println!(
-        "dt {:e} crit {:e}",
-        sim.time_step(),
-        sim.stability().critical_time_step
-    );
-    println!("dyn {:.4e}\nrelaxed {:.4e}", dynamic.c, relaxed.c);
-}
