@@ -12,6 +12,7 @@
 //! engineering strain. The library never prints; the `anisobond` binary does.
 
 pub mod bonds;
+pub mod dem;
 pub mod error;
 pub mod export;
 pub mod homogenize;

@@ -4,6 +4,7 @@
 mod demo;
 mod export;
 mod output;
+pub mod run;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;
@@ -44,6 +45,9 @@ enum Command {
     Tensor(TensorArgs),
     /// Export a packing + model to another DEM code (YADE), ready to run there.
     Export(export::ExportArgs),
+    /// The reference DEM integrator on a periodic packing: the six element tests (strain in
+    /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
+    Run(run::RunArgs),
 }
 
 #[derive(clap::Args)]
@@ -91,6 +95,8 @@ enum Method {
     Relaxed,
     /// Kruyt's local-adjustment-field estimate with shells of order --shell.
     Laf,
+    /// Element tests with the reference DEM integrator (needs a periodic packing).
+    Dynamic,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -118,7 +124,7 @@ struct StaticArgs {
     lever_arm: LeverArmArg,
     /// Relaxed: CG tolerance on the relative residual (the tensor's error is ~its square).
     #[arg(long, default_value_t = 1e-6)]
-    tolerance: f64,
+    cg_tolerance: f64,
     /// LAF: shell order m (1–6).
     #[arg(long, default_value_t = 2)]
     shell: usize,
@@ -155,6 +161,9 @@ struct TensorArgs {
     radius: f64,
     #[command(flatten)]
     statics: StaticArgs,
+    /// Integrator settings of --method dynamic.
+    #[command(flatten)]
+    integrator: run::IntegratorArgs,
 }
 
 /// Parse the command line and run it.
@@ -166,6 +175,7 @@ pub fn run() -> Result<()> {
         Command::Bonds(a) => bonds_cmd(a),
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
+        Command::Run(a) => run::run(a),
     }
 }
 
@@ -260,7 +270,7 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
         Method::Relaxed => {
             let opts = RelaxedOptions {
                 lever_arm: st.lever_arm.into(),
-                tolerance: st.tolerance,
+                tolerance: st.cg_tolerance,
                 ..Default::default()
             };
             let r = relaxed_tensor(&b.packing, &b.bonds, &b.stiffness, &opts)?;
@@ -296,6 +306,12 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
                 r.c_stress
             }
         }
+        Method::Dynamic => run::dynamic_tensor(
+            &b.packing,
+            &b.bonds,
+            &b.stiffness,
+            &run::IntegratorArgs::default(),
+        )?,
         Method::Voigt => voigt::voigt_tensor(&b.bonds, &b.stiffness, b.packing.volume()),
         Method::MeanField => {
             let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
@@ -314,6 +330,7 @@ fn method_name(m: Method) -> &'static str {
         Method::Voigt => "voigt",
         Method::Relaxed => "relaxed",
         Method::Laf => "laf",
+        Method::Dynamic => "dynamic",
     }
 }
 
@@ -322,7 +339,12 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {
             let b = load_bonded(p, &model, &a.model)?;
-            let c = tensor_of(&b, &model, m, &a.statics)?;
+            let c = match m {
+                Method::Dynamic => {
+                    run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &a.integrator)?
+                }
+                _ => tensor_of(&b, &model, m, &a.statics)?,
+            };
             TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))
         }
         (None, Method::MeanField) => {

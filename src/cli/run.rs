@@ -1,0 +1,234 @@
+//! `anisobond run`: the reference integrator's element tests on a packing + model, with a
+//! progress bar, the stress–strain history CSV and the final tensor JSON; and the helper
+//! behind `anisobond tensor --method dynamic`.
+
+use anisobond::bonds::{self, BondSet, BondStiffness};
+use anisobond::dem::element::{self, ElementTestOptions};
+use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use anisobond::homogenize::report::TensorReport;
+use anisobond::model::Model;
+use anisobond::packing::{self, Packing};
+use anisobond::tensor::Stiffness6;
+use anisobond::{Error, Result};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Bond law of the integrator.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum LawArg {
+    /// (a) YADE 2023.02a cohesive law (Law2_ScGeom6D_CohFrictPhys_CohesionMoment).
+    Yade,
+    /// (b) Potyondy–Cundall parallel bond (Truszkowska 2018 Eq. 3).
+    ParallelBond,
+    /// (c) Kumar 2016 Eqs. 2–8 with viscous bond damping.
+    Kumar,
+}
+
+impl From<LawArg> for LawKind {
+    fn from(a: LawArg) -> Self {
+        match a {
+            LawArg::Yade => LawKind::Yade,
+            LawArg::ParallelBond => LawKind::ParallelBond,
+            LawArg::Kumar => LawKind::Kumar,
+        }
+    }
+}
+
+/// Integrator settings shared by `run` and `tensor --method dynamic`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct IntegratorArgs {
+    /// Bond law.
+    #[arg(long, value_enum, default_value_t = LawArg::Yade)]
+    pub law: LawArg,
+    /// Cundall local damping λ during the relaxation.
+    #[arg(long, default_value_t = 0.4)]
+    pub damping: f64,
+    /// Strain magnitude of each of the six paths.
+    #[arg(long, default_value_t = 1e-5)]
+    pub strain: f64,
+    /// Particle density (kg/m³).
+    #[arg(long, default_value_t = 2600.0)]
+    pub density: f64,
+    /// Mass-scaling factor on the density.
+    #[arg(long, default_value_t = 1.0)]
+    pub mass_scaling: f64,
+    /// Time step (s); default: --safety × the critical estimate.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Safety factor on the critical time step.
+    #[arg(long, default_value_t = 0.8)]
+    pub safety: f64,
+    /// Convergence: relative stress change over 10 steps.
+    #[arg(long, default_value_t = 1e-7)]
+    pub tolerance: f64,
+    /// Step limit per path.
+    #[arg(long, default_value_t = 20_000)]
+    pub max_steps: usize,
+}
+
+impl Default for IntegratorArgs {
+    fn default() -> Self {
+        IntegratorArgs {
+            law: LawArg::Yade,
+            damping: 0.4,
+            strain: 1e-5,
+            density: 2600.0,
+            mass_scaling: 1.0,
+            dt: None,
+            safety: 0.8,
+            tolerance: 1e-7,
+            max_steps: 20_000,
+        }
+    }
+}
+
+/// Arguments of `anisobond run`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct RunArgs {
+    /// Periodic packing file (SPEC text with a `# periodic Lx Ly Lz` header).
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    pub model: PathBuf,
+    #[command(flatten)]
+    pub integrator: IntegratorArgs,
+    /// Stress–strain history CSV (one row per step of every path).
+    #[arg(long)]
+    pub history: Option<PathBuf>,
+    /// Final tensor report (SPEC JSON).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
+    ElementTestOptions {
+        strain: a.strain,
+        local_damping: a.damping,
+        tolerance: a.tolerance,
+        max_steps: a.max_steps,
+        dem: DemOptions {
+            time_step: a.dt,
+            safety: a.safety,
+            local_damping: a.damping,
+            mass: MassOptions {
+                density: a.density,
+                scaling: a.mass_scaling,
+            },
+            ..Default::default()
+        },
+        history_every: usize::from(history),
+        ..Default::default()
+    }
+}
+
+fn bonded(
+    packing_path: &std::path::Path,
+    model_path: &std::path::Path,
+) -> Result<(Packing, BondSet, BondStiffness)> {
+    let model = Model::from_path(model_path)?;
+    let packing = packing::io::read_packing(packing_path)?;
+    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if b.is_empty() {
+        return Err(Error::Invalid(
+            "the bonding rule produced no bonds: increase the gap/factor value".into(),
+        ));
+    }
+    let scheme = model.build_scheme(Some((&packing, &b)))?;
+    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
+    Ok((packing, b, k))
+}
+
+fn progress_bar(what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template(&format!("{what} [{{bar:40}}] {{percent:>3}}% {{elapsed}}"))
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+fn run_element_tests(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    a: &IntegratorArgs,
+    history: bool,
+) -> Result<element::DynamicTensor> {
+    let law = build_law(a.law.into(), packing, bonds, k)?;
+    let opts = element_options(a, history);
+    let sim = Simulation::new(packing, bonds, law, &opts.dem)?;
+    let st = sim.stability();
+    if !st.one_bond_particles.is_empty() || !st.two_bond_particles.is_empty() {
+        eprintln!(
+            "note: {} particles with one bond and {} with two (zero-stiffness modes, held by damping); {} without bonds",
+            st.one_bond_particles.len(),
+            st.two_bond_particles.len(),
+            st.unbonded_particles.len()
+        );
+    }
+    eprintln!(
+        "time step {:.4e} s (critical estimate {:.4e} s)",
+        sim.time_step(),
+        st.critical_time_step
+    );
+    let bar = progress_bar("element tests");
+    let result = element::dynamic_tensor(&sim, &opts, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    result
+}
+
+/// The dynamic (reference-integrator) tensor of a bonded periodic packing (Pa), for
+/// `tensor --method dynamic`.
+pub fn dynamic_tensor(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    a: &IntegratorArgs,
+) -> Result<Stiffness6> {
+    Ok(run_element_tests(packing, bonds, k, a, false)?.c)
+}
+
+/// `anisobond run`.
+pub fn run(a: RunArgs) -> Result<()> {
+    let (packing, b, k) = bonded(&a.packing, &a.model)?;
+    let result = run_element_tests(&packing, &b, &k, &a.integrator, a.history.is_some())?;
+    if let Some(path) = &a.history {
+        let mut csv = String::from(
+            "path,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa,kinetic_J,elastic_J,local_damping_J,viscous_damping_J,unbalanced_force\n",
+        );
+        for p in &result.paths {
+            for h in &p.history {
+                let _ = write!(csv, "{},{},{:e}", p.path, h.step, h.time);
+                for v in h.strain.iter().chain(h.stress.iter()) {
+                    let _ = write!(csv, ",{v:e}");
+                }
+                let e = &h.energies;
+                let _ = writeln!(
+                    csv,
+                    ",{:e},{:e},{:e},{:e},{:e}",
+                    e.kinetic, e.elastic, e.local_damping, e.viscous_damping, h.unbalanced_force
+                );
+            }
+        }
+        anisobond::io::write_string_atomic(path, &csv)?;
+        println!("wrote {}", path.display());
+    }
+    let report = TensorReport::new("dynamic", result.c, Some((&packing, &b)));
+    for p in &result.paths {
+        println!("path {}: relaxed in {} steps", p.path, p.steps);
+    }
+    if let Some(out) = &a.output {
+        anisobond::io::write_string_atomic(out, &(report.to_json() + "\n"))?;
+        println!("wrote {}", out.display());
+    }
+    println!("stiffness tensor, method dynamic (GPa; Voigt order 11 22 33 23 13 12):");
+    for row in &report.c {
+        let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
+        println!("  {}", cells.join(" "));
+    }
+    Ok(())
+}

@@ -1,0 +1,230 @@
+//! Element tests in the periodic cell: six strain paths (three uniaxial strains, three pure
+//! shears; Truszkowska 2018 Eqs. 17–22 as a homogeneous velocity gradient), each applied in
+//! one step and relaxed quasi-statically with Cundall damping, then the symmetric 21-component
+//! solve of Truszkowska Eq. 27 for the 6×6 stiffness.
+
+use super::sim::{DemOptions, Energies, Simulation, StabilityReport};
+use crate::tensor::{fit_symmetric_eq27, Stiffness6, Voigt6, VOIGT_PAIRS};
+use crate::{Error, Mat3, Result};
+
+/// Settings of the strain-controlled element tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElementTestOptions {
+    /// Strain magnitude e per path: every path loads its Voigt component by −e (uniaxial
+    /// compression as Eqs. 17–19; shears with the same sign, engineering γ = −e — with
+    /// mixed signs the pairwise equations of Eq. 27 cancel between uniaxial and shear paths).
+    pub strain: f64,
+    /// Cundall local damping during the relaxation (YADE measurements use 0.4).
+    pub local_damping: f64,
+    /// A path is converged when, over the last `window` steps, the largest change of the
+    /// stress (Voigt, Pa) relative to its norm stays below this.
+    pub tolerance: f64,
+    /// Steps of the convergence window.
+    pub window: usize,
+    /// Step limit per path; reaching it is an error naming the residual change.
+    pub max_steps: usize,
+    /// Integrator settings (time step, masses, check interval); its damping is replaced by
+    /// `local_damping`.
+    pub dem: DemOptions,
+    /// Record a history row every this many steps (0: none).
+    pub history_every: usize,
+}
+
+impl Default for ElementTestOptions {
+    fn default() -> Self {
+        ElementTestOptions {
+            strain: 1e-5,
+            local_damping: 0.4,
+            tolerance: 1e-7,
+            window: 10,
+            max_steps: 20_000,
+            dem: DemOptions::default(),
+            history_every: 0,
+        }
+    }
+}
+
+/// One recorded state of a path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HistoryRow {
+    /// Step number within the path.
+    pub step: u64,
+    /// Time (s).
+    pub time: f64,
+    /// Cell strain (Voigt, engineering shear).
+    pub strain: Voigt6,
+    /// Love stress, symmetric part (Voigt, Pa).
+    pub stress: Voigt6,
+    /// Energies (J).
+    pub energies: Energies,
+    /// YADE's unbalanced-force ratio.
+    pub unbalanced_force: f64,
+}
+
+/// Result of one strain path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathResult {
+    /// Path number 0..6 (Voigt component loaded).
+    pub path: usize,
+    /// Final cell strain (Voigt, engineering shear).
+    pub strain: Voigt6,
+    /// Final relaxed stress (Voigt, Pa).
+    pub stress: Voigt6,
+    /// Steps used.
+    pub steps: usize,
+    /// Recorded history.
+    pub history: Vec<HistoryRow>,
+}
+
+/// The dynamic stiffness tensor and how it was obtained.
+#[derive(Clone, Debug)]
+pub struct DynamicTensor {
+    /// C from Truszkowska Eq. 27 (Pa).
+    pub c: Stiffness6,
+    /// The six paths.
+    pub paths: Vec<PathResult>,
+    /// Time step used (s).
+    pub time_step: f64,
+    /// Critical time step and weakly bonded particles.
+    pub stability: StabilityReport,
+}
+
+/// Displacement gradient of path `k` with magnitude `e` (Truszkowska Eqs. 17–22): uniaxial
+/// compression −e along axis k for k < 3, symmetric pure shear of engineering strain −e in
+/// the plane of Voigt component k for k ≥ 3 (same sign as the uniaxial paths, see
+/// [`ElementTestOptions::strain`]).
+pub fn path_gradient(k: usize, e: f64) -> Mat3 {
+    let (a, b) = VOIGT_PAIRS[k.min(5)];
+    let mut g = Mat3::zeros();
+    if a == b {
+        g[(a, a)] = -e;
+    } else {
+        g[(a, b)] = -0.5 * e;
+        g[(b, a)] = -0.5 * e;
+    }
+    g
+}
+
+/// Voigt vector of a symmetric tensor; `engineering` doubles the shear terms (strain).
+pub fn to_voigt(m: &Mat3, engineering: bool) -> Voigt6 {
+    let s = (m + m.transpose()) * 0.5;
+    Voigt6::from_fn(|k, _| {
+        let (a, b) = VOIGT_PAIRS[k];
+        if a != b && engineering {
+            2.0 * s[(a, b)]
+        } else {
+            s[(a, b)]
+        }
+    })
+}
+
+/// Apply the displacement gradient `g` to the cell in one step (velocity gradient g/dt for
+/// one integrator pass) and relax with damping until converged.
+pub fn relax_path(
+    sim: &mut Simulation,
+    path: usize,
+    g: &Mat3,
+    opts: &ElementTestOptions,
+    progress: &mut dyn FnMut(usize),
+) -> Result<PathResult> {
+    sim.set_local_damping(opts.local_damping)?;
+    let dt = sim.time_step();
+    sim.set_velocity_gradient(g / dt)?;
+    sim.step()?;
+    sim.set_velocity_gradient(Mat3::zeros())?;
+    let mut history = Vec::new();
+    let mut recent: std::collections::VecDeque<Voigt6> = std::collections::VecDeque::new();
+    let window = opts.window.max(1);
+    let mut steps = 1;
+    let mut last_change = f64::INFINITY;
+    loop {
+        sim.step()?;
+        steps += 1;
+        let stress = to_voigt(&sim.stress(), false);
+        if opts.history_every > 0 && steps % opts.history_every == 0 {
+            history.push(HistoryRow {
+                step: steps as u64,
+                time: sim.time(),
+                strain: to_voigt(&sim.strain(), true),
+                stress,
+                energies: sim.energies(),
+                unbalanced_force: sim.unbalanced_force(),
+            });
+        }
+        recent.push_back(stress);
+        if recent.len() > window + 1 {
+            recent.pop_front();
+        }
+        if recent.len() == window + 1 {
+            let norm = stress.norm();
+            let change = recent
+                .iter()
+                .map(|s| (s - stress).norm())
+                .fold(0.0, f64::max);
+            last_change = if norm > 0.0 {
+                change / norm
+            } else {
+                f64::INFINITY
+            };
+            if last_change < opts.tolerance {
+                break;
+            }
+        }
+        if steps >= opts.max_steps {
+            return Err(Error::Invalid(format!(
+                "element test path {path}: not relaxed after {steps} steps (relative stress change \
+                 {last_change:.3e} over {window} steps > tolerance {:.1e}); raise the step limit or \
+                 the damping",
+                opts.tolerance
+            )));
+        }
+        progress(steps);
+    }
+    Ok(PathResult {
+        path,
+        strain: to_voigt(&sim.strain(), true),
+        stress: to_voigt(&sim.stress(), false),
+        steps,
+        history,
+    })
+}
+
+/// Run the six paths from the same initial state and fit C (Truszkowska Eq. 27).
+/// `progress` receives the fraction done (paths counted equally).
+pub fn dynamic_tensor(
+    initial: &Simulation,
+    opts: &ElementTestOptions,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<DynamicTensor> {
+    if !(opts.strain.is_finite() && opts.strain > 0.0 && opts.strain < 0.1) {
+        return Err(Error::Invalid(format!(
+            "element-test strain must be in (0, 0.1), got {}",
+            opts.strain
+        )));
+    }
+    if initial.cell.is_none() {
+        return Err(Error::Invalid(
+            "strain-controlled element tests need a periodic packing (a `# periodic Lx Ly Lz` header)".into(),
+        ));
+    }
+    let mut paths = Vec::with_capacity(6);
+    for k in 0..6 {
+        let mut sim = initial.clone();
+        let g = path_gradient(k, opts.strain);
+        let max = opts.max_steps.max(1) as f64;
+        let r = relax_path(&mut sim, k, &g, opts, &mut |s| {
+            progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
+        })?;
+        paths.push(r);
+    }
+    progress(1.0);
+    let strains: Vec<Voigt6> = paths.iter().map(|p| p.strain).collect();
+    let stresses: Vec<Voigt6> = paths.iter().map(|p| p.stress).collect();
+    let c = fit_symmetric_eq27(&strains, &stresses)?;
+    Ok(DynamicTensor {
+        c,
+        paths,
+        time_step: initial.time_step(),
+        stability: initial.stability().clone(),
+    })
+}

@@ -1,0 +1,670 @@
+//! The explicit integrator: YADE's NewtonIntegrator (leapfrog, Cundall local damping on the
+//! fluctuating velocity, the periodic cell's affine field with the one-step-late
+//! `nextVelGrad`), the Love stress, energies, the critical time step and blow-up detection.
+
+use super::laws::{BondContext, BondLaw};
+use super::quat::Quat;
+use super::state::{
+    deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions,
+    Particles,
+};
+use crate::bonds::BondSet;
+use crate::homogenize::network::{self, LeverArm};
+use crate::packing::Packing;
+use crate::{Error, Mat3, Result, Vec3};
+use rayon::prelude::*;
+
+/// Integrator settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DemOptions {
+    /// Time step (s); `None` = `safety` × the critical estimate.
+    pub time_step: Option<f64>,
+    /// Safety factor on the critical time step (used when `time_step` is None, and in the
+    /// time step recommended by blow-up errors).
+    pub safety: f64,
+    /// Cundall local damping λ ∈ [0, 1) (YADE `NewtonIntegrator.damping`).
+    pub local_damping: f64,
+    /// Masses from a density.
+    pub mass: MassOptions,
+    /// Steps between energy checks for blow-up (0 disables the check).
+    pub check_interval: usize,
+}
+
+impl Default for DemOptions {
+    fn default() -> Self {
+        DemOptions {
+            time_step: None,
+            safety: 0.8,
+            local_damping: 0.0,
+            mass: MassOptions::default(),
+            check_interval: 20,
+        }
+    }
+}
+
+/// Energy ledger (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energies {
+    /// Kinetic energy of the fluctuating motion, translational + rotational, at the force
+    /// evaluation time t (leapfrog mid-point velocities v(t−dt/2) + a·dt/2).
+    pub kinetic: f64,
+    /// Elastic energy stored in the bonds at t.
+    pub elastic: f64,
+    /// Energy removed by Cundall local damping so far.
+    pub local_damping: f64,
+    /// Energy removed by viscous bond damping so far.
+    pub viscous_damping: f64,
+}
+
+impl Energies {
+    /// Kinetic + elastic.
+    pub fn mechanical(&self) -> f64 {
+        self.kinetic + self.elastic
+    }
+}
+
+/// Critical time step estimate and the assembly's weak spots.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StabilityReport {
+    /// Leapfrog limit 2/ω_max with ω_max² bounded above by Gershgorin's theorem on the
+    /// mass-scaled 6-DOF stiffness matrix (translation and rotation; a rigorous upper bound
+    /// of the highest frequency, so this critical step is a lower bound of the true one) (s).
+    pub critical_time_step: f64,
+    /// Particle whose Gershgorin row is largest (the stiffest/lightest).
+    pub stiffest_particle: usize,
+    /// Particles without bonds (they float freely).
+    pub unbonded_particles: Vec<usize>,
+    /// Particles with one bond: free rotations and a free swing about their partner.
+    pub one_bond_particles: Vec<usize>,
+    /// Particles with two bonds: a free rotation about the line through the contacts
+    /// (REFERENCES.md, null space).
+    pub two_bond_particles: Vec<usize>,
+}
+
+/// A bonded assembly being integrated.
+pub struct Simulation {
+    /// Particle state.
+    pub particles: Particles,
+    /// The periodic cell (None: a free assembly).
+    pub cell: Option<DeformingCell>,
+    /// Bond topology.
+    pub topology: BondTopology,
+    /// Bond loads of the last force evaluation.
+    pub loads: BondLoads,
+    /// Resultant force on each particle at the last evaluation (N).
+    pub force: Vec<Vec3>,
+    /// Resultant torque on each particle at the last evaluation (N·m).
+    pub torque: Vec<Vec3>,
+    law: Box<dyn BondLaw>,
+    dt: f64,
+    local_damping: f64,
+    safety: f64,
+    check_interval: usize,
+    iteration: u64,
+    time: f64,
+    kinetic: f64,
+    local_dissipated: f64,
+    ke_scratch: Vec<f64>,
+    diss_scratch: Vec<f64>,
+    stability: StabilityReport,
+    watch: Vec<f64>,
+    free_volume: f64,
+}
+
+impl Clone for Simulation {
+    fn clone(&self) -> Self {
+        Simulation {
+            particles: self.particles.clone(),
+            cell: self.cell.clone(),
+            topology: self.topology.clone(),
+            loads: self.loads.clone(),
+            force: self.force.clone(),
+            torque: self.torque.clone(),
+            law: self.law.box_clone(),
+            dt: self.dt,
+            local_damping: self.local_damping,
+            safety: self.safety,
+            check_interval: self.check_interval,
+            iteration: self.iteration,
+            time: self.time,
+            kinetic: self.kinetic,
+            local_dissipated: self.local_dissipated,
+            ke_scratch: self.ke_scratch.clone(),
+            diss_scratch: self.diss_scratch.clone(),
+            stability: self.stability.clone(),
+            watch: self.watch.clone(),
+            free_volume: self.free_volume,
+        }
+    }
+}
+
+impl Simulation {
+    /// Set up a bonded packing at rest: every bond is stress-free in this configuration.
+    /// `law` must carry one spring set per bond of `bonds`.
+    pub fn new(
+        packing: &Packing,
+        bonds: &BondSet,
+        law: Box<dyn BondLaw>,
+        opts: &DemOptions,
+    ) -> Result<Self> {
+        if !(opts.local_damping.is_finite() && (0.0..1.0).contains(&opts.local_damping)) {
+            return Err(Error::Invalid(format!(
+                "local damping must be in [0, 1), got {}",
+                opts.local_damping
+            )));
+        }
+        if !(opts.safety.is_finite() && opts.safety > 0.0 && opts.safety <= 1.0) {
+            return Err(Error::Invalid(format!(
+                "time-step safety factor must be in (0, 1], got {}",
+                opts.safety
+            )));
+        }
+        let particles = Particles::from_packing(packing, &opts.mass)?;
+        let topology = BondTopology::new(bonds, packing.len())?;
+        let cell = packing.cell.map(|c| DeformingCell::new(c.lengths));
+        let n = particles.len();
+        let mut sim = Simulation {
+            particles,
+            cell,
+            loads: BondLoads::zeros(topology.len()),
+            topology,
+            force: vec![Vec3::zeros(); n],
+            torque: vec![Vec3::zeros(); n],
+            law: Box::new(NoLaw),
+            dt: 0.0,
+            local_damping: opts.local_damping,
+            safety: opts.safety,
+            check_interval: opts.check_interval,
+            iteration: 0,
+            time: 0.0,
+            kinetic: 0.0,
+            local_dissipated: 0.0,
+            ke_scratch: vec![0.0; n],
+            diss_scratch: vec![0.0; n],
+            stability: StabilityReport::default(),
+            watch: Vec::new(),
+            free_volume: packing.volume(),
+        };
+        let mut law = law;
+        law.initialize(
+            &sim.context_parts()
+                .as_context(&sim.particles, &sim.topology),
+        )?;
+        sim.law = law;
+        sim.stability = sim.compute_stability();
+        sim.dt = match opts.time_step {
+            Some(dt) if dt.is_finite() && dt > 0.0 => dt,
+            Some(dt) => {
+                return Err(Error::Invalid(format!(
+                    "time step must be finite and > 0 s, got {dt}"
+                )));
+            }
+            None => {
+                if !sim.stability.critical_time_step.is_finite() {
+                    return Err(Error::Invalid(
+                        "no time step given and none can be estimated: the assembly has no stiff bond"
+                            .into(),
+                    ));
+                }
+                sim.safety * sim.stability.critical_time_step
+            }
+        };
+        Ok(sim)
+    }
+
+    /// The bond law.
+    pub fn law(&self) -> &dyn BondLaw {
+        self.law.as_ref()
+    }
+
+    /// Time step (s).
+    pub fn time_step(&self) -> f64 {
+        self.dt
+    }
+
+    /// Change the time step (s).
+    pub fn set_time_step(&mut self, dt: f64) -> Result<()> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::Invalid(format!(
+                "time step must be finite and > 0 s, got {dt}"
+            )));
+        }
+        self.dt = dt;
+        Ok(())
+    }
+
+    /// Change the Cundall local damping λ ∈ [0, 1).
+    pub fn set_local_damping(&mut self, lambda: f64) -> Result<()> {
+        if !(lambda.is_finite() && (0.0..1.0).contains(&lambda)) {
+            return Err(Error::Invalid(format!(
+                "local damping must be in [0, 1), got {lambda}"
+            )));
+        }
+        self.local_damping = lambda;
+        Ok(())
+    }
+
+    /// Steps done.
+    pub fn iteration(&self) -> u64 {
+        self.iteration
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Critical time step and weakly bonded particles.
+    pub fn stability(&self) -> &StabilityReport {
+        &self.stability
+    }
+
+    /// Request a velocity gradient L (1/s) for the periodic cell, with YADE's timing: the
+    /// particles' affine velocity changes in this coming step's integrator, the cell (and
+    /// the periodic shift) follows in the step after. Errors on a free assembly.
+    pub fn set_velocity_gradient(&mut self, l: Mat3) -> Result<()> {
+        match &mut self.cell {
+            Some(c) => {
+                c.set_velocity_gradient(l);
+                Ok(())
+            }
+            None => Err(Error::Invalid(
+                "a velocity gradient needs a periodic cell; this assembly is not periodic".into(),
+            )),
+        }
+    }
+
+    /// One step: cell update, bond forces, gather, leapfrog (YADE's step order).
+    pub fn step(&mut self) -> Result<()> {
+        let dt = self.dt;
+        if let Some(c) = &mut self.cell {
+            c.integrate(dt);
+        }
+        {
+            let ctx = self.context_parts();
+            let mut loads = std::mem::take(&mut self.loads);
+            self.law
+                .compute(&ctx.as_context(&self.particles, &self.topology), &mut loads);
+            self.loads = loads;
+        }
+        self.integrate_particles();
+        self.iteration += 1;
+        self.time += dt;
+        if self.check_interval > 0 && self.iteration % self.check_interval as u64 == 0 {
+            self.watchdog()?;
+        }
+        Ok(())
+    }
+
+    fn context_parts(&self) -> ContextParts {
+        let (h, sv) = match &self.cell {
+            Some(c) => (c.h, c.vel_grad_times_prev_h),
+            None => (Mat3::zeros(), Mat3::zeros()),
+        };
+        ContextParts { h, sv, dt: self.dt }
+    }
+
+    /// Run `steps` steps, reporting the fraction done to `progress` every 1 %.
+    pub fn run(&mut self, steps: usize, progress: &(dyn Fn(f64) + Sync)) -> Result<()> {
+        let every = (steps / 100).max(1);
+        for s in 0..steps {
+            self.step()?;
+            if (s + 1) % every == 0 {
+                progress((s + 1) as f64 / steps as f64);
+            }
+        }
+        Ok(())
+    }
+
+    fn integrate_particles(&mut self) {
+        let dt = self.dt;
+        let lambda = self.local_damping;
+        let (periodic, prev_l, dl, dspin) = match &mut self.cell {
+            Some(c) => {
+                if let Some(next) = c.next_vel_grad.take() {
+                    c.vel_grad = next;
+                }
+                let dl = c.vel_grad - c.prev_vel_grad;
+                let r = (dl - dl.transpose()) * 0.5;
+                let dspin = Vec3::new(-r[(1, 2)], r[(0, 2)], -r[(0, 1)]);
+                (true, c.prev_vel_grad, dl, dspin)
+            }
+            None => (false, Mat3::zeros(), Mat3::zeros(), Vec3::zeros()),
+        };
+        let topo = &self.topology;
+        let loads = &self.loads;
+        let p = &mut self.particles;
+        (
+            p.position.par_iter_mut(),
+            p.velocity.par_iter_mut(),
+            p.angular_velocity.par_iter_mut(),
+            p.orientation.par_iter_mut(),
+            self.force.par_iter_mut(),
+            self.torque.par_iter_mut(),
+            p.mass.par_iter(),
+            p.inertia.par_iter(),
+            self.ke_scratch.par_iter_mut(),
+            self.diss_scratch.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(k, (x, v, w, q, f_out, t_out, &m, &inertia, ke, diss))| {
+                // Gather in the fixed CSR order.
+                let mut f = Vec3::zeros();
+                let mut t = Vec3::zeros();
+                for &e in &topo.entries[topo.start[k]..topo.start[k + 1]] {
+                    let b = (e >> 1) as usize;
+                    if e & 1 == 0 {
+                        f += loads.force_i[b];
+                        t += loads.torque_i[b];
+                    } else {
+                        f -= loads.force_i[b];
+                        t += loads.torque_j[b];
+                    }
+                }
+                *f_out = f;
+                *t_out = t;
+                let fluct = if periodic { *v - prev_l * *x } else { *v };
+                let mut a = f / m;
+                let mut dissipated = 0.0;
+                if lambda > 0.0 {
+                    for c in 0..3 {
+                        let s = a[c] * (fluct[c] + 0.5 * dt * a[c]);
+                        dissipated += m * lambda * s.abs() * dt;
+                        a[c] *= 1.0 - lambda * sign(s);
+                    }
+                }
+                let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
+                if periodic {
+                    a += prev_l * *v;
+                }
+                *v += a * dt;
+                let mut alpha = t / inertia;
+                if lambda > 0.0 {
+                    for c in 0..3 {
+                        let s = alpha[c] * (w[c] + 0.5 * dt * alpha[c]);
+                        dissipated += inertia * lambda * s.abs() * dt;
+                        alpha[c] *= 1.0 - lambda * sign(s);
+                    }
+                }
+                energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
+                *w += alpha * dt;
+                if periodic {
+                    *v += dl * *x;
+                }
+                *x += *v * dt;
+                if periodic {
+                    *w += dspin;
+                }
+                let angle2 = w.norm_squared();
+                if angle2 != 0.0 {
+                    let angle = angle2.sqrt();
+                    let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
+                    *q = dq.mul(q);
+                }
+                q.normalize();
+                *ke = energy;
+                *diss = dissipated;
+            });
+        if let Some(c) = &mut self.cell {
+            c.prev_vel_grad = c.vel_grad;
+        }
+        let ke = &self.ke_scratch;
+        self.kinetic = deterministic_sum(ke.len(), |k| ke[k]);
+        if lambda > 0.0 {
+            let d = &self.diss_scratch;
+            self.local_dissipated += deterministic_sum(d.len(), |k| d[k]);
+        }
+    }
+
+    /// Energies at the last force evaluation.
+    pub fn energies(&self) -> Energies {
+        Energies {
+            kinetic: self.kinetic,
+            elastic: self.law.elastic_energy(),
+            local_damping: self.local_dissipated,
+            viscous_damping: self.law.viscous_dissipation(),
+        }
+    }
+
+    /// Volume (m³): det H of the cell, or the initial packing's bounding box if free.
+    pub fn volume(&self) -> f64 {
+        match &self.cell {
+            Some(c) => c.volume(),
+            None => self.free_volume,
+        }
+    }
+
+    /// Branch vector of bond b at the current positions: x_j + H·c − x_i (m).
+    pub fn branch(&self, b: usize) -> Vec3 {
+        let (i, j) = (self.topology.i[b] as usize, self.topology.j[b] as usize);
+        let shift = match &self.cell {
+            Some(c) => c.h * self.topology.cell_dist[b],
+            None => Vec3::zeros(),
+        };
+        self.particles.position[j] + shift - self.particles.position[i]
+    }
+
+    /// Love stress σ = (1/V) Σ f_i ⊗ l (Pa, tension positive; Kumar 2016 Eq. 9), with the
+    /// bond forces of the last evaluation and the current branch vectors — what YADE's
+    /// `utils.getStress()` returns after `O.step()`. Not symmetrised.
+    pub fn stress(&self) -> Mat3 {
+        let s = deterministic_sum_mat3(self.topology.len(), |b| {
+            self.loads.force_i[b] * self.branch(b).transpose()
+        });
+        s / self.volume()
+    }
+
+    /// Small strain of the cell ½(F + Fᵀ) − I (zero for a free assembly).
+    pub fn strain(&self) -> Mat3 {
+        self.cell
+            .as_ref()
+            .map_or(Mat3::zeros(), |c| c.small_strain())
+    }
+
+    /// YADE's unbalanced force: mean resultant force on the bonded particles over the mean
+    /// bond force magnitude (0 when there is no bond force).
+    pub fn unbalanced_force(&self) -> f64 {
+        let n = self.particles.len();
+        let topo = &self.topology;
+        let bonded = (0..n).filter(|&p| topo.degree(p) > 0).count().max(1);
+        let fsum = deterministic_sum(n, |p| {
+            if topo.degree(p) > 0 {
+                self.force[p].norm()
+            } else {
+                0.0
+            }
+        });
+        let nb = topo.len().max(1);
+        let bsum = deterministic_sum(topo.len(), |b| self.loads.force_i[b].norm());
+        if bsum == 0.0 {
+            0.0
+        } else {
+            (fsum / bonded as f64) / (bsum / nb as f64)
+        }
+    }
+
+    fn compute_stability(&self) -> StabilityReport {
+        let p = &self.particles;
+        let n = p.len();
+        let mut rows = vec![[0.0f64; 6]; n];
+        for b in 0..self.topology.len() {
+            let (i, j) = (self.topology.i[b] as usize, self.topology.j[b] as usize);
+            let l = self.branch(b);
+            let len = l.norm();
+            let (kn, ks, kr, ktw) = self.law.springs(b);
+            let (eta_n, eta_t) = self.law.viscosity(b);
+            let _ = (eta_n, eta_t);
+            let e = network::element(
+                &network::BondLaw {
+                    normal: l / len,
+                    length: len,
+                    arms: LeverArm::MidGap.arms(p.radius[i], p.radius[j], len),
+                    kn,
+                    ks,
+                    kr,
+                    ktw,
+                },
+                true,
+            );
+            let mi = [
+                p.mass[i],
+                p.mass[i],
+                p.mass[i],
+                p.inertia[i],
+                p.inertia[i],
+                p.inertia[i],
+            ];
+            let mj = [
+                p.mass[j],
+                p.mass[j],
+                p.mass[j],
+                p.inertia[j],
+                p.inertia[j],
+                p.inertia[j],
+            ];
+            for r in 0..6 {
+                for c in 0..6 {
+                    rows[i][r] += e.kii[(r, c)].abs() / (mi[r] * mi[c]).sqrt()
+                        + e.kij[(r, c)].abs() / (mi[r] * mj[c]).sqrt();
+                    rows[j][r] += e.kjj[(r, c)].abs() / (mj[r] * mj[c]).sqrt()
+                        + e.kij[(c, r)].abs() / (mj[r] * mi[c]).sqrt();
+                }
+            }
+        }
+        let mut worst = 0.0;
+        let mut stiffest = 0;
+        for (k, r) in rows.iter().enumerate() {
+            let m = r.iter().cloned().fold(0.0, f64::max);
+            if m > worst {
+                worst = m;
+                stiffest = k;
+            }
+        }
+        let by_degree = |d: usize| {
+            (0..n)
+                .filter(|&k| self.topology.degree(k) == d)
+                .collect::<Vec<_>>()
+        };
+        StabilityReport {
+            critical_time_step: if worst > 0.0 {
+                2.0 / worst.sqrt()
+            } else {
+                f64::INFINITY
+            },
+            stiffest_particle: stiffest,
+            unbonded_particles: by_degree(0),
+            one_bond_particles: by_degree(1),
+            two_bond_particles: by_degree(2),
+        }
+    }
+
+    /// The time step recommended after a blow-up: safety × critical estimate (s).
+    pub fn recommended_time_step(&self) -> f64 {
+        self.safety * self.stability.critical_time_step
+    }
+
+    fn watchdog(&mut self) -> Result<()> {
+        let e = self.energies();
+        let total = e.mechanical();
+        let finite = total.is_finite()
+            && self
+                .particles
+                .position
+                .iter()
+                .all(|x| x.iter().all(|c| c.is_finite()));
+        if !finite || {
+            self.watch.push(total);
+            let w = &self.watch;
+            let k = w.len();
+            k >= 4 && w[k - 4] > 0.0 && (1..4).all(|s| w[k - s] > 10.0 * w[k - s - 1])
+        } {
+            return Err(Error::Invalid(format!(
+                "the run blew up at step {} (time step {:.4e} s): {}. Use a time step ≤ {:.4e} s \
+                 (the critical estimate {:.4e} s × safety {})",
+                self.iteration,
+                self.dt,
+                if finite {
+                    format!(
+                        "the kinetic + elastic energy grew more than 1000× in {} steps",
+                        3 * self.check_interval
+                    )
+                } else {
+                    "positions or energies became non-finite".to_string()
+                },
+                self.recommended_time_step(),
+                self.stability.critical_time_step,
+                self.safety
+            )));
+        }
+        if self.watch.len() > 8 {
+            self.watch.remove(0);
+        }
+        Ok(())
+    }
+}
+
+struct ContextParts {
+    h: Mat3,
+    sv: Mat3,
+    dt: f64,
+}
+
+impl ContextParts {
+    fn as_context<'a>(
+        &self,
+        particles: &'a Particles,
+        topology: &'a BondTopology,
+    ) -> BondContext<'a> {
+        BondContext {
+            particles,
+            topology,
+            h: self.h,
+            shift_velocity: self.sv,
+            dt: self.dt,
+        }
+    }
+}
+
+#[inline]
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Placeholder law used only while the real one is being initialised.
+struct NoLaw;
+
+impl BondLaw for NoLaw {
+    fn name(&self) -> &'static str {
+        "none"
+    }
+    fn initialize(&mut self, _: &BondContext) -> Result<()> {
+        Ok(())
+    }
+    fn compute(&mut self, _: &BondContext, _: &mut BondLoads) {}
+    fn elastic_energy(&self) -> f64 {
+        0.0
+    }
+    fn viscous_dissipation(&self) -> f64 {
+        0.0
+    }
+    fn springs(&self, _: usize) -> (f64, f64, f64, f64) {
+        (0.0, 0.0, 0.0, 0.0)
+    }
+    fn viscosity(&self, _: usize) -> (f64, f64) {
+        (0.0, 0.0)
+    }
+    fn bond_forces(&self, _: usize) -> (f64, Vec3) {
+        (0.0, Vec3::zeros())
+    }
+    fn box_clone(&self) -> Box<dyn BondLaw> {
+        Box::new(NoLaw)
+    }
+}
