@@ -6,8 +6,10 @@ use crate::{Error, Result};
 use std::io::Write;
 use std::path::Path;
 
-/// Write `path` atomically: `fill` writes the content into a buffered temporary file,
-/// which is flushed, synced and renamed onto `path` only if `fill` succeeds.
+/// Write `path` atomically: `fill` writes the content into a buffered temporary file in the
+/// same folder, which is flushed and renamed onto `path` only if `fill` succeeds (on any
+/// error the temporary file is removed). The rename makes the file appear complete or not
+/// at all; it is not fsynced (a power cut may still lose it, as with any ordinary write).
 pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut dyn Write) -> Result<()>,
@@ -22,7 +24,6 @@ where
         fill(&mut w)?;
         w.flush().map_err(|e| Error::io(path, e))?;
     }
-    tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
 }
