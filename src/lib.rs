@@ -12,11 +12,14 @@
 //! engineering strain. The library never prints; the `anisobond` binary does.
 
 pub mod bonds;
+pub mod calibrate;
 pub mod error;
+pub mod export;
 pub mod homogenize;
 pub mod io;
 pub mod model;
 pub mod packing;
+pub mod plot;
 pub mod schemes;
 pub mod tensor;
 

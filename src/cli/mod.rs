@@ -1,8 +1,11 @@
 //! Command-line interface (SPEC.md "Command line"). Every command reads its inputs, calls
 //! the library, prints human-readable results with units, and writes files atomically.
 
+mod calibrate;
 mod demo;
+mod domain;
 mod output;
+mod plot;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;
@@ -41,6 +44,24 @@ enum Command {
     /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
     /// sum over the actual bonds.
     Tensor(TensorArgs),
+    /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
+    /// packing with the exact relaxed solver; writes the calibrated model file.
+    Calibrate(calibrate::CalibrateArgs),
+    /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
+    Domain(domain::DomainArgs),
+    /// Pictures of a model (PNG).
+    #[command(subcommand)]
+    Plot(plot::PlotCommand),
+    /// Files for other tools.
+    #[command(subcommand)]
+    Export(ExportCommand),
+}
+
+#[derive(Subcommand)]
+enum ExportCommand {
+    /// VTK XML files (particles.vtu, bonds.vtu) for ParaView, with displacements and bond
+    /// forces under a macroscopic strain.
+    Vtk(plot::ExportVtkArgs),
 }
 
 #[derive(clap::Args)]
@@ -161,6 +182,10 @@ pub fn run() -> Result<()> {
         Command::Pack(a) => pack(a),
         Command::Bonds(a) => bonds_cmd(a),
         Command::Tensor(a) => tensor_cmd(a),
+        Command::Calibrate(a) => calibrate::run(a),
+        Command::Domain(a) => domain::run(a),
+        Command::Plot(c) => plot::run(c),
+        Command::Export(ExportCommand::Vtk(a)) => plot::export_vtk(a),
     }
 }
 

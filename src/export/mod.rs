@@ -1,0 +1,3 @@
+//! Exports of a packing and model to other tools.
+
+pub mod vtk;
