@@ -117,7 +117,16 @@ pub fn calibrate_cross_relaxed(
     let (mut c, mut proj, mut e_prime) = evaluate(&w, &mut history)?;
     let plain_inversion = [proj.c11, proj.c33, proj.c13, proj.c12];
     let mut f = constants(&proj) - goal;
-    let mut jac = Matrix4::<f64>::identity();
+    // Initial Jacobian: the component-wise softening of the first solve (relaxed/written),
+    // refined by Broyden's rank-one updates.
+    let mut jac = Matrix4::<f64>::from_diagonal(&Vector4::from_fn(|i, _| {
+        let r = constants(&proj)[i] / w[i];
+        if r.is_finite() {
+            r.clamp(0.2, 5.0)
+        } else {
+            1.0
+        }
+    }));
     while f.amax() / scale > opts.tolerance {
         if history.len() >= opts.max_iterations {
             return Err(Error::Invalid(format!(
@@ -125,17 +134,29 @@ pub fn calibrate_cross_relaxed(
                 history.len(), proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
             )));
         }
-        let step = jac
+        let mut step = jac
             .try_inverse()
             .map(|inv| -(inv * f))
             .unwrap_or_else(|| -f);
-        let w_new = w + step;
-        let (c_new, proj_new, e_new) = evaluate(&w_new, &mut history).map_err(|e| {
-            Error::Invalid(format!(
-                "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}",
-                w_new[0], w_new[1], w_new[2], w_new[3]
-            ))
-        })?;
+        // Shorten steps that would need a negative lattice modulus (Error::Model).
+        let mut attempt = 0;
+        let (w_new, c_new, proj_new, e_new) = loop {
+            let w_try = w + step;
+            match evaluate(&w_try, &mut history) {
+                Ok((c, p, e)) => break (w_try, c, p, e),
+                Err(Error::Model(m)) if attempt < 8 => {
+                    attempt += 1;
+                    step *= 0.5;
+                    let _ = m;
+                }
+                Err(e) => {
+                    return Err(Error::Invalid(format!(
+                        "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}; the target is out of reach of the elliptic scheme on this packing",
+                        w_try[0], w_try[1], w_try[2], w_try[3]
+                    )))
+                }
+            }
+        };
         let f_new = constants(&proj_new) - goal;
         let dw = w_new - w;
         let denominator = dw.norm_squared();
