@@ -52,7 +52,7 @@ pub fn strain_tensor(e: &Voigt6) -> Mat3 {
 
 /// Quasi-static state of a periodic bonded packing under the macroscopic engineering strain
 /// `strain`: fluctuation q = −Q·e from the relaxed solve (particles that carry no load keep
-/// the affine displacement), bond force f = S·Δ with
+/// the affine displacement and their bonds no force), bond force f = S·Δ with
 /// Δ = u_j − u_i + (r_i n)×ω_i + (r_j n)×ω_j + ε·l and S = k_s I + (k_n − k_s) nn.
 pub fn strained_state(
     packing: &Packing,
@@ -66,7 +66,9 @@ pub fn strained_state(
     let n = packing.len();
     let mut fluct = vec![Vec3::zeros(); n];
     let mut rotation = vec![Vec3::zeros(); n];
+    let mut active = vec![false; n];
     for (q, &orig) in sol.q.iter().zip(&sol.active) {
+        active[orig as usize] = true;
         let g = -(q * strain);
         fluct[orig as usize] = Vec3::new(g[0], g[1], g[2]);
         rotation[orig as usize] = Vec3::new(g[3], g[4], g[5]);
@@ -77,6 +79,10 @@ pub fn strained_state(
     let force = (0..bonds.len())
         .map(|b| {
             let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+            if !(active[i] && active[j]) {
+                // A bond of a pruned (dangling) particle carries no load.
+                return Vec3::zeros();
+            }
             let nrm = bonds.normal[b];
             let l = bonds.length[b];
             let (ri, rj) = opts
