@@ -45,10 +45,34 @@ fn kernel_matches_references_table() {
     // with magnitudes 1e13 / 3.55e12.
     let k = CubicKernel::default();
     let rows = [
-        (CubicModel::ZenerAbove1, false, 2.791698e12, 7.711806e11, 1.387484e12),
-        (CubicModel::ZenerBelow1, false, 3.255341e12, 3.625848e11, 1.050499e12),
-        (CubicModel::ZenerAbove1, true, 3.868289e12, 1.461565e12, 1.672125e12),
-        (CubicModel::ZenerBelow1, true, 4.331932e12, 1.052969e12, 1.335140e12),
+        (
+            CubicModel::ZenerAbove1,
+            false,
+            2.791698e12,
+            7.711806e11,
+            1.387484e12,
+        ),
+        (
+            CubicModel::ZenerBelow1,
+            false,
+            3.255341e12,
+            3.625848e11,
+            1.050499e12,
+        ),
+        (
+            CubicModel::ZenerAbove1,
+            true,
+            3.868289e12,
+            1.461565e12,
+            1.672125e12,
+        ),
+        (
+            CubicModel::ZenerBelow1,
+            true,
+            4.331932e12,
+            1.052969e12,
+            1.335140e12,
+        ),
     ];
     for (model, ext, t11, t12, t44) in rows {
         let c = k.constants(model, ext, 4.31, 10.0, 0.355);
@@ -71,9 +95,13 @@ fn calibrating_to_a_known_models_tensor_reproduces_it() {
     ];
     for (extended, t11, t12, t44) in cases {
         let target =
-            CubicTarget::from_constants(t11 * PREFACTOR, t12 * PREFACTOR, t44 * PREFACTOR)
-                .unwrap();
-        for family in [Family::Nearest, Family::Equi, Family::Prolate, Family::Oblate] {
+            CubicTarget::from_constants(t11 * PREFACTOR, t12 * PREFACTOR, t44 * PREFACTOR).unwrap();
+        for family in [
+            Family::Nearest,
+            Family::Equi,
+            Family::Prolate,
+            Family::Oblate,
+        ] {
             let opts = CubicOptions {
                 extended,
                 family,

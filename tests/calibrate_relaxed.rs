@@ -53,7 +53,10 @@ fn relaxed_calibration_reproduces_a_known_models_relaxed_tensor() {
         "calibrated {:?}, {} relaxed solves, CG {:?}",
         cal.parameters,
         cal.history.len(),
-        cal.history.iter().map(|h| h.cg_iterations).collect::<Vec<_>>()
+        cal.history
+            .iter()
+            .map(|h| h.cg_iterations)
+            .collect::<Vec<_>>()
     );
     let got = CubicProjection::from_stiffness(&relaxed_of(&cal.model(&known), &p, &b));
     for (name, g, w) in [
@@ -128,7 +131,10 @@ fn cross_anisotropic_relaxed_tensor_hits_the_target() {
     // Plain inversion: relaxed is soft (REFERENCES.md: 4–6 %).
     let plain = relaxed_of(&base, &p, &b);
     let (pp, _) = TransverseProjection::about_axis(&plain, &Vec3::z()).unwrap();
-    eprintln!("plain inversion relaxed C11 {:.4e} C33 {:.4e}", pp.c11, pp.c33);
+    eprintln!(
+        "plain inversion relaxed C11 {:.4e} C33 {:.4e}",
+        pp.c11, pp.c33
+    );
     assert!(pp.c11 < 0.99 * target[0]);
     let cal = calibrate_cross_relaxed(&p, &b, &base, target, &CrossOptions::default())
         .expect("calibration");
@@ -140,8 +146,15 @@ fn cross_anisotropic_relaxed_tensor_hits_the_target() {
         ("C13", g.c13, target[2]),
         ("C12", g.c12, target[3]),
     ] {
-        assert!((x - t).abs() < 5e-3 * target[0], "{name}: {x:.5e} vs {t:.5e}");
+        assert!(
+            (x - t).abs() < 5e-3 * target[0],
+            "{name}: {x:.5e} vs {t:.5e}"
+        );
         assert!(rel(x, t) < 0.01, "{name}: {x:.5e} vs {t:.5e}");
     }
-    eprintln!("cross: {} solves, written {:?}", cal.history.len(), cal.written);
+    eprintln!(
+        "cross: {} solves, written {:?}",
+        cal.history.len(),
+        cal.written
+    );
 }

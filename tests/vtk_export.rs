@@ -119,7 +119,10 @@ fn vtu_files_have_the_arrays_and_forces_are_in_equilibrium() {
         .filter(|&i| deg[i] >= 2)
         .map(|i| net[i].norm())
         .fold(0.0, f64::max);
-    assert!(worst < 1e-6 * fmax, "net force {worst} vs bond force {fmax}");
+    assert!(
+        worst < 1e-6 * fmax,
+        "net force {worst} vs bond force {fmax}"
+    );
 
     let dir = tempfile::tempdir().unwrap();
     let pp = dir.path().join("particles.vtu");

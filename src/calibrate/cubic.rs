@@ -286,8 +286,7 @@ impl<'k> MeanFieldMap<'k> {
         extended: bool,
         opts: &CubicOptions,
     ) -> Result<Self> {
-        if !(opts.a_min > 0.0 && opts.a_min < 1.0 && opts.a_max > 1.0 && opts.a_max.is_finite())
-        {
+        if !(opts.a_min > 0.0 && opts.a_min < 1.0 && opts.a_max > 1.0 && opts.a_max.is_finite()) {
             return Err(Error::Invalid(format!(
                 "calibration: the a box [{}, {}] must contain 1 and have a_min > 0",
                 opts.a_min, opts.a_max
@@ -647,7 +646,8 @@ impl<'k> MeanFieldMap<'k> {
     pub fn jacobian(&self, p: &MapPoint) -> [[f64; 3]; 2] {
         const H: f64 = 1e-4;
         let mut j = [[0.0; 3]; 2];
-        for k in 0..3 {
+        let [row12, row44] = &mut j;
+        for (k, (d12, d44)) in row12.iter_mut().zip(row44.iter_mut()).enumerate() {
             let shift = |sign: f64| {
                 let mut q = *p;
                 match k {
@@ -659,8 +659,8 @@ impl<'k> MeanFieldMap<'k> {
             };
             let (p12, p44) = shift(1.0);
             let (m12, m44) = shift(-1.0);
-            j[0][k] = (p12 - m12) / (2.0 * H);
-            j[1][k] = (p44 - m44) / (2.0 * H);
+            *d12 = (p12 - m12) / (2.0 * H);
+            *d44 = (p44 - m44) / (2.0 * H);
         }
         j
     }
@@ -866,7 +866,11 @@ pub fn calibrate_cubic_relaxed(
                 &[j[0][0] + j[0][1], j[0][2], j[1][0] + j[1][1], j[1][2]],
             )
         } else {
-            DMatrix::from_row_slice(2, 3, &[j[0][0], j[0][1], j[0][2], j[1][0], j[1][1], j[1][2]])
+            DMatrix::from_row_slice(
+                2,
+                3,
+                &[j[0][0], j[0][1], j[0][2], j[1][0], j[1][1], j[1][2]],
+            )
         }
     };
     let goal = DVector::from_vec(vec![target.c12_over_c11, target.c44_over_c11]);
@@ -981,7 +985,6 @@ pub fn calibrate_cubic_relaxed(
         }
     }
     if !converged {
-        let bp = to_point(&best.1);
         let rec = history
             .iter()
             .min_by(|a, b| {
@@ -1001,9 +1004,9 @@ pub fn calibrate_cubic_relaxed(
             msg.push_str(&format!(
                 "\n  nearest reached on this packing: {} with a_n = {:.4}, a_s = {:.4}, shear/normal = {:.4}",
                 describe_ratios(r.c12_over_c11, r.c44_over_c11, target.c11),
-                bp.x.exp(),
-                bp.y.exp(),
-                bp.rho
+                r.parameters.a_n,
+                r.parameters.a_s,
+                r.parameters.shear_over_normal
             ));
         }
         if map.solve(target, opts.family).is_none() {

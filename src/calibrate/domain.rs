@@ -225,8 +225,7 @@ pub fn sample_relaxed(
     for (model, extended, triples) in variants {
         let mut solver = WarmRelaxed::new(packing, bonds, *relaxed);
         for (a_n, a_s, rho) in triples {
-            let scheme =
-                CubicSpheroid::new(model, extended, a_n, a_s, 1.0, rho, Mat3::identity())?;
+            let scheme = CubicSpheroid::new(model, extended, a_n, a_s, 1.0, rho, Mat3::identity())?;
             let k = assign_stiffness(packing, bonds, &scheme, geometry)?;
             let sol = solver.solve(&k)?;
             let p = CubicProjection::from_stiffness(&sol.c);

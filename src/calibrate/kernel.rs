@@ -166,10 +166,8 @@ impl CubicKernel {
         a_s: f64,
         shear_over_normal: f64,
     ) -> Cubic3 {
-        self.normal_part(model, extended, a_n).plus_scaled(
-            shear_over_normal,
-            &self.shear_part(model, extended, a_s),
-        )
+        self.normal_part(model, extended, a_n)
+            .plus_scaled(shear_over_normal, &self.shear_part(model, extended, a_s))
     }
 }
 

@@ -196,7 +196,9 @@ fn pcg(
     if start.is_some() {
         let mut kx = vec![Block6::zeros(); m];
         k.apply(&x, &mut kx);
-        r.par_iter_mut().zip(kx.par_iter()).for_each(|(r, kx)| *r -= kx);
+        r.par_iter_mut()
+            .zip(kx.par_iter())
+            .for_each(|(r, kx)| *r -= kx);
     }
     let mut z = vec![Block6::zeros(); m];
     precondition(&r, &mut z);

@@ -171,7 +171,9 @@ fn print_cubic(cal: &CubicCalibration, secs: f64) {
     ratio_row("C44/C11", cal.target.c44_over_c11, a.c44 / a.c11);
     ratio_row("Zener", cal.target.zener(), a.zener);
     if cal.target.c11.is_none() {
-        println!("  (ratio target: C11 is the achieved one, set by the model file's normal magnitude)");
+        println!(
+            "  (ratio target: C11 is the achieved one, set by the model file's normal magnitude)"
+        );
     }
     println!(
         "  cubic symmetry of the achieved tensor: spread C11 {:.3e}, C12 {:.3e}, C44 {:.3e}, off-symmetry terms {:.3e} GPa",
@@ -222,7 +224,9 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     };
     let start = Instant::now();
     let calibrated = match target {
-        Target::Cubic(t) => calibrate_cubic_cmd(&a, &base, &t, relaxed, bonded.as_ref(), relaxed_opts)?,
+        Target::Cubic(t) => {
+            calibrate_cubic_cmd(&a, &base, &t, relaxed, bonded.as_ref(), relaxed_opts)?
+        }
         Target::CrossAnisotropic { c11, c33, c13, c12 } => {
             let goal = [c11, c33, c13, c12];
             match (relaxed, &bonded) {
@@ -315,11 +319,10 @@ fn calibrate_cubic_cmd(
             extended, normal, ..
         } => (*extended, *normal),
         SchemeSpec::Isotropic { normal, .. } => (false, *normal),
-        SchemeSpec::CrossAnisotropic { .. } => {
-            return Err(Error::Invalid(
-                "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic".into(),
-            ))
-        }
+        SchemeSpec::CrossAnisotropic { .. } => return Err(Error::Invalid(
+            "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic"
+                .into(),
+        )),
     };
     let opts = CubicOptions {
         family: a.family.into(),

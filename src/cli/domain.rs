@@ -68,8 +68,12 @@ fn summary(samples: &[DomainSample]) {
             if v.is_empty() {
                 continue;
             }
-            let lo = |f: &dyn Fn(&DomainSample) -> f64| v.iter().map(|s| f(s)).fold(f64::INFINITY, f64::min);
-            let hi = |f: &dyn Fn(&DomainSample) -> f64| v.iter().map(|s| f(s)).fold(f64::NEG_INFINITY, f64::max);
+            let lo = |f: &dyn Fn(&DomainSample) -> f64| {
+                v.iter().map(|s| f(s)).fold(f64::INFINITY, f64::min)
+            };
+            let hi = |f: &dyn Fn(&DomainSample) -> f64| {
+                v.iter().map(|s| f(s)).fold(f64::NEG_INFINITY, f64::max)
+            };
             println!(
                 "  {:<28} {:>6} samples: Zener {:.3}–{:.3}, C12/C11 {:.3}–{:.3}, C44/C11 {:.3}–{:.3}, max (C12 − C44)/C11 {:+.4}",
                 format!("{}{}", model.as_str(), if extended { " extended" } else { "" }),
@@ -128,7 +132,10 @@ pub fn run(a: DomainArgs) -> Result<()> {
             Some(m) => Model::from_path(m)?,
             None => Model::truszkowska_mrv(),
         };
-        let b = bond_packing(packing::io::read_packing(std::path::Path::new(path))?, &model)?;
+        let b = bond_packing(
+            packing::io::read_packing(std::path::Path::new(path))?,
+            &model,
+        )?;
         let (s, k) = sample_relaxed(
             &b.packing,
             &b.bonds,

@@ -67,7 +67,10 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
         &path,
         scheme.as_ref(),
         &sections,
-        &format!("{}: normal (blue) and shear (gold) magnitudes", scheme.name()),
+        &format!(
+            "{}: normal (blue) and shear (gold) magnitudes",
+            scheme.name()
+        ),
         unit(model.geometry.convention),
     )?;
     println!("wrote {}", path.display());
@@ -103,14 +106,18 @@ fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
     }
     let mut e = Voigt6::zeros();
     for (k, p) in parts.iter().enumerate() {
-        e[k] = p.parse().map_err(|_| {
-            Error::Invalid(format!("--strain: `{p}` is not a number"))
-        })?;
+        e[k] = p
+            .parse()
+            .map_err(|_| Error::Invalid(format!("--strain: `{p}` is not a number")))?;
         if !e[k].is_finite() {
             return Err(Error::Invalid(format!("--strain: `{p}` is not finite")));
         }
     }
-    Ok(if e.iter().all(|&x| x == 0.0) { None } else { Some(e) })
+    Ok(if e.iter().all(|&x| x == 0.0) {
+        None
+    } else {
+        Some(e)
+    })
 }
 
 /// Run `anisobond export vtk`.

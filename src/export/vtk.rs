@@ -85,9 +85,7 @@ pub fn strained_state(
             }
             let nrm = bonds.normal[b];
             let l = bonds.length[b];
-            let (ri, rj) = opts
-                .lever_arm
-                .arms(packing.radii[i], packing.radii[j], l);
+            let (ri, rj) = opts.lever_arm.arms(packing.radii[i], packing.radii[j], l);
             let delta = fluct[j] - fluct[i]
                 + (nrm * ri).cross(&rotation[i])
                 + (nrm * rj).cross(&rotation[j])
@@ -207,13 +205,7 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
                                             1,
                                             &join(&grid.offsets),
                                         )?;
-                                        data_array(
-                                            w,
-                                            "UInt8",
-                                            Some("types"),
-                                            1,
-                                            &join(&grid.types),
-                                        )
+                                        data_array(w, "UInt8", Some("types"), 1, &join(&grid.types))
                                     })?;
                                     Ok(())
                                 })?;

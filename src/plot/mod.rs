@@ -203,7 +203,11 @@ pub fn plot_domain(
         }
         if let Some((tx, ty)) = target {
             chart
-                .draw_series(std::iter::once(Cross::new((tx, ty), 9, BLACK.stroke_width(3))))
+                .draw_series(std::iter::once(Cross::new(
+                    (tx, ty),
+                    9,
+                    BLACK.stroke_width(3),
+                )))
                 .map_err(s)?
                 .label("target")
                 .legend(|(x, y)| Cross::new((x + 10, y), 5, BLACK.stroke_width(2)));
@@ -232,10 +236,10 @@ pub struct Section {
 }
 
 impl Section {
-    /// The (100) and (110) planes of a crystal with lab → crystal rotation `r` (vectors
-    /// mapped to the lab frame by Rᵀ): (100) spans [010], [001]; (110) spans [1̄10]/√2 …
-    /// here [110]/√2 and [001], which contains <100>, <110> and <111> (Truszkowska 2018
-    /// Fig. 3's symmetry directions).
+    /// The (100) and (1̄10) planes of a crystal with lab → crystal rotation `r` (vectors
+    /// mapped to the lab frame by Rᵀ): (100) is spanned by [010] and [001]; (1̄10) by
+    /// [110]/√2 and [001], so it contains <100>, <110> and <111>, the symmetry directions
+    /// of Truszkowska 2018 Fig. 3.
     pub fn cubic_planes(r: &crate::Mat3) -> Vec<Section> {
         let rt = r.transpose();
         let s2 = std::f64::consts::FRAC_1_SQRT_2;
@@ -257,7 +261,11 @@ impl Section {
     /// plane normal to the axis.
     pub fn axis_planes(axis: &Vec3) -> Vec<Section> {
         let a = axis.normalize();
-        let helper = if a.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+        let helper = if a.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
         let p = (helper - a * a.dot(&helper)).normalize();
         let q = a.cross(&p);
         vec![
@@ -289,7 +297,8 @@ pub fn plot_stiffness_sections(
         return Err(Error::Invalid("stiffness plot: no sections".into()));
     }
     const STEPS: usize = 720;
-    let curves: Vec<(Vec<(f64, f64)>, Vec<(f64, f64)>)> = sections
+    type Curve = Vec<(f64, f64)>;
+    let curves: Vec<(Curve, Curve)> = sections
         .iter()
         .map(|sec| {
             let mut normal = Vec::with_capacity(STEPS + 1);
@@ -320,9 +329,7 @@ pub fn plot_stiffness_sections(
     let panel = 620u32;
     let width = panel * sections.len() as u32;
     render(path, (width, panel + 60), |root| {
-        let root = root
-            .titled(title, ("sans-serif", 24))
-            .map_err(s)?;
+        let root = root.titled(title, ("sans-serif", 24)).map_err(s)?;
         let panels = root.split_evenly((1, sections.len()));
         for ((area, sec), (normal, shear)) in panels.iter().zip(sections).zip(&curves) {
             let mut chart = ChartBuilder::on(area)
@@ -361,12 +368,16 @@ pub fn plot_stiffness_sections(
                 .draw_series(LineSeries::new(normal.clone(), blue.stroke_width(3)))
                 .map_err(s)?
                 .label(format!("k_n magnitude ({unit})"))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(3)));
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(3))
+                });
             chart
                 .draw_series(LineSeries::new(shear.clone(), gold.stroke_width(3)))
                 .map_err(s)?
                 .label(format!("k_s magnitude ({unit})"))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], gold.stroke_width(3)));
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], gold.stroke_width(3))
+                });
             chart
                 .configure_series_labels()
                 .background_style(WHITE.mix(0.85))
@@ -425,7 +436,9 @@ pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result
     let xs: Vec<f64> = history.strain.iter().map(|e| e[driver]).collect();
     let (x0, x1) = xs
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     let (mut y0, mut y1) = (0.0f64, 0.0f64);
     for st in &history.stress {
         for &k in &shown {
@@ -433,7 +446,11 @@ pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result
             y1 = y1.max(st[k] / 1e6);
         }
     }
-    if !(x1 > x0) || !x0.is_finite() || !y0.is_finite() || !y1.is_finite() {
+    if x1.partial_cmp(&x0) != Some(std::cmp::Ordering::Greater)
+        || !x0.is_finite()
+        || !y0.is_finite()
+        || !y1.is_finite()
+    {
         return Err(Error::Invalid(
             "stress–strain plot: the strain does not vary (or is not finite)".into(),
         ));
@@ -478,7 +495,9 @@ pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result
                 ))
                 .map_err(s)?
                 .label(format!("σ{}", VOIGT_NAMES[k]))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
         }
         chart
             .configure_series_labels()
