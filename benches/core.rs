@@ -80,7 +80,10 @@ fn main() {
     let mut buf = Vec::with_capacity(bonds.len() * 170);
     table::write_bond_table_to(&mut buf, &bonds, &k).expect("format");
     let t_format = t.elapsed().as_secs_f64();
-    println!("  formatting the CSV in memory: {t_format:.3} s ({:.1} MB)", buf.len() as f64 / 1e6);
+    println!(
+        "  formatting the CSV in memory: {t_format:.3} s ({:.1} MB)",
+        buf.len() as f64 / 1e6
+    );
     drop(buf);
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("bonds.csv");

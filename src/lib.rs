@@ -12,6 +12,7 @@
 //! engineering strain. The library never prints; the `anisobond` binary does.
 
 pub mod bonds;
+pub mod calibrate;
 pub mod dem;
 pub mod error;
 pub mod export;
@@ -19,6 +20,7 @@ pub mod homogenize;
 pub mod io;
 pub mod model;
 pub mod packing;
+pub mod plot;
 pub mod schemes;
 pub mod tensor;
 

@@ -20,6 +20,9 @@ pub enum ExportTarget {
     /// gradient) and writes DIR/yade-history.csv (stress history) and DIR/yade-tensor.json
     /// (6×6 C in Pa, SPEC tensor form).
     Yade(YadeArgs),
+    /// VTK XML files (DIR/particles.vtu, DIR/bonds.vtu) for ParaView, with displacements and
+    /// bond forces under a macroscopic strain.
+    Vtk(super::plot::ExportVtkArgs),
 }
 
 /// Arguments of `export yade`.
@@ -61,6 +64,7 @@ pub struct YadeArgs {
 pub fn run(a: ExportArgs) -> Result<()> {
     match a.target {
         ExportTarget::Yade(y) => export_yade(y),
+        ExportTarget::Vtk(v) => super::plot::export_vtk(v),
     }
 }
 

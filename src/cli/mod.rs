@@ -1,9 +1,12 @@
 //! Command-line interface (SPEC.md "Command line"). Every command reads its inputs, calls
 //! the library, prints human-readable results with units, and writes files atomically.
 
+mod calibrate;
 mod demo;
+mod domain;
 mod export;
 mod output;
+mod plot;
 pub mod run;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
@@ -43,11 +46,19 @@ enum Command {
     /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
     /// sum over the actual bonds.
     Tensor(TensorArgs),
-    /// Export a packing + model to another DEM code (YADE), ready to run there.
+    /// Export a packing + model to YADE (ready-to-run script) or VTK (ParaView files).
     Export(export::ExportArgs),
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
     Run(run::RunArgs),
+    /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
+    /// packing with the exact relaxed solver; writes the calibrated model file.
+    Calibrate(calibrate::CalibrateArgs),
+    /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
+    Domain(domain::DomainArgs),
+    /// Pictures of a model (PNG).
+    #[command(subcommand)]
+    Plot(plot::PlotCommand),
 }
 
 #[derive(clap::Args)]
@@ -176,6 +187,9 @@ pub fn run() -> Result<()> {
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
+        Command::Domain(a) => domain::run(a),
+        Command::Plot(c) => plot::run(c),
     }
 }
 

@@ -1,7 +1,9 @@
-//! Export of a bonded model to other DEM codes, ready to run there.
+//! Export of a bonded model to other tools, ready to run there.
 //!
-//! [`yade`]: the packing, the bond table, the model, the reusable Python module
-//! `anisobond_yade.py` (embedded in the binary) and a `run.py` that performs the six-path
-//! element test in YADE 2023.02a (`yade -n -x DIR/run.py`).
+//! - [`yade`]: the packing, the bond table, the model, the reusable Python module
+//!   `anisobond_yade.py` (embedded in the binary) and a `run.py` that performs the six-path
+//!   element test in YADE 2023.02a (`yade -n -x DIR/run.py`).
+//! - [`vtk`]: VTK XML (.vtu) files of particles and bonds for ParaView.
 
+pub mod vtk;
 pub mod yade;

@@ -1,0 +1,225 @@
+//! The calibration target as given on the command line (SPEC.md `calibrate --target T`).
+//!
+//! Cubic: `C11=…,C12=…,C44=…` (Pa; a unit suffix Pa, kPa, MPa or GPa is accepted) or the
+//! ratios `C12/C11=…,C44/C11=…` (then the overall magnitude is left to the model file).
+//! Cross-anisotropic: `C11=…,C33=…,C13=…,C12=…` (Pa, about the model's axis).
+
+use crate::{Error, Result};
+
+/// A cubic target: the two ratios that fix the shape of the tensor, and optionally C11 that
+/// fixes its magnitude.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CubicTarget {
+    /// C12/C11.
+    pub c12_over_c11: f64,
+    /// C44/C11.
+    pub c44_over_c11: f64,
+    /// C11 (Pa) when the target was given in absolute terms.
+    pub c11: Option<f64>,
+}
+
+impl CubicTarget {
+    /// A target from absolute constants (Pa).
+    pub fn from_constants(c11: f64, c12: f64, c44: f64) -> Result<Self> {
+        let t = CubicTarget {
+            c12_over_c11: c12 / c11,
+            c44_over_c11: c44 / c11,
+            c11: Some(c11),
+        };
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// A target from the two ratios only.
+    pub fn from_ratios(c12_over_c11: f64, c44_over_c11: f64) -> Result<Self> {
+        let t = CubicTarget {
+            c12_over_c11,
+            c44_over_c11,
+            c11: None,
+        };
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// Zener ratio 2C44/(C11 − C12) = 2·(C44/C11)/(1 − C12/C11).
+    pub fn zener(&self) -> f64 {
+        2.0 * self.c44_over_c11 / (1.0 - self.c12_over_c11)
+    }
+
+    /// Positive definiteness of a cubic tensor: C11 > 0, C44 > 0, −1/2 < C12/C11 < 1.
+    fn validate(&self) -> Result<()> {
+        let (r12, r44) = (self.c12_over_c11, self.c44_over_c11);
+        if let Some(c11) = self.c11 {
+            if !c11.is_finite() || c11 <= 0.0 {
+                return Err(Error::Invalid(format!(
+                    "target C11 = {c11} Pa: expected a finite value > 0"
+                )));
+            }
+        }
+        if !r12.is_finite() || !r44.is_finite() || r44 <= 0.0 || r12 <= -0.5 || r12 >= 1.0 {
+            return Err(Error::Invalid(format!(
+                "target C12/C11 = {r12}, C44/C11 = {r44} is not a positive definite cubic \
+                 stiffness (needs C44 > 0 and −C11/2 < C12 < C11)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// (C11, C12, C44) in Pa with C11 = the target's, or `c11` when the target has none.
+    pub fn constants(&self, c11: f64) -> (f64, f64, f64) {
+        let c11 = self.c11.unwrap_or(c11);
+        (c11, self.c12_over_c11 * c11, self.c44_over_c11 * c11)
+    }
+}
+
+/// A parsed `--target`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// Cubic constants or ratios.
+    Cubic(CubicTarget),
+    /// Transversely isotropic constants (Pa) about the model's axis.
+    CrossAnisotropic {
+        /// C11 = C22.
+        c11: f64,
+        /// C33 (along the axis).
+        c33: f64,
+        /// C13 = C23.
+        c13: f64,
+        /// C12.
+        c12: f64,
+    },
+}
+
+/// A number with an optional unit suffix Pa, kPa, MPa, GPa (case-sensitive SI prefixes).
+fn parse_value(text: &str, key: &str, allow_unit: bool) -> Result<f64> {
+    let t = text.trim();
+    let (number, scale) = if allow_unit {
+        [("GPa", 1e9), ("MPa", 1e6), ("kPa", 1e3), ("Pa", 1.0)]
+            .iter()
+            .find_map(|(suffix, s)| t.strip_suffix(suffix).map(|n| (n.trim(), *s)))
+            .unwrap_or((t, 1.0))
+    } else {
+        (t, 1.0)
+    };
+    let v: f64 = number.parse().map_err(|_| {
+        Error::Invalid(format!(
+            "--target: `{key}={text}`: expected a number{}",
+            if allow_unit {
+                " (Pa, or with a unit suffix kPa, MPa, GPa)"
+            } else {
+                ""
+            }
+        ))
+    })?;
+    if !v.is_finite() {
+        return Err(Error::Invalid(format!(
+            "--target: `{key}={text}` is not finite"
+        )));
+    }
+    Ok(v * scale)
+}
+
+impl Target {
+    /// Parse `C11=…,C12=…,C44=…`, `C12/C11=…,C44/C11=…` or `C11=…,C33=…,C13=…,C12=…`
+    /// (keys case-insensitive, separated by commas or whitespace).
+    pub fn parse(text: &str) -> Result<Target> {
+        let mut c11 = None;
+        let mut c12 = None;
+        let mut c13 = None;
+        let mut c33 = None;
+        let mut c44 = None;
+        let mut r12 = None;
+        let mut r44 = None;
+        let items: Vec<&str> = text
+            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .collect();
+        if items.is_empty() {
+            return Err(Error::Invalid(
+                "--target is empty: expected C11=…,C12=…,C44=… (Pa), C12/C11=…,C44/C11=…, or C11=…,C33=…,C13=…,C12=…".into(),
+            ));
+        }
+        for item in items {
+            let (key, value) = item.split_once('=').ok_or_else(|| {
+                Error::Invalid(format!("--target: `{item}` is not of the form KEY=VALUE"))
+            })?;
+            let k = key.trim().to_ascii_uppercase().replace(' ', "");
+            let slot = match k.as_str() {
+                "C11" => &mut c11,
+                "C12" => &mut c12,
+                "C13" => &mut c13,
+                "C33" => &mut c33,
+                "C44" => &mut c44,
+                "C12/C11" => &mut r12,
+                "C44/C11" => &mut r44,
+                _ => {
+                    return Err(Error::Invalid(format!(
+                        "--target: unknown key `{key}` (expected C11, C12, C13, C33, C44, C12/C11 or C44/C11)"
+                    )))
+                }
+            };
+            if slot.is_some() {
+                return Err(Error::Invalid(format!("--target: `{key}` given twice")));
+            }
+            *slot = Some(parse_value(value, key, !k.contains('/'))?);
+        }
+        match (c11, c12, c13, c33, c44, r12, r44) {
+            (Some(a), Some(b), None, None, Some(d), None, None) => {
+                Ok(Target::Cubic(CubicTarget::from_constants(a, b, d)?))
+            }
+            (None, None, None, None, None, Some(a), Some(b)) => {
+                Ok(Target::Cubic(CubicTarget::from_ratios(a, b)?))
+            }
+            (Some(c11), Some(c12), Some(c13), Some(c33), None, None, None) => {
+                Ok(Target::CrossAnisotropic { c11, c33, c13, c12 })
+            }
+            _ => Err(Error::Invalid(format!(
+                "--target `{text}`: give exactly C11, C12, C44 (cubic, Pa), or C12/C11 and C44/C11 (cubic ratios), or C11, C33, C13, C12 (cross-anisotropic, Pa)"
+            ))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_three_forms_and_units() {
+        let t = Target::parse("C11=246.5GPa, C12=147.3GPa, C44=124.7GPa").unwrap();
+        let Target::Cubic(c) = t else { panic!() };
+        assert_eq!(c.c11, Some(246.5e9));
+        assert!((c.c12_over_c11 - 147.3 / 246.5).abs() < 1e-15);
+        let t = Target::parse("c12/c11=0.30,C44/C11=0.43").unwrap();
+        let Target::Cubic(c) = t else { panic!() };
+        assert_eq!((c.c12_over_c11, c.c44_over_c11, c.c11), (0.30, 0.43, None));
+        // Zener = 2·0.43/0.7.
+        assert!((c.zener() - 0.86 / 0.7).abs() < 1e-15);
+        let t = Target::parse("C11=130e6 C33=55e6 C13=28e6 C12=40e6").unwrap();
+        assert_eq!(
+            t,
+            Target::CrossAnisotropic {
+                c11: 130e6,
+                c33: 55e6,
+                c13: 28e6,
+                c12: 40e6
+            }
+        );
+    }
+
+    #[test]
+    fn refuses_bad_targets() {
+        for bad in [
+            "",
+            "C11=1",
+            "C11=1,C12=2,C44=1",
+            "C12/C11=0.3",
+            "C12/C11=0.3,C44/C11=-1",
+            "C11=x,C12=1,C44=1",
+            "C11=1,C11=1,C12=0,C44=1",
+            "C99=1",
+        ] {
+            assert!(Target::parse(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! `anisobond plot stiffness` (polar sections of k_n(n), k_s(n), Truszkowska 2018 Fig. 3)
+//! and `anisobond export vtk` (ParaView files of particles and bonds).
+
+use super::bond_packing;
+use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
+use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::model::{Model, SchemeSpec};
+use anisobond::packing;
+use anisobond::plot::{plot_stiffness_sections, Section};
+use anisobond::schemes::Convention;
+use anisobond::tensor::Voigt6;
+use anisobond::{Error, Result};
+use clap::Subcommand;
+use std::path::PathBuf;
+
+/// What to plot.
+#[derive(Subcommand)]
+pub enum PlotCommand {
+    /// Polar plots of a model's normal and shear stiffness magnitudes in the (100) and (1-10)
+    /// crystal planes (cubic) or in planes containing / normal to the axis (cross-anisotropic).
+    Stiffness(StiffnessArgs),
+}
+
+/// Options of `anisobond plot stiffness`.
+#[derive(clap::Args)]
+pub struct StiffnessArgs {
+    /// Model file.
+    #[arg(long)]
+    model: PathBuf,
+    /// Packing (needed by the cross-anisotropic scheme for its lattice scaling μ).
+    packing: Option<PathBuf>,
+    /// Output folder: stiffness.png.
+    #[arg(short, long, default_value = ".")]
+    output: PathBuf,
+}
+
+/// Run `anisobond plot …`.
+pub fn run(cmd: PlotCommand) -> Result<()> {
+    match cmd {
+        PlotCommand::Stiffness(a) => stiffness(a),
+    }
+}
+
+fn unit(c: Convention) -> &'static str {
+    match c {
+        Convention::Area => "Pa/m",
+        Convention::Modulus | Convention::Kumar => "Pa",
+        Convention::Spring => "N/m",
+    }
+}
+
+fn stiffness(a: StiffnessArgs) -> Result<()> {
+    let model = Model::from_path(&a.model)?;
+    std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    let bonded = match &a.packing {
+        Some(p) => Some(bond_packing(packing::io::read_packing(p)?, &model)?),
+        None => None,
+    };
+    let scheme = model.build_scheme(bonded.as_ref().map(|b| (&b.packing, &b.bonds)))?;
+    let sections = match &model.scheme {
+        SchemeSpec::Cubic { rotation, .. } => Section::cubic_planes(rotation),
+        SchemeSpec::CrossAnisotropic { axis, .. } => Section::axis_planes(axis),
+        SchemeSpec::Isotropic { .. } => Section::cubic_planes(&anisobond::Mat3::identity()),
+    };
+    let path = a.output.join("stiffness.png");
+    plot_stiffness_sections(
+        &path,
+        scheme.as_ref(),
+        &sections,
+        &format!(
+            "{}: normal (blue) and shear (gold) magnitudes",
+            scheme.name()
+        ),
+        unit(model.geometry.convention),
+    )?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Options of `anisobond export vtk`.
+#[derive(clap::Args)]
+pub struct ExportVtkArgs {
+    /// Packing file.
+    packing: PathBuf,
+    /// Model file.
+    #[arg(long)]
+    model: PathBuf,
+    /// Macroscopic engineering strain applied for displacements and bond forces (Voigt
+    /// order 11,22,33,23,13,12; periodic packings only). `0` writes the unloaded state.
+    #[arg(long, default_value = "1e-3,0,0,0,0,0")]
+    strain: String,
+    /// Output folder: particles.vtu and bonds.vtu.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() == 1 && parts[0].parse::<f64>().ok() == Some(0.0) {
+        return Ok(None);
+    }
+    if parts.len() != 6 {
+        return Err(Error::Invalid(format!(
+            "--strain `{s}`: expected 6 comma-separated numbers (Voigt 11,22,33,23,13,12) or 0"
+        )));
+    }
+    let mut e = Voigt6::zeros();
+    for (k, p) in parts.iter().enumerate() {
+        e[k] = p
+            .parse()
+            .map_err(|_| Error::Invalid(format!("--strain: `{p}` is not a number")))?;
+        if !e[k].is_finite() {
+            return Err(Error::Invalid(format!("--strain: `{p}` is not finite")));
+        }
+    }
+    Ok(if e.iter().all(|&x| x == 0.0) {
+        None
+    } else {
+        Some(e)
+    })
+}
+
+/// Run `anisobond export vtk`.
+pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
+    let model = Model::from_path(&a.model)?;
+    let strain = parse_strain(&a.strain)?;
+    std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    let b = bond_packing(packing::io::read_packing(&a.packing)?, &model)?;
+    let state = match (strain, b.packing.cell.is_some()) {
+        (Some(e), true) => Some(strained_state(
+            &b.packing,
+            &b.bonds,
+            &b.stiffness,
+            &e,
+            &RelaxedOptions::default(),
+        )?),
+        (Some(_), false) => {
+            eprintln!("note: the packing is not periodic; writing the unloaded state (no displacements, no forces)");
+            None
+        }
+        (None, _) => None,
+    };
+    let particles = a.output.join("particles.vtu");
+    let bonds = a.output.join("bonds.vtu");
+    write_particles_vtu(&particles, &b.packing, state.as_ref())?;
+    write_bonds_vtu(&bonds, &b.packing, &b.bonds, &b.stiffness, state.as_ref())?;
+    if let Some(s) = &state {
+        println!(
+            "state at quasi-static equilibrium under strain {:?} (relaxed fluctuations)",
+            s.strain.as_slice()
+        );
+    }
+    println!(
+        "wrote {} ({} particles) and {} ({} bonds); open them in ParaView",
+        particles.display(),
+        b.packing.len(),
+        bonds.display(),
+        b.bonds.len()
+    );
+    Ok(())
+}

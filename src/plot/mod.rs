@@ -1,0 +1,512 @@
+//! PNG plots: the accessible-domain map (Truszkowska 2018 Fig. 8, Fig. C.1a), polar
+//! sections of a scheme's k_n(n) and k_s(n) (Fig. 3), and stress–strain curves.
+//!
+//! Drawn with plotters' bitmap backend and an embedded font, so no system font library is
+//! needed. The font is DejaVu Sans (`DejaVuSans.ttf`, from Debian's fonts-dejavu-core),
+//! under the Bitstream Vera / DejaVu fonts licence: free to use, copy, embed and
+//! redistribute. Files are written atomically (a temporary `.png` in the target's folder,
+//! renamed into place when complete).
+
+use crate::calibrate::domain::DomainSample;
+use crate::schemes::cubic::CubicModel;
+use crate::schemes::StiffnessScheme;
+use crate::{Error, Result, Vec3};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::path::Path;
+use std::sync::Once;
+
+/// DejaVu Sans (Bitstream Vera / DejaVu fonts licence, permissive; see the module doc).
+static FONT: &[u8] = include_bytes!("DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The embedded file is a valid TrueType font; a failure would only lose the labels.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+fn plot_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::Invalid(format!("{}: drawing the plot failed: {e}", path.display()))
+}
+
+/// Render `draw` into a PNG of `size` pixels at `path`, atomically.
+fn render<F>(path: &Path, size: (u32, u32), draw: F) -> Result<()>
+where
+    F: FnOnce(&DrawingArea<BitMapBackend, Shift>) -> std::result::Result<(), String>,
+{
+    register_font();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".anisobond-plot")
+        .suffix(".png")
+        .tempfile_in(dir)
+        .map_err(|e| Error::io(path, e))?;
+    {
+        let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        draw(&root).map_err(|e| plot_error(path, e))?;
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
+}
+
+fn s<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// Colour of a model variant on the domain map (paper Fig. C.1a: blue/gold plain,
+/// purple/orange extended).
+fn variant_colour(model: CubicModel, extended: bool) -> RGBColor {
+    match (model, extended) {
+        (CubicModel::ZenerAbove1, false) => RGBColor(31, 119, 180),
+        (CubicModel::ZenerBelow1, false) => RGBColor(214, 160, 20),
+        (CubicModel::ZenerAbove1, true) => RGBColor(128, 60, 170),
+        (CubicModel::ZenerBelow1, true) => RGBColor(240, 110, 30),
+    }
+}
+
+/// The accessible-domain map: C44/C11 against C12/C11 for every sample, with lines of
+/// constant Zener ratio (C44/C11 = Z(1 − C12/C11)/2), of constant ν100
+/// (C12/C11 = ν/(1 − ν)) and the Cauchy line C12 = C44 (Truszkowska 2018 Fig. 8,
+/// Fig. C.1a). `target` marks a point (C12/C11, C44/C11).
+pub fn plot_domain(
+    path: &Path,
+    samples: &[DomainSample],
+    title: &str,
+    target: Option<(f64, f64)>,
+) -> Result<()> {
+    if samples.is_empty() {
+        return Err(Error::Invalid("domain plot: no samples".into()));
+    }
+    let finite = samples
+        .iter()
+        .filter(|p| p.c12_over_c11.is_finite() && p.c44_over_c11.is_finite());
+    let (mut x0, mut x1, mut y0, mut y1) = (0.0f64, 0.5f64, 0.2f64, 0.6f64);
+    for p in finite {
+        x0 = x0.min(p.c12_over_c11);
+        x1 = x1.max(p.c12_over_c11);
+        y0 = y0.min(p.c44_over_c11);
+        y1 = y1.max(p.c44_over_c11);
+    }
+    if let Some((tx, ty)) = target {
+        x0 = x0.min(tx);
+        x1 = x1.max(tx);
+        y0 = y0.min(ty);
+        y1 = y1.max(ty);
+    }
+    let (dx, dy) = (0.05 * (x1 - x0), 0.05 * (y1 - y0));
+    let (x0, x1, y0, y1) = (x0 - dx, x1 + dx, (y0 - dy).max(0.0), y1 + dy);
+    render(path, (1000, 850), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 24))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc("C12/C11")
+            .y_desc("C44/C11")
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 20))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(s)?;
+        // Lines of constant Poisson ratio ν100 = C12/(C11 + C12): vertical.
+        let poisson = RGBColor(120, 170, 220);
+        for nu in [0.0, 0.1, 0.2, 0.3, 0.4] {
+            let x = nu / (1.0 - nu);
+            if x > x0 && x < x1 {
+                chart
+                    .draw_series(LineSeries::new([(x, y0), (x, y1)], poisson.stroke_width(1)))
+                    .map_err(s)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        format!("ν={nu:.1}"),
+                        (x, y1 - 0.02 * (y1 - y0)),
+                        ("sans-serif", 14).into_font().color(&poisson),
+                    )))
+                    .map_err(s)?;
+            }
+        }
+        // Lines of constant Zener ratio: C44/C11 = Z(1 − C12/C11)/2.
+        let grey = RGBColor(130, 130, 130);
+        for z in [0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0] {
+            let line: Vec<(f64, f64)> = (0..=50)
+                .map(|k| {
+                    let x = x0 + (x1 - x0) * k as f64 / 50.0;
+                    (x, z * (1.0 - x) / 2.0)
+                })
+                .filter(|&(_, y)| y >= y0 && y <= y1)
+                .collect();
+            if line.len() < 2 {
+                continue;
+            }
+            let width = if z == 1.0 { 2 } else { 1 };
+            let label_at = line[line.len() / 5];
+            chart
+                .draw_series(LineSeries::new(line, grey.stroke_width(width)))
+                .map_err(s)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("Z={z}"),
+                    label_at,
+                    ("sans-serif", 14).into_font().color(&grey),
+                )))
+                .map_err(s)?;
+        }
+        // Cauchy line C12 = C44.
+        let lo = x0.max(y0);
+        let hi = x1.min(y1);
+        if hi > lo {
+            chart
+                .draw_series(LineSeries::new([(lo, lo), (hi, hi)], RED.stroke_width(2)))
+                .map_err(s)?
+                .label("Cauchy C12 = C44")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
+        }
+        for model in [CubicModel::ZenerAbove1, CubicModel::ZenerBelow1] {
+            for extended in [false, true] {
+                let colour = variant_colour(model, extended);
+                let pts: Vec<(f64, f64)> = samples
+                    .iter()
+                    .filter(|p| p.model == model && p.extended == extended)
+                    .map(|p| (p.c12_over_c11, p.c44_over_c11))
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let label = format!(
+                    "{}{} ({} samples)",
+                    model.as_str(),
+                    if extended { " extended" } else { "" },
+                    pts.len()
+                );
+                chart
+                    .draw_series(
+                        pts.into_iter()
+                            .map(|c| Circle::new(c, 2, colour.mix(0.6).filled())),
+                    )
+                    .map_err(s)?
+                    .label(label)
+                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+            }
+        }
+        if let Some((tx, ty)) = target {
+            chart
+                .draw_series(std::iter::once(Cross::new(
+                    (tx, ty),
+                    9,
+                    BLACK.stroke_width(3),
+                )))
+                .map_err(s)?
+                .label("target")
+                .legend(|(x, y)| Cross::new((x + 10, y), 5, BLACK.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(s)?;
+        Ok(())
+    })
+}
+
+/// A plane section for [`plot_stiffness_sections`]: directions n(t) = cos t·u + sin t·v.
+#[derive(Clone, Debug)]
+pub struct Section {
+    /// Title, e.g. "(100) plane".
+    pub name: String,
+    /// First in-plane unit vector (lab frame), t = 0.
+    pub u: Vec3,
+    /// Second in-plane unit vector (lab frame), t = 90°.
+    pub v: Vec3,
+}
+
+impl Section {
+    /// The (100) and (1̄10) planes of a crystal with lab → crystal rotation `r` (vectors
+    /// mapped to the lab frame by Rᵀ): (100) is spanned by [010] and [001]; (1̄10) by
+    /// [110]/√2 and [001], so it contains <100>, <110> and <111>, the symmetry directions
+    /// of Truszkowska 2018 Fig. 3.
+    pub fn cubic_planes(r: &crate::Mat3) -> Vec<Section> {
+        let rt = r.transpose();
+        let s2 = std::f64::consts::FRAC_1_SQRT_2;
+        vec![
+            Section {
+                name: "(100) plane: [010] → [001]".into(),
+                u: rt * Vec3::new(0.0, 1.0, 0.0),
+                v: rt * Vec3::new(0.0, 0.0, 1.0),
+            },
+            Section {
+                name: "(1-10) plane: [110] → [001]".into(),
+                u: rt * Vec3::new(s2, s2, 0.0),
+                v: rt * Vec3::new(0.0, 0.0, 1.0),
+            },
+        ]
+    }
+
+    /// Two planes containing an axis: (axis⊥, axis) for the cross-anisotropic scheme, and the
+    /// plane normal to the axis.
+    pub fn axis_planes(axis: &Vec3) -> Vec<Section> {
+        let a = axis.normalize();
+        let helper = if a.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
+        let p = (helper - a * a.dot(&helper)).normalize();
+        let q = a.cross(&p);
+        vec![
+            Section {
+                name: "plane containing the axis".into(),
+                u: p,
+                v: a,
+            },
+            Section {
+                name: "plane normal to the axis".into(),
+                u: p,
+                v: q,
+            },
+        ]
+    }
+}
+
+/// Polar plots of the scheme's normal (blue) and shear (gold) magnitudes along the
+/// directions of each section (Truszkowska 2018 Fig. 3 in cross-section), one panel per
+/// section, all on the same scale; `unit` labels the magnitudes (e.g. "Pa/m").
+pub fn plot_stiffness_sections(
+    path: &Path,
+    scheme: &dyn StiffnessScheme,
+    sections: &[Section],
+    title: &str,
+    unit: &str,
+) -> Result<()> {
+    if sections.is_empty() {
+        return Err(Error::Invalid("stiffness plot: no sections".into()));
+    }
+    const STEPS: usize = 720;
+    type Curve = Vec<(f64, f64)>;
+    let curves: Vec<(Curve, Curve)> = sections
+        .iter()
+        .map(|sec| {
+            let mut normal = Vec::with_capacity(STEPS + 1);
+            let mut shear = Vec::with_capacity(STEPS + 1);
+            for k in 0..=STEPS {
+                let t = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
+                let (st, ct) = t.sin_cos();
+                let n = (sec.u * ct + sec.v * st).normalize();
+                let m = scheme.magnitudes(&n);
+                normal.push((m.normal.max(0.0) * ct, m.normal.max(0.0) * st));
+                shear.push((m.shear.max(0.0) * ct, m.shear.max(0.0) * st));
+            }
+            (normal, shear)
+        })
+        .collect();
+    let rmax = curves
+        .iter()
+        .flat_map(|(a, b)| a.iter().chain(b.iter()))
+        .map(|(x, y)| x.hypot(*y))
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    if rmax <= 0.0 {
+        return Err(Error::Invalid(
+            "stiffness plot: the scheme's magnitudes are zero everywhere".into(),
+        ));
+    }
+    let r = 1.08 * rmax;
+    let panel = 620u32;
+    let width = panel * sections.len() as u32;
+    render(path, (width, panel + 60), |root| {
+        let root = root.titled(title, ("sans-serif", 24)).map_err(s)?;
+        let panels = root.split_evenly((1, sections.len()));
+        for ((area, sec), (normal, shear)) in panels.iter().zip(sections).zip(&curves) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(&sec.name, ("sans-serif", 18))
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(70)
+                .build_cartesian_2d(-r..r, -r..r)
+                .map_err(s)?;
+            chart
+                .configure_mesh()
+                .x_labels(5)
+                .y_labels(5)
+                .x_label_formatter(&|v| format!("{v:.2e}"))
+                .y_label_formatter(&|v| format!("{v:.2e}"))
+                .label_style(("sans-serif", 12))
+                .light_line_style(RGBColor(240, 240, 240))
+                .draw()
+                .map_err(s)?;
+            // Reference circles at quarter radii.
+            for frac in [0.25, 0.5, 0.75, 1.0] {
+                let rr = frac * rmax;
+                chart
+                    .draw_series(LineSeries::new(
+                        (0..=180).map(|k| {
+                            let t = 2.0 * std::f64::consts::PI * k as f64 / 180.0;
+                            (rr * t.cos(), rr * t.sin())
+                        }),
+                        RGBColor(210, 210, 210),
+                    ))
+                    .map_err(s)?;
+            }
+            let blue = RGBColor(31, 119, 180);
+            let gold = RGBColor(214, 160, 20);
+            chart
+                .draw_series(LineSeries::new(normal.clone(), blue.stroke_width(3)))
+                .map_err(s)?
+                .label(format!("k_n magnitude ({unit})"))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(3))
+                });
+            chart
+                .draw_series(LineSeries::new(shear.clone(), gold.stroke_width(3)))
+                .map_err(s)?
+                .label(format!("k_s magnitude ({unit})"))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], gold.stroke_width(3))
+                });
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(s)?;
+        }
+        Ok(())
+    })
+}
+
+/// A loading history: time (s), engineering strain and stress (Pa) in Voigt order per step.
+#[derive(Clone, Debug, Default)]
+pub struct History {
+    /// Time of every step (s).
+    pub time: Vec<f64>,
+    /// Strain (11, 22, 33, 23, 13, 12; engineering shear).
+    pub strain: Vec<[f64; 6]>,
+    /// Stress (Pa, tension positive).
+    pub stress: Vec<[f64; 6]>,
+}
+
+const VOIGT_NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+
+/// Stress–strain curves of a history: every stress component that is not negligible
+/// (in MPa) against the strain component that varies most (the loading direction).
+pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result<()> {
+    let n = history.time.len();
+    if n < 2 || history.strain.len() != n || history.stress.len() != n {
+        return Err(Error::Invalid(format!(
+            "stress–strain plot: need at least 2 steps with time, strain and stress each (got {}, {}, {})",
+            n,
+            history.strain.len(),
+            history.stress.len()
+        )));
+    }
+    let range = |k: usize, v: &[[f64; 6]]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+                (lo.min(e[k]), hi.max(e[k]))
+            });
+        hi - lo
+    };
+    let driver = (0..6)
+        .max_by(|&a, &b| range(a, &history.strain).total_cmp(&range(b, &history.strain)))
+        .unwrap_or(0);
+    let stress_span = (0..6)
+        .map(|k| range(k, &history.stress))
+        .fold(0.0, f64::max);
+    let shown: Vec<usize> = (0..6)
+        .filter(|&k| range(k, &history.stress) > 1e-3 * stress_span)
+        .collect();
+    let xs: Vec<f64> = history.strain.iter().map(|e| e[driver]).collect();
+    let (x0, x1) = xs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    let (mut y0, mut y1) = (0.0f64, 0.0f64);
+    for st in &history.stress {
+        for &k in &shown {
+            y0 = y0.min(st[k] / 1e6);
+            y1 = y1.max(st[k] / 1e6);
+        }
+    }
+    if x1.partial_cmp(&x0) != Some(std::cmp::Ordering::Greater)
+        || !x0.is_finite()
+        || !y0.is_finite()
+        || !y1.is_finite()
+    {
+        return Err(Error::Invalid(
+            "stress–strain plot: the strain does not vary (or is not finite)".into(),
+        ));
+    }
+    if y1 <= y0 {
+        y1 = y0 + 1.0;
+    }
+    let pad = 0.05 * (y1 - y0);
+    let palette = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+    ];
+    render(path, (1000, 700), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 24))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc(format!("strain ε{} (engineering)", VOIGT_NAMES[driver]))
+            .y_desc("stress (MPa)")
+            .x_label_formatter(&|v| format!("{v:.1e}"))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 18))
+            .draw()
+            .map_err(s)?;
+        for &k in &shown {
+            let colour = palette[k];
+            chart
+                .draw_series(LineSeries::new(
+                    xs.iter()
+                        .zip(&history.stress)
+                        .map(|(&x, st)| (x, st[k] / 1e6)),
+                    colour.stroke_width(2),
+                ))
+                .map_err(s)?
+                .label(format!("σ{}", VOIGT_NAMES[k]))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(s)?;
+        Ok(())
+    })
+}
