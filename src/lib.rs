@@ -13,6 +13,9 @@
 
 pub mod bonds;
 pub mod error;
+pub mod export;
+#[cfg(feature = "ffi")]
+pub mod ffi;
 pub mod homogenize;
 pub mod io;
 pub mod model;

@@ -1,0 +1,1 @@
+//! LIGGGHTS export (data file and input decks).

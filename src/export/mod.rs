@@ -1,0 +1,3 @@
+//! Export to other DEM codes.
+
+pub mod liggghts;
