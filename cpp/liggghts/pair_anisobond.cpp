@@ -21,6 +21,7 @@
 #include "force.h"
 #include "memory.h"
 #include "modify.h"
+#include "neighbor.h"
 #include "update.h"
 
 #include "anisobond/src/ffi/mod.rs.h"
@@ -177,6 +178,13 @@ void PairAnisobond::init_style() {
   if (!first_bond_.empty() && static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
     error->all(FLERR, "pair_style anisobond: the bond table names atom ids beyond the number of atoms");
 
+  // Ghost atoms must reach every partner: the pair cutoff alone does not widen the ghost
+  // shell when no neighbour list is requested, so raise the user ghost cutoff to the
+  // longest bond (+5 % for stretching) + skin. A partner still missing is an error in
+  // compute().
+  const double need = 1.05 * max_length_ + neighbor->skin;
+  if (comm->cutghostuser < need) comm->cutghostuser = need;
+
   const int nvalues = 1 + max_bonds_ * NSLOT;
   fix_ = static_cast<FixPropertyAtom *>(modify->find_fix_id(fix_id_.c_str()));
   if (fix_ == NULL) {
@@ -253,8 +261,9 @@ void PairAnisobond::compute(int eflag, int vflag) {
         std::snprintf(msg, sizeof msg,
                       "pair_style anisobond: bond partner %d of atom %d is missing on this "
                       "process (ghost cutoff too short: raise `communicate single cutoff`, "
-                      "or the atom was lost)",
-                      tag_j, tag[i]);
+                      "or the atom was lost; ghost cutoff %g %g %g, %d ghosts)",
+                      tag_j, tag[i], comm->cutghost[0], comm->cutghost[1], comm->cutghost[2],
+                      atom->nghost);
         error->one(FLERR, msg);
       }
       double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};

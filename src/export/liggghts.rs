@@ -44,6 +44,11 @@ pub struct DeckOptions {
     pub damping: f64,
     /// Do not integrate: particles follow the box affinely (the Voigt tensor).
     pub affine: bool,
+    /// Include the three shear load cases (needs a triclinic box). LIGGGHTS 3.8 (Debian)
+    /// creates no ghost atoms for a triclinic box under MPI ("Bond atoms missing" with the
+    /// stock deck, a missing bond partner with the driver): set `false` for runs on more
+    /// than one process; only the normal cases (columns 1–3 of C) are then run.
+    pub shear: bool,
 }
 
 impl Default for DeckOptions {
@@ -57,6 +62,7 @@ impl Default for DeckOptions {
             timestep: None,
             damping: 0.02,
             affine: false,
+            shear: true,
         }
     }
 }
@@ -70,8 +76,8 @@ pub struct ExportSummary {
     pub timestep: f64,
     /// Damping rate γ (1/s).
     pub damping_rate: f64,
-    /// Last step of each load case (Voigt order).
-    pub case_end_steps: [u64; 6],
+    /// Last step of each load case run (Voigt order; 6 cases, or 3 without shear).
+    pub case_end_steps: Vec<u64>,
     /// Longest bond (m): the ghost cutoff must exceed it.
     pub max_bond_length: f64,
 }
@@ -166,7 +172,8 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
 fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions) {
     let [_, _, lz] = lengths;
     let e = o.strain;
-    for (c, name) in VOIGT_NAMES.iter().enumerate() {
+    let n_cases = if o.shear { 6 } else { 3 };
+    for (c, name) in VOIGT_NAMES.iter().enumerate().take(n_cases) {
         let spec = match c {
             0 => format!("x scale {}", num(1.0 + e)),
             1 => format!("y scale {}", num(1.0 + e)),
@@ -244,7 +251,9 @@ pub fn export_liggghts(
     files.push(table_path);
 
     let period = o.deform_steps + o.relax_steps;
-    let case_end_steps = [1u64, 2, 3, 4, 5, 6].map(|c| c * period);
+    let n_cases: u64 = if o.shear { 6 } else { 3 };
+    let case_end_steps: Vec<u64> = (1..=n_cases).map(|c| c * period).collect();
+    let box_line = if o.shear { "change_box all triclinic\n" } else { "" };
     let skin = 0.05 * max_len;
 
     // Driver deck.
@@ -264,7 +273,7 @@ pub fn export_liggghts(
     let _ = writeln!(s, "variable damp index {}", num(gamma));
     let _ = writeln!(s, "variable dt index {}", num(dt));
     let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\ncommunicate single vel yes");
-    let _ = writeln!(s, "read_data packing.data\nchange_box all triclinic");
+    let _ = write!(s, "read_data packing.data\n{box_line}");
     let _ = writeln!(s, "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *");
     let _ = writeln!(s, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(s, "timestep ${{dt}}");
@@ -301,7 +310,7 @@ pub fn export_liggghts(
     let _ = writeln!(h, "variable dt index {}", num(dt));
     let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
     let _ = writeln!(h, "communicate single vel yes cutoff {}", num(1.1 * max_len));
-    let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data\nchange_box all triclinic");
+    let _ = write!(h, "bond_style harmonic\nread_data harmonic.data\n{box_line}");
     let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(h, "timestep ${{dt}}");
     let _ = writeln!(h, "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\"");
@@ -396,15 +405,19 @@ pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
     Ok(h)
 }
 
-/// The 6×6 tensor (Pa) from the six load cases: column a = (σ(end_a) − σ(end_{a−1})) /
-/// (e_a(end_a) − e_a(end_{a−1})), with the stress-free start as case 0.
-pub fn tensor_from_cases(h: &StressHistory, case_end_steps: &[u64; 6]) -> Result<Stiffness6> {
+/// The columns of the tensor (Pa) measured by the load cases run, in Voigt order:
+/// column a = (σ(end_a) − σ(end_{a−1})) / (e_a(end_a) − e_a(end_{a−1})), with the
+/// stress-free start as case 0.
+pub fn columns_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<Vec<[f64; 6]>> {
+    if case_end_steps.len() > 6 {
+        return Err(Error::Invalid(format!("at most 6 load cases, got {}", case_end_steps.len())));
+    }
     let row = |step: u64| -> Result<usize> {
         h.step.iter().position(|&s| s == step).ok_or_else(|| {
             Error::Invalid(format!("stress history has no line for step {step} (the end of a load case): did the run finish?"))
         })
     };
-    let mut c = Stiffness6::zeros();
+    let mut cols = Vec::with_capacity(case_end_steps.len());
     let mut prev_s = [0.0; 6];
     let mut prev_e = [0.0; 6];
     for (a, &step) in case_end_steps.iter().enumerate() {
@@ -413,13 +426,27 @@ pub fn tensor_from_cases(h: &StressHistory, case_end_steps: &[u64; 6]) -> Result
         if de == 0.0 {
             return Err(Error::Invalid(format!("load case {} applied no strain", a + 1)));
         }
+        let mut col = [0.0; 6];
         for b in 0..6 {
-            c[(b, a)] = (h.stress[r][b] - prev_s[b]) / de;
+            col[b] = (h.stress[r][b] - prev_s[b]) / de;
         }
+        cols.push(col);
         prev_s = h.stress[r];
         prev_e = h.strain[r];
     }
-    Ok(c)
+    Ok(cols)
+}
+
+/// The full 6×6 tensor (Pa) from the six load cases (see [`columns_from_cases`]).
+pub fn tensor_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<Stiffness6> {
+    if case_end_steps.len() != 6 {
+        return Err(Error::Invalid(format!(
+            "the 6×6 tensor needs the six load cases, the run had {} (export with shear cases)",
+            case_end_steps.len()
+        )));
+    }
+    let cols = columns_from_cases(h, case_end_steps)?;
+    Ok(Stiffness6::from_fn(|b, a| cols[a][b]))
 }
 
 /// How to launch LIGGGHTS.
