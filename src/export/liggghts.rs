@@ -76,7 +76,8 @@ pub struct ExportSummary {
     pub timestep: f64,
     /// Damping rate γ (1/s).
     pub damping_rate: f64,
-    /// Last step of each load case run (Voigt order; 6 cases, or 3 without shear).
+    /// Last step of each load case of the driver deck (Voigt order; 6 cases, or 3 without
+    /// shear). The harmonic deck runs the first three (normal) cases only.
     pub case_end_steps: Vec<u64>,
     /// Longest bond (m): the ghost cutoff must exceed it.
     pub max_bond_length: f64,
@@ -140,6 +141,13 @@ fn check_options(o: &DeckOptions) -> Result<()> {
     Ok(())
 }
 
+/// Steps held after each strain increment: at least one (see [`load_cases`]) and enough
+/// that every load case ends on an output step.
+fn hold_steps(o: &DeckOptions) -> u64 {
+    let period = (o.deform_steps + o.relax_steps.max(1)).div_ceil(o.output_every) * o.output_every;
+    period - o.deform_steps
+}
+
 /// Common head of both decks: variables and the stress/strain history output.
 fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
     let [lx, ly, lz] = packing_lengths;
@@ -169,10 +177,10 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
 }
 
 /// The six load cases (Voigt order), each a deform phase and a hold phase.
-fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions) {
+fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
     let [_, _, lz] = lengths;
     let e = o.strain;
-    let n_cases = if o.shear { 6 } else { 3 };
+    let n_cases = if shear { 6 } else { 3 };
     for (c, name) in VOIGT_NAMES.iter().enumerate().take(n_cases) {
         let spec = match c {
             0 => format!("x scale {}", num(1.0 + e)),
@@ -188,9 +196,9 @@ fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions) {
         let _ = writeln!(s, "fix deform_case all deform 1 {spec} remap x");
         let _ = writeln!(s, "run {}", o.deform_steps);
         let _ = writeln!(s, "unfix deform_case");
-        if o.relax_steps > 0 {
-            let _ = writeln!(s, "run {}", o.relax_steps);
-        }
+        // At least one step held: fix deform applies its last box change at the end of the
+        // last deform step, after that step's forces and output.
+        let _ = writeln!(s, "run {}", hold_steps(o));
     }
 }
 
@@ -250,7 +258,7 @@ pub fn export_liggghts(
     table::write_bond_table(&table_path, bonds, k)?;
     files.push(table_path);
 
-    let period = o.deform_steps + o.relax_steps;
+    let period = o.deform_steps + hold_steps(o);
     let n_cases: u64 = if o.shear { 6 } else { 3 };
     let case_end_steps: Vec<u64> = (1..=n_cases).map(|c| c * period).collect();
     let box_line = if o.shear { "change_box all triclinic\n" } else { "" };
@@ -280,7 +288,7 @@ pub fn export_liggghts(
     let _ = writeln!(s, "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\"");
     history_block(&mut s, lengths, o.output_every);
     let _ = writeln!(s, "run 0");
-    load_cases(&mut s, lengths, o);
+    load_cases(&mut s, lengths, o, o.shear);
     let deck = dir.join("anisobond.in");
     crate::io::write_string_atomic(&deck, &s)?;
     files.push(deck);
@@ -304,13 +312,15 @@ pub fn export_liggghts(
     let _ = writeln!(h, "#   and r0 = its initial length. k_s, k_r, k_tw are IGNORED: this is the model with k_s = 0 and no moments,");
     let _ = writeln!(h, "#   which is softer than the anisobond model (and may be a mechanism where k_s carried load).");
     let _ = writeln!(h, "#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law.");
+    let _ = writeln!(h, "# LIMITS: normal load cases only (11, 22, 33; columns 1-3 of C): LIGGGHTS 3.8 builds no periodic ghost images");
+    let _ = writeln!(h, "#   for a triclinic box, so bonds across the boundary would break under shear of the box.");
     let _ = writeln!(h, "# Element test and output as anisobond.in: case k ends at step k*{period}; stress_history.txt.");
     let _ = writeln!(h, "# Damping: fix viscous with γ = {} kg/s (rate × mean mass).", num(gamma * mean_mass));
     let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
     let _ = writeln!(h, "variable dt index {}", num(dt));
     let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
     let _ = writeln!(h, "communicate single vel yes cutoff {}", num(1.1 * max_len));
-    let _ = write!(h, "bond_style harmonic\nread_data harmonic.data\n{box_line}");
+    let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data");
     let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(h, "timestep ${{dt}}");
     let _ = writeln!(h, "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\"");
@@ -319,7 +329,7 @@ pub fn export_liggghts(
     }
     history_block(&mut h, lengths, o.output_every);
     let _ = writeln!(h, "run 0");
-    load_cases(&mut h, lengths, o);
+    load_cases(&mut h, lengths, o, false);
     let hdeck = dir.join("harmonic.in");
     crate::io::write_string_atomic(&hdeck, &h)?;
     files.push(hdeck);
