@@ -12,7 +12,10 @@ fn on_path(p: &str) -> bool {
 
 #[test]
 fn cpp_bridge_test_builds_and_passes() {
-    let absent: Vec<&str> = ["g++", "make"].into_iter().filter(|t| !on_path(t)).collect();
+    let absent: Vec<&str> = ["g++", "make"]
+        .into_iter()
+        .filter(|t| !on_path(t))
+        .collect();
     if !absent.is_empty() {
         if std::env::var_os("CI").is_some() {
             panic!("CI is set but not installed: {}", absent.join(", "));
@@ -32,7 +35,10 @@ fn cpp_bridge_test_builds_and_passes() {
         .expect("run make");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "make -C cpp check failed:\n{stdout}\n{stderr}");
+    assert!(
+        out.status.success(),
+        "make -C cpp check failed:\n{stdout}\n{stderr}"
+    );
     assert!(
         stdout.contains(" passed, 0 failed"),
         "the C++ test did not report a clean pass:\n{stdout}"
@@ -44,8 +50,14 @@ fn cpp_bridge_test_builds_and_passes() {
         "[scheme]\nkind = \"isotropic\"\nnormal = 1.0e6\nshear = 5.0e5\n[geometry]\nconvention = \"spring\"\n",
     )
     .unwrap();
-    let ex = Command::new(target.join("cpp").join("example")).arg(&model).output().expect("example");
+    let ex = Command::new(target.join("cpp").join("example"))
+        .arg(&model)
+        .output()
+        .expect("example");
     let text = String::from_utf8_lossy(&ex.stdout);
     assert!(ex.status.success(), "example failed: {text}");
-    assert!(text.contains("k_n = 1e+06 N/m, k_s = 500000 N/m"), "example output: {text}");
+    assert!(
+        text.contains("k_n = 1e+06 N/m, k_s = 500000 N/m"),
+        "example output: {text}"
+    );
 }

@@ -5,7 +5,8 @@
 mod liggghts_support;
 
 use anisobond::export::liggghts::{
-    export_liggghts, read_stress_history, run_liggghts, tensor_from_cases, columns_from_cases, DeckOptions, Launch,
+    columns_from_cases, export_liggghts, read_stress_history, run_liggghts, tensor_from_cases,
+    DeckOptions, Launch,
 };
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use liggghts_support::*;
@@ -26,14 +27,24 @@ fn element_test_matches_relaxed_tensor() {
     let b = bonded(500, 7, ISO_MODEL);
     let dir = fresh_dir("element");
     let opts = DeckOptions {
-        relax_steps: std::env::var("RELAX").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000),
-        damping: std::env::var("DAMP").ok().and_then(|v| v.parse().ok()).unwrap_or(0.02),
+        relax_steps: std::env::var("RELAX")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(10_000),
+        damping: std::env::var("DAMP")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0.02),
         ..DeckOptions::default()
     };
     let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).expect("export");
     let t0 = std::time::Instant::now();
     run_liggghts(
-        &Launch { program: exe, mpi_processes: None, vars: vec![] },
+        &Launch {
+            program: exe,
+            mpi_processes: None,
+            vars: vec![],
+        },
         &dir,
         "anisobond.in",
     )
@@ -41,12 +52,18 @@ fn element_test_matches_relaxed_tensor() {
     eprintln!("run took {:?}", t0.elapsed());
     let h = read_stress_history(&dir.join("stress_history.txt")).expect("history");
     let c = tensor_from_cases(&h, &sum.case_end_steps).expect("tensor");
-    let relaxed = relaxed_tensor(&b.packing, &b.bonds, &b.k, &RelaxedOptions::default())
-        .expect("relaxed");
-    eprintln!("driver:\n{c:.4e}\nrelaxed:\n{:.4e}\naffine:\n{:.4e}", relaxed.c, relaxed.c_affine);
+    let relaxed =
+        relaxed_tensor(&b.packing, &b.bonds, &b.k, &RelaxedOptions::default()).expect("relaxed");
+    eprintln!(
+        "driver:\n{c:.4e}\nrelaxed:\n{:.4e}\naffine:\n{:.4e}",
+        relaxed.c, relaxed.c_affine
+    );
     let d = rel_diff(&c, &relaxed.c);
     eprintln!("relative difference {d:.3e}");
-    assert!(d < 5e-3, "driver tensor differs from the relaxed tensor by {d:.3e} (> 0.5 %)");
+    assert!(
+        d < 5e-3,
+        "driver tensor differs from the relaxed tensor by {d:.3e} (> 0.5 %)"
+    );
 }
 
 /// Two particles along x: R = 1 mm, centre distance d0 = 2.1 mm (gap 0.1 mm, mid-gap arms
@@ -92,7 +109,11 @@ fn two_particle_run_spin(
     );
     std::fs::write(dir.join("two.in"), deck).unwrap();
     run_liggghts(
-        &Launch { program: driver(), mpi_processes: None, vars: vec![] },
+        &Launch {
+            program: driver(),
+            mpi_processes: None,
+            vars: vec![],
+        },
         &dir,
         "two.in",
     )
@@ -100,7 +121,10 @@ fn two_particle_run_spin(
     // Last snapshot of dump.txt: id fx fy fz tqx tqy tqz, sorted by id.
     let text = std::fs::read_to_string(dir.join("dump.txt")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    let last = lines.iter().rposition(|l| l.starts_with("ITEM: ATOMS")).unwrap();
+    let last = lines
+        .iter()
+        .rposition(|l| l.starts_with("ITEM: ATOMS"))
+        .unwrap();
     let mut rows: Vec<(u32, [f64; 6])> = lines[last + 1..]
         .iter()
         .map(|l| {
@@ -140,8 +164,22 @@ fn two_particle_normal_and_shear_forces_equal_k_delta() {
     )
     .unwrap();
     // Force on 1 = (k_n δx, k_s δy, k_s δz); torque on each = (r n) × F, n = x̂ (to O(δ/d)).
-    let f1 = [KN * dx, KS * dy, KS * dz, 0.0, -ARM * KS * dz, ARM * KS * dy];
-    let f2 = [-KN * dx, -KS * dy, -KS * dz, 0.0, -ARM * KS * dz, ARM * KS * dy];
+    let f1 = [
+        KN * dx,
+        KS * dy,
+        KS * dz,
+        0.0,
+        -ARM * KS * dz,
+        ARM * KS * dy,
+    ];
+    let f2 = [
+        -KN * dx,
+        -KS * dy,
+        -KS * dz,
+        0.0,
+        -ARM * KS * dz,
+        ARM * KS * dy,
+    ];
     assert_close(&f[0], f1, KN * 3e-8, 1e-4, "particle 1");
     assert_close(&f[1], f2, KN * 3e-8, 1e-4, "particle 2");
 }
@@ -157,19 +195,69 @@ fn two_particle_bending_and_twisting_equal_k_theta_and_setup_does_not_advance() 
     // Bending: particle 2 spins about y. Relative rotation θ ŷ loads k_r; the contact point of
     // 2 moves by θ ŷ × (−r x̂) = r θ ẑ, loading k_s.
     //   force on 1 = k_s r θ ẑ; torque on 1 = (k_r − k_s r²) θ ŷ; on 2: −(k_r + k_s r²) θ ŷ.
-    let want1 = [0.0, 0.0, KS * ARM * th, 0.0, (KR - KS * ARM * ARM) * th, 0.0];
-    let want2 = [0.0, 0.0, -KS * ARM * th, 0.0, -(KR + KS * ARM * ARM) * th, 0.0];
+    let want1 = [
+        0.0,
+        0.0,
+        KS * ARM * th,
+        0.0,
+        (KR - KS * ARM * ARM) * th,
+        0.0,
+    ];
+    let want2 = [
+        0.0,
+        0.0,
+        -KS * ARM * th,
+        0.0,
+        -(KR + KS * ARM * ARM) * th,
+        0.0,
+    ];
     let scale = KR * th;
-    let f = two_particle_run_spin("two_bend", 2.1e-3, [0.0, w, 0.0], &format!("run 1\n{DUMP}\nrun 0")).unwrap();
+    let f = two_particle_run_spin(
+        "two_bend",
+        2.1e-3,
+        [0.0, w, 0.0],
+        &format!("run 1\n{DUMP}\nrun 0"),
+    )
+    .unwrap();
     assert_close(&f[0], want1, scale, 1e-9, "bending, particle 1");
     assert_close(&f[1], want2, scale, 1e-9, "bending, particle 2");
     // A second `run 0` (another setup force call) must give the same loads.
-    let f = two_particle_run_spin("two_bend_setup", 2.1e-3, [0.0, w, 0.0], &format!("run 1\nrun 0\nrun 0\n{DUMP}\nrun 0")).unwrap();
-    assert_close(&f[0], want1, scale, 1e-9, "bending after extra setups, particle 1");
+    let f = two_particle_run_spin(
+        "two_bend_setup",
+        2.1e-3,
+        [0.0, w, 0.0],
+        &format!("run 1\nrun 0\nrun 0\n{DUMP}\nrun 0"),
+    )
+    .unwrap();
+    assert_close(
+        &f[0],
+        want1,
+        scale,
+        1e-9,
+        "bending after extra setups, particle 1",
+    );
     // Twisting: spin about the bond axis loads k_tw only.
-    let f = two_particle_run_spin("two_twist", 2.1e-3, [w, 0.0, 0.0], &format!("run 1\n{DUMP}\nrun 0")).unwrap();
-    assert_close(&f[0], [0.0, 0.0, 0.0, KTW * th, 0.0, 0.0], KTW * th, 1e-9, "twist, particle 1");
-    assert_close(&f[1], [0.0, 0.0, 0.0, -KTW * th, 0.0, 0.0], KTW * th, 1e-9, "twist, particle 2");
+    let f = two_particle_run_spin(
+        "two_twist",
+        2.1e-3,
+        [w, 0.0, 0.0],
+        &format!("run 1\n{DUMP}\nrun 0"),
+    )
+    .unwrap();
+    assert_close(
+        &f[0],
+        [0.0, 0.0, 0.0, KTW * th, 0.0, 0.0],
+        KTW * th,
+        1e-9,
+        "twist, particle 1",
+    );
+    assert_close(
+        &f[1],
+        [0.0, 0.0, 0.0, -KTW * th, 0.0, 0.0],
+        KTW * th,
+        1e-9,
+        "twist, particle 2",
+    );
 }
 
 #[test]
@@ -179,7 +267,10 @@ fn bond_table_that_does_not_fit_the_box_is_an_error_with_the_message() {
         return;
     }
     let e = two_particle_run("two_wrong", 2.2e-3, &format!("{DUMP}\nrun 0")).unwrap_err();
-    assert!(e.contains("bond table"), "message should name the mismatch: {e}");
+    assert!(
+        e.contains("bond table"),
+        "message should name the mismatch: {e}"
+    );
 }
 
 #[test]
@@ -194,9 +285,25 @@ fn affine_normal_strains_give_the_voigt_normal_block() {
     // under normal strains are unambiguous. k_s enters them (C11 ∝ k_n n⁴ + k_s(n² − n⁴)).
     let b = bonded(300, 11, ISO_MODEL);
     let dir = fresh_dir("affine");
-    let opts = DeckOptions { affine: true, deform_steps: 20, relax_steps: 0, output_every: 20, shear: false, ..DeckOptions::default() };
+    let opts = DeckOptions {
+        affine: true,
+        deform_steps: 20,
+        relax_steps: 0,
+        output_every: 20,
+        shear: false,
+        ..DeckOptions::default()
+    };
     let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-    run_liggghts(&Launch { program: driver(), mpi_processes: None, vars: vec![] }, &dir, "anisobond.in").unwrap();
+    run_liggghts(
+        &Launch {
+            program: driver(),
+            mpi_processes: None,
+            vars: vec![],
+        },
+        &dir,
+        "anisobond.in",
+    )
+    .unwrap();
     let h = read_stress_history(&dir.join("stress_history.txt")).unwrap();
     let cols = columns_from_cases(&h, &sum.case_end_steps).unwrap();
     let v = anisobond::homogenize::voigt::voigt_tensor(&b.bonds, &b.k, b.packing.volume());
@@ -212,7 +319,10 @@ fn affine_normal_strains_give_the_voigt_normal_block() {
         }
     }
     eprintln!("affine driver vs Voigt normal block: {d:.3e} (vs k_s = 0: {d0:.3e})");
-    assert!(d < 1e-4, "affine driver vs Voigt normal block: {d:.3e}\n{cols:?}\n{v:.4e}");
+    assert!(
+        d < 1e-4,
+        "affine driver vs Voigt normal block: {d:.3e}\n{cols:?}\n{v:.4e}"
+    );
     assert!(d0 > 1e-2, "the shear springs must matter in this check");
 }
 
@@ -226,17 +336,37 @@ fn mpi_two_processes_reproduce_one_process() {
     // Undamped dynamics: deformation waves run through the box and across the processor
     // boundary.
     // Normal cases only: LIGGGHTS 3.8 makes no ghosts for triclinic boxes under MPI.
-    let opts = DeckOptions { damping: 0.0, deform_steps: 300, relax_steps: 200, output_every: 50, shear: false, ..DeckOptions::default() };
+    let opts = DeckOptions {
+        damping: 0.0,
+        deform_steps: 300,
+        relax_steps: 200,
+        output_every: 50,
+        shear: false,
+        ..DeckOptions::default()
+    };
     let mut hist = Vec::new();
     for np in [1usize, 2] {
         let dir = fresh_dir(&format!("mpi{np}"));
         export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-        run_liggghts(&Launch { program: driver(), mpi_processes: Some(np), vars: vec![] }, &dir, "anisobond.in").unwrap();
+        run_liggghts(
+            &Launch {
+                program: driver(),
+                mpi_processes: Some(np),
+                vars: vec![],
+            },
+            &dir,
+            "anisobond.in",
+        )
+        .unwrap();
         hist.push(read_stress_history(&dir.join("stress_history.txt")).unwrap());
     }
     assert_eq!(hist[0].step, hist[1].step);
     assert!(hist[0].step.len() >= 30);
-    let scale = hist[0].stress.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let scale = hist[0]
+        .stress
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
     let worst = hist[0]
         .stress
         .iter()
@@ -244,5 +374,9 @@ fn mpi_two_processes_reproduce_one_process() {
         .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
         .fold(0.0f64, f64::max);
     eprintln!("np1 vs np2: max |Δσ| / max |σ| = {:.3e}", worst / scale);
-    assert!(worst <= 1e-9 * scale, "np 1 vs np 2 differ by {:.3e} relative", worst / scale);
+    assert!(
+        worst <= 1e-9 * scale,
+        "np 1 vs np 2 differ by {:.3e} relative",
+        worst / scale
+    );
 }

@@ -6,7 +6,7 @@
 mod liggghts_support;
 
 use anisobond::export::liggghts::{
-    export_liggghts, read_stress_history, run_liggghts, columns_from_cases, DeckOptions, Launch,
+    columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
 };
 use anisobond::homogenize::voigt::voigt_tensor;
 use liggghts_support::*;
@@ -24,10 +24,20 @@ fn stock_harmonic_deck_gives_the_normal_spring_voigt_tensor() {
          a_n = 4.31\na_s = 10.0\nnormal = 1.0e13\nshear = 3.55e12\n",
     );
     let dir = fresh_dir("harmonic");
-    let opts = DeckOptions { affine: true, deform_steps: 20, relax_steps: 0, output_every: 20, ..DeckOptions::default() };
+    let opts = DeckOptions {
+        affine: true,
+        deform_steps: 20,
+        relax_steps: 0,
+        output_every: 20,
+        ..DeckOptions::default()
+    };
     let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
     run_liggghts(
-        &Launch { program: "liggghts".into(), mpi_processes: None, vars: vec![] },
+        &Launch {
+            program: "liggghts".into(),
+            mpi_processes: None,
+            vars: vec![],
+        },
         &dir,
         "harmonic.in",
     )
@@ -48,7 +58,10 @@ fn stock_harmonic_deck_gives_the_normal_spring_voigt_tensor() {
         }
     }
     eprintln!("harmonic deck vs Voigt(k_s = 0): {d:.3e}; vs Voigt with k_s: {d_full:.3e}");
-    assert!(d < 1e-4, "harmonic deck vs Voigt(k_s = 0): {d:.3e}\n{cols:?}\n{v:.4e}");
+    assert!(
+        d < 1e-4,
+        "harmonic deck vs Voigt(k_s = 0): {d:.3e}\n{cols:?}\n{v:.4e}"
+    );
     // k_s matters for this model: the full Voigt tensor is clearly different.
     assert!(d_full > 0.05);
 }
@@ -60,13 +73,24 @@ fn liggghts_error_message_is_surfaced() {
         return;
     }
     let dir = fresh_dir("harmonic_error");
-    std::fs::write(dir.join("bad.in"), "units si\natom_style granular\nread_data no_such_file.data\n").unwrap();
+    std::fs::write(
+        dir.join("bad.in"),
+        "units si\natom_style granular\nread_data no_such_file.data\n",
+    )
+    .unwrap();
     let e = run_liggghts(
-        &Launch { program: "liggghts".into(), mpi_processes: None, vars: vec![] },
+        &Launch {
+            program: "liggghts".into(),
+            mpi_processes: None,
+            vars: vec![],
+        },
         &dir,
         "bad.in",
     )
     .unwrap_err()
     .to_string();
-    assert!(e.contains("ERROR") && e.contains("no_such_file.data"), "message: {e}");
+    assert!(
+        e.contains("ERROR") && e.contains("no_such_file.data"),
+        "message: {e}"
+    );
 }

@@ -89,7 +89,12 @@ pub const VOIGT_NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
 /// A stable time step for the bonded packing: 0.3·min_i √(0.4·m_i / k_i) with
 /// k_i = Σ_b (k_n + k_s + (k_r + k_tw)/R_i²) over the bonds of particle i — the
 /// translational and rotational (I = 0.4mR²) single-particle frequencies bounded together.
-pub fn stable_timestep(packing: &Packing, bonds: &BondSet, k: &BondStiffness, density: f64) -> Result<f64> {
+pub fn stable_timestep(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+) -> Result<f64> {
     let mut ksum = vec![0.0; packing.len()];
     for b in 0..bonds.len() {
         for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
@@ -125,7 +130,10 @@ fn check_options(o: &DeckOptions) -> Result<()> {
         return bad(format!("density must be finite and > 0, got {}", o.density));
     }
     if !o.strain.is_finite() || o.strain == 0.0 || o.strain.abs() > 0.1 {
-        return bad(format!("strain must be non-zero with |strain| ≤ 0.1, got {}", o.strain));
+        return bad(format!(
+            "strain must be non-zero with |strain| ≤ 0.1, got {}",
+            o.strain
+        ));
     }
     if o.deform_steps == 0 || o.output_every == 0 {
         return bad("deform_steps and output_every must be ≥ 1".into());
@@ -136,7 +144,10 @@ fn check_options(o: &DeckOptions) -> Result<()> {
         }
     }
     if !o.damping.is_finite() || !(0.0..1.0).contains(&o.damping) {
-        return bad(format!("damping (γ·dt) must be in [0, 1), got {}", o.damping));
+        return bad(format!(
+            "damping (γ·dt) must be in [0, 1), got {}",
+            o.damping
+        ));
     }
     Ok(())
 }
@@ -164,7 +175,14 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
         let _ = writeln!(s, "variable {name} equal {expr}");
     }
     // compute pressure order: xx yy zz xy xz yz; stress σ = −p in Voigt order.
-    for (name, idx) in [("s11", 1), ("s22", 2), ("s33", 3), ("s23", 6), ("s13", 5), ("s12", 4)] {
+    for (name, idx) in [
+        ("s11", 1),
+        ("s22", 2),
+        ("s33", 3),
+        ("s23", 6),
+        ("s13", 5),
+        ("s12", 4),
+    ] {
         let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
     }
     let _ = writeln!(
@@ -172,7 +190,10 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
         "fix history all print {every} \"${{step}} ${{e11}} ${{e22}} ${{e33}} ${{e23}} ${{e13}} ${{e12}} ${{s11}} ${{s22}} ${{s33}} ${{s23}} ${{s13}} ${{s12}}\" file stress_history.txt screen no title \"# step e11 e22 e33 e23 e13 e12 s11 s22 s33 s23 s13 s12 (strain; stress Pa, tension positive)\""
     );
     let _ = writeln!(s, "thermo {every}");
-    let _ = writeln!(s, "thermo_style custom step v_s11 v_s22 v_s33 v_s23 v_s13 v_s12");
+    let _ = writeln!(
+        s,
+        "thermo_style custom step v_s11 v_s22 v_s33 v_s23 v_s13 v_s12"
+    );
     let _ = writeln!(s, "thermo_modify norm no");
 }
 
@@ -192,7 +213,12 @@ fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
             4 => format!("xz delta {}", num(e * lz * (1.0 + e))),
             _ => format!("xy delta {}", num(e * lengths[1] * (1.0 + e))),
         };
-        let _ = writeln!(s, "\n# load case {}: strain increment e{name} = {}", c + 1, num(e));
+        let _ = writeln!(
+            s,
+            "\n# load case {}: strain increment e{name} = {}",
+            c + 1,
+            num(e)
+        );
         let _ = writeln!(s, "fix deform_case all deform 1 {spec} remap x");
         let _ = writeln!(s, "run {}", o.deform_steps);
         let _ = writeln!(s, "unfix deform_case");
@@ -215,7 +241,9 @@ pub fn export_liggghts(
 ) -> Result<ExportSummary> {
     check_options(o)?;
     let cell = packing.cell.ok_or_else(|| {
-        Error::Invalid("LIGGGHTS export: the packing must be periodic (the decks use boundary p p p)".into())
+        Error::Invalid(
+            "LIGGGHTS export: the packing must be periodic (the decks use boundary p p p)".into(),
+        )
     })?;
     if bonds.is_empty() {
         return Err(Error::Invalid("LIGGGHTS export: no bonds".into()));
@@ -261,7 +289,11 @@ pub fn export_liggghts(
     let period = o.deform_steps + hold_steps(o);
     let n_cases: u64 = if o.shear { 6 } else { 3 };
     let case_end_steps: Vec<u64> = (1..=n_cases).map(|c| c * period).collect();
-    let box_line = if o.shear { "change_box all triclinic\n" } else { "" };
+    let box_line = if o.shear {
+        "change_box all triclinic\n"
+    } else {
+        ""
+    };
     let skin = 0.05 * max_len;
 
     // Driver deck.
@@ -276,16 +308,30 @@ pub fn export_liggghts(
     let _ = writeln!(s, "# Element test: six load cases (Voigt 11 22 33 23 13 12), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
     let _ = writeln!(s, "# case k ends at step k*{period}. Output: stress_history.txt (stress σ = −p, Pa, tension positive).");
     let _ = writeln!(s, "# Bond law: YADE cohesive law in incremental form with mid-gap contact points (cpp/liggghts/pair_anisobond.h).");
-    let _ = writeln!(s, "# {}", if o.affine { "Affine: particles are not integrated; they follow the box (Voigt tensor)." } else { "Damping: viscous, force −γ·m·v and torque −γ·I·ω on every particle (not in the stress)." });
+    let _ = writeln!(
+        s,
+        "# {}",
+        if o.affine {
+            "Affine: particles are not integrated; they follow the box (Voigt tensor)."
+        } else {
+            "Damping: viscous, force −γ·m·v and torque −γ·I·ω on every particle (not in the stress)."
+        }
+    );
     let _ = writeln!(s, "variable relax index {}", u8::from(!o.affine));
     let _ = writeln!(s, "variable damp index {}", num(gamma));
     let _ = writeln!(s, "variable dt index {}", num(dt));
     let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\ncommunicate single vel yes");
     let _ = write!(s, "read_data packing.data\n{box_line}");
-    let _ = writeln!(s, "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *");
+    let _ = writeln!(
+        s,
+        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *"
+    );
     let _ = writeln!(s, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(s, "timestep ${{dt}}");
-    let _ = writeln!(s, "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\"");
+    let _ = writeln!(
+        s,
+        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
+    );
     history_block(&mut s, lengths, o.output_every);
     let _ = writeln!(s, "run 0");
     load_cases(&mut s, lengths, o, o.shear);
@@ -306,26 +352,52 @@ pub fn export_liggghts(
         .sum::<f64>()
         / packing.len() as f64;
     let mut h = String::new();
-    let _ = writeln!(h, "# anisobond → stock LIGGGHTS deck (bond_style harmonic): {} particles, {} bonds.", packing.len(), bonds.len());
+    let _ = writeln!(
+        h,
+        "# anisobond → stock LIGGGHTS deck (bond_style harmonic): {} particles, {} bonds.",
+        packing.len(),
+        bonds.len()
+    );
     let _ = writeln!(h, "# Run:  stdbuf -o0 liggghts -in harmonic.in   (stdbuf keeps LIGGGHTS' ERROR message on abort)");
     let _ = writeln!(h, "# LIMITS: normal springs only. Each bond is its own bond type with K = k_n/2 (harmonic energy K(r−r0)²)");
     let _ = writeln!(h, "#   and r0 = its initial length. k_s, k_r, k_tw are IGNORED: this is the model with k_s = 0 and no moments,");
     let _ = writeln!(h, "#   which is softer than the anisobond model (and may be a mechanism where k_s carried load).");
-    let _ = writeln!(h, "#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law.");
+    let _ = writeln!(
+        h,
+        "#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law."
+    );
     let _ = writeln!(h, "# LIMITS: normal load cases only (11, 22, 33; columns 1-3 of C): LIGGGHTS 3.8 builds no periodic ghost images");
-    let _ = writeln!(h, "#   for a triclinic box, so bonds across the boundary would break under shear of the box.");
+    let _ = writeln!(
+        h,
+        "#   for a triclinic box, so bonds across the boundary would break under shear of the box."
+    );
     let _ = writeln!(h, "# Element test and output as anisobond.in: case k ends at step k*{period}; stress_history.txt.");
-    let _ = writeln!(h, "# Damping: fix viscous with γ = {} kg/s (rate × mean mass).", num(gamma * mean_mass));
+    let _ = writeln!(
+        h,
+        "# Damping: fix viscous with γ = {} kg/s (rate × mean mass).",
+        num(gamma * mean_mass)
+    );
     let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
     let _ = writeln!(h, "variable dt index {}", num(dt));
     let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
-    let _ = writeln!(h, "communicate single vel yes cutoff {}", num(1.1 * max_len));
+    let _ = writeln!(
+        h,
+        "communicate single vel yes cutoff {}",
+        num(1.1 * max_len)
+    );
     let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data");
     let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(h, "timestep ${{dt}}");
-    let _ = writeln!(h, "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\"");
+    let _ = writeln!(
+        h,
+        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
+    );
     if gamma > 0.0 {
-        let _ = writeln!(h, "if \"${{relax}} == 1\" then \"fix damping all viscous {}\"", num(gamma * mean_mass));
+        let _ = writeln!(
+            h,
+            "if \"${{relax}} == 1\" then \"fix damping all viscous {}\"",
+            num(gamma * mean_mass)
+        );
     }
     history_block(&mut h, lengths, o.output_every);
     let _ = writeln!(h, "run 0");
@@ -362,19 +434,53 @@ fn write_harmonic_data(
 ) -> std::io::Result<()> {
     let l = packing.cell.map(|c| c.lengths).unwrap_or_default();
     writeln!(w, "LIGGGHTS data file written by anisobond (atom_style hybrid granular molecular, bond_style harmonic)\n")?;
-    writeln!(w, "{} atoms\n{} bonds\n1 atom types\n{} bond types\n", packing.len(), bonds.len(), bonds.len())?;
-    writeln!(w, "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n", num(l.x), num(l.y), num(l.z))?;
+    writeln!(
+        w,
+        "{} atoms\n{} bonds\n1 atom types\n{} bond types\n",
+        packing.len(),
+        bonds.len(),
+        bonds.len()
+    )?;
+    writeln!(
+        w,
+        "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n",
+        num(l.x),
+        num(l.y),
+        num(l.z)
+    )?;
     writeln!(w, "Bond Coeffs\n")?;
     for b in 0..bonds.len() {
-        writeln!(w, "{} {} {}", b + 1, num(0.5 * k.kn[b]), num(bonds.length[b]))?;
+        writeln!(
+            w,
+            "{} {} {}",
+            b + 1,
+            num(0.5 * k.kn[b]),
+            num(bonds.length[b])
+        )?;
     }
     writeln!(w, "\nAtoms\n")?;
     for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
-        writeln!(w, "{} 1 {} {} {} {} {} 1", p + 1, num(x.x), num(x.y), num(x.z), num(2.0 * r), num(density))?;
+        writeln!(
+            w,
+            "{} 1 {} {} {} {} {} 1",
+            p + 1,
+            num(x.x),
+            num(x.y),
+            num(x.z),
+            num(2.0 * r),
+            num(density)
+        )?;
     }
     writeln!(w, "\nBonds\n")?;
     for b in 0..bonds.len() {
-        writeln!(w, "{} {} {} {}", b + 1, b + 1, bonds.i[b] + 1, bonds.j[b] + 1)?;
+        writeln!(
+            w,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        )?;
     }
     Ok(())
 }
@@ -401,12 +507,27 @@ pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
         }
         let f: Vec<&str> = t.split_whitespace().collect();
         if f.len() != 13 {
-            return Err(Error::parse(path, ln + 1, format!("expected 13 columns (step, 6 strains, 6 stresses), found {}", f.len())));
+            return Err(Error::parse(
+                path,
+                ln + 1,
+                format!(
+                    "expected 13 columns (step, 6 strains, 6 stresses), found {}",
+                    f.len()
+                ),
+            ));
         }
-        let step = f[0].parse::<f64>().map_err(|_| Error::parse(path, ln + 1, format!("step `{}` is not a number", f[0])))?;
+        let step = f[0]
+            .parse::<f64>()
+            .map_err(|_| Error::parse(path, ln + 1, format!("step `{}` is not a number", f[0])))?;
         let mut v = [0.0; 12];
         for (c, x) in f[1..].iter().enumerate() {
-            v[c] = x.parse::<f64>().map_err(|_| Error::parse(path, ln + 1, format!("column {}: `{x}` is not a number", c + 2)))?;
+            v[c] = x.parse::<f64>().map_err(|_| {
+                Error::parse(
+                    path,
+                    ln + 1,
+                    format!("column {}: `{x}` is not a number", c + 2),
+                )
+            })?;
         }
         h.step.push(step as u64);
         h.strain.push([v[0], v[1], v[2], v[3], v[4], v[5]]);
@@ -420,7 +541,10 @@ pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
 /// stress-free start as case 0.
 pub fn columns_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<Vec<[f64; 6]>> {
     if case_end_steps.len() > 6 {
-        return Err(Error::Invalid(format!("at most 6 load cases, got {}", case_end_steps.len())));
+        return Err(Error::Invalid(format!(
+            "at most 6 load cases, got {}",
+            case_end_steps.len()
+        )));
     }
     let row = |step: u64| -> Result<usize> {
         h.step.iter().position(|&s| s == step).ok_or_else(|| {
@@ -434,7 +558,10 @@ pub fn columns_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<V
         let r = row(step)?;
         let de = h.strain[r][a] - prev_e[a];
         if de == 0.0 {
-            return Err(Error::Invalid(format!("load case {} applied no strain", a + 1)));
+            return Err(Error::Invalid(format!(
+                "load case {} applied no strain",
+                a + 1
+            )));
         }
         let mut col = [0.0; 6];
         for b in 0..6 {
@@ -487,15 +614,19 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
         }
         None => Command::new(&launch.program),
     };
-    args.extend(["-in".into(), deck.into(), "-log".into(), "log.liggghts".into()]);
+    args.extend([
+        "-in".into(),
+        deck.into(),
+        "-log".into(),
+        "log.liggghts".into(),
+    ]);
     for (k, v) in &launch.vars {
         args.extend(["-var".into(), k.clone(), v.clone()]);
     }
-    let out = cmd
-        .args(&args)
-        .current_dir(dir)
-        .output()
-        .map_err(|e| Error::Invalid(format!("cannot start {}: {e}", launch.program.display())))?;
+    let out =
+        cmd.args(&args).current_dir(dir).output().map_err(|e| {
+            Error::Invalid(format!("cannot start {}: {e}", launch.program.display()))
+        })?;
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     let error_line = stdout
@@ -520,7 +651,6 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
 
 /// True when `program` is found on PATH.
 pub fn which(program: &str) -> bool {
-    std::env::var_os("PATH").is_some_and(|paths| {
-        std::env::split_paths(&paths).any(|d| d.join(program).is_file())
-    })
+    std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
 }

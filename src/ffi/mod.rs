@@ -18,6 +18,9 @@ use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
 use std::path::Path;
 
+// The code cxx generates uses items newer than the crate's MSRV; the `ffi` feature needs
+// the Rust version cxx itself requires.
+#[allow(clippy::incompatible_msrv)]
 #[cxx::bridge(namespace = "anisobond")]
 pub mod bridge {
     /// Normal and shear magnitudes of a scheme along one direction (unit of the model's
@@ -125,7 +128,8 @@ pub mod bridge {
         fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()>;
         /// Stiffness tensor (Pa) of a packing file + model; `method` is "voigt",
         /// "mean-field" or "relaxed" (exact static relaxation, mid-gap lever arms).
-        fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Result<Tensor6>;
+        fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str)
+            -> Result<Tensor6>;
         /// The library's version.
         fn library_version() -> String;
     }
@@ -323,7 +327,7 @@ fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {
     let mut bonds = BondSet::default();
     let mut k = BondStiffness::default();
     for (b, r) in rows.iter().enumerate() {
-        if r.i >= r.j || !(r.length > 0.0) {
+        if r.i >= r.j || r.length.is_nan() || r.length <= 0.0 {
             return Err(Error::Invalid(format!(
                 "write_bond_table: row {b}: need i < j and length > 0, got i = {}, j = {}, length = {}",
                 r.i, r.j, r.length

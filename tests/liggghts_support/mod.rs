@@ -32,7 +32,9 @@ pub fn missing(tools: &[&str]) -> Option<String> {
     }
     let reason = format!("not installed: {}", absent.join(", "));
     if std::env::var_os("CI").is_some() {
-        panic!("CI is set but {reason} (install liggghts libliggghts-dev mpi-default-dev g++ make)");
+        panic!(
+            "CI is set but {reason} (install liggghts libliggghts-dev mpi-default-dev g++ make)"
+        );
     }
     Some(reason)
 }
@@ -77,7 +79,9 @@ pub fn bonded(n: usize, seed: u64, model_toml: &str) -> Bonded {
     let packing = generate(&opts, &|_| {}).expect("packing");
     let model = Model::from_toml_str(model_toml, "<test model>").expect("model");
     let bonds = bonds::rules::build_bonds(&packing, model.bonding).expect("bonds");
-    let scheme = model.build_scheme(Some((&packing, &bonds))).expect("scheme");
+    let scheme = model
+        .build_scheme(Some((&packing, &bonds)))
+        .expect("scheme");
     let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)
         .expect("springs");
     Bonded { packing, bonds, k }
