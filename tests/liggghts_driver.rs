@@ -380,3 +380,76 @@ fn mpi_two_processes_reproduce_one_process() {
         worst / scale
     );
 }
+
+#[test]
+fn bonds_computed_through_the_bridge_equal_the_bond_table() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    // `pair_style anisobond model MODEL PACKING` bonds and springs the packing through the
+    // bridge; it must reproduce the run from the exported bond table exactly.
+    let b = bonded(200, 13, ISO_MODEL);
+    let opts = DeckOptions {
+        affine: true,
+        deform_steps: 10,
+        relax_steps: 0,
+        output_every: 10,
+        shear: false,
+        ..DeckOptions::default()
+    };
+    let mut hist = Vec::new();
+    for via_model in [false, true] {
+        let dir = fresh_dir(&format!("bridge_{via_model}"));
+        export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
+        if via_model {
+            std::fs::write(dir.join("model.toml"), ISO_MODEL).unwrap();
+            anisobond::packing::io::write_packing(&dir.join("packing.txt"), &b.packing).unwrap();
+            let deck = std::fs::read_to_string(dir.join("anisobond.in")).unwrap();
+            let deck = deck.replace("table bonds.csv", "model model.toml packing.txt");
+            assert!(deck.contains("pair_style anisobond model"));
+            std::fs::write(dir.join("anisobond.in"), deck).unwrap();
+        }
+        let launch = Launch {
+            program: driver(),
+            mpi_processes: None,
+            vars: vec![],
+        };
+        run_liggghts(&launch, &dir, "anisobond.in").unwrap();
+        hist.push(read_stress_history(&dir.join("stress_history.txt")).unwrap());
+    }
+    assert!(!hist[0].stress.is_empty());
+    assert_eq!(hist[0], hist[1]);
+}
+
+#[test]
+fn missing_partner_under_mpi_is_an_error_not_a_silent_result() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    // LIGGGHTS 3.8 builds no ghost atoms for a triclinic box under MPI: the driver must stop
+    // with its message instead of dropping the bonds that cross the processor boundary.
+    let b = bonded(200, 17, ISO_MODEL);
+    let dir = fresh_dir("mpi_triclinic");
+    let opts = DeckOptions {
+        affine: true,
+        deform_steps: 10,
+        relax_steps: 0,
+        output_every: 10,
+        ..DeckOptions::default()
+    };
+    export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
+    let launch = Launch {
+        program: driver(),
+        mpi_processes: Some(2),
+        vars: vec![],
+    };
+    let e = run_liggghts(&launch, &dir, "anisobond.in")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bond partner") && e.contains("missing"),
+        "message: {e}"
+    );
+}
