@@ -453,3 +453,54 @@ fn missing_partner_under_mpi_is_an_error_not_a_silent_result() {
         "message: {e}"
     );
 }
+
+#[test]
+fn restart_file_keeps_the_bonds_and_their_history() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    // Deform, let the packing vibrate, write a restart, go on; a second run from the restart
+    // file must continue with the same stresses (bond state restored from the restart).
+    let b = bonded(200, 19, ISO_MODEL);
+    let dir = fresh_dir("restart");
+    export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &DeckOptions::default()).unwrap();
+    let common = "newton on\ncommunicate single vel yes\npair_style anisobond table bonds.csv\n\
+        pair_coeff * *\nneighbor 0.0001 bin\nneigh_modify delay 0\ntimestep 2e-8\n\
+        fix integrate all nve/sphere\ncompute p all pressure thermo_temp virial\n\
+        variable step equal step\nvariable s11 equal -c_p[1]\nvariable s12 equal -c_p[4]\n";
+    let a = format!(
+        "units si\natom_style granular\natom_modify map array\nboundary p p p\n\
+         read_data packing.data\n{common}fix d all deform 1 x scale 1.0001 remap x\nrun 100\nunfix d\n\
+         run 100\nwrite_restart bonds.restart\n\
+         fix out all print 50 \"${{step}} ${{s11}} ${{s12}}\" file a.txt screen no\nrun 200\n"
+    );
+    let bdeck = format!(
+        "atom_modify map array\nread_restart bonds.restart\n{common}\
+         fix out all print 50 \"${{step}} ${{s11}} ${{s12}}\" file b.txt screen no\nrun 200\n"
+    );
+    std::fs::write(dir.join("a.in"), a).unwrap();
+    std::fs::write(dir.join("b.in"), bdeck).unwrap();
+    let launch = Launch {
+        program: driver(),
+        mpi_processes: None,
+        vars: vec![],
+    };
+    run_liggghts(&launch, &dir, "a.in").unwrap();
+    run_liggghts(&launch, &dir, "b.in").unwrap();
+    let read = |f: &str| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(dir.join(f))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+            .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
+            .collect()
+    };
+    let (ra, rb) = (read("a.txt"), read("b.txt"));
+    assert_eq!(ra.len(), 4);
+    assert_eq!(
+        ra, rb,
+        "run from the restart file differs from the continuous run"
+    );
+    assert!(ra[0][1].abs() > 0.0, "the packing must be loaded");
+}
