@@ -16,6 +16,8 @@ pub mod calibrate;
 pub mod dem;
 pub mod error;
 pub mod export;
+#[cfg(feature = "ffi")]
+pub mod ffi;
 pub mod homogenize;
 pub mod io;
 pub mod model;

@@ -20,6 +20,11 @@ pub enum ExportTarget {
     /// gradient) and writes DIR/yade-history.csv (stress history) and DIR/yade-tensor.json
     /// (6×6 C in Pa, SPEC tensor form).
     Yade(YadeArgs),
+    /// LIGGGHTS 3.8: DIR/packing.data (atom_style granular), bonds.csv, the driver deck
+    /// anisobond.in (per-bond anisotropic bonds through `pair_style anisobond`, built by
+    /// `make -C cpp`), the stock deck harmonic.in (bond_style harmonic, normal springs only)
+    /// and run.sh.
+    Liggghts(super::export_liggghts::Args),
     /// VTK XML files (DIR/particles.vtu, DIR/bonds.vtu) for ParaView, with displacements and
     /// bond forces under a macroscopic strain.
     Vtk(super::plot::ExportVtkArgs),
@@ -65,6 +70,7 @@ pub fn run(a: ExportArgs) -> Result<()> {
     match a.target {
         ExportTarget::Yade(y) => export_yade(y),
         ExportTarget::Vtk(v) => super::plot::export_vtk(v),
+        ExportTarget::Liggghts(l) => super::export_liggghts::run(l),
     }
 }
 

@@ -5,6 +5,7 @@ mod calibrate;
 mod demo;
 mod domain;
 mod export;
+mod export_liggghts;
 mod output;
 mod plot;
 pub mod run;

@@ -1,0 +1,375 @@
+// pair_style anisobond — see pair_anisobond.h for the bond law and the design.
+//
+//   pair_style anisobond table BONDS.csv [damping GT GR] [length_tolerance TOL]
+//   pair_style anisobond model MODEL.toml PACKING [damping GT GR] [length_tolerance TOL]
+//   pair_coeff * *
+//
+// BONDS.csv is the SPEC bond table (i, j 0-based in packing order = atom ids i+1, j+1);
+// with `model` the bonds and springs are computed through the anisobond bridge from each
+// bond's initial normal. `damping GT GR` adds viscous damping −GT·m·v and −GR·I·ω on every
+// owned atom (not in the virial), for quasi-static element tests; default 0 (undamped).
+// Requires: atom_style granular (sphere), atom_modify map array, newton on,
+// communicate single vel yes.
+
+#include "pair_anisobond.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "fix_property_atom.h"
+#include "force.h"
+#include "memory.h"
+#include "modify.h"
+#include "neighbor.h"
+#include "update.h"
+
+#include "anisobond/src/ffi/mod.rs.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <string>
+
+using namespace LAMMPS_NS;
+
+namespace {
+
+inline void cross(const double *a, const double *b, double *c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+inline double dot(const double *a, const double *b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+// v ← v − v×a  (YADE ScGeom::rotate, first order)
+inline void rotate_by(double *v, const double *a) {
+  double c[3];
+  cross(v, a, c);
+  v[0] -= c[0];
+  v[1] -= c[1];
+  v[2] -= c[2];
+}
+
+}  // namespace
+
+Pair *PairAnisobond::creator(LAMMPS *lmp) { return new PairAnisobond(lmp); }
+
+PairAnisobond::PairAnisobond(LAMMPS *lmp)
+    : Pair(lmp), max_bonds_(0), max_length_(0.0), damp_t_(0.0), damp_r_(0.0),
+      length_tol_(1e-6), fix_id_("anisobond_bonds"), fix_(NULL) {
+  single_enable = 0;
+  no_virial_fdotr_compute = 1;  // the virial is tallied per bond
+  restartinfo = 0;
+}
+
+PairAnisobond::~PairAnisobond() {
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(cutsq);
+  }
+}
+
+void PairAnisobond::allocate() {
+  allocated = 1;
+  int n = atom->ntypes;
+  memory->create(setflag, n + 1, n + 1, "pair:setflag");
+  for (int i = 1; i <= n; i++)
+    for (int j = i; j <= n; j++) setflag[i][j] = 0;
+  memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
+}
+
+void PairAnisobond::settings(int narg, char **arg) {
+  if (narg < 2) error->all(FLERR, "Illegal pair_style anisobond command: expected `table BONDS.csv` or `model MODEL PACKING`");
+  rust::Vec<anisobond::BondRow> rows;
+  int iarg = 0;
+  try {
+    if (strcmp(arg[0], "table") == 0) {
+      rows = anisobond::load_bond_table(arg[1]);
+      iarg = 2;
+    } else if (strcmp(arg[0], "model") == 0) {
+      if (narg < 3) error->all(FLERR, "pair_style anisobond model: expected MODEL PACKING");
+      auto model = anisobond::load_model(arg[1]);
+      if (model->needs_packing()) model->bind_packing(arg[2]);
+      rows = anisobond::build_bond_table(arg[2], *model);
+      iarg = 3;
+    } else {
+      error->all(FLERR, "Illegal pair_style anisobond command: first argument must be `table` or `model`");
+    }
+  } catch (const std::exception &e) {
+    std::string msg = std::string("pair_style anisobond: ") + e.what();
+    error->all(FLERR, msg.c_str());
+  }
+  while (iarg < narg) {
+    if (strcmp(arg[iarg], "damping") == 0) {
+      if (iarg + 3 > narg) error->all(FLERR, "pair_style anisobond: damping needs GT GR");
+      damp_t_ = force->numeric(FLERR, arg[iarg + 1]);
+      damp_r_ = force->numeric(FLERR, arg[iarg + 2]);
+      iarg += 3;
+    } else if (strcmp(arg[iarg], "length_tolerance") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: length_tolerance needs a value");
+      length_tol_ = force->numeric(FLERR, arg[iarg + 1]);
+      iarg += 2;
+    } else {
+      std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] + "`";
+      error->all(FLERR, msg.c_str());
+    }
+  }
+  bonds_.clear();
+  bonds_.reserve(rows.size());
+  int max_tag = 0;
+  for (const anisobond::BondRow &r : rows) {
+    Bond b;
+    b.tag_i = static_cast<int>(r.i) + 1;
+    b.tag_j = static_cast<int>(r.j) + 1;
+    b.kn = r.kn;
+    b.ks = r.ks;
+    b.kr = r.kr;
+    b.ktw = r.ktw;
+    b.length = r.length;
+    bonds_.push_back(b);
+    max_tag = std::max(max_tag, b.tag_j);
+  }
+  std::stable_sort(bonds_.begin(), bonds_.end(),
+                   [](const Bond &a, const Bond &b) { return a.tag_i < b.tag_i; });
+  first_bond_.assign(max_tag + 2, 0);
+  for (const Bond &b : bonds_) first_bond_[b.tag_i + 1]++;
+  max_bonds_ = 0;
+  max_length_ = 0.0;
+  for (int t = 0; t <= max_tag; t++) {
+    max_bonds_ = std::max(max_bonds_, first_bond_[t + 1]);
+    first_bond_[t + 1] += first_bond_[t];
+  }
+  for (const Bond &b : bonds_) max_length_ = std::max(max_length_, b.length);
+  if (max_bonds_ == 0) max_bonds_ = 1;
+}
+
+void PairAnisobond::coeff(int narg, char **arg) {
+  if (narg != 2) error->all(FLERR, "Incorrect args for pair coefficients: use `pair_coeff * *`");
+  if (!allocated) allocate();
+  int ilo, ihi, jlo, jhi;
+  force->bounds(arg[0], atom->ntypes, ilo, ihi);
+  force->bounds(arg[1], atom->ntypes, jlo, jhi);
+  for (int i = ilo; i <= ihi; i++)
+    for (int j = std::max(jlo, i); j <= jhi; j++) setflag[i][j] = 1;
+}
+
+double PairAnisobond::init_one(int, int) {
+  // The ghost cutoff follows the pair cutoff (+ skin): at least the longest bond, with
+  // room for stretching.
+  return 1.05 * max_length_;
+}
+
+void PairAnisobond::init_style() {
+  if (!atom->radius_flag || !atom->omega_flag || !atom->torque_flag || !atom->rmass_flag)
+    error->all(FLERR, "pair_style anisobond needs atom_style granular (radius, omega, torque, rmass)");
+  if (atom->map_style == 0)
+    error->all(FLERR, "pair_style anisobond needs `atom_modify map array` before the box is created");
+  if (!force->newton_pair)
+    error->all(FLERR, "pair_style anisobond needs `newton on` (each bond is stored once, on its lower-tag atom)");
+  if (!comm->ghost_velocity)
+    error->all(FLERR, "pair_style anisobond needs `communicate single vel yes` (ghost spins)");
+  if (!first_bond_.empty() && static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
+    error->all(FLERR, "pair_style anisobond: the bond table names atom ids beyond the number of atoms");
+
+  // Ghost atoms must reach every partner: the pair cutoff alone does not widen the ghost
+  // shell when no neighbour list is requested, so raise the user ghost cutoff to the
+  // longest bond (+5 % for stretching) + skin. A partner still missing is an error in
+  // compute().
+  const double need = 1.05 * max_length_ + neighbor->skin;
+  if (comm->cutghostuser < need) comm->cutghostuser = need;
+
+  const int nvalues = 1 + max_bonds_ * NSLOT;
+  fix_ = static_cast<FixPropertyAtom *>(modify->find_fix_id(fix_id_.c_str()));
+  if (fix_ == NULL) {
+    // fix ID all property/atom NAME vector restart commGhost commGhostRev defaults...
+    std::vector<std::string> words = {fix_id_, "all", "property/atom", fix_id_, "vector",
+                                      "yes", "no", "no"};
+    words.push_back("-1");  // slot 0: number of bonds, −1 = not filled yet
+    for (int k = 1; k < nvalues; k++) words.push_back("0");
+    std::vector<char *> argv;
+    for (std::string &w : words) argv.push_back(&w[0]);
+    modify->add_fix(static_cast<int>(argv.size()), argv.data());
+    fix_ = static_cast<FixPropertyAtom *>(modify->find_fix_id(fix_id_.c_str()));
+    if (fix_ == NULL) error->all(FLERR, "pair_style anisobond: could not create its fix property/atom");
+    // Without this LIGGGHTS resets a new fix property/atom to its defaults after the
+    // first force call, wiping the bonds.
+    fix_->just_created = 0;
+  }
+  if (fix_->get_nvalues() != nvalues)
+    error->all(FLERR, "pair_style anisobond: its fix property/atom has a different size (bond table changed?)");
+  fill_bonds();
+}
+
+// Fill the slots of owned atoms that have none yet (−1). Atoms restored from a restart
+// file or filled in an earlier run keep their state.
+void PairAnisobond::fill_bonds() {
+  double **a = fix_->array_atom;
+  const int nlocal = atom->nlocal;
+  const int *tag = atom->tag;
+  const int ntag = static_cast<int>(first_bond_.size()) - 2;
+  for (int i = 0; i < nlocal; i++) {
+    if (a[i][0] >= 0.0) continue;
+    int nb = 0;
+    const int t = tag[i];
+    if (t >= 1 && t <= ntag) {
+      for (int b = first_bond_[t]; b < first_bond_[t + 1]; b++, nb++) {
+        double *s = &a[i][1 + nb * NSLOT];
+        for (int k = 0; k < NSLOT; k++) s[k] = 0.0;
+        s[S_TAG] = bonds_[b].tag_j;
+        s[S_KN] = bonds_[b].kn;
+        s[S_KS] = bonds_[b].ks;
+        s[S_KR] = bonds_[b].kr;
+        s[S_KTW] = bonds_[b].ktw;
+        s[S_R0] = -bonds_[b].length;
+      }
+    }
+    a[i][0] = nb;
+  }
+}
+
+void PairAnisobond::compute(int eflag, int vflag) {
+  if (eflag || vflag)
+    ev_setup(eflag, vflag);
+  else
+    evflag = vflag_fdotr = 0;
+
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  double **omega = atom->omega, **torque = atom->torque;
+  double *radius = atom->radius, *rmass = atom->rmass;
+  const int *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  const int newton_pair = force->newton_pair;
+  double **a = fix_->array_atom;
+  // The setup force call of a run must not advance the history (rotations by ω·dt).
+  const double dt = update->setupflag ? 0.0 : update->dt;
+
+  for (int i = 0; i < nlocal; i++) {
+    const int nb = static_cast<int>(a[i][0]);
+    for (int b = 0; b < nb; b++) {
+      double *s = &a[i][1 + b * NSLOT];
+      const int tag_j = static_cast<int>(s[S_TAG]);
+      const int j = atom->map(tag_j);
+      if (j < 0) {
+        char msg[512];
+        std::snprintf(msg, sizeof msg,
+                      "pair_style anisobond: bond partner %d of atom %d is missing on this "
+                      "process (ghost cutoff too short: raise `communicate single cutoff`, "
+                      "or the atom was lost; ghost cutoff %g %g %g, %d ghosts)",
+                      tag_j, tag[i], comm->cutghost[0], comm->cutghost[1], comm->cutghost[2],
+                      atom->nghost);
+        error->one(FLERR, msg);
+      }
+      double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+      domain->minimum_image(l);
+      const double d = std::sqrt(dot(l, l));
+      const double n[3] = {l[0] / d, l[1] / d, l[2] / d};
+      if (s[S_R0] < 0.0) {
+        // First force call of this bond: the rest length is the actual distance, which
+        // must agree with the table's (same packing, same ids).
+        const double want = -s[S_R0];
+        if (std::fabs(d - want) > length_tol_ * want) {
+          char msg[512];
+          std::snprintf(msg, sizeof msg,
+                        "pair_style anisobond: bond %d-%d has length %.9g m in the box but "
+                        "%.9g m in the bond table (wrong packing or atom ids?)",
+                        tag[i], tag_j, d, want);
+          error->one(FLERR, msg);
+        }
+        s[S_R0] = d;
+        s[S_LP] = l[0];
+        s[S_LP + 1] = l[1];
+        s[S_LP + 2] = l[2];
+      }
+      const double kn = s[S_KN], ks = s[S_KS], kr = s[S_KR], ktw = s[S_KTW];
+      const double gap = d - radius[i] - radius[j];
+      const double ri = radius[i] + 0.5 * gap, rj = radius[j] + 0.5 * gap;
+
+      // Rotate the shear force and moments with the contact (YADE ScGeom::rotate).
+      double *lp = &s[S_LP];
+      const double dp = std::sqrt(dot(lp, lp));
+      const double np[3] = {lp[0] / dp, lp[1] / dp, lp[2] / dp};
+      double axis[3];
+      cross(np, n, axis);
+      double spin[3] = {omega[i][0] + omega[j][0], omega[i][1] + omega[j][1],
+                        omega[i][2] + omega[j][2]};
+      const double tw = 0.5 * dt * dot(spin, n);
+      const double twist_axis[3] = {tw * n[0], tw * n[1], tw * n[2]};
+      double *fs = &s[S_FS], *mb = &s[S_MB], *mt = &s[S_MT];
+      rotate_by(fs, axis);
+      rotate_by(fs, twist_axis);
+      rotate_by(mb, axis);
+      rotate_by(mb, twist_axis);
+      rotate_by(mt, axis);
+      rotate_by(mt, twist_axis);
+
+      // Relative displacement of j w.r.t. i at the contact point.
+      double wi[3], wj[3];
+      const double ani[3] = {ri * n[0], ri * n[1], ri * n[2]};
+      const double anj[3] = {-rj * n[0], -rj * n[1], -rj * n[2]};
+      cross(omega[i], ani, wi);
+      cross(omega[j], anj, wj);
+      double du[3];
+      for (int k = 0; k < 3; k++) du[k] = (l[k] - lp[k]) + dt * (wj[k] - wi[k]);
+      const double dun = dot(du, n);
+      for (int k = 0; k < 3; k++) fs[k] += ks * (du[k] - dun * n[k]);
+
+      // Relative rotation increment.
+      double th[3] = {dt * (omega[j][0] - omega[i][0]), dt * (omega[j][1] - omega[i][1]),
+                      dt * (omega[j][2] - omega[i][2])};
+      const double thn = dot(th, n);
+      for (int k = 0; k < 3; k++) {
+        mb[k] += kr * (th[k] - thn * n[k]);
+        mt[k] += ktw * thn * n[k];
+      }
+      lp[0] = l[0];
+      lp[1] = l[1];
+      lp[2] = l[2];
+
+      const double fnm = kn * (d - s[S_R0]);
+      double F[3], M[3];
+      for (int k = 0; k < 3; k++) {
+        F[k] = fnm * n[k] + fs[k];
+        M[k] = mb[k] + mt[k];
+      }
+      double ti[3], tj[3];
+      cross(ani, F, ti);  // (r_i n) × F
+      const double anjp[3] = {rj * n[0], rj * n[1], rj * n[2]};
+      cross(anjp, F, tj);  // (r_j n) × F
+      for (int k = 0; k < 3; k++) {
+        f[i][k] += F[k];
+        f[j][k] -= F[k];
+        torque[i][k] += ti[k] + M[k];
+        torque[j][k] += tj[k] - M[k];
+      }
+      if (evflag) {
+        double e = 0.0;
+        if (eflag) {
+          e = 0.5 * kn * (d - s[S_R0]) * (d - s[S_R0]);
+          if (ks > 0) e += 0.5 * dot(fs, fs) / ks;
+          if (kr > 0) e += 0.5 * dot(mb, mb) / kr;
+          if (ktw > 0) e += 0.5 * dot(mt, mt) / ktw;
+        }
+        // LAMMPS convention: force on i, del = x_i − x_j = −l.
+        ev_tally_xyz(i, j, nlocal, newton_pair, e, 0.0, F[0], F[1], F[2], -l[0], -l[1], -l[2]);
+      }
+    }
+  }
+
+  if (damp_t_ > 0.0 || damp_r_ > 0.0) {
+    for (int i = 0; i < nlocal; i++) {
+      const double m = rmass[i];
+      const double inertia = 0.4 * m * radius[i] * radius[i];
+      for (int k = 0; k < 3; k++) {
+        f[i][k] -= damp_t_ * m * v[i][k];
+        torque[i][k] -= damp_r_ * inertia * omega[i][k];
+      }
+    }
+  }
+}

@@ -1,0 +1,78 @@
+// pair_style anisobond: per-bond anisotropic elastic bonds for LIGGGHTS 3.8, registered at
+// run time by the driver (driver.cpp) through Force::pair_map, so the stock libliggghts
+// needs no rebuild.
+//
+// Bond law (per bond, particles i < j by tag, branch l = x_j − x_i by minimum image,
+// d = |l|, n = l/d, mid-gap contact arms r_i = R_i + g/2, r_j = R_j + g/2, g = d − R_i − R_j),
+// following YADE's cohesive law (Law2_ScGeom6D_CohFrictPhys_CohesionMoment, incremental
+// form) with the contact point at mid-gap:
+//   normal   F_n = k_n (d − d0) n                        (force on i; d0 = distance at creation)
+//   shear    F_s ← F_s − F_s×(n_prev×n) − F_s×τ,  τ = ½dt((ω_i+ω_j)·n) n      (rotate)
+//            F_s += k_s [Δu − (Δu·n)n],  Δu = (l − l_prev) + dt(ω_j×(−r_j n) − ω_i×(r_i n))
+//   moments  M_b, M_t rotated as F_s;  θ̇ = ω_j − ω_i;  M_b += k_r dt(θ̇ − (θ̇·n)n),
+//            M_t += k_tw dt(θ̇·n)n
+//   on i:    force F = F_n + F_s, torque (r_i n)×F + M_b + M_t
+//   on j:    force −F,            torque (r_j n)×F − M_b − M_t
+// dt is 0 during the setup force call of every run (update->setupflag), so a run's setup
+// does not advance the history. The virial is tallied per bond (−l ⊗ F, LAMMPS order
+// xx yy zz xy xz yz = l_x F_y …), so `compute pressure … virial` gives the stress σ = −p.
+//
+// State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
+// partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the
+// history when atoms migrate and the restart file keeps it.
+#ifndef ANISOBOND_PAIR_ANISOBOND_H
+#define ANISOBOND_PAIR_ANISOBOND_H
+
+#include "pair.h"
+
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class PairAnisobond : public Pair {
+ public:
+  explicit PairAnisobond(class LAMMPS *lmp);
+  ~PairAnisobond();
+  void compute(int eflag, int vflag);
+  void settings(int narg, char **arg);
+  void coeff(int narg, char **arg);
+  void init_style();
+  double init_one(int i, int j);
+
+  // For Force::pair_map.
+  static Pair *creator(class LAMMPS *lmp);
+
+  // Slots of one bond in the per-atom array.
+  enum Slot {
+    S_TAG = 0,     // partner tag (as double); 0 = empty
+    S_KN, S_KS, S_KR, S_KTW,
+    S_R0,          // rest length d0; < 0 means −(table length), set at first force call
+    S_FS,          // shear force (3)
+    S_MB = S_FS + 3,  // bending moment (3)
+    S_MT = S_MB + 3,  // twisting moment (3)
+    S_LP = S_MT + 3,  // previous branch vector (3)
+    NSLOT = S_LP + 3
+  };
+
+ private:
+  struct Bond {
+    int tag_i, tag_j;
+    double kn, ks, kr, ktw, length;
+  };
+  void allocate();
+  void fill_bonds();
+
+  std::vector<Bond> bonds_;        // all bonds (read on every rank), sorted by tag_i
+  std::vector<int> first_bond_;    // first_bond_[tag] .. first_bond_[tag+1]
+  int max_bonds_;                  // largest number of bonds stored on one atom
+  double max_length_;              // longest bond (m)
+  double damp_t_, damp_r_;         // viscous damping rates (1/s), on owned atoms only
+  double length_tol_;              // allowed mismatch of table length vs positions
+  std::string fix_id_;
+  class FixPropertyAtom *fix_;
+};
+
+}  // namespace LAMMPS_NS
+
+#endif

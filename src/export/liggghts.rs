@@ -1,0 +1,656 @@
+//! LIGGGHTS export: the data file, the bond table and two input decks for an element test
+//! of a bonded periodic packing, plus readers for what the decks write.
+//!
+//! - `anisobond.in`: the driver deck (`anisobond-liggghts`, built by `make -C cpp`) with the
+//!   full per-bond law: k_n, k_s, k_r, k_tw, incremental shear and moments
+//!   (`pair_style anisobond table bonds.csv`).
+//! - `harmonic.in` + `harmonic.data`: a deck for the stock `liggghts` with
+//!   `bond_style harmonic`, one bond type per bond, K = k_n/2 (LIGGGHTS' harmonic energy is
+//!   K(r − r0)²): normal springs only — no shear, bending or twisting stiffness.
+//!
+//! Both run six load cases in Voigt order (11, 22, 33, 23, 13, 12): `fix deform … remap x`
+//! applies the strain increment over `deform_steps`, then the box is held for `relax_steps`
+//! (damped). The stress σ = −p of `compute p all pressure thermo_temp virial` (tension
+//! positive, Pa) and the box strain are written every `output_every` steps to
+//! `stress_history.txt`; [`tensor_from_cases`] turns the case ends into the 6×6 tensor.
+//! With `affine` the particles are not integrated: they follow the box (remap x), so the
+//! result is the affine (Voigt) tensor.
+
+use crate::bonds::{table, BondSet, BondStiffness};
+use crate::packing::Packing;
+use crate::tensor::Stiffness6;
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Options of the exported element test.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeckOptions {
+    /// Particle density (kg/m³).
+    pub density: f64,
+    /// Strain increment of each load case (engineering strain for shear).
+    pub strain: f64,
+    /// Steps over which each strain increment is applied.
+    pub deform_steps: u64,
+    /// Steps the box is held after each increment (relaxation).
+    pub relax_steps: u64,
+    /// Output interval of the stress history (steps).
+    pub output_every: u64,
+    /// Time step (s); `None`: [`stable_timestep`].
+    pub timestep: Option<f64>,
+    /// Viscous damping rate as a fraction of 1/dt: translational and rotational rates
+    /// γ = `damping`/dt (force −γ·m·v, torque −γ·I·ω). 0 = undamped.
+    pub damping: f64,
+    /// Do not integrate: particles follow the box affinely (the Voigt tensor).
+    pub affine: bool,
+    /// Include the three shear load cases (needs a triclinic box). LIGGGHTS 3.8 (Debian)
+    /// creates no ghost atoms for a triclinic box under MPI ("Bond atoms missing" with the
+    /// stock deck, a missing bond partner with the driver): set `false` for runs on more
+    /// than one process; only the normal cases (columns 1–3 of C) are then run.
+    pub shear: bool,
+}
+
+impl Default for DeckOptions {
+    fn default() -> Self {
+        DeckOptions {
+            density: 2500.0,
+            strain: 1e-6,
+            deform_steps: 500,
+            relax_steps: 10_000,
+            output_every: 100,
+            timestep: None,
+            damping: 0.02,
+            affine: false,
+            shear: true,
+        }
+    }
+}
+
+/// What [`export_liggghts`] wrote and chose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportSummary {
+    /// Files written, in order.
+    pub files: Vec<PathBuf>,
+    /// Time step used (s).
+    pub timestep: f64,
+    /// Damping rate γ (1/s).
+    pub damping_rate: f64,
+    /// Last step of each load case of the driver deck (Voigt order; 6 cases, or 3 without
+    /// shear). The harmonic deck runs the first three (normal) cases only.
+    pub case_end_steps: Vec<u64>,
+    /// Longest bond (m): the ghost cutoff must exceed it.
+    pub max_bond_length: f64,
+}
+
+/// The Voigt component names in order.
+pub const VOIGT_NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+
+/// A stable time step for the bonded packing: 0.3·min_i √(0.4·m_i / k_i) with
+/// k_i = Σ_b (k_n + k_s + (k_r + k_tw)/R_i²) over the bonds of particle i — the
+/// translational and rotational (I = 0.4mR²) single-particle frequencies bounded together.
+pub fn stable_timestep(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+) -> Result<f64> {
+    let mut ksum = vec![0.0; packing.len()];
+    for b in 0..bonds.len() {
+        for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
+            let r = packing.radii[p];
+            ksum[p] += k.kn[b] + k.ks[b] + (k.kr[b] + k.ktw[b]) / (r * r);
+        }
+    }
+    let mut dt = f64::INFINITY;
+    for (p, &kp) in ksum.iter().enumerate() {
+        if kp > 0.0 {
+            let r = packing.radii[p];
+            let m = density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+            dt = dt.min(0.3 * (0.4 * m / kp).sqrt());
+        }
+    }
+    if !dt.is_finite() || dt <= 0.0 {
+        return Err(Error::Invalid(
+            "LIGGGHTS export: cannot choose a time step: no bond has a positive stiffness".into(),
+        ));
+    }
+    Ok(dt)
+}
+
+/// Shortest round-trip text of a number (reads back bit-identical).
+fn num(v: f64) -> String {
+    let mut b = ryu::Buffer::new();
+    b.format(v).to_string()
+}
+
+fn check_options(o: &DeckOptions) -> Result<()> {
+    let bad = |m: String| Err(Error::Invalid(format!("LIGGGHTS export: {m}")));
+    if !o.density.is_finite() || o.density <= 0.0 {
+        return bad(format!("density must be finite and > 0, got {}", o.density));
+    }
+    if !o.strain.is_finite() || o.strain == 0.0 || o.strain.abs() > 0.1 {
+        return bad(format!(
+            "strain must be non-zero with |strain| ≤ 0.1, got {}",
+            o.strain
+        ));
+    }
+    if o.deform_steps == 0 || o.output_every == 0 {
+        return bad("deform_steps and output_every must be ≥ 1".into());
+    }
+    if let Some(dt) = o.timestep {
+        if !dt.is_finite() || dt <= 0.0 {
+            return bad(format!("timestep must be finite and > 0, got {dt}"));
+        }
+    }
+    if !o.damping.is_finite() || !(0.0..1.0).contains(&o.damping) {
+        return bad(format!(
+            "damping (γ·dt) must be in [0, 1), got {}",
+            o.damping
+        ));
+    }
+    Ok(())
+}
+
+/// Steps held after each strain increment: at least one (see [`load_cases`]) and enough
+/// that every load case ends on an output step.
+fn hold_steps(o: &DeckOptions) -> u64 {
+    let period = (o.deform_steps + o.relax_steps.max(1)).div_ceil(o.output_every) * o.output_every;
+    period - o.deform_steps
+}
+
+/// Common head of both decks: variables and the stress/strain history output.
+fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
+    let [lx, ly, lz] = packing_lengths;
+    let _ = writeln!(s, "compute p all pressure thermo_temp virial");
+    let _ = writeln!(s, "variable step equal step");
+    for (name, expr) in [
+        ("e11", format!("lx/{}-1", num(lx))),
+        ("e22", format!("ly/{}-1", num(ly))),
+        ("e33", format!("lz/{}-1", num(lz))),
+        ("e23", "yz/lz".to_string()),
+        ("e13", "xz/lz".to_string()),
+        ("e12", "xy/ly".to_string()),
+    ] {
+        let _ = writeln!(s, "variable {name} equal {expr}");
+    }
+    // compute pressure order: xx yy zz xy xz yz; stress σ = −p in Voigt order.
+    for (name, idx) in [
+        ("s11", 1),
+        ("s22", 2),
+        ("s33", 3),
+        ("s23", 6),
+        ("s13", 5),
+        ("s12", 4),
+    ] {
+        let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
+    }
+    let _ = writeln!(
+        s,
+        "fix history all print {every} \"${{step}} ${{e11}} ${{e22}} ${{e33}} ${{e23}} ${{e13}} ${{e12}} ${{s11}} ${{s22}} ${{s33}} ${{s23}} ${{s13}} ${{s12}}\" file stress_history.txt screen no title \"# step e11 e22 e33 e23 e13 e12 s11 s22 s33 s23 s13 s12 (strain; stress Pa, tension positive)\""
+    );
+    let _ = writeln!(s, "thermo {every}");
+    let _ = writeln!(
+        s,
+        "thermo_style custom step v_s11 v_s22 v_s33 v_s23 v_s13 v_s12"
+    );
+    let _ = writeln!(s, "thermo_modify norm no");
+}
+
+/// The six load cases (Voigt order), each a deform phase and a hold phase.
+fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
+    let [_, _, lz] = lengths;
+    let e = o.strain;
+    let n_cases = if shear { 6 } else { 3 };
+    for (c, name) in VOIGT_NAMES.iter().enumerate().take(n_cases) {
+        let spec = match c {
+            0 => format!("x scale {}", num(1.0 + e)),
+            1 => format!("y scale {}", num(1.0 + e)),
+            2 => format!("z scale {}", num(1.0 + e)),
+            // Tilt deltas: γ_23 = Δyz/lz, γ_13 = Δxz/lz, γ_12 = Δxy/ly (lz, ly after the
+            // normal cases).
+            3 => format!("yz delta {}", num(e * lz * (1.0 + e))),
+            4 => format!("xz delta {}", num(e * lz * (1.0 + e))),
+            _ => format!("xy delta {}", num(e * lengths[1] * (1.0 + e))),
+        };
+        let _ = writeln!(
+            s,
+            "\n# load case {}: strain increment e{name} = {}",
+            c + 1,
+            num(e)
+        );
+        let _ = writeln!(s, "fix deform_case all deform 1 {spec} remap x");
+        let _ = writeln!(s, "run {}", o.deform_steps);
+        let _ = writeln!(s, "unfix deform_case");
+        // At least one step held: fix deform applies its last box change at the end of the
+        // last deform step, after that step's forces and output.
+        let _ = writeln!(s, "run {}", hold_steps(o));
+    }
+}
+
+/// Write the LIGGGHTS files for `packing` with `bonds` and springs `k` into `dir`
+/// (created if needed): `packing.data`, `bonds.csv`, `anisobond.in`, `harmonic.data`,
+/// `harmonic.in`, `run.sh`. The packing must be periodic; the bonds must be those of this
+/// packing (ids = packing index + 1).
+pub fn export_liggghts(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+) -> Result<ExportSummary> {
+    check_options(o)?;
+    let cell = packing.cell.ok_or_else(|| {
+        Error::Invalid(
+            "LIGGGHTS export: the packing must be periodic (the decks use boundary p p p)".into(),
+        )
+    })?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid("LIGGGHTS export: no bonds".into()));
+    }
+    if k.kn.len() != bonds.len() {
+        return Err(Error::Invalid(format!(
+            "LIGGGHTS export: {} bonds but {} spring rows",
+            bonds.len(),
+            k.kn.len()
+        )));
+    }
+    if let Some(b) = (0..bonds.len()).find(|&b| bonds.j[b] as usize >= packing.len()) {
+        return Err(Error::Invalid(format!(
+            "LIGGGHTS export: bond {b} names particle {} but the packing has {}",
+            bonds.j[b],
+            packing.len()
+        )));
+    }
+    let l = cell.lengths;
+    let lengths = [l.x, l.y, l.z];
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    if 2.0 * max_len >= l.min() {
+        return Err(Error::Invalid(format!(
+            "LIGGGHTS export: the longest bond ({max_len} m) must be shorter than half the smallest cell edge ({} m) for the minimum image",
+            l.min()
+        )));
+    }
+    let dt = match o.timestep {
+        Some(dt) => dt,
+        None => stable_timestep(packing, bonds, k, o.density)?,
+    };
+    let gamma = o.damping / dt;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut files = Vec::new();
+
+    let data = dir.join("packing.data");
+    crate::packing::io::write_liggghts_data(&data, packing, o.density)?;
+    files.push(data);
+    let table_path = dir.join("bonds.csv");
+    table::write_bond_table(&table_path, bonds, k)?;
+    files.push(table_path);
+
+    let period = o.deform_steps + hold_steps(o);
+    let n_cases: u64 = if o.shear { 6 } else { 3 };
+    let case_end_steps: Vec<u64> = (1..=n_cases).map(|c| c * period).collect();
+    let box_line = if o.shear {
+        "change_box all triclinic\n"
+    } else {
+        ""
+    };
+    let skin = 0.05 * max_len;
+
+    // Driver deck.
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# anisobond → LIGGGHTS driver deck: {} particles, {} bonds with per-bond k_n, k_s, k_r, k_tw.",
+        packing.len(),
+        bonds.len()
+    );
+    let _ = writeln!(s, "# Run:  anisobond-liggghts -in anisobond.in   (serial; or: mpirun -np 2 anisobond-liggghts -in anisobond.in)");
+    let _ = writeln!(s, "# Element test: six load cases (Voigt 11 22 33 23 13 12), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
+    let _ = writeln!(s, "# case k ends at step k*{period}. Output: stress_history.txt (stress σ = −p, Pa, tension positive).");
+    let _ = writeln!(s, "# Bond law: YADE cohesive law in incremental form with mid-gap contact points (cpp/liggghts/pair_anisobond.h).");
+    let _ = writeln!(
+        s,
+        "# {}",
+        if o.affine {
+            "Affine: particles are not integrated; they follow the box (Voigt tensor)."
+        } else {
+            "Damping: viscous, force −γ·m·v and torque −γ·I·ω on every particle (not in the stress)."
+        }
+    );
+    let _ = writeln!(s, "variable relax index {}", u8::from(!o.affine));
+    let _ = writeln!(s, "variable damp index {}", num(gamma));
+    let _ = writeln!(s, "variable dt index {}", num(dt));
+    let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\ncommunicate single vel yes");
+    let _ = write!(s, "read_data packing.data\n{box_line}");
+    let _ = writeln!(
+        s,
+        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *"
+    );
+    let _ = writeln!(s, "neighbor {} bin\nneigh_modify delay 0", num(skin));
+    let _ = writeln!(s, "timestep ${{dt}}");
+    let _ = writeln!(
+        s,
+        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
+    );
+    history_block(&mut s, lengths, o.output_every);
+    let _ = writeln!(s, "run 0");
+    load_cases(&mut s, lengths, o, o.shear);
+    let deck = dir.join("anisobond.in");
+    crate::io::write_string_atomic(&deck, &s)?;
+    files.push(deck);
+
+    // Stock harmonic deck and its data file (atom_style hybrid granular molecular).
+    let hdata = dir.join("harmonic.data");
+    crate::io::write_atomic(&hdata, |w| {
+        write_harmonic_data(w, packing, bonds, k, o.density).map_err(|e| Error::io(&hdata, e))
+    })?;
+    files.push(hdata);
+    let mean_mass = packing
+        .radii
+        .iter()
+        .map(|r| o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+        .sum::<f64>()
+        / packing.len() as f64;
+    let mut h = String::new();
+    let _ = writeln!(
+        h,
+        "# anisobond → stock LIGGGHTS deck (bond_style harmonic): {} particles, {} bonds.",
+        packing.len(),
+        bonds.len()
+    );
+    let _ = writeln!(h, "# Run:  stdbuf -o0 liggghts -in harmonic.in   (stdbuf keeps LIGGGHTS' ERROR message on abort)");
+    let _ = writeln!(h, "# LIMITS: normal springs only. Each bond is its own bond type with K = k_n/2 (harmonic energy K(r−r0)²)");
+    let _ = writeln!(h, "#   and r0 = its initial length. k_s, k_r, k_tw are IGNORED: this is the model with k_s = 0 and no moments,");
+    let _ = writeln!(h, "#   which is softer than the anisobond model (and may be a mechanism where k_s carried load).");
+    let _ = writeln!(
+        h,
+        "#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law."
+    );
+    let _ = writeln!(h, "# LIMITS: normal load cases only (11, 22, 33; columns 1-3 of C): LIGGGHTS 3.8 builds no periodic ghost images");
+    let _ = writeln!(
+        h,
+        "#   for a triclinic box, so bonds across the boundary would break under shear of the box."
+    );
+    let _ = writeln!(h, "# Element test and output as anisobond.in: case k ends at step k*{period}; stress_history.txt.");
+    let _ = writeln!(
+        h,
+        "# Damping: fix viscous with γ = {} kg/s (rate × mean mass).",
+        num(gamma * mean_mass)
+    );
+    let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
+    let _ = writeln!(h, "variable dt index {}", num(dt));
+    let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
+    let _ = writeln!(
+        h,
+        "communicate single vel yes cutoff {}",
+        num(1.1 * max_len)
+    );
+    let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data");
+    let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
+    let _ = writeln!(h, "timestep ${{dt}}");
+    let _ = writeln!(
+        h,
+        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
+    );
+    if gamma > 0.0 {
+        let _ = writeln!(
+            h,
+            "if \"${{relax}} == 1\" then \"fix damping all viscous {}\"",
+            num(gamma * mean_mass)
+        );
+    }
+    history_block(&mut h, lengths, o.output_every);
+    let _ = writeln!(h, "run 0");
+    load_cases(&mut h, lengths, o, false);
+    let hdeck = dir.join("harmonic.in");
+    crate::io::write_string_atomic(&hdeck, &h)?;
+    files.push(hdeck);
+
+    let run = dir.join("run.sh");
+    crate::io::write_string_atomic(
+        &run,
+        "#!/bin/sh\n# Run the exported decks (from this directory). The driver is built by `make -C cpp` in the anisobond tree.\n\
+         set -e\ncd \"$(dirname \"$0\")\"\nif command -v anisobond-liggghts >/dev/null; then\n  anisobond-liggghts -in anisobond.in\nelse\n  stdbuf -o0 liggghts -in harmonic.in\nfi\n",
+    )?;
+    files.push(run);
+
+    Ok(ExportSummary {
+        files,
+        timestep: dt,
+        damping_rate: gamma,
+        case_end_steps,
+        max_bond_length: max_len,
+    })
+}
+
+/// The `harmonic.data` file: atoms (hybrid granular molecular: `id type x y z diameter
+/// density molecule`), one bond type per bond with `K = k_n/2` and `r0` = bond length.
+fn write_harmonic_data(
+    w: &mut dyn std::io::Write,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+) -> std::io::Result<()> {
+    let l = packing.cell.map(|c| c.lengths).unwrap_or_default();
+    writeln!(w, "LIGGGHTS data file written by anisobond (atom_style hybrid granular molecular, bond_style harmonic)\n")?;
+    writeln!(
+        w,
+        "{} atoms\n{} bonds\n1 atom types\n{} bond types\n",
+        packing.len(),
+        bonds.len(),
+        bonds.len()
+    )?;
+    writeln!(
+        w,
+        "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n",
+        num(l.x),
+        num(l.y),
+        num(l.z)
+    )?;
+    writeln!(w, "Bond Coeffs\n")?;
+    for b in 0..bonds.len() {
+        writeln!(
+            w,
+            "{} {} {}",
+            b + 1,
+            num(0.5 * k.kn[b]),
+            num(bonds.length[b])
+        )?;
+    }
+    writeln!(w, "\nAtoms\n")?;
+    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+        writeln!(
+            w,
+            "{} 1 {} {} {} {} {} 1",
+            p + 1,
+            num(x.x),
+            num(x.y),
+            num(x.z),
+            num(2.0 * r),
+            num(density)
+        )?;
+    }
+    writeln!(w, "\nBonds\n")?;
+    for b in 0..bonds.len() {
+        writeln!(
+            w,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        )?;
+    }
+    Ok(())
+}
+
+/// A stress history written by the decks (`stress_history.txt`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StressHistory {
+    /// Time step numbers.
+    pub step: Vec<u64>,
+    /// Box strain (Voigt, engineering shear).
+    pub strain: Vec<[f64; 6]>,
+    /// Stress (Pa, tension positive, Voigt order).
+    pub stress: Vec<[f64; 6]>,
+}
+
+/// Read `stress_history.txt` (`# …` comment lines, then `step e11 … e12 s11 … s12`).
+pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
+    let text = crate::io::read_to_string(path)?;
+    let mut h = StressHistory::default();
+    for (ln, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = t.split_whitespace().collect();
+        if f.len() != 13 {
+            return Err(Error::parse(
+                path,
+                ln + 1,
+                format!(
+                    "expected 13 columns (step, 6 strains, 6 stresses), found {}",
+                    f.len()
+                ),
+            ));
+        }
+        let step = f[0]
+            .parse::<f64>()
+            .map_err(|_| Error::parse(path, ln + 1, format!("step `{}` is not a number", f[0])))?;
+        let mut v = [0.0; 12];
+        for (c, x) in f[1..].iter().enumerate() {
+            v[c] = x.parse::<f64>().map_err(|_| {
+                Error::parse(
+                    path,
+                    ln + 1,
+                    format!("column {}: `{x}` is not a number", c + 2),
+                )
+            })?;
+        }
+        h.step.push(step as u64);
+        h.strain.push([v[0], v[1], v[2], v[3], v[4], v[5]]);
+        h.stress.push([v[6], v[7], v[8], v[9], v[10], v[11]]);
+    }
+    Ok(h)
+}
+
+/// The columns of the tensor (Pa) measured by the load cases run, in Voigt order:
+/// column a = (σ(end_a) − σ(end_{a−1})) / (e_a(end_a) − e_a(end_{a−1})), with the
+/// stress-free start as case 0.
+pub fn columns_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<Vec<[f64; 6]>> {
+    if case_end_steps.len() > 6 {
+        return Err(Error::Invalid(format!(
+            "at most 6 load cases, got {}",
+            case_end_steps.len()
+        )));
+    }
+    let row = |step: u64| -> Result<usize> {
+        h.step.iter().position(|&s| s == step).ok_or_else(|| {
+            Error::Invalid(format!("stress history has no line for step {step} (the end of a load case): did the run finish?"))
+        })
+    };
+    let mut cols = Vec::with_capacity(case_end_steps.len());
+    let mut prev_s = [0.0; 6];
+    let mut prev_e = [0.0; 6];
+    for (a, &step) in case_end_steps.iter().enumerate() {
+        let r = row(step)?;
+        let de = h.strain[r][a] - prev_e[a];
+        if de == 0.0 {
+            return Err(Error::Invalid(format!(
+                "load case {} applied no strain",
+                a + 1
+            )));
+        }
+        let mut col = [0.0; 6];
+        for b in 0..6 {
+            col[b] = (h.stress[r][b] - prev_s[b]) / de;
+        }
+        cols.push(col);
+        prev_s = h.stress[r];
+        prev_e = h.strain[r];
+    }
+    Ok(cols)
+}
+
+/// The full 6×6 tensor (Pa) from the six load cases (see [`columns_from_cases`]).
+pub fn tensor_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<Stiffness6> {
+    if case_end_steps.len() != 6 {
+        return Err(Error::Invalid(format!(
+            "the 6×6 tensor needs the six load cases, the run had {} (export with shear cases)",
+            case_end_steps.len()
+        )));
+    }
+    let cols = columns_from_cases(h, case_end_steps)?;
+    Ok(Stiffness6::from_fn(|b, a| cols[a][b]))
+}
+
+/// How to launch LIGGGHTS.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Launch {
+    /// The program (`liggghts` or the driver `anisobond-liggghts`).
+    pub program: PathBuf,
+    /// `None`: serial, through `stdbuf -o0` when available (LIGGGHTS loses its ERROR message
+    /// on abort otherwise); `Some(n)`: `mpirun --allow-run-as-root -np n`.
+    pub mpi_processes: Option<usize>,
+    /// Extra `-var NAME VALUE` pairs.
+    pub vars: Vec<(String, String)>,
+}
+
+/// Run `deck` (a file in `dir`) in `dir`; the screen output is returned, and on failure the
+/// error carries LIGGGHTS' `ERROR` line.
+pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
+    let mut args: Vec<String> = Vec::new();
+    let mut cmd = match launch.mpi_processes {
+        Some(n) => {
+            args.extend(["--allow-run-as-root".into(), "-np".into(), n.to_string()]);
+            args.push(launch.program.display().to_string());
+            Command::new("mpirun")
+        }
+        None if which("stdbuf") => {
+            args.extend(["-o0".into(), launch.program.display().to_string()]);
+            Command::new("stdbuf")
+        }
+        None => Command::new(&launch.program),
+    };
+    args.extend([
+        "-in".into(),
+        deck.into(),
+        "-log".into(),
+        "log.liggghts".into(),
+    ]);
+    for (k, v) in &launch.vars {
+        args.extend(["-var".into(), k.clone(), v.clone()]);
+    }
+    let out =
+        cmd.args(&args).current_dir(dir).output().map_err(|e| {
+            Error::Invalid(format!("cannot start {}: {e}", launch.program.display()))
+        })?;
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let error_line = stdout
+        .lines()
+        .chain(stderr.lines())
+        .find(|l| l.contains("ERROR"))
+        .map(str::to_string);
+    if !out.status.success() || error_line.is_some() {
+        let msg = error_line.unwrap_or_else(|| {
+            let tail: Vec<&str> = stderr.lines().rev().take(5).collect();
+            tail.into_iter().rev().collect::<Vec<_>>().join(" | ")
+        });
+        return Err(Error::Invalid(format!(
+            "{} -in {deck} failed in {} ({}): {msg}",
+            launch.program.display(),
+            dir.display(),
+            out.status
+        )));
+    }
+    Ok(stdout)
+}
+
+/// True when `program` is found on PATH.
+pub fn which(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
+}

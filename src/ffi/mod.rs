@@ -1,0 +1,379 @@
+//! C++ bridge (the `cxx` crate, feature `ffi`): models, per-bond springs, bond tables and
+//! stiffness tensors for C++ programs such as the LIGGGHTS driver in `cpp/liggghts/`.
+//!
+//! Every fallible function returns `Result`, which cxx turns into a C++ exception
+//! (`rust::Error`, derived from `std::exception`) whose `what()` is the library's error
+//! message. Build the static library and headers with `make -C cpp` (see `cpp/README.md`).
+//!
+//! Conventions as in the Rust library: SI units, Voigt order 11, 22, 33, 23, 13, 12,
+//! engineering shear strain, tensors row-major in [`bridge::Tensor6::c`].
+
+use crate::bonds::{self, BondSet, BondStiffness};
+use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use crate::homogenize::{mean_field, voigt};
+use crate::model::Model;
+use crate::packing::{self, Packing};
+use crate::schemes::StiffnessScheme;
+use crate::tensor::Stiffness6;
+use crate::{Error, Result, Vec3};
+use std::path::Path;
+
+// The code cxx generates uses items newer than the crate's MSRV; the `ffi` feature needs
+// the Rust version cxx itself requires.
+#[allow(clippy::incompatible_msrv)]
+#[cxx::bridge(namespace = "anisobond")]
+pub mod bridge {
+    /// Normal and shear magnitudes of a scheme along one direction (unit of the model's
+    /// geometry convention).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Magnitudes {
+        /// Normal magnitude.
+        pub normal: f64,
+        /// Shear magnitude.
+        pub shear: f64,
+    }
+
+    /// The four springs of a bond: k_n, k_s in N/m; k_r, k_tw in N·m/rad.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct BondSprings {
+        /// Normal spring.
+        pub kn: f64,
+        /// Shear spring.
+        pub ks: f64,
+        /// Bending spring.
+        pub kr: f64,
+        /// Twisting spring.
+        pub ktw: f64,
+    }
+
+    /// One row of the SPEC bond table: particles `i < j` (0-based, packing order; the
+    /// LIGGGHTS atom ids are i+1, j+1), unit normal from i to the image (ix, iy, iz) of j,
+    /// centre distance `length` (m), bond radius (m) and springs.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct BondRow {
+        /// First particle (0-based).
+        pub i: u32,
+        /// Second particle (0-based), > i.
+        pub j: u32,
+        /// Normal x.
+        pub nx: f64,
+        /// Normal y.
+        pub ny: f64,
+        /// Normal z.
+        pub nz: f64,
+        /// Initial centre distance (m).
+        pub length: f64,
+        /// Bond radius R_b (m).
+        pub radius: f64,
+        /// Normal spring (N/m).
+        pub kn: f64,
+        /// Shear spring (N/m).
+        pub ks: f64,
+        /// Bending spring (N·m/rad).
+        pub kr: f64,
+        /// Twisting spring (N·m/rad).
+        pub ktw: f64,
+        /// Periodic image of j along x.
+        pub ix: i32,
+        /// Periodic image of j along y.
+        pub iy: i32,
+        /// Periodic image of j along z.
+        pub iz: i32,
+    }
+
+    /// A 6×6 Voigt stiffness tensor (Pa), row-major: c[6·a + b] = C[a][b].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Tensor6 {
+        /// Components, row-major.
+        pub c: [f64; 36],
+    }
+
+    extern "Rust" {
+        /// A validated model (bonding rule, scheme, geometry), optionally bound to a packing.
+        type ModelHandle;
+
+        /// Read a model file (TOML, or JSON by extension).
+        fn load_model(path: &str) -> Result<Box<ModelHandle>>;
+        /// Parse a model from text; `format` is "toml" or "json".
+        fn parse_model(text: &str, format: &str) -> Result<Box<ModelHandle>>;
+        /// True when the scheme needs a bonded packing (cross-anisotropic: lattice scaling).
+        fn needs_packing(self: &ModelHandle) -> bool;
+        /// Bond the packing by the model's rule and build the scheme with it.
+        fn bind_packing(self: &mut ModelHandle, packing_path: &str) -> Result<()>;
+        /// The scheme's name.
+        fn scheme_name(self: &ModelHandle) -> Result<String>;
+        /// The scheme's magnitudes along the lab direction (nx, ny, nz) (normalised here).
+        fn magnitudes(self: &ModelHandle, nx: f64, ny: f64, nz: f64) -> Result<Magnitudes>;
+        /// Springs of a bond with initial normal (nx, ny, nz), radii ri, rj (m) and centre
+        /// distance `length` (m).
+        fn bond_springs(
+            self: &ModelHandle,
+            nx: f64,
+            ny: f64,
+            nz: f64,
+            ri: f64,
+            rj: f64,
+            length: f64,
+        ) -> Result<BondSprings>;
+        /// Mean-field tensor (Pa) for a given prefactor N_c⟨l²·g⟩/V (Truszkowska 2018
+        /// App. A); with the `spring` convention and prefactor 1 it is the orientation
+        /// average T of REFERENCES.md.
+        fn mean_field_tensor(self: &ModelHandle, prefactor: f64) -> Result<Tensor6>;
+
+        /// Read a SPEC bond table (CSV).
+        fn load_bond_table(path: &str) -> Result<Vec<BondRow>>;
+        /// Bond a packing file by the model's rule and assign springs.
+        fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>>;
+        /// Write bond rows as a SPEC bond table.
+        fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()>;
+        /// Stiffness tensor (Pa) of a packing file + model; `method` is "voigt",
+        /// "mean-field" or "relaxed" (exact static relaxation, mid-gap lever arms).
+        fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str)
+            -> Result<Tensor6>;
+        /// The library's version.
+        fn library_version() -> String;
+    }
+}
+
+use bridge::{BondRow, BondSprings, Magnitudes, Tensor6};
+
+/// Opaque model for C++: the model, and the scheme once built.
+pub struct ModelHandle {
+    model: Model,
+    scheme: Option<Box<dyn StiffnessScheme>>,
+}
+
+impl ModelHandle {
+    fn new(model: Model) -> Result<Box<ModelHandle>> {
+        let scheme = if model.needs_packing() {
+            None
+        } else {
+            Some(model.build_scheme(None)?)
+        };
+        Ok(Box::new(ModelHandle { model, scheme }))
+    }
+
+    fn scheme(&self) -> Result<&dyn StiffnessScheme> {
+        self.scheme.as_deref().ok_or_else(|| {
+            Error::Model(
+                "this scheme needs a bonded packing first: call bind_packing(packing_path)".into(),
+            )
+        })
+    }
+
+    fn needs_packing(&self) -> bool {
+        self.model.needs_packing()
+    }
+
+    fn bind_packing(&mut self, packing_path: &str) -> Result<()> {
+        let (packing, bonds) = bonded_packing(packing_path, &self.model)?;
+        self.scheme = Some(self.model.build_scheme(Some((&packing, &bonds)))?);
+        Ok(())
+    }
+
+    fn scheme_name(&self) -> Result<String> {
+        Ok(self.scheme()?.name())
+    }
+
+    fn magnitudes(&self, nx: f64, ny: f64, nz: f64) -> Result<Magnitudes> {
+        let n = unit(nx, ny, nz)?;
+        let m = self.scheme()?.magnitudes(&n);
+        Ok(Magnitudes {
+            normal: m.normal,
+            shear: m.shear,
+        })
+    }
+
+    fn bond_springs(
+        &self,
+        nx: f64,
+        ny: f64,
+        nz: f64,
+        ri: f64,
+        rj: f64,
+        length: f64,
+    ) -> Result<BondSprings> {
+        let n = unit(nx, ny, nz)?;
+        for (name, v) in [("ri", ri), ("rj", rj), ("length", length)] {
+            if !v.is_finite() || v <= 0.0 {
+                return Err(Error::Invalid(format!(
+                    "bond_springs: {name} must be finite and > 0, got {v}"
+                )));
+            }
+        }
+        let m = self.scheme()?.magnitudes(&n);
+        let s = self.model.geometry.springs(m, ri, rj, length);
+        Ok(BondSprings {
+            kn: s.kn,
+            ks: s.ks,
+            kr: s.kr,
+            ktw: s.ktw,
+        })
+    }
+
+    fn mean_field_tensor(&self, prefactor: f64) -> Result<Tensor6> {
+        if !prefactor.is_finite() || prefactor <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "mean_field_tensor: prefactor must be finite and > 0, got {prefactor}"
+            )));
+        }
+        let c = mean_field::mean_field(self.scheme()?, prefactor, mean_field::DEFAULT_ORDER);
+        Ok(tensor6(&c))
+    }
+}
+
+fn unit(nx: f64, ny: f64, nz: f64) -> Result<Vec3> {
+    let v = Vec3::new(nx, ny, nz);
+    let n = v.norm();
+    if !n.is_finite() || n == 0.0 {
+        return Err(Error::Invalid(format!(
+            "bond normal ({nx}, {ny}, {nz}) must be a finite non-zero vector"
+        )));
+    }
+    Ok(v / n)
+}
+
+fn tensor6(c: &Stiffness6) -> Tensor6 {
+    let mut out = [0.0; 36];
+    for a in 0..6 {
+        for b in 0..6 {
+            out[6 * a + b] = c[(a, b)];
+        }
+    }
+    Tensor6 { c: out }
+}
+
+fn bonded_packing(packing_path: &str, model: &Model) -> Result<(Packing, BondSet)> {
+    let packing = packing::io::read_packing(Path::new(packing_path))?;
+    let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{packing_path}: the bonding rule produced no bonds"
+        )));
+    }
+    Ok((packing, bonds))
+}
+
+fn bonded_with_springs(
+    packing_path: &str,
+    handle: &ModelHandle,
+) -> Result<(Packing, BondSet, BondStiffness)> {
+    let (packing, bonds) = bonded_packing(packing_path, &handle.model)?;
+    let scheme = match &handle.scheme {
+        Some(_) if !handle.model.needs_packing() => None,
+        _ => Some(handle.model.build_scheme(Some((&packing, &bonds)))?),
+    };
+    let scheme_ref: &dyn StiffnessScheme = match &scheme {
+        Some(s) => s.as_ref(),
+        None => handle.scheme()?,
+    };
+    let k = bonds::assign_stiffness(&packing, &bonds, scheme_ref, &handle.model.geometry)?;
+    Ok((packing, bonds, k))
+}
+
+fn rows(bonds: &BondSet, k: &BondStiffness) -> Vec<BondRow> {
+    (0..bonds.len())
+        .map(|b| {
+            let n = bonds.normal[b];
+            let im = bonds.image[b];
+            BondRow {
+                i: bonds.i[b],
+                j: bonds.j[b],
+                nx: n.x,
+                ny: n.y,
+                nz: n.z,
+                length: bonds.length[b],
+                radius: k.radius[b],
+                kn: k.kn[b],
+                ks: k.ks[b],
+                kr: k.kr[b],
+                ktw: k.ktw[b],
+                ix: im[0],
+                iy: im[1],
+                iz: im[2],
+            }
+        })
+        .collect()
+}
+
+fn load_model(path: &str) -> Result<Box<ModelHandle>> {
+    ModelHandle::new(Model::from_path(Path::new(path))?)
+}
+
+fn parse_model(text: &str, format: &str) -> Result<Box<ModelHandle>> {
+    let model = match format {
+        "toml" => Model::from_toml_str(text, "<model text>")?,
+        "json" => Model::from_json_str(text, "<model text>")?,
+        other => {
+            return Err(Error::Invalid(format!(
+                "parse_model: format \"{other}\": expected \"toml\" or \"json\""
+            )))
+        }
+    };
+    ModelHandle::new(model)
+}
+
+fn load_bond_table(path: &str) -> Result<Vec<BondRow>> {
+    let (bonds, k) = bonds::table::read_bond_table(Path::new(path))?;
+    Ok(rows(&bonds, &k))
+}
+
+fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>> {
+    let (_, bonds, k) = bonded_with_springs(packing_path, model)?;
+    Ok(rows(&bonds, &k))
+}
+
+fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {
+    let mut bonds = BondSet::default();
+    let mut k = BondStiffness::default();
+    for (b, r) in rows.iter().enumerate() {
+        if r.i >= r.j || r.length.is_nan() || r.length <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "write_bond_table: row {b}: need i < j and length > 0, got i = {}, j = {}, length = {}",
+                r.i, r.j, r.length
+            )));
+        }
+        let n = unit(r.nx, r.ny, r.nz)?;
+        bonds.push(r.i, r.j, n * r.length, [r.ix, r.iy, r.iz]);
+        k.radius.push(r.radius);
+        k.kn.push(r.kn);
+        k.ks.push(r.ks);
+        k.kr.push(r.kr);
+        k.ktw.push(r.ktw);
+    }
+    bonds::table::write_bond_table(Path::new(path), &bonds, &k)
+}
+
+fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Result<Tensor6> {
+    let (packing, bonds, k) = bonded_with_springs(packing_path, model)?;
+    let c = match method {
+        "voigt" => voigt::voigt_tensor(&bonds, &k, packing.volume()),
+        "relaxed" => relaxed_tensor(&packing, &bonds, &k, &RelaxedOptions::default())?.c,
+        "mean-field" => {
+            let scheme = model.model.build_scheme(Some((&packing, &bonds)))?;
+            let s: f64 = (0..bonds.len())
+                .map(|b| {
+                    let ri = packing.radii[bonds.i[b] as usize];
+                    let rj = packing.radii[bonds.j[b] as usize];
+                    let l = bonds.length[b];
+                    l * l * model.model.geometry.factor(ri, rj, l)
+                })
+                .sum();
+            mean_field::mean_field(
+                scheme.as_ref(),
+                s / packing.volume(),
+                mean_field::DEFAULT_ORDER,
+            )
+        }
+        other => {
+            return Err(Error::Invalid(format!(
+                "compute_tensor: method \"{other}\": expected voigt, mean-field or relaxed"
+            )))
+        }
+    };
+    Ok(tensor6(&c))
+}
+
+fn library_version() -> String {
+    env!("CARGO_PKG_VERSION").to_string()
+}

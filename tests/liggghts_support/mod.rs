@@ -1,0 +1,104 @@
+//! Shared helpers of the LIGGGHTS tests: tool discovery (skip with a reason when LIGGGHTS
+//! or MPI is absent, never under CI), building the driver, and bonded test packings.
+#![allow(dead_code)]
+
+use anisobond::bonds::{self, BondSet, BondStiffness};
+use anisobond::model::Model;
+use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::packing::Packing;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"))
+}
+
+fn on_path(p: &str) -> bool {
+    anisobond::export::liggghts::which(p)
+}
+
+/// `Some(reason)` when a tool is missing. Under CI a missing tool is a failure.
+pub fn missing(tools: &[&str]) -> Option<String> {
+    let absent: Vec<&str> = tools.iter().copied().filter(|t| !on_path(t)).collect();
+    if absent.is_empty() {
+        return None;
+    }
+    let reason = format!("not installed: {}", absent.join(", "));
+    if std::env::var_os("CI").is_some() {
+        panic!(
+            "CI is set but {reason} (install liggghts libliggghts-dev mpi-default-dev g++ make)"
+        );
+    }
+    Some(reason)
+}
+
+/// Build the driver once per test binary (`make -C cpp driver`) and return its path.
+pub fn driver() -> PathBuf {
+    static BUILT: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            let out = Command::new("make")
+                .args(["-C", "cpp", "driver"])
+                .current_dir(root())
+                .env("CARGO_TARGET_DIR", target_dir())
+                .output()
+                .map_err(|e| format!("cannot run make: {e}"))?;
+            if !out.status.success() {
+                return Err(format!(
+                    "make -C cpp driver failed:\n{}\n{}",
+                    String::from_utf8_lossy(&out.stdout),
+                    String::from_utf8_lossy(&out.stderr)
+                ));
+            }
+            Ok(target_dir().join("cpp").join("anisobond-liggghts"))
+        })
+        .clone()
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub struct Bonded {
+    pub packing: Packing,
+    pub bonds: BondSet,
+    pub k: BondStiffness,
+}
+
+/// A seeded periodic packing of `n` spheres (R̄ = 1 mm, φ = 0.6), bonded by `model_toml`.
+pub fn bonded(n: usize, seed: u64, model_toml: &str) -> Bonded {
+    let opts = GenerateOptions {
+        n_particles: n,
+        seed,
+        ..GenerateOptions::default()
+    };
+    let packing = generate(&opts, &|_| {}).expect("packing");
+    let model = Model::from_toml_str(model_toml, "<test model>").expect("model");
+    let bonds = bonds::rules::build_bonds(&packing, model.bonding).expect("bonds");
+    let scheme = model
+        .build_scheme(Some((&packing, &bonds)))
+        .expect("scheme");
+    let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)
+        .expect("springs");
+    Bonded { packing, bonds, k }
+}
+
+/// Largest |a − b| over the entries, relative to the largest |b|.
+pub fn rel_diff(a: &anisobond::tensor::Stiffness6, b: &anisobond::tensor::Stiffness6) -> f64 {
+    (a - b).abs().max() / b.abs().max()
+}
+
+pub fn fresh_dir(name: &str) -> PathBuf {
+    let d = target_dir().join("liggghts-tests").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("test dir");
+    d
+}
+
+pub fn exists(p: &Path) -> bool {
+    p.exists()
+}
