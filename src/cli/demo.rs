@@ -4,9 +4,13 @@
 
 use super::{bond_packing, method_name, output, tensor_of, LeverArmArg, Method, StaticArgs};
 use anisobond::bonds::table;
+use anisobond::export::{liggghts, vtk, yade};
+use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::homogenize::report::TensorReport;
 use anisobond::model::Model;
 use anisobond::packing::{self, generate};
+use anisobond::plot;
+use anisobond::tensor::Voigt6;
 use anisobond::Result;
 use std::path::PathBuf;
 
@@ -127,10 +131,59 @@ pub fn run(a: DemoArgs) -> Result<()> {
         "`moments = \"parallel-bond\"` to [geometry]). Absolute values scale with R̄ under the"
     );
     println!("area convention; the paper does not give R̄, so compare the ratios.");
+
+    // Files for the other tools and for looking at.
+    let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
+    let plot_path = a.output.join("stiffness.png");
+    plot::plot_stiffness_sections(
+        &plot_path,
+        scheme.as_ref(),
+        &plot::Section::cubic_planes(&anisobond::Mat3::identity()),
+        "cubic zener-above-1 (Truszkowska MRV): normal (blue) and shear (gold) magnitudes",
+        "Pa/m",
+    )?;
+    written.push(plot_path);
+    let strain = Voigt6::new(-1e-4, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let state = vtk::strained_state(
+        &b.packing,
+        &b.bonds,
+        &b.stiffness,
+        &strain,
+        &RelaxedOptions::default(),
+    )?;
+    let particles = a.output.join("particles.vtu");
+    let bonds_vtu = a.output.join("bonds.vtu");
+    vtk::write_particles_vtu(&particles, &b.packing, Some(&state))?;
+    vtk::write_bonds_vtu(&bonds_vtu, &b.packing, &b.bonds, &b.stiffness, Some(&state))?;
+    written.push(particles);
+    written.push(bonds_vtu);
+    let yade_dir = a.output.join("yade");
+    yade::write_yade_export(
+        &yade_dir,
+        &b.packing,
+        &b.bonds,
+        &b.stiffness,
+        Some(&model),
+        &yade::YadeRunOptions::default(),
+    )?;
+    written.push(yade_dir.join("run.py"));
+    let liggghts_dir = a.output.join("liggghts");
+    liggghts::export_liggghts(
+        &liggghts_dir,
+        &b.packing,
+        &b.bonds,
+        &b.stiffness,
+        &liggghts::DeckOptions::default(),
+    )?;
+    written.push(liggghts_dir.join("anisobond.in"));
+    written.push(liggghts_dir.join("harmonic.in"));
+
     println!();
     println!("wrote:");
     for w in written {
         println!("  {}", w.display());
     }
+    println!("(particles.vtu/bonds.vtu: the relaxed state under a uniaxial strain e11 = −1e-4, for ParaView;");
+    println!(" yade/run.py runs with `yade -n -x`; liggghts/: see its run.sh and cpp/README.md)");
     Ok(())
 }
