@@ -28,7 +28,7 @@ fn cpp_bridge_test_builds_and_passes() {
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target"));
     let out = Command::new("make")
-        .args(["-C", "cpp", "check", "CXX=g++"])
+        .args(["-C", "cpp", "check", "CXX=g++", "PROFILE=release"])
         .current_dir(&root)
         .env("CARGO_TARGET_DIR", &target)
         .output()

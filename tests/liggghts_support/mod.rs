@@ -45,7 +45,7 @@ pub fn driver() -> PathBuf {
     BUILT
         .get_or_init(|| {
             let out = Command::new("make")
-                .args(["-C", "cpp", "driver"])
+                .args(["-C", "cpp", "driver", "PROFILE=release"])
                 .current_dir(root())
                 .env("CARGO_TARGET_DIR", target_dir())
                 .output()
