@@ -21,6 +21,7 @@ pub mod model;
 pub mod packing;
 pub mod schemes;
 pub mod tensor;
+pub mod validate;
 
 pub use error::{Error, Result};
 

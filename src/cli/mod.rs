@@ -5,6 +5,7 @@ mod demo;
 mod export;
 mod output;
 pub mod run;
+mod validate;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;
@@ -48,6 +49,9 @@ enum Command {
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
     Run(run::RunArgs),
+    /// Validate anisobond against another DEM code (YADE): the same problem in both, the
+    /// differences as a table and files; non-zero exit status when out of tolerance.
+    Validate(validate::ValidateArgs),
 }
 
 #[derive(clap::Args)]
@@ -176,6 +180,7 @@ pub fn run() -> Result<()> {
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
+        Command::Validate(a) => validate::run(a),
     }
 }
 
