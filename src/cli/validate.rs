@@ -146,7 +146,10 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
         for p in write_validation_files(&dir, &v)? {
             println!("wrote {}", p.display());
         }
-        println!("YADE export and YADE's own outputs: {}", v.yade_dir.display());
+        println!(
+            "YADE export and YADE's own outputs: {}",
+            v.yade_dir.display()
+        );
     }
     let failures = v.failures();
     if failures.is_empty() {

@@ -346,14 +346,13 @@ pub fn run_path_like_yade(
 pub fn tensor_from_columns(rows: &[HistoryRow], what: &str) -> Result<Stiffness6> {
     let mut e = Stiffness6::zeros();
     let mut s = Stiffness6::zeros();
-    for p in 0..6 {
+    for (p, label) in PATH_LABELS.iter().enumerate() {
         let mine: Vec<&HistoryRow> = rows.iter().filter(|r| r.path == p).collect();
         let first = mine.iter().min_by_key(|r| r.step);
         let last = mine.iter().max_by_key(|r| r.step);
         let (Some(first), Some(last)) = (first, last) else {
             return Err(Error::Invalid(format!(
-                "{what}: no history rows for path {} (all six paths are needed for C)",
-                PATH_LABELS[p]
+                "{what}: no history rows for path {label} (all six paths are needed for C)"
             )));
         };
         e.set_column(p, &(last.strain - first.strain));
@@ -442,7 +441,13 @@ fn run_options(o: &YadeValidationOptions, dt: f64, undamped: bool) -> YadeRunOpt
     }
 }
 
-fn simulation(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &YadeValidationOptions, dt: Option<f64>) -> Result<Simulation> {
+fn simulation(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &YadeValidationOptions,
+    dt: Option<f64>,
+) -> Result<Simulation> {
     let law = build_law(LawKind::Yade, packing, bonds, k)?;
     Simulation::new(
         packing,
@@ -470,7 +475,13 @@ struct YadeRuns {
     damped_seconds: f64,
 }
 
-fn run_yade(script: &Path, dir: &Path, o: &YadeValidationOptions, dt: f64, progress: &(dyn Fn(&str) + Sync)) -> Result<YadeRuns> {
+fn run_yade(
+    script: &Path,
+    dir: &Path,
+    o: &YadeValidationOptions,
+    dt: f64,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<YadeRuns> {
     let mut args = run_options(o, dt, true).to_args();
     args.extend([
         "--history".into(),
@@ -589,7 +600,9 @@ pub fn validate_yade(
                 )?);
             }
             let t_undamped = t.elapsed().as_secs_f64();
-            progress(&format!("anisobond: undamped runs done in {t_undamped:.1} s"));
+            progress(&format!(
+                "anisobond: undamped runs done in {t_undamped:.1} s"
+            ));
             let t = Instant::now();
             let mut damped = Vec::new();
             for p in 0..6 {
