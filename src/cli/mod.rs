@@ -9,6 +9,7 @@ mod export_liggghts;
 mod output;
 mod plot;
 pub mod run;
+mod validate;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;
@@ -60,6 +61,9 @@ enum Command {
     /// Pictures of a model (PNG).
     #[command(subcommand)]
     Plot(plot::PlotCommand),
+    /// Validate anisobond against another DEM code (YADE): the same problem in both, the
+    /// differences as a table and files; non-zero exit status when out of tolerance.
+    Validate(validate::ValidateArgs),
 }
 
 #[derive(clap::Args)]
@@ -191,6 +195,7 @@ pub fn run() -> Result<()> {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
         Command::Plot(c) => plot::run(c),
+        Command::Validate(a) => validate::run(a),
     }
 }
 

@@ -1,0 +1,253 @@
+//! `anisobond validate yade PACKING --model MODEL [-o DIR]`: the same problem in YADE and in
+//! anisobond, the differences as a table with units, files in DIR, and a non-zero exit
+//! status when any agreement is outside its tolerance.
+
+use anisobond::bonds::{self, BondSet, BondStiffness};
+use anisobond::export::yade::{parse_paths, PATH_LABELS};
+use anisobond::model::Model;
+use anisobond::packing::{self, Packing};
+use anisobond::tensor::Stiffness6;
+use anisobond::validate::yade::{
+    validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
+};
+use anisobond::{Error, Result};
+use clap::Subcommand;
+use std::path::{Path, PathBuf};
+
+/// Validate anisobond against another DEM code.
+#[derive(clap::Args)]
+pub struct ValidateArgs {
+    #[command(subcommand)]
+    pub target: ValidateTarget,
+}
+
+/// The codes to validate against.
+#[derive(Subcommand)]
+pub enum ValidateTarget {
+    /// YADE 2023.02a (`yade` on PATH): undamped stress histories step by step, damped
+    /// six-path tensors, and both against the relaxed solver. Writes DIR/yade/ (the export
+    /// YADE ran), DIR/undamped-history.csv and DIR/damped-history.csv (both codes' stress
+    /// side by side, Pa) and DIR/validation.json; exits non-zero when a comparison is out
+    /// of tolerance.
+    Yade(YadeValidateArgs),
+}
+
+/// Arguments of `validate yade`.
+#[derive(clap::Args)]
+pub struct YadeValidateArgs {
+    /// Periodic packing file (SPEC text with `# periodic Lx Ly Lz`, YADE SpherePack text,
+    /// or LIGGGHTS data).
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output directory (created if missing); default: a temporary directory, removed.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Strain of every path, applied in one step (engineering; extension positive).
+    #[arg(long, default_value_t = 1e-5)]
+    pub strain: f64,
+    /// Particle density (kg/m³) of both codes.
+    #[arg(long, default_value_t = 2600.0)]
+    pub density: f64,
+    /// Time step (s) of both codes; default: --safety × anisobond's critical estimate.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Fraction of the critical time step used when --dt is not given.
+    #[arg(long, default_value_t = 0.8)]
+    pub safety: f64,
+    /// Steps of the undamped runs (strain step included).
+    #[arg(long, default_value_t = 1000)]
+    pub undamped_steps: usize,
+    /// Paths of the undamped comparison, Voigt labels.
+    #[arg(long, default_value = "11,12")]
+    pub undamped_paths: String,
+    /// Steps of every damped path (strain step included).
+    #[arg(long, default_value_t = 200)]
+    pub damped_steps: usize,
+    /// Cundall local damping of the damped runs.
+    #[arg(long, default_value_t = 0.4)]
+    pub damping: f64,
+    /// Relative CG residual of the relaxed solver.
+    #[arg(long, default_value_t = 1e-8)]
+    pub cg_tolerance: f64,
+    /// Largest admissible max |Δσ| / max |σ| of the undamped histories.
+    #[arg(long, default_value_t = 1e-6)]
+    pub history_tolerance: f64,
+    /// Largest admissible relative difference of the damped tensors, YADE vs anisobond.
+    #[arg(long, default_value_t = 1e-3)]
+    pub tensor_tolerance: f64,
+    /// Largest admissible relative difference of each damped tensor from the relaxed one.
+    #[arg(long, default_value_t = 1e-3)]
+    pub relaxed_tolerance: f64,
+}
+
+/// Run `validate`.
+pub fn run(a: ValidateArgs) -> Result<()> {
+    match a.target {
+        ValidateTarget::Yade(y) => validate_yade_cmd(y),
+    }
+}
+
+fn bonded(packing_path: &Path, model: &Model) -> Result<(Packing, BondSet, BondStiffness)> {
+    let packing = packing::io::read_packing(packing_path)?;
+    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if b.is_empty() {
+        return Err(Error::Invalid(
+            "the bonding rule produced no bonds: increase the gap/factor value".into(),
+        ));
+    }
+    let scheme = model.build_scheme(Some((&packing, &b)))?;
+    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
+    Ok((packing, b, k))
+}
+
+fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
+    let opts = YadeValidationOptions {
+        strain: a.strain,
+        density: a.density,
+        time_step: a.dt,
+        safety: a.safety,
+        undamped_steps: a.undamped_steps,
+        undamped_paths: parse_paths(&a.undamped_paths)?,
+        damped_steps: a.damped_steps,
+        damping: a.damping,
+        cg_tolerance: a.cg_tolerance,
+        tolerances: Tolerances {
+            history: a.history_tolerance,
+            tensor: a.tensor_tolerance,
+            relaxed: a.relaxed_tolerance,
+        },
+    };
+    opts.validate()?;
+    let model = Model::from_path(&a.model)?;
+    let (packing, b, k) = bonded(&a.packing, &model).map_err(|e| match e {
+        Error::Model(m) => Error::Model(format!("{}: {m}", a.model.display())),
+        other => other,
+    })?;
+    let temp;
+    let dir = match &a.output {
+        Some(d) => d.clone(),
+        None => {
+            temp = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
+            temp.path().to_path_buf()
+        }
+    };
+    eprintln!(
+        "validate yade: {} particles, {} bonds; running YADE and anisobond …",
+        packing.len(),
+        b.len()
+    );
+    let v = validate_yade(&dir, &packing, &b, &k, Some(&model), &opts, &|m: &str| {
+        eprintln!("  {m}")
+    })?;
+    print_table(&v);
+    if a.output.is_some() {
+        for p in write_validation_files(&dir, &v)? {
+            println!("wrote {}", p.display());
+        }
+        println!(
+            "YADE export and YADE's own outputs: {}",
+            v.yade_dir.display()
+        );
+    }
+    let failures = v.failures();
+    if failures.is_empty() {
+        println!("PASSED: YADE and anisobond agree within every tolerance");
+        Ok(())
+    } else {
+        let list: Vec<String> = failures
+            .iter()
+            .map(|c| {
+                format!(
+                    "{}: {:.3e} > tolerance {:.1e}",
+                    c.name, c.value, c.tolerance
+                )
+            })
+            .collect();
+        Err(Error::Invalid(format!(
+            "validate yade FAILED ({} of {} checks out of tolerance):\n  {}",
+            failures.len(),
+            v.checks.len(),
+            list.join("\n  ")
+        )))
+    }
+}
+
+fn gpa_row(c: &Stiffness6, i: usize) -> String {
+    (0..6)
+        .map(|j| format!("{:9.4}", c[(i, j)] / 1e9))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn print_table(v: &YadeValidation) {
+    let o = &v.options;
+    println!(
+        "YADE {} vs anisobond: {} particles, {} bonds, dt {:.4e} s (critical estimate {:.4e} s), \
+         density {} kg/m³, strain {:e} in one step",
+        v.yade_version,
+        v.n_particles,
+        v.n_bonds,
+        v.time_step,
+        v.critical_time_step,
+        o.density,
+        o.strain
+    );
+    println!();
+    println!(
+        "undamped stress histories ({} steps, damping 0):",
+        o.undamped_steps
+    );
+    println!(
+        "  {:<6} {:>14} {:>16} {:>12} {:>11}",
+        "path", "max |σ| (Pa)", "max |Δσ| (Pa)", "relative", "worst step"
+    );
+    for h in &v.undamped {
+        println!(
+            "  {:<6} {:>14.4e} {:>16.4e} {:>12.3e} {:>11}",
+            PATH_LABELS[h.path], h.max_stress, h.max_difference, h.relative, h.worst_step
+        );
+    }
+    println!();
+    println!(
+        "damped element tests (Cundall {}, {} steps per path, C = S·E⁻¹), GPa, Voigt 11 22 33 23 13 12:",
+        o.damping, o.damped_steps
+    );
+    for (name, c) in [
+        ("YADE", &v.c_yade),
+        ("anisobond", &v.c_anisobond),
+        ("relaxed", &v.c_relaxed),
+    ] {
+        println!("  {name}:");
+        for i in 0..6 {
+            println!("    {}", gpa_row(c, i));
+        }
+    }
+    println!();
+    println!(
+        "  {:<66} {:>10} {:>10}  result",
+        "check", "measured", "tolerance"
+    );
+    for c in &v.checks {
+        println!(
+            "  {:<66} {:>10.3e} {:>10.1e}  {}",
+            c.name,
+            c.value,
+            c.tolerance,
+            if c.passed { "ok" } else { "FAILED" }
+        );
+    }
+    let t = &v.timings;
+    println!();
+    println!(
+        "time (s): YADE undamped {:.2}, damped {:.2} (stepping {:.2}); anisobond undamped {:.2}, \
+         damped {:.2}; relaxed {:.2}",
+        t.yade_undamped,
+        t.yade_damped,
+        t.yade_damped_stepping,
+        t.anisobond_undamped,
+        t.anisobond_damped,
+        t.relaxed
+    );
+}

@@ -1,0 +1,8 @@
+//! Validation of anisobond against other DEM codes: the same problem (packing, bonds,
+//! per-bond springs, time step, masses, damping, strain path) run in the other code and in
+//! anisobond's own solvers, with the differences checked against tolerances.
+//!
+//! - [`yade`]: YADE 2023.02a against the reference integrator ([`crate::dem`]) and the
+//!   relaxed solver ([`crate::homogenize::relaxed`]) — `anisobond validate yade`.
+
+pub mod yade;

@@ -1,0 +1,978 @@
+//! `anisobond validate yade`: run one bonded periodic packing in YADE 2023.02a and in
+//! anisobond, and check that they compute the same thing.
+//!
+//! Both codes get the same inputs bit for bit: the packing and bond table are written to
+//! `DIR/yade/` (shortest round-trip numbers) and anisobond's side is built from those files
+//! read back, the time step is fixed by anisobond and passed to YADE (`--dt`), the masses
+//! come from the same density (m = ρ(4/3)πR³, I = (2/5)mR², YADE's `utils.sphere`), and
+//! the strain paths are the ones of `anisobond_yade.run_path`: the velocity gradient
+//! strain/dt for one step (Truszkowska 2018 Eqs. 17–22, uniaxial e_aa or pure shear γ_ab,
+//! extension positive), zero afterwards, with YADE's one-step-late `velGrad`.
+//!
+//! Three comparisons:
+//! 1. **undamped** (λ = 0): the stress histories (symmetric Love stress, Pa) step by step;
+//!    the difference, relative to the largest |stress| of the path's run, must stay below
+//!    [`Tolerances::history`] (default 1e-6) — law (a) is YADE's law, so only rounding
+//!    separates them;
+//! 2. **damped quasi-static** (Cundall λ = 0.4, the strain in one step, all six paths):
+//!    the 6×6 tensors C = S·E⁻¹ of the final stress and strain columns (as
+//!    `anisobond_yade.element_tests` computes it) from YADE and from the reference
+//!    integrator must agree within [`Tolerances::tensor`] (default 0.1 %);
+//! 3. both within [`Tolerances::relaxed`] (default 0.1 %) of the exact quasi-static
+//!    tensor of the relaxed solver with YADE's mid-gap contact point ([`LeverArm::MidGap`]).
+//!
+//! Tensor differences are max_ab |A − B| / max_ab |B| ([`relative_difference`]).
+
+use crate::bonds::{table, BondSet, BondStiffness};
+use crate::dem::element::to_voigt;
+use crate::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use crate::export::yade::{
+    self as export, files, read_yade_history, read_yade_tensor, run_yade_script, HistoryRow,
+    YadeRunOptions, PATH_LABELS,
+};
+use crate::homogenize::network::LeverArm;
+use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use crate::model::Model;
+use crate::packing::{self, Packing};
+use crate::tensor::compare::relative_difference;
+use crate::tensor::{Stiffness6, VOIGT_PAIRS};
+use crate::{Error, Mat3, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Output files of a validation directory.
+pub mod outputs {
+    /// The YADE export (packing, bond table, model, module, run.py, YADE's own outputs).
+    pub const YADE_DIR: &str = "yade";
+    /// Undamped stress histories, YADE and anisobond side by side.
+    pub const UNDAMPED_CSV: &str = "undamped-history.csv";
+    /// Damped stress histories, YADE and anisobond side by side.
+    pub const DAMPED_CSV: &str = "damped-history.csv";
+    /// Summary: settings, tensors, differences, checks, timings.
+    pub const SUMMARY_JSON: &str = "validation.json";
+    /// YADE's undamped history (inside [`YADE_DIR`]).
+    pub const YADE_UNDAMPED_HISTORY: &str = "undamped-yade-history.csv";
+    /// YADE's undamped tensor report (inside [`YADE_DIR`]; `C` is null unless six paths).
+    pub const YADE_UNDAMPED_TENSOR: &str = "undamped-yade-tensor.json";
+    /// YADE's damped history (inside [`YADE_DIR`]).
+    pub const YADE_DAMPED_HISTORY: &str = "damped-yade-history.csv";
+    /// YADE's damped tensor report (inside [`YADE_DIR`]).
+    pub const YADE_DAMPED_TENSOR: &str = "damped-yade-tensor.json";
+}
+
+/// Agreement required by each comparison (relative).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerances {
+    /// Undamped stress histories: max |σ_anisobond − σ_YADE| / max |σ_YADE| per path.
+    pub history: f64,
+    /// Damped tensors, YADE against the reference integrator.
+    pub tensor: f64,
+    /// Damped tensors (each of YADE and the integrator) against the relaxed solver.
+    pub relaxed: f64,
+}
+
+impl Default for Tolerances {
+    /// 1e-6 for the undamped histories, 0.1 % for the tensors.
+    fn default() -> Self {
+        Tolerances {
+            history: 1e-6,
+            tensor: 1e-3,
+            relaxed: 1e-3,
+        }
+    }
+}
+
+/// Settings of a YADE validation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct YadeValidationOptions {
+    /// Strain of every path, applied in one step (engineering; extension positive).
+    pub strain: f64,
+    /// Particle density (kg/m³), the same in both codes.
+    pub density: f64,
+    /// Time step (s) of both codes; `None`: `safety` × anisobond's critical estimate.
+    pub time_step: Option<f64>,
+    /// Fraction of the critical time step used when `time_step` is `None`.
+    pub safety: f64,
+    /// Steps of the undamped runs (the strain step included).
+    pub undamped_steps: usize,
+    /// Paths of the undamped comparison (Voigt indices 0–5).
+    pub undamped_paths: Vec<usize>,
+    /// Steps of every damped path (the strain step included).
+    pub damped_steps: usize,
+    /// Cundall local damping λ of the damped runs.
+    pub damping: f64,
+    /// Relative CG residual of the relaxed solver (its tensor error is about the square).
+    pub cg_tolerance: f64,
+    /// Required agreement.
+    pub tolerances: Tolerances,
+}
+
+impl Default for YadeValidationOptions {
+    /// Strain 1e-5, density 2600 kg/m³, dt = 0.8 dt_c, 1,000 undamped steps on paths 11
+    /// and 12, 200 damped steps with λ = 0.4 on all six paths, CG tolerance 1e-8.
+    fn default() -> Self {
+        YadeValidationOptions {
+            strain: 1e-5,
+            density: 2600.0,
+            time_step: None,
+            safety: 0.8,
+            undamped_steps: 1000,
+            undamped_paths: vec![0, 5],
+            damped_steps: 200,
+            damping: 0.4,
+            cg_tolerance: 1e-8,
+            tolerances: Tolerances::default(),
+        }
+    }
+}
+
+impl YadeValidationOptions {
+    /// Check every value; the error names the option and what is admissible.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Invalid(format!("validate yade: {m}")));
+        let run = YadeRunOptions {
+            strain: self.strain,
+            steps: self.undamped_steps.max(self.damped_steps),
+            damping: self.damping,
+            density: self.density,
+            time_step: self.time_step,
+            safety: self.safety,
+            paths: self.undamped_paths.clone(),
+        };
+        run.validate()?;
+        if self.undamped_steps < 2 || self.damped_steps < 2 {
+            return bad(format!(
+                "undamped and damped steps must be at least 2 (the strain shows in the stress \
+                 from step 2 on), got {} and {}",
+                self.undamped_steps, self.damped_steps
+            ));
+        }
+        if self.damping == 0.0 {
+            return bad("the damped comparison needs damping > 0".into());
+        }
+        if !(self.cg_tolerance.is_finite() && self.cg_tolerance > 0.0 && self.cg_tolerance < 1.0) {
+            return bad(format!(
+                "CG tolerance must be in (0, 1), got {}",
+                self.cg_tolerance
+            ));
+        }
+        let t = &self.tolerances;
+        for (name, v) in [
+            ("history tolerance", t.history),
+            ("tensor tolerance", t.tensor),
+            ("relaxed tolerance", t.relaxed),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} must be finite and ≥ 0, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Step-by-step comparison of one undamped path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HistoryComparison {
+    /// Voigt index of the path.
+    pub path: usize,
+    /// Steps compared (rows present in both histories, step 0 included).
+    pub steps: usize,
+    /// Largest |stress component| of YADE's run of this path (Pa).
+    pub max_stress: f64,
+    /// Largest |σ_anisobond − σ_YADE| over steps and components (Pa).
+    pub max_difference: f64,
+    /// `max_difference / max_stress`.
+    pub relative: f64,
+    /// Step where the largest difference occurs.
+    pub worst_step: usize,
+}
+
+/// One pass/fail line of the validation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Check {
+    /// What was compared.
+    pub name: String,
+    /// Relative difference measured.
+    pub value: f64,
+    /// Largest admissible value.
+    pub tolerance: f64,
+    /// `value ≤ tolerance` (false for NaN).
+    pub passed: bool,
+}
+
+impl Check {
+    fn new(name: String, value: f64, tolerance: f64) -> Check {
+        Check {
+            name,
+            value,
+            tolerance,
+            passed: value <= tolerance,
+        }
+    }
+}
+
+/// Wall-clock times of the parts (s).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// YADE process, undamped runs (start-up and scene build included).
+    pub yade_undamped: f64,
+    /// YADE process, damped six-path element test (start-up and scene build included).
+    pub yade_damped: f64,
+    /// Stepping inside YADE of the damped paths (from its tensor report).
+    pub yade_damped_stepping: f64,
+    /// anisobond's reference integrator, undamped runs.
+    pub anisobond_undamped: f64,
+    /// anisobond's reference integrator, damped paths.
+    pub anisobond_damped: f64,
+    /// Relaxed solver.
+    pub relaxed: f64,
+}
+
+/// Everything a YADE validation measured.
+#[derive(Clone, Debug)]
+pub struct YadeValidation {
+    /// Settings used.
+    pub options: YadeValidationOptions,
+    /// Particles.
+    pub n_particles: usize,
+    /// Bonds.
+    pub n_bonds: usize,
+    /// Time step of both codes (s).
+    pub time_step: f64,
+    /// anisobond's critical time-step estimate (s).
+    pub critical_time_step: f64,
+    /// YADE's version string (from its report).
+    pub yade_version: String,
+    /// Undamped histories: YADE, then anisobond (rows by path and step, step 0 first).
+    pub undamped_yade: Vec<HistoryRow>,
+    /// Undamped histories of anisobond's reference integrator.
+    pub undamped_anisobond: Vec<HistoryRow>,
+    /// One comparison per undamped path.
+    pub undamped: Vec<HistoryComparison>,
+    /// Damped histories of YADE.
+    pub damped_yade: Vec<HistoryRow>,
+    /// Damped histories of the reference integrator.
+    pub damped_anisobond: Vec<HistoryRow>,
+    /// Damped tensor of YADE, C = S·E⁻¹ of the final columns (Pa).
+    pub c_yade: Stiffness6,
+    /// Damped tensor of the reference integrator, same formula (Pa).
+    pub c_anisobond: Stiffness6,
+    /// Relaxed-solver tensor, mid-gap lever arms (Pa).
+    pub c_relaxed: Stiffness6,
+    /// Affine (Voigt) tensor of the same network, for scale (Pa).
+    pub c_affine: Stiffness6,
+    /// Pass/fail lines, in the order: undamped paths, YADE–anisobond, YADE–relaxed,
+    /// anisobond–relaxed.
+    pub checks: Vec<Check>,
+    /// Wall-clock times.
+    pub timings: Timings,
+    /// The YADE export directory.
+    pub yade_dir: PathBuf,
+}
+
+impl YadeValidation {
+    /// True when every check passed.
+    pub fn passed(&self) -> bool {
+        self.checks.iter().all(|c| c.passed)
+    }
+
+    /// The checks that failed.
+    pub fn failures(&self) -> Vec<&Check> {
+        self.checks.iter().filter(|c| !c.passed).collect()
+    }
+}
+
+/// Velocity-gradient increment of path `path` (Voigt 0–5) carrying `strain` in one step,
+/// as `anisobond_yade.velocity_gradient` × dt: uniaxial e_aa = strain, or the symmetric
+/// pure shear with engineering γ_ab = strain (Truszkowska 2018 Eqs. 17–22, extension
+/// positive). Dividing by dt gives the velocity gradient.
+pub fn yade_path_increment(path: usize, strain: f64) -> Mat3 {
+    let (a, b) = VOIGT_PAIRS[path.min(5)];
+    let mut g = Mat3::zeros();
+    if a == b {
+        g[(a, a)] = strain;
+    } else {
+        g[(a, b)] = 0.5 * strain;
+        g[(b, a)] = 0.5 * strain;
+    }
+    g
+}
+
+/// One path as `anisobond_yade.run_path` runs it, on a copy of `initial`: velocity
+/// gradient strain/dt before the first step (YADE's `velGrad`, acting one step late on the
+/// cell), zero after it, `steps` steps with Cundall damping `damping`. Rows after every
+/// step, step 0 (the state before any step) first: cell strain (Voigt, engineering) and
+/// the symmetric Love stress (Pa, tension positive, `utils.getStress()`).
+pub fn run_path_like_yade(
+    initial: &Simulation,
+    path: usize,
+    strain: f64,
+    steps: usize,
+    damping: f64,
+) -> Result<Vec<HistoryRow>> {
+    if path > 5 {
+        return Err(Error::Invalid(format!(
+            "strain path {path}: expected a Voigt index 0–5"
+        )));
+    }
+    let mut sim = initial.clone();
+    sim.set_local_damping(damping)?;
+    let dt = sim.time_step();
+    let row = |sim: &Simulation, step: usize| HistoryRow {
+        path,
+        step,
+        time: sim.time(),
+        strain: to_voigt(&sim.strain(), true),
+        stress: to_voigt(&sim.stress(), false),
+    };
+    let mut rows = Vec::with_capacity(steps + 1);
+    rows.push(row(&sim, 0));
+    // Divide entry by entry as Python does (strain/dt, 0.5*strain/dt), for the same bits.
+    let g = yade_path_increment(path, strain).map(|x| x / dt);
+    sim.set_velocity_gradient(g)?;
+    for k in 1..=steps {
+        sim.step()?;
+        if k == 1 {
+            sim.set_velocity_gradient(Mat3::zeros())?;
+        }
+        rows.push(row(&sim, k));
+    }
+    Ok(rows)
+}
+
+/// C = S·E⁻¹ from the final minus initial stress and strain of each of the six paths (the
+/// formula of `anisobond_yade.element_tests`). `rows` must hold paths 0–5.
+pub fn tensor_from_columns(rows: &[HistoryRow], what: &str) -> Result<Stiffness6> {
+    let mut e = Stiffness6::zeros();
+    let mut s = Stiffness6::zeros();
+    for (p, label) in PATH_LABELS.iter().enumerate() {
+        let mine: Vec<&HistoryRow> = rows.iter().filter(|r| r.path == p).collect();
+        let first = mine.iter().min_by_key(|r| r.step);
+        let last = mine.iter().max_by_key(|r| r.step);
+        let (Some(first), Some(last)) = (first, last) else {
+            return Err(Error::Invalid(format!(
+                "{what}: no history rows for path {label} (all six paths are needed for C)"
+            )));
+        };
+        e.set_column(p, &(last.strain - first.strain));
+        s.set_column(p, &(last.stress - first.stress));
+    }
+    let inv = e.try_inverse().ok_or_else(|| {
+        Error::Invalid(format!(
+            "{what}: the six final strain columns are singular: {e}"
+        ))
+    })?;
+    Ok(s * inv)
+}
+
+/// Compare two histories of the same path step by step (rows matched by step number).
+pub fn compare_histories(
+    path: usize,
+    yade: &[HistoryRow],
+    anisobond: &[HistoryRow],
+) -> Result<HistoryComparison> {
+    let y: Vec<&HistoryRow> = yade.iter().filter(|r| r.path == path).collect();
+    let a: Vec<&HistoryRow> = anisobond.iter().filter(|r| r.path == path).collect();
+    if y.is_empty() || a.is_empty() {
+        return Err(Error::Invalid(format!(
+            "history comparison of path {}: {} YADE rows and {} anisobond rows",
+            PATH_LABELS[path.min(5)],
+            y.len(),
+            a.len()
+        )));
+    }
+    let max_stress = y.iter().map(|r| r.stress.amax()).fold(0.0, f64::max);
+    let mut max_difference: f64 = 0.0;
+    let mut worst_step = 0;
+    let mut steps = 0;
+    for r in &y {
+        let Some(o) = a.iter().find(|o| o.step == r.step) else {
+            continue;
+        };
+        steps += 1;
+        let d = (o.stress - r.stress).amax();
+        if d > max_difference || d.is_nan() {
+            max_difference = d;
+            worst_step = r.step;
+        }
+    }
+    if steps != y.len() || steps != a.len() {
+        return Err(Error::Invalid(format!(
+            "history comparison of path {}: YADE has {} rows, anisobond {}, {} steps in common",
+            PATH_LABELS[path.min(5)],
+            y.len(),
+            a.len(),
+            steps
+        )));
+    }
+    let relative = if max_stress > 0.0 {
+        max_difference / max_stress
+    } else {
+        f64::NAN
+    };
+    Ok(HistoryComparison {
+        path,
+        steps,
+        max_stress,
+        max_difference,
+        relative,
+        worst_step,
+    })
+}
+
+fn run_options(o: &YadeValidationOptions, dt: f64, undamped: bool) -> YadeRunOptions {
+    YadeRunOptions {
+        strain: o.strain,
+        steps: if undamped {
+            o.undamped_steps
+        } else {
+            o.damped_steps
+        },
+        damping: if undamped { 0.0 } else { o.damping },
+        density: o.density,
+        time_step: Some(dt),
+        safety: o.safety,
+        paths: if undamped {
+            o.undamped_paths.clone()
+        } else {
+            (0..6).collect()
+        },
+    }
+}
+
+fn simulation(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &YadeValidationOptions,
+    dt: Option<f64>,
+) -> Result<Simulation> {
+    let law = build_law(LawKind::Yade, packing, bonds, k)?;
+    Simulation::new(
+        packing,
+        bonds,
+        law,
+        &DemOptions {
+            time_step: dt,
+            safety: o.safety,
+            local_damping: 0.0,
+            mass: MassOptions {
+                density: o.density,
+                scaling: 1.0,
+            },
+            ..Default::default()
+        },
+    )
+}
+
+/// What the YADE thread returns: histories, damped tensor report, wall times.
+struct YadeRuns {
+    undamped: Vec<HistoryRow>,
+    damped: Vec<HistoryRow>,
+    tensor: export::YadeTensor,
+    undamped_seconds: f64,
+    damped_seconds: f64,
+}
+
+fn run_yade(
+    script: &Path,
+    dir: &Path,
+    o: &YadeValidationOptions,
+    dt: f64,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<YadeRuns> {
+    let mut args = run_options(o, dt, true).to_args();
+    args.extend([
+        "--history".into(),
+        outputs::YADE_UNDAMPED_HISTORY.into(),
+        "--tensor".into(),
+        outputs::YADE_UNDAMPED_TENSOR.into(),
+    ]);
+    let undamped_out = run_yade_script(script, &args)?;
+    progress(&format!(
+        "YADE: undamped runs done in {:.1} s",
+        undamped_out.wall_seconds
+    ));
+    let mut args = run_options(o, dt, false).to_args();
+    args.extend([
+        "--history".into(),
+        outputs::YADE_DAMPED_HISTORY.into(),
+        "--tensor".into(),
+        outputs::YADE_DAMPED_TENSOR.into(),
+    ]);
+    let damped_out = run_yade_script(script, &args)?;
+    progress(&format!(
+        "YADE: damped element tests done in {:.1} s",
+        damped_out.wall_seconds
+    ));
+    Ok(YadeRuns {
+        undamped: read_yade_history(&dir.join(outputs::YADE_UNDAMPED_HISTORY))?,
+        damped: read_yade_history(&dir.join(outputs::YADE_DAMPED_HISTORY))?,
+        tensor: read_yade_tensor(&dir.join(outputs::YADE_DAMPED_TENSOR))?,
+        undamped_seconds: undamped_out.wall_seconds,
+        damped_seconds: damped_out.wall_seconds,
+    })
+}
+
+/// Check that the files YADE reads give back exactly the data anisobond was given.
+fn check_round_trip(
+    p: &Packing,
+    b: &BondSet,
+    k: &BondStiffness,
+    p2: &Packing,
+    b2: &BondSet,
+    k2: &BondStiffness,
+) -> Result<()> {
+    let same = p.positions == p2.positions
+        && p.radii == p2.radii
+        && p.cell.map(|c| c.lengths) == p2.cell.map(|c| c.lengths)
+        && b.i == b2.i
+        && b.j == b2.j
+        && b.image == b2.image
+        && k.kn == k2.kn
+        && k.ks == k2.ks
+        && k.kr == k2.kr
+        && k.ktw == k2.ktw;
+    if same {
+        Ok(())
+    } else {
+        Err(Error::Invalid(
+            "validate yade: the exported packing or bond table does not read back bit for bit \
+             (positions outside the cell [0, L)?); the two codes would not run the same problem"
+                .into(),
+        ))
+    }
+}
+
+/// Run the validation: export to `dir/yade/`, run YADE there (in a second thread) and
+/// anisobond's reference integrator and relaxed solver here, and compare. `progress`
+/// receives one line per finished part. Errors when YADE is missing or fails, or the
+/// inputs are not a periodic bonded packing; a comparison outside tolerance is not an
+/// error but a failed [`Check`] (see [`YadeValidation::passed`]).
+pub fn validate_yade(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    springs: &BondStiffness,
+    model: Option<&Model>,
+    opts: &YadeValidationOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<YadeValidation> {
+    opts.validate()?;
+    export::check_exportable(packing, bonds, springs)?;
+    if export::find_yade().is_none() {
+        return Err(Error::Invalid(
+            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
+                .into(),
+        ));
+    }
+    // The time step is anisobond's, imposed on YADE.
+    let dt = simulation(packing, bonds, springs, opts, opts.time_step)?.time_step();
+    let yade_dir = dir.join(outputs::YADE_DIR);
+    let exp = export::write_yade_export(
+        &yade_dir,
+        packing,
+        bonds,
+        springs,
+        model,
+        &run_options(opts, dt, false),
+    )?;
+    // anisobond runs what YADE reads.
+    let p2 = packing::io::read_packing(&yade_dir.join(files::PACKING))?;
+    let (b2, k2) = table::read_bond_table(&yade_dir.join(files::BONDS))?;
+    check_round_trip(packing, bonds, springs, &p2, &b2, &k2)?;
+    let initial = simulation(&p2, &b2, &k2, opts, Some(dt))?;
+    let critical_time_step = initial.stability().critical_time_step;
+
+    let (yade, ours) = std::thread::scope(|s| {
+        let yade = s.spawn(|| run_yade(&exp.run_script, &yade_dir, opts, dt, progress));
+        let ours = (|| -> Result<_> {
+            let t = Instant::now();
+            let mut undamped = Vec::new();
+            for &p in &opts.undamped_paths {
+                undamped.extend(run_path_like_yade(
+                    &initial,
+                    p,
+                    opts.strain,
+                    opts.undamped_steps,
+                    0.0,
+                )?);
+            }
+            let t_undamped = t.elapsed().as_secs_f64();
+            progress(&format!(
+                "anisobond: undamped runs done in {t_undamped:.1} s"
+            ));
+            let t = Instant::now();
+            let mut damped = Vec::new();
+            for p in 0..6 {
+                damped.extend(run_path_like_yade(
+                    &initial,
+                    p,
+                    opts.strain,
+                    opts.damped_steps,
+                    opts.damping,
+                )?);
+            }
+            let t_damped = t.elapsed().as_secs_f64();
+            progress(&format!(
+                "anisobond: damped element tests done in {t_damped:.1} s"
+            ));
+            let t = Instant::now();
+            let relaxed = relaxed_tensor(
+                &p2,
+                &b2,
+                &k2,
+                &RelaxedOptions {
+                    lever_arm: LeverArm::MidGap,
+                    tolerance: opts.cg_tolerance,
+                    ..Default::default()
+                },
+            )?;
+            let t_relaxed = t.elapsed().as_secs_f64();
+            progress(&format!(
+                "anisobond: relaxed solve done in {t_relaxed:.1} s ({} CG iterations)",
+                relaxed.iterations
+            ));
+            Ok((undamped, damped, relaxed, [t_undamped, t_damped, t_relaxed]))
+        })();
+        let yade = yade.join().unwrap_or_else(|_| {
+            Err(Error::Invalid(
+                "validate yade: the thread running YADE panicked".into(),
+            ))
+        });
+        (yade, ours)
+    });
+    let yade = yade?;
+    let (undamped_anisobond, damped_anisobond, relaxed, t) = ours?;
+
+    let undamped = opts
+        .undamped_paths
+        .iter()
+        .map(|&p| compare_histories(p, &yade.undamped, &undamped_anisobond))
+        .collect::<Result<Vec<_>>>()?;
+    let c_yade = tensor_from_columns(&yade.damped, "YADE damped history")?;
+    let c_anisobond = tensor_from_columns(&damped_anisobond, "anisobond damped history")?;
+    let tol = opts.tolerances;
+    let mut checks: Vec<Check> = undamped
+        .iter()
+        .map(|h| {
+            Check::new(
+                format!(
+                    "undamped stress history, path {} ({} steps): max |Δσ| / max |σ|",
+                    PATH_LABELS[h.path], opts.undamped_steps
+                ),
+                h.relative,
+                tol.history,
+            )
+        })
+        .collect();
+    checks.push(Check::new(
+        "damped tensor, YADE vs anisobond integrator".into(),
+        relative_difference(&c_anisobond, &c_yade),
+        tol.tensor,
+    ));
+    checks.push(Check::new(
+        "damped tensor, YADE vs relaxed".into(),
+        relative_difference(&c_yade, &relaxed.c),
+        tol.relaxed,
+    ));
+    checks.push(Check::new(
+        "damped tensor, anisobond integrator vs relaxed".into(),
+        relative_difference(&c_anisobond, &relaxed.c),
+        tol.relaxed,
+    ));
+    let yade_version = yade.tensor.json["yade"]["version"]
+        .as_str()
+        .unwrap_or("unknown")
+        .to_string();
+    let stepping: f64 = yade.tensor.path_seconds.iter().map(|p| p.2).sum();
+    Ok(YadeValidation {
+        options: opts.clone(),
+        n_particles: p2.len(),
+        n_bonds: b2.len(),
+        time_step: dt,
+        critical_time_step,
+        yade_version,
+        undamped_yade: yade.undamped,
+        undamped_anisobond,
+        undamped,
+        damped_yade: yade.damped,
+        damped_anisobond,
+        c_yade,
+        c_anisobond,
+        c_relaxed: relaxed.c,
+        c_affine: relaxed.c_affine,
+        checks,
+        timings: Timings {
+            yade_undamped: yade.undamped_seconds,
+            yade_damped: yade.damped_seconds,
+            yade_damped_stepping: stepping,
+            anisobond_undamped: t[0],
+            anisobond_damped: t[1],
+            relaxed: t[2],
+        },
+        yade_dir,
+    })
+}
+
+/// CSV of two histories side by side: `path,step,time_s`, YADE's six stress components,
+/// anisobond's, and the largest absolute difference (Pa). Rows in YADE's order.
+pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# {title}");
+    let _ = writeln!(
+        s,
+        "# units: time_s in s; stresses in Pa (symmetric Love stress, tension positive, \
+         Voigt 11,22,33,23,13,12); e_path = engineering strain of the loaded component"
+    );
+    s.push_str("path,step,time_s,e_path");
+    for who in ["yade", "anisobond"] {
+        for l in PATH_LABELS {
+            let _ = write!(s, ",{who}_s{l}_Pa");
+        }
+    }
+    s.push_str(",max_abs_diff_Pa\n");
+    for r in yade {
+        let o = anisobond
+            .iter()
+            .find(|o| o.path == r.path && o.step == r.step);
+        let _ = write!(
+            s,
+            "{},{},{:e},{:e}",
+            PATH_LABELS[r.path.min(5)],
+            r.step,
+            r.time,
+            r.strain[r.path.min(5)]
+        );
+        for v in r.stress.iter() {
+            let _ = write!(s, ",{v:e}");
+        }
+        match o {
+            Some(o) => {
+                for v in o.stress.iter() {
+                    let _ = write!(s, ",{v:e}");
+                }
+                let _ = writeln!(s, ",{:e}", (o.stress - r.stress).amax());
+            }
+            None => s.push_str(",,,,,,,\n"),
+        }
+    }
+    s
+}
+
+fn matrix_json(c: &Stiffness6) -> serde_json::Value {
+    serde_json::Value::Array(
+        (0..6)
+            .map(|i| serde_json::json!((0..6).map(|j| c[(i, j)]).collect::<Vec<_>>()))
+            .collect(),
+    )
+}
+
+/// The summary JSON: settings, counts, time step, tensors (Pa), differences, checks,
+/// timings, overall `passed`.
+pub fn summary_json(v: &YadeValidation) -> serde_json::Value {
+    let o = &v.options;
+    serde_json::json!({
+        "validation": "yade",
+        "passed": v.passed(),
+        "yade_version": v.yade_version,
+        "n_particles": v.n_particles,
+        "n_bonds": v.n_bonds,
+        "time_step_s": v.time_step,
+        "critical_time_step_s": v.critical_time_step,
+        "settings": {
+            "strain": o.strain,
+            "density_kg_m3": o.density,
+            "undamped_steps": o.undamped_steps,
+            "undamped_paths": o.undamped_paths.iter().map(|&p| PATH_LABELS[p]).collect::<Vec<_>>(),
+            "damped_steps": o.damped_steps,
+            "damping": o.damping,
+            "cg_tolerance": o.cg_tolerance,
+            "law": "yade (Law2_ScGeom6D_CohFrictPhys_CohesionMoment)",
+            "lever_arm": "mid-gap",
+            "tensor_formula": "C = S E^-1 of the final stress/strain columns",
+            "difference": "max_ab |A - B| / max_ab |B|",
+        },
+        "tolerances": {
+            "history": o.tolerances.history,
+            "tensor": o.tolerances.tensor,
+            "relaxed": o.tolerances.relaxed,
+        },
+        "undamped": v.undamped.iter().map(|h| serde_json::json!({
+            "path": PATH_LABELS[h.path],
+            "steps": h.steps,
+            "max_stress_Pa": h.max_stress,
+            "max_difference_Pa": h.max_difference,
+            "relative": h.relative,
+            "worst_step": h.worst_step,
+        })).collect::<Vec<_>>(),
+        "units": "Pa",
+        "C_yade": matrix_json(&v.c_yade),
+        "C_anisobond": matrix_json(&v.c_anisobond),
+        "C_relaxed": matrix_json(&v.c_relaxed),
+        "C_affine": matrix_json(&v.c_affine),
+        "checks": v.checks.iter().map(|c| serde_json::json!({
+            "name": c.name,
+            "value": c.value,
+            "tolerance": c.tolerance,
+            "passed": c.passed,
+        })).collect::<Vec<_>>(),
+        "timings_s": {
+            "yade_undamped_process": v.timings.yade_undamped,
+            "yade_damped_process": v.timings.yade_damped,
+            "yade_damped_stepping": v.timings.yade_damped_stepping,
+            "anisobond_undamped": v.timings.anisobond_undamped,
+            "anisobond_damped": v.timings.anisobond_damped,
+            "relaxed": v.timings.relaxed,
+        },
+    })
+}
+
+/// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the
+/// paths written.
+pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let undamped = dir.join(outputs::UNDAMPED_CSV);
+    crate::io::write_string_atomic(
+        &undamped,
+        &side_by_side_csv(
+            &format!(
+                "undamped (damping 0), strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
+                v.options.strain, v.time_step, v.n_particles, v.n_bonds
+            ),
+            &v.undamped_yade,
+            &v.undamped_anisobond,
+        ),
+    )?;
+    let damped = dir.join(outputs::DAMPED_CSV);
+    crate::io::write_string_atomic(
+        &damped,
+        &side_by_side_csv(
+            &format!(
+                "damped (Cundall {}), strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
+                v.options.damping, v.options.strain, v.time_step, v.n_particles, v.n_bonds
+            ),
+            &v.damped_yade,
+            &v.damped_anisobond,
+        ),
+    )?;
+    let summary = dir.join(outputs::SUMMARY_JSON);
+    let text = serde_json::to_string_pretty(&summary_json(v))
+        .map_err(|e| Error::Invalid(format!("summary JSON: {e}")))?;
+    crate::io::write_string_atomic(&summary, &(text + "\n"))?;
+    Ok(vec![undamped, damped, summary])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tensor::Voigt6;
+
+    fn row(path: usize, step: usize, strain: f64, stress: [f64; 6]) -> HistoryRow {
+        let mut e = Voigt6::zeros();
+        e[path] = strain;
+        HistoryRow {
+            path,
+            step,
+            time: step as f64,
+            strain: e,
+            stress: Voigt6::from_row_slice(&stress),
+        }
+    }
+
+    #[test]
+    fn path_increments_are_yade_s() {
+        let g = yade_path_increment(0, 2e-5);
+        assert_eq!(g[(0, 0)], 2e-5);
+        assert_eq!(g.abs().sum(), 2e-5);
+        let g = yade_path_increment(4, 2e-5); // 13
+        assert_eq!((g[(0, 2)], g[(2, 0)]), (1e-5, 1e-5));
+        assert_eq!(to_voigt(&g, true)[4], 2e-5);
+        assert_eq!(g.abs().sum(), 2e-5);
+    }
+
+    #[test]
+    fn columns_give_a_known_tensor() {
+        // Isotropic-like C with λ = 1, μ = 2 (Pa): columns are C·e_p·ε.
+        let mut c = Stiffness6::zeros();
+        for a in 0..3 {
+            for b in 0..3 {
+                c[(a, b)] = if a == b { 5.0 } else { 1.0 };
+            }
+            c[(a + 3, a + 3)] = 2.0;
+        }
+        let eps = 1e-5;
+        let mut rows = Vec::new();
+        for p in 0..6 {
+            rows.push(row(p, 0, 0.0, [0.0; 6]));
+            let s: Vec<f64> = (0..6).map(|a| c[(a, p)] * eps).collect();
+            rows.push(row(p, 7, eps, s.try_into().unwrap()));
+        }
+        let got = tensor_from_columns(&rows, "test").unwrap();
+        assert!(relative_difference(&got, &c) < 1e-12, "{got}");
+        rows.retain(|r| r.path != 3);
+        assert!(tensor_from_columns(&rows, "test")
+            .unwrap_err()
+            .to_string()
+            .contains("path 23"));
+    }
+
+    #[test]
+    fn history_difference_is_relative_to_the_largest_stress() {
+        let y = vec![
+            row(0, 0, 0.0, [0.0; 6]),
+            row(0, 1, 1.0, [100.0, -400.0, 0.0, 0.0, 0.0, 0.0]),
+        ];
+        let a = vec![
+            row(0, 0, 0.0, [0.0; 6]),
+            row(0, 1, 1.0, [100.0, -398.0, 0.0, 0.0, 0.0, 1.0]),
+        ];
+        let h = compare_histories(0, &y, &a).unwrap();
+        assert_eq!(h.max_stress, 400.0);
+        assert_eq!(h.max_difference, 2.0);
+        assert_eq!(h.relative, 2.0 / 400.0);
+        assert_eq!(h.worst_step, 1);
+        assert!(compare_histories(0, &y, &a[..1]).is_err());
+        assert!(compare_histories(3, &y, &a).is_err());
+    }
+
+    #[test]
+    fn checks_fail_on_nan_and_excess() {
+        assert!(Check::new("x".into(), 1e-7, 1e-6).passed);
+        assert!(!Check::new("x".into(), 2e-6, 1e-6).passed);
+        assert!(!Check::new("x".into(), f64::NAN, 1e-6).passed);
+    }
+
+    #[test]
+    fn options_are_validated() {
+        assert!(YadeValidationOptions::default().validate().is_ok());
+        for o in [
+            YadeValidationOptions {
+                damping: 0.0,
+                ..Default::default()
+            },
+            YadeValidationOptions {
+                undamped_steps: 1,
+                ..Default::default()
+            },
+            YadeValidationOptions {
+                undamped_paths: vec![7],
+                ..Default::default()
+            },
+            YadeValidationOptions {
+                tolerances: Tolerances {
+                    history: f64::NAN,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            YadeValidationOptions {
+                cg_tolerance: 0.0,
+                ..Default::default()
+            },
+        ] {
+            assert!(o.validate().is_err(), "{o:?} accepted");
+        }
+    }
+}
