@@ -314,12 +314,25 @@ impl RelaxOutcome {
 /// unit masses and stiffness, Verlet lists rebuilt when a sphere has moved half the skin.
 /// `on_check(iterations, largest overlap)` is called at the start and every 25 iterations.
 /// Positions are wrapped into the cell on return.
+///
+/// The loop runs on a rayon worker thread, so that the many small parallel loops of one
+/// iteration do not each pay the cost of entering the pool (large for small packings).
 pub(crate) fn fire_relax(
     x: &mut [Vec3],
     radii: &[f64],
     side: f64,
     target: &RelaxTarget,
-    on_check: &mut dyn FnMut(usize, f64),
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
+) -> Result<RelaxOutcome> {
+    rayon::scope(|_| fire_relax_in_pool(x, radii, side, target, on_check))
+}
+
+fn fire_relax_in_pool(
+    x: &mut [Vec3],
+    radii: &[f64],
+    side: f64,
+    target: &RelaxTarget,
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
     let n = x.len();
     let r_max = radii.iter().copied().fold(0.0, f64::max);

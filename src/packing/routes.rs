@@ -42,6 +42,10 @@ pub const KUMAR_2016_WEAK_JAMMING_SOLID_FRACTION: f64 = 0.5;
 /// Final solid fraction of Kumar 2016's samples, D = 0.65 (Sec. 3, Table 1).
 pub const KUMAR_2016_SOLID_FRACTION: f64 = 0.65;
 
+/// Initial guess of dP/dφ near the jamming point of harmonic spheres (P in units of Σ_N);
+/// refined by secants on the measured pressures.
+const INITIAL_PRESSURE_SLOPE: f64 = 0.15;
+
 /// Largest gas solid fraction accepted: random sequential addition saturates near 0.38.
 pub const MAX_GAS_SOLID_FRACTION: f64 = 0.35;
 
@@ -113,7 +117,7 @@ impl Default for RouteOptions {
             gas_solid_fraction: KUMAR_2016_GAS_SOLID_FRACTION,
             weak_jamming_solid_fraction: KUMAR_2016_WEAK_JAMMING_SOLID_FRACTION,
             compression_step: 0.01,
-            jamming_pressure: 1.0e-5,
+            jamming_pressure: 1.0e-4,
             max_iterations: 1_000_000,
         }
     }
@@ -182,15 +186,13 @@ fn check_options(o: &RouteOptions) -> Result<()> {
             "weak-jamming solid fraction must be in [gas solid fraction {gas}, 0.6], got {weak}"
         ));
     }
-    if !o.compression_step.is_finite() || o.compression_step <= 0.0 || o.compression_step > 0.1
-    {
+    if !o.compression_step.is_finite() || o.compression_step <= 0.0 || o.compression_step > 0.1 {
         return bad(format!(
             "compression step must be in (0, 0.1], got {}",
             o.compression_step
         ));
     }
-    if !o.jamming_pressure.is_finite() || o.jamming_pressure <= 0.0 || o.jamming_pressure > 1e-2
-    {
+    if !o.jamming_pressure.is_finite() || o.jamming_pressure <= 0.0 || o.jamming_pressure > 1e-2 {
         return bad(format!(
             "jamming pressure P/Σ_N must be in (0, 1e-2], got {}",
             o.jamming_pressure
@@ -287,9 +289,8 @@ fn scale_affinely(x: &mut [Vec3], side: &mut f64, s: f64) {
 fn contact_statistics(x: &[Vec3], radii: &[f64], side: f64) -> Result<(f64, usize)> {
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
     let r_max = radii.iter().copied().fold(0.0, f64::max);
-    let pairs = super::neighbours::pairs_in(x, radii, Some(&cell), 2.0 * r_max, |ri, rj, d| {
-        d <= ri + rj
-    })?;
+    let pairs =
+        super::neighbours::pairs_in(x, radii, Some(&cell), 2.0 * r_max, |ri, rj, d| d <= ri + rj)?;
     let mut degree = vec![0u32; x.len()];
     for p in &pairs {
         degree[p.i as usize] += 1;
@@ -333,10 +334,10 @@ pub fn prepare(
     let mut pressure = 0.0;
     let max_iterations = opts.max_iterations;
     let relax = |x: &mut Vec<Vec3>,
-                     side: f64,
-                     target: RelaxTarget,
-                     relaxations: &mut usize,
-                     iterations: &mut usize|
+                 side: f64,
+                 target: RelaxTarget,
+                 relaxations: &mut usize,
+                 iterations: &mut usize|
      -> Result<RelaxOutcome> {
         let out = fire_relax(x, &radii, side, &target, &mut |_, _| {})?;
         *relaxations += 1;
@@ -352,15 +353,16 @@ pub fn prepare(
         Ok(out)
     };
     // Overlap-free target of the compression steps (residual overlaps ≪ any bonding
-    // window), and of the jamming search (≪ the overlaps ~3P of a jammed state).
+    // window), and of the jamming search (≪ the overlaps of a jammed state at pressure P:
+    // mean ≈ 3P, largest ≈ 15P).
     let free_target = RelaxTarget {
         max_overlap: 1e-6,
         force_balance: None,
         max_iterations,
     };
     let jam_target = RelaxTarget {
-        max_overlap: 1e-2 * opts.jamming_pressure,
-        force_balance: Some(1e-4),
+        max_overlap: 0.1 * opts.jamming_pressure,
+        force_balance: Some(1e-3),
         max_iterations,
     };
 
@@ -378,49 +380,64 @@ pub fn prepare(
             let s = new_side / side;
             scale_affinely(&mut x, &mut side, s);
             side = new_side;
-            relax(
-                &mut x,
-                side,
-                free_target,
-                &mut relaxations,
-                &mut iterations,
-            )?;
+            relax(&mut x, side, free_target, &mut relaxations, &mut iterations)?;
             phi = next;
             let done = (phi / phi_start).ln() / (stop / phi_start).ln();
             progress(0.02 + 0.5 * done.clamp(0.0, 1.0));
         }
         if opts.route == PreparationRoute::Jammed {
-            // Continue until the minimised energy stays positive (bisection on the step).
-            let mut step = opts.compression_step;
-            let mut halvings = 0u32;
+            // Compress in steps until the minimised energy stays positive (the first jammed
+            // state), then decompress from there along P ≈ c·(φ − φ_J) (secant on the
+            // measured pressures) until a jammed state with P ≤ `jamming_pressure` is found.
+            // Approaching the jamming point from above avoids the slow relaxation of
+            // unjammed states just below it; an unjammed result narrows a bisection bracket.
+            let target_pressure = 0.5 * opts.jamming_pressure;
+            let mut unjammed_below = phi;
+            let mut jammed_above: Option<(f64, f64)> = None; // (φ, P)
+            let mut slope = INITIAL_PRESSURE_SLOPE;
+            let mut steps = 0u32;
             loop {
-                let saved = x.clone();
-                let saved_side = side;
-                let next = phi * (1.0 + step);
+                steps += 1;
+                if steps > 200 {
+                    return Err(Error::Invalid(format!(
+                        "packing preparation: no jammed state with pressure ≤ {:e} found \
+                         between solid fractions {unjammed_below:.6} and {phi:.6}",
+                        opts.jamming_pressure
+                    )));
+                }
+                let next = match jammed_above {
+                    None => phi * (1.0 + opts.compression_step),
+                    Some((phi_j, p_j)) => {
+                        let guess = phi_j - (p_j - target_pressure) / slope;
+                        // Stay inside the bracket (unjammed below, jammed above).
+                        if guess > unjammed_below && guess < phi_j {
+                            guess
+                        } else {
+                            0.5 * (unjammed_below + phi_j)
+                        }
+                    }
+                };
                 let new_side = side_of(next);
                 let s = new_side / side;
                 scale_affinely(&mut x, &mut side, s);
                 side = new_side;
                 let out = relax(&mut x, side, jam_target, &mut relaxations, &mut iterations)?;
+                phi = next;
                 if out.overlap_free {
-                    phi = next;
-                } else if out.pressure <= opts.jamming_pressure {
-                    pressure = out.pressure;
-                    break;
+                    unjammed_below = phi;
                 } else {
-                    x = saved;
-                    side = saved_side;
-                    step *= 0.5;
-                    halvings += 1;
-                    if step < 1e-12 {
-                        return Err(Error::Invalid(format!(
-                            "packing preparation: no jammed state with pressure ≤ {:e} found \
-                             near solid fraction {phi:.6} (step below 1e-12)",
-                            opts.jamming_pressure
-                        )));
+                    if out.pressure <= opts.jamming_pressure {
+                        pressure = out.pressure;
+                        break;
                     }
-                    progress(0.52 + 0.45 * (1.0 - 0.8f64.powi(halvings as i32)));
+                    if let Some((phi_j, p_j)) = jammed_above {
+                        if phi_j > phi && p_j > out.pressure {
+                            slope = ((p_j - out.pressure) / (phi_j - phi)).clamp(0.01, 10.0);
+                        }
+                    }
+                    jammed_above = Some((phi, out.pressure));
                 }
+                progress(0.52 + 0.45 * (1.0 - 0.7f64.powi(steps as i32)));
             }
         }
     }
