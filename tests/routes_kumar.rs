@@ -108,8 +108,11 @@ fn table_1_coordination_per_route_and_interaction_range() {
         table.push(zs);
     }
     // Jamming extent orders the coordination at every κ (Kumar Sec. 3).
-    for c in 0..4 {
-        assert!(table[0][c] < table[1][c] && table[1][c] < table[2][c]);
+    for ((u, w), j) in table[0].iter().zip(&table[1]).zip(&table[2]) {
+        assert!(
+            u < w && w < j,
+            "Z not ordered by jamming extent: {u} {w} {j}"
+        );
     }
 }
 
