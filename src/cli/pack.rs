@@ -202,15 +202,18 @@ pub fn run(a: PackArgs) -> Result<()> {
             };
             let (p, rep) = prepare(&opts, &progress)?;
             let mut d = format!(
-                "solid fraction before the affine step {:.4} (contacts per particle there \
-                 {:.3}, {} with < 4 contacts",
-                rep.compressed_solid_fraction, rep.compressed_coordination, rep.rattlers
+                "solid fraction before the affine step {:.4}",
+                rep.compressed_solid_fraction
             );
             if route == PreparationRoute::Jammed {
-                d += &format!(", pressure {:.1e} Σ_N", rep.pressure);
+                d += &format!(
+                    " (jammed: {:.3} contacts per particle, {} with < 4 contacts, pressure \
+                     {:.1e} Σ_N)",
+                    rep.compressed_coordination, rep.rattlers, rep.pressure
+                );
             }
             d += &format!(
-                "), affine scale {:.5}; {} minimisations, {} FIRE iterations",
+                ", affine scale {:.5}; {} minimisations, {} FIRE iterations",
                 rep.affine_scale, rep.relaxations, rep.iterations
             );
             (p, d)
