@@ -7,6 +7,7 @@ mod domain;
 mod export;
 mod export_liggghts;
 mod output;
+mod pack;
 mod plot;
 pub mod run;
 mod validate;
@@ -40,8 +41,10 @@ enum Command {
     /// cubic Zener>1 stiffness of Truszkowska 2018 and print its stiffness tensor by every
     /// available method beside the paper's values; write the files into DIR.
     Demo(demo::DemoArgs),
-    /// Generate a seeded periodic random packing (SPEC packing text: `x y z r` in m).
-    Pack(PackArgs),
+    /// Generate a seeded periodic random packing (SPEC packing text: `x y z r` in m): random
+    /// and relaxed (Truszkowska 2018), or Kumar 2016's unjammed / weakly jammed / jammed
+    /// routes; presets for both papers' standard assemblies.
+    Pack(pack::PackArgs),
     /// Bond a packing and write the bond-stiffness table (CSV: i,j,nx,ny,nz,length [m],
     /// radius [m],kn [N/m],ks [N/m],kr [N·m/rad],ktw [N·m/rad],ix,iy,iz).
     Bonds(BondsArgs),
@@ -64,29 +67,6 @@ enum Command {
     /// Validate anisobond against another DEM code (YADE): the same problem in both, the
     /// differences as a table and files; non-zero exit status when out of tolerance.
     Validate(validate::ValidateArgs),
-}
-
-#[derive(clap::Args)]
-struct PackArgs {
-    /// Number of particles.
-    #[arg(long, default_value_t = 2000)]
-    particles: usize,
-    /// Solid fraction φ (volume of spheres / cell volume).
-    #[arg(long, default_value_t = 0.6)]
-    solid_fraction: f64,
-    /// Radius polydispersity h: radii uniform in [R̄(1−h), R̄(1+h)]. Default 1/12: the
-    /// range ΔR = R̄/6 of Truszkowska 2018's standard assembly.
-    #[arg(long, default_value_t = 1.0 / 12.0)]
-    polydispersity: f64,
-    /// Mean radius R̄ (m).
-    #[arg(long, default_value_t = 1e-3)]
-    mean_radius: f64,
-    /// Random seed.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Output packing file (SPEC text).
-    #[arg(short, long)]
-    output: PathBuf,
 }
 
 #[derive(clap::Args)]
@@ -187,7 +167,7 @@ pub fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Demo(a) => demo::run(a),
-        Command::Pack(a) => pack(a),
+        Command::Pack(a) => pack::run(a),
         Command::Bonds(a) => bonds_cmd(a),
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
@@ -197,31 +177,6 @@ pub fn run() -> Result<()> {
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
     }
-}
-
-fn pack(a: PackArgs) -> Result<()> {
-    let opts = packing::generate::GenerateOptions {
-        n_particles: a.particles,
-        solid_fraction: a.solid_fraction,
-        mean_radius: a.mean_radius,
-        polydispersity: packing::generate::Polydispersity::Uniform {
-            half_width: a.polydispersity,
-        },
-        seed: a.seed,
-        ..Default::default()
-    };
-    let p = output::generate_with_progress(&opts)?;
-    packing::io::write_packing(&a.output, &p)?;
-    println!(
-        "wrote {} ({} particles, solid fraction {:.4}, cell {:.4e} × {:.4e} × {:.4e} m)",
-        a.output.display(),
-        p.len(),
-        p.solid_fraction(),
-        p.cell.map_or(0.0, |c| c.lengths.x),
-        p.cell.map_or(0.0, |c| c.lengths.y),
-        p.cell.map_or(0.0, |c| c.lengths.z)
-    );
-    Ok(())
 }
 
 /// A packing, its bonds and their springs under a model.

@@ -164,16 +164,26 @@ fn build_verlet(x: &[Vec3], radii: &[f64], cell: &PeriodicCell, cutoff: f64) -> 
     Ok(VerletList { start, j, shift })
 }
 
-/// Repulsive harmonic forces F_i = Σ_j max(0, R_i + R_j − |l|)·(−l/|l|) (unit stiffness)
-/// and the largest overlap of each particle.
-fn forces(x: &[Vec3], radii: &[f64], list: &VerletList, f: &mut [Vec3], overlap: &mut [f64]) {
+/// Repulsive harmonic forces F_i = Σ_j max(0, R_i + R_j − |l|)·(−l/|l|) (unit stiffness),
+/// the largest overlap of each particle, and per particle (Σ overlap, Σ overlap·|l|,
+/// number of overlapping neighbours) for the force-balance test and the virial pressure.
+fn forces(
+    x: &[Vec3],
+    radii: &[f64],
+    list: &VerletList,
+    f: &mut [Vec3],
+    overlap: &mut [f64],
+    contact: &mut [ContactSums],
+) {
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
+        .zip(contact.par_iter_mut())
         .enumerate()
         .with_min_len(256)
-        .for_each(|(i, (fi, oi))| {
+        .for_each(|(i, ((fi, oi), ci))| {
             let mut sum = Vec3::zeros();
             let mut worst = f64::NEG_INFINITY;
+            let mut sums = ContactSums::default();
             for k in list.start[i]..list.start[i + 1] {
                 let j = list.j[k] as usize;
                 let l = x[j] + list.shift[k] - x[i];
@@ -189,11 +199,23 @@ fn forces(x: &[Vec3], radii: &[f64], list: &VerletList, f: &mut [Vec3], overlap:
                         -Vec3::x()
                     };
                     sum -= n * ov;
+                    sums.force += ov;
+                    sums.virial += ov * dist;
+                    sums.contacts += 1;
                 }
             }
             *fi = sum;
             *oi = worst;
+            *ci = sums;
         });
+}
+
+/// Per-particle contact sums of [`forces`] (each pair counted from both ends).
+#[derive(Clone, Copy, Debug, Default)]
+struct ContactSums {
+    force: f64,
+    virial: f64,
+    contacts: u32,
 }
 
 /// Sum of `g(k)` over `0..n` in fixed chunks, then sequentially: the same bits on any
@@ -214,17 +236,14 @@ fn max_of(v: &[f64]) -> f64 {
         .reduce(|| f64::NEG_INFINITY, f64::max)
 }
 
-/// [`generate`], also returning how the minimisation went.
-pub fn generate_with_report(
-    opts: &GenerateOptions,
-    progress: &(dyn Fn(f64) + Sync),
-) -> Result<(Packing, GenerationReport)> {
-    check_options(opts)?;
-    let n = opts.n_particles;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-
-    // Radii in units of R̄, sample mean exactly 1.
-    let mut radii: Vec<f64> = match opts.polydispersity {
+/// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
+/// the sample mean is exactly 1.
+pub(crate) fn draw_radii(
+    n: usize,
+    polydispersity: Polydispersity,
+    rng: &mut ChaCha8Rng,
+) -> Vec<f64> {
+    let mut radii: Vec<f64> = match polydispersity {
         Polydispersity::Monodisperse => vec![1.0; n],
         Polydispersity::Uniform { half_width } => (0..n)
             .map(|_| 1.0 + half_width * (2.0 * rng.gen::<f64>() - 1.0))
@@ -234,10 +253,89 @@ pub fn generate_with_report(
     if mean != 1.0 {
         radii.iter_mut().for_each(|r| *r /= mean);
     }
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
-    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
-    let side = (solid_volume / opts.solid_fraction).cbrt();
+    radii
+}
 
+/// Renumber the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
+/// neighbours are close in memory; radii were drawn independently of position, so this
+/// does not change the distribution.
+pub(crate) fn spatial_order(x: &[Vec3], radii: &[f64], side: f64) -> (Vec<Vec3>, Vec<f64>) {
+    let grid = ((side / 2.0).floor() as usize).max(1);
+    let cell_key = |p: &Vec3| {
+        let c = |v: f64| ((v / side * grid as f64) as usize).min(grid - 1);
+        (c(p.z) * grid + c(p.y)) * grid + c(p.x)
+    };
+    let mut order: Vec<usize> = (0..x.len()).collect();
+    order.sort_by_key(|&k| (cell_key(&x[k]), k));
+    (
+        order.iter().map(|&k| x[k]).collect(),
+        order.iter().map(|&k| radii[k]).collect(),
+    )
+}
+
+/// When [`fire_relax`] stops (lengths in units of R̄, unit contact stiffness).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RelaxTarget {
+    /// Stop when the largest overlap R_i + R_j − |l| is below this: an overlap-free state.
+    pub max_overlap: f64,
+    /// Also stop when force balanced, max_i |F_i| ≤ this × the mean contact force (a
+    /// jammed state; Kumar 2016 Sec. 3 uses 10⁻³ of the largest contact force).
+    pub force_balance: Option<f64>,
+    /// Iteration limit (not an error here: see [`RelaxOutcome::converged`]).
+    pub max_iterations: usize,
+}
+
+/// How a [`fire_relax`] call ended.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct RelaxOutcome {
+    /// FIRE iterations used.
+    pub iterations: usize,
+    /// Verlet-list rebuilds.
+    pub rebuilds: usize,
+    /// Largest overlap at the end (R̄).
+    pub max_overlap: f64,
+    /// Stopped on the overlap criterion.
+    pub overlap_free: bool,
+    /// Stopped on the force-balance criterion.
+    pub force_balanced: bool,
+    /// Virial pressure P = (1/3V) Σ_contacts f·|l| at the end (unit stiffness, R̄ = 1).
+    pub pressure: f64,
+}
+
+impl RelaxOutcome {
+    /// True when a stopping criterion was met (not the iteration limit).
+    pub fn converged(&self) -> bool {
+        self.overlap_free || self.force_balanced
+    }
+}
+
+/// Minimise the soft-sphere energy E = ½ Σ max(0, R_i + R_j − |l|)² over the positions `x`
+/// (R̄ = 1, cube of side `side`) with FIRE (Bitzek et al. 2006), semi-implicit Euler steps,
+/// unit masses and stiffness, Verlet lists rebuilt when a sphere has moved half the skin.
+/// `on_check(iterations, largest overlap)` is called at the start and every 25 iterations.
+/// Positions are wrapped into the cell on return.
+///
+/// The loop runs on a rayon worker thread, so that the many small parallel loops of one
+/// iteration do not each pay the cost of entering the pool (large for small packings).
+pub(crate) fn fire_relax(
+    x: &mut [Vec3],
+    radii: &[f64],
+    side: f64,
+    target: &RelaxTarget,
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
+) -> Result<RelaxOutcome> {
+    rayon::scope(|_| fire_relax_in_pool(x, radii, side, target, on_check))
+}
+
+fn fire_relax_in_pool(
+    x: &mut [Vec3],
+    radii: &[f64],
+    side: f64,
+    target: &RelaxTarget,
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
+) -> Result<RelaxOutcome> {
+    let n = x.len();
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
     // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
     let skin = 0.3f64.min(0.49 * side - 2.0 * r_max);
     if skin < 0.05 {
@@ -247,28 +345,7 @@ pub fn generate_with_report(
         )));
     }
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
-    let x: Vec<Vec3> = (0..n)
-        .map(|_| {
-            Vec3::new(
-                rng.gen::<f64>() * side,
-                rng.gen::<f64>() * side,
-                rng.gen::<f64>() * side,
-            )
-        })
-        .map(|p| cell.wrap(p).0)
-        .collect();
-    // Number the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
-    // neighbours are close in memory; radii were drawn independently of position, so this
-    // does not change the distribution.
-    let grid = ((side / 2.0).floor() as usize).max(1);
-    let cell_key = |p: &Vec3| {
-        let c = |v: f64| ((v / side * grid as f64) as usize).min(grid - 1);
-        (c(p.z) * grid + c(p.y)) * grid + c(p.x)
-    };
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&k| (cell_key(&x[k]), k));
-    let mut x: Vec<Vec3> = order.iter().map(|&k| x[k]).collect();
-    let radii: Vec<f64> = order.iter().map(|&k| radii[k]).collect();
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
 
     // FIRE (Bitzek et al. 2006) with semi-implicit Euler steps, unit masses and stiffness.
     const DT_START: f64 = 0.02;
@@ -278,29 +355,45 @@ pub fn generate_with_report(
     const F_DEC: f64 = 0.5;
     const ALPHA_START: f64 = 0.1;
     const F_ALPHA: f64 = 0.99;
-    let tol = opts.max_overlap;
+    let tol = target.max_overlap;
     let mut dt = DT_START;
     let mut alpha = ALPHA_START;
     let mut n_positive = 0usize;
     let mut v = vec![Vec3::zeros(); n];
     let mut f = vec![Vec3::zeros(); n];
     let mut overlap = vec![0.0; n];
-    let mut list = build_verlet(&x, &radii, &cell, 2.0 * r_max + skin)?;
+    let mut contact = vec![ContactSums::default(); n];
+    let mut list = build_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
     let mut rebuilds = 1usize;
-    let mut x_ref = x.clone();
-    forces(&x, &radii, &list, &mut f, &mut overlap);
+    let mut x_ref = x.to_vec();
+    forces(x, radii, &list, &mut f, &mut overlap, &mut contact);
     let mut worst = max_of(&overlap);
-    let initial = worst.max(2.0 * tol);
-    let mut done = 0.0f64;
-    progress(0.0);
+    on_check(0, worst);
     let mut iterations = 0usize;
+    let balanced = |f: &[Vec3], contact: &[ContactSums], ratio: f64| -> bool {
+        let n_contacts: u64 = contact.iter().map(|c| c.contacts as u64).sum();
+        if n_contacts == 0 {
+            return false;
+        }
+        let mean_force = ordered_sum(n, |k| contact[k].force) / n_contacts as f64;
+        let f_max = f
+            .par_iter()
+            .with_min_len(4096)
+            .map(|g| g.norm_squared())
+            .reduce(|| 0.0, f64::max)
+            .sqrt();
+        f_max <= ratio * mean_force
+    };
+    let mut force_balanced = false;
     while worst >= tol {
-        if iterations >= opts.max_iterations {
-            return Err(Error::Invalid(format!(
-                "packing generation did not converge in {} iterations: largest overlap \
-                 {worst:.3e} R̄ > {tol:.1e} R̄ (solid fraction {} too close to jamming?)",
-                opts.max_iterations, opts.solid_fraction
-            )));
+        if let Some(ratio) = target.force_balance {
+            if iterations % 10 == 0 && balanced(&f, &contact, ratio) {
+                force_balanced = true;
+                break;
+            }
+        }
+        if iterations >= target.max_iterations {
+            break;
         }
         iterations += 1;
         let power = ordered_sum(n, |k| f[k].dot(&v[k]));
@@ -351,33 +444,106 @@ pub fn generate_with_report(
             .reduce(|| 0.0, f64::max);
         if 2.0 * moved > skin {
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = build_verlet(&x, &radii, &cell, 2.0 * r_max + skin)?;
+            list = build_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
             rebuilds += 1;
-            x_ref.clone_from(&x);
+            x_ref.copy_from_slice(x);
         }
-        forces(&x, &radii, &list, &mut f, &mut overlap);
+        forces(x, radii, &list, &mut f, &mut overlap, &mut contact);
         worst = max_of(&overlap);
-        if iterations % 25 == 0 && worst > 0.0 {
-            let frac = ((initial / worst).ln() / (initial / tol).ln()).clamp(0.0, 0.999);
-            if frac > done {
-                done = frac;
-                progress(done);
-            }
+        if iterations % 25 == 0 {
+            on_check(iterations, worst);
         }
+    }
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    let virial = ordered_sum(n, |k| contact[k].virial);
+    Ok(RelaxOutcome {
+        iterations,
+        rebuilds,
+        max_overlap: worst,
+        overlap_free: worst < tol,
+        force_balanced,
+        pressure: virial / 2.0 / (3.0 * side * side * side),
+    })
+}
+
+/// [`generate`], also returning how the minimisation went.
+pub fn generate_with_report(
+    opts: &GenerateOptions,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<(Packing, GenerationReport)> {
+    check_options(opts)?;
+    let n = opts.n_particles;
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+
+    // Radii in units of R̄, sample mean exactly 1.
+    let radii = draw_radii(n, opts.polydispersity, &mut rng);
+    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
+    let side = (solid_volume / opts.solid_fraction).cbrt();
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    if 0.3f64.min(0.49 * side - 2.0 * r_max) < 0.05 {
+        return Err(Error::Invalid(format!(
+            "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
+             small for a unique minimum image (need more than 4.1·R_max); use more particles"
+        )));
+    }
+    let cell = PeriodicCell::new(Vec3::repeat(side))?;
+    let x: Vec<Vec3> = (0..n)
+        .map(|_| {
+            Vec3::new(
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+            )
+        })
+        .map(|p| cell.wrap(p).0)
+        .collect();
+    let (mut x, radii) = spatial_order(&x, &radii, side);
+
+    let tol = opts.max_overlap;
+    let mut initial = 2.0 * tol;
+    let mut done = 0.0f64;
+    progress(0.0);
+    let outcome = fire_relax(
+        &mut x,
+        &radii,
+        side,
+        &RelaxTarget {
+            max_overlap: tol,
+            force_balance: None,
+            max_iterations: opts.max_iterations,
+        },
+        &mut |iterations, worst| {
+            if iterations == 0 {
+                initial = worst.max(2.0 * tol);
+            } else if worst > 0.0 {
+                let frac = ((initial / worst).ln() / (initial / tol).ln()).clamp(0.0, 0.999);
+                if frac > done {
+                    done = frac;
+                    progress(done);
+                }
+            }
+        },
+    )?;
+    if !outcome.overlap_free {
+        return Err(Error::Invalid(format!(
+            "packing generation did not converge in {} iterations: largest overlap \
+             {:.3e} R̄ > {tol:.1e} R̄ (solid fraction {} too close to jamming?)",
+            opts.max_iterations, outcome.max_overlap, opts.solid_fraction
+        )));
     }
     progress(1.0);
 
     let scale = opts.mean_radius;
-    let positions: Vec<Vec3> = x.iter().map(|p| cell.wrap(*p).0 * scale).collect();
+    let positions: Vec<Vec3> = x.iter().map(|p| *p * scale).collect();
     let radii: Vec<f64> = radii.iter().map(|r| r * scale).collect();
     let cell = PeriodicCell::new(Vec3::repeat(side * scale))?;
     let packing = Packing::new(positions, radii, Some(cell))?;
     Ok((
         packing,
         GenerationReport {
-            max_overlap: worst,
-            iterations,
-            neighbour_rebuilds: rebuilds,
+            max_overlap: outcome.max_overlap,
+            iterations: outcome.iterations,
+            neighbour_rebuilds: outcome.rebuilds,
         },
     ))
 }

@@ -2,11 +2,13 @@
 //!
 //! Submodules: [`io`] reads and writes the SPEC text format, YADE SpherePack text and
 //! LIGGGHTS `atom_style granular` data files; [`neighbours`] finds all pairs within a
-//! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings.
+//! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings;
+//! [`routes`] prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
 
 pub mod generate;
 pub mod io;
 pub mod neighbours;
+pub mod routes;
 
 use crate::{Error, Result, Vec3};
 

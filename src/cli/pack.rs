@@ -1,0 +1,263 @@
+//! `anisobond pack`: seeded periodic random packings, by Truszkowska's random-and-relax
+//! generation or by one of Kumar 2016's three preparation routes, with presets for both
+//! papers' standard assemblies.
+
+use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::BondingRule;
+use anisobond::packing::generate::{
+    generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
+};
+use anisobond::packing::routes::{
+    prepare, PreparationRoute, RouteOptions, KUMAR_2016_HALF_WIDTH, KUMAR_2016_SOLID_FRACTION,
+};
+use anisobond::packing::{self, Packing};
+use anisobond::{Error, Result};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Truszkowska 2018 Sec. 4.1/5.1: the standard assembly's particle count (the MRV).
+pub const TRUSZKOWSKA_STANDARD_PARTICLES: usize = 30_700;
+/// Truszkowska 2018 Sec. 4.1: void fraction 0.40.
+pub const TRUSZKOWSKA_STANDARD_VOID_FRACTION: f64 = 0.40;
+/// Truszkowska 2018 Sec. 5.1: gap cutoff 0.17 R̄ (Eq. 4), mean coordination ≈ 7.7.
+pub const TRUSZKOWSKA_STANDARD_GAP: f64 = 0.17;
+/// Kumar 2016 Sec. 3: 5000 particles per sample.
+pub const KUMAR_STANDARD_PARTICLES: usize = 5000;
+
+/// How the packing is made.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum RouteArg {
+    /// Random positions at the target solid fraction, overlaps removed by energy
+    /// minimisation (Truszkowska 2018 Sec. 4.1; needs φ ≤ 0.64).
+    Random,
+    /// Kumar 2016: random gas at 0.3, affine densification to the target.
+    Unjammed,
+    /// Kumar 2016: frictionless repulsive compression to 0.5, then affine to the target.
+    WeaklyJammed,
+    /// Kumar 2016: compression to the jamming point (≈ 0.636, Z ≈ 6), then affine.
+    Jammed,
+}
+
+/// Named standard assemblies.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum Preset {
+    /// Truszkowska 2018's standard assembly: 30,700 particles, void fraction 0.40, radius
+    /// range ΔR = R̄/6 (half width 1/12), random route. Bond it with gap 0.17 R̄ (Eq. 4):
+    /// mean coordination ≈ 7.7 (the paper's 118,008 bonds).
+    TruszkowskaStandard,
+    /// Kumar 2016's samples: 5000 particles, solid fraction 0.65, R̄ ± 5 %, jammed route
+    /// (choose another with --route). Bond with `factor` κ = 1.000 … 1.075 (Eq. 10).
+    #[value(name = "kumar-2016")]
+    Kumar2016,
+}
+
+#[derive(clap::Args)]
+pub struct PackArgs {
+    /// Start from a named standard assembly; the other options override its values.
+    #[arg(long, value_enum)]
+    preset: Option<Preset>,
+    /// Preparation route [default: random].
+    #[arg(long, value_enum)]
+    route: Option<RouteArg>,
+    /// Number of particles [default: 2000, or the preset's].
+    #[arg(long)]
+    particles: Option<usize>,
+    /// Solid fraction φ (volume of spheres / cell volume) [default: 0.6, or the preset's].
+    #[arg(long, conflicts_with = "void_fraction")]
+    solid_fraction: Option<f64>,
+    /// Void fraction 1 − φ, as Truszkowska 2018 states it (alternative to
+    /// --solid-fraction).
+    #[arg(long)]
+    void_fraction: Option<f64>,
+    /// Radius polydispersity h: radii uniform in [R̄(1−h), R̄(1+h)] [default: 1/12, the
+    /// range ΔR = R̄/6 of Truszkowska 2018; Kumar's preset: 0.05].
+    #[arg(long)]
+    polydispersity: Option<f64>,
+    /// Mean radius R̄ (m).
+    #[arg(long, default_value_t = 1e-3)]
+    mean_radius: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Do not draw the progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Output packing file (SPEC text `x y z r` in m).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+/// The options of `pack` after applying the preset and the defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Resolved {
+    pub route: RouteArg,
+    pub particles: usize,
+    pub solid_fraction: f64,
+    pub half_width: f64,
+}
+
+/// Apply preset and defaults; explicit options win.
+pub fn resolve(a: &PackArgs) -> Result<Resolved> {
+    let (route, particles, phi, h) = match a.preset {
+        None => (RouteArg::Random, 2000, 0.6, TRUSZKOWSKA_2018_HALF_WIDTH),
+        Some(Preset::TruszkowskaStandard) => (
+            RouteArg::Random,
+            TRUSZKOWSKA_STANDARD_PARTICLES,
+            1.0 - TRUSZKOWSKA_STANDARD_VOID_FRACTION,
+            TRUSZKOWSKA_2018_HALF_WIDTH,
+        ),
+        Some(Preset::Kumar2016) => (
+            RouteArg::Jammed,
+            KUMAR_STANDARD_PARTICLES,
+            KUMAR_2016_SOLID_FRACTION,
+            KUMAR_2016_HALF_WIDTH,
+        ),
+    };
+    let solid_fraction = match (a.solid_fraction, a.void_fraction) {
+        (Some(s), _) => s,
+        (None, Some(v)) => {
+            if !v.is_finite() || v <= 0.0 || v >= 1.0 {
+                return Err(Error::Invalid(format!(
+                    "--void-fraction must be in (0, 1), got {v}"
+                )));
+            }
+            1.0 - v
+        }
+        (None, None) => phi,
+    };
+    Ok(Resolved {
+        route: a.route.unwrap_or(route),
+        particles: a.particles.unwrap_or(particles),
+        solid_fraction,
+        half_width: a.polydispersity.unwrap_or(h),
+    })
+}
+
+fn polydispersity(h: f64) -> Polydispersity {
+    if h == 0.0 {
+        Polydispersity::Monodisperse
+    } else {
+        Polydispersity::Uniform { half_width: h }
+    }
+}
+
+/// Run `pack`.
+pub fn run(a: PackArgs) -> Result<()> {
+    let r = resolve(&a)?;
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1000)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "packing {msg} [{bar:40}] {percent:>3}% {elapsed_precise} (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let route_name = match r.route {
+        RouteArg::Random => "random",
+        RouteArg::Unjammed => "unjammed",
+        RouteArg::WeaklyJammed => "weakly-jammed",
+        RouteArg::Jammed => "jammed",
+    };
+    bar.set_message(format!("{} × {route_name}", r.particles));
+    let progress = |f: f64| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
+    let started = Instant::now();
+    let (p, details): (Packing, String) = match r.route {
+        RouteArg::Random => {
+            let opts = GenerateOptions {
+                n_particles: r.particles,
+                solid_fraction: r.solid_fraction,
+                mean_radius: a.mean_radius,
+                polydispersity: polydispersity(r.half_width),
+                seed: a.seed,
+                ..Default::default()
+            };
+            let (p, rep) = generate_with_report(&opts, &progress)?;
+            (
+                p,
+                format!(
+                    "{} FIRE iterations, largest overlap {:.1e} R̄",
+                    rep.iterations, rep.max_overlap
+                ),
+            )
+        }
+        route => {
+            let route = match route {
+                RouteArg::Unjammed => PreparationRoute::Unjammed,
+                RouteArg::WeaklyJammed => PreparationRoute::WeaklyJammed,
+                _ => PreparationRoute::Jammed,
+            };
+            let opts = RouteOptions {
+                route,
+                n_particles: r.particles,
+                solid_fraction: r.solid_fraction,
+                mean_radius: a.mean_radius,
+                polydispersity: polydispersity(r.half_width),
+                seed: a.seed,
+                ..Default::default()
+            };
+            let (p, rep) = prepare(&opts, &progress)?;
+            let mut d = format!(
+                "solid fraction before the affine step {:.4}",
+                rep.compressed_solid_fraction
+            );
+            if route == PreparationRoute::Jammed {
+                d += &format!(
+                    " (jammed: {:.3} contacts per particle, {} with < 4 contacts, pressure \
+                     {:.1e} Σ_N)",
+                    rep.compressed_coordination, rep.rattlers, rep.pressure
+                );
+            }
+            d += &format!(
+                ", affine scale {:.5}; {} minimisations, {} FIRE iterations",
+                rep.affine_scale, rep.relaxations, rep.iterations
+            );
+            (p, d)
+        }
+    };
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    packing::io::write_packing(&a.output, &p)?;
+    let l = p.cell.map(|c| c.lengths).unwrap_or_default();
+    println!(
+        "wrote {} ({} particles, solid fraction {:.4} = void fraction {:.4}, cell {:.4e} × \
+         {:.4e} × {:.4e} m = {:.2} R̄; {route_name} route in {seconds:.1} s)",
+        a.output.display(),
+        p.len(),
+        p.solid_fraction(),
+        1.0 - p.solid_fraction(),
+        l.x,
+        l.y,
+        l.z,
+        l.x / p.mean_radius()
+    );
+    println!("  {details}");
+    if a.preset == Some(Preset::TruszkowskaStandard) {
+        let bonds = build_bonds(&p, BondingRule::Gap(TRUSZKOWSKA_STANDARD_GAP))?;
+        println!(
+            "  bonding with the paper's gap cutoff {TRUSZKOWSKA_STANDARD_GAP} R̄ (model file: \
+             [bonding] rule = \"gap\", value = {TRUSZKOWSKA_STANDARD_GAP}) gives {} bonds, \
+             coordination Z = {:.3} (Truszkowska 2018: 118,008 bonds, Z = 7.7)",
+            bonds.len(),
+            bonds.coordination(p.len())
+        );
+    }
+    if a.preset == Some(Preset::Kumar2016) {
+        let z: Vec<String> = [1.0, 1.025, 1.05, 1.075]
+            .iter()
+            .map(|&k| {
+                build_bonds(&p, BondingRule::Factor(k))
+                    .map(|b| format!("{k:.3}: {:.3}", b.coordination(p.len())))
+            })
+            .collect::<Result<_>>()?;
+        println!(
+            "  bonds per particle by interaction range κ ([bonding] rule = \"factor\"): {}",
+            z.join(", ")
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,492 @@
+//! Kumar 2016's three packing preparation routes (Sec. 3), seeded and deterministic.
+//!
+//! All three start from the same *gas*: spheres placed one after the other at random
+//! positions, each rejected and redrawn while it would touch one already placed (random
+//! sequential addition), up to the gas solid fraction D₀ = 0.3. Then:
+//!
+//! - [`PreparationRoute::Unjammed`]: an affine (isotropic) densification of the gas to the
+//!   requested solid fraction; all the overlaps this creates are kept.
+//! - [`PreparationRoute::WeaklyJammed`]: quasi-static compression of frictionless,
+//!   repulsive-only spheres to D₀ = 0.5 (small affine steps of the cell, each followed by an
+//!   energy minimisation that removes the overlaps: the limit of Kumar's pressure-controlled
+//!   compression at P_c/Σ_N = 10⁻⁷), then affine to the requested solid fraction.
+//! - [`PreparationRoute::Jammed`]: the same compression continued to the jamming point
+//!   (found by bisection on the compression step: the first state whose minimised energy
+//!   stays positive, force balanced at a pressure P ≤ `jamming_pressure`; Kumar reports
+//!   D = 0.636, Z = 6.03), then affine to the requested solid fraction.
+//!
+//! The last affine step scales positions and cell together (x → s·x, L → s·L), so a
+//! requested density above the current one creates overlaps: this is how Kumar builds
+//! bonded samples at D = 0.65 with an interaction range κ (Eq. 10, Table 1).
+//!
+//! Lengths are handled in units of R̄ with unit contact stiffness, so pressures are in
+//! units of Σ_N (Kumar Eq. 2 with R* = R̄/2 gives K_N = Σ_N R̄). Every random number comes
+//! from one `ChaCha8Rng` stream in a fixed order and the minimisation sums in a fixed
+//! order, so the packing is bit-identical on any number of threads.
+
+use super::generate::{
+    draw_radii, fire_relax, spatial_order, Polydispersity, RelaxOutcome, RelaxTarget,
+};
+use super::{Packing, PeriodicCell};
+use crate::{Error, Result, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::PI;
+
+/// Relative half width of Kumar 2016's "nearly monomodal" radii, R̄ ± 5 % (Sec. 3).
+pub const KUMAR_2016_HALF_WIDTH: f64 = 0.05;
+/// Solid fraction of Kumar 2016's initial gas, D₀ = 0.3 (Sec. 3).
+pub const KUMAR_2016_GAS_SOLID_FRACTION: f64 = 0.3;
+/// Solid fraction to which the weakly jammed route compresses, D₀ = 0.5 (Sec. 3).
+pub const KUMAR_2016_WEAK_JAMMING_SOLID_FRACTION: f64 = 0.5;
+/// Final solid fraction of Kumar 2016's samples, D = 0.65 (Sec. 3, Table 1).
+pub const KUMAR_2016_SOLID_FRACTION: f64 = 0.65;
+
+/// Initial guess of dP/dφ near the jamming point of harmonic spheres (P in units of Σ_N);
+/// refined by secants on the measured pressures.
+const INITIAL_PRESSURE_SLOPE: f64 = 0.15;
+
+/// Largest gas solid fraction accepted: random sequential addition saturates near 0.38.
+pub const MAX_GAS_SOLID_FRACTION: f64 = 0.35;
+
+/// Kumar 2016's preparation routes (Sec. 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PreparationRoute {
+    /// Random gas, then affine densification to the requested solid fraction.
+    Unjammed,
+    /// Frictionless repulsive compression to D₀ = 0.5, then affine.
+    WeaklyJammed,
+    /// Frictionless repulsive compression to the jamming point (≈ 0.636, Z ≈ 6), then
+    /// affine.
+    Jammed,
+}
+
+impl PreparationRoute {
+    /// The route's name as on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PreparationRoute::Unjammed => "unjammed",
+            PreparationRoute::WeaklyJammed => "weakly-jammed",
+            PreparationRoute::Jammed => "jammed",
+        }
+    }
+}
+
+/// What to prepare.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RouteOptions {
+    /// Preparation route.
+    pub route: PreparationRoute,
+    /// Number of spheres N.
+    pub n_particles: usize,
+    /// Requested final solid fraction D (reached by the last affine step; may exceed the
+    /// jamming point, then the spheres overlap).
+    pub solid_fraction: f64,
+    /// Mean radius R̄ (m).
+    pub mean_radius: f64,
+    /// Radius distribution.
+    pub polydispersity: Polydispersity,
+    /// Seed of the random stream (ChaCha8).
+    pub seed: u64,
+    /// Solid fraction of the initial random gas (Kumar: 0.3).
+    pub gas_solid_fraction: f64,
+    /// Where the weakly jammed compression stops (Kumar: 0.5).
+    pub weak_jamming_solid_fraction: f64,
+    /// Relative solid-fraction increment of one quasi-static compression step.
+    pub compression_step: f64,
+    /// Largest pressure P/Σ_N of the state accepted as jammed (Kumar's control pressure is
+    /// 10⁻⁷; any value ≪ 10⁻³ leaves the contact network the same to the affine window of
+    /// the last step).
+    pub jamming_pressure: f64,
+    /// Iteration limit of each energy minimisation.
+    pub max_iterations: usize,
+}
+
+impl Default for RouteOptions {
+    /// Kumar 2016's set-up: jammed route, 5000 spheres, D = 0.65, R̄ ± 5 %, R̄ = 1 mm.
+    fn default() -> Self {
+        RouteOptions {
+            route: PreparationRoute::Jammed,
+            n_particles: 5000,
+            solid_fraction: KUMAR_2016_SOLID_FRACTION,
+            mean_radius: 1.0e-3,
+            polydispersity: Polydispersity::Uniform {
+                half_width: KUMAR_2016_HALF_WIDTH,
+            },
+            seed: 2016,
+            gas_solid_fraction: KUMAR_2016_GAS_SOLID_FRACTION,
+            weak_jamming_solid_fraction: KUMAR_2016_WEAK_JAMMING_SOLID_FRACTION,
+            compression_step: 0.01,
+            jamming_pressure: 1.0e-4,
+            max_iterations: 1_000_000,
+        }
+    }
+}
+
+/// How the preparation went.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RouteReport {
+    /// The route.
+    pub route: PreparationRoute,
+    /// Solid fraction before the final affine step (gas, 0.5, or the jamming point).
+    pub compressed_solid_fraction: f64,
+    /// Mean number of touching or overlapping neighbours per sphere (all spheres) in that
+    /// state; for the jammed route the contact network at jamming (Kumar: Z = 6.03).
+    pub compressed_coordination: f64,
+    /// Spheres with fewer than 4 contacts in that state (rattlers; Kumar: < 2 % jammed).
+    pub rattlers: usize,
+    /// Pressure P/Σ_N of that state (0 unless jammed).
+    pub pressure: f64,
+    /// Scale factor s of the final affine step x → s·x (s < 1 densifies).
+    pub affine_scale: f64,
+    /// Energy minimisations run.
+    pub relaxations: usize,
+    /// FIRE iterations over all minimisations.
+    pub iterations: usize,
+}
+
+fn check_options(o: &RouteOptions) -> Result<()> {
+    let bad = |m: String| Err(Error::Invalid(format!("packing preparation: {m}")));
+    if o.n_particles < 2 || o.n_particles > u32::MAX as usize {
+        return bad(format!(
+            "n_particles must be at least 2, got {}",
+            o.n_particles
+        ));
+    }
+    if !o.solid_fraction.is_finite() || o.solid_fraction <= 0.0 || o.solid_fraction > 0.9 {
+        return bad(format!(
+            "solid fraction must be in (0, 0.9], got {}",
+            o.solid_fraction
+        ));
+    }
+    if !o.mean_radius.is_finite() || o.mean_radius <= 0.0 {
+        return bad(format!(
+            "mean radius must be finite and > 0, got {}",
+            o.mean_radius
+        ));
+    }
+    if let Polydispersity::Uniform { half_width } = o.polydispersity {
+        if !half_width.is_finite() || !(0.0..1.0).contains(&half_width) {
+            return bad(format!(
+                "polydispersity half width ΔR/R̄ must be in [0, 1), got {half_width}"
+            ));
+        }
+    }
+    let gas = o.gas_solid_fraction;
+    if !gas.is_finite() || gas <= 0.0 || gas > MAX_GAS_SOLID_FRACTION {
+        return bad(format!(
+            "gas solid fraction must be in (0, {MAX_GAS_SOLID_FRACTION}] (random sequential \
+             addition saturates near 0.38), got {gas}"
+        ));
+    }
+    let weak = o.weak_jamming_solid_fraction;
+    if o.route == PreparationRoute::WeaklyJammed && (!weak.is_finite() || weak < gas || weak > 0.6)
+    {
+        return bad(format!(
+            "weak-jamming solid fraction must be in [gas solid fraction {gas}, 0.6], got {weak}"
+        ));
+    }
+    if !o.compression_step.is_finite() || o.compression_step <= 0.0 || o.compression_step > 0.1 {
+        return bad(format!(
+            "compression step must be in (0, 0.1], got {}",
+            o.compression_step
+        ));
+    }
+    if !o.jamming_pressure.is_finite() || o.jamming_pressure <= 0.0 || o.jamming_pressure > 1e-2 {
+        return bad(format!(
+            "jamming pressure P/Σ_N must be in (0, 1e-2], got {}",
+            o.jamming_pressure
+        ));
+    }
+    Ok(())
+}
+
+/// Random sequential addition of spheres with radii `radii` (R̄ = 1) into a cube of side
+/// `side`: each sphere is placed at a uniformly random position, redrawn while it would
+/// overlap a sphere already placed. Errors when a sphere needs more than `max_attempts`
+/// draws (the fraction is too close to saturation).
+fn random_sequential_addition(
+    radii: &[f64],
+    side: f64,
+    rng: &mut ChaCha8Rng,
+    max_attempts: usize,
+) -> Result<Vec<Vec3>> {
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let dims = ((side / (2.0 * r_max)).floor() as usize).max(1);
+    let width = side / dims as f64;
+    let cell = PeriodicCell::new(Vec3::repeat(side))?;
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); dims * dims * dims];
+    let index = |c: [usize; 3]| (c[2] * dims + c[1]) * dims + c[0];
+    let cell_of = |p: &Vec3| {
+        let c = |v: f64| ((v / width) as usize).min(dims - 1);
+        [c(p.x), c(p.y), c(p.z)]
+    };
+    // Neighbouring cells (deduplicated for grids narrower than 3 cells).
+    let mut offsets: Vec<isize> = vec![-1, 0, 1];
+    if dims < 3 {
+        offsets = (0..dims as isize).collect();
+    }
+    let mut x: Vec<Vec3> = Vec::with_capacity(radii.len());
+    for (k, &rk) in radii.iter().enumerate() {
+        let mut attempts = 0usize;
+        loop {
+            attempts += 1;
+            if attempts > max_attempts {
+                return Err(Error::Invalid(format!(
+                    "packing preparation: random gas: sphere {k} found no free place in \
+                     {max_attempts} draws (gas solid fraction too close to saturation)"
+                )));
+            }
+            let p = Vec3::new(
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+                rng.gen::<f64>() * side,
+            );
+            let p = cell.wrap(p).0;
+            let c = cell_of(&p);
+            let mut free = true;
+            'search: for &dz in &offsets {
+                for &dy in &offsets {
+                    for &dx in &offsets {
+                        let nb = if dims < 3 {
+                            [dx as usize, dy as usize, dz as usize]
+                        } else {
+                            let w = |ci: usize, d: isize| {
+                                ((ci as isize + d).rem_euclid(dims as isize)) as usize
+                            };
+                            [w(c[0], dx), w(c[1], dy), w(c[2], dz)]
+                        };
+                        for &j in &members[index(nb)] {
+                            let j = j as usize;
+                            let (d, _) = cell.minimum_image(x[j] - p);
+                            let reach = radii[j] + rk;
+                            if d.norm_squared() < reach * reach {
+                                free = false;
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            if free {
+                members[index(c)].push(k as u32);
+                x.push(p);
+                break;
+            }
+        }
+    }
+    Ok(x)
+}
+
+/// Scale positions and cell side by `s` (affine isotropic deformation).
+fn scale_affinely(x: &mut [Vec3], side: &mut f64, s: f64) {
+    x.iter_mut().for_each(|p| *p *= s);
+    *side *= s;
+}
+
+/// Contacts per sphere (pairs with |l| ≤ R_i + R_j counted from both ends) and rattlers
+/// (spheres with fewer than 4 contacts) of a configuration in R̄ units.
+fn contact_statistics(x: &[Vec3], radii: &[f64], side: f64) -> Result<(f64, usize)> {
+    let cell = PeriodicCell::new(Vec3::repeat(side))?;
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let pairs =
+        super::neighbours::pairs_in(x, radii, Some(&cell), 2.0 * r_max, |ri, rj, d| d <= ri + rj)?;
+    let mut degree = vec![0u32; x.len()];
+    for p in &pairs {
+        degree[p.i as usize] += 1;
+        degree[p.j as usize] += 1;
+    }
+    let rattlers = degree.iter().filter(|&&d| d < 4).count();
+    Ok((2.0 * pairs.len() as f64 / x.len() as f64, rattlers))
+}
+
+/// Prepare a packing by one of Kumar 2016's routes (see the module doc); `progress`
+/// receives the fraction done in [0, 1].
+pub fn prepare(
+    opts: &RouteOptions,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<(Packing, RouteReport)> {
+    check_options(opts)?;
+    let n = opts.n_particles;
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let radii = draw_radii(n, opts.polydispersity, &mut rng);
+    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
+    let phi_of = |side: f64| solid_volume / (side * side * side);
+    let side_of = |phi: f64| (solid_volume / phi).cbrt();
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    // The final cell must stay wider than 4.1 R_max for a unique minimum image.
+    let smallest_side = side_of(opts.solid_fraction.max(0.66));
+    if 0.49 * smallest_side - 2.0 * r_max < 0.05 {
+        return Err(Error::Invalid(format!(
+            "packing preparation: {n} spheres give a periodic cell of side \
+             {smallest_side:.3} R̄, too small for a unique minimum image; use more particles"
+        )));
+    }
+
+    progress(0.0);
+    let mut side = side_of(opts.gas_solid_fraction);
+    let gas = random_sequential_addition(&radii, side, &mut rng, 1_000_000)?;
+    let (mut x, radii) = spatial_order(&gas, &radii, side);
+    progress(0.02);
+
+    let mut relaxations = 0usize;
+    let mut iterations = 0usize;
+    let mut pressure = 0.0;
+    let max_iterations = opts.max_iterations;
+    let relax = |x: &mut Vec<Vec3>,
+                 side: f64,
+                 target: RelaxTarget,
+                 relaxations: &mut usize,
+                 iterations: &mut usize|
+     -> Result<RelaxOutcome> {
+        let out = fire_relax(x, &radii, side, &target, &mut |_, _| {})?;
+        *relaxations += 1;
+        *iterations += out.iterations;
+        if !out.converged() {
+            return Err(Error::Invalid(format!(
+                "packing preparation: energy minimisation at solid fraction {:.5} did not \
+                 converge in {max_iterations} iterations (largest overlap {:.2e} R̄)",
+                solid_volume / (side * side * side),
+                out.max_overlap
+            )));
+        }
+        Ok(out)
+    };
+    // Overlap-free target of the compression steps (residual overlaps ≪ any bonding
+    // window), and of the jamming search (≪ the overlaps of a jammed state at pressure P:
+    // mean ≈ 3P, largest ≈ 15P).
+    let free_target = RelaxTarget {
+        max_overlap: 1e-6,
+        force_balance: None,
+        max_iterations,
+    };
+    let jam_target = RelaxTarget {
+        max_overlap: 0.1 * opts.jamming_pressure,
+        force_balance: Some(1e-3),
+        max_iterations,
+    };
+
+    if opts.route != PreparationRoute::Unjammed {
+        let stop = match opts.route {
+            PreparationRoute::WeaklyJammed => opts.weak_jamming_solid_fraction,
+            _ => 0.55,
+        };
+        // Quasi-static compression of the gas to `stop`.
+        let phi_start = phi_of(side);
+        let mut phi = phi_start;
+        while phi < stop {
+            let next = (phi * (1.0 + opts.compression_step)).min(stop);
+            let new_side = side_of(next);
+            let s = new_side / side;
+            scale_affinely(&mut x, &mut side, s);
+            side = new_side;
+            relax(&mut x, side, free_target, &mut relaxations, &mut iterations)?;
+            phi = next;
+            let done = (phi / phi_start).ln() / (stop / phi_start).ln();
+            progress(0.02 + 0.5 * done.clamp(0.0, 1.0));
+        }
+        if opts.route == PreparationRoute::Jammed {
+            // Compress in steps until the minimised energy stays positive (the first jammed
+            // state), then decompress from there along P ≈ c·(φ − φ_J) (secant on the
+            // measured pressures) until a jammed state with P ≤ `jamming_pressure` is found.
+            // Approaching the jamming point from above avoids the slow relaxation of
+            // unjammed states just below it; an unjammed result narrows a bisection bracket.
+            let target_pressure = 0.5 * opts.jamming_pressure;
+            let mut unjammed_below = phi;
+            let mut jammed_above: Option<(f64, f64)> = None; // (φ, P)
+            let mut slope = INITIAL_PRESSURE_SLOPE;
+            let mut steps = 0u32;
+            loop {
+                steps += 1;
+                if steps > 200 {
+                    return Err(Error::Invalid(format!(
+                        "packing preparation: no jammed state with pressure ≤ {:e} found \
+                         between solid fractions {unjammed_below:.6} and {phi:.6}",
+                        opts.jamming_pressure
+                    )));
+                }
+                let next = match jammed_above {
+                    None => phi * (1.0 + opts.compression_step),
+                    Some((phi_j, p_j)) => {
+                        let guess = phi_j - (p_j - target_pressure) / slope;
+                        // Stay inside the bracket (unjammed below, jammed above).
+                        if guess > unjammed_below && guess < phi_j {
+                            guess
+                        } else {
+                            0.5 * (unjammed_below + phi_j)
+                        }
+                    }
+                };
+                let new_side = side_of(next);
+                let s = new_side / side;
+                scale_affinely(&mut x, &mut side, s);
+                side = new_side;
+                let out = relax(&mut x, side, jam_target, &mut relaxations, &mut iterations)?;
+                phi = next;
+                if out.overlap_free {
+                    unjammed_below = phi;
+                } else {
+                    if out.pressure <= opts.jamming_pressure {
+                        pressure = out.pressure;
+                        break;
+                    }
+                    if let Some((phi_j, p_j)) = jammed_above {
+                        if phi_j > phi && p_j > out.pressure {
+                            slope = ((p_j - out.pressure) / (phi_j - phi)).clamp(0.01, 10.0);
+                        }
+                    }
+                    jammed_above = Some((phi, out.pressure));
+                }
+                progress(0.52 + 0.45 * (1.0 - 0.7f64.powi(steps as i32)));
+            }
+        }
+    }
+
+    let compressed = phi_of(side);
+    let (compressed_coordination, rattlers) = contact_statistics(&x, &radii, side)?;
+    // Final affine step to the requested solid fraction.
+    let final_side = side_of(opts.solid_fraction);
+    let affine_scale = final_side / side;
+    scale_affinely(&mut x, &mut side, affine_scale);
+    let scale = opts.mean_radius;
+    let cell = PeriodicCell::new(Vec3::repeat(final_side * scale))?;
+    let positions: Vec<Vec3> = x.iter().map(|p| *p * scale).collect();
+    let radii: Vec<f64> = radii.iter().map(|r| r * scale).collect();
+    let packing = Packing::new(positions, radii, Some(cell))?;
+    progress(1.0);
+    Ok((
+        packing,
+        RouteReport {
+            route: opts.route,
+            compressed_solid_fraction: compressed,
+            compressed_coordination,
+            rattlers,
+            pressure,
+            affine_scale,
+            relaxations,
+            iterations,
+        },
+    ))
+}
+
+/// The packing scaled affinely (positions and cell) to solid fraction `solid_fraction`:
+/// x → s·x, L → s·L with s = (φ/φ_target)^(1/3). Overlaps appear when densifying; this is
+/// Kumar 2016's last preparation step (Sec. 3). Errors on a free (non-periodic) packing or
+/// a target that is not finite and > 0.
+pub fn scale_to_solid_fraction(packing: &Packing, solid_fraction: f64) -> Result<Packing> {
+    if !solid_fraction.is_finite() || solid_fraction <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "affine scaling: target solid fraction must be finite and > 0, got {solid_fraction}"
+        )));
+    }
+    let cell = packing.cell.ok_or_else(|| {
+        Error::Invalid("affine scaling needs a periodic packing (a cell to scale)".into())
+    })?;
+    let s = (packing.solid_fraction() / solid_fraction).cbrt();
+    let positions = packing.positions.iter().map(|p| p * s).collect();
+    Packing::new(
+        positions,
+        packing.radii.clone(),
+        Some(PeriodicCell::new(cell.lengths * s)?),
+    )
+}

@@ -1,0 +1,105 @@
+//! `anisobond pack` with --route, --preset and --void-fraction, end to end.
+
+use anisobond::packing::io::read_packing;
+use std::f64::consts::PI;
+use std::path::Path;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_anisobond"))
+}
+
+/// Σ(4/3)πR³ / V computed from the file's radii and cell.
+fn solid_fraction_of(path: &Path) -> (usize, f64) {
+    let p = read_packing(path).unwrap();
+    let l = p.cell.expect("periodic").lengths;
+    let vs: f64 = p.radii.iter().map(|r| 4.0 / 3.0 * PI * r.powi(3)).sum();
+    (p.len(), vs / (l.x * l.y * l.z))
+}
+
+#[test]
+fn void_fraction_is_one_minus_solid_fraction() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.txt");
+    let run = bin()
+        .args([
+            "pack",
+            "--particles",
+            "300",
+            "--void-fraction",
+            "0.45",
+            "--quiet",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (n, phi) = solid_fraction_of(&out);
+    assert_eq!(n, 300);
+    assert!((phi - 0.55).abs() < 1e-6, "φ = {phi}");
+}
+
+#[test]
+fn kumar_preset_with_a_route_reaches_its_density() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("k.txt");
+    let run = bin()
+        .args([
+            "pack",
+            "--preset",
+            "kumar-2016",
+            "--route",
+            "weakly-jammed",
+            "--particles",
+            "600",
+            "--quiet",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (n, phi) = solid_fraction_of(&out);
+    assert_eq!(n, 600);
+    // Kumar 2016 Sec. 3: D = 0.65 after the last affine step.
+    assert!((phi - 0.65).abs() < 1e-6, "φ = {phi}");
+    assert!(stdout.contains("weakly-jammed"), "{stdout}");
+    assert!(stdout.contains("1.075"), "{stdout}");
+}
+
+#[test]
+fn bad_fractions_fail_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bad.txt");
+    for args in [
+        vec!["--void-fraction", "0.4", "--solid-fraction", "0.6"],
+        vec!["--void-fraction", "1.2"],
+        vec!["--void-fraction", "0.2"], // φ = 0.8: beyond jamming for the random route
+        vec!["--route", "jammed", "--particles", "5"],
+    ] {
+        let run = bin()
+            .arg("pack")
+            .args(&args)
+            .args(["--quiet", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{args:?} succeeded");
+        assert!(!out.exists(), "{args:?} wrote a file");
+        assert!(
+            err.contains("fraction") || err.contains("particles"),
+            "{args:?}: {err}"
+        );
+    }
+}
