@@ -15,6 +15,8 @@
 //! they differ in the springs and in how moments accumulate.
 
 pub mod kumar;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 pub mod parallel_bond;
 pub mod yade;
 
@@ -417,6 +419,12 @@ fn bond_loop<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
         .enumerate()
         .for_each(|(chunk, (hot, st, mom, out, pw))| {
             let base = chunk * BOND_CHUNK;
+            #[cfg(target_arch = "x86_64")]
+            if ORIENTATION && !REF && !VISCOUS {
+                lanes::law_a_chunk(inp, base, hot, st, mom, out);
+                *pw = 0.0;
+                return;
+            }
             let mut sum = 0.0;
             for (k, (((c, st), mom), out)) in hot
                 .iter()
