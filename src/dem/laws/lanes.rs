@@ -210,16 +210,16 @@ impl V {
     }
 }
 
-/// Four bonds of law (a); see the module docs. `hot`, `st`, `mom`, `out` have length 4.
+/// Four bonds of law (a); see the module docs. `st`, `out` have length 4. Returns the
+/// moments' elastic energy per lane (as [`super::moment_energy`]).
 #[inline]
 #[target_feature(enable = "avx2")]
 fn kernel4(
     inp: &KernelInputs,
     hot: &[BondHot; LANES],
     st: &mut [BondDyn],
-    mom: &mut [BondMoments],
     out: &mut [BondLoad],
-) {
+) -> [f64; LANES] {
     let p = inp.particles;
     let dt = splat(inp.dt);
     let ii = hot.map(|c| c.i as usize);
@@ -341,7 +341,21 @@ fn kernel4(
     let torque_i = c1x.cross(force).sub(moment);
     let torque_j = c2x.cross(force).neg().add(moment);
     let (n, shear, fn_) = (n.lanes(), shear.lanes(), st4(fn_));
-    let (mb, mt) = (moment_bending.lanes(), moment_twist.lanes());
+    // ½|M_b|²/k_r + ½|M_t|²/k_tw in the scalar order (0 + bending term, + twist term).
+    let half = splat(0.5);
+    let e_bending = select(
+        gt(kr, zero),
+        add(zero, div(mul(half, moment_bending.dot(moment_bending)), kr)),
+        zero,
+    );
+    let energy = select(
+        gt(ktw, zero),
+        add(
+            e_bending,
+            div(mul(half, moment_twist.dot(moment_twist)), ktw),
+        ),
+        e_bending,
+    );
     let (force, torque_i, torque_j) = (force.lanes(), torque_i.lanes(), torque_j.lanes());
     for l in 0..LANES {
         st[l] = BondDyn {
@@ -349,50 +363,70 @@ fn kernel4(
             shear_force: shear[l],
             normal_force: fn_[l],
         };
-        mom[l] = BondMoments {
-            bending: mb[l],
-            twist: mt[l],
-        };
         out[l] = BondLoad {
             force_i: force[l],
             torque_i: torque_i[l],
             torque_j: torque_j[l],
         };
     }
+    st4(energy)
 }
 
 /// A chunk of law-(a) bonds: groups of four through [`kernel4`], the rest through the
-/// scalar kernel.
+/// scalar kernel. Returns the chunk's moment energy summed in bond order.
 #[target_feature(enable = "avx2")]
 fn chunk_avx2(
     inp: &KernelInputs,
     base: usize,
     hot: &[BondHot],
     st: &mut [BondDyn],
-    mom: &mut [BondMoments],
     out: &mut [BondLoad],
-) {
+) -> f64 {
     let full = hot.len() / LANES * LANES;
+    let mut energy = 0.0;
     for g in (0..full).step_by(LANES) {
         let group: &[BondHot; LANES] = hot[g..g + LANES]
             .try_into()
             .unwrap_or_else(|_| unreachable!());
-        kernel4(
-            inp,
-            group,
-            &mut st[g..g + LANES],
-            &mut mom[g..g + LANES],
-            &mut out[g..g + LANES],
-        );
+        let e = kernel4(inp, group, &mut st[g..g + LANES], &mut out[g..g + LANES]);
+        for x in e {
+            energy += x;
+        }
     }
-    scalar_chunk(
+    scalar_chunk_from(
+        energy,
         inp,
         base + full,
         &hot[full..],
         &mut st[full..],
-        &mut mom[full..],
         &mut out[full..],
-    );
+    )
+}
+
+/// The scalar kernel over bonds; returns their moment energy summed in bond order, added
+/// to `start`.
+fn scalar_chunk_from(
+    start: f64,
+    inp: &KernelInputs,
+    base: usize,
+    hot: &[BondHot],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> f64 {
+    let mut energy = start;
+    for k in 0..hot.len() {
+        let mut mom = BondMoments::default();
+        let [_, e] = super::bond_kernel::<true, false, false>(
+            inp,
+            base + k,
+            &hot[k],
+            &mut st[k],
+            &mut mom,
+            &mut out[k],
+        );
+        energy += e;
+    }
+    energy
 }
 
 fn scalar_chunk(
@@ -400,35 +434,23 @@ fn scalar_chunk(
     base: usize,
     hot: &[BondHot],
     st: &mut [BondDyn],
-    mom: &mut [BondMoments],
     out: &mut [BondLoad],
-) {
-    for k in 0..hot.len() {
-        super::bond_kernel::<true, false, false>(
-            inp,
-            base + k,
-            &hot[k],
-            &mut st[k],
-            &mut mom[k],
-            &mut out[k],
-        );
-    }
+) -> f64 {
+    scalar_chunk_from(0.0, inp, base, hot, st, out)
 }
 
 /// Law (a) on one chunk of bonds: four lanes with AVX2 when the CPU has it, else the
-/// scalar kernel (the same bits either way).
+/// scalar kernel (the same bits either way). Returns the chunk's moment energy.
 pub(super) fn law_a_chunk(
     inp: &KernelInputs,
     base: usize,
     hot: &[BondHot],
     st: &mut [BondDyn],
-    mom: &mut [BondMoments],
     out: &mut [BondLoad],
-) {
+) -> f64 {
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { chunk_avx2(inp, base, hot, st, mom, out) };
-        return;
+        return unsafe { chunk_avx2(inp, base, hot, st, out) };
     }
-    scalar_chunk(inp, base, hot, st, mom, out)
+    scalar_chunk(inp, base, hot, st, out)
 }

@@ -157,8 +157,9 @@ pub struct LinearBondKernel {
     ori_ref: Vec<[Quat; 2]>,
     /// Viscous coefficients (η_n, η_t) per bond; empty without bond damping.
     eta: Vec<[f64; 2]>,
-    /// Viscous dissipation power per bond chunk of the last evaluation (fixed chunks).
-    power_scratch: Vec<f64>,
+    /// (viscous dissipation power, moment elastic energy) per bond chunk of the last
+    /// evaluation (fixed chunks, summed in order).
+    chunk_sums: Vec<[f64; 2]>,
     dissipated: f64,
 }
 
@@ -218,11 +219,15 @@ impl LinearBondKernel {
             viscous,
             hot,
             dyn_state: vec![BondDyn::default(); n],
-            moment_state: vec![BondMoments::default(); n],
+            moment_state: if moments == MomentForm::Orientation {
+                Vec::new()
+            } else {
+                vec![BondMoments::default(); n]
+            },
             images: Vec::new(),
             ori_ref: Vec::new(),
             eta: Vec::new(),
-            power_scratch: vec![0.0; n.div_ceil(BOND_CHUNK)],
+            chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
             dissipated: 0.0,
         })
     }
@@ -277,7 +282,8 @@ struct KernelInputs<'a> {
 /// One bond: YADE's ScGeom6D kinematics and the cohesive law (see the module docs);
 /// `ORIENTATION` selects the total (orientation) or incremental moments, `REF` the
 /// reference orientations other than the identity, `VISCOUS` the bond damping. Returns the
-/// viscous dissipation power. Every expression keeps the operation order of YADE's
+/// viscous dissipation power and, in the orientation form (whose moments are not kept), the
+/// elastic energy of the moments ½|M_b|²/k_r + ½|M_t|²/k_tw. Every expression keeps the operation order of YADE's
 /// formulas (law (a) is checked against YADE to rounding).
 #[inline(always)]
 fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
@@ -287,7 +293,7 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     st: &mut BondDyn,
     mom: &mut BondMoments,
     out: &mut BondLoad,
-) -> f64 {
+) -> [f64; 2] {
     let p = inp.particles;
     let dt = inp.dt;
     let (i, j) = (c.i as usize, c.j as usize);
@@ -394,52 +400,99 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     out.force_i = force;
     out.torque_i = c1x.cross(&force) - moment;
     out.torque_j = -c2x.cross(&force) + moment;
-    power
+    [
+        power,
+        if ORIENTATION {
+            moment_energy(c, mom)
+        } else {
+            0.0
+        },
+    ]
 }
 
-/// The bond loop over fixed chunks of [`BOND_CHUNK`] bonds; each chunk's dissipation power
-/// goes to its slot of `power` (summed in order by the caller).
-#[allow(clippy::too_many_arguments)]
+/// ½|M_b|²/k_r + ½|M_t|²/k_tw of one bond (J), YADE's `totalElastEnergy` moment terms.
+#[inline(always)]
+fn moment_energy(c: &BondHot, mom: &BondMoments) -> f64 {
+    let mut e = 0.0;
+    if c.kr > 0.0 {
+        e += 0.5 * mom.bending.norm_squared() / c.kr;
+    }
+    if c.ktw > 0.0 {
+        e += 0.5 * mom.twist.norm_squared() / c.ktw;
+    }
+    e
+}
+
+/// The bond loop over fixed chunks of [`BOND_CHUNK`] bonds; each chunk's (dissipation
+/// power, moment energy) goes to its slot of `sums` (summed in order by the caller).
+/// `moment_state` is empty in the orientation form (its moments are recomputed each step).
 fn bond_loop<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     inp: &KernelInputs,
     hot: &[BondHot],
     dyn_state: &mut [BondDyn],
     moment_state: &mut [BondMoments],
     loads: &mut [BondLoad],
-    power: &mut [f64],
+    sums: &mut [[f64; 2]],
 ) {
-    (
-        hot.par_chunks(BOND_CHUNK),
-        dyn_state.par_chunks_mut(BOND_CHUNK),
-        moment_state.par_chunks_mut(BOND_CHUNK),
-        loads.par_chunks_mut(BOND_CHUNK),
-        power.par_iter_mut(),
-    )
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(chunk, (hot, st, mom, out, pw))| {
-            let base = chunk * BOND_CHUNK;
-            #[cfg(target_arch = "x86_64")]
-            if ORIENTATION && !REF && !VISCOUS {
-                lanes::law_a_chunk(inp, base, hot, st, mom, out);
-                *pw = 0.0;
-                return;
-            }
-            let mut sum = 0.0;
-            for (k, (((c, st), mom), out)) in hot
-                .iter()
-                .zip(st.iter_mut())
-                .zip(mom.iter_mut())
-                .zip(out.iter_mut())
-                .enumerate()
-            {
-                let p = bond_kernel::<ORIENTATION, REF, VISCOUS>(inp, base + k, c, st, mom, out);
-                if VISCOUS {
-                    sum += p;
+    let work = |chunk: usize,
+                hot: &[BondHot],
+                st: &mut [BondDyn],
+                mut mom: Option<&mut [BondMoments]>,
+                out: &mut [BondLoad],
+                slot: &mut [f64; 2]| {
+        let base = chunk * BOND_CHUNK;
+        #[cfg(target_arch = "x86_64")]
+        if ORIENTATION && !REF && !VISCOUS {
+            *slot = [0.0, lanes::law_a_chunk(inp, base, hot, st, out)];
+            return;
+        }
+        let mut sum = [0.0, 0.0];
+        let mut scratch;
+        for k in 0..hot.len() {
+            let m = match mom.as_deref_mut() {
+                Some(m) => &mut m[k],
+                None => {
+                    scratch = BondMoments::default();
+                    &mut scratch
                 }
-            }
-            *pw = sum;
-        });
+            };
+            let [p, e] = bond_kernel::<ORIENTATION, REF, VISCOUS>(
+                inp,
+                base + k,
+                &hot[k],
+                &mut st[k],
+                m,
+                &mut out[k],
+            );
+            sum[0] += p;
+            sum[1] += e;
+        }
+        *slot = sum;
+    };
+    if ORIENTATION {
+        (
+            hot.par_chunks(BOND_CHUNK),
+            dyn_state.par_chunks_mut(BOND_CHUNK),
+            loads.par_chunks_mut(BOND_CHUNK),
+            sums.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(chunk, (hot, st, out, slot))| work(chunk, hot, st, None, out, slot));
+    } else {
+        (
+            hot.par_chunks(BOND_CHUNK),
+            dyn_state.par_chunks_mut(BOND_CHUNK),
+            moment_state.par_chunks_mut(BOND_CHUNK),
+            loads.par_chunks_mut(BOND_CHUNK),
+            sums.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(chunk, (hot, st, mom, out, slot))| {
+                work(chunk, hot, st, Some(mom), out, slot)
+            });
+    }
 }
 
 impl BondLaw for LinearBondKernel {
@@ -486,7 +539,9 @@ impl BondLaw for LinearBondKernel {
                 normal: n,
                 ..Default::default()
             };
-            self.moment_state[b] = BondMoments::default();
+            if let Some(m) = self.moment_state.get_mut(b) {
+                *m = BondMoments::default();
+            }
         }
         let identity = Quat::identity();
         self.ori_ref = if ori_ref.iter().all(|q| q[0] == identity && q[1] == identity) {
@@ -495,6 +550,7 @@ impl BondLaw for LinearBondKernel {
             ori_ref
         };
         self.dissipated = 0.0;
+        self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
         Ok(())
     }
 
@@ -516,7 +572,7 @@ impl BondLaw for LinearBondKernel {
             &mut self.dyn_state[..],
             &mut self.moment_state[..],
             &mut loads.per_bond[..],
-            &mut self.power_scratch[..],
+            &mut self.chunk_sums[..],
         );
         let (h, s, m, l, pw) = args;
         match (orientation, with_ref, viscous) {
@@ -528,14 +584,14 @@ impl BondLaw for LinearBondKernel {
             (false, _, true) => bond_loop::<false, false, true>(&inp, h, s, m, l, pw),
         }
         if viscous {
-            self.dissipated += ctx.dt * self.power_scratch.iter().sum::<f64>();
+            self.dissipated += ctx.dt * self.chunk_sums.iter().map(|s| s[0]).sum::<f64>();
         }
     }
 
     fn elastic_energy(&self) -> f64 {
         let (c, s, m) = (&self.hot, &self.dyn_state, &self.moment_state);
-        deterministic_sum(c.len(), |b| {
-            let (c, s, m) = (&c[b], &s[b], &m[b]);
+        let forces_and_kept_moments = deterministic_sum(c.len(), |b| {
+            let (c, s) = (&c[b], &s[b]);
             let mut e = 0.0;
             if c.kn > 0.0 {
                 e += 0.5 * s.normal_force * s.normal_force / c.kn;
@@ -543,14 +599,18 @@ impl BondLaw for LinearBondKernel {
             if c.ks > 0.0 {
                 e += 0.5 * s.shear_force.norm_squared() / c.ks;
             }
-            if c.kr > 0.0 {
-                e += 0.5 * m.bending.norm_squared() / c.kr;
-            }
-            if c.ktw > 0.0 {
-                e += 0.5 * m.twist.norm_squared() / c.ktw;
+            if let Some(m) = m.get(b) {
+                e += moment_energy(c, m);
             }
             e
-        })
+        });
+        // Orientation form: the moment energies were summed per chunk by the bond loop.
+        let recomputed_moments = if self.moments == MomentForm::Orientation {
+            self.chunk_sums.iter().map(|s| s[1]).sum::<f64>()
+        } else {
+            0.0
+        };
+        forces_and_kept_moments + recomputed_moments
     }
 
     fn viscous_dissipation(&self) -> f64 {
