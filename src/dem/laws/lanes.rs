@@ -210,11 +210,26 @@ impl V {
     }
 }
 
+/// `slice[k]` without the bounds check.
+///
+/// Callers guarantee `k < slice.len()`: [`law_a_chunk`] checks every index of its chunk
+/// before it takes the unchecked path.
+#[inline(always)]
+unsafe fn at<T: Copy>(slice: &[T], k: usize) -> T {
+    debug_assert!(k < slice.len());
+    // SAFETY: the caller guarantees k < slice.len().
+    unsafe { *slice.get_unchecked(k) }
+}
+
 /// Four bonds of law (a); see the module docs. `st`, `out` have length 4. Returns the
 /// moments' elastic energy per lane (as [`super::moment_energy`]).
+///
+/// # Safety
+/// Every particle index of `hot` must be below the length of every particle array, and
+/// every image index below `inp.images.len()`.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn kernel4(
+unsafe fn kernel4(
     inp: &KernelInputs,
     hot: &[BondHot; LANES],
     st: &mut [BondDyn],
@@ -228,29 +243,29 @@ fn kernel4(
     let any_image = has_image.iter().any(|&h| h);
     let cell_dist: [Vec3; LANES] = std::array::from_fn(|l| {
         if has_image[l] {
-            inp.images[hot[l].image as usize]
+            at(inp.images, hot[l].image as usize)
         } else {
             Vec3::zeros()
         }
     });
     // Geometry (the scalar `geometry`, the image shift added only where there is one).
-    let xi = V::gather(ii.map(|i| p.position[i]));
+    let xi = V::gather(ii.map(|i| at(&p.position, i)));
     let xj = V::gather(std::array::from_fn(|l| {
         if has_image[l] {
-            p.position[jj[l]] + inp.h * cell_dist[l]
+            at(&p.position, jj[l]) + inp.h * cell_dist[l]
         } else {
-            p.position[jj[l]]
+            at(&p.position, jj[l])
         }
     }));
     let n_raw = xj.sub(xi);
     let d = sqrt(n_raw.dot(n_raw));
     let n = n_raw.div(d);
-    let ri = ld(ii.map(|i| p.radius[i]));
-    let rj = ld(jj.map(|j| p.radius[j]));
+    let ri = ld(ii.map(|i| at(&p.radius, i)));
+    let rj = ld(jj.map(|j| at(&p.radius, j)));
     let pd = sub(add(ri, rj), d);
     let cp = xi.add(n.scale(sub(ri, mul(splat(0.5), pd))));
-    let wi = V::gather(ii.map(|i| p.angular_velocity[i]));
-    let wj = V::gather(jj.map(|j| p.angular_velocity[j]));
+    let wi = V::gather(ii.map(|i| at(&p.angular_velocity, i)));
+    let wj = V::gather(jj.map(|j| at(&p.angular_velocity, j)));
     // ScGeom::precompute.
     let n_old = V::gather(std::array::from_fn(|l| st[l].normal));
     let orthonormal_axis = n_old.cross(n);
@@ -259,8 +274,8 @@ fn kernel4(
     // Relative velocity at the contact point.
     let c1x = cp.sub(xi);
     let c2x = cp.sub(xj);
-    let vi = V::gather(ii.map(|i| p.velocity[i]));
-    let vj = V::gather(jj.map(|j| p.velocity[j]));
+    let vi = V::gather(ii.map(|i| at(&p.velocity, i)));
+    let vj = V::gather(jj.map(|j| at(&p.velocity, j)));
     let mut rel_vel = vj.add(wj.cross(c2x)).sub(vi.add(wi.cross(c1x)));
     if any_image {
         let shift_vel = V::gather(cell_dist.map(|cd| inp.shift_velocity * cd));
@@ -281,8 +296,8 @@ fn kernel4(
     let fn_ = mul(kn, sub(pd, ld(hot.map(|c| c.unp))));
     shear = shear.sub(shear_inc.scale(ks));
     // Relative rotation q_i q_j* (identity references), normalised.
-    let qi = ii.map(|i| p.orientation[i]);
-    let qj = jj.map(|j| p.orientation[j]);
+    let qi = ii.map(|i| at(&p.orientation, i));
+    let qj = jj.map(|j| at(&p.orientation, j));
     let (aw, ax, ay, az) = (
         ld(qi.map(|q| q.w)),
         ld(qi.map(|q| q.v.x)),
@@ -374,8 +389,11 @@ fn kernel4(
 
 /// A chunk of law-(a) bonds: groups of four through [`kernel4`], the rest through the
 /// scalar kernel. Returns the chunk's moment energy summed in bond order.
+///
+/// # Safety
+/// As [`kernel4`], for every bond of `hot`.
 #[target_feature(enable = "avx2")]
-fn chunk_avx2(
+unsafe fn chunk_avx2(
     inp: &KernelInputs,
     base: usize,
     hot: &[BondHot],
@@ -388,7 +406,8 @@ fn chunk_avx2(
         let group: &[BondHot; LANES] = hot[g..g + LANES]
             .try_into()
             .unwrap_or_else(|_| unreachable!());
-        let e = kernel4(inp, group, &mut st[g..g + LANES], &mut out[g..g + LANES]);
+        // SAFETY: the caller's guarantee covers these bonds.
+        let e = unsafe { kernel4(inp, group, &mut st[g..g + LANES], &mut out[g..g + LANES]) };
         for x in e {
             energy += x;
         }
@@ -448,8 +467,25 @@ pub(super) fn law_a_chunk(
     st: &mut [BondDyn],
     out: &mut [BondLoad],
 ) -> f64 {
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
+    let p = inp.particles;
+    let len = [
+        p.position.len(),
+        p.velocity.len(),
+        p.angular_velocity.len(),
+        p.orientation.len(),
+        p.radius.len(),
+    ]
+    .into_iter()
+    .min()
+    .unwrap_or(0);
+    let in_bounds = hot.iter().all(|c| {
+        (c.i as usize) < len
+            && (c.j as usize) < len
+            && (c.image == NO_IMAGE || (c.image as usize) < inp.images.len())
+    });
+    if in_bounds && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above), and every particle and
+        // image index of the chunk is in bounds (the unchecked reads of `kernel4`).
         return unsafe { chunk_avx2(inp, base, hot, st, out) };
     }
     scalar_chunk(inp, base, hot, st, out)
