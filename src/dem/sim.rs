@@ -14,6 +14,10 @@ use crate::packing::Packing;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
+/// Particles per parallel work item of the integrator (fixed, so that per-chunk energy sums
+/// are the same on any number of threads).
+const PARTICLE_CHUNK: usize = 512;
+
 /// Integrator settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DemOptions {
@@ -104,8 +108,8 @@ pub struct Simulation {
     time: f64,
     kinetic: f64,
     local_dissipated: f64,
-    ke_scratch: Vec<f64>,
-    diss_scratch: Vec<f64>,
+    /// (kinetic energy, locally dissipated energy) per particle chunk of the last step.
+    energy_scratch: Vec<[f64; 2]>,
     stability: StabilityReport,
     watch: Vec<f64>,
     free_volume: f64,
@@ -129,8 +133,7 @@ impl Clone for Simulation {
             time: self.time,
             kinetic: self.kinetic,
             local_dissipated: self.local_dissipated,
-            ke_scratch: self.ke_scratch.clone(),
-            diss_scratch: self.diss_scratch.clone(),
+            energy_scratch: self.energy_scratch.clone(),
             stability: self.stability.clone(),
             watch: self.watch.clone(),
             free_volume: self.free_volume,
@@ -179,8 +182,7 @@ impl Simulation {
             time: 0.0,
             kinetic: 0.0,
             local_dissipated: 0.0,
-            ke_scratch: vec![0.0; n],
-            diss_scratch: vec![0.0; n],
+            energy_scratch: vec![[0.0; 2]; n.div_ceil(PARTICLE_CHUNK)],
             stability: StabilityReport::default(),
             watch: Vec::new(),
             free_volume: packing.volume(),
@@ -332,89 +334,98 @@ impl Simulation {
             None => (false, Mat3::zeros(), Mat3::zeros(), Vec3::zeros()),
         };
         let topo = &self.topology;
-        let loads = &self.loads;
+        let (start, entries) = (&topo.start[..], &topo.entries[..]);
+        let loads = &self.loads.per_bond[..];
         let p = &mut self.particles;
+        let (mass, inertia) = (&p.mass[..], &p.inertia[..]);
+        const PC: usize = PARTICLE_CHUNK;
         (
-            p.position.par_iter_mut(),
-            p.velocity.par_iter_mut(),
-            p.angular_velocity.par_iter_mut(),
-            p.orientation.par_iter_mut(),
-            self.force.par_iter_mut(),
-            self.torque.par_iter_mut(),
-            p.mass.par_iter(),
-            p.inertia.par_iter(),
-            self.ke_scratch.par_iter_mut(),
-            self.diss_scratch.par_iter_mut(),
+            p.position.par_chunks_mut(PC),
+            p.velocity.par_chunks_mut(PC),
+            p.angular_velocity.par_chunks_mut(PC),
+            p.orientation.par_chunks_mut(PC),
+            self.force.par_chunks_mut(PC),
+            self.torque.par_chunks_mut(PC),
+            self.energy_scratch.par_iter_mut(),
         )
             .into_par_iter()
             .enumerate()
-            .with_min_len(256)
-            .for_each(|(k, (x, v, w, q, f_out, t_out, &m, &inertia, ke, diss))| {
-                // Gather in the fixed CSR order.
-                let mut f = Vec3::zeros();
-                let mut t = Vec3::zeros();
-                for &e in &topo.entries[topo.start[k]..topo.start[k + 1]] {
-                    let b = (e >> 1) as usize;
-                    if e & 1 == 0 {
-                        f += loads.force_i[b];
-                        t += loads.torque_i[b];
-                    } else {
-                        f -= loads.force_i[b];
-                        t += loads.torque_j[b];
+            .for_each(|(chunk, (xs, vs, ws, qs, fs, ts, partial))| {
+                let base = chunk * PC;
+                let (mut kinetic, mut dissipated) = (0.0, 0.0);
+                for l in 0..xs.len() {
+                    let k = base + l;
+                    let (x, v, w, q) = (&mut xs[l], &mut vs[l], &mut ws[l], &mut qs[l]);
+                    let (m, inertia) = (mass[k], inertia[k]);
+                    // Gather in the fixed CSR order.
+                    let mut f = Vec3::zeros();
+                    let mut t = Vec3::zeros();
+                    for &e in &entries[start[k]..start[k + 1]] {
+                        let load = &loads[(e >> 1) as usize];
+                        if e & 1 == 0 {
+                            f += load.force_i;
+                            t += load.torque_i;
+                        } else {
+                            f -= load.force_i;
+                            t += load.torque_j;
+                        }
                     }
-                }
-                *f_out = f;
-                *t_out = t;
-                let fluct = if periodic { *v - prev_l * *x } else { *v };
-                let mut a = f / m;
-                let mut dissipated = 0.0;
-                if lambda > 0.0 {
-                    for c in 0..3 {
-                        let s = a[c] * (fluct[c] + 0.5 * dt * a[c]);
-                        dissipated += m * lambda * s.abs() * dt;
-                        a[c] *= 1.0 - lambda * sign(s);
+                    fs[l] = f;
+                    ts[l] = t;
+                    let fluct = if periodic { *v - prev_l * *x } else { *v };
+                    let mut a = f / m;
+                    if lambda > 0.0 {
+                        for c in 0..3 {
+                            let s = a[c] * (fluct[c] + 0.5 * dt * a[c]);
+                            dissipated += m * lambda * s.abs() * dt;
+                            a[c] *= 1.0 - lambda * sign(s);
+                        }
                     }
-                }
-                let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
-                if periodic {
-                    a += prev_l * *v;
-                }
-                *v += a * dt;
-                let mut alpha = t / inertia;
-                if lambda > 0.0 {
-                    for c in 0..3 {
-                        let s = alpha[c] * (w[c] + 0.5 * dt * alpha[c]);
-                        dissipated += inertia * lambda * s.abs() * dt;
-                        alpha[c] *= 1.0 - lambda * sign(s);
+                    let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
+                    if periodic {
+                        a += prev_l * *v;
                     }
+                    *v += a * dt;
+                    let mut alpha = t / inertia;
+                    if lambda > 0.0 {
+                        for c in 0..3 {
+                            let s = alpha[c] * (w[c] + 0.5 * dt * alpha[c]);
+                            dissipated += inertia * lambda * s.abs() * dt;
+                            alpha[c] *= 1.0 - lambda * sign(s);
+                        }
+                    }
+                    energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
+                    *w += alpha * dt;
+                    if periodic {
+                        *v += dl * *x;
+                    }
+                    *x += *v * dt;
+                    if periodic {
+                        *w += dspin;
+                    }
+                    let angle2 = w.norm_squared();
+                    if angle2 != 0.0 {
+                        let angle = angle2.sqrt();
+                        let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
+                        *q = dq.mul(q);
+                    }
+                    q.normalize();
+                    kinetic += energy;
                 }
-                energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
-                *w += alpha * dt;
-                if periodic {
-                    *v += dl * *x;
-                }
-                *x += *v * dt;
-                if periodic {
-                    *w += dspin;
-                }
-                let angle2 = w.norm_squared();
-                if angle2 != 0.0 {
-                    let angle = angle2.sqrt();
-                    let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
-                    *q = dq.mul(q);
-                }
-                q.normalize();
-                *ke = energy;
-                *diss = dissipated;
+                *partial = [kinetic, dissipated];
             });
         if let Some(c) = &mut self.cell {
             c.prev_vel_grad = c.vel_grad;
         }
-        let ke = &self.ke_scratch;
-        self.kinetic = deterministic_sum(ke.len(), |k| ke[k]);
+        // Chunk sums in chunk order: the same bits on any number of threads.
+        let (mut kinetic, mut dissipated) = (0.0, 0.0);
+        for [k, d] in &self.energy_scratch {
+            kinetic += k;
+            dissipated += d;
+        }
+        self.kinetic = kinetic;
         if lambda > 0.0 {
-            let d = &self.diss_scratch;
-            self.local_dissipated += deterministic_sum(d.len(), |k| d[k]);
+            self.local_dissipated += dissipated;
         }
     }
 
@@ -451,7 +462,7 @@ impl Simulation {
     /// `utils.getStress()` returns after `O.step()`. Not symmetrised.
     pub fn stress(&self) -> Mat3 {
         let s = deterministic_sum_mat3(self.topology.len(), |b| {
-            self.loads.force_i[b] * self.branch(b).transpose()
+            self.loads.force_i(b) * self.branch(b).transpose()
         });
         s / self.volume()
     }
@@ -477,7 +488,7 @@ impl Simulation {
             }
         });
         let nb = topo.len().max(1);
-        let bsum = deterministic_sum(topo.len(), |b| self.loads.force_i[b].norm());
+        let bsum = deterministic_sum(topo.len(), |b| self.loads.force_i(b).norm());
         if bsum == 0.0 {
             0.0
         } else {

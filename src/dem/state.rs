@@ -235,26 +235,37 @@ impl BondTopology {
     }
 }
 
-/// Per-bond loads written by a bond law, structure of arrays: the force on the i end
-/// (the j end receives its opposite) and the torques on both ends.
+/// Loads of one bond written by a bond law: the force on the i end (the j end receives its
+/// opposite) and the torques on both ends. Kept together so that the gather reads one
+/// record per bond end.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BondLoad {
+    /// Force on particle i (N); particle j receives −force_i.
+    pub force_i: Vec3,
+    /// Torque on particle i (N·m).
+    pub torque_i: Vec3,
+    /// Torque on particle j (N·m).
+    pub torque_j: Vec3,
+}
+
+/// Per-bond loads of the last force evaluation.
 #[derive(Clone, Debug, Default)]
 pub struct BondLoads {
-    /// Force on particle i (N); particle j receives −force_i.
-    pub force_i: Vec<Vec3>,
-    /// Torque on particle i (N·m).
-    pub torque_i: Vec<Vec3>,
-    /// Torque on particle j (N·m).
-    pub torque_j: Vec<Vec3>,
+    /// One record per bond, in bond order.
+    pub per_bond: Vec<BondLoad>,
 }
 
 impl BondLoads {
     /// Zero loads for `n` bonds.
     pub fn zeros(n: usize) -> Self {
         BondLoads {
-            force_i: vec![Vec3::zeros(); n],
-            torque_i: vec![Vec3::zeros(); n],
-            torque_j: vec![Vec3::zeros(); n],
+            per_bond: vec![BondLoad::default(); n],
         }
+    }
+
+    /// Force on the i end of bond `b` (N).
+    pub fn force_i(&self, b: usize) -> Vec3 {
+        self.per_bond[b].force_i
     }
 }
 

@@ -15,11 +15,13 @@
 //! they differ in the springs and in how moments accumulate.
 
 pub mod kumar;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 pub mod parallel_bond;
 pub mod yade;
 
 use super::quat::Quat;
-use super::state::{deterministic_sum, BondLoads, BondTopology, Particles};
+use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
@@ -90,38 +92,74 @@ pub struct ViscousDamping {
     pub tangential: f64,
 }
 
+/// Marks a bond whose j end is in the same cell image as i (no periodic shift).
+const NO_IMAGE: u32 = u32::MAX;
+
+/// Bonds per parallel work item: large enough that rayon's per-item cost (~µs) is small
+/// against the work (~0.1 µs per bond), small enough to balance two threads. A fixed
+/// number, so per-chunk partial sums are the same on any thread count.
+pub(crate) const BOND_CHUNK: usize = 1024;
+
+/// Per-bond data read every step (56 bytes): ends, periodic image slot, springs and the
+/// stress-free penetration depth.
 #[derive(Clone, Copy, Debug, Default)]
-struct BondConst {
+struct BondHot {
+    i: u32,
+    j: u32,
+    /// Index into `LinearBondKernel::images`, or [`NO_IMAGE`].
+    image: u32,
     kn: f64,
     ks: f64,
     kr: f64,
     ktw: f64,
-    eta_n: f64,
-    eta_t: f64,
+    /// Initial penetration depth δ₀ (YADE `unp`).
     unp: f64,
-    ori_i0: Quat,
-    ori_j0: Quat,
 }
 
+/// Per-bond state carried from step to step (56 bytes).
 #[derive(Clone, Copy, Debug, Default)]
 struct BondDyn {
+    /// Contact normal of the last evaluation (ScGeom `normal`, needed for the rotation of
+    /// the shear force).
     normal: Vec3,
+    /// Shear force (YADE `shearForce`, acting on j).
     shear_force: Vec3,
-    moment_bending: Vec3,
-    moment_twist: Vec3,
+    /// Normal force (compression positive).
     normal_force: f64,
-    dissipation_power: f64,
+}
+
+/// Bending and twisting moments of the last evaluation (state of the incremental form,
+/// kept for the elastic energy in the orientation form).
+#[derive(Clone, Copy, Debug, Default)]
+struct BondMoments {
+    bending: Vec3,
+    twist: Vec3,
 }
 
 /// The shared linear bond kernel behind the three laws: springs per bond, YADE ScGeom
 /// kinematics, total or incremental moments, optional viscous bond damping.
+///
+/// Data are split hot/cold: what every step reads lives in compact per-bond records, the
+/// rarely needed parts (periodic images, reference orientations other than the identity,
+/// viscous coefficients) in side tables that are empty when unused.
 #[derive(Clone, Debug)]
 pub struct LinearBondKernel {
     name: &'static str,
     moments: MomentForm,
     viscous: Option<ViscousDamping>,
-    consts: Vec<BondConst>,
+    hot: Vec<BondHot>,
     dyn_state: Vec<BondDyn>,
+    moment_state: Vec<BondMoments>,
+    /// Cell distance of j's image for the bonds crossing the cell boundary.
+    images: Vec<Vec3>,
+    /// Reference orientations (q_i0, q_j0) when any differs from the identity; empty when
+    /// all are the identity (then (q_i q_i0*)(q_j0 q_j*) = q_i q_j* exactly).
+    ori_ref: Vec<[Quat; 2]>,
+    /// Viscous coefficients (η_n, η_t) per bond; empty without bond damping.
+    eta: Vec<[f64; 2]>,
+    /// (viscous dissipation power, moment elastic energy) per bond chunk of the last
+    /// evaluation (fixed chunks, summed in order).
+    chunk_sums: Vec<[f64; 2]>,
     dissipated: f64,
 }
 
@@ -165,12 +203,13 @@ impl LinearBondKernel {
                 }
             }
         }
-        let consts = (0..n)
-            .map(|b| BondConst {
+        let hot = (0..n)
+            .map(|b| BondHot {
                 kn: springs[0][b],
                 ks: springs[1][b],
                 kr: springs[2][b],
                 ktw: springs[3][b],
+                image: NO_IMAGE,
                 ..Default::default()
             })
             .collect();
@@ -178,18 +217,27 @@ impl LinearBondKernel {
             name,
             moments,
             viscous,
-            consts,
+            hot,
             dyn_state: vec![BondDyn::default(); n],
+            moment_state: if moments == MomentForm::Orientation {
+                Vec::new()
+            } else {
+                vec![BondMoments::default(); n]
+            },
+            images: Vec::new(),
+            ori_ref: Vec::new(),
+            eta: Vec::new(),
+            chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
             dissipated: 0.0,
         })
     }
 
     fn check_len(&self, topo: &BondTopology) -> Result<()> {
-        if topo.len() != self.consts.len() {
+        if topo.len() != self.hot.len() {
             return Err(Error::Invalid(format!(
                 "bond law `{}` has springs for {} bonds but the assembly has {}",
                 self.name,
-                self.consts.len(),
+                self.hot.len(),
                 topo.len()
             )));
         }
@@ -199,13 +247,18 @@ impl LinearBondKernel {
 
 /// Current geometry of bond b: (normal, centre distance, penetration depth, contact point,
 /// position of the image of j).
-#[inline]
-fn geometry(ctx: &BondContext, b: usize) -> (Vec3, f64, f64, Vec3, Vec3) {
-    let p = ctx.particles;
-    let (i, j) = (ctx.topology.i[b] as usize, ctx.topology.j[b] as usize);
-    let shift2 = ctx.h * ctx.topology.cell_dist[b];
+#[inline(always)]
+fn geometry(
+    p: &Particles,
+    i: usize,
+    j: usize,
+    shift: Option<Vec3>,
+) -> (Vec3, f64, f64, Vec3, Vec3) {
     let xi = p.position[i];
-    let xj = p.position[j] + shift2;
+    let xj = match shift {
+        Some(s) => p.position[j] + s,
+        None => p.position[j],
+    };
     let mut n = xj - xi;
     let d = n.norm();
     n /= d;
@@ -213,6 +266,233 @@ fn geometry(ctx: &BondContext, b: usize) -> (Vec3, f64, f64, Vec3, Vec3) {
     let pd = ri + rj - d;
     let cp = xi + n * (ri - 0.5 * pd);
     (n, d, pd, cp, xj)
+}
+
+/// What the bond loop needs besides the per-bond records.
+struct KernelInputs<'a> {
+    particles: &'a Particles,
+    h: Mat3,
+    shift_velocity: Mat3,
+    dt: f64,
+    images: &'a [Vec3],
+    ori_ref: &'a [[Quat; 2]],
+    eta: &'a [[f64; 2]],
+}
+
+/// One bond: YADE's ScGeom6D kinematics and the cohesive law (see the module docs);
+/// `ORIENTATION` selects the total (orientation) or incremental moments, `REF` the
+/// reference orientations other than the identity, `VISCOUS` the bond damping. Returns the
+/// viscous dissipation power and, in the orientation form (whose moments are not kept), the
+/// elastic energy of the moments ½|M_b|²/k_r + ½|M_t|²/k_tw. Every expression keeps the operation order of YADE's
+/// formulas (law (a) is checked against YADE to rounding).
+#[inline(always)]
+fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
+    inp: &KernelInputs,
+    b: usize,
+    c: &BondHot,
+    st: &mut BondDyn,
+    mom: &mut BondMoments,
+    out: &mut BondLoad,
+) -> [f64; 2] {
+    let p = inp.particles;
+    let dt = inp.dt;
+    let (i, j) = (c.i as usize, c.j as usize);
+    let cell_dist = if c.image == NO_IMAGE {
+        None
+    } else {
+        Some(inp.images[c.image as usize])
+    };
+    let (n, _d, pd, cp, xj) = geometry(p, i, j, cell_dist.map(|cd| inp.h * cd));
+    let xi = p.position[i];
+    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
+    // ScGeom::precompute: rotation of the contact since the last step.
+    let n_old = st.normal;
+    let orthonormal_axis = n_old.cross(&n);
+    let twist_angle = dt * 0.5 * n_old.dot(&(wi + wj));
+    let twist_axis = n_old * twist_angle;
+    st.normal = n;
+    // Relative velocity at the contact point (j relative to i), with the velocity of j's
+    // periodic image.
+    let c1x = cp - xi;
+    let c2x = cp - xj;
+    let mut rel_vel = (p.velocity[j] + wj.cross(&c2x)) - (p.velocity[i] + wi.cross(&c1x));
+    if let Some(cd) = cell_dist {
+        rel_vel += inp.shift_velocity * cd;
+    }
+    let rel_vel_t = rel_vel - n * n.dot(&rel_vel);
+    let shear_inc = rel_vel_t * dt;
+    // Rotate the shear force (and incremental moments) with the contact.
+    let rotate = |v: &mut Vec3| {
+        *v -= v.cross(&orthonormal_axis);
+        *v -= v.cross(&twist_axis);
+    };
+    rotate(&mut st.shear_force);
+    if !ORIENTATION {
+        if c.kr > 0.0 {
+            rotate(&mut mom.bending);
+        }
+        if c.ktw > 0.0 {
+            rotate(&mut mom.twist);
+        }
+    }
+    // Normal (compression positive) and incremental shear.
+    let fn_ = c.kn * (pd - c.unp);
+    st.normal_force = fn_;
+    st.shear_force -= shear_inc * c.ks;
+    // Moments.
+    if ORIENTATION {
+        if c.kr > 0.0 || c.ktw > 0.0 {
+            let (qi, qj) = (p.orientation[i], p.orientation[j]);
+            let mut delta = if REF {
+                let [qi0, qj0] = inp.ori_ref[b];
+                qi.mul(&qi0.conjugate()).mul(&qj0.mul(&qj.conjugate()))
+            } else {
+                qi.mul(&qj.conjugate())
+            };
+            delta.normalize();
+            let (mut angle, axis) = delta.to_angle_axis();
+            if angle.is_nan() {
+                angle = 0.0;
+            }
+            if angle > std::f64::consts::PI {
+                angle -= 2.0 * std::f64::consts::PI;
+            }
+            let twist = angle * axis.dot(&n);
+            let bending = axis * angle - n * twist;
+            mom.twist = if c.ktw > 0.0 {
+                n * (twist * c.ktw)
+            } else {
+                Vec3::zeros()
+            };
+            mom.bending = if c.kr > 0.0 {
+                bending * c.kr
+            } else {
+                Vec3::zeros()
+            };
+        }
+    } else {
+        let rel_ang = wj - wi;
+        if c.kr > 0.0 {
+            let bend = rel_ang - n * n.dot(&rel_ang);
+            mom.bending -= bend * c.kr * dt;
+        } else {
+            mom.bending = Vec3::zeros();
+        }
+        if c.ktw > 0.0 {
+            let tw = n * n.dot(&rel_ang);
+            mom.twist -= tw * dt * c.ktw;
+        } else {
+            mom.twist = Vec3::zeros();
+        }
+    }
+    // Force on i (YADE applies −normalForce − shearForce to body 1).
+    let mut force = -(n * fn_) - st.shear_force;
+    let mut power = 0.0;
+    if VISCOUS {
+        let [eta_n, eta_t] = inp.eta[b];
+        if eta_n > 0.0 || eta_t > 0.0 {
+            let vn = n.dot(&rel_vel);
+            force += n * (eta_n * vn) + rel_vel_t * eta_t;
+            power = eta_n * vn * vn + eta_t * rel_vel_t.norm_squared();
+        }
+    }
+    let moment = mom.twist + mom.bending;
+    out.force_i = force;
+    out.torque_i = c1x.cross(&force) - moment;
+    out.torque_j = -c2x.cross(&force) + moment;
+    [
+        power,
+        if ORIENTATION {
+            moment_energy(c, mom)
+        } else {
+            0.0
+        },
+    ]
+}
+
+/// ½|M_b|²/k_r + ½|M_t|²/k_tw of one bond (J), YADE's `totalElastEnergy` moment terms.
+#[inline(always)]
+fn moment_energy(c: &BondHot, mom: &BondMoments) -> f64 {
+    let mut e = 0.0;
+    if c.kr > 0.0 {
+        e += 0.5 * mom.bending.norm_squared() / c.kr;
+    }
+    if c.ktw > 0.0 {
+        e += 0.5 * mom.twist.norm_squared() / c.ktw;
+    }
+    e
+}
+
+/// The bond loop over fixed chunks of [`BOND_CHUNK`] bonds; each chunk's (dissipation
+/// power, moment energy) goes to its slot of `sums` (summed in order by the caller).
+/// `moment_state` is empty in the orientation form (its moments are recomputed each step).
+fn bond_loop<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
+    inp: &KernelInputs,
+    hot: &[BondHot],
+    dyn_state: &mut [BondDyn],
+    moment_state: &mut [BondMoments],
+    loads: &mut [BondLoad],
+    sums: &mut [[f64; 2]],
+) {
+    let work = |chunk: usize,
+                hot: &[BondHot],
+                st: &mut [BondDyn],
+                mut mom: Option<&mut [BondMoments]>,
+                out: &mut [BondLoad],
+                slot: &mut [f64; 2]| {
+        let base = chunk * BOND_CHUNK;
+        #[cfg(target_arch = "x86_64")]
+        if ORIENTATION && !REF && !VISCOUS {
+            *slot = [0.0, lanes::law_a_chunk(inp, base, hot, st, out)];
+            return;
+        }
+        let mut sum = [0.0, 0.0];
+        let mut scratch;
+        for k in 0..hot.len() {
+            let m = match mom.as_deref_mut() {
+                Some(m) => &mut m[k],
+                None => {
+                    scratch = BondMoments::default();
+                    &mut scratch
+                }
+            };
+            let [p, e] = bond_kernel::<ORIENTATION, REF, VISCOUS>(
+                inp,
+                base + k,
+                &hot[k],
+                &mut st[k],
+                m,
+                &mut out[k],
+            );
+            sum[0] += p;
+            sum[1] += e;
+        }
+        *slot = sum;
+    };
+    if ORIENTATION {
+        (
+            hot.par_chunks(BOND_CHUNK),
+            dyn_state.par_chunks_mut(BOND_CHUNK),
+            loads.par_chunks_mut(BOND_CHUNK),
+            sums.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(chunk, (hot, st, out, slot))| work(chunk, hot, st, None, out, slot));
+    } else {
+        (
+            hot.par_chunks(BOND_CHUNK),
+            dyn_state.par_chunks_mut(BOND_CHUNK),
+            moment_state.par_chunks_mut(BOND_CHUNK),
+            loads.par_chunks_mut(BOND_CHUNK),
+            sums.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(chunk, (hot, st, mom, out, slot))| {
+                work(chunk, hot, st, Some(mom), out, slot)
+            });
+    }
 }
 
 impl BondLaw for LinearBondKernel {
@@ -223,152 +503,94 @@ impl BondLaw for LinearBondKernel {
     fn initialize(&mut self, ctx: &BondContext) -> Result<()> {
         self.check_len(ctx.topology)?;
         let p = ctx.particles;
+        let topo = ctx.topology;
         let viscous = self.viscous;
-        for b in 0..self.consts.len() {
-            let (n, d, pd, _, _) = geometry(ctx, b);
+        self.images.clear();
+        self.eta.clear();
+        let mut ori_ref = Vec::with_capacity(self.hot.len());
+        for b in 0..self.hot.len() {
+            let (i, j) = (topo.i[b] as usize, topo.j[b] as usize);
+            let cd = topo.cell_dist[b];
+            let (n, d, pd, _, _) = geometry(p, i, j, Some(ctx.h * cd));
             if !(d > 0.0 && d.is_finite()) {
                 return Err(Error::Invalid(format!(
                     "bond {b}: its two particles coincide (centre distance {d})"
                 )));
             }
-            let (i, j) = (ctx.topology.i[b] as usize, ctx.topology.j[b] as usize);
-            let c = &mut self.consts[b];
+            let c = &mut self.hot[b];
+            c.i = topo.i[b];
+            c.j = topo.j[b];
+            c.image = if cd == Vec3::zeros() {
+                NO_IMAGE
+            } else {
+                self.images.push(cd);
+                (self.images.len() - 1) as u32
+            };
             c.unp = pd;
-            c.ori_i0 = p.orientation[i];
-            c.ori_j0 = p.orientation[j];
+            ori_ref.push([p.orientation[i], p.orientation[j]]);
             if let Some(v) = viscous {
                 let m = 2.0 * p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-                c.eta_n = 2.0 * v.normal * (m * c.kn).sqrt();
-                c.eta_t = 2.0 * v.tangential * (m * c.ks).sqrt();
+                self.eta.push([
+                    2.0 * v.normal * (m * c.kn).sqrt(),
+                    2.0 * v.tangential * (m * c.ks).sqrt(),
+                ]);
             }
             self.dyn_state[b] = BondDyn {
                 normal: n,
                 ..Default::default()
             };
+            if let Some(m) = self.moment_state.get_mut(b) {
+                *m = BondMoments::default();
+            }
         }
+        let identity = Quat::identity();
+        self.ori_ref = if ori_ref.iter().all(|q| q[0] == identity && q[1] == identity) {
+            Vec::new()
+        } else {
+            ori_ref
+        };
         self.dissipated = 0.0;
+        self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
         Ok(())
     }
 
     fn compute(&mut self, ctx: &BondContext, loads: &mut BondLoads) {
-        let dt = ctx.dt;
-        let moments = self.moments;
-        let p = ctx.particles;
-        let consts = &self.consts;
-        (
-            self.dyn_state.par_iter_mut(),
-            loads.force_i.par_iter_mut(),
-            loads.torque_i.par_iter_mut(),
-            loads.torque_j.par_iter_mut(),
-        )
-            .into_par_iter()
-            .enumerate()
-            .with_min_len(512)
-            .for_each(|(b, (st, f_out, ti_out, tj_out))| {
-                let c = &consts[b];
-                let (i, j) = (ctx.topology.i[b] as usize, ctx.topology.j[b] as usize);
-                let (n, _d, pd, cp, xj) = geometry(ctx, b);
-                let xi = p.position[i];
-                let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
-                // ScGeom::precompute: rotation of the contact since the last step.
-                let n_old = st.normal;
-                let orthonormal_axis = n_old.cross(&n);
-                let twist_angle = dt * 0.5 * n_old.dot(&(wi + wj));
-                let twist_axis = n_old * twist_angle;
-                st.normal = n;
-                // Relative velocity at the contact point (j relative to i), with the
-                // velocity of j's periodic image.
-                let c1x = cp - xi;
-                let c2x = cp - xj;
-                let mut rel_vel =
-                    (p.velocity[j] + wj.cross(&c2x)) - (p.velocity[i] + wi.cross(&c1x));
-                rel_vel += ctx.shift_velocity * ctx.topology.cell_dist[b];
-                let rel_vel_t = rel_vel - n * n.dot(&rel_vel);
-                let shear_inc = rel_vel_t * dt;
-                // Rotate the shear force (and incremental moments) with the contact.
-                let rotate = |v: &mut Vec3| {
-                    *v -= v.cross(&orthonormal_axis);
-                    *v -= v.cross(&twist_axis);
-                };
-                rotate(&mut st.shear_force);
-                if moments == MomentForm::Incremental {
-                    if c.kr > 0.0 {
-                        rotate(&mut st.moment_bending);
-                    }
-                    if c.ktw > 0.0 {
-                        rotate(&mut st.moment_twist);
-                    }
-                }
-                // Normal (compression positive) and incremental shear.
-                let fn_ = c.kn * (pd - c.unp);
-                st.normal_force = fn_;
-                st.shear_force -= shear_inc * c.ks;
-                // Moments.
-                match moments {
-                    MomentForm::Orientation => {
-                        if c.kr > 0.0 || c.ktw > 0.0 {
-                            let mut delta = p.orientation[i]
-                                .mul(&c.ori_i0.conjugate())
-                                .mul(&c.ori_j0.mul(&p.orientation[j].conjugate()));
-                            delta.normalize();
-                            let (mut angle, axis) = delta.to_angle_axis();
-                            if angle.is_nan() {
-                                angle = 0.0;
-                            }
-                            if angle > std::f64::consts::PI {
-                                angle -= 2.0 * std::f64::consts::PI;
-                            }
-                            let twist = angle * axis.dot(&n);
-                            let bending = axis * angle - n * twist;
-                            st.moment_twist = if c.ktw > 0.0 {
-                                n * (twist * c.ktw)
-                            } else {
-                                Vec3::zeros()
-                            };
-                            st.moment_bending = if c.kr > 0.0 {
-                                bending * c.kr
-                            } else {
-                                Vec3::zeros()
-                            };
-                        }
-                    }
-                    MomentForm::Incremental => {
-                        let rel_ang = wj - wi;
-                        if c.kr > 0.0 {
-                            let bend = rel_ang - n * n.dot(&rel_ang);
-                            st.moment_bending -= bend * c.kr * dt;
-                        } else {
-                            st.moment_bending = Vec3::zeros();
-                        }
-                        if c.ktw > 0.0 {
-                            let tw = n * n.dot(&rel_ang);
-                            st.moment_twist -= tw * dt * c.ktw;
-                        } else {
-                            st.moment_twist = Vec3::zeros();
-                        }
-                    }
-                }
-                // Force on i (YADE applies −normalForce − shearForce to body 1).
-                let mut force = -(n * fn_) - st.shear_force;
-                if c.eta_n > 0.0 || c.eta_t > 0.0 {
-                    let vn = n.dot(&rel_vel);
-                    force += n * (c.eta_n * vn) + rel_vel_t * c.eta_t;
-                    st.dissipation_power = c.eta_n * vn * vn + c.eta_t * rel_vel_t.norm_squared();
-                }
-                let moment = st.moment_twist + st.moment_bending;
-                *f_out = force;
-                *ti_out = c1x.cross(&force) - moment;
-                *tj_out = -c2x.cross(&force) + moment;
-            });
-        if self.viscous.is_some() {
-            let st = &self.dyn_state;
-            self.dissipated += dt * deterministic_sum(st.len(), |b| st[b].dissipation_power);
+        let inp = KernelInputs {
+            particles: ctx.particles,
+            h: ctx.h,
+            shift_velocity: ctx.shift_velocity,
+            dt: ctx.dt,
+            images: &self.images,
+            ori_ref: &self.ori_ref,
+            eta: &self.eta,
+        };
+        let orientation = self.moments == MomentForm::Orientation;
+        let with_ref = !self.ori_ref.is_empty();
+        let viscous = !self.eta.is_empty();
+        let args = (
+            &self.hot[..],
+            &mut self.dyn_state[..],
+            &mut self.moment_state[..],
+            &mut loads.per_bond[..],
+            &mut self.chunk_sums[..],
+        );
+        let (h, s, m, l, pw) = args;
+        match (orientation, with_ref, viscous) {
+            (true, false, false) => bond_loop::<true, false, false>(&inp, h, s, m, l, pw),
+            (true, false, true) => bond_loop::<true, false, true>(&inp, h, s, m, l, pw),
+            (true, true, false) => bond_loop::<true, true, false>(&inp, h, s, m, l, pw),
+            (true, true, true) => bond_loop::<true, true, true>(&inp, h, s, m, l, pw),
+            (false, _, false) => bond_loop::<false, false, false>(&inp, h, s, m, l, pw),
+            (false, _, true) => bond_loop::<false, false, true>(&inp, h, s, m, l, pw),
+        }
+        if viscous {
+            self.dissipated += ctx.dt * self.chunk_sums.iter().map(|s| s[0]).sum::<f64>();
         }
     }
 
     fn elastic_energy(&self) -> f64 {
-        let (c, s) = (&self.consts, &self.dyn_state);
-        deterministic_sum(c.len(), |b| {
+        let (c, s, m) = (&self.hot, &self.dyn_state, &self.moment_state);
+        let forces_and_kept_moments = deterministic_sum(c.len(), |b| {
             let (c, s) = (&c[b], &s[b]);
             let mut e = 0.0;
             if c.kn > 0.0 {
@@ -377,14 +599,18 @@ impl BondLaw for LinearBondKernel {
             if c.ks > 0.0 {
                 e += 0.5 * s.shear_force.norm_squared() / c.ks;
             }
-            if c.kr > 0.0 {
-                e += 0.5 * s.moment_bending.norm_squared() / c.kr;
-            }
-            if c.ktw > 0.0 {
-                e += 0.5 * s.moment_twist.norm_squared() / c.ktw;
+            if let Some(m) = m.get(b) {
+                e += moment_energy(c, m);
             }
             e
-        })
+        });
+        // Orientation form: the moment energies were summed per chunk by the bond loop.
+        let recomputed_moments = if self.moments == MomentForm::Orientation {
+            self.chunk_sums.iter().map(|s| s[1]).sum::<f64>()
+        } else {
+            0.0
+        };
+        forces_and_kept_moments + recomputed_moments
     }
 
     fn viscous_dissipation(&self) -> f64 {
@@ -392,12 +618,15 @@ impl BondLaw for LinearBondKernel {
     }
 
     fn springs(&self, b: usize) -> (f64, f64, f64, f64) {
-        let c = &self.consts[b];
+        let c = &self.hot[b];
         (c.kn, c.ks, c.kr, c.ktw)
     }
 
     fn viscosity(&self, b: usize) -> (f64, f64) {
-        (self.consts[b].eta_n, self.consts[b].eta_t)
+        match self.eta.get(b) {
+            Some(&[n, t]) => (n, t),
+            None => (0.0, 0.0),
+        }
     }
 
     fn bond_forces(&self, b: usize) -> (f64, Vec3) {

@@ -1,0 +1,492 @@
+//! Law (a) four bonds at a time: the scalar kernel of [`super::bond_kernel`] (orientation
+//! moments, identity reference orientations, no viscous damping) written over lanes of
+//! `[f64; 4]` so that the compiler emits packed SIMD arithmetic (AVX2 when the CPU has it,
+//! detected at run time, SSE2 otherwise).
+//!
+//! Every lane performs exactly the scalar kernel's IEEE operations in the same order (no
+//! fused multiply–add, no reassociation; branches become per-lane selects), so the results
+//! are bit-for-bit those of the scalar kernel — and hence still YADE's to rounding. The
+//! atan2 of the rotation angle is evaluated per lane with the same libm call.
+
+use super::{BondDyn, BondHot, BondMoments, KernelInputs, NO_IMAGE};
+use crate::dem::state::BondLoad;
+use crate::Vec3;
+
+/// Bonds per lane group.
+pub(super) const LANES: usize = 4;
+
+use std::arch::x86_64::*;
+
+type F = __m256d;
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn ld(a: [f64; LANES]) -> F {
+    // SAFETY: reads four f64 from a local array (unaligned load).
+    unsafe { _mm256_loadu_pd(a.as_ptr()) }
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn st4(a: F) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    // SAFETY: writes four f64 into a local array (unaligned store).
+    unsafe { _mm256_storeu_pd(out.as_mut_ptr(), a) };
+    out
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn add(a: F, b: F) -> F {
+    _mm256_add_pd(a, b)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn sub(a: F, b: F) -> F {
+    _mm256_sub_pd(a, b)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn mul(a: F, b: F) -> F {
+    _mm256_mul_pd(a, b)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn div(a: F, b: F) -> F {
+    _mm256_div_pd(a, b)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn splat(a: f64) -> F {
+    _mm256_set1_pd(a)
+}
+
+/// Exact sign flip (as Rust's unary minus).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn neg(a: F) -> F {
+    _mm256_xor_pd(a, _mm256_set1_pd(-0.0))
+}
+
+/// Per lane: `mask ? a : b` (mask lanes all-ones or all-zeros).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn select(mask: F, a: F, b: F) -> F {
+    _mm256_blendv_pd(b, a, mask)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn sqrt(a: F) -> F {
+    _mm256_sqrt_pd(a)
+}
+
+/// Mask of lanes with a > b (false for NaN, as Rust's `>`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn gt(a: F, b: F) -> F {
+    _mm256_cmp_pd::<_CMP_GT_OQ>(a, b)
+}
+
+/// Mask of lanes with a < b (false for NaN, as Rust's `<`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn lt(a: F, b: F) -> F {
+    _mm256_cmp_pd::<_CMP_LT_OQ>(a, b)
+}
+
+/// Mask of lanes with a != b (true for NaN, as Rust's `!=`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn ne(a: F, b: F) -> F {
+    _mm256_cmp_pd::<_CMP_NEQ_UQ>(a, b)
+}
+
+#[derive(Clone, Copy)]
+struct V {
+    x: F,
+    y: F,
+    z: F,
+}
+
+impl V {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add(self, o: V) -> V {
+        V {
+            x: add(self.x, o.x),
+            y: add(self.y, o.y),
+            z: add(self.z, o.z),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn sub(self, o: V) -> V {
+        V {
+            x: sub(self.x, o.x),
+            y: sub(self.y, o.y),
+            z: sub(self.z, o.z),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn scale(self, s: F) -> V {
+        V {
+            x: mul(self.x, s),
+            y: mul(self.y, s),
+            z: mul(self.z, s),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn div(self, s: F) -> V {
+        V {
+            x: div(self.x, s),
+            y: div(self.y, s),
+            z: div(self.z, s),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn neg(self) -> V {
+        V {
+            x: neg(self.x),
+            y: neg(self.y),
+            z: neg(self.z),
+        }
+    }
+    /// nalgebra's order: (x·x' + y·y') + z·z'.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn dot(self, o: V) -> F {
+        add(add(mul(self.x, o.x), mul(self.y, o.y)), mul(self.z, o.z))
+    }
+    /// nalgebra's cross product formulas.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn cross(self, o: V) -> V {
+        V {
+            x: sub(mul(self.y, o.z), mul(self.z, o.y)),
+            y: sub(mul(self.z, o.x), mul(self.x, o.z)),
+            z: sub(mul(self.x, o.y), mul(self.y, o.x)),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn select(mask: F, a: V, b: V) -> V {
+        V {
+            x: select(mask, a.x, b.x),
+            y: select(mask, a.y, b.y),
+            z: select(mask, a.z, b.z),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn splat(x: f64, y: f64, z: f64) -> V {
+        V {
+            x: splat(x),
+            y: splat(y),
+            z: splat(z),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn gather(v: [Vec3; LANES]) -> V {
+        V {
+            x: ld([v[0].x, v[1].x, v[2].x, v[3].x]),
+            y: ld([v[0].y, v[1].y, v[2].y, v[3].y]),
+            z: ld([v[0].z, v[1].z, v[2].z, v[3].z]),
+        }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lanes(self) -> [Vec3; LANES] {
+        let (x, y, z) = (st4(self.x), st4(self.y), st4(self.z));
+        std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
+    }
+}
+
+/// `slice[k]` without the bounds check.
+///
+/// Callers guarantee `k < slice.len()`: [`law_a_chunk`] checks every index of its chunk
+/// before it takes the unchecked path.
+#[inline(always)]
+unsafe fn at<T: Copy>(slice: &[T], k: usize) -> T {
+    debug_assert!(k < slice.len());
+    // SAFETY: the caller guarantees k < slice.len().
+    unsafe { *slice.get_unchecked(k) }
+}
+
+/// Four bonds of law (a); see the module docs. `st`, `out` have length 4. Returns the
+/// moments' elastic energy per lane (as [`super::moment_energy`]).
+///
+/// # Safety
+/// Every particle index of `hot` must be below the length of every particle array, and
+/// every image index below `inp.images.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn kernel4(
+    inp: &KernelInputs,
+    hot: &[BondHot; LANES],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> [f64; LANES] {
+    let p = inp.particles;
+    let dt = splat(inp.dt);
+    let ii = hot.map(|c| c.i as usize);
+    let jj = hot.map(|c| c.j as usize);
+    let has_image = hot.map(|c| c.image != NO_IMAGE);
+    let any_image = has_image.iter().any(|&h| h);
+    let cell_dist: [Vec3; LANES] = std::array::from_fn(|l| {
+        if has_image[l] {
+            at(inp.images, hot[l].image as usize)
+        } else {
+            Vec3::zeros()
+        }
+    });
+    // Geometry (the scalar `geometry`, the image shift added only where there is one).
+    let xi = V::gather(ii.map(|i| at(&p.position, i)));
+    let xj = V::gather(std::array::from_fn(|l| {
+        if has_image[l] {
+            at(&p.position, jj[l]) + inp.h * cell_dist[l]
+        } else {
+            at(&p.position, jj[l])
+        }
+    }));
+    let n_raw = xj.sub(xi);
+    let d = sqrt(n_raw.dot(n_raw));
+    let n = n_raw.div(d);
+    let ri = ld(ii.map(|i| at(&p.radius, i)));
+    let rj = ld(jj.map(|j| at(&p.radius, j)));
+    let pd = sub(add(ri, rj), d);
+    let cp = xi.add(n.scale(sub(ri, mul(splat(0.5), pd))));
+    let wi = V::gather(ii.map(|i| at(&p.angular_velocity, i)));
+    let wj = V::gather(jj.map(|j| at(&p.angular_velocity, j)));
+    // ScGeom::precompute.
+    let n_old = V::gather(std::array::from_fn(|l| st[l].normal));
+    let orthonormal_axis = n_old.cross(n);
+    let twist_angle = mul(mul(dt, splat(0.5)), n_old.dot(wi.add(wj)));
+    let twist_axis = n_old.scale(twist_angle);
+    // Relative velocity at the contact point.
+    let c1x = cp.sub(xi);
+    let c2x = cp.sub(xj);
+    let vi = V::gather(ii.map(|i| at(&p.velocity, i)));
+    let vj = V::gather(jj.map(|j| at(&p.velocity, j)));
+    let mut rel_vel = vj.add(wj.cross(c2x)).sub(vi.add(wi.cross(c1x)));
+    if any_image {
+        let shift_vel = V::gather(cell_dist.map(|cd| inp.shift_velocity * cd));
+        let mask = ld(has_image.map(|h| if h { f64::from_bits(u64::MAX) } else { 0.0 }));
+        rel_vel = V::select(mask, rel_vel.add(shift_vel), rel_vel);
+    }
+    let rel_vel_t = rel_vel.sub(n.scale(n.dot(rel_vel)));
+    let shear_inc = rel_vel_t.scale(dt);
+    // Rotate the shear force with the contact.
+    let mut shear = V::gather(std::array::from_fn(|l| st[l].shear_force));
+    shear = shear.sub(shear.cross(orthonormal_axis));
+    shear = shear.sub(shear.cross(twist_axis));
+    // Normal and incremental shear.
+    let kn = ld(hot.map(|c| c.kn));
+    let ks = ld(hot.map(|c| c.ks));
+    let kr = ld(hot.map(|c| c.kr));
+    let ktw = ld(hot.map(|c| c.ktw));
+    let fn_ = mul(kn, sub(pd, ld(hot.map(|c| c.unp))));
+    shear = shear.sub(shear_inc.scale(ks));
+    // Relative rotation q_i q_j* (identity references), normalised.
+    let qi = ii.map(|i| at(&p.orientation, i));
+    let qj = jj.map(|j| at(&p.orientation, j));
+    let (aw, ax, ay, az) = (
+        ld(qi.map(|q| q.w)),
+        ld(qi.map(|q| q.v.x)),
+        ld(qi.map(|q| q.v.y)),
+        ld(qi.map(|q| q.v.z)),
+    );
+    let (bw, bx, by, bz) = (
+        ld(qj.map(|q| q.w)),
+        ld(qj.map(|q| -q.v.x)),
+        ld(qj.map(|q| -q.v.y)),
+        ld(qj.map(|q| -q.v.z)),
+    );
+    let mut qw = sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz));
+    let mut qv = V {
+        x: sub(add(add(mul(aw, bx), mul(ax, bw)), mul(ay, bz)), mul(az, by)),
+        y: sub(add(add(mul(aw, by), mul(ay, bw)), mul(az, bx)), mul(ax, bz)),
+        z: sub(add(add(mul(aw, bz), mul(az, bw)), mul(ax, by)), mul(ay, bx)),
+    };
+    let zero = splat(0.0);
+    let qn = sqrt(add(qv.dot(qv), mul(qw, qw)));
+    let positive = gt(qn, zero);
+    qw = select(positive, div(qw, qn), qw);
+    qv = V::select(positive, qv.div(qn), qv);
+    // Angle and axis (Quat::to_angle_axis), the angle's atan2 per lane from libm.
+    let vn = sqrt(qv.dot(qv));
+    let nonzero = ne(vn, zero);
+    let (vn_l, qw_l, nonzero_l) = (st4(vn), st4(qw), st4(nonzero));
+    let angle: [f64; LANES] = std::array::from_fn(|l| {
+        let mut a = if nonzero_l[l].to_bits() != 0 {
+            2.0 * vn_l[l].atan2(qw_l[l].abs())
+        } else {
+            0.0
+        };
+        if a.is_nan() {
+            a = 0.0;
+        }
+        if a > std::f64::consts::PI {
+            a -= 2.0 * std::f64::consts::PI;
+        }
+        a
+    });
+    let angle = ld(angle);
+    let axis = V::select(
+        nonzero,
+        V::select(lt(qw, zero), qv.neg().div(vn), qv.div(vn)),
+        V::splat(1.0, 0.0, 0.0),
+    );
+    let twist = mul(angle, axis.dot(n));
+    let bending = axis.scale(angle).sub(n.scale(twist));
+    let zero_v = V::splat(0.0, 0.0, 0.0);
+    let moment_twist = V::select(gt(ktw, zero), n.scale(mul(twist, ktw)), zero_v);
+    let moment_bending = V::select(gt(kr, zero), bending.scale(kr), zero_v);
+    // Loads.
+    let force = n.scale(fn_).neg().sub(shear);
+    let moment = moment_twist.add(moment_bending);
+    let torque_i = c1x.cross(force).sub(moment);
+    let torque_j = c2x.cross(force).neg().add(moment);
+    let (n, shear, fn_) = (n.lanes(), shear.lanes(), st4(fn_));
+    // ½|M_b|²/k_r + ½|M_t|²/k_tw in the scalar order (0 + bending term, + twist term).
+    let half = splat(0.5);
+    let e_bending = select(
+        gt(kr, zero),
+        add(zero, div(mul(half, moment_bending.dot(moment_bending)), kr)),
+        zero,
+    );
+    let energy = select(
+        gt(ktw, zero),
+        add(
+            e_bending,
+            div(mul(half, moment_twist.dot(moment_twist)), ktw),
+        ),
+        e_bending,
+    );
+    let (force, torque_i, torque_j) = (force.lanes(), torque_i.lanes(), torque_j.lanes());
+    for l in 0..LANES {
+        st[l] = BondDyn {
+            normal: n[l],
+            shear_force: shear[l],
+            normal_force: fn_[l],
+        };
+        out[l] = BondLoad {
+            force_i: force[l],
+            torque_i: torque_i[l],
+            torque_j: torque_j[l],
+        };
+    }
+    st4(energy)
+}
+
+/// A chunk of law-(a) bonds: groups of four through [`kernel4`], the rest through the
+/// scalar kernel. Returns the chunk's moment energy summed in bond order.
+///
+/// # Safety
+/// As [`kernel4`], for every bond of `hot`.
+#[target_feature(enable = "avx2")]
+unsafe fn chunk_avx2(
+    inp: &KernelInputs,
+    base: usize,
+    hot: &[BondHot],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> f64 {
+    let full = hot.len() / LANES * LANES;
+    let mut energy = 0.0;
+    for g in (0..full).step_by(LANES) {
+        let group: &[BondHot; LANES] = hot[g..g + LANES]
+            .try_into()
+            .unwrap_or_else(|_| unreachable!());
+        // SAFETY: the caller's guarantee covers these bonds.
+        let e = unsafe { kernel4(inp, group, &mut st[g..g + LANES], &mut out[g..g + LANES]) };
+        for x in e {
+            energy += x;
+        }
+    }
+    scalar_chunk_from(
+        energy,
+        inp,
+        base + full,
+        &hot[full..],
+        &mut st[full..],
+        &mut out[full..],
+    )
+}
+
+/// The scalar kernel over bonds; returns their moment energy summed in bond order, added
+/// to `start`.
+fn scalar_chunk_from(
+    start: f64,
+    inp: &KernelInputs,
+    base: usize,
+    hot: &[BondHot],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> f64 {
+    let mut energy = start;
+    for k in 0..hot.len() {
+        let mut mom = BondMoments::default();
+        let [_, e] = super::bond_kernel::<true, false, false>(
+            inp,
+            base + k,
+            &hot[k],
+            &mut st[k],
+            &mut mom,
+            &mut out[k],
+        );
+        energy += e;
+    }
+    energy
+}
+
+fn scalar_chunk(
+    inp: &KernelInputs,
+    base: usize,
+    hot: &[BondHot],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> f64 {
+    scalar_chunk_from(0.0, inp, base, hot, st, out)
+}
+
+/// Law (a) on one chunk of bonds: four lanes with AVX2 when the CPU has it, else the
+/// scalar kernel (the same bits either way). Returns the chunk's moment energy.
+pub(super) fn law_a_chunk(
+    inp: &KernelInputs,
+    base: usize,
+    hot: &[BondHot],
+    st: &mut [BondDyn],
+    out: &mut [BondLoad],
+) -> f64 {
+    let p = inp.particles;
+    let len = [
+        p.position.len(),
+        p.velocity.len(),
+        p.angular_velocity.len(),
+        p.orientation.len(),
+        p.radius.len(),
+    ]
+    .into_iter()
+    .min()
+    .unwrap_or(0);
+    let in_bounds = hot.iter().all(|c| {
+        (c.i as usize) < len
+            && (c.j as usize) < len
+            && (c.image == NO_IMAGE || (c.image as usize) < inp.images.len())
+    });
+    if in_bounds && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above), and every particle and
+        // image index of the chunk is in bounds (the unchecked reads of `kernel4`).
+        return unsafe { chunk_avx2(inp, base, hot, st, out) };
+    }
+    scalar_chunk(inp, base, hot, st, out)
+}
