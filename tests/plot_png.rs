@@ -104,3 +104,49 @@ fn stress_strain_plot_and_bad_history() {
     assert!(plot_stress_strain(&p2, &bad, "x").is_err());
     assert!(!p2.exists());
 }
+
+#[test]
+fn line_plot_of_histories_shows_every_curve() {
+    use anisobond::plot::{plot_series, Series};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("series.png");
+    // A damped oscillation (line) and the same samples as dots in another colour.
+    let pts: Vec<(f64, f64)> = (0..200)
+        .map(|k| {
+            let t = k as f64;
+            (t, -1.0 + 0.5 * (-t / 30.0).exp() * (t / 5.0).cos())
+        })
+        .collect();
+    let series = [
+        Series {
+            label: "line".into(),
+            points: pts.clone(),
+            dashed: false,
+            colour: Some(0),
+        },
+        Series {
+            label: "dots".into(),
+            points: pts.iter().step_by(5).map(|&(t, y)| (t, y - 0.2)).collect(),
+            dashed: true,
+            colour: Some(3),
+        },
+    ];
+    plot_series(&path, &series, "histories", "step", "stress (MPa)").unwrap();
+    let (w, h, px) = decode(&path);
+    assert_eq!((w, h), (1000, 700));
+    let (ink, colours) = content(&px);
+    assert!(ink > 0.02 && colours > 20, "ink {ink}, colours {colours}");
+    assert!(near(&px, [31, 119, 180]) > 300, "line colour missing");
+    assert!(near(&px, [214, 39, 40]) > 100, "dot colour missing");
+    // Nothing to plot, or a NaN: refused, no file.
+    let p2 = dir.path().join("bad.png");
+    let nan = [Series {
+        label: "x".into(),
+        points: vec![(0.0, f64::NAN), (1.0, 1.0)],
+        dashed: false,
+        colour: None,
+    }];
+    assert!(plot_series(&p2, &nan, "x", "x", "y").is_err());
+    assert!(plot_series(&p2, &[], "x", "x", "y").is_err());
+    assert!(!p2.exists());
+}

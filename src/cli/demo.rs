@@ -72,6 +72,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         "method", "C11 [GPa]", "C12 [GPa]", "C44 [GPa]", "C12/C11", "C44/C11", "Zener"
     );
     let mut written = vec![packing_path, model_path, bonds_path];
+    let mut plots = Vec::new();
     let statics = StaticArgs {
         lever_arm: LeverArmArg::MidGap,
         cg_tolerance: 1e-6,
@@ -86,7 +87,17 @@ pub fn run(a: DemoArgs) -> Result<()> {
         Method::Dynamic,
     ] {
         let t = std::time::Instant::now();
-        let c = tensor_of(&b, &model, m, &statics)?;
+        let c = if m == Method::Dynamic {
+            let args = super::run::IntegratorArgs::default();
+            let result =
+                super::run::run_element_tests(&b.packing, &b.bonds, &b.stiffness, &args, true)?;
+            let png = a.output.join("element-tests.png");
+            super::run::plot_element_tests(&png, &result, &args)?;
+            plots.push(png);
+            result.c
+        } else {
+            tensor_of(&b, &model, m, &statics)?
+        };
         let secs = t.elapsed().as_secs_f64();
         let r = TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)));
         let cu = &r.cubic;
@@ -143,6 +154,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         "Pa/m",
     )?;
     written.push(plot_path);
+    written.append(&mut plots);
     let strain = Voigt6::new(-1e-4, 0.0, 0.0, 0.0, 0.0, 0.0);
     let state = vtk::strained_state(
         &b.packing,

@@ -100,6 +100,9 @@ pub struct RunArgs {
     /// Final tensor report (SPEC JSON).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Plot (PNG) of the loaded stress component against step for every path.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
@@ -149,7 +152,41 @@ fn progress_bar(what: &str) -> ProgressBar {
     bar
 }
 
-fn run_element_tests(
+/// PNG of the loaded stress component against step for every element-test path.
+pub fn plot_element_tests(
+    path: &std::path::Path,
+    result: &element::DynamicTensor,
+    a: &IntegratorArgs,
+) -> Result<()> {
+    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+    let series: Vec<anisobond::plot::Series> = result
+        .paths
+        .iter()
+        .map(|p| anisobond::plot::Series {
+            label: format!("path {}: σ{}", NAMES[p.path], NAMES[p.path]),
+            points: p
+                .history
+                .iter()
+                .map(|h| (h.step as f64, h.stress[p.path] / 1e6))
+                .collect(),
+            dashed: false,
+            colour: Some(p.path),
+        })
+        .collect();
+    anisobond::plot::plot_series(
+        path,
+        &series,
+        &format!(
+            "element tests: strain {:e} in one step, Cundall damping {}",
+            a.strain, a.damping
+        ),
+        "step",
+        "stress in the loaded direction (MPa)",
+    )
+}
+
+/// Run the six element tests (with a progress bar), recording histories if asked.
+pub fn run_element_tests(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
@@ -195,7 +232,12 @@ pub fn dynamic_tensor(
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
     let (packing, b, k) = bonded(&a.packing, &a.model)?;
-    let result = run_element_tests(&packing, &b, &k, &a.integrator, a.history.is_some())?;
+    let want_history = a.history.is_some() || a.plot.is_some();
+    let result = run_element_tests(&packing, &b, &k, &a.integrator, want_history)?;
+    if let Some(path) = &a.plot {
+        plot_element_tests(path, &result, &a.integrator)?;
+        println!("wrote {}", path.display());
+    }
     if let Some(path) = &a.history {
         let mut csv = String::from(
             "path,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa,kinetic_J,elastic_J,local_damping_J,viscous_damping_J,unbalanced_force\n",

@@ -510,3 +510,103 @@ pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result
         Ok(())
     })
 }
+
+/// One named curve of [`plot_series`]: (x, y) points.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// The points.
+    pub points: Vec<(f64, f64)>,
+    /// Draw as dots instead of a line (e.g. a second code's curve over the first).
+    pub dashed: bool,
+    /// Palette index; `None` takes the curve's position.
+    pub colour: Option<usize>,
+}
+
+/// Line plot of several curves on common axes (e.g. stress histories against step, or
+/// two codes' histories over each other), written atomically as PNG.
+pub fn plot_series(
+    path: &Path,
+    series: &[Series],
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+) -> Result<()> {
+    let pts = || series.iter().flat_map(|c| c.points.iter());
+    if series.is_empty()
+        || pts().count() < 2
+        || pts().any(|(x, y)| !x.is_finite() || !y.is_finite())
+    {
+        return Err(Error::Invalid(
+            "line plot: need at least two finite points".into(),
+        ));
+    }
+    let (x0, mut x1, mut y0, mut y1) = pts().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
+    );
+    if x1 <= x0 {
+        x1 = x0 + 1.0;
+    }
+    if y1 <= y0 {
+        (y0, y1) = (y0 - 1.0, y1 + 1.0);
+    }
+    let pad = 0.05 * (y1 - y0);
+    let palette = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+    ];
+    render(path, (1000, 700), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 24))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .y_label_formatter(&|v| format!("{v:.3e}"))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 18))
+            .draw()
+            .map_err(s)?;
+        for (k, c) in series.iter().enumerate() {
+            let colour = palette[c.colour.unwrap_or(k) % palette.len()];
+            let style = colour.stroke_width(if c.dashed { 1 } else { 2 });
+            let drawn = if c.dashed {
+                chart
+                    .draw_series(c.points.iter().map(|&p| Circle::new(p, 2, colour.filled())))
+                    .map_err(s)?
+            } else {
+                chart
+                    .draw_series(LineSeries::new(c.points.iter().copied(), style))
+                    .map_err(s)?
+            };
+            drawn.label(c.label.clone()).legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(s)?;
+        Ok(())
+    })
+}

@@ -43,6 +43,10 @@ use std::time::Instant;
 
 /// Output files of a validation directory.
 pub mod outputs {
+    /// Plot of the undamped histories.
+    pub const UNDAMPED_PNG: &str = "undamped-history.png";
+    /// Plot of the damped histories.
+    pub const DAMPED_PNG: &str = "damped-history.png";
     /// The YADE export (packing, bond table, model, module, run.py, YADE's own outputs).
     pub const YADE_DIR: &str = "yade";
     /// Undamped stress histories, YADE and anisobond side by side.
@@ -861,7 +865,61 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
     let text = serde_json::to_string_pretty(&summary_json(v))
         .map_err(|e| Error::Invalid(format!("summary JSON: {e}")))?;
     crate::io::write_string_atomic(&summary, &(text + "\n"))?;
-    Ok(vec![undamped, damped, summary])
+    let mut written = vec![undamped, damped, summary];
+    for (rows_y, rows_a, name, what) in [
+        (
+            &v.undamped_yade,
+            &v.undamped_anisobond,
+            outputs::UNDAMPED_PNG,
+            "undamped",
+        ),
+        (
+            &v.damped_yade,
+            &v.damped_anisobond,
+            outputs::DAMPED_PNG,
+            "damped",
+        ),
+    ] {
+        let series = history_series(rows_y, rows_a);
+        if !series.is_empty() {
+            let png = dir.join(name);
+            crate::plot::plot_series(
+                &png,
+                &series,
+                &format!("{what} stress histories: YADE (lines) and anisobond (dots)"),
+                "step",
+                "stress in the loaded direction (MPa)",
+            )?;
+            written.push(png);
+        }
+    }
+    Ok(written)
+}
+
+/// Curves of the loaded stress component against step, per path, for both codes.
+fn history_series(yade: &[HistoryRow], anisobond: &[HistoryRow]) -> Vec<crate::plot::Series> {
+    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+    let mut out = Vec::new();
+    let mut paths: Vec<usize> = yade.iter().map(|r| r.path).collect();
+    paths.dedup();
+    for p in paths {
+        for (rows, who, dashed) in [(yade, "YADE", false), (anisobond, "anisobond", true)] {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.path == p)
+                .map(|r| (r.step as f64, r.stress[p] / 1e6))
+                .collect();
+            if points.len() >= 2 {
+                out.push(crate::plot::Series {
+                    label: format!("{who}: path {}, σ{}", NAMES[p], NAMES[p]),
+                    points,
+                    dashed,
+                    colour: Some(p),
+                });
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]
