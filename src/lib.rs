@@ -25,6 +25,7 @@ pub mod packing;
 pub mod plot;
 pub mod schemes;
 pub mod tensor;
+pub mod validate;
 
 pub use error::{Error, Result};
 
