@@ -1,4 +1,4 @@
-//! `validate liggghts` for real: a 400-particle bonded packing run in the LIGGGHTS driver
+//! `validate liggghts` for real: a 300-particle bonded packing run in the LIGGGHTS driver
 //! (serial and under MPI), the stock `liggghts` harmonic deck, the reference integrator and
 //! the relaxed solver. The checks compare independent codes with each other (and with the
 //! exact relaxed solve); the test asserts that every check passes, that the report files
@@ -27,6 +27,9 @@ fn options() -> ValidateOptions {
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(10_000),
+        // Looser than the CLI's 1e-6 to halve the integrator's steps in this debug build;
+        // measured: still ~1e-5 from the relaxed tensor, far inside the 0.5 % checked.
+        integrator_tolerance: 1e-5,
         ..ValidateOptions::default()
     }
 }
@@ -41,7 +44,7 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
         driver: driver(),
         liggghts: "liggghts".into(),
     };
-    let b = bonded(400, 23, MODEL);
+    let b = bonded(300, 23, MODEL);
     assert!(b.k.kr.iter().all(|&v| v > 0.0) && b.k.ktw.iter().all(|&v| v > 0.0));
     let dir = fresh_dir("validate");
     let t0 = std::time::Instant::now();
@@ -63,21 +66,25 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
     for want in [
         "history",
         "history-total-form",
+        "harmonic-history",
         "mpi-history",
         "tensor-driver-relaxed",
         "tensor-integrator-relaxed",
         "tensor-driver-integrator",
         "harmonic-relaxed",
-        "harmonic-integrator",
         "mpi-columns",
     ] {
         assert!(ids.contains(&want), "check {want} missing: {ids:?}");
+    }
+    let files = write_report(&dir.join("report"), &r).expect("report files");
+    for f in &files {
+        assert!(f.exists(), "{} not written", f.display());
     }
     let failed = r.failed();
     assert!(failed.is_empty(), "failed: {failed:#?}");
     // The histories carry real load, and the undamped motion keeps changing the stress.
     let h = &r.history;
-    assert_eq!(h.step.len(), 101);
+    assert_eq!(h.step.len(), 100);
     let peak = h
         .driver
         .iter()
@@ -96,10 +103,6 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
         d > 0.05,
         "normal-spring and full tensors should differ: {d}"
     );
-    let files = write_report(&dir.join("report"), &r).expect("report files");
-    for f in &files {
-        assert!(f.exists(), "{} not written", f.display());
-    }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report/report.json")).unwrap())
             .unwrap();
