@@ -109,3 +109,116 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
     assert_eq!(json["passed"], true);
     eprintln!("total {:.1} s", t0.elapsed().as_secs_f64());
 }
+
+/// Sum of "Loop time of T on P procs for S steps" lines: (seconds, steps).
+fn loop_time(screen: &str) -> (f64, u64) {
+    let mut t = 0.0;
+    let mut s = 0;
+    for l in screen.lines().filter(|l| l.starts_with("Loop time of")) {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        t += w[3].parse::<f64>().unwrap_or(0.0);
+        s += w[8].parse::<u64>().unwrap_or(0);
+    }
+    (t, s)
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// Throughput for BENCHMARKS.md: the undamped run of the validation (all four springs) on
+/// `BENCH_N` particles (default 5,000), driver at -np 1 and -np 2 (LIGGGHTS' loop time) and
+/// the reference integrator (wall time of its steps, all threads), same packing, same
+/// session. Ignored (run in release):
+/// `cargo test --release --test validate_liggghts -- --ignored --nocapture throughput`.
+/// Asserts only that the runs agree (history check at the last step).
+#[test]
+#[ignore]
+fn throughput_driver_vs_integrator() {
+    use anisobond::dem::laws::{LinearBondKernel, MomentForm};
+    use anisobond::export::liggghts::*;
+    use anisobond::validate::liggghts::{
+        initial_motion, integrator_history, write_undamped_deck, UndampedDeck,
+    };
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let n: usize = std::env::var("BENCH_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5000);
+    let steps: u64 = 2000;
+    let b = bonded(n, 2018, MODEL);
+    let o = ValidateOptions {
+        history_steps: steps,
+        history_every: steps,
+        ..ValidateOptions::default()
+    };
+    let dt = stable_timestep(&b.packing, &b.bonds, &b.k, o.density).unwrap();
+    let (v, w) = initial_motion(&b.packing, dt, &o);
+    let mut last = Vec::new();
+    for np in [1usize, 2] {
+        let dir = fresh_dir(&format!("throughput{np}"));
+        let deck = DeckOptions {
+            timestep: Some(dt),
+            shear: false,
+            ..DeckOptions::default()
+        };
+        let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &deck).unwrap();
+        let name = write_undamped_deck(
+            &dir,
+            UndampedDeck::Driver,
+            &v,
+            &w,
+            dt,
+            sum.max_bond_length,
+            &o,
+        )
+        .unwrap();
+        let la = load_average();
+        let screen = run_liggghts(
+            &Launch {
+                program: driver(),
+                mpi_processes: Some(np),
+                vars: vec![],
+            },
+            &dir,
+            name,
+        )
+        .unwrap();
+        let (t, s) = loop_time(&screen);
+        eprintln!(
+            "driver -np {np}: {n} particles, {} bonds, {s} steps in {t:.2} s: {:.3e} particle-steps/s (load average before: {la})",
+            b.bonds.len(),
+            n as f64 * s as f64 / t
+        );
+        let h = read_stress_history(&dir.join("undamped_history.txt")).unwrap();
+        last.push(*h.stress.last().unwrap());
+    }
+    let la = load_average();
+    let law = Box::new(
+        LinearBondKernel::new(
+            "inc",
+            [&b.k.kn, &b.k.ks, &b.k.kr, &b.k.ktw],
+            MomentForm::Incremental,
+            None,
+        )
+        .unwrap(),
+    );
+    let t0 = std::time::Instant::now();
+    let r = integrator_history(&b.packing, &b.bonds, law, &v, &w, dt, &[steps], o.density).unwrap();
+    let t = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "integrator ({} rayon threads): {steps} steps in {t:.2} s: {:.3e} particle-steps/s (load average before: {la})",
+        rayon::current_num_threads(),
+        n as f64 * steps as f64 / t
+    );
+    let scale = last[0].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for k in 0..6 {
+        assert!((last[0][k] - r[0][k]).abs() <= 1e-6 * scale);
+        assert!((last[0][k] - last[1][k]).abs() <= 1e-6 * scale);
+    }
+}

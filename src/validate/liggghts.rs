@@ -145,8 +145,10 @@ pub struct Check {
 impl Check {
     /// True when the difference is within the tolerance (or there is none).
     pub fn passed(&self) -> bool {
-        self.tolerance
-            .is_none_or(|t| self.difference.is_finite() && self.difference <= t)
+        match self.tolerance {
+            None => true,
+            Some(t) => self.difference.is_finite() && self.difference <= t,
+        }
     }
 }
 
