@@ -11,6 +11,7 @@ mod pack;
 mod plot;
 pub mod run;
 mod validate;
+mod validate_liggghts;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;

@@ -30,6 +30,9 @@ pub enum ValidateTarget {
     /// side by side, Pa) and DIR/validation.json; exits non-zero when a comparison is out
     /// of tolerance.
     Yade(YadeValidateArgs),
+    /// The LIGGGHTS driver and the stock LIGGGHTS against the reference integrator and the
+    /// relaxed solver; non-zero exit status when out of tolerance.
+    Liggghts(super::validate_liggghts::Args),
 }
 
 /// Arguments of `validate yade`.
@@ -86,6 +89,7 @@ pub struct YadeValidateArgs {
 pub fn run(a: ValidateArgs) -> Result<()> {
     match a.target {
         ValidateTarget::Yade(y) => validate_yade_cmd(y),
+        ValidateTarget::Liggghts(a) => super::validate_liggghts::run(a),
     }
 }
 

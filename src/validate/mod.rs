@@ -4,5 +4,8 @@
 //!
 //! - [`yade`]: YADE 2023.02a against the reference integrator ([`crate::dem`]) and the
 //!   relaxed solver ([`crate::homogenize::relaxed`]) — `anisobond validate yade`.
+//! - [`liggghts`]: the LIGGGHTS driver (`pair_style anisobond`) and stock LIGGGHTS
+//!   (`bond_style harmonic`) against the same — `anisobond validate liggghts`.
 
+pub mod liggghts;
 pub mod yade;

@@ -1,0 +1,177 @@
+//! `anisobond validate liggghts PACKING --model MODEL [-o DIR] [--np N]`: the same bonded
+//! packing in the LIGGGHTS driver, the stock LIGGGHTS harmonic deck, the reference
+//! integrator and the relaxed solver; a table of the differences, files in DIR, and a
+//! non-zero exit naming the checks outside tolerance.
+
+use anisobond::bonds::{self, rules};
+use anisobond::export::liggghts::which;
+use anisobond::model::Model;
+use anisobond::packing;
+use anisobond::validate::liggghts::{
+    checks_table, validate_liggghts, write_report, Programs, ValidateOptions,
+};
+use anisobond::{Error, Result};
+use std::path::PathBuf;
+
+/// Validate the LIGGGHTS driver against the reference integrator and the relaxed solver.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Periodic packing file (SPEC text `x y z r`, YADE SpherePack text, or LIGGGHTS data).
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output directory: report.json, checks.csv, undamped_history.csv, tensors.csv,
+    /// driver_stress_strain.png, and one sub-directory per LIGGGHTS run.
+    #[arg(short, long, default_value = "validate-liggghts")]
+    pub output: PathBuf,
+    /// MPI processes of the parallel driver runs (1 skips the MPI checks; LIGGGHTS 3.8 runs
+    /// only the normal load cases under MPI).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub np: u32,
+    /// The driver program; default: `anisobond-liggghts` on PATH, else `target/cpp/` next
+    /// to this executable (built by `make -C cpp`).
+    #[arg(long)]
+    pub driver: Option<PathBuf>,
+    /// The stock LIGGGHTS program.
+    #[arg(long, default_value = "liggghts")]
+    pub liggghts: PathBuf,
+    /// Particle density (kg/m³).
+    #[arg(long, default_value_t = 2500.0)]
+    pub density: f64,
+    /// Time step (s); default: 0.3 of the stiffest particle's period bound.
+    #[arg(long)]
+    pub timestep: Option<f64>,
+    /// Steps of the undamped history comparison.
+    #[arg(long, default_value_t = 1000)]
+    pub history_steps: u64,
+    /// Steps LIGGGHTS holds each strain increment (damped relaxation).
+    #[arg(long, default_value_t = 10_000)]
+    pub relax_steps: u64,
+    /// Tolerance of the undamped histories (relative).
+    #[arg(long, default_value_t = 1e-6)]
+    pub history_tolerance: f64,
+    /// Tolerance of the quasi-static tensors (relative).
+    #[arg(long, default_value_t = 5e-3)]
+    pub tensor_tolerance: f64,
+}
+
+fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {
+    if let Some(p) = given {
+        return Ok(p);
+    }
+    if which("anisobond-liggghts") {
+        return Ok("anisobond-liggghts".into());
+    }
+    let beside = std::env::current_exe().ok().and_then(|exe| {
+        exe.parent()
+            .and_then(|d| d.parent())
+            .map(|t| t.join("cpp").join("anisobond-liggghts"))
+    });
+    match beside {
+        Some(p) if p.is_file() => Ok(p),
+        _ => Err(Error::Invalid(
+            "the LIGGGHTS driver anisobond-liggghts was not found on PATH nor in target/cpp/: \
+             build it with `make -C cpp` (needs liggghts libliggghts-dev mpi-default-dev) or \
+             pass --driver PATH"
+                .into(),
+        )),
+    }
+}
+
+/// Run the command.
+pub fn run(a: Args) -> Result<()> {
+    let programs = Programs {
+        driver: find_driver(a.driver)?,
+        liggghts: a.liggghts,
+    };
+    let model = Model::from_path(&a.model)?;
+    let packing = packing::io::read_packing(&a.packing)?;
+    let bonds = rules::build_bonds(&packing, model.bonding)?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid(
+            "the bonding rule produced no bonds: increase the gap/factor value".into(),
+        ));
+    }
+    let scheme = model.build_scheme(Some((&packing, &bonds)))?;
+    let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+    let opts = ValidateOptions {
+        density: a.density,
+        timestep: a.timestep,
+        history_steps: a.history_steps,
+        relax_steps: a.relax_steps,
+        processes: a.np as usize,
+        history_tolerance: a.history_tolerance,
+        tensor_tolerance: a.tensor_tolerance,
+        ..ValidateOptions::default()
+    };
+    println!(
+        "validate liggghts: {} particles, {} bonds; runs in {}",
+        packing.len(),
+        bonds.len(),
+        a.output.display()
+    );
+    let t0 = std::time::Instant::now();
+    let report = validate_liggghts(
+        &a.output,
+        &packing,
+        &bonds,
+        &k,
+        &programs,
+        &opts,
+        &mut |stage| println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64()),
+    )?;
+    println!("time step {:.4e} s\n", report.timestep);
+    println!("relative differences (dimensionless; stresses in Pa, tensors in Pa):");
+    print!("{}", checks_table(&report));
+    let gpa = |c: &anisobond::tensor::Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
+    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
+    for (name, c) in [
+        ("driver", &report.driver_tensor),
+        ("integrator", &report.integrator_tensor),
+        ("relaxed", &report.relaxed_tensor),
+    ] {
+        println!(
+            "  {name:<11} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
+            gpa(c, 0, 0),
+            gpa(c, 1, 1),
+            gpa(c, 2, 2),
+            gpa(c, 0, 1),
+            gpa(c, 3, 3),
+            gpa(c, 4, 4),
+            gpa(c, 5, 5)
+        );
+    }
+    println!("\nwall time:");
+    for t in &report.timings {
+        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    let files = write_report(&a.output, &report)?;
+    println!();
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    let failed = report.failed();
+    if failed.is_empty() {
+        println!("all checks within tolerance");
+        Ok(())
+    } else {
+        let list: Vec<String> = failed
+            .iter()
+            .map(|c| {
+                format!(
+                    "{} ({:.3e} > {:.1e}: {})",
+                    c.id,
+                    c.difference,
+                    c.tolerance.unwrap_or(f64::NAN),
+                    c.description
+                )
+            })
+            .collect();
+        Err(Error::Invalid(format!(
+            "validate liggghts: {} check(s) outside tolerance: {}",
+            failed.len(),
+            list.join("; ")
+        )))
+    }
+}
