@@ -465,8 +465,8 @@ pub fn integrator_history(
         let volume = sim.volume();
         sim.step()?;
         let mut s = Mat3::zeros();
-        for (f, l) in sim.loads.force_i.iter().zip(&branches) {
-            s += f * l.transpose();
+        for (b, l) in branches.iter().enumerate() {
+            s += sim.loads.force_i(b) * l.transpose();
         }
         out.push(liggghts_triangle(&(s / volume)));
     }
