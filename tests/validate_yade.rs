@@ -148,7 +148,16 @@ fn yade_and_anisobond_agree_on_300_particles() {
 
     // Files: both histories side by side, the summary.
     let written = write_validation_files(dir.path(), &v).unwrap();
-    assert_eq!(written.len(), 3);
+    assert_eq!(written.len(), 5);
+    // The history plots are real pictures: 1000×700 with many colours.
+    for png in [outputs::UNDAMPED_PNG, outputs::DAMPED_PNG] {
+        let img = image::open(dir.path().join(png))
+            .expect("decodable PNG")
+            .to_rgb8();
+        assert_eq!(img.dimensions(), (1000, 700));
+        let colours: std::collections::HashSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+        assert!(colours.len() > 20, "{png} looks blank");
+    }
     let csv = std::fs::read_to_string(dir.path().join(outputs::UNDAMPED_CSV)).unwrap();
     let data: Vec<&str> = csv.lines().filter(|l| !l.starts_with('#')).collect();
     assert!(data[0].starts_with("path,step,time_s,e_path,yade_s11_Pa"));
