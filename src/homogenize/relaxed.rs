@@ -171,6 +171,19 @@ fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
     s
 }
 
+/// A relaxed solve together with its fluctuation field.
+#[derive(Clone, Debug)]
+pub struct RelaxedSolution {
+    /// Tensor, iterations, residual, null space.
+    pub result: RelaxedResult,
+    /// Q: generalised fluctuation (3 displacements, 3 rotations) of every active particle per
+    /// unit engineering strain of each of the six load cases; the fluctuation under strain e
+    /// is q = −Q·e.
+    pub q: Vec<Block6>,
+    /// Original particle index of every active particle (row of `q`).
+    pub active: Vec<u32>,
+}
+
 /// The exact relaxed 6×6 stiffness (Pa) of a periodic bonded packing.
 pub fn relaxed_tensor(
     packing: &Packing,
@@ -178,25 +191,43 @@ pub fn relaxed_tensor(
     k: &BondStiffness,
     opts: &RelaxedOptions,
 ) -> Result<RelaxedResult> {
+    Ok(relaxed_solve(packing, bonds, k, opts, None)?.result)
+}
+
+/// The relaxed tensor and its fluctuation field, with CG started from `initial` (used when it
+/// has one block per active particle, e.g. the previous solution of a calibration loop: Q is
+/// invariant under a uniform scaling of all springs, so it is an excellent start).
+pub fn relaxed_solve(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &RelaxedOptions,
+    initial: Option<&[Block6]>,
+) -> Result<RelaxedSolution> {
     let mut net = Network::build(packing, bonds, k, opts.lever_arm, opts.rotations)?;
     let c_affine = net.h / net.volume;
-    if !opts.fluctuations || net.n_active == 0 {
-        return Ok(RelaxedResult {
-            c: c_affine,
-            c_affine,
-            iterations: 0,
-            relative_residual: 0.0,
-            active_particles: net.n_active,
-            active_bonds: net.ends.len(),
-            null_space: net.null_space,
+    let m = net.n_active;
+    if !opts.fluctuations || m == 0 {
+        return Ok(RelaxedSolution {
+            result: RelaxedResult {
+                c: c_affine,
+                c_affine,
+                iterations: 0,
+                relative_residual: 0.0,
+                active_particles: m,
+                active_bonds: net.ends.len(),
+                null_space: net.null_space,
+            },
+            q: vec![Block6::zeros(); m],
+            active: net.original,
         });
     }
     let kmat = BlockSparse::assemble(&net);
-    let pre: Vec<(Block6, usize)> = (0..net.n_active)
+    let pre: Vec<(Block6, usize)> = (0..m)
         .into_par_iter()
         .map(|p| pinv_psd(&kmat.diagonal(p)))
         .collect();
-    net.null_space.other_singular_particles = (0..net.n_active)
+    net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
             let full = if net.degree[p] == 2 { 5 } else { 6 };
             let full = if opts.rotations { full } else { 3 };
@@ -212,35 +243,42 @@ pub fn relaxed_tensor(
         }
     }
     let scale = scale.map(f64::sqrt);
-    let (q, iterations, residual) = pcg(&kmat, &net.g, &pre, &scale, opts)?;
-    let mut kq = vec![Block6::zeros(); net.n_active];
+    let start = initial.filter(|x| x.len() == m);
+    let (q, iterations, residual) = pcg(&kmat, &net.g, &pre, &scale, opts, start)?;
+    let mut kq = vec![Block6::zeros(); m];
     kmat.apply(&q, &mut kq);
     let mut gtq = Block6::zeros();
     let mut qtkq = Block6::zeros();
-    for p in 0..net.n_active {
+    for p in 0..m {
         gtq += net.g[p].transpose() * q[p];
         qtkq += q[p].transpose() * kq[p];
     }
     let c = net.h - gtq - gtq.transpose() + qtkq;
     let c = (c + c.transpose()) * (0.5 / net.volume);
-    Ok(RelaxedResult {
-        c,
-        c_affine,
-        iterations,
-        relative_residual: residual,
-        active_particles: net.n_active,
-        active_bonds: net.ends.len(),
-        null_space: net.null_space,
+    Ok(RelaxedSolution {
+        result: RelaxedResult {
+            c,
+            c_affine,
+            iterations,
+            relative_residual: residual,
+            active_particles: m,
+            active_bonds: net.ends.len(),
+            null_space: net.null_space,
+        },
+        q,
+        active: net.original,
     })
 }
 
-/// Preconditioned conjugate gradients on the six load cases together: K X = B.
+/// Preconditioned conjugate gradients on the six load cases together, K X = B, from
+/// X₀ = `start` (or 0).
 fn pcg(
     k: &BlockSparse,
     b: &[Block6],
     pre: &[(Block6, usize)],
     scale: &[f64; 6],
     opts: &RelaxedOptions,
+    start: Option<&[Block6]>,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let m = b.len();
     let precondition = |r: &[Block6], z: &mut [Block6]| {
@@ -249,15 +287,35 @@ fn pcg(
             .zip(pre.par_iter())
             .for_each(|((z, r), (p, _))| *z = p * r);
     };
-    let mut x = vec![Block6::zeros(); m];
+    let bnorm = column_dots(b, b).map(f64::sqrt);
+    // Columns whose right-hand side is rounding noise are solved as zero.
+    let live: [bool; 6] = std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]);
+    let mut x = match start {
+        Some(s) => {
+            let mut x = s.to_vec();
+            for xp in x.iter_mut() {
+                for (c, &alive) in live.iter().enumerate() {
+                    if !alive {
+                        xp.column_mut(c).fill(0.0);
+                    }
+                }
+            }
+            x
+        }
+        None => vec![Block6::zeros(); m],
+    };
     let mut r = b.to_vec();
+    if start.is_some() {
+        let mut kx = vec![Block6::zeros(); m];
+        k.apply(&x, &mut kx);
+        r.par_iter_mut()
+            .zip(kx.par_iter())
+            .for_each(|(r, kx)| *r -= kx);
+    }
     let mut z = vec![Block6::zeros(); m];
     precondition(&r, &mut z);
     let mut p = z.clone();
     let mut ap = vec![Block6::zeros(); m];
-    let bnorm = column_dots(b, b).map(f64::sqrt);
-    // Columns whose right-hand side is rounding noise are solved as zero.
-    let live: [bool; 6] = std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]);
     let mut rz = column_dots(&r, &z);
     let mut worst = 0.0;
     for it in 0..=opts.max_iterations {
