@@ -24,15 +24,15 @@ fn push_int<T: itoa::Integer>(s: &mut String, buf: &mut itoa::Buffer, v: T) {
     s.push_str(buf.format(v));
 }
 
-/// Format rows `range` of the table.
-fn format_rows(bonds: &BondSet, k: &BondStiffness, range: std::ops::Range<usize>) -> String {
-    let mut s = String::with_capacity(range.len() * 160);
+/// Format rows `range` of the table into `s` (cleared first; its capacity is reused).
+fn format_rows(s: &mut String, bonds: &BondSet, k: &BondStiffness, range: std::ops::Range<usize>) {
+    s.clear();
     let mut fb = ryu::Buffer::new();
     let mut ib = itoa::Buffer::new();
     for b in range {
-        push_int(&mut s, &mut ib, bonds.i[b]);
+        push_int(s, &mut ib, bonds.i[b]);
         s.push(',');
-        push_int(&mut s, &mut ib, bonds.j[b]);
+        push_int(s, &mut ib, bonds.j[b]);
         let n = bonds.normal[b];
         for v in [
             n.x,
@@ -46,15 +46,14 @@ fn format_rows(bonds: &BondSet, k: &BondStiffness, range: std::ops::Range<usize>
             k.ktw[b],
         ] {
             s.push(',');
-            push_f64(&mut s, &mut fb, v);
+            push_f64(s, &mut fb, v);
         }
         for v in bonds.image[b] {
             s.push(',');
-            push_int(&mut s, &mut ib, v);
+            push_int(s, &mut ib, v);
         }
         s.push('\n');
     }
-    s
 }
 
 /// Write the bond table to any writer.
@@ -65,12 +64,26 @@ pub fn write_bond_table_to(
 ) -> std::io::Result<()> {
     writeln!(w, "{HEADER}")?;
     let n = bonds.len();
-    let chunks: Vec<String> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| format_rows(bonds, k, c * CHUNK..((c + 1) * CHUNK).min(n)))
+    let n_chunks = n.div_ceil(CHUNK);
+    // Groups of chunks are formatted in parallel into buffers that are reused from group to
+    // group (fresh memory for the whole table would cost page faults that serialise the
+    // threads), then written in order.
+    let group = 4 * rayon::current_num_threads().max(1);
+    let mut buffers: Vec<String> = (0..group.min(n_chunks))
+        .map(|_| String::with_capacity(CHUNK * 170))
         .collect();
-    for c in chunks {
-        w.write_all(c.as_bytes())?;
+    for first in (0..n_chunks).step_by(group) {
+        let count = group.min(n_chunks - first);
+        buffers[..count]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(g, buf)| {
+                let c = first + g;
+                format_rows(buf, bonds, k, c * CHUNK..((c + 1) * CHUNK).min(n));
+            });
+        for buf in &buffers[..count] {
+            w.write_all(buf.as_bytes())?;
+        }
     }
     Ok(())
 }
