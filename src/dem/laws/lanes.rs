@@ -6,11 +6,17 @@
 //! Every lane performs exactly the scalar kernel's IEEE operations in the same order (no
 //! fused multiply–add, no reassociation; branches become per-lane selects), so the results
 //! are bit-for-bit those of the scalar kernel — and hence still YADE's to rounding. The
-//! atan2 of the rotation angle is evaluated per lane with the same libm call.
+//! rotation angle uses the scalar kernel's small-angle series ([`crate::dem::quat`]) on all
+//! lanes, and libm's atan2 per lane only where the series does not apply.
 
 use super::{BondDyn, BondHot, BondMoments, KernelInputs, NO_IMAGE};
+use crate::dem::quat::{double_atan2, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
 use crate::Vec3;
+
+/// Route law (a) through the scalar kernel only (for the bit-identity test of the lanes).
+pub(crate) static SCALAR_ONLY: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
 
 /// Bonds per lane group.
 pub(super) const LANES: usize = 4;
@@ -97,6 +103,34 @@ fn gt(a: F, b: F) -> F {
 #[target_feature(enable = "avx2")]
 fn lt(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_LT_OQ>(a, b)
+}
+
+/// Mask of lanes with a <= b (false for NaN, as Rust's `<=`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn le(a: F, b: F) -> F {
+    _mm256_cmp_pd::<_CMP_LE_OQ>(a, b)
+}
+
+/// Mask of lanes with a == b (false for NaN, as Rust's `==`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn eq(a: F, b: F) -> F {
+    _mm256_cmp_pd::<_CMP_EQ_OQ>(a, b)
+}
+
+/// |a| per lane (clears the sign bit, as `f64::abs`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn abs(a: F) -> F {
+    _mm256_andnot_pd(_mm256_set1_pd(-0.0), a)
+}
+
+/// One bit per lane: set where the mask lane is true.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn movemask(mask: F) -> i32 {
+    _mm256_movemask_pd(mask)
 }
 
 /// Mask of lanes with a != b (true for NaN, as Rust's `!=`).
@@ -321,25 +355,35 @@ unsafe fn kernel4(
     let positive = gt(qn, zero);
     qw = select(positive, div(qw, qn), qw);
     qv = V::select(positive, qv.div(qn), qv);
-    // Angle and axis (Quat::to_angle_axis), the angle's atan2 per lane from libm.
+    // Angle and axis (Quat::to_angle_axis): 2·atan2(|v|, |w|) by the same series as the
+    // scalar `double_atan2` on all lanes, libm per lane only where a lane leaves its range.
     let vn = sqrt(qv.dot(qv));
     let nonzero = ne(vn, zero);
-    let (vn_l, qw_l, nonzero_l) = (st4(vn), st4(qw), st4(nonzero));
-    let angle: [f64; LANES] = std::array::from_fn(|l| {
-        let mut a = if nonzero_l[l].to_bits() != 0 {
-            2.0 * vn_l[l].atan2(qw_l[l].abs())
-        } else {
-            0.0
-        };
-        if a.is_nan() {
-            a = 0.0;
-        }
-        if a > std::f64::consts::PI {
-            a -= 2.0 * std::f64::consts::PI;
-        }
-        a
-    });
-    let angle = ld(angle);
+    let qw_abs = abs(qw);
+    let t = div(vn, qw_abs);
+    let u = mul(t, t);
+    let mut poly = splat(ATAN_C[6]);
+    for c in ATAN_C[..6].iter().rev() {
+        poly = add(splat(*c), mul(u, poly));
+    }
+    let mut angle = mul(splat(2.0), mul(t, poly));
+    let in_range = le(vn, mul(splat(SMALL_ANGLE_LIMIT), qw_abs));
+    if movemask(in_range) != 0b1111 {
+        let (vn_l, qw_l, fast_l) = (st4(vn), st4(qw_abs), st4(angle));
+        let lanes: [f64; LANES] = std::array::from_fn(|l| {
+            let a = double_atan2(vn_l[l], qw_l[l]);
+            debug_assert!(
+                vn_l[l] > SMALL_ANGLE_LIMIT * qw_l[l]
+                    || a.to_bits() == fast_l[l].to_bits()
+                    || vn_l[l].is_nan()
+            );
+            a
+        });
+        angle = ld(lanes);
+    }
+    // Identity rotation → 0; NaN → 0; no wrap needed: the angle is in [0, π].
+    angle = select(nonzero, angle, zero);
+    angle = select(eq(angle, angle), angle, zero);
     let axis = V::select(
         nonzero,
         V::select(lt(qw, zero), qv.neg().div(vn), qv.div(vn)),
@@ -483,7 +527,10 @@ pub(super) fn law_a_chunk(
             && (c.j as usize) < len
             && (c.image == NO_IMAGE || (c.image as usize) < inp.images.len())
     });
-    if in_bounds && std::arch::is_x86_feature_detected!("avx2") {
+    if in_bounds
+        && std::arch::is_x86_feature_detected!("avx2")
+        && !SCALAR_ONLY.load(std::sync::atomic::Ordering::Relaxed)
+    {
         // SAFETY: the CPU supports AVX2 (checked just above), and every particle and
         // image index of the chunk is in bounds (the unchecked reads of `kernel4`).
         return unsafe { chunk_avx2(inp, base, hot, st, out) };

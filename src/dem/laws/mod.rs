@@ -20,6 +20,16 @@ mod lanes;
 pub mod parallel_bond;
 pub mod yade;
 
+/// Route law (a) through the scalar kernel instead of its AVX2 lanes (`true`), for checking
+/// that both give the same bits; a process-wide switch, off by default.
+#[doc(hidden)]
+pub fn force_scalar_law_a(on: bool) {
+    #[cfg(target_arch = "x86_64")]
+    lanes::SCALAR_ONLY.store(on, std::sync::atomic::Ordering::Relaxed);
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = on;
+}
+
 use super::quat::Quat;
 use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
 use crate::{Error, Mat3, Result, Vec3};
