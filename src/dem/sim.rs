@@ -360,15 +360,19 @@ impl Simulation {
                     // Gather in the fixed CSR order.
                     let mut f = Vec3::zeros();
                     let mut t = Vec3::zeros();
+                    // Branch-free (the side of each bond is unpredictable): f ± force_i as
+                    // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
                     for &e in &entries[start[k]..start[k + 1]] {
                         let load = &loads[(e >> 1) as usize];
-                        if e & 1 == 0 {
-                            f += load.force_i;
-                            t += load.torque_i;
+                        let j_side = e & 1 == 1;
+                        let sign = if j_side { -1.0 } else { 1.0 };
+                        let torque = if j_side {
+                            &load.torque_j
                         } else {
-                            f -= load.force_i;
-                            t += load.torque_j;
-                        }
+                            &load.torque_i
+                        };
+                        f += load.force_i * sign;
+                        t += torque;
                     }
                     fs[l] = f;
                     ts[l] = t;
