@@ -135,7 +135,7 @@ impl StressServo {
                 opts.gain
             )));
         }
-        if !(opts.max_strain_increment > 0.0) {
+        if opts.max_strain_increment.is_nan() || opts.max_strain_increment <= 0.0 {
             return Err(Error::Invalid(format!(
                 "servo strain-increment limit must be > 0, got {}",
                 opts.max_strain_increment
