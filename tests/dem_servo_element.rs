@@ -255,3 +255,95 @@ fn servo_is_bit_identical_on_one_and_two_threads() {
     assert_eq!(one.0, two.0);
     assert_eq!(one.1, two.1);
 }
+
+/// Every component stress-controlled toward a general target stress: the final strain is
+/// S·σ* with the relaxed compliance S = C⁻¹ (a closed form of the relaxed tensor).
+#[test]
+fn full_stress_control_reaches_the_compliance_strain() {
+    let p = packing(400, 0.6, 1e-3, 11);
+    let b = build_bonds(&p, BondingRule::Gap(0.3)).unwrap();
+    let geometry = Geometry {
+        convention: Convention::Spring,
+        ..Default::default()
+    };
+    let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
+    let c = relaxed(&p, &b, &k);
+    let target = anisobond::tensor::Voigt6::new(-1000.0, -2000.0, -500.0, 300.0, -200.0, 100.0);
+    let want = c.try_inverse().unwrap() * target;
+    let mut s = sim(&p, &b, &k);
+    s.set_local_damping(0.4).unwrap();
+    let controls = std::array::from_fn(|q| ComponentControl::Stress(target[q]));
+    let opts = ServoOptions {
+        stress_tolerance: 1e-5,
+        ..Default::default()
+    };
+    let servo = StressServo::new(&s, controls, &opts).unwrap();
+    let out = servo_until_converged(&mut s, &servo, &opts, &mut |_| {}).unwrap();
+    let err = (out.strain - want).norm() / want.norm();
+    println!(
+        "full stress control: {} steps, strain error {err:.2e} vs S·σ*, stress error {:.2e}",
+        out.steps, out.relative_stress_error
+    );
+    assert!(out.relative_stress_error <= 1e-5);
+    assert!(err < 1e-3, "strain {:?} vs {:?}", out.strain, want);
+}
+
+/// Bad input gives clear errors, not panics.
+#[test]
+fn servo_refuses_bad_input() {
+    let p = packing(200, 0.6, 1e-3, 2);
+    let b = build_bonds(&p, BondingRule::Gap(0.3)).unwrap();
+    let geometry = Geometry {
+        convention: Convention::Spring,
+        ..Default::default()
+    };
+    let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
+    let mut s = sim(&p, &b, &k);
+    let free = [ComponentControl::Stress(0.0); 6];
+    for gain in [0.0, 1.5, f64::NAN] {
+        let o = ServoOptions {
+            gain,
+            ..Default::default()
+        };
+        assert!(StressServo::new(&s, free, &o).is_err());
+    }
+    let mut nan = free;
+    nan[1] = ComponentControl::Strain(f64::NAN);
+    assert!(StressServo::new(&s, nan, &ServoOptions::default()).is_err());
+    let mut rate = free;
+    rate[0] = ComponentControl::StrainRate(1.0);
+    let servo = StressServo::new(&s, rate, &ServoOptions::default()).unwrap();
+    let e = servo_until_converged(&mut s, &servo, &ServoOptions::default(), &mut |_| {});
+    assert!(e.unwrap_err().to_string().contains("strain rate"));
+    // Zero springs: no resistance to the controlled strains.
+    let zero = BondStiffness {
+        kn: vec![0.0; b.len()],
+        ks: vec![0.0; b.len()],
+        ..k.clone()
+    };
+    let soft = Simulation::new(
+        &p,
+        &b,
+        build_law(LawKind::Yade, &p, &b, &zero).unwrap(),
+        &DemOptions {
+            time_step: Some(1e-6),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let e = StressServo::new(&soft, free, &ServoOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("singular"), "{e}");
+    // A free (non-periodic) assembly has no cell to control.
+    let mut fp = p.clone();
+    fp.cell = None;
+    let fb = build_bonds(&fp, BondingRule::Gap(0.3)).unwrap();
+    let fk = assign_stiffness(&fp, &fb, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
+    let fsim = sim(&fp, &fb, &fk);
+    assert!(StressServo::new(&fsim, free, &ServoOptions::default()).is_err());
+    assert!(stress_controlled_tensor(&fsim, &StressTestOptions::default(), &|_| {}).is_err());
+    let bad = StressTestOptions {
+        strain: 0.0,
+        ..Default::default()
+    };
+    assert!(stress_controlled_tensor(&s, &bad, &|_| {}).is_err());
+}
