@@ -270,22 +270,26 @@ fn full_stress_control_reaches_the_compliance_strain() {
     let c = relaxed(&p, &b, &k);
     let target = anisobond::tensor::Voigt6::new(-1000.0, -2000.0, -500.0, 300.0, -200.0, 100.0);
     let want = c.try_inverse().unwrap() * target;
-    let mut s = sim(&p, &b, &k);
-    s.set_local_damping(0.4).unwrap();
-    let controls = std::array::from_fn(|q| ComponentControl::Stress(target[q]));
-    let opts = ServoOptions {
-        stress_tolerance: 1e-5,
-        ..Default::default()
-    };
-    let servo = StressServo::new(&s, controls, &opts).unwrap();
-    let out = servo_until_converged(&mut s, &servo, &opts, &mut |_| {}).unwrap();
-    let err = (out.strain - want).norm() / want.norm();
-    println!(
-        "full stress control: {} steps, strain error {err:.2e} vs S·σ*, stress error {:.2e}",
-        out.steps, out.relative_stress_error
-    );
-    assert!(out.relative_stress_error <= 1e-5);
-    assert!(err < 1e-3, "strain {:?} vs {:?}", out.strain, want);
+    for gain in [0.5, 1.0, 0.2] {
+        let mut s = sim(&p, &b, &k);
+        s.set_local_damping(0.4).unwrap();
+        let controls = std::array::from_fn(|q| ComponentControl::Stress(target[q]));
+        let opts = ServoOptions {
+            gain,
+            stress_tolerance: 1e-5,
+            ..Default::default()
+        };
+        let servo = StressServo::new(&s, controls, &opts).unwrap();
+        let out = servo_until_converged(&mut s, &servo, &opts, &mut |_| {}).unwrap();
+        let err = (out.strain - want).norm() / want.norm();
+        println!(
+            "full stress control, gain {gain}: {} steps, strain error {err:.2e} vs S·σ*, \
+             stress error {:.2e}",
+            out.steps, out.relative_stress_error
+        );
+        assert!(out.relative_stress_error <= 1e-5);
+        assert!(err < 1e-3, "strain {:?} vs {:?}", out.strain, want);
+    }
 }
 
 /// Bad input gives clear errors, not panics.
