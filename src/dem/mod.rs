@@ -14,8 +14,10 @@
 pub mod element;
 pub mod laws;
 pub mod quat;
+pub mod servo;
 pub mod sim;
 pub mod state;
+pub mod stress_tests;
 
 pub use laws::BondLaw;
 pub use sim::{DemOptions, Energies, Simulation, StabilityReport};

@@ -1,0 +1,169 @@
+//! `anisobond stress-test`: Šmilauer's stress-controlled element tests (paper 002) with the
+//! reference integrator — three unconfined uniaxial tests under servo-controlled zero lateral
+//! stress and three strain-controlled pure shears — printing the engineering constants, the
+//! orthotropic and the transversely isotropic (about z) stiffness, and writing the
+//! orthotropic tensor as a SPEC JSON report.
+
+use super::run::LawArg;
+use anisobond::bonds;
+use anisobond::dem::servo::ServoOptions;
+use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
+use anisobond::dem::{build_law, DemOptions, MassOptions, Simulation};
+use anisobond::homogenize::report::TensorReport;
+use anisobond::model::Model;
+use anisobond::packing;
+use anisobond::{Error, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+/// Arguments of `anisobond stress-test`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct StressTestArgs {
+    /// Periodic packing file (SPEC text with a `# periodic Lx Ly Lz` header).
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Bond law.
+    #[arg(long, value_enum, default_value_t = LawArg::Yade)]
+    pub law: LawArg,
+    /// Prescribed axial strain ε̂ of the uniaxial tests (half the engineering strain of the
+    /// shears); the paper uses −0.01.
+    #[arg(long, default_value_t = -1e-5, allow_hyphen_values = true)]
+    pub strain: f64,
+    /// Relative lateral-stress tolerance t_r (|σ_lateral| < t_r·|σ_axial|).
+    #[arg(long, default_value_t = 1e-3)]
+    pub stress_tolerance: f64,
+    /// Steadiness: relative stress change over 10 steps.
+    #[arg(long, default_value_t = 1e-7)]
+    pub tolerance: f64,
+    /// Servo gain in (0, 1] on the predicted stress error.
+    #[arg(long, default_value_t = 0.5)]
+    pub gain: f64,
+    /// Largest strain increment per step (ramps large strains; default: none).
+    #[arg(long)]
+    pub max_strain_increment: Option<f64>,
+    /// Step limit per test.
+    #[arg(long, default_value_t = 50_000)]
+    pub max_steps: usize,
+    /// Cundall local damping λ.
+    #[arg(long, default_value_t = 0.4)]
+    pub damping: f64,
+    /// Particle density (kg/m³).
+    #[arg(long, default_value_t = 2600.0)]
+    pub density: f64,
+    /// Mass-scaling factor on the density.
+    #[arg(long, default_value_t = 1.0)]
+    pub mass_scaling: f64,
+    /// Time step (s); default: --safety × the critical estimate.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Safety factor on the critical time step.
+    #[arg(long, default_value_t = 0.8)]
+    pub safety: f64,
+    /// Tensor report (SPEC JSON) of the orthotropic stiffness.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+/// `anisobond stress-test`.
+pub fn run(a: StressTestArgs) -> Result<()> {
+    let model = Model::from_path(&a.model)?;
+    let packing = packing::io::read_packing(&a.packing)?;
+    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
+    if b.is_empty() {
+        return Err(Error::Invalid(
+            "the bonding rule produced no bonds: increase the gap/factor value".into(),
+        ));
+    }
+    let scheme = model.build_scheme(Some((&packing, &b)))?;
+    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
+    let dem = DemOptions {
+        time_step: a.dt,
+        safety: a.safety,
+        local_damping: a.damping,
+        mass: MassOptions {
+            density: a.density,
+            scaling: a.mass_scaling,
+        },
+        ..Default::default()
+    };
+    let law = build_law(a.law.into(), &packing, &b, &k)?;
+    let sim = Simulation::new(&packing, &b, law, &dem)?;
+    eprintln!(
+        "time step {:.4e} s (critical estimate {:.4e} s)",
+        sim.time_step(),
+        sim.stability().critical_time_step
+    );
+    let opts = StressTestOptions {
+        strain: a.strain,
+        local_damping: a.damping,
+        servo: ServoOptions {
+            gain: a.gain,
+            stress_tolerance: a.stress_tolerance,
+            steady_tolerance: a.tolerance,
+            max_steps: a.max_steps,
+            max_strain_increment: a.max_strain_increment.unwrap_or(f64::INFINITY),
+            ..Default::default()
+        },
+    };
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template("stress tests [{bar:40}] {percent:>3}% {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let result = stress_controlled_tensor(&sim, &opts, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    let r = result?;
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    println!(
+        "unconfined uniaxial tests (ε̂ = {:e}, lateral stress < {:.0e}·axial):",
+        a.strain, a.stress_tolerance
+    );
+    for u in &r.uniaxial {
+        let others: Vec<String> = (0..3)
+            .filter(|&j| j != u.axis)
+            .map(|j| format!("ν_{}{} = {:.4}", AXES[u.axis], AXES[j], u.poisson[j]))
+            .collect();
+        println!(
+            "  E_{} = {:10.4} MPa, {}  ({} steps, |σ_lat|/|σ_ax| = {:.1e})",
+            AXES[u.axis],
+            u.young / 1e6,
+            others.join(", "),
+            u.outcome.steps,
+            u.outcome.relative_stress_error
+        );
+    }
+    const SHEARS: [&str; 3] = ["yz", "xz", "xy"];
+    println!("pure shears (strain-controlled):");
+    for g in &r.shear {
+        println!(
+            "  G_{} = {:10.4} MPa  ({} steps)",
+            SHEARS[g.component - 3],
+            g.modulus / 1e6,
+            g.outcome.steps
+        );
+    }
+    println!(
+        "reciprocity ν_ij/E_i vs ν_ji/E_j: largest relative mismatch {:.2e}",
+        r.reciprocity_mismatch
+    );
+    let [c11, c12, c13, c33, c44] = r.cross_anisotropic.map(|x| x / 1e6);
+    println!(
+        "transversely isotropic about z (MPa): C11 {c11:.3}, C33 {c33:.3}, C13 {c13:.3}, \
+         C12 {c12:.3}, C44 {c44:.3}"
+    );
+    let report = TensorReport::new("stress-controlled", r.c_orthotropic, Some((&packing, &b)));
+    println!("orthotropic stiffness (GPa; Voigt order 11 22 33 23 13 12):");
+    for row in &report.c {
+        let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
+        println!("  {}", cells.join(" "));
+    }
+    if let Some(out) = &a.output {
+        anisobond::io::write_string_atomic(out, &(report.to_json() + "\n"))?;
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
