@@ -241,3 +241,67 @@ fn bad_models_are_clear_errors_without_output() {
         );
     }
 }
+
+/// `stress-test` (Šmilauer's servo-controlled element tests) against `tensor --method
+/// relaxed` on the same packing and model: the orthotropic entries agree to a few per mille
+/// of C11 (the small remainder is the relaxed tensor's non-orthotropic part, which the
+/// engineering-constant route cannot see); a missing packing is a clear error, no output.
+#[test]
+fn stress_test_agrees_with_the_relaxed_tensor() {
+    let d = tmp();
+    let p = packing(d.path());
+    let m = write(d.path(), "model.toml", MODEL);
+    let run = |args: &[&str], out: &Path| {
+        let o = bin()
+            .args(args)
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        let c: Vec<Vec<f64>> = serde_json::from_value(v["C"].clone()).unwrap();
+        c
+    };
+    let servo = run(&["stress-test"], &d.path().join("servo.json"));
+    let relaxed = run(
+        &["tensor", "--method", "relaxed", "--json"],
+        &d.path().join("relaxed.json"),
+    );
+    let c11 = relaxed[0][0];
+    let mut worst = 0.0f64;
+    for (a, b) in [
+        (0, 0),
+        (1, 1),
+        (2, 2),
+        (0, 1),
+        (0, 2),
+        (1, 2),
+        (3, 3),
+        (4, 4),
+        (5, 5),
+    ] {
+        worst = worst.max((servo[a][b] - relaxed[a][b]).abs() / c11);
+    }
+    assert!(
+        worst < 5e-3,
+        "stress-controlled vs relaxed: worst {worst:.2e} of C11"
+    );
+    let missing = d.path().join("none.txt");
+    let out = d.path().join("never.json");
+    let err = fails(
+        bin()
+            .arg("stress-test")
+            .arg(&missing)
+            .arg("--model")
+            .arg(&m)
+            .arg("-o")
+            .arg(&out),
+        &out,
+    );
+    assert!(err.contains("none.txt"), "{err}");
+}

@@ -10,6 +10,7 @@ mod output;
 mod pack;
 mod plot;
 pub mod run;
+mod stress_test;
 mod validate;
 mod validate_liggghts;
 
@@ -57,6 +58,9 @@ enum Command {
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
     Run(run::RunArgs),
+    /// Šmilauer's stress-controlled element tests (servo-controlled zero lateral stress):
+    /// engineering constants, orthotropic and transversely isotropic stiffness.
+    StressTest(stress_test::StressTestArgs),
     /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
     /// packing with the exact relaxed solver; writes the calibrated model file.
     Calibrate(calibrate::CalibrateArgs),
@@ -173,6 +177,7 @@ pub fn run() -> Result<()> {
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
+        Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
         Command::Plot(c) => plot::run(c),
