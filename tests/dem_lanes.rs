@@ -71,6 +71,8 @@ fn run(scalar: bool, spin: f64) -> Vec<u64> {
         }
     }
     bits.extend(sim.stress().iter().map(|x| (x + 0.0).to_bits()));
+    let e = sim.energies();
+    bits.extend([e.kinetic, e.elastic, e.local_damping].map(|x| (x + 0.0).to_bits()));
     bits
 }
 

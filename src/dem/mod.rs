@@ -13,6 +13,8 @@
 
 pub mod element;
 pub mod laws;
+#[cfg(target_arch = "x86_64")]
+mod particle_lanes;
 pub mod quat;
 pub mod servo;
 pub mod sim;

@@ -39,7 +39,7 @@ pub(crate) const ATAN_C: [f64; 7] = [
 /// (sin x, cos x) for |x| ≤ [`SMALL_ANGLE_LIMIT`] by Taylor series (sin through x⁹, cos
 /// through x⁸; omitted terms below 2⁻⁶⁰ relative), else libm.
 #[inline(always)]
-fn sin_cos_small(x: f64) -> (f64, f64) {
+pub(crate) fn sin_cos_small(x: f64) -> (f64, f64) {
     if x.abs() <= SMALL_ANGLE_LIMIT {
         let u = x * x;
         let s = x

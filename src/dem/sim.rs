@@ -14,6 +14,82 @@ use crate::packing::Packing;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
+/// Per-step constants of the particle update.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct UpdateConsts {
+    pub(crate) dt: f64,
+    /// Cundall local damping λ.
+    pub(crate) lambda: f64,
+    pub(crate) periodic: bool,
+    /// The cell's previous velocity gradient (YADE `prevVelGrad`).
+    pub(crate) prev_l: Mat3,
+    /// Change of the velocity gradient since the last step.
+    pub(crate) dl: Mat3,
+    /// Spin increment from the antisymmetric part of `dl`.
+    pub(crate) dspin: Vec3,
+}
+
+/// One particle of YADE's NewtonIntegrator: Cundall damping on the fluctuating velocity,
+/// leapfrog of translation and rotation, the periodic cell's affine terms, the spin
+/// quaternion. Returns the kinetic energy at the force time and the six damping terms in
+/// the order they are summed (the AVX2 path `particle_lanes::update4` repeats these
+/// operations exactly).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn update_particle(
+    c: &UpdateConsts,
+    m: f64,
+    inertia: f64,
+    f: Vec3,
+    t: Vec3,
+    x: &mut Vec3,
+    v: &mut Vec3,
+    w: &mut Vec3,
+    q: &mut Quat,
+) -> (f64, [f64; 6]) {
+    let (dt, lambda) = (c.dt, c.lambda);
+    let mut terms = [0.0; 6];
+    let fluct = if c.periodic { *v - c.prev_l * *x } else { *v };
+    let mut a = f / m;
+    if lambda > 0.0 {
+        for k in 0..3 {
+            let s = a[k] * (fluct[k] + 0.5 * dt * a[k]);
+            terms[k] = m * lambda * s.abs() * dt;
+            a[k] *= 1.0 - lambda * sign(s);
+        }
+    }
+    let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
+    if c.periodic {
+        a += c.prev_l * *v;
+    }
+    *v += a * dt;
+    let mut alpha = t / inertia;
+    if lambda > 0.0 {
+        for k in 0..3 {
+            let s = alpha[k] * (w[k] + 0.5 * dt * alpha[k]);
+            terms[3 + k] = inertia * lambda * s.abs() * dt;
+            alpha[k] *= 1.0 - lambda * sign(s);
+        }
+    }
+    energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
+    *w += alpha * dt;
+    if c.periodic {
+        *v += c.dl * *x;
+    }
+    *x += *v * dt;
+    if c.periodic {
+        *w += c.dspin;
+    }
+    let angle2 = w.norm_squared();
+    if angle2 != 0.0 {
+        let angle = angle2.sqrt();
+        let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
+        *q = dq.mul(q);
+    }
+    q.normalize();
+    (energy, terms)
+}
+
 /// Particles per parallel work item of the integrator (fixed, so that per-chunk energy sums
 /// are the same on any number of threads).
 const PARTICLE_CHUNK: usize = 512;
@@ -333,9 +409,40 @@ impl Simulation {
             }
             None => (false, Mat3::zeros(), Mat3::zeros(), Vec3::zeros()),
         };
+        let consts = UpdateConsts {
+            dt,
+            lambda,
+            periodic,
+            prev_l,
+            dl,
+            dspin,
+        };
         let topo = &self.topology;
         let (start, entries) = (&topo.start[..], &topo.entries[..]);
         let loads = &self.loads.per_bond[..];
+        // Resultant force and torque on particle k, gathered in the fixed CSR order.
+        // Branch-free (the side of each bond is unpredictable): f ± force_i as
+        // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
+        let gather = |k: usize| {
+            let mut f = Vec3::zeros();
+            let mut t = Vec3::zeros();
+            for &e in &entries[start[k]..start[k + 1]] {
+                let load = &loads[(e >> 1) as usize];
+                let j_side = e & 1 == 1;
+                let sign = if j_side { -1.0 } else { 1.0 };
+                let torque = if j_side {
+                    &load.torque_j
+                } else {
+                    &load.torque_i
+                };
+                f += load.force_i * sign;
+                t += torque;
+            }
+            (f, t)
+        };
+        #[cfg(target_arch = "x86_64")]
+        let lanes = std::arch::is_x86_feature_detected!("avx2")
+            && !super::laws::lanes::SCALAR_ONLY.load(std::sync::atomic::Ordering::Relaxed);
         let p = &mut self.particles;
         let (mass, inertia) = (&p.mass[..], &p.inertia[..]);
         const PC: usize = PARTICLE_CHUNK;
@@ -353,68 +460,55 @@ impl Simulation {
             .for_each(|(chunk, (xs, vs, ws, qs, fs, ts, partial))| {
                 let base = chunk * PC;
                 let (mut kinetic, mut dissipated) = (0.0, 0.0);
-                for l in 0..xs.len() {
-                    let k = base + l;
-                    let (x, v, w, q) = (&mut xs[l], &mut vs[l], &mut ws[l], &mut qs[l]);
-                    let (m, inertia) = (mass[k], inertia[k]);
-                    // Gather in the fixed CSR order.
-                    let mut f = Vec3::zeros();
-                    let mut t = Vec3::zeros();
-                    // Branch-free (the side of each bond is unpredictable): f ± force_i as
-                    // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
-                    for &e in &entries[start[k]..start[k + 1]] {
-                        let load = &loads[(e >> 1) as usize];
-                        let j_side = e & 1 == 1;
-                        let sign = if j_side { -1.0 } else { 1.0 };
-                        let torque = if j_side {
-                            &load.torque_j
-                        } else {
-                            &load.torque_i
-                        };
-                        f += load.force_i * sign;
-                        t += torque;
+                let mut add = |energy: f64, terms: &[f64; 6]| {
+                    if lambda > 0.0 {
+                        for d in terms {
+                            dissipated += d;
+                        }
                     }
+                    kinetic += energy;
+                };
+                let mut l = 0;
+                #[cfg(target_arch = "x86_64")]
+                if lanes {
+                    const L: usize = super::laws::lanes::LANES;
+                    while l + L <= xs.len() {
+                        let ft: [(Vec3, Vec3); L] = std::array::from_fn(|m| gather(base + l + m));
+                        for m in 0..L {
+                            (fs[l + m], ts[l + m]) = ft[m];
+                        }
+                        // SAFETY: AVX2 is available (checked above); every slice has L
+                        // elements from l on (l + L ≤ chunk length, all chunks alike).
+                        let (energy, terms) = unsafe {
+                            super::particle_lanes::update4(
+                                &consts,
+                                std::array::from_fn(|m| mass[base + l + m]),
+                                std::array::from_fn(|m| inertia[base + l + m]),
+                                ft.map(|p| p.0),
+                                ft.map(|p| p.1),
+                                &mut xs[l..l + L],
+                                &mut vs[l..l + L],
+                                &mut ws[l..l + L],
+                                &mut qs[l..l + L],
+                            )
+                        };
+                        for m in 0..L {
+                            add(energy[m], &terms[m]);
+                        }
+                        l += L;
+                    }
+                }
+                while l < xs.len() {
+                    let k = base + l;
+                    let (f, t) = gather(k);
                     fs[l] = f;
                     ts[l] = t;
-                    let fluct = if periodic { *v - prev_l * *x } else { *v };
-                    let mut a = f / m;
-                    if lambda > 0.0 {
-                        for c in 0..3 {
-                            let s = a[c] * (fluct[c] + 0.5 * dt * a[c]);
-                            dissipated += m * lambda * s.abs() * dt;
-                            a[c] *= 1.0 - lambda * sign(s);
-                        }
-                    }
-                    let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
-                    if periodic {
-                        a += prev_l * *v;
-                    }
-                    *v += a * dt;
-                    let mut alpha = t / inertia;
-                    if lambda > 0.0 {
-                        for c in 0..3 {
-                            let s = alpha[c] * (w[c] + 0.5 * dt * alpha[c]);
-                            dissipated += inertia * lambda * s.abs() * dt;
-                            alpha[c] *= 1.0 - lambda * sign(s);
-                        }
-                    }
-                    energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
-                    *w += alpha * dt;
-                    if periodic {
-                        *v += dl * *x;
-                    }
-                    *x += *v * dt;
-                    if periodic {
-                        *w += dspin;
-                    }
-                    let angle2 = w.norm_squared();
-                    if angle2 != 0.0 {
-                        let angle = angle2.sqrt();
-                        let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
-                        *q = dq.mul(q);
-                    }
-                    q.normalize();
-                    kinetic += energy;
+                    let (energy, terms) = update_particle(
+                        &consts, mass[k], inertia[k], f, t, &mut xs[l], &mut vs[l], &mut ws[l],
+                        &mut qs[l],
+                    );
+                    add(energy, &terms);
+                    l += 1;
                 }
                 *partial = [kinetic, dissipated];
             });

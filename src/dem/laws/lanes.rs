@@ -19,22 +19,22 @@ pub(crate) static SCALAR_ONLY: std::sync::atomic::AtomicBool =
     std::sync::atomic::AtomicBool::new(false);
 
 /// Bonds per lane group.
-pub(super) const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 
 use std::arch::x86_64::*;
 
-type F = __m256d;
+pub(crate) type F = __m256d;
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn ld(a: [f64; LANES]) -> F {
+pub(crate) fn ld(a: [f64; LANES]) -> F {
     // SAFETY: reads four f64 from a local array (unaligned load).
     unsafe { _mm256_loadu_pd(a.as_ptr()) }
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn st4(a: F) -> [f64; LANES] {
+pub(crate) fn st4(a: F) -> [f64; LANES] {
     let mut out = [0.0; LANES];
     // SAFETY: writes four f64 into a local array (unaligned store).
     unsafe { _mm256_storeu_pd(out.as_mut_ptr(), a) };
@@ -43,114 +43,114 @@ fn st4(a: F) -> [f64; LANES] {
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn add(a: F, b: F) -> F {
+pub(crate) fn add(a: F, b: F) -> F {
     _mm256_add_pd(a, b)
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn sub(a: F, b: F) -> F {
+pub(crate) fn sub(a: F, b: F) -> F {
     _mm256_sub_pd(a, b)
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn mul(a: F, b: F) -> F {
+pub(crate) fn mul(a: F, b: F) -> F {
     _mm256_mul_pd(a, b)
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn div(a: F, b: F) -> F {
+pub(crate) fn div(a: F, b: F) -> F {
     _mm256_div_pd(a, b)
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn splat(a: f64) -> F {
+pub(crate) fn splat(a: f64) -> F {
     _mm256_set1_pd(a)
 }
 
 /// Exact sign flip (as Rust's unary minus).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn neg(a: F) -> F {
+pub(crate) fn neg(a: F) -> F {
     _mm256_xor_pd(a, _mm256_set1_pd(-0.0))
 }
 
 /// Per lane: `mask ? a : b` (mask lanes all-ones or all-zeros).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn select(mask: F, a: F, b: F) -> F {
+pub(crate) fn select(mask: F, a: F, b: F) -> F {
     _mm256_blendv_pd(b, a, mask)
 }
 
 #[inline]
 #[target_feature(enable = "avx2")]
-fn sqrt(a: F) -> F {
+pub(crate) fn sqrt(a: F) -> F {
     _mm256_sqrt_pd(a)
 }
 
 /// Mask of lanes with a > b (false for NaN, as Rust's `>`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn gt(a: F, b: F) -> F {
+pub(crate) fn gt(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_GT_OQ>(a, b)
 }
 
 /// Mask of lanes with a < b (false for NaN, as Rust's `<`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn lt(a: F, b: F) -> F {
+pub(crate) fn lt(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_LT_OQ>(a, b)
 }
 
 /// Mask of lanes with a <= b (false for NaN, as Rust's `<=`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn le(a: F, b: F) -> F {
+pub(crate) fn le(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_LE_OQ>(a, b)
 }
 
 /// Mask of lanes with a == b (false for NaN, as Rust's `==`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn eq(a: F, b: F) -> F {
+pub(crate) fn eq(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_EQ_OQ>(a, b)
 }
 
 /// |a| per lane (clears the sign bit, as `f64::abs`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn abs(a: F) -> F {
+pub(crate) fn abs(a: F) -> F {
     _mm256_andnot_pd(_mm256_set1_pd(-0.0), a)
 }
 
 /// One bit per lane: set where the mask lane is true.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn movemask(mask: F) -> i32 {
+pub(crate) fn movemask(mask: F) -> i32 {
     _mm256_movemask_pd(mask)
 }
 
 /// Mask of lanes with a != b (true for NaN, as Rust's `!=`).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn ne(a: F, b: F) -> F {
+pub(crate) fn ne(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_NEQ_UQ>(a, b)
 }
 
 #[derive(Clone, Copy)]
-struct V {
-    x: F,
-    y: F,
-    z: F,
+pub(crate) struct V {
+    pub(crate) x: F,
+    pub(crate) y: F,
+    pub(crate) z: F,
 }
 
 impl V {
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn add(self, o: V) -> V {
+    pub(crate) fn add(self, o: V) -> V {
         V {
             x: add(self.x, o.x),
             y: add(self.y, o.y),
@@ -159,7 +159,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn sub(self, o: V) -> V {
+    pub(crate) fn sub(self, o: V) -> V {
         V {
             x: sub(self.x, o.x),
             y: sub(self.y, o.y),
@@ -168,7 +168,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn scale(self, s: F) -> V {
+    pub(crate) fn scale(self, s: F) -> V {
         V {
             x: mul(self.x, s),
             y: mul(self.y, s),
@@ -177,7 +177,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn div(self, s: F) -> V {
+    pub(crate) fn div(self, s: F) -> V {
         V {
             x: div(self.x, s),
             y: div(self.y, s),
@@ -186,7 +186,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn neg(self) -> V {
+    pub(crate) fn neg(self) -> V {
         V {
             x: neg(self.x),
             y: neg(self.y),
@@ -196,13 +196,13 @@ impl V {
     /// nalgebra's order: (x·x' + y·y') + z·z'.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn dot(self, o: V) -> F {
+    pub(crate) fn dot(self, o: V) -> F {
         add(add(mul(self.x, o.x), mul(self.y, o.y)), mul(self.z, o.z))
     }
     /// nalgebra's cross product formulas.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn cross(self, o: V) -> V {
+    pub(crate) fn cross(self, o: V) -> V {
         V {
             x: sub(mul(self.y, o.z), mul(self.z, o.y)),
             y: sub(mul(self.z, o.x), mul(self.x, o.z)),
@@ -211,7 +211,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn select(mask: F, a: V, b: V) -> V {
+    pub(crate) fn select(mask: F, a: V, b: V) -> V {
         V {
             x: select(mask, a.x, b.x),
             y: select(mask, a.y, b.y),
@@ -220,7 +220,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn splat(x: f64, y: f64, z: f64) -> V {
+    pub(crate) fn splat(x: f64, y: f64, z: f64) -> V {
         V {
             x: splat(x),
             y: splat(y),
@@ -229,7 +229,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn gather(v: [Vec3; LANES]) -> V {
+    pub(crate) fn gather(v: [Vec3; LANES]) -> V {
         V {
             x: ld([v[0].x, v[1].x, v[2].x, v[3].x]),
             y: ld([v[0].y, v[1].y, v[2].y, v[3].y]),
@@ -238,7 +238,7 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn lanes(self) -> [Vec3; LANES] {
+    pub(crate) fn lanes(self) -> [Vec3; LANES] {
         let (x, y, z) = (st4(self.x), st4(self.y), st4(self.z));
         std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
     }

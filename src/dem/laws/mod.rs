@@ -16,7 +16,7 @@
 
 pub mod kumar;
 #[cfg(target_arch = "x86_64")]
-mod lanes;
+pub(crate) mod lanes;
 pub mod parallel_bond;
 pub mod yade;
 

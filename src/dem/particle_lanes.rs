@@ -1,0 +1,244 @@
+//! The particle update of [`super::sim`] four particles at a time (AVX2), with exactly the
+//! scalar update's IEEE operations in the same order (no fused multiply–add, selects for
+//! branches), so both give the same bits; checked by `tests/dem_lanes.rs`.
+
+use super::laws::lanes::{
+    abs, add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
+};
+use super::quat::{sin_cos_small, Quat, SMALL_ANGLE_LIMIT};
+use super::sim::UpdateConsts;
+use crate::{Mat3, Vec3};
+
+/// M·x for a matrix shared by all lanes, in nalgebra's order ((m₀·x + m₁·y) + m₂·z).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn matvec(m: &Mat3, x: V) -> V {
+    let row = |i: usize| {
+        add(
+            add(mul(splat(m[(i, 0)]), x.x), mul(splat(m[(i, 1)]), x.y)),
+            mul(splat(m[(i, 2)]), x.z),
+        )
+    };
+    V {
+        x: row(0),
+        y: row(1),
+        z: row(2),
+    }
+}
+
+/// sign(s) per lane: 1, −1, or 0 (also for NaN), as the scalar `sign`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn sign(s: F) -> F {
+    let zero = splat(0.0);
+    select(
+        gt(s, zero),
+        splat(1.0),
+        select(lt(s, zero), splat(-1.0), zero),
+    )
+}
+
+/// Cundall damping of one component (as the scalar loop): returns the damped acceleration
+/// and the dissipation term (mass·λ)·|s|·dt.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn damp(a: F, vel: F, mass: F, c: &UpdateConsts) -> (F, F) {
+    let s = mul(a, add(vel, mul(splat(0.5 * c.dt), a)));
+    let term = mul(mul(mul(mass, splat(c.lambda)), abs(s)), splat(c.dt));
+    let damped = mul(a, sub(splat(1.0), mul(splat(c.lambda), sign(s))));
+    (damped, term)
+}
+
+/// Four particles of the leapfrog update (see `sim::update_particle`): returns their
+/// kinetic energies and the six damping terms each, in the scalar summation order.
+///
+/// # Safety
+/// The CPU must support AVX2; `x`, `v`, `w`, `q` have length [`LANES`].
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn update4(
+    c: &UpdateConsts,
+    mass: [f64; LANES],
+    inertia: [f64; LANES],
+    f: [Vec3; LANES],
+    t: [Vec3; LANES],
+    xs: &mut [Vec3],
+    vs: &mut [Vec3],
+    ws: &mut [Vec3],
+    qs: &mut [Quat],
+) -> ([f64; LANES], [[f64; 6]; LANES]) {
+    let dt = splat(c.dt);
+    let half_dt = splat(0.5 * c.dt);
+    let (m, inertia) = (ld(mass), ld(inertia));
+    let mut x = V::gather(std::array::from_fn(|l| xs[l]));
+    let mut v = V::gather(std::array::from_fn(|l| vs[l]));
+    let mut w = V::gather(std::array::from_fn(|l| ws[l]));
+    let fluct = if c.periodic {
+        v.sub(matvec(&c.prev_l, x))
+    } else {
+        v
+    };
+    let mut a = V::gather(f).div(m);
+    let mut terms = [splat(0.0); 6];
+    if c.lambda > 0.0 {
+        let (ax, tx) = damp(a.x, fluct.x, m, c);
+        let (ay, ty) = damp(a.y, fluct.y, m, c);
+        let (az, tz) = damp(a.z, fluct.z, m, c);
+        a = V {
+            x: ax,
+            y: ay,
+            z: az,
+        };
+        terms[0] = tx;
+        terms[1] = ty;
+        terms[2] = tz;
+    }
+    let u = fluct.add(a.scale(half_dt));
+    let mut energy = mul(mul(splat(0.5), m), u.dot(u));
+    if c.periodic {
+        a = a.add(matvec(&c.prev_l, v));
+    }
+    v = v.add(a.scale(dt));
+    let mut alpha = V::gather(t).div(inertia);
+    if c.lambda > 0.0 {
+        let (ax, tx) = damp(alpha.x, w.x, inertia, c);
+        let (ay, ty) = damp(alpha.y, w.y, inertia, c);
+        let (az, tz) = damp(alpha.z, w.z, inertia, c);
+        alpha = V {
+            x: ax,
+            y: ay,
+            z: az,
+        };
+        terms[3] = tx;
+        terms[4] = ty;
+        terms[5] = tz;
+    }
+    let r = w.add(alpha.scale(half_dt));
+    energy = add(energy, mul(mul(splat(0.5), inertia), r.dot(r)));
+    w = w.add(alpha.scale(dt));
+    if c.periodic {
+        v = v.add(matvec(&c.dl, x));
+    }
+    x = x.add(v.scale(dt));
+    if c.periodic {
+        w = w.add(V::splat(c.dspin.x, c.dspin.y, c.dspin.z));
+    }
+    // Spin quaternion dq = (cos h, axis·sin h), h = ½·|ω|·dt, then q ← dq·q, normalised.
+    let zero = splat(0.0);
+    let angle2 = w.dot(w);
+    let spinning = ne(angle2, zero);
+    let angle = sqrt(angle2);
+    let axis = w.div(angle);
+    let h = mul(splat(0.5), mul(angle, dt));
+    let uu = mul(h, h);
+    let sin_poly = add(
+        splat(1.0),
+        mul(
+            uu,
+            add(
+                splat(-1.0 / 6.0),
+                mul(
+                    uu,
+                    add(
+                        splat(1.0 / 120.0),
+                        mul(
+                            uu,
+                            add(splat(-1.0 / 5040.0), mul(uu, splat(1.0 / 362_880.0))),
+                        ),
+                    ),
+                ),
+            ),
+        ),
+    );
+    let mut sin_h = mul(h, sin_poly);
+    let mut cos_h = add(
+        splat(1.0),
+        mul(
+            uu,
+            add(
+                splat(-0.5),
+                mul(
+                    uu,
+                    add(
+                        splat(1.0 / 24.0),
+                        mul(uu, add(splat(-1.0 / 720.0), mul(uu, splat(1.0 / 40_320.0)))),
+                    ),
+                ),
+            ),
+        ),
+    );
+    // Lanes outside the series' range (or not spinning: any value, discarded below).
+    let in_range = le(abs(h), splat(SMALL_ANGLE_LIMIT));
+    if (movemask(in_range) | (movemask(spinning) ^ 0b1111)) != 0b1111 {
+        let (h_l, s_l, c_l) = (st4(h), st4(sin_h), st4(cos_h));
+        let spin_l = movemask(spinning);
+        let pairs: [(f64, f64); LANES] = std::array::from_fn(|l| {
+            if spin_l & (1 << l) != 0 {
+                sin_cos_small(h_l[l])
+            } else {
+                (s_l[l], c_l[l])
+            }
+        });
+        sin_h = ld(pairs.map(|p| p.0));
+        cos_h = ld(pairs.map(|p| p.1));
+    }
+    let (bw, bx, by, bz) = (
+        ld(std::array::from_fn(|l| qs[l].w)),
+        ld(std::array::from_fn(|l| qs[l].v.x)),
+        ld(std::array::from_fn(|l| qs[l].v.y)),
+        ld(std::array::from_fn(|l| qs[l].v.z)),
+    );
+    let (aw, ax, ay, az) = (
+        cos_h,
+        mul(axis.x, sin_h),
+        mul(axis.y, sin_h),
+        mul(axis.z, sin_h),
+    );
+    // Quat::mul (Eigen's component formulas), kept only on spinning lanes.
+    let mut qw = select(
+        spinning,
+        sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz)),
+        bw,
+    );
+    let mut qx = select(
+        spinning,
+        sub(add(add(mul(aw, bx), mul(ax, bw)), mul(ay, bz)), mul(az, by)),
+        bx,
+    );
+    let mut qy = select(
+        spinning,
+        sub(add(add(mul(aw, by), mul(ay, bw)), mul(az, bx)), mul(ax, bz)),
+        by,
+    );
+    let mut qz = select(
+        spinning,
+        sub(add(add(mul(aw, bz), mul(az, bw)), mul(ax, by)), mul(ay, bx)),
+        bz,
+    );
+    // Quat::normalize.
+    let n = sqrt(add(
+        add(add(mul(qx, qx), mul(qy, qy)), mul(qz, qz)),
+        mul(qw, qw),
+    ));
+    let positive = gt(n, zero);
+    qw = select(positive, div(qw, n), qw);
+    qx = select(positive, div(qx, n), qx);
+    qy = select(positive, div(qy, n), qy);
+    qz = select(positive, div(qz, n), qz);
+    let (qw, qx, qy, qz) = (st4(qw), st4(qx), st4(qy), st4(qz));
+    let (x, v, w) = (x.lanes(), v.lanes(), w.lanes());
+    for l in 0..LANES {
+        xs[l] = x[l];
+        vs[l] = v[l];
+        ws[l] = w[l];
+        qs[l] = Quat {
+            w: qw[l],
+            v: Vec3::new(qx[l], qy[l], qz[l]),
+        };
+    }
+    let terms_l = terms.map(|t| st4(t));
+    (
+        st4(energy),
+        std::array::from_fn(|l| std::array::from_fn(|k| terms_l[k][l])),
+    )
+}
