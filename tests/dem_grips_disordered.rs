@@ -106,8 +106,14 @@ fn gripped_tensor_close_to_periodic_relaxed_and_heterogeneity_positive() {
     }
     // Measured 2.65e-2 (C11 +2.7 %, the grips' affine layer stiffens the block) against an
     // affine–relaxed gap of 12.9 %: the gripped block must recover most of the relaxation.
-    assert!(d < 0.05, "gripped tensor differs from the periodic relaxed one by {d:.3e}");
-    assert!(d < 0.3 * da, "gripped tensor {d:.3e} is not much closer to relaxed than affine {da:.3e}");
+    assert!(
+        d < 0.05,
+        "gripped tensor differs from the periodic relaxed one by {d:.3e}"
+    );
+    assert!(
+        d < 0.3 * da,
+        "gripped tensor {d:.3e} is not much closer to relaxed than affine {da:.3e}"
+    );
     assert!(t.heterogeneity.normal > 1e-3 && t.heterogeneity.shear > 1e-3);
 }
 
