@@ -285,7 +285,11 @@ pub fn gripped_setup(
 }
 
 /// Grip velocities u = Ġ·(x − x_c) for the displacement gradient `g` reached in `steps`
-/// steps of `dt` (Truszkowska 2018 Eqs. 17–22 with γ̇ = |g|/(steps·dt), Eq. 28 form).
+/// steps of `dt`: the form of Truszkowska 2018 Eqs. 17–22 and 28 (velocity linear in the
+/// grip's position relative to the centre x_c). With `g` from [`path_gradient`] the shear
+/// paths carry engineering strain −e (Eq. 20 as written, u = γ̇[0 z y], would be +2γ̇): the
+/// sign and magnitude convention of the periodic element tests, so that Eq. 27 sees the
+/// same six paths.
 pub fn grip_motion(
     block: &GrippedBlock,
     sim: &Simulation,
