@@ -305,3 +305,73 @@ fn stress_test_agrees_with_the_relaxed_tensor() {
     );
     assert!(err.contains("none.txt"), "{err}");
 }
+
+/// `grips` (free block driven through grip particles, measurement spheres, Truszkowska 2018
+/// Sec. 4) against `tensor --method relaxed` on the same periodic packing: the cubic
+/// constants agree within 10 % (the grip layer of a 1,000-particle block stiffens it by a
+/// few per cent; see BENCHMARKS.md for the size study), the heterogeneity metric is printed,
+/// and a bad model is a clear error without output.
+#[test]
+fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
+    let d = tmp();
+    let p = d.path().join("p1000.txt");
+    let o = bin()
+        .args(["pack", "--particles", "1000", "--seed", "3", "-o"])
+        .arg(&p)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = write(d.path(), "model.toml", MODEL);
+    let cubic = |args: &[&str], out: &Path| {
+        let o = bin()
+            .args(args)
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        (
+            ["C11", "C12", "C44"].map(|k| v["cubic"][k].as_f64().unwrap()),
+            text,
+        )
+    };
+    let (gripped, text) = cubic(&["grips"], &d.path().join("g.json"));
+    assert!(text.contains("heterogeneity"), "{text}");
+    let (relaxed, _) = cubic(
+        &["tensor", "--method", "relaxed", "--json"],
+        &d.path().join("r.json"),
+    );
+    for k in 0..3 {
+        let rel = (gripped[k] - relaxed[k]).abs() / relaxed[k];
+        assert!(
+            rel < 0.10,
+            "cubic constant {k}: gripped {} vs relaxed {} ({rel:.3})",
+            gripped[k],
+            relaxed[k]
+        );
+    }
+    let bad = write(
+        d.path(),
+        "bad.toml",
+        "[bonding]\nrule = \"gap\"\nvalue = -1\n",
+    );
+    let out = d.path().join("never.json");
+    let err = fails(
+        bin()
+            .arg("grips")
+            .arg(&p)
+            .arg("--model")
+            .arg(&bad)
+            .arg("-o")
+            .arg(&out),
+        &out,
+    );
+    assert!(err.contains("bad.toml"), "{err}");
+}

@@ -6,6 +6,7 @@ mod demo;
 mod domain;
 mod export;
 mod export_liggghts;
+mod grips;
 mod output;
 mod pack;
 mod plot;
@@ -58,6 +59,9 @@ enum Command {
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
     Run(run::RunArgs),
+    /// Element tests on a free block driven through grip particles (Truszkowska 2018 Sec. 4):
+    /// measurement-sphere stress and strain, the Eq. 27 tensor and the Table 3 heterogeneity.
+    Grips(grips::GripsArgs),
     /// Šmilauer's stress-controlled element tests (servo-controlled zero lateral stress):
     /// engineering constants, orthotropic and transversely isotropic stiffness.
     StressTest(stress_test::StressTestArgs),
@@ -177,6 +181,7 @@ pub fn run() -> Result<()> {
         Command::Tensor(a) => tensor_cmd(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
+        Command::Grips(a) => grips::grips(a),
         Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),

@@ -12,7 +12,9 @@
 //! order, so a history is bit-for-bit the same on any number of threads.
 
 pub mod element;
+pub mod grips;
 pub mod laws;
+pub mod measure;
 #[cfg(target_arch = "x86_64")]
 mod particle_lanes;
 pub mod quat;

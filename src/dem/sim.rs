@@ -189,6 +189,27 @@ pub struct Simulation {
     stability: StabilityReport,
     watch: Vec<f64>,
     free_volume: f64,
+    prescribed: Option<HeldParticles>,
+}
+
+/// The held particles' own state, advanced exactly (no round trip through the leapfrog).
+#[derive(Clone, Debug)]
+struct HeldParticles {
+    motion: PrescribedMotion,
+    position: Vec<Vec3>,
+    orientation: Vec<Quat>,
+}
+
+/// Particles whose motion is prescribed (YADE's `blockedDOFs`): grip elements of a free
+/// assembly (Truszkowska 2018 Sec. 4.1, Eqs. 17–22). After every integrator pass they are
+/// moved by their prescribed velocity, with zero spin and unchanged orientation, whatever
+/// the forces on them; the forces stay readable in [`Simulation::force`] (grip reactions).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PrescribedMotion {
+    /// The particles held (indices, each at most once).
+    pub particles: Vec<usize>,
+    /// Their translational velocity (m/s), one per entry of `particles`.
+    pub velocity: Vec<Vec3>,
 }
 
 impl Clone for Simulation {
@@ -213,6 +234,7 @@ impl Clone for Simulation {
             stability: self.stability.clone(),
             watch: self.watch.clone(),
             free_volume: self.free_volume,
+            prescribed: self.prescribed.clone(),
         }
     }
 }
@@ -262,6 +284,7 @@ impl Simulation {
             stability: StabilityReport::default(),
             watch: Vec::new(),
             free_volume: packing.volume(),
+            prescribed: None,
         };
         let mut law = law;
         law.initialize(
@@ -352,6 +375,53 @@ impl Simulation {
         }
     }
 
+    /// Hold particles at a prescribed velocity (None releases them). Errors on an index out
+    /// of range, a repeated index, a non-finite velocity or mismatched lengths. The
+    /// particles' current velocities and spins are set at once (kinetic-energy and damping
+    /// ledgers still include what the integrator computed for them before the overwrite).
+    pub fn set_prescribed_motion(&mut self, motion: Option<PrescribedMotion>) -> Result<()> {
+        if let Some(m) = &motion {
+            let n = self.particles.len();
+            if m.particles.len() != m.velocity.len() {
+                return Err(Error::Invalid(format!(
+                    "prescribed motion: {} particles but {} velocities",
+                    m.particles.len(),
+                    m.velocity.len()
+                )));
+            }
+            let mut seen = vec![false; n];
+            for (&p, v) in m.particles.iter().zip(&m.velocity) {
+                if p >= n || seen[p] {
+                    return Err(Error::Invalid(format!(
+                        "prescribed motion: particle {p} is out of range (< {n}) or repeated"
+                    )));
+                }
+                seen[p] = true;
+                if v.iter().any(|c| !c.is_finite()) {
+                    return Err(Error::Invalid(format!(
+                        "prescribed motion: particle {p} has a non-finite velocity"
+                    )));
+                }
+            }
+            for (&p, v) in m.particles.iter().zip(&m.velocity) {
+                self.particles.velocity[p] = *v;
+                self.particles.angular_velocity[p] = Vec3::zeros();
+            }
+        }
+        let p = &self.particles;
+        self.prescribed = motion.map(|m| HeldParticles {
+            position: m.particles.iter().map(|&k| p.position[k]).collect(),
+            orientation: m.particles.iter().map(|&k| p.orientation[k]).collect(),
+            motion: m,
+        });
+        Ok(())
+    }
+
+    /// The prescribed motion in force, if any.
+    pub fn prescribed_motion(&self) -> Option<&PrescribedMotion> {
+        self.prescribed.as_ref().map(|h| &h.motion)
+    }
+
     /// One step: cell update, bond forces, gather, leapfrog (YADE's step order).
     pub fn step(&mut self) -> Result<()> {
         let dt = self.dt;
@@ -366,6 +436,9 @@ impl Simulation {
             self.loads = loads;
         }
         self.integrate_particles();
+        if let Some(held) = &mut self.prescribed {
+            apply_prescribed_motion(&mut self.particles, held, dt);
+        }
         self.iteration += 1;
         self.time += dt;
         if self.check_interval > 0 && self.iteration % self.check_interval as u64 == 0 {
@@ -711,6 +784,19 @@ impl Simulation {
             self.watch.remove(0);
         }
         Ok(())
+    }
+}
+
+/// Overwrite the integrator's update of the held particles: x ← x_held + v_prescribed·dt,
+/// zero spin, orientation as when they were taken hold of.
+fn apply_prescribed_motion(p: &mut Particles, held: &mut HeldParticles, dt: f64) {
+    let m = &held.motion;
+    for (h, (&k, v)) in m.particles.iter().zip(&m.velocity).enumerate() {
+        held.position[h] += v * dt;
+        p.position[k] = held.position[h];
+        p.velocity[k] = *v;
+        p.angular_velocity[k] = Vec3::zeros();
+        p.orientation[k] = held.orientation[h];
     }
 }
 
