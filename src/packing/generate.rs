@@ -298,8 +298,6 @@ pub(crate) struct RelaxOutcome {
     pub overlap_free: bool,
     /// Stopped on the force-balance criterion.
     pub force_balanced: bool,
-    /// Virial pressure P = (1/3V) Σ_contacts f·|l| at the end (unit stiffness, R̄ = 1).
-    pub pressure: f64,
 }
 
 impl RelaxOutcome {
@@ -455,14 +453,12 @@ fn fire_relax_in_pool(
         }
     }
     x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-    let virial = ordered_sum(n, |k| contact[k].virial);
     Ok(RelaxOutcome {
         iterations,
         rebuilds,
         max_overlap: worst,
         overlap_free: worst < tol,
         force_balanced,
-        pressure: virial / 2.0 / (3.0 * side * side * side),
     })
 }
 
@@ -546,4 +542,344 @@ pub fn generate_with_report(
             neighbour_rebuilds: outcome.rebuilds,
         },
     ))
+}
+
+/// When [`fire_jam_at_pressure`] stops (lengths in units of R̄, unit contact stiffness, so
+/// pressures are in units of Σ_N as in Kumar 2016 Eq. 2).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PressureTarget {
+    /// Imposed pressure P_t of the enthalpy H = E + P_t·V (O'Hern et al. 2003 protocol).
+    pub pressure: f64,
+    /// Accept a virial pressure P with |P − P_t| ≤ this × P_t.
+    pub pressure_tolerance: f64,
+    /// And force balance max_i |F_i| ≤ this × the largest contact force (Kumar 2016 Sec. 3:
+    /// "total force on particles smaller than 10⁻³ N_max").
+    pub force_balance: f64,
+    /// Iteration limit (not an error here: see [`PressureOutcome::converged`]).
+    pub max_iterations: usize,
+}
+
+/// How a [`fire_jam_at_pressure`] call ended.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PressureOutcome {
+    /// FIRE iterations used.
+    pub iterations: usize,
+    /// Virial pressure P = (1/3V) Σ_contacts f·|l| at the end.
+    pub pressure: f64,
+    /// Both criteria of the [`PressureTarget`] met.
+    pub converged: bool,
+}
+
+/// Per-chunk sums of one force pass of [`fire_jam_at_pressure`]; chunks have a fixed size
+/// and are summed in order, so the totals are the same bits on any thread count.
+#[derive(Clone, Copy, Debug, Default)]
+struct ChunkSums {
+    /// Σ F_i·v_i.
+    power: f64,
+    /// Σ |F_i|².
+    f2: f64,
+    /// Σ |v_i|².
+    v2: f64,
+    /// max |F_i|².
+    f_max2: f64,
+    /// Largest overlap (= largest contact force, unit stiffness).
+    overlap_max: f64,
+    /// Σ overlaps, each contact counted from both ends.
+    force: f64,
+    /// Σ overlap·|l|, each contact counted from both ends.
+    virial: f64,
+    /// Contacts, counted from both ends.
+    contacts: u64,
+}
+
+impl ChunkSums {
+    fn add(mut self, o: &ChunkSums) -> ChunkSums {
+        self.power += o.power;
+        self.f2 += o.f2;
+        self.v2 += o.v2;
+        self.f_max2 = self.f_max2.max(o.f_max2);
+        self.overlap_max = self.overlap_max.max(o.overlap_max);
+        self.force += o.force;
+        self.virial += o.virial;
+        self.contacts += o.contacts;
+        self
+    }
+}
+
+/// Particles per chunk of the fused parallel passes (fixed: determinism).
+const PASS_CHUNK: usize = 512;
+
+/// Full Verlet list whose periodic shifts are stored as integer images, so that it stays
+/// valid while the cell is rescaled (shift = image · L).
+struct ScaledVerletList {
+    start: Vec<usize>,
+    j: Vec<u32>,
+    image: Vec<Vec3>,
+}
+
+fn build_scaled_verlet(
+    x: &[Vec3],
+    radii: &[f64],
+    cell: &PeriodicCell,
+    cutoff: f64,
+) -> Result<ScaledVerletList> {
+    let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
+    let n = x.len();
+    let mut start = vec![0usize; n + 1];
+    for p in &pairs {
+        start[p.i as usize + 1] += 1;
+        start[p.j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut j = vec![0u32; start[n]];
+    let mut image = vec![Vec3::zeros(); start[n]];
+    for p in &pairs {
+        let s = Vec3::new(p.image[0] as f64, p.image[1] as f64, p.image[2] as f64);
+        let (a, b) = (p.i as usize, p.j as usize);
+        j[fill[a]] = p.j;
+        image[fill[a]] = s;
+        fill[a] += 1;
+        j[fill[b]] = p.i;
+        image[fill[b]] = -s;
+        fill[b] += 1;
+    }
+    Ok(ScaledVerletList { start, j, image })
+}
+
+/// Repulsive harmonic forces (as [`forces`]) in a cube of side `side`, fused with the sums
+/// FIRE needs (power, norms, largest force, contact force and virial sums) per chunk.
+fn forces_and_sums(
+    x: &[Vec3],
+    v: &[Vec3],
+    radii: &[f64],
+    side: f64,
+    list: &ScaledVerletList,
+    f: &mut [Vec3],
+) -> ChunkSums {
+    let parts: Vec<ChunkSums> = f
+        .par_chunks_mut(PASS_CHUNK)
+        .enumerate()
+        .map(|(c, fc)| {
+            let mut s = ChunkSums::default();
+            for (k, fi) in fc.iter_mut().enumerate() {
+                let i = c * PASS_CHUNK + k;
+                let xi = x[i];
+                let mut sum = Vec3::zeros();
+                for m in list.start[i]..list.start[i + 1] {
+                    let j = list.j[m] as usize;
+                    let l = x[j] + list.image[m] * side - xi;
+                    let reach = radii[i] + radii[j];
+                    let d2 = l.norm_squared();
+                    if d2 >= reach * reach {
+                        continue;
+                    }
+                    let dist = d2.sqrt();
+                    let ov = reach - dist;
+                    let n = if dist > 0.0 {
+                        l / dist
+                    } else if i < j {
+                        Vec3::x()
+                    } else {
+                        -Vec3::x()
+                    };
+                    sum -= n * ov;
+                    s.force += ov;
+                    s.virial += ov * dist;
+                    s.contacts += 1;
+                    s.overlap_max = s.overlap_max.max(ov);
+                }
+                *fi = sum;
+                let f2 = sum.norm_squared();
+                s.power += sum.dot(&v[i]);
+                s.f2 += f2;
+                s.v2 += v[i].norm_squared();
+                s.f_max2 = s.f_max2.max(f2);
+            }
+            s
+        })
+        .collect();
+    parts.iter().fold(ChunkSums::default(), |acc, p| acc.add(p))
+}
+
+/// Minimise the enthalpy H = ½ Σ max(0, R_i + R_j − |l|)² + P_t·V over the positions `x`
+/// and the (cubic) cell side `side` with FIRE (Bitzek et al. 2006): the cell's log-strain
+/// ε = ln L is one more degree of freedom with generalised force −∂H/∂ε = 3V(P − P_t)
+/// (virial pressure P) and mass 2N, so the cell and the particles relax on the same time
+/// scale. This is O'Hern et al. (2003)'s route to the jamming point, used by Kumar 2016
+/// (Sec. 3: compression at a small controlled pressure): starting below jamming, the cell
+/// shrinks until the spheres carry P_t, then stops at a force-balanced jammed state with
+/// φ ≈ φ_J + P_t/(dP/dφ).
+///
+/// One iteration is two fused parallel passes over fixed-size chunks (velocity/position
+/// update, forces with sums) with Verlet lists (skin 0.3 R̄) that stay valid under the
+/// affine rescaling (rebuilt when 2·max displacement + |ΔL/L|·cutoff exceeds the skin), so
+/// the result is the same bit for bit on any thread count.
+/// `on_check(iterations, residual)` is called at the start and every 25 iterations with
+/// the residual max(|P − P_t|/(tol·P_t), max|F|/(ratio·largest contact force)) (converged when
+/// ≤ 1). Positions are wrapped into the cell on return.
+pub(crate) fn fire_jam_at_pressure(
+    x: &mut [Vec3],
+    radii: &[f64],
+    side: &mut f64,
+    target: &PressureTarget,
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
+) -> Result<PressureOutcome> {
+    rayon::scope(|_| fire_jam_in_pool(x, radii, side, target, on_check))
+}
+
+fn fire_jam_in_pool(
+    x: &mut [Vec3],
+    radii: &[f64],
+    side: &mut f64,
+    target: &PressureTarget,
+    on_check: &mut (dyn FnMut(usize, f64) + Send),
+) -> Result<PressureOutcome> {
+    let n = x.len();
+    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let too_small = |side: f64| {
+        Error::Invalid(format!(
+            "packing preparation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
+             small for a unique minimum image (need more than 4.1·R_max); use more particles"
+        ))
+    };
+    const SKIN: f64 = 0.3;
+    let cutoff = 2.0 * r_max + SKIN;
+    if cutoff >= 0.49 * *side {
+        return Err(too_small(*side));
+    }
+    let mut cell = PeriodicCell::new(Vec3::repeat(*side))?;
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+
+    const DT_START: f64 = 0.02;
+    // Twice the fixed-cell minimiser's: stable (ω_max·dt < 2 with ω_max² ≈ 2·Z_max for unit
+    // masses and stiffness) and halves the iterations of the slow creep near jamming.
+    const DT_MAX: f64 = 0.4;
+    const N_DELAY: usize = 5;
+    const F_INC: f64 = 1.1;
+    const F_DEC: f64 = 0.5;
+    const ALPHA_START: f64 = 0.1;
+    const F_ALPHA: f64 = 0.99;
+    // Mass of the mass-weighted cell coordinate η = √M·ε.
+    let mass = 2.0 * n as f64;
+    let sqrt_mass = mass.sqrt();
+    let p_t = target.pressure;
+
+    let mut dt = DT_START;
+    let mut alpha = ALPHA_START;
+    let mut n_positive = 0usize;
+    let mut v = vec![Vec3::zeros(); n];
+    let mut v_eta = 0.0f64;
+    let mut f = vec![Vec3::zeros(); n];
+    let mut list = build_scaled_verlet(x, radii, &cell, cutoff)?;
+    let mut side_ref = *side;
+    // Reference positions in units of the cell side (displacements exclude the affine part).
+    let mut u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
+    let mut sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
+    let mut iterations = 0usize;
+    let mut moved = vec![0.0f64; n.div_ceil(PASS_CHUNK)];
+    let mut converged = false;
+    let mut pressure;
+    loop {
+        let volume = *side * *side * *side;
+        let pair_virial = 0.5 * sums.virial;
+        pressure = pair_virial / (3.0 * volume);
+        let f_eta = (pair_virial - 3.0 * p_t * volume) / sqrt_mass;
+        let residual = if sums.contacts == 0 {
+            f64::INFINITY
+        } else {
+            let r_p = (pressure - p_t).abs() / (target.pressure_tolerance * p_t);
+            let r_f = sums.f_max2.sqrt() / (target.force_balance * sums.overlap_max);
+            r_p.max(r_f)
+        };
+        if iterations % 25 == 0 {
+            on_check(iterations, residual);
+        }
+        if residual <= 1.0 {
+            converged = true;
+            break;
+        }
+        if iterations >= target.max_iterations {
+            break;
+        }
+        iterations += 1;
+        let power = sums.power + f_eta * v_eta;
+        let f2 = sums.f2 + f_eta * f_eta;
+        let reset = power <= 0.0;
+        let back;
+        let v2_new;
+        if reset {
+            n_positive = 0;
+            dt = (dt * F_DEC).max(1e-4);
+            alpha = ALPHA_START;
+            back = 0.5 * dt;
+            v2_new = dt * dt * f2;
+        } else {
+            n_positive += 1;
+            if n_positive > N_DELAY {
+                dt = (dt * F_INC).min(DT_MAX);
+                alpha *= F_ALPHA;
+            }
+            back = 0.0;
+            v2_new = (sums.v2 + v_eta * v_eta + 2.0 * dt * power + dt * dt * f2).max(0.0);
+        }
+        // v ← v + dt·F, then the FIRE mixing v ← (1 − α)v + α|v| F/|F|, then x ← x + dt·v.
+        let mix = if f2 > 0.0 {
+            alpha * v2_new.sqrt() / f2.sqrt()
+        } else {
+            0.0
+        };
+        let eta_back = back * v_eta;
+        if reset {
+            v_eta = 0.0;
+        }
+        v_eta = (v_eta + dt * f_eta) * (1.0 - alpha) + mix * f_eta;
+        let d_eps = (dt * v_eta - eta_back) / sqrt_mass;
+        let scale = d_eps.exp();
+        let new_side = *side * scale;
+        if cutoff >= 0.49 * new_side {
+            return Err(too_small(new_side));
+        }
+        *side = new_side;
+        let new_side_copy = new_side;
+        x.par_chunks_mut(PASS_CHUNK)
+            .zip(v.par_chunks_mut(PASS_CHUNK))
+            .zip(f.par_chunks(PASS_CHUNK))
+            .zip(moved.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (((xc, vc), fc), mc))| {
+                let mut worst = 0.0f64;
+                for (k, ((xk, vk), fk)) in xc.iter_mut().zip(vc.iter_mut()).zip(fc).enumerate() {
+                    if reset {
+                        *xk -= *vk * back;
+                        *vk = Vec3::zeros();
+                    }
+                    *vk = (*vk + fk * dt) * (1.0 - alpha) + fk * mix;
+                    *xk = (*xk + *vk * dt) * scale;
+                    let d = (*xk - u_ref[c * PASS_CHUNK + k] * new_side_copy).norm_squared();
+                    worst = worst.max(d);
+                }
+                *mc = worst.sqrt();
+            });
+        let moved_max = moved.iter().copied().fold(0.0, f64::max);
+        let strain = (*side / side_ref - 1.0).abs();
+        if 2.0 * moved_max + strain * cutoff > SKIN {
+            cell = PeriodicCell::new(Vec3::repeat(*side))?;
+            x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+            list = build_scaled_verlet(x, radii, &cell, cutoff)?;
+            side_ref = *side;
+            let s = *side;
+            u_ref.iter_mut().zip(x.iter()).for_each(|(u, p)| *u = p / s);
+        }
+        sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
+    }
+    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    Ok(PressureOutcome {
+        iterations,
+        pressure,
+        converged,
+    })
 }
