@@ -68,6 +68,14 @@ fn table_1_coordination_per_route_and_interaction_range() {
         assert_eq!(pr.last(), Some(&1.0));
         assert!(pr.windows(2).all(|w| w[0] <= w[1]));
         let zs: Vec<f64> = KAPPA.iter().map(|&k| z_at(&p, k)).collect();
+        println!(
+            "{}: Z at κ = {KAPPA:?}: {zs:.2?} (Kumar {:?}); φ before the affine step {:.4}, Z there {:.3}, rattlers {}",
+            route.as_str(),
+            TABLE_1[r],
+            report.compressed_solid_fraction,
+            report.compressed_coordination,
+            report.rattlers
+        );
         for (c, z) in zs.iter().enumerate() {
             assert!(
                 (z - TABLE_1[r][c]).abs() <= 0.3,
