@@ -3,15 +3,11 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::IntegratorArgs;
-use anisobond::bonds;
 use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
-use anisobond::model::Model;
-use anisobond::packing;
-use anisobond::{Error, Result};
-use indicatif::{ProgressBar, ProgressStyle};
+use anisobond::Result;
 use std::path::PathBuf;
 
 /// Arguments of `anisobond grips`.
@@ -46,16 +42,11 @@ pub struct GripsArgs {
 
 /// `anisobond grips`.
 pub fn grips(a: GripsArgs) -> Result<()> {
-    let model = Model::from_path(&a.model)?;
-    let packing = packing::io::read_packing(&a.packing)?;
-    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if b.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &b)))?;
-    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
+    let super::Bonded {
+        packing,
+        bonds: b,
+        stiffness: k,
+    } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let i = &a.integrator;
     let opts = GrippedOptions {
         strain: i.strain,
@@ -81,11 +72,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         },
         ..Default::default()
     };
-    let bar = ProgressBar::new(1000);
-    bar.set_style(
-        ProgressStyle::with_template("gripped element tests [{bar:40}] {percent:>3}% {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = super::output::progress_bar("gripped element tests");
     let result = gripped_tensor(&packing, &b, &k, i.law.into(), &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });

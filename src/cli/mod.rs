@@ -197,9 +197,15 @@ pub struct Bonded {
     pub stiffness: BondStiffness,
 }
 
+/// Read the model file, then [`load_bonded`].
+pub(crate) fn load_model_and_bonded(packing_path: &Path, model_path: &Path) -> Result<Bonded> {
+    let model = Model::from_path(model_path)?;
+    load_bonded(packing_path, &model, model_path)
+}
+
 /// Read a packing, bond it by the model's rule and assign springs; errors that come from the
 /// model name the model file.
-fn load_bonded(packing_path: &Path, model: &Model, model_path: &Path) -> Result<Bonded> {
+pub(crate) fn load_bonded(packing_path: &Path, model: &Model, model_path: &Path) -> Result<Bonded> {
     let packing = packing::io::read_packing(packing_path)?;
     bond_packing(packing, model).map_err(|e| match e {
         Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),

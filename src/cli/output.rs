@@ -45,13 +45,19 @@ pub fn print_report(r: &TensorReport) {
     );
 }
 
-/// Generate a packing with a progress bar on stderr.
-pub fn generate_with_progress(opts: &generate::GenerateOptions) -> Result<Packing> {
+/// A progress bar on stderr over the fraction done (0–1 mapped to 1000 ticks).
+pub fn progress_bar(what: &str) -> ProgressBar {
     let bar = ProgressBar::new(1000);
     bar.set_style(
-        ProgressStyle::with_template("generating packing [{bar:40}] {percent:>3}% {elapsed}")
+        ProgressStyle::with_template(&format!("{what} [{{bar:40}}] {{percent:>3}}% {{elapsed}}"))
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    bar
+}
+
+/// Generate a packing with a progress bar on stderr.
+pub fn generate_with_progress(opts: &generate::GenerateOptions) -> Result<Packing> {
+    let bar = progress_bar("generating packing");
     let result = generate::generate(opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });

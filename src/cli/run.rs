@@ -2,16 +2,14 @@
 //! progress bar, the stress–strain history CSV and the final tensor JSON; and the helper
 //! behind `anisobond tensor --method dynamic`.
 
-use anisobond::bonds::{self, BondSet, BondStiffness};
+use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::element::{self, ElementTestOptions};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
-use anisobond::model::Model;
-use anisobond::packing::{self, Packing};
+use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
-use anisobond::{Error, Result};
+use anisobond::Result;
 use clap::ValueEnum;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -126,32 +124,6 @@ fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
     }
 }
 
-fn bonded(
-    packing_path: &std::path::Path,
-    model_path: &std::path::Path,
-) -> Result<(Packing, BondSet, BondStiffness)> {
-    let model = Model::from_path(model_path)?;
-    let packing = packing::io::read_packing(packing_path)?;
-    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if b.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &b)))?;
-    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
-    Ok((packing, b, k))
-}
-
-fn progress_bar(what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(1000);
-    bar.set_style(
-        ProgressStyle::with_template(&format!("{what} [{{bar:40}}] {{percent:>3}}% {{elapsed}}"))
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
-}
-
 /// PNG of the loaded stress component against step for every element-test path.
 pub fn plot_element_tests(
     path: &std::path::Path,
@@ -210,7 +182,7 @@ pub fn run_element_tests(
         sim.time_step(),
         st.critical_time_step
     );
-    let bar = progress_bar("element tests");
+    let bar = super::output::progress_bar("element tests");
     let result = element::dynamic_tensor(&sim, &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });
@@ -231,7 +203,11 @@ pub fn dynamic_tensor(
 
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
-    let (packing, b, k) = bonded(&a.packing, &a.model)?;
+    let super::Bonded {
+        packing,
+        bonds: b,
+        stiffness: k,
+    } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let want_history = a.history.is_some() || a.plot.is_some();
     let result = run_element_tests(&packing, &b, &k, &a.integrator, want_history)?;
     if let Some(path) = &a.plot {

@@ -5,15 +5,11 @@
 //! orthotropic tensor as a SPEC JSON report.
 
 use super::run::LawArg;
-use anisobond::bonds;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
 use anisobond::dem::{build_law, DemOptions, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
-use anisobond::model::Model;
-use anisobond::packing;
-use anisobond::{Error, Result};
-use indicatif::{ProgressBar, ProgressStyle};
+use anisobond::Result;
 use std::path::PathBuf;
 
 /// Arguments of `anisobond stress-test`.
@@ -68,16 +64,11 @@ pub struct StressTestArgs {
 
 /// `anisobond stress-test`.
 pub fn run(a: StressTestArgs) -> Result<()> {
-    let model = Model::from_path(&a.model)?;
-    let packing = packing::io::read_packing(&a.packing)?;
-    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if b.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &b)))?;
-    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
+    let super::Bonded {
+        packing,
+        bonds: b,
+        stiffness: k,
+    } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let dem = DemOptions {
         time_step: a.dt,
         safety: a.safety,
@@ -107,11 +98,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let bar = ProgressBar::new(1000);
-    bar.set_style(
-        ProgressStyle::with_template("stress tests [{bar:40}] {percent:>3}% {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = super::output::progress_bar("stress tests");
     let result = stress_controlled_tensor(&sim, &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });
