@@ -13,7 +13,9 @@
 //! Singular modes are detected and reported ([`NullSpaceReport`]), not regularised away:
 //! the right-hand sides are orthogonal to them, so CG converges in the range of K.
 
+use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, Block6, LeverArm, Network, NullSpaceReport};
+use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;
@@ -21,11 +23,54 @@ use crate::{Error, Result};
 use nalgebra::Vector6;
 use rayon::prelude::*;
 
+/// Preconditioner of the relaxed CG.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CgPreconditioner {
+    /// Pseudo-inverse of every particle's 6×6 diagonal block.
+    #[default]
+    BlockJacobi,
+    /// Block-Jacobi plus an exact coarse solve on the rigid motions of spatial clusters of
+    /// about `particles_per_aggregate` particles ([`super::two_level`]): iterations nearly
+    /// independent of N.
+    TwoLevel {
+        /// Target cluster size.
+        particles_per_aggregate: usize,
+    },
+}
+
+/// Linear solver of the relaxed equilibrium K Q = G.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RelaxedSolver {
+    /// Preconditioned conjugate gradients to [`RelaxedOptions::tolerance`]; low memory.
+    Cg {
+        /// Preconditioner.
+        preconditioner: CgPreconditioner,
+    },
+    /// faer's supernodal sparse Cholesky (AMD ordering) of K restricted to its range
+    /// ([`super::cholesky`]): exact up to rounding, memory grows faster than linearly.
+    Cholesky,
+}
+
+impl Default for RelaxedSolver {
+    fn default() -> Self {
+        RelaxedSolver::Cg {
+            preconditioner: CgPreconditioner::TwoLevel {
+                particles_per_aggregate: DEFAULT_PARTICLES_PER_AGGREGATE,
+            },
+        }
+    }
+}
+
+/// Default cluster size of the two-level preconditioner.
+pub const DEFAULT_PARTICLES_PER_AGGREGATE: usize = 64;
+
 /// Options of the relaxed solver.
 #[derive(Clone, Copy, Debug)]
 pub struct RelaxedOptions {
     /// Contact point convention.
     pub lever_arm: LeverArm,
+    /// Linear solver (CG with a preconditioner, or sparse Cholesky).
+    pub solver: RelaxedSolver,
     /// CG stops when every load case's residual, relative to its right-hand side, is below
     /// this. The tensor's relative error is of the order of its square.
     pub tolerance: f64,
@@ -42,6 +87,7 @@ impl Default for RelaxedOptions {
     fn default() -> Self {
         RelaxedOptions {
             lever_arm: LeverArm::MidGap,
+            solver: RelaxedSolver::default(),
             tolerance: 1e-6,
             max_iterations: 50_000,
             fluctuations: true,
@@ -57,9 +103,10 @@ pub struct RelaxedResult {
     pub c: Stiffness6,
     /// The affine (Voigt) tensor of the same active network, H/V (Pa).
     pub c_affine: Stiffness6,
-    /// CG iterations used.
+    /// CG iterations used (0 for Cholesky).
     pub iterations: usize,
-    /// Largest final relative residual over the six load cases.
+    /// Largest final relative residual over the six load cases (for Cholesky, of the
+    /// computed solution).
     pub relative_residual: f64,
     /// Particles that take part.
     pub active_particles: usize,
@@ -136,6 +183,36 @@ impl BlockSparse {
             .find(|&k| self.col[k] as usize == p)
             .map(|k| self.block[k])
             .unwrap_or_else(Block6::zeros)
+    }
+
+    /// Number of block rows (particles).
+    pub fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+
+    /// The stored blocks (column, K_pq) of row `p`, in increasing column order.
+    pub fn row(&self, p: usize) -> impl Iterator<Item = (usize, &Block6)> + '_ {
+        (self.row_start[p]..self.row_start[p + 1]).map(move |k| (self.col[k] as usize, &self.block[k]))
+    }
+
+    /// A matrix from its block rows, each sorted by column (both triangles stored).
+    pub fn from_rows(rows: Vec<Vec<(u32, Block6)>>) -> BlockSparse {
+        let mut row_start = Vec::with_capacity(rows.len() + 1);
+        row_start.push(0);
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        for r in rows {
+            for (c, b) in r {
+                col.push(c);
+                block.push(b);
+            }
+            row_start.push(col.len());
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
     }
 
     /// Memory held by the matrix (bytes).
@@ -243,8 +320,62 @@ pub fn relaxed_solve(
         }
     }
     let scale = scale.map(f64::sqrt);
-    let start = initial.filter(|x| x.len() == m);
-    let (q, iterations, residual) = pcg(&kmat, &net.g, &pre, &scale, opts, start)?;
+    let (q, iterations, residual) = match opts.solver {
+        RelaxedSolver::Cholesky => {
+            let chol = BlockCholesky::factor(&kmat)?;
+            let (live, bnorm) = live_columns(&net.g, &scale);
+            let mut q = chol.solve(&net.g)?;
+            for qp in q.iter_mut() {
+                for (c, &alive) in live.iter().enumerate() {
+                    if !alive {
+                        qp.column_mut(c).fill(0.0);
+                    }
+                }
+            }
+            let mut kq = vec![Block6::zeros(); m];
+            kmat.apply(&q, &mut kq);
+            kq.par_iter_mut()
+                .zip(net.g.par_iter())
+                .for_each(|(r, g)| *r = g - *r);
+            let residual = worst_residual(&kq, &live, &bnorm);
+            if residual > opts.tolerance {
+                return Err(Error::Invalid(format!(
+                    "relaxed solver (Cholesky): relative residual {residual:.3e} > tolerance \
+                     {:.1e}; the stiffness matrix is too ill-conditioned or the bond network \
+                     contains a mechanism",
+                    opts.tolerance
+                )));
+            }
+            (q, 0, residual)
+        }
+        RelaxedSolver::Cg { preconditioner } => {
+            let two_level = match preconditioner {
+                CgPreconditioner::BlockJacobi => None,
+                CgPreconditioner::TwoLevel {
+                    particles_per_aggregate,
+                } => {
+                    let lengths = packing
+                        .cell
+                        .map(|c| c.lengths)
+                        .ok_or_else(|| Error::Invalid("relaxed solver: no periodic cell".into()))?;
+                    let positions: Vec<crate::Vec3> = net
+                        .original
+                        .iter()
+                        .map(|&p| packing.positions[p as usize])
+                        .collect();
+                    Some(TwoLevel::new(
+                        &kmat,
+                        &positions,
+                        lengths,
+                        opts.rotations,
+                        particles_per_aggregate,
+                    )?)
+                }
+            };
+            let start = initial.filter(|x| x.len() == m);
+            pcg(&kmat, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?
+        }
+    };
     let mut kq = vec![Block6::zeros(); m];
     kmat.apply(&q, &mut kq);
     let mut gtq = Block6::zeros();
@@ -270,26 +401,74 @@ pub fn relaxed_solve(
     })
 }
 
+/// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
+/// scale before cancellation), and the column norms.
+fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {
+    let bnorm = column_dots(b, b).map(f64::sqrt);
+    (std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]), bnorm)
+}
+
+/// Largest relative residual ‖r_c‖/‖b_c‖ over the live columns.
+fn worst_residual(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> f64 {
+    let rr = column_dots(r, r);
+    (0..6)
+        .map(|c| {
+            if live[c] {
+                rr[c].sqrt() / bnorm[c]
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Preconditioned conjugate gradients on the six load cases together, K X = B, from
-/// X₀ = `start` (or 0).
+/// X₀ = `start` (or 0); block-Jacobi, or the balancing two-level preconditioner
+/// z = Q r + (I − QK) M (I − KQ) r with M = block-Jacobi when `two_level` is given.
 fn pcg(
     k: &BlockSparse,
     b: &[Block6],
     pre: &[(Block6, usize)],
+    two_level: Option<&TwoLevel>,
     scale: &[f64; 6],
     opts: &RelaxedOptions,
     start: Option<&[Block6]>,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let m = b.len();
-    let precondition = |r: &[Block6], z: &mut [Block6]| {
+    let jacobi = |r: &[Block6], z: &mut [Block6]| {
         z.par_iter_mut()
             .zip(r.par_iter())
             .zip(pre.par_iter())
             .for_each(|((z, r), (p, _))| *z = p * r);
     };
-    let bnorm = column_dots(b, b).map(f64::sqrt);
-    // Columns whose right-hand side is rounding noise are solved as zero.
-    let live: [bool; 6] = std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]);
+    let (mut y1, mut s, mut w, mut t) = match two_level {
+        Some(_) => (
+            vec![Block6::zeros(); m],
+            vec![Block6::zeros(); m],
+            vec![Block6::zeros(); m],
+            vec![Block6::zeros(); m],
+        ),
+        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+    };
+    let mut precondition = |r: &[Block6], z: &mut [Block6]| -> Result<()> {
+        let Some(tl) = two_level else {
+            jacobi(r, z);
+            return Ok(());
+        };
+        tl.coarse_correction(r, &mut y1)?; // y1 = Q r
+        k.apply(&y1, &mut t);
+        s.par_iter_mut()
+            .zip(r.par_iter().zip(t.par_iter()))
+            .for_each(|(s, (r, t))| *s = r - t); // s = (I − KQ) r
+        jacobi(&s, &mut w); // w = M s
+        k.apply(&w, &mut t);
+        tl.coarse_correction(&t, &mut s)?; // s = Q K w
+        z.par_iter_mut()
+            .zip(y1.par_iter().zip(w.par_iter().zip(s.par_iter())))
+            .for_each(|(z, (y, (w, s)))| *z = y + w - s);
+        Ok(())
+    };
+    let (live, bnorm) = live_columns(b, scale);
     let mut x = match start {
         Some(s) => {
             let mut x = s.to_vec();
@@ -313,22 +492,13 @@ fn pcg(
             .for_each(|(r, kx)| *r -= kx);
     }
     let mut z = vec![Block6::zeros(); m];
-    precondition(&r, &mut z);
+    precondition(&r, &mut z)?;
     let mut p = z.clone();
     let mut ap = vec![Block6::zeros(); m];
     let mut rz = column_dots(&r, &z);
     let mut worst = 0.0;
     for it in 0..=opts.max_iterations {
-        let rr = column_dots(&r, &r);
-        worst = (0..6)
-            .map(|c| {
-                if live[c] {
-                    rr[c].sqrt() / bnorm[c]
-                } else {
-                    0.0
-                }
-            })
-            .fold(0.0, f64::max);
+        worst = worst_residual(&r, &live, &bnorm);
         if worst <= opts.tolerance {
             return Ok((x, it, worst));
         }
@@ -351,7 +521,7 @@ fn pcg(
                 *x += p * alpha;
                 *r -= ap * alpha;
             });
-        precondition(&r, &mut z);
+        precondition(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
         let beta = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
             if rz[c] > 0.0 {
