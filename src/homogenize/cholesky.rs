@@ -250,7 +250,8 @@ impl BlockCholesky {
                 }
             }
         }
-        let par = faer_par();
+        // Sequential triangular solves: cheap, and no synchronisation inside the CG loop.
+        let par = Par::Seq;
         let mut mem = MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(6, par))
             .map_err(|_| Error::Invalid("Cholesky: cannot allocate solve workspace".into()))?;
         let llt = LltRef::new(&self.symbolic, &self.factor);

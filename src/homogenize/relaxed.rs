@@ -20,7 +20,6 @@ use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
-use nalgebra::Vector6;
 use rayon::prelude::*;
 
 /// Preconditioner of the relaxed CG.
@@ -171,7 +170,7 @@ impl BlockSparse {
         y.par_iter_mut().enumerate().for_each(|(p, yp)| {
             let mut acc = Block6::zeros();
             for k in self.row_start[p]..self.row_start[p + 1] {
-                acc += self.block[k] * x[self.col[k] as usize];
+                mul_add6(&mut acc, &self.block[k], &x[self.col[k] as usize]);
             }
             *yp = acc;
         });
@@ -221,6 +220,34 @@ impl BlockSparse {
             + self.col.len() * 4
             + self.row_start.len() * 8
     }
+}
+
+/// acc += a·b for 6×6 blocks: an unrolled column-major kernel (nalgebra's generic product
+/// of fixed 6×6 matrices goes through its gemm path and is several times slower here).
+#[inline(always)]
+pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = acc.as_mut_slice();
+    for j in 0..6 {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            let ak = &a[6 * k..6 * k + 6];
+            for i in 0..6 {
+                col[i] += ak[i] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
+/// a·b for 6×6 blocks (see [`mul_add6`]).
+#[inline(always)]
+pub(crate) fn mul6(a: &Block6, b: &Block6) -> Block6 {
+    let mut c = Block6::zeros();
+    mul_add6(&mut c, a, b);
+    c
 }
 
 /// Per-column dot products Σ_p (a_p ∘ b_p) summed over rows, deterministic (fixed chunks).
@@ -439,33 +466,25 @@ fn pcg(
         z.par_iter_mut()
             .zip(r.par_iter())
             .zip(pre.par_iter())
-            .for_each(|((z, r), (p, _))| *z = p * r);
+            .for_each(|((z, r), (p, _))| *z = mul6(p, r));
     };
-    let (mut y1, mut s, mut w, mut t) = match two_level {
-        Some(_) => (
-            vec![Block6::zeros(); m],
-            vec![Block6::zeros(); m],
-            vec![Block6::zeros(); m],
-            vec![Block6::zeros(); m],
-        ),
-        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+    let (mut w, mut t) = match two_level {
+        Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
+        None => (Vec::new(), Vec::new()),
     };
+    // With r ⟂ range(P) (arranged below by the coarse start), the balancing preconditioner
+    // reduces to z = (I − QK) M r, and every later residual stays ⟂ range(P) since
+    // Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this start).
     let mut precondition = |r: &[Block6], z: &mut [Block6]| -> Result<()> {
         let Some(tl) = two_level else {
             jacobi(r, z);
             return Ok(());
         };
-        tl.coarse_correction(r, &mut y1)?; // y1 = Q r
-        k.apply(&y1, &mut t);
-        s.par_iter_mut()
-            .zip(r.par_iter().zip(t.par_iter()))
-            .for_each(|(s, (r, t))| *s = r - t); // s = (I − KQ) r
-        jacobi(&s, &mut w); // w = M s
-        k.apply(&w, &mut t);
-        tl.coarse_correction(&t, &mut s)?; // s = Q K w
+        jacobi(r, &mut w); // w = M r
+        tl.coarse_of_k(&w, &mut t)?; // t = Q K w
         z.par_iter_mut()
-            .zip(y1.par_iter().zip(w.par_iter().zip(s.par_iter())))
-            .for_each(|(z, (y, (w, s)))| *z = y + w - s);
+            .zip(w.par_iter().zip(t.par_iter()))
+            .for_each(|(z, (w, t))| *z = w - t);
         Ok(())
     };
     let (live, bnorm) = live_columns(b, scale);
@@ -491,6 +510,25 @@ fn pcg(
             .zip(kx.par_iter())
             .for_each(|(r, kx)| *r -= kx);
     }
+    if let Some(tl) = two_level {
+        // Coarse start: x += Q r, r −= K Q r, so that Pᵀ r = 0 (live load cases only).
+        let mut q = vec![Block6::zeros(); m];
+        let mut kq = vec![Block6::zeros(); m];
+        tl.coarse_correction(&r, &mut q, &mut kq)?;
+        x.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(q.par_iter().zip(kq.par_iter()))
+            .for_each(|((x, r), (q, kq))| {
+                for (c, &alive) in live.iter().enumerate() {
+                    if alive {
+                        for i in 0..6 {
+                            x[(i, c)] += q[(i, c)];
+                            r[(i, c)] -= kq[(i, c)];
+                        }
+                    }
+                }
+            });
+    }
     let mut z = vec![Block6::zeros(); m];
     precondition(&r, &mut z)?;
     let mut p = z.clone();
@@ -507,32 +545,40 @@ fn pcg(
         }
         k.apply(&p, &mut ap);
         let pap = column_dots(&p, &ap);
-        let alpha = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
+        let alpha: [f64; 6] = std::array::from_fn(|c| {
             if live[c] && pap[c] > 0.0 {
                 rz[c] / pap[c]
             } else {
                 0.0
             }
-        }));
+        });
         x.par_iter_mut()
             .zip(r.par_iter_mut())
             .zip(p.par_iter().zip(ap.par_iter()))
             .for_each(|((x, r), (p, ap))| {
-                *x += p * alpha;
-                *r -= ap * alpha;
+                for (c, &a) in alpha.iter().enumerate() {
+                    for i in 0..6 {
+                        x[(i, c)] += p[(i, c)] * a;
+                        r[(i, c)] -= ap[(i, c)] * a;
+                    }
+                }
             });
         precondition(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
-        let beta = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
+        let beta: [f64; 6] = std::array::from_fn(|c| {
             if rz[c] > 0.0 {
                 rz_new[c] / rz[c]
             } else {
                 0.0
             }
-        }));
-        p.par_iter_mut()
-            .zip(z.par_iter())
-            .for_each(|(p, z)| *p = z + *p * beta);
+        });
+        p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
+            for (c, &b) in beta.iter().enumerate() {
+                for i in 0..6 {
+                    p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
+                }
+            }
+        });
         rz = rz_new;
     }
     Err(Error::Invalid(format!(

@@ -10,7 +10,7 @@
 
 use super::cholesky::BlockCholesky;
 use super::network::Block6;
-use super::relaxed::BlockSparse;
+use super::relaxed::{mul6, mul_add6, BlockSparse};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -31,6 +31,13 @@ pub struct TwoLevel {
     start: Vec<usize>,
     nodes: Vec<u32>,
     coarse: BlockCholesky,
+    /// K P by fine rows (CSR): (aggregate, Σ_q∈aggregate K_pq P_q); few blocks per row, so
+    /// K Q r and Qᵀ-side products cost far less than a product with K.
+    kp_start: Vec<usize>,
+    kp: Vec<(u32, Block6)>,
+    /// (KP)ᵀ by aggregate (CSR of (fine row, transposed block)), for streaming restriction.
+    kpt_start: Vec<usize>,
+    kpt: Vec<(u32, Block6)>,
 }
 
 impl TwoLevel {
@@ -114,6 +121,45 @@ impl TwoLevel {
             nodes[fill[a as usize]] = p as u32;
             fill[a as usize] += 1;
         }
+        // K P, one short row per fine node (fixed order: the row's columns in order).
+        let kp_rows: Vec<Vec<(u32, Block6)>> = (0..m)
+            .into_par_iter()
+            .map(|p| {
+                let mut acc: Vec<(u32, Block6)> = Vec::new();
+                for (q, kpq) in k.row(p) {
+                    let b = aggregate[q];
+                    let v = kpq * prolongation[q];
+                    match acc.iter_mut().find(|(a, _)| *a == b) {
+                        Some((_, s)) => *s += v,
+                        None => acc.push((b, v)),
+                    }
+                }
+                acc.sort_by_key(|(a, _)| *a);
+                acc
+            })
+            .collect();
+        let mut kp_start = Vec::with_capacity(m + 1);
+        kp_start.push(0);
+        let mut kp = Vec::new();
+        for row in kp_rows {
+            kp.extend(row);
+            kp_start.push(kp.len());
+        }
+        let mut kpt_start = vec![0usize; n_agg + 1];
+        for (b, _) in &kp {
+            kpt_start[*b as usize + 1] += 1;
+        }
+        for a in 0..n_agg {
+            kpt_start[a + 1] += kpt_start[a];
+        }
+        let mut fill = kpt_start.clone();
+        let mut kpt = vec![(0u32, Block6::zeros()); kp.len()];
+        for p in 0..m {
+            for (b, blk) in &kp[kp_start[p]..kp_start[p + 1]] {
+                kpt[fill[*b as usize]] = (p as u32, blk.transpose());
+                fill[*b as usize] += 1;
+            }
+        }
         // Coarse matrix PᵀKP, one block row per aggregate, fixed summation order.
         let rows: Vec<Vec<(u32, Block6)>> = (0..n_agg)
             .into_par_iter()
@@ -122,10 +168,8 @@ impl TwoLevel {
                 for &p in &nodes[start[a]..start[a + 1]] {
                     let p = p as usize;
                     let ppt = prolongation[p].transpose();
-                    for (q, kpq) in k.row(p) {
-                        let b = aggregate[q];
-                        *acc.entry(b).or_insert_with(Block6::zeros) +=
-                            ppt * kpq * prolongation[q];
+                    for (b, kpb) in &kp[kp_start[p]..kp_start[p + 1]] {
+                        *acc.entry(*b).or_insert_with(Block6::zeros) += ppt * kpb;
                     }
                 }
                 acc.into_iter().collect()
@@ -139,6 +183,10 @@ impl TwoLevel {
             start,
             nodes,
             coarse,
+            kp_start,
+            kp,
+            kpt_start,
+            kpt,
         })
     }
 
@@ -147,21 +195,53 @@ impl TwoLevel {
         self.start.len() - 1
     }
 
-    /// Q r = P (PᵀKP)⁺ Pᵀ r, written into `out`.
-    pub fn coarse_correction(&self, r: &[Block6], out: &mut [Block6]) -> Result<()> {
+    /// Q r = P (PᵀKP)⁺ Pᵀ r into `q`, and K Q r = (KP)(PᵀKP)⁺ Pᵀ r into `kq`.
+    pub fn coarse_correction(
+        &self,
+        r: &[Block6],
+        q: &mut [Block6],
+        kq: &mut [Block6],
+    ) -> Result<()> {
         let restricted: Vec<Block6> = (0..self.aggregates())
             .into_par_iter()
             .map(|a| {
                 let mut s = Block6::zeros();
                 for &p in &self.nodes[self.start[a]..self.start[a + 1]] {
-                    s += self.prolongation[p as usize].transpose() * r[p as usize];
+                    mul_add6(&mut s, &self.prolongation[p as usize].transpose(), &r[p as usize]);
+                }
+                s
+            })
+            .collect();
+        let xc = self.coarse.solve(&restricted)?;
+        q.par_iter_mut()
+            .zip(kq.par_iter_mut())
+            .enumerate()
+            .for_each(|(p, (q, kq))| {
+                *q = mul6(&self.prolongation[p], &xc[self.aggregate[p] as usize]);
+                let mut s = Block6::zeros();
+                for (b, kpb) in &self.kp[self.kp_start[p]..self.kp_start[p + 1]] {
+                    mul_add6(&mut s, kpb, &xc[*b as usize]);
+                }
+                *kq = s;
+            });
+        Ok(())
+    }
+
+    /// Q K w = P (PᵀKP)⁺ (KP)ᵀ w, written into `out` (no product with K itself).
+    pub fn coarse_of_k(&self, w: &[Block6], out: &mut [Block6]) -> Result<()> {
+        let restricted: Vec<Block6> = (0..self.aggregates())
+            .into_par_iter()
+            .map(|a| {
+                let mut s = Block6::zeros();
+                for (p, kpt) in &self.kpt[self.kpt_start[a]..self.kpt_start[a + 1]] {
+                    mul_add6(&mut s, kpt, &w[*p as usize]);
                 }
                 s
             })
             .collect();
         let xc = self.coarse.solve(&restricted)?;
         out.par_iter_mut().enumerate().for_each(|(p, o)| {
-            *o = self.prolongation[p] * xc[self.aggregate[p] as usize];
+            *o = mul6(&self.prolongation[p], &xc[self.aggregate[p] as usize]);
         });
         Ok(())
     }
