@@ -131,8 +131,14 @@ fn simple_cubic_and_fcc_closed_forms_by_every_solver() {
     for solver in SOLVERS {
         let c = solve(&p, &b, &k, solver, 1e-10, true).c;
         assert!((c[(0, 0)] - (kn + kt) / s2r).abs() < tol, "{solver:?} {c}");
-        assert!((c[(0, 1)] - (kn - kt) / (2.0 * s2r)).abs() < tol, "{solver:?}");
-        assert!((c[(3, 3)] - (kn + kt) / (2.0 * s2r)).abs() < tol, "{solver:?}");
+        assert!(
+            (c[(0, 1)] - (kn - kt) / (2.0 * s2r)).abs() < tol,
+            "{solver:?}"
+        );
+        assert!(
+            (c[(3, 3)] - (kn + kt) / (2.0 * s2r)).abs() < tol,
+            "{solver:?}"
+        );
     }
 }
 

@@ -132,7 +132,7 @@ impl From<SolverArg> for RelaxedSolver {
         match a {
             SolverArg::Cg => RelaxedSolver::Cg {
                 preconditioner: CgPreconditioner::TwoLevel {
-                    particles_per_aggregate: std::env::var("TMP_AGG").ok().and_then(|v| v.parse().ok()).unwrap_or(DEFAULT_PARTICLES_PER_AGGREGATE),
+                    particles_per_aggregate: DEFAULT_PARTICLES_PER_AGGREGATE,
                 },
             },
             SolverArg::CgJacobi => RelaxedSolver::Cg {

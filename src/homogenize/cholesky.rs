@@ -174,23 +174,26 @@ impl BlockCholesky {
             }
         }
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic =
-            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, Default::default())
-                .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
         let mut factor = Vec::new();
-        factor
-            .try_reserve_exact(symbolic.len_val())
-            .map_err(|_| {
-                Error::Invalid(format!(
-                    "Cholesky: cannot allocate the factor ({} entries)",
-                    symbolic.len_val()
-                ))
-            })?;
+        factor.try_reserve_exact(symbolic.len_val()).map_err(|_| {
+            Error::Invalid(format!(
+                "Cholesky: cannot allocate the factor ({} entries)",
+                symbolic.len_val()
+            ))
+        })?;
         factor.resize(symbolic.len_val(), 0.0);
         let par = faer_par();
-        let mut mem =
-            MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
-                .map_err(|_| Error::Invalid("Cholesky: cannot allocate workspace".into()))?;
+        let mut mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|_| Error::Invalid("Cholesky: cannot allocate workspace".into()))?;
         let a = SparseColMatRef::new(sym, &values);
         symbolic
             .factorize_numeric_llt(

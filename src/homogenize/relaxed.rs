@@ -61,7 +61,7 @@ impl Default for RelaxedSolver {
 }
 
 /// Default cluster size of the two-level preconditioner.
-pub const DEFAULT_PARTICLES_PER_AGGREGATE: usize = 64;
+pub const DEFAULT_PARTICLES_PER_AGGREGATE: usize = 128;
 
 /// Options of the relaxed solver.
 #[derive(Clone, Copy, Debug)]
@@ -191,7 +191,8 @@ impl BlockSparse {
 
     /// The stored blocks (column, K_pq) of row `p`, in increasing column order.
     pub fn row(&self, p: usize) -> impl Iterator<Item = (usize, &Block6)> + '_ {
-        (self.row_start[p]..self.row_start[p + 1]).map(move |k| (self.col[k] as usize, &self.block[k]))
+        (self.row_start[p]..self.row_start[p + 1])
+            .map(move |k| (self.col[k] as usize, &self.block[k]))
     }
 
     /// A matrix from its block rows, each sorted by column (both triangles stored).
@@ -565,13 +566,8 @@ fn pcg(
             });
         precondition(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
-        let beta: [f64; 6] = std::array::from_fn(|c| {
-            if rz[c] > 0.0 {
-                rz_new[c] / rz[c]
-            } else {
-                0.0
-            }
-        });
+        let beta: [f64; 6] =
+            std::array::from_fn(|c| if rz[c] > 0.0 { rz_new[c] / rz[c] } else { 0.0 });
         p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
             for (c, &b) in beta.iter().enumerate() {
                 for i in 0..6 {

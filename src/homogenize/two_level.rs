@@ -207,7 +207,11 @@ impl TwoLevel {
             .map(|a| {
                 let mut s = Block6::zeros();
                 for &p in &self.nodes[self.start[a]..self.start[a + 1]] {
-                    mul_add6(&mut s, &self.prolongation[p as usize].transpose(), &r[p as usize]);
+                    mul_add6(
+                        &mut s,
+                        &self.prolongation[p as usize].transpose(),
+                        &r[p as usize],
+                    );
                 }
                 s
             })
