@@ -391,13 +391,17 @@ pub fn relaxed_solve(
                         .iter()
                         .map(|&p| packing.positions[p as usize])
                         .collect();
-                    Some(TwoLevel::new(
+                    // A coarse space that cannot be factored (e.g. a single aggregate, whose
+                    // translations are all null) only weakens the preconditioner: fall back
+                    // to block-Jacobi; the solution and its accuracy are unchanged.
+                    TwoLevel::new(
                         &kmat,
                         &positions,
                         lengths,
                         opts.rotations,
                         particles_per_aggregate,
-                    )?)
+                    )
+                    .ok()
                 }
             };
             let start = initial.filter(|x| x.len() == m);
