@@ -1,12 +1,18 @@
 //! Throughput of the core pipeline (BENCHMARKS.md): neighbour search + bonding and the bond
 //! table of ~1e6 particles / bonds. Run with `cargo bench --bench core` (release build;
 //! RAYON_NUM_THREADS sets the thread count). Sizes via ANISOBOND_BENCH_PARTICLES.
+//! ANISOBOND_BENCH_RELAXED=cg,cg-jacobi,cholesky adds the relaxed tensor's solvers on a
+//! packing of ANISOBOND_BENCH_RELAXED_PARTICLES (default 30,000) particles.
 //!
 //! The packing is a jittered FCC lattice at solid fraction 0.60 with radii R̄ ± R̄/6, so
 //! the bonding workload (≈ 7–8 bonds per particle at gap 0.17 R̄) is that of a dense
 //! random packing without spending minutes generating one.
 
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, table, BondingRule};
+use anisobond::homogenize::relaxed::{
+    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedSolver,
+    DEFAULT_PARTICLES_PER_AGGREGATE,
+};
 use anisobond::model::Model;
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
@@ -99,4 +105,58 @@ fn main() {
         t_assign + t_write,
         size as f64 / 1e6
     );
+    drop(k);
+    drop(bonds);
+    drop(p);
+    if let Ok(list) = std::env::var("ANISOBOND_BENCH_RELAXED") {
+        relaxed_bench(&list, &model);
+    }
+}
+
+/// Relaxed tensor by each named solver: wall time, iterations, and agreement with the first.
+fn relaxed_bench(list: &str, model: &Model) {
+    let n: usize = std::env::var("ANISOBOND_BENCH_RELAXED_PARTICLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30_000);
+    let p = jittered_fcc(n, 2);
+    // At gap 0.17 R̄ this dilated lattice (Z ≈ 6.4) has mechanisms; 0.5 R̄ makes it rigid.
+    let bonds = build_bonds(&p, BondingRule::Gap(0.5)).expect("bonding");
+    let scheme = model.build_scheme(None).expect("scheme");
+    let k = assign_stiffness(&p, &bonds, scheme.as_ref(), &model.geometry).expect("stiffness");
+    let mut first: Option<anisobond::tensor::Stiffness6> = None;
+    for name in list.split(',') {
+        let solver = match name.trim() {
+            "cg" => RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::TwoLevel {
+                    particles_per_aggregate: DEFAULT_PARTICLES_PER_AGGREGATE,
+                },
+            },
+            "cg-jacobi" => RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::BlockJacobi,
+            },
+            "cholesky" => RelaxedSolver::Cholesky,
+            other => {
+                println!("relaxed: unknown solver {other:?} (cg, cg-jacobi, cholesky)");
+                continue;
+            }
+        };
+        let opts = RelaxedOptions {
+            solver,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        match relaxed_tensor(&p, &bonds, &k, &opts) {
+            Ok(r) => {
+                let secs = t.elapsed().as_secs_f64();
+                let diff = first.map(|c| (c - r.c).amax() / c.amax()).unwrap_or(0.0);
+                first.get_or_insert(r.c);
+                println!(
+                    "relaxed {name}: {} particles, {} bonds: {secs:.3} s, {} iterations, residual {:.1e}, tensor vs first solver {diff:.1e}",
+                    r.active_particles, r.active_bonds, r.iterations, r.relative_residual
+                );
+            }
+            Err(e) => println!("relaxed {name}: {e}"),
+        }
+    }
 }

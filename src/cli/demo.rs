@@ -76,6 +76,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     let statics = StaticArgs {
         lever_arm: LeverArmArg::MidGap,
         cg_tolerance: 1e-6,
+        solver: super::SolverArg::Cg,
         shell: 2,
         energy: false,
     };

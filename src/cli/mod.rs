@@ -17,7 +17,10 @@ mod validate_liggghts;
 
 use anisobond::bonds::{self, table, BondSet, BondStiffness};
 use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::relaxed::{
+    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedSolver,
+    DEFAULT_PARTICLES_PER_AGGREGATE,
+};
 use anisobond::homogenize::{laf, mean_field, report::TensorReport, voigt};
 use anisobond::model::Model;
 use anisobond::packing::{self, Packing};
@@ -121,6 +124,34 @@ impl From<LeverArmArg> for LeverArm {
     }
 }
 
+// --- relaxed linear solver option (feat-solver) ---
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum SolverArg {
+    /// Conjugate gradients, two-level preconditioner (block-Jacobi + rigid cluster modes).
+    Cg,
+    /// Conjugate gradients with the block-Jacobi preconditioner only.
+    CgJacobi,
+    /// Sparse Cholesky (faer, supernodal): direct, more memory.
+    Cholesky,
+}
+
+impl From<SolverArg> for RelaxedSolver {
+    fn from(a: SolverArg) -> Self {
+        match a {
+            SolverArg::Cg => RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::TwoLevel {
+                    particles_per_aggregate: DEFAULT_PARTICLES_PER_AGGREGATE,
+                },
+            },
+            SolverArg::CgJacobi => RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::BlockJacobi,
+            },
+            SolverArg::Cholesky => RelaxedSolver::Cholesky,
+        }
+    }
+}
+// --- end relaxed linear solver option ---
+
 /// Options of the static methods (relaxed, laf).
 #[derive(clap::Args, Clone, Copy)]
 struct StaticArgs {
@@ -130,6 +161,9 @@ struct StaticArgs {
     /// Relaxed: CG tolerance on the relative residual (the tensor's error is ~its square).
     #[arg(long, default_value_t = 1e-6)]
     cg_tolerance: f64,
+    /// Relaxed: linear solver of the equilibrium system.
+    #[arg(long, value_enum, default_value_t = SolverArg::Cg)]
+    solver: SolverArg,
     /// LAF: shell order m (1–6).
     #[arg(long, default_value_t = 2)]
     shell: usize,
@@ -263,13 +297,14 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
             let opts = RelaxedOptions {
                 lever_arm: st.lever_arm.into(),
                 tolerance: st.cg_tolerance,
+                solver: st.solver.into(),
                 ..Default::default()
             };
             let r = relaxed_tensor(&b.packing, &b.bonds, &b.stiffness, &opts)?;
             let ns = &r.null_space;
             eprintln!(
-                "relaxed: {} CG iterations, residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
-                r.iterations, r.relative_residual, r.active_particles, r.active_bonds,
+                "relaxed ({:?}): {} CG iterations, residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
+                st.solver, r.iterations, r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
             );
             r.c

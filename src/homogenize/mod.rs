@@ -5,14 +5,17 @@
 //! - [`voigt`]: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
 //! - [`relaxed`]: the exact quasi-static tensor from one sparse equilibrium solve.
 //! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
+//! - [`cholesky`], [`two_level`]: the relaxed solve's direct solver and CG preconditioner.
 //! - [`network`]: the linearised bond network the last two share.
 //! - [`report`]: the SPEC tensor report (JSON).
 
+pub mod cholesky;
 pub mod laf;
 pub mod mean_field;
 pub mod network;
 pub mod relaxed;
 pub mod report;
+pub mod two_level;
 pub mod voigt;
 
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};

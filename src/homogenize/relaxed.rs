@@ -13,19 +13,63 @@
 //! Singular modes are detected and reported ([`NullSpaceReport`]), not regularised away:
 //! the right-hand sides are orthogonal to them, so CG converges in the range of K.
 
+use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, Block6, LeverArm, Network, NullSpaceReport};
+use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
-use nalgebra::Vector6;
 use rayon::prelude::*;
+
+/// Preconditioner of the relaxed CG.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CgPreconditioner {
+    /// Pseudo-inverse of every particle's 6×6 diagonal block.
+    #[default]
+    BlockJacobi,
+    /// Block-Jacobi plus an exact coarse solve on the rigid motions of spatial clusters of
+    /// about `particles_per_aggregate` particles ([`super::two_level`]): iterations nearly
+    /// independent of N.
+    TwoLevel {
+        /// Target cluster size.
+        particles_per_aggregate: usize,
+    },
+}
+
+/// Linear solver of the relaxed equilibrium K Q = G.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RelaxedSolver {
+    /// Preconditioned conjugate gradients to [`RelaxedOptions::tolerance`]; low memory.
+    Cg {
+        /// Preconditioner.
+        preconditioner: CgPreconditioner,
+    },
+    /// faer's supernodal sparse Cholesky (AMD ordering) of K restricted to its range
+    /// ([`super::cholesky`]): exact up to rounding, memory grows faster than linearly.
+    Cholesky,
+}
+
+impl Default for RelaxedSolver {
+    fn default() -> Self {
+        RelaxedSolver::Cg {
+            preconditioner: CgPreconditioner::TwoLevel {
+                particles_per_aggregate: DEFAULT_PARTICLES_PER_AGGREGATE,
+            },
+        }
+    }
+}
+
+/// Default cluster size of the two-level preconditioner.
+pub const DEFAULT_PARTICLES_PER_AGGREGATE: usize = 128;
 
 /// Options of the relaxed solver.
 #[derive(Clone, Copy, Debug)]
 pub struct RelaxedOptions {
     /// Contact point convention.
     pub lever_arm: LeverArm,
+    /// Linear solver (CG with a preconditioner, or sparse Cholesky).
+    pub solver: RelaxedSolver,
     /// CG stops when every load case's residual, relative to its right-hand side, is below
     /// this. The tensor's relative error is of the order of its square.
     pub tolerance: f64,
@@ -42,6 +86,7 @@ impl Default for RelaxedOptions {
     fn default() -> Self {
         RelaxedOptions {
             lever_arm: LeverArm::MidGap,
+            solver: RelaxedSolver::default(),
             tolerance: 1e-6,
             max_iterations: 50_000,
             fluctuations: true,
@@ -57,9 +102,10 @@ pub struct RelaxedResult {
     pub c: Stiffness6,
     /// The affine (Voigt) tensor of the same active network, H/V (Pa).
     pub c_affine: Stiffness6,
-    /// CG iterations used.
+    /// CG iterations used (0 for Cholesky).
     pub iterations: usize,
-    /// Largest final relative residual over the six load cases.
+    /// Largest final relative residual over the six load cases (for Cholesky, of the
+    /// computed solution).
     pub relative_residual: f64,
     /// Particles that take part.
     pub active_particles: usize,
@@ -124,7 +170,7 @@ impl BlockSparse {
         y.par_iter_mut().enumerate().for_each(|(p, yp)| {
             let mut acc = Block6::zeros();
             for k in self.row_start[p]..self.row_start[p + 1] {
-                acc += self.block[k] * x[self.col[k] as usize];
+                mul_add6(&mut acc, &self.block[k], &x[self.col[k] as usize]);
             }
             *yp = acc;
         });
@@ -138,12 +184,71 @@ impl BlockSparse {
             .unwrap_or_else(Block6::zeros)
     }
 
+    /// Number of block rows (particles).
+    pub fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+
+    /// The stored blocks (column, K_pq) of row `p`, in increasing column order.
+    pub fn row(&self, p: usize) -> impl Iterator<Item = (usize, &Block6)> + '_ {
+        (self.row_start[p]..self.row_start[p + 1])
+            .map(move |k| (self.col[k] as usize, &self.block[k]))
+    }
+
+    /// A matrix from its block rows, each sorted by column (both triangles stored).
+    pub fn from_rows(rows: Vec<Vec<(u32, Block6)>>) -> BlockSparse {
+        let mut row_start = Vec::with_capacity(rows.len() + 1);
+        row_start.push(0);
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        for r in rows {
+            for (c, b) in r {
+                col.push(c);
+                block.push(b);
+            }
+            row_start.push(col.len());
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
+    }
+
     /// Memory held by the matrix (bytes).
     pub fn bytes(&self) -> usize {
         self.block.len() * std::mem::size_of::<Block6>()
             + self.col.len() * 4
             + self.row_start.len() * 8
     }
+}
+
+/// acc += a·b for 6×6 blocks: an unrolled column-major kernel (nalgebra's generic product
+/// of fixed 6×6 matrices goes through its gemm path and is several times slower here).
+#[inline(always)]
+pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = acc.as_mut_slice();
+    for j in 0..6 {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            let ak = &a[6 * k..6 * k + 6];
+            for i in 0..6 {
+                col[i] += ak[i] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
+/// a·b for 6×6 blocks (see [`mul_add6`]).
+#[inline(always)]
+pub(crate) fn mul6(a: &Block6, b: &Block6) -> Block6 {
+    let mut c = Block6::zeros();
+    mul_add6(&mut c, a, b);
+    c
 }
 
 /// Per-column dot products Σ_p (a_p ∘ b_p) summed over rows, deterministic (fixed chunks).
@@ -243,8 +348,66 @@ pub fn relaxed_solve(
         }
     }
     let scale = scale.map(f64::sqrt);
-    let start = initial.filter(|x| x.len() == m);
-    let (q, iterations, residual) = pcg(&kmat, &net.g, &pre, &scale, opts, start)?;
+    let (q, iterations, residual) = match opts.solver {
+        RelaxedSolver::Cholesky => {
+            let chol = BlockCholesky::factor(&kmat)?;
+            let (live, bnorm) = live_columns(&net.g, &scale);
+            let mut q = chol.solve(&net.g)?;
+            for qp in q.iter_mut() {
+                for (c, &alive) in live.iter().enumerate() {
+                    if !alive {
+                        qp.column_mut(c).fill(0.0);
+                    }
+                }
+            }
+            let mut kq = vec![Block6::zeros(); m];
+            kmat.apply(&q, &mut kq);
+            kq.par_iter_mut()
+                .zip(net.g.par_iter())
+                .for_each(|(r, g)| *r = g - *r);
+            let residual = worst_residual(&kq, &live, &bnorm);
+            if residual > opts.tolerance {
+                return Err(Error::Invalid(format!(
+                    "relaxed solver (Cholesky): relative residual {residual:.3e} > tolerance \
+                     {:.1e}; the stiffness matrix is too ill-conditioned or the bond network \
+                     contains a mechanism",
+                    opts.tolerance
+                )));
+            }
+            (q, 0, residual)
+        }
+        RelaxedSolver::Cg { preconditioner } => {
+            let two_level = match preconditioner {
+                CgPreconditioner::BlockJacobi => None,
+                CgPreconditioner::TwoLevel {
+                    particles_per_aggregate,
+                } => {
+                    let lengths = packing
+                        .cell
+                        .map(|c| c.lengths)
+                        .ok_or_else(|| Error::Invalid("relaxed solver: no periodic cell".into()))?;
+                    let positions: Vec<crate::Vec3> = net
+                        .original
+                        .iter()
+                        .map(|&p| packing.positions[p as usize])
+                        .collect();
+                    // A coarse space that cannot be factored (e.g. a single aggregate, whose
+                    // translations are all null) only weakens the preconditioner: fall back
+                    // to block-Jacobi; the solution and its accuracy are unchanged.
+                    TwoLevel::new(
+                        &kmat,
+                        &positions,
+                        lengths,
+                        opts.rotations,
+                        particles_per_aggregate,
+                    )
+                    .ok()
+                }
+            };
+            let start = initial.filter(|x| x.len() == m);
+            pcg(&kmat, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?
+        }
+    };
     let mut kq = vec![Block6::zeros(); m];
     kmat.apply(&q, &mut kq);
     let mut gtq = Block6::zeros();
@@ -270,26 +433,66 @@ pub fn relaxed_solve(
     })
 }
 
+/// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
+/// scale before cancellation), and the column norms.
+fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {
+    let bnorm = column_dots(b, b).map(f64::sqrt);
+    (std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]), bnorm)
+}
+
+/// Largest relative residual ‖r_c‖/‖b_c‖ over the live columns.
+fn worst_residual(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> f64 {
+    let rr = column_dots(r, r);
+    (0..6)
+        .map(|c| {
+            if live[c] {
+                rr[c].sqrt() / bnorm[c]
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Preconditioned conjugate gradients on the six load cases together, K X = B, from
-/// X₀ = `start` (or 0).
+/// X₀ = `start` (or 0); block-Jacobi, or the balancing two-level preconditioner
+/// z = Q r + (I − QK) M (I − KQ) r with M = block-Jacobi when `two_level` is given.
 fn pcg(
     k: &BlockSparse,
     b: &[Block6],
     pre: &[(Block6, usize)],
+    two_level: Option<&TwoLevel>,
     scale: &[f64; 6],
     opts: &RelaxedOptions,
     start: Option<&[Block6]>,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let m = b.len();
-    let precondition = |r: &[Block6], z: &mut [Block6]| {
+    let jacobi = |r: &[Block6], z: &mut [Block6]| {
         z.par_iter_mut()
             .zip(r.par_iter())
             .zip(pre.par_iter())
-            .for_each(|((z, r), (p, _))| *z = p * r);
+            .for_each(|((z, r), (p, _))| *z = mul6(p, r));
     };
-    let bnorm = column_dots(b, b).map(f64::sqrt);
-    // Columns whose right-hand side is rounding noise are solved as zero.
-    let live: [bool; 6] = std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]);
+    let (mut w, mut t) = match two_level {
+        Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
+        None => (Vec::new(), Vec::new()),
+    };
+    // With r ⟂ range(P) (arranged below by the coarse start), the balancing preconditioner
+    // reduces to z = (I − QK) M r, and every later residual stays ⟂ range(P) since
+    // Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this start).
+    let mut precondition = |r: &[Block6], z: &mut [Block6]| -> Result<()> {
+        let Some(tl) = two_level else {
+            jacobi(r, z);
+            return Ok(());
+        };
+        jacobi(r, &mut w); // w = M r
+        tl.coarse_of_k(&w, &mut t)?; // t = Q K w
+        z.par_iter_mut()
+            .zip(w.par_iter().zip(t.par_iter()))
+            .for_each(|(z, (w, t))| *z = w - t);
+        Ok(())
+    };
+    let (live, bnorm) = live_columns(b, scale);
     let mut x = match start {
         Some(s) => {
             let mut x = s.to_vec();
@@ -312,23 +515,33 @@ fn pcg(
             .zip(kx.par_iter())
             .for_each(|(r, kx)| *r -= kx);
     }
+    if let Some(tl) = two_level {
+        // Coarse start: x += Q r, r −= K Q r, so that Pᵀ r = 0 (live load cases only).
+        let mut q = vec![Block6::zeros(); m];
+        let mut kq = vec![Block6::zeros(); m];
+        tl.coarse_correction(&r, &mut q, &mut kq)?;
+        x.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(q.par_iter().zip(kq.par_iter()))
+            .for_each(|((x, r), (q, kq))| {
+                for (c, &alive) in live.iter().enumerate() {
+                    if alive {
+                        for i in 0..6 {
+                            x[(i, c)] += q[(i, c)];
+                            r[(i, c)] -= kq[(i, c)];
+                        }
+                    }
+                }
+            });
+    }
     let mut z = vec![Block6::zeros(); m];
-    precondition(&r, &mut z);
+    precondition(&r, &mut z)?;
     let mut p = z.clone();
     let mut ap = vec![Block6::zeros(); m];
     let mut rz = column_dots(&r, &z);
     let mut worst = 0.0;
     for it in 0..=opts.max_iterations {
-        let rr = column_dots(&r, &r);
-        worst = (0..6)
-            .map(|c| {
-                if live[c] {
-                    rr[c].sqrt() / bnorm[c]
-                } else {
-                    0.0
-                }
-            })
-            .fold(0.0, f64::max);
+        worst = worst_residual(&r, &live, &bnorm);
         if worst <= opts.tolerance {
             return Ok((x, it, worst));
         }
@@ -337,32 +550,35 @@ fn pcg(
         }
         k.apply(&p, &mut ap);
         let pap = column_dots(&p, &ap);
-        let alpha = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
+        let alpha: [f64; 6] = std::array::from_fn(|c| {
             if live[c] && pap[c] > 0.0 {
                 rz[c] / pap[c]
             } else {
                 0.0
             }
-        }));
+        });
         x.par_iter_mut()
             .zip(r.par_iter_mut())
             .zip(p.par_iter().zip(ap.par_iter()))
             .for_each(|((x, r), (p, ap))| {
-                *x += p * alpha;
-                *r -= ap * alpha;
+                for (c, &a) in alpha.iter().enumerate() {
+                    for i in 0..6 {
+                        x[(i, c)] += p[(i, c)] * a;
+                        r[(i, c)] -= ap[(i, c)] * a;
+                    }
+                }
             });
-        precondition(&r, &mut z);
+        precondition(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
-        let beta = Block6::from_diagonal(&Vector6::from_fn(|c, _| {
-            if rz[c] > 0.0 {
-                rz_new[c] / rz[c]
-            } else {
-                0.0
+        let beta: [f64; 6] =
+            std::array::from_fn(|c| if rz[c] > 0.0 { rz_new[c] / rz[c] } else { 0.0 });
+        p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
+            for (c, &b) in beta.iter().enumerate() {
+                for i in 0..6 {
+                    p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
+                }
             }
-        }));
-        p.par_iter_mut()
-            .zip(z.par_iter())
-            .for_each(|(p, z)| *p = z + *p * beta);
+        });
         rz = rz_new;
     }
     Err(Error::Invalid(format!(

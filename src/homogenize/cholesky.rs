@@ -1,0 +1,282 @@
+//! Direct solve of the relaxed equilibrium K Q = G (Kruyt 2014 Eqs. 10–14) by faer's sparse
+//! supernodal Cholesky factorisation LLᵀ with its approximate-minimum-degree ordering.
+//!
+//! K is only positive semi-definite; its null space is removed exactly, never regularised:
+//! - local mechanisms (a two-bond particle's free rotation, collinear bonds, locked
+//!   rotations) are null vectors of a particle's own 6×6 diagonal block, hence of K (K is
+//!   PSD): each particle keeps only the range of its diagonal block as unknowns;
+//! - the three rigid translations of the periodic assembly are removed by fixing the
+//!   translation of one particle whose block contains them ("pinning").
+//!
+//! The right-hand sides are orthogonal to both (forces balance, torques about a free axis
+//! vanish), so the reduced SPD system gives a solution of K Q = G that differs from any other
+//! only by null vectors, which leave the tensor unchanged. A further (global) mechanism makes
+//! the factorisation fail or the residual check fail: it is reported, not hidden.
+
+use super::network::Block6;
+use super::relaxed::BlockSparse;
+use crate::{Error, Result};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
+
+/// Relative eigenvalue threshold below which a direction of a diagonal block is null
+/// (the same as [`super::network::pinv_psd`], so CG and Cholesky see the same range).
+const NULL_THRESHOLD: f64 = 1e-10;
+
+/// Orthonormal basis (first `rank` columns) of the range of a symmetric PSD 6×6 block; the
+/// identity when the block is regular.
+fn range_basis(block: &Block6) -> (Block6, usize) {
+    let eig = nalgebra::SymmetricEigen::new(*block);
+    let max = eig.eigenvalues.iter().cloned().fold(0.0_f64, f64::max);
+    let keep: Vec<usize> = (0..6)
+        .filter(|&k| max > 0.0 && eig.eigenvalues[k] > NULL_THRESHOLD * max)
+        .collect();
+    if keep.len() == 6 {
+        return (Block6::identity(), 6);
+    }
+    let mut t = Block6::zeros();
+    for (c, &k) in keep.iter().enumerate() {
+        t.set_column(c, &eig.eigenvectors.column(k));
+    }
+    (t, keep.len())
+}
+
+/// If the range spanned by `basis` contains the three translations, the orthonormal basis of
+/// its part orthogonal to them (the rotations kept when the particle's translation is fixed).
+fn pinned_basis(basis: &(Block6, usize)) -> Option<(Block6, usize)> {
+    let (t, r) = basis;
+    let tr = t.columns(0, *r);
+    let proj = tr * tr.transpose();
+    for k in 0..3 {
+        let mut e = nalgebra::Vector6::zeros();
+        e[k] = 1.0;
+        if (proj * e - e).norm() > 1e-8 {
+            return None;
+        }
+    }
+    // proj = Π_translations + Π_(range ∩ rotations): the rotational 3×3 part is the latter.
+    let rot: nalgebra::Matrix3<f64> = proj.fixed_view::<3, 3>(3, 3).into_owned();
+    let eig = nalgebra::SymmetricEigen::new(rot);
+    let mut out = Block6::zeros();
+    let mut n = 0;
+    for k in 0..3 {
+        if eig.eigenvalues[k] > 0.5 {
+            out.fixed_view_mut::<3, 1>(3, n)
+                .copy_from(&eig.eigenvectors.column(k));
+            n += 1;
+        }
+    }
+    Some((out, n))
+}
+
+/// The faer parallelism matching the current rayon pool.
+fn faer_par() -> Par {
+    match rayon::current_num_threads() {
+        0 | 1 => Par::Seq,
+        n => Par::rayon(n),
+    }
+}
+
+/// LLᵀ factor of a block-sparse PSD matrix restricted to its range, with one node's
+/// translations pinned; solves for six right-hand sides at once.
+pub struct BlockCholesky {
+    /// Per node: basis of the kept DOFs (first `rank` columns) and its rank.
+    basis: Vec<(Block6, usize)>,
+    /// First reduced unknown of every node.
+    offset: Vec<usize>,
+    /// Number of reduced unknowns.
+    n: usize,
+    symbolic: SymbolicCholesky<usize>,
+    factor: Vec<f64>,
+    /// Node whose translations were fixed.
+    pub pinned: usize,
+    /// Stored entries of the upper triangle of the reduced matrix.
+    pub matrix_nonzeros: usize,
+}
+
+impl BlockCholesky {
+    /// Reduce, order (AMD) and factor `k`. Errors when no node can be pinned or when the
+    /// reduced matrix is not positive definite (a global mechanism).
+    pub fn factor(k: &BlockSparse) -> Result<BlockCholesky> {
+        let m = k.rows();
+        if m == 0 {
+            return Err(Error::Invalid("Cholesky: empty stiffness matrix".into()));
+        }
+        let mut basis: Vec<(Block6, usize)> = (0..m)
+            .into_par_iter()
+            .map(|p| range_basis(&k.diagonal(p)))
+            .collect();
+        let (pinned, pb) = (0..m)
+            .find_map(|p| pinned_basis(&basis[p]).map(|b| (p, b)))
+            .ok_or_else(|| {
+                Error::Invalid(
+                    "Cholesky: no particle is held in all three translations, so the rigid \
+                     translation cannot be removed; use the CG solver"
+                        .into(),
+                )
+            })?;
+        basis[pinned] = pb;
+        let mut offset = vec![0usize; m + 1];
+        for p in 0..m {
+            offset[p + 1] = offset[p] + basis[p].1;
+        }
+        let n = offset[m];
+        if n == 0 {
+            return Err(Error::Invalid("Cholesky: no unknowns left".into()));
+        }
+        // Upper triangle by columns: column (q, c) holds rows (p, a) with p < q, or p = q
+        // and a ≤ c; K_pq = K_qpᵀ is read from row q of the symmetric block storage.
+        let columns: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..m)
+            .into_par_iter()
+            .map(|q| {
+                let (tq, rq) = &basis[q];
+                let blocks: Vec<(usize, Block6)> = k
+                    .row(q)
+                    .filter(|(p, _)| *p <= q)
+                    .map(|(p, kqp)| {
+                        let (tp, _) = &basis[p];
+                        (p, tp.transpose() * kqp.transpose() * tq)
+                    })
+                    .collect();
+                let mut lens = Vec::with_capacity(*rq);
+                let mut rows = Vec::new();
+                let mut vals = Vec::new();
+                for c in 0..*rq {
+                    let before = rows.len();
+                    for (p, b) in &blocks {
+                        let rp = if *p == q { c + 1 } else { basis[*p].1 };
+                        for a in 0..rp {
+                            rows.push(offset[*p] + a);
+                            vals.push(b[(a, c)]);
+                        }
+                    }
+                    lens.push(rows.len() - before);
+                }
+                (lens, rows, vals)
+            })
+            .collect();
+        let total: usize = columns.iter().map(|c| c.1.len()).sum();
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0usize);
+        let mut row_idx = Vec::with_capacity(total);
+        let mut values = Vec::with_capacity(total);
+        for (lens, rows, vals) in columns {
+            row_idx.extend_from_slice(&rows);
+            values.extend_from_slice(&vals);
+            for len in lens {
+                let last = col_ptr[col_ptr.len() - 1];
+                col_ptr.push(last + len);
+            }
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
+        let mut factor = Vec::new();
+        factor.try_reserve_exact(symbolic.len_val()).map_err(|_| {
+            Error::Invalid(format!(
+                "Cholesky: cannot allocate the factor ({} entries)",
+                symbolic.len_val()
+            ))
+        })?;
+        factor.resize(symbolic.len_val(), 0.0);
+        let par = faer_par();
+        let mut mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|_| Error::Invalid("Cholesky: cannot allocate workspace".into()))?;
+        let a = SparseColMatRef::new(sym, &values);
+        symbolic
+            .factorize_numeric_llt(
+                &mut factor,
+                a,
+                Side::Upper,
+                Default::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| {
+                Error::Invalid(format!(
+                    "Cholesky: the stiffness matrix (rigid translation and local mechanisms \
+                     removed) is not positive definite ({e:?}): the bond network contains a \
+                     global mechanism"
+                ))
+            })?;
+        Ok(BlockCholesky {
+            basis,
+            offset,
+            n,
+            symbolic,
+            factor,
+            pinned,
+            matrix_nonzeros: values.len(),
+        })
+    }
+
+    /// Number of reduced unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.n
+    }
+
+    /// Entries of the factor L.
+    pub fn factor_nonzeros(&self) -> usize {
+        self.factor.len()
+    }
+
+    /// X with K X = B for six right-hand sides (one 6×6 block per node: DOF × case), B
+    /// orthogonal to the removed null space; X has zero components along it.
+    pub fn solve(&self, b: &[Block6]) -> Result<Vec<Block6>> {
+        let m = self.basis.len();
+        if b.len() != m {
+            return Err(Error::Invalid(format!(
+                "Cholesky solve: {} right-hand-side blocks for {m} nodes",
+                b.len()
+            )));
+        }
+        let n = self.n;
+        let mut x = vec![0.0; 6 * n];
+        for (p, (t, r)) in self.basis.iter().enumerate() {
+            let tb = t.transpose() * b[p];
+            for c in 0..6 {
+                for a in 0..*r {
+                    x[c * n + self.offset[p] + a] = tb[(a, c)];
+                }
+            }
+        }
+        // Sequential triangular solves: cheap, and no synchronisation inside the CG loop.
+        let par = Par::Seq;
+        let mut mem = MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(6, par))
+            .map_err(|_| Error::Invalid("Cholesky: cannot allocate solve workspace".into()))?;
+        let llt = LltRef::new(&self.symbolic, &self.factor);
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut x, n, 6),
+            par,
+            MemStack::new(&mut mem),
+        );
+        Ok(self
+            .basis
+            .par_iter()
+            .enumerate()
+            .map(|(p, (t, r))| {
+                let mut xp = Block6::zeros();
+                for c in 0..6 {
+                    for a in 0..*r {
+                        xp[(a, c)] = x[c * n + self.offset[p] + a];
+                    }
+                }
+                t * xp
+            })
+            .collect())
+    }
+}
