@@ -1,7 +1,8 @@
 //! Particle-steps per second of the reference integrator, law (a), on a 30,000-particle
 //! bonded periodic packing (gap 0.17 R̄), on 1 and 2 threads. Run:
 //! `cargo bench --bench dem` (set DEM_BENCH_PARTICLES to change the size, DEM_BENCH_STEPS
-//! the measured steps, DEM_BENCH_THREADS a comma-separated list of thread counts).
+//! the measured steps, DEM_BENCH_THREADS a comma-separated list of thread counts,
+//! DEM_BENCH_SORT=1 to renumber the particles in Morton order first).
 //! Besides wall time it prints the CPU time of all threads (from /proc), which is less
 //! sensitive to other processes on a loaded machine.
 
@@ -26,6 +27,11 @@ fn main() {
         &|_| {},
     )
     .expect("packing");
+    let p = if std::env::var("DEM_BENCH_SORT").is_ok() {
+        morton_sorted(&p)
+    } else {
+        p
+    };
     let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
     let r = p.mean_radius();
     let nb = b.len();
@@ -133,4 +139,30 @@ fn state_hash(sim: &Simulation) -> u64 {
     }
     sim.stress().iter().for_each(|&x| eat(x));
     h
+}
+
+/// Experiment: particles in Morton (Z-curve) order of their 2R̄ cells.
+fn morton_sorted(p: &anisobond::packing::Packing) -> anisobond::packing::Packing {
+    let (lo, _) = p.bounding_box();
+    let h = 2.0 * p.mean_radius();
+    let spread = |mut x: u64| {
+        x &= 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    let key = |v: &Vec3| {
+        let c = (v - lo) / h;
+        spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by_key(|&k| (key(&p.positions[k]), k));
+    anisobond::packing::Packing::new(
+        order.iter().map(|&k| p.positions[k]).collect(),
+        order.iter().map(|&k| p.radii[k]).collect(),
+        p.cell,
+    )
+    .expect("sorted")
 }
