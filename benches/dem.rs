@@ -2,7 +2,8 @@
 //! bonded periodic packing (gap 0.17 R̄), on 1 and 2 threads. Run:
 //! `cargo bench --bench dem` (set DEM_BENCH_PARTICLES to change the size, DEM_BENCH_STEPS
 //! the measured steps, DEM_BENCH_THREADS a comma-separated list of thread counts,
-//! DEM_BENCH_SORT=1 to renumber the particles in Morton order first).
+//! DEM_BENCH_SORT=1 to renumber the particles in Morton order first, DEM_BENCH_DAMPING the
+//! Cundall damping (0.4), DEM_BENCH_RATE the shear rate of the cell in 1/s (1e-3)).
 //! Besides wall time it prints the CPU time of all threads (from /proc), which is less
 //! sensitive to other processes on a loaded machine.
 
@@ -71,14 +72,15 @@ fn main() {
             .expect("pool");
         pool.install(|| {
             let law = build_law(kind, &p, &b, &k).expect("law");
-            let mut sim = Simulation::new(&p, &b, law, &DemOptions { local_damping: 0.4, ..Default::default() }).expect("sim");
+            let mut sim = Simulation::new(&p, &b, law, &DemOptions { local_damping: env_f64("DEM_BENCH_DAMPING", 0.4), ..Default::default() }).expect("sim");
             for (i, v) in sim.particles.velocity.iter_mut().enumerate() {
                 *v = Vec3::new((i as f64).sin(), (i as f64 * 1.3).cos(), (i as f64 * 0.7).sin()) * 1e-4;
             }
             // A small shear rate, as in an element test (exercises the periodic terms).
             let mut l = Mat3::zeros();
-            l[(0, 1)] = 1e-3;
-            l[(2, 2)] = -2e-3;
+            let rate = env_f64("DEM_BENCH_RATE", 1e-3);
+            l[(0, 1)] = rate;
+            l[(2, 2)] = -2.0 * rate;
             sim.set_velocity_gradient(l).expect("periodic");
             sim.run(20, &|_| {}).expect("warm-up");
             let cpu0 = cpu_seconds();
@@ -165,4 +167,12 @@ fn morton_sorted(p: &anisobond::packing::Packing) -> anisobond::packing::Packing
         p.cell,
     )
     .expect("sorted")
+}
+
+/// A number from the environment, or the default.
+fn env_f64(name: &str, default: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
 }
