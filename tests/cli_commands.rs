@@ -268,10 +268,39 @@ fn stress_test_agrees_with_the_relaxed_tensor() {
         c
     };
     let servo = run(&["stress-test"], &d.path().join("servo.json"));
+    // The report's engineering constants against the compliance of the relaxed tensor:
+    // E_i = 1/S_ii, ν_ij = −S_ij/S_ii, G = 1/S_44.. (engineering shear).
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("servo.json")).unwrap())
+            .unwrap();
+    let e = &v["engineering"];
     let relaxed = run(
         &["tensor", "--method", "relaxed", "--json"],
         &d.path().join("relaxed.json"),
     );
+    let c = nalgebra::Matrix6::from_fn(|i, j| relaxed[i][j]);
+    let s = c.try_inverse().unwrap();
+    let close = |got: &serde_json::Value, want: f64, what: &str| {
+        let got = got.as_f64().unwrap_or_else(|| panic!("{what} missing"));
+        assert!(
+            (got - want).abs() <= 5e-3 * want.abs(),
+            "{what}: {got} vs {want}"
+        );
+    };
+    let axes = ["x", "y", "z"];
+    for i in 0..3 {
+        close(&e["young"][format!("E_{}", axes[i])], 1.0 / s[(i, i)], "E");
+        for j in (0..3).filter(|&j| j != i) {
+            close(
+                &e["poisson"][format!("nu_{}{}", axes[i], axes[j])],
+                -s[(i, j)] / s[(i, i)],
+                "nu",
+            );
+        }
+    }
+    for (k, name) in ["G_yz", "G_xz", "G_xy"].iter().enumerate() {
+        close(&e["shear"][*name], 1.0 / s[(3 + k, 3 + k)], name);
+    }
     let c11 = relaxed[0][0];
     let mut worst = 0.0f64;
     for (a, b) in [
@@ -344,6 +373,15 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
     };
     let (gripped, text) = cubic(&["grips"], &d.path().join("g.json"));
     assert!(text.contains("heterogeneity"), "{text}");
+    let g: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("g.json")).unwrap()).unwrap();
+    for part in ["normal", "shear"] {
+        let h = g["heterogeneity"][part].as_f64().unwrap();
+        // A disordered block: a few per cent of spread, never zero (an affine lattice gives 0,
+        // tests/dem_grips_lattice.rs).
+        assert!(h > 1e-3 && h < 0.5, "heterogeneity {part} {h}");
+    }
+    assert!(g["grips"]["grip_particles"].as_u64().unwrap() > 0);
     let (relaxed, _) = cubic(
         &["tensor", "--method", "relaxed", "--json"],
         &d.path().join("r.json"),

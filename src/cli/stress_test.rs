@@ -149,7 +149,38 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         println!("  {}", cells.join(" "));
     }
     if let Some(out) = &a.output {
-        anisobond::io::write_string_atomic(out, &(report.to_json() + "\n"))?;
+        // The SPEC tensor report plus the measured engineering constants (Pa, dimensionless).
+        let mut json = serde_json::to_value(&report)
+            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
+        let mut young = serde_json::Map::new();
+        let mut poisson = serde_json::Map::new();
+        for u in &r.uniaxial {
+            young.insert(format!("E_{}", AXES[u.axis]), u.young.into());
+            for j in (0..3).filter(|&j| j != u.axis) {
+                poisson.insert(
+                    format!("nu_{}{}", AXES[u.axis], AXES[j]),
+                    u.poisson[j].into(),
+                );
+            }
+        }
+        let shear: serde_json::Map<String, serde_json::Value> = r
+            .shear
+            .iter()
+            .map(|g| (format!("G_{}", SHEARS[g.component - 3]), g.modulus.into()))
+            .collect();
+        json["engineering"] = serde_json::json!({
+            "units": "Pa (moduli); Poisson ratios dimensionless, nu_ij = −ε_j/ε_i under σ_i",
+            "strain": a.strain,
+            "young": young,
+            "poisson": poisson,
+            "shear": shear,
+            "reciprocity_mismatch": r.reciprocity_mismatch,
+            "transverse_isotropic_z": {"C11": r.cross_anisotropic[0], "C12": r.cross_anisotropic[1],
+                "C13": r.cross_anisotropic[2], "C33": r.cross_anisotropic[3], "C44": r.cross_anisotropic[4]},
+        });
+        let text = serde_json::to_string_pretty(&json)
+            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
+        anisobond::io::write_string_atomic(out, &(text + "\n"))?;
         println!("wrote {}", out.display());
     }
     Ok(())
