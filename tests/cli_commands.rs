@@ -333,6 +333,19 @@ fn stress_test_agrees_with_the_relaxed_tensor() {
         &out,
     );
     assert!(err.contains("none.txt"), "{err}");
+    // A tolerance that can never be met is refused up front, not after the step limit.
+    let err = fails(
+        bin()
+            .arg("stress-test")
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .arg("--stress-tolerance=-1")
+            .arg("-o")
+            .arg(&out),
+        &out,
+    );
+    assert!(err.contains("tolerance") && err.contains("-1"), "{err}");
 }
 
 /// `grips` (free block driven through grip particles, measurement spheres, Truszkowska 2018
@@ -412,4 +425,17 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
         &out,
     );
     assert!(err.contains("bad.toml"), "{err}");
+    // A grip shell that swallows the whole block is a clear error.
+    let err = fails(
+        bin()
+            .arg("grips")
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .arg("--grip-shell=100")
+            .arg("-o")
+            .arg(&out),
+        &out,
+    );
+    assert!(err.contains("grip shell of 100"), "{err}");
 }

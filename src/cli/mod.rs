@@ -303,8 +303,12 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
             let r = relaxed_tensor(&b.packing, &b.bonds, &b.stiffness, &opts)?;
             let ns = &r.null_space;
             eprintln!(
-                "relaxed ({:?}): {} CG iterations, residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
-                st.solver, r.iterations, r.relative_residual, r.active_particles, r.active_bonds,
+                "relaxed ({}): residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
+                match st.solver {
+                    SolverArg::Cholesky => "sparse Cholesky".to_string(),
+                    s => format!("{s:?} CG, {} iterations", r.iterations),
+                },
+                r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
             );
             r.c

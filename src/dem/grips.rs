@@ -96,6 +96,14 @@ pub fn cut_block(packing: &Packing, bonds: &BondSet, grip_shell: f64) -> Result<
         })
         .collect();
     let grips: Vec<usize> = (0..n).filter(|&p| is_grip[p]).collect();
+    if grips.len() == n {
+        return Err(Error::Invalid(format!(
+            "a grip shell of {grip_shell} R̄ makes every particle a grip particle (block \
+             {:.4e} × {:.4e} × {:.4e} m, R̄ = {mean_radius:.4e} m): nothing is left to deform; \
+             use a thinner shell or a larger packing",
+            hi.x, hi.y, hi.z
+        )));
+    }
     if grips.is_empty() {
         return Err(Error::Invalid(
             "the block has no grip particles; raise the grip shell".into(),

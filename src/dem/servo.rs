@@ -129,6 +129,16 @@ impl StressServo {
                 "stress control needs a periodic packing (a `# periodic Lx Ly Lz` header)".into(),
             ));
         }
+        for (name, value) in [
+            ("relative stress tolerance t_r", opts.stress_tolerance),
+            ("steadiness tolerance", opts.steady_tolerance),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "servo {name} must be finite and > 0, got {value}"
+                )));
+            }
+        }
         if !(opts.gain.is_finite() && opts.gain > 0.0 && opts.gain <= 1.0) {
             return Err(Error::Invalid(format!(
                 "servo gain must be in (0, 1], got {}",
