@@ -306,7 +306,8 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
                 "relaxed ({}): residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
                 match st.solver {
                     SolverArg::Cholesky => "sparse Cholesky".to_string(),
-                    s => format!("{s:?} CG, {} iterations", r.iterations),
+                    SolverArg::Cg => format!("two-level CG, {} iterations", r.iterations),
+                    SolverArg::CgJacobi => format!("block-Jacobi CG, {} iterations", r.iterations),
                 },
                 r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
