@@ -64,6 +64,41 @@ pub(crate) fn double_atan2(y: f64, x: f64) -> f64 {
     }
 }
 
+/// Rotation vector angle·axis (rad, angle in [0, π]) of the rotation that the quaternion
+/// `q` represents, `q` not necessarily of unit norm. For the small relative rotations of
+/// bonds (|v| ≤ [`SMALL_ANGLE_LIMIT`]·|w|) it is v·2·P(|v|²/w²)/|w|, with P the series of
+/// [`atan_series`] divided by t: the normalisation cancels, so one division replaces the
+/// normalisation, the two square roots and the axis division of `normalize` +
+/// [`Quat::to_angle_axis`] (the same value to an ulp or two). Larger rotations take that
+/// exact route. The AVX2 lanes of law (a) repeat these operations bit for bit.
+#[inline(always)]
+pub(crate) fn rotation_vector_of(q: &Quat) -> Vec3 {
+    let vv = q.v.x * q.v.x + q.v.y * q.v.y + q.v.z * q.v.z;
+    let ww = q.w * q.w;
+    if ww > 0.0 && vv <= SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT * ww {
+        let inv = 1.0 / q.w.abs();
+        let u = vv * inv * inv;
+        let p = ATAN_C[6];
+        let p = ATAN_C[5] + u * p;
+        let p = ATAN_C[4] + u * p;
+        let p = ATAN_C[3] + u * p;
+        let p = ATAN_C[2] + u * p;
+        let p = ATAN_C[1] + u * p;
+        let p = ATAN_C[0] + u * p;
+        let f = 2.0 * p * inv;
+        q.v * if q.w < 0.0 { -f } else { f }
+    } else {
+        let mut unit = *q;
+        unit.normalize();
+        let (angle, axis) = unit.to_angle_axis();
+        if angle.is_nan() {
+            Vec3::zeros()
+        } else {
+            axis * angle
+        }
+    }
+}
+
 /// A quaternion w + xi + yj + zk (unit when it represents an orientation).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quat {
@@ -190,6 +225,44 @@ mod tests {
         assert_eq!(double_atan2(1.0, 1.0), 2.0 * 1f64.atan2(1.0));
         assert!(double_atan2(f64::NAN, 1.0).is_nan());
         assert_eq!(sin_cos_small(0.5), 0.5f64.sin_cos());
+    }
+
+    #[test]
+    fn rotation_vector_of_unnormalised_quaternions_matches_libm_angle_axis() {
+        // Reference: angle 2·atan2(|v|, |w|) by libm on the normalised quaternion, axis ±v/|v|.
+        let reference = |q: &Quat| -> Vec3 {
+            let n = (q.w * q.w + q.v.norm_squared()).sqrt();
+            let (w, v) = (q.w / n, q.v / n);
+            let angle = 2.0 * v.norm().atan2(w.abs());
+            let axis = if w < 0.0 { -v / v.norm() } else { v / v.norm() };
+            axis * angle
+        };
+        let mut worst: f64 = 0.0;
+        for k in 1..400 {
+            let t = k as f64;
+            // Angles from 1e-8 rad to 3.1 rad, norms from 0.5 to 2, both signs of w.
+            let angle = 1e-8 * (1.0 + t * 0.37).powi(4) % 3.1;
+            let axis =
+                Vec3::new((t * 1.3).sin(), (t * 0.7).cos(), (t * 2.1).sin() + 0.1).normalize();
+            let scale = 0.5 + 1.5 * ((t * 0.91).sin() * 0.5 + 0.5);
+            let sign = if k % 3 == 0 { -1.0 } else { 1.0 };
+            let q = Quat {
+                w: sign * scale * (0.5 * angle).cos(),
+                v: axis * (sign * scale * (0.5 * angle).sin()),
+            };
+            let r = rotation_vector_of(&q);
+            let e = reference(&q);
+            worst = worst.max((r - e).norm() / e.norm());
+        }
+        assert!(worst < 1e-15, "worst relative difference {worst:e}");
+        assert_eq!(rotation_vector_of(&Quat::identity()), Vec3::zeros());
+        assert_eq!(
+            rotation_vector_of(&Quat {
+                w: 2.0,
+                v: Vec3::zeros()
+            }),
+            Vec3::zeros()
+        );
     }
 
     #[test]

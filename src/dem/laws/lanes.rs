@@ -6,11 +6,12 @@
 //! Every lane performs exactly the scalar kernel's IEEE operations in the same order (no
 //! fused multiply–add, no reassociation; branches become per-lane selects), so the results
 //! are bit-for-bit those of the scalar kernel — and hence still YADE's to rounding. The
-//! rotation angle uses the scalar kernel's small-angle series ([`crate::dem::quat`]) on all
-//! lanes, and libm's atan2 per lane only where the series does not apply.
+//! bond's rotation vector uses the scalar kernel's small-angle form
+//! ([`crate::dem::quat::rotation_vector_of`]: one division, no square root) on all lanes, and
+//! that function per lane when any lane's rotation is too large for it.
 
 use super::{BondDyn, BondHot, BondMoments, KernelInputs, NO_IMAGE};
-use crate::dem::quat::{double_atan2, ATAN_C, SMALL_ANGLE_LIMIT};
+use crate::dem::quat::{rotation_vector_of, Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
 use crate::Vec3;
 
@@ -110,13 +111,6 @@ pub(crate) fn lt(a: F, b: F) -> F {
 #[target_feature(enable = "avx2")]
 pub(crate) fn le(a: F, b: F) -> F {
     _mm256_cmp_pd::<_CMP_LE_OQ>(a, b)
-}
-
-/// Mask of lanes with a == b (false for NaN, as Rust's `==`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn eq(a: F, b: F) -> F {
-    _mm256_cmp_pd::<_CMP_EQ_OQ>(a, b)
 }
 
 /// |a| per lane (clears the sign bit, as `f64::abs`).
@@ -293,7 +287,7 @@ unsafe fn kernel4(
     }));
     let n_raw = xj.sub(xi);
     let d = sqrt(n_raw.dot(n_raw));
-    let n = n_raw.div(d);
+    let n = n_raw.scale(div(splat(1.0), d));
     let ri = ld(ii.map(|i| at(&p.radius, i)));
     let rj = ld(jj.map(|j| at(&p.radius, j)));
     let pd = sub(add(ri, rj), d);
@@ -344,53 +338,39 @@ unsafe fn kernel4(
         ld(qj.map(|q| -q.v.y)),
         ld(qj.map(|q| -q.v.z)),
     );
-    let mut qw = sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz));
-    let mut qv = V {
+    let qw = sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz));
+    let qv = V {
         x: sub(add(add(mul(aw, bx), mul(ax, bw)), mul(ay, bz)), mul(az, by)),
         y: sub(add(add(mul(aw, by), mul(ay, bw)), mul(az, bx)), mul(ax, bz)),
         z: sub(add(add(mul(aw, bz), mul(az, bw)), mul(ax, by)), mul(ay, bx)),
     };
+    // Rotation vector (`quat::rotation_vector_of`): v·2·P(|v|²/w²)/|w| on all lanes when
+    // every lane is a small rotation, else that function per lane.
     let zero = splat(0.0);
-    let qn = sqrt(add(qv.dot(qv), mul(qw, qw)));
-    let positive = gt(qn, zero);
-    qw = select(positive, div(qw, qn), qw);
-    qv = V::select(positive, qv.div(qn), qv);
-    // Angle and axis (Quat::to_angle_axis): 2·atan2(|v|, |w|) by the same series as the
-    // scalar `double_atan2` on all lanes, libm per lane only where a lane leaves its range.
-    let vn = sqrt(qv.dot(qv));
-    let nonzero = ne(vn, zero);
-    let qw_abs = abs(qw);
-    let t = div(vn, qw_abs);
-    let u = mul(t, t);
-    let mut poly = splat(ATAN_C[6]);
-    for c in ATAN_C[..6].iter().rev() {
-        poly = add(splat(*c), mul(u, poly));
-    }
-    let mut angle = mul(splat(2.0), mul(t, poly));
-    let in_range = le(vn, mul(splat(SMALL_ANGLE_LIMIT), qw_abs));
-    if movemask(in_range) != 0b1111 {
-        let (vn_l, qw_l, fast_l) = (st4(vn), st4(qw_abs), st4(angle));
-        let lanes: [f64; LANES] = std::array::from_fn(|l| {
-            let a = double_atan2(vn_l[l], qw_l[l]);
-            debug_assert!(
-                vn_l[l] > SMALL_ANGLE_LIMIT * qw_l[l]
-                    || a.to_bits() == fast_l[l].to_bits()
-                    || vn_l[l].is_nan()
-            );
-            a
-        });
-        angle = ld(lanes);
-    }
-    // Identity rotation → 0; NaN → 0; no wrap needed: the angle is in [0, π].
-    angle = select(nonzero, angle, zero);
-    angle = select(eq(angle, angle), angle, zero);
-    let axis = V::select(
-        nonzero,
-        V::select(lt(qw, zero), qv.neg().div(vn), qv.div(vn)),
-        V::splat(1.0, 0.0, 0.0),
+    let vv = qv.dot(qv);
+    let ww = mul(qw, qw);
+    let small = select(
+        gt(ww, zero),
+        le(vv, mul(splat(SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT), ww)),
+        zero,
     );
-    let twist = mul(angle, axis.dot(n));
-    let bending = axis.scale(angle).sub(n.scale(twist));
+    let rotation = if movemask(small) == 0b1111 {
+        let inv = div(splat(1.0), abs(qw));
+        let u = mul(mul(vv, inv), inv);
+        let mut poly = splat(ATAN_C[6]);
+        for c in ATAN_C[..6].iter().rev() {
+            poly = add(splat(*c), mul(u, poly));
+        }
+        let f = mul(mul(splat(2.0), poly), inv);
+        qv.scale(select(lt(qw, zero), neg(f), f))
+    } else {
+        let (w, v) = (st4(qw), qv.lanes());
+        V::gather(std::array::from_fn(|l| {
+            rotation_vector_of(&Quat { w: w[l], v: v[l] })
+        }))
+    };
+    let twist = rotation.dot(n);
+    let bending = rotation.sub(n.scale(twist));
     let zero_v = V::splat(0.0, 0.0, 0.0);
     let moment_twist = V::select(gt(ktw, zero), n.scale(mul(twist, ktw)), zero_v);
     let moment_bending = V::select(gt(kr, zero), bending.scale(kr), zero_v);
@@ -400,19 +380,16 @@ unsafe fn kernel4(
     let torque_i = c1x.cross(force).sub(moment);
     let torque_j = c2x.cross(force).neg().add(moment);
     let (n, shear, fn_) = (n.lanes(), shear.lanes(), st4(fn_));
-    // ½|M_b|²/k_r + ½|M_t|²/k_tw in the scalar order (0 + bending term, + twist term).
+    // ½k_r|θ_b|² + ½k_tw θ_t² in the scalar order (0 + bending term, + twist term).
     let half = splat(0.5);
     let e_bending = select(
         gt(kr, zero),
-        add(zero, div(mul(half, moment_bending.dot(moment_bending)), kr)),
+        add(zero, mul(mul(half, kr), bending.dot(bending))),
         zero,
     );
     let energy = select(
         gt(ktw, zero),
-        add(
-            e_bending,
-            div(mul(half, moment_twist.dot(moment_twist)), ktw),
-        ),
+        add(e_bending, mul(mul(half, ktw), mul(twist, twist))),
         e_bending,
     );
     let (force, torque_i, torque_j) = (force.lanes(), torque_i.lanes(), torque_j.lanes());

@@ -30,7 +30,7 @@ pub fn force_scalar_law_a(on: bool) {
     let _ = on;
 }
 
-use super::quat::Quat;
+use super::quat::{rotation_vector_of, Quat};
 use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
@@ -271,7 +271,8 @@ fn geometry(
     };
     let mut n = xj - xi;
     let d = n.norm();
-    n /= d;
+    // One division, three products (the AVX2 lanes do the same).
+    n *= 1.0 / d;
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let pd = ri + rj - d;
     let cp = xi + n * (ri - 0.5 * pd);
@@ -350,25 +351,27 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     st.normal_force = fn_;
     st.shear_force -= shear_inc * c.ks;
     // Moments.
+    let mut moment_elastic = 0.0;
     if ORIENTATION {
         if c.kr > 0.0 || c.ktw > 0.0 {
             let (qi, qj) = (p.orientation[i], p.orientation[j]);
-            let mut delta = if REF {
+            let delta = if REF {
                 let [qi0, qj0] = inp.ori_ref[b];
                 qi.mul(&qi0.conjugate()).mul(&qj0.mul(&qj.conjugate()))
             } else {
                 qi.mul(&qj.conjugate())
             };
-            delta.normalize();
-            let (mut angle, axis) = delta.to_angle_axis();
-            if angle.is_nan() {
-                angle = 0.0;
+            // Rotation vector of q_i q_j* (YADE: normalise, AngleAxis; angle in [0, π]).
+            let rotation = rotation_vector_of(&delta);
+            let twist = rotation.dot(&n);
+            let bending = rotation - n * twist;
+            // ½k_r|θ_b|² + ½k_tw θ_t² (= ½|M_b|²/k_r + ½|M_t|²/k_tw, without the divisions).
+            if c.kr > 0.0 {
+                moment_elastic += 0.5 * c.kr * bending.norm_squared();
             }
-            if angle > std::f64::consts::PI {
-                angle -= 2.0 * std::f64::consts::PI;
+            if c.ktw > 0.0 {
+                moment_elastic += 0.5 * c.ktw * (twist * twist);
             }
-            let twist = angle * axis.dot(&n);
-            let bending = axis * angle - n * twist;
             mom.twist = if c.ktw > 0.0 {
                 n * (twist * c.ktw)
             } else {
@@ -410,14 +413,7 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     out.force_i = force;
     out.torque_i = c1x.cross(&force) - moment;
     out.torque_j = -c2x.cross(&force) + moment;
-    [
-        power,
-        if ORIENTATION {
-            moment_energy(c, mom)
-        } else {
-            0.0
-        },
-    ]
+    [power, moment_elastic]
 }
 
 /// ½|M_b|²/k_r + ½|M_t|²/k_tw of one bond (J), YADE's `totalElastEnergy` moment terms.
