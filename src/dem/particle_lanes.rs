@@ -5,7 +5,7 @@
 use super::laws::lanes::{
     abs, add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
 };
-use super::quat::{sin_cos_small, Quat, SMALL_ANGLE_LIMIT};
+use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
 use super::sim::UpdateConsts;
 use crate::{Mat3, Vec3};
 
@@ -78,7 +78,7 @@ pub(crate) unsafe fn update4(
     } else {
         v
     };
-    let mut a = V::gather(f).div(m);
+    let mut a = V::gather(f).scale(div(splat(1.0), m));
     let mut terms = [splat(0.0); 6];
     if c.lambda > 0.0 {
         let (ax, tx) = damp(a.x, fluct.x, m, c);
@@ -99,7 +99,7 @@ pub(crate) unsafe fn update4(
         a = a.add(matvec(&c.prev_l, v));
     }
     v = v.add(a.scale(dt));
-    let mut alpha = V::gather(t).div(inertia);
+    let mut alpha = V::gather(t).scale(div(splat(1.0), inertia));
     if c.lambda > 0.0 {
         let (ax, tx) = damp(alpha.x, w.x, inertia, c);
         let (ay, ty) = damp(alpha.y, w.y, inertia, c);
@@ -123,64 +123,58 @@ pub(crate) unsafe fn update4(
     if c.periodic {
         w = w.add(V::splat(c.dspin.x, c.dspin.y, c.dspin.z));
     }
-    // Spin quaternion dq = (cos h, axis·sin h), h = ½·|ω|·dt, then q ← dq·q, normalised.
+    // Spin quaternion dq = (cos h, ω·sin h/|ω|), h = ½·|ω|·dt (`quat::spin_factors`: series
+    // in h² on all lanes, that function per lane where a lane leaves the series' range),
+    // then q ← dq·q, normalised.
     let zero = splat(0.0);
     let angle2 = w.dot(w);
     let spinning = ne(angle2, zero);
-    let angle = sqrt(angle2);
-    let axis = w.div(angle);
-    let h = mul(splat(0.5), mul(angle, dt));
-    let uu = mul(h, h);
+    let u = mul(angle2, mul(half_dt, half_dt));
     let sin_poly = add(
         splat(1.0),
         mul(
-            uu,
+            u,
             add(
                 splat(-1.0 / 6.0),
                 mul(
-                    uu,
+                    u,
                     add(
                         splat(1.0 / 120.0),
-                        mul(
-                            uu,
-                            add(splat(-1.0 / 5040.0), mul(uu, splat(1.0 / 362_880.0))),
-                        ),
+                        mul(u, add(splat(-1.0 / 5040.0), mul(u, splat(1.0 / 362_880.0)))),
                     ),
                 ),
             ),
         ),
     );
-    let mut sin_h = mul(h, sin_poly);
+    let mut sin_over_w = mul(half_dt, sin_poly);
     let mut cos_h = add(
         splat(1.0),
         mul(
-            uu,
+            u,
             add(
                 splat(-0.5),
                 mul(
-                    uu,
+                    u,
                     add(
                         splat(1.0 / 24.0),
-                        mul(uu, add(splat(-1.0 / 720.0), mul(uu, splat(1.0 / 40_320.0)))),
+                        mul(u, add(splat(-1.0 / 720.0), mul(u, splat(1.0 / 40_320.0)))),
                     ),
                 ),
             ),
         ),
     );
-    // Lanes outside the series' range (or not spinning: any value, discarded below).
-    let in_range = le(abs(h), splat(SMALL_ANGLE_LIMIT));
-    if (movemask(in_range) | (movemask(spinning) ^ 0b1111)) != 0b1111 {
-        let (h_l, s_l, c_l) = (st4(h), st4(sin_h), st4(cos_h));
-        let spin_l = movemask(spinning);
+    let in_range = le(u, splat(SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT));
+    if movemask(in_range) != 0b1111 {
+        let (a2, s_l, c_l, fast) = (st4(angle2), st4(sin_over_w), st4(cos_h), movemask(in_range));
         let pairs: [(f64, f64); LANES] = std::array::from_fn(|l| {
-            if spin_l & (1 << l) != 0 {
-                sin_cos_small(h_l[l])
+            if fast & (1 << l) != 0 {
+                (c_l[l], s_l[l])
             } else {
-                (s_l[l], c_l[l])
+                spin_factors(a2[l], 0.5 * c.dt)
             }
         });
-        sin_h = ld(pairs.map(|p| p.0));
-        cos_h = ld(pairs.map(|p| p.1));
+        cos_h = ld(pairs.map(|p| p.0));
+        sin_over_w = ld(pairs.map(|p| p.1));
     }
     let (bw, bx, by, bz) = (
         ld(std::array::from_fn(|l| qs[l].w)),
@@ -190,9 +184,9 @@ pub(crate) unsafe fn update4(
     );
     let (aw, ax, ay, az) = (
         cos_h,
-        mul(axis.x, sin_h),
-        mul(axis.y, sin_h),
-        mul(axis.z, sin_h),
+        mul(w.x, sin_over_w),
+        mul(w.y, sin_over_w),
+        mul(w.z, sin_over_w),
     );
     // Quat::mul (Eigen's component formulas), kept only on spinning lanes.
     let mut qw = select(
@@ -221,10 +215,11 @@ pub(crate) unsafe fn update4(
         mul(qw, qw),
     ));
     let positive = gt(n, zero);
-    qw = select(positive, div(qw, n), qw);
-    qx = select(positive, div(qx, n), qx);
-    qy = select(positive, div(qy, n), qy);
-    qz = select(positive, div(qz, n), qz);
+    let inv = div(splat(1.0), n);
+    qw = select(positive, mul(qw, inv), qw);
+    qx = select(positive, mul(qx, inv), qx);
+    qy = select(positive, mul(qy, inv), qy);
+    qz = select(positive, mul(qz, inv), qz);
     let (qw, qx, qy, qz) = (st4(qw), st4(qx), st4(qy), st4(qz));
     let (x, v, w) = (x.lanes(), v.lanes(), w.lanes());
     for l in 0..LANES {

@@ -3,7 +3,7 @@
 //! `nextVelGrad`), the Love stress, energies, the critical time step and blow-up detection.
 
 use super::laws::{BondContext, BondLaw};
-use super::quat::Quat;
+use super::quat::{spin_factors, Quat};
 use super::state::{
     deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions,
     Particles,
@@ -50,7 +50,8 @@ fn update_particle(
     let (dt, lambda) = (c.dt, c.lambda);
     let mut terms = [0.0; 6];
     let fluct = if c.periodic { *v - c.prev_l * *x } else { *v };
-    let mut a = f / m;
+    let inv_m = 1.0 / m;
+    let mut a = f * inv_m;
     if lambda > 0.0 {
         for k in 0..3 {
             let s = a[k] * (fluct[k] + 0.5 * dt * a[k]);
@@ -63,7 +64,8 @@ fn update_particle(
         a += c.prev_l * *v;
     }
     *v += a * dt;
-    let mut alpha = t / inertia;
+    let inv_inertia = 1.0 / inertia;
+    let mut alpha = t * inv_inertia;
     if lambda > 0.0 {
         for k in 0..3 {
             let s = alpha[k] * (w[k] + 0.5 * dt * alpha[k]);
@@ -82,11 +84,20 @@ fn update_particle(
     }
     let angle2 = w.norm_squared();
     if angle2 != 0.0 {
-        let angle = angle2.sqrt();
-        let dq = Quat::from_angle_axis(angle * dt, &(*w / angle));
+        let (cos_h, sin_h_over_w) = spin_factors(angle2, 0.5 * dt);
+        let dq = Quat {
+            w: cos_h,
+            v: *w * sin_h_over_w,
+        };
         *q = dq.mul(q);
     }
-    q.normalize();
+    // Normalise by one reciprocal (the AVX2 path does the same).
+    let norm = (q.v.x * q.v.x + q.v.y * q.v.y + q.v.z * q.v.z + q.w * q.w).sqrt();
+    if norm > 0.0 {
+        let inv = 1.0 / norm;
+        q.w *= inv;
+        q.v *= inv;
+    }
     (energy, terms)
 }
 

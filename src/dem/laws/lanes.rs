@@ -171,15 +171,6 @@ impl V {
     }
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub(crate) fn div(self, s: F) -> V {
-        V {
-            x: div(self.x, s),
-            y: div(self.y, s),
-            z: div(self.z, s),
-        }
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
     pub(crate) fn neg(self) -> V {
         V {
             x: neg(self.x),
