@@ -503,11 +503,9 @@ pub(super) fn law_a_chunk(
     .into_iter()
     .min()
     .unwrap_or(0);
-    let in_bounds = hot.iter().all(|c| {
-        (c.i as usize) < len
-            && (c.j as usize) < len
-            && (c.image == NO_IMAGE || (c.image as usize) < inp.images.len())
-    });
+    // Every bond's particle indices are below `index_bound`; image indices are valid by
+    // construction (see `LinearBondKernel::index_bound`).
+    let in_bounds = inp.index_bound <= len;
     if in_bounds
         && std::arch::is_x86_feature_detected!("avx2")
         && !SCALAR_ONLY.load(std::sync::atomic::Ordering::Relaxed)

@@ -171,6 +171,11 @@ pub struct LinearBondKernel {
     /// evaluation (fixed chunks, summed in order).
     chunk_sums: Vec<[f64; 2]>,
     dissipated: f64,
+    /// 1 + the largest particle index of any bond (usize::MAX before `initialize`): one comparison
+    /// per step bounds-checks every bond for the unchecked reads of the AVX2 kernel. Image
+    /// indices are in bounds by construction (`initialize` pushes each image and stores its
+    /// index; nothing else writes either).
+    index_bound: usize,
 }
 
 impl LinearBondKernel {
@@ -239,6 +244,8 @@ impl LinearBondKernel {
             eta: Vec::new(),
             chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
             dissipated: 0.0,
+            // Not initialised: the checked scalar kernel until `initialize`.
+            index_bound: if n == 0 { 0 } else { usize::MAX },
         })
     }
 
@@ -288,6 +295,8 @@ struct KernelInputs<'a> {
     images: &'a [Vec3],
     ori_ref: &'a [[Quat; 2]],
     eta: &'a [[f64; 2]],
+    /// See `LinearBondKernel::index_bound`.
+    index_bound: usize,
 }
 
 /// One bond: YADE's ScGeom6D kinematics and the cohesive law (see the module docs);
@@ -564,6 +573,12 @@ impl BondLaw for LinearBondKernel {
         };
         self.dissipated = 0.0;
         self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
+        self.index_bound = self
+            .hot
+            .iter()
+            .map(|c| c.i.max(c.j) as usize + 1)
+            .max()
+            .unwrap_or(0);
         Ok(())
     }
 
@@ -576,6 +591,7 @@ impl BondLaw for LinearBondKernel {
             images: &self.images,
             ori_ref: &self.ori_ref,
             eta: &self.eta,
+            index_bound: self.index_bound,
         };
         let orientation = self.moments == MomentForm::Orientation;
         let with_ref = !self.ori_ref.is_empty();
