@@ -505,15 +505,22 @@ impl Simulation {
         let (start, entries) = (&topo.start[..], &topo.entries[..]);
         let loads = &self.loads.per_bond[..];
         // Resultant force and torque on particle k, gathered in the fixed CSR order.
-        // Entry e = 2·bond + side indexes the bond-end records directly (the j end's force
-        // is stored negated, so f + (−x) gives the bits of f − x).
+        // Branch-free (the side of each bond is unpredictable): f ± force_i as
+        // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
         let gather = |k: usize| {
             let mut f = Vec3::zeros();
             let mut t = Vec3::zeros();
             for &e in &entries[start[k]..start[k + 1]] {
-                let end = &loads[(e >> 1) as usize].ends[(e & 1) as usize];
-                f += end.force;
-                t += end.torque;
+                let load = &loads[(e >> 1) as usize];
+                let j_side = e & 1 == 1;
+                let sign = if j_side { -1.0 } else { 1.0 };
+                let torque = if j_side {
+                    &load.torque_j
+                } else {
+                    &load.torque_i
+                };
+                f += load.force_i * sign;
+                t += torque;
             }
             (f, t)
         };

@@ -240,19 +240,12 @@ impl BondTopology {
 /// record per bond end.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BondLoad {
-    /// The i end, then the j end (whose force is the exact negation of the i end's). The
-    /// gather of particle loads then only adds the record of each bond end, with no sign or
-    /// side selection.
-    pub ends: [EndLoad; 2],
-}
-
-/// Force (N) and torque (N·m) one bond applies to the particle at one of its ends.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct EndLoad {
-    /// Force on the particle (N).
-    pub force: Vec3,
-    /// Torque on the particle (N·m).
-    pub torque: Vec3,
+    /// Force on particle i (N); particle j receives −force_i.
+    pub force_i: Vec3,
+    /// Torque on particle i (N·m).
+    pub torque_i: Vec3,
+    /// Torque on particle j (N·m).
+    pub torque_j: Vec3,
 }
 
 /// Per-bond loads of the last force evaluation.
@@ -272,7 +265,7 @@ impl BondLoads {
 
     /// Force on the i end of bond `b` (N).
     pub fn force_i(&self, b: usize) -> Vec3 {
-        self.per_bond[b].ends[0].force
+        self.per_bond[b].force_i
     }
 }
 

@@ -12,7 +12,7 @@
 
 use super::{BondDyn, BondHot, BondMoments, KernelInputs, NO_IMAGE};
 use crate::dem::quat::{rotation_vector_of, Quat, ATAN_C, SMALL_ANGLE_LIMIT};
-use crate::dem::state::{BondLoad, EndLoad};
+use crate::dem::state::BondLoad;
 use crate::Vec3;
 
 /// Route law (a) through the scalar kernel only (for the bit-identity test of the lanes).
@@ -383,13 +383,7 @@ unsafe fn kernel4(
         add(e_bending, mul(mul(half, ktw), mul(twist, twist))),
         e_bending,
     );
-    let force_j = force.neg();
-    let (force, force_j, torque_i, torque_j) = (
-        force.lanes(),
-        force_j.lanes(),
-        torque_i.lanes(),
-        torque_j.lanes(),
-    );
+    let (force, torque_i, torque_j) = (force.lanes(), torque_i.lanes(), torque_j.lanes());
     for l in 0..LANES {
         st[l] = BondDyn {
             normal: n[l],
@@ -397,16 +391,9 @@ unsafe fn kernel4(
             normal_force: fn_[l],
         };
         out[l] = BondLoad {
-            ends: [
-                EndLoad {
-                    force: force[l],
-                    torque: torque_i[l],
-                },
-                EndLoad {
-                    force: force_j[l],
-                    torque: torque_j[l],
-                },
-            ],
+            force_i: force[l],
+            torque_i: torque_i[l],
+            torque_j: torque_j[l],
         };
     }
     st4(energy)

@@ -31,7 +31,7 @@ pub fn force_scalar_law_a(on: bool) {
 }
 
 use super::quat::{rotation_vector_of, Quat};
-use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, EndLoad, Particles};
+use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
@@ -419,16 +419,9 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
         }
     }
     let moment = mom.twist + mom.bending;
-    out.ends = [
-        EndLoad {
-            force,
-            torque: c1x.cross(&force) - moment,
-        },
-        EndLoad {
-            force: -force,
-            torque: -c2x.cross(&force) + moment,
-        },
-    ];
+    out.force_i = force;
+    out.torque_i = c1x.cross(&force) - moment;
+    out.torque_j = -c2x.cross(&force) + moment;
     [power, moment_elastic]
 }
 
