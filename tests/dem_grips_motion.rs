@@ -112,3 +112,58 @@ fn time_integrated_strain_rate_equals_displacement_fit() {
         assert!((a - d).amax() < 1e-9 * scale, "{a} vs {d}");
     }
 }
+
+/// With every particle held, the energy ledger must show exactly the prescribed motion:
+/// kinetic energy Σ ½m|v|² (no acceleration by the bond forces, no spin) and no Cundall
+/// dissipation, although the bonds are strained and damping is on.
+#[test]
+fn held_particles_energy_ledger_is_that_of_the_prescribed_motion() {
+    let p = generate(
+        &GenerateOptions {
+            n_particles: 200,
+            seed: 5,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let p = Packing::new(p.positions.clone(), p.radii.clone(), None).unwrap();
+    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
+    let r = p.mean_radius();
+    let law = build_law(LawKind::Yade, &p, &b, &springs(b.len(), r)).unwrap();
+    let opts = DemOptions {
+        local_damping: 0.4,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(&p, &b, law, &opts).unwrap();
+    // A non-affine velocity field, so that the bonds are loaded.
+    let velocity: Vec<Vec3> = (0..p.len())
+        .map(|k| {
+            let t = k as f64;
+            Vec3::new((t * 0.7).sin(), (t * 1.3).cos(), (t * 2.9).sin()) * 1e-3
+        })
+        .collect();
+    let expected: f64 = (0..p.len())
+        .map(|k| 0.5 * sim.particles.mass[k] * velocity[k].norm_squared())
+        .sum();
+    sim.set_prescribed_motion(Some(PrescribedMotion {
+        particles: (0..p.len()).collect(),
+        velocity,
+    }))
+    .unwrap();
+    for _ in 0..100 {
+        sim.step().unwrap();
+    }
+    let e = sim.energies();
+    assert!(e.elastic > 1e-3 * expected, "bonds not loaded: {e:?}");
+    assert!(
+        (e.kinetic / expected - 1.0).abs() < 1e-9,
+        "kinetic {:e} vs Σ½m|v|² {expected:e}",
+        e.kinetic
+    );
+    assert!(
+        e.local_damping.abs() < 1e-9 * expected,
+        "damping {:e} J",
+        e.local_damping
+    );
+}

@@ -446,8 +446,14 @@ impl Simulation {
                 .compute(&ctx.as_context(&self.particles, &self.topology), &mut loads);
             self.loads = loads;
         }
-        self.integrate_particles();
+        let consts = self.integrate_particles();
         if let Some(held) = &mut self.prescribed {
+            let (kinetic, dissipated) =
+                held_ledger_correction(&consts, &self.particles, held, &self.force, &self.torque);
+            self.kinetic += kinetic;
+            if consts.lambda > 0.0 {
+                self.local_dissipated += dissipated;
+            }
             apply_prescribed_motion(&mut self.particles, held, dt);
         }
         self.iteration += 1;
@@ -478,7 +484,8 @@ impl Simulation {
         Ok(())
     }
 
-    fn integrate_particles(&mut self) {
+    /// The leapfrog pass over all particles; returns the constants it used.
+    fn integrate_particles(&mut self) -> UpdateConsts {
         let dt = self.dt;
         let lambda = self.local_damping;
         let (periodic, prev_l, dl, dspin) = match &mut self.cell {
@@ -609,6 +616,7 @@ impl Simulation {
         if lambda > 0.0 {
             self.local_dissipated += dissipated;
         }
+        consts
     }
 
     /// Energies at the last force evaluation.
@@ -800,6 +808,46 @@ impl Simulation {
 
 /// Overwrite the integrator's update of the held particles: x ← x_held + v_prescribed·dt,
 /// zero spin, orientation as when they were taken hold of.
+/// (kinetic, dissipated) corrections for the held particles after an integrator pass: the
+/// pass integrated them like free particles (their kinetic energy at the force time included
+/// the acceleration by the grip reaction, and Cundall damping worked on it), but they move
+/// at their prescribed velocity with no spin and no damping. Their pre-pass state is known
+/// exactly (prescribed velocity, zero spin, held position and orientation), so the pass's
+/// terms are recomputed with the same operations and replaced by ½m|v − L·x|² and zero.
+fn held_ledger_correction(
+    consts: &UpdateConsts,
+    p: &Particles,
+    held: &HeldParticles,
+    force: &[Vec3],
+    torque: &[Vec3],
+) -> (f64, f64) {
+    let (mut kinetic, mut dissipated) = (0.0, 0.0);
+    let m = &held.motion;
+    for (h, (&k, v)) in m.particles.iter().zip(&m.velocity).enumerate() {
+        let (mut x, mut vel, mut w, mut q) =
+            (held.position[h], *v, Vec3::zeros(), held.orientation[h]);
+        let (energy, terms) = update_particle(
+            consts,
+            p.mass[k],
+            p.inertia[k],
+            force[k],
+            torque[k],
+            &mut x,
+            &mut vel,
+            &mut w,
+            &mut q,
+        );
+        let fluct = if consts.periodic {
+            *v - consts.prev_l * held.position[h]
+        } else {
+            *v
+        };
+        kinetic += 0.5 * p.mass[k] * fluct.norm_squared() - energy;
+        dissipated -= terms.iter().sum::<f64>();
+    }
+    (kinetic, dissipated)
+}
+
 fn apply_prescribed_motion(p: &mut Particles, held: &mut HeldParticles, dt: f64) {
     let m = &held.motion;
     for (h, (&k, v)) in m.particles.iter().zip(&m.velocity).enumerate() {
