@@ -14,15 +14,19 @@ pub(crate) const SMALL_ANGLE_LIMIT: f64 = 0.0625;
 /// repeat these exact operations so both paths give the same bits.
 #[inline(always)]
 pub(crate) fn atan_series(t: f64) -> f64 {
-    let u = t * t;
+    t * atan_over_t(t * t)
+}
+
+/// atan(t)/t as a polynomial in u = t² (Horner, the order the AVX2 lanes repeat).
+#[inline(always)]
+fn atan_over_t(u: f64) -> f64 {
     let p = ATAN_C[6];
     let p = ATAN_C[5] + u * p;
     let p = ATAN_C[4] + u * p;
     let p = ATAN_C[3] + u * p;
     let p = ATAN_C[2] + u * p;
     let p = ATAN_C[1] + u * p;
-    let p = ATAN_C[0] + u * p;
-    t * p
+    ATAN_C[0] + u * p
 }
 
 /// Taylor coefficients of atan(t)/t in powers of t²: (−1)ᵏ/(2k+1).
@@ -42,15 +46,22 @@ pub(crate) const ATAN_C: [f64; 7] = [
 pub(crate) fn sin_cos_small(x: f64) -> (f64, f64) {
     if x.abs() <= SMALL_ANGLE_LIMIT {
         let u = x * x;
-        let s = x
-            * (1.0
-                + u * (-1.0 / 6.0
-                    + u * (1.0 / 120.0 + u * (-1.0 / 5040.0 + u * (1.0 / 362_880.0)))));
-        let c = 1.0 + u * (-0.5 + u * (1.0 / 24.0 + u * (-1.0 / 720.0 + u * (1.0 / 40_320.0))));
-        (s, c)
+        (x * sin_over_x(u), cos_series(u))
     } else {
         x.sin_cos()
     }
+}
+
+/// sin(x)/x through x⁸ as a polynomial in u = x² (Horner; the AVX2 lanes repeat it).
+#[inline(always)]
+fn sin_over_x(u: f64) -> f64 {
+    1.0 + u * (-1.0 / 6.0 + u * (1.0 / 120.0 + u * (-1.0 / 5040.0 + u * (1.0 / 362_880.0))))
+}
+
+/// cos(x) through x⁸ as a polynomial in u = x² (Horner; the AVX2 lanes repeat it).
+#[inline(always)]
+fn cos_series(u: f64) -> f64 {
+    1.0 + u * (-0.5 + u * (1.0 / 24.0 + u * (-1.0 / 720.0 + u * (1.0 / 40_320.0))))
 }
 
 /// (cos h, sin h / |ω|) with h = ½|ω|·dt, from |ω|² and ½dt: the spin quaternion of one
@@ -61,10 +72,7 @@ pub(crate) fn sin_cos_small(x: f64) -> (f64, f64) {
 pub(crate) fn spin_factors(angle2: f64, half_dt: f64) -> (f64, f64) {
     let u = angle2 * (half_dt * half_dt);
     if u <= SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT {
-        let s = 1.0
-            + u * (-1.0 / 6.0 + u * (1.0 / 120.0 + u * (-1.0 / 5040.0 + u * (1.0 / 362_880.0))));
-        let c = 1.0 + u * (-0.5 + u * (1.0 / 24.0 + u * (-1.0 / 720.0 + u * (1.0 / 40_320.0))));
-        (c, half_dt * s)
+        (cos_series(u), half_dt * sin_over_x(u))
     } else {
         let angle = angle2.sqrt();
         let (s, c) = (half_dt * angle).sin_cos();
@@ -97,14 +105,7 @@ pub(crate) fn rotation_vector_of(q: &Quat) -> Vec3 {
     if ww > 0.0 && vv <= SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT * ww {
         let inv = 1.0 / q.w.abs();
         let u = vv * inv * inv;
-        let p = ATAN_C[6];
-        let p = ATAN_C[5] + u * p;
-        let p = ATAN_C[4] + u * p;
-        let p = ATAN_C[3] + u * p;
-        let p = ATAN_C[2] + u * p;
-        let p = ATAN_C[1] + u * p;
-        let p = ATAN_C[0] + u * p;
-        let f = 2.0 * p * inv;
+        let f = 2.0 * atan_over_t(u) * inv;
         q.v * if q.w < 0.0 { -f } else { f }
     } else {
         let mut unit = *q;
