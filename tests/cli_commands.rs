@@ -439,3 +439,43 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
     );
     assert!(err.contains("grip shell of 100"), "{err}");
 }
+
+/// An output path in a directory that does not exist is refused before any computation, by
+/// every command that runs the integrator or a solver, naming the path and the directory.
+#[test]
+fn missing_output_directory_is_refused_up_front() {
+    let d = tmp();
+    let p = packing(d.path());
+    let m = write(d.path(), "model.toml", MODEL);
+    let missing = d.path().join("no-such-dir");
+    let cases: [(&[&str], &str); 5] = [
+        (&["run"], "-o"),
+        (&["run"], "--history"),
+        (&["stress-test"], "-o"),
+        (&["grips"], "-o"),
+        (&["tensor", "--method", "relaxed"], "-o"),
+    ];
+    for (cmd, flag) in cases {
+        let target = missing.join("out.file");
+        let err = fails(
+            bin()
+                .args(&cmd[..1])
+                .arg(&p)
+                .args(&cmd[1..])
+                .arg("--model")
+                .arg(&m)
+                .arg(flag)
+                .arg(&target),
+            &missing,
+        );
+        assert!(
+            err.contains("no-such-dir") && err.contains("does not exist"),
+            "{cmd:?} {flag}: {err}"
+        );
+        // Refused before the element tests: no progress or step output on stderr.
+        assert!(
+            !err.contains("relaxed in"),
+            "{cmd:?} {flag} ran first: {err}"
+        );
+    }
+}

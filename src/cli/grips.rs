@@ -42,6 +42,7 @@ pub struct GripsArgs {
 
 /// `anisobond grips`.
 pub fn grips(a: GripsArgs) -> Result<()> {
+    super::output::check_output_dirs(&[a.output.as_deref()])?;
     let super::Bonded {
         packing,
         bonds: b,

@@ -367,6 +367,7 @@ fn method_name(m: Method) -> &'static str {
 }
 
 fn tensor_cmd(a: TensorArgs) -> Result<()> {
+    output::check_output_dirs(&[a.output.as_deref()])?;
     let model = Model::from_path(&a.model)?;
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {

@@ -203,6 +203,11 @@ pub fn dynamic_tensor(
 
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
+    super::output::check_output_dirs(&[
+        a.output.as_deref(),
+        a.history.as_deref(),
+        a.plot.as_deref(),
+    ])?;
     let super::Bonded {
         packing,
         bonds: b,

@@ -64,6 +64,7 @@ pub struct StressTestArgs {
 
 /// `anisobond stress-test`.
 pub fn run(a: StressTestArgs) -> Result<()> {
+    super::output::check_output_dirs(&[a.output.as_deref()])?;
     let super::Bonded {
         packing,
         bonds: b,
