@@ -129,48 +129,14 @@ fn check_options(opts: &GenerateOptions) -> Result<()> {
     Ok(())
 }
 
-/// Full (both directions) Verlet list: neighbours of `i` are `j[start[i]..start[i+1]]`
-/// with the shift to add to `x_j`.
-struct VerletList {
-    start: Vec<usize>,
-    j: Vec<u32>,
-    shift: Vec<Vec3>,
-}
-
-fn build_verlet(x: &[Vec3], radii: &[f64], cell: &PeriodicCell, cutoff: f64) -> Result<VerletList> {
-    let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
-    let n = x.len();
-    let mut start = vec![0usize; n + 1];
-    for p in &pairs {
-        start[p.i as usize + 1] += 1;
-        start[p.j as usize + 1] += 1;
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut j = vec![0u32; start[n]];
-    let mut shift = vec![Vec3::zeros(); start[n]];
-    for p in &pairs {
-        let s = cell.shift(p.image);
-        let (a, b) = (p.i as usize, p.j as usize);
-        j[fill[a]] = p.j;
-        shift[fill[a]] = s;
-        fill[a] += 1;
-        j[fill[b]] = p.i;
-        shift[fill[b]] = -s;
-        fill[b] += 1;
-    }
-    Ok(VerletList { start, j, shift })
-}
-
 /// Repulsive harmonic forces F_i = Σ_j max(0, R_i + R_j − |l|)·(−l/|l|) (unit stiffness),
 /// the largest overlap of each particle, and per particle (Σ overlap, Σ overlap·|l|,
 /// number of overlapping neighbours) for the force-balance test and the virial pressure.
 fn forces(
     x: &[Vec3],
     radii: &[f64],
-    list: &VerletList,
+    side: f64,
+    list: &ScaledVerletList,
     f: &mut [Vec3],
     overlap: &mut [f64],
     contact: &mut [ContactSums],
@@ -184,9 +150,7 @@ fn forces(
             let mut sum = Vec3::zeros();
             let mut worst = f64::NEG_INFINITY;
             let mut sums = ContactSums::default();
-            for k in list.start[i]..list.start[i + 1] {
-                let j = list.j[k] as usize;
-                let l = x[j] + list.shift[k] - x[i];
+            list.for_each_neighbour(i, x, side, |j, l| {
                 let dist = l.norm();
                 let ov = radii[i] + radii[j] - dist;
                 worst = worst.max(ov);
@@ -203,7 +167,7 @@ fn forces(
                     sums.virial += ov * dist;
                     sums.contacts += 1;
                 }
-            }
+            });
             *fi = sum;
             *oi = worst;
             *ci = sums;
@@ -361,10 +325,10 @@ fn fire_relax_in_pool(
     let mut f = vec![Vec3::zeros(); n];
     let mut overlap = vec![0.0; n];
     let mut contact = vec![ContactSums::default(); n];
-    let mut list = build_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
+    let mut list = build_scaled_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
     let mut rebuilds = 1usize;
     let mut x_ref = x.to_vec();
-    forces(x, radii, &list, &mut f, &mut overlap, &mut contact);
+    forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
     let mut worst = max_of(&overlap);
     on_check(0, worst);
     let mut iterations = 0usize;
@@ -442,11 +406,11 @@ fn fire_relax_in_pool(
             .reduce(|| 0.0, f64::max);
         if 2.0 * moved > skin {
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = build_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
+            list = build_scaled_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
             rebuilds += 1;
             x_ref.copy_from_slice(x);
         }
-        forces(x, radii, &list, &mut f, &mut overlap, &mut contact);
+        forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
         worst = max_of(&overlap);
         if iterations % 25 == 0 {
             on_check(iterations, worst);
@@ -610,11 +574,45 @@ impl ChunkSums {
 const PASS_CHUNK: usize = 512;
 
 /// Full Verlet list whose periodic shifts are stored as integer images, so that it stays
-/// valid while the cell is rescaled (shift = image · L).
+/// valid while the cell is rescaled (shift = image · L). Most pairs lie inside the cell
+/// (image 0): they are stored as bare indices (4 bytes per neighbour), the few pairs that
+/// cross a face in a second list with their images, which keeps the list in cache.
 struct ScaledVerletList {
-    start: Vec<usize>,
-    j: Vec<u32>,
-    image: Vec<Vec3>,
+    /// Neighbours of i without an image: `plain_j[plain_start[i]..plain_start[i + 1]]`.
+    plain_start: Vec<u32>,
+    plain_j: Vec<u32>,
+    /// Neighbours of i across a face: `cross_j`, `cross_image` over `cross_start[i]..`.
+    cross_start: Vec<u32>,
+    cross_j: Vec<u32>,
+    cross_image: Vec<Vec3>,
+}
+
+impl ScaledVerletList {
+    /// Calls `pair(j, l)` for every neighbour j of i, with the branch vector
+    /// l = x_j + image·L − x_i in a cube of side L = `side`: first the pairs inside the
+    /// cell, then those across a face (a fixed order: the sums are the same bits on any
+    /// thread count).
+    #[inline(always)]
+    fn for_each_neighbour(
+        &self,
+        i: usize,
+        x: &[Vec3],
+        side: f64,
+        mut pair: impl FnMut(usize, Vec3),
+    ) {
+        let xi = x[i];
+        let plain = self.plain_start[i] as usize..self.plain_start[i + 1] as usize;
+        for &j in &self.plain_j[plain] {
+            pair(j as usize, x[j as usize] - xi);
+        }
+        let cross = self.cross_start[i] as usize..self.cross_start[i + 1] as usize;
+        for (&j, image) in self.cross_j[cross.clone()]
+            .iter()
+            .zip(&self.cross_image[cross])
+        {
+            pair(j as usize, x[j as usize] + image * side - xi);
+        }
+    }
 }
 
 fn build_scaled_verlet(
@@ -625,28 +623,56 @@ fn build_scaled_verlet(
 ) -> Result<ScaledVerletList> {
     let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
     let n = x.len();
-    let mut start = vec![0usize; n + 1];
+    if 2 * pairs.len() >= u32::MAX as usize {
+        return Err(Error::Invalid(format!(
+            "packing preparation: {} neighbour pairs exceed the 32-bit list range",
+            pairs.len()
+        )));
+    }
+    let mut plain_start = vec![0u32; n + 1];
+    let mut cross_start = vec![0u32; n + 1];
     for p in &pairs {
-        start[p.i as usize + 1] += 1;
-        start[p.j as usize + 1] += 1;
+        let counts = if p.image == [0, 0, 0] {
+            &mut plain_start
+        } else {
+            &mut cross_start
+        };
+        counts[p.i as usize + 1] += 1;
+        counts[p.j as usize + 1] += 1;
     }
     for k in 0..n {
-        start[k + 1] += start[k];
+        plain_start[k + 1] += plain_start[k];
+        cross_start[k + 1] += cross_start[k];
     }
-    let mut fill = start.clone();
-    let mut j = vec![0u32; start[n]];
-    let mut image = vec![Vec3::zeros(); start[n]];
+    let mut plain_fill = plain_start.clone();
+    let mut cross_fill = cross_start.clone();
+    let mut plain_j = vec![0u32; plain_start[n] as usize];
+    let mut cross_j = vec![0u32; cross_start[n] as usize];
+    let mut cross_image = vec![Vec3::zeros(); cross_start[n] as usize];
     for p in &pairs {
-        let s = Vec3::new(p.image[0] as f64, p.image[1] as f64, p.image[2] as f64);
         let (a, b) = (p.i as usize, p.j as usize);
-        j[fill[a]] = p.j;
-        image[fill[a]] = s;
-        fill[a] += 1;
-        j[fill[b]] = p.i;
-        image[fill[b]] = -s;
-        fill[b] += 1;
+        if p.image == [0, 0, 0] {
+            plain_j[plain_fill[a] as usize] = p.j;
+            plain_fill[a] += 1;
+            plain_j[plain_fill[b] as usize] = p.i;
+            plain_fill[b] += 1;
+        } else {
+            let s = Vec3::new(p.image[0] as f64, p.image[1] as f64, p.image[2] as f64);
+            cross_j[cross_fill[a] as usize] = p.j;
+            cross_image[cross_fill[a] as usize] = s;
+            cross_fill[a] += 1;
+            cross_j[cross_fill[b] as usize] = p.i;
+            cross_image[cross_fill[b] as usize] = -s;
+            cross_fill[b] += 1;
+        }
     }
-    Ok(ScaledVerletList { start, j, image })
+    Ok(ScaledVerletList {
+        plain_start,
+        plain_j,
+        cross_start,
+        cross_j,
+        cross_image,
+    })
 }
 
 /// Repulsive harmonic forces (as [`forces`]) in a cube of side `side`, fused with the sums
@@ -666,15 +692,13 @@ fn forces_and_sums(
             let mut s = ChunkSums::default();
             for (k, fi) in fc.iter_mut().enumerate() {
                 let i = c * PASS_CHUNK + k;
-                let xi = x[i];
+                let ri = radii[i];
                 let mut sum = Vec3::zeros();
-                for m in list.start[i]..list.start[i + 1] {
-                    let j = list.j[m] as usize;
-                    let l = x[j] + list.image[m] * side - xi;
-                    let reach = radii[i] + radii[j];
+                let mut pair = |j: usize, l: Vec3| {
+                    let reach = ri + radii[j];
                     let d2 = l.norm_squared();
                     if d2 >= reach * reach {
-                        continue;
+                        return;
                     }
                     let dist = d2.sqrt();
                     let ov = reach - dist;
@@ -690,7 +714,8 @@ fn forces_and_sums(
                     s.virial += ov * dist;
                     s.contacts += 1;
                     s.overlap_max = s.overlap_max.max(ov);
-                }
+                };
+                list.for_each_neighbour(i, x, side, &mut pair);
                 *fi = sum;
                 let f2 = sum.norm_squared();
                 s.power += sum.dot(&v[i]);
