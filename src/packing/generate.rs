@@ -575,23 +575,25 @@ const PASS_CHUNK: usize = 512;
 
 /// Full Verlet list whose periodic shifts are stored as integer images, so that it stays
 /// valid while the cell is rescaled (shift = image · L). Most pairs lie inside the cell
-/// (image 0): they are stored as bare indices (4 bytes per neighbour), the few pairs that
-/// cross a face in a second list with their images, which keeps the list in cache.
+/// (image 0) and are stored as bare 4-byte indices; a pair across a face has the
+/// [`CROSSES_FACE`] bit set and its image in a short side list. Neighbours keep the
+/// canonical order of the pair search (ascending index), so the force sums are the same bits
+/// as with one image per neighbour, on any thread count.
 struct ScaledVerletList {
-    /// Neighbours of i without an image: `plain_j[plain_start[i]..plain_start[i + 1]]`.
-    plain_start: Vec<u32>,
-    plain_j: Vec<u32>,
-    /// Neighbours of i across a face: `cross_j`, `cross_image` over `cross_start[i]..`.
+    /// Neighbours of i: `j[start[i]..start[i + 1]]`.
+    start: Vec<u32>,
+    j: Vec<u32>,
+    /// Images of i's face-crossing neighbours, in order: `image[cross_start[i]..]`.
     cross_start: Vec<u32>,
-    cross_j: Vec<u32>,
-    cross_image: Vec<Vec3>,
+    image: Vec<Vec3>,
 }
 
+/// Marks a neighbour entry whose pair crosses a face of the cell.
+const CROSSES_FACE: u32 = 1 << 31;
+
 impl ScaledVerletList {
-    /// Calls `pair(j, l)` for every neighbour j of i, with the branch vector
-    /// l = x_j + image·L − x_i in a cube of side L = `side`: first the pairs inside the
-    /// cell, then those across a face (a fixed order: the sums are the same bits on any
-    /// thread count).
+    /// Calls `pair(j, l)` for every neighbour j of i in list order, with the branch vector
+    /// l = x_j + image·L − x_i in a cube of side L = `side`.
     #[inline(always)]
     fn for_each_neighbour(
         &self,
@@ -601,16 +603,16 @@ impl ScaledVerletList {
         mut pair: impl FnMut(usize, Vec3),
     ) {
         let xi = x[i];
-        let plain = self.plain_start[i] as usize..self.plain_start[i + 1] as usize;
-        for &j in &self.plain_j[plain] {
-            pair(j as usize, x[j as usize] - xi);
-        }
-        let cross = self.cross_start[i] as usize..self.cross_start[i + 1] as usize;
-        for (&j, image) in self.cross_j[cross.clone()]
-            .iter()
-            .zip(&self.cross_image[cross])
-        {
-            pair(j as usize, x[j as usize] + image * side - xi);
+        let mut cross = self.cross_start[i] as usize;
+        for &entry in &self.j[self.start[i] as usize..self.start[i + 1] as usize] {
+            if entry & CROSSES_FACE == 0 {
+                let j = entry as usize;
+                pair(j, x[j] - xi);
+            } else {
+                let j = (entry & !CROSSES_FACE) as usize;
+                pair(j, x[j] + self.image[cross] * side - xi);
+                cross += 1;
+            }
         }
     }
 }
@@ -623,55 +625,53 @@ fn build_scaled_verlet(
 ) -> Result<ScaledVerletList> {
     let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
     let n = x.len();
-    if 2 * pairs.len() >= u32::MAX as usize {
+    if 2 * pairs.len() >= u32::MAX as usize || n >= CROSSES_FACE as usize {
         return Err(Error::Invalid(format!(
-            "packing preparation: {} neighbour pairs exceed the 32-bit list range",
+            "packing preparation: {n} spheres with {} neighbour pairs exceed the 31-bit \
+             list range",
             pairs.len()
         )));
     }
-    let mut plain_start = vec![0u32; n + 1];
+    let mut start = vec![0u32; n + 1];
     let mut cross_start = vec![0u32; n + 1];
     for p in &pairs {
-        let counts = if p.image == [0, 0, 0] {
-            &mut plain_start
-        } else {
-            &mut cross_start
-        };
-        counts[p.i as usize + 1] += 1;
-        counts[p.j as usize + 1] += 1;
+        start[p.i as usize + 1] += 1;
+        start[p.j as usize + 1] += 1;
+        if p.image != [0, 0, 0] {
+            cross_start[p.i as usize + 1] += 1;
+            cross_start[p.j as usize + 1] += 1;
+        }
     }
     for k in 0..n {
-        plain_start[k + 1] += plain_start[k];
+        start[k + 1] += start[k];
         cross_start[k + 1] += cross_start[k];
     }
-    let mut plain_fill = plain_start.clone();
+    let mut fill = start.clone();
     let mut cross_fill = cross_start.clone();
-    let mut plain_j = vec![0u32; plain_start[n] as usize];
-    let mut cross_j = vec![0u32; cross_start[n] as usize];
-    let mut cross_image = vec![Vec3::zeros(); cross_start[n] as usize];
+    let mut j = vec![0u32; start[n] as usize];
+    let mut image = vec![Vec3::zeros(); cross_start[n] as usize];
     for p in &pairs {
         let (a, b) = (p.i as usize, p.j as usize);
         if p.image == [0, 0, 0] {
-            plain_j[plain_fill[a] as usize] = p.j;
-            plain_fill[a] += 1;
-            plain_j[plain_fill[b] as usize] = p.i;
-            plain_fill[b] += 1;
+            j[fill[a] as usize] = p.j;
+            j[fill[b] as usize] = p.i;
         } else {
             let s = Vec3::new(p.image[0] as f64, p.image[1] as f64, p.image[2] as f64);
-            cross_j[cross_fill[a] as usize] = p.j;
-            cross_image[cross_fill[a] as usize] = s;
+            j[fill[a] as usize] = p.j | CROSSES_FACE;
+            j[fill[b] as usize] = p.i | CROSSES_FACE;
+            image[cross_fill[a] as usize] = s;
+            image[cross_fill[b] as usize] = -s;
             cross_fill[a] += 1;
-            cross_j[cross_fill[b] as usize] = p.i;
-            cross_image[cross_fill[b] as usize] = -s;
             cross_fill[b] += 1;
         }
+        fill[a] += 1;
+        fill[b] += 1;
     }
     Ok(ScaledVerletList {
-        plain_start,
-        plain_j,
+        start,
+        j,
         cross_start,
-        cross_j,
-        cross_image,
+        image,
     })
 }
 
