@@ -154,19 +154,19 @@ fn forces(
                 let dist = l.norm();
                 let ov = radii[i] + radii[j] - dist;
                 worst = worst.max(ov);
-                if ov > 0.0 {
-                    let n = if dist > 0.0 {
-                        l / dist
-                    } else if i < j {
-                        Vec3::x()
-                    } else {
-                        -Vec3::x()
-                    };
-                    sum -= n * ov;
-                    sums.force += ov;
-                    sums.virial += ov * dist;
-                    sums.contacts += 1;
-                }
+                // Branch-free (see `forces_and_sums`): no contact adds exact zeros.
+                let ov = ov.max(0.0);
+                let n = if dist > 0.0 {
+                    l / dist
+                } else if i < j {
+                    Vec3::x()
+                } else {
+                    -Vec3::x()
+                };
+                sum -= n * ov;
+                sums.force += ov;
+                sums.virial += ov * dist;
+                sums.contacts += u32::from(ov > 0.0);
             });
             *fi = sum;
             *oi = worst;
@@ -695,13 +695,12 @@ fn forces_and_sums(
                 let ri = radii[i];
                 let mut sum = Vec3::zeros();
                 let mut pair = |j: usize, l: Vec3| {
+                    // Branch-free over contact / no contact (about half the neighbours
+                    // touch, so a branch would be mispredicted often); a neighbour out of
+                    // contact adds exact zeros, which leaves every sum's bits unchanged.
                     let reach = ri + radii[j];
-                    let d2 = l.norm_squared();
-                    if d2 >= reach * reach {
-                        return;
-                    }
-                    let dist = d2.sqrt();
-                    let ov = reach - dist;
+                    let dist = l.norm_squared().sqrt();
+                    let ov = (reach - dist).max(0.0);
                     let n = if dist > 0.0 {
                         l / dist
                     } else if i < j {
@@ -712,7 +711,7 @@ fn forces_and_sums(
                     sum -= n * ov;
                     s.force += ov;
                     s.virial += ov * dist;
-                    s.contacts += 1;
+                    s.contacts += u64::from(ov > 0.0);
                     s.overlap_max = s.overlap_max.max(ov);
                 };
                 list.for_each_neighbour(i, x, side, &mut pair);
