@@ -156,14 +156,7 @@ fn forces(
                 worst = worst.max(ov);
                 // Branch-free (see `forces_and_sums`): no contact adds exact zeros.
                 let ov = ov.max(0.0);
-                let n = if dist > 0.0 {
-                    l / dist
-                } else if i < j {
-                    Vec3::x()
-                } else {
-                    -Vec3::x()
-                };
-                sum -= n * ov;
+                sum += repulsion(i, j, l, dist, ov);
                 sums.force += ov;
                 sums.virial += ov * dist;
                 sums.contacts += u32::from(ov > 0.0);
@@ -172,6 +165,21 @@ fn forces(
             *oi = worst;
             *ci = sums;
         });
+}
+
+/// Force −n·δ on sphere i from neighbour j at branch vector l (distance |l| = `dist`) with
+/// overlap δ = `ov` ≥ 0 (unit stiffness; δ = 0 gives exact zeros): n = l/|l|, or ±x for
+/// coincident centres (opposite at the two ends, so the pair stays balanced).
+#[inline(always)]
+fn repulsion(i: usize, j: usize, l: Vec3, dist: f64, ov: f64) -> Vec3 {
+    let n = if dist > 0.0 {
+        l / dist
+    } else if i < j {
+        Vec3::x()
+    } else {
+        -Vec3::x()
+    };
+    -(n * ov)
 }
 
 /// Per-particle contact sums of [`forces`] (each pair counted from both ends).
@@ -701,14 +709,7 @@ fn forces_and_sums(
                     let reach = ri + radii[j];
                     let dist = l.norm_squared().sqrt();
                     let ov = (reach - dist).max(0.0);
-                    let n = if dist > 0.0 {
-                        l / dist
-                    } else if i < j {
-                        Vec3::x()
-                    } else {
-                        -Vec3::x()
-                    };
-                    sum -= n * ov;
+                    sum += repulsion(i, j, l, dist, ov);
                     s.force += ov;
                     s.virial += ov * dist;
                     s.contacts += u64::from(ov > 0.0);
