@@ -478,4 +478,30 @@ fn missing_output_directory_is_refused_up_front() {
             "{cmd:?} {flag} ran first: {err}"
         );
     }
+    // `pack` (minutes for the jammed route) checks up front; `bonds` goes through the atomic
+    // writer's own check: the same message.
+    let err = fails(
+        bin()
+            .args(["pack", "--route", "jammed", "--particles", "2000", "-o"])
+            .arg(missing.join("p.txt")),
+        &missing,
+    );
+    assert!(
+        err.contains("no-such-dir") && err.contains("does not exist"),
+        "pack: {err}"
+    );
+    let err = fails(
+        bin()
+            .arg("bonds")
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .arg("-o")
+            .arg(missing.join("b.csv")),
+        &missing,
+    );
+    assert!(
+        err.contains("no-such-dir") && err.contains("does not exist"),
+        "bonds: {err}"
+    );
 }

@@ -9,20 +9,10 @@ use std::path::Path;
 /// Refuse, before any long computation, output paths whose directory does not exist (the
 /// files themselves are written atomically at the end; this only saves the user the run).
 pub fn check_output_dirs(paths: &[Option<&Path>]) -> Result<()> {
-    for path in paths.iter().flatten() {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => continue,
-        };
-        if !dir.is_dir() {
-            return Err(anisobond::Error::Invalid(format!(
-                "{}: output directory `{}` does not exist (create it first)",
-                path.display(),
-                dir.display()
-            )));
-        }
-    }
-    Ok(())
+    paths
+        .iter()
+        .flatten()
+        .try_for_each(|p| anisobond::io::check_output_directory(p))
 }
 
 /// Write a JSON report atomically.

@@ -146,6 +146,8 @@ fn polydispersity(h: f64) -> Polydispersity {
 /// Run `pack`.
 pub fn run(a: PackArgs) -> Result<()> {
     let r = resolve(&a)?;
+    // The jammed route can take minutes: refuse a missing output directory first.
+    super::output::check_output_dirs(&[Some(a.output.as_path())])?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {
