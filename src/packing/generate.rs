@@ -10,7 +10,7 @@
 //! Every random number comes from one `ChaCha8Rng` stream in a fixed order and every sum
 //! is taken in a fixed order, so the packing is bit-identical on any number of threads.
 
-use super::neighbours::pairs_in;
+use super::repulsion::{lanes_available, particle_contacts, ScaledVerletList};
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
@@ -141,52 +141,27 @@ fn forces(
     overlap: &mut [f64],
     contact: &mut [ContactSums],
 ) {
+    let lanes = lanes_available();
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
         .zip(contact.par_iter_mut())
         .enumerate()
         .with_min_len(256)
         .for_each(|(i, ((fi, oi), ci))| {
-            let mut sum = Vec3::zeros();
-            let mut worst = f64::NEG_INFINITY;
-            let mut sums = ContactSums::default();
-            list.for_each_neighbour(i, x, side, |j, l| {
-                let dist = l.norm();
-                let ov = radii[i] + radii[j] - dist;
-                worst = worst.max(ov);
-                // Branch-free (see `forces_and_sums`): no contact adds exact zeros.
-                let ov = ov.max(0.0);
-                sum += repulsion(i, j, l, dist, ov);
-                sums.force += ov;
-                sums.virial += ov * dist;
-                sums.contacts += u32::from(ov > 0.0);
-            });
-            *fi = sum;
-            *oi = worst;
-            *ci = sums;
+            let c = particle_contacts(list, i, x, radii, side, lanes, (0.0, 0.0));
+            *fi = c.force;
+            *oi = c.worst;
+            *ci = ContactSums {
+                force: c.overlap_sum,
+                contacts: c.contacts,
+            };
         });
-}
-
-/// Force −n·δ on sphere i from neighbour j at branch vector l (distance |l| = `dist`) with
-/// overlap δ = `ov` ≥ 0 (unit stiffness; δ = 0 gives exact zeros): n = l/|l|, or ±x for
-/// coincident centres (opposite at the two ends, so the pair stays balanced).
-#[inline(always)]
-fn repulsion(i: usize, j: usize, l: Vec3, dist: f64, ov: f64) -> Vec3 {
-    let n = if dist > 0.0 {
-        l / dist
-    } else if i < j {
-        Vec3::x()
-    } else {
-        -Vec3::x()
-    };
-    -(n * ov)
 }
 
 /// Per-particle contact sums of [`forces`] (each pair counted from both ends).
 #[derive(Clone, Copy, Debug, Default)]
 struct ContactSums {
     force: f64,
-    virial: f64,
     contacts: u32,
 }
 
@@ -333,7 +308,7 @@ fn fire_relax_in_pool(
     let mut f = vec![Vec3::zeros(); n];
     let mut overlap = vec![0.0; n];
     let mut contact = vec![ContactSums::default(); n];
-    let mut list = build_scaled_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
+    let mut list = ScaledVerletList::build(x, radii, &cell, 2.0 * r_max + skin)?;
     let mut rebuilds = 1usize;
     let mut x_ref = x.to_vec();
     forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
@@ -414,7 +389,7 @@ fn fire_relax_in_pool(
             .reduce(|| 0.0, f64::max);
         if 2.0 * moved > skin {
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = build_scaled_verlet(x, radii, &cell, 2.0 * r_max + skin)?;
+            list = ScaledVerletList::build(x, radii, &cell, 2.0 * r_max + skin)?;
             rebuilds += 1;
             x_ref.copy_from_slice(x);
         }
@@ -581,108 +556,6 @@ impl ChunkSums {
 /// Particles per chunk of the fused parallel passes (fixed: determinism).
 const PASS_CHUNK: usize = 512;
 
-/// Full Verlet list whose periodic shifts are stored as integer images, so that it stays
-/// valid while the cell is rescaled (shift = image · L). Most pairs lie inside the cell
-/// (image 0) and are stored as bare 4-byte indices; a pair across a face has the
-/// [`CROSSES_FACE`] bit set and its image in a short side list. Neighbours keep the
-/// canonical order of the pair search (ascending index), so the force sums are the same bits
-/// as with one image per neighbour, on any thread count.
-struct ScaledVerletList {
-    /// Neighbours of i: `j[start[i]..start[i + 1]]`.
-    start: Vec<u32>,
-    j: Vec<u32>,
-    /// Images of i's face-crossing neighbours, in order: `image[cross_start[i]..]`.
-    cross_start: Vec<u32>,
-    image: Vec<Vec3>,
-}
-
-/// Marks a neighbour entry whose pair crosses a face of the cell.
-const CROSSES_FACE: u32 = 1 << 31;
-
-impl ScaledVerletList {
-    /// Calls `pair(j, l)` for every neighbour j of i in list order, with the branch vector
-    /// l = x_j + image·L − x_i in a cube of side L = `side`.
-    #[inline(always)]
-    fn for_each_neighbour(
-        &self,
-        i: usize,
-        x: &[Vec3],
-        side: f64,
-        mut pair: impl FnMut(usize, Vec3),
-    ) {
-        let xi = x[i];
-        let mut cross = self.cross_start[i] as usize;
-        for &entry in &self.j[self.start[i] as usize..self.start[i + 1] as usize] {
-            if entry & CROSSES_FACE == 0 {
-                let j = entry as usize;
-                pair(j, x[j] - xi);
-            } else {
-                let j = (entry & !CROSSES_FACE) as usize;
-                pair(j, x[j] + self.image[cross] * side - xi);
-                cross += 1;
-            }
-        }
-    }
-}
-
-fn build_scaled_verlet(
-    x: &[Vec3],
-    radii: &[f64],
-    cell: &PeriodicCell,
-    cutoff: f64,
-) -> Result<ScaledVerletList> {
-    let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
-    let n = x.len();
-    if 2 * pairs.len() >= u32::MAX as usize || n >= CROSSES_FACE as usize {
-        return Err(Error::Invalid(format!(
-            "packing preparation: {n} spheres with {} neighbour pairs exceed the 31-bit \
-             list range",
-            pairs.len()
-        )));
-    }
-    let mut start = vec![0u32; n + 1];
-    let mut cross_start = vec![0u32; n + 1];
-    for p in &pairs {
-        start[p.i as usize + 1] += 1;
-        start[p.j as usize + 1] += 1;
-        if p.image != [0, 0, 0] {
-            cross_start[p.i as usize + 1] += 1;
-            cross_start[p.j as usize + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-        cross_start[k + 1] += cross_start[k];
-    }
-    let mut fill = start.clone();
-    let mut cross_fill = cross_start.clone();
-    let mut j = vec![0u32; start[n] as usize];
-    let mut image = vec![Vec3::zeros(); cross_start[n] as usize];
-    for p in &pairs {
-        let (a, b) = (p.i as usize, p.j as usize);
-        if p.image == [0, 0, 0] {
-            j[fill[a] as usize] = p.j;
-            j[fill[b] as usize] = p.i;
-        } else {
-            let s = Vec3::new(p.image[0] as f64, p.image[1] as f64, p.image[2] as f64);
-            j[fill[a] as usize] = p.j | CROSSES_FACE;
-            j[fill[b] as usize] = p.i | CROSSES_FACE;
-            image[cross_fill[a] as usize] = s;
-            image[cross_fill[b] as usize] = -s;
-            cross_fill[a] += 1;
-            cross_fill[b] += 1;
-        }
-        fill[a] += 1;
-        fill[b] += 1;
-    }
-    Ok(ScaledVerletList {
-        start,
-        j,
-        cross_start,
-        image,
-    })
-}
-
 /// Repulsive harmonic forces (as [`forces`]) in a cube of side `side`, fused with the sums
 /// FIRE needs (power, norms, largest force, contact force and virial sums) per chunk.
 fn forces_and_sums(
@@ -693,6 +566,7 @@ fn forces_and_sums(
     list: &ScaledVerletList,
     f: &mut [Vec3],
 ) -> ChunkSums {
+    let lanes = lanes_available();
     let parts: Vec<ChunkSums> = f
         .par_chunks_mut(PASS_CHUNK)
         .enumerate()
@@ -700,22 +574,13 @@ fn forces_and_sums(
             let mut s = ChunkSums::default();
             for (k, fi) in fc.iter_mut().enumerate() {
                 let i = c * PASS_CHUNK + k;
-                let ri = radii[i];
-                let mut sum = Vec3::zeros();
-                let mut pair = |j: usize, l: Vec3| {
-                    // Branch-free over contact / no contact (about half the neighbours
-                    // touch, so a branch would be mispredicted often); a neighbour out of
-                    // contact adds exact zeros, which leaves every sum's bits unchanged.
-                    let reach = ri + radii[j];
-                    let dist = l.norm_squared().sqrt();
-                    let ov = (reach - dist).max(0.0);
-                    sum += repulsion(i, j, l, dist, ov);
-                    s.force += ov;
-                    s.virial += ov * dist;
-                    s.contacts += u64::from(ov > 0.0);
-                    s.overlap_max = s.overlap_max.max(ov);
-                };
-                list.for_each_neighbour(i, x, side, &mut pair);
+                // The overlap and virial sums run on across the chunk's spheres.
+                let pc = particle_contacts(list, i, x, radii, side, lanes, (s.force, s.virial));
+                s.force = pc.overlap_sum;
+                s.virial = pc.virial;
+                s.contacts += u64::from(pc.contacts);
+                s.overlap_max = s.overlap_max.max(pc.worst);
+                let sum = pc.force;
                 *fi = sum;
                 let f2 = sum.norm_squared();
                 s.power += sum.dot(&v[i]);
@@ -798,7 +663,7 @@ fn fire_jam_in_pool(
     let mut v = vec![Vec3::zeros(); n];
     let mut v_eta = 0.0f64;
     let mut f = vec![Vec3::zeros(); n];
-    let mut list = build_scaled_verlet(x, radii, &cell, cutoff)?;
+    let mut list = ScaledVerletList::build(x, radii, &cell, cutoff)?;
     let mut side_ref = *side;
     // Reference positions in units of the cell side (displacements exclude the affine part).
     let mut u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
@@ -893,7 +758,7 @@ fn fire_jam_in_pool(
         if 2.0 * moved_max + strain * cutoff > SKIN {
             cell = PeriodicCell::new(Vec3::repeat(*side))?;
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = build_scaled_verlet(x, radii, &cell, cutoff)?;
+            list = ScaledVerletList::build(x, radii, &cell, cutoff)?;
             side_ref = *side;
             let s = *side;
             u_ref.iter_mut().zip(x.iter()).for_each(|(u, p)| *u = p / s);

@@ -8,6 +8,7 @@
 pub mod generate;
 pub mod io;
 pub mod neighbours;
+mod repulsion;
 pub mod routes;
 
 use crate::{Error, Result, Vec3};
