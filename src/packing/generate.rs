@@ -308,7 +308,7 @@ fn fire_relax_in_pool(
     let mut f = vec![Vec3::zeros(); n];
     let mut overlap = vec![0.0; n];
     let mut contact = vec![ContactSums::default(); n];
-    let mut list = ScaledVerletList::build(x, radii, &cell, 2.0 * r_max + skin)?;
+    let mut list = ScaledVerletList::build(x, radii, &cell, skin)?;
     let mut rebuilds = 1usize;
     let mut x_ref = x.to_vec();
     forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
@@ -389,7 +389,7 @@ fn fire_relax_in_pool(
             .reduce(|| 0.0, f64::max);
         if 2.0 * moved > skin {
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = ScaledVerletList::build(x, radii, &cell, 2.0 * r_max + skin)?;
+            list = ScaledVerletList::build(x, radii, &cell, skin)?;
             rebuilds += 1;
             x_ref.copy_from_slice(x);
         }
@@ -663,7 +663,7 @@ fn fire_jam_in_pool(
     let mut v = vec![Vec3::zeros(); n];
     let mut v_eta = 0.0f64;
     let mut f = vec![Vec3::zeros(); n];
-    let mut list = ScaledVerletList::build(x, radii, &cell, cutoff)?;
+    let mut list = ScaledVerletList::build(x, radii, &cell, SKIN)?;
     let mut side_ref = *side;
     // Reference positions in units of the cell side (displacements exclude the affine part).
     let mut u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
@@ -758,7 +758,7 @@ fn fire_jam_in_pool(
         if 2.0 * moved_max + strain * cutoff > SKIN {
             cell = PeriodicCell::new(Vec3::repeat(*side))?;
             x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = ScaledVerletList::build(x, radii, &cell, cutoff)?;
+            list = ScaledVerletList::build(x, radii, &cell, SKIN)?;
             side_ref = *side;
             let s = *side;
             u_ref.iter_mut().zip(x.iter()).for_each(|(u, p)| *u = p / s);

@@ -157,7 +157,7 @@ pub(crate) fn pairs_in(
 }
 
 /// Cells at least one cutoff wide, with the spheres of each (counting sort by cell).
-struct CellGrid {
+pub(crate) struct CellGrid {
     dims: [usize; 3],
     periodic: bool,
     cell_of: Vec<[usize; 3]>,
@@ -166,7 +166,7 @@ struct CellGrid {
 }
 
 impl CellGrid {
-    fn new(positions: &[Vec3], cell: Option<&PeriodicCell>, cutoff: f64) -> Self {
+    pub(crate) fn new(positions: &[Vec3], cell: Option<&PeriodicCell>, cutoff: f64) -> Self {
         let n = positions.len();
         let (origin, extent) = match cell {
             Some(c) => (Vec3::zeros(), c.lengths),
@@ -253,12 +253,13 @@ impl CellGrid {
         }
     }
 
-    fn particles_in(&self, flat: usize) -> &[u32] {
+    /// The spheres in cell `flat`, in ascending index order.
+    pub(crate) fn particles_in(&self, flat: usize) -> &[u32] {
         &self.members[self.start[flat]..self.start[flat + 1]]
     }
 
     /// Call `f` once for every distinct cell adjacent to (or equal to) particle `p`'s cell.
-    fn for_each_neighbour_cell(&self, p: usize, mut f: impl FnMut(usize)) {
+    pub(crate) fn for_each_neighbour_cell(&self, p: usize, mut f: impl FnMut(usize)) {
         let c = self.cell_of[p];
         let mut per_dim: [([usize; 3], usize); 3] = [([0; 3], 0); 3];
         for k in 0..3 {

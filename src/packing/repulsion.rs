@@ -11,9 +11,10 @@
 //! order: every IEEE operation is the scalar path's, so the results are bit-identical
 //! (checked by the unit test below).
 
-use super::neighbours::pairs_in;
+use super::neighbours::CellGrid;
 use super::PeriodicCell;
 use crate::{Error, Result, Vec3};
+use rayon::prelude::*;
 
 /// Full Verlet list whose periodic shifts are stored as integer images, so that it stays
 /// valid while the cell is rescaled (shift = image · L). Each neighbour is one 4-byte entry:
@@ -44,54 +45,100 @@ fn image_component(entry: u32, axis: u32) -> i32 {
 }
 
 impl ScaledVerletList {
-    /// All pairs of `x` (radii `radii`, cube `cell`) closer than `cutoff`.
+    /// Every pair of `x` (radii `radii`, positions wrapped into the cube `cell`) with
+    /// |l| ≤ R_i + R_j + `skin`, found by cell lists: each sphere's neighbours in ascending
+    /// index order (the order of the force sums), padded to whole groups.
+    ///
+    /// Only pairs in reach matter: a pair out of contact adds exact zeros, so which of
+    /// them are listed does not change any sum. The list stays valid (every pair that can
+    /// touch is in it) while 2·max displacement + |strain|·(2R_max + skin) ≤ skin.
     pub(super) fn build(
         x: &[Vec3],
         radii: &[f64],
         cell: &PeriodicCell,
-        cutoff: f64,
+        skin: f64,
     ) -> Result<ScaledVerletList> {
-        let pairs = pairs_in(x, radii, Some(cell), cutoff, |_, _, _| true)?;
         let n = x.len();
-        let entries = 2 * pairs.len() + (LANES - 1) * n;
-        if entries >= u32::MAX as usize || n > INDEX_MASK as usize {
+        let r_max = radii.iter().copied().fold(0.0, f64::max);
+        let cutoff = 2.0 * r_max + skin;
+        let side = cell.lengths;
+        if (0..3).any(|k| cutoff >= 0.5 * side[k]) || skin.is_nan() || skin < 0.0 {
             return Err(Error::Invalid(format!(
-                "packing preparation: {n} spheres with {} neighbour pairs exceed the list's                  range (at most {INDEX_MASK} spheres)",
-                pairs.len()
+                "packing preparation: neighbour cutoff {cutoff:.3} R̄ is not below half the \
+                 cell side {:.3} R̄; use more particles",
+                side.min()
             )));
         }
-        let code = |image: [i32; 3], sign: i32| -> Result<u32> {
-            let mut c = 0u32;
-            for (axis, &k) in image.iter().enumerate() {
-                if !(-1..=1).contains(&k) {
-                    return Err(Error::Invalid(format!(
-                        "packing preparation: a neighbour pair spans {k} cell lengths; the                          cell is too small for its cutoff"
-                    )));
+        if n > INDEX_MASK as usize {
+            return Err(Error::Invalid(format!(
+                "packing preparation: {n} spheres exceed the neighbour list's range (at most \
+                 {INDEX_MASK})"
+            )));
+        }
+        let grid = CellGrid::new(x, Some(cell), cutoff);
+        const BLOCK: usize = 512;
+        let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let mut entries = Vec::new();
+                let mut counts = Vec::with_capacity(BLOCK);
+                let mut found: Vec<u32> = Vec::new();
+                for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                    found.clear();
+                    let xi = x[i];
+                    let reach = radii[i] + skin;
+                    grid.for_each_neighbour_cell(i, |cell_index| {
+                        for &j in grid.particles_in(cell_index) {
+                            if j as usize == i {
+                                continue;
+                            }
+                            // Minimum image: both ends lie in [0, L), so one shift at most.
+                            let mut d = x[j as usize] - xi;
+                            let mut code = 0u32;
+                            for k in 0..3 {
+                                let image = if d[k] > 0.5 * side[k] {
+                                    -1i32
+                                } else if d[k] < -0.5 * side[k] {
+                                    1
+                                } else {
+                                    0
+                                };
+                                d[k] += image as f64 * side[k];
+                                code |= ((image as u32) & 0b11) << (INDEX_BITS + 2 * k as u32);
+                            }
+                            let limit = reach + radii[j as usize];
+                            if d.norm_squared() <= limit * limit {
+                                found.push(j | code);
+                            }
+                        }
+                    });
+                    found.sort_unstable_by_key(|e| e & INDEX_MASK);
+                    let padded = found.len().next_multiple_of(LANES);
+                    entries.extend_from_slice(&found);
+                    entries.resize(
+                        entries.len() + padded - found.len(),
+                        i as u32 | PADDING_IMAGE,
+                    );
+                    counts.push(padded as u32);
                 }
-                c |= (((sign * k) as u32) & 0b11) << (INDEX_BITS + 2 * axis as u32);
+                (entries, counts)
+            })
+            .collect();
+        let total: usize = blocks.iter().map(|(e, _)| e.len()).sum();
+        if total >= u32::MAX as usize {
+            return Err(Error::Invalid(format!(
+                "packing preparation: {n} spheres with {total} neighbour entries exceed the \
+                 list's 32-bit range"
+            )));
+        }
+        let mut start = Vec::with_capacity(n + 1);
+        start.push(0u32);
+        let mut j = Vec::with_capacity(total);
+        for (entries, counts) in blocks {
+            for c in counts {
+                start.push(start.last().copied().unwrap_or(0) + c);
             }
-            Ok(c)
-        };
-        let mut count = vec![0u32; n];
-        for p in &pairs {
-            count[p.i as usize] += 1;
-            count[p.j as usize] += 1;
-        }
-        let mut start = vec![0u32; n + 1];
-        for k in 0..n {
-            start[k + 1] = start[k] + count[k].next_multiple_of(LANES as u32);
-        }
-        let mut fill = start.clone();
-        let mut j = vec![0u32; start[n] as usize];
-        for p in &pairs {
-            let (a, b) = (p.i as usize, p.j as usize);
-            j[fill[a] as usize] = p.j | code(p.image, 1)?;
-            j[fill[b] as usize] = p.i | code(p.image, -1)?;
-            fill[a] += 1;
-            fill[b] += 1;
-        }
-        for k in 0..n {
-            j[fill[k] as usize..start[k + 1] as usize].fill(k as u32 | PADDING_IMAGE);
+            j.extend_from_slice(&entries);
         }
         Ok(ScaledVerletList { start, j })
     }
@@ -381,7 +428,7 @@ mod tests {
         x[5] = x[4];
         let radii: Vec<f64> = (0..n).map(|_| 0.9 + 0.2 * rng.gen::<f64>()).collect();
         let cell = PeriodicCell::new(Vec3::repeat(side)).unwrap();
-        let list = ScaledVerletList::build(&x, &radii, &cell, 2.5).unwrap();
+        let list = ScaledVerletList::build(&x, &radii, &cell, 0.4).unwrap();
         assert!(
             list.j
                 .iter()
