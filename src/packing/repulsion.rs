@@ -153,19 +153,37 @@ impl ScaledVerletList {
         side: f64,
         mut pair: impl FnMut(usize, Vec3),
     ) {
-        let xi = x[i];
-        for &entry in &self.j[self.start[i] as usize..self.start[i + 1] as usize] {
-            let j = (entry & INDEX_MASK) as usize;
-            if entry == j as u32 {
-                pair(j, x[j] - xi);
-            } else if entry & !INDEX_MASK != PADDING_IMAGE {
-                let image = Vec3::new(
-                    image_component(entry, 0) as f64,
-                    image_component(entry, 1) as f64,
-                    image_component(entry, 2) as f64,
-                );
-                pair(j, x[j] + image * side - xi);
-            }
+        for_each_entry(
+            &self.j[self.start[i] as usize..self.start[i + 1] as usize],
+            x[i],
+            x,
+            side,
+            &mut pair,
+        );
+    }
+}
+
+/// Calls `pair(j, l)` for every neighbour entry of `entries` (padding skipped), with the
+/// branch vector l = x_j + image·L − `xi` (l = x_j − x_i for image 0, as written).
+#[inline(always)]
+fn for_each_entry(
+    entries: &[u32],
+    xi: Vec3,
+    x: &[Vec3],
+    side: f64,
+    pair: &mut impl FnMut(usize, Vec3),
+) {
+    for &entry in entries {
+        let j = (entry & INDEX_MASK) as usize;
+        if entry == j as u32 {
+            pair(j, x[j] - xi);
+        } else if entry & !INDEX_MASK != PADDING_IMAGE {
+            let image = Vec3::new(
+                image_component(entry, 0) as f64,
+                image_component(entry, 1) as f64,
+                image_component(entry, 2) as f64,
+            );
+            pair(j, x[j] + image * side - xi);
         }
     }
 }
@@ -348,23 +366,9 @@ unsafe fn particle_contacts_avx2(
             _mm256_storeu_pd(f.as_mut_ptr(), acc);
             c.force = Vec3::new(f[0], f[1], f[2]);
             c.overlap_sum = f[3];
-            for &entry in group {
-                let j = (entry & INDEX_MASK) as usize;
-                if entry & !INDEX_MASK == PADDING_IMAGE {
-                    continue;
-                }
-                let image = Vec3::new(
-                    image_component(entry, 0) as f64,
-                    image_component(entry, 1) as f64,
-                    image_component(entry, 2) as f64,
-                );
-                let l = if entry == j as u32 {
-                    x[j] - xi
-                } else {
-                    x[j] + image * side - xi
-                };
+            for_each_entry(group, xi, x, side, &mut |j, l| {
                 c.add(i, j, l, l.norm_squared().sqrt(), ri + radii[j]);
-            }
+            });
             acc = _mm256_set_pd(c.overlap_sum, c.force.z, c.force.y, c.force.x);
             continue;
         }
