@@ -5,7 +5,8 @@
 
 use anisobond::packing::neighbours::pairs_within;
 use anisobond::packing::routes::{
-    prepare, scale_to_solid_fraction, PreparationRoute, RouteOptions, RouteReport,
+    prepare, prepare_with_status, scale_to_solid_fraction, PreparationRoute, RouteOptions,
+    RouteReport, RouteStage, RouteStatus,
 };
 use anisobond::packing::Packing;
 use anisobond::Vec3;
@@ -116,6 +117,79 @@ fn jammed_route_is_bit_identical_on_one_and_two_threads() {
     assert_eq!(bits(&a), bits(&c));
     let (d, _) = on(2, 22);
     assert_ne!(bits(&a), bits(&d));
+}
+
+/// The status stream of a jammed preparation (what `anisobond pack` shows on its bar) agrees
+/// with the result: stages run gas → compression → jamming stages in order → done, fractions
+/// and iteration counts never decrease, the last report of the last jamming stage is the
+/// converged state of the final report (residual ≤ 1, its pressure, its solid fraction, all
+/// FIRE iterations), and listening changes no bit of the packing.
+#[test]
+fn status_reports_follow_the_jammed_preparation() {
+    let opts = options(PreparationRoute::Jammed, 800, 4);
+    let seen = std::sync::Mutex::new(Vec::<RouteStatus>::new());
+    let (p, report) =
+        prepare_with_status(&opts, &|s: &RouteStatus| seen.lock().unwrap().push(*s)).unwrap();
+    let seen = seen.into_inner().unwrap();
+    let rank = |s: &RouteStage| match *s {
+        RouteStage::Gas => (0, 0),
+        RouteStage::Compression { .. } => (1, 0),
+        RouteStage::Jamming { stage, .. } => (2, stage),
+        RouteStage::Done => (3, 0),
+    };
+    assert_eq!(seen.first().unwrap().stage, RouteStage::Gas);
+    assert_eq!(seen.first().unwrap().fraction, 0.0);
+    for w in seen.windows(2) {
+        assert!(w[0].fraction <= w[1].fraction, "{:?} then {:?}", w[0], w[1]);
+        assert!(
+            w[0].iterations <= w[1].iterations,
+            "{:?} then {:?}",
+            w[0],
+            w[1]
+        );
+        assert!(
+            rank(&w[0].stage) <= rank(&w[1].stage),
+            "{:?} then {:?}",
+            w[0],
+            w[1]
+        );
+    }
+    let last = seen.last().unwrap();
+    assert_eq!(last.stage, RouteStage::Done);
+    assert_eq!(last.fraction, 1.0);
+    assert_eq!(last.iterations, report.iterations);
+    assert!((last.solid_fraction - p.solid_fraction()).abs() < 1e-12);
+    let jamming: Vec<&RouteStatus> = seen
+        .iter()
+        .filter(|s| matches!(s.stage, RouteStage::Jamming { .. }))
+        .collect();
+    let end = jamming.last().unwrap();
+    match end.stage {
+        RouteStage::Jamming {
+            stage,
+            stages,
+            target_pressure,
+            pressure,
+            residual,
+        } => {
+            assert_eq!(stage, stages);
+            assert!(stages >= 2, "{stages} stages");
+            assert!(residual <= 1.0, "residual {residual}");
+            assert_eq!(pressure, report.pressure);
+            assert_eq!(target_pressure, 0.5 * opts.jamming_pressure);
+            assert!((pressure / target_pressure - 1.0).abs() <= 0.5);
+        }
+        _ => unreachable!(),
+    }
+    assert_eq!(end.solid_fraction, report.compressed_solid_fraction);
+    assert_eq!(end.iterations, report.iterations);
+    assert!(seen
+        .iter()
+        .any(|s| matches!(s.stage, RouteStage::Compression { target_solid_fraction } if target_solid_fraction == 0.55)));
+    // The plain call gives the same packing, bit for bit.
+    let (q, report_q) = prepare(&opts, &|_| {}).unwrap();
+    assert_eq!(p.positions, q.positions);
+    assert_eq!(report, report_q);
 }
 
 /// Timing study: `cargo test --release --test routes_jam_fast -- --ignored --nocapture`.

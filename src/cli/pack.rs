@@ -8,7 +8,8 @@ use anisobond::packing::generate::{
     generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
 };
 use anisobond::packing::routes::{
-    prepare, PreparationRoute, RouteOptions, KUMAR_2016_HALF_WIDTH, KUMAR_2016_SOLID_FRACTION,
+    prepare_with_status, PreparationRoute, RouteOptions, RouteStage, RouteStatus,
+    KUMAR_2016_HALF_WIDTH, KUMAR_2016_SOLID_FRACTION,
 };
 use anisobond::packing::{self, Packing};
 use anisobond::{Error, Result};
@@ -143,6 +144,32 @@ fn polydispersity(h: f64) -> Polydispersity {
     }
 }
 
+/// One line for the progress bar: what the preparation is doing now, with units.
+fn status_line(s: &RouteStatus) -> String {
+    match s.stage {
+        RouteStage::Gas => format!("random gas at φ = {:.3}", s.solid_fraction),
+        RouteStage::Compression {
+            target_solid_fraction,
+        } => format!(
+            "compressing to φ = {target_solid_fraction:.3}: φ = {:.4}, {} FIRE iterations",
+            s.solid_fraction, s.iterations
+        ),
+        RouteStage::Jamming {
+            stage,
+            stages,
+            target_pressure,
+            pressure,
+            residual,
+        } => format!(
+            "jamming stage {stage}/{stages} at P_t = {target_pressure:.1e} Σ_N: P = \
+             {pressure:.2e} Σ_N, φ = {:.5}, residual {residual:.3} (done at ≤ 1), {} FIRE \
+             iterations",
+            s.solid_fraction, s.iterations
+        ),
+        RouteStage::Done => format!("done, φ = {:.4}", s.solid_fraction),
+    }
+}
+
 /// Run `pack`.
 pub fn run(a: PackArgs) -> Result<()> {
     let r = resolve(&a)?;
@@ -202,7 +229,19 @@ pub fn run(a: PackArgs) -> Result<()> {
                 seed: a.seed,
                 ..Default::default()
             };
-            let (p, rep) = prepare(&opts, &progress)?;
+            // The routes report what runs; their fraction can stand still for minutes in the
+            // last jamming stage, so the bar shows the live state instead of an ETA.
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "packing {prefix} [{bar:30}] {percent:>3}% {elapsed_precise} · {msg}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar.set_prefix(format!("{} × {route_name}", r.particles));
+            let (p, rep) = prepare_with_status(&opts, &|s: &RouteStatus| {
+                bar.set_position((s.fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+                bar.set_message(status_line(s));
+            })?;
             let mut d = format!(
                 "solid fraction before the affine step {:.4}",
                 rep.compressed_solid_fraction

@@ -517,6 +517,20 @@ pub(crate) struct PressureOutcome {
     pub converged: bool,
 }
 
+/// What [`fire_jam_at_pressure`] reports to its `on_check` callback (R̄ units, pressures
+/// in Σ_N).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct JamCheck {
+    /// FIRE iterations of this minimisation so far.
+    pub iterations: usize,
+    /// max(|P − P_t|/(tol·P_t), max|F|/(ratio·largest contact force)); done when ≤ 1.
+    pub residual: f64,
+    /// Virial pressure P.
+    pub pressure: f64,
+    /// Cell side L.
+    pub side: f64,
+}
+
 /// Per-chunk sums of one force pass of [`fire_jam_at_pressure`]; chunks have a fixed size
 /// and are summed in order, so the totals are the same bits on any thread count.
 #[derive(Clone, Copy, Debug, Default)]
@@ -607,15 +621,16 @@ fn forces_and_sums(
 /// update, forces with sums) with Verlet lists (skin 0.3 R̄) that stay valid under the
 /// affine rescaling (rebuilt when 2·max displacement + |ΔL/L|·cutoff exceeds the skin), so
 /// the result is the same bit for bit on any thread count.
-/// `on_check(iterations, residual)` is called at the start and every 25 iterations with
-/// the residual max(|P − P_t|/(tol·P_t), max|F|/(ratio·largest contact force)) (converged when
-/// ≤ 1). Positions are wrapped into the cell on return.
+/// `on_check` is called at the start, every 25 iterations and once at the end with the
+/// iteration count, the residual max(|P − P_t|/(tol·P_t), max|F|/(ratio·largest contact
+/// force)) (converged when ≤ 1), the pressure and the cell side. Positions are wrapped into
+/// the cell on return.
 pub(crate) fn fire_jam_at_pressure(
     x: &mut [Vec3],
     radii: &[f64],
     side: &mut f64,
     target: &PressureTarget,
-    on_check: &mut (dyn FnMut(usize, f64) + Send),
+    on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
     rayon::scope(|_| fire_jam_in_pool(x, radii, side, target, on_check))
 }
@@ -625,7 +640,7 @@ fn fire_jam_in_pool(
     radii: &[f64],
     side: &mut f64,
     target: &PressureTarget,
-    on_check: &mut (dyn FnMut(usize, f64) + Send),
+    on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
     let n = x.len();
     let r_max = radii.iter().copied().fold(0.0, f64::max);
@@ -684,8 +699,17 @@ fn fire_jam_in_pool(
             let r_f = sums.f_max2.sqrt() / (target.force_balance * sums.overlap_max);
             r_p.max(r_f)
         };
+        let check = JamCheck {
+            iterations,
+            residual,
+            pressure,
+            side: *side,
+        };
         if iterations % 25 == 0 {
-            on_check(iterations, residual);
+            on_check(&check);
+        }
+        if (residual <= 1.0 || iterations >= target.max_iterations) && iterations % 25 != 0 {
+            on_check(&check);
         }
         if residual <= 1.0 {
             converged = true;

@@ -149,6 +149,47 @@ pub struct RouteReport {
     pub iterations: usize,
 }
 
+/// What a preparation is doing, for progress displays ([`prepare_with_status`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RouteStage {
+    /// Placing the random gas (random sequential addition).
+    Gas,
+    /// Quasi-static compression of the gas (fixed-cell energy minimisations).
+    Compression {
+        /// Solid fraction where the compression stops (0.5 weakly jammed, 0.55 jammed).
+        target_solid_fraction: f64,
+    },
+    /// One stage of the pressure-controlled jamming (jammed route only).
+    Jamming {
+        /// Stage number, from 1.
+        stage: usize,
+        /// Number of stages.
+        stages: usize,
+        /// Imposed pressure P_t/Σ_N of this stage.
+        target_pressure: f64,
+        /// Virial pressure P/Σ_N now.
+        pressure: f64,
+        /// Stopping residual now: max(|P − P_t|/(½P_t), max|F_i|/(balance·largest contact
+        /// force)); the stage ends when it is ≤ 1.
+        residual: f64,
+    },
+    /// Finished (after the final affine step).
+    Done,
+}
+
+/// A progress report of [`prepare_with_status`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RouteStatus {
+    /// Fraction done in [0, 1], non-decreasing (the argument of [`prepare`]'s callback).
+    pub fraction: f64,
+    /// What is running.
+    pub stage: RouteStage,
+    /// FIRE iterations so far, over all minimisations.
+    pub iterations: usize,
+    /// Solid fraction of the cell now.
+    pub solid_fraction: f64,
+}
+
 fn check_options(o: &RouteOptions) -> Result<()> {
     let bad = |m: String| Err(Error::Invalid(format!("packing preparation: {m}")));
     if o.n_particles < 2 || o.n_particles > u32::MAX as usize {
@@ -310,6 +351,17 @@ pub fn prepare(
     opts: &RouteOptions,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<(Packing, RouteReport)> {
+    prepare_with_status(opts, &|s: &RouteStatus| progress(s.fraction))
+}
+
+/// [`prepare`], reporting what runs: the stage, the iterations so far and the solid fraction,
+/// and in the jamming stages the pressure and the stopping residual (every 25 FIRE
+/// iterations and at the end of each stage). The final jamming stage of a large packing
+/// can run for minutes with its fraction nearly still; this shows that it is working.
+pub fn prepare_with_status(
+    opts: &RouteOptions,
+    status: &(dyn Fn(&RouteStatus) + Sync),
+) -> Result<(Packing, RouteReport)> {
     check_options(opts)?;
     let n = opts.n_particles;
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
@@ -327,11 +379,19 @@ pub fn prepare(
         )));
     }
 
-    progress(0.0);
+    let report = |fraction: f64, stage: RouteStage, iterations: usize, solid_fraction: f64| {
+        status(&RouteStatus {
+            fraction,
+            stage,
+            iterations,
+            solid_fraction,
+        })
+    };
+    report(0.0, RouteStage::Gas, 0, opts.gas_solid_fraction);
     let mut side = side_of(opts.gas_solid_fraction);
     let gas = random_sequential_addition(&radii, side, &mut rng, 1_000_000)?;
     let (mut x, radii) = spatial_order(&gas, &radii, side);
-    progress(0.02);
+    report(0.02, RouteStage::Gas, 0, phi_of(side));
 
     let mut relaxations = 0usize;
     let mut iterations = 0usize;
@@ -381,7 +441,14 @@ pub fn prepare(
             relax(&mut x, side, free_target, &mut relaxations, &mut iterations)?;
             phi = next;
             let done = (phi / phi_start).ln() / (stop / phi_start).ln();
-            progress(0.02 + 0.5 * done.clamp(0.0, 1.0));
+            report(
+                0.02 + 0.5 * done.clamp(0.0, 1.0),
+                RouteStage::Compression {
+                    target_solid_fraction: stop,
+                },
+                iterations,
+                phi,
+            );
         }
         if opts.route == PreparationRoute::Jammed {
             // From the unjammed state at 0.55, minimise the enthalpy E + P_t·V with the cell
@@ -411,17 +478,28 @@ pub fn prepare(
                 };
                 let mut first = None;
                 let mut done = 0.0f64;
+                let before = iterations;
                 let stage_out: PressureOutcome =
-                    fire_jam_at_pressure(&mut x, &radii, &mut side, &target, &mut |_, r| {
+                    fire_jam_at_pressure(&mut x, &radii, &mut side, &target, &mut |c| {
                         // Fraction of the way (logarithmic) from the first residual to 1.
+                        let r = c.residual;
                         let r0 = *first.get_or_insert(r.max(10.0));
                         if r.is_finite() && r0.is_finite() {
                             let frac = ((r0 / r.max(1.0)).ln() / r0.ln()).clamp(0.0, 0.999);
-                            if frac > done {
-                                done = frac;
-                                progress(0.52 + 0.47 * (k as f64 + done) / n_stages as f64);
-                            }
+                            done = done.max(frac);
                         }
+                        report(
+                            0.52 + 0.47 * (k as f64 + done) / n_stages as f64,
+                            RouteStage::Jamming {
+                                stage: k + 1,
+                                stages: n_stages,
+                                target_pressure: p_t,
+                                pressure: c.pressure,
+                                residual: r,
+                            },
+                            before + c.iterations,
+                            phi_of(c.side),
+                        );
                     })?;
                 relaxations += 1;
                 iterations += stage_out.iterations;
@@ -451,7 +529,7 @@ pub fn prepare(
     let positions: Vec<Vec3> = x.iter().map(|p| *p * scale).collect();
     let radii: Vec<f64> = radii.iter().map(|r| r * scale).collect();
     let packing = Packing::new(positions, radii, Some(cell))?;
-    progress(1.0);
+    report(1.0, RouteStage::Done, iterations, phi_of(side));
     Ok((
         packing,
         RouteReport {
