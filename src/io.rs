@@ -5,6 +5,7 @@
 use crate::{Error, Result};
 use std::io::Write;
 use std::path::Path;
+use tempfile::NamedTempFile;
 
 /// Write `path` atomically: `fill` writes the content into a buffered temporary file in the
 /// same folder, which is flushed and renamed onto `path` only if `fill` succeeds (on any
@@ -19,7 +20,7 @@ where
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(path, e))?;
+    let tmp = output_temp_file(dir, ".tmp").map_err(|e| Error::io(path, e))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file());
         fill(&mut w)?;
@@ -27,6 +28,20 @@ where
     }
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// A temporary file in `dir` created as an ordinary file would be: on Unix with mode 0666
+/// less the umask (0644 under the usual umask), not tempfile's private 0600, so that an
+/// output renamed from it can be read by the group and others like any file the user writes.
+pub(crate) fn output_temp_file(dir: &Path, suffix: &str) -> std::io::Result<NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".anisobond").suffix(suffix);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(dir)
 }
 
 /// Refuse an output path whose directory does not exist, naming both (the CLI calls this

@@ -505,3 +505,47 @@ fn missing_output_directory_is_refused_up_front() {
         "bonds: {err}"
     );
 }
+
+/// Every file an anisobond command writes gets the permissions of an ordinary file created
+/// by the same user in the same folder (std's `File::create`: 0666 less the umask), not the
+/// private 0600 of the temporary file it is written through: packings, tables, scripts and
+/// plots are meant to be shared and run by others (a YADE or LIGGGHTS user, a cluster job).
+#[cfg(unix)]
+#[test]
+fn outputs_get_the_permissions_of_an_ordinary_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tmp();
+    let out = dir.path().join("demo");
+    let status = bin().arg("demo").arg("-o").arg(&out).output().unwrap();
+    assert!(status.status.success(), "{:?}", status);
+    let reference = dir.path().join("reference.txt");
+    std::fs::File::create(&reference).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let expected = mode(&reference);
+    let mut files = Vec::new();
+    let mut stack = vec![out.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                files.push(p);
+            }
+        }
+    }
+    assert!(files.len() >= 14, "demo wrote {} files", files.len());
+    assert!(files
+        .iter()
+        .any(|p| p.extension().is_some_and(|e| e == "png")));
+    for p in &files {
+        assert_eq!(
+            mode(p),
+            expected,
+            "{}: mode {:o}, an ordinary file here gets {:o}",
+            p.display(),
+            mode(p),
+            expected
+        );
+    }
+}

@@ -42,11 +42,7 @@ where
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let tmp = tempfile::Builder::new()
-        .prefix(".anisobond-plot")
-        .suffix(".png")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(path, e))?;
+    let tmp = crate::io::output_temp_file(dir, ".png").map_err(|e| Error::io(path, e))?;
     {
         let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
