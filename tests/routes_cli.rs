@@ -103,3 +103,87 @@ fn bad_fractions_fail_without_output() {
         );
     }
 }
+
+/// `--jam-balance`: a malformed rule or one given to another route fails with a message
+/// naming the option and writes nothing.
+#[test]
+fn bad_jam_balance_fails_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bad.txt");
+    for (args, expect) in [
+        (
+            vec!["--route", "jammed", "--jam-balance", "median:1e-3"],
+            "`mean:R` or `max:R`",
+        ),
+        (
+            vec!["--route", "jammed", "--jam-balance", "max:lots"],
+            "expected a ratio",
+        ),
+        (vec!["--route", "jammed", "--jam-balance", "0"], "(0, 0.1]"),
+        (
+            vec!["--route", "random", "--jam-balance", "1e-3"],
+            "jammed route only",
+        ),
+    ] {
+        let run = bin()
+            .arg("pack")
+            .args(&args)
+            .args(["--particles", "500", "--quiet", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{args:?} succeeded");
+        assert!(!out.exists(), "{args:?} wrote a file");
+        assert!(err.contains(expect), "{args:?}: {err}");
+        assert!(err.contains("jam-balance"), "{args:?}: {err}");
+    }
+}
+
+/// `--jam-balance max:1e-3` (Kumar's rule) and the default both reach their bound, and the
+/// summary line states the net forces the state was left with.
+#[test]
+fn jam_balance_rules_are_met_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    for (rule, mean_bound, largest_bound) in [(None, 2e-3, 1.0), (Some("max:1e-3"), 1.0, 1e-3)] {
+        let out = dir.path().join("jam.txt");
+        let mut cmd = bin();
+        cmd.args([
+            "pack",
+            "--route",
+            "jammed",
+            "--particles",
+            "600",
+            "--seed",
+            "3",
+        ]);
+        if let Some(rule) = rule {
+            cmd.args(["--jam-balance", rule]);
+        }
+        let run = cmd.args(["--quiet", "-o"]).arg(&out).output().unwrap();
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(run.status.success(), "{rule:?}: {stdout}");
+        // "net forces: mean 1.9e-3 × mean contact force, largest 4.0e-3 × largest …"
+        let number_after = |key: &str| -> f64 {
+            let at = stdout
+                .find(key)
+                .unwrap_or_else(|| panic!("{key} in {stdout}"))
+                + key.len();
+            stdout[at..]
+                .split_whitespace()
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        };
+        let mean = number_after("net forces: mean ");
+        let largest = number_after(", largest ");
+        // One printed decimal: allow its rounding.
+        assert!(mean <= mean_bound * 1.05, "{rule:?}: mean {mean}");
+        assert!(
+            largest <= largest_bound * 1.05,
+            "{rule:?}: largest {largest}"
+        );
+        assert!(mean > 0.0 && largest > 0.0, "{stdout}");
+    }
+}

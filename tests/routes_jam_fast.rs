@@ -5,8 +5,8 @@
 
 use anisobond::packing::neighbours::pairs_within;
 use anisobond::packing::routes::{
-    prepare, prepare_with_status, scale_to_solid_fraction, PreparationRoute, RouteOptions,
-    RouteReport, RouteStage, RouteStatus,
+    prepare, prepare_with_status, scale_to_solid_fraction, ForceBalance, PreparationRoute,
+    RouteOptions, RouteReport, RouteStage, RouteStatus,
 };
 use anisobond::packing::Packing;
 use anisobond::Vec3;
@@ -26,15 +26,27 @@ fn jammed_state(p: &Packing, report: &RouteReport) -> Packing {
     scale_to_solid_fraction(p, report.compressed_solid_fraction).unwrap()
 }
 
-/// Contacts per sphere, rattlers (< 4 contacts), virial pressure P = Σ δ|l| / 3V and the
-/// largest net force relative to the largest contact force (Kumar's N_max), all in R̄ units with unit contact
-/// stiffness (Kumar 2016 Eq. 2), recomputed from positions and radii.
-fn contact_mechanics(p: &Packing) -> (f64, usize, f64, f64) {
+/// The jammed state recomputed from positions and radii, in R̄ units with unit contact
+/// stiffness (Kumar 2016 Eq. 2).
+struct Mechanics {
+    /// Contacts per sphere.
+    z: f64,
+    /// Spheres with fewer than 4 contacts.
+    rattlers: usize,
+    /// Virial pressure Σ δ|l| / 3V.
+    pressure: f64,
+    /// Largest net force over the largest contact force (Kumar's N_max ratio).
+    largest_ratio: f64,
+    /// Mean net force over the mean contact force (YADE's unbalanced force).
+    mean_ratio: f64,
+}
+
+fn contact_mechanics(p: &Packing) -> Mechanics {
     let r = p.mean_radius();
     let pairs = pairs_within(p, |_, _| 0.0, 0.0).unwrap();
     let mut net = vec![Vec3::zeros(); p.len()];
     let mut degree = vec![0usize; p.len()];
-    let (mut virial, mut largest) = (0.0f64, 0.0f64);
+    let (mut virial, mut largest, mut total) = (0.0f64, 0.0f64, 0.0f64);
     for c in &pairs {
         let (i, j) = (c.i as usize, c.j as usize);
         let l = c.branch / r;
@@ -46,44 +58,95 @@ fn contact_mechanics(p: &Packing) -> (f64, usize, f64, f64) {
         degree[j] += 1;
         virial += overlap * l.norm();
         largest = largest.max(overlap);
+        total += overlap;
     }
     let volume = p.volume() / r.powi(3);
     let f_max = net.iter().map(|f| f.norm()).fold(0.0, f64::max);
-    (
-        2.0 * pairs.len() as f64 / p.len() as f64,
-        degree.iter().filter(|&&d| d < 4).count(),
-        virial / (3.0 * volume),
-        f_max / largest,
-    )
+    let f_mean = net.iter().map(|f| f.norm()).sum::<f64>() / p.len() as f64;
+    Mechanics {
+        z: 2.0 * pairs.len() as f64 / p.len() as f64,
+        rattlers: degree.iter().filter(|&&d| d < 4).count(),
+        pressure: virial / (3.0 * volume),
+        largest_ratio: f_max / largest,
+        mean_ratio: f_mean / (total / pairs.len() as f64),
+    }
 }
 
-/// Jamming point of Kumar 2016 Sec. 3 (D = 0.636, Z = 6.03, < 2 % rattlers) on a seed other
-/// than tests/routes_kumar.rs's,
-/// with the jammed state's pressure and force balance recomputed from the packing.
-#[test]
-fn jammed_state_is_force_balanced_at_low_pressure_near_kumar_jamming_point() {
-    let seed = 7;
-    let n = 2000;
-    let (p, report) = prepare(&options(PreparationRoute::Jammed, n, seed), &|_| {}).unwrap();
+/// Checks shared by both force-balance rules: Kumar 2016 Sec. 3's jamming point
+/// (D = 0.636, Z = 6.03, < 2 % rattlers) and the reported state against the recomputed one.
+fn check_jammed_state(p: &Packing, report: &RouteReport, seed: u64) -> Mechanics {
+    let n = p.len();
     let phi_j = report.compressed_solid_fraction;
     assert!((phi_j - 0.636).abs() <= 0.005, "seed {seed}: φ_J = {phi_j}");
-    let jammed = jammed_state(&p, &report);
+    let jammed = jammed_state(p, report);
     assert!((jammed.solid_fraction() - phi_j).abs() < 1e-12);
-    let (z, rattlers, pressure, balance) = contact_mechanics(&jammed);
-    assert!((z - report.compressed_coordination).abs() < 1e-9);
-    assert!((z - 6.0).abs() <= 0.15, "seed {seed}: Z = {z}");
+    let m = contact_mechanics(&jammed);
+    assert!((m.z - report.compressed_coordination).abs() < 1e-9);
+    assert!((m.z - 6.0).abs() <= 0.15, "seed {seed}: Z = {}", m.z);
     // Kumar: < 2 % at 5000 spheres; 2000 spheres fluctuate more (tests/routes_kumar.rs: 3 %).
-    assert!(rattlers < 3 * n / 100, "seed {seed}: {rattlers} rattlers");
     assert!(
-        (pressure / report.pressure - 1.0).abs() < 1e-6,
-        "virial {pressure:e} vs reported {:e}",
+        m.rattlers < 3 * n / 100,
+        "seed {seed}: {} rattlers",
+        m.rattlers
+    );
+    assert_eq!(m.rattlers, report.rattlers);
+    let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-6;
+    assert!(
+        close(m.pressure, report.pressure),
+        "virial {:e} vs reported {:e}",
+        m.pressure,
         report.pressure
     );
-    assert!(pressure > 0.0 && pressure <= 1e-4, "P = {pressure:e}");
-    // Kumar's stopping rule (Sec. 3): net forces below 10⁻³ N_max.
     assert!(
-        balance <= 1e-3 * (1.0 + 1e-6),
-        "seed {seed}: max|F|/N_max = {balance:e}"
+        m.pressure > 0.0 && m.pressure <= 1e-4,
+        "P = {:e}",
+        m.pressure
+    );
+    assert!(
+        close(m.mean_ratio, report.mean_unbalanced),
+        "{} vs {}",
+        m.mean_ratio,
+        report.mean_unbalanced
+    );
+    assert!(
+        close(m.largest_ratio, report.largest_unbalanced),
+        "{} vs {}",
+        m.largest_ratio,
+        report.largest_unbalanced
+    );
+    m
+}
+
+/// The default rule, YADE's unbalanced force ≤ 2·10⁻³ (mean net force over mean contact
+/// force), recomputed from the packing, on a seed other than tests/routes_kumar.rs's.
+#[test]
+fn jammed_state_is_balanced_on_average_at_low_pressure_near_kumar_jamming_point() {
+    let seed = 7;
+    let opts = options(PreparationRoute::Jammed, 2000, seed);
+    assert_eq!(opts.jamming_balance, ForceBalance::Mean(2e-3));
+    let (p, report) = prepare(&opts, &|_| {}).unwrap();
+    let m = check_jammed_state(&p, &report, seed);
+    assert!(
+        m.mean_ratio <= 2e-3 * (1.0 + 1e-6),
+        "seed {seed}: mean |F|/mean contact force = {:e}",
+        m.mean_ratio
+    );
+}
+
+/// Kumar's own stopping rule (Sec. 3: net forces below 10⁻³ N_max), over the whole packing.
+#[test]
+fn jammed_state_meets_kumar_largest_force_rule_on_request() {
+    let seed = 8;
+    let opts = RouteOptions {
+        jamming_balance: ForceBalance::Largest(1e-3),
+        ..options(PreparationRoute::Jammed, 2000, seed)
+    };
+    let (p, report) = prepare(&opts, &|_| {}).unwrap();
+    let m = check_jammed_state(&p, &report, seed);
+    assert!(
+        m.largest_ratio <= 1e-3 * (1.0 + 1e-6),
+        "seed {seed}: max|F|/N_max = {:e}",
+        m.largest_ratio
     );
 }
 

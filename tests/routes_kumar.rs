@@ -6,7 +6,7 @@ use anisobond::bonds::BondingRule;
 use anisobond::packing::generate::Polydispersity;
 use anisobond::packing::neighbours::pairs_within;
 use anisobond::packing::routes::{
-    prepare, scale_to_solid_fraction, PreparationRoute, RouteOptions, RouteReport,
+    prepare, scale_to_solid_fraction, ForceBalance, PreparationRoute, RouteOptions, RouteReport,
 };
 use anisobond::packing::Packing;
 use std::f64::consts::PI;
@@ -203,6 +203,14 @@ fn bad_options_are_refused() {
         },
         RouteOptions {
             jamming_pressure: f64::INFINITY,
+            ..base.clone()
+        },
+        RouteOptions {
+            jamming_balance: ForceBalance::Mean(0.0),
+            ..base.clone()
+        },
+        RouteOptions {
+            jamming_balance: ForceBalance::Largest(f64::NAN),
             ..base.clone()
         },
         RouteOptions {

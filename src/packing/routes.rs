@@ -13,9 +13,10 @@
 //! - [`PreparationRoute::Jammed`]: the same compression to 0.55, then Kumar's
 //!   pressure-controlled compression to the jamming point: FIRE on the enthalpy E + P·V with
 //!   the cell as a degree of freedom (O'Hern et al. 2003), first at P = 10⁻³ Σ_N, then
-//!   decompressed by decades to ½·`jamming_pressure`, force balanced to 10⁻³ of the largest
-//!   contact force (Kumar reports D = 0.636, Z = 6.03); then affine to the requested solid
-//!   fraction.
+//!   decompressed by decades to ½·`jamming_pressure` and force balanced there (by default
+//!   YADE's unbalanced force ≤ 2·10⁻³; Kumar's own 10⁻³ N_max rule on request, see
+//!   [`DEFAULT_JAMMING_BALANCE`]; Kumar reports D = 0.636, Z = 6.03); then affine to the
+//!   requested solid fraction.
 //!
 //! The last affine step scales positions and cell together (x → s·x, L → s·L), so a
 //! requested density above the current one creates overlaps: this is how Kumar builds
@@ -26,6 +27,7 @@
 //! from one `ChaCha8Rng` stream in a fixed order and the minimisation sums in a fixed
 //! order, so the packing is bit-identical on any number of threads.
 
+pub use super::generate::ForceBalance;
 use super::generate::{
     draw_radii, fire_jam_at_pressure, fire_relax, spatial_order, Polydispersity, PressureOutcome,
     PressureTarget, RelaxOutcome, RelaxTarget,
@@ -49,6 +51,22 @@ pub const KUMAR_2016_SOLID_FRACTION: f64 = 0.65;
 /// ½·`jamming_pressure`): high enough that the cell collapses quickly, low enough that the
 /// jamming point stays Kumar's (measured on 2000 spheres: 1e-3 → φ_J ≈ 0.636; 1e-2 → 0.643).
 const JAMMING_FIRST_STAGE_PRESSURE: f64 = 1e-3;
+
+/// Force balance of the stages above the target pressure: Kumar's form (largest net force
+/// against the largest contact force) at 10⁻². It lets the packing compact at the higher
+/// pressure, where that is fast; stopping these stages earlier (mean net force ≤ 10⁻² of
+/// the mean contact force) left the compaction to the last stage and made it 2–30× longer
+/// (measured at 30,000 spheres, seeds 1–3).
+const JAMMING_UPPER_STAGE_BALANCE: ForceBalance = ForceBalance::Largest(1e-2);
+
+/// Default force balance of the jammed state: YADE's unbalanced force (mean net force over
+/// mean contact force) ≤ 2·10⁻³. Near jamming the net forces decay slowly as a power of
+/// the iteration count, with avalanches on the way; at 30,000 spheres (seeds 1–6) this
+/// bound took 6.6–13k FIRE iterations, while Kumar's max_i |F_i| ≤ 10⁻³ N_max took 66k–193k
+/// and grows with N. The bonded network after the affine step is the same to within 0.03
+/// contacts per sphere at every κ of Kumar's Table 1 (measured against the strict bound,
+/// 10,000 spheres, seeds 1–3).
+pub const DEFAULT_JAMMING_BALANCE: ForceBalance = ForceBalance::Mean(2e-3);
 
 /// Largest gas solid fraction accepted: random sequential addition saturates near 0.38.
 pub const MAX_GAS_SOLID_FRACTION: f64 = 0.35;
@@ -102,6 +120,9 @@ pub struct RouteOptions {
     /// 10⁻⁷; any value ≪ 10⁻³ leaves the contact network the same to the affine window of
     /// the last step).
     pub jamming_pressure: f64,
+    /// Force balance of the jammed state ([`DEFAULT_JAMMING_BALANCE`];
+    /// `ForceBalance::Largest(1e-3)` is Kumar's rule over the whole packing).
+    pub jamming_balance: ForceBalance,
     /// Iteration limit of each energy minimisation.
     pub max_iterations: usize,
 }
@@ -122,6 +143,7 @@ impl Default for RouteOptions {
             weak_jamming_solid_fraction: KUMAR_2016_WEAK_JAMMING_SOLID_FRACTION,
             compression_step: 0.01,
             jamming_pressure: 1.0e-4,
+            jamming_balance: DEFAULT_JAMMING_BALANCE,
             max_iterations: 1_000_000,
         }
     }
@@ -141,6 +163,12 @@ pub struct RouteReport {
     pub rattlers: usize,
     /// Pressure P/Σ_N of that state (0 unless jammed).
     pub pressure: f64,
+    /// Mean net force over mean contact force in that state (YADE's unbalanced force; 0
+    /// unless jammed).
+    pub mean_unbalanced: f64,
+    /// Largest net force over largest contact force in that state (Kumar's 10⁻³ N_max
+    /// rule; 0 unless jammed).
+    pub largest_unbalanced: f64,
     /// Scale factor s of the final affine step x → s·x (s < 1 densifies).
     pub affine_scale: f64,
     /// Energy minimisations run.
@@ -241,6 +269,12 @@ fn check_options(o: &RouteOptions) -> Result<()> {
         return bad(format!(
             "jamming pressure P/Σ_N must be in (0, 1e-2], got {}",
             o.jamming_pressure
+        ));
+    }
+    let balance = o.jamming_balance.ratio();
+    if !balance.is_finite() || balance <= 0.0 || balance > 0.1 {
+        return bad(format!(
+            "jamming force balance ratio must be in (0, 0.1], got {balance}"
         ));
     }
     Ok(())
@@ -396,6 +430,8 @@ pub fn prepare_with_status(
     let mut relaxations = 0usize;
     let mut iterations = 0usize;
     let mut pressure = 0.0;
+    let mut mean_unbalanced = 0.0;
+    let mut largest_unbalanced = 0.0;
     let max_iterations = opts.max_iterations;
     let relax = |x: &mut Vec<Vec3>,
                  side: f64,
@@ -457,16 +493,16 @@ pub fn prepare_with_status(
             // P ≈ P_t = ½·`jamming_pressure`, just above the jamming point.
             // Stages: jam fast at a high pressure (the cell collapses in a few thousand
             // iterations), then decompress by decades to the target, loosely force balanced
-            // on the way; only the last stage is held to Kumar's 10⁻³ balance. Creeping to
-            // the jamming point at the final small pressure directly is ~10× slower.
+            // on the way; only the last stage is held to `jamming_balance`. Creeping to the
+            // jamming point at the final small pressure directly is ~10× slower.
             let final_pressure = 0.5 * opts.jamming_pressure;
-            let mut stages: Vec<(f64, f64)> = Vec::new();
+            let mut stages: Vec<(f64, ForceBalance)> = Vec::new();
             let mut p_stage: f64 = JAMMING_FIRST_STAGE_PRESSURE;
             while p_stage > 2.0 * final_pressure {
-                stages.push((p_stage, 1e-2));
+                stages.push((p_stage, JAMMING_UPPER_STAGE_BALANCE));
                 p_stage *= 0.1;
             }
-            stages.push((final_pressure, 1e-3));
+            stages.push((final_pressure, opts.jamming_balance));
             let n_stages = stages.len();
             let mut out = Default::default();
             for (k, &(p_t, balance)) in stages.iter().enumerate() {
@@ -515,6 +551,8 @@ pub fn prepare_with_status(
                 out = stage_out;
             }
             pressure = out.pressure;
+            mean_unbalanced = out.mean_unbalanced;
+            largest_unbalanced = out.largest_unbalanced;
         }
     }
 
@@ -538,6 +576,8 @@ pub fn prepare_with_status(
             compressed_coordination,
             rattlers,
             pressure,
+            mean_unbalanced,
+            largest_unbalanced,
             affine_scale,
             relaxations,
             iterations,
