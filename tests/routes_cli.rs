@@ -9,6 +9,20 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_anisobond"))
 }
 
+/// `pack ARGS --quiet -o out` that must fail without writing `out`; its standard error.
+fn failed_pack(args: &[&str], out: &Path) -> String {
+    let run = bin()
+        .arg("pack")
+        .args(args)
+        .args(["--quiet", "-o"])
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(!run.status.success(), "{args:?} succeeded");
+    assert!(!out.exists(), "{args:?} wrote a file");
+    String::from_utf8_lossy(&run.stderr).into_owned()
+}
+
 /// Σ(4/3)πR³ / V computed from the file's radii and cell.
 fn solid_fraction_of(path: &Path) -> (usize, f64) {
     let p = read_packing(path).unwrap();
@@ -87,16 +101,7 @@ fn bad_fractions_fail_without_output() {
         vec!["--void-fraction", "0.2"], // φ = 0.8: beyond jamming for the random route
         vec!["--route", "jammed", "--particles", "5"],
     ] {
-        let run = bin()
-            .arg("pack")
-            .args(&args)
-            .args(["--quiet", "-o"])
-            .arg(&out)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&run.stderr);
-        assert!(!run.status.success(), "{args:?} succeeded");
-        assert!(!out.exists(), "{args:?} wrote a file");
+        let err = failed_pack(&args, &out);
         assert!(
             err.contains("fraction") || err.contains("particles"),
             "{args:?}: {err}"
@@ -125,16 +130,7 @@ fn bad_jam_balance_fails_without_output() {
             "jammed route only",
         ),
     ] {
-        let run = bin()
-            .arg("pack")
-            .args(&args)
-            .args(["--particles", "500", "--quiet", "-o"])
-            .arg(&out)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&run.stderr);
-        assert!(!run.status.success(), "{args:?} succeeded");
-        assert!(!out.exists(), "{args:?} wrote a file");
+        let err = failed_pack(&[&args[..], &["--particles", "500"]].concat(), &out);
         assert!(err.contains(expect), "{args:?}: {err}");
         assert!(err.contains("jam-balance"), "{args:?}: {err}");
     }
