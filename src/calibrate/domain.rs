@@ -116,6 +116,17 @@ pub fn log_normalised(a: f64, min: f64, max: f64) -> f64 {
 }
 
 fn check(opts: &DomainOptions) -> Result<()> {
+    if opts.samples == 0 {
+        return Err(Error::Invalid(
+            "domain: the number of samples per model variant must be at least 1".into(),
+        ));
+    }
+    // Four variants, each with its drawn triples and its samples.
+    let per_sample = (std::mem::size_of::<DomainSample>() + 3 * 8) as f64;
+    crate::io::check_memory(
+        &format!("domain with {} samples per variant", opts.samples),
+        4.0 * opts.samples as f64 * per_sample,
+    )?;
     let ok = opts.a_min > 0.0
         && opts.a_max > opts.a_min
         && opts.a_max.is_finite()

@@ -10,6 +10,7 @@ use anisobond::calibrate::cubic::{
 use anisobond::calibrate::target::{CubicTarget, Target};
 use anisobond::homogenize::mean_field::equal_sphere_prefactor;
 use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::packing;
 use anisobond::schemes::cross_anisotropic::lattice_scaling;
@@ -208,6 +209,13 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             "--on relaxed needs the packing: --on relaxed PACKING".into(),
         ));
     }
+    let inputs: Vec<&Path> = packing_path
+        .iter()
+        .map(|p| p.as_path())
+        .chain([a.model.as_path()])
+        .collect();
+    let mut out = OutputSet::new(&inputs);
+    let staged = out.file(&a.output)?;
     let bonded = match &packing_path {
         Some(p) => {
             let pk = packing::io::read_packing(p)?;
@@ -301,7 +309,8 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     // Round trip: the written file must read back as the same model.
     let text = calibrated.to_toml_string();
     Model::from_toml_str(&text, &a.output.display().to_string())?;
-    anisobond::io::write_string_atomic(&a.output, &text)?;
+    anisobond::io::write_string_atomic(&staged, &text)?;
+    out.commit()?;
     println!("wrote {}", a.output.display());
     Ok(())
 }

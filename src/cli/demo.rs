@@ -2,11 +2,12 @@
 //! assembly (void fraction 0.40, radius range ΔR = R̄/6, gap cutoff 0.17 R̄) at a size that runs in
 //! seconds, her MRV cubic Zener>1 model, and the tensor by every method beside the paper's.
 
-use super::{bond_packing, method_name, output, tensor_of, LeverArmArg, Method, StaticArgs};
+use super::{bond_packing, method_name, output, report_of, LeverArmArg, Method, StaticArgs};
 use anisobond::bonds::table;
 use anisobond::export::{liggghts, vtk, yade};
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::homogenize::report::TensorReport;
+use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::packing::{self, generate};
 use anisobond::plot;
@@ -32,7 +33,9 @@ pub struct DemoArgs {
 const PAPER_EQ30_GPA: (f64, f64, f64) = (76.0, 30.6, 28.6);
 
 pub fn run(a: DemoArgs) -> Result<()> {
-    std::fs::create_dir_all(&a.output).map_err(|e| anisobond::Error::io(&a.output, e))?;
+    // Everything is written into a staging folder beside DIR and moved into place at the end.
+    let mut out = OutputSet::new(&[]);
+    let dir = out.dir(&a.output)?;
     let model = Model::truszkowska_mrv();
     let opts = generate::GenerateOptions {
         n_particles: a.particles,
@@ -58,12 +61,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
         b.bonds.len(),
         b.bonds.coordination(b.packing.len())
     );
-    let packing_path = a.output.join("packing.txt");
-    packing::io::write_packing(&packing_path, &b.packing)?;
-    let model_path = a.output.join("model.toml");
-    anisobond::io::write_string_atomic(&model_path, &model.to_toml_string())?;
-    let bonds_path = a.output.join("bonds.csv");
-    table::write_bond_table(&bonds_path, &b.bonds, &b.stiffness)?;
+    packing::io::write_packing(&dir.join("packing.txt"), &b.packing)?;
+    anisobond::io::write_string_atomic(&dir.join("model.toml"), &model.to_toml_string())?;
+    table::write_bond_table(&dir.join("bonds.csv"), &b.bonds, &b.stiffness)?;
 
     let (p11, p12, p44) = PAPER_EQ30_GPA;
     println!();
@@ -71,7 +71,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
         "{:<22} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8}",
         "method", "C11 [GPa]", "C12 [GPa]", "C44 [GPa]", "C12/C11", "C44/C11", "Zener"
     );
-    let mut written = vec![packing_path, model_path, bonds_path];
+    let mut written: Vec<String> = ["packing.txt", "model.toml", "bonds.csv"]
+        .map(String::from)
+        .into();
     let mut plots = Vec::new();
     let statics = StaticArgs {
         lever_arm: LeverArmArg::MidGap,
@@ -88,19 +90,17 @@ pub fn run(a: DemoArgs) -> Result<()> {
         Method::Dynamic,
     ] {
         let t = std::time::Instant::now();
-        let c = if m == Method::Dynamic {
+        let r = if m == Method::Dynamic {
             let args = super::run::IntegratorArgs::default();
             let result =
                 super::run::run_element_tests(&b.packing, &b.bonds, &b.stiffness, &args, true)?;
-            let png = a.output.join("element-tests.png");
-            super::run::plot_element_tests(&png, &result, &args)?;
-            plots.push(png);
-            result.c
+            super::run::plot_element_tests(&dir.join("element-tests.png"), &result, &args)?;
+            plots.push("element-tests.png");
+            TensorReport::new(method_name(m), result.c, Some((&b.packing, &b.bonds)))?
         } else {
-            tensor_of(&b, &model, m, &statics)?
+            report_of(&b, &model, m, &statics)?
         };
         let secs = t.elapsed().as_secs_f64();
-        let r = TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)));
         let cu = &r.cubic;
         println!(
             "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>9.4} {:>9.4} {:>8.4}   ({secs:.2} s)",
@@ -116,9 +116,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
             cu.c44 / cu.c11,
             cu.zener
         );
-        let path = a.output.join(format!("tensor-{}.json", r.method));
-        output::write_json(&path, &r)?;
-        written.push(path);
+        let name = format!("tensor-{}.json", r.method);
+        output::write_json(&dir.join(&name), &r)?;
+        written.push(name);
     }
     println!(
         "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>9.4} {:>9.4} {:>8.4}",
@@ -146,16 +146,15 @@ pub fn run(a: DemoArgs) -> Result<()> {
 
     // Files for the other tools and for looking at.
     let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
-    let plot_path = a.output.join("stiffness.png");
     plot::plot_stiffness_sections(
-        &plot_path,
+        &dir.join("stiffness.png"),
         scheme.as_ref(),
         &plot::Section::cubic_planes(&anisobond::Mat3::identity()),
         "cubic zener-above-1 (Truszkowska MRV): normal (blue) and shear (gold) magnitudes",
         "Pa/m",
     )?;
-    written.push(plot_path);
-    written.append(&mut plots);
+    written.push("stiffness.png".into());
+    written.extend(plots.into_iter().map(String::from));
     let strain = Voigt6::new(-1e-4, 0.0, 0.0, 0.0, 0.0, 0.0);
     let state = vtk::strained_state(
         &b.packing,
@@ -164,37 +163,38 @@ pub fn run(a: DemoArgs) -> Result<()> {
         &strain,
         &RelaxedOptions::default(),
     )?;
-    let particles = a.output.join("particles.vtu");
-    let bonds_vtu = a.output.join("bonds.vtu");
-    vtk::write_particles_vtu(&particles, &b.packing, Some(&state))?;
-    vtk::write_bonds_vtu(&bonds_vtu, &b.packing, &b.bonds, &b.stiffness, Some(&state))?;
-    written.push(particles);
-    written.push(bonds_vtu);
-    let yade_dir = a.output.join("yade");
+    vtk::write_particles_vtu(&dir.join("particles.vtu"), &b.packing, Some(&state))?;
+    vtk::write_bonds_vtu(
+        &dir.join("bonds.vtu"),
+        &b.packing,
+        &b.bonds,
+        &b.stiffness,
+        Some(&state),
+    )?;
+    written.extend(["particles.vtu", "bonds.vtu"].map(String::from));
     yade::write_yade_export(
-        &yade_dir,
+        &dir.join("yade"),
         &b.packing,
         &b.bonds,
         &b.stiffness,
         Some(&model),
         &yade::YadeRunOptions::default(),
     )?;
-    written.push(yade_dir.join("run.py"));
-    let liggghts_dir = a.output.join("liggghts");
+    written.push("yade/run.py".into());
     liggghts::export_liggghts(
-        &liggghts_dir,
+        &dir.join("liggghts"),
         &b.packing,
         &b.bonds,
         &b.stiffness,
         &liggghts::DeckOptions::default(),
     )?;
-    written.push(liggghts_dir.join("anisobond.in"));
-    written.push(liggghts_dir.join("harmonic.in"));
+    written.extend(["liggghts/anisobond.in", "liggghts/harmonic.in"].map(String::from));
+    out.commit()?;
 
     println!();
     println!("wrote:");
     for w in written {
-        println!("  {}", w.display());
+        println!("  {}", a.output.join(w).display());
     }
     println!("(particles.vtu/bonds.vtu: the relaxed state under a uniaxial strain e11 = −1e-4, for ParaView;");
     println!(" yade/run.py runs with `yade -n -x`; liggghts/: see its run.sh and cpp/README.md)");

@@ -8,11 +8,12 @@ use anisobond::calibrate::domain::{
 };
 use anisobond::calibrate::target::Target;
 use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::packing;
 use anisobond::schemes::cubic::CubicModel;
 use anisobond::{Error, Result};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Options of `anisobond domain`.
@@ -92,7 +93,14 @@ fn summary(samples: &[DomainSample]) {
 
 /// Run `anisobond domain`.
 pub fn run(a: DomainArgs) -> Result<()> {
-    std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    let inputs: Vec<&Path> =
+        a.on.get(1)
+            .map(Path::new)
+            .into_iter()
+            .chain(a.model.as_deref())
+            .collect();
+    let mut out = OutputSet::new(&inputs);
+    let dir = out.dir(&a.output)?;
     let relaxed = match a.on.first().map(String::as_str) {
         Some("mean-field") | None => false,
         Some("relaxed") => true,
@@ -157,15 +165,16 @@ pub fn run(a: DomainArgs) -> Result<()> {
         samples.len()
     );
     summary(&samples);
-    let csv = a.output.join("domain.csv");
-    write_csv(&csv, &samples)?;
-    let png = a.output.join("domain.png");
+    write_csv(&dir.join("domain.csv"), &samples)?;
     anisobond::plot::plot_domain(
-        &png,
+        &dir.join("domain.png"),
         &samples,
         &format!("Accessible cubic domain ({label})"),
         target,
     )?;
-    println!("wrote {}\nwrote {}", csv.display(), png.display());
+    out.commit()?;
+    for name in ["domain.csv", "domain.png"] {
+        println!("wrote {}", a.output.join(name).display());
+    }
     Ok(())
 }

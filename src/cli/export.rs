@@ -1,6 +1,7 @@
 //! `anisobond export yade PACKING --model MODEL -o DIR`: a directory YADE runs as it is.
 
 use anisobond::export::yade::{self, YadeRunOptions};
+use anisobond::io::OutputSet;
 use anisobond::Result;
 use clap::Subcommand;
 use std::path::PathBuf;
@@ -84,12 +85,16 @@ fn export_yade(a: YadeArgs) -> Result<()> {
         safety: a.safety,
         paths: yade::parse_paths(&a.paths)?,
     };
-    let out = yade::export_yade(&a.packing, &a.model, &a.output, &opts)?;
+    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = set.dir(&a.output)?;
+    let written = yade::export_yade(&a.packing, &a.model, &staged, &opts)?;
+    set.commit()?;
+    let out = yade::YadeExport::in_dir(&a.output);
     println!(
         "wrote {}: {} particles, {} bonds (packing.txt, bonds.csv, model.toml, anisobond_yade.py, run.py)",
         out.dir.display(),
-        out.n_particles,
-        out.n_bonds
+        written.n_particles,
+        written.n_bonds
     );
     println!(
         "run:   yade -n -x {}   → {} and {}",

@@ -2,11 +2,9 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::bonds::{self, rules};
 use anisobond::export::liggghts::{export_liggghts, DeckOptions};
-use anisobond::model::Model;
-use anisobond::packing;
-use anisobond::{Error, Result};
+use anisobond::io::OutputSet;
+use anisobond::Result;
 use std::path::PathBuf;
 
 /// Write LIGGGHTS input decks for a packing + model.
@@ -51,16 +49,13 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(a: Args) -> Result<()> {
-    let model = Model::from_path(&a.model)?;
-    let packing = packing::io::read_packing(&a.packing)?;
-    let bonds = rules::build_bonds(&packing, model.bonding)?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &bonds)))?;
-    let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = set.dir(&a.output)?;
+    let super::Bonded {
+        packing,
+        bonds,
+        stiffness: k,
+    } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let opts = DeckOptions {
         density: a.density,
         strain: a.strain,
@@ -72,7 +67,8 @@ pub fn run(a: Args) -> Result<()> {
         affine: a.affine,
         shear: !a.no_shear,
     };
-    let s = export_liggghts(&a.output, &packing, &bonds, &k, &opts)?;
+    let s = export_liggghts(&staged, &packing, &bonds, &k, &opts)?;
+    set.commit()?;
     println!(
         "wrote LIGGGHTS decks for {} particles, {} bonds (longest {:.4e} m) into {}:",
         packing.len(),
@@ -81,7 +77,8 @@ pub fn run(a: Args) -> Result<()> {
         a.output.display()
     );
     for f in &s.files {
-        println!("  {}", f.display());
+        let name = f.strip_prefix(&staged).unwrap_or(f);
+        println!("  {}", a.output.join(name).display());
     }
     println!(
         "time step {:.4e} s, damping rate {:.4e} 1/s; load cases end at steps {:?}",

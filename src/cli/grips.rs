@@ -7,6 +7,7 @@ use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
+use anisobond::io::OutputSet;
 use anisobond::Result;
 use std::path::PathBuf;
 
@@ -42,7 +43,8 @@ pub struct GripsArgs {
 
 /// `anisobond grips`.
 pub fn grips(a: GripsArgs) -> Result<()> {
-    super::output::check_output_dirs(&[a.output.as_deref()])?;
+    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = out.optional_file(a.output.as_deref())?;
     let super::Bonded {
         packing,
         bonds: b,
@@ -104,8 +106,8 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         100.0 * t.heterogeneity.normal,
         100.0 * t.heterogeneity.shear
     );
-    let report = TensorReport::new("gripped", t.c, Some((&packing, &b)));
-    if let Some(out) = &a.output {
+    let report = TensorReport::new("gripped", t.c, Some((&packing, &b)))?;
+    if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the Table 3 heterogeneity and the block's set-up.
         let mut json = serde_json::to_value(&report)
             .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
@@ -122,10 +124,13 @@ pub fn grips(a: GripsArgs) -> Result<()> {
             "mean_particles_per_sphere": t.mean_members,
             "time_step_s": t.time_step,
         });
+        super::output::check_json_numbers(&json["heterogeneity"], "heterogeneity")?;
+        super::output::check_json_numbers(&json["grips"], "grips")?;
         let text = serde_json::to_string_pretty(&json)
             .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
-        anisobond::io::write_string_atomic(out, &(text + "\n"))?;
-        println!("wrote {}", out.display());
+        anisobond::io::write_string_atomic(path, &(text + "\n"))?;
+        out.commit()?;
+        println!("wrote {}", shown.display());
     }
     super::output::print_report(&report);
     Ok(())

@@ -22,6 +22,7 @@ use anisobond::homogenize::relaxed::{
     DEFAULT_PARTICLES_PER_AGGREGATE,
 };
 use anisobond::homogenize::{laf, mean_field, report::TensorReport, voigt};
+use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::packing::{self, Packing};
 use anisobond::tensor::Stiffness6;
@@ -243,16 +244,25 @@ pub(crate) fn load_bonded(packing_path: &Path, model: &Model, model_path: &Path)
     let packing = packing::io::read_packing(packing_path)?;
     bond_packing(packing, model).map_err(|e| match e {
         Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
+        Error::Invalid(m) if m.starts_with(NO_BONDS) => Error::Invalid(format!(
+            "{}: {m} (bonding rule of {})",
+            packing_path.display(),
+            model_path.display()
+        )),
         other => other,
     })
 }
 
+/// Start of the refusal of a packing that the bonding rule leaves without bonds.
+const NO_BONDS: &str = "the bonding rule produces no bonds";
+
 fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
     let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
     if bonds.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
+        return Err(Error::Invalid(format!(
+            "{NO_BONDS} between the {} particles: increase the gap/factor value",
+            packing.len()
+        )));
     }
     let scheme = model.build_scheme(Some((&packing, &bonds)))?;
     let stiffness = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
@@ -264,9 +274,12 @@ fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
 }
 
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
+    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = out.file(&a.output)?;
     let model = Model::from_path(&a.model)?;
     let b = load_bonded(&a.packing, &model, &a.model)?;
-    table::write_bond_table(&a.output, &b.bonds, &b.stiffness)?;
+    table::write_bond_table(&staged, &b.bonds, &b.stiffness)?;
+    out.commit()?;
     println!(
         "wrote {}: {} bonds between {} particles (coordination Z = {:.3})",
         a.output.display(),
@@ -290,9 +303,25 @@ fn packing_prefactor(b: &Bonded, model: &Model) -> f64 {
     s / b.packing.volume()
 }
 
+/// A computed tensor and, for the relaxed method, the relative residual the solver reached.
+struct Computed {
+    c: Stiffness6,
+    residual: Option<f64>,
+}
+
+/// Compute the tensor of a bonded packing by `method`, as a checked report (finite, positive
+/// definite: see `check_result_tensor`).
+fn report_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<TensorReport> {
+    let Computed { c, residual } = tensor_of(b, model, method, st)?;
+    let mut r = TensorReport::new(method_name(method), c, Some((&b.packing, &b.bonds)))?;
+    r.relative_residual = residual;
+    Ok(r)
+}
+
 /// Compute the tensor of a bonded packing by `method`.
-fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<Stiffness6> {
-    Ok(match method {
+fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<Computed> {
+    let mut residual = None;
+    let c = match method {
         Method::Relaxed => {
             let opts = RelaxedOptions {
                 lever_arm: st.lever_arm.into(),
@@ -312,6 +341,7 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
                 r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
             );
+            residual = Some(r.relative_residual);
             r.c
         }
         Method::Laf => {
@@ -353,7 +383,8 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
                 mean_field::DEFAULT_ORDER,
             )
         }
-    })
+    };
+    Ok(Computed { c, residual })
 }
 
 fn method_name(m: Method) -> &'static str {
@@ -366,54 +397,87 @@ fn method_name(m: Method) -> &'static str {
     }
 }
 
-fn tensor_cmd(a: TensorArgs) -> Result<()> {
-    output::check_output_dirs(&[a.output.as_deref()])?;
-    let model = Model::from_path(&a.model)?;
-    let report = match (&a.packing, a.method) {
-        (Some(p), m) => {
-            let b = load_bonded(p, &model, &a.model)?;
-            let c = match m {
-                Method::Dynamic => {
-                    run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &a.integrator)?
-                }
-                _ => tensor_of(&b, &model, m, &a.statics)?,
-            };
-            TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))
+/// Name the input files in a refusal of the computed tensor (overflow, no load, mechanism),
+/// whose cause lies in them.
+fn blame_inputs(e: Error, inputs: &[&Path]) -> Error {
+    match e {
+        Error::Invalid(m) if m.starts_with("the ") => {
+            let names: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
+            Error::Invalid(format!("{}: {m}", names.join(", ")))
         }
-        (None, Method::MeanField) => {
-            if model.needs_packing() {
-                return Err(Error::Invalid(
+        other => other,
+    }
+}
+
+fn tensor_cmd(a: TensorArgs) -> Result<()> {
+    let inputs: Vec<&Path> = a
+        .packing
+        .iter()
+        .map(|p| p.as_path())
+        .chain([a.model.as_path()])
+        .collect();
+    let mut out = OutputSet::new(&inputs);
+    let staged = out.optional_file(a.output.as_deref())?;
+    let model = Model::from_path(&a.model)?;
+    let report = (|| -> Result<TensorReport> {
+        Ok(match (&a.packing, a.method) {
+            (Some(p), m) => {
+                let b = load_bonded(p, &model, &a.model)?;
+                match m {
+                    Method::Dynamic => {
+                        let c =
+                            run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &a.integrator)?;
+                        TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))?
+                    }
+                    _ => report_of(&b, &model, m, &a.statics)?,
+                }
+            }
+            (None, Method::MeanField) => {
+                if model.needs_packing() {
+                    return Err(Error::Invalid(
                     "the cross-anisotropic scheme needs a PACKING (its lattice scaling μ comes from the bonds)".into(),
                 ));
-            }
-            for (name, v) in [
-                ("--coordination", a.coordination),
-                ("--solid-fraction", a.solid_fraction),
-                ("--radius", a.radius),
-            ] {
-                if !v.is_finite() || v <= 0.0 {
-                    return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
                 }
+                for (name, v) in [
+                    ("--coordination", a.coordination),
+                    ("--solid-fraction", a.solid_fraction),
+                    ("--radius", a.radius),
+                ] {
+                    if !v.is_finite() || v <= 0.0 {
+                        return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
+                    }
+                }
+                let scheme = model.build_scheme(None)?;
+                let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
+                let pre =
+                    mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius)
+                        * g;
+                if !(pre.is_finite() && pre > 0.0) {
+                    return Err(Error::Invalid(format!(
+                    "--coordination {:e}, --solid-fraction {}, --radius {:e} m give a bond-density \
+                     prefactor Z·φ·g/(V_p) of {pre:e}, out of the range of double precision \
+                     (radius in metres, e.g. 1e-3)",
+                    a.coordination, a.solid_fraction, a.radius
+                )));
+                }
+                let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+                let mut r = TensorReport::new("mean-field", c, None)?;
+                r.coordination = Some(a.coordination);
+                r
             }
-            let scheme = model.build_scheme(None)?;
-            let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
-            let pre =
-                mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius) * g;
-            let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
-            let mut r = TensorReport::new("mean-field", c, None);
-            r.coordination = Some(a.coordination);
-            r
-        }
-        (None, m) => {
-            return Err(Error::Invalid(format!(
-                "--method {} works on the actual bonds: give a PACKING",
-                method_name(m)
-            )))
-        }
-    };
-    if let Some(out) = &a.output {
-        output::write_json(out, &report)?;
+            (None, m) => {
+                return Err(Error::Invalid(format!(
+                    "--method {} works on the actual bonds: give a PACKING",
+                    method_name(m)
+                )))
+            }
+        })
+    })();
+    let report = report.map_err(|e| blame_inputs(e, &inputs))?;
+    if let Some(path) = &staged {
+        output::write_json(path, &report)?;
     }
+    out.commit()?;
     if a.json {
         println!("{}", report.to_json());
     } else {

@@ -6,13 +6,22 @@ use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 
-/// Refuse, before any long computation, output paths whose directory does not exist (the
-/// files themselves are written atomically at the end; this only saves the user the run).
-pub fn check_output_dirs(paths: &[Option<&Path>]) -> Result<()> {
-    paths
-        .iter()
-        .flatten()
-        .try_for_each(|p| anisobond::io::check_output_directory(p))
+/// Refuse a JSON value holding a `null` (what serde writes for NaN or infinity) anywhere
+/// below it; `at` names the value in the message.
+pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
+    match v {
+        serde_json::Value::Null => Err(anisobond::Error::Invalid(format!(
+            "`{at}` is not a finite number (overflow or a degenerate result); nothing was written"
+        ))),
+        serde_json::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, x)| check_json_numbers(x, &format!("{at}[{i}]"))),
+        serde_json::Value::Object(m) => m
+            .iter()
+            .try_for_each(|(k, x)| check_json_numbers(x, &format!("{at}.{k}"))),
+        _ => Ok(()),
+    }
 }
 
 /// Write a JSON report atomically.

@@ -4,6 +4,7 @@
 
 use anisobond::bonds::rules::build_bonds;
 use anisobond::bonds::BondingRule;
+use anisobond::io::OutputSet;
 use anisobond::packing::generate::{
     generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
 };
@@ -206,8 +207,9 @@ pub fn run(a: PackArgs) -> Result<()> {
             "--jam-balance applies to the jammed route only (add --route jammed)".into(),
         ));
     }
-    // The jammed route can take minutes: refuse a missing output directory first.
-    super::output::check_output_dirs(&[Some(a.output.as_path())])?;
+    // The jammed route can take minutes: check the output path first.
+    let mut out = OutputSet::new(&[]);
+    let staged = out.file(&a.output)?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {
@@ -301,7 +303,8 @@ pub fn run(a: PackArgs) -> Result<()> {
     };
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    packing::io::write_packing(&a.output, &p)?;
+    packing::io::write_packing(&staged, &p)?;
+    out.commit()?;
     let l = p.cell.map(|c| c.lengths).unwrap_or_default();
     println!(
         "wrote {} ({} particles, solid fraction {:.4} = void fraction {:.4}, cell {:.4e} × \

@@ -4,6 +4,7 @@
 use super::bond_packing;
 use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
 use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::packing;
 use anisobond::plot::{plot_stiffness_sections, Section};
@@ -11,7 +12,7 @@ use anisobond::schemes::Convention;
 use anisobond::tensor::Voigt6;
 use anisobond::{Error, Result};
 use clap::Subcommand;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// What to plot.
 #[derive(Subcommand)]
@@ -50,8 +51,15 @@ fn unit(c: Convention) -> &'static str {
 }
 
 fn stiffness(a: StiffnessArgs) -> Result<()> {
+    let inputs: Vec<&Path> = a
+        .packing
+        .iter()
+        .map(|p| p.as_path())
+        .chain([a.model.as_path()])
+        .collect();
+    let mut out = OutputSet::new(&inputs);
+    let dir = out.dir(&a.output)?;
     let model = Model::from_path(&a.model)?;
-    std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
     let bonded = match &a.packing {
         Some(p) => Some(bond_packing(packing::io::read_packing(p)?, &model)?),
         None => None,
@@ -62,9 +70,8 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
         SchemeSpec::CrossAnisotropic { axis, .. } => Section::axis_planes(axis),
         SchemeSpec::Isotropic { .. } => Section::cubic_planes(&anisobond::Mat3::identity()),
     };
-    let path = a.output.join("stiffness.png");
     plot_stiffness_sections(
-        &path,
+        &dir.join("stiffness.png"),
         scheme.as_ref(),
         &sections,
         &format!(
@@ -73,7 +80,8 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
         ),
         unit(model.geometry.convention),
     )?;
-    println!("wrote {}", path.display());
+    out.commit()?;
+    println!("wrote {}", a.output.join("stiffness.png").display());
     Ok(())
 }
 
@@ -124,7 +132,8 @@ fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
 pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
     let model = Model::from_path(&a.model)?;
     let strain = parse_strain(&a.strain)?;
-    std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let dir = out.dir(&a.output)?;
     let b = bond_packing(packing::io::read_packing(&a.packing)?, &model)?;
     let state = match (strain, b.packing.cell.is_some()) {
         (Some(e), true) => Some(strained_state(
@@ -140,10 +149,16 @@ pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
         }
         (None, _) => None,
     };
-    let particles = a.output.join("particles.vtu");
-    let bonds = a.output.join("bonds.vtu");
-    write_particles_vtu(&particles, &b.packing, state.as_ref())?;
-    write_bonds_vtu(&bonds, &b.packing, &b.bonds, &b.stiffness, state.as_ref())?;
+    write_particles_vtu(&dir.join("particles.vtu"), &b.packing, state.as_ref())?;
+    write_bonds_vtu(
+        &dir.join("bonds.vtu"),
+        &b.packing,
+        &b.bonds,
+        &b.stiffness,
+        state.as_ref(),
+    )?;
+    out.commit()?;
+    let (particles, bonds) = (a.output.join("particles.vtu"), a.output.join("bonds.vtu"));
     if let Some(s) = &state {
         println!(
             "state at quasi-static equilibrium under strain {:?} (relaxed fluctuations)",

@@ -6,6 +6,7 @@ use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::element::{self, ElementTestOptions};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
+use anisobond::io::OutputSet;
 use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
 use anisobond::Result;
@@ -203,11 +204,10 @@ pub fn dynamic_tensor(
 
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
-    super::output::check_output_dirs(&[
-        a.output.as_deref(),
-        a.history.as_deref(),
-        a.plot.as_deref(),
-    ])?;
+    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let staged_output = out.optional_file(a.output.as_deref())?;
+    let staged_history = out.optional_file(a.history.as_deref())?;
+    let staged_plot = out.optional_file(a.plot.as_deref())?;
     let super::Bonded {
         packing,
         bonds: b,
@@ -215,11 +215,11 @@ pub fn run(a: RunArgs) -> Result<()> {
     } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let want_history = a.history.is_some() || a.plot.is_some();
     let result = run_element_tests(&packing, &b, &k, &a.integrator, want_history)?;
-    if let Some(path) = &a.plot {
+    let report = TensorReport::new("dynamic", result.c, Some((&packing, &b)))?;
+    if let Some(path) = &staged_plot {
         plot_element_tests(path, &result, &a.integrator)?;
-        println!("wrote {}", path.display());
     }
-    if let Some(path) = &a.history {
+    if let Some(path) = &staged_history {
         let mut csv = String::from(
             "path,step,time_s,e11,e22,e33,e23,e13,e12,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa,kinetic_J,elastic_J,local_damping_J,viscous_damping_J,unbalanced_force\n",
         );
@@ -230,6 +230,18 @@ pub fn run(a: RunArgs) -> Result<()> {
                     let _ = write!(csv, ",{v:e}");
                 }
                 let e = &h.energies;
+                let values = [e.kinetic, e.elastic, e.local_damping, e.viscous_damping];
+                let mut all = h.strain.iter().chain(h.stress.iter()).chain(values.iter());
+                if !h.time.is_finite()
+                    || !h.unbalanced_force.is_finite()
+                    || all.any(|v| !v.is_finite())
+                {
+                    return Err(anisobond::Error::Invalid(format!(
+                        "element test path {}: non-finite state at step {} (the run diverged); \
+                         nothing was written",
+                        p.path, h.step
+                    )));
+                }
                 let _ = writeln!(
                     csv,
                     ",{:e},{:e},{:e},{:e},{:e}",
@@ -238,15 +250,16 @@ pub fn run(a: RunArgs) -> Result<()> {
             }
         }
         anisobond::io::write_string_atomic(path, &csv)?;
-        println!("wrote {}", path.display());
     }
-    let report = TensorReport::new("dynamic", result.c, Some((&packing, &b)));
+    if let Some(path) = &staged_output {
+        anisobond::io::write_string_atomic(path, &(report.to_json() + "\n"))?;
+    }
+    out.commit()?;
     for p in &result.paths {
         println!("path {}: relaxed in {} steps", p.path, p.steps);
     }
-    if let Some(out) = &a.output {
-        anisobond::io::write_string_atomic(out, &(report.to_json() + "\n"))?;
-        println!("wrote {}", out.display());
+    for path in [&a.plot, &a.history, &a.output].into_iter().flatten() {
+        println!("wrote {}", path.display());
     }
     println!("stiffness tensor, method dynamic (GPa; Voigt order 11 22 33 23 13 12):");
     for row in &report.c {

@@ -9,6 +9,7 @@ use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
 use anisobond::dem::{build_law, DemOptions, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
+use anisobond::io::OutputSet;
 use anisobond::Result;
 use std::path::PathBuf;
 
@@ -64,7 +65,8 @@ pub struct StressTestArgs {
 
 /// `anisobond stress-test`.
 pub fn run(a: StressTestArgs) -> Result<()> {
-    super::output::check_output_dirs(&[a.output.as_deref()])?;
+    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = out.optional_file(a.output.as_deref())?;
     let super::Bonded {
         packing,
         bonds: b,
@@ -143,13 +145,13 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         "transversely isotropic about z (MPa): C11 {c11:.3}, C33 {c33:.3}, C13 {c13:.3}, \
          C12 {c12:.3}, C44 {c44:.3}"
     );
-    let report = TensorReport::new("stress-controlled", r.c_orthotropic, Some((&packing, &b)));
+    let report = TensorReport::new("stress-controlled", r.c_orthotropic, Some((&packing, &b)))?;
     println!("orthotropic stiffness (GPa; Voigt order 11 22 33 23 13 12):");
     for row in &report.c {
         let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
         println!("  {}", cells.join(" "));
     }
-    if let Some(out) = &a.output {
+    if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the measured engineering constants (Pa, dimensionless).
         let mut json = serde_json::to_value(&report)
             .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
@@ -179,10 +181,12 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             "transverse_isotropic_z": {"C11": r.cross_anisotropic[0], "C12": r.cross_anisotropic[1],
                 "C13": r.cross_anisotropic[2], "C33": r.cross_anisotropic[3], "C44": r.cross_anisotropic[4]},
         });
+        super::output::check_json_numbers(&json["engineering"], "engineering")?;
         let text = serde_json::to_string_pretty(&json)
             .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
-        anisobond::io::write_string_atomic(out, &(text + "\n"))?;
-        println!("wrote {}", out.display());
+        anisobond::io::write_string_atomic(path, &(text + "\n"))?;
+        out.commit()?;
+        println!("wrote {}", shown.display());
     }
     Ok(())
 }

@@ -2,10 +2,9 @@
 //! anisobond, the differences as a table with units, files in DIR, and a non-zero exit
 //! status when any agreement is outside its tolerance.
 
-use anisobond::bonds::{self, BondSet, BondStiffness};
 use anisobond::export::yade::{parse_paths, PATH_LABELS};
+use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing::{self, Packing};
 use anisobond::tensor::Stiffness6;
 use anisobond::validate::yade::{
     validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
@@ -93,19 +92,6 @@ pub fn run(a: ValidateArgs) -> Result<()> {
     }
 }
 
-fn bonded(packing_path: &Path, model: &Model) -> Result<(Packing, BondSet, BondStiffness)> {
-    let packing = packing::io::read_packing(packing_path)?;
-    let b = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if b.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &b)))?;
-    let k = bonds::assign_stiffness(&packing, &b, scheme.as_ref(), &model.geometry)?;
-    Ok((packing, b, k))
-}
-
 fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
     let opts = YadeValidationOptions {
         strain: a.strain,
@@ -124,13 +110,16 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
         },
     };
     opts.validate()?;
+    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let staged = set.optional_dir(a.output.as_deref())?;
     let model = Model::from_path(&a.model)?;
-    let (packing, b, k) = bonded(&a.packing, &model).map_err(|e| match e {
-        Error::Model(m) => Error::Model(format!("{}: {m}", a.model.display())),
-        other => other,
-    })?;
+    let super::Bonded {
+        packing,
+        bonds: b,
+        stiffness: k,
+    } = super::load_bonded(&a.packing, &model, &a.model)?;
     let temp;
-    let dir = match &a.output {
+    let dir = match &staged {
         Some(d) => d.clone(),
         None => {
             temp = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
@@ -146,13 +135,16 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
         eprintln!("  {m}")
     })?;
     print_table(&v);
-    if a.output.is_some() {
-        for p in write_validation_files(&dir, &v)? {
-            println!("wrote {}", p.display());
+    if let Some(out) = &a.output {
+        let written = write_validation_files(&dir, &v)?;
+        set.commit()?;
+        let shown = |p: &Path| out.join(p.strip_prefix(&dir).unwrap_or(p));
+        for p in written {
+            println!("wrote {}", shown(&p).display());
         }
         println!(
             "YADE export and YADE's own outputs: {}",
-            v.yade_dir.display()
+            shown(&v.yade_dir).display()
         );
     }
     let failures = v.failures();

@@ -3,10 +3,8 @@
 //! integrator and the relaxed solver; a table of the differences, files in DIR, and a
 //! non-zero exit naming the checks outside tolerance.
 
-use anisobond::bonds::{self, rules};
 use anisobond::export::liggghts::which;
-use anisobond::model::Model;
-use anisobond::packing;
+use anisobond::io::OutputSet;
 use anisobond::validate::liggghts::{
     checks_table, validate_liggghts, write_report, Programs, ValidateOptions,
 };
@@ -25,9 +23,10 @@ pub struct Args {
     /// driver_stress_strain.png, and one sub-directory per LIGGGHTS run.
     #[arg(short, long, default_value = "validate-liggghts")]
     pub output: PathBuf,
-    /// MPI processes of the parallel driver runs (1 skips the MPI checks; LIGGGHTS 3.8 runs
-    /// only the normal load cases under MPI).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
+    /// MPI processes of the parallel driver runs: 1 (skips the MPI checks) or 2 (the rank
+    /// count the MPI checks are established for; LIGGGHTS 3.8 runs only the normal load cases
+    /// under MPI).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=2))]
     pub np: u32,
     /// The driver program; default: `anisobond-liggghts` on PATH, else `target/cpp/` next
     /// to this executable (built by `make -C cpp`).
@@ -81,20 +80,17 @@ fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {
 
 /// Run the command.
 pub fn run(a: Args) -> Result<()> {
+    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let dir = set.dir(&a.output)?;
     let programs = Programs {
         driver: find_driver(a.driver)?,
         liggghts: a.liggghts,
     };
-    let model = Model::from_path(&a.model)?;
-    let packing = packing::io::read_packing(&a.packing)?;
-    let bonds = rules::build_bonds(&packing, model.bonding)?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid(
-            "the bonding rule produced no bonds: increase the gap/factor value".into(),
-        ));
-    }
-    let scheme = model.build_scheme(Some((&packing, &bonds)))?;
-    let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+    let super::Bonded {
+        packing,
+        bonds,
+        stiffness: k,
+    } = super::load_model_and_bonded(&a.packing, &a.model)?;
     let opts = ValidateOptions {
         density: a.density,
         timestep: a.timestep,
@@ -106,21 +102,16 @@ pub fn run(a: Args) -> Result<()> {
         ..ValidateOptions::default()
     };
     println!(
-        "validate liggghts: {} particles, {} bonds; runs in {}",
+        "validate liggghts: {} particles, {} bonds; runs in {} (moved to {} when done)",
         packing.len(),
         bonds.len(),
+        dir.display(),
         a.output.display()
     );
     let t0 = std::time::Instant::now();
-    let report = validate_liggghts(
-        &a.output,
-        &packing,
-        &bonds,
-        &k,
-        &programs,
-        &opts,
-        &mut |stage| println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64()),
-    )?;
+    let report = validate_liggghts(&dir, &packing, &bonds, &k, &programs, &opts, &mut |stage| {
+        println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64())
+    })?;
     println!("time step {:.4e} s\n", report.timestep);
     println!("relative differences (dimensionless; stresses in Pa, tensors in Pa):");
     print!("{}", checks_table(&report));
@@ -146,10 +137,14 @@ pub fn run(a: Args) -> Result<()> {
     for t in &report.timings {
         println!("  {:<40} {:8.2} s", t.stage, t.seconds);
     }
-    let files = write_report(&a.output, &report)?;
+    let files = write_report(&dir, &report)?;
+    set.commit()?;
     println!();
     for f in &files {
-        println!("wrote {}", f.display());
+        println!(
+            "wrote {}",
+            a.output.join(f.strip_prefix(&dir).unwrap_or(f)).display()
+        );
     }
     let failed = report.failed();
     if failed.is_empty() {

@@ -68,6 +68,38 @@ fn shell_interior(
     inner
 }
 
+/// Refuse a shell order whose shells cover most of the network: the LAF estimate then costs
+/// one dense solve of nearly the whole network per particle (hours where the relaxed solve,
+/// which it approximates, takes seconds), and its dense matrices may not fit in memory.
+/// The shell size is measured on up to 32 evenly spaced centres.
+fn check_shell_size(m: usize, shell: usize, start: &[usize], nb: &[u32]) -> Result<()> {
+    if m == 0 {
+        return Ok(());
+    }
+    let samples = m.min(32);
+    let mut mark = vec![u32::MAX; m];
+    let sizes: Vec<usize> = (0..samples)
+        .map(|i| {
+            let c = i * m / samples;
+            shell_interior(c, shell, start, nb, &mut mark, i as u32).len()
+        })
+        .collect();
+    let mean = sizes.iter().sum::<usize>() as f64 / samples as f64;
+    if m >= 8 && mean > 0.5 * m as f64 {
+        return Err(Error::Invalid(format!(
+            "--shell {shell}: the shells hold {mean:.0} of the {m} load-bearing particles on \
+             average, most of the network, so the local estimate is no longer local and costs a \
+             dense solve of nearly the whole network per particle; use a smaller shell or \
+             --method relaxed (exact)"
+        )));
+    }
+    let largest = sizes.iter().copied().max().unwrap_or(0) as f64;
+    let threads = rayon::current_num_threads() as f64;
+    // Stiffness and right-hand side (6n × 6n and 6n × 6) plus the factor, per thread.
+    let bytes = threads * 2.0 * (6.0 * largest) * (6.0 * largest + 6.0) * 8.0;
+    crate::io::check_memory(&format!("LAF with --shell {shell}"), bytes)
+}
+
 /// LAF estimates with shells of order `shell` (1 ≤ m ≤ 6).
 pub fn laf_tensor(
     packing: &Packing,
@@ -93,6 +125,7 @@ pub fn laf_tensor(
         inc[fill[b as usize]] = e as u32;
         fill[b as usize] += 1;
     }
+    check_shell_size(m, shell, &start, &nb)?;
     const CH: usize = 256;
     let chunks: Vec<(Vec<Block6>, usize)> = (0..m.div_ceil(CH))
         .into_par_iter()

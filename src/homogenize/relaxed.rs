@@ -82,6 +82,31 @@ pub struct RelaxedOptions {
     pub rotations: bool,
 }
 
+/// The range of [`RelaxedOptions::tolerance`]: above 1e-2 the tensor's error (~ its square)
+/// exceeds 1e-4 and CG may stop before its first iteration, returning the affine tensor as
+/// "relaxed"; below 1e-12 double-precision round-off in K·u of a large network stalls CG.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-2);
+
+impl RelaxedOptions {
+    /// Refuse a tolerance outside [`TOLERANCE_RANGE`] (or NaN) and a zero iteration limit.
+    pub fn validate(&self) -> Result<()> {
+        let (lo, hi) = TOLERANCE_RANGE;
+        if !(self.tolerance >= lo && self.tolerance <= hi) {
+            return Err(Error::Invalid(format!(
+                "relaxed solver tolerance (--cg-tolerance) must be in [{lo:e}, {hi:e}] (relative \
+                 residual of the equilibrium equations), got {}",
+                self.tolerance
+            )));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::Invalid(
+                "relaxed solver iteration limit must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for RelaxedOptions {
     fn default() -> Self {
         RelaxedOptions {
@@ -309,6 +334,7 @@ pub fn relaxed_solve(
     opts: &RelaxedOptions,
     initial: Option<&[Block6]>,
 ) -> Result<RelaxedSolution> {
+    opts.validate()?;
     let mut net = Network::build(packing, bonds, k, opts.lever_arm, opts.rotations)?;
     let c_affine = net.h / net.volume;
     let m = net.n_active;

@@ -3,7 +3,8 @@
 
 use crate::bonds::BondSet;
 use crate::packing::Packing;
-use crate::tensor::{CubicProjection, Stiffness6, TransverseProjection};
+use crate::tensor::{kelvin_moduli, CubicProjection, Stiffness6, TransverseProjection};
+use crate::{Error, Result};
 use serde::Serialize;
 
 /// Cubic projection: C11, C12, C44 (Pa), Zener ratio and the paper's uncertainty.
@@ -83,14 +84,52 @@ pub struct TensorReport {
     pub cubic: CubicSummary,
     /// Transversely isotropic projection about z.
     pub transverse: TransverseSummary,
+    /// Relaxed method: the relative residual ‖f − K u‖/‖f‖ the linear solver reached (the
+    /// tensor's relative error is of the order of its square).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relative_residual: Option<f64>,
+}
+
+/// Refuse a computed tensor that is not a result: non-finite entries (an overflow in the
+/// inputs' magnitudes), all zeros (a network that carries no load), or not positive definite
+/// (a mechanism: some strain costs no energy). `method` names the tensor in the message.
+pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
+    if c.iter().any(|x| !x.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "the {method} tensor overflows (non-finite entries): the magnitudes of the inputs \
+             (model stiffness, radii, cell) are out of the range of double precision; scale them \
+             to SI values"
+        )));
+    }
+    let scale = c.amax();
+    if scale == 0.0 {
+        return Err(Error::Invalid(format!(
+            "the bond network carries no load: the {method} tensor is zero (no bond with a \
+             non-zero spring takes part in the load-bearing network)"
+        )));
+    }
+    let sym = 0.5 * (c + c.transpose());
+    let moduli = kelvin_moduli(&sym);
+    let (smallest, largest) = (moduli[0], moduli[5]);
+    let positive = smallest > 1e-9 * largest;
+    if !positive {
+        return Err(Error::Invalid(format!(
+            "the bond network is a mechanism: the {method} tensor is not positive definite \
+             (smallest Kelvin modulus {smallest:.4e} Pa, largest {largest:.4e} Pa), so some \
+             homogeneous strain costs no energy; too few bonds or springs that are zero"
+        )));
+    }
+    Ok(())
 }
 
 impl TensorReport {
-    /// Build the report of tensor `c` computed by `method`, with the packing's counts.
-    pub fn new(method: &str, c: Stiffness6, bonded: Option<(&Packing, &BondSet)>) -> Self {
+    /// Build the report of tensor `c` computed by `method`, with the packing's counts; a
+    /// tensor that is not a result (see [`check_result_tensor`]) is refused.
+    pub fn new(method: &str, c: Stiffness6, bonded: Option<(&Packing, &BondSet)>) -> Result<Self> {
+        check_result_tensor(&c, method)?;
         let cp = CubicProjection::from_stiffness(&c);
         let tp = TransverseProjection::from_stiffness(&c);
-        TensorReport {
+        let report = TensorReport {
             method: method.to_string(),
             units: "Pa".to_string(),
             c: [0, 1, 2, 3, 4, 5].map(|i| [0, 1, 2, 3, 4, 5].map(|j| c[(i, j)])),
@@ -117,7 +156,46 @@ impl TensorReport {
                 c12: tp.c12,
                 c44: tp.c44,
             },
+            relative_residual: None,
+        };
+        report.check_finite()?;
+        Ok(report)
+    }
+
+    /// Refuse a report holding a non-finite number anywhere (JSON would write `null`).
+    pub fn check_finite(&self) -> Result<()> {
+        let (cu, un, tr) = (&self.cubic, &self.cubic.uncertainty, &self.transverse);
+        let named = [
+            ("coordination", self.coordination.unwrap_or(0.0)),
+            ("volume", self.volume.unwrap_or(0.0)),
+            ("relative_residual", self.relative_residual.unwrap_or(0.0)),
+            ("cubic.C11", cu.c11),
+            ("cubic.C12", cu.c12),
+            ("cubic.C44", cu.c44),
+            ("cubic.zener", cu.zener),
+            ("cubic.uncertainty.C11", un.c11),
+            ("cubic.uncertainty.C12", un.c12),
+            ("cubic.uncertainty.C44", un.c44),
+            ("cubic.uncertainty.zero_terms", un.zero_terms),
+            ("transverse.C11", tr.c11),
+            ("transverse.C33", tr.c33),
+            ("transverse.C13", tr.c13),
+            ("transverse.C12", tr.c12),
+            ("transverse.C44", tr.c44),
+        ];
+        let entries = (0..36).map(|k| ("C", self.c[k / 6][k % 6]));
+        if let Some((name, v)) = named
+            .into_iter()
+            .chain(entries)
+            .find(|(_, v)| !v.is_finite())
+        {
+            return Err(Error::Invalid(format!(
+                "the {} tensor report has a non-finite {name} ({v}): an overflow in the \
+                 inputs' magnitudes (model stiffness, radii, cell) or a degenerate packing",
+                self.method
+            )));
         }
+        Ok(())
     }
 
     /// The 6×6 tensor as a matrix.
@@ -125,7 +203,7 @@ impl TensorReport {
         Stiffness6::from_fn(|i, j| self.c[i][j])
     }
 
-    /// Pretty JSON.
+    /// Pretty JSON (the report holds only finite numbers: see [`TensorReport::check_finite`]).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }

@@ -95,12 +95,6 @@ pub fn generate(opts: &GenerateOptions, progress: &(dyn Fn(f64) + Sync)) -> Resu
 
 fn check_options(opts: &GenerateOptions) -> Result<()> {
     let bad = |m: String| Err(Error::Invalid(format!("packing generation: {m}")));
-    if opts.n_particles < 2 || opts.n_particles > u32::MAX as usize {
-        return bad(format!(
-            "n_particles must be at least 2, got {}",
-            opts.n_particles
-        ));
-    }
     let phi = opts.solid_fraction;
     if !phi.is_finite() || phi <= 0.0 || phi > 0.64 {
         return bad(format!(
@@ -126,6 +120,12 @@ fn check_options(opts: &GenerateOptions) -> Result<()> {
             opts.max_overlap
         ));
     }
+    super::check_packing_size(
+        opts.n_particles,
+        opts.mean_radius,
+        opts.solid_fraction,
+        "packing generation",
+    )?;
     Ok(())
 }
 

@@ -222,12 +222,6 @@ pub struct RouteStatus {
 
 fn check_options(o: &RouteOptions) -> Result<()> {
     let bad = |m: String| Err(Error::Invalid(format!("packing preparation: {m}")));
-    if o.n_particles < 2 || o.n_particles > u32::MAX as usize {
-        return bad(format!(
-            "n_particles must be at least 2, got {}",
-            o.n_particles
-        ));
-    }
     if !o.solid_fraction.is_finite() || o.solid_fraction <= 0.0 || o.solid_fraction > 0.9 {
         return bad(format!(
             "solid fraction must be in (0, 0.9], got {}",
@@ -279,6 +273,12 @@ fn check_options(o: &RouteOptions) -> Result<()> {
             "jamming force balance ratio must be in (0, 0.1], got {balance}"
         ));
     }
+    super::check_packing_size(
+        o.n_particles,
+        o.mean_radius,
+        o.solid_fraction,
+        "packing preparation",
+    )?;
     Ok(())
 }
 

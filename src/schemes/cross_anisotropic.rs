@@ -174,7 +174,7 @@ impl CrossAnisotropic {
                 "cross-anisotropic lattice scaling mu must be finite and > 0, got {mu}"
             )));
         }
-        let target = format!("C11={c11}, C33={c33}, C13={c13}, C12={c12} Pa");
+        let target = format!("C11={c11:e}, C33={c33:e}, C13={c13:e}, C12={c12:e} Pa");
         let c44 = dependent_c44(c11, c33, c13);
         let c66 = 0.5 * (c11 - c12);
         // Eigen-conditions of a transversely isotropic stiffness: C66 > 0 (i.e. C11 > C12),
@@ -182,21 +182,21 @@ impl CrossAnisotropic {
         let checks = [
             (
                 c66 > 0.0,
-                format!("C66 = (C11 - C12)/2 = {c66} must be > 0"),
+                format!("C66 = (C11 - C12)/2 = {c66:e} must be > 0"),
             ),
             (
                 c44 > 0.0,
-                format!("the dependent C44 = (C11 + C33)/4 - C13/2 = {c44} must be > 0"),
+                format!("the dependent C44 = (C11 + C33)/4 - C13/2 = {c44:e} must be > 0"),
             ),
             (
                 c11 + c12 > 0.0,
-                format!("C11 + C12 = {} must be > 0", c11 + c12),
+                format!("C11 + C12 = {:e} must be > 0", c11 + c12),
             ),
-            (c33 > 0.0, format!("C33 = {c33} must be > 0")),
+            (c33 > 0.0, format!("C33 = {c33:e} must be > 0")),
             (
                 (c11 + c12) * c33 > 2.0 * c13 * c13,
                 format!(
-                    "(C11 + C12)·C33 = {} must exceed 2·C13² = {}",
+                    "(C11 + C12)·C33 = {:e} must exceed 2·C13² = {:e}",
                     (c11 + c12) * c33,
                     2.0 * c13 * c13
                 ),
@@ -219,7 +219,7 @@ impl CrossAnisotropic {
             if v < 0.0 {
                 return Err(Error::Model(format!(
                     "cross-anisotropic target {target} needs a negative lattice modulus \
-                     {name} = {v} Pa (E' = A^-1 C / mu, mu = {mu}); the elliptic scheme cannot \
+                     {name} = {v:e} Pa (E' = A^-1 C / mu, mu = {mu:e}); the elliptic scheme cannot \
                      reproduce it"
                 )));
             }
