@@ -402,3 +402,71 @@ fn validate_liggghts_refuses_an_unsupported_rank_count_before_running() {
     assert!(err.contains("--np") && err.contains("1..=2"), "{err}");
     assert!(!out.exists());
 }
+
+#[test]
+fn options_that_make_a_meaningless_result_are_refused() {
+    let t = tmp();
+    let d = t.path();
+    let p = packing(d, 120);
+    let m = write(d, "model.toml", CUBIC_MODEL);
+    let out = d.join("out");
+    // Explicit time steps above the critical one: the exported run would blow up.
+    for (target, opt) in [("yade", "--dt"), ("liggghts", "--timestep")] {
+        let err = fails(
+            bin()
+                .args(["export", target])
+                .arg(&p)
+                .arg("--model")
+                .arg(&m)
+                .args([opt, "1e-3", "-o"])
+                .arg(&out),
+        );
+        assert!(
+            err.contains(opt) && err.contains("critical time step"),
+            "{target}: {err}"
+        );
+        assert!(!out.exists());
+    }
+    // A strain far outside the small-strain state VTK shows (1e308 wrote NaN and inf).
+    let err = fails(
+        bin()
+            .args(["export", "vtk"])
+            .arg(&p)
+            .arg("--model")
+            .arg(&m)
+            .args(["--strain", "1e308,0,0,0,0,0", "-o"])
+            .arg(&out),
+    );
+    assert!(err.contains("--strain") && err.contains("0.1"), "{err}");
+    assert!(!out.exists());
+    // An infinite calibration tolerance accepted the starting point as "calibrated".
+    let cal = d.join("cal.toml");
+    for tol in ["inf", "0", "1"] {
+        let err = fails(
+            bin()
+                .args(["calibrate", "--model"])
+                .arg(&m)
+                .args([
+                    "--target",
+                    "C12/C11=0.3,C44/C11=0.43",
+                    "--tolerance",
+                    tol,
+                    "--on",
+                    "relaxed",
+                ])
+                .arg(&p)
+                .arg("-o")
+                .arg(&cal),
+        );
+        assert!(err.contains("--tolerance"), "{tol}: {err}");
+        assert!(!cal.exists());
+    }
+    // A solid fraction of 1e-300 gave a subnormal "tensor".
+    let err = fails(bin().arg("tensor").arg("--model").arg(&m).args([
+        "--method",
+        "mean-field",
+        "--solid-fraction",
+        "1e-300",
+    ]));
+    assert!(err.contains("--solid-fraction"), "{err}");
+}

@@ -93,6 +93,7 @@ pub fn calibrate_cross_relaxed(
     target: [f64; 4],
     opts: &CrossOptions,
 ) -> Result<CrossCalibration> {
+    super::check_iteration_options(opts.tolerance, opts.max_iterations)?;
     let SchemeSpec::CrossAnisotropic { axis, .. } = base.scheme else {
         return Err(Error::Invalid(
             "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\" (it gives the axis and geometry)".into(),

@@ -819,6 +819,7 @@ pub fn calibrate_cubic_relaxed(
     default_normal: f64,
     opts: &CubicOptions,
 ) -> Result<CubicCalibration> {
+    super::check_iteration_options(opts.tolerance, opts.max_iterations)?;
     check_magnitude("the default normal magnitude", default_normal)?;
     let kernel = CubicKernel::default();
     let model = opts.model.unwrap_or(model_for_zener(target.zener()));

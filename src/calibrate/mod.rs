@@ -24,3 +24,21 @@ pub use cubic::{
     CubicParameters, Family,
 };
 pub use target::{CubicTarget, Target};
+
+/// Refuse iteration settings of a relaxed calibration that would make "calibrated" meaningless:
+/// the relative tolerance on the calibrated constants must be in (0, 0.1] (an infinite one
+/// accepts the starting point), and at least one relaxed solve must be allowed.
+pub fn check_iteration_options(tolerance: f64, max_iterations: usize) -> crate::Result<()> {
+    if !(tolerance > 0.0 && tolerance <= 0.1) {
+        return Err(crate::Error::Invalid(format!(
+            "calibration --tolerance must be in (0, 0.1] (relative error of the calibrated \
+             constants), got {tolerance}"
+        )));
+    }
+    if max_iterations == 0 {
+        return Err(crate::Error::Invalid(
+            "calibration --max-iterations must be at least 1".into(),
+        ));
+    }
+    Ok(())
+}

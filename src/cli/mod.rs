@@ -447,6 +447,12 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
                         return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
                     }
                 }
+                if !(a.solid_fraction >= 0.01 && a.solid_fraction < 1.0) {
+                    return Err(Error::Invalid(format!(
+                        "--solid-fraction must be in [0.01, 1) (a bonded sphere assembly), got {}",
+                        a.solid_fraction
+                    )));
+                }
                 let scheme = model.build_scheme(None)?;
                 let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
                 let pre =

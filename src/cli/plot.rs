@@ -117,8 +117,11 @@ fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
         e[k] = p
             .parse()
             .map_err(|_| Error::Invalid(format!("--strain: `{p}` is not a number")))?;
-        if !e[k].is_finite() {
-            return Err(Error::Invalid(format!("--strain: `{p}` is not finite")));
+        if !(e[k].abs() <= 0.1) {
+            return Err(Error::Invalid(format!(
+                "--strain: `{p}` is not a small strain: the state is linear (small-strain), \
+                 expected |ε| ≤ 0.1"
+            )));
         }
     }
     Ok(if e.iter().all(|&x| x == 0.0) {

@@ -271,6 +271,9 @@ pub fn export_liggghts(
             l.min()
         )));
     }
+    if let Some(dt) = o.timestep {
+        super::check_time_step(dt, packing, bonds, k, o.density, "--timestep")?;
+    }
     let dt = match o.timestep {
         Some(dt) => dt,
         None => stable_timestep(packing, bonds, k, o.density)?,

@@ -11,3 +11,55 @@
 pub mod liggghts;
 pub mod vtk;
 pub mod yade;
+
+use crate::bonds::{BondSet, BondStiffness};
+use crate::packing::Packing;
+use crate::{Error, Result};
+
+/// An upper bound of the critical time step of the explicit (central-difference) integration
+/// of a bonded packing: 2/ω_max ≤ 2/√(q_i) for every particle i, where q_i =
+/// Σ_b (k_n + 2k_s)/(3m_i) is the Rayleigh quotient of M⁻¹K for a unit translation of i
+/// averaged over three axes (a lower bound of ω_max²). A time step above it is certainly
+/// unstable, whatever the rotational springs add.
+pub fn critical_time_step_upper_bound(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+) -> f64 {
+    let mut ksum = vec![0.0; packing.len()];
+    for b in 0..bonds.len() {
+        for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
+            ksum[p] += k.kn[b] + 2.0 * k.ks[b];
+        }
+    }
+    ksum.iter()
+        .zip(&packing.radii)
+        .filter(|(&kp, _)| kp > 0.0)
+        .map(|(&kp, &r)| {
+            let m = density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+            2.0 * (3.0 * m / kp).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Refuse an explicit time step `dt` (s) above [`critical_time_step_upper_bound`]: the
+/// exported run would blow up in the other program after the user has started it.
+pub fn check_time_step(
+    dt: f64,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+    option: &str,
+) -> Result<()> {
+    let bound = critical_time_step_upper_bound(packing, bonds, k, density);
+    if dt > bound {
+        return Err(Error::Invalid(format!(
+            "{option} {dt:e} s exceeds the critical time step of this bonded packing (at most \
+             {bound:.4e} s at density {density} kg/m³): the explicit integration would be \
+             unstable; leave {option} out to use a stable step"
+        )));
+    }
+    Ok(())
+}

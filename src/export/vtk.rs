@@ -151,6 +151,24 @@ struct Grid {
 }
 
 fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
+    // Rust writes non-finite f64 as `NaN`, `inf`, `-inf`: refuse them rather than give
+    // ParaView a field it would plot as if it were data.
+    let arrays = grid.point_data.iter().chain(&grid.cell_data);
+    for (name, _, text) in arrays {
+        if text.split(' ').any(|t| t == "NaN" || t.ends_with("inf")) {
+            return Err(Error::Invalid(format!(
+                "{}: the field `{name}` has non-finite values (an overflow: check the strain \
+                 and the model's magnitudes); nothing was written",
+                path.display()
+            )));
+        }
+    }
+    if grid.points.iter().any(|p| !p.iter().all(|x| x.is_finite())) {
+        return Err(Error::Invalid(format!(
+            "{}: non-finite particle positions; nothing was written",
+            path.display()
+        )));
+    }
     crate::io::write_atomic(path, |out| {
         let mut w = Writer::new_with_indent(out, b' ', 1);
         let xml = (|| -> XmlResult {

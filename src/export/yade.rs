@@ -305,6 +305,9 @@ pub fn write_yade_export(
 ) -> Result<YadeExport> {
     check_exportable(packing, bonds, springs)?;
     opts.validate()?;
+    if let Some(dt) = opts.time_step {
+        super::check_time_step(dt, packing, bonds, springs, opts.density, "--dt")?;
+    }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     packing::io::write_packing(&dir.join(files::PACKING), packing)?;
     table::write_bond_table(&dir.join(files::BONDS), bonds, springs)?;

@@ -102,6 +102,12 @@ pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
         )));
     }
     let scale = c.amax();
+    if scale > 0.0 && scale < 1e-280 {
+        return Err(Error::Invalid(format!(
+            "the {method} tensor underflows (largest entry {scale:e} Pa): the magnitudes of \
+             the inputs are out of the range of double precision; scale them to SI values"
+        )));
+    }
     if scale == 0.0 {
         return Err(Error::Invalid(format!(
             "the bond network carries no load: the {method} tensor is zero (no bond with a \

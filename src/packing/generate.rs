@@ -176,11 +176,12 @@ fn ordered_sum(n: usize, g: impl Fn(usize) -> f64 + Sync) -> f64 {
     parts.iter().sum()
 }
 
+/// Largest entry, and 0 for no entry or no positive one (overlaps: none means 0, not −∞).
 fn max_of(v: &[f64]) -> f64 {
     v.par_iter()
         .with_min_len(4096)
         .copied()
-        .reduce(|| f64::NEG_INFINITY, f64::max)
+        .reduce(|| 0.0, f64::max)
 }
 
 /// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
