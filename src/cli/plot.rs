@@ -117,7 +117,8 @@ fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
         e[k] = p
             .parse()
             .map_err(|_| Error::Invalid(format!("--strain: `{p}` is not a number")))?;
-        if !(e[k].abs() <= 0.1) {
+        let small = e[k].abs() <= 0.1;
+        if !small {
             return Err(Error::Invalid(format!(
                 "--strain: `{p}` is not a small strain: the state is linear (small-strain), \
                  expected |ε| ≤ 0.1"
