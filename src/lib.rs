@@ -22,9 +22,11 @@ pub mod homogenize;
 pub mod io;
 pub mod model;
 pub mod packing;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod schemes;
 pub mod tensor;
+#[cfg(feature = "engines")]
 pub mod validate;
 
 pub use error::{Error, Result};

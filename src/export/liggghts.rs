@@ -22,6 +22,7 @@ use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+#[cfg(feature = "engines")]
 use std::process::Command;
 
 /// Options of the exported element test.
@@ -589,6 +590,7 @@ pub fn tensor_from_cases(h: &StressHistory, case_end_steps: &[u64]) -> Result<St
     Ok(Stiffness6::from_fn(|b, a| cols[a][b]))
 }
 
+#[cfg(feature = "engines")]
 /// How to launch LIGGGHTS.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Launch {
@@ -601,6 +603,7 @@ pub struct Launch {
     pub vars: Vec<(String, String)>,
 }
 
+#[cfg(feature = "engines")]
 /// Run `deck` (a file in `dir`) in `dir`; the screen output is returned, and on failure the
 /// error carries LIGGGHTS' `ERROR` line.
 pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
@@ -652,6 +655,7 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
     Ok(stdout)
 }
 
+#[cfg(feature = "engines")]
 /// True when `program` is found on PATH.
 pub fn which(program: &str) -> bool {
     std::env::var_os("PATH")

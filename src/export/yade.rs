@@ -17,6 +17,7 @@ use crate::tensor::{Stiffness6, Voigt6};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+#[cfg(feature = "engines")]
 use std::process::Command;
 
 /// The Python module `yade-scripts/anisobond_yade.py`, embedded so the binary is
@@ -357,6 +358,7 @@ pub fn export_yade(
     write_yade_export(dir, &packing, &bond_set, &springs, Some(&model), opts)
 }
 
+#[cfg(feature = "engines")]
 /// The `yade` executable on PATH, if any.
 pub fn find_yade() -> Option<PathBuf> {
     let path = std::env::var_os("PATH")?;
@@ -365,6 +367,7 @@ pub fn find_yade() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+#[cfg(feature = "engines")]
 /// What a YADE run printed.
 #[derive(Clone, Debug)]
 pub struct YadeOutput {
@@ -376,6 +379,7 @@ pub struct YadeOutput {
     pub wall_seconds: f64,
 }
 
+#[cfg(feature = "engines")]
 /// Run `yade -n -x SCRIPT ARGS…` in the script's directory and wait for it. Error (with
 /// YADE's output) when `yade` is missing or exits non-zero.
 pub fn run_yade_script(script: &Path, args: &[String]) -> Result<YadeOutput> {
@@ -419,6 +423,7 @@ pub fn run_yade_script(script: &Path, args: &[String]) -> Result<YadeOutput> {
     })
 }
 
+#[cfg(feature = "engines")]
 fn tail(s: &str, lines: usize) -> String {
     let v: Vec<&str> = s.lines().collect();
     v[v.len().saturating_sub(lines)..].join("\n")
