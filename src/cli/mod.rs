@@ -367,6 +367,9 @@ fn method_name(m: Method) -> &'static str {
 }
 
 fn tensor_cmd(a: TensorArgs) -> Result<()> {
+    if matches!(a.method, Method::Dynamic) {
+        a.integrator.validate()?;
+    }
     output::check_output_dirs(&[a.output.as_deref()])?;
     let model = Model::from_path(&a.model)?;
     let report = match (&a.packing, a.method) {
