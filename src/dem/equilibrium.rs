@@ -79,7 +79,8 @@ pub fn budget_advice(sim: &Simulation) -> String {
     } else {
         format!(
             "raise the step limit (--max-steps) or the damping (time step {dt:.3e} s = \
-             {ratio:.2} × the critical estimate {crit:.3e} s)"
+             {ratio:.2} × the critical estimate {crit:.3e} s, set by particle {})",
+            sim.stability().stiffest_particle
         )
     }
 }
