@@ -161,6 +161,8 @@ fn servo_and_grips_refuse_a_tiny_time_step() {
     assert!(err.contains("unbalanced force"), "{err}");
 
     // A block large enough for measurement spheres of 3 R̄ (as tests/dem_grips_disordered.rs).
+    // (Here the stress / sphere-strain window alone also refuses: checked with the
+    // unbalanced-force rule disabled. The ramp check below is what fails without the fix.)
     let (p, b) = bonded(1000, 9);
     let k = springs(&p, &b);
     let grips = GrippedOptions {
@@ -368,21 +370,36 @@ fn cli_refuses_bad_integrator_options_naming_them() {
     let d = tempfile::tempdir().unwrap();
     let (p, m) = setup(d.path());
     let out = d.path().join("t.json");
+    // Spheres that fit the 300-particle block, so that only the ramp can stop the run; a
+    // run that goes on past 20 s is killed and the test fails.
+    let mut child = bin()
+        .arg("grips")
+        .arg(&p)
+        .arg("--model")
+        .arg(&m)
+        .args(["--max-steps", "2000", "--ramp-steps", "100000000"])
+        .args(["--sphere-radius", "2", "--spheres", "20", "-o"])
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
     let t0 = std::time::Instant::now();
-    let err = fails(
-        bin()
-            .arg("grips")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
-            .args(["--max-steps", "2000", "--ramp-steps", "100000000", "-o"])
-            .arg(&out),
-    );
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed().as_secs_f64() > 20.0 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("grips with --ramp-steps > --max-steps still running after 20 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let result = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success());
     assert!(
         err.contains("--ramp-steps") && err.contains("--max-steps"),
         "{err}"
     );
-    assert!(t0.elapsed().as_secs_f64() < 5.0, "not refused promptly");
+    assert!(!out.exists());
     let cases: [(&str, &[&str], &str); 10] = [
         ("run", &["--dt=-1"], "--dt"),
         ("run", &["--dt", "nan"], "--dt"),
