@@ -200,6 +200,35 @@ fn servo_and_grips_refuse_a_tiny_time_step() {
     assert!(t0.elapsed().as_secs_f64() < 5.0);
 }
 
+/// The equilibrium check keeps the element tests bit-identical on 1 and 2 threads (more
+/// than one particle chunk of the integrator).
+#[test]
+fn element_tests_same_bits_on_one_and_two_threads() {
+    let (p, b) = bonded(1200, 3);
+    let k = springs(&p, &b);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let s = sim(&p, &b, &k, None);
+                let d = dynamic_tensor(&s, &ElementTestOptions::default(), &|_| {}).unwrap();
+                let u: Vec<_> = d.paths.iter().map(|p| (p.steps, p.unbalance)).collect();
+                (d.c, u)
+            })
+    };
+    let (one, two) = (on(1), on(2));
+    assert_eq!(one.1, two.1);
+    assert!(
+        one.0
+            .iter()
+            .zip(two.0.iter())
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "tensors differ between 1 and 2 threads"
+    );
+}
+
 /// The packing with a copy of particle 0 shifted by 1e-15 m.
 fn with_copy(p: &Packing) -> Packing {
     let mut positions = p.positions.clone();
