@@ -26,6 +26,13 @@ use crate::packing::neighbours::{pairs_within, pairs_within_centre_distance, Pai
 use crate::packing::Packing;
 use crate::{Error, Result};
 
+/// A pair whose centre distance is below this fraction of R_i + R_j is refused as
+/// near-coincident: with equal radii one centre lies inside the other sphere. No DEM packing
+/// overlaps like that (generated packings stay within a few % of R̄); such a pair is a
+/// duplicated or mistyped particle, and its bond — far shorter and stiffer than the rest —
+/// collapses the critical time step (a copy shifted by 1e-15 m brings it to ~1e-13 s).
+pub const NEAR_COINCIDENT_FRACTION: f64 = 0.5;
+
 /// Largest gap cutoff (in units of the mean radius R̄) that a
 /// [`BondingRule::Coordination`] target may need; a target not reached with every pair
 /// within this gap is refused.
@@ -38,8 +45,8 @@ pub const COORDINATION_MAX_GAP: f64 = 1.0;
 /// - `Coordination(Z)`: the gap cutoff whose bond count gives Z = 2·N_b/N as closely as
 ///   the discrete counts allow (see [`coordination_gap`]).
 ///
-/// Errors on a value that is not finite and > 0, and on coincident spheres (a bond needs a
-/// non-zero branch vector).
+/// Errors on a value that is not finite and > 0, on coincident spheres (a bond needs a
+/// non-zero branch vector) and on near-coincident ones (see [`NEAR_COINCIDENT_FRACTION`]).
 pub fn build_bonds(packing: &Packing, rule: BondingRule) -> Result<BondSet> {
     let pairs = match rule {
         BondingRule::Gap(g) => {
@@ -58,7 +65,7 @@ pub fn build_bonds(packing: &Packing, rule: BondingRule) -> Result<BondSet> {
             coordination_selection(packing, z)?.1
         }
     };
-    bonds_from_pairs(&pairs)
+    bonds_from_pairs(packing, &pairs)
 }
 
 /// The gap cutoff g (in units of R̄, Truszkowska 2018 Eq. 4) at which the bonded packing
@@ -143,16 +150,41 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
     Ok((gap, pairs))
 }
 
-/// Turn found pairs into bonds, refusing zero-length branch vectors.
-fn bonds_from_pairs(pairs: &[Pair]) -> Result<BondSet> {
+/// Turn found pairs into bonds, refusing zero-length branch vectors and near-coincident
+/// spheres ([`NEAR_COINCIDENT_FRACTION`]), naming both (0-based index, position, radius).
+fn bonds_from_pairs(packing: &Packing, pairs: &[Pair]) -> Result<BondSet> {
+    let describe = |k: u32| {
+        let (x, r) = (packing.positions[k as usize], packing.radii[k as usize]);
+        format!(
+            "sphere {k} at ({:e}, {:e}, {:e}) m, radius {r:e} m",
+            x.x, x.y, x.z
+        )
+    };
     let mut bonds = BondSet::default();
     for p in pairs {
         let len = p.distance();
         if len == 0.0 || !len.is_finite() {
             return Err(Error::Invalid(format!(
                 "spheres {} and {} are coincident (centre distance {len}): a bond needs a \
-                 non-zero branch vector",
-                p.i, p.j
+                 non-zero branch vector ({}; {}; indices 0-based)",
+                p.i,
+                p.j,
+                describe(p.i),
+                describe(p.j)
+            )));
+        }
+        let radii = packing.radii[p.i as usize] + packing.radii[p.j as usize];
+        if len < NEAR_COINCIDENT_FRACTION * radii {
+            return Err(Error::Invalid(format!(
+                "spheres {} and {} are near-coincident: centre distance {len:.3e} m is less than \
+                 {NEAR_COINCIDENT_FRACTION} × the sum of their radii ({radii:.3e} m), so one \
+                 centre lies (nearly) inside the other sphere ({}; {}; indices 0-based). No DEM \
+                 packing overlaps like that — a duplicated or mistyped particle? Its bond would \
+                 be far shorter and stiffer than the others and collapse the critical time step",
+                p.i,
+                p.j,
+                describe(p.i),
+                describe(p.j)
             )));
         }
         bonds.push(p.i, p.j, p.branch, p.image);

@@ -2,13 +2,13 @@
 //! (Truszkowska 2018 Sec. 4.1–4.4), stress and strain from measurement spheres, the
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
-use super::run::IntegratorArgs;
+use super::run::{check_positive, IntegratorArgs};
 use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
-use anisobond::Result;
+use anisobond::{Error, Result};
 use std::path::PathBuf;
 
 /// Arguments of `anisobond grips`.
@@ -24,7 +24,7 @@ pub struct GripsArgs {
     /// Grip particles: surface within this many R̄ of a face of the box.
     #[arg(long, default_value_t = 0.5)]
     pub grip_shell: f64,
-    /// Steps over which the grips reach the full strain.
+    /// Steps over which the grips reach the full strain (counted in --max-steps, so fewer).
     #[arg(long, default_value_t = 50)]
     pub ramp_steps: usize,
     /// Number of measurement spheres.
@@ -41,8 +41,31 @@ pub struct GripsArgs {
     pub output: Option<PathBuf>,
 }
 
+/// Check every option before any work, with messages naming the option.
+fn validate(a: &GripsArgs) -> Result<()> {
+    a.integrator.validate()?;
+    if !(a.grip_shell.is_finite() && a.grip_shell >= 0.0) {
+        return Err(Error::Invalid(format!(
+            "--grip-shell must be finite and ≥ 0, got {}",
+            a.grip_shell
+        )));
+    }
+    if a.ramp_steps == 0 || a.ramp_steps >= a.integrator.max_steps {
+        return Err(Error::Invalid(format!(
+            "--ramp-steps ({}) must be at least 1 and less than --max-steps ({}), the step limit \
+             per path, which includes the ramp",
+            a.ramp_steps, a.integrator.max_steps
+        )));
+    }
+    if a.spheres == 0 {
+        return Err(Error::Invalid("--spheres must be at least 1, got 0".into()));
+    }
+    check_positive("--sphere-radius", a.sphere_radius)
+}
+
 /// `anisobond grips`.
 pub fn grips(a: GripsArgs) -> Result<()> {
+    validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
     let super::Bonded {
@@ -57,6 +80,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         ramp_steps: a.ramp_steps,
         local_damping: i.damping,
         tolerance: i.tolerance,
+        unbalanced_tolerance: i.unbalanced_tolerance,
         max_steps: i.max_steps,
         dem: DemOptions {
             time_step: i.dt,
@@ -94,9 +118,11 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     );
     for p in &t.paths {
         println!(
-            "path {}: {} steps, mean sphere strain / imposed {:.4}, spread {:.2} %",
+            "path {}: {} steps (unbalanced force {:.2e}), mean sphere strain / imposed {:.4}, \
+             spread {:.2} %",
             p.path + 1,
             p.steps,
+            p.unbalance.force,
             p.strain[p.path] / p.imposed_strain[p.path],
             100.0 * p.spread
         );

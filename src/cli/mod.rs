@@ -410,6 +410,9 @@ fn blame_inputs(e: Error, inputs: &[&Path]) -> Error {
 }
 
 fn tensor_cmd(a: TensorArgs) -> Result<()> {
+    if matches!(a.method, Method::Dynamic) {
+        a.integrator.validate()?;
+    }
     let inputs: Vec<&Path> = a
         .packing
         .iter()

@@ -4,12 +4,13 @@
 
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::element::{self, ElementTestOptions};
+use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
-use anisobond::Result;
+use anisobond::{Error, Result};
 use clap::ValueEnum;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -59,10 +60,14 @@ pub struct IntegratorArgs {
     /// Safety factor on the critical time step.
     #[arg(long, default_value_t = 0.8)]
     pub safety: f64,
-    /// Convergence: relative stress change over 10 steps.
+    /// Convergence: relative stress change over 10 steps (and --unbalanced-tolerance).
     #[arg(long, default_value_t = 1e-7)]
     pub tolerance: f64,
-    /// Step limit per path.
+    /// Equilibrium: largest unbalanced force and torque (mean resultant over mean bond
+    /// force/torque, as YADE's unbalancedForce) at which a path counts as relaxed.
+    #[arg(long, default_value_t = DEFAULT_UNBALANCED_TOLERANCE)]
+    pub unbalanced_tolerance: f64,
+    /// Step limit per path; a path not relaxed within it is an error.
     #[arg(long, default_value_t = 20_000)]
     pub max_steps: usize,
 }
@@ -78,8 +83,72 @@ impl Default for IntegratorArgs {
             dt: None,
             safety: 0.8,
             tolerance: 1e-7,
+            unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
             max_steps: 20_000,
         }
+    }
+}
+
+/// Errors naming the option unless `value` is finite and > 0.
+pub fn check_positive(option: &str, value: f64) -> Result<()> {
+    if !(value.is_finite() && value > 0.0) {
+        return Err(Error::Invalid(format!(
+            "{option} must be finite and > 0, got {value}"
+        )));
+    }
+    Ok(())
+}
+
+/// Errors naming `--damping` unless λ is in [0, 1).
+pub fn check_damping(value: f64) -> Result<()> {
+    if !(value.is_finite() && (0.0..1.0).contains(&value)) {
+        return Err(Error::Invalid(format!(
+            "--damping must be in [0, 1), got {value}"
+        )));
+    }
+    Ok(())
+}
+
+/// Errors naming `--safety` unless it is in (0, 1].
+pub fn check_safety(value: f64) -> Result<()> {
+    if !(value.is_finite() && value > 0.0 && value <= 1.0) {
+        return Err(Error::Invalid(format!(
+            "--safety must be in (0, 1], got {value}"
+        )));
+    }
+    Ok(())
+}
+
+/// Errors naming `--max-steps` unless there is room for the loading step and at least one
+/// relaxation step.
+pub fn check_max_steps(value: usize) -> Result<()> {
+    if value < 2 {
+        return Err(Error::Invalid(format!(
+            "--max-steps must be at least 2, got {value}"
+        )));
+    }
+    Ok(())
+}
+
+impl IntegratorArgs {
+    /// Check every option before any work, with messages naming the option.
+    pub fn validate(&self) -> Result<()> {
+        check_damping(self.damping)?;
+        if !(self.strain.is_finite() && self.strain > 0.0 && self.strain < 0.1) {
+            return Err(Error::Invalid(format!(
+                "--strain must be in (0, 0.1), got {}",
+                self.strain
+            )));
+        }
+        check_positive("--density", self.density)?;
+        check_positive("--mass-scaling", self.mass_scaling)?;
+        if let Some(dt) = self.dt {
+            check_positive("--dt", dt)?;
+        }
+        check_safety(self.safety)?;
+        check_positive("--tolerance", self.tolerance)?;
+        check_positive("--unbalanced-tolerance", self.unbalanced_tolerance)?;
+        check_max_steps(self.max_steps)
     }
 }
 
@@ -109,6 +178,7 @@ fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
         strain: a.strain,
         local_damping: a.damping,
         tolerance: a.tolerance,
+        unbalanced_tolerance: a.unbalanced_tolerance,
         max_steps: a.max_steps,
         dem: DemOptions {
             time_step: a.dt,
@@ -166,6 +236,7 @@ pub fn run_element_tests(
     a: &IntegratorArgs,
     history: bool,
 ) -> Result<element::DynamicTensor> {
+    a.validate()?;
     let law = build_law(a.law.into(), packing, bonds, k)?;
     let opts = element_options(a, history);
     let sim = Simulation::new(packing, bonds, law, &opts.dem)?;
@@ -204,6 +275,7 @@ pub fn dynamic_tensor(
 
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
+    a.integrator.validate()?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged_output = out.optional_file(a.output.as_deref())?;
     let staged_history = out.optional_file(a.history.as_deref())?;
@@ -256,7 +328,10 @@ pub fn run(a: RunArgs) -> Result<()> {
     }
     out.commit()?;
     for p in &result.paths {
-        println!("path {}: relaxed in {} steps", p.path, p.steps);
+        println!(
+            "path {}: relaxed in {} steps (unbalanced force {:.2e}, torque {:.2e})",
+            p.path, p.steps, p.unbalance.force, p.unbalance.torque
+        );
     }
     for path in [&a.plot, &a.history, &a.output].into_iter().flatten() {
         println!("wrote {}", path.display());

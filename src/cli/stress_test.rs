@@ -4,13 +4,14 @@
 //! orthotropic and the transversely isotropic (about z) stiffness, and writing the
 //! orthotropic tensor as a SPEC JSON report.
 
-use super::run::LawArg;
+use super::run::{check_damping, check_max_steps, check_positive, check_safety, LawArg};
+use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
 use anisobond::dem::{build_law, DemOptions, MassOptions, Simulation};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
-use anisobond::Result;
+use anisobond::{Error, Result};
 use std::path::PathBuf;
 
 /// Arguments of `anisobond stress-test`.
@@ -34,13 +35,17 @@ pub struct StressTestArgs {
     /// Steadiness: relative stress change over 10 steps.
     #[arg(long, default_value_t = 1e-7)]
     pub tolerance: f64,
+    /// Equilibrium: largest unbalanced force and torque (mean resultant over mean bond
+    /// force/torque, as YADE's unbalancedForce) at which a test counts as converged.
+    #[arg(long, default_value_t = DEFAULT_UNBALANCED_TOLERANCE)]
+    pub unbalanced_tolerance: f64,
     /// Servo gain in (0, 1] on the predicted stress error.
     #[arg(long, default_value_t = 0.5)]
     pub gain: f64,
     /// Largest strain increment per step (ramps large strains; default: none).
     #[arg(long)]
     pub max_strain_increment: Option<f64>,
-    /// Step limit per test.
+    /// Step limit per test; a test not converged within it is an error.
     #[arg(long, default_value_t = 50_000)]
     pub max_steps: usize,
     /// Cundall local damping λ.
@@ -63,8 +68,39 @@ pub struct StressTestArgs {
     pub output: Option<PathBuf>,
 }
 
+/// Check every option before any work, with messages naming the option.
+fn validate(a: &StressTestArgs) -> Result<()> {
+    if !(a.strain.is_finite() && a.strain != 0.0 && a.strain.abs() < 0.1) {
+        return Err(Error::Invalid(format!(
+            "--strain must be non-zero with |ε̂| < 0.1, got {}",
+            a.strain
+        )));
+    }
+    check_positive("--stress-tolerance", a.stress_tolerance)?;
+    check_positive("--tolerance", a.tolerance)?;
+    check_positive("--unbalanced-tolerance", a.unbalanced_tolerance)?;
+    if !(a.gain.is_finite() && a.gain > 0.0 && a.gain <= 1.0) {
+        return Err(Error::Invalid(format!(
+            "--gain must be in (0, 1], got {}",
+            a.gain
+        )));
+    }
+    if let Some(m) = a.max_strain_increment {
+        check_positive("--max-strain-increment", m)?;
+    }
+    check_max_steps(a.max_steps)?;
+    check_damping(a.damping)?;
+    check_positive("--density", a.density)?;
+    check_positive("--mass-scaling", a.mass_scaling)?;
+    if let Some(dt) = a.dt {
+        check_positive("--dt", dt)?;
+    }
+    check_safety(a.safety)
+}
+
 /// `anisobond stress-test`.
 pub fn run(a: StressTestArgs) -> Result<()> {
+    validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
     let super::Bonded {
@@ -96,6 +132,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             gain: a.gain,
             stress_tolerance: a.stress_tolerance,
             steady_tolerance: a.tolerance,
+            unbalanced_tolerance: a.unbalanced_tolerance,
             max_steps: a.max_steps,
             max_strain_increment: a.max_strain_increment.unwrap_or(f64::INFINITY),
             ..Default::default()
@@ -118,22 +155,25 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             .map(|j| format!("ν_{}{} = {:.4}", AXES[u.axis], AXES[j], u.poisson[j]))
             .collect();
         println!(
-            "  E_{} = {:10.4} MPa, {}  ({} steps, |σ_lat|/|σ_ax| = {:.1e})",
+            "  E_{} = {:10.4} MPa, {}  ({} steps, |σ_lat|/|σ_ax| = {:.1e}, unbalanced force \
+             {:.1e})",
             AXES[u.axis],
             u.young / 1e6,
             others.join(", "),
             u.outcome.steps,
-            u.outcome.relative_stress_error
+            u.outcome.relative_stress_error,
+            u.outcome.unbalance.force
         );
     }
     const SHEARS: [&str; 3] = ["yz", "xz", "xy"];
     println!("pure shears (strain-controlled):");
     for g in &r.shear {
         println!(
-            "  G_{} = {:10.4} MPa  ({} steps)",
+            "  G_{} = {:10.4} MPa  ({} steps, unbalanced force {:.1e})",
             SHEARS[g.component - 3],
             g.modulus / 1e6,
-            g.outcome.steps
+            g.outcome.steps,
+            g.outcome.unbalance.force
         );
     }
     println!(

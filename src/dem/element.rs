@@ -3,6 +3,7 @@
 //! one step and relaxed quasi-statically with Cundall damping, then the symmetric 21-component
 //! solve of Truszkowska Eq. 27 for the 6×6 stiffness.
 
+use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::{DemOptions, Energies, Simulation, StabilityReport};
 use crate::tensor::{fit_symmetric_eq27, Stiffness6, Voigt6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result};
@@ -17,8 +18,12 @@ pub struct ElementTestOptions {
     /// Cundall local damping during the relaxation (YADE measurements use 0.4).
     pub local_damping: f64,
     /// A path is converged when, over the last `window` steps, the largest change of the
-    /// stress (Voigt, Pa) relative to its norm stays below this.
+    /// stress (Voigt, Pa) relative to its norm stays below this, and the particles are in
+    /// equilibrium (`unbalanced_tolerance`).
     pub tolerance: f64,
+    /// Equilibrium: the unbalanced force and torque ([`Unbalance`]) must be at most this
+    /// (a steady stress alone is met at once when the time step is tiny).
+    pub unbalanced_tolerance: f64,
     /// Steps of the convergence window.
     pub window: usize,
     /// Step limit per path; reaching it is an error naming the residual change.
@@ -36,6 +41,7 @@ impl Default for ElementTestOptions {
             strain: 1e-5,
             local_damping: 0.4,
             tolerance: 1e-7,
+            unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
             window: 10,
             max_steps: 20_000,
             dem: DemOptions::default(),
@@ -72,6 +78,8 @@ pub struct PathResult {
     pub stress: Voigt6,
     /// Steps used.
     pub steps: usize,
+    /// Unbalanced force and torque reached.
+    pub unbalance: Unbalance,
     /// Recorded history.
     pub history: Vec<HistoryRow>,
 }
@@ -119,7 +127,9 @@ pub fn to_voigt(m: &Mat3, engineering: bool) -> Voigt6 {
 }
 
 /// Apply the displacement gradient `g` to the cell in one step (velocity gradient g/dt for
-/// one integrator pass) and relax with damping until converged.
+/// one integrator pass) and relax with damping until the stress is steady and the particles
+/// are in equilibrium ([`ElementTestOptions::unbalanced_tolerance`]). Reaching the step
+/// limit first is an error naming the residuals reached and what to change.
 pub fn relax_path(
     sim: &mut Simulation,
     path: usize,
@@ -127,6 +137,13 @@ pub fn relax_path(
     opts: &ElementTestOptions,
     progress: &mut dyn FnMut(usize),
 ) -> Result<PathResult> {
+    equilibrium::check_tolerance(opts.unbalanced_tolerance)?;
+    if opts.max_steps < 2 {
+        return Err(Error::Invalid(format!(
+            "element test step limit must be at least 2, got {}",
+            opts.max_steps
+        )));
+    }
     sim.set_local_damping(opts.local_damping)?;
     let dt = sim.time_step();
     sim.set_velocity_gradient(g / dt)?;
@@ -137,7 +154,7 @@ pub fn relax_path(
     let window = opts.window.max(1);
     let mut steps = 1;
     let mut last_change = f64::INFINITY;
-    loop {
+    let unbalance = loop {
         sim.step()?;
         steps += 1;
         let stress = to_voigt(&sim.stress(), false);
@@ -166,25 +183,31 @@ pub fn relax_path(
             } else {
                 f64::INFINITY
             };
+            // Equilibrium is measured only once the stress is steady (it costs a pass).
             if last_change < opts.tolerance {
-                break;
+                let u = Unbalance::of(sim);
+                if u.within(opts.unbalanced_tolerance) {
+                    break u;
+                }
             }
         }
         if steps >= opts.max_steps {
             return Err(Error::Invalid(format!(
-                "element test path {path}: not relaxed after {steps} steps (relative stress change \
-                 {last_change:.3e} over {window} steps > tolerance {:.1e}); raise the step limit or \
-                 the damping",
-                opts.tolerance
+                "element test path {path}: not relaxed after {steps} steps: {}, relative \
+                 stress change {last_change:.3e} over {window} steps (tolerance {:.1e}); {}",
+                Unbalance::of(sim).describe(opts.unbalanced_tolerance),
+                opts.tolerance,
+                equilibrium::budget_advice(sim)
             )));
         }
         progress(steps);
-    }
+    };
     Ok(PathResult {
         path,
         strain: to_voigt(&sim.strain(), true),
         stress: to_voigt(&sim.stress(), false),
         steps,
+        unbalance,
         history,
     })
 }

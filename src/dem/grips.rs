@@ -15,6 +15,7 @@
 //! [`super::sim::PrescribedMotion`]).
 
 use super::element::{path_gradient, to_voigt};
+use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::measure::{mean_tensor, normalised_spread, MeasureOptions, MeasurementSpheres};
 use super::sim::{DemOptions, PrescribedMotion, Simulation, StabilityReport};
 use super::{build_law, LawKind};
@@ -166,11 +167,16 @@ pub struct GrippedOptions {
     pub local_damping: f64,
     /// Converged when, over the last `window` steps, the largest change of the block's Love
     /// stress and the change of the mean measurement-sphere strain, each relative to its
-    /// norm, stay below this.
+    /// norm, stay below this, and the free particles are in equilibrium
+    /// (`unbalanced_tolerance`).
     pub tolerance: f64,
+    /// Equilibrium: the unbalanced force and torque of the particles that are not grips
+    /// ([`Unbalance`]) must be at most this.
+    pub unbalanced_tolerance: f64,
     /// Steps of the convergence window.
     pub window: usize,
-    /// Step limit per path (ramp included); reaching it is an error.
+    /// Step limit per path (ramp included, so it must exceed `ramp_steps`); reaching it is
+    /// an error.
     pub max_steps: usize,
     /// Integrator settings (time step, masses); damping replaced by `local_damping`.
     pub dem: DemOptions,
@@ -186,6 +192,7 @@ impl Default for GrippedOptions {
             ramp_steps: 50,
             local_damping: 0.4,
             tolerance: 1e-7,
+            unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
             window: 20,
             max_steps: 100_000,
             dem: DemOptions::default(),
@@ -211,6 +218,8 @@ pub struct GrippedPath {
     pub spread: f64,
     /// Steps used.
     pub steps: usize,
+    /// Unbalanced force and torque of the free particles reached.
+    pub unbalance: Unbalance,
 }
 
 /// Table 3 heterogeneity metric (Truszkowska 2018): mean normalised standard deviation of
@@ -315,22 +324,39 @@ pub fn grip_motion(
     }
 }
 
+/// Errors unless the step limit exceeds the ramp (the limit includes the ramp).
+fn check_budget(opts: &GrippedOptions) -> Result<()> {
+    if opts.ramp_steps == 0 || opts.ramp_steps >= opts.max_steps {
+        return Err(Error::Invalid(format!(
+            "gripped element tests: the ramp ({} steps, --ramp-steps) must be at least 1 step and \
+             shorter than the step limit per path ({} steps, --max-steps), which includes the \
+             ramp",
+            opts.ramp_steps, opts.max_steps
+        )));
+    }
+    equilibrium::check_tolerance(opts.unbalanced_tolerance)
+}
+
 /// Impose the displacement gradient `g` through the grips (ramp, then hold) and relax until
-/// the block's Love stress settles; returns the steps used.
+/// the block's Love stress and mean sphere strain settle and the free particles are in
+/// equilibrium; returns the steps used (ramp included) and the unbalance reached. Errors if
+/// the ramp does not fit in the step limit or the limit is reached first.
 pub fn relax_gripped(
     setup: &mut GrippedSetup,
     path: usize,
     g: &Mat3,
     opts: &GrippedOptions,
     progress: &mut dyn FnMut(usize),
-) -> Result<usize> {
-    let ramp = opts.ramp_steps.max(1);
+) -> Result<(usize, Unbalance)> {
+    check_budget(opts)?;
+    let ramp = opts.ramp_steps;
     let sim = &mut setup.sim;
     sim.set_local_damping(opts.local_damping)?;
     let motion = grip_motion(&setup.block, sim, g, ramp);
     sim.set_prescribed_motion(Some(motion.clone()))?;
-    for _ in 0..ramp {
+    for s in 0..ramp {
         sim.step()?;
+        progress(s + 1);
     }
     sim.set_prescribed_motion(Some(PrescribedMotion {
         velocity: vec![Vec3::zeros(); motion.particles.len()],
@@ -361,7 +387,8 @@ pub fn relax_gripped(
                 f64::INFINITY
             };
         }
-        // Every `window` steps, also the change of the mean measurement-sphere strain.
+        // Every `window` steps, also the change of the mean measurement-sphere strain and,
+        // once both are steady, the equilibrium of the free particles.
         if steps % window == 0 {
             let strain = to_voigt(
                 &mean_tensor(&setup.spheres.displacement_gradient(sim)?),
@@ -377,21 +404,25 @@ pub fn relax_gripped(
             });
             last_strain = Some(strain);
             if last_change < opts.tolerance && strain_change < opts.tolerance {
-                break;
+                let u = Unbalance::of(sim);
+                if u.within(opts.unbalanced_tolerance) {
+                    return Ok((steps, u));
+                }
             }
             last_change = last_change.max(strain_change);
         }
         if steps >= opts.max_steps {
             return Err(Error::Invalid(format!(
-                "gripped path {path}: not relaxed after {steps} steps (relative stress or \
-                 sphere-strain change {last_change:.3e} over {window} steps > tolerance {:.1e}); \
-                 raise the step limit or the damping",
-                opts.tolerance
+                "gripped path {path}: not relaxed after {steps} steps (ramp included): {}, \
+                 relative stress or sphere-strain change {last_change:.3e} over {window} steps \
+                 (tolerance {:.1e}); {}",
+                Unbalance::of(sim).describe(opts.unbalanced_tolerance),
+                opts.tolerance,
+                equilibrium::budget_advice(sim)
             )));
         }
         progress(steps);
     }
-    Ok(steps)
 }
 
 /// Six gripped strain paths from the same block at rest → measurement-sphere stress and
@@ -411,6 +442,7 @@ pub fn gripped_tensor(
             opts.strain
         )));
     }
+    check_budget(opts)?;
     let setup = gripped_setup(packing, bonds, springs, kind, opts)?;
     gripped_tensor_from(&setup, opts, progress)
 }
@@ -426,7 +458,7 @@ pub fn gripped_tensor_from(
     for k in 0..6 {
         let mut run = setup.clone();
         let g = path_gradient(k, opts.strain);
-        let steps = relax_gripped(&mut run, k, &g, opts, &mut |s| {
+        let (steps, unbalance) = relax_gripped(&mut run, k, &g, opts, &mut |s| {
             progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
         })?;
         let grads = run.spheres.displacement_gradient(&run.sim)?;
@@ -440,6 +472,7 @@ pub fn gripped_tensor_from(
             spread: normalised_spread(&sphere_strains, k),
             sphere_strains,
             steps,
+            unbalance,
         });
     }
     progress(1.0);

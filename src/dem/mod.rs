@@ -7,11 +7,13 @@
 //!   (c) Kumar 2016.
 //! - [`sim`]: [`sim::Simulation`], YADE's NewtonIntegrator step by step.
 //! - [`element`]: six strain paths → Truszkowska 2018 Eq. 27 → C.
+//! - [`equilibrium`]: the stop rule of every damped relaxation (unbalanced force/torque).
 //!
 //! Every parallel loop writes per-item results and every reduction sums fixed chunks in
 //! order, so a history is bit-for-bit the same on any number of threads.
 
 pub mod element;
+pub mod equilibrium;
 pub mod grips;
 pub mod laws;
 pub mod measure;

@@ -14,6 +14,7 @@
 //! then makes the stress drift and the controller follows it until both are steady.
 
 use super::element::to_voigt;
+use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::Simulation;
 use crate::tensor::{Stiffness6, Voigt6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result};
@@ -43,6 +44,9 @@ pub struct ServoOptions {
     /// The state is steady when, over the last `window` steps, the largest change of the
     /// stress (Voigt, Pa) relative to its norm stays below this.
     pub steady_tolerance: f64,
+    /// Equilibrium: the unbalanced force and torque ([`Unbalance`]) must be at most this (a
+    /// steady stress alone is met at once when the time step is tiny).
+    pub unbalanced_tolerance: f64,
     /// Steps of the steadiness window.
     pub window: usize,
     /// Step limit of [`servo_until_converged`]; reaching it is an error naming the residuals.
@@ -58,6 +62,7 @@ impl Default for ServoOptions {
             gain: 0.5,
             stress_tolerance: 1e-3,
             steady_tolerance: 1e-7,
+            unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
             window: 10,
             max_steps: 50_000,
             max_strain_increment: f64::INFINITY,
@@ -336,11 +341,14 @@ pub struct ServoOutcome {
     pub relative_stress_error: f64,
     /// Final relative stress change over the window.
     pub stress_change: f64,
+    /// Unbalanced force and torque reached.
+    pub unbalance: Unbalance,
 }
 
 /// Servo-control `sim` until every stress-controlled component is within t_r·σ_ref of its
-/// target, every target strain is reached (to 1e-9 of its size, at least 1e-15), and the
-/// stress is steady over the window. `progress` receives the step count. Errors if a
+/// target, every target strain is reached (to 1e-9 of its size, at least 1e-15), the
+/// stress is steady over the window and the particles are in equilibrium
+/// ([`ServoOptions::unbalanced_tolerance`]). `progress` receives the step count. Errors if a
 /// strain rate is prescribed (a steady state needs fixed strains) or at the step limit.
 pub fn servo_until_converged(
     sim: &mut Simulation,
@@ -367,6 +375,7 @@ pub fn servo_until_converged(
         })
         .fold(0.0, f64::max);
     let strain_tolerance = (1e-9 * strain_scale).max(1e-15);
+    equilibrium::check_tolerance(opts.unbalanced_tolerance)?;
     let window = opts.window.max(1);
     let mut recent: std::collections::VecDeque<Voigt6> = std::collections::VecDeque::new();
     let mut steps = 0;
@@ -398,25 +407,33 @@ pub fn servo_until_converged(
         let stress_error = servo.relative_stress_error(&stress);
         let strain = to_voigt(&sim.strain(), true);
         let strain_error = servo.strain_error(&strain);
+        // Equilibrium is measured only once everything else is met (it costs a pass).
         if change < opts.steady_tolerance
             && stress_error <= opts.stress_tolerance
             && strain_error <= strain_tolerance
         {
-            return Ok(ServoOutcome {
-                strain,
-                stress,
-                steps,
-                relative_stress_error: stress_error,
-                stress_change: change,
-            });
+            let unbalance = Unbalance::of(sim);
+            if unbalance.within(opts.unbalanced_tolerance) {
+                return Ok(ServoOutcome {
+                    strain,
+                    stress,
+                    steps,
+                    relative_stress_error: stress_error,
+                    stress_change: change,
+                    unbalance,
+                });
+            }
         }
         if steps >= opts.max_steps {
             return Err(Error::Invalid(format!(
-                "stress control did not converge in {steps} steps: relative stress error \
+                "stress control did not converge in {steps} steps: {}, relative stress error \
                  {stress_error:.3e} (tolerance t_r = {:.1e}), relative stress change {change:.3e} \
-                 over {window} steps (tolerance {:.1e}), strain error {strain_error:.3e}; raise \
-                 the step limit or the damping, or loosen the tolerances",
-                opts.stress_tolerance, opts.steady_tolerance
+                 over {window} steps (tolerance {:.1e}), strain error {strain_error:.3e}; {}, or \
+                 loosen the tolerances",
+                Unbalance::of(sim).describe(opts.unbalanced_tolerance),
+                opts.stress_tolerance,
+                opts.steady_tolerance,
+                equilibrium::budget_advice(sim)
             )));
         }
         progress(steps);

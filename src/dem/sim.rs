@@ -664,26 +664,54 @@ impl Simulation {
             .map_or(Mat3::zeros(), |c| c.small_strain())
     }
 
-    /// YADE's unbalanced force: mean resultant force on the bonded particles over the mean
-    /// bond force magnitude (0 when there is no bond force).
+    /// YADE's unbalanced force (`utils.unbalancedForce()`): mean resultant force on the
+    /// bonded, free particles over the mean bond force magnitude (0 when there is no bond
+    /// force). Held particles ([`PrescribedMotion`]) are left out, as YADE leaves out bodies
+    /// that are not dynamic: their resultant is the grip reaction, not an imbalance. The
+    /// measure of static equilibrium the damped relaxations stop on.
     pub fn unbalanced_force(&self) -> f64 {
-        let n = self.particles.len();
         let topo = &self.topology;
-        let bonded = (0..n).filter(|&p| topo.degree(p) > 0).count().max(1);
-        let fsum = deterministic_sum(n, |p| {
-            if topo.degree(p) > 0 {
-                self.force[p].norm()
-            } else {
-                0.0
-            }
-        });
-        let nb = topo.len().max(1);
+        let free = self.free_bonded_particles();
+        let fsum = deterministic_sum(free.len(), |k| self.force[free[k]].norm());
         let bsum = deterministic_sum(topo.len(), |b| self.loads.force_i(b).norm());
         if bsum == 0.0 {
             0.0
         } else {
-            (fsum / bonded as f64) / (bsum / nb as f64)
+            (fsum / free.len().max(1) as f64) / (bsum / topo.len().max(1) as f64)
         }
+    }
+
+    /// The rotational analogue of [`Simulation::unbalanced_force`]: mean resultant torque
+    /// on the bonded, free particles over the mean torque a bond applies to one of its
+    /// particles, ½(|T_i| + |T_j|) (moments of the shear force about the centres, and of
+    /// the bending and twisting springs); 0 when no bond applies a torque.
+    pub fn unbalanced_torque(&self) -> f64 {
+        let topo = &self.topology;
+        let free = self.free_bonded_particles();
+        let tsum = deterministic_sum(free.len(), |k| self.torque[free[k]].norm());
+        let loads = &self.loads.per_bond;
+        let bsum = deterministic_sum(topo.len(), |b| {
+            0.5 * (loads[b].torque_i.norm() + loads[b].torque_j.norm())
+        });
+        if bsum == 0.0 {
+            0.0
+        } else {
+            (tsum / free.len().max(1) as f64) / (bsum / topo.len().max(1) as f64)
+        }
+    }
+
+    /// Particles with at least one bond whose motion is not prescribed, ascending.
+    fn free_bonded_particles(&self) -> Vec<usize> {
+        let n = self.particles.len();
+        let mut held = vec![false; n];
+        if let Some(h) = &self.prescribed {
+            for &p in &h.motion.particles {
+                held[p] = true;
+            }
+        }
+        (0..n)
+            .filter(|&p| self.topology.degree(p) > 0 && !held[p])
+            .collect()
     }
 
     fn compute_stability(&self) -> StabilityReport {
