@@ -26,7 +26,6 @@ use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::Packing;
 use crate::schemes::cubic::{CubicModel, CubicSpheroid};
-use crate::schemes::Geometry;
 use crate::tensor::{rotate, CubicProjection, Stiffness6};
 use crate::{Error, Mat3, Result};
 use nalgebra::{DMatrix, DVector};
@@ -207,18 +206,7 @@ pub fn base_rotation(base: &Model) -> Mat3 {
     }
 }
 
-/// Mean-field prefactor N_c⟨l²·g⟩/V of a bonded packing (g = geometry factor, k = magnitude·g).
-pub fn packing_prefactor(packing: &Packing, bonds: &BondSet, geometry: &Geometry) -> f64 {
-    let s: f64 = (0..bonds.len())
-        .map(|k| {
-            let ri = packing.radii[bonds.i[k] as usize];
-            let rj = packing.radii[bonds.j[k] as usize];
-            let l = bonds.length[k];
-            l * l * geometry.factor(ri, rj, l)
-        })
-        .sum();
-    s / packing.volume()
-}
+pub use crate::homogenize::mean_field::packing_prefactor;
 
 /// The model a target's Zener ratio calls for (Truszkowska 2018 Sec. 3).
 pub fn model_for_zener(zener: f64) -> CubicModel {

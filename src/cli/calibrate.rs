@@ -1,7 +1,8 @@
 //! `anisobond calibrate`: scheme parameters that reproduce a target tensor (SPEC.md), at the
 //! mean-field level (no packing) or on the user's packing with the exact relaxed solver.
 
-use super::{bond_packing, LeverArmArg};
+use super::LeverArmArg;
+use anisobond::assembly::Assembly;
 use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
 use anisobond::calibrate::cubic::{
     calibrate_cubic_mean_field, calibrate_cubic_relaxed, packing_prefactor, CubicCalibration,
@@ -219,7 +220,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     let bonded = match &packing_path {
         Some(p) => {
             let pk = packing::io::read_packing(p)?;
-            Some(bond_packing(pk, &base).map_err(|e| match e {
+            Some(Assembly::new(pk, base.clone()).map_err(|e| match e {
                 Error::Model(m) => Error::Model(format!("{}: {m}", a.model.display())),
                 other => other,
             })?)
@@ -320,7 +321,7 @@ fn calibrate_cubic_cmd(
     base: &Model,
     t: &CubicTarget,
     relaxed: bool,
-    bonded: Option<&super::Bonded>,
+    bonded: Option<&Assembly>,
     relaxed_opts: RelaxedOptions,
 ) -> Result<Model> {
     let (base_extended, default_normal) = match &base.scheme {

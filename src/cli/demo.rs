@@ -2,7 +2,8 @@
 //! assembly (void fraction 0.40, radius range ΔR = R̄/6, gap cutoff 0.17 R̄) at a size that runs in
 //! seconds, her MRV cubic Zener>1 model, and the tensor by every method beside the paper's.
 
-use super::{bond_packing, method_name, output, report_of, LeverArmArg, Method, StaticArgs};
+use super::{output, report_of, LeverArmArg, MethodArg, StaticArgs};
+use anisobond::assembly::Assembly;
 use anisobond::bonds::table;
 use anisobond::export::{liggghts, vtk, yade};
 use anisobond::homogenize::relaxed::RelaxedOptions;
@@ -53,7 +54,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     );
     println!("model: cubic zener-above-1, a_n = 4.31, a_s = 10.0, normal 1e13 Pa/m, shear 3.55e12 Pa/m (parallel-bond area convention)");
     let p = output::generate_with_progress(&opts)?;
-    let b = bond_packing(p, &model)?;
+    let b = Assembly::new(p, model.clone())?;
     println!(
         "packing: {} particles, solid fraction {:.4}; bonds: {} (coordination Z = {:.3}; paper: 7.7)",
         b.packing.len(),
@@ -63,7 +64,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     );
     packing::io::write_packing(&dir.join("packing.txt"), &b.packing)?;
     anisobond::io::write_string_atomic(&dir.join("model.toml"), &model.to_toml_string())?;
-    table::write_bond_table(&dir.join("bonds.csv"), &b.bonds, &b.stiffness)?;
+    table::write_bond_table(&dir.join("bonds.csv"), &b.bonds, &b.springs)?;
 
     let (p11, p12, p44) = PAPER_EQ30_GPA;
     println!();
@@ -83,28 +84,27 @@ pub fn run(a: DemoArgs) -> Result<()> {
         energy: false,
     };
     for m in [
-        Method::MeanField,
-        Method::Voigt,
-        Method::Laf,
-        Method::Relaxed,
-        Method::Dynamic,
+        MethodArg::MeanField,
+        MethodArg::Voigt,
+        MethodArg::Laf,
+        MethodArg::Relaxed,
+        MethodArg::Dynamic,
     ] {
         let t = std::time::Instant::now();
-        let r = if m == Method::Dynamic {
-            let args = super::run::IntegratorArgs::default();
-            let result =
-                super::run::run_element_tests(&b.packing, &b.bonds, &b.stiffness, &args, true)?;
+        let args = super::run::IntegratorArgs::default();
+        let r = if m == MethodArg::Dynamic {
+            let result = super::run::run_element_tests(&b, &args, true)?;
             super::run::plot_element_tests(&dir.join("element-tests.png"), &result, &args)?;
             plots.push("element-tests.png");
-            TensorReport::new(method_name(m), result.c, Some((&b.packing, &b.bonds)))?
+            TensorReport::new(m.name(), result.c, Some((&b.packing, &b.bonds)))?
         } else {
-            report_of(&b, &model, m, &statics)?
+            report_of(&b, m, &statics, &args)?
         };
         let secs = t.elapsed().as_secs_f64();
         let cu = &r.cubic;
         println!(
             "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>9.4} {:>9.4} {:>8.4}   ({secs:.2} s)",
-            if m == Method::Laf {
+            if m == MethodArg::Laf {
                 "laf (m = 2, stress)"
             } else {
                 r.method.as_str()
@@ -159,7 +159,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     let state = vtk::strained_state(
         &b.packing,
         &b.bonds,
-        &b.stiffness,
+        &b.springs,
         &strain,
         &RelaxedOptions::default(),
     )?;
@@ -168,7 +168,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         &dir.join("bonds.vtu"),
         &b.packing,
         &b.bonds,
-        &b.stiffness,
+        &b.springs,
         Some(&state),
     )?;
     written.extend(["particles.vtu", "bonds.vtu"].map(String::from));
@@ -176,7 +176,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         &dir.join("yade"),
         &b.packing,
         &b.bonds,
-        &b.stiffness,
+        &b.springs,
         Some(&model),
         &yade::YadeRunOptions::default(),
     )?;
@@ -185,7 +185,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         &dir.join("liggghts"),
         &b.packing,
         &b.bonds,
-        &b.stiffness,
+        &b.springs,
         &liggghts::DeckOptions::default(),
     )?;
     written.extend(["liggghts/anisobond.in", "liggghts/harmonic.in"].map(String::from));

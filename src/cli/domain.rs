@@ -2,7 +2,8 @@
 //! in the log-normalised parameter space (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a), as
 //! CSV and PNG.
 
-use super::{bond_packing, LeverArmArg};
+use super::LeverArmArg;
+use anisobond::assembly::Assembly;
 use anisobond::calibrate::domain::{
     sample_mean_field, sample_relaxed, write_csv, DomainOptions, DomainSample,
 };
@@ -140,9 +141,9 @@ pub fn run(a: DomainArgs) -> Result<()> {
             Some(m) => Model::from_path(m)?,
             None => Model::truszkowska_mrv(),
         };
-        let b = bond_packing(
+        let b = Assembly::new(
             packing::io::read_packing(std::path::Path::new(path))?,
-            &model,
+            model.clone(),
         )?;
         let (s, k) = sample_relaxed(
             &b.packing,

@@ -2,6 +2,7 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
+use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::{export_liggghts, DeckOptions};
 use anisobond::io::OutputSet;
 use anisobond::Result;
@@ -51,11 +52,12 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let mut set = OutputSet::new(&[&a.packing, &a.model]);
     let staged = set.dir(&a.output)?;
-    let super::Bonded {
+    let Assembly {
         packing,
         bonds,
-        stiffness: k,
-    } = super::load_model_and_bonded(&a.packing, &a.model)?;
+        springs: k,
+        ..
+    } = Assembly::from_files(&a.packing, &a.model)?;
     let opts = DeckOptions {
         density: a.density,
         strain: a.strain,

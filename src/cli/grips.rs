@@ -3,6 +3,7 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::{check_positive, IntegratorArgs};
+use anisobond::assembly::Assembly;
 use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::{DemOptions, MassOptions};
@@ -68,11 +69,12 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let super::Bonded {
+    let Assembly {
         packing,
         bonds: b,
-        stiffness: k,
-    } = super::load_model_and_bonded(&a.packing, &a.model)?;
+        springs: k,
+        ..
+    } = Assembly::from_files(&a.packing, &a.model)?;
     let i = &a.integrator;
     let opts = GrippedOptions {
         strain: i.strain,

@@ -15,17 +15,14 @@ mod stress_test;
 mod validate;
 mod validate_liggghts;
 
-use anisobond::bonds::{self, table, BondSet, BondStiffness};
+use anisobond::assembly::{Assembly, Detail, Method};
 use anisobond::homogenize::network::LeverArm;
 use anisobond::homogenize::relaxed::{
-    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedSolver,
-    DEFAULT_PARTICLES_PER_AGGREGATE,
+    CgPreconditioner, RelaxedOptions, RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
 };
-use anisobond::homogenize::{laf, mean_field, report::TensorReport, voigt};
+use anisobond::homogenize::{mean_field, report::TensorReport};
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing::{self, Packing};
-use anisobond::tensor::Stiffness6;
 use anisobond::{Error, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -95,7 +92,7 @@ struct BondsArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-enum Method {
+enum MethodArg {
     /// Continuous orientation integral (needs no packing).
     MeanField,
     /// Sum over the actual bonds (uniform strain).
@@ -183,7 +180,7 @@ struct TensorArgs {
     model: PathBuf,
     /// Homogenisation method.
     #[arg(long, value_enum)]
-    method: Method,
+    method: MethodArg,
     /// Print the SPEC tensor report as JSON instead of a table.
     #[arg(long)]
     json: bool,
@@ -225,111 +222,73 @@ pub fn run() -> Result<()> {
     }
 }
 
-/// A packing, its bonds and their springs under a model.
-pub struct Bonded {
-    pub packing: Packing,
-    pub bonds: BondSet,
-    pub stiffness: BondStiffness,
-}
-
-/// Read the model file, then [`load_bonded`].
-pub(crate) fn load_model_and_bonded(packing_path: &Path, model_path: &Path) -> Result<Bonded> {
-    let model = Model::from_path(model_path)?;
-    load_bonded(packing_path, &model, model_path)
-}
-
-/// Read a packing, bond it by the model's rule and assign springs; errors that come from the
-/// model name the model file.
-pub(crate) fn load_bonded(packing_path: &Path, model: &Model, model_path: &Path) -> Result<Bonded> {
-    let packing = packing::io::read_packing(packing_path)?;
-    bond_packing(packing, model).map_err(|e| match e {
-        Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
-        Error::Invalid(m) if m.starts_with(NO_BONDS) => Error::Invalid(format!(
-            "{}: {m} (bonding rule of {})",
-            packing_path.display(),
-            model_path.display()
-        )),
-        other => other,
-    })
-}
-
-/// Start of the refusal of a packing that the bonding rule leaves without bonds.
-const NO_BONDS: &str = "the bonding rule produces no bonds";
-
-fn bond_packing(packing: Packing, model: &Model) -> Result<Bonded> {
-    let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{NO_BONDS} between the {} particles: increase the gap/factor value",
-            packing.len()
-        )));
-    }
-    let scheme = model.build_scheme(Some((&packing, &bonds)))?;
-    let stiffness = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
-    Ok(Bonded {
-        packing,
-        bonds,
-        stiffness,
-    })
-}
-
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.file(&a.output)?;
-    let model = Model::from_path(&a.model)?;
-    let b = load_bonded(&a.packing, &model, &a.model)?;
-    table::write_bond_table(&staged, &b.bonds, &b.stiffness)?;
+    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    asm.write_bonds(&staged)?;
     out.commit()?;
     println!(
         "wrote {}: {} bonds between {} particles (coordination Z = {:.3})",
         a.output.display(),
-        b.bonds.len(),
-        b.packing.len(),
-        b.bonds.coordination(b.packing.len())
+        asm.bonds.len(),
+        asm.packing.len(),
+        asm.coordination()
     );
     Ok(())
 }
 
-/// Mean-field prefactor N_c⟨l²·g⟩/V of a bonded packing (g = the geometry factor).
-fn packing_prefactor(b: &Bonded, model: &Model) -> f64 {
-    let s: f64 = (0..b.bonds.len())
-        .map(|k| {
-            let ri = b.packing.radii[b.bonds.i[k] as usize];
-            let rj = b.packing.radii[b.bonds.j[k] as usize];
-            let l = b.bonds.length[k];
-            l * l * model.geometry.factor(ri, rj, l)
-        })
-        .sum();
-    s / b.packing.volume()
+/// The library's method for a command-line method and its options.
+fn library_method(
+    m: MethodArg,
+    st: &StaticArgs,
+    integrator: &run::IntegratorArgs,
+) -> Result<Method> {
+    Ok(match m {
+        MethodArg::MeanField => Method::MeanField,
+        MethodArg::Voigt => Method::Voigt,
+        MethodArg::Relaxed => Method::Relaxed(RelaxedOptions {
+            lever_arm: st.lever_arm.into(),
+            tolerance: st.cg_tolerance,
+            solver: st.solver.into(),
+            ..Default::default()
+        }),
+        MethodArg::Laf => Method::Laf {
+            shell: st.shell,
+            energy: st.energy,
+            lever_arm: st.lever_arm.into(),
+        },
+        MethodArg::Dynamic => {
+            integrator.validate()?;
+            Method::Dynamic {
+                law: integrator.law.into(),
+                options: run::element_options(integrator, false),
+            }
+        }
+    })
 }
 
-/// A computed tensor and, for the relaxed method, the relative residual the solver reached.
-struct Computed {
-    c: Stiffness6,
-    residual: Option<f64>,
-}
-
-/// Compute the tensor of a bonded packing by `method`, as a checked report (finite, positive
-/// definite: see `check_result_tensor`).
-fn report_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<TensorReport> {
-    let Computed { c, residual } = tensor_of(b, model, method, st)?;
-    let mut r = TensorReport::new(method_name(method), c, Some((&b.packing, &b.bonds)))?;
-    r.relative_residual = residual;
-    Ok(r)
-}
-
-/// Compute the tensor of a bonded packing by `method`.
-fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Result<Computed> {
-    let mut residual = None;
-    let c = match method {
-        Method::Relaxed => {
-            let opts = RelaxedOptions {
-                lever_arm: st.lever_arm.into(),
-                tolerance: st.cg_tolerance,
-                solver: st.solver.into(),
-                ..Default::default()
-            };
-            let r = relaxed_tensor(&b.packing, &b.bonds, &b.stiffness, &opts)?;
+/// The checked tensor report of `asm` by `m` (a progress bar for the dynamic method), with
+/// what the method says about its solution on standard error.
+fn report_of(
+    asm: &Assembly,
+    m: MethodArg,
+    st: &StaticArgs,
+    integrator: &run::IntegratorArgs,
+) -> Result<TensorReport> {
+    let method = library_method(m, st, integrator)?;
+    let bar = if m == MethodArg::Dynamic {
+        output::progress_bar("element tests")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let result = asm.tensor_with_progress(&method, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    let result = result?;
+    match &result.detail {
+        Detail::Relaxed(r) => {
             let ns = &r.null_space;
             eprintln!(
                 "relaxed ({}): residual {:.1e}; {} active particles, {} active bonds; removed {} particles with < 2 bonds ({} bonds); {} two-bond particles (one free rotation each); {} rigid translations; {} other locally singular particles",
@@ -341,60 +300,21 @@ fn tensor_of(b: &Bonded, model: &Model, method: Method, st: &StaticArgs) -> Resu
                 r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
             );
-            residual = Some(r.relative_residual);
-            r.c
         }
-        Method::Laf => {
-            let r = laf::laf_tensor(
-                &b.packing,
-                &b.bonds,
-                &b.stiffness,
-                st.lever_arm.into(),
-                st.shell,
-            )?;
-            eprintln!(
-                "laf: shell order {}, {:.1} free particles per shell; reporting the {} estimate",
-                r.shell,
-                r.mean_free_particles,
-                if st.energy {
-                    "energy-based (upper bound)"
-                } else {
-                    "stress-based"
-                }
-            );
+        Detail::Laf(r) => eprintln!(
+            "laf: shell order {}, {:.1} free particles per shell; reporting the {} estimate",
+            r.shell,
+            r.mean_free_particles,
             if st.energy {
-                r.c_energy
+                "energy-based (upper bound)"
             } else {
-                r.c_stress
+                "stress-based"
             }
-        }
-        Method::Dynamic => run::dynamic_tensor(
-            &b.packing,
-            &b.bonds,
-            &b.stiffness,
-            &run::IntegratorArgs::default(),
-        )?,
-        Method::Voigt => voigt::voigt_tensor(&b.bonds, &b.stiffness, b.packing.volume()),
-        Method::MeanField => {
-            let scheme = model.build_scheme(Some((&b.packing, &b.bonds)))?;
-            mean_field::mean_field(
-                scheme.as_ref(),
-                packing_prefactor(b, model),
-                mean_field::DEFAULT_ORDER,
-            )
-        }
-    };
-    Ok(Computed { c, residual })
-}
-
-fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::MeanField => "mean-field",
-        Method::Voigt => "voigt",
-        Method::Relaxed => "relaxed",
-        Method::Laf => "laf",
-        Method::Dynamic => "dynamic",
+        ),
+        Detail::Dynamic(d) => run::print_stability(d),
+        Detail::None => {}
     }
+    Ok(result.report)
 }
 
 /// Name the input files in a refusal of the computed tensor (overflow, no load, mechanism),
@@ -409,8 +329,21 @@ fn blame_inputs(e: Error, inputs: &[&Path]) -> Error {
     }
 }
 
+impl MethodArg {
+    /// The method's name on the command line and in reports.
+    fn name(self) -> &'static str {
+        match self {
+            MethodArg::MeanField => "mean-field",
+            MethodArg::Voigt => "voigt",
+            MethodArg::Relaxed => "relaxed",
+            MethodArg::Laf => "laf",
+            MethodArg::Dynamic => "dynamic",
+        }
+    }
+}
+
 fn tensor_cmd(a: TensorArgs) -> Result<()> {
-    if matches!(a.method, Method::Dynamic) {
+    if matches!(a.method, MethodArg::Dynamic) {
         a.integrator.validate()?;
     }
     let inputs: Vec<&Path> = a
@@ -425,17 +358,10 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let report = (|| -> Result<TensorReport> {
         Ok(match (&a.packing, a.method) {
             (Some(p), m) => {
-                let b = load_bonded(p, &model, &a.model)?;
-                match m {
-                    Method::Dynamic => {
-                        let c =
-                            run::dynamic_tensor(&b.packing, &b.bonds, &b.stiffness, &a.integrator)?;
-                        TensorReport::new(method_name(m), c, Some((&b.packing, &b.bonds)))?
-                    }
-                    _ => report_of(&b, &model, m, &a.statics)?,
-                }
+                let asm = Assembly::from_packing_file(p, model.clone(), &a.model)?;
+                report_of(&asm, m, &a.statics, &a.integrator)?
             }
-            (None, Method::MeanField) => {
+            (None, MethodArg::MeanField) => {
                 if model.needs_packing() {
                     return Err(Error::Invalid(
                     "the cross-anisotropic scheme needs a PACKING (its lattice scaling μ comes from the bonds)".into(),
@@ -477,7 +403,7 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             (None, m) => {
                 return Err(Error::Invalid(format!(
                     "--method {} works on the actual bonds: give a PACKING",
-                    method_name(m)
+                    m.name()
                 )))
             }
         })

@@ -1,7 +1,7 @@
 //! `anisobond plot stiffness` (polar sections of k_n(n), k_s(n), Truszkowska 2018 Fig. 3)
 //! and `anisobond export vtk` (ParaView files of particles and bonds).
 
-use super::bond_packing;
+use anisobond::assembly::Assembly;
 use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
@@ -61,7 +61,7 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
     let dir = out.dir(&a.output)?;
     let model = Model::from_path(&a.model)?;
     let bonded = match &a.packing {
-        Some(p) => Some(bond_packing(packing::io::read_packing(p)?, &model)?),
+        Some(p) => Some(Assembly::new(packing::io::read_packing(p)?, model.clone())?),
         None => None,
     };
     let scheme = model.build_scheme(bonded.as_ref().map(|b| (&b.packing, &b.bonds)))?;
@@ -138,12 +138,12 @@ pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
     let strain = parse_strain(&a.strain)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let dir = out.dir(&a.output)?;
-    let b = bond_packing(packing::io::read_packing(&a.packing)?, &model)?;
+    let b = Assembly::new(packing::io::read_packing(&a.packing)?, model.clone())?;
     let state = match (strain, b.packing.cell.is_some()) {
         (Some(e), true) => Some(strained_state(
             &b.packing,
             &b.bonds,
-            &b.stiffness,
+            &b.springs,
             &e,
             &RelaxedOptions::default(),
         )?),
@@ -158,7 +158,7 @@ pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
         &dir.join("bonds.vtu"),
         &b.packing,
         &b.bonds,
-        &b.stiffness,
+        &b.springs,
         state.as_ref(),
     )?;
     out.commit()?;

@@ -2,14 +2,12 @@
 //! progress bar, the stress–strain history CSV and the final tensor JSON; and the helper
 //! behind `anisobond tensor --method dynamic`.
 
-use anisobond::bonds::{BondSet, BondStiffness};
+use anisobond::assembly::Assembly;
 use anisobond::dem::element::{self, ElementTestOptions};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
-use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use anisobond::dem::{DemOptions, LawKind, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
-use anisobond::packing::Packing;
-use anisobond::tensor::Stiffness6;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
 use std::fmt::Write as _;
@@ -173,7 +171,8 @@ pub struct RunArgs {
     pub plot: Option<PathBuf>,
 }
 
-fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
+/// The library's element-test options for the command-line integrator options.
+pub fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions {
     ElementTestOptions {
         strain: a.strain,
         local_damping: a.damping,
@@ -228,19 +227,27 @@ pub fn plot_element_tests(
     )
 }
 
-/// Run the six element tests (with a progress bar), recording histories if asked.
+/// Run the six element tests of `asm` (with a progress bar), recording histories if asked.
 pub fn run_element_tests(
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
+    asm: &Assembly,
     a: &IntegratorArgs,
     history: bool,
 ) -> Result<element::DynamicTensor> {
     a.validate()?;
-    let law = build_law(a.law.into(), packing, bonds, k)?;
     let opts = element_options(a, history);
-    let sim = Simulation::new(packing, bonds, law, &opts.dem)?;
-    let st = sim.stability();
+    let bar = super::output::progress_bar("element tests");
+    let result = asm.element_tests(a.law.into(), &opts, &|f: f64| {
+        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    let result = result?;
+    print_stability(&result);
+    Ok(result)
+}
+
+/// The time step used and the weakly bonded particles of an element-test run (stderr).
+pub fn print_stability(result: &element::DynamicTensor) {
+    let st = &result.stability;
     if !st.one_bond_particles.is_empty() || !st.two_bond_particles.is_empty() {
         eprintln!(
             "note: {} particles with one bond and {} with two (zero-stiffness modes, held by damping); {} without bonds",
@@ -251,26 +258,8 @@ pub fn run_element_tests(
     }
     eprintln!(
         "time step {:.4e} s (critical estimate {:.4e} s)",
-        sim.time_step(),
-        st.critical_time_step
+        result.time_step, st.critical_time_step
     );
-    let bar = super::output::progress_bar("element tests");
-    let result = element::dynamic_tensor(&sim, &opts, &|f: f64| {
-        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
-    });
-    bar.finish_and_clear();
-    result
-}
-
-/// The dynamic (reference-integrator) tensor of a bonded periodic packing (Pa), for
-/// `tensor --method dynamic`.
-pub fn dynamic_tensor(
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    a: &IntegratorArgs,
-) -> Result<Stiffness6> {
-    Ok(run_element_tests(packing, bonds, k, a, false)?.c)
 }
 
 /// `anisobond run`.
@@ -280,14 +269,10 @@ pub fn run(a: RunArgs) -> Result<()> {
     let staged_output = out.optional_file(a.output.as_deref())?;
     let staged_history = out.optional_file(a.history.as_deref())?;
     let staged_plot = out.optional_file(a.plot.as_deref())?;
-    let super::Bonded {
-        packing,
-        bonds: b,
-        stiffness: k,
-    } = super::load_model_and_bonded(&a.packing, &a.model)?;
+    let asm = Assembly::from_files(&a.packing, &a.model)?;
     let want_history = a.history.is_some() || a.plot.is_some();
-    let result = run_element_tests(&packing, &b, &k, &a.integrator, want_history)?;
-    let report = TensorReport::new("dynamic", result.c, Some((&packing, &b)))?;
+    let result = run_element_tests(&asm, &a.integrator, want_history)?;
+    let report = TensorReport::new("dynamic", result.c, Some((&asm.packing, &asm.bonds)))?;
     if let Some(path) = &staged_plot {
         plot_element_tests(path, &result, &a.integrator)?;
     }

@@ -5,6 +5,7 @@
 //! orthotropic tensor as a SPEC JSON report.
 
 use super::run::{check_damping, check_max_steps, check_positive, check_safety, LawArg};
+use anisobond::assembly::Assembly;
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
@@ -103,11 +104,12 @@ pub fn run(a: StressTestArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let super::Bonded {
+    let Assembly {
         packing,
         bonds: b,
-        stiffness: k,
-    } = super::load_model_and_bonded(&a.packing, &a.model)?;
+        springs: k,
+        ..
+    } = Assembly::from_files(&a.packing, &a.model)?;
     let dem = DemOptions {
         time_step: a.dt,
         safety: a.safety,

@@ -2,6 +2,7 @@
 //! anisobond, the differences as a table with units, files in DIR, and a non-zero exit
 //! status when any agreement is outside its tolerance.
 
+use anisobond::assembly::Assembly;
 use anisobond::export::yade::{parse_paths, PATH_LABELS};
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
@@ -113,11 +114,12 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
     let mut set = OutputSet::new(&[&a.packing, &a.model]);
     let staged = set.optional_dir(a.output.as_deref())?;
     let model = Model::from_path(&a.model)?;
-    let super::Bonded {
+    let Assembly {
         packing,
         bonds: b,
-        stiffness: k,
-    } = super::load_bonded(&a.packing, &model, &a.model)?;
+        springs: k,
+        ..
+    } = Assembly::from_packing_file(&a.packing, model.clone(), &a.model)?;
     let temp;
     let dir = match &staged {
         Some(d) => d.clone(),

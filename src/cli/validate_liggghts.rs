@@ -3,6 +3,7 @@
 //! integrator and the relaxed solver; a table of the differences, files in DIR, and a
 //! non-zero exit naming the checks outside tolerance.
 
+use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::which;
 use anisobond::io::OutputSet;
 use anisobond::validate::liggghts::{
@@ -86,11 +87,12 @@ pub fn run(a: Args) -> Result<()> {
         driver: find_driver(a.driver)?,
         liggghts: a.liggghts,
     };
-    let super::Bonded {
+    let Assembly {
         packing,
         bonds,
-        stiffness: k,
-    } = super::load_model_and_bonded(&a.packing, &a.model)?;
+        springs: k,
+        ..
+    } = Assembly::from_files(&a.packing, &a.model)?;
     let opts = ValidateOptions {
         density: a.density,
         timestep: a.timestep,

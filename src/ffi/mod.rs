@@ -22,6 +22,7 @@ use std::path::Path;
 // the Rust version cxx itself requires.
 #[allow(clippy::incompatible_msrv)]
 #[cxx::bridge(namespace = "anisobond")]
+/// The cxx bridge: the types and functions that C++ code sees (cpp/README.md).
 pub mod bridge {
     /// Normal and shear magnitudes of a scheme along one direction (unit of the model's
     /// geometry convention).
@@ -351,19 +352,8 @@ fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Resu
         "relaxed" => relaxed_tensor(&packing, &bonds, &k, &RelaxedOptions::default())?.c,
         "mean-field" => {
             let scheme = model.model.build_scheme(Some((&packing, &bonds)))?;
-            let s: f64 = (0..bonds.len())
-                .map(|b| {
-                    let ri = packing.radii[bonds.i[b] as usize];
-                    let rj = packing.radii[bonds.j[b] as usize];
-                    let l = bonds.length[b];
-                    l * l * model.model.geometry.factor(ri, rj, l)
-                })
-                .sum();
-            mean_field::mean_field(
-                scheme.as_ref(),
-                s / packing.volume(),
-                mean_field::DEFAULT_ORDER,
-            )
+            let pre = mean_field::packing_prefactor(&packing, &bonds, &model.model.geometry);
+            mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER)
         }
         other => {
             return Err(Error::Invalid(format!(

@@ -20,8 +20,10 @@
 
 use rayon::prelude::*;
 
+use crate::bonds::BondSet;
 use crate::homogenize::bond_lattice_tensor;
-use crate::schemes::StiffnessScheme;
+use crate::packing::Packing;
+use crate::schemes::{Geometry, StiffnessScheme};
 use crate::tensor::Stiffness6;
 use crate::Vec3;
 
@@ -347,6 +349,20 @@ pub fn orientation_average(scheme: &dyn StiffnessScheme, quad: &SphereQuadrature
 pub fn mean_field(scheme: &dyn StiffnessScheme, prefactor: f64, order: usize) -> Stiffness6 {
     let quad = SphereQuadrature::new(&scheme.kink_planes(), order);
     orientation_average(scheme, &quad) * prefactor
+}
+
+/// Mean-field prefactor N_c⟨l²·g⟩/V of a bonded packing (g = the geometry factor, k = magnitude·g): the
+/// bond density the orientation integral is scaled by (Truszkowska 2018 App. A).
+pub fn packing_prefactor(packing: &Packing, bonds: &BondSet, geometry: &Geometry) -> f64 {
+    let s: f64 = (0..bonds.len())
+        .map(|k| {
+            let ri = packing.radii[bonds.i[k] as usize];
+            let rj = packing.radii[bonds.j[k] as usize];
+            let l = bonds.length[k];
+            l * l * geometry.factor(ri, rj, l)
+        })
+        .sum();
+    s / packing.volume()
 }
 
 /// N_c⟨l²⟩/V = 3Zφ/(2πR) for equal spheres of radius R with bond length 2R, coordination Z

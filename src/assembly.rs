@@ -1,0 +1,220 @@
+//! The pipeline in one place: a packing and a model make an [`Assembly`] — the bonds the
+//! model's rule draws, the springs its scheme gives each bond — whose stiffness tensor every
+//! client (the CLI, the C++ bridge, Python) asks for by [`Method`].
+//!
+//! The five-line path from a packing file to a relaxed tensor is in the crate docs.
+
+use crate::bonds::{self, BondSet, BondStiffness};
+use crate::dem::element::{self, DynamicTensor, ElementTestOptions};
+use crate::dem::{build_law, LawKind, Simulation};
+use crate::homogenize::laf::{laf_tensor, LafResult};
+use crate::homogenize::network::LeverArm;
+use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
+use crate::homogenize::report::TensorReport;
+use crate::homogenize::{mean_field, voigt};
+use crate::model::Model;
+use crate::packing::{self, Packing};
+use crate::{Error, Result};
+use std::path::Path;
+
+/// A bonded packing: the spheres, the model, the bonds its rule draws and every bond's springs.
+#[derive(Clone, Debug)]
+pub struct Assembly {
+    /// The spheres and their cell.
+    pub packing: Packing,
+    /// The model the bonds and springs come from.
+    pub model: Model,
+    /// The bonds (i < j, branch vectors to the periodic image of j).
+    pub bonds: BondSet,
+    /// Each bond's springs kn, ks (N/m), kr, ktw (N·m/rad).
+    pub springs: BondStiffness,
+}
+
+/// How to get the assembly's 6×6 stiffness tensor.
+#[derive(Clone, Debug)]
+pub enum Method {
+    /// The orientation integral at the assembly's bond density (Truszkowska 2018 App. A).
+    MeanField,
+    /// The sum over the actual bonds under uniform strain.
+    Voigt,
+    /// Exact static equilibrium of the bond network under each unit strain.
+    Relaxed(RelaxedOptions),
+    /// Kruyt 2014's local adjustment field with shells of order `shell`.
+    Laf {
+        /// Shell order m (1–6).
+        shell: usize,
+        /// The energy-based estimate (an upper bound) instead of the stress-based one.
+        energy: bool,
+        /// Contact point of the bonds.
+        lever_arm: LeverArm,
+    },
+    /// The reference integrator's six damped element tests (Truszkowska 2018 Eq. 27 fit).
+    Dynamic {
+        /// Bond law of the integrator.
+        law: LawKind,
+        /// Strain, damping, stop rule, time step and masses.
+        options: ElementTestOptions,
+    },
+}
+
+impl Method {
+    /// The relaxed method with its default solver and tolerance.
+    pub fn relaxed() -> Method {
+        Method::Relaxed(RelaxedOptions::default())
+    }
+
+    /// The name used in reports and on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::MeanField => "mean-field",
+            Method::Voigt => "voigt",
+            Method::Relaxed(_) => "relaxed",
+            Method::Laf { .. } => "laf",
+            Method::Dynamic { .. } => "dynamic",
+        }
+    }
+}
+
+/// What a method computed beyond the tensor.
+#[derive(Clone, Debug)]
+pub enum Detail {
+    /// Nothing more (mean field, Voigt).
+    None,
+    /// The relaxed solve: residual, iterations, null space.
+    Relaxed(Box<RelaxedResult>),
+    /// Both LAF estimates and the shell size.
+    Laf(Box<LafResult>),
+    /// The six element-test paths, time step and stability.
+    Dynamic(Box<DynamicTensor>),
+}
+
+/// A checked tensor (finite, positive definite) with its report and the method's details.
+#[derive(Clone, Debug)]
+pub struct TensorResult {
+    /// The SPEC tensor report (Pa), with the relaxed residual where there is one.
+    pub report: TensorReport,
+    /// What the method computed besides.
+    pub detail: Detail,
+}
+
+impl Assembly {
+    /// Bond `packing` by the model's rule and assign every bond its springs. Refuses a
+    /// packing the rule leaves without bonds.
+    pub fn new(packing: Packing, model: Model) -> Result<Assembly> {
+        let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
+        if bonds.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{NO_BONDS} between the {} particles: increase the gap/factor value",
+                packing.len()
+            )));
+        }
+        let scheme = model.build_scheme(Some((&packing, &bonds)))?;
+        let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+        Ok(Assembly {
+            packing,
+            model,
+            bonds,
+            springs,
+        })
+    }
+
+    /// Read the packing file (every format [`packing::io::read_packing`] knows) and bond it
+    /// by `model`; a refusal that comes from the model names `model_path`, one of a packing
+    /// without bonds names both files.
+    pub fn from_packing_file(packing_path: &Path, model: Model, model_path: &Path) -> Result<Self> {
+        let packing = packing::io::read_packing(packing_path)?;
+        Assembly::new(packing, model).map_err(|e| match e {
+            Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
+            Error::Invalid(m) if m.starts_with(NO_BONDS) => Error::Invalid(format!(
+                "{}: {m} (bonding rule of {})",
+                packing_path.display(),
+                model_path.display()
+            )),
+            other => other,
+        })
+    }
+
+    /// Read both files, then [`Assembly::from_packing_file`].
+    pub fn from_files(packing_path: &Path, model_path: &Path) -> Result<Self> {
+        let model = Model::from_path(model_path)?;
+        Assembly::from_packing_file(packing_path, model, model_path)
+    }
+
+    /// Mean bonds per particle Z = 2N_b/N.
+    pub fn coordination(&self) -> f64 {
+        self.bonds.coordination(self.packing.len())
+    }
+
+    /// The mean-field prefactor N_c⟨l²·g⟩/V of these bonds (g: the geometry factor).
+    pub fn mean_field_prefactor(&self) -> f64 {
+        mean_field::packing_prefactor(&self.packing, &self.bonds, &self.model.geometry)
+    }
+
+    /// The stiffness tensor by `method`, checked (finite, positive definite: see
+    /// [`crate::homogenize::report::check_result_tensor`]).
+    pub fn tensor(&self, method: &Method) -> Result<TensorResult> {
+        self.tensor_with_progress(method, &|_| {})
+    }
+
+    /// [`Assembly::tensor`] with the fraction done (0–1) reported to `progress` by the
+    /// methods that take long (dynamic).
+    pub fn tensor_with_progress(
+        &self,
+        method: &Method,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Result<TensorResult> {
+        let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
+        let (c, detail) = match method {
+            Method::MeanField => {
+                let scheme = self.model.build_scheme(Some((p, b)))?;
+                let pre = self.mean_field_prefactor();
+                let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+                (c, Detail::None)
+            }
+            Method::Voigt => (voigt::voigt_tensor(b, k, p.volume()), Detail::None),
+            Method::Relaxed(opts) => {
+                let r = relaxed_tensor(p, b, k, opts)?;
+                (r.c, Detail::Relaxed(Box::new(r)))
+            }
+            Method::Laf {
+                shell,
+                energy,
+                lever_arm,
+            } => {
+                let r = laf_tensor(p, b, k, *lever_arm, *shell)?;
+                let c = if *energy { r.c_energy } else { r.c_stress };
+                (c, Detail::Laf(Box::new(r)))
+            }
+            Method::Dynamic { law, options } => {
+                let d = self.element_tests(*law, options, progress)?;
+                (d.c, Detail::Dynamic(Box::new(d)))
+            }
+        };
+        let mut report = TensorReport::new(method.name(), c, Some((p, b)))?;
+        if let Detail::Relaxed(r) = &detail {
+            report.relative_residual = Some(r.relative_residual);
+        }
+        Ok(TensorResult { report, detail })
+    }
+
+    /// The six strain-controlled element tests of the reference integrator (Truszkowska 2018
+    /// Eqs. 17–22, fitted by Eq. 27), with histories if `options.history_every` > 0.
+    pub fn element_tests(
+        &self,
+        law: LawKind,
+        options: &ElementTestOptions,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Result<DynamicTensor> {
+        let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
+        let sim = Simulation::new(&self.packing, &self.bonds, law, &options.dem)?;
+        element::dynamic_tensor(&sim, options, progress)
+    }
+
+    /// Write the bond-stiffness table (CSV, SPEC columns) atomically.
+    pub fn write_bonds(&self, path: &Path) -> Result<()> {
+        bonds::table::write_bond_table(path, &self.bonds, &self.springs)
+    }
+}
+
+/// Start of the refusal of a packing that the bonding rule leaves without bonds.
+const NO_BONDS: &str = "the bonding rule produces no bonds";
