@@ -1,5 +1,5 @@
 // C++ test of the anisobond cxx bridge: values checked against closed forms and the
-// independently checked numbers of REFERENCES.md, and errors arriving as exceptions with
+// independently checked numbers of docs/references.md, and errors arriving as exceptions with
 // the library's message. Prints "N passed, M failed" and exits non-zero on a failure.
 //
 // Build and run: make -C cpp check
@@ -67,7 +67,7 @@ const char *cubic_spring(double normal, double shear, bool extended) {
 int main() {
   using namespace anisobond;
 
-  // 1. Cubic factors (f_n, f_s) of zener-above-1, a_n = 4.31, a_s = 10 (REFERENCES.md,
+  // 1. Cubic factors (f_n, f_s) of zener-above-1, a_n = 4.31, a_s = 10 (docs/references.md,
   //    "Model factors", 4 decimals). With the spring convention k = magnitude.
   {
     auto m = parse_model(cubic_spring(1.0, 1.0, false), "toml");
@@ -89,7 +89,7 @@ int main() {
     check(!m->needs_packing(), "cubic needs no packing");
   }
 
-  // 2. Cubic mean field T (REFERENCES.md "Cubic mean field", zener-above-1, normal 1e13,
+  // 2. Cubic mean field T (docs/references.md "Cubic mean field", zener-above-1, normal 1e13,
   //    shear 3.55e12): prefactor 1 with the spring convention gives T.
   {
     auto m = parse_model(cubic_spring(1.0e13, 3.55e12, false), "toml");
@@ -121,7 +121,7 @@ int main() {
 
   // 4. Errors become exceptions carrying the library's message.
   throws_with([] { parse_model(cubic_spring(1.0, 1.0, true), "toml"); }, "negative",
-              "extended zener-above-1 at a_s = 10 has negative shear (REFERENCES.md)");
+              "extended zener-above-1 at a_s = 10 has negative shear (docs/references.md)");
   throws_with([] { load_model("/nonexistent/dir/model.toml"); }, "/nonexistent/dir/model.toml",
               "missing model file names the path");
   throws_with([] { parse_model("[scheme]\nkind = \"isotropic\"\n", "yaml"); }, "yaml",
@@ -161,7 +161,7 @@ int main() {
     throws_with([&] { load_bond_table(bad); }, ":3:", "bad row reported with its line number");
   }
 
-  // 6. Simple cubic lattice (REFERENCES.md "Relaxed"): 3×3×3 spheres, R = 1 mm, spacing 2R,
+  // 6. Simple cubic lattice (docs/references.md "Relaxed"): 3×3×3 spheres, R = 1 mm, spacing 2R,
   //    springs k_n, k_t: C11 = k_n/(2R), C12 = 0, C44 = k_t/(4R), Voigt = relaxed.
   {
     const double R = 1e-3, kn = 1.0e6, kt = 4.0e5;

@@ -1,5 +1,5 @@
 //! Mean-field cubic calibration and the accessible domain, against independent references:
-//! REFERENCES.md's mean-field table (quadrature to 1e-13, not this code), the general
+//! docs/references.md's mean-field table (quadrature to 1e-13, not this code), the general
 //! mean-field integral of `homogenize::mean_field` (full sphere, bond lattice tensor), and
 //! Truszkowska 2018's statements on the domain (Zener ≈ 0.6–1.5, C12 ≤ C44 under uniform
 //! strain, App. D).
@@ -41,7 +41,7 @@ fn independent_constants(
 
 #[test]
 fn kernel_matches_references_table() {
-    // REFERENCES.md "Cubic mean field": T11, T12, T44 of the a_n = 4.31, a_s = 10 models
+    // docs/references.md "Cubic mean field": T11, T12, T44 of the a_n = 4.31, a_s = 10 models
     // with magnitudes 1e13 / 3.55e12.
     let k = CubicKernel::default();
     let rows = [
@@ -85,7 +85,7 @@ fn kernel_matches_references_table() {
 
 #[test]
 fn calibrating_to_a_known_models_tensor_reproduces_it() {
-    // Targets: REFERENCES.md mean-field ratios of the a_n = 4.31, a_s = 10, ρ = 0.355
+    // Targets: docs/references.md mean-field ratios of the a_n = 4.31, a_s = 10, ρ = 0.355
     // models, and absolute constants T·prefactor.
     let cases = [
         (false, 2.791698e12, 7.711806e11, 1.387484e12),

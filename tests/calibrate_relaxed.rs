@@ -117,7 +117,7 @@ fn nickel_on_a_packing_is_reached_or_refused_with_the_nearest_tensor() {
 fn cross_anisotropic_relaxed_tensor_hits_the_target() {
     let (p, b) = packing(800, 5);
     // A schist-like target about z whose Voigt inversion A⁻¹C = (105, 30, 17.5, 30) MPa
-    // (exact, REFERENCES.md inverse) has healthy shear moduli: reachable after relaxation.
+    // (exact, docs/references.md inverse) has healthy shear moduli: reachable after relaxation.
     let target = [130e6, 80e6, 20e6, 30e6];
     let mut base = Model::truszkowska_mrv();
     base.scheme = SchemeSpec::CrossAnisotropic {
@@ -128,7 +128,7 @@ fn cross_anisotropic_relaxed_tensor_hits_the_target() {
         axis: Vec3::z(),
     };
     base.geometry.convention = Convention::Modulus;
-    // Plain inversion: relaxed is soft (REFERENCES.md: 4–6 %).
+    // Plain inversion: relaxed is soft (docs/references.md: 4–6 %).
     let plain = relaxed_of(&base, &p, &b);
     let (pp, _) = TransverseProjection::about_axis(&plain, &Vec3::z()).unwrap();
     eprintln!(

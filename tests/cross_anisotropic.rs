@@ -1,5 +1,5 @@
-//! Šmilauer's cross-anisotropic elliptic scheme (paper 002) against the exact 1/35 matrix
-//! and its inverse (REFERENCES.md), the paper's worked example, closed-form lattice scalings
+//! Šmilauer's cross-anisotropic elliptic scheme against the exact 1/35 matrix
+//! and its inverse (docs/references.md), the paper's worked example, closed-form lattice scalings
 //! and the mean-field orientation integral.
 
 use std::f64::consts::PI;
@@ -17,7 +17,7 @@ use anisobond::schemes::StiffnessScheme;
 use anisobond::tensor::{Stiffness6, VOIGT_PAIRS};
 use anisobond::{Mat3, Vec3};
 
-/// The 1/35 matrix of REFERENCES.md / paper 002 Eq. eq-Celliptic, times 35.
+/// The 1/35 matrix of docs/references.md / Šmilauer Eq. 10, times 35.
 const A35: [[i64; 4]; 5] = [
     [36, 6, 20, 8],
     [12, 30, 16, 12],
@@ -25,10 +25,10 @@ const A35: [[i64; 4]; 5] = [
     [12, 2, -12, -2],
     [8, 6, 13, 8],
 ];
-/// C66 = (C11 − C12)/2 row, times 35 (REFERENCES.md).
+/// C66 = (C11 − C12)/2 row, times 35 (docs/references.md).
 const C66_35: [i64; 4] = [12, 2, 16, 5];
 
-/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (REFERENCES.md "Conventions").
+/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (docs/references.md "Conventions").
 fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
     let mut t = [[[[0.0; 3]; 3]; 3]; 3];
     for (a, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
@@ -89,7 +89,7 @@ fn microplane_matrix_is_the_exact_1_over_35_matrix() {
 #[test]
 fn own_quadrature_reproduces_the_1_over_35_matrix() {
     // Column k of A is the microplane response C_micro = 6·T to a unit entry of 𝓔
-    // (paper 002 Eq. eq-stiff-integral: (3/2π)·∫dΩ = 6·⟨⟩).
+    // (Šmilauer Eq. 3: (3/2π)·∫dΩ = 6·⟨⟩).
     let quad = SphereQuadrature::new(&[], DEFAULT_ORDER);
     for k in 0..4 {
         let mut e = [0.0; 4];
@@ -122,7 +122,7 @@ fn c66_row_is_half_the_difference_of_c11_and_c12_rows() {
 
 #[test]
 fn isotropic_limits_are_exact() {
-    // E_N^a = E_N^b = E_N, E_T^a = E_T^b = E_T (paper 002 Eq. eq-c1111-iso), in 35ths.
+    // E_N^a = E_N^b = E_N, E_T^a = E_T^b = E_T (Šmilauer Eq. 7), in 35ths.
     for (en, et) in [(1i64, 0i64), (0, 1), (7, 3)] {
         let e = [en, en, et, et];
         let dot = |row: &[i64; 4]| row.iter().zip(e.iter()).map(|(a, b)| a * b).sum::<i64>();
@@ -280,7 +280,7 @@ fn simple_cubic(n: usize, radius: f64, spacing: f64) -> (Packing, BondSet) {
 
 #[test]
 fn lattice_scaling_of_touching_simple_cubic_is_pi_over_8() {
-    // μ = (Zφ/8)·⟨r′⟩/R with Z = 6, φ = π/6, r′ = R: π/8 (REFERENCES.md).
+    // μ = (Zφ/8)·⟨r′⟩/R with Z = 6, φ = π/6, r′ = R: π/8 (docs/references.md).
     let r = 0.03;
     let (packing, bonds) = simple_cubic(3, r, 2.0 * r);
     assert_eq!(bonds.len(), 81);

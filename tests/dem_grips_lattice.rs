@@ -1,7 +1,7 @@
 //! Gripped element tests on a simple cubic lattice, where the affine field is the
 //! equilibrium (every non-grip particle is a centre of inversion with its six neighbours):
 //! the measurement-sphere strain must equal the imposed strain and the tensor must be the
-//! closed form of REFERENCES.md (SC, bond length 2R: C11 = k_n/(2R), C12 = 0,
+//! closed form of docs/references.md (SC, bond length 2R: C11 = k_n/(2R), C12 = 0,
 //! C44 = k_t/(4R)); the Table 3 heterogeneity metric must vanish.
 
 use anisobond::bonds::{rules::build_bonds, BondStiffness, BondingRule};

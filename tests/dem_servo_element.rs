@@ -1,4 +1,4 @@
-//! Stress-controlled (servo) element tests of Šmilauer (paper 002) in the integrator against
+//! Stress-controlled (servo) element tests of Šmilauer in the integrator against
 //! the exact relaxed tensor of the same bonded packing (`relaxed_tensor`, LeverArm::MidGap =
 //! YADE's contact point): the uniaxial tests under zero lateral stress must give
 //! E_i = 1/S_ii and ν_ij = −S_ij·E_i of the relaxed S = C⁻¹, the shears C_44…, and the

@@ -1,5 +1,5 @@
 //! Builds the C++ side (`make -C cpp check`: static library with the cxx bridge, example,
-//! C++ test) and runs the C++ test, which checks the bridge against REFERENCES.md numbers
+//! C++ test) and runs the C++ test, which checks the bridge against docs/references.md numbers
 //! and closed forms. Skipped with a reason only when g++/make are absent and CI is unset.
 
 use std::path::PathBuf;

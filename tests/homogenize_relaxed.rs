@@ -1,5 +1,5 @@
 //! The relaxed (static equilibrium) tensor: closed forms on lattices, the bounds and
-//! orderings of REFERENCES.md "Relaxed (static) stiffness: properties to test", and Kruyt's
+//! orderings of docs/references.md "Relaxed (static) stiffness: properties to test", and Kruyt's
 //! LAF estimates between them.
 
 use anisobond::bonds::{BondSet, BondStiffness};

@@ -1,4 +1,4 @@
-//! Voigt sum over bonds against closed forms (REFERENCES.md "Relaxed (static) stiffness"
+//! Voigt sum over bonds against closed forms (docs/references.md "Relaxed (static) stiffness"
 //! lattices and "Isotropic closed forms"; Kruyt 2014 Eq. 29; Kumar 2016 appendix).
 
 use anisobond::bonds::{BondSet, BondStiffness};

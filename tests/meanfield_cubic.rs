@@ -1,5 +1,5 @@
 //! Mean-field orientation average on kinked cubic bond functions (a local re-implementation
-//! of Truszkowska 2018 Eqs. 9–15 for the test only), against REFERENCES.md values, closed
+//! of Truszkowska 2018 Eqs. 9–15 for the test only), against docs/references.md values, closed
 //! forms and symmetries.
 
 use anisobond::homogenize::mean_field::{
@@ -138,7 +138,7 @@ fn full(c: &Stiffness6) -> [[[[f64; 3]; 3]; 3]; 3] {
     t
 }
 
-/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (REFERENCES.md "Conventions").
+/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (docs/references.md "Conventions").
 fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
     let t = full(c);
     let mut out = Stiffness6::zeros();
@@ -184,7 +184,7 @@ impl StiffnessScheme for Constant {
 
 #[test]
 fn local_scheme_matches_references_factor_table() {
-    // REFERENCES.md "Model factors": (f_n, f_s) along [100], [110], [111] for zener-above-1.
+    // docs/references.md "Model factors": (f_n, f_s) along [100], [110], [111] for zener-above-1.
     let s = LocalCubic::zener_above_1();
     let cases = [
         (Vec3::new(1.0, 0.0, 0.0), 0.7427, 4.6416),
@@ -208,7 +208,7 @@ fn local_scheme_matches_references_factor_table() {
 
 #[test]
 fn spheroid_volume_is_constant_average_r_cubed_is_one() {
-    // (1/3)∫r³dΩ = 4π/3 for every a (REFERENCES.md), i.e. ⟨r³⟩ = 1.
+    // (1/3)∫r³dΩ = 4π/3 for every a (docs/references.md), i.e. ⟨r³⟩ = 1.
     let q = SphereQuadrature::new(&[], 48);
     for a in [0.5, 1.0, 4.31, 10.0] {
         let avg = q.average(|n| spheroid(n.z, a).powi(3));
@@ -277,7 +277,7 @@ fn check_cubic_table(t: &Stiffness6, t11: f64, t12: f64, t44: f64) {
     for (got, want) in [(t[(0, 0)], t11), (t[(0, 1)], t12), (t[(3, 3)], t44)] {
         assert!(
             (got - want).abs() <= half_unit(want),
-            "got {got:.7e}, REFERENCES.md {want:.6e}"
+            "got {got:.7e}, docs/references.md {want:.6e}"
         );
     }
     // DEFAULT_ORDER is accurate to 1e-10 of the largest entry.
@@ -313,7 +313,7 @@ fn zener_below_1_matches_reference_mean_field() {
 
 #[test]
 fn isotropic_average_is_one_sixth_of_the_microplane_tensor() {
-    // Šmilauer paper 002 Eq. eq-c1111-iso: C11 = (6E_N+4E_T)/5, C12 = (2E_N−2E_T)/5,
+    // Šmilauer Eq. 7: C11 = (6E_N+4E_T)/5, C12 = (2E_N−2E_T)/5,
     // C44 = (2E_N+3E_T)/5, and C_micro = 6·T.
     let (en, et) = (3.7e9, 1.3e9);
     let t = mean_field(

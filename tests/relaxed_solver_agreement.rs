@@ -1,5 +1,5 @@
 //! The relaxed tensor's linear solvers agree: faer's sparse Cholesky, block-Jacobi CG and the
-//! two-level CG give the same tensor; closed forms on SC/FCC lattices (REFERENCES.md,
+//! two-level CG give the same tensor; closed forms on SC/FCC lattices (docs/references.md,
 //! "Relaxed (static) stiffness") through each; thread-count independence.
 
 use anisobond::bonds::{BondSet, BondStiffness};

@@ -1,5 +1,5 @@
 //! Cubic spheroid scheme (Truszkowska 2018) against independent values: closed forms, the
-//! O_h symmetry, and the tables of /work/shared/REFERENCES.md.
+//! O_h symmetry, and the tables of docs/references.md.
 
 use anisobond::schemes::cubic::{
     envelope_100, envelope_110, envelope_111, orthonormalize_rotation, rotation_from_euler_zyz_deg,
@@ -134,7 +134,7 @@ fn unit_aspect_ratio_is_the_unit_sphere() {
 
 #[test]
 fn spheroid_volume_is_that_of_the_unit_sphere() {
-    // (1/3)∮ r³ dΩ = 4π/3 for every a (REFERENCES.md, Eqs. 9–15).
+    // (1/3)∮ r³ dΩ = 4π/3 for every a (docs/references.md, Eqs. 9–15).
     let target = 4.0 * PI / 3.0;
     for a in [0.1, 0.5, 2.0, A_N, A_S, 30.0] {
         // Axis along the pole: dΩ = 2π dc.
@@ -200,7 +200,7 @@ fn envelopes_and_models_are_invariant_under_oh() {
 
 #[test]
 fn envelope_values_along_symmetry_directions() {
-    // REFERENCES.md table (r100, r111, r110) along [100], [110], [111], 6 digits.
+    // docs/references.md table (r100, r111, r110) along [100], [110], [111], 6 digits.
     let table: [(f64, [[f64; 3]; 3]); 2] = [
         (
             4.31,
@@ -232,7 +232,7 @@ fn envelope_values_along_symmetry_directions() {
 
 #[test]
 fn model_factors_along_symmetry_directions() {
-    // REFERENCES.md model table, a_n = 4.31, a_s = 10, 4 digits.
+    // docs/references.md model table, a_n = 4.31, a_s = 10, 4 digits.
     let table = [
         [(0.7427, 4.6416), (1.0113, 0.6532), (2.6484, 0.5671)],
         [(2.6484, 0.5671), (0.8465, 0.7960), (0.7427, 4.6416)],
@@ -525,7 +525,7 @@ fn kink_planes_separate_every_branch_switch() {
 
 #[test]
 fn extended_models_turn_negative_at_closed_form_thresholds() {
-    // Hand-derived from Eqs. 9–15 with the closed forms of REFERENCES.md:
+    // Hand-derived from Eqs. 9–15 with the closed forms of docs/references.md:
     // above-1, a > 1, at [110]: r100 = r(1/√2), r110 = a^(2/3), so
     //   f_s = a^(2/3)[1/√((1 + a²)/2) − ½] < 0 ⇔ a² > 7;
     // below-1, a > 1, at [110]: r111 = r(√(2/3)), f_s < 0 ⇔ (2 + a²)/3 > 4 ⇔ a² > 10;

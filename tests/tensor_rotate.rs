@@ -115,12 +115,12 @@ fn truszkowska_eq32_from_eq30() {
     let lab = rotate(&c30, &r.transpose());
     let deviation = (lab - eq32).amax();
     eprintln!("Eq. 32 max deviation {deviation:.4} GPa");
-    // REFERENCES.md: max deviation 0.044 GPa (rounding of the printed entries).
+    // docs/references.md: max deviation 0.044 GPa (rounding of the printed entries).
     assert!(
         deviation < 0.05,
         "max deviation from Eq. 32: {deviation} GPa"
     );
-    // The other convention (rotate with R) is far off (REFERENCES.md: 5.95 GPa).
+    // The other convention (rotate with R) is far off (docs/references.md: 5.95 GPa).
     let wrong = (rotate(&c30, &r) - eq32).amax();
     eprintln!("with R instead of Rᵀ: {wrong:.3} GPa");
     assert!(wrong > 5.0, "{wrong}");

@@ -75,7 +75,7 @@ fn projection_of_a_cubic_tensor_returns_it_with_zero_uncertainty() {
     assert!(relative_difference(&p.to_matrix(), &c) < 1e-15);
     let u = p.uncertainty;
     assert!(u.c11 < 1e-3 && u.c12 < 1e-3 && u.c44 < 1e-3 && u.zero_terms == 0.0);
-    // REFERENCES.md mean-field table: Zener 1.37340 for these T11, T12, T44.
+    // docs/references.md mean-field table: Zener 1.37340 for these T11, T12, T44.
     assert!((p.zener - 1.37340).abs() < 1e-5);
 }
 

@@ -1,4 +1,4 @@
-//! The bond table CSV of SPEC.md, one bond per row:
+//! The bond table CSV of docs/formats.md, one bond per row:
 //! `i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz` — length = centre distance (m),
 //! radius = R_b (m), kn/ks in N/m, kr/ktw in N·m/rad, ix,iy,iz = periodic image of j.
 //!

@@ -2,9 +2,9 @@
 //! (C11, C33, C13, C12) written into the model are corrected until the *relaxed* tensor of
 //! the packing has the target's.
 //!
-//! Šmilauer's scheme inverts the microplane (Voigt) formula, E′ = A⁻¹C/μ (paper 002
-//! Eq. eq-Eelliptic-micro), so a model file holding the target gives a Voigt tensor within a
-//! fraction of a percent of it but a relaxed tensor 3–6 % softer (REFERENCES.md). Here the
+//! Šmilauer's scheme inverts the microplane (Voigt) formula, E′ = A⁻¹C/μ (Šmilauer
+//! Eq. 22), so a model file holding the target gives a Voigt tensor within a
+//! fraction of a percent of it but a relaxed tensor 3–6 % softer (docs/references.md). Here the
 //! constants W written into the model are the unknowns: relaxed(W) = target is solved by
 //! Broyden's method from W₀ = target with the identity as the initial Jacobian (the map is
 //! close to a uniform softening), one warm-started relaxed solve per iteration.

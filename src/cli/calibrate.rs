@@ -1,4 +1,4 @@
-//! `anisobond calibrate`: scheme parameters that reproduce a target tensor (SPEC.md), at the
+//! `anisobond calibrate`: scheme parameters that reproduce a target tensor (docs/formats.md), at the
 //! mean-field level (no packing) or on the user's packing with the exact relaxed solver.
 
 use super::LeverArmArg;

@@ -1,4 +1,4 @@
-//! Command-line interface (SPEC.md "Command line"). Every command reads its inputs, calls
+//! Command-line interface (README.md "Commands"). Every command reads its inputs, calls
 //! the library, prints human-readable results with units, and writes files atomically.
 
 mod calibrate;

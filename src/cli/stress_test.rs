@@ -1,4 +1,4 @@
-//! `anisobond stress-test`: Šmilauer's stress-controlled element tests (paper 002) with the
+//! `anisobond stress-test`: Šmilauer's stress-controlled element tests with the
 //! reference integrator — three unconfined uniaxial tests under servo-controlled zero lateral
 //! stress and three strain-controlled pure shears — printing the engineering constants, the
 //! orthotropic and the transversely isotropic (about z) stiffness, and writing the

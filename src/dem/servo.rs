@@ -1,7 +1,7 @@
 //! Stress (servo) control of the periodic cell: each of the six symmetric velocity-gradient
 //! components is either prescribed (a strain rate or a target strain) or driven toward a
 //! target stress, as YADE's `PeriTriaxController` / Woo's `WeirdTriaxControl` do for the
-//! unconfined element tests of Šmilauer (paper 002, "Evaluating the stiffness tensor":
+//! unconfined element tests of Šmilauer ("Evaluating the stiffness tensor":
 //! lateral strains adjusted until |T_lateral| < t_r·|T_axial|).
 //!
 //! The controller is deterministic and stateless: before every step it reads the Love

@@ -168,7 +168,7 @@ pub struct StabilityReport {
     /// Particles with one bond: free rotations and a free swing about their partner.
     pub one_bond_particles: Vec<usize>,
     /// Particles with two bonds: a free rotation about the line through the contacts
-    /// (REFERENCES.md, null space).
+    /// (docs/references.md, null space).
     pub two_bond_particles: Vec<usize>,
 }
 

@@ -1,11 +1,11 @@
-//! Šmilauer's element tests (paper 002, "Evaluating the stiffness tensor"): for each axis an
+//! Šmilauer's element tests (Šmilauer, "Evaluating the stiffness tensor"): for each axis an
 //! unconfined uniaxial test — strain ε̂ prescribed along the axis, every other stress
 //! component servo-controlled to zero ([`super::servo`]) — giving E_i = T_ii/ε̂ and
-//! ν_ij = −ε_jj/ε̂ (Eq. eq-sim-Ex); and three strain-controlled pure shears giving
-//! G_ij = T_ij/γ_ij (Eq. eq-sim-Gij). Relaxed quasi-statically with Cundall damping. The
+//! ν_ij = −ε_jj/ε̂ (Eq. 24); and three strain-controlled pure shears giving
+//! G_ij = T_ij/γ_ij (Eq. 25). Relaxed quasi-statically with Cundall damping. The
 //! constants give the stiffness two ways: the orthotropic compliance
-//! (Eq. eq-orthotropic-normal-compliance) inverted, and the cross-anisotropic (transversely
-//! isotropic about z) inversion of Eq. eq-CC-from-EGnu in its corrected form
+//! (Eq. 23) inverted, and the cross-anisotropic (transversely
+//! isotropic about z) inversion of Eq. 26 in its corrected form
 //! ([`crate::tensor::elastic::cross_anisotropic_from_engineering`]).
 
 use super::servo::{
@@ -44,7 +44,7 @@ impl Default for StressTestOptions {
 pub struct UniaxialTest {
     /// Loaded axis 0, 1, 2 (x, y, z).
     pub axis: usize,
-    /// Young's modulus E_axis = T_axis/ε̂ (Pa; paper 002 Eq. eq-sim-Ex).
+    /// Young's modulus E_axis = T_axis/ε̂ (Pa; Šmilauer Eq. 24).
     pub young: f64,
     /// ν_axis,j = −ε_jj/ε̂ for j = 0, 1, 2 (0 at j = axis).
     pub poisson: [f64; 3],
@@ -57,7 +57,7 @@ pub struct UniaxialTest {
 pub struct ShearTest {
     /// Voigt component 3, 4, 5 (yz, xz, xy).
     pub component: usize,
-    /// Shear modulus G = T_ij/γ_ij (Pa; paper 002 Eq. eq-sim-Gij).
+    /// Shear modulus G = T_ij/γ_ij (Pa; Šmilauer Eq. 25).
     pub modulus: f64,
     /// The converged state.
     pub outcome: ServoOutcome,
@@ -154,8 +154,8 @@ pub fn stiffness_from_tests(
 }
 
 /// Run the three unconfined uniaxial tests and the three pure shears, each from a clone of
-/// `initial`, and derive the stiffness (paper 002 Eqs. eq-sim-Ex, eq-sim-Gij,
-/// eq-orthotropic-normal-compliance, eq-CC-from-EGnu). `progress` receives the fraction
+/// `initial`, and derive the stiffness (Šmilauer Eqs. 24, 25,
+/// 23, 26). `progress` receives the fraction
 /// done (tests counted equally, each by its share of the step limit).
 pub fn stress_controlled_tensor(
     initial: &Simulation,

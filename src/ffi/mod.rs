@@ -118,7 +118,7 @@ pub mod bridge {
         ) -> Result<BondSprings>;
         /// Mean-field tensor (Pa) for a given prefactor N_c⟨l²·g⟩/V (Truszkowska 2018
         /// App. A); with the `spring` convention and prefactor 1 it is the orientation
-        /// average T of REFERENCES.md.
+        /// average T of docs/references.md.
         fn mean_field_tensor(self: &ModelHandle, prefactor: f64) -> Result<Tensor6>;
 
         /// Read a SPEC bond table (CSV).

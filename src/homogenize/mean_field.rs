@@ -1,15 +1,15 @@
 //! Mean-field stiffness: the continuous orientation average of the bond lattice tensor
-//! under uniform strain (Truszkowska 2018, App. A; Šmilauer's microplane integral, paper 002
-//! Eq. eq-tE-integral), no packing needed.
+//! under uniform strain (Truszkowska 2018, App. A; Šmilauer's microplane integral,
+//! Eq. 16), no packing needed.
 //!
 //! C = prefactor · T,  T = ⟨ C_bond(n; k_n(n), k_t(n)) ⟩_{n ∈ S²}  (uniform average),
 //! with C_bond = [`bond_lattice_tensor`] and prefactor = N_c⟨l²·g⟩/V, where g is the
 //! geometry factor turning a scheme's magnitude into a spring constant (k = magnitude·g).
 //! For equal spheres and the `spring` convention N_c⟨l²⟩/V = 3Zφ/(2πR)
 //! ([`equal_sphere_prefactor`]). For the `modulus` convention (k = E′·π̂r²/l) the prefactor
-//! is N⟨l·π̂r²⟩/V = 6μ with μ Šmilauer's lattice scaling (paper 002 Eq. eq-mu).
+//! is N⟨l·π̂r²⟩/V = 6μ with μ Šmilauer's lattice scaling (Šmilauer Eq. 20).
 //!
-//! The microplane tensor of Šmilauer (paper 002 Eq. eq-stiff-integral) is
+//! The microplane tensor of Šmilauer (Šmilauer Eq. 3) is
 //! C_micro = (3/2π)∫(…)dΩ = 6·T, because (3/2π)·4π = 6.
 //!
 //! Bond functions of the cubic scheme have kinks along great circles (the envelope of
@@ -28,7 +28,7 @@ use crate::tensor::Stiffness6;
 use crate::Vec3;
 
 /// Gauss–Legendre order per direction (per spherical triangle, `order²` points) that gives
-/// the cubic spheroid models of REFERENCES.md (a_n = 4.31, a_s = 10, plain and extended) to
+/// the cubic spheroid models of docs/references.md (a_n = 4.31, a_s = 10, plain and extended) to
 /// better than 1e-10 relative (measured: 2–3e-11 at 18, 1.6e-10 at 16, 1e-15 at 28).
 pub const DEFAULT_ORDER: usize = 18;
 
@@ -337,8 +337,8 @@ pub fn orientation_average(scheme: &dyn StiffnessScheme, quad: &SphereQuadrature
         .fold(Stiffness6::zeros(), |acc, part| acc + part)
 }
 
-/// Mean-field stiffness C = prefactor·T (Truszkowska 2018, App. A; Šmilauer paper 002
-/// Eq. eq-tE-integral) with T from [`orientation_average`] on a [`SphereQuadrature`] split
+/// Mean-field stiffness C = prefactor·T (Truszkowska 2018, App. A; Šmilauer
+/// Eq. 16) with T from [`orientation_average`] on a [`SphereQuadrature`] split
 /// along `scheme.kink_planes()` with `order` points per direction ([`DEFAULT_ORDER`] is a
 /// good choice).
 ///
@@ -366,7 +366,7 @@ pub fn packing_prefactor(packing: &Packing, bonds: &BondSet, geometry: &Geometry
 }
 
 /// N_c⟨l²⟩/V = 3Zφ/(2πR) for equal spheres of radius R with bond length 2R, coordination Z
-/// and solid fraction φ (N_c = ZN/2 bonds, N = φV/(4πR³/3) spheres; REFERENCES.md
+/// and solid fraction φ (N_c = ZN/2 bonds, N = φV/(4πR³/3) spheres; docs/references.md
 /// "Cubic mean field").
 pub fn equal_sphere_prefactor(coordination: f64, solid_fraction: f64, radius: f64) -> f64 {
     3.0 * coordination * solid_fraction / (2.0 * std::f64::consts::PI * radius)

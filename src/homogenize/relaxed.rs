@@ -2,7 +2,7 @@
 //!
 //! With the network of [`super::network`] (six DOFs per particle, Kruyt 2014 Eqs. 10–14),
 //! minimising the stored energy over the fluctuations gives
-//! C_relaxed = (H − Gᵀ K⁺ G)/V, with C_affine = H/V the Voigt sum (REFERENCES.md).
+//! C_relaxed = (H − Gᵀ K⁺ G)/V, with C_affine = H/V the Voigt sum (docs/references.md).
 //!
 //! K is assembled once in 6×6 block-sparse form and the six load cases are solved together
 //! by conjugate gradients with a block-Jacobi preconditioner. The tensor is evaluated in

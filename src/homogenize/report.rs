@@ -1,4 +1,4 @@
-//! The tensor report of SPEC.md (`--json`): the 6×6 tensor in Pa with its symmetrised cubic
+//! The tensor report of docs/formats.md (`--json`): the 6×6 tensor in Pa with its symmetrised cubic
 //! and transversely isotropic projections (Truszkowska 2018 Sec. 4.4 / Eq. 30).
 
 use crate::bonds::BondSet;

@@ -1,16 +1,16 @@
-//! Cross-anisotropic (transversely isotropic) "elliptic" scheme of Šmilauer (paper 002, Woo
+//! Cross-anisotropic (transversely isotropic) "elliptic" scheme of Šmilauer (Woo
 //! DEM `Cp2_FrictMat_FrictPhys_CrossAnisotropy`).
 //!
 //! Lattice moduli depend on the angle θ between the bond normal and the cross-anisotropy
-//! axis through the elliptic interpolation w(θ) = sin²θ (paper 002 Eqs. eq-Ent-w,
-//! eq-w-elliptic): E′(θ) = sin²θ·E^a′ + cos²θ·E^b′, with E^a′ the in-plane modulus (bond
+//! axis through the elliptic interpolation w(θ) = sin²θ (Šmilauer Eqs. 8,
+//! Eq. 9): E′(θ) = sin²θ·E^a′ + cos²θ·E^b′, with E^a′ the in-plane modulus (bond
 //! normal perpendicular to the axis) and E^b′ the out-of-plane one (bond along the axis).
 //! Moduli are kept in the paper's order 𝓔′ = (E_N^a′, E_N^b′, E_T^a′, E_T^b′).
 //!
 //! The microplane tensor is 𝓒 = μ·A·𝓔′ with 𝓒 = (C11, C33, C13, C12), A the exact 1/35
 //! matrix ([`microplane_matrix`]) and μ the lattice scaling ([`lattice_scaling`]); inverted,
-//! 𝓔′ = A⁻¹𝓒/μ (paper 002 Eqs. eq-Celliptic-micro, eq-Eelliptic-micro). C44 is dependent
-//! ([`dependent_c44`], Eq. eq-C44-dep). A bond's springs are k = E′·π̂r²/(2r′) (Eq. eq-kn-En),
+//! 𝓔′ = A⁻¹𝓒/μ (Šmilauer Eqs. 21, Eq. 22). C44 is dependent
+//! ([`dependent_c44`], Eq. 12). A bond's springs are k = E′·π̂r²/(2r′) (Eq. 14),
 //! i.e. the `modulus` geometry convention with the centre distance as bond length.
 
 use crate::bonds::BondSet;
@@ -18,9 +18,9 @@ use crate::packing::Packing;
 use crate::schemes::{Magnitudes, StiffnessScheme};
 use crate::{Error, Result, Vec3};
 
-/// The five rows of Šmilauer's 1/35 matrix (paper 002 Eq. eq-Celliptic): rows
+/// The five rows of Šmilauer's 1/35 matrix (Šmilauer Eq. 10): rows
 /// (C11, C33, C13, C12, C44) of the microplane tensor, columns (E_N^a, E_N^b, E_T^a, E_T^b),
-/// entries exact integers divided by 35. Re-derived in REFERENCES.md (the converted paper
+/// entries exact integers divided by 35. Re-derived in docs/references.md (the converted paper
 /// garbles the C2323 integrand, not the matrix).
 pub fn microplane_matrix() -> [[f64; 4]; 5] {
     const ROWS: [[i32; 4]; 5] = [
@@ -40,8 +40,8 @@ pub fn microplane_matrix() -> [[f64; 4]; 5] {
 }
 
 /// Exact inverse of the 4×4 block of [`microplane_matrix`] (rows C11, C33, C13, C12): maps
-/// (C11, C33, C13, C12) to (E_N^a, E_N^b, E_T^a, E_T^b) (paper 002 Eq. eq-Eelliptic-compact;
-/// REFERENCES.md). All entries are multiples of 1/4, hence exact in `f64`.
+/// (C11, C33, C13, C12) to (E_N^a, E_N^b, E_T^a, E_T^b) (Šmilauer Eq. 13;
+/// docs/references.md). All entries are multiples of 1/4, hence exact in `f64`.
 pub fn inverse_block() -> [[f64; 4]; 4] {
     [
         [0.75, -0.25, 0.25, 0.75],
@@ -52,12 +52,12 @@ pub fn inverse_block() -> [[f64; 4]; 4] {
 }
 
 /// The dependent out-of-plane shear modulus of the elliptic scheme,
-/// C44 = (C11 + C33)/4 − C13/2 (paper 002 Eq. eq-C44-dep).
+/// C44 = (C11 + C33)/4 − C13/2 (Šmilauer Eq. 12).
 pub fn dependent_c44(c11: f64, c33: f64, c13: f64) -> f64 {
     0.25 * (c11 + c33) - 0.5 * c13
 }
 
-/// Šmilauer's lattice scaling μ = (1/3)·N_b·π̂·mean(r′·r²)/V (paper 002 Eq. eq-mu; Woo's
+/// Šmilauer's lattice scaling μ = (1/3)·N_b·π̂·mean(r′·r²)/V (Šmilauer Eq. 20; Woo's
 /// `muStiffnessScaling`), with r′ = half each bond's centre distance, r = the smaller radius
 /// of its two spheres, N_b the number of bonds and V = [`Packing::volume`]. The lattice
 /// tensor is then μ·C_micro(𝓔′). Woo's C++ default π̂ is π (its Python binding's π/2).
@@ -100,7 +100,7 @@ pub fn lattice_scaling(packing: &Packing, bonds: &BondSet, pi_hat: f64) -> Resul
     Ok(pi_hat * sum / (3.0 * volume))
 }
 
-/// Unit cross-anisotropy axis from strike α and dip β in degrees (Woo's convention, paper 002
+/// Unit cross-anisotropy axis from strike α and dip β in degrees (Woo's convention, Šmilauer
 /// "Videos"): (cos α sin β, −sin α sin β, cos β). Dip 0 gives the z axis.
 pub fn axis_from_strike_dip(strike_deg: f64, dip_deg: f64) -> Vec3 {
     let (sa, ca) = strike_deg.to_radians().sin_cos();
@@ -112,7 +112,7 @@ pub fn axis_from_strike_dip(strike_deg: f64, dip_deg: f64) -> Vec3 {
 /// in-plane (a) and out-of-plane (b) lattice moduli by sin²θ, θ the angle from `axis`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CrossAnisotropic {
-    /// Lattice moduli (E_N^a′, E_N^b′, E_T^a′, E_T^b′) in Pa (paper 002 order).
+    /// Lattice moduli (E_N^a′, E_N^b′, E_T^a′, E_T^b′) in Pa (Šmilauer order).
     pub e_prime: [f64; 4],
     /// Unit cross-anisotropy axis (lab frame).
     pub axis: Vec3,
@@ -148,8 +148,8 @@ impl CrossAnisotropic {
     }
 
     /// The scheme that reproduces the transversely isotropic target (C11, C33, C13, C12) (Pa)
-    /// about `axis` on a lattice with scaling `mu`: 𝓔′ = A⁻¹𝓒/μ (paper 002
-    /// Eq. eq-Eelliptic-micro). C44 is not free: it becomes (C11 + C33)/4 − C13/2.
+    /// about `axis` on a lattice with scaling `mu`: 𝓔′ = A⁻¹𝓒/μ (Šmilauer
+    /// Eq. 22). C44 is not free: it becomes (C11 + C33)/4 − C13/2.
     /// Refuses non-finite input, μ ≤ 0, a target that is not positive definite together with
     /// that C44, and a target that needs a negative lattice modulus.
     pub fn from_target(
@@ -228,7 +228,7 @@ impl CrossAnisotropic {
     }
 
     /// The lattice moduli (E_N′(θ), E_T′(θ)) in Pa along unit normal `n`, θ the angle to the
-    /// axis: E′(θ) = sin²θ·E^a′ + cos²θ·E^b′ (paper 002 Eqs. eq-Ent-w, eq-w-elliptic).
+    /// axis: E′(θ) = sin²θ·E^a′ + cos²θ·E^b′ (Šmilauer Eqs. 8–9).
     pub fn moduli(&self, n: &Vec3) -> (f64, f64) {
         let cos2 = n.dot(&self.axis).powi(2).min(1.0);
         let sin2 = 1.0 - cos2;
@@ -237,7 +237,7 @@ impl CrossAnisotropic {
     }
 
     /// The microplane constants (C11, C33, C13, C12, C44) = μ·A·𝓔′ in Pa, in the axis frame
-    /// (paper 002 Eq. eq-Celliptic-micro): what a lattice with scaling μ gives under uniform
+    /// (Šmilauer Eq. 21): what a lattice with scaling μ gives under uniform
     /// strain.
     pub fn microplane_constants(&self, mu: f64) -> [f64; 5] {
         let a = microplane_matrix();
@@ -260,7 +260,7 @@ impl StiffnessScheme for CrossAnisotropic {
     }
 
     /// (E_N′(θ), E_T′(θ)) in Pa, for the `modulus` geometry convention:
-    /// k = E′·π̂r²/(2r′) (paper 002 Eq. eq-kn-En).
+    /// k = E′·π̂r²/(2r′) (Šmilauer Eq. 14).
     fn magnitudes(&self, n: &Vec3) -> Magnitudes {
         let (normal, shear) = self.moduli(n);
         Magnitudes { normal, shear }

@@ -8,7 +8,7 @@
 //! can make the shear factor negative; such models are refused by [`CubicSpheroid::new`].
 //!
 //! Crystal orientation: `rotation` R maps lab vectors into the crystal frame and the
-//! functions are evaluated at m = R·n (REFERENCES.md "Conventions"; then
+//! functions are evaluated at m = R·n (docs/references.md "Conventions"; then
 //! C_lab = rotate(C_crystal, Rᵀ)).
 
 use super::{Magnitudes, StiffnessScheme};
@@ -520,7 +520,7 @@ mod tests {
 
     #[test]
     fn closed_forms_match_max_over_axes() {
-        // REFERENCES.md: for a > 1, r100 = r(max|n_i|), r111 = r(Σ|n_i|/√3),
+        // docs/references.md: for a > 1, r100 = r(max|n_i|), r111 = r(Σ|n_i|/√3),
         // r110 = r((Σ|n_i| − min|n_i|)/√2); for a < 1, r100 = r(min|n_i|).
         let dirs = [
             Vec3::new(0.3, -0.5, 0.81),

@@ -1,4 +1,4 @@
-//! How a scheme's magnitude becomes a spring constant (the `[geometry]` table of SPEC.md).
+//! How a scheme's magnitude becomes a spring constant (the `[geometry]` table of docs/formats.md).
 //!
 //! - `area`: k = magnitude·A_b, magnitude in Pa/m (PFC parallel bond, Potyondy & Cundall).
 //! - `modulus`: k = magnitude·A_b/L_b, magnitude in Pa (Truszkowska 2018 Eqs. 6–7; Woo).

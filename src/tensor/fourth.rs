@@ -1,6 +1,6 @@
 //! Conversion between the 6×6 Voigt matrix and the full 4th-order stiffness tensor
 //! C_ijkl (`C6[a,b] = C_ijkl` with `(i,j) = VOIGT_PAIRS[a]`, `(k,l) = VOIGT_PAIRS[b]`, no
-//! factors of 2 or √2; REFERENCES.md "Conventions"), and the explicit 4th-order rotation.
+//! factors of 2 or √2; docs/references.md "Conventions"), and the explicit 4th-order rotation.
 
 use super::{Stiffness6, VOIGT_PAIRS};
 use crate::Mat3;
@@ -38,7 +38,7 @@ pub fn from_fourth_order(t: &Tensor4) -> Stiffness6 {
 }
 
 /// Explicit rotation of a 4th-order tensor, C'_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd
-/// (REFERENCES.md "Conventions"). O(3⁸) — the reference that [`rotate`](super::rotate::rotate) is tested
+/// (docs/references.md "Conventions"). O(3⁸) — the reference that [`rotate`](super::rotate::rotate) is tested
 /// against; use [`rotate`](super::rotate::rotate) in practice.
 pub fn rotate_fourth_order(t: &Tensor4, q: &Mat3) -> Tensor4 {
     let mut out = [[[[0.0; 3]; 3]; 3]; 3];

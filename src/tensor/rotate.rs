@@ -1,6 +1,6 @@
 //! Rotating 6×6 Voigt stiffness tensors, and the rotation matrices used to do it.
 //!
-//! Convention (REFERENCES.md "Conventions"): rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd.
+//! Convention (docs/references.md "Conventions"): rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd.
 //! For a crystal orientation R that maps lab vectors into the crystal frame,
 //! C_lab = rotate(C_crystal, Rᵀ) (this reproduces Truszkowska 2018 Eq. 32 from Eq. 30).
 

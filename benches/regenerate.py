@@ -1,0 +1,278 @@
+#!/usr/bin/env python3
+"""Regenerate BENCHMARKS.md: run every benchmark on this machine and this commit, and write
+one current table per section (figure, command, size, threads), with each comparison given
+as a ratio of two figures measured in the same run.
+
+    python3 benches/regenerate.py            # all sections (about 10 minutes on 2 cores)
+    python3 benches/regenerate.py --quick    # smaller sizes, for checking the script
+
+Needs the release build (it runs `cargo build --release` and `cargo bench --no-run` first),
+/usr/bin/time, and for the YADE and LIGGGHTS rows `yade`, `liggghts`, `mpirun` and the driver
+(`make -C cpp`); a row whose program is missing says so instead of a figure.
+"""
+import json
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+QUICK = "--quick" in sys.argv
+BIN = os.path.join(ROOT, "target", "release", "anisobond")
+WORK = tempfile.mkdtemp(prefix="anisobond-bench-")
+
+
+def sh(cmd, env=None, cwd=None):
+    """Run `cmd` (a list) under /usr/bin/time; return (wall s, peak RSS MB, stdout+stderr)."""
+    full_env = dict(os.environ)
+    full_env.update(env or {})
+    t0 = time.time()
+    p = subprocess.run(["/usr/bin/time", "-f", "@@RSS %M"] + cmd, cwd=cwd or WORK, env=full_env,
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.time() - t0
+    m = re.search(r"@@RSS (\d+)", p.stdout)
+    rss = int(m.group(1)) / 1024 if m else float("nan")
+    if p.returncode != 0:
+        raise RuntimeError("%s failed (%d):\n%s" % (" ".join(cmd), p.returncode, p.stdout[-3000:]))
+    return wall, rss, p.stdout
+
+
+def grab(pattern, text, group=1, cast=str):
+    m = re.search(pattern, text)
+    return cast(m.group(group)) if m else None
+
+
+def ab(*args):
+    return [BIN] + [str(a) for a in args]
+
+
+def cmd_text(cmd):
+    return " ".join(os.path.basename(c) if c == BIN else c for c in cmd)
+
+
+sections = []
+
+
+def section(title, intro, header, rows):
+    sections.append((title, intro, header, rows))
+
+
+def git(*args):
+    return subprocess.run(["git"] + list(args), cwd=ROOT, stdout=subprocess.PIPE,
+                          text=True).stdout.strip()
+
+
+def cpu_name():
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def mem_gib():
+    try:
+        for line in open("/proc/meminfo"):
+            if line.startswith("MemTotal"):
+                return int(line.split()[1]) / 2**20
+    except OSError:
+        pass
+    return float("nan")
+
+
+def main():
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+    subprocess.run(["cargo", "bench", "--no-run", "--quiet"], cwd=ROOT, check=True)
+    threads = os.cpu_count()
+    n_std = 3000 if QUICK else 30700
+    n_jam = 3000 if QUICK else 30000
+    n_mid = 2000 if QUICK else 10000
+
+    # --- Packings ---------------------------------------------------------------------
+    rows = []
+    std = os.path.join(WORK, "standard.txt")
+    for label, args, out in [
+        ("Truszkowska standard assembly, random route + FIRE",
+         ["pack", "--quiet", "--preset", "truszkowska-standard", "--particles", n_std, "-o", std], std),
+        ("Kumar weakly jammed route", ["pack", "--quiet", "--route", "weakly-jammed", "--particles",
+                                       n_jam, "--seed", 1, "-o", "weak.txt"], None),
+        ("Kumar jammed route (mean unbalanced force <= 2e-3)",
+         ["pack", "--quiet", "--route", "jammed", "--particles", n_jam, "--seed", 1, "-o",
+          "jammed.txt"], None),
+    ]:
+        cmd = ab(*args)
+        wall, rss, out_text = sh(cmd)
+        lines = [l.strip() for l in out_text.splitlines() if l.startswith("  ")]
+        phi = grab(r"solid fraction ([0-9.]+)", out_text)
+        iters = grab(r"(\d+) FIRE iterations", out_text)
+        rows.append([label, "`%s`" % cmd_text(cmd), args[args.index("--particles") + 1], threads,
+                     "%.2f s" % wall, "%.0f MB" % rss,
+                     "φ = %s, %s FIRE iterations" % (phi, iters) + ("; " + lines[-1] if "bonds" in lines[-1] else "")])
+    section("Packings", "Generated packings, as `anisobond pack` makes them.",
+            ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Tensors on the standard assembly ------------------------------------------------
+    demo = os.path.join(WORK, "demo")
+    sh(ab("demo", "--particles", 300, "-o", demo))
+    model = os.path.join(demo, "model.toml")
+    rows = []
+    for label, extra in [("mean field", ["--method", "mean-field"]),
+                         ("Voigt sum", ["--method", "voigt"]),
+                         ("relaxed, two-level CG (default)", ["--method", "relaxed"]),
+                         ("relaxed, block-Jacobi CG", ["--method", "relaxed", "--solver", "cg-jacobi"]),
+                         ("LAF, shell 1", ["--method", "laf", "--shell", 1]),
+                         ("LAF, shell 2", ["--method", "laf", "--shell", 2])]:
+        cmd = ab("tensor", std, "--model", model, *extra)
+        wall, rss, text = sh(cmd)
+        c = re.search(r"C11 = ([0-9.]+) GPa, C12 = ([0-9.]+) GPa, C44 = ([0-9.]+) GPa", text)
+        it = grab(r"CG, (\d+) iterations", text)
+        res = "C11, C12, C44 = %s, %s, %s GPa" % c.groups()
+        if it:
+            res += "; %s CG iterations, residual %s" % (it, grab(r"residual ([0-9.e-]+)", text))
+        rows.append([label, "`tensor standard.txt --model model.toml %s`" % " ".join(map(str, extra)),
+                     n_std, threads, "%.2f s" % wall, "%.0f MB" % rss, res])
+    # Direct vs iterative at n_mid, measured in the same run.
+    mid = os.path.join(WORK, "mid.txt")
+    sh(ab("pack", "--quiet", "--preset", "truszkowska-standard", "--particles", n_mid, "-o", mid))
+    solved = {}
+    for solver in ["cg", "cholesky"]:
+        cmd = ab("tensor", mid, "--model", model, "--method", "relaxed", "--solver", solver)
+        wall, rss, text = sh(cmd)
+        solved[solver] = (wall, rss)
+        c = re.search(r"C11 = ([0-9.]+) GPa, C12 = ([0-9.]+) GPa, C44 = ([0-9.]+) GPa", text)
+        rows.append(["relaxed, %s" % ("sparse Cholesky (faer)" if solver == "cholesky" else "two-level CG"),
+                     "`tensor mid.txt --model model.toml --method relaxed --solver %s`" % solver,
+                     n_mid, threads, "%.2f s" % wall, "%.0f MB" % rss,
+                     "C11, C12, C44 = %s, %s, %s GPa" % c.groups()])
+    ratio = "Cholesky / CG at %d particles, same run: %.1f× the time, %.1f× the memory." % (
+        n_mid, solved["cholesky"][0] / solved["cg"][0], solved["cholesky"][1] / solved["cg"][1])
+    section("Stiffness tensors",
+            "The demo's model (Truszkowska 2018 MRV, cubic Zener > 1) on the standard assembly. " + ratio,
+            ["method", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Core pipeline -------------------------------------------------------------------
+    n_core = 100000 if QUICK else 1000000
+    rows = []
+    for t in [2, 1]:
+        cmd = ["cargo", "bench", "--quiet", "--bench", "core"]
+        wall, rss, text = sh(cmd, env={"RAYON_NUM_THREADS": str(t), "ANISOBOND_BENCH_PARTICLES": str(n_core)},
+                             cwd=ROOT)
+        search = grab(r"neighbour search \+ bonding: ([0-9.]+) s \((\d+) bonds", text)
+        nb = grab(r"\((\d+) bonds, Z", text)
+        table = grab(r"= ([0-9.]+) s \(([0-9.]+) MB\)", text)
+        rows.append(["neighbour search + gap bonding", "`RAYON_NUM_THREADS=%d ANISOBOND_BENCH_PARTICLES=%d cargo bench --bench core`" % (t, n_core),
+                     n_core, t, "%s s" % search, "", "%s bonds" % nb])
+        rows.append(["springs + bond table CSV written", "(same run)", n_core, t, "%s s" % table, "",
+                     "%s bonds" % nb])
+    section("Core pipeline", "Bonding a jittered FCC packing and writing its bond table.",
+            ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Integrator vs YADE vs LIGGGHTS --------------------------------------------------
+    rows = []
+    steps = 200 if QUICK else 1000
+    rates = {}
+    for t in [2, 1]:
+        cmd = ["cargo", "bench", "--quiet", "--bench", "dem"]
+        wall, rss, text = sh(cmd, env={"DEM_BENCH_PARTICLES": str(n_std), "DEM_BENCH_STEPS": str(steps),
+                                       "DEM_BENCH_THREADS": str(t)}, cwd=ROOT)
+        rate = grab(r"([0-9.]+e[0-9]+) particle-steps/s", text, cast=float)
+        rates[t] = rate
+        rows.append(["anisobond integrator (YADE law, damped)",
+                     "`DEM_BENCH_PARTICLES=%d DEM_BENCH_STEPS=%d DEM_BENCH_THREADS=%d cargo bench --bench dem`" % (n_std, steps, t),
+                     n_std, t, "", "", "%.3g particle-steps/s" % rate if rate else text[-200:]])
+    yade_rate = None
+    if shutil.which("yade"):
+        ydir = os.path.join(WORK, "yade")
+        ysteps = 20 if QUICK else 50
+        sh(ab("export", "yade", std, "--model", model, "--steps", ysteps, "-o", ydir))
+        wall, rss, text = sh(["yade", "-n", "-x", os.path.join(ydir, "run.py")],
+                             env={"OMP_NUM_THREADS": "1"})
+        tj = json.load(open(os.path.join(ydir, "yade-tensor.json")))
+        run_s = sum(v["run_s"] for v in tj.get("timings", {}).values()) if "timings" in tj else None
+        stepping = run_s if run_s else float(grab(r"steps in ([0-9.]+) s", text))
+        yade_rate = n_std * 6 * ysteps / stepping
+        rows.append(["YADE 2023.02a, the same element tests (`export yade`)",
+                     "`yade -n -x run.py` (%d paths × %d steps)" % (6, ysteps), n_std, 1,
+                     "%.1f s" % wall, "%.0f MB" % rss, "%.3g particle-steps/s (stepping %.1f s)" % (yade_rate, stepping)])
+    else:
+        rows.append(["YADE", "not installed here", "", "", "", "", ""])
+    lig = None
+    if shutil.which("liggghts") and shutil.which("mpirun"):
+        cmd = ["cargo", "test", "--release", "--quiet", "--test", "liggghts_bench", "--", "--ignored", "--nocapture"]
+        try:
+            wall, rss, text = sh(cmd, cwd=ROOT)
+            for np_ in [1, 2]:
+                r = grab(r"-np %d: \d+ steps in [0-9.]+ s: ([0-9.e+]+) particle-steps/s" % np_, text, cast=float)
+                rows.append(["LIGGGHTS 3.8 with the anisobond driver, undamped", "`cargo test --release --test liggghts_bench -- --ignored`",
+                             30000, np_, "", "", "%.3g particle-steps/s (MPI ranks %d)" % (r, np_) if r else "—"])
+                if np_ == 2:
+                    lig = r
+        except RuntimeError as e:
+            rows.append(["LIGGGHTS driver", "failed: %s" % str(e).splitlines()[0], "", "", "", "", ""])
+    intro = "Particle-steps per second of the six damped element tests."
+    if yade_rate and rates.get(1):
+        intro += " Same run: the integrator on 1 thread is %.0f× YADE (1 thread), on 2 threads %.0f×." % (
+            rates[1] / yade_rate, rates[2] / yade_rate)
+    if lig and rates.get(2):
+        intro += " The integrator on 2 threads is %.1f× the LIGGGHTS driver on 2 MPI ranks (different sizes: 30,700 vs 30,000)." % (rates[2] / lig)
+    section("Reference integrator against YADE and LIGGGHTS", intro,
+            ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Agreement with the other codes --------------------------------------------------
+    rows = []
+    small = os.path.join(WORK, "p1000.txt")
+    sh(ab("pack", "--quiet", "--particles", 1000, "-o", small))
+    if shutil.which("yade"):
+        cmd = ab("validate", "yade", small, "--model", model)
+        wall, rss, text = sh(cmd)
+        checks = re.findall(r"\n\s+(.{10,66}?)\s+([0-9.]+e-?\d+)\s+([0-9.]+e-?\d+)\s+ok", text)
+        worst = max(checks, key=lambda c: float(c[1]) / float(c[2])) if checks else None
+        rows.append(["YADE 2023.02a", "`validate yade p1000.txt --model model.toml`", 1000, threads,
+                     "%.1f s" % wall, "%.0f MB" % rss,
+                     "%d checks passed; closest to its tolerance: %s %s (tolerance %s)" % (
+                         len(checks), worst[0].strip(), worst[1], worst[2]) if worst else "see output"])
+    section("Agreement with YADE and LIGGGHTS",
+            "The same bonded packing in both codes; every check's value and tolerance are in the command's table.",
+            ["engine", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Calibration ---------------------------------------------------------------------
+    rows = []
+    out = os.path.join(WORK, "cal.toml")
+    for target in ["C12/C11=0.30,C44/C11=0.43", "C12/C11=0.35,C44/C11=0.40"]:
+        cmd = ab("calibrate", "--model", model, "--target", target, "--on", "relaxed", mid, "-o", out)
+        wall, rss, text = sh(cmd)
+        zen = grab(r"Zener\s+[0-9.]+\s+[0-9.]+\s+([+-][0-9.]+ %)", text)
+        rows.append([target, "`calibrate --model model.toml --target %s --on relaxed mid.txt -o cal.toml`" % target,
+                     n_mid, threads, "%.2f s" % wall, "%.0f MB" % rss, "Zener error %s" % zen])
+    section("Calibration on a packing", "Cubic calibration with the exact relaxed solver.",
+            ["target", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- Write ---------------------------------------------------------------------------
+    commit = git("rev-parse", "--short", "HEAD")
+    dirty = " (with uncommitted changes)" if git("status", "--porcelain", "--untracked-files=no") else ""
+    lines = ["# Benchmarks", "",
+             "Generated by `python3 benches/regenerate.py`%s on %s UTC, commit %s%s." % (
+                 " --quick" if QUICK else "", time.strftime("%Y-%m-%d %H:%M", time.gmtime()), commit, dirty),
+             "Machine: %s, %d cores, %.0f GiB, %s; release build. Wall times are single runs of the "
+             "command as shown (`/usr/bin/time`); on this virtual machine repeated runs differ by up "
+             "to ±20 %%. Earlier figures are in git history." % (cpu_name(), os.cpu_count(), mem_gib(), platform.platform()),
+             ""]
+    for title, intro, header, rows in sections:
+        lines += ["## " + title, "", intro, "", "| " + " | ".join(header) + " |",
+                  "|" + "---|" * len(header)]
+        for r in rows:
+            lines.append("| " + " | ".join(str(x) for x in r) + " |")
+        lines.append("")
+    open(os.path.join(ROOT, "BENCHMARKS.md"), "w").write("\n".join(lines))
+    shutil.rmtree(WORK, ignore_errors=True)
+    print("wrote BENCHMARKS.md (%d sections)" % len(sections))
+
+
+if __name__ == "__main__":
+    main()
