@@ -51,7 +51,9 @@ def ab(*args):
 
 
 def cmd_text(cmd):
-    return " ".join(os.path.basename(c) if c == BIN else c for c in cmd)
+    """The command as a user would type it: the binary by name, scratch files by file name."""
+    return " ".join(os.path.basename(c) if c == BIN else str(c).replace(WORK + "/", "")
+                    for c in cmd)
 
 
 sections = []
