@@ -275,8 +275,10 @@ fn normalized(text: &str) -> String {
 fn key_before(text: &str, pos: usize) -> Option<&str> {
     let before = text.get(..pos)?.trim_end().strip_suffix('=')?.trim_end();
     let start = before
-        .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '-'))
-        .map_or(0, |k| k + 1);
+        .char_indices()
+        .rev()
+        .find(|(_, c)| !(c.is_ascii_alphanumeric() || *c == '_' || *c == '-'))
+        .map_or(0, |(k, c)| k + c.len_utf8());
     let key = &before[start..];
     (!key.is_empty()).then_some(key)
 }
@@ -454,7 +456,17 @@ impl Model {
                     }
                     (Some(r), None) => {
                         let m = Mat3::from_fn(|i, j| r[i][j]);
-                        cubic::orthonormalize_rotation(m)?
+                        // A rotation to rounding (as written by to_toml_string) is kept bit for
+                        // bit, so a written model reads back identically; a matrix printed to a
+                        // few decimals is re-orthonormalised.
+                        let exact = m.iter().all(|x| x.is_finite())
+                            && (m.transpose() * m - Mat3::identity()).amax() <= 1e-12
+                            && m.determinant() > 0.0;
+                        if exact {
+                            m
+                        } else {
+                            cubic::orthonormalize_rotation(m)?
+                        }
                     }
                     (None, Some(e)) => {
                         for v in e {
@@ -484,7 +496,13 @@ impl Model {
                                 "[scheme] axis must be a non-zero finite vector".into(),
                             ));
                         }
-                        v / n
+                        // A unit vector to rounding (as written) is kept bit for bit, so a
+                        // written model reads back identically.
+                        if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
+                            v
+                        } else {
+                            v / n
+                        }
                     }
                     (None, Some(st), Some(dp)) => cross_anisotropic::axis_from_strike_dip(
                         finite(st, "strike_deg")?,
@@ -667,5 +685,19 @@ fn prefix(name: &str, e: Error) -> Error {
     match e {
         Error::Model(m) => Error::Model(format!("{name}: {m}")),
         other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_before_handles_multibyte_text() {
+        // "Ⱥ" is two bytes: the key search must step over it whole (the fuzz test found a
+        // slice inside it).
+        assert_eq!(key_before("Ⱥ= 1", 4), None);
+        assert_eq!(key_before("éa_n = 1", 8), Some("a_n"));
+        assert_eq!(key_before("x = { convention = 3 }", 19), Some("convention"));
     }
 }
