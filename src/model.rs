@@ -15,6 +15,10 @@
 //! [geometry]
 //! convention = "area"
 //! ```
+//!
+//! Each `kind` takes only its own keys: a key of another kind (say `euler_zyz_deg` under
+//! `isotropic`) is an error naming the key and its line, never silently ignored. Numbers
+//! must be finite and admissible (a cross-anisotropic target positive definite) when read.
 
 use crate::bonds::{BondSet, BondingRule};
 use crate::packing::Packing;

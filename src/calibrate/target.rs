@@ -3,6 +3,8 @@
 //! Cubic: `C11=…,C12=…,C44=…` (Pa; a unit suffix Pa, kPa, MPa or GPa is accepted) or the
 //! ratios `C12/C11=…,C44/C11=…` (then the overall magnitude is left to the model file).
 //! Cross-anisotropic: `C11=…,C33=…,C13=…,C12=…` (Pa, about the model's axis).
+//! Spaces around `=` and before the unit are allowed (`C11 = 80 GPa`). A target is refused
+//! unless finite and positive definite, naming the condition that failed.
 
 use crate::{Error, Result};
 
