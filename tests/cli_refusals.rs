@@ -146,6 +146,12 @@ fn calibrate_refuses_inadmissible_targets_before_writing() {
             "C11=0,C33=30e9,C13=1e9,C12=0",
             "C11 = 0e0 must be > 0",
         ),
+        // Positive definite, but the elliptic scheme would need a negative lattice modulus.
+        (
+            &cross,
+            "C11=130e6,C33=55e6,C13=50e6,C12=40e6",
+            "needs a negative lattice modulus E_T^b'",
+        ),
         (
             &cubic,
             "C11=100e9,C12=120e9,C44=40e9",
