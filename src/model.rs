@@ -287,6 +287,20 @@ fn key_before(text: &str, pos: usize) -> Option<&str> {
     (!key.is_empty()).then_some(key)
 }
 
+/// The JSON key whose value ends before column `column` of line `line` (both 1-based, as
+/// serde_json reports a type error), if it is on that line: `"key": value`.
+fn json_key_before(text: &str, line: usize, column: usize) -> Option<&str> {
+    let l = text.split('\n').nth(line.checked_sub(1)?)?;
+    let end = (0..=column.min(l.len()))
+        .rev()
+        .find(|&k| l.is_char_boundary(k))?;
+    let before = &l[..end];
+    let colon = before.rfind(':')?;
+    let quoted = before[..colon].trim_end().strip_suffix('"')?;
+    let start = quoted.rfind('"')?;
+    Some(&quoted[start + 1..])
+}
+
 /// The allowed names of the `[scheme]`/`[geometry]` keys whose value is one of a fixed
 /// list, from serde's own "unknown variant" message (so the list cannot go stale).
 fn allowed_names(key: &str) -> Option<String> {
@@ -414,10 +428,21 @@ impl Model {
         let raw: RawModel = serde_json::from_str(&text).map_err(|e| {
             let message = e.to_string();
             // serde_json appends " at line L column C"; the line is in the prefix already.
-            let message = match message.rfind(" at line ") {
+            let mut message = match message.rfind(" at line ") {
                 Some(k) => format!("{} (column {})", &message[..k], e.column()),
                 None => message,
             };
+            let key = json_key_before(&text, e.line(), e.column());
+            if message.starts_with("invalid type") || message.starts_with("unknown variant") {
+                if let Some(key) = key {
+                    message = format!("`{key}`: {message}");
+                }
+            } else if message.starts_with("expected value") {
+                // serde_json's word for a name-list key given a number or array.
+                if let Some((key, list)) = key.and_then(|k| Some((k, allowed_names(k)?))) {
+                    message = format!("`{key}`: expected {list} (column {})", e.column());
+                }
+            }
             Error::parse(
                 name,
                 e.line(),
@@ -703,5 +728,11 @@ mod tests {
         assert_eq!(key_before("Ⱥ= 1", 4), None);
         assert_eq!(key_before("éa_n = 1", 8), Some("a_n"));
         assert_eq!(key_before("x = { convention = 3 }", 19), Some("convention"));
+        assert_eq!(
+            json_key_before("{\"a\": {\"normal\": \"x\",", 1, 21),
+            Some("normal")
+        );
+        assert_eq!(json_key_before("é\"Ⱥ\": 1", 1, 3), None);
+        assert_eq!(json_key_before("", 7, 3), None);
     }
 }

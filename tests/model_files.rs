@@ -426,3 +426,20 @@ fn models_given_by_angles_read_back_identically() {
         );
     }
 }
+
+#[test]
+fn json_type_errors_name_the_key() {
+    let json = "{\"scheme\": {\"kind\": \"isotropic\",\n \"normal\": \"x\",\n \"shear\": 1}}";
+    let e = Model::from_json_str(json, "m.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("m.json:2: `normal`: invalid type: string \"x\", expected a number"),
+        "{e}"
+    );
+    let json = "{\"scheme\": {\"kind\": \"isotropic\", \"normal\": 1, \"shear\": 1},\n\"geometry\": {\"convention\": 3}}";
+    let e = Model::from_json_str(json, "m.json")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("m.json:2: `convention`: "), "{e}");
+}
