@@ -6,8 +6,9 @@ use std::path::Path;
 /// Everything that can go wrong in anisobond.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A line of an input file could not be understood.
-    #[error("{path}:{line}: {message}")]
+    /// A line of an input file could not be understood. Shown as `path:line: message`, or
+    /// `path: message` when the file as a whole is wrong (line 0).
+    #[error("{path}:{}{message}", line_prefix(*line))]
     Parse {
         /// The file (or `<stdin>`, `<embedded>`).
         path: String,
@@ -31,6 +32,15 @@ pub enum Error {
     /// Any other invalid input (packing, target tensor, option values).
     #[error("{0}")]
     Invalid(String),
+}
+
+/// `"N: "` for a line number, `" "` for line 0 (the whole file), after `path:`.
+fn line_prefix(line: usize) -> String {
+    if line == 0 {
+        " ".to_string()
+    } else {
+        format!("{line}: ")
+    }
 }
 
 /// Result with the library's [`Error`].

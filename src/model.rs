@@ -1,4 +1,4 @@
-//! Model files (SPEC.md "Model"): which pairs are bonded, which stiffness scheme, and how a
+//! Model files (docs/formats.md "Model"): which pairs are bonded, which stiffness scheme, and how a
 //! magnitude becomes a spring constant. TOML, or JSON by extension.
 //!
 //! ```toml
@@ -15,6 +15,10 @@
 //! [geometry]
 //! convention = "area"
 //! ```
+//!
+//! Each `kind` takes only its own keys: a key of another kind (say `euler_zyz_deg` under
+//! `isotropic`) is an error naming the key and its line, never silently ignored. Numbers
+//! must be finite and admissible (a cross-anisotropic target positive definite) when read.
 
 use crate::bonds::{BondSet, BondingRule};
 use crate::packing::Packing;
@@ -96,42 +100,158 @@ struct RawBonding {
     value: f64,
 }
 
-#[derive(Deserialize, Serialize, Default)]
+/// The `[scheme]` table, one type per `kind`: each variant refuses the keys of the other
+/// kinds by name (`deny_unknown_fields`), so no key is silently ignored.
+#[derive(Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+enum RawScheme {
+    Cubic(RawCubic),
+    CrossAnisotropic(RawCross),
+    Isotropic(RawIsotropic),
+}
+
+/// `kind = "cubic"`.
+#[derive(Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct RawScheme {
-    kind: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    model: Option<CubicModel>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    extended: Option<bool>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    a_n: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    a_s: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    normal: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    shear: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+struct RawCubic {
+    model: CubicModel,
+    #[serde(default)]
+    extended: bool,
+    a_n: f64,
+    a_s: f64,
+    normal: f64,
+    shear: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     rotation: Option<[[f64; 3]; 3]>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     euler_zyz_deg: Option<[f64; 3]>,
-    #[serde(rename = "C11", skip_serializing_if = "Option::is_none")]
-    c11: Option<f64>,
-    #[serde(rename = "C33", skip_serializing_if = "Option::is_none")]
-    c33: Option<f64>,
-    #[serde(rename = "C13", skip_serializing_if = "Option::is_none")]
-    c13: Option<f64>,
-    #[serde(rename = "C12", skip_serializing_if = "Option::is_none")]
-    c12: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+}
+
+/// `kind = "cross-anisotropic"`.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawCross {
+    #[serde(rename = "C11")]
+    c11: f64,
+    #[serde(rename = "C33")]
+    c33: f64,
+    #[serde(rename = "C13")]
+    c13: f64,
+    #[serde(rename = "C12")]
+    c12: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     axis: Option<[f64; 3]>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     strike_deg: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     dip_deg: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pi_hat: Option<f64>,
+}
+
+/// `kind = "isotropic"`.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawIsotropic {
+    normal: f64,
+    shear: f64,
+}
+
+/// The kinds, in the words of the model file.
+const KINDS: &str = "expected cubic, cross-anisotropic or isotropic";
+
+impl<'de> Deserialize<'de> for RawScheme {
+    /// Reads `kind` and then the rest of the table straight into that kind's struct, so a
+    /// wrong or foreign key is reported at its own line. When `kind` is not the first key
+    /// the table is buffered first (errors then point at the table).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_map(SchemeVisitor)
+    }
+}
+
+struct SchemeVisitor;
+
+/// A `kind` value, refused at its own position when it is not one of the kinds.
+struct KindName(String);
+
+impl<'de> Deserialize<'de> for KindName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let kind = String::deserialize(d)?;
+        match kind.as_str() {
+            "cubic" | "cross-anisotropic" | "isotropic" => Ok(KindName(kind)),
+            other => Err(serde::de::Error::custom(format!(
+                "[scheme] kind = \"{other}\": {KINDS}"
+            ))),
+        }
+    }
+}
+
+impl SchemeVisitor {
+    fn variant<'de, D: serde::Deserializer<'de>>(
+        kind: &str,
+        rest: D,
+    ) -> std::result::Result<RawScheme, D::Error> {
+        Ok(match kind {
+            "cubic" => RawScheme::Cubic(RawCubic::deserialize(rest)?),
+            "cross-anisotropic" => RawScheme::CrossAnisotropic(RawCross::deserialize(rest)?),
+            "isotropic" => RawScheme::Isotropic(RawIsotropic::deserialize(rest)?),
+            other => {
+                return Err(serde::de::Error::custom(format!(
+                    "[scheme] kind = \"{other}\": {KINDS}"
+                )))
+            }
+        })
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for SchemeVisitor {
+    type Value = RawScheme;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(
+            "a [scheme] table with kind = \"cubic\", \"cross-anisotropic\" or \"isotropic\"",
+        )
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(
+        self,
+        mut map: A,
+    ) -> std::result::Result<RawScheme, A::Error> {
+        use serde::de::Error as _;
+        let first: Option<String> = map.next_key()?;
+        match first.as_deref() {
+            None => Err(A::Error::missing_field("kind")),
+            Some("kind") => {
+                let kind: KindName = map.next_value()?;
+                Self::variant(&kind.0, serde::de::value::MapAccessDeserializer::new(map))
+            }
+            Some(key) => {
+                // `kind` comes later: buffer the table, then read it as that kind.
+                let mut table = serde_json::Map::new();
+                let value: serde_json::Value = map.next_value()?;
+                table.insert(key.to_string(), value);
+                while let Some((k, v)) = map.next_entry::<String, serde_json::Value>()? {
+                    table.insert(k, v);
+                }
+                let kind = match table.remove("kind") {
+                    Some(serde_json::Value::String(s)) => s,
+                    Some(other) => {
+                        return Err(A::Error::custom(format!(
+                            "[scheme] kind = {other}: {KINDS} (a string)"
+                        )))
+                    }
+                    None => return Err(A::Error::missing_field("kind")),
+                };
+                Self::variant(&kind, serde_json::Value::Object(table)).map_err(|e| {
+                    let e = e.to_string();
+                    match e.starts_with("[scheme]") {
+                        true => A::Error::custom(e),
+                        false => A::Error::custom(format!("[scheme] {e}")),
+                    }
+                })
+            }
+        }
+    }
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -139,27 +259,125 @@ fn line_of(text: &str, pos: usize) -> usize {
     text[..pos.min(text.len())].matches('\n').count() + 1
 }
 
-fn need(v: Option<f64>, key: &str, kind: &str) -> Result<f64> {
-    let x = v.ok_or_else(|| {
-        Error::Model(format!(
-            "[scheme] kind = \"{kind}\" needs `{key}` (a number)"
-        ))
-    })?;
-    if !x.is_finite() {
-        return Err(Error::Model(format!(
-            "[scheme] {key} must be finite, got {x}"
-        )));
+/// `text` without a leading UTF-8 BOM and with each lone `\r` (classic Mac line end) made a
+/// `\n`: same byte offsets, so parser positions still map to the lines an editor shows.
+fn normalized(text: &str) -> String {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '\r' && chars.peek() != Some(&'\n') {
+            out.push('\n');
+        } else {
+            out.push(c);
+        }
     }
-    Ok(x)
+    out
 }
 
-fn forbid(present: bool, key: &str, kind: &str) -> Result<()> {
-    if present {
+/// The `key` whose value starts at byte `pos` (`key = value` in TOML), if any.
+fn key_before(text: &str, pos: usize) -> Option<&str> {
+    let before = text.get(..pos)?.trim_end().strip_suffix('=')?.trim_end();
+    let start = before
+        .char_indices()
+        .rev()
+        .find(|(_, c)| !(c.is_ascii_alphanumeric() || *c == '_' || *c == '-'))
+        .map_or(0, |(k, c)| k + c.len_utf8());
+    let key = &before[start..];
+    (!key.is_empty()).then_some(key)
+}
+
+/// The JSON key whose value ends before column `column` of line `line` (both 1-based, as
+/// serde_json reports a type error), if it is on that line: `"key": value`.
+fn json_key_before(text: &str, line: usize, column: usize) -> Option<&str> {
+    let l = text.split('\n').nth(line.checked_sub(1)?)?;
+    let end = (0..=column.min(l.len()))
+        .rev()
+        .find(|&k| l.is_char_boundary(k))?;
+    let before = &l[..end];
+    let colon = before.rfind(':')?;
+    let quoted = before[..colon].trim_end().strip_suffix('"')?;
+    let start = quoted.rfind('"')?;
+    Some(&quoted[start + 1..])
+}
+
+/// The allowed names of the `[scheme]`/`[geometry]` keys whose value is one of a fixed
+/// list, from serde's own "unknown variant" message (so the list cannot go stale).
+fn allowed_names(key: &str) -> Option<String> {
+    fn names<T: serde::de::DeserializeOwned>() -> Option<String> {
+        let e = serde_json::from_str::<T>("\"\"").err()?.to_string();
+        let list = e.split("expected ").nth(1)?;
+        Some(list.split(" at line").next()?.to_string())
+    }
+    use crate::schemes::{BondLength, BondRadius, Moments};
+    match key {
+        "model" => names::<CubicModel>(),
+        "convention" => names::<Convention>(),
+        "bond_radius" => names::<BondRadius>(),
+        "bond_length" => names::<BondLength>(),
+        "moments" => names::<Moments>(),
+        _ => None,
+    }
+}
+
+/// A TOML error as `file:line: message`, the message made to say what was expected where
+/// the parser's does not: a lone `\r` gets an empty message, an enum key given a number
+/// gets "wanted string or table", a date a "map".
+fn toml_error(text: &str, name: &str, e: &toml::de::Error) -> Error {
+    let span = e.span();
+    let line = span.as_ref().map(|s| line_of(text, s.start)).unwrap_or(0);
+    let found = span
+        .as_ref()
+        .and_then(|s| text.get(s.clone()))
+        .filter(|f| !f.contains('\n') && f.len() <= 60);
+    let key = span.as_ref().and_then(|s| key_before(text, s.start));
+    let mut message = e.message().trim().replace('\n', "; ");
+    if message.is_empty() {
+        let c = span
+            .as_ref()
+            .and_then(|s| text.get(s.start..))
+            .and_then(|t| t.chars().next());
+        message = match c {
+            Some(c) => format!(
+                "unexpected character {c:?}; expected `key = value` lines and `[table]` headers"
+            ),
+            None => "unexpected end of file; expected `key = value` lines and `[table]` headers"
+                .to_string(),
+        };
+    }
+    if message == "wanted string or table" {
+        message = match key.and_then(allowed_names) {
+            Some(list) => format!("expected {list}"),
+            None => "expected a string".to_string(),
+        };
+    }
+    if message.starts_with("invalid type: map") && !found.is_some_and(|f| f.starts_with('{')) {
+        if let Some(f) = found {
+            message = message.replacen("map", &format!("`{f}`"), 1);
+        }
+    }
+    message = message.replace("expected f64", "expected a number");
+    if let Some(k) = key {
+        if !message.contains(&format!("`{k}`")) && !message.contains(&format!("{k} =")) {
+            message = format!("`{k}`: {message}");
+        }
+    }
+    if let (Some(f), true) = (found, message.starts_with("invalid type")) {
+        if !message.contains(f) {
+            message.push_str(&format!(" (found `{f}`)"));
+        }
+    }
+    Error::parse(name, line, message)
+}
+
+/// `value` of a model key must be finite (TOML accepts `inf` and `nan`).
+fn finite(value: f64, key: &str) -> Result<f64> {
+    if !value.is_finite() {
         return Err(Error::Model(format!(
-            "[scheme] `{key}` does not apply to kind = \"{kind}\""
+            "[scheme] {key} must be finite, got {value}"
         )));
     }
-    Ok(())
+    Ok(value)
 }
 
 impl Model {
@@ -196,19 +414,41 @@ impl Model {
         }
     }
 
-    /// Parse a TOML model; `name` is used in error messages.
+    /// Parse a TOML model; `name` is used in error messages. A UTF-8 BOM and classic-Mac
+    /// `\r` line ends are accepted.
     pub fn from_toml_str(text: &str, name: &str) -> Result<Model> {
-        let raw: RawModel = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
-            Error::parse(name, line, e.message().trim().to_string())
-        })?;
+        let text = normalized(text);
+        let raw: RawModel = toml::from_str(&text).map_err(|e| toml_error(&text, name, &e))?;
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
-    /// Parse a JSON model; `name` is used in error messages.
+    /// Parse a JSON model; `name` is used in error messages. A UTF-8 BOM is accepted.
     pub fn from_json_str(text: &str, name: &str) -> Result<Model> {
-        let raw: RawModel =
-            serde_json::from_str(text).map_err(|e| Error::parse(name, e.line(), e.to_string()))?;
+        let text = normalized(text);
+        let raw: RawModel = serde_json::from_str(&text).map_err(|e| {
+            let message = e.to_string();
+            // serde_json appends " at line L column C"; the line is in the prefix already.
+            let mut message = match message.rfind(" at line ") {
+                Some(k) => format!("{} (column {})", &message[..k], e.column()),
+                None => message,
+            };
+            let key = json_key_before(&text, e.line(), e.column());
+            if message.starts_with("invalid type") || message.starts_with("unknown variant") {
+                if let Some(key) = key {
+                    message = format!("`{key}`: {message}");
+                }
+            } else if message.starts_with("expected value") {
+                // serde_json's word for a name-list key given a number or array.
+                if let Some((key, list)) = key.and_then(|k| Some((k, allowed_names(k)?))) {
+                    message = format!("`{key}`: expected {list} (column {})", e.column());
+                }
+            }
+            Error::parse(
+                name,
+                e.line(),
+                message.replace("expected f64", "expected a number"),
+            )
+        })?;
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
@@ -216,9 +456,9 @@ impl Model {
         let bonding = match raw.bonding {
             None => BondingRule::default(),
             Some(b) => {
-                if !b.value.is_finite() || b.value < 0.0 {
+                if !b.value.is_finite() || b.value <= 0.0 {
                     return Err(Error::Model(format!(
-                        "[bonding] value must be a finite number ≥ 0, got {}",
+                        "[bonding] value must be a finite number > 0, got {}",
                         b.value
                     )));
                 }
@@ -234,21 +474,9 @@ impl Model {
                 }
             }
         };
-        let s = raw.scheme;
-        let kind = s.kind.as_str();
-        let scheme = match kind {
-            "cubic" => {
-                for (present, key) in [
-                    (s.c11.is_some(), "C11"),
-                    (s.c33.is_some(), "C33"),
-                    (s.c13.is_some(), "C13"),
-                    (s.c12.is_some(), "C12"),
-                    (s.axis.is_some(), "axis"),
-                    (s.strike_deg.is_some(), "strike_deg"),
-                    (s.dip_deg.is_some(), "dip_deg"),
-                ] {
-                    forbid(present, key, kind)?;
-                }
+        let mut scheme_pi_hat = None;
+        let scheme = match raw.scheme {
+            RawScheme::Cubic(s) => {
                 let rotation = match (s.rotation, s.euler_zyz_deg) {
                     (Some(_), Some(_)) => {
                         return Err(Error::Model(
@@ -257,38 +485,37 @@ impl Model {
                     }
                     (Some(r), None) => {
                         let m = Mat3::from_fn(|i, j| r[i][j]);
-                        cubic::orthonormalize_rotation(m)?
+                        // A rotation to rounding (as written by to_toml_string) is kept bit for
+                        // bit, so a written model reads back identically; a matrix printed to a
+                        // few decimals is re-orthonormalised.
+                        let exact = m.iter().all(|x| x.is_finite())
+                            && (m.transpose() * m - Mat3::identity()).amax() <= 1e-12
+                            && m.determinant() > 0.0;
+                        if exact {
+                            m
+                        } else {
+                            cubic::orthonormalize_rotation(m)?
+                        }
                     }
-                    (None, Some(e)) => cubic::rotation_from_euler_zyz_deg(e[0], e[1], e[2]),
+                    (None, Some(e)) => {
+                        for v in e {
+                            finite(v, "euler_zyz_deg")?;
+                        }
+                        cubic::rotation_from_euler_zyz_deg(e[0], e[1], e[2])
+                    }
                     (None, None) => Mat3::identity(),
                 };
                 SchemeSpec::Cubic {
-                    model: s.model.ok_or_else(|| {
-                        Error::Model(
-                            "[scheme] kind = \"cubic\" needs `model` = \"zener-above-1\" or \"zener-below-1\"".into(),
-                        )
-                    })?,
-                    extended: s.extended.unwrap_or(false),
-                    a_n: need(s.a_n, "a_n", kind)?,
-                    a_s: need(s.a_s, "a_s", kind)?,
-                    normal: need(s.normal, "normal", kind)?,
-                    shear: need(s.shear, "shear", kind)?,
+                    model: s.model,
+                    extended: s.extended,
+                    a_n: finite(s.a_n, "a_n")?,
+                    a_s: finite(s.a_s, "a_s")?,
+                    normal: finite(s.normal, "normal")?,
+                    shear: finite(s.shear, "shear")?,
                     rotation,
                 }
             }
-            "cross-anisotropic" => {
-                for (present, key) in [
-                    (s.model.is_some(), "model"),
-                    (s.extended.is_some(), "extended"),
-                    (s.a_n.is_some(), "a_n"),
-                    (s.a_s.is_some(), "a_s"),
-                    (s.normal.is_some(), "normal"),
-                    (s.shear.is_some(), "shear"),
-                    (s.rotation.is_some(), "rotation"),
-                    (s.euler_zyz_deg.is_some(), "euler_zyz_deg"),
-                ] {
-                    forbid(present, key, kind)?;
-                }
+            RawScheme::CrossAnisotropic(s) => {
                 let axis = match (s.axis, s.strike_deg, s.dip_deg) {
                     (Some(a), None, None) => {
                         let v = Vec3::new(a[0], a[1], a[2]);
@@ -298,11 +525,18 @@ impl Model {
                                 "[scheme] axis must be a non-zero finite vector".into(),
                             ));
                         }
-                        v / n
+                        // A unit vector to rounding (as written) is kept bit for bit, so a
+                        // written model reads back identically.
+                        if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
+                            v
+                        } else {
+                            v / n
+                        }
                     }
-                    (None, Some(st), Some(dp)) => {
-                        cross_anisotropic::axis_from_strike_dip(st, dp)
-                    }
+                    (None, Some(st), Some(dp)) => cross_anisotropic::axis_from_strike_dip(
+                        finite(st, "strike_deg")?,
+                        finite(dp, "dip_deg")?,
+                    ),
                     (None, None, None) => Vec3::z(),
                     _ => {
                         return Err(Error::Model(
@@ -310,35 +544,29 @@ impl Model {
                         ))
                     }
                 };
+                let (c11, c33, c13, c12) = (
+                    finite(s.c11, "C11")?,
+                    finite(s.c33, "C33")?,
+                    finite(s.c13, "C13")?,
+                    finite(s.c12, "C12")?,
+                );
+                // Positive definiteness and non-negative lattice moduli do not depend on the
+                // lattice scaling μ > 0 (E′ = A⁻¹C/μ), so they are checked here with μ = 1,
+                // before any packing is read.
+                CrossAnisotropic::from_target(c11, c33, c13, c12, axis, 1.0)?;
+                scheme_pi_hat = s.pi_hat;
                 SchemeSpec::CrossAnisotropic {
-                    c11: need(s.c11, "C11", kind)?,
-                    c33: need(s.c33, "C33", kind)?,
-                    c13: need(s.c13, "C13", kind)?,
-                    c12: need(s.c12, "C12", kind)?,
+                    c11,
+                    c33,
+                    c13,
+                    c12,
                     axis,
                 }
             }
-            "isotropic" => {
-                for (present, key) in [
-                    (s.model.is_some(), "model"),
-                    (s.a_n.is_some(), "a_n"),
-                    (s.a_s.is_some(), "a_s"),
-                    (s.c11.is_some(), "C11"),
-                    (s.axis.is_some(), "axis"),
-                    (s.rotation.is_some(), "rotation"),
-                ] {
-                    forbid(present, key, kind)?;
-                }
-                SchemeSpec::Isotropic {
-                    normal: need(s.normal, "normal", kind)?,
-                    shear: need(s.shear, "shear", kind)?,
-                }
-            }
-            other => {
-                return Err(Error::Model(format!(
-                    "[scheme] kind = \"{other}\": expected cubic, cross-anisotropic or isotropic"
-                )))
-            }
+            RawScheme::Isotropic(s) => SchemeSpec::Isotropic {
+                normal: finite(s.normal, "normal")?,
+                shear: finite(s.shear, "shear")?,
+            },
         };
         // Geometry: the cross-anisotropic scheme is defined with moduli (k = E'·A/l), the
         // others default to the PFC parallel-bond `area` convention.
@@ -350,12 +578,11 @@ impl Model {
             },
             (None, _) => Geometry::default(),
         };
-        if let Some(p) = s.pi_hat {
-            if !matches!(scheme, SchemeSpec::CrossAnisotropic { .. }) {
-                return Err(Error::Model(
-                    "[scheme] pi_hat applies to cross-anisotropic only; use [geometry] pi_hat"
-                        .into(),
-                ));
+        if let Some(p) = scheme_pi_hat {
+            if !p.is_finite() || p <= 0.0 {
+                return Err(Error::Model(format!(
+                    "[scheme] pi_hat must be finite and > 0, got {p}"
+                )));
             }
             geometry.pi_hat = p;
         }
@@ -431,8 +658,7 @@ impl Model {
             BondingRule::Factor(v) => ("factor", v),
             BondingRule::Coordination(v) => ("coordination", v),
         };
-        let mut s = RawScheme::default();
-        match &self.scheme {
+        let s = match &self.scheme {
             SchemeSpec::Cubic {
                 model,
                 extended,
@@ -441,36 +667,37 @@ impl Model {
                 normal,
                 shear,
                 rotation,
-            } => {
-                s.kind = "cubic".into();
-                s.model = Some(*model);
-                s.extended = Some(*extended);
-                s.a_n = Some(*a_n);
-                s.a_s = Some(*a_s);
-                s.normal = Some(*normal);
-                s.shear = Some(*shear);
-                s.rotation = Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)])));
-            }
+            } => RawScheme::Cubic(RawCubic {
+                model: *model,
+                extended: *extended,
+                a_n: *a_n,
+                a_s: *a_s,
+                normal: *normal,
+                shear: *shear,
+                rotation: Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)]))),
+                euler_zyz_deg: None,
+            }),
             SchemeSpec::CrossAnisotropic {
                 c11,
                 c33,
                 c13,
                 c12,
                 axis,
-            } => {
-                s.kind = "cross-anisotropic".into();
-                s.c11 = Some(*c11);
-                s.c33 = Some(*c33);
-                s.c13 = Some(*c13);
-                s.c12 = Some(*c12);
-                s.axis = Some([axis.x, axis.y, axis.z]);
-            }
-            SchemeSpec::Isotropic { normal, shear } => {
-                s.kind = "isotropic".into();
-                s.normal = Some(*normal);
-                s.shear = Some(*shear);
-            }
-        }
+            } => RawScheme::CrossAnisotropic(RawCross {
+                c11: *c11,
+                c33: *c33,
+                c13: *c13,
+                c12: *c12,
+                axis: Some([axis.x, axis.y, axis.z]),
+                strike_deg: None,
+                dip_deg: None,
+                pi_hat: None,
+            }),
+            SchemeSpec::Isotropic { normal, shear } => RawScheme::Isotropic(RawIsotropic {
+                normal: *normal,
+                shear: *shear,
+            }),
+        };
         let raw = RawModel {
             bonding: Some(RawBonding {
                 rule: rule.into(),
@@ -487,5 +714,25 @@ fn prefix(name: &str, e: Error) -> Error {
     match e {
         Error::Model(m) => Error::Model(format!("{name}: {m}")),
         other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_before_handles_multibyte_text() {
+        // "Ⱥ" is two bytes: the key search must step over it whole (the fuzz test found a
+        // slice inside it).
+        assert_eq!(key_before("Ⱥ= 1", 4), None);
+        assert_eq!(key_before("éa_n = 1", 8), Some("a_n"));
+        assert_eq!(key_before("x = { convention = 3 }", 19), Some("convention"));
+        assert_eq!(
+            json_key_before("{\"a\": {\"normal\": \"x\",", 1, 21),
+            Some("normal")
+        );
+        assert_eq!(json_key_before("é\"Ⱥ\": 1", 1, 3), None);
+        assert_eq!(json_key_before("", 7, 3), None);
     }
 }

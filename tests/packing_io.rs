@@ -205,13 +205,14 @@ fn round_trips_are_bit_exact() {
         let q = parse_liggghts_data(&text, "p.data", periodic).unwrap();
         assert_bit_identical(&p, &q);
     }
-    // Extreme magnitudes survive too.
+    // Extreme magnitudes survive too (a subnormal coordinate; radii near the ends of the
+    // range whose sphere volume 4/3·π·r³ is still a finite number > 0).
     let p = Packing::new(
         vec![
             Vec3::new(1e-300, 12345678.9, 0.1),
-            Vec3::new(-0.0, 1e22, 3.0e-7),
+            Vec3::new(-0.0, 1e22, 5e-310),
         ],
-        vec![5e-310, 1e300],
+        vec![1.5e-100, 3e100],
         None,
     )
     .unwrap();
@@ -229,4 +230,184 @@ fn missing_file_is_an_io_error_naming_it() {
     let err = read_packing(std::path::Path::new("/nonexistent/p.txt")).unwrap_err();
     assert!(matches!(err, Error::Io { .. }));
     assert!(err.to_string().contains("/nonexistent/p.txt"));
+}
+
+/// The error text of a refused packing (`path:line: message`, or `path: message`).
+fn refused(text: &str) -> String {
+    parse_packing(text, "in.txt").unwrap_err().to_string()
+}
+
+#[test]
+fn byte_order_mark_is_ignored() {
+    let p = parse_packing("\u{feff}#format x_y_z_r\n0 0 0 1\n", "in.txt").unwrap();
+    assert_eq!(p.len(), 1);
+    let p = parse_packing("\u{feff}0 0 0 1\n3 0 0 1\n", "in.txt").unwrap();
+    assert_eq!(p.len(), 2);
+    let text = "\u{feff}##PERIODIC:: 4 4 4\n1 1 1 0.5\n";
+    assert_eq!(detect_format(text), PackingFormat::YadeSpherePack);
+    assert_eq!(
+        parse_packing(text, "in.txt").unwrap().cell.unwrap().lengths,
+        Vec3::repeat(4.0)
+    );
+    let p = parse_packing(&format!("\u{feff}{LIGGGHTS}"), "in.data").unwrap();
+    assert_eq!(p.len(), 3);
+}
+
+#[test]
+fn cr_only_and_crlf_line_endings_are_lines() {
+    for eol in ["\r", "\r\n"] {
+        let text = [
+            "#format x_y_z_r",
+            "# periodic 10 10 10",
+            "1 1 1 0.5",
+            "2 2 2 0.5",
+            "",
+        ]
+        .join(eol);
+        let p = parse_packing(&text, "in.txt").unwrap();
+        assert_eq!(p.len(), 2, "{eol:?}");
+        assert_eq!(p.cell.unwrap().lengths, Vec3::repeat(10.0));
+        // Lines are counted as an editor shows them.
+        let (line, msg) = parse_err(&["# c", "1 1 1 0.5", "1 2 3"].join(eol));
+        assert_eq!(line, 3, "{eol:?}: {msg}");
+        let data = LIGGGHTS.replace('\n', eol);
+        assert_eq!(detect_format(&data), PackingFormat::LiggghtsData);
+        assert_eq!(parse_packing(&data, "in.data").unwrap().len(), 3);
+        let bad = LIGGGHTS.replace("3 1 0.5", "3 1 -0.5").replace('\n', eol);
+        let err = parse_packing(&bad, "in.data").unwrap_err().to_string();
+        assert!(err.contains("in.data:12: diameter must be > 0"), "{err}");
+    }
+    // Mixed endings.
+    let p = parse_packing("0 0 0 1\r3 0 0 1\r\n6 0 0 1\n", "in.txt").unwrap();
+    assert_eq!(p.len(), 3);
+}
+
+#[test]
+fn files_without_particles_are_refused_by_name() {
+    for text in [
+        "",
+        "\n\n",
+        "   \r\n",
+        "# only a comment\n",
+        "#format x_y_z_r\n# periodic 5 5 5\n",
+        "\u{feff}",
+        "##PERIODIC:: 4 4 4\n",
+    ] {
+        let e = refused(text);
+        assert!(
+            e.starts_with("in.txt: no particles: expected lines `x y z r`"),
+            "{text:?}: {e}"
+        );
+    }
+    let zero = "LIGGGHTS data\n\n0 atoms\n1 atom types\n\n0 1 xlo xhi\n0 1 ylo yhi\n0 1 zlo zhi\n";
+    for text in [zero.to_string(), format!("{zero}\nAtoms # granular\n\n")] {
+        let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+        assert!(
+            e.starts_with("in.data: no particles: line 3 declares `0 atoms`")
+                && e.contains("id type diameter density x y z"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn liggghts_image_flags_and_density_are_checked() {
+    let ok = LIGGGHTS.replace("0.5 1.5 2.0\n", "0.5 1.5 2.0 0 -1 2\n");
+    assert_eq!(parse_packing(&ok, "in.data").unwrap().len(), 3);
+    for (flags, column, name) in [
+        ("0.5 0 0", 8, "ix"),
+        ("0 x 0", 9, "iy"),
+        ("0 0 1e3", 10, "iz"),
+    ] {
+        let text = LIGGGHTS.replace("0.5 1.5 2.0\n", &format!("0.5 1.5 2.0 {flags}\n"));
+        let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(
+                "in.data:12: image flag {name} (column {column}) must be an integer"
+            )),
+            "{e}"
+        );
+    }
+    for density in ["-2500", "0"] {
+        let text = LIGGGHTS.replace("3 1 0.5 2500", &format!("3 1 0.5 {density}"));
+        let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+        assert!(
+            e.contains("in.data:12: density (column 4) must be > 0"),
+            "{e}"
+        );
+    }
+    let text = LIGGGHTS.replace("3 1 0.5 2500", "3 1 0.5 nan");
+    let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(e.contains("in.data:12: density is NaN"), "{e}");
+}
+
+#[test]
+fn cell_volume_overflow_is_refused_at_the_header() {
+    let (line, msg) = parse_err("# periodic 1e300 1e300 1e300\n1 1 1 0.5\n");
+    assert_eq!(line, 1);
+    assert!(
+        msg.contains("cell volume") && msg.contains("overflows"),
+        "{msg}"
+    );
+    let (line, msg) = parse_err("0 0 0 1\n##PERIODIC:: 1e-200 1e-200 1e-200\n");
+    assert_eq!(line, 2);
+    assert!(
+        msg.contains("cell volume") && msg.contains("underflows to 0"),
+        "{msg}"
+    );
+    // LIGGGHTS box: each length finite but the volume not, or a length that overflows.
+    let text = LIGGGHTS
+        .replace("-1.0 1.0 xlo", "-1e300 1e300 xlo")
+        .replace("-2 2 ylo", "-1e300 1e300 ylo")
+        .replace("0 3 zlo", "0 1e300 zlo");
+    let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(e.contains("in.data:6: the cell volume"), "{e}");
+    let text = LIGGGHTS.replace("-2 2 ylo", "-1e308 1e308 ylo");
+    let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(e.contains("in.data:7: box length yhi − ylo"), "{e}");
+}
+
+#[test]
+fn radii_whose_volumes_are_not_finite_are_refused_at_their_line() {
+    let (line, msg) = parse_err("0 0 0 1\n5 5 5 1e200\n");
+    assert_eq!(line, 2);
+    assert!(
+        msg.contains("sphere volume") && msg.contains("overflows"),
+        "{msg}"
+    );
+    let (line, msg) = parse_err("0 0 0 1\n5 5 5 1e-200\n");
+    assert_eq!(line, 2);
+    assert!(
+        msg.contains("sphere volume") && msg.contains("underflows"),
+        "{msg}"
+    );
+    // Each volume finite, their sum not.
+    let (line, msg) = parse_err("0 0 0 3e102\n1e103 0 0 3e102\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("total sphere volume"), "{msg}");
+    let text = LIGGGHTS.replace("3 1 0.5 2500", "3 1 1e300 2500");
+    let e = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(e.contains("in.data:12: the sphere volume"), "{e}");
+    // Solid fraction: a huge sphere in a tiny cell, or tiny spheres in a huge free box.
+    let (line, msg) = parse_err("# periodic 1e-100 1e-100 1e-100\n0 0 0 1e90\n");
+    assert_eq!(line, 1);
+    assert!(
+        msg.contains("solid fraction") && msg.contains("overflows"),
+        "{msg}"
+    );
+    let e = refused("0 0 0 1e-100\n1e100 1e100 1e100 1e-100\n");
+    assert!(
+        e.starts_with("in.txt: the solid fraction") && e.contains("underflows"),
+        "{e}"
+    );
+}
+
+#[test]
+fn positions_must_give_a_finite_box() {
+    let (line, msg) = parse_err("-1e308 0 0 1\n1e308 0 0 1\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("lines 1 and 2 are its x ends"), "{msg}");
+    let (line, msg) = parse_err("# periodic 1 1 1\n0.5 0.5 0.5 0.1\n1e300 0 0 0.1\n");
+    assert_eq!(line, 3);
+    assert!(msg.contains("cell lengths"), "{msg}");
 }

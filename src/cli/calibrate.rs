@@ -287,12 +287,17 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
                             "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\"".into(),
                         ));
                     };
-                    if let Some(b) = &bonded {
-                        let mu = lattice_scaling(&b.packing, &b.bonds, base.geometry.pi_hat)?;
-                        anisobond::schemes::cross_anisotropic::CrossAnisotropic::from_target(
-                            c11, c33, c13, c12, axis, mu,
-                        )?;
-                    }
+                    // The scheme must be able to reproduce the target before "calibrated" is
+                    // said: without a packing μ = 1 serves, since the signs of the lattice
+                    // moduli E′ = A⁻¹C/μ do not depend on μ > 0.
+                    let mu = match &bonded {
+                        Some(b) => lattice_scaling(&b.packing, &b.bonds, base.geometry.pi_hat)?,
+                        None => 1.0,
+                    };
+                    anisobond::schemes::cross_anisotropic::CrossAnisotropic::from_target(
+                        c11, c33, c13, c12, axis, mu,
+                    )
+                    .map_err(|e| Error::Invalid(format!("--target {}: {e}", a.target)))?;
                     println!("calibrated (mean field): cross-anisotropic; Šmilauer's inversion E′ = A⁻¹C/μ reproduces the target exactly under uniform strain, so the model holds the target itself. Its relaxed tensor on a packing is a few % softer: use --on relaxed PACKING to correct for that.");
                     let mut m = base.clone();
                     m.scheme = SchemeSpec::CrossAnisotropic {

@@ -11,6 +11,11 @@
 //!
 //! Numbers are written in the shortest form that reads back to the same `f64`, so a
 //! write–read round trip is bit-exact.
+//!
+//! All readers drop a leading UTF-8 byte-order mark and split lines at `\n`, `\r\n` or a
+//! lone `\r`, so line numbers in errors are those an editor shows. They refuse a file with
+//! no particles, and any number or derived quantity (sphere volume, cell volume, solid
+//! fraction) that is not finite and positive, naming the file and line.
 
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
@@ -47,10 +52,41 @@ pub enum PackingFormat {
     LiggghtsData,
 }
 
+/// The lines of `text` without a leading UTF-8 BOM, split at `\n`, `\r\n` or a lone `\r`
+/// (classic Mac files), so that the k-th entry is line k + 1 as an editor counts it.
+pub fn text_lines(text: &str) -> Vec<&str> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let bytes = text.as_bytes();
+    let mut lines = Vec::new();
+    let mut start = 0;
+    let mut k = 0;
+    while k < bytes.len() {
+        match bytes[k] {
+            b'\n' => {
+                lines.push(&text[start..k]);
+                start = k + 1;
+            }
+            b'\r' => {
+                lines.push(&text[start..k]);
+                if bytes.get(k + 1) == Some(&b'\n') {
+                    k += 1;
+                }
+                start = k + 1;
+            }
+            _ => {}
+        }
+        k += 1;
+    }
+    if start < bytes.len() {
+        lines.push(&text[start..]);
+    }
+    lines
+}
+
 /// Guess the format of packing text from its content.
 pub fn detect_format(text: &str) -> PackingFormat {
     let mut yade = false;
-    for line in text.lines() {
+    for line in text_lines(text) {
         let t = line.trim();
         if t.starts_with("##PERIODIC::") {
             yade = true;
@@ -92,6 +128,36 @@ fn parse_number(word: &str, what: &str, source: &str, line: usize) -> Result<f64
     Ok(v)
 }
 
+/// "overflows" or "underflows to 0" for a derived quantity `v` that is not finite and > 0.
+fn out_of_range(v: f64) -> &'static str {
+    if v.is_finite() {
+        "underflows to 0"
+    } else {
+        "overflows"
+    }
+}
+
+/// Check that the cell volume Lx·Ly·Lz of a header on `line` is finite and > 0: each
+/// length may be fine while their product overflows (1e300³) or underflows.
+fn check_cell_volume(l: &Vec3, source: &str, line: usize) -> Result<()> {
+    let v = l.x * l.y * l.z;
+    if !v.is_finite() || v <= 0.0 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "the cell volume Lx·Ly·Lz = {:e}·{:e}·{:e} m³ {}; expected cell lengths whose \
+                 product is a finite number > 0",
+                l.x,
+                l.y,
+                l.z,
+                out_of_range(v)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -> Result<Vec3> {
     if words.len() != 3 {
         return Err(Error::parse(
@@ -115,16 +181,197 @@ fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -
             ));
         }
     }
+    check_cell_volume(&l, source, line)?;
     Ok(l)
 }
 
+/// Spheres as read, each with the line it came from, and their running total volume.
+#[derive(Default)]
+struct Spheres {
+    positions: Vec<Vec3>,
+    radii: Vec<f64>,
+    lines: Vec<usize>,
+    solid_volume: f64,
+}
+
+impl Spheres {
+    /// Add a sphere read on `line`; refuses a radius whose volume 4/3·π·r³ overflows or
+    /// underflows to 0, and a total sphere volume that overflows (both feed the solid
+    /// fraction and every tensor). `radius_word` names the column the radius came from.
+    fn push(
+        &mut self,
+        x: Vec3,
+        r: f64,
+        radius_word: &str,
+        source: &str,
+        line: usize,
+    ) -> Result<()> {
+        if r <= 0.0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("radius must be > 0, found {r} (from {radius_word})"),
+            ));
+        }
+        let v = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+        if !v.is_finite() || v <= 0.0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "the sphere volume 4/3·π·r³ = {v:e} m³ of radius r = {r:e} m (from \
+                     {radius_word}) {}; expected a radius between about 1e-100 and 1e100 m",
+                    out_of_range(v)
+                ),
+            ));
+        }
+        let total = self.solid_volume + v;
+        if !total.is_finite() {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "the total sphere volume Σ 4/3·π·r³ overflows at this sphere ({:e} m³ \
+                     before it, {v:e} m³ for it); expected radii whose volumes add up to a \
+                     finite number",
+                    self.solid_volume
+                ),
+            ));
+        }
+        self.solid_volume = total;
+        self.positions.push(x);
+        self.radii.push(r);
+        self.lines.push(line);
+        Ok(())
+    }
+}
+
+/// Where a packing's periodic cell was declared, for error messages.
+struct CellSource {
+    lengths: Vec3,
+    /// The header line (the first box-bounds line for LIGGGHTS data).
+    line: usize,
+}
+
+/// The checked packing: refuses a file without particles (`empty_hint` says what a
+/// particle line looks like), positions too far outside the cell to be wrapped, and a
+/// solid fraction (total sphere volume / cell or bounding-box volume) that is not finite
+/// and > 0. Spheres are taken in the order given.
+fn finish(
+    source: &str,
+    spheres: Spheres,
+    cell: Option<CellSource>,
+    empty_hint: &str,
+) -> Result<Packing> {
+    if spheres.radii.is_empty() {
+        return Err(Error::parse(
+            source,
+            0,
+            format!("no particles: {empty_hint}"),
+        ));
+    }
+    let volume = match &cell {
+        Some(c) => {
+            // Wrapping divides by L and counts the shift in an i32: a position more than
+            // 2³¹ cell lengths out has lost every digit that would place it in the cell.
+            for (p, &line) in spheres.positions.iter().zip(&spheres.lines) {
+                for k in 0..3 {
+                    let cells = (p[k] / c.lengths[k]).abs();
+                    if !cells.is_finite() || cells >= 2_147_483_647.0 {
+                        return Err(Error::parse(
+                            source,
+                            line,
+                            format!(
+                                "{} = {:e} lies {cells:e} cell lengths L{} = {:e} from the \
+                                 cell; expected a position within 2³¹ cell lengths",
+                                ["x", "y", "z"][k],
+                                p[k],
+                                ["x", "y", "z"][k],
+                                c.lengths[k]
+                            ),
+                        ));
+                    }
+                }
+            }
+            c.lengths.x * c.lengths.y * c.lengths.z
+        }
+        None => free_volume(source, &spheres)?,
+    };
+    let phi = spheres.solid_volume / volume;
+    if !phi.is_finite() || phi <= 0.0 {
+        let (line, what) = match &cell {
+            Some(c) => (c.line, format!("the cell volume {volume:e} m³")),
+            None => (0, format!("the bounding-box volume {volume:e} m³")),
+        };
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "the solid fraction (total sphere volume {:e} m³ / {what}) {}; expected \
+                 cell and radii of compatible sizes",
+                spheres.solid_volume,
+                out_of_range(phi)
+            ),
+        ));
+    }
+    let cell = match cell {
+        Some(c) => Some(
+            PeriodicCell::new(c.lengths)
+                .map_err(|e| Error::parse(source, c.line, e.to_string()))?,
+        ),
+        None => None,
+    };
+    Packing::new(spheres.positions, spheres.radii, cell)
+        .map_err(|e| Error::parse(source, 0, e.to_string()))
+}
+
+/// Bounding-box volume of a free packing (spheres included), refused naming the lines of
+/// the two extreme spheres when an edge or the volume overflows or underflows.
+fn free_volume(source: &str, s: &Spheres) -> Result<f64> {
+    let mut volume = 1.0;
+    for k in 0..3 {
+        let (mut lo, mut hi) = ((f64::INFINITY, 0), (f64::NEG_INFINITY, 0));
+        for (i, (p, r)) in s.positions.iter().zip(&s.radii).enumerate() {
+            if p[k] - r < lo.0 {
+                lo = (p[k] - r, i);
+            }
+            if p[k] + r > hi.0 {
+                hi = (p[k] + r, i);
+            }
+        }
+        let edge = hi.0 - lo.0;
+        volume *= edge;
+        if !edge.is_finite() || !volume.is_finite() || volume <= 0.0 {
+            let axis = ["x", "y", "z"][k];
+            return Err(Error::parse(
+                source,
+                s.lines[lo.1],
+                format!(
+                    "the bounding box of the spheres (lines {} and {} are its {axis} ends, \
+                     {:e} to {:e} m) has a volume that {}; expected positions and radii whose \
+                     box volume is a finite number > 0",
+                    s.lines[lo.1],
+                    s.lines[hi.1],
+                    lo.0,
+                    hi.0,
+                    out_of_range(if edge.is_finite() { volume } else { edge })
+                ),
+            ));
+        }
+    }
+    Ok(volume)
+}
+
+/// What a particle line of SPEC / YADE text looks like (for the "no particles" error).
+const SPHERE_LINE_HINT: &str = "expected lines `x y z r` (one sphere per line; `#` starts a \
+                                comment, `# periodic Lx Ly Lz` declares a periodic cell)";
+
 /// Parse SPEC text or YADE SpherePack / `export.text` text.
 fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
-    let mut positions = Vec::new();
-    let mut radii = Vec::new();
+    let mut spheres = Spheres::default();
     let mut cell: Option<(Vec3, usize)> = None;
     let mut columns = 4usize;
-    for (k, raw) in text.lines().enumerate() {
+    for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
         if let Some(rest) = t.strip_prefix("##PERIODIC::") {
@@ -180,26 +427,13 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         let y = parse_number(words[1], "y", source, line)?;
         let z = parse_number(words[2], "z", source, line)?;
         let r = parse_number(words[3], "radius r", source, line)?;
-        if r <= 0.0 {
-            return Err(Error::parse(
-                source,
-                line,
-                format!("radius must be > 0, found {r}"),
-            ));
-        }
         if columns == 5 {
             parse_number(words[4], "matId", source, line)?;
         }
-        positions.push(Vec3::new(x, y, z));
-        radii.push(r);
+        spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
     }
-    let cell = match cell {
-        Some((l, line)) => {
-            Some(PeriodicCell::new(l).map_err(|e| Error::parse(source, line, e.to_string()))?)
-        }
-        None => None,
-    };
-    Packing::new(positions, radii, cell).map_err(|e| Error::parse(source, 0, e.to_string()))
+    let cell = cell.map(|(lengths, line)| CellSource { lengths, line });
+    finish(source, spheres, cell, SPHERE_LINE_HINT)
 }
 
 fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
@@ -259,12 +493,85 @@ const LAMMPS_SECTIONS: &[&str] = &[
     "AngleAngle",
 ];
 
+/// What the atoms of a LIGGGHTS data file look like (for the "no particles" error).
+const ATOMS_HINT: &str = "expected a header line `N atoms` with N ≥ 1 and an `Atoms # granular` \
+                          section of N lines `id type diameter density x y z` (optionally \
+                          followed by 3 integer image flags)";
+
+/// One atom line of a LIGGGHTS data file.
+struct Atom {
+    id: u64,
+    position: Vec3,
+    diameter: f64,
+    line: usize,
+}
+
+/// Parse one `id type diameter density x y z [ix iy iz]` line of the Atoms section.
+fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
+    if words.len() != 7 && words.len() != 10 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "expected 7 values `id type diameter density x y z` (optionally \
+                 followed by 3 image flags), found {}",
+                words.len()
+            ),
+        ));
+    }
+    let id: u64 = words[0].parse().map_err(|_| {
+        Error::parse(
+            source,
+            line,
+            format!("expected a positive integer atom id, found `{}`", words[0]),
+        )
+    })?;
+    let d = parse_number(words[2], "diameter", source, line)?;
+    if d <= 0.0 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("diameter must be > 0, found {d}"),
+        ));
+    }
+    let density = parse_number(words[3], "density", source, line)?;
+    if density <= 0.0 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("density (column 4) must be > 0, found {density}"),
+        ));
+    }
+    let x = parse_number(words[4], "x", source, line)?;
+    let y = parse_number(words[5], "y", source, line)?;
+    let z = parse_number(words[6], "z", source, line)?;
+    for (k, w) in words.iter().enumerate().skip(7) {
+        if w.parse::<i32>().is_err() {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "image flag {} (column {}) must be an integer, found `{w}`",
+                    ["ix", "iy", "iz"][k - 7],
+                    k + 1
+                ),
+            ));
+        }
+    }
+    Ok(Atom {
+        id,
+        position: Vec3::new(x, y, z),
+        diameter: d,
+        line,
+    })
+}
+
 /// Parse LIGGGHTS data text (see [`read_liggghts_data`]). Atoms are sorted by id.
 pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<Packing> {
-    let lines: Vec<&str> = text.lines().collect();
+    let lines = text_lines(text);
     let mut n_atoms: Option<(usize, usize)> = None;
-    let mut bounds: [Option<(f64, f64)>; 3] = [None; 3];
-    let mut atoms: Vec<(u64, Vec3, f64, usize)> = Vec::new();
+    let mut bounds: [Option<(f64, f64, usize)>; 3] = [None; 3];
+    let mut atoms: Vec<Atom> = Vec::new();
     let mut atoms_line: Option<usize> = None;
     // Line 1 is the title and always skipped (LAMMPS rule).
     let mut k = 1;
@@ -315,7 +622,17 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                     format!("box bound {name}hi = {hi} must exceed {name}lo = {lo}"),
                 ));
             }
-            bounds[axis] = Some((lo, hi));
+            if !(hi - lo).is_finite() {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "box length {name}hi − {name}lo = {hi:e} − ({lo:e}) overflows; \
+                         expected bounds whose difference is finite"
+                    ),
+                ));
+            }
+            bounds[axis] = Some((lo, hi, line));
         } else if n_words == 6 && words[3..] == ["xy", "xz", "yz"] {
             for w in &words[..3] {
                 let t = parse_number(w, "tilt factor", source, line)?;
@@ -382,43 +699,25 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 break;
             }
             if is_atoms {
-                if words.len() != 7 && words.len() != 10 {
-                    return Err(Error::parse(
-                        source,
-                        line,
-                        format!(
-                            "expected 7 values `id type diameter density x y z` (optionally \
-                             followed by 3 image flags), found {}",
-                            words.len()
-                        ),
-                    ));
-                }
-                let id: u64 = words[0].parse().map_err(|_| {
-                    Error::parse(
-                        source,
-                        line,
-                        format!("expected a positive integer atom id, found `{}`", words[0]),
-                    )
-                })?;
-                let d = parse_number(words[2], "diameter", source, line)?;
-                if d <= 0.0 {
-                    return Err(Error::parse(
-                        source,
-                        line,
-                        format!("diameter must be > 0, found {d}"),
-                    ));
-                }
-                parse_number(words[3], "density", source, line)?;
-                let x = parse_number(words[4], "x", source, line)?;
-                let y = parse_number(words[5], "y", source, line)?;
-                let z = parse_number(words[6], "z", source, line)?;
-                atoms.push((id, Vec3::new(x, y, z), 0.5 * d, line));
+                atoms.push(parse_atom(&words, source, line)?);
             }
             k += 1;
         }
     }
-    let (n, n_line) = n_atoms
-        .ok_or_else(|| Error::parse(source, 0, "LIGGGHTS data: missing header line `N atoms`"))?;
+    let (n, n_line) = n_atoms.ok_or_else(|| {
+        Error::parse(
+            source,
+            0,
+            format!("LIGGGHTS data: missing header line `N atoms`; {ATOMS_HINT}"),
+        )
+    })?;
+    if n == 0 && atoms.is_empty() {
+        return Err(Error::parse(
+            source,
+            0,
+            format!("no particles: line {n_line} declares `0 atoms`; {ATOMS_HINT}"),
+        ));
+    }
     let Some(atoms_first) = atoms_line else {
         return Err(Error::parse(
             source,
@@ -436,24 +735,26 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             ),
         ));
     }
-    atoms.sort_by_key(|a| a.0);
+    atoms.sort_by_key(|a| a.id);
     for w in atoms.windows(2) {
-        if w[0].0 == w[1].0 {
+        if w[0].id == w[1].id {
             return Err(Error::parse(
                 source,
-                w[1].3,
-                format!("atom id {} appears twice (also line {})", w[1].0, w[0].3),
+                w[1].line,
+                format!(
+                    "atom id {} appears twice (also line {})",
+                    w[1].id, w[0].line
+                ),
             ));
         }
     }
-    let mut positions: Vec<Vec3> = atoms.iter().map(|a| a.1).collect();
-    let radii: Vec<f64> = atoms.iter().map(|a| a.2).collect();
     let cell = if periodic {
         let mut lo = Vec3::zeros();
         let mut len = Vec3::zeros();
+        let mut first_line = usize::MAX;
         for axis in 0..3 {
             let name = ["x", "y", "z"][axis];
-            let (l, h) = bounds[axis].ok_or_else(|| {
+            let (l, h, line) = bounds[axis].ok_or_else(|| {
                 Error::parse(
                     source,
                     0,
@@ -462,17 +763,39 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             })?;
             lo[axis] = l;
             len[axis] = h - l;
+            first_line = first_line.min(line);
         }
-        if lo != Vec3::zeros() {
-            for p in &mut positions {
-                *p -= lo;
-            }
-        }
-        Some(PeriodicCell::new(len)?)
+        check_cell_volume(&len, source, first_line)?;
+        Some((
+            lo,
+            CellSource {
+                lengths: len,
+                line: first_line,
+            },
+        ))
     } else {
         None
     };
-    Packing::new(positions, radii, cell).map_err(|e| Error::parse(source, 0, e.to_string()))
+    let mut spheres = Spheres::default();
+    for a in &atoms {
+        let mut p = a.position;
+        if let Some((lo, _)) = &cell {
+            p -= lo;
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(Error::parse(
+                    source,
+                    a.line,
+                    format!(
+                        "the position shifted by the box origin, ({:e}, {:e}, {:e}) − ({:e}, \
+                         {:e}, {:e}), overflows; expected atoms near the box",
+                        a.position.x, a.position.y, a.position.z, lo.x, lo.y, lo.z
+                    ),
+                ));
+            }
+        }
+        spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
+    }
+    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)
 }
 
 /// Shortest text that parses back to exactly `v`.
