@@ -62,7 +62,7 @@ pub mod prelude {
     pub use crate::packing::io::{read_packing, write_packing};
     pub use crate::packing::Packing;
     pub use crate::tensor::{Stiffness6, Voigt6};
-    pub use crate::{Error, Mat3, Result, Vec3};
+    pub use crate::{Error, Mat3, Vec3};
 }
 
 /// 3-vector of `f64` (positions in m, unit normals, …).

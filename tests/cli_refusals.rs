@@ -470,3 +470,38 @@ fn options_that_make_a_meaningless_result_are_refused() {
     ]));
     assert!(err.contains("--solid-fraction"), "{err}");
 }
+
+#[test]
+fn an_elongated_cell_is_refused_not_aborted() {
+    // Found by tests/fuzz_readers.rs: the two-level preconditioner sized a dense grid of
+    // aggregates by the cell (1e15 m along x: an 8.8 TB allocation, SIGABRT). A 4×4×4 lattice
+    // that does not span the cell along x is a mechanism under e11, so it is refused.
+    let t = tmp();
+    let d = t.path();
+    let mut text = String::from("# periodic 1e15 8e-3 8e-3\n");
+    for i in 0..4 {
+        for j in 0..4 {
+            for k in 0..4 {
+                text += &format!(
+                    "{} {} {} 1e-3\n",
+                    i as f64 * 2e-3,
+                    j as f64 * 2e-3,
+                    k as f64 * 2e-3
+                );
+            }
+        }
+    }
+    let p = write(d, "long.txt", &text);
+    let m = write(d, "model.toml", CUBIC_MODEL);
+    let out = bin()
+        .arg("tensor")
+        .arg(&p)
+        .arg("--model")
+        .arg(&m)
+        .args(["--method", "relaxed"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("is a mechanism"), "{err}");
+}

@@ -3,16 +3,16 @@
 //! dropped, duplicated or swapped; numbers replaced by extremes such as 1e308, -0, NaN,
 //! inf, huge integers; BOM, CR and garbage inserted; truncation) and arbitrary text.
 //! No reader may panic, and whatever one accepts holds only finite numbers; an accepted
-//! packing bonded with a valid model gives a finite Voigt tensor or an error.
+//! packing bonded with a valid model, and a valid packing bonded with an accepted model,
+//! give through the library's entry point (`Assembly::tensor`) a finite, positive definite
+//! tensor or an error with a message: never a non-finite number.
 //!
 //! Deterministic (fixed seed, no failure files) and bounded: see `CASES`.
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds};
 use anisobond::calibrate::target::Target;
-use anisobond::homogenize::voigt::voigt_tensor;
-use anisobond::model::{Model, SchemeSpec};
+use anisobond::model::SchemeSpec;
 use anisobond::packing::io::{parse_liggghts_data, parse_packing};
-use anisobond::packing::Packing;
+use anisobond::prelude::*;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
@@ -349,23 +349,39 @@ fn check_packing(p: &Packing, model: &Model) -> Result<(), TestCaseError> {
     if p.len() > 400 {
         return Ok(());
     }
-    if let Ok(bonds) = build_bonds(p, model.bonding) {
-        if bonds.is_empty() {
+    check_tensors(p.clone(), model.clone())
+}
+
+/// Bond `p` with `model` and ask for the Voigt and relaxed tensors through the library's
+/// entry point: each is a finite report or an error that says something.
+fn check_tensors(p: Packing, model: Model) -> Result<(), TestCaseError> {
+    let asm = match Assembly::new(p, model) {
+        Ok(a) => a,
+        Err(e) => {
+            prop_assert!(!e.to_string().trim().is_empty());
             return Ok(());
         }
-        let Ok(scheme) = model.build_scheme(Some((p, &bonds))) else {
-            return Ok(());
-        };
-        if let Ok(k) = assign_stiffness(p, &bonds, scheme.as_ref(), &model.geometry) {
-            let c = voigt_tensor(&bonds, &k, v);
-            TENSORS.fetch_add(1, Relaxed);
-            prop_assert!(c.iter().all(|x| x.is_finite()), "Voigt tensor {c}");
+    };
+    for method in [Method::Voigt, Method::relaxed()] {
+        match asm.tensor(&method) {
+            Ok(t) => {
+                TENSORS.fetch_add(1, Relaxed);
+                let c = t.report.tensor();
+                prop_assert!(
+                    c.iter().all(|x| x.is_finite()),
+                    "{} tensor {c}",
+                    method.name()
+                );
+                prop_assert!(!t.report.to_json().contains("null"), "null in the report");
+            }
+            Err(e) => prop_assert!(!e.to_string().trim().is_empty()),
         }
     }
     Ok(())
 }
 
-/// An accepted model holds only finite parameters and is written back identically.
+/// An accepted model holds only finite parameters, is written back identically, and bonded
+/// to a valid lattice gives finite tensors or a refusal.
 fn check_model(m: &Model) -> Result<(), TestCaseError> {
     ACCEPTED_MODELS.fetch_add(1, Relaxed);
     let numbers: Vec<f64> = match &m.scheme {
@@ -402,7 +418,8 @@ fn check_model(m: &Model) -> Result<(), TestCaseError> {
     prop_assert!(m.geometry.pi_hat.is_finite() && m.geometry.pi_hat > 0.0);
     let again = Model::from_toml_str(&m.to_toml_string(), "written.toml").ok();
     prop_assert_eq!(again.as_ref(), Some(m));
-    Ok(())
+    let lattice = parse_packing(&spec_text(), "lattice").unwrap();
+    check_tensors(lattice, m.clone())
 }
 
 fn check_target(t: &Target) -> Result<(), TestCaseError> {
@@ -457,7 +474,7 @@ fn packing_readers() {
     });
     eprintln!(
         "packing readers: {} texts (each read as SPEC/YADE and as LIGGGHTS data), {} accepted \
-         packings, {} Voigt tensors",
+         packings, {} tensors (Voigt and relaxed, counted over the packing and model tests)",
         2 * CASES,
         ACCEPTED_PACKINGS.load(Relaxed),
         TENSORS.load(Relaxed)
@@ -474,9 +491,8 @@ fn model_readers() {
     for s in &json {
         check_model(&Model::from_json_str(s, "seed.json").unwrap()).unwrap();
     }
-    // Only the model itself is checked here: a model with finite but huge magnitudes
-    // (normal = 1e300) is accepted and overflows the Voigt sum, which the tensor code has
-    // to refuse (not a reader's business); `packing_readers` bonds with a valid model.
+    // A model with finite but huge magnitudes (normal = 1e300) is accepted by the reader;
+    // its tensors overflow and are refused by `Assembly::tensor` (checked in check_model).
     let check = |m: Model| check_model(&m);
     fuzz(&toml, |text| {
         match Model::from_toml_str(text, "fuzz.toml") {

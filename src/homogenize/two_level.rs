@@ -64,10 +64,12 @@ impl TwoLevel {
         }
         let volume = box_lengths.x * box_lengths.y * box_lengths.z;
         let h = (volume * per_aggregate as f64 / m as f64).cbrt();
+        // At most one cell per particle along an axis: a far-away particle in a free
+        // cluster (a bounding box of 1e12 × 1 × 1) must not ask for a dense grid of cells.
         let cells: [usize; 3] =
-            std::array::from_fn(|a| ((box_lengths[a] / h).round() as usize).max(1));
+            std::array::from_fn(|a| ((box_lengths[a] / h).round().min(m as f64) as usize).max(1));
         let size = Vec3::from_fn(|a, _| box_lengths[a] / cells[a] as f64);
-        let cell_of = |x: &Vec3| -> (usize, Vec3) {
+        let cell_of = |x: &Vec3| -> ([usize; 3], Vec3) {
             let mut idx = [0usize; 3];
             let mut centre = Vec3::zeros();
             for a in 0..3 {
@@ -78,24 +80,19 @@ impl TwoLevel {
                 // Arm from the centre, with the position wrapped like the cell index.
                 centre[a] = w - centre[a];
             }
-            ((idx[0] * cells[1] + idx[1]) * cells[2] + idx[2], centre)
+            (idx, centre)
         };
-        let raw: Vec<(usize, Vec3)> = positions.par_iter().map(cell_of).collect();
-        // Renumber the non-empty cells in increasing order.
-        let n_cells = cells[0] * cells[1] * cells[2];
-        let mut id = vec![u32::MAX; n_cells];
-        for (c, _) in &raw {
-            id[*c] = 0;
-        }
-        let mut n_agg = 0u32;
-        for v in id.iter_mut() {
-            if *v == 0 {
-                *v = n_agg;
-                n_agg += 1;
-            }
-        }
-        let n_agg = n_agg as usize;
-        let aggregate: Vec<u32> = raw.iter().map(|(c, _)| id[*c]).collect();
+        let raw: Vec<([usize; 3], Vec3)> = positions.par_iter().map(cell_of).collect();
+        // Number the non-empty cells in increasing (x, y, z) order; sorting the occupied
+        // cells costs O(m log m) whatever the grid's size.
+        let mut occupied: Vec<[usize; 3]> = raw.iter().map(|(c, _)| *c).collect();
+        occupied.sort_unstable();
+        occupied.dedup();
+        let n_agg = occupied.len();
+        let aggregate: Vec<u32> = raw
+            .iter()
+            .map(|(c, _)| occupied.binary_search(c).unwrap_or(0) as u32)
+            .collect();
         let prolongation: Vec<Block6> = raw
             .par_iter()
             .map(|(_, d)| {
