@@ -1,16 +1,14 @@
 //! Law (a)'s AVX2 lanes against its scalar kernel: the same trajectory bit for bit, with
 //! spins both inside the small-angle series' range and far outside it (libm fallback per
-//! lane), on a periodic packing under a shear rate. Alone in its file because the switch
-//! to the scalar kernel is process-wide.
+//! lane), on a periodic packing under a shear rate. The scalar kernels are chosen by the
+//! run's own option (`DemOptions::simd = false`).
 
 use anisobond::bonds::{rules::build_bonds, BondStiffness, BondingRule};
-use anisobond::dem::laws::force_scalar_law_a;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::{Mat3, Vec3};
 
 fn run(scalar: bool, spin: f64) -> Vec<u64> {
-    force_scalar_law_a(scalar);
     let p = generate(
         &GenerateOptions {
             n_particles: 400,
@@ -40,6 +38,7 @@ fn run(scalar: bool, spin: f64) -> Vec<u64> {
         &DemOptions {
             local_damping: 0.2,
             check_interval: 0,
+            simd: !scalar,
             ..Default::default()
         },
     )
@@ -81,7 +80,6 @@ fn lanes_and_scalar_kernel_give_the_same_bits() {
     for spin in [1e-4, 0.05] {
         let lanes = run(false, spin);
         let scalar = run(true, spin);
-        force_scalar_law_a(false);
         let differing = lanes.iter().zip(&scalar).filter(|(a, b)| a != b).count();
         assert_eq!(
             differing,

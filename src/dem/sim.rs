@@ -119,6 +119,10 @@ pub struct DemOptions {
     pub mass: MassOptions,
     /// Steps between energy checks for blow-up (0 disables the check).
     pub check_interval: usize,
+    /// Use the AVX2 kernels of law (a) and of the particle update where the CPU has them
+    /// (default); `false` runs the scalar kernels, which give the same bits (for checking
+    /// exactly that).
+    pub simd: bool,
 }
 
 impl Default for DemOptions {
@@ -129,6 +133,7 @@ impl Default for DemOptions {
             local_damping: 0.0,
             mass: MassOptions::default(),
             check_interval: 20,
+            simd: true,
         }
     }
 }
@@ -191,6 +196,7 @@ pub struct Simulation {
     local_damping: f64,
     safety: f64,
     check_interval: usize,
+    simd: bool,
     iteration: u64,
     time: f64,
     kinetic: f64,
@@ -237,6 +243,7 @@ impl Clone for Simulation {
             local_damping: self.local_damping,
             safety: self.safety,
             check_interval: self.check_interval,
+            simd: self.simd,
             iteration: self.iteration,
             time: self.time,
             kinetic: self.kinetic,
@@ -287,6 +294,7 @@ impl Simulation {
             local_damping: opts.local_damping,
             safety: opts.safety,
             check_interval: opts.check_interval,
+            simd: opts.simd,
             iteration: 0,
             time: 0.0,
             kinetic: 0.0,
@@ -469,7 +477,12 @@ impl Simulation {
             Some(c) => (c.h, c.vel_grad_times_prev_h),
             None => (Mat3::zeros(), Mat3::zeros()),
         };
-        ContextParts { h, sv, dt: self.dt }
+        ContextParts {
+            h,
+            sv,
+            dt: self.dt,
+            simd: self.simd,
+        }
     }
 
     /// Run `steps` steps, reporting the fraction done to `progress` every 1 %.
@@ -532,8 +545,7 @@ impl Simulation {
             (f, t)
         };
         #[cfg(target_arch = "x86_64")]
-        let lanes = std::arch::is_x86_feature_detected!("avx2")
-            && !super::laws::lanes::SCALAR_ONLY.load(std::sync::atomic::Ordering::Relaxed);
+        let lanes = self.simd && std::arch::is_x86_feature_detected!("avx2");
         let p = &mut self.particles;
         let (mass, inertia) = (&p.mass[..], &p.inertia[..]);
         const PC: usize = PARTICLE_CHUNK;
@@ -891,6 +903,7 @@ struct ContextParts {
     h: Mat3,
     sv: Mat3,
     dt: f64,
+    simd: bool,
 }
 
 impl ContextParts {
@@ -905,6 +918,7 @@ impl ContextParts {
             h: self.h,
             shift_velocity: self.sv,
             dt: self.dt,
+            simd: self.simd,
         }
     }
 }

@@ -15,10 +15,6 @@ use crate::dem::quat::{rotation_vector_of, Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
 use crate::Vec3;
 
-/// Route law (a) through the scalar kernel only (for the bit-identity test of the lanes).
-pub(crate) static SCALAR_ONLY: std::sync::atomic::AtomicBool =
-    std::sync::atomic::AtomicBool::new(false);
-
 /// Bonds per lane group.
 pub(crate) const LANES: usize = 4;
 
@@ -493,10 +489,7 @@ pub(super) fn law_a_chunk(
     // Every bond's particle indices are below `index_bound`; image indices are valid by
     // construction (see `LinearBondKernel::index_bound`).
     let in_bounds = inp.index_bound <= len;
-    if in_bounds
-        && std::arch::is_x86_feature_detected!("avx2")
-        && !SCALAR_ONLY.load(std::sync::atomic::Ordering::Relaxed)
-    {
+    if in_bounds && inp.simd && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above), and every particle and
         // image index of the chunk is in bounds (the unchecked reads of `kernel4`).
         return unsafe { chunk_avx2(inp, base, hot, st, out) };

@@ -20,16 +20,6 @@ pub(crate) mod lanes;
 pub mod parallel_bond;
 pub mod yade;
 
-/// Route law (a) through the scalar kernel instead of its AVX2 lanes (`true`), for checking
-/// that both give the same bits; a process-wide switch, off by default.
-#[doc(hidden)]
-pub fn force_scalar_law_a(on: bool) {
-    #[cfg(target_arch = "x86_64")]
-    lanes::SCALAR_ONLY.store(on, std::sync::atomic::Ordering::Relaxed);
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = on;
-}
-
 use super::quat::{rotation_vector_of, Quat};
 use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
 use crate::{Error, Mat3, Result, Vec3};
@@ -47,6 +37,8 @@ pub struct BondContext<'a> {
     pub shift_velocity: Mat3,
     /// Time step (s).
     pub dt: f64,
+    /// Whether the AVX2 kernels may be used ([`crate::dem::DemOptions::simd`]).
+    pub simd: bool,
 }
 
 /// A bond law of the integrator.
@@ -297,6 +289,8 @@ struct KernelInputs<'a> {
     eta: &'a [[f64; 2]],
     /// See `LinearBondKernel::index_bound`.
     index_bound: usize,
+    /// The AVX2 lanes may be used.
+    simd: bool,
 }
 
 /// One bond: YADE's ScGeom6D kinematics and the cohesive law (see the module docs);
@@ -585,6 +579,7 @@ impl BondLaw for LinearBondKernel {
             ori_ref: &self.ori_ref,
             eta: &self.eta,
             index_bound: self.index_bound,
+            simd: ctx.simd,
         };
         let orientation = self.moments == MomentForm::Orientation;
         let with_ref = !self.ori_ref.is_empty();
