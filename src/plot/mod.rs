@@ -233,8 +233,8 @@ pub struct Section {
 
 impl Section {
     /// The (100) and (1̄10) planes of a crystal with lab → crystal rotation `r` (vectors
-    /// mapped to the lab frame by Rᵀ): (100) is spanned by [010] and [001]; (1̄10) by
-    /// [110]/√2 and [001], so it contains <100>, <110> and <111>, the symmetry directions
+    /// mapped to the lab frame by Rᵀ): (100) is spanned by `[010]` and `[001]`; (1̄10) by
+    /// `[110]`/√2 and `[001]`, so it contains <100>, <110> and <111>, the symmetry directions
     /// of Truszkowska 2018 Fig. 3.
     pub fn cubic_planes(r: &crate::Mat3) -> Vec<Section> {
         let rt = r.transpose();

@@ -381,7 +381,7 @@ fn fmt_dir(m: &Vec3) -> String {
 
 /// Minimum over the unit sphere of an O_h-invariant function, and where it is reached.
 ///
-/// Searches the fundamental triangle 0 ≤ m_z ≤ m_y ≤ m_x (vertices [100], [110], [111]) on
+/// Searches the fundamental triangle 0 ≤ m_z ≤ m_y ≤ m_x (vertices `[100]`, `[110]`, `[111]`) on
 /// a barycentric grid that contains its vertices and edges exactly, then refines the best
 /// grid points with a compass search that stays inside the triangle. Suited to piecewise
 /// smooth envelopes whose extrema sit at symmetry directions or on the kink planes.

@@ -1,12 +1,12 @@
 //! Bond laws: one trait, one file per law.
 //!
-//! - [`yade::YadeCohesiveLaw`] — law (a), YADE 2023.02a's `Ig2_Sphere_Sphere_ScGeom6D`
+//! - [`yade::yade_cohesive_law`] — law (a), YADE 2023.02a's `Ig2_Sphere_Sphere_ScGeom6D`
 //!   (`avoidGranularRatcheting=False`) + `Law2_ScGeom6D_CohFrictPhys_CohesionMoment` with
 //!   unbreakable stress-free bonds (`unp` = initial penetration depth) and per-bond
 //!   k_n, k_s, k_r, k_tw; bending/twisting from the particle orientations (total form).
-//! - [`parallel_bond::ParallelBondLaw`] — law (b), Potyondy–Cundall parallel bond
+//! - [`parallel_bond::parallel_bond_law`] — law (b), Potyondy–Cundall parallel bond
 //!   (Truszkowska 2018 Eq. 3): incremental forces k̄_n·A, k̄_s·A and moments k̄_n·I, k̄_s·J.
-//! - [`kumar::KumarLaw`] — law (c), Kumar 2016 Eqs. 2–8 with R* = R_iR_j/(R_i+R_j), the
+//! - [`kumar::kumar_law`] — law (c), Kumar 2016 Eqs. 2–8 with R* = R_iR_j/(R_i+R_j), the
 //!   resisting moments of Eqs. 7–8 and the viscous bond damping of Eqs. 5–6.
 //!
 //! All three share the contact kinematics of YADE's ScGeom (contact point mid-gap, the
