@@ -1,14 +1,9 @@
 //! The `calibrate`, `domain`, `plot stiffness` and `export vtk` commands end to end.
 
+mod common;
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::schemes::cubic::CubicModel;
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_anisobond"))
-}
-
-const MODEL: &str = "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"cubic\"\nmodel = \"zener-above-1\"\na_n = 4.31\na_s = 10.0\nnormal = 1.0e13\nshear = 3.55e12\n";
+use common::{bin, CUBIC_MODEL as MODEL};
 
 #[test]
 fn calibrate_writes_a_model_that_reads_back_and_refuses_nickel() {

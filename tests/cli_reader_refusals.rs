@@ -2,7 +2,7 @@
 //! file, line and expectation, and write nothing; BOM / CR-only inputs and `80 GPa` work.
 
 mod common;
-use common::{bin, write};
+use common::{bin, write, CUBIC_MODEL as CUBIC};
 use std::path::Path;
 use std::process::Output;
 
@@ -15,8 +15,6 @@ fn refused(out: Output, output: &Path) -> String {
     err
 }
 
-const CUBIC: &str = "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"cubic\"\n\
-model = \"zener-above-1\"\na_n = 4.31\na_s = 10.0\nnormal = 1.0e13\nshear = 3.55e12\n";
 const CROSS: &str = "[bonding]\nrule = \"factor\"\nvalue = 1.8\n[scheme]\n\
 kind = \"cross-anisotropic\"\nC11 = 130e6\nC33 = 55e6\nC13 = 28e6\nC12 = 40e6\n";
 

@@ -5,6 +5,7 @@
 //! Near-coincident particles are refused at bonding time, and the CLI refuses bad
 //! integrator options and writes no output when a run does not converge.
 
+mod common;
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
@@ -20,6 +21,7 @@ use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;
 use anisobond::Vec3;
+use common::{bin, CUBIC_MODEL as MODEL};
 use std::path::Path;
 use std::process::Command;
 
@@ -290,23 +292,6 @@ fn near_coincident_pair_is_refused() {
 }
 
 // ---- the command line ----
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_anisobond"))
-}
-
-const MODEL: &str = r#"
-[bonding]
-rule = "gap"
-value = 0.17
-[scheme]
-kind = "cubic"
-model = "zener-above-1"
-a_n = 4.31
-a_s = 10.0
-normal = 1.0e13
-shear = 3.55e12
-"#;
 
 fn setup(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let p = dir.join("p.txt");

@@ -2,6 +2,8 @@
 //! demo's cubic model, a small generated packing, and "fails without output" checks.
 #![allow(dead_code)]
 
+pub mod lattice;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
