@@ -96,3 +96,24 @@ pub fn entries(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+/// `anisobond` with the words of `line`; a word `{name}` stands for the path `name` of `vars`
+/// (so a command reads as it is typed: `cmd("bonds {p} --model {m} -o {p}", &[…])`).
+pub fn cmd(line: &str, vars: &[(&str, &Path)]) -> Command {
+    let mut c = bin();
+    for word in line.split_whitespace() {
+        match word.strip_prefix('{').and_then(|w| w.strip_suffix('}')) {
+            Some(name) => {
+                let (_, path) = vars
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .unwrap_or_else(|| panic!("no path named {name}"));
+                c.arg(path);
+            }
+            None => {
+                c.arg(word);
+            }
+        }
+    }
+    c
+}
