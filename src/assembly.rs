@@ -6,7 +6,11 @@
 
 use crate::bonds::{self, BondSet, BondStiffness};
 use crate::dem::element::{self, DynamicTensor, ElementTestOptions};
-use crate::dem::{build_law, LawKind, Simulation};
+use crate::dem::grips::{gripped_tensor, GrippedOptions, GrippedTensor};
+use crate::dem::stress_tests::{
+    stress_controlled_tensor, StressControlledResult, StressTestOptions,
+};
+use crate::dem::{build_law, DemOptions, LawKind, Simulation};
 use crate::homogenize::laf::{laf_tensor, LafResult};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
@@ -208,6 +212,38 @@ impl Assembly {
         let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
         let sim = Simulation::new(&self.packing, &self.bonds, law, &options.dem)?;
         element::dynamic_tensor(&sim, options, progress)
+    }
+
+    /// Šmilauer's stress-controlled element tests (uniaxial strain with the other stresses
+    /// servo-held at zero, three pure shears) with the integrator's `dem` settings.
+    pub fn stress_tests(
+        &self,
+        law: LawKind,
+        dem: &DemOptions,
+        options: &StressTestOptions,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Result<StressControlledResult> {
+        let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
+        let sim = Simulation::new(&self.packing, &self.bonds, law, dem)?;
+        stress_controlled_tensor(&sim, options, progress)
+    }
+
+    /// Truszkowska 2018's element tests on the free block cut from the periodic packing,
+    /// driven through grip particles (Sec. 4.1–4.4, Eqs. 17–22 and 27).
+    pub fn gripped_tests(
+        &self,
+        law: LawKind,
+        options: &GrippedOptions,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Result<GrippedTensor> {
+        gripped_tensor(
+            &self.packing,
+            &self.bonds,
+            &self.springs,
+            law,
+            options,
+            progress,
+        )
     }
 
     /// Write the bond-stiffness table (CSV, SPEC columns) atomically.

@@ -4,7 +4,7 @@
 
 use super::run::{check_positive, IntegratorArgs};
 use anisobond::assembly::Assembly;
-use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
+use anisobond::dem::grips::GrippedOptions;
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
@@ -69,12 +69,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let Assembly {
-        packing,
-        bonds: b,
-        springs: k,
-        ..
-    } = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = Assembly::from_files(&a.packing, &a.model)?;
     let i = &a.integrator;
     let opts = GrippedOptions {
         strain: i.strain,
@@ -102,7 +97,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         ..Default::default()
     };
     let bar = super::output::progress_bar("gripped element tests");
-    let result = gripped_tensor(&packing, &b, &k, i.law.into(), &opts, &|f: f64| {
+    let result = asm.gripped_tests(i.law.into(), &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });
     bar.finish_and_clear();
@@ -110,7 +105,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     println!(
         "block: {} particles, {} bonds (boundary-crossing bonds dropped), {} grips; {} measurement \
          spheres of {} R̄ ({:.0} particles each); time step {:.4e} s",
-        packing.len(),
+        asm.packing.len(),
         t.bonds,
         t.grips,
         a.spheres,
@@ -134,7 +129,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         100.0 * t.heterogeneity.normal,
         100.0 * t.heterogeneity.shear
     );
-    let report = TensorReport::new("gripped", t.c, Some((&packing, &b)))?;
+    let report = TensorReport::new("gripped", t.c, Some((&asm.packing, &asm.bonds)))?;
     if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the Table 3 heterogeneity and the block's set-up.
         let mut json = serde_json::to_value(&report)

@@ -8,8 +8,8 @@ use super::run::{check_damping, check_max_steps, check_positive, check_safety, L
 use anisobond::assembly::Assembly;
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
-use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
-use anisobond::dem::{build_law, DemOptions, MassOptions, Simulation};
+use anisobond::dem::stress_tests::StressTestOptions;
+use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
@@ -104,12 +104,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let Assembly {
-        packing,
-        bonds: b,
-        springs: k,
-        ..
-    } = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = Assembly::from_files(&a.packing, &a.model)?;
     let dem = DemOptions {
         time_step: a.dt,
         safety: a.safety,
@@ -120,13 +115,6 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         },
         ..Default::default()
     };
-    let law = build_law(a.law.into(), &packing, &b, &k)?;
-    let sim = Simulation::new(&packing, &b, law, &dem)?;
-    eprintln!(
-        "time step {:.4e} s (critical estimate {:.4e} s)",
-        sim.time_step(),
-        sim.stability().critical_time_step
-    );
     let opts = StressTestOptions {
         strain: a.strain,
         local_damping: a.damping,
@@ -141,11 +129,15 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         },
     };
     let bar = super::output::progress_bar("stress tests");
-    let result = stress_controlled_tensor(&sim, &opts, &|f: f64| {
+    let result = asm.stress_tests(a.law.into(), &dem, &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });
     bar.finish_and_clear();
     let r = result?;
+    eprintln!(
+        "time step {:.4e} s (critical estimate {:.4e} s)",
+        r.time_step, r.critical_time_step
+    );
     const AXES: [&str; 3] = ["x", "y", "z"];
     println!(
         "unconfined uniaxial tests (ε̂ = {:e}, lateral stress < {:.0e}·axial):",
@@ -187,7 +179,11 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         "transversely isotropic about z (MPa): C11 {c11:.3}, C33 {c33:.3}, C13 {c13:.3}, \
          C12 {c12:.3}, C44 {c44:.3}"
     );
-    let report = TensorReport::new("stress-controlled", r.c_orthotropic, Some((&packing, &b)))?;
+    let report = TensorReport::new(
+        "stress-controlled",
+        r.c_orthotropic,
+        Some((&asm.packing, &asm.bonds)),
+    )?;
     println!("orthotropic stiffness (GPa; Voigt order 11 22 33 23 13 12):");
     for row in &report.c {
         let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();

@@ -82,6 +82,10 @@ pub struct StressControlledResult {
     /// Largest relative mismatch of the symmetric couples ν_ij/E_i vs ν_ji/E_j — a check of
     /// the tests, as in the paper.
     pub reciprocity_mismatch: f64,
+    /// Time step used (s).
+    pub time_step: f64,
+    /// The integrator's critical time step estimate (s).
+    pub critical_time_step: f64,
 }
 
 /// The transversely isotropic Voigt tensor about z from (C11, C12, C13, C33, C44).
@@ -233,6 +237,8 @@ pub fn stress_controlled_tensor(
         c_cross_anisotropic: transversely_isotropic(cross_anisotropic),
         cross_anisotropic,
         reciprocity_mismatch,
+        time_step: initial.time_step(),
+        critical_time_step: initial.stability().critical_time_step,
     })
 }
 
