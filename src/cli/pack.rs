@@ -5,12 +5,11 @@
 use anisobond::bonds::rules::build_bonds;
 use anisobond::bonds::BondingRule;
 use anisobond::io::OutputSet;
-use anisobond::packing::generate::{
-    generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
-};
+use anisobond::packing::generate::{generate_with_report, GenerateOptions, Polydispersity};
+use anisobond::packing::presets::{self, Route, TRUSZKOWSKA_STANDARD_GAP};
 use anisobond::packing::routes::{
     prepare_with_status, ForceBalance, PreparationRoute, RouteOptions, RouteStage, RouteStatus,
-    DEFAULT_JAMMING_BALANCE, KUMAR_2016_HALF_WIDTH, KUMAR_2016_SOLID_FRACTION,
+    DEFAULT_JAMMING_BALANCE,
 };
 use anisobond::packing::{self, Packing};
 use anisobond::{Error, Result};
@@ -18,15 +17,6 @@ use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
-
-/// Truszkowska 2018 Sec. 4.1/5.1: the standard assembly's particle count (the MRV).
-pub const TRUSZKOWSKA_STANDARD_PARTICLES: usize = 30_700;
-/// Truszkowska 2018 Sec. 4.1: void fraction 0.40.
-pub const TRUSZKOWSKA_STANDARD_VOID_FRACTION: f64 = 0.40;
-/// Truszkowska 2018 Sec. 5.1: gap cutoff 0.17 R̄ (Eq. 4), mean coordination ≈ 7.7.
-pub const TRUSZKOWSKA_STANDARD_GAP: f64 = 0.17;
-/// Kumar 2016 Sec. 3: 5000 particles per sample.
-pub const KUMAR_STANDARD_PARTICLES: usize = 5000;
 
 /// How the packing is made.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -42,7 +32,7 @@ pub enum RouteArg {
     Jammed,
 }
 
-/// Named standard assemblies.
+/// Named standard assemblies (the library's `packing::presets`).
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 pub enum Preset {
     /// Truszkowska 2018's standard assembly: 30,700 particles, void fraction 0.40, radius
@@ -53,6 +43,16 @@ pub enum Preset {
     /// (choose another with --route). Bond with `factor` κ = 1.000 … 1.075 (Eq. 10).
     #[value(name = "kumar-2016")]
     Kumar2016,
+}
+
+impl Preset {
+    /// The library's preset.
+    fn library(self) -> presets::Preset {
+        match self {
+            Preset::TruszkowskaStandard => presets::TRUSZKOWSKA_STANDARD,
+            Preset::Kumar2016 => presets::KUMAR_2016,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -108,21 +108,14 @@ pub struct Resolved {
 
 /// Apply preset and defaults; explicit options win.
 pub fn resolve(a: &PackArgs) -> Result<Resolved> {
-    let (route, particles, phi, h) = match a.preset {
-        None => (RouteArg::Random, 2000, 0.6, TRUSZKOWSKA_2018_HALF_WIDTH),
-        Some(Preset::TruszkowskaStandard) => (
-            RouteArg::Random,
-            TRUSZKOWSKA_STANDARD_PARTICLES,
-            1.0 - TRUSZKOWSKA_STANDARD_VOID_FRACTION,
-            TRUSZKOWSKA_2018_HALF_WIDTH,
-        ),
-        Some(Preset::Kumar2016) => (
-            RouteArg::Jammed,
-            KUMAR_STANDARD_PARTICLES,
-            KUMAR_2016_SOLID_FRACTION,
-            KUMAR_2016_HALF_WIDTH,
-        ),
+    let preset = a.preset.map_or(presets::DEFAULT, Preset::library);
+    let route = match preset.route {
+        Route::Random => RouteArg::Random,
+        Route::Kumar(PreparationRoute::Unjammed) => RouteArg::Unjammed,
+        Route::Kumar(PreparationRoute::WeaklyJammed) => RouteArg::WeaklyJammed,
+        Route::Kumar(PreparationRoute::Jammed) => RouteArg::Jammed,
     };
+    let (particles, phi, h) = (preset.particles, preset.solid_fraction, preset.half_width);
     let solid_fraction = match (a.solid_fraction, a.void_fraction) {
         (Some(s), _) => s,
         (None, Some(v)) => {
@@ -320,7 +313,7 @@ pub fn run(a: PackArgs) -> Result<()> {
     );
     println!("  {details}");
     if a.preset == Some(Preset::TruszkowskaStandard) {
-        let bonds = build_bonds(&p, BondingRule::Gap(TRUSZKOWSKA_STANDARD_GAP))?;
+        let bonds = build_bonds(&p, presets::TRUSZKOWSKA_STANDARD.bonding[0])?;
         println!(
             "  bonding with the paper's gap cutoff {TRUSZKOWSKA_STANDARD_GAP} R̄ (model file: \
              [bonding] rule = \"gap\", value = {TRUSZKOWSKA_STANDARD_GAP}) gives {} bonds, \
@@ -330,7 +323,7 @@ pub fn run(a: PackArgs) -> Result<()> {
         );
     }
     if a.preset == Some(Preset::Kumar2016) {
-        let z: Vec<String> = [1.0, 1.025, 1.05, 1.075]
+        let z: Vec<String> = presets::KUMAR_2016_RANGES
             .iter()
             .map(|&k| {
                 build_bonds(&p, BondingRule::Factor(k))

@@ -8,6 +8,7 @@
 pub mod generate;
 pub mod io;
 pub mod neighbours;
+pub mod presets;
 mod repulsion;
 pub mod routes;
 
