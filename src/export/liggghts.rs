@@ -489,18 +489,10 @@ fn write_harmonic_data(
     Ok(())
 }
 
-/// A stress history written by the decks (`stress_history.txt`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StressHistory {
-    /// Time step numbers.
-    pub step: Vec<u64>,
-    /// Box strain (Voigt, engineering shear).
-    pub strain: Vec<[f64; 6]>,
-    /// Stress (Pa, tension positive, Voigt order).
-    pub stress: Vec<[f64; 6]>,
-}
+pub use crate::history::StressHistory;
 
-/// Read `stress_history.txt` (`# …` comment lines, then `step e11 … e12 s11 … s12`).
+/// Read `stress_history.txt` (`# …` comment lines, then `step e11 … e12 s11 … s12`); the
+/// file has no time column, so `time` is left empty.
 pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
     let text = crate::io::read_to_string(path)?;
     let mut h = StressHistory::default();

@@ -950,11 +950,7 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         let p = dir.join("driver_stress_strain.png");
         crate::plot::plot_stress_strain(
             &p,
-            &crate::plot::History {
-                time: eh.step.iter().map(|&s| s as f64 * r.time_step).collect(),
-                strain: eh.strain.clone(),
-                stress: eh.stress.clone(),
-            },
+            &eh.clone().with_time_step(r.time_step),
             "LIGGGHTS driver: damped element test (six load cases)",
         )?;
         files.push(p);
