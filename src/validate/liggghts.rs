@@ -36,7 +36,7 @@ use crate::dem::quat::Quat;
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, stable_timestep,
-    tensor_from_cases, DeckOptions, Launch, StressHistory,
+    stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
 };
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
@@ -346,16 +346,7 @@ pub fn write_undamped_deck(
     let _ = writeln!(s, "fix integrate all nve/sphere");
     let _ = writeln!(s, "compute p all pressure thermo_temp virial");
     let _ = writeln!(s, "variable step equal step");
-    for (name, idx) in [
-        ("s11", 1),
-        ("s22", 2),
-        ("s33", 3),
-        ("s23", 6),
-        ("s13", 5),
-        ("s12", 4),
-    ] {
-        let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
-    }
+    stress_variables(&mut s);
     let _ = writeln!(
         s,
         "fix history all print {} \"${{step}} 0 0 0 0 0 0 ${{s11}} ${{s22}} ${{s33}} ${{s23}} ${{s13}} ${{s12}}\" file undamped_history.txt screen no title \"# step e11 e22 e33 e23 e13 e12 s11 s22 s33 s23 s13 s12 (stress Pa, tension positive)\"",
