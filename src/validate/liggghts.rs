@@ -871,13 +871,17 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
 
     let h = &r.history;
     let names = ["s11", "s22", "s33", "s23", "s13", "s12"];
+    // One list for the header and the rows, so that every column is named.
+    let series = [
+        ("driver", &h.driver),
+        ("driver_mpi", &h.driver_mpi),
+        ("integrator_incremental", &h.integrator_incremental),
+        ("integrator_total", &h.integrator_total),
+        ("harmonic", &h.harmonic),
+        ("integrator_normal_springs", &h.integrator_normal_springs),
+    ];
     let mut c = String::from("step,time_s");
-    for who in [
-        "driver",
-        "driver_mpi",
-        "integrator_incremental",
-        "integrator_total",
-    ] {
+    for (who, _) in series {
         for n in names {
             let _ = write!(c, ",{who}_{n}_Pa");
         }
@@ -885,16 +889,9 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     c.push('\n');
     for (row, (&step, &t)) in h.step.iter().zip(&h.time).enumerate() {
         let _ = write!(c, "{step},{t:e}");
-        for series in [
-            &h.driver,
-            &h.driver_mpi,
-            &h.integrator_incremental,
-            &h.integrator_total,
-            &h.harmonic,
-            &h.integrator_normal_springs,
-        ] {
+        for (_, rows) in series {
             for k in 0..6 {
-                match series.get(row) {
+                match rows.get(row) {
                     Some(v) => {
                         let _ = write!(c, ",{:e}", v[k]);
                     }
@@ -947,4 +944,57 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         files.push(p);
     }
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_undamped_history_column_is_named() {
+        let rows = vec![[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]; 2];
+        let r = Report {
+            n_particles: 2,
+            n_bonds: 1,
+            time_step: 1e-6,
+            checks: vec![Check::new("history", "x", 0.0, 1e-6)],
+            timings: vec![],
+            details: LiggghtsDetails {
+                history: UndampedHistories {
+                    step: vec![10, 20],
+                    time: vec![1e-5, 2e-5],
+                    driver: rows.clone(),
+                    driver_mpi: rows.clone(),
+                    integrator_incremental: rows.clone(),
+                    integrator_total: rows.clone(),
+                    harmonic: rows.clone(),
+                    integrator_normal_springs: rows,
+                },
+                driver_tensor: Stiffness6::identity(),
+                integrator_tensor: Stiffness6::identity(),
+                relaxed_tensor: Stiffness6::identity(),
+                harmonic_columns: vec![],
+                relaxed_normal_springs: Stiffness6::identity(),
+                driver_mpi_columns: vec![],
+                driver_element_history: StressHistory::default(),
+            },
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write_report(dir.path(), &r).unwrap();
+        let csv = std::fs::read_to_string(dir.path().join("undamped_history.csv")).unwrap();
+        let widths: Vec<usize> = csv.lines().map(|l| l.split(',').count()).collect();
+        assert_eq!(widths, vec![2 + 36; 3], "{csv}");
+        assert!(csv.starts_with("step,time_s,driver_s11_Pa,"));
+        assert!(csv
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with(",integrator_normal_springs_s12_Pa"));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["passed"], true);
+        assert_eq!(json["checks"][0]["id"], "history");
+        assert_eq!(json["tensors_pa"][0][0], "driver");
+    }
 }
