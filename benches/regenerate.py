@@ -233,7 +233,9 @@ def main():
     if shutil.which("yade"):
         cmd = ab("validate", "yade", small, "--model", model)
         wall, rss, text = sh(cmd)
-        checks = re.findall(r"\n\s+(.{10,66}?)\s+([0-9.]+e-?\d+)\s+([0-9.]+e-?\d+)\s+ok", text)
+        # The shared checks table: id, value, tolerance, result, description.
+        checks = [(d, v, t) for _, v, t, d in re.findall(
+            r"(?m)^(\S+)\s+([0-9.]+e-?\d+)\s+([0-9.]+e-?\d+)\s+pass\s+(.+)$", text)]
         worst = max(checks, key=lambda c: float(c[1]) / float(c[2])) if checks else None
         rows.append(["YADE 2023.02a", "`validate yade p1000.txt --model model.toml`", 1000, threads,
                      "%.1f s" % wall, "%.0f MB" % rss,

@@ -39,6 +39,7 @@ pub mod error;
 pub mod export;
 #[cfg(feature = "ffi")]
 pub mod ffi;
+pub mod history;
 pub mod homogenize;
 pub mod io;
 pub mod model;

@@ -96,6 +96,7 @@ fn stress_strain_plot_and_bad_history() {
     assert!(near(&px, [255, 127, 14]) + near(&px, [44, 160, 44]) > 300);
     // A history without variation is refused and leaves no file.
     let bad = History {
+        step: vec![0, 1],
         time: vec![0.0, 1.0],
         strain: vec![[0.0; 6]; 2],
         stress: vec![[0.0; 6]; 2],

@@ -80,7 +80,7 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
     for f in &files {
         assert!(f.exists(), "{} not written", f.display());
     }
-    let failed = r.failed();
+    let failed = r.failures();
     assert!(failed.is_empty(), "failed: {failed:#?}");
     // The histories carry real load, and the undamped motion keeps changing the stress.
     let h = &r.history;

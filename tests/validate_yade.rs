@@ -76,7 +76,9 @@ fn yade_and_anisobond_agree_on_300_particles() {
     for c in &v.checks {
         eprintln!(
             "{test}: {:<70} {:.3e} (tolerance {:.0e})",
-            c.name, c.value, c.tolerance
+            c.description,
+            c.value,
+            c.tolerance.unwrap_or(f64::NAN)
         );
     }
     eprintln!(

@@ -3,10 +3,11 @@
 //! status when any agreement is outside its tolerance.
 
 use anisobond::assembly::Assembly;
-use anisobond::export::yade::{parse_paths, PATH_LABELS};
+use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::tensor::Stiffness6;
+use anisobond::validate::harness::{checks_table, failure_lines};
 use anisobond::validate::yade::{
     validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
 };
@@ -149,25 +150,16 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
             shown(&v.yade_dir).display()
         );
     }
-    let failures = v.failures();
+    let failures = failure_lines(&v);
     if failures.is_empty() {
         println!("PASSED: YADE and anisobond agree within every tolerance");
         Ok(())
     } else {
-        let list: Vec<String> = failures
-            .iter()
-            .map(|c| {
-                format!(
-                    "{}: {:.3e} > tolerance {:.1e}",
-                    c.name, c.value, c.tolerance
-                )
-            })
-            .collect();
         Err(Error::Invalid(format!(
             "validate yade FAILED ({} of {} checks out of tolerance):\n  {}",
             failures.len(),
             v.checks.len(),
-            list.join("\n  ")
+            failures.join("\n  ")
         )))
     }
 }
@@ -204,7 +196,7 @@ fn print_table(v: &YadeValidation) {
     for h in &v.undamped {
         println!(
             "  {:<6} {:>14.4e} {:>16.4e} {:>12.3e} {:>11}",
-            PATH_LABELS[h.path], h.max_stress, h.max_difference, h.relative, h.worst_step
+            h.label, h.max_stress, h.max_difference, h.relative, h.worst_step
         );
     }
     println!();
@@ -223,29 +215,12 @@ fn print_table(v: &YadeValidation) {
         }
     }
     println!();
-    println!(
-        "  {:<66} {:>10} {:>10}  result",
-        "check", "measured", "tolerance"
-    );
-    for c in &v.checks {
-        println!(
-            "  {:<66} {:>10.3e} {:>10.1e}  {}",
-            c.name,
-            c.value,
-            c.tolerance,
-            if c.passed { "ok" } else { "FAILED" }
-        );
-    }
-    let t = &v.timings;
+    print!("{}", checks_table(v));
     println!();
-    println!(
-        "time (s): YADE undamped {:.2}, damped {:.2} (stepping {:.2}); anisobond undamped {:.2}, \
-         damped {:.2}; relaxed {:.2}",
-        t.yade_undamped,
-        t.yade_damped,
-        t.yade_damped_stepping,
-        t.anisobond_undamped,
-        t.anisobond_damped,
-        t.relaxed
-    );
+    let times: Vec<String> = v
+        .timings
+        .iter()
+        .map(|t| format!("{} {:.2}", t.stage, t.seconds))
+        .collect();
+    println!("time (s): {}", times.join(", "));
 }

@@ -6,9 +6,8 @@
 use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::which;
 use anisobond::io::OutputSet;
-use anisobond::validate::liggghts::{
-    checks_table, validate_liggghts, write_report, Programs, ValidateOptions,
-};
+use anisobond::validate::harness::{checks_table, failure_lines};
+use anisobond::validate::liggghts::{validate_liggghts, write_report, Programs, ValidateOptions};
 use anisobond::{Error, Result};
 use std::path::PathBuf;
 
@@ -114,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
     let report = validate_liggghts(&dir, &packing, &bonds, &k, &programs, &opts, &mut |stage| {
         println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64())
     })?;
-    println!("time step {:.4e} s\n", report.timestep);
+    println!("time step {:.4e} s\n", report.time_step);
     println!("relative differences (dimensionless; stresses in Pa, tensors in Pa):");
     print!("{}", checks_table(&report));
     let gpa = |c: &anisobond::tensor::Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
@@ -148,27 +147,15 @@ pub fn run(a: Args) -> Result<()> {
             a.output.join(f.strip_prefix(&dir).unwrap_or(f)).display()
         );
     }
-    let failed = report.failed();
+    let failed = failure_lines(&report);
     if failed.is_empty() {
         println!("all checks within tolerance");
         Ok(())
     } else {
-        let list: Vec<String> = failed
-            .iter()
-            .map(|c| {
-                format!(
-                    "{} ({:.3e} > {:.1e}: {})",
-                    c.id,
-                    c.difference,
-                    c.tolerance.unwrap_or(f64::NAN),
-                    c.description
-                )
-            })
-            .collect();
         Err(Error::Invalid(format!(
             "validate liggghts: {} check(s) outside tolerance: {}",
             failed.len(),
-            list.join("; ")
+            failed.join("; ")
         )))
     }
 }

@@ -5,6 +5,7 @@
 
 use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::{DemOptions, Energies, Simulation, StabilityReport};
+use crate::history::HistoryRow;
 use crate::tensor::{fit_symmetric_eq27, Stiffness6, Voigt6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result};
 
@@ -50,21 +51,23 @@ impl Default for ElementTestOptions {
     }
 }
 
-/// One recorded state of a path.
+/// One recorded state of a path: the shared [`HistoryRow`] (reachable through `Deref`)
+/// and what only the integrator measures.
 #[derive(Clone, Debug, PartialEq)]
-pub struct HistoryRow {
-    /// Step number within the path.
-    pub step: u64,
-    /// Time (s).
-    pub time: f64,
-    /// Cell strain (Voigt, engineering shear).
-    pub strain: Voigt6,
-    /// Love stress, symmetric part (Voigt, Pa).
-    pub stress: Voigt6,
+pub struct ElementRecord {
+    /// Path, step within the path, time, strain and stress.
+    pub state: HistoryRow,
     /// Energies (J).
     pub energies: Energies,
     /// YADE's unbalanced-force ratio.
     pub unbalanced_force: f64,
+}
+
+impl std::ops::Deref for ElementRecord {
+    type Target = HistoryRow;
+    fn deref(&self) -> &HistoryRow {
+        &self.state
+    }
 }
 
 /// Result of one strain path.
@@ -81,7 +84,7 @@ pub struct PathResult {
     /// Unbalanced force and torque reached.
     pub unbalance: Unbalance,
     /// Recorded history.
-    pub history: Vec<HistoryRow>,
+    pub history: Vec<ElementRecord>,
 }
 
 /// The dynamic stiffness tensor and how it was obtained.
@@ -159,11 +162,14 @@ pub fn relax_path(
         steps += 1;
         let stress = to_voigt(&sim.stress(), false);
         if opts.history_every > 0 && steps % opts.history_every == 0 {
-            history.push(HistoryRow {
-                step: steps as u64,
-                time: sim.time(),
-                strain: to_voigt(&sim.strain(), true),
-                stress,
+            history.push(ElementRecord {
+                state: HistoryRow {
+                    path,
+                    step: steps,
+                    time: sim.time(),
+                    strain: to_voigt(&sim.strain(), true),
+                    stress,
+                },
                 energies: sim.energies(),
                 unbalanced_force: sim.unbalanced_force(),
             });

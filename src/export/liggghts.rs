@@ -175,17 +175,7 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
     ] {
         let _ = writeln!(s, "variable {name} equal {expr}");
     }
-    // compute pressure order: xx yy zz xy xz yz; stress σ = −p in Voigt order.
-    for (name, idx) in [
-        ("s11", 1),
-        ("s22", 2),
-        ("s33", 3),
-        ("s23", 6),
-        ("s13", 5),
-        ("s12", 4),
-    ] {
-        let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
-    }
+    stress_variables(s);
     let _ = writeln!(
         s,
         "fix history all print {every} \"${{step}} ${{e11}} ${{e22}} ${{e33}} ${{e23}} ${{e13}} ${{e12}} ${{s11}} ${{s22}} ${{s33}} ${{s23}} ${{s13}} ${{s12}}\" file stress_history.txt screen no title \"# step e11 e22 e33 e23 e13 e12 s11 s22 s33 s23 s13 s12 (strain; stress Pa, tension positive)\""
@@ -489,18 +479,25 @@ fn write_harmonic_data(
     Ok(())
 }
 
-/// A stress history written by the decks (`stress_history.txt`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StressHistory {
-    /// Time step numbers.
-    pub step: Vec<u64>,
-    /// Box strain (Voigt, engineering shear).
-    pub strain: Vec<[f64; 6]>,
-    /// Stress (Pa, tension positive, Voigt order).
-    pub stress: Vec<[f64; 6]>,
+pub use crate::history::StressHistory;
+
+/// The deck variables `s11 … s12`: the stress σ = −p (Pa, tension positive) in Voigt order
+/// from `compute p all pressure` (whose order is xx yy zz xy xz yz).
+pub fn stress_variables(s: &mut String) {
+    for (name, idx) in [
+        ("s11", 1),
+        ("s22", 2),
+        ("s33", 3),
+        ("s23", 6),
+        ("s13", 5),
+        ("s12", 4),
+    ] {
+        let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
+    }
 }
 
-/// Read `stress_history.txt` (`# …` comment lines, then `step e11 … e12 s11 … s12`).
+/// Read `stress_history.txt` (`# …` comment lines, then `step e11 … e12 s11 … s12`); the
+/// file has no time column, so `time` is left empty.
 pub fn read_stress_history(path: &Path) -> Result<StressHistory> {
     let text = crate::io::read_to_string(path)?;
     let mut h = StressHistory::default();

@@ -429,20 +429,7 @@ fn tail(s: &str, lines: usize) -> String {
     v[v.len().saturating_sub(lines)..].join("\n")
 }
 
-/// One row of the YADE stress history: state after `step` steps of path `path`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HistoryRow {
-    /// Voigt index of the strain path (0–5).
-    pub path: usize,
-    /// Step number (0 = before the first step).
-    pub step: usize,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Cell strain, Voigt, engineering (from YADE's `O.cell.trsf`).
-    pub strain: Voigt6,
-    /// Love stress (Pa, tension positive, symmetric part of `utils.getStress()`).
-    pub stress: Voigt6,
-}
+pub use crate::history::HistoryRow;
 
 /// Read `yade-history.csv` (written by `anisobond_yade.write_history_csv`).
 pub fn read_yade_history(path: &Path) -> Result<Vec<HistoryRow>> {

@@ -387,16 +387,9 @@ pub fn plot_stiffness_sections(
     })
 }
 
-/// A loading history: time (s), engineering strain and stress (Pa) in Voigt order per step.
-#[derive(Clone, Debug, Default)]
-pub struct History {
-    /// Time of every step (s).
-    pub time: Vec<f64>,
-    /// Strain (11, 22, 33, 23, 13, 12; engineering shear).
-    pub strain: Vec<[f64; 6]>,
-    /// Stress (Pa, tension positive).
-    pub stress: Vec<[f64; 6]>,
-}
+/// A loading history (the shared [`crate::history::StressHistory`]): `time`, `strain` and
+/// `stress` are plotted.
+pub type History = crate::history::StressHistory;
 
 const VOIGT_NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
 

@@ -36,16 +36,21 @@ use crate::dem::quat::Quat;
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, stable_timestep,
-    tensor_from_cases, DeckOptions, Launch, StressHistory,
+    stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
 };
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
+use crate::tensor::compare::relative_difference_to;
 use crate::tensor::Stiffness6;
+pub use crate::validate::harness::checks_table;
+use crate::validate::harness::{
+    checks_csv, rows, timed, write_report_json, Check, EngineDetails, HistoryComparison, Report,
+    Timing,
+};
 use crate::{Error, Mat3, Result, Vec3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// The programs to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,34 +133,10 @@ impl Default for ValidateOptions {
     }
 }
 
-/// One comparison: its measured relative difference and, if it is a pass/fail check, the
-/// tolerance.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Check {
-    /// Short id (`history`, `tensor-driver-relaxed`, …).
-    pub id: String,
-    /// What is compared.
-    pub description: String,
-    /// Measured relative difference (dimensionless).
-    pub difference: f64,
-    /// Tolerance; `None`: reported only.
-    pub tolerance: Option<f64>,
-}
-
-impl Check {
-    /// True when the difference is within the tolerance (or there is none).
-    pub fn passed(&self) -> bool {
-        match self.tolerance {
-            None => true,
-            Some(t) => self.difference.is_finite() && self.difference <= t,
-        }
-    }
-}
-
 /// The undamped stress histories side by side (stress in Pa, Voigt order 11 22 33 23 13 12,
 /// tension positive, shear in LIGGGHTS' triangle, see the module doc).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct HistoryComparison {
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct UndampedHistories {
     /// Step numbers.
     pub step: Vec<u64>,
     /// Time (s).
@@ -174,28 +155,11 @@ pub struct HistoryComparison {
     pub integrator_normal_springs: Vec<[f64; 6]>,
 }
 
-/// Wall time of one stage.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Timing {
-    /// Stage.
-    pub stage: String,
-    /// Seconds.
-    pub seconds: f64,
-}
-
-/// Everything measured.
+/// What only the LIGGGHTS validation measures; the rest is in the shared [`Report`].
 #[derive(Clone, Debug)]
-pub struct ValidationReport {
-    /// Particles of the packing.
-    pub particles: usize,
-    /// Bonds.
-    pub bonds: usize,
-    /// Time step of every run (s).
-    pub timestep: f64,
-    /// The comparisons, in order.
-    pub checks: Vec<Check>,
+pub struct LiggghtsDetails {
     /// The undamped histories.
-    pub history: HistoryComparison,
+    pub history: UndampedHistories,
     /// Driver tensor from the six damped load cases (Pa, `-np 1`).
     pub driver_tensor: Stiffness6,
     /// Integrator tensor (Pa, Truszkowska 2018 Eq. 27).
@@ -210,14 +174,33 @@ pub struct ValidationReport {
     pub driver_mpi_columns: Vec<[f64; 6]>,
     /// The driver's damped element-test history (strain, stress Pa) for plots.
     pub driver_element_history: StressHistory,
-    /// Wall time of the stages.
-    pub timings: Vec<Timing>,
 }
 
-impl ValidationReport {
-    /// The checks outside their tolerance.
-    pub fn failed(&self) -> Vec<&Check> {
-        self.checks.iter().filter(|c| !c.passed()).collect()
+/// Everything a LIGGGHTS validation measured.
+pub type ValidationReport = Report<LiggghtsDetails>;
+
+/// The LIGGGHTS part of `report.json`: tensors as row-major 6×6 arrays.
+#[derive(serde::Serialize)]
+pub struct LiggghtsJson<'a> {
+    tensors_pa: Vec<(&'static str, [[f64; 6]; 6])>,
+    harmonic_columns_pa: &'a [[f64; 6]],
+    driver_mpi_columns_pa: &'a [[f64; 6]],
+}
+
+impl EngineDetails for LiggghtsDetails {
+    type Json<'a> = LiggghtsJson<'a>;
+    const ENGINE: &'static str = "liggghts";
+    fn json(&self) -> LiggghtsJson<'_> {
+        LiggghtsJson {
+            tensors_pa: vec![
+                ("driver", rows(&self.driver_tensor)),
+                ("integrator", rows(&self.integrator_tensor)),
+                ("relaxed", rows(&self.relaxed_tensor)),
+                ("relaxed_normal_springs", rows(&self.relaxed_normal_springs)),
+            ],
+            harmonic_columns_pa: &self.harmonic_columns,
+            driver_mpi_columns_pa: &self.driver_mpi_columns,
+        }
     }
 }
 
@@ -247,26 +230,18 @@ fn check_options(o: &ValidateOptions) -> Result<()> {
     Ok(())
 }
 
-/// Largest |a − b| over all entries, relative to `scale`.
-fn max_diff<'a>(
-    a: impl Iterator<Item = &'a [f64; 6]>,
-    b: impl Iterator<Item = &'a [f64; 6]>,
-) -> f64 {
-    a.zip(b)
-        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
-        .fold(0.0, f64::max)
-}
-
-fn max_abs<'a>(a: impl Iterator<Item = &'a [f64; 6]>) -> f64 {
-    a.flatten().fold(0.0f64, |m, v| m.max(v.abs()))
+/// Rows `other` against `reference`, matched by position (steps, or columns 1, 2, …).
+fn compare(label: &str, reference: &[[f64; 6]], other: &[[f64; 6]]) -> HistoryComparison {
+    HistoryComparison::of_rows(
+        label,
+        (1..)
+            .zip(reference.iter().zip(other))
+            .map(|(k, (r, o))| (k, &r[..], &o[..])),
+    )
 }
 
 fn columns_of(c: &Stiffness6, n: usize) -> Vec<[f64; 6]> {
     (0..n).map(|a| std::array::from_fn(|b| c[(b, a)])).collect()
-}
-
-fn tensor_diff(a: &Stiffness6, b: &Stiffness6, reference: &Stiffness6) -> f64 {
-    (a - b).abs().max() / reference.abs().max()
 }
 
 /// Stress in LIGGGHTS' Voigt triangle from a Love-stress matrix s_ab = Σ f_a l_b / V.
@@ -371,16 +346,7 @@ pub fn write_undamped_deck(
     let _ = writeln!(s, "fix integrate all nve/sphere");
     let _ = writeln!(s, "compute p all pressure thermo_temp virial");
     let _ = writeln!(s, "variable step equal step");
-    for (name, idx) in [
-        ("s11", 1),
-        ("s22", 2),
-        ("s33", 3),
-        ("s23", 6),
-        ("s13", 5),
-        ("s12", 4),
-    ] {
-        let _ = writeln!(s, "variable {name} equal -c_p[{idx}]");
-    }
+    stress_variables(&mut s);
     let _ = writeln!(
         s,
         "fix history all print {} \"${{step}} 0 0 0 0 0 0 ${{s11}} ${{s22}} ${{s33}} ${{s23}} ${{s13}} ${{s12}}\" file undamped_history.txt screen no title \"# step e11 e22 e33 e23 e13 e12 s11 s22 s33 s23 s13 s12 (stress Pa, tension positive)\"",
@@ -471,16 +437,6 @@ pub fn integrator_history(
         out.push(liggghts_triangle(&(s / volume)));
     }
     Ok(out)
-}
-
-fn timed<T>(timings: &mut Vec<Timing>, stage: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    let t0 = Instant::now();
-    let r = f()?;
-    timings.push(Timing {
-        stage: stage.into(),
-        seconds: t0.elapsed().as_secs_f64(),
-    });
-    Ok(r)
 }
 
 /// What the LIGGGHTS half of the validation measured.
@@ -785,57 +741,51 @@ pub fn validate_liggghts(
 
     // (1) Undamped histories.
     let driver_rows = rows_at(&lig.driver_undamped, &steps, "driver -np 1 undamped")?;
-    let scale = max_abs(driver_rows.iter());
-    if scale == 0.0 {
+    let history = compare("history", &driver_rows, &rust.incremental);
+    if history.max_stress == 0.0 {
         return Err(Error::Invalid(
             "validate liggghts: the undamped driver run has zero stress throughout (no bond loaded)".into(),
         ));
     }
-    checks.push(Check {
-        id: "history".into(),
-        description: format!(
+    checks.push(Check::new(
+        "history",
+        format!(
             "undamped stress history, {} steps: driver vs integrator with incremental moments (max |Δσ| / max |σ|)",
             o.history_steps
         ),
-        difference: max_diff(driver_rows.iter(), rust.incremental.iter()) / scale,
-        tolerance: Some(o.history_tolerance),
-    });
-    checks.push(Check {
-        id: "history-total-form".into(),
-        description: "undamped stress history: driver vs integrator's YADE law, moments in total form from orientations (convention difference, reported)".into(),
-        difference: max_diff(driver_rows.iter(), rust.total.iter()) / scale,
-        tolerance: None,
-    });
+        history.relative,
+        o.history_tolerance,
+    ));
+    checks.push(Check::info(
+        "history-total-form",
+        "undamped stress history: driver vs integrator's YADE law, moments in total form from orientations (convention difference, reported)",
+        compare("history-total-form", &driver_rows, &rust.total).relative,
+    ));
     let harmonic_rows = rows_at(&lig.harmonic_undamped, &steps, "stock harmonic undamped")?;
-    let scale0 = max_abs(harmonic_rows.iter());
-    checks.push(Check {
-        id: "harmonic-history".into(),
-        description: format!(
+    checks.push(Check::new(
+        "harmonic-history",
+        format!(
             "undamped stress history, {} steps: stock harmonic deck vs integrator with k_s = k_r = k_tw = 0",
             o.history_steps
         ),
-        difference: if scale0 > 0.0 {
-            max_diff(harmonic_rows.iter(), rust.normal_springs.iter()) / scale0
-        } else {
-            f64::INFINITY
-        },
-        tolerance: Some(o.history_tolerance),
-    });
+        compare("harmonic-history", &harmonic_rows, &rust.normal_springs).relative,
+        o.history_tolerance,
+    ));
     let mut driver_mpi_rows = Vec::new();
     if let Some(h2) = &lig.driver_undamped_mpi {
         driver_mpi_rows = rows_at(h2, &steps, "driver -np N undamped")?;
-        checks.push(Check {
-            id: "mpi-history".into(),
-            description: format!(
+        checks.push(Check::new(
+            "mpi-history",
+            format!(
                 "undamped stress history: driver -np 1 vs -np {}",
                 o.processes
             ),
-            difference: max_diff(driver_rows.iter(), driver_mpi_rows.iter()) / scale,
-            tolerance: Some(o.mpi_tolerance),
-        });
+            compare("mpi-history", &driver_rows, &driver_mpi_rows).relative,
+            o.mpi_tolerance,
+        ));
     }
 
-    // (2) Damped quasi-static tensors.
+    // (2) Damped quasi-static tensors, relative to the largest entry of the relaxed one.
     let driver_tensor = tensor_from_cases(&lig.driver_element, &lig.driver_case_ends)?;
     for (id, a, b) in [
         ("tensor-driver-relaxed", &driver_tensor, &rust.relaxed),
@@ -844,94 +794,66 @@ pub fn validate_liggghts(
     ] {
         let mut names = id.trim_start_matches("tensor-").split('-');
         let (x, y) = (names.next().unwrap_or(""), names.next().unwrap_or(""));
-        checks.push(Check {
-            id: id.into(),
-            description: format!(
-                "damped quasi-static 6×6 tensor: {x} vs {y} (max |ΔC| / max |C_relaxed|)"
-            ),
-            difference: tensor_diff(a, b, &rust.relaxed),
-            tolerance: Some(o.tensor_tolerance),
-        });
+        checks.push(Check::new(
+            id,
+            format!("damped quasi-static 6×6 tensor: {x} vs {y} (max |ΔC| / max |C_relaxed|)"),
+            relative_difference_to(a, b, &rust.relaxed),
+            o.tensor_tolerance,
+        ));
     }
 
     // (3) Stock harmonic deck, damped, against the relaxed normal-spring network.
     let relaxed0_cols = columns_of(&rust.relaxed_normal_springs, 3);
-    checks.push(Check {
-        id: "harmonic-relaxed".into(),
-        description: "stock harmonic deck (damped normal load cases) vs relaxed with k_s = k_r = k_tw = 0, columns 1–3 (max |ΔC| / max |C|)".into(),
-        difference: max_diff(lig.harmonic_columns.iter(), relaxed0_cols.iter())
-            / max_abs(relaxed0_cols.iter()),
-        tolerance: Some(o.tensor_tolerance),
-    });
+    checks.push(Check::new(
+        "harmonic-relaxed",
+        "stock harmonic deck (damped normal load cases) vs relaxed with k_s = k_r = k_tw = 0, columns 1–3 (max |ΔC| / max |C|)",
+        compare("harmonic-relaxed", &relaxed0_cols, &lig.harmonic_columns).relative,
+        o.tensor_tolerance,
+    ));
 
     // (4) -np N damped normal load cases against the serial six-case run.
     let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
     if lig.driver_mpi_columns.is_some() {
         let serial_cols = columns_of(&driver_tensor, 3);
-        checks.push(Check {
-            id: "mpi-columns".into(),
-            description: format!(
+        checks.push(Check::new(
+            "mpi-columns",
+            format!(
                 "damped normal load cases, columns 1–3: driver -np {} (orthogonal box) vs -np 1 (six cases, triclinic box)",
                 o.processes
             ),
-            difference: max_diff(driver_mpi_columns.iter(), serial_cols.iter())
-                / max_abs(serial_cols.iter()),
-            tolerance: Some(o.mpi_tolerance),
-        });
+            compare("mpi-columns", &serial_cols, &driver_mpi_columns).relative,
+            o.mpi_tolerance,
+        ));
     }
 
     let mut timings = lig.timings;
     timings.extend(rust.timings);
-    Ok(ValidationReport {
-        particles: packing.len(),
-        bonds: bonds.len(),
-        timestep: dt,
+    Ok(Report {
+        n_particles: packing.len(),
+        n_bonds: bonds.len(),
+        time_step: dt,
         checks,
-        history: HistoryComparison {
-            time: steps.iter().map(|&s| s as f64 * dt).collect(),
-            step: steps,
-            driver: driver_rows,
-            driver_mpi: driver_mpi_rows,
-            integrator_incremental: rust.incremental,
-            integrator_total: rust.total,
-            harmonic: harmonic_rows,
-            integrator_normal_springs: rust.normal_springs,
-        },
-        driver_tensor,
-        integrator_tensor: rust.integrator,
-        relaxed_tensor: rust.relaxed,
-        harmonic_columns: lig.harmonic_columns,
-        relaxed_normal_springs: rust.relaxed_normal_springs,
-        driver_mpi_columns,
-        driver_element_history: lig.driver_element,
         timings,
-    })
-}
-
-/// The checks as a text table (relative differences, dimensionless).
-pub fn checks_table(r: &ValidationReport) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:<26} {:>12} {:>10}  {:<6} what",
-        "check", "rel. diff", "tolerance", "result"
-    );
-    for c in &r.checks {
-        let _ = writeln!(
-            s,
-            "{:<26} {:>12.3e} {:>10}  {:<6} {}",
-            c.id,
-            c.difference,
-            c.tolerance.map_or("—".into(), |t| format!("{t:.1e}")),
-            match (c.tolerance, c.passed()) {
-                (None, _) => "info",
-                (_, true) => "pass",
-                _ => "FAIL",
+        details: LiggghtsDetails {
+            history: UndampedHistories {
+                time: steps.iter().map(|&s| s as f64 * dt).collect(),
+                step: steps,
+                driver: driver_rows,
+                driver_mpi: driver_mpi_rows,
+                integrator_incremental: rust.incremental,
+                integrator_total: rust.total,
+                harmonic: harmonic_rows,
+                integrator_normal_springs: rust.normal_springs,
             },
-            c.description
-        );
-    }
-    s
+            driver_tensor,
+            integrator_tensor: rust.integrator,
+            relaxed_tensor: rust.relaxed,
+            harmonic_columns: lig.harmonic_columns,
+            relaxed_normal_springs: rust.relaxed_normal_springs,
+            driver_mpi_columns,
+            driver_element_history: lig.driver_element,
+        },
+    })
 }
 
 /// Write `report.json` (everything), `checks.csv`, `undamped_history.csv` (Pa),
@@ -939,37 +861,27 @@ pub fn checks_table(r: &ValidationReport) -> String {
 pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut files = Vec::new();
-    let json = serde_json::to_string_pretty(&JsonReport::from(r))
-        .map_err(|e| Error::Invalid(format!("validation report: cannot serialise: {e}")))?;
     let p = dir.join("report.json");
-    crate::io::write_string_atomic(&p, &json)?;
+    write_report_json(&p, r)?;
     files.push(p);
 
-    let mut c = String::from("check,relative_difference,tolerance,passed,description\n");
-    for k in &r.checks {
-        let _ = writeln!(
-            c,
-            "{},{:e},{},{},\"{}\"",
-            k.id,
-            k.difference,
-            k.tolerance.map_or(String::new(), |t| format!("{t:e}")),
-            k.passed(),
-            k.description.replace('"', "'")
-        );
-    }
     let p = dir.join("checks.csv");
-    crate::io::write_string_atomic(&p, &c)?;
+    crate::io::write_string_atomic(&p, &checks_csv(&r.checks))?;
     files.push(p);
 
     let h = &r.history;
     let names = ["s11", "s22", "s33", "s23", "s13", "s12"];
+    // One list for the header and the rows, so that every column is named.
+    let series = [
+        ("driver", &h.driver),
+        ("driver_mpi", &h.driver_mpi),
+        ("integrator_incremental", &h.integrator_incremental),
+        ("integrator_total", &h.integrator_total),
+        ("harmonic", &h.harmonic),
+        ("integrator_normal_springs", &h.integrator_normal_springs),
+    ];
     let mut c = String::from("step,time_s");
-    for who in [
-        "driver",
-        "driver_mpi",
-        "integrator_incremental",
-        "integrator_total",
-    ] {
+    for (who, _) in series {
         for n in names {
             let _ = write!(c, ",{who}_{n}_Pa");
         }
@@ -977,16 +889,9 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     c.push('\n');
     for (row, (&step, &t)) in h.step.iter().zip(&h.time).enumerate() {
         let _ = write!(c, "{step},{t:e}");
-        for series in [
-            &h.driver,
-            &h.driver_mpi,
-            &h.integrator_incremental,
-            &h.integrator_total,
-            &h.harmonic,
-            &h.integrator_normal_springs,
-        ] {
+        for (_, rows) in series {
             for k in 0..6 {
-                match series.get(row) {
+                match rows.get(row) {
                     Some(v) => {
                         let _ = write!(c, ",{:e}", v[k]);
                     }
@@ -1033,11 +938,7 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         let p = dir.join("driver_stress_strain.png");
         crate::plot::plot_stress_strain(
             &p,
-            &crate::plot::History {
-                time: eh.step.iter().map(|&s| s as f64 * r.timestep).collect(),
-                strain: eh.strain.clone(),
-                stress: eh.stress.clone(),
-            },
+            &eh.clone().with_time_step(r.time_step),
             "LIGGGHTS driver: damped element test (six load cases)",
         )?;
         files.push(p);
@@ -1045,38 +946,55 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// JSON form of the report: tensors as row-major 6×6 arrays (key `C` as in SPEC).
-#[derive(serde::Serialize)]
-struct JsonReport<'a> {
-    particles: usize,
-    bonds: usize,
-    timestep_s: f64,
-    passed: bool,
-    checks: &'a [Check],
-    tensors_pa: Vec<(&'static str, [[f64; 6]; 6])>,
-    harmonic_columns_pa: &'a [[f64; 6]],
-    driver_mpi_columns_pa: &'a [[f64; 6]],
-    timings: &'a [Timing],
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-impl<'a> From<&'a ValidationReport> for JsonReport<'a> {
-    fn from(r: &'a ValidationReport) -> Self {
-        let rows = |c: &Stiffness6| std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]));
-        JsonReport {
-            particles: r.particles,
-            bonds: r.bonds,
-            timestep_s: r.timestep,
-            passed: r.failed().is_empty(),
-            checks: &r.checks,
-            tensors_pa: vec![
-                ("driver", rows(&r.driver_tensor)),
-                ("integrator", rows(&r.integrator_tensor)),
-                ("relaxed", rows(&r.relaxed_tensor)),
-                ("relaxed_normal_springs", rows(&r.relaxed_normal_springs)),
-            ],
-            harmonic_columns_pa: &r.harmonic_columns,
-            driver_mpi_columns_pa: &r.driver_mpi_columns,
-            timings: &r.timings,
-        }
+    #[test]
+    fn every_undamped_history_column_is_named() {
+        let rows = vec![[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]; 2];
+        let r = Report {
+            n_particles: 2,
+            n_bonds: 1,
+            time_step: 1e-6,
+            checks: vec![Check::new("history", "x", 0.0, 1e-6)],
+            timings: vec![],
+            details: LiggghtsDetails {
+                history: UndampedHistories {
+                    step: vec![10, 20],
+                    time: vec![1e-5, 2e-5],
+                    driver: rows.clone(),
+                    driver_mpi: rows.clone(),
+                    integrator_incremental: rows.clone(),
+                    integrator_total: rows.clone(),
+                    harmonic: rows.clone(),
+                    integrator_normal_springs: rows,
+                },
+                driver_tensor: Stiffness6::identity(),
+                integrator_tensor: Stiffness6::identity(),
+                relaxed_tensor: Stiffness6::identity(),
+                harmonic_columns: vec![],
+                relaxed_normal_springs: Stiffness6::identity(),
+                driver_mpi_columns: vec![],
+                driver_element_history: StressHistory::default(),
+            },
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write_report(dir.path(), &r).unwrap();
+        let csv = std::fs::read_to_string(dir.path().join("undamped_history.csv")).unwrap();
+        let widths: Vec<usize> = csv.lines().map(|l| l.split(',').count()).collect();
+        assert_eq!(widths, vec![2 + 36; 3], "{csv}");
+        assert!(csv.starts_with("step,time_s,driver_s11_Pa,"));
+        assert!(csv
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with(",integrator_normal_springs_s12_Pa"));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["passed"], true);
+        assert_eq!(json["checks"][0]["id"], "history");
+        assert_eq!(json["tensors_pa"][0][0], "driver");
     }
 }

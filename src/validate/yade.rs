@@ -36,7 +36,11 @@ use crate::model::Model;
 use crate::packing::{self, Packing};
 use crate::tensor::compare::relative_difference;
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
+use crate::validate::harness::{
+    matrix_rows, write_report_json, Check, EngineDetails, HistoryComparison, Report, Timing,
+};
 use crate::{Error, Mat3, Result};
+use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -66,7 +70,7 @@ pub mod outputs {
 }
 
 /// Agreement required by each comparison (relative).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Tolerances {
     /// Undamped stress histories: max |σ_anisobond − σ_YADE| / max |σ_YADE| per path.
     pub history: f64,
@@ -175,84 +179,20 @@ impl YadeValidationOptions {
     }
 }
 
-/// Step-by-step comparison of one undamped path.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HistoryComparison {
-    /// Voigt index of the path.
-    pub path: usize,
-    /// Steps compared (rows present in both histories, step 0 included).
-    pub steps: usize,
-    /// Largest |stress component| of YADE's run of this path (Pa).
-    pub max_stress: f64,
-    /// Largest |σ_anisobond − σ_YADE| over steps and components (Pa).
-    pub max_difference: f64,
-    /// `max_difference / max_stress`.
-    pub relative: f64,
-    /// Step where the largest difference occurs.
-    pub worst_step: usize,
-}
-
-/// One pass/fail line of the validation.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Check {
-    /// What was compared.
-    pub name: String,
-    /// Relative difference measured.
-    pub value: f64,
-    /// Largest admissible value.
-    pub tolerance: f64,
-    /// `value ≤ tolerance` (false for NaN).
-    pub passed: bool,
-}
-
-impl Check {
-    fn new(name: String, value: f64, tolerance: f64) -> Check {
-        Check {
-            name,
-            value,
-            tolerance,
-            passed: value <= tolerance,
-        }
-    }
-}
-
-/// Wall-clock times of the parts (s).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Timings {
-    /// YADE process, undamped runs (start-up and scene build included).
-    pub yade_undamped: f64,
-    /// YADE process, damped six-path element test (start-up and scene build included).
-    pub yade_damped: f64,
-    /// Stepping inside YADE of the damped paths (from its tensor report).
-    pub yade_damped_stepping: f64,
-    /// anisobond's reference integrator, undamped runs.
-    pub anisobond_undamped: f64,
-    /// anisobond's reference integrator, damped paths.
-    pub anisobond_damped: f64,
-    /// Relaxed solver.
-    pub relaxed: f64,
-}
-
-/// Everything a YADE validation measured.
+/// What only the YADE validation measures; the rest is in the shared [`Report`].
 #[derive(Clone, Debug)]
-pub struct YadeValidation {
+pub struct YadeDetails {
     /// Settings used.
     pub options: YadeValidationOptions,
-    /// Particles.
-    pub n_particles: usize,
-    /// Bonds.
-    pub n_bonds: usize,
-    /// Time step of both codes (s).
-    pub time_step: f64,
     /// anisobond's critical time-step estimate (s).
     pub critical_time_step: f64,
     /// YADE's version string (from its report).
     pub yade_version: String,
-    /// Undamped histories: YADE, then anisobond (rows by path and step, step 0 first).
+    /// Undamped histories of YADE (rows by path and step, step 0 first).
     pub undamped_yade: Vec<HistoryRow>,
     /// Undamped histories of anisobond's reference integrator.
     pub undamped_anisobond: Vec<HistoryRow>,
-    /// One comparison per undamped path.
+    /// One comparison per undamped path (labelled by the path's Voigt label).
     pub undamped: Vec<HistoryComparison>,
     /// Damped histories of YADE.
     pub damped_yade: Vec<HistoryRow>,
@@ -266,24 +206,79 @@ pub struct YadeValidation {
     pub c_relaxed: Stiffness6,
     /// Affine (Voigt) tensor of the same network, for scale (Pa).
     pub c_affine: Stiffness6,
-    /// Pass/fail lines, in the order: undamped paths, YADE–anisobond, YADE–relaxed,
-    /// anisobond–relaxed.
-    pub checks: Vec<Check>,
-    /// Wall-clock times.
-    pub timings: Timings,
     /// The YADE export directory.
     pub yade_dir: PathBuf,
 }
 
-impl YadeValidation {
-    /// True when every check passed.
-    pub fn passed(&self) -> bool {
-        self.checks.iter().all(|c| c.passed)
-    }
+/// Everything a YADE validation measured. Checks in the order: undamped paths
+/// (`history-11`, …), `tensor-yade-integrator`, `tensor-yade-relaxed`,
+/// `tensor-integrator-relaxed`.
+pub type YadeValidation = Report<YadeDetails>;
 
-    /// The checks that failed.
-    pub fn failures(&self) -> Vec<&Check> {
-        self.checks.iter().filter(|c| !c.passed).collect()
+/// Settings as written to the summary JSON.
+#[derive(Serialize)]
+struct JsonSettings {
+    strain: f64,
+    density_kg_m3: f64,
+    undamped_steps: usize,
+    undamped_paths: Vec<&'static str>,
+    damped_steps: usize,
+    damping: f64,
+    cg_tolerance: f64,
+    law: &'static str,
+    lever_arm: &'static str,
+    tensor_formula: &'static str,
+    difference: &'static str,
+}
+
+/// The YADE part of the summary JSON: settings, tolerances, per-path histories, tensors (Pa).
+#[derive(Serialize)]
+pub struct YadeJson<'a> {
+    yade_version: &'a str,
+    critical_time_step_s: f64,
+    settings: JsonSettings,
+    tolerances: Tolerances,
+    undamped: &'a [HistoryComparison],
+    units: &'static str,
+    #[serde(rename = "C_yade", serialize_with = "matrix_rows")]
+    c_yade: &'a Stiffness6,
+    #[serde(rename = "C_anisobond", serialize_with = "matrix_rows")]
+    c_anisobond: &'a Stiffness6,
+    #[serde(rename = "C_relaxed", serialize_with = "matrix_rows")]
+    c_relaxed: &'a Stiffness6,
+    #[serde(rename = "C_affine", serialize_with = "matrix_rows")]
+    c_affine: &'a Stiffness6,
+}
+
+impl EngineDetails for YadeDetails {
+    type Json<'a> = YadeJson<'a>;
+    const ENGINE: &'static str = "yade";
+    fn json(&self) -> YadeJson<'_> {
+        let o = &self.options;
+        YadeJson {
+            yade_version: &self.yade_version,
+            critical_time_step_s: self.critical_time_step,
+            settings: JsonSettings {
+                strain: o.strain,
+                density_kg_m3: o.density,
+                undamped_steps: o.undamped_steps,
+                undamped_paths: o.undamped_paths.iter().map(|&p| PATH_LABELS[p]).collect(),
+                damped_steps: o.damped_steps,
+                damping: o.damping,
+                cg_tolerance: o.cg_tolerance,
+                law: "yade (Law2_ScGeom6D_CohFrictPhys_CohesionMoment)",
+                lever_arm: "mid-gap",
+                tensor_formula: "C = S E^-1 of the final stress/strain columns",
+                difference: "max_ab |A - B| / max_ab |B|",
+            },
+            tolerances: o.tolerances,
+            undamped: &self.undamped,
+            units: "Pa",
+            c_yade: &self.c_yade,
+            c_anisobond: &self.c_anisobond,
+            c_relaxed: &self.c_relaxed,
+            c_affine: &self.c_affine,
+        }
     }
 }
 
@@ -386,43 +381,27 @@ pub fn compare_histories(
             a.len()
         )));
     }
-    let max_stress = y.iter().map(|r| r.stress.amax()).fold(0.0, f64::max);
-    let mut max_difference: f64 = 0.0;
-    let mut worst_step = 0;
-    let mut steps = 0;
-    for r in &y {
-        let Some(o) = a.iter().find(|o| o.step == r.step) else {
-            continue;
-        };
-        steps += 1;
-        let d = (o.stress - r.stress).amax();
-        if d > max_difference || d.is_nan() {
-            max_difference = d;
-            worst_step = r.step;
-        }
-    }
-    if steps != y.len() || steps != a.len() {
+    let common = y
+        .iter()
+        .filter_map(|r| a.iter().find(|o| o.step == r.step).map(|o| (r, o)))
+        .count();
+    if common != y.len() || common != a.len() {
         return Err(Error::Invalid(format!(
             "history comparison of path {}: YADE has {} rows, anisobond {}, {} steps in common",
             PATH_LABELS[path.min(5)],
             y.len(),
             a.len(),
-            steps
+            common
         )));
     }
-    let relative = if max_stress > 0.0 {
-        max_difference / max_stress
-    } else {
-        f64::NAN
-    };
-    Ok(HistoryComparison {
-        path,
-        steps,
-        max_stress,
-        max_difference,
-        relative,
-        worst_step,
-    })
+    Ok(HistoryComparison::of_rows(
+        PATH_LABELS[path],
+        y.iter().filter_map(|r| {
+            a.iter()
+                .find(|o| o.step == r.step)
+                .map(|o| (r.step as u64, r.stress.as_slice(), o.stress.as_slice()))
+        }),
+    ))
 }
 
 fn run_options(o: &YadeValidationOptions, dt: f64, undamped: bool) -> YadeRunOptions {
@@ -662,9 +641,10 @@ pub fn validate_yade(
         .iter()
         .map(|h| {
             Check::new(
+                format!("history-{}", h.label),
                 format!(
                     "undamped stress history, path {} ({} steps): max |Δσ| / max |σ|",
-                    PATH_LABELS[h.path], opts.undamped_steps
+                    h.label, opts.undamped_steps
                 ),
                 h.relative,
                 tol.history,
@@ -672,17 +652,20 @@ pub fn validate_yade(
         })
         .collect();
     checks.push(Check::new(
-        "damped tensor, YADE vs anisobond integrator".into(),
+        "tensor-yade-integrator",
+        "damped tensor, YADE vs anisobond integrator",
         relative_difference(&c_anisobond, &c_yade),
         tol.tensor,
     ));
     checks.push(Check::new(
-        "damped tensor, YADE vs relaxed".into(),
+        "tensor-yade-relaxed",
+        "damped tensor, YADE vs relaxed",
         relative_difference(&c_yade, &relaxed.c),
         tol.relaxed,
     ));
     checks.push(Check::new(
-        "damped tensor, anisobond integrator vs relaxed".into(),
+        "tensor-integrator-relaxed",
+        "damped tensor, anisobond integrator vs relaxed",
         relative_difference(&c_anisobond, &relaxed.c),
         tol.relaxed,
     ));
@@ -691,32 +674,40 @@ pub fn validate_yade(
         .unwrap_or("unknown")
         .to_string();
     let stepping: f64 = yade.tensor.path_seconds.iter().map(|p| p.2).sum();
-    Ok(YadeValidation {
-        options: opts.clone(),
+    let timings = [
+        ("yade_undamped_process", yade.undamped_seconds),
+        ("yade_damped_process", yade.damped_seconds),
+        ("yade_damped_stepping", stepping),
+        ("anisobond_undamped", t[0]),
+        ("anisobond_damped", t[1]),
+        ("relaxed", t[2]),
+    ]
+    .map(|(stage, seconds)| Timing {
+        stage: stage.into(),
+        seconds,
+    })
+    .to_vec();
+    Ok(Report {
         n_particles: p2.len(),
         n_bonds: b2.len(),
         time_step: dt,
-        critical_time_step,
-        yade_version,
-        undamped_yade: yade.undamped,
-        undamped_anisobond,
-        undamped,
-        damped_yade: yade.damped,
-        damped_anisobond,
-        c_yade,
-        c_anisobond,
-        c_relaxed: relaxed.c,
-        c_affine: relaxed.c_affine,
         checks,
-        timings: Timings {
-            yade_undamped: yade.undamped_seconds,
-            yade_damped: yade.damped_seconds,
-            yade_damped_stepping: stepping,
-            anisobond_undamped: t[0],
-            anisobond_damped: t[1],
-            relaxed: t[2],
+        timings,
+        details: YadeDetails {
+            options: opts.clone(),
+            critical_time_step,
+            yade_version,
+            undamped_yade: yade.undamped,
+            undamped_anisobond,
+            undamped,
+            damped_yade: yade.damped,
+            damped_anisobond,
+            c_yade,
+            c_anisobond,
+            c_relaxed: relaxed.c,
+            c_affine: relaxed.c_affine,
+            yade_dir,
         },
-        yade_dir,
     })
 }
 
@@ -765,74 +756,6 @@ pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRo
     s
 }
 
-fn matrix_json(c: &Stiffness6) -> serde_json::Value {
-    serde_json::Value::Array(
-        (0..6)
-            .map(|i| serde_json::json!((0..6).map(|j| c[(i, j)]).collect::<Vec<_>>()))
-            .collect(),
-    )
-}
-
-/// The summary JSON: settings, counts, time step, tensors (Pa), differences, checks,
-/// timings, overall `passed`.
-pub fn summary_json(v: &YadeValidation) -> serde_json::Value {
-    let o = &v.options;
-    serde_json::json!({
-        "validation": "yade",
-        "passed": v.passed(),
-        "yade_version": v.yade_version,
-        "n_particles": v.n_particles,
-        "n_bonds": v.n_bonds,
-        "time_step_s": v.time_step,
-        "critical_time_step_s": v.critical_time_step,
-        "settings": {
-            "strain": o.strain,
-            "density_kg_m3": o.density,
-            "undamped_steps": o.undamped_steps,
-            "undamped_paths": o.undamped_paths.iter().map(|&p| PATH_LABELS[p]).collect::<Vec<_>>(),
-            "damped_steps": o.damped_steps,
-            "damping": o.damping,
-            "cg_tolerance": o.cg_tolerance,
-            "law": "yade (Law2_ScGeom6D_CohFrictPhys_CohesionMoment)",
-            "lever_arm": "mid-gap",
-            "tensor_formula": "C = S E^-1 of the final stress/strain columns",
-            "difference": "max_ab |A - B| / max_ab |B|",
-        },
-        "tolerances": {
-            "history": o.tolerances.history,
-            "tensor": o.tolerances.tensor,
-            "relaxed": o.tolerances.relaxed,
-        },
-        "undamped": v.undamped.iter().map(|h| serde_json::json!({
-            "path": PATH_LABELS[h.path],
-            "steps": h.steps,
-            "max_stress_Pa": h.max_stress,
-            "max_difference_Pa": h.max_difference,
-            "relative": h.relative,
-            "worst_step": h.worst_step,
-        })).collect::<Vec<_>>(),
-        "units": "Pa",
-        "C_yade": matrix_json(&v.c_yade),
-        "C_anisobond": matrix_json(&v.c_anisobond),
-        "C_relaxed": matrix_json(&v.c_relaxed),
-        "C_affine": matrix_json(&v.c_affine),
-        "checks": v.checks.iter().map(|c| serde_json::json!({
-            "name": c.name,
-            "value": c.value,
-            "tolerance": c.tolerance,
-            "passed": c.passed,
-        })).collect::<Vec<_>>(),
-        "timings_s": {
-            "yade_undamped_process": v.timings.yade_undamped,
-            "yade_damped_process": v.timings.yade_damped,
-            "yade_damped_stepping": v.timings.yade_damped_stepping,
-            "anisobond_undamped": v.timings.anisobond_undamped,
-            "anisobond_damped": v.timings.anisobond_damped,
-            "relaxed": v.timings.relaxed,
-        },
-    })
-}
-
 /// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the
 /// paths written.
 pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
@@ -862,9 +785,7 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
         ),
     )?;
     let summary = dir.join(outputs::SUMMARY_JSON);
-    let text = serde_json::to_string_pretty(&summary_json(v))
-        .map_err(|e| Error::Invalid(format!("summary JSON: {e}")))?;
-    crate::io::write_string_atomic(&summary, &(text + "\n"))?;
+    write_report_json(&summary, v)?;
     let mut written = vec![undamped, damped, summary];
     for (rows_y, rows_a, name, what) in [
         (
@@ -993,13 +914,6 @@ mod tests {
         assert_eq!(h.worst_step, 1);
         assert!(compare_histories(0, &y, &a[..1]).is_err());
         assert!(compare_histories(3, &y, &a).is_err());
-    }
-
-    #[test]
-    fn checks_fail_on_nan_and_excess() {
-        assert!(Check::new("x".into(), 1e-7, 1e-6).passed);
-        assert!(!Check::new("x".into(), 2e-6, 1e-6).passed);
-        assert!(!Check::new("x".into(), f64::NAN, 1e-6).passed);
     }
 
     #[test]

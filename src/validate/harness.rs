@@ -1,0 +1,322 @@
+//! The harness every engine's validation shares: the pass/fail [`Check`], the step-by-step
+//! [`HistoryComparison`], the [`Timing`] list, the [`Report`] with its derived JSON, and the
+//! checks as a text table or CSV. An engine (YADE, LIGGGHTS, …) adds only a runner that
+//! runs its code, parses its outputs and fills a [`Report`] with its [`EngineDetails`].
+
+use crate::tensor::Stiffness6;
+use crate::{Error, Result};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+/// One comparison: the measured relative difference and, for a pass/fail check, the
+/// tolerance.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Check {
+    /// Short id (`history`, `tensor-driver-relaxed`, …).
+    pub id: String,
+    /// What is compared.
+    pub description: String,
+    /// Measured relative difference (dimensionless).
+    pub value: f64,
+    /// Largest admissible value; `None`: reported only.
+    pub tolerance: Option<f64>,
+    /// `value ≤ tolerance` (false for NaN); true when reported only.
+    pub passed: bool,
+}
+
+impl Check {
+    /// A pass/fail check: passed when `value ≤ tolerance` (NaN fails).
+    pub fn new(
+        id: impl Into<String>,
+        description: impl Into<String>,
+        value: f64,
+        tolerance: f64,
+    ) -> Check {
+        Check {
+            id: id.into(),
+            description: description.into(),
+            value,
+            tolerance: Some(tolerance),
+            passed: value <= tolerance,
+        }
+    }
+
+    /// A difference reported without tolerance (a known convention difference).
+    pub fn info(id: impl Into<String>, description: impl Into<String>, value: f64) -> Check {
+        Check {
+            id: id.into(),
+            description: description.into(),
+            value,
+            tolerance: None,
+            passed: true,
+        }
+    }
+}
+
+/// Wall time of one stage of a validation.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Timing {
+    /// Stage.
+    pub stage: String,
+    /// Seconds.
+    pub seconds: f64,
+}
+
+/// Run `f`, appending its wall time as `stage` to `timings`.
+pub fn timed<T>(
+    timings: &mut Vec<Timing>,
+    stage: &str,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    let t0 = Instant::now();
+    let r = f()?;
+    timings.push(Timing {
+        stage: stage.into(),
+        seconds: t0.elapsed().as_secs_f64(),
+    });
+    Ok(r)
+}
+
+/// Step-by-step comparison of two stress histories (Pa), relative to the largest |stress|
+/// of the reference.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HistoryComparison {
+    /// What was compared (a strain path's Voigt label, or a run's name).
+    #[serde(rename = "path")]
+    pub label: String,
+    /// Steps compared.
+    pub steps: usize,
+    /// Largest |stress component| of the reference history (Pa).
+    #[serde(rename = "max_stress_Pa")]
+    pub max_stress: f64,
+    /// Largest |σ_other − σ_reference| over steps and components (Pa).
+    #[serde(rename = "max_difference_Pa")]
+    pub max_difference: f64,
+    /// `max_difference / max_stress` (NaN when the reference has no stress).
+    pub relative: f64,
+    /// Step where the largest difference occurs.
+    pub worst_step: u64,
+}
+
+impl HistoryComparison {
+    /// Compare matched rows `(step, reference stress, other stress)`.
+    pub fn of_rows<'a>(
+        label: impl Into<String>,
+        rows: impl IntoIterator<Item = (u64, &'a [f64], &'a [f64])>,
+    ) -> HistoryComparison {
+        let (mut max_stress, mut max_difference, mut worst_step, mut steps) =
+            (0.0f64, 0.0f64, 0, 0);
+        for (step, r, o) in rows {
+            steps += 1;
+            max_stress = r.iter().fold(max_stress, |m, v| m.max(v.abs()));
+            let d = r.iter().zip(o).fold(0.0f64, |m, (a, b)| {
+                let d = (b - a).abs();
+                if d.is_nan() || m.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(d)
+                }
+            });
+            if d > max_difference || d.is_nan() {
+                max_difference = d;
+                worst_step = step;
+            }
+        }
+        HistoryComparison {
+            label: label.into(),
+            steps,
+            max_stress,
+            max_difference,
+            relative: if max_stress > 0.0 {
+                max_difference / max_stress
+            } else {
+                f64::NAN
+            },
+            worst_step,
+        }
+    }
+}
+
+/// An engine's own results inside a [`Report`]: its name and the JSON it adds.
+pub trait EngineDetails {
+    /// The engine's key fields in the report JSON (flattened beside the shared ones).
+    type Json<'a>: Serialize
+    where
+        Self: 'a;
+    /// Name of the validation (`yade`, `liggghts`).
+    const ENGINE: &'static str;
+    /// The engine's part of the JSON.
+    fn json(&self) -> Self::Json<'_>;
+}
+
+/// Everything a validation measured: the shared part and the engine's `details`
+/// (reachable directly through `Deref`).
+#[derive(Clone, Debug)]
+pub struct Report<D> {
+    /// Particles of the packing.
+    pub n_particles: usize,
+    /// Bonds.
+    pub n_bonds: usize,
+    /// Time step of every run (s).
+    pub time_step: f64,
+    /// The comparisons, in order.
+    pub checks: Vec<Check>,
+    /// Wall time of the stages.
+    pub timings: Vec<Timing>,
+    /// The engine's own results.
+    pub details: D,
+}
+
+impl<D> std::ops::Deref for Report<D> {
+    type Target = D;
+    fn deref(&self) -> &D {
+        &self.details
+    }
+}
+
+impl<D> Report<D> {
+    /// True when every check passed.
+    pub fn passed(&self) -> bool {
+        self.checks.iter().all(|c| c.passed)
+    }
+
+    /// The checks outside their tolerance.
+    pub fn failures(&self) -> Vec<&Check> {
+        self.checks.iter().filter(|c| !c.passed).collect()
+    }
+}
+
+/// JSON form of a [`Report`]: the shared keys and the engine's, flattened.
+#[derive(Serialize)]
+struct ReportJson<'a, J: Serialize> {
+    validation: &'static str,
+    passed: bool,
+    n_particles: usize,
+    n_bonds: usize,
+    time_step_s: f64,
+    #[serde(flatten)]
+    details: J,
+    checks: &'a [Check],
+    timings: &'a [Timing],
+}
+
+/// The report as pretty JSON (newline-terminated).
+pub fn report_json<D: EngineDetails>(r: &Report<D>) -> Result<String> {
+    let j = ReportJson {
+        validation: D::ENGINE,
+        passed: r.passed(),
+        n_particles: r.n_particles,
+        n_bonds: r.n_bonds,
+        time_step_s: r.time_step,
+        details: r.details.json(),
+        checks: &r.checks,
+        timings: &r.timings,
+    };
+    serde_json::to_string_pretty(&j)
+        .map(|s| s + "\n")
+        .map_err(|e| Error::Invalid(format!("validation report: cannot serialise: {e}")))
+}
+
+/// Write the report JSON to `path` (atomically).
+pub fn write_report_json<D: EngineDetails>(path: &Path, r: &Report<D>) -> Result<()> {
+    crate::io::write_string_atomic(path, &report_json(r)?)
+}
+
+/// A 6×6 tensor as row-major arrays, for JSON (`#[serde(serialize_with)]`).
+pub fn matrix_rows<S: serde::Serializer>(
+    c: &Stiffness6,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    rows(c).serialize(s)
+}
+
+/// A 6×6 tensor as row-major arrays.
+pub fn rows(c: &Stiffness6) -> [[f64; 6]; 6] {
+    std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]))
+}
+
+/// The checks as a text table (relative differences, dimensionless).
+pub fn checks_table<D>(r: &Report<D>) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<26} {:>12} {:>10}  {:<6} what",
+        "check", "rel. diff", "tolerance", "result"
+    );
+    for c in &r.checks {
+        let _ = writeln!(
+            s,
+            "{:<26} {:>12.3e} {:>10}  {:<6} {}",
+            c.id,
+            c.value,
+            c.tolerance.map_or("—".into(), |t| format!("{t:.1e}")),
+            match (c.tolerance, c.passed) {
+                (None, _) => "info",
+                (_, true) => "pass",
+                _ => "FAILED",
+            },
+            c.description
+        );
+    }
+    s
+}
+
+/// The checks as CSV: `check,relative_difference,tolerance,passed,description`.
+pub fn checks_csv(checks: &[Check]) -> String {
+    let mut c = String::from("check,relative_difference,tolerance,passed,description\n");
+    for k in checks {
+        let _ = writeln!(
+            c,
+            "{},{:e},{},{},\"{}\"",
+            k.id,
+            k.value,
+            k.tolerance.map_or(String::new(), |t| format!("{t:e}")),
+            k.passed,
+            k.description.replace('"', "'")
+        );
+    }
+    c
+}
+
+/// The failing checks, one line each: `id: value > tolerance (description)`.
+pub fn failure_lines<D>(r: &Report<D>) -> Vec<String> {
+    r.failures()
+        .iter()
+        .map(|c| {
+            format!(
+                "{}: {:.3e} > tolerance {:.1e} ({})",
+                c.id,
+                c.value,
+                c.tolerance.unwrap_or(f64::NAN),
+                c.description
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checks_fail_on_nan_and_excess() {
+        assert!(Check::new("x", "x", 1e-7, 1e-6).passed);
+        assert!(!Check::new("x", "x", 2e-6, 1e-6).passed);
+        assert!(!Check::new("x", "x", f64::NAN, 1e-6).passed);
+        assert!(Check::info("x", "x", f64::NAN).passed);
+    }
+
+    #[test]
+    fn history_difference_is_relative_to_the_largest_reference_stress() {
+        let r = [[0.0; 6], [100.0, -400.0, 0.0, 0.0, 0.0, 0.0]];
+        let o = [[0.0; 6], [100.0, -398.0, 0.0, 0.0, 0.0, 1.0]];
+        let h = HistoryComparison::of_rows("11", (0..2).map(|k| (k as u64, &r[k][..], &o[k][..])));
+        assert_eq!((h.steps, h.max_stress, h.max_difference), (2, 400.0, 2.0));
+        assert_eq!((h.relative, h.worst_step), (2.0 / 400.0, 1));
+        let n = [[0.0; 6], [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]];
+        let h = HistoryComparison::of_rows("x", (0..2).map(|k| (k as u64, &r[k][..], &n[k][..])));
+        assert!(h.relative.is_nan());
+    }
+}
