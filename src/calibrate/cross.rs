@@ -6,7 +6,7 @@
 //! Eq. 22), so a model file holding the target gives a Voigt tensor within a
 //! fraction of a percent of it but a relaxed tensor 3–6 % softer (docs/references.md). Here the
 //! constants W written into the model are the unknowns: relaxed(W) = target is solved by
-//! Broyden's method ([`super::broyden`]; Broyden 1965) from W₀ = target with the
+//! Broyden's method (`calibrate/broyden.rs`; Broyden 1965) from W₀ = target with the
 //! component-wise softening of the first solve as the initial Jacobian (the map is close to
 //! a uniform softening), one warm-started relaxed solve per iteration; W that needs a
 //! negative lattice modulus is outside the admissible domain and shortens the step.

@@ -14,7 +14,7 @@
 //! Mean-field level: the curve is D(ln a_n, ln a_s) = 0, the determinant of the two ratio
 //! equations (each linear in ρ), located on a grid and refined by projected gradient
 //! descent along it. Relaxed level: starting from the mean-field solution, a
-//! minimum-norm Broyden iteration ([`super::broyden`]; Broyden 1965) on the relaxed ratios
+//! minimum-norm Broyden iteration (`calibrate/broyden.rs`; Broyden 1965) on the relaxed ratios
 //! of the actual packing, with the mean-field Jacobian as the initial one and a
 //! warm-started relaxed solver; a point with negative bond stiffness along some direction
 //! (extended models) is outside the admissible domain and shortens the step.
