@@ -6,18 +6,21 @@
 //! Eq. 22), so a model file holding the target gives a Voigt tensor within a
 //! fraction of a percent of it but a relaxed tensor 3–6 % softer (docs/references.md). Here the
 //! constants W written into the model are the unknowns: relaxed(W) = target is solved by
-//! Broyden's method from W₀ = target with the identity as the initial Jacobian (the map is
-//! close to a uniform softening), one warm-started relaxed solve per iteration.
+//! Broyden's method (`calibrate/broyden.rs`; Broyden 1965) from W₀ = target with the
+//! component-wise softening of the first solve as the initial Jacobian (the map is close to
+//! a uniform softening), one warm-started relaxed solve per iteration; W that needs a
+//! negative lattice modulus is outside the admissible domain and shortens the step.
 
+use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::warm::WarmRelaxed;
 use crate::bonds::{assign_stiffness, BondSet};
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::Packing;
-use crate::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use crate::schemes::cross_anisotropic::{lattice_scaling, target_lattice_moduli, CrossAnisotropic};
 use crate::tensor::{Stiffness6, TransverseProjection};
 use crate::{Error, Result, Vec3};
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{DMatrix, DVector};
 
 /// Options of the cross-anisotropic calibration.
 #[derive(Clone, Copy, Debug)]
@@ -80,8 +83,8 @@ impl CrossCalibration {
     }
 }
 
-fn constants(p: &TransverseProjection) -> Vector4<f64> {
-    Vector4::new(p.c11, p.c33, p.c13, p.c12)
+fn constants(p: &TransverseProjection) -> DVector<f64> {
+    DVector::from_vec(vec![p.c11, p.c33, p.c13, p.c12])
 }
 
 /// Calibrate a cross-anisotropic `base` model (its axis and geometry are kept) so that the
@@ -100,71 +103,87 @@ pub fn calibrate_cross_relaxed(
         ));
     };
     let mu = lattice_scaling(packing, bonds, base.geometry.pi_hat)?;
-    let goal = Vector4::from(target);
+    let goal = DVector::from_column_slice(&target);
     let scale = goal.amax().max(f64::MIN_POSITIVE);
     let mut solver = WarmRelaxed::new(packing, bonds, opts.relaxed);
     let mut history = Vec::new();
-    let mut evaluate = |w: &Vector4<f64>,
+    type Solved = (Stiffness6, TransverseProjection, [f64; 4]);
+    // One relaxed solve with the constants w written into the model; Err(why) when the
+    // elliptic scheme cannot reproduce w (the admissible domain, no solve made).
+    let mut evaluate = |w: &DVector<f64>,
                         history: &mut Vec<([f64; 4], usize)>|
-     -> Result<(Stiffness6, TransverseProjection, [f64; 4])> {
-        let scheme = CrossAnisotropic::from_target(w[0], w[1], w[2], w[3], axis, mu)?;
+     -> Result<std::result::Result<Solved, String>> {
+        let e = match target_lattice_moduli(w[0], w[1], w[2], w[3], mu) {
+            Ok(e) => e,
+            Err(why) => return Ok(Err(why)),
+        };
+        let scheme = CrossAnisotropic::from_moduli(e, axis)?;
         let k = assign_stiffness(packing, bonds, &scheme, &base.geometry)?;
         let sol = solver.solve(&k)?;
         let (proj, _) = TransverseProjection::about_axis(&sol.c, &axis)?;
         history.push(([proj.c11, proj.c33, proj.c13, proj.c12], sol.iterations));
-        Ok((sol.c, proj, scheme.e_prime))
+        Ok(Ok((sol.c, proj, scheme.e_prime)))
     };
-    let mut w = goal;
-    let (mut c, mut proj, mut e_prime) = evaluate(&w, &mut history)?;
+    let w0 = DVector::from_column_slice(&target);
+    let first = evaluate(&w0, &mut history)?.map_err(Error::Model)?;
+    let proj = &first.1;
     let plain_inversion = [proj.c11, proj.c33, proj.c13, proj.c12];
-    let mut f = constants(&proj) - goal;
     // Initial Jacobian: the component-wise softening of the first solve (relaxed/written),
     // refined by Broyden's rank-one updates.
-    let mut jac = Matrix4::<f64>::from_diagonal(&Vector4::from_fn(|i, _| {
-        let r = constants(&proj)[i] / w[i];
+    let jac = DMatrix::<f64>::from_diagonal(&DVector::from_fn(4, |i, _| {
+        let r = constants(proj)[i] / w0[i];
         if r.is_finite() {
             r.clamp(0.2, 5.0)
         } else {
             1.0
         }
     }));
-    while f.amax() / scale > opts.tolerance {
-        if history.len() >= opts.max_iterations {
+    let start = Point {
+        f: constants(proj) - &goal,
+        x: w0,
+        data: first,
+    };
+    let broyden_opts = BroydenOptions {
+        tolerance: opts.tolerance,
+        scale: DVector::from_element(4, scale),
+        max_evaluations: opts.max_iterations,
+        max_step: f64::INFINITY,
+        max_trials: 9,
+    };
+    let out_of_reach = |w: &DVector<f64>, e: &dyn std::fmt::Display| {
+        Error::Invalid(format!(
+            "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}; the target is out of reach of the elliptic scheme on this packing",
+            w[0], w[1], w[2], w[3]
+        ))
+    };
+    let result = broyden::solve(
+        start,
+        jac.clone(),
+        |w| match evaluate(w, &mut history) {
+            Ok(Ok(solved)) => Ok(Evaluation::Admissible(constants(&solved.1) - &goal, solved)),
+            Ok(Err(_)) => Ok(Evaluation::Inadmissible),
+            Err(e) => Err(out_of_reach(w, &e)),
+        },
+        |_| {},
+        |_| jac.clone(),
+        &broyden_opts,
+    )?;
+    let w = &result.point.x;
+    let (c, proj, e_prime) = result.point.data;
+    match result.end {
+        End::Converged => {}
+        End::Budget => {
             return Err(Error::Invalid(format!(
                 "cross-anisotropic calibration: no convergence in {} relaxed solves; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
-                history.len(), proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
+                result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
             )));
         }
-        let mut step = jac
-            .try_inverse()
-            .map(|inv| -(inv * f))
-            .unwrap_or_else(|| -f);
-        // Shorten steps that would need a negative lattice modulus (Error::Model).
-        let mut attempt = 0;
-        let (w_new, c_new, proj_new, e_new) = loop {
-            let w_try = w + step;
-            match evaluate(&w_try, &mut history) {
-                Ok((c, p, e)) => break (w_try, c, p, e),
-                Err(Error::Model(m)) if attempt < 8 => {
-                    attempt += 1;
-                    step *= 0.5;
-                    let _ = m;
-                }
-                Err(e) => {
-                    return Err(Error::Invalid(format!(
-                        "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}; the target is out of reach of the elliptic scheme on this packing",
-                        w_try[0], w_try[1], w_try[2], w_try[3]
-                    )))
-                }
-            }
-        };
-        let f_new = constants(&proj_new) - goal;
-        let dw = w_new - w;
-        let denominator = dw.norm_squared();
-        if denominator > 0.0 {
-            jac += (f_new - f - jac * dw) * dw.transpose() / denominator;
+        End::Inadmissible(w_try) => {
+            let why = target_lattice_moduli(w_try[0], w_try[1], w_try[2], w_try[3], mu)
+                .err()
+                .unwrap_or_default();
+            return Err(out_of_reach(&w_try, &why));
         }
-        (w, c, proj, e_prime, f) = (w_new, c_new, proj_new, e_new, f_new);
     }
     Ok(CrossCalibration {
         target,

@@ -14,9 +14,12 @@
 //! Mean-field level: the curve is D(ln a_n, ln a_s) = 0, the determinant of the two ratio
 //! equations (each linear in ρ), located on a grid and refined by projected gradient
 //! descent along it. Relaxed level: starting from the mean-field solution, a
-//! minimum-norm Broyden iteration on the relaxed ratios of the actual packing, with the
-//! mean-field Jacobian as the initial one and a warm-started relaxed solver.
+//! minimum-norm Broyden iteration (`calibrate/broyden.rs`; Broyden 1965) on the relaxed ratios
+//! of the actual packing, with the mean-field Jacobian as the initial one and a
+//! warm-started relaxed solver; a point with negative bond stiffness along some direction
+//! (extended models) is outside the admissible domain and shortens the step.
 
+use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::kernel::{Cubic3, CubicKernel};
 use super::target::CubicTarget;
 use super::warm::WarmRelaxed;
@@ -868,12 +871,19 @@ pub fn calibrate_cubic_relaxed(
         target.c44_over_c11.abs().max(0.02),
     ]);
     let mut history = Vec::new();
-    // Relaxed ratios at a point (normal magnitude `default_normal`).
-    let mut evaluate = |p: &MapPoint,
-                        normal: f64,
-                        history: &mut Vec<IterationRecord>|
-     -> Result<(Stiffness6, CubicProjection)> {
-        let scheme = CubicSpheroid::new(
+    // The scheme at a point with normal magnitude `normal`, or why it is not admissible
+    // (negative normal or shear stiffness along some direction: extended models).
+    let scheme_at = |p: &MapPoint, normal: f64| -> Result<Option<CubicSpheroid>> {
+        let (a_n, a_s, shear) = (p.x.exp(), p.y.exp(), normal * p.rho);
+        let scheme =
+            CubicSpheroid::new_unchecked(model, opts.extended, a_n, a_s, normal, shear, rotation)?;
+        let negative = (normal > 0.0 && scheme.min_normal_factor().0 < 0.0)
+            || (shear > 0.0 && scheme.min_shear_factor().0 < 0.0);
+        Ok((!negative).then_some(scheme))
+    };
+    // The error of an inadmissible point (as `CubicSpheroid::new` words it).
+    let refusal = |p: &MapPoint, normal: f64| -> Error {
+        CubicSpheroid::new(
             model,
             opts.extended,
             p.x.exp(),
@@ -881,7 +891,18 @@ pub fn calibrate_cubic_relaxed(
             normal,
             normal * p.rho,
             rotation,
-        )?;
+        )
+        .err()
+        .unwrap_or_else(|| Error::Model("cubic scheme: inadmissible parameters".into()))
+    };
+    // Relaxed tensor and cubic projection at a point; None outside the admissible domain.
+    let mut evaluate = |p: &MapPoint,
+                        normal: f64,
+                        history: &mut Vec<IterationRecord>|
+     -> Result<Option<(Stiffness6, CubicProjection)>> {
+        let Some(scheme) = scheme_at(p, normal)? else {
+            return Ok(None);
+        };
         let k = assign_stiffness(packing, bonds, &scheme, &base.geometry)?;
         let sol = solver.solve(&k)?;
         // Lab → crystal: C_crystal = rotate(C_lab, R).
@@ -899,80 +920,49 @@ pub fn calibrate_cubic_relaxed(
             c44_over_c11: proj.c44 / proj.c11,
             cg_iterations: sol.iterations,
         });
-        Ok((c, proj))
+        Ok(Some((c, proj)))
     };
     let residual = |proj: &CubicProjection| -> DVector<f64> {
         DVector::from_vec(vec![proj.c12 / proj.c11, proj.c44 / proj.c11]) - &goal
     };
-    let error_of = |f: &DVector<f64>| f.component_div(&scale).amax();
-    let mut u = if equi {
+    let u0 = if equi {
         DVector::from_vec(vec![start.x, start.rho.ln()])
     } else {
         DVector::from_vec(vec![start.x, start.y, start.rho.ln()])
     };
-    let mut p = to_point(&u);
-    let (_, mut proj) = evaluate(&p, default_normal, &mut history)?;
-    let mut f = residual(&proj);
-    let mut jac = mf_jacobian(&p);
-    let mut best = (error_of(&f), u.clone());
-    let mut converged = best.0 <= opts.tolerance;
-    while !converged && history.len() < opts.max_iterations {
-        // Minimum-norm step J Δ = −f.
-        let pinv = jac
-            .clone()
-            .pseudo_inverse(1e-12)
-            .map_err(|e| Error::Invalid(format!("relaxed calibration: Jacobian: {e}")))?;
-        let mut step = -(pinv * &f);
-        let biggest = step.amax();
-        if biggest > 0.7 {
-            step *= 0.7 / biggest;
-        }
-        let mut accepted = false;
-        for _ in 0..4 {
-            let mut trial = &u + &step;
-            clamp(&mut trial);
-            let actual = &trial - &u;
-            let q = to_point(&trial);
-            let (_, trial_proj) = match evaluate(&q, default_normal, &mut history) {
-                Ok(x) => x,
-                Err(Error::Model(_)) => {
-                    // Negative stiffness somewhere (extended models): shorten the step.
-                    step *= 0.5;
-                    continue;
-                }
-                Err(e) => return Err(e),
-            };
-            let f_new = residual(&trial_proj);
-            let df = &f_new - &f;
-            let denominator = actual.norm_squared();
-            if denominator > 0.0 {
-                // Broyden's update: J ← J + (Δf − JΔu)Δuᵀ/|Δu|².
-                let correction = (&df - &jac * &actual) * actual.transpose() / denominator;
-                jac += correction;
-            }
-            if f_new.norm() < f.norm() || history.len() >= opts.max_iterations {
-                u = trial;
-                p = q;
-                f = f_new;
-                proj = trial_proj;
-                accepted = true;
-                break;
-            }
-            step *= 0.5;
-        }
-        if !accepted {
-            // Restart from the mean-field Jacobian at the current point.
-            jac = mf_jacobian(&p);
-        }
-        let err = error_of(&f);
-        if err < best.0 {
-            best = (err, u.clone());
-        }
-        converged = err <= opts.tolerance;
-        if history.len() >= opts.max_iterations {
-            break;
-        }
-    }
+    let p0 = to_point(&u0);
+    let (_, proj0) =
+        evaluate(&p0, default_normal, &mut history)?.ok_or_else(|| refusal(&p0, default_normal))?;
+    let broyden_opts = BroydenOptions {
+        tolerance: opts.tolerance,
+        scale,
+        max_evaluations: opts.max_iterations,
+        // Log-space steps of at most a factor e^0.7 ≈ 2 in a_n, a_s or ρ.
+        max_step: 0.7,
+        max_trials: 4,
+    };
+    let result = broyden::solve(
+        Point {
+            f: residual(&proj0),
+            x: u0,
+            data: proj0,
+        },
+        mf_jacobian(&p0),
+        |u| {
+            Ok(
+                match evaluate(&to_point(u), default_normal, &mut history)? {
+                    Some((_, proj)) => Evaluation::Admissible(residual(&proj), proj),
+                    None => Evaluation::Inadmissible,
+                },
+            )
+        },
+        clamp,
+        |u| mf_jacobian(&to_point(u)),
+        &broyden_opts,
+    )?;
+    let p = to_point(&result.point.x);
+    let proj = result.point.data;
+    let converged = matches!(result.end, End::Converged);
     if !converged {
         let rec = history
             .iter()
@@ -985,8 +975,8 @@ pub fn calibrate_cubic_relaxed(
         let mut msg = format!(
             "relaxed calibration did not reach the target {} within {} relaxed solves (relative ratio error {:.2e} > tolerance {:.1e}).",
             describe_ratios(target.c12_over_c11, target.c44_over_c11, target.c11),
-            history.len(),
-            best.0,
+            result.evaluations,
+            result.best_error,
             opts.tolerance
         );
         if let Some(r) = rec {
@@ -1015,7 +1005,8 @@ pub fn calibrate_cubic_relaxed(
         Some(c11) => default_normal * c11 / c11_ref,
         None => default_normal,
     };
-    let (achieved, achieved_cubic) = evaluate(&p, normal, &mut history)?;
+    let (achieved, achieved_cubic) =
+        evaluate(&p, normal, &mut history)?.ok_or_else(|| refusal(&p, normal))?;
     history.pop();
     Ok(CubicCalibration {
         parameters: CubicParameters {

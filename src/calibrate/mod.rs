@@ -2,6 +2,7 @@
 //!
 //! - [`target`]: the `--target` text (`C11=…,C12=…,C44=…`, `C12/C11=0.30,C44/C11=0.43`, or
 //!   the cross-anisotropic `C11=…,C33=…,C13=…,C12=…`).
+//! - `broyden` (private): the damped Broyden iteration both relaxed calibrations use (Broyden 1965).
 //! - [`kernel`]: the mean-field cubic constants of the spheroid scheme as fast 1-D orientation
 //!   integrals (Truszkowska 2018 App. A, reduced by the cubic symmetry).
 //! - [`cubic`]: cubic calibration, at the mean-field level and on a packing with the relaxed
@@ -11,6 +12,7 @@
 //! - [`warm`]: the relaxed solver with a warm start, reused across calibration iterations.
 //! - [`domain`]: sampling of the accessible domain (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a).
 
+mod broyden;
 pub mod cross;
 pub mod cubic;
 pub mod domain;

@@ -10,6 +10,7 @@
 //! Every random number comes from one `ChaCha8Rng` stream in a fixed order and every sum
 //! is taken in a fixed order, so the packing is bit-identical on any number of threads.
 
+use super::fire::{self, FireStep, FireSystem, FIRE_FIXED_CELL, FIRE_VARIABLE_CELL};
 use super::repulsion::{lanes_available, particle_contacts, ScaledVerletList};
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
@@ -293,35 +294,91 @@ fn fire_relax_in_pool(
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
     x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
 
-    // FIRE (Bitzek et al. 2006) with semi-implicit Euler steps, unit masses and stiffness.
-    const DT_START: f64 = 0.02;
-    const DT_MAX: f64 = 0.2;
-    const N_DELAY: usize = 5;
-    const F_INC: f64 = 1.1;
-    const F_DEC: f64 = 0.5;
-    const ALPHA_START: f64 = 0.1;
-    const F_ALPHA: f64 = 0.99;
-    let tol = target.max_overlap;
-    let mut dt = DT_START;
-    let mut alpha = ALPHA_START;
-    let mut n_positive = 0usize;
-    let mut v = vec![Vec3::zeros(); n];
-    let mut f = vec![Vec3::zeros(); n];
-    let mut overlap = vec![0.0; n];
-    let mut contact = vec![ContactSums::default(); n];
-    let mut list = ScaledVerletList::build(x, radii, &cell, skin)?;
-    let mut rebuilds = 1usize;
-    let mut x_ref = x.to_vec();
-    forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
-    let mut worst = max_of(&overlap);
-    on_check(0, worst);
-    let mut iterations = 0usize;
-    let balanced = |f: &[Vec3], contact: &[ContactSums], ratio: f64| -> bool {
+    let list = ScaledVerletList::build(x, radii, &cell, skin)?;
+    let x_ref = x.to_vec();
+    let mut system = FixedCell {
+        x,
+        radii,
+        side,
+        cell,
+        skin,
+        target,
+        on_check,
+        v: vec![Vec3::zeros(); n],
+        f: vec![Vec3::zeros(); n],
+        overlap: vec![0.0; n],
+        contact: vec![ContactSums::default(); n],
+        list,
+        rebuilds: 1,
+        x_ref,
+        worst: 0.0,
+        force_balanced: false,
+    };
+    system.force_pass();
+    let run = fire::minimise(&FIRE_FIXED_CELL, &mut system, target.max_iterations)?;
+    let FixedCell {
+        x,
+        cell,
+        rebuilds,
+        worst,
+        force_balanced,
+        ..
+    } = system;
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    Ok(RelaxOutcome {
+        iterations: run.iterations,
+        rebuilds,
+        max_overlap: worst,
+        overlap_free: worst < target.max_overlap,
+        force_balanced,
+    })
+}
+
+/// The soft-sphere energy in a fixed cube, as the [`FireSystem`] of [`fire_relax`].
+struct FixedCell<'a> {
+    x: &'a mut [Vec3],
+    radii: &'a [f64],
+    side: f64,
+    cell: PeriodicCell,
+    skin: f64,
+    target: &'a RelaxTarget,
+    on_check: &'a mut (dyn FnMut(usize, f64) + Send),
+    v: Vec<Vec3>,
+    f: Vec<Vec3>,
+    overlap: Vec<f64>,
+    contact: Vec<ContactSums>,
+    list: ScaledVerletList,
+    rebuilds: usize,
+    /// Positions at the last Verlet-list build.
+    x_ref: Vec<Vec3>,
+    /// Largest overlap now.
+    worst: f64,
+    force_balanced: bool,
+}
+
+impl FixedCell<'_> {
+    /// Forces and the largest overlap at the current positions.
+    fn force_pass(&mut self) {
+        forces(
+            self.x,
+            self.radii,
+            self.side,
+            &self.list,
+            &mut self.f,
+            &mut self.overlap,
+            &mut self.contact,
+        );
+        self.worst = max_of(&self.overlap);
+    }
+
+    /// max_i |F_i| ≤ `ratio` × the mean contact force (false with no contact).
+    fn balanced(&self, ratio: f64) -> bool {
+        let (f, contact) = (&self.f, &self.contact);
         let n_contacts: u64 = contact.iter().map(|c| c.contacts as u64).sum();
         if n_contacts == 0 {
             return false;
         }
-        let mean_force = ordered_sum(n, |k| contact[k].force) / n_contacts as f64;
+        let mean_force = ordered_sum(f.len(), |k| contact[k].force) / n_contacts as f64;
         let f_max = f
             .par_iter()
             .with_min_len(4096)
@@ -329,85 +386,85 @@ fn fire_relax_in_pool(
             .reduce(|| 0.0, f64::max)
             .sqrt();
         f_max <= ratio * mean_force
-    };
-    let mut force_balanced = false;
-    while worst >= tol {
-        if let Some(ratio) = target.force_balance {
-            if iterations % 10 == 0 && balanced(&f, &contact, ratio) {
-                force_balanced = true;
-                break;
+    }
+}
+
+impl FireSystem for FixedCell<'_> {
+    /// Overlap-free (largest overlap below the target), or force balanced (checked every 10
+    /// iterations); reports to `on_check` at the start and every 25 iterations.
+    fn converged(&mut self, iterations: usize) -> bool {
+        if iterations % 25 == 0 {
+            (self.on_check)(iterations, self.worst);
+        }
+        if self.worst < self.target.max_overlap {
+            return true;
+        }
+        if let Some(ratio) = self.target.force_balance {
+            if iterations % 10 == 0 && self.balanced(ratio) {
+                self.force_balanced = true;
+                return true;
             }
         }
-        if iterations >= target.max_iterations {
-            break;
-        }
-        iterations += 1;
-        let power = ordered_sum(n, |k| f[k].dot(&v[k]));
-        if power > 0.0 {
-            n_positive += 1;
-            if n_positive > N_DELAY {
-                dt = (dt * F_INC).min(DT_MAX);
-                alpha *= F_ALPHA;
-            }
-        } else {
-            n_positive = 0;
-            dt = (dt * F_DEC).max(1e-4);
-            alpha = ALPHA_START;
-            let back = 0.5 * dt;
-            x.par_iter_mut()
-                .zip(v.par_iter_mut())
+        false
+    }
+
+    fn power(&self) -> f64 {
+        let (f, v) = (&self.f, &self.v);
+        ordered_sum(f.len(), |k| f[k].dot(&v[k]))
+    }
+
+    /// Semi-implicit Euler with unit masses; the Verlet list is rebuilt when a sphere has
+    /// moved half the skin since the last build.
+    fn advance(&mut self, step: &FireStep) -> Result<()> {
+        let n = self.x.len();
+        let dt = step.dt;
+        if step.reset {
+            let back = step.back();
+            self.x
+                .par_iter_mut()
+                .zip(self.v.par_iter_mut())
                 .with_min_len(1024)
                 .for_each(|(xk, vk)| {
                     *xk -= *vk * back;
                     *vk = Vec3::zeros();
                 });
         }
-        // v ← v + dt·F, then the FIRE mixing v ← (1 − α)v + α|v| F/|F|, then x ← x + dt·v.
-        v.par_iter_mut()
-            .zip(f.par_iter())
+        self.v
+            .par_iter_mut()
+            .zip(self.f.par_iter())
             .with_min_len(1024)
             .for_each(|(vk, fk)| *vk += fk * dt);
+        let (f, v) = (&self.f, &self.v);
         let v_norm = ordered_sum(n, |k| v[k].norm_squared()).sqrt();
         let f_norm = ordered_sum(n, |k| f[k].norm_squared()).sqrt();
-        let mix = if f_norm > 0.0 {
-            alpha * v_norm / f_norm
-        } else {
-            0.0
-        };
-        x.par_iter_mut()
-            .zip(v.par_iter_mut())
-            .zip(f.par_iter())
+        let mix = step.mix(v_norm, f_norm);
+        let alpha = step.alpha;
+        self.x
+            .par_iter_mut()
+            .zip(self.v.par_iter_mut())
+            .zip(self.f.par_iter())
             .with_min_len(1024)
             .for_each(|((xk, vk), fk)| {
                 *vk = *vk * (1.0 - alpha) + fk * mix;
                 *xk += *vk * dt;
             });
-        let moved = x
+        let moved = self
+            .x
             .par_iter()
-            .zip(x_ref.par_iter())
+            .zip(self.x_ref.par_iter())
             .with_min_len(4096)
             .map(|(a, b)| (a - b).norm())
             .reduce(|| 0.0, f64::max);
-        if 2.0 * moved > skin {
-            x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = ScaledVerletList::build(x, radii, &cell, skin)?;
-            rebuilds += 1;
-            x_ref.copy_from_slice(x);
+        if 2.0 * moved > self.skin {
+            let cell = &self.cell;
+            self.x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+            self.list = ScaledVerletList::build(self.x, self.radii, &self.cell, self.skin)?;
+            self.rebuilds += 1;
+            self.x_ref.copy_from_slice(self.x);
         }
-        forces(x, radii, side, &list, &mut f, &mut overlap, &mut contact);
-        worst = max_of(&overlap);
-        if iterations % 25 == 0 {
-            on_check(iterations, worst);
-        }
+        self.force_pass();
+        Ok(())
     }
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-    Ok(RelaxOutcome {
-        iterations,
-        rebuilds,
-        max_overlap: worst,
-        overlap_free: worst < tol,
-        force_balanced,
-    })
 }
 
 /// [`generate`], also returning how the minimisation went.
@@ -675,133 +732,179 @@ fn fire_jam_in_pool(
 ) -> Result<PressureOutcome> {
     let n = x.len();
     let r_max = radii.iter().copied().fold(0.0, f64::max);
-    let too_small = |side: f64| {
-        Error::Invalid(format!(
-            "packing preparation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
-             small for a unique minimum image (need more than 4.1·R_max); use more particles"
-        ))
-    };
-    const SKIN: f64 = 0.3;
-    let cutoff = 2.0 * r_max + SKIN;
+    let cutoff = 2.0 * r_max + JAM_SKIN;
     if cutoff >= 0.49 * *side {
-        return Err(too_small(*side));
+        return Err(cell_too_small(n, *side));
     }
-    let mut cell = PeriodicCell::new(Vec3::repeat(*side))?;
+    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
     x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
 
-    const DT_START: f64 = 0.02;
-    // Twice the fixed-cell minimiser's: stable (ω_max·dt < 2 with ω_max² ≈ 2·Z_max for unit
-    // masses and stiffness) and halves the iterations of the slow creep near jamming.
-    const DT_MAX: f64 = 0.4;
-    const N_DELAY: usize = 5;
-    const F_INC: f64 = 1.1;
-    const F_DEC: f64 = 0.5;
-    const ALPHA_START: f64 = 0.1;
-    const F_ALPHA: f64 = 0.99;
     // Mass of the mass-weighted cell coordinate η = √M·ε.
     let mass = 2.0 * n as f64;
-    let sqrt_mass = mass.sqrt();
-    let p_t = target.pressure;
-
-    let mut dt = DT_START;
-    let mut alpha = ALPHA_START;
-    let mut n_positive = 0usize;
-    let mut v = vec![Vec3::zeros(); n];
-    let mut v_eta = 0.0f64;
+    let v = vec![Vec3::zeros(); n];
     let mut f = vec![Vec3::zeros(); n];
-    let mut list = ScaledVerletList::build(x, radii, &cell, SKIN)?;
-    let mut side_ref = *side;
+    let list = ScaledVerletList::build(x, radii, &cell, JAM_SKIN)?;
     // Reference positions in units of the cell side (displacements exclude the affine part).
-    let mut u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
-    let mut sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
-    let mut iterations = 0usize;
-    let mut moved = vec![0.0f64; n.div_ceil(PASS_CHUNK)];
-    let mut converged = false;
-    let mut pressure;
-    let mut mean_unbalanced;
-    let mut largest_unbalanced;
-    loop {
-        let volume = *side * *side * *side;
+    let u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
+    let sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
+    let mut system = VariableCell {
+        side_ref: *side,
+        x,
+        radii,
+        side,
+        target,
+        on_check,
+        cutoff,
+        sqrt_mass: mass.sqrt(),
+        v,
+        v_eta: 0.0,
+        f,
+        list,
+        u_ref,
+        sums,
+        moved: vec![0.0f64; n.div_ceil(PASS_CHUNK)],
+        f_eta: 0.0,
+        pressure: 0.0,
+        mean_unbalanced: 0.0,
+        largest_unbalanced: 0.0,
+    };
+    let run = fire::minimise(&FIRE_VARIABLE_CELL, &mut system, target.max_iterations)?;
+    let VariableCell {
+        x,
+        side,
+        pressure,
+        mean_unbalanced,
+        largest_unbalanced,
+        ..
+    } = system;
+    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
+    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    Ok(PressureOutcome {
+        iterations: run.iterations,
+        pressure,
+        mean_unbalanced,
+        largest_unbalanced,
+        converged: run.converged,
+    })
+}
+
+/// Verlet skin of [`fire_jam_at_pressure`] (R̄).
+const JAM_SKIN: f64 = 0.3;
+
+fn cell_too_small(n: usize, side: f64) -> Error {
+    Error::Invalid(format!(
+        "packing preparation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
+         small for a unique minimum image (need more than 4.1·R_max); use more particles"
+    ))
+}
+
+/// The enthalpy with the cell side as a degree of freedom, as the [`FireSystem`] of
+/// [`fire_jam_at_pressure`].
+struct VariableCell<'a> {
+    x: &'a mut [Vec3],
+    radii: &'a [f64],
+    side: &'a mut f64,
+    target: &'a PressureTarget,
+    on_check: &'a mut (dyn FnMut(&JamCheck) + Send),
+    /// Neighbour cutoff 2·R_max + skin.
+    cutoff: f64,
+    /// √M of the cell coordinate η = √M·ε.
+    sqrt_mass: f64,
+    v: Vec<Vec3>,
+    /// Velocity of η.
+    v_eta: f64,
+    f: Vec<Vec3>,
+    list: ScaledVerletList,
+    /// Cell side at the last Verlet-list build.
+    side_ref: f64,
+    /// Positions at the last build, in units of the cell side.
+    u_ref: Vec<Vec3>,
+    /// Sums of the last force pass.
+    sums: ChunkSums,
+    /// Largest displacement since the last build, per chunk.
+    moved: Vec<f64>,
+    /// Generalised force on η, −∂H/∂η = (3V(P − P_t))/√M, of the current state.
+    f_eta: f64,
+    pressure: f64,
+    mean_unbalanced: f64,
+    largest_unbalanced: f64,
+}
+
+impl FireSystem for VariableCell<'_> {
+    /// Residual max(|P − P_t|/(tol·P_t), force-balance measure / its bound) ≤ 1; reports
+    /// to `on_check` at the start, every 25 iterations and at the end.
+    fn converged(&mut self, iterations: usize) -> bool {
+        let (sums, side, target) = (&self.sums, *self.side, self.target);
+        let n = self.x.len();
+        let p_t = target.pressure;
+        let volume = side * side * side;
         let pair_virial = 0.5 * sums.virial;
-        pressure = pair_virial / (3.0 * volume);
-        let f_eta = (pair_virial - 3.0 * p_t * volume) / sqrt_mass;
+        self.pressure = pair_virial / (3.0 * volume);
+        self.f_eta = (pair_virial - 3.0 * p_t * volume) / self.sqrt_mass;
         // Net forces against contact forces (both NaN, so the residual infinite, with no
         // contact).
-        mean_unbalanced = (sums.f_abs / n as f64) / (sums.force / sums.contacts as f64);
-        largest_unbalanced = sums.f_max2.sqrt() / sums.overlap_max;
+        self.mean_unbalanced = (sums.f_abs / n as f64) / (sums.force / sums.contacts as f64);
+        self.largest_unbalanced = sums.f_max2.sqrt() / sums.overlap_max;
         let residual = if sums.contacts == 0 {
             f64::INFINITY
         } else {
-            let r_p = (pressure - p_t).abs() / (target.pressure_tolerance * p_t);
+            let r_p = (self.pressure - p_t).abs() / (target.pressure_tolerance * p_t);
             let r_f = match target.force_balance {
-                ForceBalance::Mean(ratio) => mean_unbalanced / ratio,
-                ForceBalance::Largest(ratio) => largest_unbalanced / ratio,
+                ForceBalance::Mean(ratio) => self.mean_unbalanced / ratio,
+                ForceBalance::Largest(ratio) => self.largest_unbalanced / ratio,
             };
             r_p.max(r_f)
         };
         let check = JamCheck {
             iterations,
             residual,
-            pressure,
-            side: *side,
+            pressure: self.pressure,
+            side,
         };
-        if iterations % 25 == 0 {
-            on_check(&check);
+        if iterations % 25 == 0 || residual <= 1.0 || iterations >= target.max_iterations {
+            (self.on_check)(&check);
         }
-        if (residual <= 1.0 || iterations >= target.max_iterations) && iterations % 25 != 0 {
-            on_check(&check);
-        }
-        if residual <= 1.0 {
-            converged = true;
-            break;
-        }
-        if iterations >= target.max_iterations {
-            break;
-        }
-        iterations += 1;
-        let power = sums.power + f_eta * v_eta;
-        let f2 = sums.f2 + f_eta * f_eta;
-        let reset = power <= 0.0;
-        let back;
-        let v2_new;
-        if reset {
-            n_positive = 0;
-            dt = (dt * F_DEC).max(1e-4);
-            alpha = ALPHA_START;
-            back = 0.5 * dt;
-            v2_new = dt * dt * f2;
+        residual <= 1.0
+    }
+
+    fn power(&self) -> f64 {
+        self.sums.power + self.f_eta * self.v_eta
+    }
+
+    /// Semi-implicit Euler of the particles and of η in one fused pass: the cell is rescaled
+    /// affinely by exp(Δε) with the particles; the Verlet list is rebuilt when
+    /// 2·max displacement + |ΔL/L|·cutoff exceeds the skin.
+    fn advance(&mut self, step: &FireStep) -> Result<()> {
+        let (dt, alpha, reset) = (step.dt, step.alpha, step.reset);
+        let power = self.power();
+        let f_eta = self.f_eta;
+        let f2 = self.sums.f2 + f_eta * f_eta;
+        let back = step.back();
+        // |v|² after the kick, from the sums of the force pass: |v + Δt·F|².
+        let v2_new = if reset {
+            dt * dt * f2
         } else {
-            n_positive += 1;
-            if n_positive > N_DELAY {
-                dt = (dt * F_INC).min(DT_MAX);
-                alpha *= F_ALPHA;
-            }
-            back = 0.0;
-            v2_new = (sums.v2 + v_eta * v_eta + 2.0 * dt * power + dt * dt * f2).max(0.0);
-        }
-        // v ← v + dt·F, then the FIRE mixing v ← (1 − α)v + α|v| F/|F|, then x ← x + dt·v.
-        let mix = if f2 > 0.0 {
-            alpha * v2_new.sqrt() / f2.sqrt()
-        } else {
-            0.0
+            (self.sums.v2 + self.v_eta * self.v_eta + 2.0 * dt * power + dt * dt * f2).max(0.0)
         };
-        let eta_back = back * v_eta;
+        let mix = step.mix(v2_new.sqrt(), f2.sqrt());
+        let eta_back = back * self.v_eta;
         if reset {
-            v_eta = 0.0;
+            self.v_eta = 0.0;
         }
-        v_eta = (v_eta + dt * f_eta) * (1.0 - alpha) + mix * f_eta;
-        let d_eps = (dt * v_eta - eta_back) / sqrt_mass;
+        self.v_eta = (self.v_eta + dt * f_eta) * (1.0 - alpha) + mix * f_eta;
+        let d_eps = (dt * self.v_eta - eta_back) / self.sqrt_mass;
         let scale = d_eps.exp();
-        let new_side = *side * scale;
-        if cutoff >= 0.49 * new_side {
-            return Err(too_small(new_side));
+        let new_side = *self.side * scale;
+        if self.cutoff >= 0.49 * new_side {
+            return Err(cell_too_small(self.x.len(), new_side));
         }
-        *side = new_side;
-        let new_side_copy = new_side;
-        x.par_chunks_mut(PASS_CHUNK)
-            .zip(v.par_chunks_mut(PASS_CHUNK))
-            .zip(f.par_chunks(PASS_CHUNK))
-            .zip(moved.par_iter_mut())
+        *self.side = new_side;
+        let u_ref = &self.u_ref;
+        self.x
+            .par_chunks_mut(PASS_CHUNK)
+            .zip(self.v.par_chunks_mut(PASS_CHUNK))
+            .zip(self.f.par_chunks(PASS_CHUNK))
+            .zip(self.moved.par_iter_mut())
             .enumerate()
             .for_each(|(c, (((xc, vc), fc), mc))| {
                 let mut worst = 0.0f64;
@@ -812,30 +915,32 @@ fn fire_jam_in_pool(
                     }
                     *vk = (*vk + fk * dt) * (1.0 - alpha) + fk * mix;
                     *xk = (*xk + *vk * dt) * scale;
-                    let d = (*xk - u_ref[c * PASS_CHUNK + k] * new_side_copy).norm_squared();
+                    let d = (*xk - u_ref[c * PASS_CHUNK + k] * new_side).norm_squared();
                     worst = worst.max(d);
                 }
                 *mc = worst.sqrt();
             });
-        let moved_max = moved.iter().copied().fold(0.0, f64::max);
-        let strain = (*side / side_ref - 1.0).abs();
-        if 2.0 * moved_max + strain * cutoff > SKIN {
-            cell = PeriodicCell::new(Vec3::repeat(*side))?;
-            x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            list = ScaledVerletList::build(x, radii, &cell, SKIN)?;
-            side_ref = *side;
-            let s = *side;
-            u_ref.iter_mut().zip(x.iter()).for_each(|(u, p)| *u = p / s);
+        let moved_max = self.moved.iter().copied().fold(0.0, f64::max);
+        let strain = (*self.side / self.side_ref - 1.0).abs();
+        if 2.0 * moved_max + strain * self.cutoff > JAM_SKIN {
+            let cell = PeriodicCell::new(Vec3::repeat(*self.side))?;
+            self.x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+            self.list = ScaledVerletList::build(self.x, self.radii, &cell, JAM_SKIN)?;
+            self.side_ref = *self.side;
+            let s = *self.side;
+            self.u_ref
+                .iter_mut()
+                .zip(self.x.iter())
+                .for_each(|(u, p)| *u = p / s);
         }
-        sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
+        self.sums = forces_and_sums(
+            self.x,
+            &self.v,
+            self.radii,
+            *self.side,
+            &self.list,
+            &mut self.f,
+        );
+        Ok(())
     }
-    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-    Ok(PressureOutcome {
-        iterations,
-        pressure,
-        mean_unbalanced,
-        largest_unbalanced,
-        converged,
-    })
 }

@@ -120,6 +120,85 @@ pub struct CrossAnisotropic {
 
 const MODULUS_NAMES: [&str; 4] = ["E_N^a'", "E_N^b'", "E_T^a'", "E_T^b'"];
 
+/// The lattice moduli 𝓔′ = A⁻¹𝓒/μ (Šmilauer Eq. 22) that reproduce the transversely
+/// isotropic target (C11, C33, C13, C12) (Pa) on a lattice with scaling `mu`, or why the
+/// elliptic scheme cannot (non-finite input, μ ≤ 0, a target that is not positive definite
+/// with the dependent C44, a negative lattice modulus): the admissible domain of
+/// [`CrossAnisotropic::from_target`], which the calibration tests without an error value.
+pub fn target_lattice_moduli(
+    c11: f64,
+    c33: f64,
+    c13: f64,
+    c12: f64,
+    mu: f64,
+) -> std::result::Result<[f64; 4], String> {
+    let c = [c11, c33, c13, c12];
+    let names = ["C11", "C33", "C13", "C12"];
+    for (name, &v) in names.iter().zip(c.iter()) {
+        if !v.is_finite() {
+            return Err(format!(
+                "cross-anisotropic target {name} = {v}: expected a finite value in Pa"
+            ));
+        }
+    }
+    if !mu.is_finite() || mu <= 0.0 {
+        return Err(format!(
+            "cross-anisotropic lattice scaling mu must be finite and > 0, got {mu}"
+        ));
+    }
+    let target = format!("C11={c11:e}, C33={c33:e}, C13={c13:e}, C12={c12:e} Pa");
+    let c44 = dependent_c44(c11, c33, c13);
+    let c66 = 0.5 * (c11 - c12);
+    // Eigen-conditions of a transversely isotropic stiffness: C66 > 0 (i.e. C11 > C12),
+    // C44 > 0, and the (C11 + C12, √2·C13; √2·C13, C33) block positive definite.
+    let checks = [
+        (
+            c66 > 0.0,
+            format!("C66 = (C11 - C12)/2 = {c66:e} must be > 0"),
+        ),
+        (
+            c44 > 0.0,
+            format!("the dependent C44 = (C11 + C33)/4 - C13/2 = {c44:e} must be > 0"),
+        ),
+        (
+            c11 + c12 > 0.0,
+            format!("C11 + C12 = {:e} must be > 0", c11 + c12),
+        ),
+        (c33 > 0.0, format!("C33 = {c33:e} must be > 0")),
+        (
+            (c11 + c12) * c33 > 2.0 * c13 * c13,
+            format!(
+                "(C11 + C12)·C33 = {:e} must exceed 2·C13² = {:e}",
+                (c11 + c12) * c33,
+                2.0 * c13 * c13
+            ),
+        ),
+    ];
+    for (ok, why) in checks {
+        if !ok {
+            return Err(format!(
+                "cross-anisotropic target {target} is not a positive definite transversely \
+                 isotropic stiffness: {why}"
+            ));
+        }
+    }
+    let inv = inverse_block();
+    let mut e = [0.0; 4];
+    for (ek, row) in e.iter_mut().zip(inv.iter()) {
+        *ek = row.iter().zip(c.iter()).map(|(a, b)| a * b).sum::<f64>() / mu;
+    }
+    for (name, &v) in MODULUS_NAMES.iter().zip(e.iter()) {
+        if v < 0.0 {
+            return Err(format!(
+                "cross-anisotropic target {target} needs a negative lattice modulus \
+                 {name} = {v:e} Pa (E' = A^-1 C / mu, mu = {mu:e}); the elliptic scheme cannot \
+                 reproduce it"
+            ));
+        }
+    }
+    Ok(e)
+}
+
 impl CrossAnisotropic {
     /// The scheme from lattice moduli 𝓔′ = (E_N^a′, E_N^b′, E_T^a′, E_T^b′) (Pa) and an axis
     /// (normalised here). Refuses a zero or non-finite axis and moduli that are not finite or
@@ -160,70 +239,7 @@ impl CrossAnisotropic {
         axis: Vec3,
         mu: f64,
     ) -> Result<Self> {
-        let c = [c11, c33, c13, c12];
-        let names = ["C11", "C33", "C13", "C12"];
-        for (name, &v) in names.iter().zip(c.iter()) {
-            if !v.is_finite() {
-                return Err(Error::Model(format!(
-                    "cross-anisotropic target {name} = {v}: expected a finite value in Pa"
-                )));
-            }
-        }
-        if !mu.is_finite() || mu <= 0.0 {
-            return Err(Error::Model(format!(
-                "cross-anisotropic lattice scaling mu must be finite and > 0, got {mu}"
-            )));
-        }
-        let target = format!("C11={c11:e}, C33={c33:e}, C13={c13:e}, C12={c12:e} Pa");
-        let c44 = dependent_c44(c11, c33, c13);
-        let c66 = 0.5 * (c11 - c12);
-        // Eigen-conditions of a transversely isotropic stiffness: C66 > 0 (i.e. C11 > C12),
-        // C44 > 0, and the (C11 + C12, √2·C13; √2·C13, C33) block positive definite.
-        let checks = [
-            (
-                c66 > 0.0,
-                format!("C66 = (C11 - C12)/2 = {c66:e} must be > 0"),
-            ),
-            (
-                c44 > 0.0,
-                format!("the dependent C44 = (C11 + C33)/4 - C13/2 = {c44:e} must be > 0"),
-            ),
-            (
-                c11 + c12 > 0.0,
-                format!("C11 + C12 = {:e} must be > 0", c11 + c12),
-            ),
-            (c33 > 0.0, format!("C33 = {c33:e} must be > 0")),
-            (
-                (c11 + c12) * c33 > 2.0 * c13 * c13,
-                format!(
-                    "(C11 + C12)·C33 = {:e} must exceed 2·C13² = {:e}",
-                    (c11 + c12) * c33,
-                    2.0 * c13 * c13
-                ),
-            ),
-        ];
-        for (ok, why) in checks {
-            if !ok {
-                return Err(Error::Model(format!(
-                    "cross-anisotropic target {target} is not a positive definite transversely \
-                     isotropic stiffness: {why}"
-                )));
-            }
-        }
-        let inv = inverse_block();
-        let mut e = [0.0; 4];
-        for (ek, row) in e.iter_mut().zip(inv.iter()) {
-            *ek = row.iter().zip(c.iter()).map(|(a, b)| a * b).sum::<f64>() / mu;
-        }
-        for (name, &v) in MODULUS_NAMES.iter().zip(e.iter()) {
-            if v < 0.0 {
-                return Err(Error::Model(format!(
-                    "cross-anisotropic target {target} needs a negative lattice modulus \
-                     {name} = {v:e} Pa (E' = A^-1 C / mu, mu = {mu:e}); the elliptic scheme cannot \
-                     reproduce it"
-                )));
-            }
-        }
+        let e = target_lattice_moduli(c11, c33, c13, c12, mu).map_err(Error::Model)?;
         Self::from_moduli(e, axis)
     }
 

@@ -1,0 +1,281 @@
+//! The damped Broyden iteration of the relaxed calibrations: solve f(x) = 0 for the
+//! parameters x whose relaxed tensor matches the target, one relaxed solve per evaluation.
+//!
+//! Broyden (1965)'s method: the step solves J Δx = −f (minimum-norm for fewer equations than
+//! unknowns), and after every evaluation J ← J + (Δf − J Δx) Δxᵀ/|Δx|². The step policy
+//! decides from the residual only: a trial is accepted when |f| decreases (or it meets the
+//! tolerance); otherwise, or when the residual function reports the trial point
+//! [`Evaluation::Inadmissible`], the step is halved. When no trial of an iteration is
+//! accepted, the Jacobian restarts from the caller's estimate.
+
+use crate::{Error, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// What the residual function returns for a trial point.
+pub(crate) enum Evaluation<T> {
+    /// The residual f(x) and what the caller keeps of the evaluation.
+    Admissible(DVector<f64>, T),
+    /// x lies outside the admissible domain (e.g. a bond stiffness would be negative): no
+    /// relaxed solve was made.
+    Inadmissible,
+}
+
+/// Options of [`solve`].
+#[derive(Clone, Debug)]
+pub(crate) struct BroydenOptions {
+    /// Converged when max_i |f_i|/scale_i ≤ this.
+    pub tolerance: f64,
+    /// Per-component scale of the residual for the tolerance.
+    pub scale: DVector<f64>,
+    /// Admissible evaluations allowed, the starting point's included.
+    pub max_evaluations: usize,
+    /// Largest |Δx_i| of a full step (longer steps are scaled down); ∞ for none.
+    pub max_step: f64,
+    /// Trials per iteration (the full step, then halved ones).
+    pub max_trials: usize,
+}
+
+/// A point of the iteration with its residual.
+#[derive(Clone, Debug)]
+pub(crate) struct Point<T> {
+    /// The unknowns.
+    pub x: DVector<f64>,
+    /// The residual f(x).
+    pub f: DVector<f64>,
+    /// The caller's data of the evaluation.
+    pub data: T,
+}
+
+/// How [`solve`] ended.
+#[derive(Clone, Debug)]
+pub(crate) enum End {
+    /// max_i |f_i|/scale_i ≤ tolerance at the returned point.
+    Converged,
+    /// `max_evaluations` reached.
+    Budget,
+    /// Every trial of an iteration was inadmissible; the last trial point.
+    Inadmissible(DVector<f64>),
+}
+
+/// Result of [`solve`].
+#[derive(Clone, Debug)]
+pub(crate) struct BroydenResult<T> {
+    /// The last accepted point (the start if none was).
+    pub point: Point<T>,
+    /// The smallest scaled error of all admissible evaluations.
+    pub best_error: f64,
+    /// Admissible evaluations made, the starting point's included.
+    pub evaluations: usize,
+    /// Why the iteration stopped.
+    pub end: End,
+}
+
+/// Broyden's iteration (see the module doc) from `start` (already evaluated) with the initial
+/// Jacobian `jacobian`. `project` maps a trial into the caller's box (the step used for the
+/// update is the projected one); `restart` gives the Jacobian at x when an iteration accepts
+/// no trial. Errors of `residual` are returned as they are.
+pub(crate) fn solve<T: Clone>(
+    start: Point<T>,
+    jacobian: DMatrix<f64>,
+    mut residual: impl FnMut(&DVector<f64>) -> Result<Evaluation<T>>,
+    project: impl Fn(&mut DVector<f64>),
+    restart: impl Fn(&DVector<f64>) -> DMatrix<f64>,
+    opts: &BroydenOptions,
+) -> Result<BroydenResult<T>> {
+    let error_of = |f: &DVector<f64>| f.component_div(&opts.scale).amax();
+    let mut jac = jacobian;
+    let mut current = start;
+    let mut error = error_of(&current.f);
+    let mut best_error = error;
+    let mut evaluations = 1usize;
+    let done = |error: f64, evaluations: usize| {
+        if error <= opts.tolerance {
+            Some(End::Converged)
+        } else if evaluations >= opts.max_evaluations {
+            Some(End::Budget)
+        } else {
+            None
+        }
+    };
+    let finish = |point, best_error, evaluations, end| {
+        Ok(BroydenResult {
+            point,
+            best_error,
+            evaluations,
+            end,
+        })
+    };
+    loop {
+        if let Some(end) = done(error, evaluations) {
+            return finish(current, best_error, evaluations, end);
+        }
+        let mut step = newton_step(&jac, &current.f)?;
+        let biggest = step.amax();
+        if biggest > opts.max_step {
+            step *= opts.max_step / biggest;
+        }
+        let mut accepted = false;
+        let mut admissible = false;
+        let mut last_trial = current.x.clone();
+        for _ in 0..opts.max_trials {
+            let mut trial = &current.x + &step;
+            project(&mut trial);
+            last_trial.clone_from(&trial);
+            let (f_new, data) = match residual(&trial)? {
+                Evaluation::Admissible(f, data) => (f, data),
+                Evaluation::Inadmissible => {
+                    step *= 0.5;
+                    continue;
+                }
+            };
+            admissible = true;
+            evaluations += 1;
+            let actual = &trial - &current.x;
+            let denominator = actual.norm_squared();
+            if denominator > 0.0 {
+                // Broyden's update: J ← J + (Δf − JΔx)Δxᵀ/|Δx|².
+                let correction =
+                    (&f_new - &current.f - &jac * &actual) * actual.transpose() / denominator;
+                jac += correction;
+            }
+            let new_error = error_of(&f_new);
+            best_error = best_error.min(new_error);
+            if f_new.norm() < current.f.norm() || new_error <= opts.tolerance {
+                current = Point {
+                    x: trial,
+                    f: f_new,
+                    data,
+                };
+                error = new_error;
+                accepted = true;
+                break;
+            }
+            if evaluations >= opts.max_evaluations {
+                break;
+            }
+            step *= 0.5;
+        }
+        if !admissible {
+            return finish(
+                current,
+                best_error,
+                evaluations,
+                End::Inadmissible(last_trial),
+            );
+        }
+        if !accepted {
+            jac = restart(&current.x);
+        }
+    }
+}
+
+/// The step Δx with J Δx = −f: J⁻¹ for a square invertible J (LU), else the minimum-norm
+/// least-squares step of the pseudo-inverse.
+fn newton_step(jac: &DMatrix<f64>, f: &DVector<f64>) -> Result<DVector<f64>> {
+    if jac.is_square() {
+        if let Some(inv) = jac.clone().try_inverse() {
+            return Ok(-(inv * f));
+        }
+    }
+    let pinv = jac
+        .clone()
+        .pseudo_inverse(1e-12)
+        .map_err(|e| Error::Invalid(format!("relaxed calibration: Jacobian: {e}")))?;
+    Ok(-(pinv * f))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts(n: usize) -> BroydenOptions {
+        BroydenOptions {
+            tolerance: 1e-10,
+            scale: DVector::from_element(n, 1.0),
+            max_evaluations: 50,
+            max_step: f64::INFINITY,
+            max_trials: 8,
+        }
+    }
+
+    /// x² = 2, y³ = 3 from a poor Jacobian.
+    #[test]
+    fn solves_a_square_system() {
+        let r = |x: &DVector<f64>| DVector::from_vec(vec![x[0] * x[0] - 2.0, x[1].powi(3) - 3.0]);
+        let x0 = DVector::from_vec(vec![1.0, 1.0]);
+        let start = Point {
+            f: r(&x0),
+            x: x0,
+            data: (),
+        };
+        let jac = DMatrix::from_diagonal(&DVector::from_vec(vec![2.0, 3.0]));
+        let out = solve(
+            start,
+            jac.clone(),
+            |x| Ok(Evaluation::Admissible(r(x), ())),
+            |_| {},
+            |_| jac.clone(),
+            &opts(2),
+        )
+        .unwrap();
+        assert!(matches!(out.end, End::Converged), "{out:?}");
+        assert!((out.point.x[0] - 2f64.sqrt()).abs() < 1e-9);
+        assert!((out.point.x[1] - 3f64.cbrt()).abs() < 1e-9);
+    }
+
+    /// An inadmissible region x < 0.5 on the way to the root of x − 0.6 from x = 2 with a
+    /// Jacobian that overshoots: the step is halved until the trial is admissible.
+    #[test]
+    fn halves_steps_into_inadmissible_points() {
+        let x0 = DVector::from_vec(vec![2.0]);
+        let start = Point {
+            f: DVector::from_vec(vec![1.4]),
+            x: x0,
+            data: (),
+        };
+        let jac = DMatrix::from_element(1, 1, 0.5);
+        let mut inadmissible = 0;
+        let out = solve(
+            start,
+            jac.clone(),
+            |x| {
+                if x[0] < 0.5 {
+                    inadmissible += 1;
+                    Ok(Evaluation::Inadmissible)
+                } else {
+                    Ok(Evaluation::Admissible(x.add_scalar(-0.6), ()))
+                }
+            },
+            |_| {},
+            |_| jac.clone(),
+            &opts(1),
+        )
+        .unwrap();
+        assert!(matches!(out.end, End::Converged), "{out:?}");
+        assert!(inadmissible > 0);
+        assert!((out.point.x[0] - 0.6).abs() < 1e-10);
+    }
+
+    /// Every trial inadmissible: the iteration stops and says where.
+    #[test]
+    fn reports_an_inadmissible_neighbourhood() {
+        let x0 = DVector::from_vec(vec![1.0]);
+        let start = Point {
+            f: DVector::from_vec(vec![1.0]),
+            x: x0,
+            data: (),
+        };
+        let jac = DMatrix::from_element(1, 1, 1.0);
+        let out = solve(
+            start,
+            jac.clone(),
+            |_| Ok(Evaluation::<()>::Inadmissible),
+            |_| {},
+            |_| jac.clone(),
+            &opts(1),
+        )
+        .unwrap();
+        assert!(matches!(out.end, End::Inadmissible(_)), "{out:?}");
+        assert_eq!(out.evaluations, 1);
+    }
+}
