@@ -692,7 +692,7 @@ fn rows_at(h: &StressHistory, steps: &[u64], run: &str) -> Result<Vec<[f64; 6]>>
 /// Run every comparison for `packing` with `bonds` and springs `k` in `dir` (one
 /// sub-directory per LIGGGHTS run). The LIGGGHTS runs (one process at a time) go on in a
 /// second thread beside the integrator and the relaxed solver. `progress` receives a line
-/// per Rust-side stage. Checks outside tolerance are in [`ValidationReport::failed`], not
+/// per Rust-side stage. Checks outside tolerance are in `ValidationReport::failures()`, not
 /// errors. Errors: a run that fails (with LIGGGHTS' ERROR line), bad options.
 pub fn validate_liggghts(
     dir: &Path,
