@@ -108,7 +108,7 @@ impl Assembly {
         let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
         if bonds.is_empty() {
             return Err(Error::Invalid(format!(
-                "{NO_BONDS} between the {} particles: increase the gap/factor value",
+                "{NO_BONDS} of the {} particles: increase the gap/factor value",
                 packing.len()
             )));
         }
@@ -253,4 +253,4 @@ impl Assembly {
 }
 
 /// Start of the refusal of a packing that the bonding rule leaves without bonds.
-const NO_BONDS: &str = "the bonding rule produces no bonds";
+const NO_BONDS: &str = "the bonding rule bonds no pair";

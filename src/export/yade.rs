@@ -10,7 +10,8 @@
 //! The YADE traps the module handles are listed in its docstring and in
 //! `yade-scripts/README.md`.
 
-use crate::bonds::{self, table, BondSet, BondStiffness};
+use crate::assembly::Assembly;
+use crate::bonds::{table, BondSet, BondStiffness};
 use crate::model::Model;
 use crate::packing::{self, Packing};
 use crate::tensor::{Stiffness6, Voigt6};
@@ -336,26 +337,22 @@ pub fn export_yade(
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
     opts.validate()?;
-    let model = Model::from_path(model_path)?;
-    let packing = packing::io::read_packing(packing_path)?;
-    if packing.cell.is_none() {
+    let asm = Assembly::from_files(packing_path, model_path)?;
+    if asm.packing.cell.is_none() {
         return Err(Error::Invalid(format!(
             "{}: the packing is not periodic (no `# periodic Lx Ly Lz` header); the YADE \
              element tests deform a periodic cell",
             packing_path.display()
         )));
     }
-    let bond_set = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if bond_set.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{}: the bonding rule of {} bonds no pair of this packing (increase its value)",
-            packing_path.display(),
-            model_path.display()
-        )));
-    }
-    let scheme = model.build_scheme(Some((&packing, &bond_set)))?;
-    let springs = bonds::assign_stiffness(&packing, &bond_set, scheme.as_ref(), &model.geometry)?;
-    write_yade_export(dir, &packing, &bond_set, &springs, Some(&model), opts)
+    write_yade_export(
+        dir,
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        Some(&asm.model),
+        opts,
+    )
 }
 
 #[cfg(feature = "engines")]

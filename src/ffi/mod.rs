@@ -8,11 +8,10 @@
 //! Conventions as in the Rust library: SI units, Voigt order 11, 22, 33, 23, 13, 12,
 //! engineering shear strain, tensors row-major in [`bridge::Tensor6::c`].
 
+use crate::assembly::{Assembly, Method};
 use crate::bonds::{self, BondSet, BondStiffness};
-use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use crate::homogenize::{mean_field, voigt};
+use crate::homogenize::mean_field;
 use crate::model::Model;
-use crate::packing::{self, Packing};
 use crate::schemes::StiffnessScheme;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
@@ -167,8 +166,8 @@ impl ModelHandle {
     }
 
     fn bind_packing(&mut self, packing_path: &str) -> Result<()> {
-        let (packing, bonds) = bonded_packing(packing_path, &self.model)?;
-        self.scheme = Some(self.model.build_scheme(Some((&packing, &bonds)))?);
+        let asm = assembly(packing_path, self)?;
+        self.scheme = Some(self.model.build_scheme(Some((&asm.packing, &asm.bonds)))?);
         Ok(())
     }
 
@@ -244,32 +243,14 @@ fn tensor6(c: &Stiffness6) -> Tensor6 {
     Tensor6 { c: out }
 }
 
-fn bonded_packing(packing_path: &str, model: &Model) -> Result<(Packing, BondSet)> {
-    let packing = packing::io::read_packing(Path::new(packing_path))?;
-    let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{packing_path}: the bonding rule produced no bonds"
-        )));
-    }
-    Ok((packing, bonds))
-}
-
-fn bonded_with_springs(
-    packing_path: &str,
-    handle: &ModelHandle,
-) -> Result<(Packing, BondSet, BondStiffness)> {
-    let (packing, bonds) = bonded_packing(packing_path, &handle.model)?;
-    let scheme = match &handle.scheme {
-        Some(_) if !handle.model.needs_packing() => None,
-        _ => Some(handle.model.build_scheme(Some((&packing, &bonds)))?),
-    };
-    let scheme_ref: &dyn StiffnessScheme = match &scheme {
-        Some(s) => s.as_ref(),
-        None => handle.scheme()?,
-    };
-    let k = bonds::assign_stiffness(&packing, &bonds, scheme_ref, &handle.model.geometry)?;
-    Ok((packing, bonds, k))
+/// The library's assembly of a packing file under the handle's model (the same entry point
+/// as every other client).
+fn assembly(packing_path: &str, handle: &ModelHandle) -> Result<Assembly> {
+    Assembly::from_packing_file(
+        Path::new(packing_path),
+        handle.model.clone(),
+        Path::new("model"),
+    )
 }
 
 fn rows(bonds: &BondSet, k: &BondStiffness) -> Vec<BondRow> {
@@ -320,8 +301,8 @@ fn load_bond_table(path: &str) -> Result<Vec<BondRow>> {
 }
 
 fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>> {
-    let (_, bonds, k) = bonded_with_springs(packing_path, model)?;
-    Ok(rows(&bonds, &k))
+    let asm = assembly(packing_path, model)?;
+    Ok(rows(&asm.bonds, &asm.springs))
 }
 
 fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {
@@ -346,22 +327,18 @@ fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {
 }
 
 fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Result<Tensor6> {
-    let (packing, bonds, k) = bonded_with_springs(packing_path, model)?;
-    let c = match method {
-        "voigt" => voigt::voigt_tensor(&bonds, &k, packing.volume()),
-        "relaxed" => relaxed_tensor(&packing, &bonds, &k, &RelaxedOptions::default())?.c,
-        "mean-field" => {
-            let scheme = model.model.build_scheme(Some((&packing, &bonds)))?;
-            let pre = mean_field::packing_prefactor(&packing, &bonds, &model.model.geometry);
-            mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER)
-        }
+    let method = match method {
+        "voigt" => Method::Voigt,
+        "relaxed" => Method::relaxed(),
+        "mean-field" => Method::MeanField,
         other => {
             return Err(Error::Invalid(format!(
                 "compute_tensor: method \"{other}\": expected voigt, mean-field or relaxed"
             )))
         }
     };
-    Ok(tensor6(&c))
+    let result = assembly(packing_path, model)?.tensor(&method)?;
+    Ok(tensor6(&result.report.tensor()))
 }
 
 fn library_version() -> String {
