@@ -252,5 +252,59 @@ impl Assembly {
     }
 }
 
+/// A bond density given by numbers instead of a packing: equal spheres of radius R at solid
+/// fraction φ with Z bonds each, bond length 2R (the mean field's assembly without a packing).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EqualSpheres {
+    /// Mean bonds per particle Z.
+    pub coordination: f64,
+    /// Solid fraction φ, in [0.01, 1).
+    pub solid_fraction: f64,
+    /// Sphere radius R (m).
+    pub radius: f64,
+}
+
+impl EqualSpheres {
+    /// The mean-field prefactor N_c⟨l²⟩/V·g = 3Zφ/(2πR)·g(R, R, 2R) (Truszkowska 2018
+    /// App. A), refused when an input is out of range or the product leaves double precision.
+    pub fn prefactor(&self, geometry: &crate::schemes::Geometry) -> Result<f64> {
+        let (z, phi, r) = (self.coordination, self.solid_fraction, self.radius);
+        let positive = z > 0.0 && r > 0.0 && z.is_finite() && r.is_finite();
+        if !positive || !(0.01..1.0).contains(&phi) {
+            return Err(Error::Invalid(format!(
+                "equal spheres: expected coordination Z > 0, solid fraction φ in [0.01, 1) and \
+                 radius R > 0 m, got Z = {z}, φ = {phi}, R = {r} m"
+            )));
+        }
+        let g = geometry.factor(r, r, 2.0 * r);
+        let pre = mean_field::equal_sphere_prefactor(z, phi, r) * g;
+        if !(pre.is_finite() && pre > 0.0) {
+            return Err(Error::Invalid(format!(
+                "equal spheres: Z = {z:e}, φ = {phi}, R = {r:e} m give a bond-density prefactor \
+                 of {pre:e}, out of the range of double precision (radius in metres, e.g. 1e-3)"
+            )));
+        }
+        Ok(pre)
+    }
+
+    /// The mean-field tensor of `model` at this bond density, checked. The cross-anisotropic
+    /// scheme takes its lattice scaling μ from actual bonds, so it needs an [`Assembly`].
+    pub fn mean_field(&self, model: &Model) -> Result<TensorReport> {
+        if model.needs_packing() {
+            return Err(Error::Invalid(
+                "the cross-anisotropic scheme needs a packing (its lattice scaling μ comes from \
+                 the bonds)"
+                    .into(),
+            ));
+        }
+        let pre = self.prefactor(&model.geometry)?;
+        let scheme = model.build_scheme(None)?;
+        let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+        let mut report = TensorReport::new("mean-field", c, None)?;
+        report.coordination = Some(self.coordination);
+        Ok(report)
+    }
+}
+
 /// Start of the refusal of a packing that the bonding rule leaves without bonds.
 const NO_BONDS: &str = "the bonding rule bonds no pair";

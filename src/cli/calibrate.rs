@@ -3,13 +3,13 @@
 
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
+use anisobond::assembly::EqualSpheres;
 use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
 use anisobond::calibrate::cubic::{
     calibrate_cubic_mean_field, calibrate_cubic_relaxed, packing_prefactor, CubicCalibration,
     CubicOptions, Family, Level,
 };
 use anisobond::calibrate::target::{CubicTarget, Target};
-use anisobond::homogenize::mean_field::equal_sphere_prefactor;
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
@@ -389,8 +389,12 @@ fn calibrate_cubic_cmd(
                         return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
                     }
                 }
-                let g = base.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
-                equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius) * g
+                let spheres = EqualSpheres {
+                    coordination: a.coordination,
+                    solid_fraction: a.solid_fraction,
+                    radius: a.radius,
+                };
+                spheres.prefactor(&base.geometry)?
             }
         };
         calibrate_cubic_mean_field(t, prefactor, default_normal, &opts)?

@@ -15,12 +15,12 @@ mod stress_test;
 mod validate;
 mod validate_liggghts;
 
-use anisobond::assembly::{Assembly, Detail, Method};
+use anisobond::assembly::{Assembly, Detail, EqualSpheres, Method};
 use anisobond::homogenize::network::LeverArm;
 use anisobond::homogenize::relaxed::{
     CgPreconditioner, RelaxedOptions, RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
 };
-use anisobond::homogenize::{mean_field, report::TensorReport};
+use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::{Error, Result};
@@ -362,11 +362,6 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
                 report_of(&asm, m, &a.statics, &a.integrator)?
             }
             (None, MethodArg::MeanField) => {
-                if model.needs_packing() {
-                    return Err(Error::Invalid(
-                    "the cross-anisotropic scheme needs a PACKING (its lattice scaling μ comes from the bonds)".into(),
-                ));
-                }
                 for (name, v) in [
                     ("--coordination", a.coordination),
                     ("--solid-fraction", a.solid_fraction),
@@ -382,23 +377,20 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
                         a.solid_fraction
                     )));
                 }
-                let scheme = model.build_scheme(None)?;
-                let g = model.geometry.factor(a.radius, a.radius, 2.0 * a.radius);
-                let pre =
-                    mean_field::equal_sphere_prefactor(a.coordination, a.solid_fraction, a.radius)
-                        * g;
-                if !(pre.is_finite() && pre > 0.0) {
-                    return Err(Error::Invalid(format!(
-                    "--coordination {:e}, --solid-fraction {}, --radius {:e} m give a bond-density \
-                     prefactor Z·φ·g/(V_p) of {pre:e}, out of the range of double precision \
-                     (radius in metres, e.g. 1e-3)",
-                    a.coordination, a.solid_fraction, a.radius
-                )));
-                }
-                let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
-                let mut r = TensorReport::new("mean-field", c, None)?;
-                r.coordination = Some(a.coordination);
-                r
+                let spheres = EqualSpheres {
+                    coordination: a.coordination,
+                    solid_fraction: a.solid_fraction,
+                    radius: a.radius,
+                };
+                spheres.prefactor(&model.geometry).map_err(|_| {
+                    Error::Invalid(format!(
+                        "--coordination {:e}, --solid-fraction {}, --radius {:e} m give a \
+                         bond-density prefactor out of the range of double precision (radius \
+                         in metres, e.g. 1e-3)",
+                        a.coordination, a.solid_fraction, a.radius
+                    ))
+                })?;
+                spheres.mean_field(&model)?
             }
             (None, m) => {
                 return Err(Error::Invalid(format!(
