@@ -201,6 +201,12 @@ impl Assembly {
         Ok(TensorResult { report, detail })
     }
 
+    /// The reference integrator on this assembly with bond law `law` and settings `dem`.
+    pub fn simulation(&self, law: LawKind, dem: &DemOptions) -> Result<Simulation> {
+        let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
+        Simulation::new(&self.packing, &self.bonds, law, dem)
+    }
+
     /// The six strain-controlled element tests of the reference integrator (Truszkowska 2018
     /// Eqs. 17–22, fitted by Eq. 27), with histories if `options.history_every` > 0.
     pub fn element_tests(
@@ -209,9 +215,7 @@ impl Assembly {
         options: &ElementTestOptions,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<DynamicTensor> {
-        let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
-        let sim = Simulation::new(&self.packing, &self.bonds, law, &options.dem)?;
-        element::dynamic_tensor(&sim, options, progress)
+        element::dynamic_tensor(&self.simulation(law, &options.dem)?, options, progress)
     }
 
     /// Šmilauer's stress-controlled element tests (uniaxial strain with the other stresses
@@ -223,9 +227,7 @@ impl Assembly {
         options: &StressTestOptions,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<StressControlledResult> {
-        let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
-        let sim = Simulation::new(&self.packing, &self.bonds, law, dem)?;
-        stress_controlled_tensor(&sim, options, progress)
+        stress_controlled_tensor(&self.simulation(law, dem)?, options, progress)
     }
 
     /// Truszkowska 2018's element tests on the free block cut from the periodic packing,

@@ -16,10 +16,7 @@ where
     F: FnOnce(&mut dyn Write) -> Result<()>,
 {
     check_output_directory(path)?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let tmp = output_temp_file(dir, ".tmp").map_err(|e| Error::io(path, e))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file());
@@ -28,6 +25,14 @@ where
     }
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// The folder `path` is in (`.` for a bare file name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
 }
 
 /// A temporary file in `dir` created as an ordinary file would be: on Unix with mode 0666
@@ -93,10 +98,7 @@ fn canonical_target(path: &Path) -> std::path::PathBuf {
     if let Ok(c) = std::fs::canonicalize(path) {
         return c;
     }
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let base = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
     match path.file_name() {
         Some(name) => base.join(name),
@@ -117,16 +119,23 @@ impl OutputSet {
         }
     }
 
-    fn check_not_input(&self, target: &Path, shown: &Path) -> Result<()> {
+    fn check_not_input(&self, target: &Path) -> Result<()> {
         let c = canonical_target(target);
         if self.inputs.contains(&c) {
             return Err(Error::Invalid(format!(
                 "{}: this output is also an input of the command; refusing to overwrite it \
                  (choose another output path)",
-                shown.display()
+                target.display()
             )));
         }
         Ok(())
+    }
+
+    /// The checks every target gets: its folder exists, it is not an input, it is planned once.
+    fn check_target(&self, target: &Path) -> Result<()> {
+        check_output_directory(target)?;
+        self.check_not_input(target)?;
+        self.check_planned_once(target)
     }
 
     fn check_planned_once(&self, target: &Path) -> Result<()> {
@@ -148,19 +157,14 @@ impl OutputSet {
     /// Plan the file `target`; returns the staging path the writer fills (same folder,
     /// hidden name, same extension, so writers that choose a format by extension still do).
     pub fn file(&mut self, target: &Path) -> Result<std::path::PathBuf> {
-        check_output_directory(target)?;
         if target.is_dir() {
             return Err(Error::Invalid(format!(
                 "{}: is a folder; expected a file path for this output",
                 target.display()
             )));
         }
-        self.check_not_input(target, target)?;
-        self.check_planned_once(target)?;
-        let dir = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
+        self.check_target(target)?;
+        let dir = parent_dir(target);
         let suffix = match target.extension() {
             Some(e) => format!(".{}", e.to_string_lossy()),
             None => ".tmp".into(),
@@ -181,19 +185,14 @@ impl OutputSet {
     /// Plan the folder `target` (created if missing, merged into if it exists); returns the
     /// staging folder the writers fill, beside the target.
     pub fn dir(&mut self, target: &Path) -> Result<std::path::PathBuf> {
-        check_output_directory(target)?;
         if target.exists() && !target.is_dir() {
             return Err(Error::Invalid(format!(
                 "{}: exists and is not a folder; expected a folder for this output",
                 target.display()
             )));
         }
-        self.check_not_input(target, target)?;
-        self.check_planned_once(target)?;
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
+        self.check_target(target)?;
+        let parent = parent_dir(target);
         let mut builder = tempfile::Builder::new();
         builder.prefix(".anisobond");
         #[cfg(unix)]
@@ -238,14 +237,14 @@ impl OutputSet {
     /// Check every final path, then move the staged outputs into place.
     pub fn commit(self) -> Result<()> {
         for (_, target) in &self.files {
-            self.check_not_input(target, target)?;
+            self.check_not_input(target)?;
         }
         let mut dir_files = Vec::with_capacity(self.dirs.len());
         for (staged, target) in &self.dirs {
             let files = Self::staged_files(staged.path())?;
             for rel in &files {
                 let fin = target.join(rel);
-                self.check_not_input(&fin, &fin)?;
+                self.check_not_input(&fin)?;
                 if fin.is_dir() {
                     return Err(Error::Invalid(format!(
                         "{}: is a folder; this command writes a file there (remove or rename \

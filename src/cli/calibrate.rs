@@ -3,7 +3,6 @@
 
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
-use anisobond::assembly::EqualSpheres;
 use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
 use anisobond::calibrate::cubic::{
     calibrate_cubic_mean_field, calibrate_cubic_relaxed, packing_prefactor, CubicCalibration,
@@ -210,11 +209,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             "--on relaxed needs the packing: --on relaxed PACKING".into(),
         ));
     }
-    let inputs: Vec<&Path> = packing_path
-        .iter()
-        .map(|p| p.as_path())
-        .chain([a.model.as_path()])
-        .collect();
+    let inputs = super::output::inputs(packing_path.as_deref(), &a.model);
     let mut out = OutputSet::new(&inputs);
     let staged = out.file(&a.output)?;
     let bonded = match &packing_path {
@@ -380,21 +375,8 @@ fn calibrate_cubic_cmd(
         let prefactor = match bonded {
             Some(b) => packing_prefactor(&b.packing, &b.bonds, &base.geometry),
             None => {
-                for (name, v) in [
-                    ("--coordination", a.coordination),
-                    ("--solid-fraction", a.solid_fraction),
-                    ("--radius", a.radius),
-                ] {
-                    if !v.is_finite() || v <= 0.0 {
-                        return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
-                    }
-                }
-                let spheres = EqualSpheres {
-                    coordination: a.coordination,
-                    solid_fraction: a.solid_fraction,
-                    radius: a.radius,
-                };
-                spheres.prefactor(&base.geometry)?
+                super::equal_spheres(a.coordination, a.solid_fraction, a.radius, &base.geometry)?
+                    .prefactor(&base.geometry)?
             }
         };
         calibrate_cubic_mean_field(t, prefactor, default_normal, &opts)?

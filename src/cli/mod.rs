@@ -329,6 +329,43 @@ fn blame_inputs(e: Error, inputs: &[&Path]) -> Error {
     }
 }
 
+/// The equal-sphere bond density of `--coordination`, `--solid-fraction`, `--radius` (mean
+/// field without a packing), refused by option name when out of range or overflowing.
+pub(crate) fn equal_spheres(
+    coordination: f64,
+    solid_fraction: f64,
+    radius: f64,
+    geometry: &anisobond::schemes::Geometry,
+) -> Result<EqualSpheres> {
+    for (name, v) in [
+        ("--coordination", coordination),
+        ("--solid-fraction", solid_fraction),
+        ("--radius", radius),
+    ] {
+        if !v.is_finite() || v <= 0.0 {
+            return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
+        }
+    }
+    if !(0.01..1.0).contains(&solid_fraction) {
+        return Err(Error::Invalid(format!(
+            "--solid-fraction must be in [0.01, 1) (a bonded sphere assembly), got {solid_fraction}"
+        )));
+    }
+    let spheres = EqualSpheres {
+        coordination,
+        solid_fraction,
+        radius,
+    };
+    spheres.prefactor(geometry).map_err(|_| {
+        Error::Invalid(format!(
+            "--coordination {coordination:e}, --solid-fraction {solid_fraction}, --radius \
+             {radius:e} m give a bond-density prefactor out of the range of double precision \
+             (radius in metres, e.g. 1e-3)"
+        ))
+    })?;
+    Ok(spheres)
+}
+
 impl MethodArg {
     /// The method's name on the command line and in reports.
     fn name(self) -> &'static str {
@@ -346,12 +383,7 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     if matches!(a.method, MethodArg::Dynamic) {
         a.integrator.validate()?;
     }
-    let inputs: Vec<&Path> = a
-        .packing
-        .iter()
-        .map(|p| p.as_path())
-        .chain([a.model.as_path()])
-        .collect();
+    let inputs = output::inputs(a.packing.as_deref(), &a.model);
     let mut out = OutputSet::new(&inputs);
     let staged = out.optional_file(a.output.as_deref())?;
     let model = Model::from_path(&a.model)?;
@@ -362,35 +394,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
                 report_of(&asm, m, &a.statics, &a.integrator)?
             }
             (None, MethodArg::MeanField) => {
-                for (name, v) in [
-                    ("--coordination", a.coordination),
-                    ("--solid-fraction", a.solid_fraction),
-                    ("--radius", a.radius),
-                ] {
-                    if !v.is_finite() || v <= 0.0 {
-                        return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
-                    }
-                }
-                if !(a.solid_fraction >= 0.01 && a.solid_fraction < 1.0) {
-                    return Err(Error::Invalid(format!(
-                        "--solid-fraction must be in [0.01, 1) (a bonded sphere assembly), got {}",
-                        a.solid_fraction
-                    )));
-                }
-                let spheres = EqualSpheres {
-                    coordination: a.coordination,
-                    solid_fraction: a.solid_fraction,
-                    radius: a.radius,
-                };
-                spheres.prefactor(&model.geometry).map_err(|_| {
-                    Error::Invalid(format!(
-                        "--coordination {:e}, --solid-fraction {}, --radius {:e} m give a \
-                         bond-density prefactor out of the range of double precision (radius \
-                         in metres, e.g. 1e-3)",
-                        a.coordination, a.solid_fraction, a.radius
-                    ))
-                })?;
-                spheres.mean_field(&model)?
+                equal_spheres(a.coordination, a.solid_fraction, a.radius, &model.geometry)?
+                    .mean_field(&model)?
             }
             (None, m) => {
                 return Err(Error::Invalid(format!(

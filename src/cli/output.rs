@@ -6,6 +6,12 @@ use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 
+/// The input files of a command that reads an optional packing and a model, for
+/// [`anisobond::io::OutputSet::new`].
+pub fn inputs<'a>(packing: Option<&'a Path>, model: &'a Path) -> Vec<&'a Path> {
+    packing.into_iter().chain([model]).collect()
+}
+
 /// Refuse a JSON value holding a `null` (what serde writes for NaN or infinity) anywhere
 /// below it; `at` names the value in the message.
 pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {

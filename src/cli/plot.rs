@@ -12,7 +12,7 @@ use anisobond::schemes::Convention;
 use anisobond::tensor::Voigt6;
 use anisobond::{Error, Result};
 use clap::Subcommand;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What to plot.
 #[derive(Subcommand)]
@@ -51,12 +51,7 @@ fn unit(c: Convention) -> &'static str {
 }
 
 fn stiffness(a: StiffnessArgs) -> Result<()> {
-    let inputs: Vec<&Path> = a
-        .packing
-        .iter()
-        .map(|p| p.as_path())
-        .chain([a.model.as_path()])
-        .collect();
+    let inputs = super::output::inputs(a.packing.as_deref(), &a.model);
     let mut out = OutputSet::new(&inputs);
     let dir = out.dir(&a.output)?;
     let model = Model::from_path(&a.model)?;
