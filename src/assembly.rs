@@ -122,6 +122,25 @@ impl Assembly {
         })
     }
 
+    /// An assembly of given bonds (a scene's own interactions, [`BondSet::from_pairs`])
+    /// instead of the model's bonding rule; the springs are assigned as in [`Assembly::new`].
+    pub fn with_bonds(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {
+        if bonds.is_empty() {
+            return Err(Error::Invalid(format!(
+                "no bonds given for the {} particles",
+                packing.len()
+            )));
+        }
+        let scheme = model.build_scheme(Some((&packing, &bonds)))?;
+        let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
+        Ok(Assembly {
+            packing,
+            model,
+            bonds,
+            springs,
+        })
+    }
+
     /// Read the packing file (every format [`packing::io::read_packing`] knows) and bond it
     /// by `model`; a refusal that comes from the model names `model_path`, one of a packing
     /// without bonds names both files.

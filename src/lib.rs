@@ -46,6 +46,8 @@ pub mod model;
 pub mod packing;
 #[cfg(feature = "plot")]
 pub mod plot;
+#[cfg(feature = "python")]
+pub mod python;
 pub mod schemes;
 pub mod tensor;
 #[cfg(feature = "engines")]

@@ -651,6 +651,93 @@ impl Model {
         })
     }
 
+    /// The springs of arbitrary bonds: unit `normals` (lab frame), sphere radii `r_i`, `r_j`
+    /// (m) and bond lengths (m), by the scheme's magnitudes (Truszkowska 2018 Eq. 6,
+    /// Šmilauer's k_n = E′_N(θ)·π̂r²/(2r′)) and the model's geometry, exactly as
+    /// [`crate::bonds::assign_stiffness`] gives a packing's bonds. The cross-anisotropic
+    /// scheme needs its packing's lattice scaling μ (`lattice_scaling`); the others ignore it.
+    /// Refuses, naming the bond, a normal not of unit length (within 1e-9), a radius or
+    /// length not finite and > 0, or columns of different lengths.
+    pub fn springs_for(
+        &self,
+        normals: &[Vec3],
+        r_i: &[f64],
+        r_j: &[f64],
+        lengths: &[f64],
+        lattice_scaling: Option<f64>,
+    ) -> Result<crate::bonds::BondStiffness> {
+        let n = normals.len();
+        if r_i.len() != n || r_j.len() != n || lengths.len() != n {
+            return Err(Error::Invalid(format!(
+                "springs: {n} normals but {} r_i, {} r_j and {} lengths (one of each per bond)",
+                r_i.len(),
+                r_j.len(),
+                lengths.len()
+            )));
+        }
+        for b in 0..n {
+            let norm = normals[b].norm();
+            if (norm - 1.0).abs() > 1e-9 || norm.is_nan() {
+                return Err(Error::Invalid(format!(
+                    "springs: normal {b} has length {norm}, expected a unit vector"
+                )));
+            }
+            for (name, v) in [("r_i", r_i[b]), ("r_j", r_j[b]), ("length", lengths[b])] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(Error::Invalid(format!(
+                        "springs: {name}[{b}] = {v}, expected a finite value > 0 m"
+                    )));
+                }
+            }
+        }
+        let scheme: Box<dyn StiffnessScheme> = match (&self.scheme, lattice_scaling) {
+            (SchemeSpec::CrossAnisotropic { .. }, None) => {
+                return Err(Error::Model(
+                    "the cross-anisotropic scheme's springs depend on the packing's lattice                      scaling μ (Šmilauer): give it, or take the springs of an assembly"
+                        .into(),
+                ))
+            }
+            (
+                SchemeSpec::CrossAnisotropic {
+                    c11,
+                    c33,
+                    c13,
+                    c12,
+                    axis,
+                },
+                Some(mu),
+            ) => {
+                if !(mu.is_finite() && mu > 0.0) {
+                    return Err(Error::Invalid(format!(
+                        "springs: lattice scaling μ = {mu}, expected a finite value > 0"
+                    )));
+                }
+                Box::new(CrossAnisotropic::from_target(
+                    *c11, *c33, *c13, *c12, *axis, mu,
+                )?)
+            }
+            _ => self.build_scheme(None)?,
+        };
+        let mut out = crate::bonds::BondStiffness::default();
+        for b in 0..n {
+            let m = scheme.magnitudes(&normals[b]);
+            let s = self.geometry.springs(m, r_i[b], r_j[b], lengths[b]);
+            for (name, v) in [("kn", s.kn), ("ks", s.ks), ("kr", s.kr), ("ktw", s.ktw)] {
+                if !v.is_finite() || v < 0.0 {
+                    return Err(Error::Model(format!(
+                        "bond {b}: {name} = {v} is negative or not finite"
+                    )));
+                }
+            }
+            out.radius.push(self.geometry.bond_radius(r_i[b], r_j[b]));
+            out.kn.push(s.kn);
+            out.ks.push(s.ks);
+            out.kr.push(s.kr);
+            out.ktw.push(s.ktw);
+        }
+        Ok(out)
+    }
+
     /// Serialise as TOML in the SPEC layout (used for calibrated models and exports).
     pub fn to_toml_string(&self) -> String {
         let (rule, value) = match self.bonding {

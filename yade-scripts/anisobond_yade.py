@@ -260,6 +260,86 @@ def _write_atomic(path, text):
 
 
 # --------------------------------------------------------------------------------------
+# Springs from the anisobond Python package (when it is importable)
+# --------------------------------------------------------------------------------------
+
+INSTALL_HINT = ("the anisobond Python package is not importable in this Python (%s): from a "
+                "clone of anisobond, `/usr/bin/python3 -m pip install --break-system-packages "
+                "--no-deps .` (YADE's Python), or `pip install --target DIR --no-deps "
+                "anisobond-*.whl` and PYTHONPATH=DIR")
+
+
+def package():
+    """The ``anisobond`` Python package, or ImportError saying how to install it."""
+    try:
+        import anisobond
+    except ImportError as e:
+        raise ImportError(INSTALL_HINT % e)
+    return anisobond
+
+
+def _model(model):
+    ab = package()
+    return model if isinstance(model, ab.Model) else ab.Model.load(model)
+
+
+def lattice_scaling(model, packing, bonds):
+    """Šmilauer's lattice scaling mu of these bonds (what the cross-anisotropic scheme's
+    springs depend on), computed by the package; None for the other schemes."""
+    ab = package()
+    if _model(model).kind != "cross-anisotropic":
+        return None
+    pk = ab.Packing(packing.positions, packing.radii, cell=packing.cell)
+    return ab.Assembly.from_bonds(pk, _model(model), bonds.i, bonds.j).lattice_scaling
+
+
+def assign_springs(model, packing, bonds):
+    """Replace the table's springs kn, ks, kr, ktw (and bond radius) with those the anisobond
+    package computes for ``model`` (an ``anisobond.Model`` or a model file) from each bond's
+    normal, radii and length -- the table then holds the model's springs whatever wrote it.
+    Returns the table."""
+    import numpy as np
+    m = _model(model)
+    normals = np.column_stack([bonds.nx, bonds.ny, bonds.nz])
+    radii = np.asarray(packing.radii, dtype=float)
+    i, j = np.asarray(bonds.i), np.asarray(bonds.j)
+    k = m.springs(normals, radii[i], radii[j], np.asarray(bonds.length, dtype=float),
+                  lattice_scaling=lattice_scaling(m, packing, bonds))
+    for name in ("kn", "ks", "kr", "ktw", "radius"):
+        setattr(bonds, name, k[name].tolist())
+    return bonds
+
+
+def scene_bonds(model, interactions=None):
+    """The bond table of the current YADE scene: one bond per real interaction (YADE's own
+    ids, normal, branch vector and periodic image ``cellDist``), springs computed by the
+    anisobond package for ``model``; with it, the packing of the scene's bodies. Returns
+    (Packing, BondTable)."""
+    from yade import O
+    inters = [I for I in O.interactions if I.isReal] if interactions is None else list(interactions)
+    if not inters:
+        raise InputError("the scene has no real interactions to bond")
+    positions = [tuple(b.state.pos) for b in O.bodies]
+    radii = [b.shape.radius for b in O.bodies]
+    cell = tuple(O.cell.hSize[k, k] for k in range(3)) if O.periodic else None
+    cols = dict((c, []) for c in BOND_COLUMNS)
+    for I in inters:
+        l = branch_vector(I)
+        length = l.norm()
+        cols["i"].append(I.id1)
+        cols["j"].append(I.id2)
+        for k, c in enumerate(("nx", "ny", "nz")):
+            cols[c].append(l[k] / length)
+        cols["length"].append(length)
+        for k, c in enumerate(("ix", "iy", "iz")):
+            cols[c].append(int(I.cellDist[k]))
+        for c in ("radius", "kn", "ks", "kr", "ktw"):
+            cols[c].append(0.0)
+    packing = Packing(positions, radii, cell)
+    return packing, assign_springs(model, packing, BondTable(cols))
+
+
+# --------------------------------------------------------------------------------------
 # Time step
 # --------------------------------------------------------------------------------------
 
@@ -684,6 +764,9 @@ def main(argv=None):
     ap.add_argument("--paths", default="11,22,33,23,13,12")
     ap.add_argument("--history", default="yade-history.csv")
     ap.add_argument("--tensor", default="yade-tensor.json")
+    ap.add_argument("--model", default=None,
+                    help="model file: compute the springs with the anisobond Python package "
+                         "instead of taking the table's")
     a = ap.parse_args(argv)
     try:
         paths = [VOIGT_LABELS.index(p.strip()) for p in a.paths.split(",") if p.strip()]
@@ -693,6 +776,10 @@ def main(argv=None):
         ap.error("need strain > 0, steps >= 1, 0 <= damping < 1, density > 0")
     packing = read_packing(a.packing)
     bonds = read_bond_table(a.bonds, len(packing))
+    if a.model is not None:
+        assign_springs(a.model, packing, bonds)
+        print("anisobond_yade: springs of %d bonds computed by the anisobond package %s for %s"
+              % (len(bonds), package().__version__, a.model))
     t0 = time.time()
     res = element_tests(packing, bonds, strain=a.strain, steps=a.steps, damping=a.damping,
                         density=a.density, dt=a.dt, safety=a.safety, paths=paths)

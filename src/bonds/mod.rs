@@ -10,7 +10,7 @@ pub mod stiffness;
 pub mod table;
 
 use crate::packing::Packing;
-use crate::Vec3;
+use crate::{Error, Result, Vec3};
 
 pub use rules::BondingRule;
 pub use stiffness::{assign_stiffness, BondStiffness};
@@ -49,6 +49,67 @@ impl BondSet {
         self.normal.push(branch / len);
         self.length.push(len);
         self.image.push(image);
+    }
+
+    /// The bonds between given pairs (i, j) of `packing`, e.g. the interactions of a YADE or
+    /// LIGGGHTS scene: `image` is the periodic image of j seen from i (the minimum image of a
+    /// periodic cell when `None`; zero for a free cluster). Each pair is stored with i < j
+    /// (the image negated when swapped). Refuses, naming the row, an index out of range, a
+    /// self-bond, a pair given twice, an image in a cluster and a zero branch vector.
+    pub fn from_pairs(
+        packing: &Packing,
+        i: &[u32],
+        j: &[u32],
+        image: Option<&[[i32; 3]]>,
+    ) -> Result<BondSet> {
+        let n = packing.len();
+        if i.len() != j.len() || image.is_some_and(|m| m.len() != i.len()) {
+            return Err(Error::Invalid(format!(
+                "bonds: {} i, {} j and {} images (one of each per bond)",
+                i.len(),
+                j.len(),
+                image.map_or(i.len(), |m| m.len())
+            )));
+        }
+        let mut set = BondSet::default();
+        let mut seen = std::collections::HashSet::new();
+        for b in 0..i.len() {
+            let (a, c) = (i[b], j[b]);
+            if a as usize >= n || c as usize >= n || a == c {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: particles {a} and {c}, expected two different indices below {n}"
+                )));
+            }
+            let d = packing.positions[c as usize] - packing.positions[a as usize];
+            let (branch, img) = match (&packing.cell, image) {
+                (Some(cell), Some(m)) => (d + cell.shift(m[b]), m[b]),
+                (Some(cell), None) => cell.minimum_image(d),
+                (None, Some(m)) if m[b] != [0, 0, 0] => {
+                    return Err(Error::Invalid(format!(
+                        "bond {b}: periodic image {:?} in a packing without a cell",
+                        m[b]
+                    )))
+                }
+                (None, _) => (d, [0, 0, 0]),
+            };
+            let (lo, hi, branch, img) = if a < c {
+                (a, c, branch, img)
+            } else {
+                (c, a, -branch, [-img[0], -img[1], -img[2]])
+            };
+            if !seen.insert((lo, hi, img)) {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: particles {lo}–{hi} (image {img:?}) are bonded twice"
+                )));
+            }
+            if branch.norm() <= 0.0 || branch.norm().is_nan() {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: particles {lo} and {hi} are at the same place"
+                )));
+            }
+            set.push(lo, hi, branch, img);
+        }
+        Ok(set)
     }
 
     /// Branch vector l of bond `b` (m).

@@ -58,6 +58,23 @@ impl Family {
         }
     }
 
+    /// The family named as on the command line (`nearest`, `equi`, `prolate`, `oblate`).
+    pub fn from_name(name: &str) -> Result<Family> {
+        [
+            Family::Nearest,
+            Family::Equi,
+            Family::Prolate,
+            Family::Oblate,
+        ]
+        .into_iter()
+        .find(|f| f.as_str() == name)
+        .ok_or_else(|| {
+            Error::Invalid(format!(
+                "family `{name}`: expected nearest, equi, prolate or oblate"
+            ))
+        })
+    }
+
     fn allows_x(self, x: f64) -> bool {
         match self {
             Family::Prolate => x >= 0.0,

@@ -44,3 +44,157 @@ pub fn check_iteration_options(tolerance: f64, max_iterations: usize) -> crate::
     }
     Ok(())
 }
+
+use crate::assembly::{Assembly, EqualSpheres};
+use crate::model::{Model, SchemeSpec};
+use crate::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use crate::schemes::cubic::CubicModel;
+use crate::{Error, Result};
+
+/// Which tensor a calibration matches the target with.
+#[derive(Clone, Copy, Debug)]
+pub enum CalibrateOn<'a> {
+    /// The mean-field tensor at the bond density of equal spheres (no packing needed).
+    MeanField(EqualSpheres),
+    /// The mean-field tensor at this assembly's bond density (and, cross-anisotropic, its μ).
+    MeanFieldOf(&'a Assembly),
+    /// The exact relaxed tensor of this assembly (Broyden iteration on relaxed solves).
+    Relaxed(&'a Assembly),
+}
+
+/// What a calibration found besides the model.
+#[derive(Clone, Debug)]
+pub enum Calibration {
+    /// A cubic target: the spheroid parameters, the achieved constants and the iterations.
+    Cubic(Box<CubicCalibration>),
+    /// A cross-anisotropic target on a packing's relaxed tensor.
+    CrossRelaxed(Box<CrossCalibration>),
+    /// A cross-anisotropic target at the mean-field level: Šmilauer's inversion E′ = A⁻¹C/μ is
+    /// exact under uniform strain, so the model holds the target itself.
+    CrossMeanField,
+}
+
+/// A calibrated model and how it was obtained.
+#[derive(Clone, Debug)]
+pub struct Calibrated {
+    /// The base model with the calibrated scheme parameters (geometry and bonding kept).
+    pub model: Model,
+    /// The calibration's details.
+    pub calibration: Calibration,
+}
+
+/// Calibrate `base` (its scheme kind, geometry and bonding) to `target` on the tensor `on`
+/// says. Cubic targets use `opts` in full; cross-anisotropic ones its tolerance, iteration
+/// limit and relaxed-solver options. The one entry point of the CLI and the Python package.
+pub fn calibrate(
+    base: &Model,
+    target: &Target,
+    on: CalibrateOn<'_>,
+    opts: &CubicOptions,
+) -> Result<Calibrated> {
+    match *target {
+        Target::Cubic(t) => {
+            let cal = calibrate_cubic(base, &t, on, opts)?;
+            Ok(Calibrated {
+                model: cal.model(base),
+                calibration: Calibration::Cubic(Box::new(cal)),
+            })
+        }
+        Target::CrossAnisotropic { c11, c33, c13, c12 } => {
+            let goal = [c11, c33, c13, c12];
+            if let CalibrateOn::Relaxed(b) = on {
+                let cross = cross::CrossOptions {
+                    tolerance: opts.tolerance,
+                    max_iterations: opts.max_iterations,
+                    relaxed: opts.relaxed,
+                };
+                let cal = calibrate_cross_relaxed(&b.packing, &b.bonds, base, goal, &cross)?;
+                return Ok(Calibrated {
+                    model: cal.model(base),
+                    calibration: Calibration::CrossRelaxed(Box::new(cal)),
+                });
+            }
+            let SchemeSpec::CrossAnisotropic { axis, .. } = base.scheme else {
+                return Err(Error::Invalid(
+                    "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\"".into(),
+                ));
+            };
+            // The scheme must be able to reproduce the target before "calibrated" is said:
+            // without a packing μ = 1 serves, since the signs of the lattice moduli
+            // E′ = A⁻¹C/μ do not depend on μ > 0.
+            let mu = match on {
+                CalibrateOn::MeanFieldOf(b) => {
+                    lattice_scaling(&b.packing, &b.bonds, base.geometry.pi_hat)?
+                }
+                _ => 1.0,
+            };
+            CrossAnisotropic::from_target(c11, c33, c13, c12, axis, mu).map_err(|e| {
+                Error::Invalid(format!(
+                    "target C11={c11:e},C33={c33:e},C13={c13:e},C12={c12:e} Pa: {e}"
+                ))
+            })?;
+            let mut model = base.clone();
+            model.scheme = SchemeSpec::CrossAnisotropic {
+                c11,
+                c33,
+                c13,
+                c12,
+                axis,
+            };
+            Ok(Calibrated {
+                model,
+                calibration: Calibration::CrossMeanField,
+            })
+        }
+    }
+}
+
+/// The cubic branch of [`calibrate`]: the model file's extended flag and normal magnitude
+/// (or 1e13) are the defaults of the options and of an absolute target's scale.
+fn calibrate_cubic(
+    base: &Model,
+    t: &CubicTarget,
+    on: CalibrateOn<'_>,
+    opts: &CubicOptions,
+) -> Result<CubicCalibration> {
+    let (base_extended, normal) = match &base.scheme {
+        SchemeSpec::Cubic {
+            extended, normal, ..
+        } => (*extended, *normal),
+        SchemeSpec::Isotropic { normal, .. } => (false, *normal),
+        SchemeSpec::CrossAnisotropic { .. } => return Err(Error::Invalid(
+            "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic"
+                .into(),
+        )),
+    };
+    let opts = CubicOptions {
+        extended: opts.extended || base_extended,
+        ..*opts
+    };
+    let default_normal = if normal > 0.0 { normal } else { 1e13 };
+    match on {
+        CalibrateOn::Relaxed(b) => {
+            calibrate_cubic_relaxed(&b.packing, &b.bonds, base, t, default_normal, &opts)
+        }
+        CalibrateOn::MeanFieldOf(b) => {
+            let prefactor = cubic::packing_prefactor(&b.packing, &b.bonds, &base.geometry);
+            calibrate_cubic_mean_field(t, prefactor, default_normal, &opts)
+        }
+        CalibrateOn::MeanField(spheres) => {
+            let prefactor = spheres.prefactor(&base.geometry)?;
+            calibrate_cubic_mean_field(t, prefactor, default_normal, &opts)
+        }
+    }
+}
+
+/// The cubic model a forced choice names (`None`: by the target's Zener ratio).
+pub fn forced_cubic_model(name: &str) -> Result<Option<CubicModel>> {
+    match name {
+        "auto" => Ok(None),
+        "zener-above-1" => Ok(Some(CubicModel::ZenerAbove1)),
+        "zener-below-1" => Ok(Some(CubicModel::ZenerBelow1)),
+        other => Err(Error::Invalid(format!(
+            "cubic model `{other}`: expected auto, zener-above-1 or zener-below-1"
+        ))),
+    }
+}

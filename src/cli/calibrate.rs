@@ -3,17 +3,13 @@
 
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
-use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
-use anisobond::calibrate::cubic::{
-    calibrate_cubic_mean_field, calibrate_cubic_relaxed, packing_prefactor, CubicCalibration,
-    CubicOptions, Family, Level,
-};
-use anisobond::calibrate::target::{CubicTarget, Target};
+use anisobond::calibrate::cubic::{CubicCalibration, CubicOptions, Family, Level};
+use anisobond::calibrate::target::Target;
+use anisobond::calibrate::{calibrate, CalibrateOn, Calibration, CrossCalibration};
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
-use anisobond::model::{Model, SchemeSpec};
+use anisobond::model::Model;
 use anisobond::packing;
-use anisobond::schemes::cross_anisotropic::lattice_scaling;
 use anisobond::schemes::cubic::CubicModel;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
@@ -222,121 +218,19 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         }
         None => None,
     };
-    let relaxed_opts = RelaxedOptions {
-        lever_arm: a.lever_arm.into(),
-        ..Default::default()
-    };
-    let start = Instant::now();
-    let calibrated = match target {
-        Target::Cubic(t) => {
-            calibrate_cubic_cmd(&a, &base, &t, relaxed, bonded.as_ref(), relaxed_opts)?
-        }
-        Target::CrossAnisotropic { c11, c33, c13, c12 } => {
-            let goal = [c11, c33, c13, c12];
-            match (relaxed, &bonded) {
-                (true, Some(b)) => {
-                    let opts = CrossOptions {
-                        tolerance: a.tolerance,
-                        max_iterations: a.max_iterations,
-                        relaxed: relaxed_opts,
-                    };
-                    let cal = calibrate_cross_relaxed(&b.packing, &b.bonds, &base, goal, &opts)?;
-                    let secs = start.elapsed().as_secs_f64();
-                    println!(
-                        "calibrated (relaxed, on the packing): cross-anisotropic, μ = {:.5}, {} relaxed solves (CG iterations {:?}), {secs:.2} s",
-                        cal.mu,
-                        cal.history.len(),
-                        cal.history.iter().map(|h| h.1).collect::<Vec<_>>()
-                    );
-                    println!(
-                        "  lattice moduli E′ = (E_N^a′, E_N^b′, E_T^a′, E_T^b′) = ({:.5e}, {:.5e}, {:.5e}, {:.5e}) Pa",
-                        cal.e_prime[0], cal.e_prime[1], cal.e_prime[2], cal.e_prime[3]
-                    );
-                    println!(
-                        "  {:<6} {:>12} {:>14} {:>12} {:>14} {:>10}",
-                        "", "target GPa", "plain inv. GPa", "written GPa", "achieved GPa", "error"
-                    );
-                    let t = &cal.achieved_transverse;
-                    let got = [t.c11, t.c33, t.c13, t.c12];
-                    for (k, name) in ["C11", "C33", "C13", "C12"].iter().enumerate() {
-                        println!(
-                            "  {name:<6} {:>12.5} {:>14.5} {:>12.5} {:>14.5} {:>+9.3} %",
-                            goal[k] / 1e9,
-                            cal.plain_inversion[k] / 1e9,
-                            cal.written[k] / 1e9,
-                            got[k] / 1e9,
-                            100.0 * (got[k] - goal[k]) / goal[k].abs()
-                        );
-                    }
-                    println!(
-                        "  C44 (not calibrated; the elliptic scheme ties it to the others): {:.5} GPa, C66 {:.5} GPa",
-                        t.c44 / 1e9,
-                        t.c66 / 1e9
-                    );
-                    cal.model(&base)
-                }
-                _ => {
-                    // Mean field: Šmilauer's inversion is exact at the uniform-strain level.
-                    let SchemeSpec::CrossAnisotropic { axis, .. } = base.scheme else {
-                        return Err(Error::Invalid(
-                            "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\"".into(),
-                        ));
-                    };
-                    // The scheme must be able to reproduce the target before "calibrated" is
-                    // said: without a packing μ = 1 serves, since the signs of the lattice
-                    // moduli E′ = A⁻¹C/μ do not depend on μ > 0.
-                    let mu = match &bonded {
-                        Some(b) => lattice_scaling(&b.packing, &b.bonds, base.geometry.pi_hat)?,
-                        None => 1.0,
-                    };
-                    anisobond::schemes::cross_anisotropic::CrossAnisotropic::from_target(
-                        c11, c33, c13, c12, axis, mu,
-                    )
-                    .map_err(|e| Error::Invalid(format!("--target {}: {e}", a.target)))?;
-                    println!("calibrated (mean field): cross-anisotropic; Šmilauer's inversion E′ = A⁻¹C/μ reproduces the target exactly under uniform strain, so the model holds the target itself. Its relaxed tensor on a packing is a few % softer: use --on relaxed PACKING to correct for that.");
-                    let mut m = base.clone();
-                    m.scheme = SchemeSpec::CrossAnisotropic {
-                        c11,
-                        c33,
-                        c13,
-                        c12,
-                        axis,
-                    };
-                    m
-                }
-            }
-        }
-    };
-    // Round trip: the written file must read back as the same model.
-    let text = calibrated.to_toml_string();
-    Model::from_toml_str(&text, &a.output.display().to_string())?;
-    anisobond::io::write_string_atomic(&staged, &text)?;
-    out.commit()?;
-    println!("wrote {}", a.output.display());
-    Ok(())
-}
-
-fn calibrate_cubic_cmd(
-    a: &CalibrateArgs,
-    base: &Model,
-    t: &CubicTarget,
-    relaxed: bool,
-    bonded: Option<&Assembly>,
-    relaxed_opts: RelaxedOptions,
-) -> Result<Model> {
-    let (base_extended, default_normal) = match &base.scheme {
-        SchemeSpec::Cubic {
-            extended, normal, ..
-        } => (*extended, *normal),
-        SchemeSpec::Isotropic { normal, .. } => (false, *normal),
-        SchemeSpec::CrossAnisotropic { .. } => return Err(Error::Invalid(
-            "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic"
-                .into(),
-        )),
+    let on = match (&bonded, relaxed) {
+        (Some(b), true) => CalibrateOn::Relaxed(b),
+        (Some(b), false) => CalibrateOn::MeanFieldOf(b),
+        (None, _) => CalibrateOn::MeanField(super::equal_spheres(
+            a.coordination,
+            a.solid_fraction,
+            a.radius,
+            &base.geometry,
+        )?),
     };
     let opts = CubicOptions {
         family: a.family.into(),
-        extended: a.extended || base_extended,
+        extended: a.extended,
         model: match a.cubic_model {
             CubicModelArg::Auto => None,
             CubicModelArg::ZenerAbove1 => Some(CubicModel::ZenerAbove1),
@@ -344,43 +238,78 @@ fn calibrate_cubic_cmd(
         },
         tolerance: a.tolerance,
         max_iterations: a.max_iterations,
-        relaxed: relaxed_opts,
+        relaxed: RelaxedOptions {
+            lever_arm: a.lever_arm.into(),
+            ..Default::default()
+        },
         ..Default::default()
     };
-    let default_normal = if default_normal > 0.0 {
-        default_normal
-    } else {
-        1e13
-    };
-    println!(
-        "target: C12/C11 = {:.4}, C44/C11 = {:.4}, Zener {:.4}{}",
-        t.c12_over_c11,
-        t.c44_over_c11,
-        t.zener(),
-        t.c11
-            .map(|c| format!(", C11 = {:.4} GPa", c / 1e9))
-            .unwrap_or_default()
-    );
-    let start = Instant::now();
-    let cal = if relaxed {
-        let b = bonded.ok_or_else(|| Error::Invalid("--on relaxed needs a PACKING".into()))?;
+    if let Target::Cubic(t) = &target {
         println!(
-            "packing: {} particles, {} bonds (coordination Z = {:.3})",
-            b.packing.len(),
-            b.bonds.len(),
-            b.bonds.coordination(b.packing.len())
+            "target: C12/C11 = {:.4}, C44/C11 = {:.4}, Zener {:.4}{}",
+            t.c12_over_c11,
+            t.c44_over_c11,
+            t.zener(),
+            t.c11
+                .map(|c| format!(", C11 = {:.4} GPa", c / 1e9))
+                .unwrap_or_default()
         );
-        calibrate_cubic_relaxed(&b.packing, &b.bonds, base, t, default_normal, &opts)?
-    } else {
-        let prefactor = match bonded {
-            Some(b) => packing_prefactor(&b.packing, &b.bonds, &base.geometry),
-            None => {
-                super::equal_spheres(a.coordination, a.solid_fraction, a.radius, &base.geometry)?
-                    .prefactor(&base.geometry)?
-            }
-        };
-        calibrate_cubic_mean_field(t, prefactor, default_normal, &opts)?
-    };
-    print_cubic(&cal, start.elapsed().as_secs_f64());
-    Ok(cal.model(base))
+        if let (Some(b), true) = (&bonded, relaxed) {
+            println!(
+                "packing: {} particles, {} bonds (coordination Z = {:.3})",
+                b.packing.len(),
+                b.bonds.len(),
+                b.bonds.coordination(b.packing.len())
+            );
+        }
+    }
+    let start = Instant::now();
+    let calibrated = calibrate(&base, &target, on, &opts)?;
+    let secs = start.elapsed().as_secs_f64();
+    match &calibrated.calibration {
+        Calibration::Cubic(cal) => print_cubic(cal, secs),
+        Calibration::CrossRelaxed(cal) => print_cross(cal, secs),
+        Calibration::CrossMeanField => println!("calibrated (mean field): cross-anisotropic; Šmilauer's inversion E′ = A⁻¹C/μ reproduces the target exactly under uniform strain, so the model holds the target itself. Its relaxed tensor on a packing is a few % softer: use --on relaxed PACKING to correct for that."),
+    }
+    // Round trip: the written file must read back as the same model.
+    let text = calibrated.model.to_toml_string();
+    Model::from_toml_str(&text, &a.output.display().to_string())?;
+    anisobond::io::write_string_atomic(&staged, &text)?;
+    out.commit()?;
+    println!("wrote {}", a.output.display());
+    Ok(())
+}
+
+fn print_cross(cal: &CrossCalibration, secs: f64) {
+    println!(
+        "calibrated (relaxed, on the packing): cross-anisotropic, μ = {:.5}, {} relaxed solves (CG iterations {:?}), {secs:.2} s",
+        cal.mu,
+        cal.history.len(),
+        cal.history.iter().map(|h| h.1).collect::<Vec<_>>()
+    );
+    println!(
+        "  lattice moduli E′ = (E_N^a′, E_N^b′, E_T^a′, E_T^b′) = ({:.5e}, {:.5e}, {:.5e}, {:.5e}) Pa",
+        cal.e_prime[0], cal.e_prime[1], cal.e_prime[2], cal.e_prime[3]
+    );
+    println!(
+        "  {:<6} {:>12} {:>14} {:>12} {:>14} {:>10}",
+        "", "target GPa", "plain inv. GPa", "written GPa", "achieved GPa", "error"
+    );
+    let t = &cal.achieved_transverse;
+    let got = [t.c11, t.c33, t.c13, t.c12];
+    for (k, name) in ["C11", "C33", "C13", "C12"].iter().enumerate() {
+        println!(
+            "  {name:<6} {:>12.5} {:>14.5} {:>12.5} {:>14.5} {:>+9.3} %",
+            cal.target[k] / 1e9,
+            cal.plain_inversion[k] / 1e9,
+            cal.written[k] / 1e9,
+            got[k] / 1e9,
+            100.0 * (got[k] - cal.target[k]) / cal.target[k].abs()
+        );
+    }
+    println!(
+        "  C44 (not calibrated; the elliptic scheme ties it to the others): {:.5} GPa, C66 {:.5} GPa",
+        t.c44 / 1e9,
+        t.c66 / 1e9
+    );
 }

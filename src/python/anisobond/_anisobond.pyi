@@ -1,0 +1,145 @@
+# Type stubs of the compiled part of anisobond (src/python/mod.rs). Units: m, N, Pa;
+# springs kn, ks in N/m, kr, ktw in N·m/rad; tensors (6, 6) in Pa, Voigt order 11 22 33 23 13 12.
+from os import PathLike
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, PathLike]
+_Floats = npt.ArrayLike
+_Progress = Optional[Callable[[float], Any]]
+
+__version__: str
+
+class AnisobondError(ValueError): ...
+class InputError(AnisobondError): ...
+class ModelError(AnisobondError): ...
+class FileError(AnisobondError): ...
+
+class Model:
+    """Bonding rule, stiffness scheme and geometry (a model file)."""
+    @staticmethod
+    def load(path: _Path) -> "Model": ...
+    @staticmethod
+    def from_toml(text: str, name: str = "<toml>") -> "Model": ...
+    @staticmethod
+    def from_dict(d: Mapping[str, Any]) -> "Model": ...
+    @staticmethod
+    def truszkowska_mrv() -> "Model": ...
+    @property
+    def kind(self) -> str:
+        """'cubic', 'isotropic' or 'cross-anisotropic'."""
+    def to_toml(self) -> str: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def save(self, path: _Path) -> None: ...
+    def springs(
+        self,
+        normals: _Floats,
+        r_i: _Floats,
+        r_j: _Floats,
+        lengths: _Floats,
+        lattice_scaling: Optional[float] = None,
+    ) -> Dict[str, np.ndarray]:
+        """normals (N, 3) unit; r_i, r_j, lengths (N,) in m -> kn, ks (N/m), kr, ktw (N·m/rad), radius (m)."""
+
+class Packing:
+    """Spheres in a periodic cell (cell=(Lx, Ly, Lz) in m) or a free cluster (cell=None)."""
+    def __init__(
+        self, positions: _Floats, radii: _Floats, cell: Optional[Sequence[float]] = None
+    ) -> None: ...
+    @staticmethod
+    def load(path: _Path) -> "Packing": ...
+    def save(self, path: _Path) -> None: ...
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3), m."""
+    @property
+    def radii(self) -> np.ndarray:
+        """(N,), m."""
+    @property
+    def cell(self) -> Optional[Tuple[float, float, float]]: ...
+    @property
+    def volume(self) -> float:
+        """m³."""
+    @property
+    def solid_fraction(self) -> float: ...
+    def __len__(self) -> int: ...
+
+class Assembly:
+    """A packing bonded by a model: bonds and every bond's springs."""
+    def __init__(self, packing: Packing, model: Model) -> None: ...
+    @staticmethod
+    def from_bonds(
+        packing: Packing,
+        model: Model,
+        i: _Floats,
+        j: _Floats,
+        image: Optional[_Floats] = None,
+    ) -> "Assembly": ...
+    @property
+    def bonds(self) -> Dict[str, np.ndarray]:
+        """i, j, normal (Nb, 3), length, radius, kn, ks, kr, ktw, image (Nb, 3)."""
+    @property
+    def packing(self) -> Packing: ...
+    @property
+    def model(self) -> Model: ...
+    @property
+    def n_bonds(self) -> int: ...
+    @property
+    def n_particles(self) -> int: ...
+    @property
+    def coordination(self) -> float: ...
+    @property
+    def lattice_scaling(self) -> float: ...
+    def tensor(
+        self,
+        method: str = "relaxed",
+        *,
+        shell: int = 2,
+        energy: bool = False,
+        lever_arm: str = "mid-gap",
+        tolerance: float = 1e-6,
+        solver: str = "cg",
+        law: str = "yade",
+        strain: float = 1e-5,
+        damping: float = 0.4,
+        max_steps: int = 20000,
+        progress: _Progress = None,
+    ) -> np.ndarray:
+        """(6, 6) stiffness in Pa: 'mean-field', 'voigt', 'relaxed', 'laf' or 'dynamic'."""
+    def tensor_report(
+        self,
+        method: str = "relaxed",
+        *,
+        shell: int = 2,
+        energy: bool = False,
+        lever_arm: str = "mid-gap",
+        tolerance: float = 1e-6,
+        solver: str = "cg",
+        law: str = "yade",
+        strain: float = 1e-5,
+        damping: float = 0.4,
+        max_steps: int = 20000,
+        progress: _Progress = None,
+    ) -> Dict[str, Any]: ...
+    def write_bonds(self, path: _Path) -> None: ...
+    def export_yade(
+        self,
+        directory: _Path,
+        *,
+        strain: float = 1e-5,
+        steps: int = 200,
+        damping: float = 0.4,
+        density: float = 2600.0,
+        time_step: Optional[float] = None,
+        safety: float = 0.8,
+        paths: str = "11,22,33,23,13,12",
+    ) -> None: ...
+    def export_liggghts(self, directory: _Path, *, shear: bool = True) -> None: ...
+
+def calibrate_model(
+    model: Model, target: Union[str, Mapping[str, float]], on: Any = None, **options: Any
+) -> Tuple[Model, Dict[str, Any]]: ...
+def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
+    """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""

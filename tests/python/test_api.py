@@ -1,0 +1,231 @@
+"""The Python package against the `anisobond` command on the same inputs (to the last digit),
+against closed forms, and on bad arguments. Run: pytest tests/python (after `pip install .`)."""
+
+import json
+import threading
+
+import numpy as np
+import pytest
+
+import anisobond as ab
+from conftest import cli
+
+
+def cli_report(files, method, model="cubic.toml", *extra):
+    out = files / ("cli-%s-%s.json" % (model, method))
+    cli("tensor", files / "packing.txt", "--model", files / model, "--method", method,
+        "-o", out, *extra)
+    return json.loads(out.read_text())
+
+
+@pytest.fixture(scope="module")
+def cubic(files):
+    model = ab.Model.load(files / "cubic.toml")
+    return ab.Assembly(ab.Packing.load(files / "packing.txt"), model)
+
+
+@pytest.mark.parametrize("method", ["mean-field", "voigt", "relaxed", "laf"])
+def test_tensor_equals_cli_to_the_last_digit(files, cubic, method):
+    expected = cli_report(files, method)
+    report = cubic.tensor_report(method)
+    assert report == expected
+    c = cubic.tensor(method)
+    assert c.shape == (6, 6) and c.dtype == np.float64
+    assert np.array_equal(c, np.array(expected["C"]))
+
+
+def test_cross_anisotropic_relaxed_equals_cli(files):
+    asm = ab.Assembly(ab.Packing.load(files / "packing.txt"), ab.Model.load(files / "cross.toml"))
+    assert asm.tensor_report("relaxed") == cli_report(files, "relaxed", "cross.toml")
+    # Šmilauer's per-bond moduli need the packing's lattice scaling μ: without it, refused.
+    b = asm.bonds
+    r = asm.packing.radii
+    with pytest.raises(ab.ModelError, match="lattice"):
+        asm.model.springs(b["normal"], r[b["i"]], r[b["j"]], b["length"])
+    k = asm.model.springs(b["normal"], r[b["i"]], r[b["j"]], b["length"],
+                          lattice_scaling=asm.lattice_scaling)
+    for name in ("kn", "ks", "kr", "ktw", "radius"):
+        assert np.array_equal(k[name], b[name]), name
+
+
+def test_dynamic_equals_cli_with_progress(files, cubic):
+    seen = []
+    report = cubic.tensor_report("dynamic", progress=seen.append)
+    assert report == cli_report(files, "dynamic")
+    assert seen and seen[-1] == pytest.approx(1.0) and seen == sorted(seen)
+
+
+def test_springs_equal_bond_table(files, cubic):
+    b = cubic.bonds
+    n = cubic.n_bonds
+    assert n == len(b["i"]) > 0 and b["normal"].shape == (n, 3) and b["image"].shape == (n, 3)
+    r = cubic.packing.radii
+    k = cubic.model.springs(b["normal"], r[b["i"]], r[b["j"]], b["length"])
+    for name in ("kn", "ks", "kr", "ktw", "radius"):
+        assert np.array_equal(k[name], b[name]), name
+    # ... and the table the command writes (shortest round-trip decimals).
+    cli("bonds", files / "packing.txt", "--model", files / "cubic.toml", "-o", files / "b.csv")
+    table = np.genfromtxt(files / "b.csv", delimiter=",", names=True)
+    for name in ("i", "j", "length", "radius", "kn", "ks", "kr", "ktw"):
+        assert np.array_equal(table[name], b[name]), name
+    assert np.array_equal(np.column_stack([table["nx"], table["ny"], table["nz"]]), b["normal"])
+    assert np.array_equal(np.column_stack([table["ix"], table["iy"], table["iz"]]), b["image"])
+    # write_bonds writes the same bytes as the command.
+    cubic.write_bonds(files / "py.csv")
+    assert (files / "py.csv").read_bytes() == (files / "b.csv").read_bytes()
+
+
+def test_from_bonds_reproduces_the_rule(cubic):
+    b = cubic.bonds
+    # Given in another order and with i, j swapped: the same canonical bonds and springs.
+    order = np.arange(cubic.n_bonds)[::-1]
+    again = ab.Assembly.from_bonds(cubic.packing, cubic.model, b["j"][order], b["i"][order],
+                                   -b["image"][order])
+    g = again.bonds
+    for name in ("kn", "ks", "length"):
+        assert np.array_equal(g[name][order], b[name]), name
+    # The sum runs in the given order: equal to round-off reversed, to the last digit as given.
+    np.testing.assert_allclose(again.tensor("voigt"), cubic.tensor("voigt"), rtol=1e-12)
+    same = ab.Assembly.from_bonds(cubic.packing, cubic.model, b["i"], b["j"], b["image"])
+    assert np.array_equal(same.tensor("relaxed"), cubic.tensor("relaxed"))
+
+
+def test_packing_from_arrays_and_save(files, cubic, tmp_path):
+    pk = cubic.packing
+    copy = ab.Packing(pk.positions, pk.radii, cell=pk.cell)
+    assert len(copy) == len(pk) and copy.cell == pk.cell
+    copy.save(tmp_path / "p.txt")
+    cli("bonds", tmp_path / "p.txt", "--model", files / "cubic.toml", "-o", tmp_path / "b.csv")
+    assert ab.Packing.load(tmp_path / "p.txt").positions.tolist() == pk.positions.tolist()
+    # Accepted: integer dtype, float32, Fortran order, non-contiguous views, lists.
+    pos = np.asfortranarray(pk.positions)
+    wide = np.zeros((len(pk), 6))
+    wide[:, ::2] = pk.positions
+    for p in (pos, wide[:, ::2], pk.positions.tolist()):
+        assert np.array_equal(ab.Packing(p, pk.radii, cell=pk.cell).positions, pk.positions)
+    ints = ab.Packing(np.array([[0, 0, 0], [3, 0, 0]]), np.array([1, 1]))
+    assert ints.positions.dtype == np.float64 and ints.cell is None
+
+
+@pytest.mark.parametrize("positions, radii, exc, message", [
+    (np.zeros((3, 2)), np.ones(3), ab.InputError, r"expected shape \(N, 3\), got \(3, 2\)"),
+    (np.zeros(3), np.ones(1), ab.InputError, "expected a 2-D array"),
+    ([[0, 0, 0], [np.nan, 0, 0]], [1, 1], ab.InputError, r"positions\[1, 0\] = NaN is not finite"),
+    ([[0, 0, 0], [3, 0, 0]], [1, -1], ab.InputError, "sphere 1: radius must be finite and > 0"),
+    ([[0, 0, 0], [3, 0, 0]], [1], ab.InputError, "expected 2 values"),
+    ([[0, 0, 0], [3, 0, 0]], [1, np.inf], ab.InputError, r"radii\[1\] = inf is not finite"),
+    (np.zeros((2, 3), dtype=complex), [1, 1], TypeError, "got dtype complex128"),
+    ([["a", "b", "c"]], [1], TypeError, "expected real numbers"),
+    (np.zeros((2, 3), dtype=bool), [1, 1], TypeError, "got dtype bool"),
+])
+def test_bad_packing_arguments(positions, radii, exc, message):
+    with pytest.raises(exc, match=message):
+        ab.Packing(positions, radii)
+
+
+def test_bad_arguments_elsewhere(files, cubic, tmp_path):
+    assert issubclass(ab.InputError, ValueError) and issubclass(ab.ModelError, ab.AnisobondError)
+    with pytest.raises(ab.InputError, match=r"cell\[2\] = NaN"):
+        ab.Packing([[0, 0, 0]], [1], cell=(1, 1, float("nan")))
+    with pytest.raises(ab.InputError, match="method `relax`: expected"):
+        cubic.tensor("relax")
+    with pytest.raises(ab.InputError, match=r"\[1e-12, 1e-2\]"):
+        cubic.tensor("relaxed", tolerance=0.5)
+    m = cubic.model
+    with pytest.raises(ab.InputError, match="normal 1 has length 2"):
+        m.springs([[1, 0, 0], [0, 2, 0]], [1, 1], [1, 1], [2, 2])
+    with pytest.raises(ab.InputError, match=r"length\[0\] = -2, expected a finite value > 0 m"):
+        m.springs([[1, 0, 0]], [1], [1], [-2])
+    with pytest.raises(ab.InputError, match="expected 1 values"):
+        m.springs([[1, 0, 0]], [1, 1], [1], [2])
+    with pytest.raises(ab.FileError, match="no-such.toml"):
+        ab.Model.load(tmp_path / "no-such.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"isotropic\"\n"
+                   "normal = 1e13\nshear = 1e12\na_n = 3\n")
+    with pytest.raises(ab.InputError, match="bad.toml:.*a_n"):
+        ab.Model.load(bad)
+    with pytest.raises(ab.ModelError):
+        ab.Model.from_dict({"scheme": {"kind": "isotropic", "normal": -1.0, "shear": 1.0}})
+    p = tmp_path / "p.txt"
+    p.write_text("# periodic 1 1 1\n0 0 0 0.1\n0.5 0.5 zero 0.1\n")
+    with pytest.raises(ab.InputError, match="p.txt:3"):
+        ab.Packing.load(p)
+    with pytest.raises(ab.InputError, match="particles 0 and 0"):
+        ab.Assembly.from_bonds(cubic.packing, m, [0], [0])
+    # Nothing is written on a refusal.
+    with pytest.raises(ab.InputError, match="missing-dir` does not exist"):
+        cubic.write_bonds(tmp_path / "missing-dir" / "b.csv")
+    assert not (tmp_path / "missing-dir").exists()
+
+
+def test_model_constructors_agree(files):
+    text = (files / "cubic.toml").read_text()
+    a = ab.Model.load(files / "cubic.toml")
+    b = ab.Model.from_toml(text)
+    c = ab.Model.from_dict(a.to_dict())
+    assert a == b == c and a.kind == "cubic"
+    assert ab.Model.load(files / "cross.toml").kind == "cross-anisotropic"
+
+
+def test_calibrate_equals_cli(files, cubic):
+    target = {"C12/C11": 0.30, "C44/C11": 0.43}
+    for on, extra in (("mean-field", ()), (cubic.packing, ("--on", "relaxed", files / "packing.txt"))):
+        out = files / "cal.toml"
+        cli("calibrate", "--model", files / "cubic.toml", "--target", "C12/C11=0.3,C44/C11=0.43",
+            "-o", out, *extra)
+        new, info = ab.calibrate(cubic.model, target, on=on, details=True)
+        assert new.to_toml() == out.read_text()
+        assert info["C12"] / info["C11"] == pytest.approx(0.30, rel=1e-3)
+        assert info["C44"] / info["C11"] == pytest.approx(0.43, rel=1e-3)
+    with pytest.raises(ab.InputError, match="C44/C11"):
+        ab.calibrate(cubic.model, {"C12/C11": 0.3})
+
+
+def test_exports_equal_cli(files, cubic, tmp_path):
+    cli("export", "yade", files / "packing.txt", "--model", files / "cubic.toml",
+        "-o", tmp_path / "cli-yade")
+    cubic.export_yade(tmp_path / "py-yade")
+    cli("export", "liggghts", files / "packing.txt", "--model", files / "cubic.toml",
+        "-o", tmp_path / "cli-lig")
+    cubic.export_liggghts(tmp_path / "py-lig")
+    for a, b in (("cli-yade", "py-yade"), ("cli-lig", "py-lig")):
+        names = sorted(p.name for p in (tmp_path / a).iterdir())
+        assert names == sorted(p.name for p in (tmp_path / b).iterdir()) and names
+        for n in names:
+            assert (tmp_path / a / n).read_bytes() == (tmp_path / b / n).read_bytes(), n
+
+
+def test_engineering_constants_closed_form():
+    e, nu = 70e9, 0.25
+    lam, mu = e * nu / ((1 + nu) * (1 - 2 * nu)), e / (2 * (1 + nu))
+    c = np.zeros((6, 6))
+    c[:3, :3] = lam
+    c[np.arange(3), np.arange(3)] = lam + 2 * mu
+    c[np.arange(3, 6), np.arange(3, 6)] = mu
+    k = ab.engineering_constants(c)
+    for name in ("E1", "E2", "E3"):
+        assert k[name] == pytest.approx(e, rel=1e-12)
+    for name in ("G23", "G13", "G12"):
+        assert k[name] == pytest.approx(mu, rel=1e-12)
+    assert k["nu12"] == pytest.approx(nu, rel=1e-12)
+    with pytest.raises(ab.InputError):
+        ab.engineering_constants(np.zeros((6, 5)))
+
+
+def test_long_calls_release_the_gil(cubic):
+    # While one thread solves, another runs Python: it must not wait for the solve to end.
+    done = threading.Event()
+    ticks = []
+    def tick():
+        while not done.is_set():
+            ticks.append(1)
+            done.wait(0.001)
+    t = threading.Thread(target=tick)
+    t.start()
+    before = len(ticks)
+    cubic.tensor("relaxed", solver="cg-jacobi", tolerance=1e-10)
+    during = len(ticks) - before
+    done.set()
+    t.join()
+    assert during > 0
