@@ -154,9 +154,42 @@ def main():
                      "C11, C12, C44 = %s, %s, %s GPa" % c.groups()])
     ratio = "Cholesky / CG at %d particles, same run: %.1f× the time, %.1f× the memory." % (
         n_mid, solved["cholesky"][0] / solved["cg"][0], solved["cholesky"][1] / solved["cg"][1])
+    # The same relaxed tensor from the Python package (same run, same files).
+    venv_python = os.path.join(ROOT, "target", "venv", "bin", "python")
+    cli_json = os.path.join(WORK, "relaxed.json")
+    cmd = ab("tensor", std, "--model", model, "--method", "relaxed", "-o", cli_json)
+    cli_wall, cli_rss, _ = sh(cmd)
+    n_springs = 100000 if QUICK else 1000000
+    if os.path.exists(venv_python):
+        pcmd = [venv_python, os.path.join(ROOT, "benches", "python_bench.py"), std, model, cli_json,
+                n_springs]
+        py_wall, py_rss, text = sh([str(c) for c in pcmd])
+        py = json.loads(text.strip().splitlines()[-1])
+        python_rows = [
+            ["relaxed tensor, `anisobond tensor`", "`%s`" % cmd_text(cmd).replace(WORK + "/", ""),
+             py["n_particles"], threads, "%.2f s" % cli_wall, "%.0f MB" % cli_rss,
+             "whole process"],
+            ["relaxed tensor, Python `ab.Assembly(ab.Packing.load(...), ab.Model.load(...)).tensor_report('relaxed')`",
+             "`python benches/python_bench.py standard.txt model.toml relaxed.json %d`" % n_springs,
+             py["n_particles"], threads, "%.2f s" % py_wall, "%.0f MB" % py_rss,
+             "whole process (interpreter, numpy import, springs benchmark included); load + bond "
+             "%.2f s, relaxed %.2f s; report identical to the CLI's: %s; Python / CLI whole "
+             "process %.2f×" % (py["load_and_bond_s"], py["relaxed_s"], py["identical_to_cli"],
+                                py_wall / cli_wall)],
+            ["`model.springs` on %d bonds (numpy in, dict of numpy out)" % n_springs, "(same run)",
+             n_springs, threads, "%.3f s" % py["springs_s"], "",
+             "%.0f ns per bond; fixed cost of one call (1 bond): %.1f µs" % (
+                 py["springs_s"] / n_springs * 1e9, py["springs_call_us"])],
+        ]
+    else:
+        python_rows = [["Python package", "", "", "", "not measured", "",
+                        "target/venv missing: run .ci/test-all first (it builds the wheel)"]]
     section("Stiffness tensors",
             "The demo's model (Truszkowska 2018 MRV, cubic Zener > 1) on the standard assembly. " + ratio,
             ["method", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+    section("Python package",
+            "The Python package against the command on the same files, measured in the same run.",
+            ["what", "command", "size", "threads", "wall", "peak memory", "result"], python_rows)
 
     # --- Core pipeline -------------------------------------------------------------------
     n_core = 100000 if QUICK else 1000000

@@ -666,34 +666,27 @@ impl Model {
         lengths: &[f64],
         lattice_scaling: Option<f64>,
     ) -> Result<crate::bonds::BondStiffness> {
-        let n = normals.len();
-        if r_i.len() != n || r_j.len() != n || lengths.len() != n {
-            return Err(Error::Invalid(format!(
-                "springs: {n} normals but {} r_i, {} r_j and {} lengths (one of each per bond)",
-                r_i.len(),
-                r_j.len(),
-                lengths.len()
-            )));
-        }
-        for b in 0..n {
-            let norm = normals[b].norm();
-            if (norm - 1.0).abs() > 1e-9 || norm.is_nan() {
-                return Err(Error::Invalid(format!(
-                    "springs: normal {b} has length {norm}, expected a unit vector"
-                )));
-            }
-            for (name, v) in [("r_i", r_i[b]), ("r_j", r_j[b]), ("length", lengths[b])] {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(Error::Invalid(format!(
-                        "springs: {name}[{b}] = {v}, expected a finite value > 0 m"
-                    )));
-                }
-            }
-        }
-        let scheme: Box<dyn StiffnessScheme> = match (&self.scheme, lattice_scaling) {
+        crate::bonds::stiffness::check_bond_columns(normals, r_i, r_j, lengths)?;
+        let scheme = self.scheme_for(lattice_scaling)?;
+        crate::bonds::stiffness::springs_along(
+            scheme.as_ref(),
+            &self.geometry,
+            normals,
+            r_i,
+            r_j,
+            lengths,
+            &|b| format!("bond {b}"),
+        )
+    }
+
+    /// The stiffness scheme with a given lattice scaling μ (needed by, and only by, the
+    /// cross-anisotropic scheme; [`Self::build_scheme`] takes μ from a bonded packing).
+    pub fn scheme_for(&self, lattice_scaling: Option<f64>) -> Result<Box<dyn StiffnessScheme>> {
+        Ok(match (&self.scheme, lattice_scaling) {
             (SchemeSpec::CrossAnisotropic { .. }, None) => {
                 return Err(Error::Model(
-                    "the cross-anisotropic scheme's springs depend on the packing's lattice                      scaling μ (Šmilauer): give it, or take the springs of an assembly"
+                    "the cross-anisotropic scheme's springs depend on the packing's lattice \
+                     scaling μ (Šmilauer): give it, or take the springs of an assembly"
                         .into(),
                 ))
             }
@@ -717,25 +710,7 @@ impl Model {
                 )?)
             }
             _ => self.build_scheme(None)?,
-        };
-        let mut out = crate::bonds::BondStiffness::default();
-        for b in 0..n {
-            let m = scheme.magnitudes(&normals[b]);
-            let s = self.geometry.springs(m, r_i[b], r_j[b], lengths[b]);
-            for (name, v) in [("kn", s.kn), ("ks", s.ks), ("kr", s.kr), ("ktw", s.ktw)] {
-                if !v.is_finite() || v < 0.0 {
-                    return Err(Error::Model(format!(
-                        "bond {b}: {name} = {v} is negative or not finite"
-                    )));
-                }
-            }
-            out.radius.push(self.geometry.bond_radius(r_i[b], r_j[b]));
-            out.kn.push(s.kn);
-            out.ks.push(s.ks);
-            out.kr.push(s.kr);
-            out.ktw.push(s.ktw);
-        }
-        Ok(out)
+        })
     }
 
     /// Serialise as TOML in the SPEC layout (used for calibrated models and exports).

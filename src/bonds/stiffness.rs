@@ -43,15 +43,41 @@ pub fn assign_stiffness(
     scheme: &dyn StiffnessScheme,
     geometry: &Geometry,
 ) -> Result<BondStiffness> {
-    let springs: Vec<_> = (0..bonds.len())
+    let radius =
+        |ends: &[u32]| -> Vec<f64> { ends.iter().map(|&p| packing.radii[p as usize]).collect() };
+    let (ri, rj) = (radius(&bonds.i), radius(&bonds.j));
+    springs_along(
+        scheme,
+        geometry,
+        &bonds.normal,
+        &ri,
+        &rj,
+        &bonds.length,
+        &|b| format!("bond {b} ({}–{})", bonds.i[b], bonds.j[b]),
+    )
+}
+
+/// The springs of bonds given by columns — unit normals, end radii (m), lengths (m) — by
+/// `scheme`'s magnitudes and `geometry` (k = magnitude(n)·g(R_i, R_j, |l|)), in parallel and
+/// independent of the thread count. A spring negative or not finite is an error naming the
+/// bond by `name(b)`.
+pub fn springs_along(
+    scheme: &dyn StiffnessScheme,
+    geometry: &Geometry,
+    normals: &[crate::Vec3],
+    r_i: &[f64],
+    r_j: &[f64],
+    lengths: &[f64],
+    name: &(dyn Fn(usize) -> String + Sync),
+) -> Result<BondStiffness> {
+    let springs: Vec<_> = (0..normals.len())
         .into_par_iter()
         .map(|b| {
-            let ri = packing.radii[bonds.i[b] as usize];
-            let rj = packing.radii[bonds.j[b] as usize];
-            let m = scheme.magnitudes(&bonds.normal[b]);
+            let (ri, rj) = (r_i[b], r_j[b]);
+            let m = scheme.magnitudes(&normals[b]);
             (
                 geometry.bond_radius(ri, rj),
-                geometry.springs(m, ri, rj, bonds.length[b]),
+                geometry.springs(m, ri, rj, lengths[b]),
             )
         })
         .collect();
@@ -63,11 +89,11 @@ pub fn assign_stiffness(
         ktw: Vec::with_capacity(springs.len()),
     };
     for (b, (rb, s)) in springs.into_iter().enumerate() {
-        for (name, v) in [("kn", s.kn), ("ks", s.ks), ("kr", s.kr), ("ktw", s.ktw)] {
+        for (spring, v) in [("kn", s.kn), ("ks", s.ks), ("kr", s.kr), ("ktw", s.ktw)] {
             if !v.is_finite() || v < 0.0 {
                 return Err(Error::Model(format!(
-                    "bond {b} ({}–{}): {name} = {v} is negative or not finite",
-                    bonds.i[b], bonds.j[b]
+                    "{}: {spring} = {v} is negative or not finite",
+                    name(b)
                 )));
             }
         }
@@ -78,4 +104,39 @@ pub fn assign_stiffness(
         out.ktw.push(s.ktw);
     }
     Ok(out)
+}
+
+/// Refuse bond columns [`springs_along`] cannot take, naming the bond: columns of different
+/// lengths, a normal not of unit length (within 1e-9), a radius or length not finite and > 0.
+pub fn check_bond_columns(
+    normals: &[crate::Vec3],
+    r_i: &[f64],
+    r_j: &[f64],
+    lengths: &[f64],
+) -> Result<()> {
+    let n = normals.len();
+    if r_i.len() != n || r_j.len() != n || lengths.len() != n {
+        return Err(Error::Invalid(format!(
+            "springs: {n} normals but {} r_i, {} r_j and {} lengths (one of each per bond)",
+            r_i.len(),
+            r_j.len(),
+            lengths.len()
+        )));
+    }
+    for b in 0..n {
+        let norm = normals[b].norm();
+        if (norm - 1.0).abs() > 1e-9 || norm.is_nan() {
+            return Err(Error::Invalid(format!(
+                "springs: normal {b} has length {norm}, expected a unit vector"
+            )));
+        }
+        for (name, v) in [("r_i", r_i[b]), ("r_j", r_j[b]), ("length", lengths[b])] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "springs: {name}[{b}] = {v}, expected a finite value > 0 m"
+                )));
+            }
+        }
+    }
+    Ok(())
 }

@@ -9,6 +9,7 @@
 #![allow(clippy::useless_conversion)]
 
 use crate::assembly::{Assembly, EqualSpheres, Method};
+use crate::bonds::stiffness::{check_bond_columns, springs_along};
 use crate::calibrate::cubic::{CubicOptions, Family};
 use crate::calibrate::target::Target;
 use crate::calibrate::{calibrate, CalibrateOn, Calibration};
@@ -21,6 +22,7 @@ use crate::io::OutputSet;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::{Packing, PeriodicCell};
 use crate::schemes::cubic::CubicModel;
+use crate::schemes::StiffnessScheme;
 use crate::tensor::elastic::EngineeringConstants;
 use crate::tensor::Stiffness6;
 use crate::{Error, Vec3};
@@ -32,7 +34,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 create_exception!(
     anisobond,
@@ -208,6 +210,20 @@ fn write_file(
 #[derive(Clone)]
 pub struct PyModel {
     inner: Model,
+    /// The scheme, built (and checked, which scans the sphere) once; None when it needs a
+    /// lattice scaling μ (cross-anisotropic).
+    scheme: Option<Arc<dyn StiffnessScheme>>,
+}
+
+impl PyModel {
+    fn wrap(inner: Model) -> PyResult<Self> {
+        let scheme = if inner.needs_packing() {
+            None
+        } else {
+            Some(Arc::from(inner.build_scheme(None).map_err(to_py)?))
+        };
+        Ok(PyModel { inner, scheme })
+    }
 }
 
 #[pymethods]
@@ -215,18 +231,14 @@ impl PyModel {
     /// Read a model file (TOML, or JSON by extension `.json`).
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
-        Ok(PyModel {
-            inner: Model::from_path(&path).map_err(to_py)?,
-        })
+        PyModel::wrap(Model::from_path(&path).map_err(to_py)?)
     }
 
     /// Parse a TOML model text; `name` appears in error messages.
     #[staticmethod]
     #[pyo3(signature = (text, name = "<toml>"))]
     fn from_toml(text: &str, name: &str) -> PyResult<Self> {
-        Ok(PyModel {
-            inner: Model::from_toml_str(text, name).map_err(to_py)?,
-        })
+        PyModel::wrap(Model::from_toml_str(text, name).map_err(to_py)?)
     }
 
     /// A model from a dict with the model file's tables (`bonding`, `scheme`, `geometry`).
@@ -237,17 +249,13 @@ impl PyModel {
             .call_method1("dumps", (d,))
             .map_err(|e| InputError::new_err(format!("model dict: not JSON-serialisable ({e})")))?
             .extract()?;
-        Ok(PyModel {
-            inner: Model::from_json_str(&text, "<dict>").map_err(to_py)?,
-        })
+        PyModel::wrap(Model::from_json_str(&text, "<dict>").map_err(to_py)?)
     }
 
     /// Truszkowska 2018's MRV model (Sec. 5.1), the default of `anisobond demo`.
     #[staticmethod]
-    fn truszkowska_mrv() -> Self {
-        PyModel {
-            inner: Model::truszkowska_mrv(),
-        }
+    fn truszkowska_mrv() -> PyResult<Self> {
+        PyModel::wrap(Model::truszkowska_mrv())
     }
 
     /// The model file text (TOML), as `anisobond calibrate` writes it.
@@ -306,9 +314,17 @@ impl PyModel {
         let ri = column(py, r_i, "r_i", Some(n.len()))?;
         let rj = column(py, r_j, "r_j", Some(n.len()))?;
         let l = column(py, lengths, "lengths", Some(n.len()))?;
-        let model = &self.inner;
+        let (model, cached) = (&self.inner, &self.scheme);
         let k = py
-            .detach(|| model.springs_for(&n, &ri, &rj, &l, lattice_scaling))
+            .detach(|| match (cached, lattice_scaling) {
+                (Some(scheme), _) => {
+                    check_bond_columns(&n, &ri, &rj, &l)?;
+                    springs_along(scheme.as_ref(), &model.geometry, &n, &ri, &rj, &l, &|b| {
+                        format!("bond {b}")
+                    })
+                }
+                _ => model.springs_for(&n, &ri, &rj, &l, lattice_scaling),
+            })
             .map_err(to_py)?;
         let d = PyDict::new(py);
         d.set_item("kn", PyArray1::from_vec(py, k.kn))?;
@@ -664,10 +680,8 @@ impl PyAssembly {
 
     /// The model.
     #[getter]
-    fn model(&self) -> PyModel {
-        PyModel {
-            inner: self.inner.model.clone(),
-        }
+    fn model(&self) -> PyResult<PyModel> {
+        PyModel::wrap(self.inner.model.clone())
     }
 
     /// Number of bonds.
@@ -986,12 +1000,7 @@ fn calibrate_model<'py>(
             info.set_item("level", "meanfield")?;
         }
     }
-    Ok((
-        PyModel {
-            inner: calibrated.model,
-        },
-        info,
-    ))
+    Ok((PyModel::wrap(calibrated.model)?, info))
 }
 
 /// Engineering constants of a (6, 6) stiffness tensor C in Pa, from S = C⁻¹: Young's
