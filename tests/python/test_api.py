@@ -229,3 +229,15 @@ def test_long_calls_release_the_gil(cubic):
     done.set()
     t.join()
     assert during > 0
+
+
+def test_example_tour_runs(files, tmp_path):
+    # examples/python_tour.py on the command's packing: its own checks (springs equal the
+    # bond table) run inside; the relaxed tensor it prints is the CLI's.
+    import subprocess
+    import sys
+    from conftest import REPO
+    r = subprocess.run([sys.executable, str(REPO / "examples" / "python_tour.py"), str(tmp_path),
+                        str(files / "packing.txt")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "relaxed C (GPa)" in r.stdout and "Zener ratio" in r.stdout
