@@ -267,6 +267,41 @@ impl Assembly {
         )
     }
 
+    /// ParaView files `particles.vtu` and `bonds.vtu` in `dir`: the assembly unloaded, or
+    /// under a small macroscopic `strain` (Voigt, engineering, every |ε| ≤ 0.1; periodic
+    /// packings only) its quasi-static state from the relaxed solve. Returns that state.
+    pub fn write_vtk(
+        &self,
+        dir: &Path,
+        strain: Option<&crate::tensor::Voigt6>,
+    ) -> Result<Option<crate::export::vtk::StrainedState>> {
+        use crate::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
+        if let Some(e) = strain {
+            if let Some(x) = e.iter().find(|x| x.abs() > 0.1 || x.is_nan()) {
+                return Err(Error::Invalid(format!(
+                    "strain component {x} is not a small strain: the state is linear \
+                     (small-strain), expected |ε| ≤ 0.1"
+                )));
+            }
+            if self.packing.cell.is_none() {
+                return Err(Error::Invalid(
+                    "a strained state needs a periodic packing (the strain deforms the cell)"
+                        .into(),
+                ));
+            }
+        }
+        let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
+        let state = match strain {
+            Some(e) if e.iter().any(|&x| x != 0.0) => {
+                Some(strained_state(p, b, k, e, &RelaxedOptions::default())?)
+            }
+            _ => None,
+        };
+        write_particles_vtu(&dir.join("particles.vtu"), p, state.as_ref())?;
+        write_bonds_vtu(&dir.join("bonds.vtu"), p, b, k, state.as_ref())?;
+        Ok(state)
+    }
+
     /// Write the bond-stiffness table (CSV, SPEC columns) atomically.
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
         bonds::table::write_bond_table(path, &self.bonds, &self.springs)

@@ -864,6 +864,31 @@ impl PyAssembly {
         out.commit().map_err(to_py)
     }
 
+    /// ParaView files `particles.vtu` and `bonds.vtu` in `directory`, as `anisobond export
+    /// vtk` writes them: unloaded, or with `strain` (6 Voigt components, engineering, each
+    /// |ε| ≤ 0.1; periodic packings) the quasi-static state (displacements, bond forces).
+    #[pyo3(signature = (directory, *, strain = None))]
+    fn export_vtk(
+        &self,
+        py: Python<'_>,
+        directory: PathBuf,
+        strain: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let strain = match strain {
+            Some(s) if !s.is_none() => {
+                let e = column(py, s, "strain", Some(6))?;
+                Some(crate::tensor::Voigt6::from_column_slice(&e))
+            }
+            _ => None,
+        };
+        let a = &self.inner;
+        let mut out = OutputSet::new(&[]);
+        let staged = out.dir(&directory).map_err(to_py)?;
+        py.detach(|| a.write_vtk(&staged, strain.as_ref()))
+            .map_err(to_py)?;
+        out.commit().map_err(to_py)
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "<anisobond.Assembly: {} particles, {} bonds, Z = {:.3}>",

@@ -189,7 +189,13 @@ def test_exports_equal_cli(files, cubic, tmp_path):
     cli("export", "liggghts", files / "packing.txt", "--model", files / "cubic.toml",
         "-o", tmp_path / "cli-lig")
     cubic.export_liggghts(tmp_path / "py-lig")
-    for a, b in (("cli-yade", "py-yade"), ("cli-lig", "py-lig")):
+    cli("export", "vtk", files / "packing.txt", "--model", files / "cubic.toml",
+        "--strain", "1e-4,0,0,0,0,2e-4", "-o", tmp_path / "cli-vtk")
+    cubic.export_vtk(tmp_path / "py-vtk", strain=[1e-4, 0, 0, 0, 0, 2e-4])
+    with pytest.raises(ab.InputError, match="not a small strain"):
+        cubic.export_vtk(tmp_path / "never", strain=[0.2, 0, 0, 0, 0, 0])
+    assert not (tmp_path / "never").exists()
+    for a, b in (("cli-yade", "py-yade"), ("cli-lig", "py-lig"), ("cli-vtk", "py-vtk")):
         names = sorted(p.name for p in (tmp_path / a).iterdir())
         assert names == sorted(p.name for p in (tmp_path / b).iterdir()) and names
         for n in names:

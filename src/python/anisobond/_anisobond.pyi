@@ -137,6 +137,8 @@ class Assembly:
         paths: str = "11,22,33,23,13,12",
     ) -> None: ...
     def export_liggghts(self, directory: _Path, *, shear: bool = True) -> None: ...
+    def export_vtk(self, directory: _Path, *, strain: Optional[_Floats] = None) -> None:
+        """particles.vtu, bonds.vtu; strain: 6 Voigt components (|e| <= 0.1), periodic only."""
 
 def calibrate_model(
     model: Model, target: Union[str, Mapping[str, float]], on: Any = None, **options: Any
