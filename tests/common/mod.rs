@@ -3,6 +3,8 @@
 #![allow(dead_code)]
 
 pub mod lattice;
+pub mod liggghts;
+pub mod yade;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

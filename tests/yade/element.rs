@@ -2,8 +2,7 @@
 //! one step, Cundall damping 0.4) must match anisobond's exact relaxed tensor
 //! (`relaxed_tensor`, contact point mid-gap = YADE's ScGeom) within 0.1 %.
 
-mod yade_support;
-
+use crate::common::yade::{max_relative, yade_available};
 use anisobond::bonds::{self, rules::build_bonds, BondingRule};
 use anisobond::export::yade::{
     read_yade_history, read_yade_tensor, run_yade_script, write_yade_export, YadeRunOptions,
@@ -15,7 +14,6 @@ use anisobond::model::Model;
 use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::schemes::geometry::Moments;
 use anisobond::tensor::Stiffness6;
-use yade_support::{max_relative, yade_available};
 
 fn run_case(test: &str, n: usize, seed: u64, moments: Moments) {
     if !yade_available(test) {

@@ -3,8 +3,7 @@
 //! leaves every pre-existing file (inputs above all) as it was; a command's set of outputs
 //! appears whole or not at all.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// The folder holds exactly `names` (so no staging file or folder was left behind).
@@ -337,7 +336,7 @@ fn options_that_make_a_meaningless_result_are_refused() {
 
 #[test]
 fn an_elongated_cell_is_refused_not_aborted() {
-    // Found by tests/fuzz_readers.rs: the two-level preconditioner sized a dense grid of
+    // Found by tests/io/fuzz_readers.rs: the two-level preconditioner sized a dense grid of
     // aggregates by the cell (1e15 m along x: an 8.8 TB allocation, SIGABRT). A 4×4×4 lattice
     // that does not span the cell along x is a mechanism under e11, so it is refused.
     let t = tmp();

@@ -1,5 +1,5 @@
-//! Study (ignored; run with `cargo test --release --test dem_grips_study -- --ignored
-//! --nocapture`): Truszkowska 2018 Table 3's measurement-sphere strain noise for a gripped
+//! Study (ignored; run with `cargo test --release --test study -- --ignored
+//! --nocapture grips::`): Truszkowska 2018 Table 3's measurement-sphere strain noise for a gripped
 //! block with the MRV model (zener-above-1, a_n = 4.31, a_s = 10, k_n = 1e13, k_s = 3.55e12,
 //! gap 0.17 R̄, parallel bonds), with the gripped tensor beside the periodic relaxed one.
 //! Size from GRIPS_N (default 20,000), spheres from GRIPS_SPHERES (default 2,000); relaxation

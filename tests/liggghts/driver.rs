@@ -2,14 +2,12 @@
 //! references: closed-form bond forces, the Voigt sum, the exact relaxed tensor, and itself
 //! under MPI. Skipped with a reason only when LIGGGHTS/MPI/make are absent and CI is unset.
 
-mod liggghts_support;
-
+use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, tensor_from_cases,
     DeckOptions, Launch,
 };
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use liggghts_support::*;
 
 const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
 

@@ -4,14 +4,12 @@
 //! `anisobond_yade.build_scene` every bond's branch vector in YADE must equal the one
 //! anisobond computes, x_j + image∘L − x_i, bond by bond.
 
-mod yade_support;
-
+use crate::common::yade::yade_available;
 use anisobond::bonds::{self, rules::build_bonds};
 use anisobond::export::yade::{run_yade_script, write_yade_export, YadeRunOptions};
 use anisobond::model::Model;
 use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::Vec3;
-use yade_support::yade_available;
 
 const SCRIPT: &str = r#"
 import json, os, sys

@@ -6,13 +6,11 @@
 //! bending k_r·θ, twisting k_tw·θ. A fifth case checks NewtonIntegrator's Cundall damping
 //! per component, v₁ = v₀ + a·dt·(1 − λ·sgn(a_k(v₀_k + a_k·dt/2))), against the forces.
 
-mod yade_support;
-
+use crate::common::yade::yade_available;
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::export::yade::{run_yade_script, write_yade_export, YadeRunOptions};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
-use yade_support::yade_available;
 
 const SCRIPT: &str = r#"
 import json, os, sys

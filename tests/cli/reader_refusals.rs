@@ -1,8 +1,7 @@
 //! Issue 17 through the binary: bad packings, models and targets exit non-zero with the
 //! file, line and expectation, and write nothing; BOM / CR-only inputs and `80 GPa` work.
 
-mod common;
-use common::{bin, write, CUBIC_MODEL as CUBIC};
+use crate::common::{bin, write, CUBIC_MODEL as CUBIC};
 use std::path::Path;
 use std::process::Output;
 

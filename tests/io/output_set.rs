@@ -1,9 +1,8 @@
 //! The all-or-nothing output set (`anisobond::io::OutputSet`): staged files and folders
 //! appear only on commit, never over an input, and vanish when the set is dropped.
 
-mod common;
+use crate::common::{entries, tmp};
 use anisobond::io::OutputSet;
-use common::{entries, tmp};
 
 #[test]
 fn nothing_appears_before_commit_and_nothing_stays_after_a_drop() {

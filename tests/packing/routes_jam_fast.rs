@@ -83,7 +83,7 @@ fn check_jammed_state(p: &Packing, report: &RouteReport, seed: u64) -> Mechanics
     let m = contact_mechanics(&jammed);
     assert!((m.z - report.compressed_coordination).abs() < 1e-9);
     assert!((m.z - 6.0).abs() <= 0.15, "seed {seed}: Z = {}", m.z);
-    // Kumar: < 2 % at 5000 spheres; 2000 spheres fluctuate more (tests/routes_kumar.rs: 3 %).
+    // Kumar: < 2 % at 5000 spheres; 2000 spheres fluctuate more (tests/packing/routes_kumar.rs: 3 %).
     assert!(
         m.rattlers < 3 * n / 100,
         "seed {seed}: {} rattlers",
@@ -118,7 +118,7 @@ fn check_jammed_state(p: &Packing, report: &RouteReport, seed: u64) -> Mechanics
 }
 
 /// The default rule, YADE's unbalanced force ≤ 2·10⁻³ (mean net force over mean contact
-/// force), recomputed from the packing, on a seed other than tests/routes_kumar.rs's.
+/// force), recomputed from the packing, on a seed other than tests/packing/routes_kumar.rs's.
 #[test]
 fn jammed_state_is_balanced_on_average_at_low_pressure_near_kumar_jamming_point() {
     let seed = 7;
@@ -255,7 +255,7 @@ fn status_reports_follow_the_jammed_preparation() {
     assert_eq!(report, report_q);
 }
 
-/// Timing study: `cargo test --release --test routes_jam_fast -- --ignored --nocapture`.
+/// Timing study: `cargo test --release --test packing -- --ignored --nocapture routes_jam_fast::`.
 #[test]
 #[ignore]
 fn timing_of_the_routes_for_large_packings() {

@@ -5,7 +5,7 @@
 //! Near-coincident particles are refused at bonding time, and the CLI refuses bad
 //! integrator options and writes no output when a run does not converge.
 
-mod common;
+use crate::common::{bin, CUBIC_MODEL as MODEL};
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
@@ -21,7 +21,6 @@ use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;
 use anisobond::Vec3;
-use common::{bin, CUBIC_MODEL as MODEL};
 use std::path::Path;
 use std::process::Command;
 
@@ -39,7 +38,7 @@ fn bonded(n: usize, seed: u64) -> (Packing, BondSet) {
     (p, b)
 }
 
-/// Direction-dependent k_n, k_s (as tests/dem_element.rs), no moment springs.
+/// Direction-dependent k_n, k_s (as tests/dem/element.rs), no moment springs.
 fn springs(p: &Packing, b: &BondSet) -> BondStiffness {
     let nb = b.len();
     let mut k = BondStiffness {
@@ -86,7 +85,7 @@ fn sim(p: &Packing, b: &BondSet, k: &BondStiffness, dt: Option<f64>) -> Simulati
 
 /// Tiny time step: the element tests refuse (the error names the unbalanced force and the
 /// time step against the critical one) instead of returning the Voigt tensor; the default
-/// time step gives the relaxed tensor within the 1e-3 of tests/dem_element.rs.
+/// time step gives the relaxed tensor within the 1e-3 of tests/dem/element.rs.
 #[test]
 fn element_tests_refuse_a_tiny_time_step_and_match_relaxed_at_the_default() {
     let (p, b) = bonded(300, 7);
@@ -162,7 +161,7 @@ fn servo_and_grips_refuse_a_tiny_time_step() {
     assert!(err.contains("did not converge in 3000 steps"), "{err}");
     assert!(err.contains("unbalanced force"), "{err}");
 
-    // A block large enough for measurement spheres of 3 R̄ (as tests/dem_grips_disordered.rs).
+    // A block large enough for measurement spheres of 3 R̄ (as tests/dem/grips_disordered.rs).
     // (Here the stress / sphere-strain window alone also refuses: checked with the
     // unbalanced-force rule disabled. The ramp check below is what fails without the fix.)
     let (p, b) = bonded(1000, 9);

@@ -3,13 +3,11 @@
 //! with k_s = 0 (an independent sum in Rust). Skipped only when LIGGGHTS is absent and CI
 //! is unset.
 
-mod liggghts_support;
-
+use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
 };
 use anisobond::homogenize::voigt::voigt_tensor;
-use liggghts_support::*;
 
 #[test]
 fn stock_harmonic_deck_gives_the_normal_spring_voigt_tensor() {

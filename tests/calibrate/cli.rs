@@ -1,9 +1,8 @@
 //! The `calibrate`, `domain`, `plot stiffness` and `export vtk` commands end to end.
 
-mod common;
+use crate::common::{bin, CUBIC_MODEL as MODEL};
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::schemes::cubic::CubicModel;
-use common::{bin, CUBIC_MODEL as MODEL};
 
 #[test]
 fn calibrate_writes_a_model_that_reads_back_and_refuses_nickel() {

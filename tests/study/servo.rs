@@ -1,5 +1,5 @@
-//! Study (ignored; run with `cargo test --release --test dem_servo_study -- --ignored
-//! --nocapture`): Šmilauer's I_R = 1.8 case (Šmilauer, "Contact radius I_R = 1.8"): 2556
+//! Study (ignored; run with `cargo test --release --test study -- --ignored
+//! --nocapture servo::`): Šmilauer's I_R = 1.8 case (Šmilauer, "Contact radius I_R = 1.8"): 2556
 //! equal spheres r = 0.03 m, porosity 0.5, periodic; bonds within I_R·(r_i + r_j); the
 //! elliptic cross-anisotropic scheme for C11, C33, C13, C12 = 130, 55, 28, 40 MPa about z
 //! with μ from the packing (π̂ = π); stress-controlled element tests (t_r = 1e-3) at

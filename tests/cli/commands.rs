@@ -1,8 +1,7 @@
 //! The `anisobond` command end to end: outputs in the SPEC forms, and every bad input a
 //! clear error (file, line, what was expected), a non-zero exit, and no output file.
 
-mod common;
-use common::{bin, packing, tmp, write, CUBIC_MODEL as MODEL};
+use crate::common::{bin, packing, tmp, write, CUBIC_MODEL as MODEL};
 use std::path::Path;
 use std::process::Command;
 
@@ -350,7 +349,7 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
     for part in ["normal", "shear"] {
         let h = g["heterogeneity"][part].as_f64().unwrap();
         // A disordered block: a few per cent of spread, never zero (an affine lattice gives 0,
-        // tests/dem_grips_lattice.rs).
+        // tests/dem/grips_lattice.rs).
         assert!(h > 1e-3 && h < 0.5, "heterogeneity {part} {h}");
     }
     assert!(g["grips"]["grip_particles"].as_u64().unwrap() > 0);

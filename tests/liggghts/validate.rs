@@ -6,12 +6,10 @@
 //! from the integrator's) is caught. Skipped with a reason only when LIGGGHTS/MPI/make are
 //! absent and CI is unset; the driver is built by `make -C cpp driver` if needed.
 
-mod liggghts_support;
-
+use crate::common::liggghts::*;
 use anisobond::validate::liggghts::{
     checks_table, validate_liggghts, write_report, Programs, ValidateOptions,
 };
-use liggghts_support::*;
 
 const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
 
@@ -132,7 +130,7 @@ fn load_average() -> String {
 /// `BENCH_N` particles (default 5,000), driver at -np 1 and -np 2 (LIGGGHTS' loop time) and
 /// the reference integrator (wall time of its steps, all threads), same packing, same
 /// session. Ignored (run in release):
-/// `cargo test --release --test validate_liggghts -- --ignored --nocapture throughput`.
+/// `cargo test --release --test liggghts -- --ignored --nocapture validate::throughput`.
 /// Asserts only that the runs agree (history check at the last step).
 #[test]
 #[ignore]

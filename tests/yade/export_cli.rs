@@ -188,7 +188,7 @@ fn good_export_writes_the_run_directory() {
     let bonds = std::fs::read_to_string(dir.join("bonds.csv")).unwrap();
     assert_eq!(bonds.lines().count(), 1 + 3 * 64);
     let module = std::fs::read_to_string(dir.join("anisobond_yade.py")).unwrap();
-    assert_eq!(module, include_str!("../yade-scripts/anisobond_yade.py"));
+    assert_eq!(module, include_str!("../../yade-scripts/anisobond_yade.py"));
     let run = std::fs::read_to_string(dir.join("run.py")).unwrap();
     assert!(run.contains("anisobond_yade.main(DEFAULTS + sys.argv[1:])"));
     // run.py and the module are valid Python (when a python3 is around to say so).

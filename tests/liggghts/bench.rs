@@ -1,14 +1,12 @@
 //! Throughput of the LIGGGHTS driver: particle-steps per second at -np 1 and -np 2 on a
 //! ~30,000-particle bonded packing. Ignored by default (minutes); run with
-//! `cargo test --test liggghts_bench -- --ignored --nocapture`. Asserts only that both runs
+//! `cargo test --release --test liggghts -- --ignored --nocapture bench::`. Asserts only that both runs
 //! finish and agree.
 
-mod liggghts_support;
-
+use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
     export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
 };
-use liggghts_support::*;
 
 /// Sum of "Loop time of T on P procs for S steps" lines: (seconds, steps).
 fn loop_time(screen: &str) -> (f64, u64) {

@@ -2,7 +2,7 @@
 //! orderings of docs/references.md "Relaxed (static) stiffness: properties to test", and Kruyt's
 //! LAF estimates between them.
 
-mod common;
+use crate::common::lattice::*;
 use anisobond::bonds::BondSet;
 use anisobond::homogenize::laf::laf_tensor;
 use anisobond::homogenize::network::LeverArm;
@@ -10,7 +10,6 @@ use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::homogenize::voigt::voigt_tensor;
 use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
-use common::lattice::*;
 
 #[test]
 fn simple_cubic_and_fcc_relaxed_equal_closed_forms() {

@@ -2,14 +2,13 @@
 //! two-level CG give the same tensor; closed forms on SC/FCC lattices (docs/references.md,
 //! "Relaxed (static) stiffness") through each; thread-count independence.
 
-mod common;
+use crate::common::lattice::*;
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::homogenize::relaxed::{
     relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedResult, RelaxedSolver,
 };
 use anisobond::packing::Packing;
 use anisobond::Vec3;
-use common::lattice::*;
 
 const JACOBI: RelaxedSolver = RelaxedSolver::Cg {
     preconditioner: CgPreconditioner::BlockJacobi,

@@ -1,7 +1,7 @@
 //! Studies against the papers' numbers (Kumar 2016 Fig. 5/Tables 2–3; Truszkowska 2018
 //! Sec. 5.1 Fig. 5, Sec. 5.4 Eqs. 31–34, Sec. 5.5 Table 2). The `#[ignore]`d ones print
 //! tables for BENCHMARKS.md: run with
-//! `cargo test --release --test study_papers -- --ignored --nocapture <name>`.
+//! `cargo test --release --test study -- --ignored --nocapture papers::<name>`.
 //! The one always run asserts Kumar's trend on a small packing.
 
 use anisobond::bonds::rules::build_bonds;
