@@ -2,31 +2,17 @@
 //! tensors are recomputed with the library's own relaxed solver (`homogenize::relaxed`,
 //! cold start), independent of the calibration's warm-started one.
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondSet, BondingRule};
+use crate::common::bonded::gap_bonded;
+use anisobond::bonds::{assign_stiffness, BondSet};
 use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
 use anisobond::calibrate::cubic::{calibrate_cubic_relaxed, CubicOptions};
 use anisobond::calibrate::target::CubicTarget;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::{Model, SchemeSpec};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
 use anisobond::schemes::Convention;
 use anisobond::tensor::{CubicProjection, TransverseProjection};
 use anisobond::Vec3;
-
-fn packing(n: usize, seed: u64) -> (Packing, BondSet) {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
-    (p, b)
-}
 
 fn relaxed_of(model: &Model, p: &Packing, b: &BondSet) -> anisobond::tensor::Stiffness6 {
     let scheme = model.build_scheme(Some((p, b))).expect("scheme");
@@ -42,7 +28,7 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn relaxed_calibration_reproduces_a_known_models_relaxed_tensor() {
-    let (p, b) = packing(800, 7);
+    let (p, b) = gap_bonded(800, 7);
     // Target: the relaxed tensor of Truszkowska's MRV model (a_n = 4.31, a_s = 10) here.
     let known = Model::truszkowska_mrv();
     let t = CubicProjection::from_stiffness(&relaxed_of(&known, &p, &b));
@@ -70,7 +56,7 @@ fn relaxed_calibration_reproduces_a_known_models_relaxed_tensor() {
 
 #[test]
 fn table_2_target_on_a_packing_within_one_percent() {
-    let (p, b) = packing(800, 3);
+    let (p, b) = gap_bonded(800, 3);
     let base = Model::truszkowska_mrv();
     let target = CubicTarget::from_ratios(0.30, 0.43).unwrap();
     let cal = calibrate_cubic_relaxed(&p, &b, &base, &target, 1e13, &CubicOptions::default())
@@ -88,7 +74,7 @@ fn table_2_target_on_a_packing_within_one_percent() {
 
 #[test]
 fn nickel_on_a_packing_is_reached_or_refused_with_the_nearest_tensor() {
-    let (p, b) = packing(800, 3);
+    let (p, b) = gap_bonded(800, 3);
     let base = Model::truszkowska_mrv();
     let target = CubicTarget::from_constants(246.5e9, 147.3e9, 124.7e9).unwrap();
     for extended in [false, true] {
@@ -115,7 +101,7 @@ fn nickel_on_a_packing_is_reached_or_refused_with_the_nearest_tensor() {
 
 #[test]
 fn cross_anisotropic_relaxed_tensor_hits_the_target() {
-    let (p, b) = packing(800, 5);
+    let (p, b) = gap_bonded(800, 5);
     // A schist-like target about z whose Voigt inversion A⁻¹C = (105, 30, 17.5, 30) MPa
     // (exact, docs/references.md inverse) has healthy shear moduli: reachable after relaxation.
     let target = [130e6, 80e6, 20e6, 30e6];

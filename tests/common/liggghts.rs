@@ -10,34 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-pub fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-pub fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root().join("target"))
-}
-
-fn on_path(p: &str) -> bool {
-    anisobond::export::liggghts::which(p)
-}
-
-/// `Some(reason)` when a tool is missing. Under CI a missing tool is a failure.
-pub fn missing(tools: &[&str]) -> Option<String> {
-    let absent: Vec<&str> = tools.iter().copied().filter(|t| !on_path(t)).collect();
-    if absent.is_empty() {
-        return None;
-    }
-    let reason = format!("not installed: {}", absent.join(", "));
-    if std::env::var_os("CI").is_some() {
-        panic!(
-            "CI is set but {reason} (install liggghts libliggghts-dev mpi-default-dev g++ make)"
-        );
-    }
-    Some(reason)
-}
+#[allow(unused_imports)]
+pub use super::{missing, root, target_dir};
 
 /// Build the driver once per test binary (`make -C cpp driver`) and return its path.
 pub fn driver() -> PathBuf {

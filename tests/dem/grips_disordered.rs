@@ -3,28 +3,14 @@
 //! and springs (`homogenize::relaxed`), the Table 3 heterogeneity metric, and thread-count
 //! independence.
 
-use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
+use crate::common::bonded::gap_bonded;
+use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::grips::{gripped_tensor, GrippedOptions, GrippedTensor};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::LawKind;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
 use anisobond::tensor::relative_difference;
-
-fn bonded(n: usize, seed: u64) -> (Packing, BondSet) {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
-    (p, b)
-}
 
 /// Uniform isotropic springs with bending and twisting (so that the few weakly bonded
 /// particles of a disordered block are not floppy).
@@ -63,7 +49,7 @@ fn run(p: &Packing, b: &BondSet, k: &BondStiffness) -> (GrippedTensor, f64) {
 
 #[test]
 fn gripped_tensor_close_to_periodic_relaxed_and_heterogeneity_positive() {
-    let (p, b) = bonded(3000, 3);
+    let (p, b) = gap_bonded(3000, 3);
     let k = springs(&p, &b);
     let relaxed = relaxed_tensor(
         &p,
@@ -119,7 +105,7 @@ fn gripped_tensor_close_to_periodic_relaxed_and_heterogeneity_positive() {
 
 #[test]
 fn gripped_tensor_same_bits_on_one_and_two_threads() {
-    let (p, b) = bonded(1000, 9);
+    let (p, b) = gap_bonded(1000, 9);
     let k = springs(&p, &b);
     let opts = GrippedOptions {
         measure: MeasureOptions {

@@ -1,6 +1,7 @@
 //! Prescribed-motion (grip) particles in the integrator and the time-integrated
 //! measurement-sphere strain (Truszkowska 2018 Sec. 4.2).
 
+use crate::common::bonded::gap_bonded;
 use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::element::path_gradient;
 use anisobond::dem::grips::{grip_motion, gripped_setup, GrippedOptions};
@@ -77,16 +78,7 @@ fn held_particle_moves_at_its_velocity_whatever_the_bond_force() {
 
 #[test]
 fn time_integrated_strain_rate_equals_displacement_fit() {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: 800,
-            seed: 4,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
+    let (p, b) = gap_bonded(800, 4);
     let k = springs(b.len(), p.mean_radius());
     let opts = GrippedOptions {
         measure: MeasureOptions {

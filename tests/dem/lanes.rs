@@ -3,22 +3,13 @@
 //! lane), on a periodic packing under a shear rate. The scalar kernels are chosen by the
 //! run's own option (`DemOptions::simd = false`).
 
-use anisobond::bonds::{rules::build_bonds, BondStiffness, BondingRule};
+use crate::common::bonded::gap_bonded;
+use anisobond::bonds::BondStiffness;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::{Mat3, Vec3};
 
 fn run(scalar: bool, spin: f64) -> Vec<u64> {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: 400,
-            seed: 11,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
+    let (p, b) = gap_bonded(400, 11);
     let r = p.mean_radius();
     let nb = b.len();
     let k = BondStiffness {

@@ -2,11 +2,11 @@
 //! band of undamped runs and its O(dt²) scaling, bit-identical histories on 1 and 2 threads,
 //! weakly bonded particles, the blow-up error, and the relaxation speed of the element tests.
 
-use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
+use crate::common::bonded::gap_bonded;
+use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::element::{path_gradient, relax_path, ElementTestOptions};
 use anisobond::dem::quat::Quat;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
 
@@ -143,16 +143,7 @@ fn two_particle_closed_forms_all_laws() {
 }
 
 fn periodic_bonded(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness) {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
+    let (p, b) = gap_bonded(n, seed);
     let r = p.mean_radius();
     let nb = b.len();
     let k = BondStiffness {

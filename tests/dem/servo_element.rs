@@ -4,20 +4,20 @@
 //! E_i = 1/S_ii and ν_ij = −S_ij·E_i of the relaxed S = C⁻¹, the shears C_44…, and the
 //! stiffness built from them the same as built from the relaxed tensor.
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondSet, BondStiffness, BondingRule};
+use crate::common::bonded::{relaxed_exact, yade_sim};
+use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondStiffness, BondingRule};
 use anisobond::dem::servo::{servo_until_converged, ComponentControl, ServoOptions, StressServo};
 use anisobond::dem::stress_tests::{
     expected_test_constants, stiffness_from_tests, stress_controlled_tensor,
     transversely_isotropic, StressTestOptions,
 };
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::packing::generate::{generate, GenerateOptions, Polydispersity};
 use anisobond::packing::Packing;
 use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
 use anisobond::schemes::isotropic::Isotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
-use anisobond::tensor::{relative_difference, Stiffness6};
+use anisobond::tensor::relative_difference;
 use anisobond::Vec3;
 
 fn packing(n: usize, solid_fraction: f64, radius: f64, seed: u64) -> Packing {
@@ -35,25 +35,6 @@ fn packing(n: usize, solid_fraction: f64, radius: f64, seed: u64) -> Packing {
     .unwrap()
 }
 
-fn relaxed(p: &Packing, b: &BondSet, k: &BondStiffness) -> Stiffness6 {
-    relaxed_tensor(
-        p,
-        b,
-        k,
-        &RelaxedOptions {
-            tolerance: 1e-10,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-    .c
-}
-
-fn sim(p: &Packing, b: &BondSet, k: &BondStiffness) -> Simulation {
-    let law = build_law(LawKind::Yade, p, b, k).unwrap();
-    Simulation::new(p, b, law, &DemOptions::default()).unwrap()
-}
-
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -69,9 +50,9 @@ fn uniaxial_servo_tests_match_the_relaxed_tensor_isotropic() {
         ..Default::default()
     };
     let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
-    let c = relaxed(&p, &b, &k);
+    let c = relaxed_exact(&p, &b, &k).c;
     let (young, poisson, shear) = expected_test_constants(&c).unwrap();
-    let s = sim(&p, &b, &k);
+    let s = yade_sim(&p, &b, &k, None);
     let t_r = 1e-4;
     let opts = StressTestOptions {
         servo: ServoOptions {
@@ -159,10 +140,10 @@ fn cross_anisotropic_servo_tests_match_the_relaxed_tensor() {
     let mu = lattice_scaling(&p, &b, geometry.pi_hat).unwrap();
     let scheme = CrossAnisotropic::from_target(130e6, 55e6, 28e6, 40e6, Vec3::z(), mu).unwrap();
     let k = assign_stiffness(&p, &b, &scheme as &dyn StiffnessScheme, &geometry).unwrap();
-    let c = relaxed(&p, &b, &k);
+    let c = relaxed_exact(&p, &b, &k).c;
     let (young, poisson, shear) = expected_test_constants(&c).unwrap();
     let (c_orth_expected, ti_expected, _) = stiffness_from_tests(young, &poisson, shear).unwrap();
-    let s = sim(&p, &b, &k);
+    let s = yade_sim(&p, &b, &k, None);
     let t0 = std::time::Instant::now();
     let opts = StressTestOptions {
         servo: ServoOptions {
@@ -228,7 +209,7 @@ fn servo_is_bit_identical_on_one_and_two_threads() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut s = sim(&p, &b, &k);
+            let mut s = yade_sim(&p, &b, &k, None);
             s.set_local_damping(0.4).unwrap();
             let mut controls = [ComponentControl::Stress(0.0); 6];
             controls[2] = ComponentControl::Strain(-1e-5);
@@ -267,11 +248,11 @@ fn full_stress_control_reaches_the_compliance_strain() {
         ..Default::default()
     };
     let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
-    let c = relaxed(&p, &b, &k);
+    let c = relaxed_exact(&p, &b, &k).c;
     let target = anisobond::tensor::Voigt6::new(-1000.0, -2000.0, -500.0, 300.0, -200.0, 100.0);
     let want = c.try_inverse().unwrap() * target;
     for gain in [0.5, 1.0, 0.2] {
-        let mut s = sim(&p, &b, &k);
+        let mut s = yade_sim(&p, &b, &k, None);
         s.set_local_damping(0.4).unwrap();
         let controls = std::array::from_fn(|q| ComponentControl::Stress(target[q]));
         let opts = ServoOptions {
@@ -302,7 +283,7 @@ fn servo_refuses_bad_input() {
         ..Default::default()
     };
     let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
-    let mut s = sim(&p, &b, &k);
+    let mut s = yade_sim(&p, &b, &k, None);
     let free = [ComponentControl::Stress(0.0); 6];
     for gain in [0.0, 1.5, f64::NAN] {
         let o = ServoOptions {
@@ -342,7 +323,7 @@ fn servo_refuses_bad_input() {
     fp.cell = None;
     let fb = build_bonds(&fp, BondingRule::Gap(0.3)).unwrap();
     let fk = assign_stiffness(&fp, &fb, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
-    let fsim = sim(&fp, &fb, &fk);
+    let fsim = yade_sim(&fp, &fb, &fk, None);
     assert!(StressServo::new(&fsim, free, &ServoOptions::default()).is_err());
     assert!(stress_controlled_tensor(&fsim, &StressTestOptions::default(), &|_| {}).is_err());
     let bad = StressTestOptions {

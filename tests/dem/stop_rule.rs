@@ -5,99 +5,38 @@
 //! Near-coincident particles are refused at bonding time, and the CLI refuses bad
 //! integrator options and writes no output when a run does not converge.
 
-use crate::common::{bin, CUBIC_MODEL as MODEL};
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondSet, BondStiffness, BondingRule};
+use crate::common::bonded::{directional_springs, gap_bonded, relaxed_exact, yade_sim};
+use crate::common::{bin, fails, CUBIC_MODEL as MODEL};
+use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondingRule};
 use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
-use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
-use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::dem::{DemOptions, LawKind};
 use anisobond::packing::Packing;
 use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;
 use anisobond::Vec3;
 use std::path::Path;
-use std::process::Command;
-
-fn bonded(n: usize, seed: u64) -> (Packing, BondSet) {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
-    (p, b)
-}
-
-/// Direction-dependent k_n, k_s (as tests/dem/element.rs), no moment springs.
-fn springs(p: &Packing, b: &BondSet) -> BondStiffness {
-    let nb = b.len();
-    let mut k = BondStiffness {
-        radius: vec![p.mean_radius(); nb],
-        kn: vec![0.0; nb],
-        ks: vec![0.0; nb],
-        kr: vec![0.0; nb],
-        ktw: vec![0.0; nb],
-    };
-    for e in 0..nb {
-        let n = b.normal[e];
-        k.kn[e] = 1e6 * (1.0 + 2.0 * n.x * n.x + 0.5 * n.y * n.z);
-        k.ks[e] = 0.4e6 * (1.0 + n.z * n.z);
-    }
-    k
-}
-
-fn relaxed(p: &Packing, b: &BondSet, k: &BondStiffness) -> RelaxedResult {
-    relaxed_tensor(
-        p,
-        b,
-        k,
-        &RelaxedOptions {
-            tolerance: 1e-10,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-}
-
-fn sim(p: &Packing, b: &BondSet, k: &BondStiffness, dt: Option<f64>) -> Simulation {
-    let law = build_law(LawKind::Yade, p, b, k).unwrap();
-    Simulation::new(
-        p,
-        b,
-        law,
-        &DemOptions {
-            time_step: dt,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-}
 
 /// Tiny time step: the element tests refuse (the error names the unbalanced force and the
 /// time step against the critical one) instead of returning the Voigt tensor; the default
 /// time step gives the relaxed tensor within the 1e-3 of tests/dem/element.rs.
 #[test]
 fn element_tests_refuse_a_tiny_time_step_and_match_relaxed_at_the_default() {
-    let (p, b) = bonded(300, 7);
-    let k = springs(&p, &b);
-    let exact = relaxed(&p, &b, &k);
+    let (p, b) = gap_bonded(300, 7);
+    let k = directional_springs(&p, &b, false);
+    let exact = relaxed_exact(&p, &b, &k);
     let affine_gap = relative_difference(&exact.c_affine, &exact.c);
     assert!(
         affine_gap > 0.02,
         "relaxation must matter: {affine_gap:.3e}"
     );
 
-    let tiny = sim(&p, &b, &k, Some(1e-12));
+    let tiny = yade_sim(&p, &b, &k, Some(1e-12));
     let crit = tiny.stability().critical_time_step;
     assert!(crit > 1e-9, "critical time step {crit:e}");
     let err = dynamic_tensor(&tiny, &ElementTestOptions::default(), &|_| {})
@@ -115,7 +54,7 @@ fn element_tests_refuse_a_tiny_time_step_and_match_relaxed_at_the_default() {
     assert!(err.contains("unbalanced force"), "{err}");
     assert!(err.contains("critical estimate"), "{err}");
 
-    let normal = sim(&p, &b, &k, None);
+    let normal = yade_sim(&p, &b, &k, None);
     let d = dynamic_tensor(&normal, &ElementTestOptions::default(), &|_| {}).unwrap();
     let diff = relative_difference(&d.c, &exact.c);
     let steps: Vec<usize> = d.paths.iter().map(|p| p.steps).collect();
@@ -143,9 +82,9 @@ fn element_tests_refuse_a_tiny_time_step_and_match_relaxed_at_the_default() {
 /// too, naming the unbalanced force.
 #[test]
 fn servo_and_grips_refuse_a_tiny_time_step() {
-    let (p, b) = bonded(300, 7);
-    let k = springs(&p, &b);
-    let tiny = sim(&p, &b, &k, Some(1e-12));
+    let (p, b) = gap_bonded(300, 7);
+    let k = directional_springs(&p, &b, false);
+    let tiny = yade_sim(&p, &b, &k, Some(1e-12));
     let opts = StressTestOptions {
         servo: ServoOptions {
             max_steps: 3000,
@@ -164,8 +103,8 @@ fn servo_and_grips_refuse_a_tiny_time_step() {
     // A block large enough for measurement spheres of 3 R̄ (as tests/dem/grips_disordered.rs).
     // (Here the stress / sphere-strain window alone also refuses: checked with the
     // unbalanced-force rule disabled. The ramp check below is what fails without the fix.)
-    let (p, b) = bonded(1000, 9);
-    let k = springs(&p, &b);
+    let (p, b) = gap_bonded(1000, 9);
+    let k = directional_springs(&p, &b, false);
     let grips = GrippedOptions {
         max_steps: 3000,
         measure: MeasureOptions {
@@ -205,15 +144,15 @@ fn servo_and_grips_refuse_a_tiny_time_step() {
 /// than one particle chunk of the integrator).
 #[test]
 fn element_tests_same_bits_on_one_and_two_threads() {
-    let (p, b) = bonded(1200, 3);
-    let k = springs(&p, &b);
+    let (p, b) = gap_bonded(1200, 3);
+    let k = directional_springs(&p, &b, false);
     let on = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
             .install(|| {
-                let s = sim(&p, &b, &k, None);
+                let s = yade_sim(&p, &b, &k, None);
                 let d = dynamic_tensor(&s, &ElementTestOptions::default(), &|_| {}).unwrap();
                 let u: Vec<_> = d.paths.iter().map(|p| (p.steps, p.unbalance)).collect();
                 (d.c, u)
@@ -245,7 +184,7 @@ fn with_copy(p: &Packing) -> Packing {
 /// relax the rest of the packing within the step limit).
 #[test]
 fn near_coincident_pair_is_refused() {
-    let (p, b) = bonded(300, 7);
+    let (p, b) = gap_bonded(300, 7);
     let q = with_copy(&p);
     let n = p.len();
     for rule in [
@@ -271,9 +210,9 @@ fn near_coincident_pair_is_refused() {
     let mu = lattice_scaling(&p, &b, geometry.pi_hat).unwrap();
     let scheme = CrossAnisotropic::from_target(130e6, 55e6, 28e6, 40e6, Vec3::z(), mu).unwrap();
     let k = assign_stiffness(&q, &bq, &scheme as &dyn StiffnessScheme, &geometry).unwrap();
-    let s = sim(&q, &bq, &k, None);
+    let s = yade_sim(&q, &bq, &k, None);
     let k0 = assign_stiffness(&p, &b, &scheme as &dyn StiffnessScheme, &geometry).unwrap();
-    let crit0 = sim(&p, &b, &k0, None).stability().critical_time_step;
+    let crit0 = yade_sim(&p, &b, &k0, None).stability().critical_time_step;
     println!(
         "critical time step {:.3e} s with the copy, {crit0:.3e} s without",
         s.stability().critical_time_step
@@ -303,14 +242,6 @@ fn setup(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let m = dir.join("model.toml");
     std::fs::write(&m, MODEL).unwrap();
     (p, m)
-}
-
-/// Run, expect failure; return stderr.
-fn fails(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!out.status.success(), "expected failure; stderr: {err}");
-    err
 }
 
 #[test]

@@ -2,31 +2,16 @@
 //! C++ test) and runs the C++ test, which checks the bridge against docs/references.md numbers
 //! and closed forms. Skipped with a reason only when g++/make are absent and CI is unset.
 
-use std::path::PathBuf;
+use crate::common::{missing, root, target_dir};
 use std::process::Command;
-
-fn on_path(p: &str) -> bool {
-    std::env::var_os("PATH")
-        .is_some_and(|ps| std::env::split_paths(&ps).any(|d| d.join(p).is_file()))
-}
 
 #[test]
 fn cpp_bridge_test_builds_and_passes() {
-    let absent: Vec<&str> = ["g++", "make"]
-        .into_iter()
-        .filter(|t| !on_path(t))
-        .collect();
-    if !absent.is_empty() {
-        if std::env::var_os("CI").is_some() {
-            panic!("CI is set but not installed: {}", absent.join(", "));
-        }
-        eprintln!("skipping: not installed: {}", absent.join(", "));
+    if let Some(reason) = missing(&["g++", "make"]) {
+        eprintln!("skipping: {reason}");
         return;
     }
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join("target"));
+    let (root, target) = (root(), target_dir());
     let out = Command::new("make")
         .args(["-C", "cpp", "check", "CXX=g++", "PROFILE=release"])
         .current_dir(&root)

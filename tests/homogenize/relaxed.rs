@@ -3,12 +3,10 @@
 //! LAF estimates between them.
 
 use crate::common::lattice::*;
-use anisobond::bonds::BondSet;
 use anisobond::homogenize::laf::laf_tensor;
 use anisobond::homogenize::network::LeverArm;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::homogenize::voigt::voigt_tensor;
-use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
 
 #[test]
@@ -16,8 +14,7 @@ fn simple_cubic_and_fcc_relaxed_equal_closed_forms() {
     let r = 1e-3;
     let (kn, kt) = (2e6, 0.8e6);
     // Simple cubic, bond length 2R: C11 = kn/(2R), C12 = 0, C44 = kt/(4R).
-    let p = lattice(&[[0.0; 3]], 4, 2.0 * r, r, 0.0, 0);
-    let b = brute_bonds(&p, 1e-3 * r);
+    let (p, b) = simple_cubic_bonded(r);
     assert_eq!(b.len(), 3 * 64);
     let res = relaxed_tensor(
         &p,
@@ -35,9 +32,7 @@ fn simple_cubic_and_fcc_relaxed_equal_closed_forms() {
         res.c[(3, 3)]
     );
     // FCC: C11 = (kn+kt)/(√2R), C12 = (kn−kt)/(2√2R), C44 = (kn+kt)/(2√2R).
-    let a = 2.0 * std::f64::consts::SQRT_2 * r;
-    let p = lattice(&FCC, 3, a, r, 0.0, 0);
-    let b = brute_bonds(&p, 1e-3 * r);
+    let (p, b) = fcc_bonded(r);
     assert_eq!(b.len(), 6 * p.len());
     let res = relaxed_tensor(
         &p,
@@ -52,18 +47,9 @@ fn simple_cubic_and_fcc_relaxed_equal_closed_forms() {
     assert!((res.c[(3, 3)] - (kn + kt) / (2.0 * s2r)).abs() < tol);
 }
 
-/// Jittered FCC with a gap cutoff: a disordered network with Z around 6–12.
-fn disordered(seed: u64, gap: f64) -> (Packing, BondSet) {
-    let r = 1e-3;
-    let a = 2.0 * std::f64::consts::SQRT_2 * r * 1.03;
-    let p = lattice(&FCC, 5, a, r, 0.12, seed);
-    let b = brute_bonds(&p, gap * r);
-    (p, b)
-}
-
 #[test]
 fn relaxed_is_below_voigt_symmetric_and_exact_without_fluctuations() {
-    let (p, b) = disordered(1, 0.25);
+    let (p, b) = disordered_fcc(5, 1, 0.25);
     let k = uniform_springs(b.len(), 1e6, 0.8e6, 0.0, 0.0);
     let voigt = voigt_tensor(&b, &k, p.volume());
     let opts = RelaxedOptions::default();
@@ -109,7 +95,7 @@ fn relaxed_is_below_voigt_symmetric_and_exact_without_fluctuations() {
 
 #[test]
 fn relaxed_is_thread_count_independent_and_lever_arms_agree_for_equal_spheres() {
-    let (p, b) = disordered(2, 0.25);
+    let (p, b) = disordered_fcc(5, 2, 0.25);
     let k = uniform_springs(b.len(), 1e6, 0.5e6, 0.0, 0.0);
     let run = |t: usize, arm| {
         rayon::ThreadPoolBuilder::new()
@@ -138,7 +124,7 @@ fn relaxed_is_thread_count_independent_and_lever_arms_agree_for_equal_spheres() 
 
 #[test]
 fn laf_energy_bounds_relaxed_and_decreases_with_shell_order() {
-    let (p, b) = disordered(3, 0.2);
+    let (p, b) = disordered_fcc(5, 3, 0.2);
     let k = uniform_springs(b.len(), 1e6, 0.8e6, 0.0, 0.0);
     let relaxed = relaxed_tensor(&p, &b, &k, &RelaxedOptions::default())
         .unwrap()

@@ -48,8 +48,7 @@ fn simple_cubic_and_fcc_closed_forms_by_every_solver() {
     let (kn, kt) = (2e6, 0.8e6);
     let tol = 1e-9 * kn / r;
     // Simple cubic, bond length 2R: C11 = kn/(2R), C12 = 0, C44 = kt/(4R).
-    let p = lattice(&[[0.0; 3]], 4, 2.0 * r, r, 0.0, 0);
-    let b = brute_bonds(&p, 1e-3 * r);
+    let (p, b) = simple_cubic_bonded(r);
     assert_eq!(b.len(), 3 * 64);
     let k = uniform_springs(b.len(), kn, kt, 0.0, 0.0);
     for solver in SOLVERS {
@@ -59,9 +58,7 @@ fn simple_cubic_and_fcc_closed_forms_by_every_solver() {
         assert!((c[(3, 3)] - kt / (4.0 * r)).abs() < tol, "{solver:?} {c}");
     }
     // FCC: C11 = (kn+kt)/(√2R), C12 = (kn−kt)/(2√2R), C44 = (kn+kt)/(2√2R).
-    let a = 2.0 * std::f64::consts::SQRT_2 * r;
-    let p = lattice(&FCC, 3, a, r, 0.0, 0);
-    let b = brute_bonds(&p, 1e-3 * r);
+    let (p, b) = fcc_bonded(r);
     assert_eq!(b.len(), 6 * p.len());
     let k = uniform_springs(b.len(), kn, kt, 0.0, 0.0);
     let s2r = std::f64::consts::SQRT_2 * r;
@@ -77,16 +74,6 @@ fn simple_cubic_and_fcc_closed_forms_by_every_solver() {
             "{solver:?}"
         );
     }
-}
-
-/// Jittered FCC with a gap cutoff: a disordered network (Z ≈ 6–12 for gap 0.25; a small gap
-/// leaves pruned particles, two-bond particles with a free rotation, and other local modes).
-fn disordered(cells: usize, seed: u64, gap: f64) -> (Packing, BondSet) {
-    let r = 1e-3;
-    let a = 2.0 * std::f64::consts::SQRT_2 * r * 1.03;
-    let p = lattice(&FCC, cells, a, r, 0.12, seed);
-    let b = brute_bonds(&p, gap * r);
-    (p, b)
 }
 
 /// Adds a particle bonded to exactly two others (a free rotation about the line through its
@@ -119,7 +106,7 @@ fn cholesky_equals_cg_on_disordered_networks_with_local_mechanisms() {
         (0.09, 0.25, true),
         (0.25, 0.0, false),
     ] {
-        let (p, b) = disordered(5, 11, gap);
+        let (p, b) = disordered_fcc(5, 11, gap);
         let (p, b) = with_low_degree_particles(&p, &b);
         let k = uniform_springs(b.len(), 1e6, 0.7e6, kr, 2.0 * kr);
         let cg = solve(&p, &b, &k, JACOBI, 1e-11, rotations);
@@ -140,7 +127,7 @@ fn cholesky_equals_cg_on_disordered_networks_with_local_mechanisms() {
 
 #[test]
 fn two_level_cg_equals_block_jacobi_cg_in_fewer_iterations() {
-    let (p, b) = disordered(8, 5, 0.2);
+    let (p, b) = disordered_fcc(8, 5, 0.2);
     let k = uniform_springs(b.len(), 1e6, 0.6e6, 0.0, 0.0);
     let jacobi = solve(&p, &b, &k, JACOBI, 1e-10, true);
     let two = solve(&p, &b, &k, TWO_LEVEL, 1e-10, true);
@@ -159,7 +146,7 @@ fn two_level_cg_equals_block_jacobi_cg_in_fewer_iterations() {
 
 #[test]
 fn every_solver_is_thread_count_independent() {
-    let (p, b) = disordered(5, 2, 0.2);
+    let (p, b) = disordered_fcc(5, 2, 0.2);
     let k = uniform_springs(b.len(), 1e6, 0.5e6, 0.0, 0.0);
     for solver in SOLVERS {
         let run = |t: usize| {

@@ -2,11 +2,11 @@
 //! equilibrium: the Love stress (1/V)Σ f⊗l of the written forces equals C·ε of the relaxed
 //! tensor, and the net force on every load-carrying particle vanishes.
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondingRule};
+use crate::common::bonded::gap_bonded;
+use anisobond::bonds::assign_stiffness;
 use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::tensor::Voigt6;
 use anisobond::Vec3;
 use quick_xml::events::Event;
@@ -62,17 +62,8 @@ fn arrays(path: &std::path::Path) -> (HashMap<String, (usize, usize)>, usize, us
 
 #[test]
 fn vtu_files_have_the_arrays_and_forces_are_in_equilibrium() {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: 400,
-            seed: 11,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let (p, b) = gap_bonded(400, 11);
     let model = Model::truszkowska_mrv();
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
     let scheme = model.build_scheme(None).unwrap();
     let k = assign_stiffness(&p, &b, scheme.as_ref(), &model.geometry).unwrap();
     let strain = Voigt6::new(1e-3, 0.0, 0.0, 0.0, 0.0, 2e-4);

@@ -23,6 +23,7 @@ fn loop_time(screen: &str) -> (f64, u64) {
 #[test]
 #[ignore]
 fn driver_throughput_30k() {
+    let _alone = crate::common::alone();
     if let Some(r) = missing(&["liggghts", "mpicxx", "mpirun", "make"]) {
         eprintln!("skipping: {r}");
         return;

@@ -135,6 +135,7 @@ fn load_average() -> String {
 #[test]
 #[ignore]
 fn throughput_driver_vs_integrator() {
+    let _alone = crate::common::alone();
     use anisobond::dem::laws::{LinearBondKernel, MomentForm};
     use anisobond::export::liggghts::*;
     use anisobond::validate::liggghts::{

@@ -185,6 +185,7 @@ fn bad_options_are_refused() {
 #[test]
 #[ignore]
 fn timing_and_coordination() {
+    let _alone = crate::common::alone();
     for phi in [0.62, 0.63] {
         let t = std::time::Instant::now();
         let (p, rep) = generate_with_report(&options(10_000, phi, 1), &|_| {}).unwrap();

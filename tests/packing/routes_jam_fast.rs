@@ -259,6 +259,7 @@ fn status_reports_follow_the_jammed_preparation() {
 #[test]
 #[ignore]
 fn timing_of_the_routes_for_large_packings() {
+    let _alone = crate::common::alone();
     let sizes: Vec<usize> = std::env::var("JAM_SIZES")
         .ok()
         .map(|s| s.split(',').filter_map(|v| v.trim().parse().ok()).collect())

@@ -2,6 +2,7 @@
 //! and its inverse (docs/references.md), the paper's worked example, closed-form lattice scalings
 //! and the mean-field orientation integral.
 
+use crate::common::transverse;
 use std::f64::consts::PI;
 
 use anisobond::bonds::BondSet;
@@ -57,23 +58,6 @@ fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
         }
     }
     out
-}
-
-/// Transversely isotropic Voigt tensor about z.
-fn transverse(c11: f64, c33: f64, c13: f64, c12: f64, c44: f64) -> Stiffness6 {
-    let mut c = Stiffness6::zeros();
-    c[(0, 0)] = c11;
-    c[(1, 1)] = c11;
-    c[(2, 2)] = c33;
-    c[(0, 1)] = c12;
-    c[(1, 0)] = c12;
-    for (a, b) in [(0, 2), (2, 0), (1, 2), (2, 1)] {
-        c[(a, b)] = c13;
-    }
-    c[(3, 3)] = c44;
-    c[(4, 4)] = c44;
-    c[(5, 5)] = 0.5 * (c11 - c12);
-    c
 }
 
 #[test]

@@ -25,6 +25,7 @@ fn env(name: &str, default: usize) -> usize {
 #[test]
 #[ignore]
 fn table_3_heterogeneity_of_the_mrv_model() {
+    let _alone = crate::common::alone();
     let n = env("GRIPS_N", 20_000);
     let count = env("GRIPS_SPHERES", 2_000);
     let t0 = std::time::Instant::now();

@@ -127,6 +127,7 @@ fn kumar_fig5_trend_relaxed_below_mean_field_poisson_falls_with_alpha() {
 #[test]
 #[ignore]
 fn kumar_fig5_table() {
+    let _alone = crate::common::alone();
     let n: usize = std::env::var("STUDY_N")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -230,6 +231,7 @@ fn gpa(c: &Stiffness6) -> String {
 #[test]
 #[ignore]
 fn truszkowska_mrv_size_and_gap() {
+    let _alone = crate::common::alone();
     let sizes: Vec<usize> = std::env::var("STUDY_SIZES")
         .unwrap_or_else(|_| "5000,10000,20000,30700,50000,80000".into())
         .split(',')
@@ -305,6 +307,7 @@ fn eq31() -> Mat3 {
 #[test]
 #[ignore]
 fn truszkowska_seeds_and_rotation() {
+    let _alone = crate::common::alone();
     let n: usize = std::env::var("STUDY_N")
         .ok()
         .and_then(|s| s.parse().ok())

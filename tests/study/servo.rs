@@ -40,6 +40,7 @@ fn row(name: &str, v: [f64; 5]) {
 #[test]
 #[ignore]
 fn smilauer_ir_1_8_stress_controlled_element_tests() {
+    let _alone = crate::common::alone();
     let t0 = std::time::Instant::now();
     let p = generate(
         &GenerateOptions {

@@ -1,28 +1,13 @@
 //! Elastic constants: isotropic closed forms, engineering-constant round trips,
 //! Šmilauer's cross-anisotropic inversion, positive definiteness.
 
+use crate::common::transverse;
 use anisobond::tensor::{
     check_positive_definite, compliance, cross_anisotropic_from_engineering,
     isotropic_from_bulk_shear, isotropic_moduli, isotropic_stiffness, kelvin_moduli,
     relative_difference, reuss_average, voigt_average, zener_ratio, CubicProjection,
     EngineeringConstants, Stiffness6,
 };
-
-fn transverse(c11: f64, c33: f64, c13: f64, c12: f64, c44: f64) -> Stiffness6 {
-    let mut c = Stiffness6::zeros();
-    c[(0, 0)] = c11;
-    c[(1, 1)] = c11;
-    c[(2, 2)] = c33;
-    c[(0, 1)] = c12;
-    c[(1, 0)] = c12;
-    for (a, b) in [(0, 2), (1, 2), (2, 0), (2, 1)] {
-        c[(a, b)] = c13;
-    }
-    c[(3, 3)] = c44;
-    c[(4, 4)] = c44;
-    c[(5, 5)] = (c11 - c12) / 2.0;
-    c
-}
 
 #[test]
 fn isotropic_stiffness_matches_lame_closed_form() {

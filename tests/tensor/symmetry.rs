@@ -1,5 +1,6 @@
 //! Cubic and transversely isotropic projections (Truszkowska 2018 Sec. 4.4, Eqs. 29–30).
 
+use crate::common::transverse;
 use anisobond::tensor::{
     relative_difference, rotate, rotation_to_z, CubicProjection, Stiffness6, TransverseProjection,
 };
@@ -24,22 +25,6 @@ fn cubic(c11: f64, c12: f64, c44: f64) -> Stiffness6 {
         (false, false) if a == b => c44,
         _ => 0.0,
     })
-}
-
-fn transverse(c11: f64, c33: f64, c13: f64, c12: f64, c44: f64) -> Stiffness6 {
-    let mut c = Stiffness6::zeros();
-    c[(0, 0)] = c11;
-    c[(1, 1)] = c11;
-    c[(2, 2)] = c33;
-    c[(0, 1)] = c12;
-    c[(1, 0)] = c12;
-    for (a, b) in [(0, 2), (1, 2), (2, 0), (2, 1)] {
-        c[(a, b)] = c13;
-    }
-    c[(3, 3)] = c44;
-    c[(4, 4)] = c44;
-    c[(5, 5)] = (c11 - c12) / 2.0;
-    c
 }
 
 #[test]

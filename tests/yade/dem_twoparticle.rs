@@ -2,8 +2,9 @@
 //! springs, initial velocities, time step and velocity gradient are run in `yade -n -x` and
 //! in anisobond's integrator; forces, torques, positions, orientations and the Love stress
 //! must agree to 1e-10 relative over every step. Skipped (with a printed reason) when `yade`
-//! is not installed.
+//! is not installed and CI is unset.
 
+use crate::common::yade::yade_available;
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use anisobond::packing::{Packing, PeriodicCell};
@@ -23,14 +24,6 @@ struct Case {
     vel_grad: Option<Mat3>,
     damping: f64,
     steps: usize,
-}
-
-fn yade_available() -> bool {
-    Command::new("yade")
-        .arg("--version")
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false)
 }
 
 fn r(x: f64) -> String {
@@ -155,8 +148,7 @@ fn yade_script(c: &Case, sim: &Simulation) -> String {
 }
 
 fn run_case(c: &Case, name: &str) {
-    if !yade_available() {
-        println!("skipping {name}: `yade` is not installed (apt install yade)");
+    if !yade_available(name) {
         return;
     }
     let law = build_law(LawKind::Yade, &c.packing, &c.bonds, &c.k).unwrap();

@@ -8,9 +8,9 @@
 //! Skipped with a printed reason only when `yade` is not on PATH; with the environment
 //! variable CI set, a missing `yade` fails.
 
+use crate::common::yade::yade_available;
 use anisobond::bonds::{self, rules::build_bonds, BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
-use anisobond::export::yade::find_yade;
 use anisobond::homogenize::voigt::voigt_tensor;
 use anisobond::model::Model;
 use anisobond::packing::generate::{generate, GenerateOptions};
@@ -21,17 +21,6 @@ use anisobond::validate::yade::{
     YadeValidationOptions,
 };
 use std::process::Command;
-
-fn yade_available(test: &str) -> bool {
-    if find_yade().is_some() {
-        return true;
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("{test}: CI is set but `yade` is not on PATH — install it (apt install yade)");
-    }
-    eprintln!("SKIPPED {test}: `yade` is not on PATH (YADE 2023.02a needed)");
-    false
-}
 
 fn bonded_packing(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness, Model) {
     let packing = generate(
