@@ -18,8 +18,10 @@ pub fn driver() -> PathBuf {
     static BUILT: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
     BUILT
         .get_or_init(|| {
+            // CXX=g++ as in the `ffi` group's `make -C cpp check`: the staticlib's build script
+            // reruns when CXX changes, so a different CXX would rebuild it (about a minute).
             let out = Command::new("make")
-                .args(["-C", "cpp", "driver", "PROFILE=release"])
+                .args(["-C", "cpp", "driver", "CXX=g++", "PROFILE=release"])
                 .current_dir(root())
                 .env("CARGO_TARGET_DIR", target_dir())
                 .output()
