@@ -239,12 +239,12 @@ def main():
         rows.append(["YADE", "not installed here", "", "", "", "", ""])
     lig = None
     if shutil.which("liggghts") and shutil.which("mpirun"):
-        cmd = ["cargo", "test", "--release", "--quiet", "--test", "liggghts_bench", "--", "--ignored", "--nocapture"]
+        cmd = ["cargo", "test", "--release", "--quiet", "--test", "liggghts", "--", "--ignored", "--nocapture", "bench::"]
         try:
             wall, rss, text = sh(cmd, cwd=ROOT)
             for np_ in [1, 2]:
                 r = grab(r"-np %d: \d+ steps in [0-9.]+ s: ([0-9.e+]+) particle-steps/s" % np_, text, cast=float)
-                rows.append(["LIGGGHTS 3.8 with the anisobond driver, undamped", "`cargo test --release --test liggghts_bench -- --ignored`",
+                rows.append(["LIGGGHTS 3.8 with the anisobond driver, undamped", "`cargo test --release --test liggghts -- --ignored bench::`",
                              30000, np_, "", "", "%.3g particle-steps/s (MPI ranks %d)" % (r, np_) if r else "—"])
                 if np_ == 2:
                     lig = r

@@ -1,6 +1,6 @@
 //! The particle update of [`super::sim`] four particles at a time (AVX2), with exactly the
 //! scalar update's IEEE operations in the same order (no fused multiply–add, selects for
-//! branches), so both give the same bits; checked by `tests/dem_lanes.rs`.
+//! branches), so both give the same bits; checked by `tests/dem/lanes.rs`.
 
 use super::laws::lanes::{
     abs, add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,

@@ -75,6 +75,32 @@ pub const FCC: [[f64; 3]; 4] = [
     [0.0, 0.5, 0.5],
 ];
 
+/// Simple cubic: 4³ touching spheres of radius `r` (bond length 2r), bonded by brute force.
+pub fn simple_cubic_bonded(r: f64) -> (Packing, BondSet) {
+    let p = lattice(&[[0.0; 3]], 4, 2.0 * r, r, 0.0, 0);
+    let b = brute_bonds(&p, 1e-3 * r);
+    (p, b)
+}
+
+/// FCC: 3³ cells of touching spheres of radius `r` (a = 2√2 r), bonded by brute force.
+pub fn fcc_bonded(r: f64) -> (Packing, BondSet) {
+    let a = 2.0 * std::f64::consts::SQRT_2 * r;
+    let p = lattice(&FCC, 3, a, r, 0.0, 0);
+    let b = brute_bonds(&p, 1e-3 * r);
+    (p, b)
+}
+
+/// Jittered FCC (`cells`³ cells, R = 1 mm, a = 2√2 R·1.03, jitter 0.12) bonded with the gap
+/// cutoff `gap`·R: a disordered network (Z ≈ 6–12 for gap 0.25; a small gap leaves pruned
+/// particles, two-bond particles with a free rotation, and other local modes).
+pub fn disordered_fcc(cells: usize, seed: u64, gap: f64) -> (Packing, BondSet) {
+    let r = 1e-3;
+    let a = 2.0 * std::f64::consts::SQRT_2 * r * 1.03;
+    let p = lattice(&FCC, cells, a, r, 0.12, seed);
+    let b = brute_bonds(&p, gap * r);
+    (p, b)
+}
+
 /// Largest |entry|.
 pub fn max_abs(c: &Stiffness6) -> f64 {
     c.iter().fold(0.0_f64, |m, v| m.max(v.abs()))

@@ -2,8 +2,12 @@
 //! demo's cubic model, a small generated packing, and "fails without output" checks.
 #![allow(dead_code)]
 
+pub mod bonded;
 pub mod lattice;
+pub mod liggghts;
+pub mod yade;
 
+use anisobond::tensor::Stiffness6;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -116,4 +120,61 @@ pub fn cmd(line: &str, vars: &[(&str, &Path)]) -> Command {
         }
     }
     c
+}
+
+/// The crate's root folder.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Cargo's target folder (`CARGO_TARGET_DIR` or `target/`).
+pub fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"))
+}
+
+/// `Some(reason)` when one of the external `tools` is not on PATH (the test then skips,
+/// printing the reason). Under CI a missing tool is a failure: .ci/test-all installs them.
+pub fn missing(tools: &[&str]) -> Option<String> {
+    let absent: Vec<&str> = tools
+        .iter()
+        .copied()
+        .filter(|t| !anisobond::export::liggghts::which(t))
+        .collect();
+    if absent.is_empty() {
+        return None;
+    }
+    let reason = format!("not installed: {}", absent.join(", "));
+    if std::env::var_os("CI").is_some() {
+        panic!(
+            "CI is set but {reason} (install liggghts libliggghts-dev mpi-default-dev g++ make)"
+        );
+    }
+    Some(reason)
+}
+
+/// Transversely isotropic Voigt tensor about z (C66 = (C11 − C12)/2).
+pub fn transverse(c11: f64, c33: f64, c13: f64, c12: f64, c44: f64) -> Stiffness6 {
+    let mut c = Stiffness6::zeros();
+    c[(0, 0)] = c11;
+    c[(1, 1)] = c11;
+    c[(2, 2)] = c33;
+    c[(0, 1)] = c12;
+    c[(1, 0)] = c12;
+    for (a, b) in [(0, 2), (1, 2), (2, 0), (2, 1)] {
+        c[(a, b)] = c13;
+    }
+    c[(3, 3)] = c44;
+    c[(4, 4)] = c44;
+    c[(5, 5)] = (c11 - c12) / 2.0;
+    c
+}
+
+/// Runs the heavy or timed tests of one test binary one at a time (the `#[ignore]`d studies
+/// and throughput runs, which share a binary with others of their kind since issue 18):
+/// `let _alone = alone();` first. A test that panicked holding it does not block the rest.
+pub fn alone() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock().unwrap_or_else(|e| e.into_inner())
 }

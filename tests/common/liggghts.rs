@@ -1,0 +1,80 @@
+//! Shared helpers of the LIGGGHTS tests: tool discovery (skip with a reason when LIGGGHTS
+//! or MPI is absent, never under CI), building the driver, and bonded test packings.
+#![allow(dead_code)]
+
+use anisobond::bonds::{self, BondSet, BondStiffness};
+use anisobond::model::Model;
+use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::packing::Packing;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+#[allow(unused_imports)]
+pub use super::{missing, root, target_dir};
+
+/// Build the driver once per test binary (`make -C cpp driver`) and return its path.
+pub fn driver() -> PathBuf {
+    static BUILT: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            // CXX=g++ as in the `ffi` group's `make -C cpp check`: the staticlib's build script
+            // reruns when CXX changes, so a different CXX would rebuild it (about a minute).
+            let out = Command::new("make")
+                .args(["-C", "cpp", "driver", "CXX=g++", "PROFILE=release"])
+                .current_dir(root())
+                .env("CARGO_TARGET_DIR", target_dir())
+                .output()
+                .map_err(|e| format!("cannot run make: {e}"))?;
+            if !out.status.success() {
+                return Err(format!(
+                    "make -C cpp driver failed:\n{}\n{}",
+                    String::from_utf8_lossy(&out.stdout),
+                    String::from_utf8_lossy(&out.stderr)
+                ));
+            }
+            Ok(target_dir().join("cpp").join("anisobond-liggghts"))
+        })
+        .clone()
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub struct Bonded {
+    pub packing: Packing,
+    pub bonds: BondSet,
+    pub k: BondStiffness,
+}
+
+/// A seeded periodic packing of `n` spheres (R̄ = 1 mm, φ = 0.6), bonded by `model_toml`.
+pub fn bonded(n: usize, seed: u64, model_toml: &str) -> Bonded {
+    let opts = GenerateOptions {
+        n_particles: n,
+        seed,
+        ..GenerateOptions::default()
+    };
+    let packing = generate(&opts, &|_| {}).expect("packing");
+    let model = Model::from_toml_str(model_toml, "<test model>").expect("model");
+    let bonds = bonds::rules::build_bonds(&packing, model.bonding).expect("bonds");
+    let scheme = model
+        .build_scheme(Some((&packing, &bonds)))
+        .expect("scheme");
+    let k = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)
+        .expect("springs");
+    Bonded { packing, bonds, k }
+}
+
+/// Largest |a − b| over the entries, relative to the largest |b|.
+pub fn rel_diff(a: &anisobond::tensor::Stiffness6, b: &anisobond::tensor::Stiffness6) -> f64 {
+    (a - b).abs().max() / b.abs().max()
+}
+
+pub fn fresh_dir(name: &str) -> PathBuf {
+    let d = target_dir().join("liggghts-tests").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("test dir");
+    d
+}
+
+pub fn exists(p: &Path) -> bool {
+    p.exists()
+}

@@ -1,0 +1,14 @@
+//! The reference integrator: contact laws, element tests, grips, servo control, stop rule, particle lanes.
+//! One module per former `tests/*.rs` file; see tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod element;
+mod grips_disordered;
+mod grips_lattice;
+mod grips_motion;
+mod lanes;
+mod laws;
+mod servo_element;
+mod stop_rule;

@@ -1,0 +1,12 @@
+//! Readers and writers: model files, packing files, output sets, VTK, PNG plots, and the readers' fuzzing.
+//! One module per former `tests/*.rs` file; see tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod fuzz_readers;
+mod model_files;
+mod output_set;
+mod packing_files;
+mod plot_png;
+mod vtk_export;

@@ -1,0 +1,10 @@
+//! Against LIGGGHTS 3.8 and the anisobond LIGGGHTS driver (skipped with a reason when LIGGGHTS/MPI are absent, failing under CI).
+//! One module per former `tests/*.rs` file; see tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod bench;
+mod driver;
+mod harmonic;
+mod validate;

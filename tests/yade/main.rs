@@ -1,0 +1,12 @@
+//! Against YADE 2023.02a itself (skipped with a reason when `yade` is absent, failing under CI), and `export yade`.
+//! One module per former `tests/*.rs` file; see tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod dem_twoparticle;
+mod element;
+mod export_cli;
+mod periodic_image;
+mod two_sphere;
+mod validate;
