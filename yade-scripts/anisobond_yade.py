@@ -339,6 +339,119 @@ def scene_bonds(model, interactions=None):
     return packing, assign_springs(model, packing, BondTable(cols))
 
 
+def cohesive_interactions():
+    """The real interactions of the current scene whose physics is cohesive (CohFrictPhys):
+    the bonds of a YADE bonded-particle model."""
+    from yade import O
+    return [I for I in O.interactions if I.isReal and hasattr(I.phys, "cohesionBroken")]
+
+
+def assign(model, interactions=None):
+    """Give every cohesive interaction of the current YADE scene the springs of an anisobond
+    model, in place: kn, ks, kr, ktw from the interaction's own normal, radii, centre
+    distance and periodic image (computed by the anisobond package; for a cross-anisotropic
+    model with the lattice scaling mu of these interactions), and make the current state
+    stress-free the way YADE needs: ``unp = penetrationDepth``, forces and moments zero,
+    ``cohesionBroken = False``, never-breaking adhesion, the moment law on, and
+    ``avoidGranularRatcheting = False`` on the scene's Ig2_Sphere_Sphere_ScGeom6D functors
+    (otherwise YADE scales the shear spring by (R1+R2)/d). Engines are otherwise left as the
+    user set them. Returns the bond table (see ``bond_table``) of what was assigned."""
+    from yade import O
+    from yade.minieigenHP import Vector3
+    from yade.wrapper import Ig2_Sphere_Sphere_ScGeom6D, InteractionLoop
+    inters = cohesive_interactions() if interactions is None else list(interactions)
+    if not inters:
+        raise InputError("the scene has no cohesive interactions (CohFrictPhys) to assign")
+    for e in O.engines:
+        if isinstance(e, InteractionLoop):
+            for f in e.geomDispatcher.functors:
+                if isinstance(f, Ig2_Sphere_Sphere_ScGeom6D):
+                    f.avoidGranularRatcheting = False
+    _, table = scene_bonds(model, inters)
+    for b, I in enumerate(inters):
+        ph, g = I.phys, I.geom
+        ph.kn, ph.ks, ph.kr, ph.ktw = table.kn[b], table.ks[b], table.kr[b], table.ktw[b]
+        ph.unp = g.penetrationDepth
+        ph.unpMax = -1.0
+        ph.normalForce = Vector3.Zero
+        ph.shearForce = Vector3.Zero
+        ph.moment_twist = Vector3.Zero
+        ph.moment_bending = Vector3.Zero
+        ph.cohesionBroken = False
+        ph.initCohesion = False
+        ph.fragile = False
+        ph.normalAdhesion = HUGE_ADHESION
+        ph.shearAdhesion = HUGE_ADHESION
+        ph.maxRollPl = -1.0
+        ph.maxTwistPl = -1.0
+        ph.momentRotationLaw = True
+    return table
+
+
+def bond_table(path=None, interactions=None):
+    """The current scene's cohesive interactions as an anisobond bond table with the springs
+    YADE holds now (``BondTable``; written as CSV to ``path`` when given, atomically), so
+    that ``anisobond`` gives the exact relaxed tensor of the user's own bond network."""
+    from yade import O
+    inters = cohesive_interactions() if interactions is None else list(interactions)
+    cols = dict((c, []) for c in BOND_COLUMNS)
+    for I in inters:
+        l = branch_vector(I)
+        length = l.norm()
+        i, j, sign = (I.id1, I.id2, 1) if I.id1 < I.id2 else (I.id2, I.id1, -1)
+        cols["i"].append(i)
+        cols["j"].append(j)
+        for k, c in enumerate(("nx", "ny", "nz")):
+            cols[c].append(sign * l[k] / length)
+        cols["length"].append(length)
+        r1, r2 = O.bodies[I.id1].shape.radius, O.bodies[I.id2].shape.radius
+        cols["radius"].append(min(r1, r2))
+        for c in ("kn", "ks", "kr", "ktw"):
+            cols[c].append(getattr(I.phys, c))
+        for k, c in enumerate(("ix", "iy", "iz")):
+            cols[c].append(sign * int(I.cellDist[k]))
+    table = BondTable(cols)
+    if path is not None:
+        lines = [",".join(BOND_COLUMNS)]
+        for b in range(len(table)):
+            lines.append(",".join(str(int(cols[c][b])) if c in ("i", "j", "ix", "iy", "iz")
+                                  else _g(cols[c][b]) for c in BOND_COLUMNS))
+        _write_atomic(path, "\n".join(lines) + "\n")
+    return table
+
+
+def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 3, 4, 5)):
+    """The six-path element tests on the current scene as the user built it (periodic cell,
+    their engines, time step and bonds): every path starts from the current state
+    (``O.saveTmp``/``O.loadTmp``), the strain in one step, then ``steps`` steps with Cundall
+    damping ``damping``. Returns an ``ElementResult`` as ``element_tests`` does."""
+    import numpy as np
+    from yade import O
+    if not O.periodic:
+        raise InputError("element tests deform the periodic cell: the scene is not periodic")
+    O.saveTmp("anisobond-in-place")
+    histories = {}
+    for p in paths:
+        O.loadTmp("anisobond-in-place")
+        histories[p] = run_path(p, strain, steps, damping)
+    O.loadTmp("anisobond-in-place")
+    columns = {}
+    for p in paths:
+        _, _, e_end, s_end = histories[p][-1]
+        _, _, e_0, s_0 = histories[p][0]
+        e = [e_end[k] - e_0[k] for k in range(6)]
+        s = [s_end[k] - s_0[k] for k in range(6)]
+        columns[p] = (e, s, [s[k] / e[p] for k in range(6)])
+    c = None
+    if sorted(paths) == [0, 1, 2, 3, 4, 5]:
+        e_mat = np.array([columns[p][0] for p in range(6)]).T
+        s_mat = np.array([columns[p][1] for p in range(6)]).T
+        c = (s_mat.dot(np.linalg.inv(e_mat))).tolist()
+    return ElementResult(c=c, histories=histories, columns=columns, timings={}, dt=O.dt,
+                         strain=strain, steps=steps, damping=damping, density=None,
+                         paths=list(paths), safety=None)
+
+
 # --------------------------------------------------------------------------------------
 # Time step
 # --------------------------------------------------------------------------------------
@@ -603,7 +716,8 @@ def run_path(path, strain, steps, damping):
     being the unstrained state before any step."""
     from yade import O
     from yade.minieigenHP import Matrix3
-    newton = [e for e in O.engines if e.label == "newton"][0]
+    from yade.wrapper import NewtonIntegrator
+    newton = [e for e in O.engines if isinstance(e, NewtonIntegrator)][0]
     newton.damping = damping
     hist = [(0, O.time, strain_voigt(), stress_voigt())]
     O.cell.velGrad = velocity_gradient(path, strain, O.dt)
