@@ -141,6 +141,36 @@ impl Assembly {
         })
     }
 
+    /// An assembly whose bonds and springs are a bond table's (docs/formats.md; e.g. a YADE
+    /// scene's own bond network written by `anisobond_yade.bond_table`), not the model's
+    /// rule and scheme; the model still serves the mean field. Refuses, naming the table, a
+    /// particle index the packing does not have.
+    pub fn from_table_file(packing: Packing, model: Model, table_path: &Path) -> Result<Assembly> {
+        let (bonds, springs) = crate::bonds::table::read_bond_table(table_path)?;
+        let n = packing.len();
+        if let Some(b) = (0..bonds.len()).find(|&b| bonds.j[b] as usize >= n) {
+            return Err(Error::Invalid(format!(
+                "{}: bond {b} joins particles {} and {} but the packing has {n} (0 to {})",
+                table_path.display(),
+                bonds.i[b],
+                bonds.j[b],
+                n.saturating_sub(1)
+            )));
+        }
+        if bonds.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{}: the bond table holds no bonds",
+                table_path.display()
+            )));
+        }
+        Ok(Assembly {
+            packing,
+            model,
+            bonds,
+            springs,
+        })
+    }
+
     /// Read the packing file (every format [`packing::io::read_packing`] knows) and bond it
     /// by `model`; a refusal that comes from the model names `model_path`, one of a packing
     /// without bonds names both files.

@@ -178,6 +178,10 @@ struct TensorArgs {
     /// Model file (TOML or JSON).
     #[arg(long)]
     model: PathBuf,
+    /// Bond table (CSV) whose bonds and springs replace the model's bonding rule and scheme,
+    /// e.g. your YADE scene's bond network written by `anisobond_yade.bond_table`.
+    #[arg(long)]
+    bonds: Option<PathBuf>,
     /// Homogenisation method.
     #[arg(long, value_enum)]
     method: MethodArg,
@@ -383,14 +387,24 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     if matches!(a.method, MethodArg::Dynamic) {
         a.integrator.validate()?;
     }
-    let inputs = output::inputs(a.packing.as_deref(), &a.model);
+    let mut inputs = output::inputs(a.packing.as_deref(), &a.model);
+    if let Some(b) = &a.bonds {
+        inputs.push(b);
+    }
     let mut out = OutputSet::new(&inputs);
     let staged = out.optional_file(a.output.as_deref())?;
     let model = Model::from_path(&a.model)?;
     let report = (|| -> Result<TensorReport> {
         Ok(match (&a.packing, a.method) {
             (Some(p), m) => {
-                let asm = Assembly::from_packing_file(p, model.clone(), &a.model)?;
+                let asm = match &a.bonds {
+                    Some(table) => Assembly::from_table_file(
+                        anisobond::packing::io::read_packing(p)?,
+                        model.clone(),
+                        table,
+                    )?,
+                    None => Assembly::from_packing_file(p, model.clone(), &a.model)?,
+                };
                 report_of(&asm, m, &a.statics, &a.integrator)?
             }
             (None, MethodArg::MeanField) => {

@@ -247,3 +247,24 @@ def test_example_tour_runs(files, tmp_path):
                         str(files / "packing.txt")], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "relaxed C (GPa)" in r.stdout and "Zener ratio" in r.stdout
+
+
+def test_cli_tensor_of_a_bond_table(files, cubic, tmp_path):
+    # `tensor --bonds TABLE`: the table's bonds and springs instead of the model's rule; on the
+    # table the command itself wrote, the same report as without it.
+    import subprocess
+    from conftest import anisobond_bin
+    table = tmp_path / "b.csv"
+    cubic.write_bonds(table)
+    out = tmp_path / "r.json"
+    cli("tensor", files / "packing.txt", "--model", files / "cubic.toml", "--bonds", table,
+        "--method", "relaxed", "-o", out)
+    assert json.loads(out.read_text()) == cubic.tensor_report("relaxed")
+    lines = table.read_text().splitlines()
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines[:2] + [lines[2].replace(lines[2].split(",")[1], "400", 1)]) + "\n")
+    r = subprocess.run([anisobond_bin(), "tensor", str(files / "packing.txt"), "--model",
+                        str(files / "cubic.toml"), "--bonds", str(bad), "--method", "voigt",
+                        "-o", str(tmp_path / "never.json")], capture_output=True, text=True)
+    assert r.returncode != 0 and "but the packing has 400 (0 to 399)" in r.stderr, r.stderr
+    assert not (tmp_path / "never.json").exists()

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import CUBIC_MODEL
+from conftest import CUBIC_MODEL, cli
 
 HERE = Path(__file__).resolve().parent
 
@@ -72,3 +72,9 @@ def test_yade_in_place_recipe(tmp_path):
     print("in place: %d bonds, max |C_yade - C_relaxed| / max |C_relaxed| = %.2e"
           % (d["n_bonds"], diff))
     assert diff < 1e-4
+    # The command on the scene's own bond table (anisobond_yade.bond_table): the same tensor.
+    report = tmp_path / "cli.json"
+    cli("tensor", tmp_path / "packing.txt", "--model", model, "--bonds", tmp_path / "bonds.csv",
+        "--method", "relaxed", "--cg-tolerance", "1e-10", "-o", report)
+    c_cli = np.array(json.loads(report.read_text())["C"])
+    np.testing.assert_allclose(c_cli, c_relaxed, rtol=0, atol=1e-9 * np.max(np.abs(c_relaxed)))

@@ -54,6 +54,7 @@ res = ay.element_tests_in_place(strain=1e-5, steps=3000, damping=0.4)
 # anisobond's relaxed tensor of the scene's bond table (what YADE holds now).
 written = ay.bond_table(os.path.join(os.path.dirname(out), "bonds.csv"))
 pk = ab.Packing(packing.positions, packing.radii, cell=packing.cell)
+pk.save(os.path.join(os.path.dirname(out), "packing.txt"))
 asm = ab.Assembly.from_bonds(pk, ab.Model.load(model_path), written.i, written.j)
 b = asm.bonds
 spring_difference = max(
