@@ -175,6 +175,14 @@ void PairAnisobond::init_style() {
     error->all(FLERR, "pair_style anisobond needs `newton on` (each bond is stored once, on its lower-tag atom)");
   if (!comm->ghost_velocity)
     error->all(FLERR, "pair_style anisobond needs `communicate single vel yes` (ghost spins)");
+  // LIGGGHTS 3.8 makes no ghost atoms for a triclinic box when it runs on more than one
+  // process: bonds across processor boundaries would lose their partner. Refuse at once.
+  if (domain->triclinic && comm->nprocs > 1)
+    error->all(FLERR,
+               "pair_style anisobond: this deck shears a triclinic box, and LIGGGHTS 3.8 makes "
+               "no ghost atoms for a triclinic box under MPI (bonds across processors would be "
+               "lost). Run it on one process, export with --no-shear for the three normal "
+               "cases under mpirun, or take the shear cases to LAMMPS");
   if (!first_bond_.empty() && static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
     error->all(FLERR, "pair_style anisobond: the bond table names atom ids beyond the number of atoms");
 

@@ -298,8 +298,15 @@ pub fn export_liggghts(
         packing.len(),
         bonds.len()
     );
-    let _ = writeln!(s, "# Run:  anisobond-liggghts -in anisobond.in   (serial; or: mpirun -np 2 anisobond-liggghts -in anisobond.in)");
-    let _ = writeln!(s, "# Element test: six load cases (Voigt 11 22 33 23 13 12), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
+    if o.shear {
+        let _ = writeln!(s, "# Run:  anisobond-liggghts -in anisobond.in   (one process only: the shear cases tilt a triclinic box,");
+        let _ = writeln!(s, "#   for which LIGGGHTS 3.8 makes no ghost atoms under MPI; the driver refuses -np > 1. Export with");
+        let _ = writeln!(s, "#   --no-shear for the three normal cases under mpirun, or take the shear cases to LAMMPS.)");
+        let _ = writeln!(s, "# Element test: six load cases (Voigt 11 22 33 23 13 12), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
+    } else {
+        let _ = writeln!(s, "# Run:  anisobond-liggghts -in anisobond.in   (or: mpirun -np N anisobond-liggghts -in anisobond.in)");
+        let _ = writeln!(s, "# Element test: three normal load cases (Voigt 11 22 33; exported with --no-shear), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
+    }
     let _ = writeln!(s, "# case k ends at step k*{period}. Output: stress_history.txt (stress σ = −p, Pa, tension positive).");
     let _ = writeln!(s, "# Bond law: YADE cohesive law in incremental form with mid-gap contact points (cpp/liggghts/pair_anisobond.h).");
     let _ = writeln!(
@@ -401,11 +408,7 @@ pub fn export_liggghts(
     files.push(hdeck);
 
     let run = dir.join("run.sh");
-    crate::io::write_string_atomic(
-        &run,
-        "#!/bin/sh\n# Run the exported decks (from this directory). The driver is built by `make -C cpp` in the anisobond tree.\n\
-         set -e\ncd \"$(dirname \"$0\")\"\nif command -v anisobond-liggghts >/dev/null; then\n  anisobond-liggghts -in anisobond.in\nelse\n  stdbuf -o0 liggghts -in harmonic.in\nfi\n",
-    )?;
+    crate::io::write_string_atomic(&run, &run_script(o.shear))?;
     files.push(run);
 
     Ok(ExportSummary {
@@ -415,6 +418,47 @@ pub fn export_liggghts(
         case_end_steps,
         max_bond_length: max_len,
     })
+}
+
+/// `run.sh [NP] [--stock]`: the driver deck on NP processes (default 1), or with `--stock`
+/// the stock harmonic deck; never a silent fallback from one to the other, and a shear deck
+/// refused under MPI before LIGGGHTS starts.
+fn run_script(shear: bool) -> String {
+    let mut s = String::from(
+        "#!/bin/sh\n\
+         # Run the exported decks from this directory:  ./run.sh [NP] [--stock]\n\
+         #   NP       MPI processes (default 1)\n\
+         #   --stock  the stock LIGGGHTS deck harmonic.in instead of the driver deck: normal springs\n\
+         #            only (k_s, k_r, k_tw ignored, softer than the model), normal cases only.\n\
+         # The driver anisobond-liggghts is built by `make -C cpp driver` in the anisobond tree\n\
+         # (into target/cpp/); put that folder on PATH.\n\
+         set -e\n\
+         cd \"$(dirname \"$0\")\"\n\
+         np=1; stock=0\n\
+         for a in \"$@\"; do\n\
+         \x20 case \"$a\" in\n\
+         \x20   --stock) stock=1 ;;\n\
+         \x20   *[!0-9]*|'') echo \"run.sh: expected NP (a number of processes) or --stock, got '$a'\" >&2; exit 2 ;;\n\
+         \x20   *) np=\"$a\" ;;\n\
+         \x20 esac\n\
+         done\n\
+         if [ \"$np\" -gt 1 ]; then launch=\"mpirun -np $np\"; else launch=\"stdbuf -o0\"; fi\n\
+         if [ \"$stock\" = 1 ]; then exec $launch liggghts -in harmonic.in; fi\n\
+         if ! command -v anisobond-liggghts >/dev/null 2>&1; then\n\
+         \x20 echo \"run.sh: anisobond-liggghts is not on PATH. Build it with 'make -C cpp driver' in the anisobond tree and add target/cpp to PATH, or run './run.sh --stock' for the stock harmonic deck (normal springs only: softer than the model).\" >&2\n\
+         \x20 exit 1\n\
+         fi\n",
+    );
+    if shear {
+        s.push_str(
+            "if [ \"$np\" -gt 1 ]; then\n\
+             \x20 echo \"run.sh: this deck shears a triclinic box, for which LIGGGHTS 3.8 makes no ghost atoms under MPI: run it with NP = 1, export with --no-shear for the three normal cases under MPI, or take the shear cases to LAMMPS.\" >&2\n\
+             \x20 exit 1\n\
+             fi\n",
+        );
+    }
+    s.push_str("exec $launch anisobond-liggghts -in anisobond.in\n");
+    s
 }
 
 /// The `harmonic.data` file: atoms (hybrid granular molecular: `id type x y z diameter

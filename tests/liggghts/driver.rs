@@ -443,13 +443,62 @@ fn missing_partner_under_mpi_is_an_error_not_a_silent_result() {
         mpi_processes: Some(2),
         vars: vec![],
     };
+    let started = std::time::Instant::now();
     let e = run_liggghts(&launch, &dir, "anisobond.in")
         .unwrap_err()
         .to_string();
+    // Refused at once, with the real cause and the alternatives (not a lost partner later).
     assert!(
-        e.contains("bond partner") && e.contains("missing"),
+        e.contains("no ghost atoms for a triclinic box under MPI")
+            && e.contains("--no-shear")
+            && e.contains("LAMMPS"),
         "message: {e}"
     );
+    let header = std::fs::read_to_string(dir.join("anisobond.in")).unwrap();
+    assert!(header.contains("one process only"), "{header}");
+    eprintln!("refused after {:.2} s", started.elapsed().as_secs_f64());
+}
+
+#[test]
+fn run_sh_never_falls_back_silently_and_refuses_mpi_shear() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let b = bonded(200, 23, ISO_MODEL);
+    let run = |dir: &std::path::Path, path: &str, args: &[&str]| {
+        std::process::Command::new("sh")
+            .arg(dir.join("run.sh"))
+            .args(args)
+            .env("PATH", path)
+            .output()
+            .unwrap()
+    };
+    let system = "/usr/local/bin:/usr/bin:/bin";
+    let six = fresh_dir("run_sh_six");
+    export_liggghts(&six, &b.packing, &b.bonds, &b.k, &DeckOptions::default()).unwrap();
+    // No driver on PATH: an error naming how to build it, not the stock deck.
+    let o = run(&six, system, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("make -C cpp driver"),
+        "{err}"
+    );
+    assert!(!six.join("stress_history.txt").exists());
+    // The six-case deck under MPI: refused before LIGGGHTS starts.
+    let with_driver = format!("{}:{system}", driver().parent().unwrap().display());
+    let o = run(&six, &with_driver, &["2"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("triclinic"), "{err}");
+    // The normal-case deck says so in its header.
+    let three = fresh_dir("run_sh_three");
+    let opts = DeckOptions {
+        shear: false,
+        ..DeckOptions::default()
+    };
+    export_liggghts(&three, &b.packing, &b.bonds, &b.k, &opts).unwrap();
+    let header = std::fs::read_to_string(three.join("anisobond.in")).unwrap();
+    assert!(header.contains("three normal load cases") && !header.contains("six load cases"));
 }
 
 #[test]
