@@ -26,6 +26,8 @@ pub enum ExportTarget {
     /// `make -C cpp`), the stock deck harmonic.in (bond_style harmonic, normal springs only)
     /// and run.sh.
     Liggghts(super::export_liggghts::Args),
+    /// LAMMPS (BPM package) data file, per-bond coefficients, element-test deck and run.sh.
+    Lammps(super::export_lammps::Args),
     /// VTK XML files (DIR/particles.vtu, DIR/bonds.vtu) for ParaView, with displacements and
     /// bond forces under a macroscopic strain.
     Vtk(super::plot::ExportVtkArgs),
@@ -72,6 +74,7 @@ pub fn run(a: ExportArgs) -> Result<()> {
         ExportTarget::Yade(y) => export_yade(y),
         ExportTarget::Vtk(v) => super::plot::export_vtk(v),
         ExportTarget::Liggghts(l) => super::export_liggghts::run(l),
+        ExportTarget::Lammps(l) => super::export_lammps::run(l),
     }
 }
 

@@ -5,6 +5,7 @@ mod calibrate;
 mod demo;
 mod domain;
 mod export;
+mod export_lammps;
 mod export_liggghts;
 mod grips;
 mod output;
@@ -111,6 +112,8 @@ enum LeverArmArg {
     MidGap,
     /// r_i = |l|·R_i/(R_i + R_j).
     Proportional,
+    /// r_i = r_j = |l|/2 (LAMMPS' bpm/rotational).
+    HalfLength,
 }
 
 impl From<LeverArmArg> for LeverArm {
@@ -118,6 +121,7 @@ impl From<LeverArmArg> for LeverArm {
         match a {
             LeverArmArg::MidGap => LeverArm::MidGap,
             LeverArmArg::Proportional => LeverArm::Proportional,
+            LeverArmArg::HalfLength => LeverArm::HalfLength,
         }
     }
 }

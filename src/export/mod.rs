@@ -8,6 +8,7 @@
 //!   harmonic` deck (normal springs only).
 //! - [`vtk`]: VTK XML (.vtu) files of particles and bonds for ParaView.
 
+pub mod lammps;
 pub mod liggghts;
 pub mod vtk;
 pub mod yade;

@@ -26,6 +26,9 @@ pub enum LeverArm {
     MidGap,
     /// Proportional to the radii: r_i = |l|·R_i/(R_i + R_j).
     Proportional,
+    /// Half the centre distance each, r_i = r_j = |l|/2: LAMMPS' `bpm/rotational`, whose
+    /// shear displacement and torques act at the bond's midpoint.
+    HalfLength,
 }
 
 impl LeverArm {
@@ -37,6 +40,7 @@ impl LeverArm {
                 (ri + 0.5 * gap, rj + 0.5 * gap)
             }
             LeverArm::Proportional => (l * ri / (ri + rj), l * rj / (ri + rj)),
+            LeverArm::HalfLength => (0.5 * l, 0.5 * l),
         }
     }
 }

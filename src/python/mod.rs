@@ -464,8 +464,9 @@ fn lever_arm(name: &str) -> PyResult<LeverArm> {
     match name {
         "mid-gap" => Ok(LeverArm::MidGap),
         "proportional" => Ok(LeverArm::Proportional),
+        "half-length" => Ok(LeverArm::HalfLength),
         other => Err(InputError::new_err(format!(
-            "lever_arm `{other}`: expected 'mid-gap' or 'proportional'"
+            "lever_arm `{other}`: expected 'mid-gap', 'proportional' or 'half-length'"
         ))),
     }
 }

