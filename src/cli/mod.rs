@@ -14,6 +14,7 @@ mod plot;
 pub mod run;
 mod stress_test;
 mod validate;
+mod validate_lammps;
 mod validate_liggghts;
 
 use anisobond::assembly::{Assembly, Detail, EqualSpheres, Method};

@@ -34,6 +34,8 @@ pub enum ValidateTarget {
     /// The LIGGGHTS driver and the stock LIGGGHTS against the reference integrator and the
     /// relaxed solver; non-zero exit status when out of tolerance.
     Liggghts(super::validate_liggghts::Args),
+    /// The exported LAMMPS (BPM) element tests against the relaxed solver, 1 and 2 processes.
+    Lammps(super::validate_lammps::Args),
 }
 
 /// Arguments of `validate yade`.
@@ -91,6 +93,7 @@ pub fn run(a: ValidateArgs) -> Result<()> {
     match a.target {
         ValidateTarget::Yade(y) => validate_yade_cmd(y),
         ValidateTarget::Liggghts(a) => super::validate_liggghts::run(a),
+        ValidateTarget::Lammps(a) => super::validate_lammps::run(a),
     }
 }
 

