@@ -996,7 +996,7 @@ pub fn calibrate_cubic_relaxed(
                     .replace('\n', "\n  "),
             );
         }
-        return Err(Error::Invalid(msg));
+        return Err(Error::NotConverged(msg));
     }
     // The relaxed tensor is homogeneous of degree 1 in the springs: scale to the target C11,
     // then confirm with one more (warm, hence nearly free) solve.

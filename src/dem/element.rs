@@ -185,7 +185,7 @@ pub fn relax_path(
             }
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "element test path {path}: not relaxed after {steps} steps: {}, relative \
                  stress change {last_change:.3e} over {window} steps (tolerance {:.1e}); {}",
                 Unbalance::of(sim).describe(opts.unbalanced_tolerance),

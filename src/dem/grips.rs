@@ -399,7 +399,7 @@ pub fn relax_gripped(
             last_change = last_change.max(strain_change);
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "gripped path {path}: not relaxed after {steps} steps (ramp included): {}, \
                  relative stress or sphere-strain change {last_change:.3e} over {window} steps \
                  (tolerance {:.1e}); {}",

@@ -411,7 +411,7 @@ pub fn servo_until_converged(
             }
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "stress control did not converge in {steps} steps: {}, relative stress error \
                  {stress_error:.3e} (tolerance t_r = {:.1e}), relative stress change {change:.3e} \
                  over {window} steps (tolerance {:.1e}), strain error {strain_error:.3e}; {}, or \

@@ -607,7 +607,7 @@ fn pcg(
         });
         rz = rz_new;
     }
-    Err(Error::Invalid(format!(
+    Err(Error::NotConverged(format!(
         "relaxed solver: no convergence in {} iterations (relative residual {worst:.3e} > tolerance {:.1e}); the bond network may contain a mechanism",
         opts.max_iterations, opts.tolerance
     )))

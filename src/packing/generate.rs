@@ -526,7 +526,7 @@ pub fn generate_with_report(
         },
     )?;
     if !outcome.overlap_free {
-        return Err(Error::Invalid(format!(
+        return Err(Error::NotConverged(format!(
             "packing generation did not converge in {} iterations: largest overlap \
              {:.3e} R̄ > {tol:.1e} R̄ (solid fraction {} too close to jamming?)",
             opts.max_iterations, outcome.max_overlap, opts.solid_fraction

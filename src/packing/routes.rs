@@ -445,7 +445,7 @@ pub fn prepare_with_status(
         *relaxations += 1;
         *iterations += out.iterations;
         if !out.converged() {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "packing preparation: energy minimisation at solid fraction {:.5} did not \
                  converge in {max_iterations} iterations (largest overlap {:.2e} R̄)",
                 solid_volume / (side * side * side),
@@ -542,7 +542,7 @@ pub fn prepare_with_status(
                 relaxations += 1;
                 iterations += stage_out.iterations;
                 if !stage_out.converged {
-                    return Err(Error::Invalid(format!(
+                    return Err(Error::NotConverged(format!(
                         "packing preparation: no force-balanced jammed state at pressure {p_t:e} \
                          found in {max_iterations} iterations (reached P = {:.3e} at solid \
                          fraction {:.5})",
