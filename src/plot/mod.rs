@@ -377,20 +377,15 @@ pub fn plot_stiffness_sections(
             }
             let blue = RGBColor(31, 119, 180);
             let gold = RGBColor(214, 160, 20);
-            chart
-                .draw_series(LineSeries::new(normal.clone(), blue.stroke_width(3)))
-                .map_err(s)?
-                .label(format!("k_n magnitude ({unit})"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(3))
-                });
-            chart
-                .draw_series(LineSeries::new(shear.clone(), gold.stroke_width(3)))
-                .map_err(s)?
-                .label(format!("k_s magnitude ({unit})"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], gold.stroke_width(3))
-                });
+            for (curve, colour, name) in [(normal, blue, "k_n"), (shear, gold, "k_s")] {
+                chart
+                    .draw_series(LineSeries::new(curve.clone(), colour.stroke_width(3)))
+                    .map_err(s)?
+                    .label(format!("{name} magnitude ({unit})"))
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                    });
+            }
             draw_legend(&mut chart, 14, SeriesLabelPosition::UpperRight)?;
         }
         Ok(())
