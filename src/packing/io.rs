@@ -128,6 +128,17 @@ fn parse_number(word: &str, what: &str, source: &str, line: usize) -> Result<f64
     Ok(v)
 }
 
+/// A non-negative integer, refused as "expected {what}, found `word`".
+fn parse_count<T: std::str::FromStr>(
+    word: &str,
+    what: &str,
+    source: &str,
+    line: usize,
+) -> Result<T> {
+    word.parse()
+        .map_err(|_| Error::parse(source, line, format!("expected {what}, found `{word}`")))
+}
+
 /// [`parse_number`], refused unless > 0 (`shown` names the value in that refusal).
 fn parse_positive(word: &str, what: &str, shown: &str, source: &str, line: usize) -> Result<f64> {
     let v = parse_number(word, what, source, line)?;
@@ -532,13 +543,7 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
             ),
         ));
     }
-    let id: u64 = words[0].parse().map_err(|_| {
-        Error::parse(
-            source,
-            line,
-            format!("expected a positive integer atom id, found `{}`", words[0]),
-        )
-    })?;
+    let id: u64 = parse_count(words[0], "a positive integer atom id", source, line)?;
     let d = parse_positive(words[2], "diameter", "diameter", source, line)?;
     parse_positive(words[3], "density", "density (column 4)", source, line)?;
     let x = parse_number(words[4], "x", source, line)?;
@@ -586,13 +591,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
     while let Some((line, _, words)) = rows.next_if(not_section) {
         let n_words = words.len();
         if n_words == 2 && words[1] == "atoms" {
-            let n: usize = words[0].parse().map_err(|_| {
-                Error::parse(
-                    source,
-                    line,
-                    format!("expected an atom count in `N atoms`, found `{}`", words[0]),
-                )
-            })?;
+            let n: usize = parse_count(words[0], "an atom count in `N atoms`", source, line)?;
             n_atoms = Some((n, line));
         } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
             let axis = match (words[2], words[3]) {
