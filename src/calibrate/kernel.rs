@@ -38,6 +38,15 @@ impl Cubic3 {
         }
     }
 
+    /// self − other.
+    pub fn minus(&self, other: &Cubic3) -> Cubic3 {
+        Cubic3 {
+            c11: self.c11 - other.c11,
+            c12: self.c12 - other.c12,
+            c44: self.c44 - other.c44,
+        }
+    }
+
     /// (C12/C11, C44/C11).
     pub fn ratios(&self) -> (f64, f64) {
         (self.c12 / self.c11, self.c44 / self.c11)

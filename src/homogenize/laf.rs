@@ -184,15 +184,7 @@ pub fn laf_tensor(
         q.extend(c);
         free_total += f;
     }
-    let kmat = BlockSparse::assemble(&net);
-    let mut kq = vec![Block6::zeros(); m];
-    kmat.apply(&q, &mut kq);
-    let mut gtq = Block6::zeros();
-    let mut qtkq = Block6::zeros();
-    for p in 0..m {
-        gtq += net.g[p].transpose() * q[p];
-        qtkq += q[p].transpose() * kq[p];
-    }
+    let (gtq, qtkq) = BlockSparse::assemble(&net).fluctuation_terms(&net.g, &q);
     let v = net.volume;
     let c_energy = (net.h - gtq - gtq.transpose() + qtkq) / v;
     Ok(LafResult {
