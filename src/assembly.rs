@@ -103,12 +103,12 @@ pub struct TensorResult {
 
 impl Assembly {
     /// Bond `packing` by the model's rule and assign every bond its springs. Refuses a
-    /// packing the rule leaves without bonds.
+    /// packing the rule leaves without bonds ([`Error::Degenerate`]).
     pub fn new(packing: Packing, model: Model) -> Result<Assembly> {
         let bonds = bonds::rules::build_bonds(&packing, model.bonding)?;
         if bonds.is_empty() {
-            return Err(Error::Invalid(format!(
-                "{NO_BONDS} of the {} particles: increase the gap/factor value",
+            return Err(Error::Degenerate(format!(
+                "the bonding rule bonds no pair of the {} particles: increase the gap/factor value",
                 packing.len()
             )));
         }
@@ -178,7 +178,7 @@ impl Assembly {
         let packing = packing::io::read_packing(packing_path)?;
         Assembly::new(packing, model).map_err(|e| match e {
             Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
-            Error::Invalid(m) if m.starts_with(NO_BONDS) => Error::Invalid(format!(
+            Error::Degenerate(m) => Error::Degenerate(format!(
                 "{}: {m} (bonding rule of {})",
                 packing_path.display(),
                 model_path.display()
@@ -391,6 +391,3 @@ impl EqualSpheres {
         Ok(report)
     }
 }
-
-/// Start of the refusal of a packing that the bonding rule leaves without bonds.
-const NO_BONDS: &str = "the bonding rule bonds no pair";

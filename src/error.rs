@@ -32,6 +32,16 @@ pub enum Error {
     /// Any other invalid input (packing, target tensor, option values).
     #[error("{0}")]
     Invalid(String),
+    /// The inputs are admissible one by one, but what they give is not a result: a packing
+    /// the bonding rule leaves without bonds, a tensor that is zero, overflows or is not
+    /// positive definite (a mechanism), a run that blows up at this time step.
+    #[error("{0}")]
+    Degenerate(String),
+    /// An iterative computation reached its step or iteration limit before its tolerance:
+    /// relaxed solver, element-test relaxation, stress servo, packing generation and
+    /// preparation, calibration.
+    #[error("{0}")]
+    NotConverged(String),
 }
 
 /// `"N: "` for a line number, `" "` for line 0 (the whole file), after `path:`.
@@ -61,6 +71,18 @@ impl Error {
         Error::Io {
             path: path.as_ref().display().to_string(),
             source,
+        }
+    }
+
+    /// The same error with `context: ` before the message of an [`Error::Invalid`],
+    /// [`Error::Degenerate`] or [`Error::NotConverged`] (the variant kept); any other
+    /// error unchanged.
+    pub fn in_context(self, context: impl std::fmt::Display) -> Self {
+        match self {
+            Error::Invalid(m) => Error::Invalid(format!("{context}: {m}")),
+            Error::Degenerate(m) => Error::Degenerate(format!("{context}: {m}")),
+            Error::NotConverged(m) => Error::NotConverged(format!("{context}: {m}")),
+            other => other,
         }
     }
 }

@@ -173,7 +173,7 @@ pub fn calibrate_cross_relaxed(
     match result.end {
         End::Converged => {}
         End::Budget => {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "cross-anisotropic calibration: no convergence in {} relaxed solves; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
                 result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
             )));

@@ -265,6 +265,25 @@ pub struct MeanFieldMap<'k> {
     ln_rho: (f64, f64),
 }
 
+/// The ln a interval around 0 inside [lo, hi] on which the extended `model` with
+/// a_n = a_s = a keeps its normal (`normal`) or else its shear factor ≥ 0 on the whole
+/// sphere (see [`admissible_interval`]).
+pub(crate) fn extended_interval(model: CubicModel, lo: f64, hi: f64, normal: bool) -> (f64, f64) {
+    admissible_interval(lo, hi, |x| {
+        let a = x.exp();
+        CubicSpheroid::new_unchecked(model, true, a, a, 1.0, 1.0, Mat3::identity())
+            .map(|s| {
+                if normal {
+                    s.min_normal_factor().0
+                } else {
+                    s.min_shear_factor().0
+                }
+            })
+            .unwrap_or(-1.0)
+            >= 0.0
+    })
+}
+
 /// Largest interval around ln a = 0 inside [lo, hi] on which `ok` holds (bisection; `ok(0)`
 /// is assumed).
 pub(crate) fn admissible_interval(lo: f64, hi: f64, ok: impl Fn(f64) -> bool) -> (f64, f64) {
@@ -316,21 +335,9 @@ impl<'k> MeanFieldMap<'k> {
             grid.push(if t < 0.0 { -t * lo } else { t * hi });
         }
         let (x_range, y_range) = if extended {
-            let min_factor = |x: f64, normal: bool| {
-                let a = x.exp();
-                CubicSpheroid::new_unchecked(model, true, a, a, 1.0, 1.0, Mat3::identity())
-                    .map(|s| {
-                        if normal {
-                            s.min_normal_factor().0
-                        } else {
-                            s.min_shear_factor().0
-                        }
-                    })
-                    .unwrap_or(-1.0)
-            };
             (
-                admissible_interval(lo, hi, |x| min_factor(x, true) >= 0.0),
-                admissible_interval(lo, hi, |x| min_factor(x, false) >= 0.0),
+                extended_interval(model, lo, hi, true),
+                extended_interval(model, lo, hi, false),
             )
         } else {
             ((lo, hi), (lo, hi))
@@ -542,24 +549,9 @@ impl<'k> MeanFieldMap<'k> {
                     let x = self.grid[i] + s * (self.grid[i2] - self.grid[i]);
                     let y = self.grid[j] + s * (self.grid[j2] - self.grid[j]);
                     // Interpolated ρ must be admissible for the guess to be worth refining.
-                    let nn = self.normal[i].plus_scaled(s, &{
-                        let a = self.normal[i2];
-                        let b = self.normal[i];
-                        Cubic3 {
-                            c11: a.c11 - b.c11,
-                            c12: a.c12 - b.c12,
-                            c44: a.c44 - b.c44,
-                        }
-                    });
-                    let ss = self.shear[j].plus_scaled(s, &{
-                        let a = self.shear[j2];
-                        let b = self.shear[j];
-                        Cubic3 {
-                            c11: a.c11 - b.c11,
-                            c12: a.c12 - b.c12,
-                            c44: a.c44 - b.c44,
-                        }
-                    });
+                    let (n0, s0) = (self.normal[i], self.shear[j]);
+                    let nn = n0.plus_scaled(s, &self.normal[i2].minus(&n0));
+                    let ss = s0.plus_scaled(s, &self.shear[j2].minus(&s0));
                     let rho = Self::rho_of(&Self::equations(&nn, &ss, t));
                     let p = MapPoint { x, y, rho };
                     if !(self.admissible(&p) && family.allows_x(x)) {
@@ -1013,7 +1005,7 @@ pub fn calibrate_cubic_relaxed(
                     .replace('\n', "\n  "),
             );
         }
-        return Err(Error::Invalid(msg));
+        return Err(Error::NotConverged(msg));
     }
     // The relaxed tensor is homogeneous of degree 1 in the springs: scale to the target C11,
     // then confirm with one more (warm, hence nearly free) solve.

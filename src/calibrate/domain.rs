@@ -7,7 +7,7 @@
 //! and shear/normal ∈ [0.005, 1]. Extended models whose stiffness goes negative somewhere
 //! are skipped (they cannot be built, [`CubicSpheroid::new`]).
 
-use super::cubic::admissible_interval;
+use super::cubic::extended_interval;
 use super::kernel::CubicKernel;
 use super::warm::WarmRelaxed;
 use crate::bonds::{assign_stiffness, BondSet};
@@ -163,19 +163,7 @@ fn draw(opts: &DomainOptions) -> (Vec<(CubicModel, bool, Vec<(f64, f64, f64)>)>,
                 if !extended || opts.allow_negative {
                     return (lo, hi);
                 }
-                admissible_interval(lo.min(0.0), hi.max(0.0), |x| {
-                    let a = x.exp();
-                    CubicSpheroid::new_unchecked(model, true, a, a, 1.0, 1.0, Mat3::identity())
-                        .map(|s| {
-                            if normal {
-                                s.min_normal_factor().0
-                            } else {
-                                s.min_shear_factor().0
-                            }
-                        })
-                        .unwrap_or(-1.0)
-                        >= 0.0
-                })
+                extended_interval(model, lo.min(0.0), hi.max(0.0), normal)
             };
             let (xr, yr) = (range(true), range(false));
             let mut triples = Vec::with_capacity(opts.samples);

@@ -38,6 +38,15 @@ impl Cubic3 {
         }
     }
 
+    /// self − other.
+    pub fn minus(&self, other: &Cubic3) -> Cubic3 {
+        Cubic3 {
+            c11: self.c11 - other.c11,
+            c12: self.c12 - other.c12,
+            c44: self.c44 - other.c44,
+        }
+    }
+
     /// (C12/C11, C44/C11).
     pub fn ratios(&self) -> (f64, f64) {
         (self.c12 / self.c11, self.c44 / self.c11)
@@ -124,15 +133,21 @@ impl CubicKernel {
         f
     }
 
-    /// N(a_n): the cubic constants of the normal springs alone (unit magnitude, unit
-    /// prefactor).
-    pub fn normal_part(&self, model: CubicModel, extended: bool, a_n: f64) -> Cubic3 {
+    /// The quadrature sums Σ w·f(m) and Σ w·f(m)·q(m) of a factor f over the directions.
+    fn moments(&self, factor: impl Fn(&Vec3) -> f64) -> (f64, f64) {
         let (mut s0, mut s1) = (0.0, 0.0);
         for ((m, w), q) in self.directions.iter().zip(&self.weights).zip(&self.q) {
-            let f = w * Self::normal_factor(model, extended, m, a_n);
+            let f = w * factor(m);
             s0 += f;
             s1 += f * q;
         }
+        (s0, s1)
+    }
+
+    /// N(a_n): the cubic constants of the normal springs alone (unit magnitude, unit
+    /// prefactor).
+    pub fn normal_part(&self, model: CubicModel, extended: bool, a_n: f64) -> Cubic3 {
+        let (s0, s1) = self.moments(|m| Self::normal_factor(model, extended, m, a_n));
         Cubic3 {
             c11: (s0 - 2.0 * s1) / 3.0,
             c12: s1 / 3.0,
@@ -143,12 +158,7 @@ impl CubicKernel {
     /// S(a_s): the cubic constants of the shear springs alone (unit magnitude, unit
     /// prefactor).
     pub fn shear_part(&self, model: CubicModel, extended: bool, a_s: f64) -> Cubic3 {
-        let (mut s0, mut s1) = (0.0, 0.0);
-        for ((m, w), q) in self.directions.iter().zip(&self.weights).zip(&self.q) {
-            let f = w * Self::shear_factor(model, extended, m, a_s);
-            s0 += f;
-            s1 += f * q;
-        }
+        let (s0, s1) = self.moments(|m| Self::shear_factor(model, extended, m, a_s));
         Cubic3 {
             c11: 2.0 * s1 / 3.0,
             c12: -s1 / 3.0,

@@ -6,7 +6,6 @@ use super::run::{check_positive, IntegratorArgs};
 use anisobond::assembly::Assembly;
 use anisobond::dem::grips::GrippedOptions;
 use anisobond::dem::measure::MeasureOptions;
-use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
@@ -79,16 +78,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
         tolerance: i.tolerance,
         unbalanced_tolerance: i.unbalanced_tolerance,
         max_steps: i.max_steps,
-        dem: DemOptions {
-            time_step: i.dt,
-            safety: i.safety,
-            local_damping: i.damping,
-            mass: MassOptions {
-                density: i.density,
-                scaling: i.mass_scaling,
-            },
-            ..Default::default()
-        },
+        dem: i.step.dem_options(i.damping),
         measure: MeasureOptions {
             count: a.spheres,
             radius: a.sphere_radius,

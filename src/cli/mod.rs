@@ -326,16 +326,19 @@ fn report_of(
     Ok(result.report)
 }
 
-/// Name the input files in a refusal of the computed tensor (overflow, no load, mechanism),
-/// whose cause lies in them.
+/// Name the input files in a refusal whose cause lies in them: a computed tensor that is not
+/// a result (overflow, no load, mechanism) or a run that blows up ([`Error::Degenerate`]).
 fn blame_inputs(e: Error, inputs: &[&Path]) -> Error {
     match e {
-        Error::Invalid(m) if m.starts_with("the ") => {
-            let names: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
-            Error::Invalid(format!("{}: {m}", names.join(", ")))
-        }
+        Error::Degenerate(_) => e.in_context(input_names(inputs)),
         other => other,
     }
+}
+
+/// The input files, comma-separated.
+fn input_names(inputs: &[&Path]) -> String {
+    let names: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
+    names.join(", ")
 }
 
 /// The equal-sphere bond density of `--coordination`, `--solid-fraction`, `--radius` (mean
@@ -399,32 +402,35 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let mut out = OutputSet::new(&inputs);
     let staged = out.optional_file(a.output.as_deref())?;
     let model = Model::from_path(&a.model)?;
-    let report = (|| -> Result<TensorReport> {
-        Ok(match (&a.packing, a.method) {
-            (Some(p), m) => {
-                let asm = match &a.bonds {
-                    Some(table) => Assembly::from_table_file(
-                        anisobond::packing::io::read_packing(p)?,
-                        model.clone(),
-                        table,
-                    )?,
-                    None => Assembly::from_packing_file(p, model.clone(), &a.model)?,
-                };
-                report_of(&asm, m, &a.statics, &a.integrator)?
-            }
-            (None, MethodArg::MeanField) => {
-                equal_spheres(a.coordination, a.solid_fraction, a.radius, &model.geometry)?
-                    .mean_field(&model)?
-            }
-            (None, m) => {
-                return Err(Error::Invalid(format!(
-                    "--method {} works on the actual bonds: give a PACKING",
-                    m.name()
-                )))
-            }
-        })
-    })();
-    let report = report.map_err(|e| blame_inputs(e, &inputs))?;
+    let report = match (&a.packing, a.method) {
+        (Some(p), m) => {
+            let asm = match &a.bonds {
+                Some(table) => Assembly::from_table_file(
+                    anisobond::packing::io::read_packing(p)?,
+                    model.clone(),
+                    table,
+                )?,
+                None => Assembly::from_packing_file(p, model.clone(), &a.model)?,
+            };
+            report_of(&asm, m, &a.statics, &a.integrator).map_err(|e| blame_inputs(e, &inputs))?
+        }
+        (None, MethodArg::MeanField) => {
+            equal_spheres(a.coordination, a.solid_fraction, a.radius, &model.geometry)?
+                .mean_field(&model)
+                // The options are checked by now: an invalid input here is a model that
+                // needs a packing (the cross-anisotropic scheme), named by its file.
+                .map_err(|e| match e {
+                    Error::Invalid(_) => e.in_context(input_names(&inputs)),
+                    other => blame_inputs(other, &inputs),
+                })?
+        }
+        (None, m) => {
+            return Err(Error::Invalid(format!(
+                "--method {} works on the actual bonds: give a PACKING",
+                m.name()
+            )))
+        }
+    };
     if let Some(path) = &staged {
         output::write_json(path, &report)?;
     }

@@ -34,18 +34,9 @@ impl From<LawArg> for LawKind {
     }
 }
 
-/// Integrator settings shared by `run` and `tensor --method dynamic`.
+/// Masses and time step of the integrator, shared by every command that runs it.
 #[derive(clap::Args, Clone, Debug)]
-pub struct IntegratorArgs {
-    /// Bond law.
-    #[arg(long, value_enum, default_value_t = LawArg::Yade)]
-    pub law: LawArg,
-    /// Cundall local damping λ during the relaxation.
-    #[arg(long, default_value_t = 0.4)]
-    pub damping: f64,
-    /// Strain magnitude of each of the six paths.
-    #[arg(long, default_value_t = 1e-5)]
-    pub strain: f64,
+pub struct StepArgs {
     /// Particle density (kg/m³).
     #[arg(long, default_value_t = 2600.0)]
     pub density: f64,
@@ -58,6 +49,59 @@ pub struct IntegratorArgs {
     /// Safety factor on the critical time step.
     #[arg(long, default_value_t = 0.8)]
     pub safety: f64,
+}
+
+impl Default for StepArgs {
+    fn default() -> Self {
+        StepArgs {
+            density: 2600.0,
+            mass_scaling: 1.0,
+            dt: None,
+            safety: 0.8,
+        }
+    }
+}
+
+impl StepArgs {
+    /// Errors naming the first option out of range.
+    pub fn validate(&self) -> Result<()> {
+        check_positive("--density", self.density)?;
+        check_positive("--mass-scaling", self.mass_scaling)?;
+        if let Some(dt) = self.dt {
+            check_positive("--dt", dt)?;
+        }
+        check_safety(self.safety)
+    }
+
+    /// The integrator's settings with these masses and time step and Cundall damping λ.
+    pub fn dem_options(&self, local_damping: f64) -> DemOptions {
+        DemOptions {
+            time_step: self.dt,
+            safety: self.safety,
+            local_damping,
+            mass: MassOptions {
+                density: self.density,
+                scaling: self.mass_scaling,
+            },
+            ..Default::default()
+        }
+    }
+}
+
+/// Integrator settings shared by `run` and `tensor --method dynamic`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct IntegratorArgs {
+    /// Bond law.
+    #[arg(long, value_enum, default_value_t = LawArg::Yade)]
+    pub law: LawArg,
+    /// Cundall local damping λ during the relaxation.
+    #[arg(long, default_value_t = 0.4)]
+    pub damping: f64,
+    /// Strain magnitude of each of the six paths.
+    #[arg(long, default_value_t = 1e-5)]
+    pub strain: f64,
+    #[command(flatten)]
+    pub step: StepArgs,
     /// Convergence: relative stress change over 10 steps (and --unbalanced-tolerance).
     #[arg(long, default_value_t = 1e-7)]
     pub tolerance: f64,
@@ -76,10 +120,7 @@ impl Default for IntegratorArgs {
             law: LawArg::Yade,
             damping: 0.4,
             strain: 1e-5,
-            density: 2600.0,
-            mass_scaling: 1.0,
-            dt: None,
-            safety: 0.8,
+            step: StepArgs::default(),
             tolerance: 1e-7,
             unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
             max_steps: 20_000,
@@ -138,12 +179,7 @@ impl IntegratorArgs {
                 self.strain
             )));
         }
-        check_positive("--density", self.density)?;
-        check_positive("--mass-scaling", self.mass_scaling)?;
-        if let Some(dt) = self.dt {
-            check_positive("--dt", dt)?;
-        }
-        check_safety(self.safety)?;
+        self.step.validate()?;
         check_positive("--tolerance", self.tolerance)?;
         check_positive("--unbalanced-tolerance", self.unbalanced_tolerance)?;
         check_max_steps(self.max_steps)
@@ -179,16 +215,7 @@ pub fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions 
         tolerance: a.tolerance,
         unbalanced_tolerance: a.unbalanced_tolerance,
         max_steps: a.max_steps,
-        dem: DemOptions {
-            time_step: a.dt,
-            safety: a.safety,
-            local_damping: a.damping,
-            mass: MassOptions {
-                density: a.density,
-                scaling: a.mass_scaling,
-            },
-            ..Default::default()
-        },
+        dem: a.step.dem_options(a.damping),
         history_every: usize::from(history),
         ..Default::default()
     }

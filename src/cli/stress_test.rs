@@ -4,12 +4,11 @@
 //! orthotropic and the transversely isotropic (about z) stiffness, and writing the
 //! orthotropic tensor as a SPEC JSON report.
 
-use super::run::{check_damping, check_max_steps, check_positive, check_safety, LawArg};
+use super::run::{check_damping, check_max_steps, check_positive, LawArg, StepArgs};
 use anisobond::assembly::Assembly;
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::StressTestOptions;
-use anisobond::dem::{DemOptions, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
@@ -52,18 +51,8 @@ pub struct StressTestArgs {
     /// Cundall local damping λ.
     #[arg(long, default_value_t = 0.4)]
     pub damping: f64,
-    /// Particle density (kg/m³).
-    #[arg(long, default_value_t = 2600.0)]
-    pub density: f64,
-    /// Mass-scaling factor on the density.
-    #[arg(long, default_value_t = 1.0)]
-    pub mass_scaling: f64,
-    /// Time step (s); default: --safety × the critical estimate.
-    #[arg(long)]
-    pub dt: Option<f64>,
-    /// Safety factor on the critical time step.
-    #[arg(long, default_value_t = 0.8)]
-    pub safety: f64,
+    #[command(flatten)]
+    pub step: StepArgs,
     /// Tensor report (SPEC JSON) of the orthotropic stiffness.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -91,12 +80,7 @@ fn validate(a: &StressTestArgs) -> Result<()> {
     }
     check_max_steps(a.max_steps)?;
     check_damping(a.damping)?;
-    check_positive("--density", a.density)?;
-    check_positive("--mass-scaling", a.mass_scaling)?;
-    if let Some(dt) = a.dt {
-        check_positive("--dt", dt)?;
-    }
-    check_safety(a.safety)
+    a.step.validate()
 }
 
 /// `anisobond stress-test`.
@@ -105,16 +89,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
     let asm = Assembly::from_files(&a.packing, &a.model)?;
-    let dem = DemOptions {
-        time_step: a.dt,
-        safety: a.safety,
-        local_damping: a.damping,
-        mass: MassOptions {
-            density: a.density,
-            scaling: a.mass_scaling,
-        },
-        ..Default::default()
-    };
+    let dem = a.step.dem_options(a.damping);
     let opts = StressTestOptions {
         strain: a.strain,
         local_damping: a.damping,

@@ -3,7 +3,7 @@
 //! one step and relaxed quasi-statically with Cundall damping, then the symmetric 21-component
 //! solve of Truszkowska Eq. 27 for the 6×6 stiffness.
 
-use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
+use super::equilibrium::{self, SteadyWindow, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::{DemOptions, Energies, Simulation, StabilityReport};
 use crate::history::HistoryRow;
 use crate::tensor::{fit_symmetric_eq27, Stiffness6, Voigt6, VOIGT_PAIRS};
@@ -153,8 +153,8 @@ pub fn relax_path(
     sim.step()?;
     sim.set_velocity_gradient(Mat3::zeros())?;
     let mut history = Vec::new();
-    let mut recent: std::collections::VecDeque<Voigt6> = std::collections::VecDeque::new();
-    let window = opts.window.max(1);
+    let mut steady = SteadyWindow::new(opts.window);
+    let window = steady.steps();
     let mut steps = 1;
     let mut last_change = f64::INFINITY;
     let unbalance = loop {
@@ -174,21 +174,8 @@ pub fn relax_path(
                 unbalanced_force: sim.unbalanced_force(),
             });
         }
-        recent.push_back(stress);
-        if recent.len() > window + 1 {
-            recent.pop_front();
-        }
-        if recent.len() == window + 1 {
-            let norm = stress.norm();
-            let change = recent
-                .iter()
-                .map(|s| (s - stress).norm())
-                .fold(0.0, f64::max);
-            last_change = if norm > 0.0 {
-                change / norm
-            } else {
-                f64::INFINITY
-            };
+        if let Some(spread) = steady.push(stress) {
+            last_change = spread.relative();
             // Equilibrium is measured only once the stress is steady (it costs a pass).
             if last_change < opts.tolerance {
                 let u = Unbalance::of(sim);
@@ -198,7 +185,7 @@ pub fn relax_path(
             }
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "element test path {path}: not relaxed after {steps} steps: {}, relative \
                  stress change {last_change:.3e} over {window} steps (tolerance {:.1e}); {}",
                 Unbalance::of(sim).describe(opts.unbalanced_tolerance),

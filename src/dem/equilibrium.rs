@@ -5,7 +5,9 @@
 //! any window, and a steadiness test stops at the affine (Voigt) response.
 
 use super::sim::Simulation;
+use crate::tensor::Voigt6;
 use crate::{Error, Result};
+use std::collections::VecDeque;
 
 /// Default tolerance on the unbalanced force and torque (see [`Unbalance`]).
 ///
@@ -82,5 +84,85 @@ pub fn budget_advice(sim: &Simulation) -> String {
              {ratio:.2} × the critical estimate {crit:.3e} s, set by particle {})",
             sim.stability().stiffest_particle
         )
+    }
+}
+
+/// The steadiness test of the relaxations: the last `window` + 1 values of a Voigt vector
+/// (the stress), and how far the older ones lie from the newest.
+#[derive(Clone, Debug)]
+pub struct SteadyWindow {
+    recent: VecDeque<Voigt6>,
+    window: usize,
+}
+
+/// The spread of a full [`SteadyWindow`]: the largest distance ‖s − s_new‖ of a value in the
+/// window from the newest, and the newest value's norm ‖s_new‖.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spread {
+    /// Largest ‖s − s_new‖ over the window.
+    pub change: f64,
+    /// ‖s_new‖.
+    pub norm: f64,
+}
+
+impl Spread {
+    /// `change / norm`, or infinity when the newest value is zero.
+    pub fn relative(&self) -> f64 {
+        if self.norm > 0.0 {
+            self.change / self.norm
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+impl SteadyWindow {
+    /// An empty window over `window` steps (at least 1).
+    pub fn new(window: usize) -> Self {
+        let window = window.max(1);
+        SteadyWindow {
+            recent: VecDeque::with_capacity(window + 1),
+            window,
+        }
+    }
+
+    /// Steps of the window (at least 1).
+    pub fn steps(&self) -> usize {
+        self.window
+    }
+
+    /// Add the newest value (dropping the oldest beyond `window` + 1); the spread once the
+    /// window is full, `None` before.
+    pub fn push(&mut self, value: Voigt6) -> Option<Spread> {
+        self.recent.push_back(value);
+        if self.recent.len() > self.window + 1 {
+            self.recent.pop_front();
+        }
+        (self.recent.len() == self.window + 1).then(|| Spread {
+            change: self
+                .recent
+                .iter()
+                .map(|s| (s - value).norm())
+                .fold(0.0, f64::max),
+            norm: value.norm(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steady_window_spread() {
+        let mut w = SteadyWindow::new(0);
+        assert_eq!(w.steps(), 1);
+        let a = Voigt6::new(3.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let b = Voigt6::new(0.0, 4.0, 0.0, 0.0, 0.0, 0.0);
+        assert_eq!(w.push(a), None);
+        let s = w.push(b).unwrap();
+        assert_eq!((s.change, s.norm, s.relative()), (5.0, 4.0, 1.25));
+        let z = w.push(Voigt6::zeros()).unwrap();
+        assert_eq!((z.change, z.relative()), (4.0, f64::INFINITY));
     }
 }

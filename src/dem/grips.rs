@@ -15,7 +15,7 @@
 //! [`super::sim::PrescribedMotion`]).
 
 use super::element::{path_gradient, to_voigt};
-use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
+use super::equilibrium::{self, SteadyWindow, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::measure::{mean_tensor, normalised_spread, MeasureOptions, MeasurementSpheres};
 use super::sim::{DemOptions, PrescribedMotion, Simulation, StabilityReport};
 use super::{build_law, LawKind};
@@ -362,8 +362,8 @@ pub fn relax_gripped(
         velocity: vec![Vec3::zeros(); motion.particles.len()],
         particles: motion.particles,
     }))?;
-    let window = opts.window.max(1);
-    let mut recent: std::collections::VecDeque<Voigt6> = std::collections::VecDeque::new();
+    let mut steady = SteadyWindow::new(opts.window);
+    let window = steady.steps();
     let mut steps = ramp;
     let mut last_change = f64::INFINITY;
     let mut last_strain: Option<Voigt6> = None;
@@ -371,21 +371,8 @@ pub fn relax_gripped(
         sim.step()?;
         steps += 1;
         let stress = to_voigt(&sim.stress(), false);
-        recent.push_back(stress);
-        if recent.len() > window + 1 {
-            recent.pop_front();
-        }
-        if recent.len() == window + 1 {
-            let norm = stress.norm();
-            let change = recent
-                .iter()
-                .map(|s| (s - stress).norm())
-                .fold(0.0, f64::max);
-            last_change = if norm > 0.0 {
-                change / norm
-            } else {
-                f64::INFINITY
-            };
+        if let Some(spread) = steady.push(stress) {
+            last_change = spread.relative();
         }
         // Every `window` steps, also the change of the mean measurement-sphere strain and,
         // once both are steady, the equilibrium of the free particles.
@@ -412,7 +399,7 @@ pub fn relax_gripped(
             last_change = last_change.max(strain_change);
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "gripped path {path}: not relaxed after {steps} steps (ramp included): {}, \
                  relative stress or sphere-strain change {last_change:.3e} over {window} steps \
                  (tolerance {:.1e}); {}",

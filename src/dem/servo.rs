@@ -14,7 +14,7 @@
 //! then makes the stress drift and the controller follows it until both are steady.
 
 use super::element::to_voigt;
-use super::equilibrium::{self, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
+use super::equilibrium::{self, SteadyWindow, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::Simulation;
 use crate::tensor::{Stiffness6, Voigt6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result};
@@ -376,33 +376,19 @@ pub fn servo_until_converged(
         .fold(0.0, f64::max);
     let strain_tolerance = (1e-9 * strain_scale).max(1e-15);
     equilibrium::check_tolerance(opts.unbalanced_tolerance)?;
-    let window = opts.window.max(1);
-    let mut recent: std::collections::VecDeque<Voigt6> = std::collections::VecDeque::new();
+    let mut steady = SteadyWindow::new(opts.window);
+    let window = steady.steps();
     let mut steps = 0;
     loop {
         servo.apply(sim)?;
         sim.step()?;
         steps += 1;
         let stress = to_voigt(&sim.stress(), false);
-        recent.push_back(stress);
-        if recent.len() > window + 1 {
-            recent.pop_front();
-        }
-        let norm = stress.norm();
-        let change = if recent.len() == window + 1 {
-            let c = recent
-                .iter()
-                .map(|s| (s - stress).norm())
-                .fold(0.0, f64::max);
-            if c == 0.0 {
-                0.0
-            } else if norm > 0.0 {
-                c / norm
-            } else {
-                f64::INFINITY
-            }
-        } else {
-            f64::INFINITY
+        // A window of equal values is steady even when they are zero.
+        let change = match steady.push(stress) {
+            Some(spread) if spread.change == 0.0 => 0.0,
+            Some(spread) => spread.relative(),
+            None => f64::INFINITY,
         };
         let stress_error = servo.relative_stress_error(&stress);
         let strain = to_voigt(&sim.strain(), true);
@@ -425,7 +411,7 @@ pub fn servo_until_converged(
             }
         }
         if steps >= opts.max_steps {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "stress control did not converge in {steps} steps: {}, relative stress error \
                  {stress_error:.3e} (tolerance t_r = {:.1e}), relative stress change {change:.3e} \
                  over {window} steps (tolerance {:.1e}), strain error {strain_error:.3e}; {}, or \

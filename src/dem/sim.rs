@@ -821,7 +821,7 @@ impl Simulation {
             let k = w.len();
             k >= 4 && w[k - 4] > 0.0 && (1..4).all(|s| w[k - s] > 10.0 * w[k - s - 1])
         } {
-            return Err(Error::Invalid(format!(
+            return Err(Error::Degenerate(format!(
                 "the run blew up at step {} (time step {:.4e} s): {}. Use a time step ≤ {:.4e} s \
                  (the critical estimate {:.4e} s × safety {})",
                 self.iteration,

@@ -187,10 +187,7 @@ pub fn stress_controlled_tensor(
         servo_until_converged(&mut sim, &servo, &opts.servo, &mut |s| {
             progress((test as f64 + (s as f64 / max).min(1.0)) / 6.0)
         })
-        .map_err(|err| match err {
-            Error::Invalid(m) => Error::Invalid(format!("element test {test}: {m}")),
-            other => other,
-        })
+        .map_err(|err| err.in_context(format_args!("element test {test}")))
     };
     let mut uniaxial = Vec::with_capacity(3);
     for axis in 0..3 {

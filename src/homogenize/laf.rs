@@ -13,7 +13,7 @@
 //! shifted by 1e-12 × the largest diagonal entry, which changes the kept fluctuation by a
 //! relative O(1e-12).
 
-use super::network::{Block6, LeverArm, Network, NullSpaceReport};
+use super::network::{csr, Block6, LeverArm, Network, NullSpaceReport};
 use super::relaxed::BlockSparse;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
@@ -117,14 +117,7 @@ pub fn laf_tensor(
     let m = net.n_active;
     let (start, nb) = net.adjacency();
     // Incident elements of every particle (same CSR layout as `adjacency`).
-    let mut inc = vec![0u32; start[m]];
-    let mut fill = start.clone();
-    for (e, &(a, b)) in net.ends.iter().enumerate() {
-        inc[fill[a as usize]] = e as u32;
-        fill[a as usize] += 1;
-        inc[fill[b as usize]] = e as u32;
-        fill[b as usize] += 1;
-    }
+    let (_, inc) = csr(m, net.end_pairs(), |e, _| e as u32);
     check_shell_size(m, shell, &start, &nb)?;
     const CH: usize = 256;
     let chunks: Vec<(Vec<Block6>, usize)> = (0..m.div_ceil(CH))
@@ -184,15 +177,7 @@ pub fn laf_tensor(
         q.extend(c);
         free_total += f;
     }
-    let kmat = BlockSparse::assemble(&net);
-    let mut kq = vec![Block6::zeros(); m];
-    kmat.apply(&q, &mut kq);
-    let mut gtq = Block6::zeros();
-    let mut qtkq = Block6::zeros();
-    for p in 0..m {
-        gtq += net.g[p].transpose() * q[p];
-        qtkq += q[p].transpose() * kq[p];
-    }
+    let (gtq, qtkq) = BlockSparse::assemble(&net).fluctuation_terms(&net.g, &q);
     let v = net.volume;
     let c_energy = (net.h - gtq - gtq.transpose() + qtkq) / v;
     Ok(LafResult {

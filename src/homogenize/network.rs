@@ -166,22 +166,12 @@ fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
     let mut degree = bonds.degrees(n_particles);
     let mut active = vec![true; bonds.len()];
     // Adjacency: bonds of each particle.
-    let mut start = vec![0usize; n_particles + 1];
-    for (&i, &j) in bonds.i.iter().zip(&bonds.j) {
-        start[i as usize + 1] += 1;
-        start[j as usize + 1] += 1;
-    }
-    for p in 0..n_particles {
-        start[p + 1] += start[p];
-    }
-    let mut fill = start.clone();
-    let mut adj = vec![0usize; start[n_particles]];
-    for b in 0..bonds.len() {
-        for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
-            adj[fill[p]] = b;
-            fill[p] += 1;
-        }
-    }
+    let ends = bonds.i.iter().zip(&bonds.j);
+    let (start, adj) = csr(
+        n_particles,
+        ends.map(|(&i, &j)| (i as usize, j as usize)),
+        |b, _| b,
+    );
     let mut stack: Vec<usize> = (0..n_particles).filter(|&p| degree[p] == 1).collect();
     while let Some(p) = stack.pop() {
         if degree[p] != 1 {
@@ -316,25 +306,40 @@ impl Network {
 
     /// Active neighbours of every active particle (CSR: start offsets, neighbour list).
     pub fn adjacency(&self) -> (Vec<usize>, Vec<u32>) {
-        let m = self.n_active;
-        let mut start = vec![0usize; m + 1];
-        for &(a, b) in &self.ends {
-            start[a as usize + 1] += 1;
-            start[b as usize + 1] += 1;
-        }
-        for p in 0..m {
-            start[p + 1] += start[p];
-        }
-        let mut fill = start.clone();
-        let mut nb = vec![0u32; start[m]];
-        for &(a, b) in &self.ends {
-            nb[fill[a as usize]] = b;
-            fill[a as usize] += 1;
-            nb[fill[b as usize]] = a;
-            fill[b as usize] += 1;
-        }
-        (start, nb)
+        csr(self.n_active, self.end_pairs(), |_, other| other as u32)
     }
+
+    /// The two ends of every element, in element order.
+    pub(crate) fn end_pairs(&self) -> impl Iterator<Item = (usize, usize)> + Clone + '_ {
+        self.ends.iter().map(|&(a, b)| (a as usize, b as usize))
+    }
+}
+
+/// Compressed rows over `n` items of the pairs (i, j): row i lists `entry(k, j)` and row j
+/// lists `entry(k, i)` for the k-th pair, in pair order. Returns the row offsets (n + 1)
+/// and the entries.
+pub(crate) fn csr<T: Copy + Default>(
+    n: usize,
+    pairs: impl Iterator<Item = (usize, usize)> + Clone,
+    entry: impl Fn(usize, usize) -> T,
+) -> (Vec<usize>, Vec<T>) {
+    let mut start = vec![0usize; n + 1];
+    for (i, j) in pairs.clone() {
+        start[i + 1] += 1;
+        start[j + 1] += 1;
+    }
+    for p in 0..n {
+        start[p + 1] += start[p];
+    }
+    let mut fill = start.clone();
+    let mut list = vec![T::default(); start[n]];
+    for (k, (i, j)) in pairs.enumerate() {
+        list[fill[i]] = entry(k, j);
+        fill[i] += 1;
+        list[fill[j]] = entry(k, i);
+        fill[j] += 1;
+    }
+    (start, list)
 }
 
 /// Pseudo-inverse of a symmetric positive semi-definite 6×6 block, and its numerical rank.

@@ -190,6 +190,21 @@ impl BlockSparse {
         }
     }
 
+    /// Gᵀq and qᵀKq, summed particle by particle in order, for the fluctuation response q
+    /// (one 6×6 block per particle) to the load G: the relaxed tensor is
+    /// C·V = H − Gᵀq − qᵀG + qᵀKq.
+    pub fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
+        let mut kq = vec![Block6::zeros(); q.len()];
+        self.apply(q, &mut kq);
+        let mut gtq = Block6::zeros();
+        let mut qtkq = Block6::zeros();
+        for p in 0..q.len() {
+            gtq += g[p].transpose() * q[p];
+            qtkq += q[p].transpose() * kq[p];
+        }
+        (gtq, qtkq)
+    }
+
     /// Y = K X for a block vector X (one 6×6 block per particle: DOF × load case).
     pub fn apply(&self, x: &[Block6], y: &mut [Block6]) {
         y.par_iter_mut().enumerate().for_each(|(p, yp)| {
@@ -434,14 +449,7 @@ pub fn relaxed_solve(
             pcg(&kmat, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?
         }
     };
-    let mut kq = vec![Block6::zeros(); m];
-    kmat.apply(&q, &mut kq);
-    let mut gtq = Block6::zeros();
-    let mut qtkq = Block6::zeros();
-    for p in 0..m {
-        gtq += net.g[p].transpose() * q[p];
-        qtkq += q[p].transpose() * kq[p];
-    }
+    let (gtq, qtkq) = kmat.fluctuation_terms(&net.g, &q);
     let c = net.h - gtq - gtq.transpose() + qtkq;
     let c = (c + c.transpose()) * (0.5 / net.volume);
     Ok(RelaxedSolution {
@@ -607,7 +615,7 @@ fn pcg(
         });
         rz = rz_new;
     }
-    Err(Error::Invalid(format!(
+    Err(Error::NotConverged(format!(
         "relaxed solver: no convergence in {} iterations (relative residual {worst:.3e} > tolerance {:.1e}); the bond network may contain a mechanism",
         opts.max_iterations, opts.tolerance
     )))

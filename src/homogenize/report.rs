@@ -95,7 +95,7 @@ pub struct TensorReport {
 /// (a mechanism: some strain costs no energy). `method` names the tensor in the message.
 pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
     if c.iter().any(|x| !x.is_finite()) {
-        return Err(Error::Invalid(format!(
+        return Err(Error::Degenerate(format!(
             "the {method} tensor overflows (non-finite entries): the magnitudes of the inputs \
              (model stiffness, radii, cell) are out of the range of double precision; scale them \
              to SI values"
@@ -103,13 +103,13 @@ pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
     }
     let scale = c.amax();
     if scale > 0.0 && scale < 1e-280 {
-        return Err(Error::Invalid(format!(
+        return Err(Error::Degenerate(format!(
             "the {method} tensor underflows (largest entry {scale:e} Pa): the magnitudes of \
              the inputs are out of the range of double precision; scale them to SI values"
         )));
     }
     if scale == 0.0 {
-        return Err(Error::Invalid(format!(
+        return Err(Error::Degenerate(format!(
             "the bond network carries no load: the {method} tensor is zero (no bond with a \
              non-zero spring takes part in the load-bearing network)"
         )));
@@ -119,7 +119,7 @@ pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
     let (smallest, largest) = (moduli[0], moduli[5]);
     let positive = smallest > 1e-9 * largest;
     if !positive {
-        return Err(Error::Invalid(format!(
+        return Err(Error::Degenerate(format!(
             "the bond network is a mechanism: the {method} tensor is not positive definite \
              (smallest Kelvin modulus {smallest:.4e} Pa, largest {largest:.4e} Pa), so some \
              homogeneous strain costs no energy; too few bonds or springs that are zero"
@@ -195,7 +195,7 @@ impl TensorReport {
             .chain(entries)
             .find(|(_, v)| !v.is_finite())
         {
-            return Err(Error::Invalid(format!(
+            return Err(Error::Degenerate(format!(
                 "the {} tensor report has a non-finite {name} ({v}): an overflow in the \
                  inputs' magnitudes (model stiffness, radii, cell) or a degenerate packing",
                 self.method

@@ -94,6 +94,27 @@ pub fn generate(opts: &GenerateOptions, progress: &(dyn Fn(f64) + Sync)) -> Resu
     Ok(generate_with_report(opts, progress)?.0)
 }
 
+/// The refusal (without context) of a mean radius that is not finite and > 0 or a uniform
+/// polydispersity half width outside [0, 1).
+pub(crate) fn check_radii(
+    mean_radius: f64,
+    polydispersity: Polydispersity,
+) -> std::result::Result<(), String> {
+    if !mean_radius.is_finite() || mean_radius <= 0.0 {
+        return Err(format!(
+            "mean radius must be finite and > 0, got {mean_radius}"
+        ));
+    }
+    if let Polydispersity::Uniform { half_width } = polydispersity {
+        if !half_width.is_finite() || !(0.0..1.0).contains(&half_width) {
+            return Err(format!(
+                "polydispersity half width ΔR/R̄ must be in [0, 1), got {half_width}"
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn check_options(opts: &GenerateOptions) -> Result<()> {
     let bad = |m: String| Err(Error::Invalid(format!("packing generation: {m}")));
     let phi = opts.solid_fraction;
@@ -102,19 +123,7 @@ fn check_options(opts: &GenerateOptions) -> Result<()> {
             "solid fraction must be in (0, 0.64] (random packings jam near 0.64), got {phi}"
         ));
     }
-    if !opts.mean_radius.is_finite() || opts.mean_radius <= 0.0 {
-        return bad(format!(
-            "mean radius must be finite and > 0, got {}",
-            opts.mean_radius
-        ));
-    }
-    if let Polydispersity::Uniform { half_width } = opts.polydispersity {
-        if !half_width.is_finite() || !(0.0..1.0).contains(&half_width) {
-            return bad(format!(
-                "polydispersity half width ΔR/R̄ must be in [0, 1), got {half_width}"
-            ));
-        }
-    }
+    check_radii(opts.mean_radius, opts.polydispersity).or_else(bad)?;
     if !opts.max_overlap.is_finite() || opts.max_overlap <= 0.0 {
         return bad(format!(
             "max_overlap must be finite and > 0, got {}",
@@ -526,7 +535,7 @@ pub fn generate_with_report(
         },
     )?;
     if !outcome.overlap_free {
-        return Err(Error::Invalid(format!(
+        return Err(Error::NotConverged(format!(
             "packing generation did not converge in {} iterations: largest overlap \
              {:.3e} R̄ > {tol:.1e} R̄ (solid fraction {} too close to jamming?)",
             opts.max_iterations, outcome.max_overlap, opts.solid_fraction

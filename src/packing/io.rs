@@ -128,6 +128,30 @@ fn parse_number(word: &str, what: &str, source: &str, line: usize) -> Result<f64
     Ok(v)
 }
 
+/// A non-negative integer, refused as "expected {what}, found `word`".
+fn parse_count<T: std::str::FromStr>(
+    word: &str,
+    what: &str,
+    source: &str,
+    line: usize,
+) -> Result<T> {
+    word.parse()
+        .map_err(|_| Error::parse(source, line, format!("expected {what}, found `{word}`")))
+}
+
+/// [`parse_number`], refused unless > 0 (`shown` names the value in that refusal).
+fn parse_positive(word: &str, what: &str, shown: &str, source: &str, line: usize) -> Result<f64> {
+    let v = parse_number(word, what, source, line)?;
+    if v <= 0.0 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("{shown} must be > 0, found {v}"),
+        ));
+    }
+    Ok(v)
+}
+
 /// "overflows" or "underflows to 0" for a derived quantity `v` that is not finite and > 0.
 fn out_of_range(v: f64) -> &'static str {
     if v.is_finite() {
@@ -519,29 +543,9 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
             ),
         ));
     }
-    let id: u64 = words[0].parse().map_err(|_| {
-        Error::parse(
-            source,
-            line,
-            format!("expected a positive integer atom id, found `{}`", words[0]),
-        )
-    })?;
-    let d = parse_number(words[2], "diameter", source, line)?;
-    if d <= 0.0 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!("diameter must be > 0, found {d}"),
-        ));
-    }
-    let density = parse_number(words[3], "density", source, line)?;
-    if density <= 0.0 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!("density (column 4) must be > 0, found {density}"),
-        ));
-    }
+    let id: u64 = parse_count(words[0], "a positive integer atom id", source, line)?;
+    let d = parse_positive(words[2], "diameter", "diameter", source, line)?;
+    parse_positive(words[3], "density", "density (column 4)", source, line)?;
     let x = parse_number(words[4], "x", source, line)?;
     let y = parse_number(words[5], "y", source, line)?;
     let z = parse_number(words[6], "z", source, line)?;
@@ -573,28 +577,21 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
     let mut bounds: [Option<(f64, f64, usize)>; 3] = [None; 3];
     let mut atoms: Vec<Atom> = Vec::new();
     let mut atoms_line: Option<usize> = None;
-    // Line 1 is the title and always skipped (LAMMPS rule).
-    let mut k = 1;
+    // The lines that are not blank after their comment: (line number, text, words). Line 1
+    // is the title and always skipped (LAMMPS rule).
+    let mut rows = lines
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(k, raw)| (k + 1, *raw, data_words(raw)))
+        .filter(|(_, _, words)| !words.is_empty())
+        .peekable();
+    let not_section = |row: &(usize, &str, Vec<&str>)| !LAMMPS_SECTIONS.contains(&row.2[0]);
     // Header.
-    while k < lines.len() {
-        let line = k + 1;
-        let words = data_words(lines[k]);
-        if words.is_empty() {
-            k += 1;
-            continue;
-        }
-        if LAMMPS_SECTIONS.contains(&words[0]) {
-            break;
-        }
+    while let Some((line, _, words)) = rows.next_if(not_section) {
         let n_words = words.len();
         if n_words == 2 && words[1] == "atoms" {
-            let n: usize = words[0].parse().map_err(|_| {
-                Error::parse(
-                    source,
-                    line,
-                    format!("expected an atom count in `N atoms`, found `{}`", words[0]),
-                )
-            })?;
+            let n: usize = parse_count(words[0], "an atom count in `N atoms`", source, line)?;
             n_atoms = Some((n, line));
         } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
             let axis = match (words[2], words[3]) {
@@ -646,23 +643,16 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             }
         }
         // Other header lines (atom types, bonds, extra bond per atom, …) are irrelevant.
-        k += 1;
     }
     // Sections.
-    while k < lines.len() {
-        let line = k + 1;
-        let words = data_words(lines[k]);
-        if words.is_empty() {
-            k += 1;
-            continue;
-        }
+    while let Some((line, raw, words)) = rows.next() {
         if !LAMMPS_SECTIONS.contains(&words[0]) {
             return Err(Error::parse(
                 source,
                 line,
                 format!(
                     "expected a section name such as `Atoms`, found `{}`",
-                    lines[k].trim()
+                    raw.trim()
                 ),
             ));
         }
@@ -676,7 +666,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 ));
             }
             atoms_line = Some(line);
-            if let Some(style) = lines[k].split('#').nth(1).map(str::trim) {
+            if let Some(style) = raw.split('#').nth(1).map(str::trim) {
                 if !style.is_empty() && style != "granular" {
                     return Err(Error::parse(
                         source,
@@ -686,22 +676,11 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 }
             }
         }
-        k += 1;
         // Section body: lines up to the next section name.
-        while k < lines.len() {
-            let line = k + 1;
-            let words = data_words(lines[k]);
-            if words.is_empty() {
-                k += 1;
-                continue;
-            }
-            if LAMMPS_SECTIONS.contains(&words[0]) {
-                break;
-            }
+        while let Some((line, _, words)) = rows.next_if(not_section) {
             if is_atoms {
                 atoms.push(parse_atom(&words, source, line)?);
             }
-            k += 1;
         }
     }
     let (n, n_line) = n_atoms.ok_or_else(|| {

@@ -29,8 +29,8 @@
 
 pub use super::generate::ForceBalance;
 use super::generate::{
-    draw_radii, fire_jam_at_pressure, fire_relax, spatial_order, Polydispersity, PressureOutcome,
-    PressureTarget, RelaxOutcome, RelaxTarget,
+    check_radii, draw_radii, fire_jam_at_pressure, fire_relax, spatial_order, Polydispersity,
+    PressureOutcome, PressureTarget, RelaxOutcome, RelaxTarget,
 };
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
@@ -228,19 +228,7 @@ fn check_options(o: &RouteOptions) -> Result<()> {
             o.solid_fraction
         ));
     }
-    if !o.mean_radius.is_finite() || o.mean_radius <= 0.0 {
-        return bad(format!(
-            "mean radius must be finite and > 0, got {}",
-            o.mean_radius
-        ));
-    }
-    if let Polydispersity::Uniform { half_width } = o.polydispersity {
-        if !half_width.is_finite() || !(0.0..1.0).contains(&half_width) {
-            return bad(format!(
-                "polydispersity half width ΔR/R̄ must be in [0, 1), got {half_width}"
-            ));
-        }
-    }
+    check_radii(o.mean_radius, o.polydispersity).or_else(bad)?;
     let gas = o.gas_solid_fraction;
     if !gas.is_finite() || gas <= 0.0 || gas > MAX_GAS_SOLID_FRACTION {
         return bad(format!(
@@ -445,7 +433,7 @@ pub fn prepare_with_status(
         *relaxations += 1;
         *iterations += out.iterations;
         if !out.converged() {
-            return Err(Error::Invalid(format!(
+            return Err(Error::NotConverged(format!(
                 "packing preparation: energy minimisation at solid fraction {:.5} did not \
                  converge in {max_iterations} iterations (largest overlap {:.2e} R̄)",
                 solid_volume / (side * side * side),
@@ -542,7 +530,7 @@ pub fn prepare_with_status(
                 relaxations += 1;
                 iterations += stage_out.iterations;
                 if !stage_out.converged {
-                    return Err(Error::Invalid(format!(
+                    return Err(Error::NotConverged(format!(
                         "packing preparation: no force-balanced jammed state at pressure {p_t:e} \
                          found in {max_iterations} iterations (reached P = {:.3e} at solid \
                          fraction {:.5})",

@@ -57,6 +57,30 @@ fn s<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
+/// The charts of this module: f64 × f64 on a bitmap.
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// The legend of `chart` (labels at `font_size` on a translucent white box with a black
+/// border) at `position`.
+fn draw_legend<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    font_size: u32,
+    position: SeriesLabelPosition,
+) -> std::result::Result<(), String> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font_size))
+        .position(position)
+        .draw()
+        .map_err(s)
+}
+
 /// Colour of a model variant on the domain map (paper Fig. C.1a: blue/gold plain,
 /// purple/orange extended).
 fn variant_colour(model: CubicModel, extended: bool) -> RGBColor {
@@ -208,14 +232,7 @@ pub fn plot_domain(
                 .label("target")
                 .legend(|(x, y)| Cross::new((x + 10, y), 5, BLACK.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 16))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(s)?;
+        draw_legend(&mut chart, 16, SeriesLabelPosition::LowerRight)?;
         Ok(())
     })
 }
@@ -360,28 +377,16 @@ pub fn plot_stiffness_sections(
             }
             let blue = RGBColor(31, 119, 180);
             let gold = RGBColor(214, 160, 20);
-            chart
-                .draw_series(LineSeries::new(normal.clone(), blue.stroke_width(3)))
-                .map_err(s)?
-                .label(format!("k_n magnitude ({unit})"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(3))
-                });
-            chart
-                .draw_series(LineSeries::new(shear.clone(), gold.stroke_width(3)))
-                .map_err(s)?
-                .label(format!("k_s magnitude ({unit})"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], gold.stroke_width(3))
-                });
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(s)?;
+            for (curve, colour, name) in [(normal, blue, "k_n"), (shear, gold, "k_s")] {
+                chart
+                    .draw_series(LineSeries::new(curve.clone(), colour.stroke_width(3)))
+                    .map_err(s)?
+                    .label(format!("{name} magnitude ({unit})"))
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                    });
+            }
+            draw_legend(&mut chart, 14, SeriesLabelPosition::UpperRight)?;
         }
         Ok(())
     })
@@ -447,57 +452,32 @@ pub fn plot_stress_strain(path: &Path, history: &History, title: &str) -> Result
     if y1 <= y0 {
         y1 = y0 + 1.0;
     }
-    let pad = 0.05 * (y1 - y0);
-    let palette = [
-        RGBColor(31, 119, 180),
-        RGBColor(255, 127, 14),
-        RGBColor(44, 160, 44),
-        RGBColor(214, 39, 40),
-        RGBColor(148, 103, 189),
-        RGBColor(140, 86, 75),
-    ];
-    render(path, (1000, 700), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 24))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
-            .map_err(s)?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("strain ε{} (engineering)", VOIGT_NAMES[driver]))
-            .y_desc("stress (MPa)")
-            .x_label_formatter(&|v| format!("{v:.1e}"))
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 18))
-            .draw()
-            .map_err(s)?;
-        for &k in &shown {
-            let colour = palette[k];
-            chart
-                .draw_series(LineSeries::new(
-                    xs.iter()
-                        .zip(&history.stress)
-                        .map(|(&x, st)| (x, st[k] / 1e6)),
-                    colour.stroke_width(2),
-                ))
-                .map_err(s)?
-                .label(format!("σ{}", VOIGT_NAMES[k]))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 16))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(s)?;
-        Ok(())
-    })
+    let x_label = format!("strain ε{} (engineering)", VOIGT_NAMES[driver]);
+    let series: Vec<Series> = shown
+        .iter()
+        .map(|&k| Series {
+            label: format!("σ{}", VOIGT_NAMES[k]),
+            points: xs
+                .iter()
+                .zip(&history.stress)
+                .map(|(&x, st)| (x, st[k] / 1e6))
+                .collect(),
+            dashed: false,
+            colour: Some(k),
+        })
+        .collect();
+    let plot = LinePlot {
+        title,
+        x: (x0, x1),
+        y: (y0, y1),
+        x_label: &x_label,
+        y_label: "stress (MPa)",
+        y_label_area: 70,
+        x_ticks: Some(&|v| format!("{v:.1e}")),
+        y_ticks: None,
+        legend: SeriesLabelPosition::UpperLeft,
+    };
+    draw_lines(path, plot, &series)
 }
 
 /// One named curve of [`plot_series`]: (x, y) points.
@@ -546,34 +526,73 @@ pub fn plot_series(
     if y1 <= y0 {
         (y0, y1) = (y0 - 1.0, y1 + 1.0);
     }
+    let plot = LinePlot {
+        title,
+        x: (x0, x1),
+        y: (y0, y1),
+        x_label,
+        y_label,
+        y_label_area: 80,
+        x_ticks: None,
+        y_ticks: Some(&|v| format!("{v:.3e}")),
+        legend: SeriesLabelPosition::UpperRight,
+    };
+    draw_lines(path, plot, series)
+}
+
+/// The six curve colours (matplotlib's first six).
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+/// Axes, labels and legend of a line plot.
+struct LinePlot<'a> {
+    title: &'a str,
+    /// x range.
+    x: (f64, f64),
+    /// y range, padded by 5 % on both sides when drawn.
+    y: (f64, f64),
+    x_label: &'a str,
+    y_label: &'a str,
+    /// Width of the y label area (pixels).
+    y_label_area: u32,
+    /// Tick label formats (`None`: plotters' own).
+    x_ticks: Option<&'a dyn Fn(&f64) -> String>,
+    y_ticks: Option<&'a dyn Fn(&f64) -> String>,
+    legend: SeriesLabelPosition,
+}
+
+/// The curves `series` on the axes of `plot`, 1000 × 700 pixels, written atomically as PNG.
+fn draw_lines(path: &Path, plot: LinePlot, series: &[Series]) -> Result<()> {
+    let ((x0, x1), (y0, y1)) = (plot.x, plot.y);
     let pad = 0.05 * (y1 - y0);
-    let palette = [
-        RGBColor(31, 119, 180),
-        RGBColor(255, 127, 14),
-        RGBColor(44, 160, 44),
-        RGBColor(214, 39, 40),
-        RGBColor(148, 103, 189),
-        RGBColor(140, 86, 75),
-    ];
     render(path, (1000, 700), |root| {
         let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 24))
+            .caption(plot.title, ("sans-serif", 24))
             .margin(15)
             .x_label_area_size(50)
-            .y_label_area_size(80)
+            .y_label_area_size(plot.y_label_area)
             .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
             .map_err(s)?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .y_label_formatter(&|v| format!("{v:.3e}"))
-            .label_style(("sans-serif", 14))
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(plot.x_label).y_desc(plot.y_label);
+        if let Some(f) = plot.x_ticks {
+            mesh.x_label_formatter(f);
+        }
+        if let Some(f) = plot.y_ticks {
+            mesh.y_label_formatter(f);
+        }
+        mesh.label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 18))
             .draw()
             .map_err(s)?;
         for (k, c) in series.iter().enumerate() {
-            let colour = palette[c.colour.unwrap_or(k) % palette.len()];
+            let colour = PALETTE[c.colour.unwrap_or(k) % PALETTE.len()];
             let style = colour.stroke_width(if c.dashed { 1 } else { 2 });
             let drawn = if c.dashed {
                 chart
@@ -588,14 +607,7 @@ pub fn plot_series(
                 PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2))
             });
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 16))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(s)?;
+        draw_legend(&mut chart, 16, plot.legend)?;
         Ok(())
     })
 }

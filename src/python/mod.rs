@@ -56,6 +56,18 @@ create_exception!(
 );
 create_exception!(
     anisobond,
+    DegenerateError,
+    AnisobondError,
+    "The inputs are admissible, but what they give is not a result: no bonds, a tensor that is zero or a mechanism, a run that blows up."
+);
+create_exception!(
+    anisobond,
+    NotConvergedError,
+    AnisobondError,
+    "An iterative computation (relaxed solver, element tests, calibration) reached its limit before its tolerance."
+);
+create_exception!(
+    anisobond,
     FileError,
     AnisobondError,
     "A file could not be read or written (the message names it)."
@@ -68,6 +80,8 @@ fn to_py(e: Error) -> PyErr {
         Error::Model(_) => ModelError::new_err(message),
         Error::Io { .. } => FileError::new_err(message),
         Error::Parse { .. } | Error::Invalid(_) => InputError::new_err(message),
+        Error::Degenerate(_) => DegenerateError::new_err(message),
+        Error::NotConverged(_) => NotConvergedError::new_err(message),
     }
 }
 
@@ -1064,6 +1078,8 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InputError", py.get_type::<InputError>())?;
     m.add("ModelError", py.get_type::<ModelError>())?;
     m.add("FileError", py.get_type::<FileError>())?;
+    m.add("DegenerateError", py.get_type::<DegenerateError>())?;
+    m.add("NotConvergedError", py.get_type::<NotConvergedError>())?;
     m.add_class::<PyModel>()?;
     m.add_class::<PyPacking>()?;
     m.add_class::<PyAssembly>()?;

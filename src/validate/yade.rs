@@ -465,30 +465,31 @@ fn run_yade(
     dt: f64,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<YadeRuns> {
-    let mut args = run_options(o, dt, true).to_args();
-    args.extend([
-        "--history".into(),
-        outputs::YADE_UNDAMPED_HISTORY.into(),
-        "--tensor".into(),
-        outputs::YADE_UNDAMPED_TENSOR.into(),
-    ]);
-    let undamped_out = run_yade_script(script, &args)?;
-    progress(&format!(
-        "YADE: undamped runs done in {:.1} s",
-        undamped_out.wall_seconds
-    ));
-    let mut args = run_options(o, dt, false).to_args();
-    args.extend([
-        "--history".into(),
-        outputs::YADE_DAMPED_HISTORY.into(),
-        "--tensor".into(),
-        outputs::YADE_DAMPED_TENSOR.into(),
-    ]);
-    let damped_out = run_yade_script(script, &args)?;
-    progress(&format!(
-        "YADE: damped element tests done in {:.1} s",
-        damped_out.wall_seconds
-    ));
+    // One YADE run: the undamped or the damped paths, into their history and tensor files.
+    let run = |undamped: bool, history: &str, tensor: &str, what: &str| {
+        let mut args = run_options(o, dt, undamped).to_args();
+        args.extend([
+            "--history".into(),
+            history.into(),
+            "--tensor".into(),
+            tensor.into(),
+        ]);
+        let out = run_yade_script(script, &args)?;
+        progress(&format!("YADE: {what} done in {:.1} s", out.wall_seconds));
+        Ok::<_, Error>(out)
+    };
+    let undamped_out = run(
+        true,
+        outputs::YADE_UNDAMPED_HISTORY,
+        outputs::YADE_UNDAMPED_TENSOR,
+        "undamped runs",
+    )?;
+    let damped_out = run(
+        false,
+        outputs::YADE_DAMPED_HISTORY,
+        outputs::YADE_DAMPED_TENSOR,
+        "damped element tests",
+    )?;
     Ok(YadeRuns {
         undamped: read_yade_history(&dir.join(outputs::YADE_UNDAMPED_HISTORY))?,
         damped: read_yade_history(&dir.join(outputs::YADE_DAMPED_HISTORY))?,

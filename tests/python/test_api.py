@@ -268,3 +268,17 @@ def test_cli_tensor_of_a_bond_table(files, cubic, tmp_path):
                         "-o", str(tmp_path / "never.json")], capture_output=True, text=True)
     assert r.returncode != 0 and "but the packing has 400 (0 to 399)" in r.stderr, r.stderr
     assert not (tmp_path / "never.json").exists()
+
+
+def test_degenerate_and_not_converged_are_their_own_exceptions(cubic):
+    far = ab.Packing([[0, 0, 0], [5e-3, 0, 0]], [1e-3, 1e-3], cell=(1e-2, 1e-2, 1e-2))
+    with pytest.raises(ab.DegenerateError, match="bonds no pair"):
+        ab.Assembly(far, cubic.model)
+    # Two bonded spheres carry no shear: the relaxed tensor is a mechanism, refused.
+    pair = ab.Assembly.from_bonds(far, cubic.model, [0], [1])
+    with pytest.raises(ab.DegenerateError):
+        pair.tensor("relaxed")
+    with pytest.raises(ab.NotConvergedError, match="relaxed solve"):
+        ab.calibrate(cubic.model, {"C12/C11": 0.30, "C44/C11": 0.43}, on=cubic.packing,
+                     max_iterations=1, tolerance=1e-9)
+    assert issubclass(ab.DegenerateError, ValueError)

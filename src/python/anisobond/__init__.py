@@ -17,16 +17,20 @@ numpy arrays in Pa, Voigt order 11, 22, 33, 23, 13, 12, acting on engineering st
 
 Errors are exceptions of this package, subclasses of ``ValueError``: ``InputError`` (a file,
 array or option; the message names which and what was expected), ``ModelError`` (a model
-that is not admissible) and ``FileError`` (a file that cannot be read or written).
+that is not admissible), ``DegenerateError`` (no bonds, a tensor that is zero or a
+mechanism), ``NotConvergedError`` (an iteration limit reached before the tolerance) and
+``FileError`` (a file that cannot be read or written).
 """
 
 from ._anisobond import (
     AnisobondError,
     Assembly,
+    DegenerateError,
     FileError,
     InputError,
     Model,
     ModelError,
+    NotConvergedError,
     Packing,
     __version__,
     calibrate_model as _calibrate_model,
@@ -36,10 +40,12 @@ from ._anisobond import (
 __all__ = [
     "AnisobondError",
     "Assembly",
+    "DegenerateError",
     "FileError",
     "InputError",
     "Model",
     "ModelError",
+    "NotConvergedError",
     "Packing",
     "__version__",
     "calibrate",
