@@ -112,14 +112,7 @@ impl Assembly {
                 packing.len()
             )));
         }
-        let scheme = model.build_scheme(Some((&packing, &bonds)))?;
-        let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
-        Ok(Assembly {
-            packing,
-            model,
-            bonds,
-            springs,
-        })
+        Assembly::springs_of(packing, model, bonds)
     }
 
     /// An assembly of given bonds (a scene's own interactions, [`BondSet::from_pairs`])
@@ -131,6 +124,11 @@ impl Assembly {
                 packing.len()
             )));
         }
+        Assembly::springs_of(packing, model, bonds)
+    }
+
+    /// Every bond's springs by the model's scheme and geometry.
+    fn springs_of(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {
         let scheme = model.build_scheme(Some((&packing, &bonds)))?;
         let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
         Ok(Assembly {

@@ -618,37 +618,18 @@ impl Model {
         &self,
         bonded: Option<(&Packing, &BondSet)>,
     ) -> Result<Box<dyn StiffnessScheme>> {
-        Ok(match &self.scheme {
-            SchemeSpec::Cubic {
-                model,
-                extended,
-                a_n,
-                a_s,
-                normal,
-                shear,
-                rotation,
-            } => Box::new(CubicSpheroid::new(
-                *model, *extended, *a_n, *a_s, *normal, *shear, *rotation,
-            )?),
-            SchemeSpec::Isotropic { normal, shear } => Box::new(Isotropic::new(*normal, *shear)?),
-            SchemeSpec::CrossAnisotropic {
-                c11,
-                c33,
-                c13,
-                c12,
-                axis,
-            } => {
-                let (packing, bonds) = bonded.ok_or_else(|| {
-                    Error::Model(
-                        "the cross-anisotropic scheme needs a bonded packing (its lattice scaling μ comes from the bonds)".into(),
-                    )
-                })?;
-                let mu = cross_anisotropic::lattice_scaling(packing, bonds, self.geometry.pi_hat)?;
-                Box::new(CrossAnisotropic::from_target(
-                    *c11, *c33, *c13, *c12, *axis, mu,
-                )?)
+        let mu = match (&self.scheme, bonded) {
+            (SchemeSpec::CrossAnisotropic { .. }, Some((packing, bonds))) => Some(
+                cross_anisotropic::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
+            ),
+            (SchemeSpec::CrossAnisotropic { .. }, None) => {
+                return Err(Error::Model(
+                    "the cross-anisotropic scheme needs a bonded packing (its lattice scaling μ comes from the bonds)".into(),
+                ))
             }
-        })
+            _ => None,
+        };
+        self.scheme_for(mu)
     }
 
     /// The springs of arbitrary bonds: unit `normals` (lab frame), sphere radii `r_i`, `r_j`
@@ -682,24 +663,33 @@ impl Model {
     /// The stiffness scheme with a given lattice scaling μ (needed by, and only by, the
     /// cross-anisotropic scheme; [`Self::build_scheme`] takes μ from a bonded packing).
     pub fn scheme_for(&self, lattice_scaling: Option<f64>) -> Result<Box<dyn StiffnessScheme>> {
-        Ok(match (&self.scheme, lattice_scaling) {
-            (SchemeSpec::CrossAnisotropic { .. }, None) => {
-                return Err(Error::Model(
-                    "the cross-anisotropic scheme's springs depend on the packing's lattice \
-                     scaling μ (Šmilauer): give it, or take the springs of an assembly"
-                        .into(),
-                ))
-            }
-            (
-                SchemeSpec::CrossAnisotropic {
-                    c11,
-                    c33,
-                    c13,
-                    c12,
-                    axis,
-                },
-                Some(mu),
-            ) => {
+        Ok(match &self.scheme {
+            SchemeSpec::Cubic {
+                model,
+                extended,
+                a_n,
+                a_s,
+                normal,
+                shear,
+                rotation,
+            } => Box::new(CubicSpheroid::new(
+                *model, *extended, *a_n, *a_s, *normal, *shear, *rotation,
+            )?),
+            SchemeSpec::Isotropic { normal, shear } => Box::new(Isotropic::new(*normal, *shear)?),
+            SchemeSpec::CrossAnisotropic {
+                c11,
+                c33,
+                c13,
+                c12,
+                axis,
+            } => {
+                let mu = lattice_scaling.ok_or_else(|| {
+                    Error::Model(
+                        "the cross-anisotropic scheme's springs depend on the packing's lattice \
+                         scaling μ (Šmilauer): give it, or take the springs of an assembly"
+                            .into(),
+                    )
+                })?;
                 if !(mu.is_finite() && mu > 0.0) {
                     return Err(Error::Invalid(format!(
                         "springs: lattice scaling μ = {mu}, expected a finite value > 0"
@@ -709,7 +699,6 @@ impl Model {
                     *c11, *c33, *c13, *c12, *axis, mu,
                 )?)
             }
-            _ => self.build_scheme(None)?,
         })
     }
 

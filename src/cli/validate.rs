@@ -227,3 +227,52 @@ fn print_table(v: &YadeValidation) {
         .collect();
     println!("time (s): {}", times.join(", "));
 }
+
+/// The end of `validate liggghts|lammps`: the tensors' diagonal and C12 (GPa), the wall times,
+/// the files written (named under `output`), and an error listing the checks outside their
+/// tolerance.
+pub(super) fn finish<D>(
+    engine: &str,
+    report: &anisobond::validate::harness::Report<D>,
+    tensors: &[(String, Stiffness6)],
+    files: &[PathBuf],
+    staged: &Path,
+    output: &Path,
+) -> Result<()> {
+    let gpa = |c: &Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
+    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
+    for (name, c) in tensors {
+        println!(
+            "  {name:<14} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
+            gpa(c, 0, 0),
+            gpa(c, 1, 1),
+            gpa(c, 2, 2),
+            gpa(c, 0, 1),
+            gpa(c, 3, 3),
+            gpa(c, 4, 4),
+            gpa(c, 5, 5)
+        );
+    }
+    println!("\nwall time:");
+    for t in &report.timings {
+        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    println!();
+    for f in files {
+        println!(
+            "wrote {}",
+            output.join(f.strip_prefix(staged).unwrap_or(f)).display()
+        );
+    }
+    let failed = failure_lines(report);
+    if failed.is_empty() {
+        println!("all checks within tolerance");
+        Ok(())
+    } else {
+        Err(Error::Invalid(format!(
+            "validate {engine}: {} check(s) outside tolerance: {}",
+            failed.len(),
+            failed.join("; ")
+        )))
+    }
+}

@@ -5,7 +5,7 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::io::OutputSet;
-use anisobond::validate::harness::{checks_table, failure_lines};
+use anisobond::validate::harness::checks_table;
 use anisobond::validate::lammps::{validate_lammps, write_report, LammpsValidateOptions};
 use anisobond::{Error, Result};
 use std::path::PathBuf;
@@ -61,45 +61,11 @@ pub fn run(a: Args) -> Result<()> {
     println!("time step {:.4e} s\n", report.time_step);
     println!("relative differences (dimensionless; tensors in Pa):");
     print!("{}", checks_table(&report));
-    let gpa = |c: &anisobond::tensor::Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
-    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
-    let mut rows = vec![("relaxed".to_string(), report.relaxed)];
+    let mut tensors = vec![("relaxed".to_string(), report.relaxed)];
     for (np, c) in &report.lammps {
-        rows.push((format!("lammps -np {np}"), *c));
-    }
-    for (name, c) in &rows {
-        println!(
-            "  {name:<14} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
-            gpa(c, 0, 0),
-            gpa(c, 1, 1),
-            gpa(c, 2, 2),
-            gpa(c, 0, 1),
-            gpa(c, 3, 3),
-            gpa(c, 4, 4),
-            gpa(c, 5, 5)
-        );
-    }
-    println!("\nwall time:");
-    for t in &report.timings {
-        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
+        tensors.push((format!("lammps -np {np}"), *c));
     }
     let files = write_report(&dir, &report)?;
     set.commit()?;
-    for f in &files {
-        println!(
-            "wrote {}",
-            a.output.join(f.strip_prefix(&dir).unwrap_or(f)).display()
-        );
-    }
-    let failed = failure_lines(&report);
-    if failed.is_empty() {
-        println!("all checks within tolerance");
-        Ok(())
-    } else {
-        Err(Error::Invalid(format!(
-            "validate lammps: {} check(s) outside tolerance: {}",
-            failed.len(),
-            failed.join("; ")
-        )))
-    }
+    super::validate::finish("lammps", &report, &tensors, &files, &dir, &a.output)
 }

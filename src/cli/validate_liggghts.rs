@@ -6,7 +6,7 @@
 use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::which;
 use anisobond::io::OutputSet;
-use anisobond::validate::harness::{checks_table, failure_lines};
+use anisobond::validate::harness::checks_table;
 use anisobond::validate::liggghts::{validate_liggghts, write_report, Programs, ValidateOptions};
 use anisobond::{Error, Result};
 use std::path::PathBuf;
@@ -116,46 +116,13 @@ pub fn run(a: Args) -> Result<()> {
     println!("time step {:.4e} s\n", report.time_step);
     println!("relative differences (dimensionless; stresses in Pa, tensors in Pa):");
     print!("{}", checks_table(&report));
-    let gpa = |c: &anisobond::tensor::Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
-    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
-    for (name, c) in [
-        ("driver", &report.driver_tensor),
-        ("integrator", &report.integrator_tensor),
-        ("relaxed", &report.relaxed_tensor),
-    ] {
-        println!(
-            "  {name:<11} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
-            gpa(c, 0, 0),
-            gpa(c, 1, 1),
-            gpa(c, 2, 2),
-            gpa(c, 0, 1),
-            gpa(c, 3, 3),
-            gpa(c, 4, 4),
-            gpa(c, 5, 5)
-        );
-    }
-    println!("\nwall time:");
-    for t in &report.timings {
-        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
-    }
+    let tensors = [
+        ("driver", report.driver_tensor),
+        ("integrator", report.integrator_tensor),
+        ("relaxed", report.relaxed_tensor),
+    ]
+    .map(|(name, c)| (name.to_string(), c));
     let files = write_report(&dir, &report)?;
     set.commit()?;
-    println!();
-    for f in &files {
-        println!(
-            "wrote {}",
-            a.output.join(f.strip_prefix(&dir).unwrap_or(f)).display()
-        );
-    }
-    let failed = failure_lines(&report);
-    if failed.is_empty() {
-        println!("all checks within tolerance");
-        Ok(())
-    } else {
-        Err(Error::Invalid(format!(
-            "validate liggghts: {} check(s) outside tolerance: {}",
-            failed.len(),
-            failed.join("; ")
-        )))
-    }
+    super::validate::finish("liggghts", &report, &tensors, &files, &dir, &a.output)
 }
