@@ -164,7 +164,7 @@ def main():
         pcmd = [venv_python, os.path.join(ROOT, "benches", "python_bench.py"), std, model, cli_json,
                 n_springs]
         py_wall, py_rss, text = sh([str(c) for c in pcmd])
-        py = json.loads(text.strip().splitlines()[-1])
+        py = json.loads([l for l in text.splitlines() if l.startswith("{")][-1])
         python_rows = [
             ["relaxed tensor, `anisobond tensor`", "`%s`" % cmd_text(cmd).replace(WORK + "/", ""),
              py["n_particles"], threads, "%.2f s" % cli_wall, "%.0f MB" % cli_rss,
