@@ -3,9 +3,13 @@
 //!
 //! - SPEC text: one sphere per line `x y z r`, whitespace-separated, `#` starts a comment;
 //!   a header comment `# periodic Lx Ly Lz` declares the periodic cell [0,Lx)×[0,Ly)×[0,Lz)
-//!   (positions outside are wrapped). `#format x_y_z_r` lines (YADE `export.text`) are
-//!   accepted, as is `#format x_y_z_r_matId` (the fifth column is read and ignored).
-//! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then `x y z r`.
+//!   (positions outside are wrapped). YADE `export.text` / `export.textExt` files are read
+//!   by their `#format` line: `x_y_z_r`, `x_y_z_r_matId` (integer matId, ignored),
+//!   `x_y_z_r_attrs` (any number of attribute columns, the same on every line, ignored) and
+//!   `id_x_y_z_r_matId` (body id first); any other `#format` is refused.
+//! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then
+//!   `x y z r clumpId` (or `x y z r`). A clumpId of −1 (a free sphere) is accepted; a sphere
+//!   that belongs to a clump (clumpId ≥ 0) is refused, since a clump is one rigid body.
 //! - LIGGGHTS data (LAMMPS data format): title line, header (`N atoms`, `xlo xhi`, …),
 //!   `Atoms` section with `id type diameter density x y z` (diameter, not radius).
 //!
@@ -46,7 +50,7 @@ pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
 pub enum PackingFormat {
     /// `x y z r` lines, `# periodic Lx Ly Lz` header (also YADE `export.text`).
     SpecText,
-    /// YADE `SpherePack.save`: `##PERIODIC:: Lx Ly Lz` then `x y z r`.
+    /// YADE `SpherePack.save`: `##PERIODIC:: Lx Ly Lz` then `x y z r clumpId` (or `x y z r`).
     YadeSpherePack,
     /// LIGGGHTS / LAMMPS data file, `atom_style granular`.
     LiggghtsData,
@@ -366,11 +370,43 @@ fn free_volume(source: &str, s: &Spheres) -> Result<f64> {
 const SPHERE_LINE_HINT: &str = "expected lines `x y z r` (one sphere per line; `#` starts a \
                                 comment, `# periodic Lx Ly Lz` declares a periodic cell)";
 
+/// The columns of a sphere line, fixed by a `#format` line (YADE `export.textExt`) or, without
+/// one, `x y z r` with an optional fifth column clumpId (YADE `SpherePack.save`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SphereColumns {
+    /// No `#format` line: `x y z r` or `x y z r clumpId`.
+    Plain,
+    /// `#format x_y_z_r`.
+    Xyzr,
+    /// `#format x_y_z_r_matId`: an integer material id after the radius (ignored).
+    XyzrMatId,
+    /// `#format x_y_z_r_attrs`: any number of attribute columns after the radius (ignored),
+    /// the same number on every line (the first sphere line sets it).
+    XyzrAttrs(Option<usize>),
+    /// `#format id_x_y_z_r_matId`: body id, `x y z r`, material id.
+    IdXyzrMatId,
+}
+
+/// The supported `#format` names, for the refusal of any other.
+const SPHERE_FORMATS: &str = "`x_y_z_r`, `x_y_z_r_matId`, `x_y_z_r_attrs` or `id_x_y_z_r_matId` \
+                              (the formats of YADE's export.textExt that give spheres)";
+
+/// Parse an integer column (YADE clumpId, matId or body id) of a sphere line.
+fn parse_integer(word: &str, what: &str, source: &str, line: usize) -> Result<i64> {
+    word.parse().map_err(|_| {
+        Error::parse(
+            source,
+            line,
+            format!("expected an integer {what}, found `{word}`"),
+        )
+    })
+}
+
 /// Parse SPEC text or YADE SpherePack / `export.text` text.
 fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
     let mut spheres = Spheres::default();
     let mut cell: Option<(Vec3, usize)> = None;
-    let mut columns = 4usize;
+    let mut columns = SphereColumns::Plain;
     for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
@@ -390,14 +426,16 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
                 set_cell(&mut cell, l, source, line)?;
             } else if t.starts_with("#format") {
                 columns = match words.get(1).copied() {
-                    Some("x_y_z_r") => 4,
-                    Some("x_y_z_r_matId") => 5,
+                    Some("x_y_z_r") => SphereColumns::Xyzr,
+                    Some("x_y_z_r_matId") => SphereColumns::XyzrMatId,
+                    Some("x_y_z_r_attrs") => SphereColumns::XyzrAttrs(None),
+                    Some("id_x_y_z_r_matId") => SphereColumns::IdXyzrMatId,
                     other => {
                         return Err(Error::parse(
                             source,
                             line,
                             format!(
-                                "unsupported `#format {}`: expected `x_y_z_r` or `x_y_z_r_matId`",
+                                "unsupported `#format {}`: expected {SPHERE_FORMATS}",
                                 other.unwrap_or("")
                             ),
                         ))
@@ -411,24 +449,86 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         if words.is_empty() {
             continue;
         }
-        if words.len() != columns {
-            let expected = if columns == 4 {
-                "4 numbers `x y z r`"
-            } else {
-                "5 numbers `x y z r matId`"
-            };
+        let n = words.len();
+        let expected = match columns {
+            SphereColumns::Plain if n == 4 || n == 5 => None,
+            SphereColumns::Plain => {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "expected 4 numbers `x y z r`, found {n} (or 5, `x y z r clumpId`, \
+                         as YADE's SpherePack.save writes)"
+                    ),
+                ))
+            }
+            SphereColumns::Xyzr if n == 4 => None,
+            SphereColumns::Xyzr => Some("4 numbers `x y z r`".to_string()),
+            SphereColumns::XyzrMatId if n == 5 => None,
+            SphereColumns::XyzrMatId => Some("5 numbers `x y z r matId`".to_string()),
+            SphereColumns::XyzrAttrs(None) if n >= 4 => {
+                columns = SphereColumns::XyzrAttrs(Some(n));
+                None
+            }
+            SphereColumns::XyzrAttrs(None) => {
+                Some("at least 4 numbers `x y z r attrs…`".to_string())
+            }
+            SphereColumns::XyzrAttrs(Some(m)) if n == m => None,
+            SphereColumns::XyzrAttrs(Some(m)) => Some(format!(
+                "{m} numbers `x y z r` and {} attribute value(s), as on the first sphere line",
+                m - 4
+            )),
+            SphereColumns::IdXyzrMatId if n == 6 => None,
+            SphereColumns::IdXyzrMatId => Some("6 numbers `id x y z r matId`".to_string()),
+        };
+        if let Some(expected) = expected {
             return Err(Error::parse(
                 source,
                 line,
-                format!("expected {expected}, found {}", words.len()),
+                format!("expected {expected}, found {n}"),
             ));
         }
-        let x = parse_number(words[0], "x", source, line)?;
-        let y = parse_number(words[1], "y", source, line)?;
-        let z = parse_number(words[2], "z", source, line)?;
-        let r = parse_number(words[3], "radius r", source, line)?;
-        if columns == 5 {
-            parse_number(words[4], "matId", source, line)?;
+        let first = usize::from(columns == SphereColumns::IdXyzrMatId);
+        if first == 1 {
+            let id = parse_integer(words[0], "body id (column 1)", source, line)?;
+            if id < 0 {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("body id (column 1) must be ≥ 0, found {id}"),
+                ));
+            }
+        }
+        let x = parse_number(words[first], "x", source, line)?;
+        let y = parse_number(words[first + 1], "y", source, line)?;
+        let z = parse_number(words[first + 2], "z", source, line)?;
+        let r = parse_number(words[first + 3], "radius r", source, line)?;
+        match columns {
+            SphereColumns::Plain if n == 5 => {
+                let clump = parse_integer(words[4], "clumpId (column 5)", source, line)?;
+                if clump != -1 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "this sphere belongs to clump {clump} (column 5 of YADE's \
+                             SpherePack.save is the clumpId); anisobond bonds free spheres \
+                             only, expected clumpId -1 (a clump is one rigid body: save the \
+                             pack without clumps, or write its spheres without column 5 to \
+                             bond each member as a sphere)"
+                        ),
+                    ));
+                }
+            }
+            SphereColumns::XyzrMatId | SphereColumns::IdXyzrMatId => {
+                parse_integer(words[n - 1], &format!("matId (column {n})"), source, line)?;
+            }
+            SphereColumns::XyzrAttrs(_) => {
+                for (c, w) in words.iter().enumerate().skip(4) {
+                    parse_number(w, &format!("attribute (column {})", c + 1), source, line)?;
+                }
+            }
+            _ => {}
         }
         spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
     }

@@ -58,6 +58,47 @@ fn yade_formats() {
 }
 
 #[test]
+fn yade_columns_clump_ids_and_formats() {
+    // SpherePack.save's fifth column: clumpId −1 is a free sphere; a clump member is refused.
+    let p = parse_packing("##PERIODIC:: 4 4 4\n1 1 1 0.5 -1\n5 1 1 0.5 -1\n", "s").unwrap();
+    assert_eq!(p.len(), 2);
+    let (line, msg) = parse_err("1 1 1 0.5 -1\n2 1 1 0.5 0\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("belongs to clump 0"), "{msg}");
+    let (line, msg) = parse_err("1 1 1 0.5 -1.5\n");
+    assert_eq!(line, 1);
+    assert!(
+        msg.contains("expected an integer clumpId (column 5)"),
+        "{msg}"
+    );
+    let (_, msg) = parse_err("1 1 1 0.5 -1 7\n");
+    assert!(msg.contains("or 5, `x y z r clumpId`"), "{msg}");
+    // textExt formats: matId an integer, attrs the same count on every line, id first.
+    let (line, msg) = parse_err("#format x_y_z_r_matId\n0 0 0 1 0.5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("integer matId (column 5)"), "{msg}");
+    let p = parse_packing(
+        "#format x_y_z_r_attrs\n# x y z r m\n0 0 0 1 2\n3 0 0 1 2\n",
+        "a",
+    )
+    .unwrap();
+    assert_eq!(p.radii, vec![1.0, 1.0]);
+    let (line, msg) = parse_err("#format x_y_z_r_attrs\n0 0 0 1 2\n3 0 0 1\n");
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("5 numbers `x y z r` and 1 attribute value(s)"),
+        "{msg}"
+    );
+    let p = parse_packing("#format id_x_y_z_r_matId\n7 0 0 0 1 0\n", "i").unwrap();
+    assert_eq!(p.positions[0], Vec3::zeros());
+    let (_, msg) = parse_err("#format id_x_y_z_r_matId\n-7 0 0 0 1 0\n");
+    assert!(msg.contains("body id (column 1) must be ≥ 0"), "{msg}");
+    let (line, msg) = parse_err("#format jointedPM\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("unsupported `#format jointedPM`"), "{msg}");
+}
+
+#[test]
 fn malformed_lines_report_line_and_expectation() {
     let (line, msg) = parse_err("# periodic 5 5 5\n1 1 1 0.5\n1 2 3\n");
     assert_eq!(line, 3);

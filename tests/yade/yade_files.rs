@@ -1,0 +1,128 @@
+//! YADE's own packing files read as written (issue 20): `SpherePack.save` after
+//! `randomPeriPack` (`##PERIODIC::`, `x y z r clumpId`), `export.text` / `export.textExt`
+//! of the same periodic scene (`#format x_y_z_r`, `x_y_z_r_matId`, `x_y_z_r_attrs`,
+//! `id_x_y_z_r_matId`), a non-periodic `randomDensePack` saved, and a clump (refused).
+//! The files are written by YADE 2023.02a in the test (`yade_files.py`), which also prints
+//! what they hold as JSON; the library reader and `anisobond bonds` read every one.
+
+use crate::common::yade::yade_available;
+use crate::common::{cmd, fails, succeeds, tmp, write, CUBIC_MODEL};
+use anisobond::export::yade::run_yade_script;
+use anisobond::packing::io::read_packing;
+use anisobond::packing::Packing;
+use serde_json::Value;
+use std::path::Path;
+
+/// YADE writes numbers with 6 significant digits (`%g`, C++ streams).
+const DIGITS: f64 = 1e-5;
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= DIGITS * b.abs()
+}
+
+/// Run the script in `dir` and return its JSON.
+fn yade_files(dir: &Path) -> Value {
+    let script = dir.join("yade_files.py");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/yade/yade_files.py"),
+        &script,
+    )
+    .unwrap();
+    run_yade_script(&script, &[]).expect("yade run");
+    let text = std::fs::read_to_string(dir.join("yade-files.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+/// Same count and radii (in order) as YADE printed.
+fn check_radii(p: &Packing, expected: &Value, name: &str) {
+    let radii: Vec<f64> = expected["radii"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(p.len(), expected["n"].as_u64().unwrap() as usize, "{name}");
+    assert_eq!(p.len(), radii.len(), "{name}");
+    for (k, (a, b)) in p.radii.iter().zip(&radii).enumerate() {
+        assert!(
+            close(*a, *b),
+            "{name}: sphere {k}: radius {a} vs YADE's {b}"
+        );
+    }
+}
+
+/// `anisobond bonds FILE` succeeds and bonds every sphere of the file it read.
+fn bonds_of(dir: &Path, file: &Path) -> (usize, String) {
+    let model = write(dir, "model.toml", CUBIC_MODEL);
+    let out = dir.join("b.csv");
+    let said = succeeds(&mut cmd(
+        "bonds {p} --model {m} -o {o}",
+        &[("p", file), ("m", &model), ("o", &out)],
+    ));
+    let table = std::fs::read_to_string(&out).unwrap();
+    let rows = table.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    (rows, said)
+}
+
+#[test]
+fn yade_written_packings_are_read_as_written() {
+    if !yade_available("yade_files::yade_written_packings_are_read_as_written") {
+        return;
+    }
+    let dir = tmp();
+    let d = dir.path();
+    let info = yade_files(d);
+
+    // SpherePack.save of randomPeriPack: the cell, the count and the radii.
+    let peri = read_packing(&d.join("peri.txt")).expect("peri.txt");
+    check_radii(&peri, &info["peri"], "peri.txt");
+    let cell = peri.cell.expect("peri.txt is periodic").lengths;
+    for k in 0..3 {
+        let l = info["peri"]["cell"][k].as_f64().unwrap();
+        assert!(close(cell[k], l), "cell {k}: {} vs YADE's {l}", cell[k]);
+    }
+    let (n_peri, said) = bonds_of(d, &d.join("peri.txt"));
+    assert!(n_peri > peri.len(), "{said}");
+    assert!(
+        said.contains(&format!("between {} particles", peri.len())),
+        "{said}"
+    );
+
+    // export.text and textExt of the same scene: same spheres in the same (body id) order.
+    let text = read_packing(&d.join("text.txt")).expect("text.txt");
+    check_radii(&text, &info["scene"], "text.txt");
+    for name in ["matid.txt", "attrs.txt", "idmat.txt"] {
+        let p = read_packing(&d.join(name)).expect(name);
+        check_radii(&p, &info["scene"], name);
+        assert_eq!(p.positions, text.positions, "{name}");
+        assert_eq!(p.radii, text.radii, "{name}");
+    }
+    // The scene's positions are those of the SpherePack, up to whole cell lengths (the text
+    // files state no cell: read as written, not wrapped).
+    let c = peri.cell.unwrap();
+    for (a, b) in text.positions.iter().zip(&peri.positions) {
+        let (d, _) = c.minimum_image(a - b);
+        assert!(d.norm() <= DIGITS * cell.x, "{a} vs {b}");
+    }
+
+    // randomDensePack saved without a cell: a free packing, every sphere read.
+    let dense = read_packing(&d.join("dense.txt")).expect("dense.txt");
+    assert!(dense.cell.is_none());
+    check_radii(&dense, &info["dense"], "dense.txt");
+    let (n_dense, said) = bonds_of(d, &d.join("dense.txt"));
+    assert!(n_dense > 0, "{said}");
+
+    // A clump member is refused naming the file, the line and what was expected.
+    let err = read_packing(&d.join("clump.txt")).unwrap_err().to_string();
+    assert!(err.contains("clump.txt:2:"), "{err}");
+    assert!(err.contains("belongs to clump 3"), "{err}");
+    assert!(err.contains("expected clumpId -1"), "{err}");
+    let model = write(d, "model.toml", CUBIC_MODEL);
+    let out = d.join("clump.csv");
+    let msg = fails(&mut cmd(
+        "bonds {p} --model {m} -o {o}",
+        &[("p", &d.join("clump.txt")), ("m", &model), ("o", &out)],
+    ));
+    assert!(msg.contains("clump.txt:2:"), "{msg}");
+    assert!(!out.exists());
+}
