@@ -176,6 +176,18 @@ impl Assembly {
     /// without bonds names both files.
     pub fn from_packing_file(packing_path: &Path, model: Model, model_path: &Path) -> Result<Self> {
         let packing = packing::io::read_packing(packing_path)?;
+        Assembly::from_packing_read(packing, packing_path, model, model_path)
+    }
+
+    /// Bond a packing already read from `packing_path` (e.g. by
+    /// [`packing::io::read_packing_as`]) by `model`, naming the files in refusals as
+    /// [`Assembly::from_packing_file`] does.
+    pub fn from_packing_read(
+        packing: packing::Packing,
+        packing_path: &Path,
+        model: Model,
+        model_path: &Path,
+    ) -> Result<Self> {
         Assembly::new(packing, model).map_err(|e| match e {
             Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
             Error::Invalid(m) if m.starts_with(NO_BONDS) => Error::Invalid(format!(

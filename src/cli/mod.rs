@@ -2,6 +2,7 @@
 //! the library, prints human-readable results with units, and writes files atomically.
 
 mod calibrate;
+mod cell;
 mod demo;
 mod domain;
 mod export;
@@ -37,6 +38,8 @@ use std::path::{Path, PathBuf};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    #[command(flatten)]
+    cell: cell::CellArgs,
 }
 
 #[derive(Subcommand)]
@@ -210,6 +213,7 @@ struct TensorArgs {
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
     let cli = Cli::parse();
+    cell::set(&cli.cell)?;
     match cli.command {
         Command::Demo(a) => demo::run(a),
         Command::Pack(a) => pack::run(a),
@@ -229,7 +233,7 @@ pub fn run() -> Result<()> {
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.file(&a.output)?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = cell::assembly(&a.packing, &a.model)?;
     asm.write_bonds(&staged)?;
     out.commit()?;
     println!(
@@ -398,12 +402,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
         Ok(match (&a.packing, a.method) {
             (Some(p), m) => {
                 let asm = match &a.bonds {
-                    Some(table) => Assembly::from_table_file(
-                        anisobond::packing::io::read_packing(p)?,
-                        model.clone(),
-                        table,
-                    )?,
-                    None => Assembly::from_packing_file(p, model.clone(), &a.model)?,
+                    Some(table) => Assembly::from_table_file(cell::read(p)?, model.clone(), table)?,
+                    None => cell::assembly_with(p, model.clone(), &a.model)?,
                 };
                 report_of(&asm, m, &a.statics, &a.integrator)?
             }

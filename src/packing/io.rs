@@ -3,7 +3,9 @@
 //!
 //! - SPEC text: one sphere per line `x y z r`, whitespace-separated, `#` starts a comment;
 //!   a header comment `# periodic Lx Ly Lz` declares the periodic cell [0,Lx)×[0,Ly)×[0,Lz)
-//!   (positions outside are wrapped). YADE `export.text` / `export.textExt` files are read
+//!   (positions outside are wrapped); a `# free` line states a free cluster (anisobond
+//!   writes it for free packings). A file with neither does not state its cell: see
+//!   [`read_packing_as`] and [`CellChoice`]. YADE `export.text` / `export.textExt` files are read
 //!   by their `#format` line: `x_y_z_r`, `x_y_z_r_matId` (integer matId, ignored),
 //!   `x_y_z_r_attrs` (any number of attribute columns, the same on every line, ignored) and
 //!   `id_x_y_z_r_matId` (body id first); any other `#format` is refused.
@@ -40,9 +42,133 @@ pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
     match detect_format(text) {
         PackingFormat::LiggghtsData => parse_liggghts_data(text, source_name, true),
         PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
-            parse_sphere_text(text, source_name)
+            Ok(parse_sphere_text(text, source_name)?.0)
         }
     }
+}
+
+/// What to do about the cell of a packing file that does not state it (YADE `export.text`
+/// without a cell, a plain `x y z r` file, any LIGGGHTS data file). A file that states its
+/// cell is read as stated, and a different choice is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum CellChoice {
+    /// The readers' defaults: text without a cell is a free cluster, LIGGGHTS data is
+    /// periodic with the box as its cell ([`CellOrigin::Assumed`]).
+    #[default]
+    AsStated,
+    /// Periodic, the cell from the file: the box of LIGGGHTS data (text states no lengths:
+    /// refused, give [`CellChoice::Cell`]).
+    Periodic,
+    /// Periodic with this cell [0, Lx)×[0, Ly)×[0, Lz) (m), for text files; positions are
+    /// wrapped into it.
+    Cell(Vec3),
+    /// A free cluster: no bonds across faces; its volume is the spheres' bounding box.
+    Free,
+}
+
+/// Where the cell (or its absence) of a packing read by [`read_packing_as`] came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellOrigin {
+    /// The file states it (`# periodic`, `##PERIODIC::`, `# free`, SpherePack.save columns).
+    Stated,
+    /// The file does not state it; the caller's [`CellChoice`] decided.
+    Chosen,
+    /// The file does not state it and the caller said nothing: the reader's default.
+    Assumed,
+}
+
+/// A packing read by [`read_packing_as`], with its format and where its cell came from.
+#[derive(Clone, Debug)]
+pub struct PackingRead {
+    /// The spheres and their cell (or none: a free cluster).
+    pub packing: Packing,
+    /// The format the file was read as.
+    pub format: PackingFormat,
+    /// Whether the cell was stated by the file, chosen by the caller, or assumed.
+    pub origin: CellOrigin,
+}
+
+/// Read a packing file like [`read_packing`], deciding a cell the file does not state by
+/// `choice` and saying where the cell came from.
+pub fn read_packing_as(path: &Path, choice: CellChoice) -> Result<PackingRead> {
+    let text = crate::io::read_to_string(path)?;
+    parse_packing_as(&text, &path.display().to_string(), choice)
+}
+
+/// Parse packing text like [`parse_packing`], with a [`CellChoice`] (see [`read_packing_as`]).
+pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<PackingRead> {
+    let format = detect_format(text);
+    let refuse = |what: String| Error::parse(source, 0, what);
+    let (packing, origin) = match format {
+        PackingFormat::LiggghtsData => match choice {
+            CellChoice::AsStated => (
+                parse_liggghts_data(text, source, true)?,
+                CellOrigin::Assumed,
+            ),
+            CellChoice::Periodic => (parse_liggghts_data(text, source, true)?, CellOrigin::Chosen),
+            CellChoice::Free => (
+                parse_liggghts_data(text, source, false)?,
+                CellOrigin::Chosen,
+            ),
+            CellChoice::Cell(_) => {
+                return Err(refuse(
+                    "a LIGGGHTS data file has its box: expected --periodic (the box is the \
+                     periodic cell) or --free (a walled box), not --cell"
+                        .into(),
+                ))
+            }
+        },
+        PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
+            let (p, stated) = parse_sphere_text(text, source)?;
+            if stated {
+                let agrees = match choice {
+                    CellChoice::AsStated => true,
+                    CellChoice::Periodic => p.cell.is_some(),
+                    CellChoice::Free => p.cell.is_none(),
+                    CellChoice::Cell(l) => p.cell.is_some_and(|c| c.lengths == l),
+                };
+                if !agrees {
+                    let states = match &p.cell {
+                        Some(c) => format!(
+                            "a periodic cell {} {} {}",
+                            num(c.lengths.x),
+                            num(c.lengths.y),
+                            num(c.lengths.z)
+                        ),
+                        None => "a free cluster".into(),
+                    };
+                    return Err(refuse(format!(
+                        "the file states {states}; expected no --cell, --periodic or --free \
+                         that contradicts it"
+                    )));
+                }
+                (p, CellOrigin::Stated)
+            } else {
+                match choice {
+                    CellChoice::AsStated => (p, CellOrigin::Assumed),
+                    CellChoice::Free => (p, CellOrigin::Chosen),
+                    CellChoice::Periodic => {
+                        return Err(refuse(
+                            "the file states no cell lengths (no `# periodic Lx Ly Lz` or \
+                             `##PERIODIC::` line): expected --cell Lx,Ly,Lz for a periodic \
+                             packing"
+                                .into(),
+                        ))
+                    }
+                    CellChoice::Cell(l) => {
+                        let cell = PeriodicCell::new(l)?;
+                        let p = Packing::new(p.positions, p.radii, Some(cell))?;
+                        (p, CellOrigin::Chosen)
+                    }
+                }
+            }
+        }
+    };
+    Ok(PackingRead {
+        packing,
+        format,
+        origin,
+    })
 }
 
 /// The file formats [`parse_packing`] understands.
@@ -402,11 +528,15 @@ fn parse_integer(word: &str, what: &str, source: &str, line: usize) -> Result<i6
     })
 }
 
-/// Parse SPEC text or YADE SpherePack / `export.text` text.
-fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
+/// Parse SPEC text or YADE SpherePack / `export.text` text; also says whether the text
+/// states its cell (a `# periodic` / `##PERIODIC::` header, a `# free` line, or YADE
+/// SpherePack.save's clumpId column, written with the header whenever the pack is periodic).
+fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
     let mut spheres = Spheres::default();
     let mut cell: Option<(Vec3, usize)> = None;
     let mut columns = SphereColumns::Plain;
+    let mut stated_free = false;
+    let mut free_line: Option<usize> = None;
     for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
@@ -424,6 +554,8 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
             {
                 let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
                 set_cell(&mut cell, l, source, line)?;
+            } else if words.len() == 1 && words[0].eq_ignore_ascii_case("free") {
+                free_line = Some(line);
             } else if t.starts_with("#format") {
                 columns = match words.get(1).copied() {
                     Some("x_y_z_r") => SphereColumns::Xyzr,
@@ -451,7 +583,10 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         }
         let n = words.len();
         let expected = match columns {
-            SphereColumns::Plain if n == 4 || n == 5 => None,
+            SphereColumns::Plain if n == 4 || n == 5 => {
+                stated_free |= n == 5;
+                None
+            }
             SphereColumns::Plain => {
                 return Err(Error::parse(
                     source,
@@ -532,8 +667,19 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         }
         spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
     }
+    if let (Some(free), Some((_, line))) = (free_line, cell) {
+        return Err(Error::parse(
+            source,
+            line.max(free),
+            format!(
+                "a periodic cell (line {line}) and `# free` (line {free}) in one file; \
+                 expected one of them"
+            ),
+        ));
+    }
+    let stated = stated_free || free_line.is_some() || cell.is_some();
     let cell = cell.map(|(lengths, line)| CellSource { lengths, line });
-    finish(source, spheres, cell, SPHERE_LINE_HINT)
+    Ok((finish(source, spheres, cell, SPHERE_LINE_HINT)?, stated))
 }
 
 fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
@@ -928,9 +1074,12 @@ pub fn format_packing(p: &Packing) -> String {
         "# anisobond packing: {} spheres, one per line `x y z r` (m)",
         p.len()
     );
-    if let Some(c) = &p.cell {
-        let l = c.lengths;
-        let _ = writeln!(s, "# periodic {} {} {}", num(l.x), num(l.y), num(l.z));
+    match &p.cell {
+        Some(c) => {
+            let l = c.lengths;
+            let _ = writeln!(s, "# periodic {} {} {}", num(l.x), num(l.y), num(l.z));
+        }
+        None => s.push_str("# free\n"),
     }
     for (x, r) in p.positions.iter().zip(&p.radii) {
         let _ = writeln!(s, "{} {} {} {}", num(x.x), num(x.y), num(x.z), num(*r));

@@ -452,3 +452,60 @@ fn positions_must_give_a_finite_box() {
     assert_eq!(line, 3);
     assert!(msg.contains("cell lengths"), "{msg}");
 }
+
+#[test]
+fn cell_stated_chosen_or_assumed() {
+    use anisobond::packing::io::{parse_packing_as, CellChoice, CellOrigin};
+    let read = |text: &str, c: CellChoice| parse_packing_as(text, "in.txt", c);
+    // Stated: a cell header, `# free`, or SpherePack.save's clumpId column.
+    let r = read("# periodic 4 4 4\n1 1 1 0.5\n", CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
+    let r = read("# free\n1 1 1 0.5\n", CellChoice::Free).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Stated, None));
+    let r = read("1 1 1 0.5 -1\n", CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
+    // Not stated: assumed free, or as the caller chooses; a given cell wraps the positions.
+    let r = read("#format x_y_z_r\n5 1 1 0.5\n", CellChoice::AsStated).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Assumed, None));
+    let r = read(
+        "#format x_y_z_r\n5 1 1 0.5\n",
+        CellChoice::Cell(Vec3::repeat(4.0)),
+    )
+    .unwrap();
+    assert_eq!(r.origin, CellOrigin::Chosen);
+    assert_eq!(r.packing.positions[0], Vec3::new(1.0, 1.0, 1.0));
+    let e = read("1 1 1 0.5\n", CellChoice::Periodic)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("expected --cell Lx,Ly,Lz"), "{e}");
+    // A choice that contradicts the file is refused.
+    let e = read("# periodic 4 4 4\n1 1 1 0.5\n", CellChoice::Free)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("the file states a periodic cell 4 4 4"), "{e}");
+    let e = read(
+        "# periodic 4 4 4\n1 1 1 0.5\n",
+        CellChoice::Cell(Vec3::repeat(5.0)),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("in.txt"), "{e}");
+    let (line, msg) = parse_err("# free\n# periodic 4 4 4\n1 1 1 0.5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("`# free` (line 1)"), "{msg}");
+    // LIGGGHTS data never states its boundary: periodic assumed, or free / periodic chosen.
+    let r = read(LIGGGHTS, CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Assumed);
+    assert!(r.packing.cell.is_some());
+    let r = read(LIGGGHTS, CellChoice::Free).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Chosen, None));
+    assert!(read(LIGGGHTS, CellChoice::Cell(Vec3::repeat(5.0))).is_err());
+    // anisobond writes `# free` for a free packing: read back as stated.
+    let p = parse_packing("0 0 0 1\n3 0 0 1\n", "x").unwrap();
+    let r = read(
+        &anisobond::packing::io::format_packing(&p),
+        CellChoice::AsStated,
+    )
+    .unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
+}

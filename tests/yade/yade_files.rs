@@ -126,3 +126,79 @@ fn yade_written_packings_are_read_as_written() {
     assert!(msg.contains("clump.txt:2:"), "{msg}");
     assert!(!out.exists());
 }
+
+/// YADE's export.text of a periodic scene states no cell (issue 20, item 2): read without
+/// options it is a free cluster and every command says so, naming `--cell`; with `--cell`
+/// from YADE's own cell it is the same bond network as the SpherePack.save file that states
+/// the cell; a contradicting option on a file that states its cell is refused.
+#[test]
+fn export_text_states_no_cell_and_the_user_gives_it() {
+    if !yade_available("yade_files::export_text_states_no_cell_and_the_user_gives_it") {
+        return;
+    }
+    let dir = tmp();
+    let d = dir.path();
+    let info = yade_files(d);
+    let model = write(d, "model.toml", CUBIC_MODEL);
+    let l: Vec<String> = (0..3)
+        .map(|k| info["peri"]["cell"][k].as_f64().unwrap().to_string())
+        .collect();
+    let cell = l.join(",");
+    let bonds = |file: &str, extra: &[&str]| {
+        let out = d.join("b.csv");
+        let o = cmd(
+            "bonds {p} --model {m} -o {o}",
+            &[("p", &d.join(file)), ("m", &model), ("o", &out)],
+        )
+        .args(extra)
+        .output()
+        .unwrap();
+        assert!(o.status.success(), "{}", crate::common::stderr(&o));
+        let rows = std::fs::read_to_string(&out).unwrap().lines().count() - 1;
+        (rows, crate::common::stderr(&o))
+    };
+    let (stated, note) = bonds("peri.txt", &[]);
+    assert!(
+        note.is_empty(),
+        "a file that states its cell gets no note: {note}"
+    );
+    let (assumed, note) = bonds("text.txt", &[]);
+    assert!(
+        note.contains("text.txt: the file states no periodic cell"),
+        "{note}"
+    );
+    assert!(note.contains("give --cell Lx,Ly,Lz"), "{note}");
+    assert!(
+        note.contains("volume is the bounding box of the spheres"),
+        "{note}"
+    );
+    let (given, note) = bonds("text.txt", &["--cell", &cell]);
+    assert!(note.is_empty(), "{note}");
+    eprintln!(
+        "export.text of randomPeriPack ({} spheres): {assumed} bonds read as a free cluster, \
+         {given} with --cell {cell}, {stated} from SpherePack.save",
+        info["peri"]["n"]
+    );
+    assert_eq!(given, stated);
+    assert!(assumed < stated);
+    let (_, note) = bonds("text.txt", &["--free"]);
+    assert!(
+        note.contains("a free cluster: volume is the bounding box"),
+        "{note}"
+    );
+
+    // The tensor of the free reading prints the same note; --periodic cannot give lengths.
+    let msg = fails(&mut cmd(
+        "tensor {p} --model {m} --method voigt --periodic",
+        &[("p", &d.join("text.txt")), ("m", &model)],
+    ));
+    assert!(msg.contains("text.txt"), "{msg}");
+    assert!(msg.contains("expected --cell Lx,Ly,Lz"), "{msg}");
+    // A file that states its cell refuses an option that contradicts it.
+    let msg = fails(&mut cmd(
+        "tensor {p} --model {m} --method voigt --free",
+        &[("p", &d.join("peri.txt")), ("m", &model)],
+    ));
+    assert!(msg.contains("peri.txt"), "{msg}");
+    assert!(msg.contains("the file states a periodic cell"), "{msg}");
+}
