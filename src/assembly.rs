@@ -344,9 +344,15 @@ impl Assembly {
         Ok(state)
     }
 
-    /// Write the bond-stiffness table (CSV, SPEC columns) atomically.
+    /// Write the bond-stiffness table (CSV, SPEC columns, then `id_i,id_j` when the packing
+    /// has particle ids) atomically.
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
-        bonds::table::write_bond_table(path, &self.bonds, &self.springs)
+        bonds::table::write_bond_table_with_ids(
+            path,
+            &self.bonds,
+            &self.springs,
+            self.packing.ids.as_deref(),
+        )
     }
 }
 

@@ -15,6 +15,9 @@
 //! - LIGGGHTS data (LAMMPS data format): title line, header (`N atoms`, `xlo xhi`, …),
 //!   `Atoms` section with `id type diameter density x y z` (diameter, not radius).
 //!
+//! Particle ids are kept where the file gives them: LIGGGHTS atom ids and the body ids of
+//! `#format id_x_y_z_r_matId` ([`Packing::ids`]); bond tables then carry `id_i,id_j`.
+//!
 //! Numbers are written in the shortest form that reads back to the same `f64`, so a
 //! write–read round trip is bit-exact.
 //!
@@ -157,7 +160,9 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
                     }
                     CellChoice::Cell(l) => {
                         let cell = PeriodicCell::new(l)?;
-                        let p = Packing::new(p.positions, p.radii, Some(cell))?;
+                        let ids = p.ids;
+                        let mut p = Packing::new(p.positions, p.radii, Some(cell))?;
+                        p.ids = ids;
                         (p, CellOrigin::Chosen)
                     }
                 }
@@ -537,6 +542,8 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
     let mut columns = SphereColumns::Plain;
     let mut stated_free = false;
     let mut free_line: Option<usize> = None;
+    let mut ids: Vec<u64> = Vec::new();
+    let mut id_lines: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
     for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
@@ -633,6 +640,14 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
                     format!("body id (column 1) must be ≥ 0, found {id}"),
                 ));
             }
+            if let Some(first) = id_lines.insert(id as u64, line) {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("body id {id} appears twice (also line {first})"),
+                ));
+            }
+            ids.push(id as u64);
         }
         let x = parse_number(words[first], "x", source, line)?;
         let y = parse_number(words[first + 1], "y", source, line)?;
@@ -679,7 +694,15 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
     }
     let stated = stated_free || free_line.is_some() || cell.is_some();
     let cell = cell.map(|(lengths, line)| CellSource { lengths, line });
-    Ok((finish(source, spheres, cell, SPHERE_LINE_HINT)?, stated))
+    let packing = finish(source, spheres, cell, SPHERE_LINE_HINT)?;
+    let packing = if columns == SphereColumns::IdXyzrMatId {
+        packing
+            .with_ids(ids)
+            .map_err(|e| Error::parse(source, 0, e.to_string()))?
+    } else {
+        packing
+    };
+    Ok((packing, stated))
 }
 
 fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
@@ -1041,7 +1064,9 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         }
         spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
     }
-    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)
+    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
+        .with_ids(atoms.iter().map(|a| a.id).collect())
+        .map_err(|e| Error::parse(source, 0, e.to_string()))
 }
 
 /// Shortest text that parses back to exactly `v`.

@@ -91,6 +91,13 @@ fn yade_columns_clump_ids_and_formats() {
     );
     let p = parse_packing("#format id_x_y_z_r_matId\n7 0 0 0 1 0\n", "i").unwrap();
     assert_eq!(p.positions[0], Vec3::zeros());
+    assert_eq!(p.ids, Some(vec![7]));
+    let (line, msg) = parse_err("#format id_x_y_z_r_matId\n7 0 0 0 1 0\n7 3 0 0 1 0\n");
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("body id 7 appears twice (also line 2)"),
+        "{msg}"
+    );
     let (_, msg) = parse_err("#format id_x_y_z_r_matId\n-7 0 0 0 1 0\n");
     assert!(msg.contains("body id (column 1) must be ≥ 0"), "{msg}");
     let (line, msg) = parse_err("#format jointedPM\n");
@@ -156,6 +163,7 @@ fn liggghts_data_sorted_by_id_shifted_and_diameters_halved() {
     assert_eq!(p.positions[1], Vec3::new(1.0, 0.5, 1.0));
     assert_eq!(p.positions[2], Vec3::new(1.5, 3.5, 2.0));
     // Non-periodic choice keeps the coordinates as written.
+    assert_eq!(p.ids, Some(vec![1, 2, 3]));
     let q = parse_liggghts_data(LIGGGHTS, "in.data", false).unwrap();
     assert!(q.cell.is_none());
     assert_eq!(q.positions[0], Vec3::new(-0.5, 0.0, 0.5));

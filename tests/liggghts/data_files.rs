@@ -51,6 +51,26 @@ fn brute_force(p: &Packing, lengths: anisobond::Vec3, periodic: bool) -> usize {
     n
 }
 
+/// The bond table ends with `id_i,id_j`, and they are `ids[i]`, `ids[j]` on every row.
+fn check_id_columns(csv: &Path, ids: &[u64]) {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().ends_with(",ix,iy,iz,id_i,id_j"));
+    for row in lines {
+        let w: Vec<u64> = row
+            .split(',')
+            .enumerate()
+            .filter(|(k, _)| [0, 1, 14, 15].contains(k))
+            .map(|(_, v)| v.parse().unwrap())
+            .collect();
+        assert_eq!(
+            (ids[w[0] as usize], ids[w[1] as usize]),
+            (w[2], w[3]),
+            "{row}"
+        );
+    }
+}
+
 fn bond_rows(csv: &Path) -> usize {
     std::fs::read_to_string(csv).unwrap().lines().count() - 1
 }
@@ -95,6 +115,12 @@ fn liggghts_write_data_periodic_and_walled_boxes() {
     );
     assert!(note.contains("give --free for a walled box"), "{note}");
     assert_eq!(bond_rows(&out), brute_force(&r.packing, cell, true));
+    // Atom ids kept (sorted): 1…125 without the ids the deck deleted, and the bond table's
+    // id_i,id_j are those of its rows i,j.
+    let deleted = |id: u64| [3, 7, 11].contains(&id) || (20..=40).contains(&id);
+    let expected: Vec<u64> = (1..=125).filter(|&id| !deleted(id)).collect();
+    assert_eq!(r.packing.ids.as_deref(), Some(&expected[..]));
+    check_id_columns(&out, &expected);
     let o = cmd(
         "bonds {p} --model {m} -o {o} --periodic",
         &[("p", &d.join("peri.data")), ("m", &model), ("o", &out)],
@@ -130,6 +156,8 @@ fn liggghts_write_data_periodic_and_walled_boxes() {
          as periodic; periodic box {n_peri} atoms"
     );
     assert_eq!(bond_rows(&out), walled);
+    let expected: Vec<u64> = (1..=150).filter(|&id| !deleted(id)).collect();
+    check_id_columns(&out, &expected);
     assert!(across > walled);
     // --cell has no meaning for a data file (its box is the cell): refused, nothing written.
     let out2 = d.join("none.csv");

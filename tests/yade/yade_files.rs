@@ -97,6 +97,19 @@ fn yade_written_packings_are_read_as_written() {
         assert_eq!(p.positions, text.positions, "{name}");
         assert_eq!(p.radii, text.radii, "{name}");
     }
+    // Body ids: kept from `id_x_y_z_r_matId`, and carried to the bond table as id_i,id_j.
+    let ids: Vec<u64> = info["scene"]["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    let idmat = read_packing(&d.join("idmat.txt")).unwrap();
+    assert_eq!(idmat.ids.as_deref(), Some(&ids[..]));
+    assert!(text.ids.is_none());
+    bonds_of(d, &d.join("idmat.txt"));
+    let header = std::fs::read_to_string(d.join("b.csv")).unwrap();
+    assert!(header.starts_with("i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz,id_i,id_j\n"));
     // The scene's positions are those of the SpherePack, up to whole cell lengths (the text
     // files state no cell: read as written, not wrapped).
     let c = peri.cell.unwrap();
