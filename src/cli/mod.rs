@@ -3,6 +3,7 @@
 
 mod calibrate;
 mod cell;
+mod convert;
 mod demo;
 mod domain;
 mod export;
@@ -80,6 +81,10 @@ enum Command {
     /// Validate anisobond against another DEM code (YADE): the same problem in both, the
     /// differences as a table and files; non-zero exit status when out of tolerance.
     Validate(validate::ValidateArgs),
+    /// Convert a packing file for another program's loader: YADE `SpherePack.load`
+    /// (spherepack) or `ymport.text` (text), LIGGGHTS `read_data` (liggghts), or SPEC text,
+    /// keeping the cell and (for LIGGGHTS) the particle ids.
+    Convert(convert::ConvertArgs),
 }
 
 #[derive(clap::Args)]
@@ -227,6 +232,7 @@ pub fn run() -> Result<()> {
         Command::Domain(a) => domain::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
+        Command::Convert(a) => convert::run(a),
     }
 }
 

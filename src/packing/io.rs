@@ -1131,6 +1131,23 @@ pub fn write_yade_spherepack(path: &Path, p: &Packing) -> Result<()> {
 /// atom type, `density` in kg/m³). A periodic packing's box is its cell (use
 /// `boundary p p p`); a free packing's box is its bounding box.
 pub fn write_liggghts_data(path: &Path, p: &Packing, density: f64) -> Result<()> {
+    write_liggghts_data_ids(path, p, density, false)
+}
+
+/// [`write_liggghts_data`] with the packing's own ids ([`Packing::ids`], each ≥ 1) as atom
+/// ids when it has them (`anisobond convert`), else 1…N.
+pub fn write_liggghts_data_with_ids(path: &Path, p: &Packing, density: f64) -> Result<()> {
+    if let Some(ids) = &p.ids {
+        if ids.contains(&0) {
+            return Err(Error::Invalid(
+                "LIGGGHTS data: atom ids must be ≥ 1, the packing has id 0".into(),
+            ));
+        }
+    }
+    write_liggghts_data_ids(path, p, density, true)
+}
+
+fn write_liggghts_data_ids(path: &Path, p: &Packing, density: f64, own_ids: bool) -> Result<()> {
     if !density.is_finite() || density <= 0.0 {
         return Err(Error::Invalid(format!(
             "LIGGGHTS data: density must be finite and > 0, got {density}"
@@ -1165,7 +1182,10 @@ pub fn write_liggghts_data(path: &Path, p: &Packing, density: f64) -> Result<()>
             writeln!(
                 w,
                 "{} 1 {} {} {} {} {}",
-                k + 1,
+                match (&p.ids, own_ids) {
+                    (Some(ids), true) => ids[k],
+                    _ => k as u64 + 1,
+                },
                 num(2.0 * r),
                 num(density),
                 num(x.x),

@@ -215,3 +215,86 @@ fn export_text_states_no_cell_and_the_user_gives_it() {
     assert!(msg.contains("peri.txt"), "{msg}");
     assert!(msg.contains("the file states a periodic cell"), "{msg}");
 }
+
+/// `anisobond convert` (issue 20): YADE's export.text with the cell given by `--cell`, written
+/// for `SpherePack.load` and `ymport.text`, and loaded back by YADE itself: same count, cell
+/// and radii.
+#[test]
+fn convert_outputs_load_back_in_yade() {
+    if !yade_available("yade_files::convert_outputs_load_back_in_yade") {
+        return;
+    }
+    let dir = tmp();
+    let d = dir.path();
+    let info = yade_files(d);
+    let cell: Vec<f64> = (0..3)
+        .map(|k| info["peri"]["cell"][k].as_f64().unwrap())
+        .collect();
+    let cell_arg = format!("{},{},{}", cell[0], cell[1], cell[2]);
+    let said = succeeds(
+        cmd(
+            "convert {i} -o {o} --to spherepack",
+            &[("i", &d.join("text.txt")), ("o", &d.join("sp.txt"))],
+        )
+        .args(["--cell", &cell_arg]),
+    );
+    assert!(said.contains("periodic cell"), "{said}");
+    succeeds(&mut cmd(
+        "convert {i} -o {o} --to text",
+        &[("i", &d.join("peri.txt")), ("o", &d.join("ym.txt"))],
+    ));
+    let script = d.join("load_back.py");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/yade/load_back.py"),
+        &script,
+    )
+    .unwrap();
+    run_yade_script(&script, &["sp.txt".into(), "ym.txt".into()]).expect("yade run");
+    let back: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("load-back.json")).unwrap()).unwrap();
+    for k in 0..3 {
+        assert_eq!(back["spherepack"]["cell"][k].as_f64().unwrap(), cell[k]);
+    }
+    check_radii_json(&back["spherepack"], &info["scene"], "SpherePack.load");
+    check_radii_json(&back["ymport"], &info["peri"], "ymport.text");
+    // YADE body ids (from 0) to LIGGGHTS atom ids (from 1): shifted by one, with a note.
+    let o = cmd(
+        "convert {i} -o {o} --to liggghts",
+        &[("i", &d.join("idmat.txt")), ("o", &d.join("id.data"))],
+    )
+    .args(["--cell", &cell_arg])
+    .output()
+    .unwrap();
+    assert!(o.status.success());
+    assert!(crate::common::stderr(&o).contains("atom id = id + 1"));
+    let ids: Vec<u64> = info["scene"]["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() + 1)
+        .collect();
+    let back = read_packing(&d.join("id.data")).unwrap();
+    assert_eq!(back.ids, Some(ids));
+    // The converted SpherePack file reads back in anisobond as the SpherePack.save file (to
+    // its 6 digits).
+    let a = read_packing(&d.join("sp.txt")).unwrap();
+    let b = read_packing(&d.join("peri.txt")).unwrap();
+    for k in 0..3 {
+        assert!(close(
+            a.cell.unwrap().lengths[k],
+            b.cell.unwrap().lengths[k]
+        ));
+    }
+    assert_eq!(a.radii, b.radii);
+}
+
+/// Same count and radii (YADE's 6 digits) in two JSON summaries.
+fn check_radii_json(got: &Value, expected: &Value, name: &str) {
+    assert_eq!(got["n"], expected["n"], "{name}");
+    let g = got["radii"].as_array().unwrap();
+    let e = expected["radii"].as_array().unwrap();
+    for (a, b) in g.iter().zip(e) {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!(close(a, b), "{name}: radius {a} vs {b}");
+    }
+}
