@@ -174,6 +174,18 @@ impl Assembly {
     /// without bonds names both files.
     pub fn from_packing_file(packing_path: &Path, model: Model, model_path: &Path) -> Result<Self> {
         let packing = packing::io::read_packing(packing_path)?;
+        Assembly::from_packing_read(packing, packing_path, model, model_path)
+    }
+
+    /// Bond a packing already read from `packing_path` (e.g. by
+    /// [`packing::io::read_packing_as`]) by `model`, naming the files in refusals as
+    /// [`Assembly::from_packing_file`] does.
+    pub fn from_packing_read(
+        packing: packing::Packing,
+        packing_path: &Path,
+        model: Model,
+        model_path: &Path,
+    ) -> Result<Self> {
         Assembly::new(packing, model).map_err(|e| match e {
             Error::Model(m) => Error::Model(format!("{}: {m}", model_path.display())),
             Error::Degenerate(m) => Error::Degenerate(format!(
@@ -330,9 +342,15 @@ impl Assembly {
         Ok(state)
     }
 
-    /// Write the bond-stiffness table (CSV, SPEC columns) atomically.
+    /// Write the bond-stiffness table (CSV, SPEC columns, then `id_i,id_j` when the packing
+    /// has particle ids) atomically.
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
-        bonds::table::write_bond_table(path, &self.bonds, &self.springs)
+        bonds::table::write_bond_table_with_ids(
+            path,
+            &self.bonds,
+            &self.springs,
+            self.packing.ids.as_deref(),
+        )
     }
 }
 

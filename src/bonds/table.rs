@@ -25,7 +25,13 @@ fn push_int<T: itoa::Integer>(s: &mut String, buf: &mut itoa::Buffer, v: T) {
 }
 
 /// Format rows `range` of the table into `s` (cleared first; its capacity is reused).
-fn format_rows(s: &mut String, bonds: &BondSet, k: &BondStiffness, range: std::ops::Range<usize>) {
+fn format_rows(
+    s: &mut String,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+    range: std::ops::Range<usize>,
+) {
     s.clear();
     let mut fb = ryu::Buffer::new();
     let mut ib = itoa::Buffer::new();
@@ -52,6 +58,12 @@ fn format_rows(s: &mut String, bonds: &BondSet, k: &BondStiffness, range: std::o
             s.push(',');
             push_int(s, &mut ib, v);
         }
+        if let Some(ids) = ids {
+            s.push(',');
+            push_int(s, &mut ib, ids[bonds.i[b] as usize]);
+            s.push(',');
+            push_int(s, &mut ib, ids[bonds.j[b] as usize]);
+        }
         s.push('\n');
     }
 }
@@ -62,7 +74,21 @@ pub fn write_bond_table_to(
     bonds: &BondSet,
     k: &BondStiffness,
 ) -> std::io::Result<()> {
-    writeln!(w, "{HEADER}")?;
+    write_bond_table_ids_to(w, bonds, k, None)
+}
+
+/// Write the bond table to any writer, with the trailing columns `id_i,id_j` (the
+/// particles' own ids, indexed by `i` and `j`) when `ids` is given.
+pub fn write_bond_table_ids_to(
+    w: &mut dyn Write,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+) -> std::io::Result<()> {
+    match ids {
+        Some(_) => writeln!(w, "{HEADER},id_i,id_j")?,
+        None => writeln!(w, "{HEADER}")?,
+    }
     let n = bonds.len();
     let n_chunks = n.div_ceil(CHUNK);
     // Groups of chunks are formatted in parallel into buffers that are reused from group to
@@ -79,7 +105,7 @@ pub fn write_bond_table_to(
             .enumerate()
             .for_each(|(g, buf)| {
                 let c = first + g;
-                format_rows(buf, bonds, k, c * CHUNK..((c + 1) * CHUNK).min(n));
+                format_rows(buf, bonds, k, ids, c * CHUNK..((c + 1) * CHUNK).min(n));
             });
         for buf in &buffers[..count] {
             w.write_all(buf.as_bytes())?;
@@ -92,6 +118,19 @@ pub fn write_bond_table_to(
 pub fn write_bond_table(path: &Path, bonds: &BondSet, k: &BondStiffness) -> Result<()> {
     crate::io::write_atomic(path, |w| {
         write_bond_table_to(w, bonds, k).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Write the bond table to `path` atomically, with `id_i,id_j` columns when `ids` is given
+/// (see [`write_bond_table_ids_to`]).
+pub fn write_bond_table_with_ids(
+    path: &Path,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+) -> Result<()> {
+    crate::io::write_atomic(path, |w| {
+        write_bond_table_ids_to(w, bonds, k, ids).map_err(|e| Error::io(path, e))
     })
 }
 

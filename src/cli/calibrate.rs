@@ -9,7 +9,6 @@ use anisobond::calibrate::{calibrate, CalibrateOn, Calibration, CrossCalibration
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing;
 use anisobond::schemes::cubic::CubicModel;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
@@ -210,7 +209,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     let staged = out.file(&a.output)?;
     let bonded = match &packing_path {
         Some(p) => {
-            let pk = packing::io::read_packing(p)?;
+            let pk = super::cell::read(p)?;
             Some(Assembly::new(pk, base.clone()).map_err(|e| match e {
                 Error::Model(m) => Error::Model(format!("{}: {m}", a.model.display())),
                 other => other,

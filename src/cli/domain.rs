@@ -11,7 +11,6 @@ use anisobond::calibrate::target::Target;
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing;
 use anisobond::schemes::cubic::CubicModel;
 use anisobond::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -142,7 +141,7 @@ pub fn run(a: DomainArgs) -> Result<()> {
             None => Model::truszkowska_mrv(),
         };
         let b = Assembly::new(
-            packing::io::read_packing(std::path::Path::new(path))?,
+            super::cell::read(std::path::Path::new(path))?,
             model.clone(),
         )?;
         let (s, k) = sample_relaxed(

@@ -78,6 +78,32 @@ pub fn run(a: ExportArgs) -> Result<()> {
     }
 }
 
+/// [`yade::export_yade`] on the packing read with the user's cell options.
+fn export_yade_read(
+    a: &YadeArgs,
+    dir: &std::path::Path,
+    opts: &YadeRunOptions,
+) -> Result<yade::YadeExport> {
+    opts.validate()?;
+    let asm = super::cell::assembly(&a.packing, &a.model)?;
+    if asm.packing.cell.is_none() {
+        return Err(anisobond::Error::Invalid(format!(
+            "{}: the packing is not periodic (no `# periodic Lx Ly Lz` header; give --cell \
+             Lx,Ly,Lz for a file that states none); the YADE element tests deform a periodic \
+             cell",
+            a.packing.display()
+        )));
+    }
+    yade::write_yade_export(
+        dir,
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        Some(&asm.model),
+        opts,
+    )
+}
+
 fn export_yade(a: YadeArgs) -> Result<()> {
     let opts = YadeRunOptions {
         strain: a.strain,
@@ -90,7 +116,7 @@ fn export_yade(a: YadeArgs) -> Result<()> {
     };
     let mut set = OutputSet::new(&[&a.packing, &a.model]);
     let staged = set.dir(&a.output)?;
-    let written = yade::export_yade(&a.packing, &a.model, &staged, &opts)?;
+    let written = export_yade_read(&a, &staged, &opts)?;
     set.commit()?;
     let out = yade::YadeExport::in_dir(&a.output);
     println!(

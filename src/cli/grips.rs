@@ -3,7 +3,6 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::{check_positive, IntegratorArgs};
-use anisobond::assembly::Assembly;
 use anisobond::dem::grips::GrippedOptions;
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::homogenize::report::TensorReport;
@@ -68,7 +67,7 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = super::cell::assembly(&a.packing, &a.model)?;
     let i = &a.integrator;
     let opts = GrippedOptions {
         strain: i.strain,

@@ -2,6 +2,8 @@
 //! the library, prints human-readable results with units, and writes files atomically.
 
 mod calibrate;
+mod cell;
+mod convert;
 mod demo;
 mod domain;
 mod export;
@@ -39,6 +41,8 @@ use std::path::{Path, PathBuf};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    #[command(flatten)]
+    cell: cell::CellArgs,
 }
 
 #[derive(Subcommand)]
@@ -79,6 +83,10 @@ enum Command {
     /// Validate anisobond against another DEM code (YADE): the same problem in both, the
     /// differences as a table and files; non-zero exit status when out of tolerance.
     Validate(validate::ValidateArgs),
+    /// Convert a packing file for another program's loader: YADE `SpherePack.load`
+    /// (spherepack) or `ymport.text` (text), LIGGGHTS `read_data` (liggghts), or SPEC text,
+    /// keeping the cell and (for LIGGGHTS) the particle ids.
+    Convert(convert::ConvertArgs),
 }
 
 #[derive(clap::Args)]
@@ -215,6 +223,7 @@ struct TensorArgs {
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
     let cli = Cli::parse();
+    cell::set(&cli.cell)?;
     match cli.command {
         Command::Demo(a) => demo::run(a),
         Command::Pack(a) => pack::run(a),
@@ -228,13 +237,14 @@ pub fn run() -> Result<()> {
         Command::Domain(a) => domain::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
+        Command::Convert(a) => convert::run(a),
     }
 }
 
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.file(&a.output)?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = cell::assembly(&a.packing, &a.model)?;
     asm.write_bonds(&staged)?;
     out.commit()?;
     println!(
@@ -405,12 +415,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {
             let asm = match &a.bonds {
-                Some(table) => Assembly::from_table_file(
-                    anisobond::packing::io::read_packing(p)?,
-                    model.clone(),
-                    table,
-                )?,
-                None => Assembly::from_packing_file(p, model.clone(), &a.model)?,
+                Some(table) => Assembly::from_table_file(cell::read(p)?, model.clone(), table)?,
+                None => cell::assembly_with(p, model.clone(), &a.model)?,
             };
             report_of(&asm, m, &a.statics, &a.integrator).map_err(|e| blame_inputs(e, &inputs))?
         }

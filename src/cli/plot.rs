@@ -6,7 +6,6 @@ use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vt
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
-use anisobond::packing;
 use anisobond::plot::{plot_stiffness_sections, Section};
 use anisobond::schemes::Convention;
 use anisobond::tensor::Voigt6;
@@ -56,7 +55,7 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
     let dir = out.dir(&a.output)?;
     let model = Model::from_path(&a.model)?;
     let bonded = match &a.packing {
-        Some(p) => Some(Assembly::new(packing::io::read_packing(p)?, model.clone())?),
+        Some(p) => Some(Assembly::new(super::cell::read(p)?, model.clone())?),
         None => None,
     };
     let scheme = model.build_scheme(bonded.as_ref().map(|b| (&b.packing, &b.bonds)))?;
@@ -133,7 +132,7 @@ pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
     let strain = parse_strain(&a.strain)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let dir = out.dir(&a.output)?;
-    let b = Assembly::new(packing::io::read_packing(&a.packing)?, model.clone())?;
+    let b = Assembly::new(super::cell::read(&a.packing)?, model.clone())?;
     let state = match (strain, b.packing.cell.is_some()) {
         (Some(e), true) => Some(strained_state(
             &b.packing,

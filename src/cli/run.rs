@@ -296,7 +296,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let staged_output = out.optional_file(a.output.as_deref())?;
     let staged_history = out.optional_file(a.history.as_deref())?;
     let staged_plot = out.optional_file(a.plot.as_deref())?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = super::cell::assembly(&a.packing, &a.model)?;
     let want_history = a.history.is_some() || a.plot.is_some();
     let result = run_element_tests(&asm, &a.integrator, want_history)?;
     let report = TensorReport::new("dynamic", result.c, Some((&asm.packing, &asm.bonds)))?;

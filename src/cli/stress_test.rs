@@ -5,7 +5,6 @@
 //! orthotropic tensor as a SPEC JSON report.
 
 use super::run::{check_damping, check_max_steps, check_positive, LawArg, StepArgs};
-use anisobond::assembly::Assembly;
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::StressTestOptions;
@@ -88,7 +87,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&[&a.packing, &a.model]);
     let staged = out.optional_file(a.output.as_deref())?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = super::cell::assembly(&a.packing, &a.model)?;
     let dem = a.step.dem_options(a.damping);
     let opts = StressTestOptions {
         strain: a.strain,

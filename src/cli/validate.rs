@@ -123,7 +123,7 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
         bonds: b,
         springs: k,
         ..
-    } = Assembly::from_packing_file(&a.packing, model.clone(), &a.model)?;
+    } = super::cell::assembly_with(&a.packing, model.clone(), &a.model)?;
     let temp;
     let dir = match &staged {
         Some(d) => d.clone(),

@@ -91,7 +91,7 @@ pub fn run(a: Args) -> Result<()> {
         bonds,
         springs: k,
         ..
-    } = Assembly::from_files(&a.packing, &a.model)?;
+    } = super::cell::assembly(&a.packing, &a.model)?;
     let opts = ValidateOptions {
         density: a.density,
         timestep: a.timestep,

@@ -3,11 +3,20 @@
 //!
 //! - SPEC text: one sphere per line `x y z r`, whitespace-separated, `#` starts a comment;
 //!   a header comment `# periodic Lx Ly Lz` declares the periodic cell [0,Lx)×[0,Ly)×[0,Lz)
-//!   (positions outside are wrapped). `#format x_y_z_r` lines (YADE `export.text`) are
-//!   accepted, as is `#format x_y_z_r_matId` (the fifth column is read and ignored).
-//! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then `x y z r`.
+//!   (positions outside are wrapped); a `# free` line states a free cluster (anisobond
+//!   writes it for free packings). A file with neither does not state its cell: see
+//!   [`read_packing_as`] and [`CellChoice`]. YADE `export.text` / `export.textExt` files are read
+//!   by their `#format` line: `x_y_z_r`, `x_y_z_r_matId` (integer matId, ignored),
+//!   `x_y_z_r_attrs` (any number of attribute columns, the same on every line, ignored) and
+//!   `id_x_y_z_r_matId` (body id first); any other `#format` is refused.
+//! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then
+//!   `x y z r clumpId` (or `x y z r`). A clumpId of −1 (a free sphere) is accepted; a sphere
+//!   that belongs to a clump (clumpId ≥ 0) is refused, since a clump is one rigid body.
 //! - LIGGGHTS data (LAMMPS data format): title line, header (`N atoms`, `xlo xhi`, …),
 //!   `Atoms` section with `id type diameter density x y z` (diameter, not radius).
+//!
+//! Particle ids are kept where the file gives them: LIGGGHTS atom ids and the body ids of
+//! `#format id_x_y_z_r_matId` ([`Packing::ids`]); bond tables then carry `id_i,id_j`.
 //!
 //! Numbers are written in the shortest form that reads back to the same `f64`, so a
 //! write–read round trip is bit-exact.
@@ -36,9 +45,135 @@ pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
     match detect_format(text) {
         PackingFormat::LiggghtsData => parse_liggghts_data(text, source_name, true),
         PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
-            parse_sphere_text(text, source_name)
+            Ok(parse_sphere_text(text, source_name)?.0)
         }
     }
+}
+
+/// What to do about the cell of a packing file that does not state it (YADE `export.text`
+/// without a cell, a plain `x y z r` file, any LIGGGHTS data file). A file that states its
+/// cell is read as stated, and a different choice is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum CellChoice {
+    /// The readers' defaults: text without a cell is a free cluster, LIGGGHTS data is
+    /// periodic with the box as its cell ([`CellOrigin::Assumed`]).
+    #[default]
+    AsStated,
+    /// Periodic, the cell from the file: the box of LIGGGHTS data (text states no lengths:
+    /// refused, give [`CellChoice::Cell`]).
+    Periodic,
+    /// Periodic with this cell [0, Lx)×[0, Ly)×[0, Lz) (m), for text files; positions are
+    /// wrapped into it.
+    Cell(Vec3),
+    /// A free cluster: no bonds across faces; its volume is the spheres' bounding box.
+    Free,
+}
+
+/// Where the cell (or its absence) of a packing read by [`read_packing_as`] came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellOrigin {
+    /// The file states it (`# periodic`, `##PERIODIC::`, `# free`, SpherePack.save columns).
+    Stated,
+    /// The file does not state it; the caller's [`CellChoice`] decided.
+    Chosen,
+    /// The file does not state it and the caller said nothing: the reader's default.
+    Assumed,
+}
+
+/// A packing read by [`read_packing_as`], with its format and where its cell came from.
+#[derive(Clone, Debug)]
+pub struct PackingRead {
+    /// The spheres and their cell (or none: a free cluster).
+    pub packing: Packing,
+    /// The format the file was read as.
+    pub format: PackingFormat,
+    /// Whether the cell was stated by the file, chosen by the caller, or assumed.
+    pub origin: CellOrigin,
+}
+
+/// Read a packing file like [`read_packing`], deciding a cell the file does not state by
+/// `choice` and saying where the cell came from.
+pub fn read_packing_as(path: &Path, choice: CellChoice) -> Result<PackingRead> {
+    let text = crate::io::read_to_string(path)?;
+    parse_packing_as(&text, &path.display().to_string(), choice)
+}
+
+/// Parse packing text like [`parse_packing`], with a [`CellChoice`] (see [`read_packing_as`]).
+pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<PackingRead> {
+    let format = detect_format(text);
+    let refuse = |what: String| Error::parse(source, 0, what);
+    let (packing, origin) = match format {
+        PackingFormat::LiggghtsData => match choice {
+            CellChoice::AsStated => (
+                parse_liggghts_data(text, source, true)?,
+                CellOrigin::Assumed,
+            ),
+            CellChoice::Periodic => (parse_liggghts_data(text, source, true)?, CellOrigin::Chosen),
+            CellChoice::Free => (
+                parse_liggghts_data(text, source, false)?,
+                CellOrigin::Chosen,
+            ),
+            CellChoice::Cell(_) => {
+                return Err(refuse(
+                    "a LIGGGHTS data file has its box: expected --periodic (the box is the \
+                     periodic cell) or --free (a walled box), not --cell"
+                        .into(),
+                ))
+            }
+        },
+        PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
+            let (p, stated) = parse_sphere_text(text, source)?;
+            if stated {
+                let agrees = match choice {
+                    CellChoice::AsStated => true,
+                    CellChoice::Periodic => p.cell.is_some(),
+                    CellChoice::Free => p.cell.is_none(),
+                    CellChoice::Cell(l) => p.cell.is_some_and(|c| c.lengths == l),
+                };
+                if !agrees {
+                    let states = match &p.cell {
+                        Some(c) => format!(
+                            "a periodic cell {} {} {}",
+                            num(c.lengths.x),
+                            num(c.lengths.y),
+                            num(c.lengths.z)
+                        ),
+                        None => "a free cluster".into(),
+                    };
+                    return Err(refuse(format!(
+                        "the file states {states}; expected no --cell, --periodic or --free \
+                         that contradicts it"
+                    )));
+                }
+                (p, CellOrigin::Stated)
+            } else {
+                match choice {
+                    CellChoice::AsStated => (p, CellOrigin::Assumed),
+                    CellChoice::Free => (p, CellOrigin::Chosen),
+                    CellChoice::Periodic => {
+                        return Err(refuse(
+                            "the file states no cell lengths (no `# periodic Lx Ly Lz` or \
+                             `##PERIODIC::` line): expected --cell Lx,Ly,Lz for a periodic \
+                             packing"
+                                .into(),
+                        ))
+                    }
+                    CellChoice::Cell(l) => {
+                        let cell = PeriodicCell::new(l)?;
+                        let ids = p.ids;
+                        let mut p = Packing::new(p.positions, p.radii, Some(cell))?;
+                        p.ids = ids;
+                        (p, CellOrigin::Chosen)
+                    }
+                }
+            }
+        }
+    };
+    Ok(PackingRead {
+        packing,
+        format,
+        origin,
+    })
 }
 
 /// The file formats [`parse_packing`] understands.
@@ -46,7 +181,7 @@ pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
 pub enum PackingFormat {
     /// `x y z r` lines, `# periodic Lx Ly Lz` header (also YADE `export.text`).
     SpecText,
-    /// YADE `SpherePack.save`: `##PERIODIC:: Lx Ly Lz` then `x y z r`.
+    /// YADE `SpherePack.save`: `##PERIODIC:: Lx Ly Lz` then `x y z r clumpId` (or `x y z r`).
     YadeSpherePack,
     /// LIGGGHTS / LAMMPS data file, `atom_style granular`.
     LiggghtsData,
@@ -390,11 +525,49 @@ fn free_volume(source: &str, s: &Spheres) -> Result<f64> {
 const SPHERE_LINE_HINT: &str = "expected lines `x y z r` (one sphere per line; `#` starts a \
                                 comment, `# periodic Lx Ly Lz` declares a periodic cell)";
 
-/// Parse SPEC text or YADE SpherePack / `export.text` text.
-fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
+/// The columns of a sphere line, fixed by a `#format` line (YADE `export.textExt`) or, without
+/// one, `x y z r` with an optional fifth column clumpId (YADE `SpherePack.save`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SphereColumns {
+    /// No `#format` line: `x y z r` or `x y z r clumpId`.
+    Plain,
+    /// `#format x_y_z_r`.
+    Xyzr,
+    /// `#format x_y_z_r_matId`: an integer material id after the radius (ignored).
+    XyzrMatId,
+    /// `#format x_y_z_r_attrs`: any number of attribute columns after the radius (ignored),
+    /// the same number on every line (the first sphere line sets it).
+    XyzrAttrs(Option<usize>),
+    /// `#format id_x_y_z_r_matId`: body id, `x y z r`, material id.
+    IdXyzrMatId,
+}
+
+/// The supported `#format` names, for the refusal of any other.
+const SPHERE_FORMATS: &str = "`x_y_z_r`, `x_y_z_r_matId`, `x_y_z_r_attrs` or `id_x_y_z_r_matId` \
+                              (the formats of YADE's export.textExt that give spheres)";
+
+/// Parse an integer column (YADE clumpId, matId or body id) of a sphere line.
+fn parse_integer(word: &str, what: &str, source: &str, line: usize) -> Result<i64> {
+    word.parse().map_err(|_| {
+        Error::parse(
+            source,
+            line,
+            format!("expected an integer {what}, found `{word}`"),
+        )
+    })
+}
+
+/// Parse SPEC text or YADE SpherePack / `export.text` text; also says whether the text
+/// states its cell (a `# periodic` / `##PERIODIC::` header, a `# free` line, or YADE
+/// SpherePack.save's clumpId column, written with the header whenever the pack is periodic).
+fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
     let mut spheres = Spheres::default();
     let mut cell: Option<(Vec3, usize)> = None;
-    let mut columns = 4usize;
+    let mut columns = SphereColumns::Plain;
+    let mut stated_free = false;
+    let mut free_line: Option<usize> = None;
+    let mut ids: Vec<u64> = Vec::new();
+    let mut id_lines: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
     for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
@@ -412,16 +585,20 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
             {
                 let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
                 set_cell(&mut cell, l, source, line)?;
+            } else if words.len() == 1 && words[0].eq_ignore_ascii_case("free") {
+                free_line = Some(line);
             } else if t.starts_with("#format") {
                 columns = match words.get(1).copied() {
-                    Some("x_y_z_r") => 4,
-                    Some("x_y_z_r_matId") => 5,
+                    Some("x_y_z_r") => SphereColumns::Xyzr,
+                    Some("x_y_z_r_matId") => SphereColumns::XyzrMatId,
+                    Some("x_y_z_r_attrs") => SphereColumns::XyzrAttrs(None),
+                    Some("id_x_y_z_r_matId") => SphereColumns::IdXyzrMatId,
                     other => {
                         return Err(Error::parse(
                             source,
                             line,
                             format!(
-                                "unsupported `#format {}`: expected `x_y_z_r` or `x_y_z_r_matId`",
+                                "unsupported `#format {}`: expected {SPHERE_FORMATS}",
                                 other.unwrap_or("")
                             ),
                         ))
@@ -435,29 +612,121 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<Packing> {
         if words.is_empty() {
             continue;
         }
-        if words.len() != columns {
-            let expected = if columns == 4 {
-                "4 numbers `x y z r`"
-            } else {
-                "5 numbers `x y z r matId`"
-            };
+        let n = words.len();
+        let expected = match columns {
+            SphereColumns::Plain if n == 4 || n == 5 => {
+                stated_free |= n == 5;
+                None
+            }
+            SphereColumns::Plain => {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "expected 4 numbers `x y z r`, found {n} (or 5, `x y z r clumpId`, \
+                         as YADE's SpherePack.save writes)"
+                    ),
+                ))
+            }
+            SphereColumns::Xyzr if n == 4 => None,
+            SphereColumns::Xyzr => Some("4 numbers `x y z r`".to_string()),
+            SphereColumns::XyzrMatId if n == 5 => None,
+            SphereColumns::XyzrMatId => Some("5 numbers `x y z r matId`".to_string()),
+            SphereColumns::XyzrAttrs(None) if n >= 4 => {
+                columns = SphereColumns::XyzrAttrs(Some(n));
+                None
+            }
+            SphereColumns::XyzrAttrs(None) => {
+                Some("at least 4 numbers `x y z r attrs…`".to_string())
+            }
+            SphereColumns::XyzrAttrs(Some(m)) if n == m => None,
+            SphereColumns::XyzrAttrs(Some(m)) => Some(format!(
+                "{m} numbers `x y z r` and {} attribute value(s), as on the first sphere line",
+                m - 4
+            )),
+            SphereColumns::IdXyzrMatId if n == 6 => None,
+            SphereColumns::IdXyzrMatId => Some("6 numbers `id x y z r matId`".to_string()),
+        };
+        if let Some(expected) = expected {
             return Err(Error::parse(
                 source,
                 line,
-                format!("expected {expected}, found {}", words.len()),
+                format!("expected {expected}, found {n}"),
             ));
         }
-        let x = parse_number(words[0], "x", source, line)?;
-        let y = parse_number(words[1], "y", source, line)?;
-        let z = parse_number(words[2], "z", source, line)?;
-        let r = parse_number(words[3], "radius r", source, line)?;
-        if columns == 5 {
-            parse_number(words[4], "matId", source, line)?;
+        let first = usize::from(columns == SphereColumns::IdXyzrMatId);
+        if first == 1 {
+            let id = parse_integer(words[0], "body id (column 1)", source, line)?;
+            if id < 0 {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("body id (column 1) must be ≥ 0, found {id}"),
+                ));
+            }
+            if let Some(first) = id_lines.insert(id as u64, line) {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("body id {id} appears twice (also line {first})"),
+                ));
+            }
+            ids.push(id as u64);
+        }
+        let x = parse_number(words[first], "x", source, line)?;
+        let y = parse_number(words[first + 1], "y", source, line)?;
+        let z = parse_number(words[first + 2], "z", source, line)?;
+        let r = parse_number(words[first + 3], "radius r", source, line)?;
+        match columns {
+            SphereColumns::Plain if n == 5 => {
+                let clump = parse_integer(words[4], "clumpId (column 5)", source, line)?;
+                if clump != -1 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "this sphere belongs to clump {clump} (column 5 of YADE's \
+                             SpherePack.save is the clumpId); anisobond bonds free spheres \
+                             only, expected clumpId -1 (a clump is one rigid body: save the \
+                             pack without clumps, or write its spheres without column 5 to \
+                             bond each member as a sphere)"
+                        ),
+                    ));
+                }
+            }
+            SphereColumns::XyzrMatId | SphereColumns::IdXyzrMatId => {
+                parse_integer(words[n - 1], &format!("matId (column {n})"), source, line)?;
+            }
+            SphereColumns::XyzrAttrs(_) => {
+                for (c, w) in words.iter().enumerate().skip(4) {
+                    parse_number(w, &format!("attribute (column {})", c + 1), source, line)?;
+                }
+            }
+            _ => {}
         }
         spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
     }
+    if let (Some(free), Some((_, line))) = (free_line, cell) {
+        return Err(Error::parse(
+            source,
+            line.max(free),
+            format!(
+                "a periodic cell (line {line}) and `# free` (line {free}) in one file; \
+                 expected one of them"
+            ),
+        ));
+    }
+    let stated = stated_free || free_line.is_some() || cell.is_some();
     let cell = cell.map(|(lengths, line)| CellSource { lengths, line });
-    finish(source, spheres, cell, SPHERE_LINE_HINT)
+    let packing = finish(source, spheres, cell, SPHERE_LINE_HINT)?;
+    let packing = if columns == SphereColumns::IdXyzrMatId {
+        packing
+            .with_ids(ids)
+            .map_err(|e| Error::parse(source, 0, e.to_string()))?
+    } else {
+        packing
+    };
+    Ok((packing, stated))
 }
 
 fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
@@ -774,7 +1043,9 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         }
         spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
     }
-    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)
+    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
+        .with_ids(atoms.iter().map(|a| a.id).collect())
+        .map_err(|e| Error::parse(source, 0, e.to_string()))
 }
 
 /// Shortest text that parses back to exactly `v`.
@@ -807,9 +1078,12 @@ pub fn format_packing(p: &Packing) -> String {
         "# anisobond packing: {} spheres, one per line `x y z r` (m)",
         p.len()
     );
-    if let Some(c) = &p.cell {
-        let l = c.lengths;
-        let _ = writeln!(s, "# periodic {} {} {}", num(l.x), num(l.y), num(l.z));
+    match &p.cell {
+        Some(c) => {
+            let l = c.lengths;
+            let _ = writeln!(s, "# periodic {} {} {}", num(l.x), num(l.y), num(l.z));
+        }
+        None => s.push_str("# free\n"),
     }
     for (x, r) in p.positions.iter().zip(&p.radii) {
         let _ = writeln!(s, "{} {} {} {}", num(x.x), num(x.y), num(x.z), num(*r));
@@ -836,6 +1110,23 @@ pub fn write_yade_spherepack(path: &Path, p: &Packing) -> Result<()> {
 /// atom type, `density` in kg/m³). A periodic packing's box is its cell (use
 /// `boundary p p p`); a free packing's box is its bounding box.
 pub fn write_liggghts_data(path: &Path, p: &Packing, density: f64) -> Result<()> {
+    write_liggghts_data_ids(path, p, density, false)
+}
+
+/// [`write_liggghts_data`] with the packing's own ids ([`Packing::ids`], each ≥ 1) as atom
+/// ids when it has them (`anisobond convert`), else 1…N.
+pub fn write_liggghts_data_with_ids(path: &Path, p: &Packing, density: f64) -> Result<()> {
+    if let Some(ids) = &p.ids {
+        if ids.contains(&0) {
+            return Err(Error::Invalid(
+                "LIGGGHTS data: atom ids must be ≥ 1, the packing has id 0".into(),
+            ));
+        }
+    }
+    write_liggghts_data_ids(path, p, density, true)
+}
+
+fn write_liggghts_data_ids(path: &Path, p: &Packing, density: f64, own_ids: bool) -> Result<()> {
     if !density.is_finite() || density <= 0.0 {
         return Err(Error::Invalid(format!(
             "LIGGGHTS data: density must be finite and > 0, got {density}"
@@ -870,7 +1161,10 @@ pub fn write_liggghts_data(path: &Path, p: &Packing, density: f64) -> Result<()>
             writeln!(
                 w,
                 "{} 1 {} {} {} {} {}",
-                k + 1,
+                match (&p.ids, own_ids) {
+                    (Some(ids), true) => ids[k],
+                    _ => k as u64 + 1,
+                },
                 num(2.0 * r),
                 num(density),
                 num(x.x),

@@ -96,6 +96,10 @@ pub struct Packing {
     pub radii: Vec<f64>,
     /// The periodic cell, or `None` for a free (non-periodic) assembly.
     pub cell: Option<PeriodicCell>,
+    /// The particles' own ids when the file gave them (LIGGGHTS atom ids, YADE body ids of
+    /// `#format id_x_y_z_r_matId`), one per particle, distinct; written to bond tables as
+    /// `id_i,id_j`. `None`: the particles are known by their index only.
+    pub ids: Option<Vec<u64>>,
 }
 
 impl Packing {
@@ -129,7 +133,29 @@ impl Packing {
             positions,
             radii,
             cell,
+            ids: None,
         })
+    }
+
+    /// The packing with these particle ids (one per particle, all distinct).
+    pub fn with_ids(mut self, ids: Vec<u64>) -> Result<Self> {
+        if ids.len() != self.len() {
+            return Err(Error::Invalid(format!(
+                "packing has {} particles but {} ids",
+                self.len(),
+                ids.len()
+            )));
+        }
+        let mut sorted = ids.clone();
+        sorted.sort_unstable();
+        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+            return Err(Error::Invalid(format!(
+                "particle id {} appears twice",
+                w[0]
+            )));
+        }
+        self.ids = Some(ids);
+        Ok(self)
     }
 
     /// Number of spheres.

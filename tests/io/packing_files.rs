@@ -58,6 +58,54 @@ fn yade_formats() {
 }
 
 #[test]
+fn yade_columns_clump_ids_and_formats() {
+    // SpherePack.save's fifth column: clumpId −1 is a free sphere; a clump member is refused.
+    let p = parse_packing("##PERIODIC:: 4 4 4\n1 1 1 0.5 -1\n5 1 1 0.5 -1\n", "s").unwrap();
+    assert_eq!(p.len(), 2);
+    let (line, msg) = parse_err("1 1 1 0.5 -1\n2 1 1 0.5 0\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("belongs to clump 0"), "{msg}");
+    let (line, msg) = parse_err("1 1 1 0.5 -1.5\n");
+    assert_eq!(line, 1);
+    assert!(
+        msg.contains("expected an integer clumpId (column 5)"),
+        "{msg}"
+    );
+    let (_, msg) = parse_err("1 1 1 0.5 -1 7\n");
+    assert!(msg.contains("or 5, `x y z r clumpId`"), "{msg}");
+    // textExt formats: matId an integer, attrs the same count on every line, id first.
+    let (line, msg) = parse_err("#format x_y_z_r_matId\n0 0 0 1 0.5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("integer matId (column 5)"), "{msg}");
+    let p = parse_packing(
+        "#format x_y_z_r_attrs\n# x y z r m\n0 0 0 1 2\n3 0 0 1 2\n",
+        "a",
+    )
+    .unwrap();
+    assert_eq!(p.radii, vec![1.0, 1.0]);
+    let (line, msg) = parse_err("#format x_y_z_r_attrs\n0 0 0 1 2\n3 0 0 1\n");
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("5 numbers `x y z r` and 1 attribute value(s)"),
+        "{msg}"
+    );
+    let p = parse_packing("#format id_x_y_z_r_matId\n7 0 0 0 1 0\n", "i").unwrap();
+    assert_eq!(p.positions[0], Vec3::zeros());
+    assert_eq!(p.ids, Some(vec![7]));
+    let (line, msg) = parse_err("#format id_x_y_z_r_matId\n7 0 0 0 1 0\n7 3 0 0 1 0\n");
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("body id 7 appears twice (also line 2)"),
+        "{msg}"
+    );
+    let (_, msg) = parse_err("#format id_x_y_z_r_matId\n-7 0 0 0 1 0\n");
+    assert!(msg.contains("body id (column 1) must be ≥ 0"), "{msg}");
+    let (line, msg) = parse_err("#format jointedPM\n");
+    assert_eq!(line, 1);
+    assert!(msg.contains("unsupported `#format jointedPM`"), "{msg}");
+}
+
+#[test]
 fn malformed_lines_report_line_and_expectation() {
     let (line, msg) = parse_err("# periodic 5 5 5\n1 1 1 0.5\n1 2 3\n");
     assert_eq!(line, 3);
@@ -115,6 +163,7 @@ fn liggghts_data_sorted_by_id_shifted_and_diameters_halved() {
     assert_eq!(p.positions[1], Vec3::new(1.0, 0.5, 1.0));
     assert_eq!(p.positions[2], Vec3::new(1.5, 3.5, 2.0));
     // Non-periodic choice keeps the coordinates as written.
+    assert_eq!(p.ids, Some(vec![1, 2, 3]));
     let q = parse_liggghts_data(LIGGGHTS, "in.data", false).unwrap();
     assert!(q.cell.is_none());
     assert_eq!(q.positions[0], Vec3::new(-0.5, 0.0, 0.5));
@@ -410,4 +459,61 @@ fn positions_must_give_a_finite_box() {
     let (line, msg) = parse_err("# periodic 1 1 1\n0.5 0.5 0.5 0.1\n1e300 0 0 0.1\n");
     assert_eq!(line, 3);
     assert!(msg.contains("cell lengths"), "{msg}");
+}
+
+#[test]
+fn cell_stated_chosen_or_assumed() {
+    use anisobond::packing::io::{parse_packing_as, CellChoice, CellOrigin};
+    let read = |text: &str, c: CellChoice| parse_packing_as(text, "in.txt", c);
+    // Stated: a cell header, `# free`, or SpherePack.save's clumpId column.
+    let r = read("# periodic 4 4 4\n1 1 1 0.5\n", CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
+    let r = read("# free\n1 1 1 0.5\n", CellChoice::Free).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Stated, None));
+    let r = read("1 1 1 0.5 -1\n", CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
+    // Not stated: assumed free, or as the caller chooses; a given cell wraps the positions.
+    let r = read("#format x_y_z_r\n5 1 1 0.5\n", CellChoice::AsStated).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Assumed, None));
+    let r = read(
+        "#format x_y_z_r\n5 1 1 0.5\n",
+        CellChoice::Cell(Vec3::repeat(4.0)),
+    )
+    .unwrap();
+    assert_eq!(r.origin, CellOrigin::Chosen);
+    assert_eq!(r.packing.positions[0], Vec3::new(1.0, 1.0, 1.0));
+    let e = read("1 1 1 0.5\n", CellChoice::Periodic)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("expected --cell Lx,Ly,Lz"), "{e}");
+    // A choice that contradicts the file is refused.
+    let e = read("# periodic 4 4 4\n1 1 1 0.5\n", CellChoice::Free)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("the file states a periodic cell 4 4 4"), "{e}");
+    let e = read(
+        "# periodic 4 4 4\n1 1 1 0.5\n",
+        CellChoice::Cell(Vec3::repeat(5.0)),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("in.txt"), "{e}");
+    let (line, msg) = parse_err("# free\n# periodic 4 4 4\n1 1 1 0.5\n");
+    assert_eq!(line, 2);
+    assert!(msg.contains("`# free` (line 1)"), "{msg}");
+    // LIGGGHTS data never states its boundary: periodic assumed, or free / periodic chosen.
+    let r = read(LIGGGHTS, CellChoice::AsStated).unwrap();
+    assert_eq!(r.origin, CellOrigin::Assumed);
+    assert!(r.packing.cell.is_some());
+    let r = read(LIGGGHTS, CellChoice::Free).unwrap();
+    assert_eq!((r.origin, r.packing.cell), (CellOrigin::Chosen, None));
+    assert!(read(LIGGGHTS, CellChoice::Cell(Vec3::repeat(5.0))).is_err());
+    // anisobond writes `# free` for a free packing: read back as stated.
+    let p = parse_packing("0 0 0 1\n3 0 0 1\n", "x").unwrap();
+    let r = read(
+        &anisobond::packing::io::format_packing(&p),
+        CellChoice::AsStated,
+    )
+    .unwrap();
+    assert_eq!(r.origin, CellOrigin::Stated);
 }

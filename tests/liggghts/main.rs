@@ -5,6 +5,7 @@
 mod common;
 
 mod bench;
+mod data_files;
 mod driver;
 mod harmonic;
 mod validate;

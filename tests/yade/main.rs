@@ -10,3 +10,4 @@ mod export_cli;
 mod periodic_image;
 mod two_sphere;
 mod validate;
+mod yade_files;

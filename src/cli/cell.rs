@@ -1,0 +1,109 @@
+//! The cell of packing files that do not state it (issue 20): the global options `--cell
+//! Lx,Ly,Lz`, `--periodic` and `--free`, and the note every command that reads a packing
+//! prints (standard error) when it assumed the cell or when the packing is a free cluster.
+
+use anisobond::assembly::Assembly;
+use anisobond::model::Model;
+use anisobond::packing::io::{read_packing_as, CellChoice, CellOrigin, PackingFormat};
+use anisobond::packing::Packing;
+use anisobond::{Error, Result, Vec3};
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Options of every command that reads a packing file.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct CellArgs {
+    /// For a packing file that states no cell (YADE export.text, plain `x y z r` text): it
+    /// is periodic with this cell [0,Lx)×[0,Ly)×[0,Lz) (m).
+    #[arg(long, global = true, value_name = "Lx,Ly,Lz", conflicts_with_all = ["periodic", "free"])]
+    cell: Option<String>,
+    /// For a LIGGGHTS data file: the box is the periodic cell (`boundary p p p`).
+    #[arg(long, global = true, conflicts_with = "free")]
+    periodic: bool,
+    /// For a packing file that states no cell: a free cluster (no bonds across faces, the
+    /// volume the spheres' bounding box), e.g. a walled LIGGGHTS box (`boundary f f f`).
+    #[arg(long, global = true)]
+    free: bool,
+}
+
+static CHOICE: OnceLock<CellChoice> = OnceLock::new();
+
+/// Record the options for the readers below (once, before the command runs).
+pub fn set(a: &CellArgs) -> Result<()> {
+    let choice = if let Some(text) = &a.cell {
+        let words: Vec<&str> = text.split(',').map(str::trim).collect();
+        let lengths: Vec<f64> = words.iter().filter_map(|w| w.parse().ok()).collect();
+        if words.len() != 3
+            || lengths.len() != 3
+            || lengths.iter().any(|l| !l.is_finite() || *l <= 0.0)
+        {
+            return Err(Error::Invalid(format!(
+                "--cell {text}: expected three lengths > 0 in m, `Lx,Ly,Lz`"
+            )));
+        }
+        CellChoice::Cell(Vec3::new(lengths[0], lengths[1], lengths[2]))
+    } else if a.periodic {
+        CellChoice::Periodic
+    } else if a.free {
+        CellChoice::Free
+    } else {
+        CellChoice::AsStated
+    };
+    let _ = CHOICE.set(choice);
+    Ok(())
+}
+
+/// Read a packing file with the user's cell options, printing the note on its cell.
+pub fn read(path: &Path) -> Result<Packing> {
+    let choice = CHOICE.get().copied().unwrap_or_default();
+    let r = read_packing_as(path, choice)?;
+    let name = path.display();
+    let p = &r.packing;
+    match (&p.cell, r.origin, r.format) {
+        (Some(c), CellOrigin::Assumed, _) => eprintln!(
+            "note: {name}: a LIGGGHTS data file does not say whether the run was periodic; \
+             read as periodic (boundary p p p) with the box {} × {} × {} m as the cell; give \
+             --free for a walled box (no bonds across its faces), or --periodic to say so",
+            c.lengths.x, c.lengths.y, c.lengths.z
+        ),
+        (None, origin, format) => {
+            let (lo, hi) = p.bounding_box();
+            let e = hi - lo;
+            let why = match (origin, format) {
+                (CellOrigin::Assumed, _) => {
+                    "the file states no periodic cell (no `# periodic Lx Ly Lz` or \
+                     `##PERIODIC::` line; YADE's export.text writes none), so it is read as \
+                     a free cluster; give --cell Lx,Ly,Lz if it is periodic, or --free to say \
+                     so. A free cluster's"
+                }
+                (CellOrigin::Chosen, PackingFormat::LiggghtsData) => {
+                    "--free: the LIGGGHTS box is walled, no bonds across its faces; the free \
+                     cluster's"
+                }
+                _ => "a free cluster:",
+            };
+            eprintln!(
+                "note: {name}: {why} volume is the bounding box of the spheres, {:e} × {:e} × \
+                 {:e} m = {:e} m³",
+                e.x,
+                e.y,
+                e.z,
+                p.volume()
+            );
+        }
+        _ => {}
+    }
+    Ok(r.packing)
+}
+
+/// [`read`] the packing and bond it by the model file ([`Assembly::from_files`]).
+pub fn assembly(packing_path: &Path, model_path: &Path) -> Result<Assembly> {
+    let model = Model::from_path(model_path)?;
+    assembly_with(packing_path, model, model_path)
+}
+
+/// [`read`] the packing and bond it by `model` ([`Assembly::from_packing_file`]).
+pub fn assembly_with(packing_path: &Path, model: Model, model_path: &Path) -> Result<Assembly> {
+    let packing = read(packing_path)?;
+    Assembly::from_packing_read(packing, packing_path, model, model_path)
+}
