@@ -127,7 +127,8 @@ def _number(word, what, path, line):
 def read_packing(path):
     """Read a SPEC packing (also YADE ``export.text`` / ``SpherePack.save`` text).
 
-    Lines ``x y z r``; ``# periodic Lx Ly Lz`` (or ``##PERIODIC:: Lx Ly Lz``) declares the
+    Lines ``x y z r`` (``SpherePack.save``'s ``x y z r clumpId`` with clumpId -1 too);
+    ``# periodic Lx Ly Lz`` (or ``##PERIODIC:: Lx Ly Lz``) declares the
     periodic cell [0,L); ``#format x_y_z_r[_matId]`` is accepted. A periodic cell is
     required (the element tests deform it).
     """
@@ -163,6 +164,12 @@ def read_packing(path):
             words = t.split("#")[0].split()
             if not words:
                 continue
+            if columns == 4 and len(words) == 5:
+                # SpherePack.save: `x y z r clumpId`, -1 for a sphere of no clump.
+                if words[4] != "-1":
+                    raise InputError("%s:%d: clump member (clumpId %s): a clump is one rigid "
+                                     "body, not bonded spheres" % (path, n, words[4]))
+                words = words[:4]
             if len(words) != columns:
                 raise InputError("%s:%d: expected %d numbers `x y z r`, found %d"
                                  % (path, n, columns, len(words)))

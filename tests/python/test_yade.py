@@ -67,6 +67,7 @@ def test_yade_in_place_recipe(tmp_path):
     d = json.loads(out.read_text())
     assert d["n_bonds"] == d["cohesive"] > d["n_particles"]
     assert d["spring_difference"] < 1e-12
+    assert d["spherepack_read"][0] == d["spherepack_read"][1] == d["n_particles"]
     c_yade, c_relaxed = np.array(d["yade"]), np.array(d["relaxed"])
     diff = np.max(np.abs(c_yade - c_relaxed)) / np.max(np.abs(c_relaxed))
     print("in place: %d bonds, max |C_yade - C_relaxed| / max |C_relaxed| = %.2e"

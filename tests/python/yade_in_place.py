@@ -26,6 +26,10 @@ model_path, out = sys.argv[1], sys.argv[2]
 # The user's scene: YADE's packing, bonded by YADE's own functors.
 sp = pack.randomPeriPack(radius=1e-3, initSize=Vector3(1.6e-2, 1.6e-2, 1.6e-2),
                          rRelFuzz=0.1, seed=11, noPrint=True)
+# anisobond_yade reads YADE's own SpherePack.save file (5 columns, clumpId -1).
+saved = os.path.join(os.path.dirname(out), "spherepack.txt")
+sp.save(saved)
+read_back = ay.read_packing(saved)
 O.reset()
 mat = O.materials.append(CohFrictMat(young=1e9, poisson=0.3, density=2600.0, frictionAngle=0.5,
                                      isCohesive=True, momentRotationLaw=True,
@@ -64,6 +68,7 @@ relaxed = asm.tensor("relaxed", tolerance=1e-10)
 with open(out, "w") as f:
     json.dump({"n_particles": len(packing), "n_bonds": len(written),
                "cohesive": len(ay.cohesive_interactions()),
+               "spherepack_read": [len(read_back), len(sp)],
                "spring_difference": spring_difference, "yade": res.c,
                "relaxed": relaxed.tolist()}, f, indent=1)
 print("yade_in_place: %d particles, %d bonds" % (len(packing), len(written)))
