@@ -100,6 +100,17 @@ pub struct CubicParameters {
 }
 
 impl CubicParameters {
+    /// The parameters at a point of the mean-field map: a_n = e^x, a_s = e^y, ρ.
+    fn at(model: CubicModel, extended: bool, p: &MapPoint) -> Self {
+        CubicParameters {
+            model,
+            extended,
+            a_n: p.x.exp(),
+            a_s: p.y.exp(),
+            shear_over_normal: p.rho,
+        }
+    }
+
     /// Distance from a_n = a_s = 1 in log space, √((ln a_n)² + (ln a_s)²).
     pub fn log_distance(&self) -> f64 {
         self.a_n.ln().hypot(self.a_s.ln())
@@ -774,13 +785,7 @@ pub fn calibrate_cubic_mean_field(
         Some(c11) => c11 / (prefactor * unit.c11),
         None => default_normal,
     };
-    let parameters = CubicParameters {
-        model,
-        extended: opts.extended,
-        a_n: p.x.exp(),
-        a_s: p.y.exp(),
-        shear_over_normal: p.rho,
-    };
+    let parameters = CubicParameters::at(model, opts.extended, &p);
     let scheme = CubicSpheroid::new(
         model,
         opts.extended,
@@ -918,13 +923,7 @@ pub fn calibrate_cubic_relaxed(
         let c = rotate(&sol.c, &rotation);
         let proj = CubicProjection::from_stiffness(&c);
         history.push(IterationRecord {
-            parameters: CubicParameters {
-                model,
-                extended: opts.extended,
-                a_n: p.x.exp(),
-                a_s: p.y.exp(),
-                shear_over_normal: p.rho,
-            },
+            parameters: CubicParameters::at(model, opts.extended, p),
             c12_over_c11: proj.c12 / proj.c11,
             c44_over_c11: proj.c44 / proj.c11,
             cg_iterations: sol.iterations,
@@ -1018,13 +1017,7 @@ pub fn calibrate_cubic_relaxed(
         evaluate(&p, normal, &mut history)?.ok_or_else(|| refusal(&p, normal))?;
     history.pop();
     Ok(CubicCalibration {
-        parameters: CubicParameters {
-            model,
-            extended: opts.extended,
-            a_n: p.x.exp(),
-            a_s: p.y.exp(),
-            shear_over_normal: p.rho,
-        },
+        parameters: CubicParameters::at(model, opts.extended, &p),
         normal,
         shear: normal * p.rho,
         level: Level::Relaxed,
