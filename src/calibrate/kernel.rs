@@ -56,9 +56,9 @@ impl Cubic3 {
 /// Quadrature of the fundamental triangle with q precomputed.
 #[derive(Clone, Debug)]
 pub struct CubicKernel {
-    directions: Vec<Vec3>,
-    /// Weights ×48 (they sum to 1 over the fundamental triangle).
-    weights: Vec<f64>,
+    /// The split-sphere rule restricted to the fundamental triangle, weights ×48 (they sum
+    /// to 1 over the fundamental triangle).
+    rule: SphereQuadrature,
     q: Vec<f64>,
 }
 
@@ -94,25 +94,27 @@ impl CubicKernel {
             }
         }
         CubicKernel {
-            directions,
-            weights,
+            rule: SphereQuadrature {
+                directions,
+                weights,
+            },
             q,
         }
     }
 
     /// Number of quadrature directions.
     pub fn len(&self) -> usize {
-        self.directions.len()
+        self.rule.len()
     }
 
     /// True when empty (never, for order ≥ 1).
     pub fn is_empty(&self) -> bool {
-        self.directions.is_empty()
+        self.rule.is_empty()
     }
 
     /// Sum of the weights (1 up to rounding).
     pub fn total_weight(&self) -> f64 {
-        self.weights.iter().sum()
+        self.rule.weights.iter().sum()
     }
 
     /// Normal factor f_n(m) of the model (Truszkowska 2018 Eqs. 8–15; Sec. 6.1 extended).
@@ -136,7 +138,13 @@ impl CubicKernel {
     /// The quadrature sums Σ w·f(m) and Σ w·f(m)·q(m) of a factor f over the directions.
     fn moments(&self, factor: impl Fn(&Vec3) -> f64) -> (f64, f64) {
         let (mut s0, mut s1) = (0.0, 0.0);
-        for ((m, w), q) in self.directions.iter().zip(&self.weights).zip(&self.q) {
+        for ((m, w), q) in self
+            .rule
+            .directions
+            .iter()
+            .zip(&self.rule.weights)
+            .zip(&self.q)
+        {
             let f = w * factor(m);
             s0 += f;
             s1 += f * q;
