@@ -94,14 +94,7 @@ fn export_yade_read(
             a.packing.display()
         )));
     }
-    yade::write_yade_export(
-        dir,
-        &asm.packing,
-        &asm.bonds,
-        &asm.springs,
-        Some(&asm.model),
-        opts,
-    )
+    yade::write_assembly_export(dir, &asm, opts)
 }
 
 fn export_yade(a: YadeArgs) -> Result<()> {

@@ -345,6 +345,16 @@ pub fn export_yade(
             packing_path.display()
         )));
     }
+    write_assembly_export(dir, &asm, opts)
+}
+
+/// [`write_yade_export`] of an assembly: its packing, bonds and springs, and its model
+/// saved for the record.
+pub fn write_assembly_export(
+    dir: &Path,
+    asm: &Assembly,
+    opts: &YadeRunOptions,
+) -> Result<YadeExport> {
     write_yade_export(
         dir,
         &asm.packing,

@@ -837,7 +837,7 @@ impl PyAssembly {
         safety: f64,
         paths: &str,
     ) -> PyResult<()> {
-        use crate::export::yade::{parse_paths, write_yade_export, YadeRunOptions};
+        use crate::export::yade::{parse_paths, write_assembly_export, YadeRunOptions};
         let opts = YadeRunOptions {
             strain,
             steps,
@@ -851,15 +851,7 @@ impl PyAssembly {
         let a = &self.inner;
         let mut out = OutputSet::new(&[]);
         let staged = out.dir(&directory).map_err(to_py)?;
-        write_yade_export(
-            &staged,
-            &a.packing,
-            &a.bonds,
-            &a.springs,
-            Some(&a.model),
-            &opts,
-        )
-        .map_err(to_py)?;
+        write_assembly_export(&staged, a, &opts).map_err(to_py)?;
         out.commit().map_err(to_py)
     }
 
