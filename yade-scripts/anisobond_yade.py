@@ -427,21 +427,10 @@ def bond_table(path=None, interactions=None):
     return table
 
 
-def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 3, 4, 5)):
-    """The six-path element tests on the current scene as the user built it (periodic cell,
-    their engines, time step and bonds): every path starts from the current state
-    (``O.saveTmp``/``O.loadTmp``), the strain in one step, then ``steps`` steps with Cundall
-    damping ``damping``. Returns an ``ElementResult`` as ``element_tests`` does."""
+def tensor_of_paths(histories, paths):
+    """Per path (strain change, stress change, stress / strain_path) from its first and last
+    history rows, and C = S E^-1 (6x6 list, Pa) when all six paths ran, else None."""
     import numpy as np
-    from yade import O
-    if not O.periodic:
-        raise InputError("element tests deform the periodic cell: the scene is not periodic")
-    O.saveTmp("anisobond-in-place")
-    histories = {}
-    for p in paths:
-        O.loadTmp("anisobond-in-place")
-        histories[p] = run_path(p, strain, steps, damping)
-    O.loadTmp("anisobond-in-place")
     columns = {}
     for p in paths:
         _, _, e_end, s_end = histories[p][-1]
@@ -454,6 +443,24 @@ def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 
         e_mat = np.array([columns[p][0] for p in range(6)]).T
         s_mat = np.array([columns[p][1] for p in range(6)]).T
         c = (s_mat.dot(np.linalg.inv(e_mat))).tolist()
+    return columns, c
+
+
+def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 3, 4, 5)):
+    """The six-path element tests on the current scene as the user built it (periodic cell,
+    their engines, time step and bonds): every path starts from the current state
+    (``O.saveTmp``/``O.loadTmp``), the strain in one step, then ``steps`` steps with Cundall
+    damping ``damping``. Returns an ``ElementResult`` as ``element_tests`` does."""
+    from yade import O
+    if not O.periodic:
+        raise InputError("element tests deform the periodic cell: the scene is not periodic")
+    O.saveTmp("anisobond-in-place")
+    histories = {}
+    for p in paths:
+        O.loadTmp("anisobond-in-place")
+        histories[p] = run_path(p, strain, steps, damping)
+    O.loadTmp("anisobond-in-place")
+    columns, c = tensor_of_paths(histories, paths)
     return ElementResult(c=c, histories=histories, columns=columns, timings={}, dt=O.dt,
                          strain=strain, steps=steps, damping=damping, density=None,
                          paths=list(paths), safety=None)
@@ -748,7 +755,6 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
     matrices of final stress and strain columns (all six paths needed; with fewer paths
     ``C`` is None and ``columns`` holds stress/strain_a of each path run).
     """
-    import numpy as np
     from yade import O
     histories, timings, dt_used = {}, {}, None
     for k, p in enumerate(paths):
@@ -765,18 +771,7 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
         histories[p] = run_path(p, strain, steps, damping)
         t2 = time.time()
         timings[p] = {"build_s": t1 - t0, "run_s": t2 - t1}
-    columns = {}
-    for p in paths:
-        _, _, e_end, s_end = histories[p][-1]
-        _, _, e_0, s_0 = histories[p][0]
-        e = [e_end[k] - e_0[k] for k in range(6)]
-        s = [s_end[k] - s_0[k] for k in range(6)]
-        columns[p] = (e, s, [s[k] / e[p] for k in range(6)])
-    c = None
-    if sorted(paths) == [0, 1, 2, 3, 4, 5]:
-        e_mat = np.array([columns[p][0] for p in range(6)]).T
-        s_mat = np.array([columns[p][1] for p in range(6)]).T
-        c = (s_mat.dot(np.linalg.inv(e_mat))).tolist()
+    columns, c = tensor_of_paths(histories, paths)
     return ElementResult(c=c, histories=histories, columns=columns, timings=timings, dt=dt_used,
                          strain=strain, steps=steps, damping=damping, density=density,
                          paths=list(paths), safety=safety)

@@ -21,7 +21,6 @@ use crate::homogenize::report::TensorReport;
 use crate::io::OutputSet;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::{Packing, PeriodicCell};
-use crate::schemes::cubic::CubicModel;
 use crate::schemes::StiffnessScheme;
 use crate::tensor::elastic::EngineeringConstants;
 use crate::tensor::Stiffness6;
@@ -212,6 +211,18 @@ fn write_file(
 ) -> PyResult<()> {
     let mut out = OutputSet::new(&[]);
     let staged = out.file(&path).map_err(to_py)?;
+    write(&staged).map_err(to_py)?;
+    out.commit().map_err(to_py)
+}
+
+/// Write a directory atomically through an output set: `write` fills a staging directory
+/// that replaces `path` only when it succeeded (nothing is left behind otherwise).
+fn write_dir(
+    path: PathBuf,
+    write: impl FnOnce(&std::path::Path) -> crate::Result<()>,
+) -> PyResult<()> {
+    let mut out = OutputSet::new(&[]);
+    let staged = out.dir(&path).map_err(to_py)?;
     write(&staged).map_err(to_py)?;
     out.commit().map_err(to_py)
 }
@@ -849,10 +860,9 @@ impl PyAssembly {
         };
         opts.validate().map_err(to_py)?;
         let a = &self.inner;
-        let mut out = OutputSet::new(&[]);
-        let staged = out.dir(&directory).map_err(to_py)?;
-        write_assembly_export(&staged, a, &opts).map_err(to_py)?;
-        out.commit().map_err(to_py)
+        write_dir(directory, |d| {
+            write_assembly_export(d, a, &opts).map(|_| ())
+        })
     }
 
     /// Write LIGGGHTS 3.8 decks into `directory` as `anisobond export liggghts` does
@@ -865,10 +875,9 @@ impl PyAssembly {
             ..Default::default()
         };
         let a = &self.inner;
-        let mut out = OutputSet::new(&[]);
-        let staged = out.dir(&directory).map_err(to_py)?;
-        export_liggghts(&staged, &a.packing, &a.bonds, &a.springs, &opts).map_err(to_py)?;
-        out.commit().map_err(to_py)
+        write_dir(directory, |d| {
+            export_liggghts(d, &a.packing, &a.bonds, &a.springs, &opts).map(|_| ())
+        })
     }
 
     /// ParaView files `particles.vtu` and `bonds.vtu` in `directory`, as `anisobond export
@@ -889,11 +898,9 @@ impl PyAssembly {
             _ => None,
         };
         let a = &self.inner;
-        let mut out = OutputSet::new(&[]);
-        let staged = out.dir(&directory).map_err(to_py)?;
-        py.detach(|| a.write_vtk(&staged, strain.as_ref()))
-            .map_err(to_py)?;
-        out.commit().map_err(to_py)
+        write_dir(directory, |d| {
+            py.detach(|| a.write_vtk(d, strain.as_ref())).map(|_| ())
+        })
     }
 
     fn __repr__(&self) -> String {
@@ -948,16 +955,7 @@ fn calibrate_model<'py>(
     let opts = CubicOptions {
         family: Family::from_name(family).map_err(to_py)?,
         extended,
-        model: match cubic_model {
-            "auto" => None,
-            "zener-above-1" => Some(CubicModel::ZenerAbove1),
-            "zener-below-1" => Some(CubicModel::ZenerBelow1),
-            other => {
-                return Err(InputError::new_err(format!(
-                    "cubic_model `{other}`: expected 'auto', 'zener-above-1' or 'zener-below-1'"
-                )))
-            }
-        },
+        model: crate::calibrate::forced_cubic_model(cubic_model).map_err(to_py)?,
         tolerance,
         max_iterations,
         ..Default::default()

@@ -10,6 +10,7 @@ use crate::export::lammps::{export_lammps, LammpsOptions};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
+use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use serde::Serialize;
@@ -86,11 +87,6 @@ impl EngineDetails for LammpsDetails {
                 .collect(),
         }
     }
-}
-
-/// Largest |a − b| over the entries divided by the largest |b|.
-fn max_relative(a: &Stiffness6, b: &Stiffness6) -> f64 {
-    (a - b).abs().max() / b.abs().max()
 }
 
 /// Run `run.sh np` in `dir` with `lmp`; return the tensor it wrote (Pa).
@@ -173,14 +169,14 @@ pub fn validate_lammps(
     let mut checks = vec![Check::new(
         "tensor-lammps-relaxed",
         "LAMMPS quasi-static tensor (1 process) vs the relaxed tensor with the midpoint lever arm",
-        max_relative(&lammps[0].1, &relaxed),
+        relative_difference(&lammps[0].1, &relaxed),
         o.relaxed_tolerance,
     )];
     if let [(_, one), (_, two)] = lammps.as_slice() {
         checks.push(Check::new(
             "tensor-np2-np1",
             "LAMMPS on 2 MPI processes vs 1 (all six cases, shears included)",
-            max_relative(two, one),
+            relative_difference(two, one),
             o.processes_tolerance,
         ));
     }

@@ -2,7 +2,6 @@
 reference the package must equal) and a small periodic packing it generated."""
 
 import os
-import shutil
 import subprocess
 from pathlib import Path
 
