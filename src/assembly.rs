@@ -142,7 +142,8 @@ impl Assembly {
     /// An assembly whose bonds and springs are a bond table's (docs/formats.md; e.g. a YADE
     /// scene's own bond network written by `anisobond_yade.bond_table`), not the model's
     /// rule and scheme; the model still serves the mean field. Refuses, naming the table, a
-    /// particle index the packing does not have.
+    /// particle index the packing does not have and a bond whose length is not its
+    /// particles' (minimum-image) distance within 1e-6.
     pub fn from_table_file(packing: Packing, model: Model, table_path: &Path) -> Result<Assembly> {
         let (bonds, springs) = crate::bonds::table::read_bond_table(table_path)?;
         let n = packing.len();
@@ -160,6 +161,25 @@ impl Assembly {
                 "{}: the bond table holds no bonds",
                 table_path.display()
             )));
+        }
+        // The table must be of this packing: every bond's length is its particles' distance
+        // (the minimum image in a periodic cell), or the tensor would be of another network.
+        for b in 0..bonds.len() {
+            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+            let d = packing.positions[j] - packing.positions[i];
+            let d = match &packing.cell {
+                Some(cell) => cell.minimum_image(d).0,
+                None => d,
+            }
+            .norm();
+            let l = bonds.length[b];
+            if (d - l).abs() > 1e-6 * l || d.is_nan() {
+                return Err(Error::Invalid(format!(
+                    "{}: bond {b} ({i}–{j}) has length {l:e} m, but the packing puts its \
+                     particles {d:e} m apart: the bond table is not of this packing",
+                    table_path.display()
+                )));
+            }
         }
         Ok(Assembly {
             packing,

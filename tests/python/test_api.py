@@ -268,6 +268,14 @@ def test_cli_tensor_of_a_bond_table(files, cubic, tmp_path):
                         "-o", str(tmp_path / "never.json")], capture_output=True, text=True)
     assert r.returncode != 0 and "but the packing has 400 (0 to 399)" in r.stderr, r.stderr
     assert not (tmp_path / "never.json").exists()
+    # A table of another packing (same count, other positions) is refused, not computed.
+    other = tmp_path / "other.txt"
+    cli("pack", "--particles", 400, "--seed", 8, "-o", other)
+    r = subprocess.run([anisobond_bin(), "tensor", str(other), "--model",
+                        str(files / "cubic.toml"), "--bonds", str(table), "--method", "voigt",
+                        "-o", str(tmp_path / "never.json")], capture_output=True, text=True)
+    assert r.returncode != 0 and "the bond table is not of this packing" in r.stderr, r.stderr
+    assert not (tmp_path / "never.json").exists()
 
 
 def test_degenerate_and_not_converged_are_their_own_exceptions(cubic):
