@@ -33,23 +33,9 @@ use std::path::Path;
 /// The scheme of a model with its parameters, validated.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SchemeSpec {
-    /// Cubic spheroid scheme (Truszkowska 2018, Eqs. 6–16).
-    Cubic {
-        /// Which family carries k_n and which k_s.
-        model: CubicModel,
-        /// Add the ±0.5·r<110> terms (Sec. 6.1).
-        extended: bool,
-        /// Aspect ratio of the normal-stiffness spheroids.
-        a_n: f64,
-        /// Aspect ratio of the shear-stiffness spheroids.
-        a_s: f64,
-        /// Normal magnitude (unit of the geometry convention).
-        normal: f64,
-        /// Shear magnitude.
-        shear: f64,
-        /// Crystal orientation R: functions are evaluated at R·n.
-        rotation: Mat3,
-    },
+    /// Cubic spheroid scheme (Truszkowska 2018, Eqs. 6–16), as read: its parameters are
+    /// checked when the scheme is built ([`CubicSpheroid::checked`]).
+    Cubic(CubicSpheroid),
     /// Šmilauer's cross-anisotropic elliptic scheme, given by its target tensor.
     CrossAnisotropic {
         /// Target C11 (Pa).
@@ -387,7 +373,7 @@ impl Model {
     pub fn truszkowska_mrv() -> Model {
         Model {
             bonding: BondingRule::Gap(0.17),
-            scheme: SchemeSpec::Cubic {
+            scheme: SchemeSpec::Cubic(CubicSpheroid {
                 model: CubicModel::ZenerAbove1,
                 extended: false,
                 a_n: 4.31,
@@ -395,7 +381,7 @@ impl Model {
                 normal: 1.0e13,
                 shear: 3.55e12,
                 rotation: Mat3::identity(),
-            },
+            }),
             geometry: Geometry::default(),
         }
     }
@@ -505,7 +491,7 @@ impl Model {
                     }
                     (None, None) => Mat3::identity(),
                 };
-                SchemeSpec::Cubic {
+                SchemeSpec::Cubic(CubicSpheroid {
                     model: s.model,
                     extended: s.extended,
                     a_n: finite(s.a_n, "a_n")?,
@@ -513,7 +499,7 @@ impl Model {
                     normal: finite(s.normal, "normal")?,
                     shear: finite(s.shear, "shear")?,
                     rotation,
-                }
+                })
             }
             RawScheme::CrossAnisotropic(s) => {
                 let axis = match (s.axis, s.strike_deg, s.dip_deg) {
@@ -664,17 +650,7 @@ impl Model {
     /// cross-anisotropic scheme; [`Self::build_scheme`] takes μ from a bonded packing).
     pub fn scheme_for(&self, lattice_scaling: Option<f64>) -> Result<Box<dyn StiffnessScheme>> {
         Ok(match &self.scheme {
-            SchemeSpec::Cubic {
-                model,
-                extended,
-                a_n,
-                a_s,
-                normal,
-                shear,
-                rotation,
-            } => Box::new(CubicSpheroid::new(
-                *model, *extended, *a_n, *a_s, *normal, *shear, *rotation,
-            )?),
+            SchemeSpec::Cubic(cubic) => Box::new(cubic.checked()?),
             SchemeSpec::Isotropic { normal, shear } => Box::new(Isotropic::new(*normal, *shear)?),
             SchemeSpec::CrossAnisotropic {
                 c11,
@@ -710,22 +686,14 @@ impl Model {
             BondingRule::Coordination(v) => ("coordination", v),
         };
         let s = match &self.scheme {
-            SchemeSpec::Cubic {
-                model,
-                extended,
-                a_n,
-                a_s,
-                normal,
-                shear,
-                rotation,
-            } => RawScheme::Cubic(RawCubic {
-                model: *model,
-                extended: *extended,
-                a_n: *a_n,
-                a_s: *a_s,
-                normal: *normal,
-                shear: *shear,
-                rotation: Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)]))),
+            SchemeSpec::Cubic(c) => RawScheme::Cubic(RawCubic {
+                model: c.model,
+                extended: c.extended,
+                a_n: c.a_n,
+                a_s: c.a_s,
+                normal: c.normal,
+                shear: c.shear,
+                rotation: Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| c.rotation[(i, j)]))),
                 euler_zyz_deg: None,
             }),
             SchemeSpec::CrossAnisotropic {

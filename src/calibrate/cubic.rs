@@ -216,7 +216,7 @@ impl CubicCalibration {
     /// The base model with its scheme replaced by the calibrated one (rotation kept).
     pub fn model(&self, base: &Model) -> Model {
         let mut m = base.clone();
-        m.scheme = SchemeSpec::Cubic {
+        m.scheme = SchemeSpec::Cubic(CubicSpheroid {
             model: self.parameters.model,
             extended: self.parameters.extended,
             a_n: self.parameters.a_n,
@@ -224,7 +224,7 @@ impl CubicCalibration {
             normal: self.normal,
             shear: self.shear,
             rotation: base_rotation(base),
-        };
+        });
         m
     }
 }
@@ -232,7 +232,7 @@ impl CubicCalibration {
 /// Crystal rotation of a cubic base model (identity for other schemes).
 pub fn base_rotation(base: &Model) -> Mat3 {
     match &base.scheme {
-        SchemeSpec::Cubic { rotation, .. } => *rotation,
+        SchemeSpec::Cubic(c) => c.rotation,
         _ => Mat3::identity(),
     }
 }

@@ -158,9 +158,7 @@ fn calibrate_cubic(
     opts: &CubicOptions,
 ) -> Result<CubicCalibration> {
     let (base_extended, normal) = match &base.scheme {
-        SchemeSpec::Cubic {
-            extended, normal, ..
-        } => (*extended, *normal),
+        SchemeSpec::Cubic(c) => (c.extended, c.normal),
         SchemeSpec::Isotropic { normal, .. } => (false, *normal),
         SchemeSpec::CrossAnisotropic { .. } => return Err(Error::Invalid(
             "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic"

@@ -49,6 +49,16 @@ fn damp(a: F, vel: F, mass: F, c: &UpdateConsts) -> (F, F) {
     (damped, term)
 }
 
+/// [`damp`] on the three components of an acceleration `a` with velocity `vel`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn damp3(a: V, vel: V, mass: F, c: &UpdateConsts) -> (V, [F; 3]) {
+    let (x, tx) = damp(a.x, vel.x, mass, c);
+    let (y, ty) = damp(a.y, vel.y, mass, c);
+    let (z, tz) = damp(a.z, vel.z, mass, c);
+    (V { x, y, z }, [tx, ty, tz])
+}
+
 /// Four particles of the leapfrog update (see `sim::update_particle`): returns their
 /// kinetic energies and the six damping terms each, in the scalar summation order.
 ///
@@ -81,17 +91,7 @@ pub(crate) unsafe fn update4(
     let mut a = V::gather(f).scale(div(splat(1.0), m));
     let mut terms = [splat(0.0); 6];
     if c.lambda > 0.0 {
-        let (ax, tx) = damp(a.x, fluct.x, m, c);
-        let (ay, ty) = damp(a.y, fluct.y, m, c);
-        let (az, tz) = damp(a.z, fluct.z, m, c);
-        a = V {
-            x: ax,
-            y: ay,
-            z: az,
-        };
-        terms[0] = tx;
-        terms[1] = ty;
-        terms[2] = tz;
+        (a, [terms[0], terms[1], terms[2]]) = damp3(a, fluct, m, c);
     }
     let u = fluct.add(a.scale(half_dt));
     let mut energy = mul(mul(splat(0.5), m), u.dot(u));
@@ -101,17 +101,7 @@ pub(crate) unsafe fn update4(
     v = v.add(a.scale(dt));
     let mut alpha = V::gather(t).scale(div(splat(1.0), inertia));
     if c.lambda > 0.0 {
-        let (ax, tx) = damp(alpha.x, w.x, inertia, c);
-        let (ay, ty) = damp(alpha.y, w.y, inertia, c);
-        let (az, tz) = damp(alpha.z, w.z, inertia, c);
-        alpha = V {
-            x: ax,
-            y: ay,
-            z: az,
-        };
-        terms[3] = tx;
-        terms[4] = ty;
-        terms[5] = tz;
+        (alpha, [terms[3], terms[4], terms[5]]) = damp3(alpha, w, inertia, c);
     }
     let r = w.add(alpha.scale(half_dt));
     energy = add(energy, mul(mul(splat(0.5), inertia), r.dot(r)));

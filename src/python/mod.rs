@@ -312,7 +312,7 @@ impl PyModel {
     #[getter]
     fn kind(&self) -> &'static str {
         match self.inner.scheme {
-            SchemeSpec::Cubic { .. } => "cubic",
+            SchemeSpec::Cubic(_) => "cubic",
             SchemeSpec::Isotropic { .. } => "isotropic",
             SchemeSpec::CrossAnisotropic { .. } => "cross-anisotropic",
         }
@@ -521,29 +521,89 @@ fn law_kind(name: &str) -> PyResult<LawKind> {
 }
 
 /// The options of [`PyAssembly::tensor`] that choose and tune the method.
-struct MethodArgs<'a> {
-    method: &'a str,
+/// The options of `Assembly.tensor` / `tensor_report` (keyword arguments; defaults as the
+/// CLI's `tensor`): one parser for both methods.
+struct MethodArgs {
+    method: String,
     shell: usize,
     energy: bool,
-    lever_arm: &'a str,
+    lever_arm: String,
     tolerance: f64,
-    solver: &'a str,
-    law: &'a str,
+    solver: String,
+    law: String,
     strain: f64,
     damping: f64,
     max_steps: usize,
+    progress: Option<Py<PyAny>>,
 }
 
-impl MethodArgs<'_> {
+/// The keyword arguments `MethodArgs::parse` accepts, in the order of the stubs.
+const METHOD_OPTIONS: &str = "shell, energy, lever_arm, tolerance, solver, law, strain, \
+                              damping, max_steps, progress";
+
+impl MethodArgs {
+    /// `method` with the keyword `options`; an unknown keyword or a value of the wrong type
+    /// is an `InputError` naming it.
+    fn parse(method: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut a = MethodArgs {
+            method: method.to_owned(),
+            shell: 2,
+            energy: false,
+            lever_arm: "mid-gap".into(),
+            tolerance: 1e-6,
+            solver: "cg".into(),
+            law: "yade".into(),
+            strain: 1e-5,
+            damping: 0.4,
+            max_steps: 20_000,
+            progress: None,
+        };
+        let Some(options) = options else {
+            return Ok(a);
+        };
+        for (key, value) in options.iter() {
+            let key: String = key.extract()?;
+            fn get<'py, T: pyo3::conversion::FromPyObjectOwned<'py>>(
+                key: &str,
+                value: &Bound<'py, PyAny>,
+                what: &str,
+            ) -> PyResult<T> {
+                value.extract::<T>().map_err(|_| {
+                    InputError::new_err(format!("option `{key}`: expected {what}, got {value}"))
+                })
+            }
+            match key.as_str() {
+                "shell" => a.shell = get(&key, &value, "an integer ≥ 1")?,
+                "energy" => a.energy = get(&key, &value, "True or False")?,
+                "lever_arm" => a.lever_arm = get(&key, &value, "a string")?,
+                "tolerance" => a.tolerance = get(&key, &value, "a number")?,
+                "solver" => a.solver = get(&key, &value, "a string")?,
+                "law" => a.law = get(&key, &value, "a string")?,
+                "strain" => a.strain = get(&key, &value, "a number")?,
+                "damping" => a.damping = get(&key, &value, "a number")?,
+                "max_steps" => a.max_steps = get(&key, &value, "an integer ≥ 0")?,
+                "progress" => a.progress = (!value.is_none()).then(|| value.clone().unbind()),
+                other => {
+                    return Err(InputError::new_err(format!(
+                        "unknown option `{other}`: expected one of {METHOD_OPTIONS}"
+                    )))
+                }
+            }
+        }
+        Ok(a)
+    }
+}
+
+impl MethodArgs {
     fn method(&self) -> PyResult<Method> {
-        Ok(match self.method {
+        Ok(match self.method.as_str() {
             "mean-field" => Method::MeanField,
             "voigt" => Method::Voigt,
             "relaxed" => {
                 let opts = RelaxedOptions {
-                    lever_arm: lever_arm(self.lever_arm)?,
+                    lever_arm: lever_arm(&self.lever_arm)?,
                     tolerance: self.tolerance,
-                    solver: relaxed_solver(self.solver)?,
+                    solver: relaxed_solver(&self.solver)?,
                     ..Default::default()
                 };
                 opts.validate().map_err(to_py)?;
@@ -552,7 +612,7 @@ impl MethodArgs<'_> {
             "laf" => Method::Laf {
                 shell: self.shell,
                 energy: self.energy,
-                lever_arm: lever_arm(self.lever_arm)?,
+                lever_arm: lever_arm(&self.lever_arm)?,
             },
             "dynamic" => {
                 let mut options = ElementTestOptions {
@@ -563,7 +623,7 @@ impl MethodArgs<'_> {
                 };
                 options.dem.local_damping = self.damping;
                 Method::Dynamic {
-                    law: law_kind(self.law)?,
+                    law: law_kind(&self.law)?,
                     options,
                 }
             }
@@ -579,13 +639,9 @@ impl MethodArgs<'_> {
 impl PyAssembly {
     /// The checked report of `args`' method, computed without the GIL; `progress(fraction)`
     /// is called (with the GIL) as the dynamic method advances, at most every 1 %.
-    fn report(
-        &self,
-        py: Python<'_>,
-        args: MethodArgs<'_>,
-        progress: Option<Py<PyAny>>,
-    ) -> PyResult<TensorReport> {
+    fn report(&self, py: Python<'_>, args: MethodArgs) -> PyResult<TensorReport> {
         let method = args.method()?;
+        let progress = args.progress;
         let last = Mutex::new(-1.0_f64);
         let report = |f: f64| {
             let Some(cb) = &progress else { return };
@@ -746,83 +802,38 @@ impl PyAssembly {
     /// over the bonds), "relaxed" (exact static equilibrium, sparse solve), "laf" (Kruyt's
     /// local adjustment field, shell order `shell` 1-6, `energy` for the upper bound) or
     /// "dynamic" (the reference integrator's damped element tests).
-    /// lever_arm: "mid-gap" (YADE's contact point) or "proportional".
-    /// tolerance, solver: relaxed only; relative CG residual in [1e-12, 1e-2], "cg",
+    /// Keyword options (defaults): shell=2, energy=False, lever_arm="mid-gap",
+    /// tolerance=1e-6, solver="cg", law="yade", strain=1e-5, damping=0.4, max_steps=20000,
+    /// progress=None; an unknown keyword is an InputError.
+    /// lever_arm: "mid-gap" (YADE's contact point), "proportional" or "half-length"
+    /// (LAMMPS bpm/rotational). tolerance, solver: relaxed only; relative CG residual in [1e-12, 1e-2], "cg",
     /// "cg-jacobi" or "cholesky".
     /// law, strain, damping, max_steps: dynamic only; "yade", "parallel-bond" or "kumar",
     /// strain per path, Cundall damping, step limit per path.
     /// progress: a callable taking the completed fraction (0-1), called as the dynamic
     /// method advances. The GIL is released during the computation.
-    #[pyo3(signature = (method = "relaxed", *, shell = 2, energy = false, lever_arm = "mid-gap",
-        tolerance = 1e-6, solver = "cg", law = "yade", strain = 1e-5, damping = 0.4,
-        max_steps = 20_000, progress = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (method = "relaxed", **options))]
     fn tensor<'py>(
         &self,
         py: Python<'py>,
         method: &str,
-        shell: usize,
-        energy: bool,
-        lever_arm: &str,
-        tolerance: f64,
-        solver: &str,
-        law: &str,
-        strain: f64,
-        damping: f64,
-        max_steps: usize,
-        progress: Option<Py<PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let args = MethodArgs {
-            method,
-            shell,
-            energy,
-            lever_arm,
-            tolerance,
-            solver,
-            law,
-            strain,
-            damping,
-            max_steps,
-        };
-        let r = self.report(py, args, progress)?;
+        let r = self.report(py, MethodArgs::parse(method, options)?)?;
         tensor_array(py, &r.c)
     }
 
     /// The tensor report of `method` as a dict: the JSON `anisobond tensor --json` prints
     /// (C in Pa, cubic and transverse projections, coordination, relative_residual, …).
     /// Arguments as for `tensor`.
-    #[pyo3(signature = (method = "relaxed", *, shell = 2, energy = false, lever_arm = "mid-gap",
-        tolerance = 1e-6, solver = "cg", law = "yade", strain = 1e-5, damping = 0.4,
-        max_steps = 20_000, progress = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (method = "relaxed", **options))]
     fn tensor_report<'py>(
         &self,
         py: Python<'py>,
         method: &str,
-        shell: usize,
-        energy: bool,
-        lever_arm: &str,
-        tolerance: f64,
-        solver: &str,
-        law: &str,
-        strain: f64,
-        damping: f64,
-        max_steps: usize,
-        progress: Option<Py<PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let args = MethodArgs {
-            method,
-            shell,
-            energy,
-            lever_arm,
-            tolerance,
-            solver,
-            law,
-            strain,
-            damping,
-            max_steps,
-        };
-        let r = self.report(py, args, progress)?;
+        let r = self.report(py, MethodArgs::parse(method, options)?)?;
         json_to_py(py, &r.to_json())
     }
 

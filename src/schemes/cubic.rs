@@ -213,6 +213,20 @@ pub struct CubicSpheroid {
 }
 
 impl CubicSpheroid {
+    /// This scheme as [`Self::new`] checks it (a model file's cubic scheme is read into the
+    /// struct and checked when its springs are first needed).
+    pub fn checked(&self) -> Result<Self> {
+        Self::new(
+            self.model,
+            self.extended,
+            self.a_n,
+            self.a_s,
+            self.normal,
+            self.shear,
+            self.rotation,
+        )
+    }
+
     /// A checked scheme: aspect ratios finite and > 0, magnitudes finite and ≥ 0, `rotation`
     /// a proper rotation (|RᵀR − I| ≤ 1e-9, det > 0; see [`orthonormalize_rotation`] for a
     /// printed matrix), and neither stiffness negative anywhere on the sphere.

@@ -21,11 +21,11 @@ fn calibrate_writes_a_model_that_reads_back_and_refuses_nickel() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("C44/C11"), "{stdout}");
     let m = Model::from_path(&out).unwrap();
-    let SchemeSpec::Cubic { model: cm, .. } = m.scheme else {
+    let SchemeSpec::Cubic(cubic) = m.scheme else {
         panic!("cubic expected")
     };
     // Zener 2·0.35/0.8 = 0.875 < 1.
-    assert_eq!(cm, CubicModel::ZenerBelow1);
+    assert_eq!(cubic.model, CubicModel::ZenerBelow1);
 
     let bad = dir.path().join("nickel.toml");
     let o = bin()

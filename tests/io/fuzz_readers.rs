@@ -385,16 +385,9 @@ fn check_tensors(p: Packing, model: Model) -> Result<(), TestCaseError> {
 fn check_model(m: &Model) -> Result<(), TestCaseError> {
     ACCEPTED_MODELS.fetch_add(1, Relaxed);
     let numbers: Vec<f64> = match &m.scheme {
-        SchemeSpec::Cubic {
-            a_n,
-            a_s,
-            normal,
-            shear,
-            rotation,
-            ..
-        } => [*a_n, *a_s, *normal, *shear]
+        SchemeSpec::Cubic(c) => [c.a_n, c.a_s, c.normal, c.shear]
             .into_iter()
-            .chain(rotation.iter().copied())
+            .chain(c.rotation.iter().copied())
             .collect(),
         SchemeSpec::CrossAnisotropic {
             c11,

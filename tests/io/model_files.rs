@@ -29,17 +29,10 @@ bond_radius = "min"
 fn spec_example_parses() {
     let m = Model::from_toml_str(SPEC_EXAMPLE, "model.toml").unwrap();
     assert_eq!(m.bonding, BondingRule::Gap(0.17));
-    match m.scheme {
-        SchemeSpec::Cubic {
-            a_n,
-            a_s,
-            normal,
-            shear,
-            extended,
-            ..
-        } => {
+    match &m.scheme {
+        SchemeSpec::Cubic(c) => {
             assert_eq!(
-                (a_n, a_s, normal, shear, extended),
+                (c.a_n, c.a_s, c.normal, c.shear, c.extended),
                 (4.31, 10.0, 1e13, 3.55e12, false)
             );
         }
@@ -153,7 +146,8 @@ fn euler_and_matrix_rotation_agree() {
         Model::from_toml_str(&euler, "b").unwrap(),
     );
     match (a.scheme, b.scheme) {
-        (SchemeSpec::Cubic { rotation: ra, .. }, SchemeSpec::Cubic { rotation: rb, .. }) => {
+        (SchemeSpec::Cubic(a), SchemeSpec::Cubic(b)) => {
+            let (ra, rb) = (a.rotation, b.rotation);
             assert!((ra - rb).abs().max() < 1e-4, "{ra} vs {rb}");
         }
         _ => panic!(),

@@ -131,6 +131,10 @@ def test_bad_arguments_elsewhere(files, cubic, tmp_path):
         cubic.tensor("relax")
     with pytest.raises(ab.InputError, match=r"\[1e-12, 1e-2\]"):
         cubic.tensor("relaxed", tolerance=0.5)
+    with pytest.raises(ab.InputError, match="unknown option `tolerence`: expected one of shell"):
+        cubic.tensor("relaxed", tolerence=1e-8)
+    with pytest.raises(ab.InputError, match="option `shell`: expected an integer"):
+        cubic.tensor_report("laf", shell="two")
     m = cubic.model
     with pytest.raises(ab.InputError, match="normal 1 has length 2"):
         m.springs([[1, 0, 0], [0, 2, 0]], [1, 1], [1, 1], [2, 2])

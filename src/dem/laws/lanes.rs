@@ -38,96 +38,41 @@ pub(crate) fn st4(a: F) -> [f64; LANES] {
     out
 }
 
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn add(a: F, b: F) -> F {
-    _mm256_add_pd(a, b)
+/// Lane operations, each one AVX2 intrinsic: `name(args) -> type = body`, with docs.
+macro_rules! lane_ops {
+    ($($(#[$doc:meta])* $name:ident($($arg:ident: $ty:ty),*) -> $ret:ty = $body:expr;)*) => {$(
+        $(#[$doc])*
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn $name($($arg: $ty),*) -> $ret {
+            $body
+        }
+    )*};
 }
 
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn sub(a: F, b: F) -> F {
-    _mm256_sub_pd(a, b)
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn mul(a: F, b: F) -> F {
-    _mm256_mul_pd(a, b)
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn div(a: F, b: F) -> F {
-    _mm256_div_pd(a, b)
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn splat(a: f64) -> F {
-    _mm256_set1_pd(a)
-}
-
-/// Exact sign flip (as Rust's unary minus).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn neg(a: F) -> F {
-    _mm256_xor_pd(a, _mm256_set1_pd(-0.0))
-}
-
-/// Per lane: `mask ? a : b` (mask lanes all-ones or all-zeros).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn select(mask: F, a: F, b: F) -> F {
-    _mm256_blendv_pd(b, a, mask)
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn sqrt(a: F) -> F {
-    _mm256_sqrt_pd(a)
-}
-
-/// Mask of lanes with a > b (false for NaN, as Rust's `>`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn gt(a: F, b: F) -> F {
-    _mm256_cmp_pd::<_CMP_GT_OQ>(a, b)
-}
-
-/// Mask of lanes with a < b (false for NaN, as Rust's `<`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn lt(a: F, b: F) -> F {
-    _mm256_cmp_pd::<_CMP_LT_OQ>(a, b)
-}
-
-/// Mask of lanes with a <= b (false for NaN, as Rust's `<=`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn le(a: F, b: F) -> F {
-    _mm256_cmp_pd::<_CMP_LE_OQ>(a, b)
-}
-
-/// |a| per lane (clears the sign bit, as `f64::abs`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn abs(a: F) -> F {
-    _mm256_andnot_pd(_mm256_set1_pd(-0.0), a)
-}
-
-/// One bit per lane: set where the mask lane is true.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn movemask(mask: F) -> i32 {
-    _mm256_movemask_pd(mask)
-}
-
-/// Mask of lanes with a != b (true for NaN, as Rust's `!=`).
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn ne(a: F, b: F) -> F {
-    _mm256_cmp_pd::<_CMP_NEQ_UQ>(a, b)
+lane_ops! {
+    add(a: F, b: F) -> F = _mm256_add_pd(a, b);
+    sub(a: F, b: F) -> F = _mm256_sub_pd(a, b);
+    mul(a: F, b: F) -> F = _mm256_mul_pd(a, b);
+    div(a: F, b: F) -> F = _mm256_div_pd(a, b);
+    splat(a: f64) -> F = _mm256_set1_pd(a);
+    /// Exact sign flip (as Rust's unary minus).
+    neg(a: F) -> F = _mm256_xor_pd(a, _mm256_set1_pd(-0.0));
+    /// Per lane: `mask ? a : b` (mask lanes all-ones or all-zeros).
+    select(mask: F, a: F, b: F) -> F = _mm256_blendv_pd(b, a, mask);
+    sqrt(a: F) -> F = _mm256_sqrt_pd(a);
+    /// Mask of lanes with a > b (false for NaN, as Rust's `>`).
+    gt(a: F, b: F) -> F = _mm256_cmp_pd::<_CMP_GT_OQ>(a, b);
+    /// Mask of lanes with a < b (false for NaN, as Rust's `<`).
+    lt(a: F, b: F) -> F = _mm256_cmp_pd::<_CMP_LT_OQ>(a, b);
+    /// Mask of lanes with a <= b (false for NaN, as Rust's `<=`).
+    le(a: F, b: F) -> F = _mm256_cmp_pd::<_CMP_LE_OQ>(a, b);
+    /// |a| per lane (clears the sign bit, as `f64::abs`).
+    abs(a: F) -> F = _mm256_andnot_pd(_mm256_set1_pd(-0.0), a);
+    /// One bit per lane: set where the mask lane is true.
+    movemask(mask: F) -> i32 = _mm256_movemask_pd(mask);
+    /// Mask of lanes with a != b (true for NaN, as Rust's `!=`).
+    ne(a: F, b: F) -> F = _mm256_cmp_pd::<_CMP_NEQ_UQ>(a, b);
 }
 
 #[derive(Clone, Copy)]

@@ -3,12 +3,28 @@
 from os import PathLike
 from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Union
 
+from typing_extensions import TypedDict, Unpack
+
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, PathLike]
 _Floats = npt.ArrayLike
 _Progress = Optional[Callable[[float], Any]]
+
+class TensorOptions(TypedDict, total=False):
+    """Keyword options of Assembly.tensor / tensor_report (defaults in brackets)."""
+
+    shell: int  # LAF shell order 1-6 [2]
+    energy: bool  # LAF energy (upper-bound) form [False]
+    lever_arm: str  # "mid-gap" | "proportional" | "half-length" ["mid-gap"]
+    tolerance: float  # relaxed: relative CG residual [1e-6]
+    solver: str  # relaxed: "cg" | "cg-jacobi" | "cholesky" ["cg"]
+    law: str  # dynamic: "yade" | "parallel-bond" | "kumar" ["yade"]
+    strain: float  # dynamic: strain per path [1e-5]
+    damping: float  # dynamic: Cundall damping [0.4]
+    max_steps: int  # dynamic: step limit per path [20000]
+    progress: _Progress  # dynamic: callable(fraction) [None]
 
 __version__: str
 
@@ -97,33 +113,13 @@ class Assembly:
     def tensor(
         self,
         method: str = "relaxed",
-        *,
-        shell: int = 2,
-        energy: bool = False,
-        lever_arm: str = "mid-gap",
-        tolerance: float = 1e-6,
-        solver: str = "cg",
-        law: str = "yade",
-        strain: float = 1e-5,
-        damping: float = 0.4,
-        max_steps: int = 20000,
-        progress: _Progress = None,
+        **options: Unpack[TensorOptions],
     ) -> np.ndarray:
         """(6, 6) stiffness in Pa: 'mean-field', 'voigt', 'relaxed', 'laf' or 'dynamic'."""
     def tensor_report(
         self,
         method: str = "relaxed",
-        *,
-        shell: int = 2,
-        energy: bool = False,
-        lever_arm: str = "mid-gap",
-        tolerance: float = 1e-6,
-        solver: str = "cg",
-        law: str = "yade",
-        strain: float = 1e-5,
-        damping: float = 0.4,
-        max_steps: int = 20000,
-        progress: _Progress = None,
+        **options: Unpack[TensorOptions],
     ) -> Dict[str, Any]: ...
     def write_bonds(self, path: _Path) -> None: ...
     def export_yade(
