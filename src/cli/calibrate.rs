@@ -86,15 +86,9 @@ pub struct CalibrateArgs {
     /// Relaxed level: contact point (lever arm) of the bonds.
     #[arg(long, value_enum, default_value_t = LeverArmArg::MidGap)]
     lever_arm: LeverArmArg,
-    /// Mean field without a packing, absolute target: mean bonds per particle Z.
-    #[arg(long, default_value_t = 7.7)]
-    coordination: f64,
-    /// Mean field without a packing, absolute target: solid fraction φ.
-    #[arg(long, default_value_t = 0.6)]
-    solid_fraction: f64,
-    /// Mean field without a packing, absolute target: sphere radius R (m).
-    #[arg(long, default_value_t = 1e-3)]
-    radius: f64,
+    /// Mean field without a packing (absolute targets).
+    #[command(flatten)]
+    spheres: super::EqualSphereArgs,
 }
 
 fn load_model(path: &Path) -> Result<Model> {
@@ -172,10 +166,8 @@ fn print_cubic(cal: &CubicCalibration, secs: f64) {
         );
     }
     println!(
-        "  cubic symmetry of the achieved tensor: spread C11 {:.3e}, C12 {:.3e}, C44 {:.3e}, off-symmetry terms {:.3e} GPa",
-        a.uncertainty.c11 / 1e9,
-        a.uncertainty.c12 / 1e9,
-        a.uncertainty.c44 / 1e9,
+        "  cubic symmetry of the achieved tensor: spread {}, off-symmetry terms {:.3e} GPa",
+        super::output::spread_gpa(&a.uncertainty),
         a.uncertainty.zero_terms / 1e9
     );
     println!("  time {secs:.2} s");
@@ -220,12 +212,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     let on = match (&bonded, relaxed) {
         (Some(b), true) => CalibrateOn::Relaxed(b),
         (Some(b), false) => CalibrateOn::MeanFieldOf(b),
-        (None, _) => CalibrateOn::MeanField(super::equal_spheres(
-            a.coordination,
-            a.solid_fraction,
-            a.radius,
-            &base.geometry,
-        )?),
+        (None, _) => CalibrateOn::MeanField(a.spheres.equal_spheres(&base.geometry)?),
     };
     let opts = CubicOptions {
         family: a.family.into(),

@@ -101,20 +101,14 @@ pub fn run(a: DemoArgs) -> Result<()> {
             report_of(&b, m, &statics, &args)?
         };
         let secs = t.elapsed().as_secs_f64();
-        let cu = &r.cubic;
+        let [c11, c12, c44, r12, r44, zener] = output::cubic_row(&r.cubic);
+        let name = if m == MethodArg::Laf {
+            "laf (m = 2, stress)"
+        } else {
+            r.method.as_str()
+        };
         println!(
-            "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>9.4} {:>9.4} {:>8.4}   ({secs:.2} s)",
-            if m == MethodArg::Laf {
-                "laf (m = 2, stress)"
-            } else {
-                r.method.as_str()
-            },
-            cu.c11 / 1e9,
-            cu.c12 / 1e9,
-            cu.c44 / 1e9,
-            cu.c12 / cu.c11,
-            cu.c44 / cu.c11,
-            cu.zener
+            "{name:<22} {c11:>10.3} {c12:>10.3} {c44:>10.3} {r12:>9.4} {r44:>9.4} {zener:>8.4}   ({secs:.2} s)"
         );
         let name = format!("tensor-{}.json", r.method);
         output::write_json(&dir.join(&name), &r)?;

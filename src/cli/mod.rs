@@ -204,15 +204,8 @@ struct TensorArgs {
     /// Also write the JSON report to this file.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Mean field without a packing: mean bonds per particle Z.
-    #[arg(long, default_value_t = 7.7)]
-    coordination: f64,
-    /// Mean field without a packing: solid fraction φ.
-    #[arg(long, default_value_t = 0.6)]
-    solid_fraction: f64,
-    /// Mean field without a packing: sphere radius R (m).
-    #[arg(long, default_value_t = 1e-3)]
-    radius: f64,
+    #[command(flatten)]
+    spheres: EqualSphereArgs,
     #[command(flatten)]
     statics: StaticArgs,
     /// Integrator settings of --method dynamic.
@@ -351,41 +344,60 @@ fn input_names(inputs: &[&Path]) -> String {
     names.join(", ")
 }
 
-/// The equal-sphere bond density of `--coordination`, `--solid-fraction`, `--radius` (mean
-/// field without a packing), refused by option name when out of range or overflowing.
-pub(crate) fn equal_spheres(
+/// The equal spheres of a mean field without a packing (`tensor`, `calibrate`).
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub(crate) struct EqualSphereArgs {
+    /// Mean field without a packing: mean bonds per particle Z.
+    #[arg(long, default_value_t = 7.7)]
     coordination: f64,
+    /// Mean field without a packing: solid fraction φ.
+    #[arg(long, default_value_t = 0.6)]
     solid_fraction: f64,
+    /// Mean field without a packing: sphere radius R (m).
+    #[arg(long, default_value_t = 1e-3)]
     radius: f64,
-    geometry: &anisobond::schemes::Geometry,
-) -> Result<EqualSpheres> {
-    for (name, v) in [
-        ("--coordination", coordination),
-        ("--solid-fraction", solid_fraction),
-        ("--radius", radius),
-    ] {
-        if !v.is_finite() || v <= 0.0 {
-            return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
+}
+
+impl EqualSphereArgs {
+    /// The equal-sphere bond density of these options, refused by option name when out of
+    /// range or overflowing.
+    pub(crate) fn equal_spheres(
+        &self,
+        geometry: &anisobond::schemes::Geometry,
+    ) -> Result<EqualSpheres> {
+        let EqualSphereArgs {
+            coordination,
+            solid_fraction,
+            radius,
+        } = *self;
+        for (name, v) in [
+            ("--coordination", coordination),
+            ("--solid-fraction", solid_fraction),
+            ("--radius", radius),
+        ] {
+            if !v.is_finite() || v <= 0.0 {
+                return Err(Error::Invalid(format!("{name} must be > 0, got {v}")));
+            }
         }
+        if !(0.01..1.0).contains(&solid_fraction) {
+            return Err(Error::Invalid(format!(
+                "--solid-fraction must be in [0.01, 1) (a bonded sphere assembly), got {solid_fraction}"
+            )));
+        }
+        let spheres = EqualSpheres {
+            coordination,
+            solid_fraction,
+            radius,
+        };
+        spheres.prefactor(geometry).map_err(|_| {
+            Error::Invalid(format!(
+                "--coordination {coordination:e}, --solid-fraction {solid_fraction}, --radius \
+                 {radius:e} m give a bond-density prefactor out of the range of double precision \
+                 (radius in metres, e.g. 1e-3)"
+            ))
+        })?;
+        Ok(spheres)
     }
-    if !(0.01..1.0).contains(&solid_fraction) {
-        return Err(Error::Invalid(format!(
-            "--solid-fraction must be in [0.01, 1) (a bonded sphere assembly), got {solid_fraction}"
-        )));
-    }
-    let spheres = EqualSpheres {
-        coordination,
-        solid_fraction,
-        radius,
-    };
-    spheres.prefactor(geometry).map_err(|_| {
-        Error::Invalid(format!(
-            "--coordination {coordination:e}, --solid-fraction {solid_fraction}, --radius \
-             {radius:e} m give a bond-density prefactor out of the range of double precision \
-             (radius in metres, e.g. 1e-3)"
-        ))
-    })?;
-    Ok(spheres)
 }
 
 impl MethodArg {
@@ -421,7 +433,8 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             report_of(&asm, m, &a.statics, &a.integrator).map_err(|e| blame_inputs(e, &inputs))?
         }
         (None, MethodArg::MeanField) => {
-            equal_spheres(a.coordination, a.solid_fraction, a.radius, &model.geometry)?
+            a.spheres
+                .equal_spheres(&model.geometry)?
                 .mean_field(&model)
                 // The options are checked by now: an invalid input here is a model that
                 // needs a packing (the cross-anisotropic scheme), named by its file.

@@ -1,7 +1,8 @@
 //! Printing and file helpers of the CLI: tables in GPa, JSON files, progress bars.
 
-use anisobond::homogenize::report::TensorReport;
+use anisobond::homogenize::report::{CubicSummary, TensorReport};
 use anisobond::packing::{generate, Packing};
+use anisobond::tensor::CubicUncertainty;
 use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
@@ -50,23 +51,37 @@ pub fn print_report(r: &TensorReport) {
     } else if let Some(z) = r.coordination {
         println!("equal-sphere mean field at coordination Z = {z:.3}");
     }
-    let c = &r.cubic;
+    let [c11, c12, c44, r12, r44, zener] = cubic_row(&r.cubic);
     println!(
-        "cubic projection: C11 = {:.4} GPa, C12 = {:.4} GPa, C44 = {:.4} GPa; C12/C11 = {:.4}, C44/C11 = {:.4}, Zener = {:.4}",
+        "cubic projection: C11 = {c11:.4} GPa, C12 = {c12:.4} GPa, C44 = {c44:.4} GPa; C12/C11 = {r12:.4}, C44/C11 = {r44:.4}, Zener = {zener:.4}"
+    );
+    println!(
+        "  uncertainty (GPa): {}, terms that should be zero {:.3e}",
+        spread_gpa(&r.cubic.uncertainty),
+        r.cubic.uncertainty.zero_terms / 1e9
+    );
+}
+
+/// A cubic projection as printed: C11, C12, C44 (GPa), C12/C11, C44/C11, Zener.
+pub fn cubic_row(c: &CubicSummary) -> [f64; 6] {
+    [
         c.c11 / 1e9,
         c.c12 / 1e9,
         c.c44 / 1e9,
         c.c12 / c.c11,
         c.c44 / c.c11,
-        c.zener
-    );
-    println!(
-        "  uncertainty (GPa): C11 {:.3e}, C12 {:.3e}, C44 {:.3e}, terms that should be zero {:.3e}",
-        c.uncertainty.c11 / 1e9,
-        c.uncertainty.c12 / 1e9,
-        c.uncertainty.c44 / 1e9,
-        c.uncertainty.zero_terms / 1e9
-    );
+        c.zener,
+    ]
+}
+
+/// The spread of each group of cubically equivalent terms, "C11 … C12 … C44 …" in GPa.
+pub fn spread_gpa(u: &CubicUncertainty) -> String {
+    format!(
+        "C11 {:.3e}, C12 {:.3e}, C44 {:.3e}",
+        u.c11 / 1e9,
+        u.c12 / 1e9,
+        u.c44 / 1e9
+    )
 }
 
 /// A progress bar on stderr over the fraction done (0–1 mapped to 1000 ticks).

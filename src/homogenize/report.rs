@@ -3,64 +3,23 @@
 
 use crate::bonds::BondSet;
 use crate::packing::Packing;
-use crate::tensor::{kelvin_moduli, CubicProjection, Stiffness6, TransverseProjection};
+use crate::tensor::{
+    kelvin_moduli, CubicProjection, CubicUncertainty, Stiffness6, TransverseProjection,
+};
 use crate::{Error, Result};
 use serde::Serialize;
 
-/// Cubic projection: C11, C12, C44 (Pa), Zener ratio and the paper's uncertainty.
-#[derive(Clone, Debug, Serialize)]
-pub struct CubicSummary {
-    /// Mean of C11, C22, C33 (Pa).
-    #[serde(rename = "C11")]
-    pub c11: f64,
-    /// Mean of C12, C13, C23 (Pa).
-    #[serde(rename = "C12")]
-    pub c12: f64,
-    /// Mean of C44, C55, C66 (Pa).
-    #[serde(rename = "C44")]
-    pub c44: f64,
-    /// Zener ratio 2C44/(C11 − C12).
-    pub zener: f64,
-    /// Largest deviation within each group and mean magnitude of the terms that should be
-    /// zero (Pa).
-    pub uncertainty: Uncertainty,
-}
+/// Cubic projection: C11, C12, C44 (Pa), Zener ratio and the paper's uncertainty
+/// (Truszkowska 2018 Sec. 5.3), as [`CubicProjection`] serialises it.
+pub type CubicSummary = CubicProjection;
 
-/// Uncertainty of the cubic projection (Pa), Truszkowska 2018 Sec. 5.3.
-#[derive(Clone, Debug, Serialize)]
-pub struct Uncertainty {
-    /// Largest |C_ii − C̄11|, i = 1..3.
-    #[serde(rename = "C11")]
-    pub c11: f64,
-    /// Largest |C_ij − C̄12|.
-    #[serde(rename = "C12")]
-    pub c12: f64,
-    /// Largest |C_ii − C̄44|, i = 4..6.
-    #[serde(rename = "C44")]
-    pub c44: f64,
-    /// Mean magnitude of the terms that are zero under cubic symmetry.
-    pub zero_terms: f64,
-}
+/// Uncertainty of the cubic projection (Pa), Truszkowska 2018 Sec. 5.3: the tensor
+/// module's [`CubicUncertainty`] as the report serialises it.
+pub type Uncertainty = CubicUncertainty;
 
-/// Transversely isotropic projection about z (Pa).
-#[derive(Clone, Debug, Serialize)]
-pub struct TransverseSummary {
-    /// C11 = C22.
-    #[serde(rename = "C11")]
-    pub c11: f64,
-    /// C33.
-    #[serde(rename = "C33")]
-    pub c33: f64,
-    /// C13 = C23.
-    #[serde(rename = "C13")]
-    pub c13: f64,
-    /// C12.
-    #[serde(rename = "C12")]
-    pub c12: f64,
-    /// C44 = C55.
-    #[serde(rename = "C44")]
-    pub c44: f64,
-}
+/// Transversely isotropic projection about z (Pa): C11, C33, C13, C12, C44 of
+/// [`TransverseProjection`].
+pub type TransverseSummary = TransverseProjection;
 
 /// The SPEC tensor report.
 #[derive(Clone, Debug, Serialize)]
@@ -143,25 +102,8 @@ impl TensorReport {
             n_bonds: bonded.map(|(_, b)| b.len()),
             coordination: bonded.map(|(p, b)| b.coordination(p.len())),
             volume: bonded.map(|(p, _)| p.volume()),
-            cubic: CubicSummary {
-                c11: cp.c11,
-                c12: cp.c12,
-                c44: cp.c44,
-                zener: cp.zener,
-                uncertainty: Uncertainty {
-                    c11: cp.uncertainty.c11,
-                    c12: cp.uncertainty.c12,
-                    c44: cp.uncertainty.c44,
-                    zero_terms: cp.uncertainty.zero_terms,
-                },
-            },
-            transverse: TransverseSummary {
-                c11: tp.c11,
-                c33: tp.c33,
-                c13: tp.c13,
-                c12: tp.c12,
-                c44: tp.c44,
-            },
+            cubic: cp,
+            transverse: tp,
             relative_residual: None,
         };
         report.check_finite()?;

@@ -46,13 +46,18 @@ fn largest_deviation(c: &Stiffness6, entries: &[(usize, usize)], value: f64) -> 
 /// Uncertainty of a [`CubicProjection`] (Pa), Truszkowska 2018 Sec. 4.4: the largest
 /// absolute deviation of each group of cubically equivalent terms from its mean, and the
 /// mean magnitude of the 12 upper-triangle terms that should be zero.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Serialised as in the tensor report (docs/formats.md): keys `C11`, `C12`, `C44`,
+/// `zero_terms`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CubicUncertainty {
     /// max |C_ii − c11|, i = 1..3.
+    #[serde(rename = "C11")]
     pub c11: f64,
     /// max |C_ij − c12| over C12, C13, C23.
+    #[serde(rename = "C12")]
     pub c12: f64,
     /// max |C_ii − c44|, i = 4..6.
+    #[serde(rename = "C44")]
     pub c44: f64,
     /// Mean |C_ab| over [`OFF_SYMMETRY_TERMS`].
     pub zero_terms: f64,
@@ -62,17 +67,24 @@ pub struct CubicUncertainty {
 /// c11 = mean(C11, C22, C33), c12 = mean(C12, C13, C23), c44 = mean(C44, C55, C66),
 /// other terms zero. This is also the least-squares projection in the Frobenius norm of
 /// C6 (entries of the symmetric part are used). All moduli in Pa.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// Serialised as the tensor report's `cubic` object (docs/formats.md): `C11`, `C12`, `C44`,
+/// `zener`, `uncertainty`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CubicProjection {
     /// C11 (Pa).
+    #[serde(rename = "C11")]
     pub c11: f64,
     /// C12 (Pa).
+    #[serde(rename = "C12")]
     pub c12: f64,
     /// C44 (Pa).
+    #[serde(rename = "C44")]
     pub c44: f64,
     /// Zener ratio 2C44/(C11 − C12).
     pub zener: f64,
     /// Poisson's ratio along <100>, C12/(C11 + C12).
+    #[serde(skip)]
     pub poisson_100: f64,
     /// Spread of the equivalent terms (Truszkowska 2018 Sec. 4.4).
     pub uncertainty: CubicUncertainty,
@@ -143,21 +155,31 @@ pub struct TransverseUncertainty {
 /// C22), B = C12, D = C66: c11 + c12 = A + B, c11 − c12 = (4(A − B) + 2D)/5; c33 = C33,
 /// c13 = mean(C13, C23), c44 = mean(C44, C55). Symmetric-part entries are used, so an
 /// asymmetric C is projected through its symmetric part. Moduli in Pa.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// Serialised as the tensor report's `transverse` object (docs/formats.md): `C11`, `C33`,
+/// `C13`, `C12`, `C44`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct TransverseProjection {
     /// C11 = C22 (Pa).
+    #[serde(rename = "C11")]
     pub c11: f64,
     /// C33 (Pa).
+    #[serde(rename = "C33")]
     pub c33: f64,
     /// C13 = C23 (Pa).
+    #[serde(rename = "C13")]
     pub c13: f64,
     /// C12 (Pa).
+    #[serde(rename = "C12")]
     pub c12: f64,
     /// C44 = C55 (Pa).
+    #[serde(rename = "C44")]
     pub c44: f64,
     /// C66 = (C11 − C12)/2 (Pa).
+    #[serde(skip)]
     pub c66: f64,
     /// Spread of the equivalent terms.
+    #[serde(skip)]
     pub uncertainty: TransverseUncertainty,
 }
 
