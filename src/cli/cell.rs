@@ -7,7 +7,7 @@ use anisobond::model::Model;
 use anisobond::packing::io::{read_packing_as, CellChoice, CellOrigin, PackingFormat};
 use anisobond::packing::Packing;
 use anisobond::{Error, Result, Vec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// Options of every command that reads a packing file.
@@ -94,6 +94,30 @@ pub fn read(path: &Path) -> Result<Packing> {
         _ => {}
     }
     Ok(r.packing)
+}
+
+/// The `PACKING --model MODEL` pair of every command that bonds a packing.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BondedInput {
+    /// Packing file: SPEC text (`x y z r`, `# periodic Lx Ly Lz`), YADE `SpherePack.save` or
+    /// `export.text`, or LIGGGHTS data; a file that does not state its cell takes
+    /// --cell/--periodic/--free.
+    pub packing: PathBuf,
+    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
+    #[arg(long)]
+    pub model: PathBuf,
+}
+
+impl BondedInput {
+    /// The two input files (an output never overwrites them, [`OutputSet`]).
+    pub fn paths(&self) -> [&Path; 2] {
+        [&self.packing, &self.model]
+    }
+
+    /// The packing bonded by the model ([`assembly`]).
+    pub fn assembly(&self) -> Result<Assembly> {
+        assembly(&self.packing, &self.model)
+    }
 }
 
 /// [`read`] the packing and bond it by the model file ([`Assembly::from_files`]).

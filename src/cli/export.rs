@@ -36,12 +36,8 @@ pub enum ExportTarget {
 /// Arguments of `export yade`.
 #[derive(clap::Args)]
 pub struct YadeArgs {
-    /// Periodic packing file (SPEC text `x y z r` with `# periodic Lx Ly Lz`, YADE
-    /// SpherePack text, or LIGGGHTS data).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -85,13 +81,13 @@ fn export_yade_read(
     opts: &YadeRunOptions,
 ) -> Result<yade::YadeExport> {
     opts.validate()?;
-    let asm = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     if asm.packing.cell.is_none() {
         return Err(anisobond::Error::Invalid(format!(
             "{}: the packing is not periodic (no `# periodic Lx Ly Lz` header; give --cell \
              Lx,Ly,Lz for a file that states none); the YADE element tests deform a periodic \
              cell",
-            a.packing.display()
+            a.input.packing.display()
         )));
     }
     yade::write_assembly_export(dir, &asm, opts)
@@ -107,7 +103,7 @@ fn export_yade(a: YadeArgs) -> Result<()> {
         safety: a.safety,
         paths: yade::parse_paths(&a.paths)?,
     };
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let mut set = OutputSet::new(&a.input.paths());
     let staged = set.dir(&a.output)?;
     let written = export_yade_read(&a, &staged, &opts)?;
     set.commit()?;

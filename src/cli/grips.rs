@@ -13,11 +13,8 @@ use std::path::PathBuf;
 /// Arguments of `anisobond grips`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct GripsArgs {
-    /// Periodic packing file (the block is the cell with the boundary-crossing bonds dropped).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     #[command(flatten)]
     pub integrator: IntegratorArgs,
     /// Grip particles: surface within this many R̄ of a face of the box.
@@ -65,9 +62,9 @@ fn validate(a: &GripsArgs) -> Result<()> {
 /// `anisobond grips`.
 pub fn grips(a: GripsArgs) -> Result<()> {
     validate(&a)?;
-    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let mut out = OutputSet::new(&a.input.paths());
     let staged = out.optional_file(a.output.as_deref())?;
-    let asm = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     let i = &a.integrator;
     let opts = GrippedOptions {
         strain: i.strain,

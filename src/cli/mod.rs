@@ -91,11 +91,8 @@ enum Command {
 
 #[derive(clap::Args)]
 struct BondsArgs {
-    /// Packing file (SPEC text `x y z r`, YADE SpherePack text, or LIGGGHTS data).
-    packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    model: PathBuf,
+    #[command(flatten)]
+    input: cell::BondedInput,
     /// Output bond table (CSV).
     #[arg(short, long)]
     output: PathBuf,
@@ -235,9 +232,9 @@ pub fn run() -> Result<()> {
 }
 
 fn bonds_cmd(a: BondsArgs) -> Result<()> {
-    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let mut out = OutputSet::new(&a.input.paths());
     let staged = out.file(&a.output)?;
-    let asm = cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     asm.write_bonds(&staged)?;
     out.commit()?;
     println!(

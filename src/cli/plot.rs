@@ -82,11 +82,8 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
 /// Options of `anisobond export vtk`.
 #[derive(clap::Args)]
 pub struct ExportVtkArgs {
-    /// Packing file.
-    packing: PathBuf,
-    /// Model file.
-    #[arg(long)]
-    model: PathBuf,
+    #[command(flatten)]
+    input: super::cell::BondedInput,
     /// Macroscopic engineering strain applied for displacements and bond forces (Voigt
     /// order 11,22,33,23,13,12; periodic packings only). `0` writes the unloaded state.
     #[arg(long, default_value = "1e-3,0,0,0,0,0")]
@@ -128,11 +125,11 @@ fn parse_strain(s: &str) -> Result<Option<Voigt6>> {
 
 /// Run `anisobond export vtk`.
 pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
-    let model = Model::from_path(&a.model)?;
+    let model = Model::from_path(&a.input.model)?;
     let strain = parse_strain(&a.strain)?;
-    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let mut out = OutputSet::new(&a.input.paths());
     let dir = out.dir(&a.output)?;
-    let b = Assembly::new(super::cell::read(&a.packing)?, model.clone())?;
+    let b = Assembly::new(super::cell::read(&a.input.packing)?, model.clone())?;
     let state = match (strain, b.packing.cell.is_some()) {
         (Some(e), true) => Some(strained_state(
             &b.packing,

@@ -189,11 +189,8 @@ impl IntegratorArgs {
 /// Arguments of `anisobond run`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct RunArgs {
-    /// Periodic packing file (SPEC text with a `# periodic Lx Ly Lz` header).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     #[command(flatten)]
     pub integrator: IntegratorArgs,
     /// Stress–strain history CSV (one row per step of every path).
@@ -292,11 +289,11 @@ pub fn print_stability(result: &element::DynamicTensor) {
 /// `anisobond run`.
 pub fn run(a: RunArgs) -> Result<()> {
     a.integrator.validate()?;
-    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let mut out = OutputSet::new(&a.input.paths());
     let staged_output = out.optional_file(a.output.as_deref())?;
     let staged_history = out.optional_file(a.history.as_deref())?;
     let staged_plot = out.optional_file(a.plot.as_deref())?;
-    let asm = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     let want_history = a.history.is_some() || a.plot.is_some();
     let result = run_element_tests(&asm, &a.integrator, want_history)?;
     let report = TensorReport::new("dynamic", result.c, Some((&asm.packing, &asm.bonds)))?;

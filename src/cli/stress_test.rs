@@ -16,11 +16,8 @@ use std::path::PathBuf;
 /// Arguments of `anisobond stress-test`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct StressTestArgs {
-    /// Periodic packing file (SPEC text with a `# periodic Lx Ly Lz` header).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Bond law.
     #[arg(long, value_enum, default_value_t = LawArg::Yade)]
     pub law: LawArg,
@@ -85,9 +82,9 @@ fn validate(a: &StressTestArgs) -> Result<()> {
 /// `anisobond stress-test`.
 pub fn run(a: StressTestArgs) -> Result<()> {
     validate(&a)?;
-    let mut out = OutputSet::new(&[&a.packing, &a.model]);
+    let mut out = OutputSet::new(&a.input.paths());
     let staged = out.optional_file(a.output.as_deref())?;
-    let asm = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     let dem = a.step.dem_options(a.damping);
     let opts = StressTestOptions {
         strain: a.strain,

@@ -41,12 +41,8 @@ pub enum ValidateTarget {
 /// Arguments of `validate yade`.
 #[derive(clap::Args)]
 pub struct YadeValidateArgs {
-    /// Periodic packing file (SPEC text with `# periodic Lx Ly Lz`, YADE SpherePack text,
-    /// or LIGGGHTS data).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory (created if missing); default: a temporary directory, removed.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -115,15 +111,15 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
         },
     };
     opts.validate()?;
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let mut set = OutputSet::new(&a.input.paths());
     let staged = set.optional_dir(a.output.as_deref())?;
-    let model = Model::from_path(&a.model)?;
+    let model = Model::from_path(&a.input.model)?;
     let Assembly {
         packing,
         bonds: b,
         springs: k,
         ..
-    } = super::cell::assembly_with(&a.packing, model.clone(), &a.model)?;
+    } = super::cell::assembly_with(&a.input.packing, model.clone(), &a.input.model)?;
     let temp;
     let dir = match &staged {
         Some(d) => d.clone(),
