@@ -4,7 +4,7 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::packing::io::{read_packing_as, CellChoice, CellOrigin, PackingFormat};
+use anisobond::packing::io::{read_packing_as, CellChoice, CellOptionNames};
 use anisobond::packing::Packing;
 use anisobond::{Error, Result, Vec3};
 use std::path::{Path, PathBuf};
@@ -57,41 +57,8 @@ pub fn set(a: &CellArgs) -> Result<()> {
 pub fn read(path: &Path) -> Result<Packing> {
     let choice = CHOICE.get().copied().unwrap_or_default();
     let r = read_packing_as(path, choice)?;
-    let name = path.display();
-    let p = &r.packing;
-    match (&p.cell, r.origin, r.format) {
-        (Some(c), CellOrigin::Assumed, _) => eprintln!(
-            "note: {name}: a LIGGGHTS data file does not say whether the run was periodic; \
-             read as periodic (boundary p p p) with the box {} × {} × {} m as the cell; give \
-             --free for a walled box (no bonds across its faces), or --periodic to say so",
-            c.lengths.x, c.lengths.y, c.lengths.z
-        ),
-        (None, origin, format) => {
-            let (lo, hi) = p.bounding_box();
-            let e = hi - lo;
-            let why = match (origin, format) {
-                (CellOrigin::Assumed, _) => {
-                    "the file states no periodic cell (no `# periodic Lx Ly Lz` or \
-                     `##PERIODIC::` line; YADE's export.text writes none), so it is read as \
-                     a free cluster; give --cell Lx,Ly,Lz if it is periodic, or --free to say \
-                     so. A free cluster's"
-                }
-                (CellOrigin::Chosen, PackingFormat::LiggghtsData) => {
-                    "--free: the LIGGGHTS box is walled, no bonds across its faces; the free \
-                     cluster's"
-                }
-                _ => "a free cluster:",
-            };
-            eprintln!(
-                "note: {name}: {why} volume is the bounding box of the spheres, {:e} × {:e} × \
-                 {:e} m = {:e} m³",
-                e.x,
-                e.y,
-                e.z,
-                p.volume()
-            );
-        }
-        _ => {}
+    if let Some(note) = r.cell_note(&path.display().to_string(), CellOptionNames::CLI) {
+        eprintln!("note: {note}");
     }
     Ok(r.packing)
 }

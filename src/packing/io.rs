@@ -91,6 +91,75 @@ pub struct PackingRead {
     pub origin: CellOrigin,
 }
 
+/// How a client names the [`CellChoice`] options in [`PackingRead::cell_note`].
+#[derive(Clone, Copy, Debug)]
+pub struct CellOptionNames {
+    /// [`CellChoice::Cell`].
+    pub cell: &'static str,
+    /// [`CellChoice::Periodic`].
+    pub periodic: &'static str,
+    /// [`CellChoice::Free`].
+    pub free: &'static str,
+}
+
+impl CellOptionNames {
+    /// The command line's global options.
+    pub const CLI: CellOptionNames = CellOptionNames {
+        cell: "--cell Lx,Ly,Lz",
+        periodic: "--periodic",
+        free: "--free",
+    };
+}
+
+impl PackingRead {
+    /// What a user must be told about this packing's cell, or `None` when the file stated
+    /// a periodic cell or the caller chose one: a LIGGGHTS box assumed periodic, or a free
+    /// cluster (with why, and its bounding-box volume). `name` names the file; `options`
+    /// how the caller spells the choices that change it.
+    pub fn cell_note(&self, name: &str, options: CellOptionNames) -> Option<String> {
+        let p = &self.packing;
+        let CellOptionNames {
+            cell,
+            periodic,
+            free,
+        } = options;
+        match (&p.cell, self.origin, self.format) {
+            (Some(c), CellOrigin::Assumed, _) => Some(format!(
+                "{name}: a LIGGGHTS data file does not say whether the run was periodic; read \
+                 as periodic (boundary p p p) with the box {} × {} × {} m as the cell; give \
+                 {free} for a walled box (no bonds across its faces), or {periodic} to say so",
+                c.lengths.x, c.lengths.y, c.lengths.z
+            )),
+            (None, origin, format) => {
+                let (lo, hi) = p.bounding_box();
+                let e = hi - lo;
+                let why = match (origin, format) {
+                    (CellOrigin::Assumed, _) => format!(
+                        "the file states no periodic cell (no `# periodic Lx Ly Lz` or \
+                         `##PERIODIC::` line; YADE's export.text writes none), so it is read \
+                         as a free cluster; give {cell} if it is periodic, or {free} to say \
+                         so. A free cluster's"
+                    ),
+                    (CellOrigin::Chosen, PackingFormat::LiggghtsData) => format!(
+                        "{free}: the LIGGGHTS box is walled, no bonds across its faces; the \
+                         free cluster's"
+                    ),
+                    _ => "a free cluster:".to_string(),
+                };
+                Some(format!(
+                    "{name}: {why} volume is the bounding box of the spheres, {:e} × {:e} × \
+                     {:e} m = {:e} m³",
+                    e.x,
+                    e.y,
+                    e.z,
+                    p.volume()
+                ))
+            }
+            _ => None,
+        }
+    }
+}
+
 /// Read a packing file like [`read_packing`], deciding a cell the file does not state by
 /// `choice` and saying where the cell came from.
 pub fn read_packing_as(path: &Path, choice: CellChoice) -> Result<PackingRead> {

@@ -1,8 +1,10 @@
 """The Python package against the `anisobond` command on the same inputs (to the last digit),
 against closed forms, and on bad arguments. Run: pytest tests/python (after `pip install .`)."""
 
+import csv
 import json
 import threading
+import warnings
 
 import numpy as np
 import pytest
@@ -105,6 +107,40 @@ def test_packing_from_arrays_and_save(files, cubic, tmp_path):
         assert np.array_equal(ab.Packing(p, pk.radii, cell=pk.cell).positions, pk.positions)
     ints = ab.Packing(np.array([[0, 0, 0], [3, 0, 0]]), np.array([1, 1]))
     assert ints.positions.dtype == np.float64 and ints.cell is None
+
+
+def test_packing_cell_choice_and_ids(cubic, tmp_path):
+    pk, model = cubic.packing, cubic.model
+    # A file that states no cell (plain `x y z r` lines, like YADE's export.text).
+    plain = tmp_path / "plain.txt"
+    plain.write_text("".join(
+        f"{x!r} {y!r} {z!r} {r!r}\n" for (x, y, z), r in zip(pk.positions.tolist(), pk.radii.tolist())
+    ))
+    with pytest.warns(UserWarning, match=r"states no periodic cell.*give cell=\(Lx, Ly, Lz\)"):
+        free = ab.Packing.load(plain)
+    assert free.cell is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        periodic = ab.Packing.load(plain, cell=pk.cell)
+        also_free = ab.Packing.load(plain, free=True)
+    assert periodic.cell == pk.cell and also_free.cell is None
+    # The stated cell gives the original network; the free cluster loses the bonds across faces.
+    assert ab.Assembly(periodic, model).n_bonds == cubic.n_bonds
+    assert ab.Assembly(free, model).n_bonds < cubic.n_bonds
+    with pytest.raises(ab.InputError, match="at most one of"):
+        ab.Packing.load(plain, cell=pk.cell, free=True)
+    # Ids are carried to the bond table's id_i, id_j columns.
+    assert pk.ids is None
+    ids = 1000 + 3 * np.arange(len(pk))
+    tagged = ab.Packing(pk.positions, pk.radii, cell=pk.cell, ids=ids)
+    assert tagged.ids.tolist() == ids.tolist()
+    ab.Assembly(tagged, model).write_bonds(tmp_path / "b.csv")
+    with open(tmp_path / "b.csv") as f:
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+    assert len(rows) == cubic.n_bonds
+    assert all(int(r["id_i"]) == ids[int(r["i"])] and int(r["id_j"]) == ids[int(r["j"])] for r in rows)
+    with pytest.raises(ab.InputError, match="particle id 7 appears twice"):
+        ab.Packing(pk.positions[:2], pk.radii[:2], ids=[7, 7])
 
 
 @pytest.mark.parametrize("positions, radii, exc, message", [

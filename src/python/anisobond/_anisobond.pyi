@@ -64,11 +64,25 @@ class Model:
 class Packing:
     """Spheres in a periodic cell (cell=(Lx, Ly, Lz) in m) or a free cluster (cell=None)."""
     def __init__(
-        self, positions: _Floats, radii: _Floats, cell: Optional[Sequence[float]] = None
+        self,
+        positions: _Floats,
+        radii: _Floats,
+        cell: Optional[Sequence[float]] = None,
+        ids: Optional[Sequence[int]] = None,
     ) -> None: ...
     @staticmethod
-    def load(path: _Path) -> "Packing": ...
+    def load(
+        path: _Path,
+        *,
+        cell: Optional[Tuple[float, float, float]] = None,
+        periodic: bool = False,
+        free: bool = False,
+    ) -> "Packing":
+        """Any format the CLI reads; cell/periodic/free for files that state no cell."""
     def save(self, path: _Path) -> None: ...
+    @property
+    def ids(self) -> Optional[np.ndarray]:
+        """(N,) particle ids (LIGGGHTS atom ids, YADE body ids), or None."""
     @property
     def positions(self) -> np.ndarray:
         """(N, 3), m."""
