@@ -7,7 +7,7 @@ use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::tensor::Stiffness6;
-use anisobond::validate::harness::{checks_table, failure_lines};
+use anisobond::validate::harness::{checks_table, failure_lines, unsettled_lines};
 use anisobond::validate::yade::{
     validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
 };
@@ -259,6 +259,9 @@ pub(super) fn finish<D>(
             "wrote {}",
             output.join(f.strip_prefix(staged).unwrap_or(f)).display()
         );
+    }
+    for line in unsettled_lines(report) {
+        println!("not judged: {line}");
     }
     let failed = failure_lines(report);
     if failed.is_empty() {

@@ -24,6 +24,11 @@ pub struct Check {
     pub tolerance: Option<f64>,
     /// `value ≤ tolerance` (false for NaN); true when reported only.
     pub passed: bool,
+    /// A run that had not settled: its estimated remaining relative change. The comparison
+    /// is then reported as "not converged" and not judged (it neither passes nor fails the
+    /// tolerance it would have had).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_converged: Option<f64>,
 }
 
 impl Check {
@@ -40,7 +45,29 @@ impl Check {
             value,
             tolerance: Some(tolerance),
             passed: value <= tolerance,
+            not_converged: None,
         }
+    }
+
+    /// `new(id, description, value, tolerance)` when the compared run settled (estimated
+    /// remaining relative change `remaining` ≤ `tolerance`); otherwise the comparison is
+    /// reported as not converged, with `remaining`, and not judged: a slowly relaxing run
+    /// (a network near a mechanism) is not a failed validation, and not a passed one. A
+    /// non-finite `remaining` (nothing to tell by) leaves the check judged.
+    pub fn unless_unsettled(
+        id: impl Into<String>,
+        description: impl Into<String>,
+        value: f64,
+        tolerance: f64,
+        remaining: f64,
+    ) -> Check {
+        let mut c = Check::new(id, description, value, tolerance);
+        if remaining.is_finite() && remaining > tolerance {
+            c.tolerance = None;
+            c.passed = true;
+            c.not_converged = Some(remaining);
+        }
+        c
     }
 
     /// A difference reported without tolerance (a known convention difference).
@@ -51,6 +78,7 @@ impl Check {
             value,
             tolerance: None,
             passed: true,
+            not_converged: None,
         }
     }
 }
@@ -252,15 +280,40 @@ pub fn checks_table<D>(r: &Report<D>) -> String {
             c.id,
             c.value,
             c.tolerance.map_or("—".into(), |t| format!("{t:.1e}")),
-            match (c.tolerance, c.passed) {
-                (None, _) => "info",
-                (_, true) => "pass",
+            match (c.tolerance, c.passed, c.not_converged) {
+                (_, _, Some(_)) => "UNSETTLED",
+                (None, _, _) => "info",
+                (_, true, _) => "pass",
                 _ => "FAILED",
             },
             c.description
         );
+        if let Some(rest) = c.not_converged {
+            let _ = writeln!(
+                s,
+                "{:<26} not converged: the run was still changing (estimated remaining relative \
+                 change {rest:.2e}); not judged — relax longer to test it",
+                ""
+            );
+        }
     }
     s
+}
+
+/// The checks reported as not converged, one line each: `id: remaining … (description)`.
+pub fn unsettled_lines<D>(r: &Report<D>) -> Vec<String> {
+    r.checks
+        .iter()
+        .filter_map(|c| {
+            c.not_converged.map(|rest| {
+                format!(
+                    "{}: not converged (estimated remaining relative change {rest:.2e}; \
+                     difference so far {:.2e}): {}",
+                    c.id, c.value, c.description
+                )
+            })
+        })
+        .collect()
 }
 
 /// The checks as CSV: `check,relative_difference,tolerance,passed,description`.
@@ -306,6 +359,22 @@ mod tests {
         assert!(!Check::new("x", "x", 2e-6, 1e-6).passed);
         assert!(!Check::new("x", "x", f64::NAN, 1e-6).passed);
         assert!(Check::info("x", "x", f64::NAN).passed);
+    }
+
+    #[test]
+    fn an_unsettled_run_is_reported_not_judged() {
+        // Settled: an ordinary check, judged on its value.
+        let settled = Check::unless_unsettled("x", "x", 2e-6, 1e-6, 1e-7);
+        assert!(!settled.passed && settled.not_converged.is_none());
+        assert_eq!(settled, Check::new("x", "x", 2e-6, 1e-6));
+        // Still changing by more than the tolerance: reported, not judged.
+        let c = Check::unless_unsettled("x", "x", 7e-3, 1e-6, 2e-6);
+        assert!(c.passed && c.tolerance.is_none() && c.not_converged == Some(2e-6));
+        // Nothing to tell by: judged as before.
+        for remaining in [f64::INFINITY, f64::NAN] {
+            let c = Check::unless_unsettled("x", "x", 7e-3, 1e-6, remaining);
+            assert_eq!(c, Check::new("x", "x", 7e-3, 1e-6));
+        }
     }
 
     #[test]

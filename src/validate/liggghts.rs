@@ -17,7 +17,11 @@
 //! 3. `harmonic-history`: the stock `liggghts` with `bond_style harmonic` (K = k_n/2),
 //!    undamped from the same initial state, against the integrator with
 //!    k_s = k_r = k_tw = 0; `harmonic-relaxed`: its damped normal load cases against the
-//!    relaxed solver with the same springs (columns 1–3).
+//!    relaxed solver with the same springs (columns 1–3). A normal-spring network near a
+//!    mechanism (Z ≈ 6) relaxes slowly: when the deck was still changing at the end of a
+//!    hold by more than the tolerance (geometric extrapolation over the last two fifths of
+//!    the hold, [`crate::history::StressHistory::settling`]), the check is reported as not
+//!    converged (`UNSETTLED`, with the estimate) instead of failing or passing.
 //! 4. `mpi-*`: `-np N` against `-np 1` (orthogonal box: LIGGGHTS 3.8 builds no ghost atoms
 //!    for triclinic boxes under MPI): the undamped history, and the damped normal columns
 //!    against the serial six-case run.
@@ -38,6 +42,7 @@ use crate::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, stable_timestep,
     stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
 };
+use crate::history::Settling;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference_to;
@@ -439,6 +444,29 @@ pub fn integrator_history(
     Ok(out)
 }
 
+/// The stock deck's estimated remaining change of its columns (Pa per unit strain, max
+/// over the three cases) from how each case was settling ([`Settling::remaining`]), and
+/// whether every case was decaying; a case that was not is counted with the change of one
+/// more hold (five windows) at its last rate (a lower bound). A case without the rows to
+/// tell counts 0.
+fn harmonic_remaining(settling: &[Option<Settling>], strain: f64) -> (f64, bool) {
+    let mut decaying = true;
+    let worst = settling
+        .iter()
+        .flatten()
+        .map(|s| {
+            s.remaining().unwrap_or_else(|| {
+                decaying = false;
+                s.last_change * 5.0
+            })
+        })
+        .fold(0.0, f64::max);
+    (worst / strain.abs(), decaying)
+}
+
+/// Output interval (steps) of the element decks' stress histories.
+const HISTORY_EVERY: u64 = 100;
+
 /// What the LIGGGHTS half of the validation measured.
 struct LiggghtsRuns {
     driver_undamped: StressHistory,
@@ -447,6 +475,8 @@ struct LiggghtsRuns {
     driver_element: StressHistory,
     driver_case_ends: Vec<u64>,
     harmonic_columns: Vec<[f64; 6]>,
+    /// How the stock deck's three cases were settling at their ends (stress in Pa).
+    harmonic_settling: Vec<Option<Settling>>,
     driver_mpi_columns: Option<Vec<[f64; 6]>>,
     timings: Vec<Timing>,
 }
@@ -472,7 +502,7 @@ fn liggghts_runs(
         strain: o.strain,
         deform_steps: o.deform_steps,
         relax_steps: o.relax_steps,
-        output_every: 100,
+        output_every: HISTORY_EVERY,
         timestep: Some(dt),
         damping,
         affine: false,
@@ -546,6 +576,12 @@ fn liggghts_runs(
         },
     )?;
     let harmonic_columns = columns_from_cases(&hh, &hsum.case_end_steps[..3])?;
+    // The last fifth of each hold, twice: how fast the stock deck was still relaxing.
+    let window = (o.harmonic_relax_steps / 5 / HISTORY_EVERY).max(1) * HISTORY_EVERY;
+    let harmonic_settling = hsum.case_end_steps[..3]
+        .iter()
+        .map(|&end| hh.settling(end, window))
+        .collect();
     let driver_mpi_columns = if o.processes > 1 {
         let np = o.processes;
         let sub = format!("element_driver_np{np}");
@@ -566,6 +602,7 @@ fn liggghts_runs(
         driver_element,
         driver_case_ends: sum.case_end_steps,
         harmonic_columns,
+        harmonic_settling,
         driver_mpi_columns,
         timings,
     })
@@ -804,11 +841,23 @@ pub fn validate_liggghts(
 
     // (3) Stock harmonic deck, damped, against the relaxed normal-spring network.
     let relaxed0_cols = columns_of(&rust.relaxed_normal_springs, 3);
-    checks.push(Check::new(
+    // A normal-spring network at Z ≈ 6 is near a mechanism and relaxes slowly: when the
+    // deck was still changing by more than the tolerance, the comparison is reported as not
+    // converged instead of judged (issue 20).
+    let scale = relaxed0_cols
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let (remaining, decaying) = harmonic_remaining(&lig.harmonic_settling, o.strain);
+    checks.push(Check::unless_unsettled(
         "harmonic-relaxed",
-        "stock harmonic deck (damped normal load cases) vs relaxed with k_s = k_r = k_tw = 0, columns 1–3 (max |ΔC| / max |C|)",
+        format!(
+            "stock harmonic deck (damped normal load cases) vs relaxed with k_s = k_r = k_tw = 0, columns 1–3 (max |ΔC| / max |C|){}",
+            if decaying { "" } else { "; the deck's relaxation was not decaying (remaining: a lower bound)" }
+        ),
         compare("harmonic-relaxed", &relaxed0_cols, &lig.harmonic_columns).relative,
         o.tensor_tolerance,
+        if scale > 0.0 { remaining / scale } else { f64::NAN },
     ));
 
     // (4) -np N damped normal load cases against the serial six-case run.
