@@ -17,6 +17,13 @@
 // does not advance the history. The virial is tallied per bond (−l ⊗ F, LAMMPS order
 // xx yy zz xy xz yz = l_x F_y …), so `compute pressure … virial` gives the stress σ = −p.
 //
+// Bonds come from a SPEC bond table (`table`), from the library bonding a packing file
+// (`model MODEL PACKING`), or in place (`model MODEL` alone): the atoms present at the first
+// init_style() (the first `run`/`minimize`) are gathered from every rank, rank 0 has the
+// library bond them by the model's rule (the same Assembly as the CLI on the same packing,
+// μ of a cross-anisotropic model from these bonds) and broadcasts the table, keyed by atom
+// tag. Atoms inserted later are not bonded.
+//
 // State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
 // partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the
 // history when atoms migrate and the restart file keeps it.
@@ -62,6 +69,8 @@ class PairAnisobond : public Pair {
   };
   void allocate();
   void fill_bonds();
+  void set_bonds(std::vector<Bond> bonds);
+  void bond_in_place();
 
   std::vector<Bond> bonds_;        // all bonds (read on every rank), sorted by tag_i
   std::vector<int> first_bond_;    // first_bond_[tag] .. first_bond_[tag+1]
@@ -69,6 +78,10 @@ class PairAnisobond : public Pair {
   double max_length_;              // longest bond (m)
   double damp_t_, damp_r_;         // viscous damping rates (1/s), on owned atoms only
   double length_tol_;              // allowed mismatch of table length vs positions
+  bool in_place_;                   // `model MODEL` without a packing: bond at first init
+  bool bonded_;                     // the bond table is known (set_bonds done)
+  std::string model_path_;          // the model of the in-place form
+  std::string write_bonds_;         // `write_bonds FILE` of the in-place form, or empty
   std::string fix_id_;
   class FixPropertyAtom *fix_;
 };
