@@ -19,10 +19,12 @@
 //
 // Bonds come from a SPEC bond table (`table`), from the library bonding a packing file
 // (`model MODEL PACKING`), or in place (`model MODEL` alone): the atoms present at the first
-// init_style() (the first `run`/`minimize`) are gathered from every rank, rank 0 has the
+// init_style() (the first command that initialises LIGGGHTS: `run`, `minimize`,
+// `write_data`) are gathered from every rank, rank 0 has the
 // library bond them by the model's rule (the same Assembly as the CLI on the same packing,
 // μ of a cross-anisotropic model from these bonds) and broadcasts the table, keyed by atom
-// tag. Atoms inserted later are not bonded.
+// tag. Atoms inserted later are not bonded. A deck continuing from a restart file must not
+// use the in-place form: it would bond the atoms again where they are then.
 //
 // State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
 // partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the

@@ -391,6 +391,17 @@ fn atoms_packing(x: &[f64], radius: &[f64], ids: &[u64], domain: &AtomsBox) -> R
             )))
         }
     };
+    // Name a bad atom by its id (Packing::new would name its place in the sorted order).
+    for k in 0..n {
+        let (p, r) = (&x[3 * k..3 * k + 3], radius[k]);
+        if p.iter().any(|c| !c.is_finite()) || !r.is_finite() || r <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "bond_atoms: atom {}: expected a finite position and a radius > 0, got \
+                 ({}, {}, {}) and {r}",
+                ids[k], p[0], p[1], p[2]
+            )));
+        }
+    }
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_unstable_by_key(|&k| ids[k]);
     // Periodic: positions relative to the box origin, wrapped into the cell by

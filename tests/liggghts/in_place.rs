@@ -263,3 +263,53 @@ fn in_place_cross_anisotropic_mu_from_its_own_bonds_matches_relaxed_tensor() {
     }
     in_place_case("in_place_cross", CROSS_MODEL, false);
 }
+
+/// The in-place form refuses what it cannot bond as the CLI would, with the reason: a box
+/// periodic along some directions only, and `write_bonds` with a given bond table.
+#[test]
+fn in_place_refuses_mixed_periodicity_and_write_bonds_with_a_table() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let dir = fresh_dir("in_place_refusals");
+    std::fs::write(dir.join("model.toml"), rotated_cubic()).unwrap();
+    std::fs::write(
+        dir.join("bonds.csv"),
+        "i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz\n0,1,1,0,0,0.0021,0.001,1,1,1,1,0,0,0\n",
+    )
+    .unwrap();
+    let deck = |boundary: &str, style: &str| {
+        format!(
+            "units si\natom_style granular\natom_modify map array\nboundary {boundary}\n\
+             newton on\ncommunicate single vel yes\n\
+             region box block 0 0.01 0 0.01 0 0.01 units box\ncreate_box 1 box\n\
+             lattice sc 0.002\ncreate_atoms 1 box\nset group all diameter 0.0019 density 2500\n\
+             pair_style anisobond {style}\npair_coeff * *\ntimestep 1e-8\nrun 0\n"
+        )
+    };
+    for (name, boundary, style, want) in [
+        (
+            "mixed.in",
+            "p p f",
+            "model model.toml",
+            "periodic along x and y only",
+        ),
+        (
+            "table.in",
+            "p p p",
+            "table bonds.csv write_bonds out.csv",
+            "write_bonds is for the in-place form",
+        ),
+    ] {
+        std::fs::write(dir.join(name), deck(boundary, style)).unwrap();
+        let launch = Launch {
+            program: driver(),
+            mpi_processes: None,
+            vars: vec![],
+        };
+        let e = run_liggghts(&launch, &dir, name).unwrap_err().to_string();
+        assert!(e.contains(want), "{name}: expected `{want}` in: {e}");
+        assert!(!dir.join("out.csv").exists());
+    }
+}
