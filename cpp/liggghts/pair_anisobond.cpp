@@ -185,6 +185,29 @@ void PairAnisobond::settings(int narg, char **arg) {
   set_bonds(std::move(bonds));
 }
 
+// write_bonds of the in-place form, once the bonds are known to be used (rank 0: the same
+// arrays bonded again, now with the library writing the table; deterministic, so the
+// table is the one broadcast). The gathered arrays are released.
+void PairAnisobond::write_in_place_table() {
+  if (comm->me == 0 && !write_bonds_.empty()) {
+    try {
+      auto model = anisobond::load_model(model_path_);
+      anisobond::bond_atoms(
+          *model, rust::Slice<const double>(gathered_x_.data(), gathered_x_.size()),
+          rust::Slice<const double>(gathered_r_.data(), gathered_r_.size()),
+          rust::Slice<const uint64_t>(gathered_ids_.data(), gathered_ids_.size()),
+          gathered_box_, write_bonds_);
+    } catch (const std::exception &e) {
+      std::string msg = std::string("pair_style anisobond: write_bonds ") + write_bonds_ + ": " +
+                        e.what();
+      error->one(FLERR, msg.c_str());
+    }
+  }
+  std::vector<double>().swap(gathered_x_);
+  std::vector<double>().swap(gathered_r_);
+  std::vector<uint64_t>().swap(gathered_ids_);
+}
+
 // Index the bonds by the tag of their first atom (first_bond_), and note the longest bond
 // and the most bonds on one atom.
 void PairAnisobond::set_bonds(std::vector<Bond> bonds) {
@@ -235,7 +258,9 @@ void PairAnisobond::bond_in_place() {
     r_local[i] = atom->radius[i];
   }
   std::vector<int> tags(n);
-  std::vector<double> xs(3 * static_cast<size_t>(n)), rs(n);
+  std::vector<double> &xs = gathered_x_, &rs = gathered_r_;
+  xs.assign(me == 0 ? 3 * static_cast<size_t>(n) : 0, 0.0);
+  rs.assign(me == 0 ? n : 0, 0.0);
   MPI_Gatherv(tag_local.data(), nlocal, MPI_INT, tags.data(), counts.data(), displs.data(),
               MPI_INT, 0, world);
   MPI_Gatherv(r_local.data(), nlocal, MPI_DOUBLE, rs.data(), counts.data(), displs.data(),
@@ -254,12 +279,13 @@ void PairAnisobond::bond_in_place() {
   std::string failure;
   if (me == 0) {
     try {
-      std::vector<uint64_t> ids(n);
+      std::vector<uint64_t> &ids = gathered_ids_;
+      ids.assign(n, 0);
       for (int k = 0; k < n; k++) {
         if (tags[k] <= 0) throw std::runtime_error("an atom has no id (tag 0)");
         ids[k] = static_cast<uint64_t>(tags[k]);
       }
-      anisobond::AtomsBox box;
+      anisobond::AtomsBox &box = gathered_box_;
       for (int k = 0; k < 3; k++) {
         box.lo[k] = domain->boxlo[k];
         box.hi[k] = domain->boxhi[k];
@@ -272,7 +298,7 @@ void PairAnisobond::bond_in_place() {
       anisobond::AtomBonds ab = anisobond::bond_atoms(
           *model, rust::Slice<const double>(xs.data(), xs.size()),
           rust::Slice<const double>(rs.data(), rs.size()),
-          rust::Slice<const uint64_t>(ids.data(), ids.size()), box, write_bonds_);
+          rust::Slice<const uint64_t>(ids.data(), ids.size()), box, "");
       bonds.reserve(ab.rows.size());
       for (const anisobond::BondRow &r : ab.rows) {
         Bond b;
@@ -342,7 +368,8 @@ void PairAnisobond::init_style() {
                "cases under mpirun, or take the shear cases to LAMMPS");
   // The in-place form bonds the atoms present now, once (the first run); later runs keep
   // those bonds, and atoms added since are not bonded.
-  if (in_place_ && !bonded_) bond_in_place();
+  const bool bonding_now = in_place_ && !bonded_;
+  if (bonding_now) bond_in_place();
   // Table and packing ids are 1 … N; in place they are the atoms' own (gaps allowed).
   if (!in_place_ && !first_bond_.empty() &&
       static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
@@ -371,7 +398,18 @@ void PairAnisobond::init_style() {
     // Without this LIGGGHTS resets a new fix property/atom to its defaults after the
     // first force call, wiping the bonds.
     fix_->just_created = 0;
+    // A restart file restored this fix's per-atom bond state: the in-place form would bond
+    // the atoms again where they are now (and its size need not match the file's).
+    int restored = bonding_now && fix_->recent_restart ? 1 : 0, any = 0;
+    MPI_Allreduce(&restored, &any, 1, MPI_INT, MPI_MAX, world);
+    if (any)
+      error->all(FLERR,
+                 "pair_style anisobond model MODEL (in place) in a run continued from a restart "
+                 "file that holds the bonds of pair_style anisobond: it would bond the atoms "
+                 "again where they are now. Bond in place in the run that starts from the "
+                 "packing, not after read_restart");
   }
+  if (bonding_now) write_in_place_table();
   if (fix_->get_nvalues() != nvalues)
     error->all(FLERR, "pair_style anisobond: its fix property/atom has a different size (bond table changed?)");
   fill_bonds();

@@ -23,8 +23,9 @@
 // `write_data`) are gathered from every rank, rank 0 has the
 // library bond them by the model's rule (the same Assembly as the CLI on the same packing,
 // μ of a cross-anisotropic model from these bonds) and broadcasts the table, keyed by atom
-// tag. Atoms inserted later are not bonded. A deck continuing from a restart file must not
-// use the in-place form: it would bond the atoms again where they are then.
+// tag. Atoms inserted later are not bonded. In a run continued from a restart file that holds
+// the bond state the in-place form is refused (it would bond the atoms again where they are
+// then); write_bonds is written only once the bonds are known to be used.
 //
 // State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
 // partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the
@@ -34,6 +35,9 @@
 
 #include "pair.h"
 
+#include "anisobond/src/ffi/mod.rs.h"
+
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -73,6 +77,7 @@ class PairAnisobond : public Pair {
   void fill_bonds();
   void set_bonds(std::vector<Bond> bonds);
   void bond_in_place();
+  void write_in_place_table();
 
   std::vector<Bond> bonds_;        // all bonds (read on every rank), sorted by tag_i
   std::vector<int> first_bond_;    // first_bond_[tag] .. first_bond_[tag+1]
@@ -84,6 +89,10 @@ class PairAnisobond : public Pair {
   bool bonded_;                     // the bond table is known (set_bonds done)
   std::string model_path_;          // the model of the in-place form
   std::string write_bonds_;         // `write_bonds FILE` of the in-place form, or empty
+  // The atoms gathered on rank 0 for in-place bonding, kept until write_bonds is written.
+  std::vector<double> gathered_x_, gathered_r_;
+  std::vector<std::uint64_t> gathered_ids_;
+  anisobond::AtomsBox gathered_box_;
   std::string fix_id_;
   class FixPropertyAtom *fix_;
 };

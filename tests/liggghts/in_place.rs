@@ -265,9 +265,10 @@ fn in_place_cross_anisotropic_mu_from_its_own_bonds_matches_relaxed_tensor() {
 }
 
 /// The in-place form refuses what it cannot bond as the CLI would, with the reason: a box
-/// periodic along some directions only, and `write_bonds` with a given bond table.
+/// periodic along some directions only, `write_bonds` with a given bond table, and bonding
+/// again in a run continued from a restart file.
 #[test]
-fn in_place_refuses_mixed_periodicity_and_write_bonds_with_a_table() {
+fn in_place_refuses_mixed_periodicity_write_bonds_with_a_table_and_restarts() {
     if let Some(r) = missing(TOOLS) {
         eprintln!("skipping: {r}");
         return;
@@ -312,4 +313,29 @@ fn in_place_refuses_mixed_periodicity_and_write_bonds_with_a_table() {
         assert!(e.contains(want), "{name}: expected `{want}` in: {e}");
         assert!(!dir.join("out.csv").exists());
     }
+    // A run continued from a restart file holding the bond state: bonding again where the
+    // atoms are then would be another network; refused before write_bonds writes anything.
+    let first = deck("p p p", "model model.toml write_bonds first.csv").replace(
+        "run 0\n",
+        "fix integ all nve/sphere\nvelocity all set 1e-3 -2e-3 5e-4\nrun 20\nwrite_restart r.restart\n",
+    );
+    std::fs::write(dir.join("first.in"), first).unwrap();
+    std::fs::write(
+        dir.join("again.in"),
+        "atom_modify map array\nread_restart r.restart\nnewton on\ncommunicate single vel yes\n\
+         pair_style anisobond model model.toml write_bonds again.csv\npair_coeff * *\nrun 0\n",
+    )
+    .unwrap();
+    let launch = Launch {
+        program: driver(),
+        mpi_processes: None,
+        vars: vec![],
+    };
+    run_liggghts(&launch, &dir, "first.in").unwrap();
+    assert!(dir.join("first.csv").exists() && dir.join("r.restart").exists());
+    let e = run_liggghts(&launch, &dir, "again.in")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("continued from a restart file"), "{e}");
+    assert!(!dir.join("again.csv").exists());
 }
