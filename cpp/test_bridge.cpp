@@ -6,7 +6,9 @@
 
 #include "anisobond/src/ffi/mod.rs.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -193,6 +195,84 @@ int main() {
       close_rel(c.c[5 * 6 + 5], kt / (4 * R), 1e-9, w + "C66 = k_t/(4R)");
     }
     throws_with([&] { compute_tensor(pack, *m, "dynamic"); }, "dynamic", "unknown method");
+  }
+
+  // 7. bond_atoms: the same SC lattice given as arrays the way the LIGGGHTS pair style gathers
+  //    them (any order, ids with gaps, a box not at the origin) gives build_bond_table's rows
+  //    of the packing file, named by the atoms sorted by id; free and refused boxes.
+  {
+    const double R = 1e-3, lo = -2.5e-3;
+    const std::string pack = tmp_path("sc.txt");  // written by section 6
+    auto m = parse_model(
+        "[bonding]\nrule = \"gap\"\nvalue = 0.01\n"
+        "[scheme]\nkind = \"isotropic\"\nnormal = 1.0e6\nshear = 4.0e5\n"
+        "[geometry]\nconvention = \"spring\"\n",
+        "toml");
+    rust::Vec<BondRow> want = build_bond_table(pack, *m);
+    std::vector<double> x, r;
+    std::vector<uint64_t> ids;
+    for (int k = 26; k >= 0; --k) {  // file order a, b, c = k / 9, k / 3 % 3, k % 3, reversed
+      const int a = k / 9, b = k / 3 % 3, c = k % 3;
+      x.push_back((1 + 2 * a) * R + lo);
+      x.push_back((1 + 2 * b) * R + lo);
+      x.push_back((1 + 2 * c) * R + lo);
+      r.push_back(R);
+      ids.push_back(10 * (k + 1));
+    }
+    AtomsBox box;
+    for (int k = 0; k < 3; ++k) {
+      box.lo[k] = lo;
+      box.hi[k] = lo + 6 * R;
+      box.tilt[k] = 0.0;
+      box.periodic[k] = true;
+    }
+    auto xs = rust::Slice<const double>(x.data(), x.size());
+    auto rs = rust::Slice<const double>(r.data(), r.size());
+    auto is = rust::Slice<const uint64_t>(ids.data(), ids.size());
+    AtomBonds got = bond_atoms(*m, xs, rs, is, box, "");
+    check(got.rows.size() == want.size(), "bond_atoms: as many bonds as the packing file");
+    bool ids_sorted = got.ids.size() == 27;
+    for (size_t k = 0; ids_sorted && k < 27; ++k) ids_sorted = got.ids[k] == 10 * (k + 1);
+    check(ids_sorted, "bond_atoms: ids sorted");
+    double worst = 0.0;
+    bool same_pairs = got.rows.size() == want.size();
+    for (size_t b = 0; same_pairs && b < want.size(); ++b) {
+      const BondRow &g = got.rows[b], &w = want[b];
+      same_pairs = g.i == w.i && g.j == w.j && g.ix == w.ix && g.iy == w.iy && g.iz == w.iz;
+      for (double d : {g.nx - w.nx, g.ny - w.ny, g.nz - w.nz, (g.length - w.length) / w.length,
+                       (g.kn - w.kn) / w.kn, (g.ks - w.ks) / w.ks})
+        worst = std::max(worst, std::fabs(d));
+    }
+    check(same_pairs, "bond_atoms: the packing file's pairs and images");
+    close_abs(worst, 0.0, 1e-12, "bond_atoms: normals, lengths and springs");
+    const std::string table = tmp_path("atoms_bonds.csv");
+    bond_atoms(*m, xs, rs, is, box, table);
+    std::ifstream f(table);
+    std::string header;
+    std::getline(f, header);
+    check(header.size() > 10 && header.substr(header.size() - 10) == ",id_i,id_j",
+          "bond_atoms: write_bonds has id columns");
+
+    AtomsBox free_box = box;
+    for (int k = 0; k < 3; ++k) free_box.periodic[k] = false;
+    check(bond_atoms(*m, xs, rs, is, free_box, "").rows.size() == 54,
+          "bond_atoms: free 3x3x3 cluster: 54 bonds");
+    AtomsBox mixed = box;
+    mixed.periodic[2] = false;
+    throws_with([&] { bond_atoms(*m, xs, rs, is, mixed, ""); }, "periodic along x and y only",
+                "bond_atoms: mixed periodicity refused");
+    AtomsBox tilted = box;
+    tilted.tilt[0] = 1e-4;
+    throws_with([&] { bond_atoms(*m, xs, rs, is, tilted, ""); }, "tilted",
+                "bond_atoms: tilted box refused");
+    std::vector<uint64_t> twice = ids;
+    twice[3] = twice[4];
+    throws_with(
+        [&] {
+          bond_atoms(*m, xs, rs, rust::Slice<const uint64_t>(twice.data(), twice.size()), box,
+                     "");
+        },
+        "appears twice", "bond_atoms: duplicate id refused");
   }
 
   std::printf("%d passed, %d failed\n", passed, failed);

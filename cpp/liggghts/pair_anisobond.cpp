@@ -2,11 +2,17 @@
 //
 //   pair_style anisobond table BONDS.csv [damping GT GR] [length_tolerance TOL]
 //   pair_style anisobond model MODEL.toml PACKING [damping GT GR] [length_tolerance TOL]
+//   pair_style anisobond model MODEL.toml [write_bonds FILE] [damping GT GR] [length_tolerance TOL]
 //   pair_coeff * *
 //
 // BONDS.csv is the SPEC bond table (i, j 0-based in packing order = atom ids i+1, j+1);
-// with `model` the bonds and springs are computed through the anisobond bridge from each
-// bond's initial normal. `damping GT GR` adds viscous damping −GT·m·v and −GR·I·ω on every
+// with `model MODEL PACKING` the bonds and springs are computed through the anisobond
+// bridge from the packing file. With `model MODEL` alone the atoms in the box at the first
+// run are bonded in place (ids = the atoms' own tags; a box periodic in x, y and z is the
+// periodic cell, one periodic in none a free cluster; mixed periodicity and a tilted box are
+// refused); `write_bonds FILE` makes rank 0 write that bond table (SPEC columns, then
+// id_i,id_j), so `anisobond tensor DATA MODEL --bonds FILE` gives the tensor of the same
+// network. Atoms inserted after the first run are not bonded. `damping GT GR` adds viscous damping −GT·m·v and −GR·I·ω on every
 // owned atom (not in the virial), for quasi-static element tests; default 0 (undamped).
 // Requires: atom_style granular (sphere), atom_modify map array, newton on,
 // communicate single vel yes.
@@ -33,8 +39,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <cstdint>
 #include <exception>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 using namespace LAMMPS_NS;
 
@@ -63,7 +72,8 @@ Pair *PairAnisobond::creator(LAMMPS *lmp) { return new PairAnisobond(lmp); }
 
 PairAnisobond::PairAnisobond(LAMMPS *lmp)
     : Pair(lmp), max_bonds_(0), max_length_(0.0), damp_t_(0.0), damp_r_(0.0),
-      length_tol_(1e-6), fix_id_("anisobond_bonds"), fix_(NULL) {
+      length_tol_(1e-6), in_place_(false), bonded_(false), fix_id_("anisobond_bonds"),
+      fix_(NULL) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;  // the virial is tallied per bond
   restartinfo = 0;
@@ -85,20 +95,41 @@ void PairAnisobond::allocate() {
   memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
 }
 
+namespace {
+
+bool is_keyword(const char *w) {
+  return strcmp(w, "damping") == 0 || strcmp(w, "length_tolerance") == 0 ||
+         strcmp(w, "write_bonds") == 0;
+}
+
+}  // namespace
+
 void PairAnisobond::settings(int narg, char **arg) {
-  if (narg < 2) error->all(FLERR, "Illegal pair_style anisobond command: expected `table BONDS.csv` or `model MODEL PACKING`");
+  if (narg < 2)
+    error->all(FLERR, "Illegal pair_style anisobond command: expected `table BONDS.csv`, "
+                      "`model MODEL.toml PACKING` or `model MODEL.toml` (bond in place)");
   rust::Vec<anisobond::BondRow> rows;
   int iarg = 0;
+  in_place_ = false;
+  bonded_ = false;
+  write_bonds_.clear();
   try {
     if (strcmp(arg[0], "table") == 0) {
       rows = anisobond::load_bond_table(arg[1]);
       iarg = 2;
     } else if (strcmp(arg[0], "model") == 0) {
-      if (narg < 3) error->all(FLERR, "pair_style anisobond model: expected MODEL PACKING");
+      // A word after MODEL that is not a keyword is the packing file; without it the atoms
+      // in the box are bonded at the first run.
       auto model = anisobond::load_model(arg[1]);
-      if (model->needs_packing()) model->bind_packing(arg[2]);
-      rows = anisobond::build_bond_table(arg[2], *model);
-      iarg = 3;
+      if (narg >= 3 && !is_keyword(arg[2])) {
+        if (model->needs_packing()) model->bind_packing(arg[2]);
+        rows = anisobond::build_bond_table(arg[2], *model);
+        iarg = 3;
+      } else {
+        in_place_ = true;
+        model_path_ = arg[1];
+        iarg = 2;
+      }
     } else {
       error->all(FLERR, "Illegal pair_style anisobond command: first argument must be `table` or `model`");
     }
@@ -116,14 +147,30 @@ void PairAnisobond::settings(int narg, char **arg) {
       if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: length_tolerance needs a value");
       length_tol_ = force->numeric(FLERR, arg[iarg + 1]);
       iarg += 2;
+    } else if (strcmp(arg[iarg], "write_bonds") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: write_bonds needs a FILE");
+      if (!in_place_)
+        error->all(FLERR, "pair_style anisobond: write_bonds is for the in-place form "
+                          "`model MODEL.toml write_bonds FILE` (with `table` or a PACKING the "
+                          "bond table is already known: `anisobond bonds` writes it)");
+      write_bonds_ = arg[iarg + 1];
+      iarg += 2;
     } else {
-      std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] + "`";
+      std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] +
+                        "` (expected damping GT GR, length_tolerance TOL or write_bonds FILE)";
       error->all(FLERR, msg.c_str());
     }
   }
-  bonds_.clear();
-  bonds_.reserve(rows.size());
-  int max_tag = 0;
+  if (in_place_) {
+    // Bonded at the first init_style(), when the atoms are there.
+    bonds_.clear();
+    first_bond_.clear();
+    max_bonds_ = 1;
+    max_length_ = 0.0;
+    return;
+  }
+  std::vector<Bond> bonds;
+  bonds.reserve(rows.size());
   for (const anisobond::BondRow &r : rows) {
     Bond b;
     b.tag_i = static_cast<int>(r.i) + 1;
@@ -133,9 +180,40 @@ void PairAnisobond::settings(int narg, char **arg) {
     b.kr = r.kr;
     b.ktw = r.ktw;
     b.length = r.length;
-    bonds_.push_back(b);
-    max_tag = std::max(max_tag, b.tag_j);
+    bonds.push_back(b);
   }
+  set_bonds(std::move(bonds));
+}
+
+// write_bonds of the in-place form, once the bonds are known to be used (rank 0: the same
+// arrays bonded again, now with the library writing the table; deterministic, so the
+// table is the one broadcast). The gathered arrays are released.
+void PairAnisobond::write_in_place_table() {
+  if (comm->me == 0 && !write_bonds_.empty()) {
+    try {
+      auto model = anisobond::load_model(model_path_);
+      anisobond::bond_atoms(
+          *model, rust::Slice<const double>(gathered_x_.data(), gathered_x_.size()),
+          rust::Slice<const double>(gathered_r_.data(), gathered_r_.size()),
+          rust::Slice<const uint64_t>(gathered_ids_.data(), gathered_ids_.size()),
+          gathered_box_, write_bonds_);
+    } catch (const std::exception &e) {
+      std::string msg = std::string("pair_style anisobond: write_bonds ") + write_bonds_ + ": " +
+                        e.what();
+      error->one(FLERR, msg.c_str());
+    }
+  }
+  std::vector<double>().swap(gathered_x_);
+  std::vector<double>().swap(gathered_r_);
+  std::vector<uint64_t>().swap(gathered_ids_);
+}
+
+// Index the bonds by the tag of their first atom (first_bond_), and note the longest bond
+// and the most bonds on one atom.
+void PairAnisobond::set_bonds(std::vector<Bond> bonds) {
+  bonds_ = std::move(bonds);
+  int max_tag = 0;
+  for (const Bond &b : bonds_) max_tag = std::max(max_tag, b.tag_j);
   std::stable_sort(bonds_.begin(), bonds_.end(),
                    [](const Bond &a, const Bond &b) { return a.tag_i < b.tag_i; });
   first_bond_.assign(max_tag + 2, 0);
@@ -148,6 +226,111 @@ void PairAnisobond::settings(int narg, char **arg) {
   }
   for (const Bond &b : bonds_) max_length_ = std::max(max_length_, b.length);
   if (max_bonds_ == 0) max_bonds_ = 1;
+  bonded_ = true;
+}
+
+// The in-place form: gather tag, x and radius of every atom on every rank, let rank 0 bond
+// them through the library (bond_atoms: the same Assembly as the CLI) and broadcast the
+// table, so that every rank holds the identical bonds whatever the decomposition.
+void PairAnisobond::bond_in_place() {
+  if (!atom->tag_enable)
+    error->all(FLERR, "pair_style anisobond model MODEL (in place) needs atom ids (atom_modify id yes)");
+  const int nlocal = atom->nlocal;
+  const int nprocs = comm->nprocs, me = comm->me;
+  std::vector<int> counts(nprocs), displs(nprocs, 0);
+  MPI_Allgather(const_cast<int *>(&nlocal), 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  long long total = 0;
+  for (int p = 0; p < nprocs; p++) {
+    displs[p] = static_cast<int>(total);
+    total += counts[p];
+  }
+  if (total == 0)
+    error->all(FLERR, "pair_style anisobond model MODEL (in place): there are no atoms to bond at "
+                      "this run: create or read the atoms before the first run");
+  if (total > 2147483647LL / 3)
+    error->all(FLERR, "pair_style anisobond model MODEL (in place): too many atoms to gather");
+  const int n = static_cast<int>(total);
+  std::vector<int> tag_local(nlocal);
+  std::vector<double> x_local(3 * nlocal), r_local(nlocal);
+  for (int i = 0; i < nlocal; i++) {
+    tag_local[i] = atom->tag[i];
+    for (int k = 0; k < 3; k++) x_local[3 * i + k] = atom->x[i][k];
+    r_local[i] = atom->radius[i];
+  }
+  std::vector<int> tags(n);
+  std::vector<double> &xs = gathered_x_, &rs = gathered_r_;
+  xs.assign(me == 0 ? 3 * static_cast<size_t>(n) : 0, 0.0);
+  rs.assign(me == 0 ? n : 0, 0.0);
+  MPI_Gatherv(tag_local.data(), nlocal, MPI_INT, tags.data(), counts.data(), displs.data(),
+              MPI_INT, 0, world);
+  MPI_Gatherv(r_local.data(), nlocal, MPI_DOUBLE, rs.data(), counts.data(), displs.data(),
+              MPI_DOUBLE, 0, world);
+  std::vector<int> counts3(nprocs), displs3(nprocs);
+  for (int p = 0; p < nprocs; p++) {
+    counts3[p] = 3 * counts[p];
+    displs3[p] = 3 * displs[p];
+  }
+  MPI_Gatherv(x_local.data(), 3 * nlocal, MPI_DOUBLE, xs.data(), counts3.data(),
+              displs3.data(), MPI_DOUBLE, 0, world);
+
+  // Rank 0 bonds; the outcome (0 = bonds, 1 = the library's refusal) and the table or the
+  // message are broadcast.
+  std::vector<Bond> bonds;
+  std::string failure;
+  if (me == 0) {
+    try {
+      std::vector<uint64_t> &ids = gathered_ids_;
+      ids.assign(n, 0);
+      for (int k = 0; k < n; k++) {
+        if (tags[k] <= 0) throw std::runtime_error("an atom has no id (tag 0)");
+        ids[k] = static_cast<uint64_t>(tags[k]);
+      }
+      anisobond::AtomsBox &box = gathered_box_;
+      for (int k = 0; k < 3; k++) {
+        box.lo[k] = domain->boxlo[k];
+        box.hi[k] = domain->boxhi[k];
+        box.periodic[k] = domain->periodicity[k] != 0;
+      }
+      box.tilt[0] = domain->triclinic ? domain->xy : 0.0;
+      box.tilt[1] = domain->triclinic ? domain->xz : 0.0;
+      box.tilt[2] = domain->triclinic ? domain->yz : 0.0;
+      auto model = anisobond::load_model(model_path_);
+      anisobond::AtomBonds ab = anisobond::bond_atoms(
+          *model, rust::Slice<const double>(xs.data(), xs.size()),
+          rust::Slice<const double>(rs.data(), rs.size()),
+          rust::Slice<const uint64_t>(ids.data(), ids.size()), box, "");
+      bonds.reserve(ab.rows.size());
+      for (const anisobond::BondRow &r : ab.rows) {
+        Bond b;
+        b.tag_i = static_cast<int>(ab.ids[r.i]);
+        b.tag_j = static_cast<int>(ab.ids[r.j]);
+        b.kn = r.kn;
+        b.ks = r.ks;
+        b.kr = r.kr;
+        b.ktw = r.ktw;
+        b.length = r.length;
+        bonds.push_back(b);
+      }
+    } catch (const std::exception &e) {
+      failure = std::string("pair_style anisobond model ") + model_path_ +
+                " (in place, bonding the " + std::to_string(n) + " atoms of the first run): " +
+                e.what();
+      bonds.clear();
+    }
+  }
+  int header[2] = {failure.empty() ? 0 : 1,
+                   failure.empty() ? static_cast<int>(bonds.size())
+                                   : static_cast<int>(failure.size())};
+  MPI_Bcast(header, 2, MPI_INT, 0, world);
+  if (header[0] != 0) {
+    failure.resize(header[1]);
+    MPI_Bcast(&failure[0], header[1], MPI_CHAR, 0, world);
+    error->all(FLERR, failure.c_str());
+  }
+  bonds.resize(header[1]);
+  if (header[1] > 0)
+    MPI_Bcast(bonds.data(), static_cast<int>(header[1] * sizeof(Bond)), MPI_BYTE, 0, world);
+  set_bonds(std::move(bonds));
 }
 
 void PairAnisobond::coeff(int narg, char **arg) {
@@ -183,7 +366,13 @@ void PairAnisobond::init_style() {
                "no ghost atoms for a triclinic box under MPI (bonds across processors would be "
                "lost). Run it on one process, export with --no-shear for the three normal "
                "cases under mpirun, or take the shear cases to LAMMPS");
-  if (!first_bond_.empty() && static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
+  // The in-place form bonds the atoms present now, once (the first run); later runs keep
+  // those bonds, and atoms added since are not bonded.
+  const bool bonding_now = in_place_ && !bonded_;
+  if (bonding_now) bond_in_place();
+  // Table and packing ids are 1 … N; in place they are the atoms' own (gaps allowed).
+  if (!in_place_ && !first_bond_.empty() &&
+      static_cast<int>(first_bond_.size()) - 2 > atom->natoms)
     error->all(FLERR, "pair_style anisobond: the bond table names atom ids beyond the number of atoms");
 
   // Ghost atoms must reach every partner: the pair cutoff alone does not widen the ghost
@@ -209,7 +398,18 @@ void PairAnisobond::init_style() {
     // Without this LIGGGHTS resets a new fix property/atom to its defaults after the
     // first force call, wiping the bonds.
     fix_->just_created = 0;
+    // A restart file restored this fix's per-atom bond state: the in-place form would bond
+    // the atoms again where they are now (and its size need not match the file's).
+    int restored = bonding_now && fix_->recent_restart ? 1 : 0, any = 0;
+    MPI_Allreduce(&restored, &any, 1, MPI_INT, MPI_MAX, world);
+    if (any)
+      error->all(FLERR,
+                 "pair_style anisobond model MODEL (in place) in a run continued from a restart "
+                 "file that holds the bonds of pair_style anisobond: it would bond the atoms "
+                 "again where they are now. Bond in place in the run that starts from the "
+                 "packing, not after read_restart");
   }
+  if (bonding_now) write_in_place_table();
   if (fix_->get_nvalues() != nvalues)
     error->all(FLERR, "pair_style anisobond: its fix property/atom has a different size (bond table changed?)");
   fill_bonds();

@@ -17,6 +17,16 @@
 // does not advance the history. The virial is tallied per bond (−l ⊗ F, LAMMPS order
 // xx yy zz xy xz yz = l_x F_y …), so `compute pressure … virial` gives the stress σ = −p.
 //
+// Bonds come from a SPEC bond table (`table`), from the library bonding a packing file
+// (`model MODEL PACKING`), or in place (`model MODEL` alone): the atoms present at the first
+// init_style() (the first command that initialises LIGGGHTS: `run`, `minimize`,
+// `write_data`) are gathered from every rank, rank 0 has the
+// library bond them by the model's rule (the same Assembly as the CLI on the same packing,
+// μ of a cross-anisotropic model from these bonds) and broadcasts the table, keyed by atom
+// tag. Atoms inserted later are not bonded. In a run continued from a restart file that holds
+// the bond state the in-place form is refused (it would bond the atoms again where they are
+// then); write_bonds is written only once the bonds are known to be used.
+//
 // State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
 // partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the
 // history when atoms migrate and the restart file keeps it.
@@ -25,6 +35,9 @@
 
 #include "pair.h"
 
+#include "anisobond/src/ffi/mod.rs.h"
+
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -62,6 +75,9 @@ class PairAnisobond : public Pair {
   };
   void allocate();
   void fill_bonds();
+  void set_bonds(std::vector<Bond> bonds);
+  void bond_in_place();
+  void write_in_place_table();
 
   std::vector<Bond> bonds_;        // all bonds (read on every rank), sorted by tag_i
   std::vector<int> first_bond_;    // first_bond_[tag] .. first_bond_[tag+1]
@@ -69,6 +85,14 @@ class PairAnisobond : public Pair {
   double max_length_;              // longest bond (m)
   double damp_t_, damp_r_;         // viscous damping rates (1/s), on owned atoms only
   double length_tol_;              // allowed mismatch of table length vs positions
+  bool in_place_;                   // `model MODEL` without a packing: bond at first init
+  bool bonded_;                     // the bond table is known (set_bonds done)
+  std::string model_path_;          // the model of the in-place form
+  std::string write_bonds_;         // `write_bonds FILE` of the in-place form, or empty
+  // The atoms gathered on rank 0 for in-place bonding, kept until write_bonds is written.
+  std::vector<double> gathered_x_, gathered_r_;
+  std::vector<std::uint64_t> gathered_ids_;
+  anisobond::AtomsBox gathered_box_;
   std::string fix_id_;
   class FixPropertyAtom *fix_;
 };

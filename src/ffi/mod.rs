@@ -12,6 +12,7 @@ use crate::assembly::{Assembly, Method};
 use crate::bonds::{self, BondSet, BondStiffness};
 use crate::homogenize::mean_field;
 use crate::model::Model;
+use crate::packing::{Packing, PeriodicCell};
 use crate::schemes::StiffnessScheme;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
@@ -81,6 +82,31 @@ pub mod bridge {
         pub iz: i32,
     }
 
+    /// The box the atoms of a simulation sit in (LIGGGHTS `domain`): bounds (m), tilt
+    /// factors xy, xz, yz (m) and periodicity per direction.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct AtomsBox {
+        /// Lower bounds xlo, ylo, zlo (m).
+        pub lo: [f64; 3],
+        /// Upper bounds xhi, yhi, zhi (m).
+        pub hi: [f64; 3],
+        /// Tilt factors xy, xz, yz (m); must be 0 (the library's cell is orthorhombic).
+        pub tilt: [f64; 3],
+        /// Periodic along x, y, z: all three (a periodic cell) or none (a free cluster).
+        pub periodic: [bool; 3],
+    }
+
+    /// The bonds of atoms given by arrays ([`bond_atoms`]): `ids[k]` is the id of the
+    /// particle that rows call `k` (the atoms sorted by id), so a row joins atoms
+    /// `ids[i] < ids[j]`.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct AtomBonds {
+        /// The bond table, `i`, `j` indexing `ids`.
+        pub rows: Vec<BondRow>,
+        /// The atoms' ids in ascending order.
+        pub ids: Vec<u64>,
+    }
+
     /// A 6×6 Voigt stiffness tensor (Pa), row-major: c[6·a + b] = C[a][b].
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Tensor6 {
@@ -124,6 +150,21 @@ pub mod bridge {
         fn load_bond_table(path: &str) -> Result<Vec<BondRow>>;
         /// Bond a packing file by the model's rule and assign springs.
         fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>>;
+        /// Bond atoms given by arrays (positions `x` as x0 y0 z0 x1 …, radii, distinct ids,
+        /// any order) in their box by the model's rule and assign springs, exactly as the
+        /// CLI bonds the same packing read from a file (cross-anisotropic μ from these
+        /// bonds). Periodic in all three directions: the box is the periodic cell; in none:
+        /// a free cluster; mixed periodicity or a tilted box is refused. When
+        /// `write_bonds` is not empty the table is also written there (SPEC columns, then
+        /// `id_i,id_j`), as `anisobond bonds` writes it.
+        fn bond_atoms(
+            model: &ModelHandle,
+            x: &[f64],
+            radius: &[f64],
+            ids: &[u64],
+            domain: &AtomsBox,
+            write_bonds: &str,
+        ) -> Result<AtomBonds>;
         /// Write bond rows as a SPEC bond table.
         fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()>;
         /// Stiffness tensor (Pa) of a packing file + model; `method` is "voigt",
@@ -135,7 +176,7 @@ pub mod bridge {
     }
 }
 
-use bridge::{BondRow, BondSprings, Magnitudes, Tensor6};
+use bridge::{AtomBonds, AtomsBox, BondRow, BondSprings, Magnitudes, Tensor6};
 
 /// Opaque model for C++: the model, and the scheme once built.
 pub struct ModelHandle {
@@ -303,6 +344,97 @@ fn load_bond_table(path: &str) -> Result<Vec<BondRow>> {
 fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>> {
     let asm = assembly(packing_path, model)?;
     Ok(rows(&asm.bonds, &asm.springs))
+}
+
+/// The packing of atoms given by arrays (see the bridge's `bond_atoms`), sorted by id.
+fn atoms_packing(x: &[f64], radius: &[f64], ids: &[u64], domain: &AtomsBox) -> Result<Packing> {
+    let n = ids.len();
+    if n == 0 {
+        return Err(Error::Invalid("bond_atoms: no atoms to bond".into()));
+    }
+    if x.len() != 3 * n || radius.len() != n {
+        return Err(Error::Invalid(format!(
+            "bond_atoms: {n} ids need {} position components and {n} radii, got {} and {}",
+            3 * n,
+            x.len(),
+            radius.len()
+        )));
+    }
+    if let Some(t) = domain.tilt.iter().find(|t| **t != 0.0) {
+        return Err(Error::Invalid(format!(
+            "bond_atoms: the box is tilted (tilt factor {t} m): the library's periodic cell is \
+             orthorhombic; bond the atoms before `change_box ... triclinic` tilts the box"
+        )));
+    }
+    let cell = match domain.periodic {
+        [true, true, true] => {
+            let l = Vec3::new(
+                domain.hi[0] - domain.lo[0],
+                domain.hi[1] - domain.lo[1],
+                domain.hi[2] - domain.lo[2],
+            );
+            Some(PeriodicCell::new(l)?)
+        }
+        [false, false, false] => None,
+        p => {
+            return Err(Error::Invalid(format!(
+                "bond_atoms: the box is periodic along {} only: the library bonds a periodic \
+                 cell (periodic along x, y and z) or a free cluster (periodic along none), \
+                 not mixed periodicity",
+                ["x", "y", "z"]
+                    .iter()
+                    .zip(p)
+                    .filter(|(_, q)| *q)
+                    .map(|(a, _)| *a)
+                    .collect::<Vec<_>>()
+                    .join(" and ")
+            )))
+        }
+    };
+    // Name a bad atom by its id (Packing::new would name its place in the sorted order).
+    for k in 0..n {
+        let (p, r) = (&x[3 * k..3 * k + 3], radius[k]);
+        if p.iter().any(|c| !c.is_finite()) || !r.is_finite() || r <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "bond_atoms: atom {}: expected a finite position and a radius > 0, got \
+                 ({}, {}, {}) and {r}",
+                ids[k], p[0], p[1], p[2]
+            )));
+        }
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_unstable_by_key(|&k| ids[k]);
+    // Periodic: positions relative to the box origin, wrapped into the cell by
+    // Packing::new (as a LIGGGHTS data file is read); free: as given.
+    let origin = match cell {
+        Some(_) => Vec3::new(domain.lo[0], domain.lo[1], domain.lo[2]),
+        None => Vec3::zeros(),
+    };
+    let positions = order
+        .iter()
+        .map(|&k| Vec3::new(x[3 * k], x[3 * k + 1], x[3 * k + 2]) - origin)
+        .collect();
+    let radii = order.iter().map(|&k| radius[k]).collect();
+    Packing::new(positions, radii, cell)?.with_ids(order.iter().map(|&k| ids[k]).collect())
+}
+
+fn bond_atoms(
+    model: &ModelHandle,
+    x: &[f64],
+    radius: &[f64],
+    ids: &[u64],
+    domain: &AtomsBox,
+    write_bonds: &str,
+) -> Result<AtomBonds> {
+    let packing = atoms_packing(x, radius, ids, domain)?;
+    let asm = Assembly::new(packing, model.model.clone())?;
+    if !write_bonds.is_empty() {
+        asm.write_bonds(Path::new(write_bonds))?;
+    }
+    Ok(AtomBonds {
+        rows: rows(&asm.bonds, &asm.springs),
+        ids: asm.packing.ids.clone().unwrap_or_default(),
+    })
 }
 
 fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {

@@ -8,4 +8,5 @@ mod bench;
 mod data_files;
 mod driver;
 mod harmonic;
+mod in_place;
 mod validate;
