@@ -2,7 +2,6 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::{export_liggghts, DeckOptions};
 use anisobond::io::OutputSet;
 use anisobond::Result;
@@ -11,11 +10,8 @@ use std::path::PathBuf;
 /// Write LIGGGHTS input decks for a packing + model.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Periodic packing file (SPEC text `x y z r`, YADE SpherePack text, or LIGGGHTS data).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory (created if needed).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -50,14 +46,10 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(a: Args) -> Result<()> {
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let mut set = OutputSet::new(&a.input.paths());
     let staged = set.dir(&a.output)?;
-    let Assembly {
-        packing,
-        bonds,
-        springs: k,
-        ..
-    } = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
+    let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
     let opts = DeckOptions {
         density: a.density,
         strain: a.strain,
@@ -69,7 +61,7 @@ pub fn run(a: Args) -> Result<()> {
         affine: a.affine,
         shear: !a.no_shear,
     };
-    let s = export_liggghts(&staged, &packing, &bonds, &k, &opts)?;
+    let s = export_liggghts(&staged, packing, bonds, k, &opts)?;
     set.commit()?;
     println!(
         "wrote LIGGGHTS decks for {} particles, {} bonds (longest {:.4e} m) into {}:",

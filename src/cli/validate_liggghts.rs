@@ -3,7 +3,6 @@
 //! integrator and the relaxed solver; a table of the differences, files in DIR, and a
 //! non-zero exit naming the checks outside tolerance.
 
-use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::which;
 use anisobond::io::OutputSet;
 use anisobond::validate::harness::checks_table;
@@ -14,11 +13,8 @@ use std::path::PathBuf;
 /// Validate the LIGGGHTS driver against the reference integrator and the relaxed solver.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Periodic packing file (SPEC text `x y z r`, YADE SpherePack text, or LIGGGHTS data).
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON): bonding rule, stiffness scheme, geometry.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory: report.json, checks.csv, undamped_history.csv, tensors.csv,
     /// driver_stress_strain.png, and one sub-directory per LIGGGHTS run.
     #[arg(short, long, default_value = "validate-liggghts")]
@@ -80,18 +76,14 @@ fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {
 
 /// Run the command.
 pub fn run(a: Args) -> Result<()> {
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let mut set = OutputSet::new(&a.input.paths());
     let dir = set.dir(&a.output)?;
     let programs = Programs {
         driver: find_driver(a.driver)?,
         liggghts: a.liggghts,
     };
-    let Assembly {
-        packing,
-        bonds,
-        springs: k,
-        ..
-    } = super::cell::assembly(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
+    let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
     let opts = ValidateOptions {
         density: a.density,
         timestep: a.timestep,
@@ -110,7 +102,7 @@ pub fn run(a: Args) -> Result<()> {
         a.output.display()
     );
     let t0 = std::time::Instant::now();
-    let report = validate_liggghts(&dir, &packing, &bonds, &k, &programs, &opts, &mut |stage| {
+    let report = validate_liggghts(&dir, packing, bonds, k, &programs, &opts, &mut |stage| {
         println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64())
     })?;
     println!("time step {:.4e} s\n", report.time_step);
