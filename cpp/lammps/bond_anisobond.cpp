@@ -1,7 +1,7 @@
 // bond_style anisobond — see bond_anisobond.h for the bond law and the design.
 //
 //   plugin load /path/to/anisobond_lammps.so
-//   bond_style anisobond model MODEL.toml [damping ZETA]
+//   bond_style anisobond model MODEL.toml [damping ZETA] [lattice_scaling MU]
 //   bond_style anisobond table BONDS.csv  [damping ZETA] [length_tolerance TOL]
 //   bond_coeff *
 //
@@ -63,7 +63,8 @@ inline std::uint64_t pair_key(tagint a, tagint b) {
 }  // namespace
 
 BondAnisobond::BondAnisobond(LAMMPS *lmp)
-    : Bond(lmp), zeta_(0.0), length_tol_(1e-6), r0_max_(0.0), index_(-1), need_init_(false) {
+    : Bond(lmp), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
+      need_init_(false) {
   partial_flag = 0;
   writedata = 0;
   born_matrix_enable = 0;
@@ -90,6 +91,7 @@ void BondAnisobond::settings(int narg, char **arg) {
   table_.clear();
   zeta_ = 0.0;
   length_tol_ = 1e-6;
+  mu_ = 0.0;
   try {
     if (source_ == "model") {
       model_.reset(new rust::Box<anisobond::ModelHandle>(anisobond::load_model(arg[1])));
@@ -115,14 +117,25 @@ void BondAnisobond::settings(int narg, char **arg) {
       if (!(zeta_ >= 0.0 && zeta_ <= 2.0))
         error->all(FLERR, "bond_style anisobond: damping ratio {} must be in [0, 2]", zeta_);
       iarg += 2;
+    } else if (key == "lattice_scaling" && iarg + 1 < narg) {
+      // μ given (written to restart files once computed, so that bonds initialised after a
+      // restart get the springs of the original box).
+      mu_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (!model_) error->all(FLERR, "bond_style anisobond: lattice_scaling is for `model`");
+      try {
+        (*model_)->set_lattice_scaling(mu_);
+      } catch (const std::exception &e) {
+        error->all(FLERR, "bond_style anisobond: lattice_scaling {}: {}", mu_, e.what());
+      }
+      iarg += 2;
     } else if (key == "length_tolerance" && iarg + 1 < narg) {
       length_tol_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (!(length_tol_ > 0.0))
         error->all(FLERR, "bond_style anisobond: length_tolerance {} must be > 0", length_tol_);
       iarg += 2;
     } else {
-      error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA` or "
-                        "`length_tolerance TOL`",
+      error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
+                        "`length_tolerance TOL` or `lattice_scaling MU`",
                  key);
     }
   }
@@ -169,8 +182,8 @@ void BondAnisobond::init_style() {
                       "({} bonds per atom × {}); was the number of bonds per atom changed?",
                ARRAY_NAME, cols, ncols, atom->bond_per_atom, static_cast<int>(NSLOT));
   // The cross-anisotropic scheme needs μ from all bonds: a collective step in the first
-  // force call (compute() runs on every process at setup).
-  need_init_ = model_ && (*model_)->needs_packing();
+  // force call of the first run (compute() runs on every process at setup).
+  need_init_ = model_ && (*model_)->needs_packing() && mu_ == 0.0;
 }
 
 // μ = π̂·Σ(½ r0·min(R_i, R_j)²)/(3V) over every bond of every process (Šmilauer Eq. 20,
@@ -207,6 +220,7 @@ void BondAnisobond::initialise_bonds() {
   } catch (const std::exception &e) {
     error->all(FLERR, "bond_style anisobond: lattice scaling μ = {}: {}", mu, e.what());
   }
+  mu_ = mu;
   if (comm->me == 0)
     utils::logmesg(lmp, "bond_style anisobond: lattice scaling mu = {:.17g} from {} bonds, "
                         "volume {:.17g}\n",
@@ -390,9 +404,14 @@ double BondAnisobond::equilibrium_distance(int) { return r0_max_; }
 // Restart files keep the style's arguments; the per-bond state is in the fix's per-atom
 // data, restored when init_style() recreates the fix after read_restart.
 void BondAnisobond::write_restart(FILE *fp) {
-  const int n = static_cast<int>(args_.size());
+  std::vector<std::string> words = args_;
+  if (mu_ > 0.0 && std::find(words.begin(), words.end(), "lattice_scaling") == words.end()) {
+    words.push_back("lattice_scaling");
+    words.push_back(fmt::format("{:.17g}", mu_));
+  }
+  const int n = static_cast<int>(words.size());
   fwrite(&n, sizeof(int), 1, fp);
-  for (const std::string &w : args_) {
+  for (const std::string &w : words) {
     const int len = static_cast<int>(w.size());
     fwrite(&len, sizeof(int), 1, fp);
     fwrite(w.data(), 1, len, fp);

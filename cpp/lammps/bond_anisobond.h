@@ -27,7 +27,8 @@
 // (src/ffi) from its initial direction, the two radii and the initial length, at the first
 // force call of the bond; the cross-anisotropic scheme's lattice scaling
 // μ = π̂·Σ(½ r0·min(R_i, R_j)²)/(3V) (Šmilauer Eq. 20) is summed over all bonds of all
-// processes (MPI_Allreduce) with V the box volume. `table BONDS.csv` reads them from a
+// processes (MPI_Allreduce) with V the box volume, once, at the first run's setup (or given
+// as `lattice_scaling MU`, which restart files keep). `table BONDS.csv` reads them from a
 // SPEC bond table (atom ids = table indices + 1), checking each bond's length.
 // Damping (optional, `damping ZETA`): γ = 2ζ√(k m*) of each bond's own spring and reduced
 // mass m* or reduced inertia I* (rolling against k_r + k_s r0²/4, twisting against k_tw, or
@@ -90,6 +91,7 @@ class BondAnisobond : public Bond {
   std::unordered_map<std::uint64_t, Springs> table_;  // key: tag_lo << 32 | tag_hi
   double zeta_;                    // damping ratio (0: undamped)
   double length_tol_;              // table lengths vs. the box (relative)
+  double mu_;                      // cross-anisotropic lattice scaling (0: not yet known)
   double r0_max_;                  // longest rest length seen (all processes)
   int index_;                      // atom->darray index of the state array
   bool need_init_;                 // some bond may be uninitialised (set by init_style)
