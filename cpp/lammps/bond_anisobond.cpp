@@ -165,6 +165,12 @@ void BondAnisobond::init_style() {
     error->all(FLERR, "bond_style anisobond needs `comm_modify vel yes` (partners' velocities "
                       "and spins)");
   if (atom->bond_per_atom < 1) error->all(FLERR, "bond_style anisobond: the system has no bonds");
+  // A table bond missing from the system would be silently dropped: the counts must agree
+  // (a system bond missing from the table is an error at its first force call).
+  if (source_ == "table" && static_cast<bigint>(table_.size()) != atom->nbonds)
+    error->all(FLERR, "bond_style anisobond: the bond table {} has {} bonds, the system {} "
+                      "(another packing or bonding rule?)",
+               args_[1], table_.size(), atom->nbonds);
 
   // The per-bond state: created on first use, found again on later runs, restored from
   // the restart file when the fix of the same ID and style was in it (Modify::add_fix).
