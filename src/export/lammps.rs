@@ -123,8 +123,8 @@ fn check(o: &LammpsOptions) -> Result<()> {
 }
 
 /// Write `data.lmp`, `bond_coeffs.lmp` (`bonds.csv` for the plugin), `params.lmp`,
-/// `in.elastic` and `run.sh` into `dir` (which must exist). The packing must be periodic and every bond shorter than half the
-/// cell (LAMMPS takes the minimum image of a bond).
+/// `in.elastic` and `run.sh` into `dir` (which must exist). The packing must be periodic and
+/// every bond shorter than half the cell (LAMMPS takes the minimum image of a bond).
 pub fn export_lammps(
     dir: &Path,
     packing: &Packing,
@@ -159,9 +159,22 @@ pub fn export_lammps(
         LammpsBondStyle::Anisobond { plugin } => Some(plugin),
     };
     let n_types = if plugin.is_some() { 1 } else { bonds.len() };
+    if let Some(p) = plugin {
+        // The deck substitutes the path into `plugin load ${plugin}`, which splits at blanks.
+        let ok = p.to_str().is_some_and(|t| {
+            !t.is_empty() && !t.contains(|c: char| c.is_whitespace() || "\"'$#".contains(c))
+        });
+        if !ok {
+            return Err(Error::Invalid(format!(
+                "LAMMPS export: plugin path {} must be UTF-8 without blanks, quotes, `$` or `#` \
+                 (the deck's `plugin load` takes it as one word)",
+                p.display()
+            )));
+        }
+    }
 
     // Data file: atom_style bpm/sphere `id mol type diameter density x y z`, a triclinic box
-    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1.
+    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1 (1 for the plugin).
     let data = dir.join("data.lmp");
     let mut s = String::new();
     let _ = writeln!(

@@ -429,3 +429,38 @@ fn plugin_refuses_misuse_with_the_reason() {
         "{text}"
     );
 }
+
+#[test]
+fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_style() {
+    let dir = tmp();
+    let pk = packing(dir.path(), 64);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let blank = dir.path().join("a b.so");
+    std::fs::write(&blank, "").unwrap();
+    let err = crate::common::fails(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--bond-style", "anisobond", "--plugin"])
+            .arg(&blank)
+            .arg("-o")
+            .arg(dir.path().join("out")),
+    );
+    assert!(err.contains("without blanks"), "{err}");
+    let err = crate::common::fails(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--plugin", "x.so", "-o"])
+            .arg(dir.path().join("out")),
+    );
+    assert!(
+        err.contains("--plugin is for --bond-style anisobond"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out").exists());
+}
