@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -153,6 +154,7 @@ def main():
             out["plugin_over_stock_%s_np%d" % (what, np_)] = by[("plugin", "on")][what] / by[("stock", "off")][what]
             out["plugin_over_stock_same_newton_%s_np%d" % (what, np_)] = (
                 by[("plugin", "on")][what] / by[("stock", "on")][what])
+    shutil.rmtree(work, ignore_errors=True)
     if a.json:
         print(json.dumps(out))
         return
