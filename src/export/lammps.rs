@@ -9,12 +9,31 @@
 //! k_b = k_r and the shear displacement and torques at the bond's midpoint
 //! ([`crate::homogenize::network::LeverArm::HalfLength`]): its quasi-static tensor is the
 //! relaxed tensor with that lever arm.
+//!
+//! With [`LammpsBondStyle::Anisobond`] the deck uses anisobond's own LAMMPS plugin
+//! (`bond_style anisobond`, cpp/lammps/) instead: one bond type, the springs of every bond
+//! from `bonds.csv` (SPEC bond table) or, by editing `params.lmp`, from the model through
+//! the bridge; same element tests, same quasi-static tensor.
 
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+
+/// The bond style of the exported deck.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum LammpsBondStyle {
+    /// Stock `bond_style bpm/rotational`, one bond type per bond (route (a)).
+    #[default]
+    BpmRotational,
+    /// anisobond's plugin `bond_style anisobond` (cpp/lammps/, `make -C cpp lammps-plugin`),
+    /// loaded from this path: one bond type, per-bond springs from `bonds.csv`.
+    Anisobond {
+        /// The plugin's shared object (`anisobond_lammps.so`), as the deck will load it.
+        plugin: PathBuf,
+    },
+}
 
 /// Settings of the exported element tests.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +55,8 @@ pub struct LammpsOptions {
     pub tolerance: f64,
     /// Time step as a fraction of the single-particle stable step.
     pub safety: f64,
+    /// The deck's bond style.
+    pub bond_style: LammpsBondStyle,
 }
 
 impl Default for LammpsOptions {
@@ -48,6 +69,7 @@ impl Default for LammpsOptions {
             max_chunks: 100,
             tolerance: 1e-5,
             safety: 0.8,
+            bond_style: LammpsBondStyle::BpmRotational,
         }
     }
 }
@@ -100,9 +122,9 @@ fn check(o: &LammpsOptions) -> Result<()> {
     Ok(())
 }
 
-/// Write `data.lmp`, `bond_coeffs.lmp`, `params.lmp`, `in.elastic` and `run.sh` into `dir`
-/// (which must exist). The packing must be periodic and every bond shorter than half the
-/// cell (LAMMPS takes the minimum image of a bond).
+/// Write `data.lmp`, `bond_coeffs.lmp` (`bonds.csv` for the plugin), `params.lmp`,
+/// `in.elastic` and `run.sh` into `dir` (which must exist). The packing must be periodic and
+/// every bond shorter than half the cell (LAMMPS takes the minimum image of a bond).
 pub fn export_lammps(
     dir: &Path,
     packing: &Packing,
@@ -131,24 +153,48 @@ pub fn export_lammps(
     }
     let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
     let mut files = Vec::new();
+    // The plugin takes every bond's springs per bond: one bond type.
+    let plugin = match &o.bond_style {
+        LammpsBondStyle::BpmRotational => None,
+        LammpsBondStyle::Anisobond { plugin } => Some(plugin),
+    };
+    let n_types = if plugin.is_some() { 1 } else { bonds.len() };
+    if let Some(p) = plugin {
+        // The deck substitutes the path into `plugin load ${plugin}`, which splits at blanks.
+        let ok = p.to_str().is_some_and(|t| {
+            !t.is_empty() && !t.contains(|c: char| c.is_whitespace() || "\"'$#".contains(c))
+        });
+        if !ok {
+            return Err(Error::Invalid(format!(
+                "LAMMPS export: plugin path {} must be UTF-8 without blanks, quotes, `$` or `#` \
+                 (the deck's `plugin load` takes it as one word)",
+                p.display()
+            )));
+        }
+    }
 
     // Data file: atom_style bpm/sphere `id mol type diameter density x y z`, a triclinic box
-    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1.
+    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1 (1 for the plugin).
     let data = dir.join("data.lmp");
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "LAMMPS data file written by anisobond {}: {} particles, {} bonds (one bond type per bond)\n",
+        "LAMMPS data file written by anisobond {}: {} particles, {} bonds ({})\n",
         env!("CARGO_PKG_VERSION"),
         packing.len(),
-        bonds.len()
+        bonds.len(),
+        if plugin.is_some() {
+            "bond_style anisobond: one bond type"
+        } else {
+            "one bond type per bond"
+        }
     );
     let _ = writeln!(
         s,
         "{} atoms\n1 atom types\n{} bonds\n{} bond types\n",
         packing.len(),
         bonds.len(),
-        bonds.len()
+        n_types
     );
     let l = cell.lengths;
     let _ = writeln!(
@@ -176,7 +222,7 @@ pub fn export_lammps(
             s,
             "{} {} {} {}",
             b + 1,
-            b + 1,
+            if plugin.is_some() { 1 } else { b + 1 },
             bonds.i[b] + 1,
             bonds.j[b] + 1
         );
@@ -184,6 +230,69 @@ pub fn export_lammps(
     crate::io::write_string_atomic(&data, &s)?;
     files.push(data);
 
+    if plugin.is_some() {
+        // The plugin's springs: the SPEC bond table (atom ids = indices + 1).
+        let table = dir.join("bonds.csv");
+        crate::bonds::table::write_bond_table(&table, bonds, k)?;
+        files.push(table);
+    } else {
+        write_bond_coeffs(dir, packing, bonds, k, o, &mut files)?;
+    }
+
+    let params = dir.join("params.lmp");
+    let mut p = format!(
+        "# Settings of in.elastic (override any with -var NAME VALUE)\n\
+         variable dt index {}\nvariable cut index {}\nvariable strain index {}\n\
+         variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
+        num(dt),
+        num(1.6 * max_len),
+        num(o.strain),
+        o.chunk_steps,
+        o.max_chunks,
+        num(o.tolerance)
+    );
+    if let Some(plugin) = plugin {
+        let _ = write!(
+            p,
+            "# bond_style anisobond: the plugin, and where each bond's springs come from: the bond\n\
+             # table (\"table bonds.csv\") or the model through the bridge (\"model MODEL.toml\");\n\
+             # damping ratio of each bond's own damping\n\
+             variable plugin index \"{}\"\nvariable springs index \"table bonds.csv\"\n\
+             variable damping index {}\n",
+            plugin.display(),
+            num(o.damping_ratio)
+        );
+    }
+    crate::io::write_string_atomic(&params, &p)?;
+    files.push(params);
+
+    let deck = dir.join("in.elastic");
+    crate::io::write_string_atomic(
+        &deck,
+        &elastic_deck(packing.len(), bonds.len(), plugin.is_some()),
+    )?;
+    files.push(deck);
+
+    let run = dir.join("run.sh");
+    crate::io::write_string_atomic(&run, RUN_SH)?;
+    files.push(run);
+
+    Ok(LammpsExport {
+        files,
+        time_step: dt,
+        max_bond_length: max_len,
+    })
+}
+
+/// `bond_coeffs.lmp`: one `bond_coeff` line of bpm/rotational per bond (type b + 1).
+fn write_bond_coeffs(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &LammpsOptions,
+    files: &mut Vec<PathBuf>,
+) -> Result<()> {
     // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
     let coeffs = dir.join("bond_coeffs.lmp");
     let mut c = String::with_capacity(bonds.len() * 200);
@@ -239,44 +348,26 @@ pub fn export_lammps(
     }
     crate::io::write_string_atomic(&coeffs, &c)?;
     files.push(coeffs);
-
-    let params = dir.join("params.lmp");
-    crate::io::write_string_atomic(
-        &params,
-        &format!(
-            "# Settings of in.elastic (override any with -var NAME VALUE)\n\
-             variable dt index {}\nvariable cut index {}\nvariable strain index {}\n\
-             variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
-            num(dt),
-            num(1.6 * max_len),
-            num(o.strain),
-            o.chunk_steps,
-            o.max_chunks,
-            num(o.tolerance)
-        ),
-    )?;
-    files.push(params);
-
-    let deck = dir.join("in.elastic");
-    crate::io::write_string_atomic(&deck, &elastic_deck(packing.len(), bonds.len()))?;
-    files.push(deck);
-
-    let run = dir.join("run.sh");
-    crate::io::write_string_atomic(&run, RUN_SH)?;
-    files.push(run);
-
-    Ok(LammpsExport {
-        files,
-        time_step: dt,
-        max_bond_length: max_len,
-    })
+    Ok(())
 }
 
 /// The six element tests in one input: each case reads the data anew (`clear`), stores the
 /// bonds' reference state (`run 0`), strains the box at once with `change_box … remap`, and
 /// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
-fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
+/// `plugin`: the bonds are anisobond's `bond_style anisobond` (loaded once; LAMMPS restores
+/// loaded plugins after `clear`) instead of bpm/rotational.
+fn elastic_deck(n_particles: usize, n_bonds: usize, plugin: bool) -> String {
     let mut s = String::new();
+    let law = if plugin {
+        "# Bond law: bond_style anisobond (anisobond's LAMMPS plugin, cpp/lammps/): anisobond's incremental\n\
+         #   bond with springs k_n, k_s, k_r, k_tw per bond (params.lmp: `springs` = the bond table or the\n\
+         #   model), rest length and direction = the initial bond, shear displacement and torques at the\n\
+         #   bond's midpoint (lever arm `half-length`); damping ratio `damping` of each bond's own damping."
+    } else {
+        "# Bond law: bpm/rotational (no breaking, no smoothing, normalize no): k_r = anisobond k_n, k_s = k_s\n\
+         #   (N/m), k_t = k_tw, k_b = k_r (N·m/rad); rest length and reference direction = the initial bond;\n\
+         #   shear displacement and torques at the bond's midpoint (anisobond's lever arm `half-length`)."
+    };
     let _ = writeln!(
         s,
         "# anisobond → LAMMPS (BPM package) element tests: {n_particles} particles, {n_bonds} bonds.\n\
@@ -285,16 +376,17 @@ fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
          #   (change_box … remap; shears tilt the triclinic box, engineering γ = tilt / height), then the\n\
          #   bonds' own damping relaxes it in chunks of `chunk_steps` steps until the stress changes by\n\
          #   less than `tolerance` (relative) over a chunk; `max_chunks` without that is an error.\n\
-         # Bond law: bpm/rotational (no breaking, no smoothing, normalize no): k_r = anisobond k_n, k_s = k_s\n\
-         #   (N/m), k_t = k_tw, k_b = k_r (N·m/rad); rest length and reference direction = the initial bond;\n\
-         #   shear displacement and torques at the bond's midpoint (anisobond's lever arm `half-length`).\n\
+         {law}\n\
          # Stress σ = −p (virial only, Pa, tension positive). Output: lammps-tensor.json (C in Pa, SPEC\n\
          #   tensor form), lammps-history.csv (stress every 100 steps), log.lammps.\n\
          # Units: SI."
     );
+    s.push_str("include params.lmp\n");
+    if plugin {
+        s.push_str("plugin load ${plugin}\n");
+    }
     s.push_str(
-        "include params.lmp\n\
-         print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-history.csv screen no\n\
+        "print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-history.csv screen no\n\
          variable case loop 6\n\
          label case_loop\n\
          clear\n\
@@ -302,13 +394,25 @@ fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
          dimension 3\n\
          boundary p p p\n\
          atom_style bpm/sphere\n\
-         special_bonds lj 0 1 1 coul 1 1 1\n\
-         newton on off\n\
+         special_bonds lj 0 1 1 coul 1 1 1\n",
+    );
+    // bpm/rotational as validated with newton_bond off; the plugin stores each bond (and its
+    // state) once, on its first atom: newton_bond on.
+    s.push_str(if plugin {
+        "newton on on\n\
+         comm_modify vel yes cutoff ${cut}\n\
+         read_data data.lmp\n\
+         bond_style anisobond ${springs} damping ${damping}\n\
+         bond_coeff *\n"
+    } else {
+        "newton on off\n\
          comm_modify vel yes cutoff ${cut}\n\
          read_data data.lmp\n\
          bond_style bpm/rotational break no smooth no\n\
-         include bond_coeffs.lmp\n\
-         pair_style zero ${cut}\n\
+         include bond_coeffs.lmp\n"
+    });
+    s.push_str(
+        "pair_style zero ${cut}\n\
          pair_coeff * *\n\
          neighbor 0.0 bin\n\
          fix integrate all nve/bpm/sphere\n\
@@ -371,8 +475,9 @@ fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
     }
     let _ = writeln!(
         s,
-        "print \"\"\"{{\"method\": \"lammps\", \"units\": \"Pa\", \"C\": [{}], \"n_particles\": {n_particles}, \"n_bonds\": {n_bonds}, \"strain\": ${{strain}}, \"time_step_s\": ${{dt}}, \"lever_arm\": \"half-length\"}}\"\"\" file lammps-tensor.json",
-        rows.join(", ")
+        "print \"\"\"{{\"method\": \"lammps\", \"units\": \"Pa\", \"C\": [{}], \"n_particles\": {n_particles}, \"n_bonds\": {n_bonds}, \"strain\": ${{strain}}, \"time_step_s\": ${{dt}}, \"lever_arm\": \"half-length\", \"bond_style\": \"{}\"}}\"\"\" file lammps-tensor.json",
+        rows.join(", "),
+        if plugin { "anisobond" } else { "bpm/rotational" }
     );
     s
 }

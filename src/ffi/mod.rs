@@ -126,6 +126,12 @@ pub mod bridge {
         fn needs_packing(self: &ModelHandle) -> bool;
         /// Bond the packing by the model's rule and build the scheme with it.
         fn bind_packing(self: &mut ModelHandle, packing_path: &str) -> Result<()>;
+        /// Build the scheme with a given lattice scaling μ instead of from a packing file
+        /// (cross-anisotropic; e.g. μ = π̂·Σ(½ l·min(R_i, R_j)²)/(3V) summed over all bonds
+        /// by an MPI program). Ignored by the other schemes, which need no μ.
+        fn set_lattice_scaling(self: &mut ModelHandle, mu: f64) -> Result<()>;
+        /// The geometry's π̂ (bond cross-section π̂·R_b²), the factor of μ.
+        fn pi_hat(self: &ModelHandle) -> f64;
         /// The scheme's name.
         fn scheme_name(self: &ModelHandle) -> Result<String>;
         /// The scheme's magnitudes along the lab direction (nx, ny, nz) (normalised here).
@@ -210,6 +216,22 @@ impl ModelHandle {
         let asm = assembly(packing_path, self)?;
         self.scheme = Some(self.model.build_scheme(Some((&asm.packing, &asm.bonds)))?);
         Ok(())
+    }
+
+    fn set_lattice_scaling(&mut self, mu: f64) -> Result<()> {
+        if !mu.is_finite() || mu <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "set_lattice_scaling: μ must be finite and > 0, got {mu}"
+            )));
+        }
+        if self.model.needs_packing() {
+            self.scheme = Some(self.model.scheme_for(Some(mu))?);
+        }
+        Ok(())
+    }
+
+    fn pi_hat(&self) -> f64 {
+        self.model.geometry.pi_hat
     }
 
     fn scheme_name(&self) -> Result<String> {

