@@ -23,6 +23,8 @@
 #include "update.h"
 #include "utils.h"
 
+#include "bond_vectors.h"
+
 #include <mpi.h>
 
 #include <algorithm>
@@ -37,22 +39,9 @@ namespace {
 const char *const FIX_ID = "ANISOBOND_STATE";
 const char *const ARRAY_NAME = "anisobond_state";
 
-inline void cross(const double *a, const double *b, double *c) {
-  c[0] = a[1] * b[2] - a[2] * b[1];
-  c[1] = a[2] * b[0] - a[0] * b[2];
-  c[2] = a[0] * b[1] - a[1] * b[0];
-}
-inline double dot(const double *a, const double *b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-// v ← v − v×a  (YADE ScGeom::rotate, first order in the small rotation a)
-inline void rotate_by(double *v, const double *a) {
-  double c[3];
-  cross(v, a, c);
-  v[0] -= c[0];
-  v[1] -= c[1];
-  v[2] -= c[2];
-}
+using anisobond_vec::cross;
+using anisobond_vec::dot;
+using anisobond_vec::rotate_by;
 
 inline std::uint64_t pair_key(tagint a, tagint b) {
   const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));

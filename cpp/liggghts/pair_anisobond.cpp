@@ -32,6 +32,8 @@
 
 #include "anisobond/src/ffi/mod.rs.h"
 
+#include "bond_vectors.h"
+
 #include <mpi.h>
 
 #include <algorithm>
@@ -49,22 +51,9 @@ using namespace LAMMPS_NS;
 
 namespace {
 
-inline void cross(const double *a, const double *b, double *c) {
-  c[0] = a[1] * b[2] - a[2] * b[1];
-  c[1] = a[2] * b[0] - a[0] * b[2];
-  c[2] = a[0] * b[1] - a[1] * b[0];
-}
-inline double dot(const double *a, const double *b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-// v ← v − v×a  (YADE ScGeom::rotate, first order)
-inline void rotate_by(double *v, const double *a) {
-  double c[3];
-  cross(v, a, c);
-  v[0] -= c[0];
-  v[1] -= c[1];
-  v[2] -= c[2];
-}
+using anisobond_vec::cross;
+using anisobond_vec::dot;
+using anisobond_vec::rotate_by;
 
 }  // namespace
 
@@ -171,17 +160,9 @@ void PairAnisobond::settings(int narg, char **arg) {
   }
   std::vector<Bond> bonds;
   bonds.reserve(rows.size());
-  for (const anisobond::BondRow &r : rows) {
-    Bond b;
-    b.tag_i = static_cast<int>(r.i) + 1;
-    b.tag_j = static_cast<int>(r.j) + 1;
-    b.kn = r.kn;
-    b.ks = r.ks;
-    b.kr = r.kr;
-    b.ktw = r.ktw;
-    b.length = r.length;
-    bonds.push_back(b);
-  }
+  for (const anisobond::BondRow &r : rows)
+    bonds.push_back(Bond{static_cast<int>(r.i) + 1, static_cast<int>(r.j) + 1, r.kn, r.ks, r.kr,
+                         r.ktw, r.length});
   set_bonds(std::move(bonds));
 }
 
@@ -300,17 +281,9 @@ void PairAnisobond::bond_in_place() {
           rust::Slice<const double>(rs.data(), rs.size()),
           rust::Slice<const uint64_t>(ids.data(), ids.size()), box, "");
       bonds.reserve(ab.rows.size());
-      for (const anisobond::BondRow &r : ab.rows) {
-        Bond b;
-        b.tag_i = static_cast<int>(ab.ids[r.i]);
-        b.tag_j = static_cast<int>(ab.ids[r.j]);
-        b.kn = r.kn;
-        b.ks = r.ks;
-        b.kr = r.kr;
-        b.ktw = r.ktw;
-        b.length = r.length;
-        bonds.push_back(b);
-      }
+      for (const anisobond::BondRow &r : ab.rows)
+        bonds.push_back(Bond{static_cast<int>(ab.ids[r.i]), static_cast<int>(ab.ids[r.j]), r.kn,
+                             r.ks, r.kr, r.ktw, r.length});
     } catch (const std::exception &e) {
       failure = std::string("pair_style anisobond model ") + model_path_ +
                 " (in place, bonding the " + std::to_string(n) + " atoms of the first run): " +

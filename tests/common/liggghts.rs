@@ -78,3 +78,21 @@ pub fn fresh_dir(name: &str) -> PathBuf {
 pub fn exists(p: &Path) -> bool {
     p.exists()
 }
+
+/// Run the stock `liggghts` on the repository's deck `tests/liggghts/DECK` in `dir` with
+/// `-var NAME VALUE` pairs; asserts it succeeded without an ERROR line and returns its log.
+pub fn run_stock_deck(dir: &Path, deck: &str, vars: &[(&str, &str)]) -> String {
+    let mut c = Command::new("liggghts");
+    for (name, value) in vars {
+        c.args(["-var", name, value]);
+    }
+    let out = c
+        .arg("-in")
+        .arg(crate::common::root().join("tests/liggghts").join(deck))
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
+    log
+}

@@ -83,6 +83,20 @@ fn lammps(test: &str) -> Option<Lammps> {
 
 /// Export the plugin deck into `dir/name`, with the springs from the bond table (the
 /// export's own) or, given `springs`, from that model file; run it on `np` processes;
+/// `anisobond export lammps PK --model MODEL --bond-style anisobond --plugin SO -o OUT`.
+fn export_plugin(pk: &Path, model: &Path, so: &Path, out: &Path) -> std::process::Command {
+    let mut c = crate::common::bin();
+    c.args(["export", "lammps"])
+        .arg(pk)
+        .arg("--model")
+        .arg(model)
+        .args(["--bond-style", "anisobond", "--plugin"])
+        .arg(so)
+        .arg("-o")
+        .arg(out);
+    c
+}
+
 /// LAMMPS' tensor and standard output.
 fn plugin_tensor(
     l: &Lammps,
@@ -94,17 +108,7 @@ fn plugin_tensor(
     np: usize,
 ) -> ([[f64; 6]; 6], String) {
     let out = dir.join(name);
-    succeeds(
-        crate::common::bin()
-            .args(["export", "lammps"])
-            .arg(pk)
-            .arg("--model")
-            .arg(model)
-            .args(["--bond-style", "anisobond", "--plugin"])
-            .arg(&l.so)
-            .arg("-o")
-            .arg(&out),
-    );
+    succeeds(&mut export_plugin(pk, model, &l.so, &out));
     let data = std::fs::read_to_string(out.join("data.lmp")).unwrap();
     assert!(data.contains("\n1 bond types\n"), "one bond type expected");
     assert!(!out.join("bond_coeffs.lmp").exists() && out.join("bonds.csv").is_file());
@@ -266,17 +270,7 @@ fn plugin_restart_keeps_every_bonds_state_across_process_counts() {
     let pk = packing(dir.path(), 400);
     let model = write(dir.path(), "model.toml", CROSS);
     let out = dir.path().join("deck");
-    succeeds(
-        crate::common::bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--bond-style", "anisobond", "--plugin"])
-            .arg(&so)
-            .arg("-o")
-            .arg(&out),
-    );
+    succeeds(&mut export_plugin(&pk, &model, &so, &out));
     let model_text = format!("model {}", model.display());
     // A sheared and stretched box, 400 steps of relaxation, a restart file, 400 more steps
     // on one process; then the restart file continued on two processes.
@@ -328,17 +322,7 @@ fn plugin_refuses_misuse_with_the_reason() {
     let pk = packing(dir.path(), 64);
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
     let out = dir.path().join("deck");
-    succeeds(
-        crate::common::bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--bond-style", "anisobond", "--plugin"])
-            .arg(&so)
-            .arg("-o")
-            .arg(&out),
-    );
+    succeeds(&mut export_plugin(&pk, &model, &so, &out));
     let base = |newton: &str, style: &str, coeff: &str| {
         format!(
             "include params.lmp\nplugin load ${{plugin}}\nunits si\natom_style bpm/sphere\n\
@@ -446,17 +430,12 @@ fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_st
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
     let blank = dir.path().join("a b.so");
     std::fs::write(&blank, "").unwrap();
-    let err = crate::common::fails(
-        crate::common::bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--bond-style", "anisobond", "--plugin"])
-            .arg(&blank)
-            .arg("-o")
-            .arg(dir.path().join("out")),
-    );
+    let err = crate::common::fails(&mut export_plugin(
+        &pk,
+        &model,
+        &blank,
+        &dir.path().join("out"),
+    ));
     assert!(err.contains("without blanks"), "{err}");
     let err = crate::common::fails(
         crate::common::bin()

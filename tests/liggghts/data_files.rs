@@ -14,16 +14,8 @@ use std::process::Command;
 
 /// Run `write_data.in` with LIGGGHTS in `dir`; returns the atom count LIGGGHTS printed.
 fn write_data(dir: &Path, boundary: &str, zhi: &str, dx: &str, name: &str) -> usize {
-    let deck = root().join("tests/liggghts/write_data.in");
-    let out = Command::new("liggghts")
-        .args(["-var", "b", boundary, "-var", "zh", zhi, "-var", "dx", dx])
-        .args(["-var", "name", name, "-in"])
-        .arg(&deck)
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
+    let vars = [("b", boundary), ("zh", zhi), ("dx", dx), ("name", name)];
+    let log = run_stock_deck(dir, "write_data.in", &vars);
     let total = log
         .lines()
         .find_map(|l| l.split("new total = ").nth(1))

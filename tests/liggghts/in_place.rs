@@ -21,7 +21,6 @@ use anisobond::model::Model;
 use anisobond::packing::io::{read_packing_as, CellChoice};
 use anisobond::tensor::Stiffness6;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
 
@@ -38,15 +37,7 @@ const CROSS_MODEL: &str = "[bonding]\nrule = \"factor\"\nvalue = 1.1\n\
 
 /// LIGGGHTS (stock) writes the user's packing `user.data` into `dir`.
 fn user_packing(dir: &Path) -> PathBuf {
-    let deck = root().join("tests/liggghts/in_place_packing.in");
-    let out = Command::new("liggghts")
-        .args(["-var", "name", "user.data", "-in"])
-        .arg(&deck)
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
+    run_stock_deck(dir, "in_place_packing.in", &[("name", "user.data")]);
     dir.join("user.data")
 }
 
