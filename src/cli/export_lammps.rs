@@ -1,5 +1,6 @@
 //! `anisobond export lammps PACKING --model MODEL -o DIR`: a LAMMPS (BPM package) data file,
-//! per-bond coefficients, the six element tests and `run.sh [NP]`.
+//! per-bond coefficients (or, with `--types K`, at most K quantised bond types and their
+//! tensor error), the six element tests and `run.sh [NP]`.
 
 use anisobond::assembly::Assembly;
 use anisobond::export::lammps::{export_lammps, LammpsOptions};
@@ -39,6 +40,25 @@ pub struct Args {
     /// Time step as a fraction of the single-particle stable step.
     #[arg(long, default_value_t = 0.8)]
     pub safety: f64,
+    /// Quantise the per-bond springs into at most K bond types (default: one type per bond,
+    /// exact); the relaxed tensor's error against the exact springs is printed and written to
+    /// bond-types.json.
+    #[arg(long, value_name = "K", allow_negative_numbers = true, value_parser = parse_types)]
+    pub types: Option<usize>,
+}
+
+/// `--types K`: a whole number from 1 to 2³² − 1 (LAMMPS numbers bond types with `int`).
+fn parse_types(s: &str) -> std::result::Result<usize, String> {
+    match s.trim().parse::<i128>() {
+        Ok(k) if (1..=u32::MAX as i128).contains(&k) => Ok(k as usize),
+        Ok(k) => Err(format!(
+            "the number of bond types must be at least 1 (and at most {}), got {k}",
+            u32::MAX
+        )),
+        Err(_) => Err(format!(
+            "expected a whole number of bond types (at least 1), got '{s}'"
+        )),
+    }
 }
 
 /// Run `anisobond export lammps`.
@@ -54,11 +74,16 @@ pub fn run(a: Args) -> Result<()> {
         max_chunks: a.max_chunks,
         tolerance: a.tolerance,
         safety: a.safety,
+        types: a.types,
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;
+    let types = match &e.types {
+        None => "one bond type per bond".to_string(),
+        Some(_) => format!("{} bond types", e.bond_types),
+    };
     println!(
-        "wrote LAMMPS (BPM) element tests for {} particles, {} bonds (one bond type per bond) into {}:",
+        "wrote LAMMPS (BPM) element tests for {} particles, {} bonds ({types}) into {}:",
         asm.packing.len(),
         asm.bonds.len(),
         a.output.display()
@@ -72,5 +97,8 @@ pub fn run(a: Args) -> Result<()> {
         e.time_step,
         a.output.display()
     );
+    if let Some(t) = &e.types {
+        println!("{}", t.summary());
+    }
     Ok(())
 }

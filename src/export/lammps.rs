@@ -9,10 +9,23 @@
 //! k_b = k_r and the shear displacement and torques at the bond's midpoint
 //! ([`crate::homogenize::network::LeverArm::HalfLength`]): its quasi-static tensor is the
 //! relaxed tensor with that lever arm.
+//!
+//! With [`LammpsOptions::types`] = Some(K) the springs are instead quantised into at most K
+//! bond types ([`crate::bonds::types`]) and the export reports what that costs
+//! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
+//! quantised network against the exact one, and each spring's largest relative error.
 
+use crate::bonds::types::{quantise, spring_errors};
 use crate::bonds::{BondSet, BondStiffness};
+use crate::homogenize::network::LeverArm;
+use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use crate::homogenize::voigt::voigt_tensor;
 use crate::packing::Packing;
+use crate::tensor::compare::relative_difference;
+use crate::tensor::Stiffness6;
 use crate::{Error, Result};
+use serde::Serialize;
+use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -36,6 +49,10 @@ pub struct LammpsOptions {
     pub tolerance: f64,
     /// Time step as a fraction of the single-particle stable step.
     pub safety: f64,
+    /// None: one bond type per bond, every bond's springs exact (route a). Some(K): the
+    /// springs quantised into at most K types ([`crate::bonds::types`]), the tensor error
+    /// reported ([`TypesReport`]).
+    pub types: Option<usize>,
 }
 
 impl Default for LammpsOptions {
@@ -48,6 +65,7 @@ impl Default for LammpsOptions {
             max_chunks: 100,
             tolerance: 1e-5,
             safety: 0.8,
+            types: None,
         }
     }
 }
@@ -61,6 +79,149 @@ pub struct LammpsExport {
     pub time_step: f64,
     /// Longest bond (m); the ghost cutoff is 1.6 times it.
     pub max_bond_length: f64,
+    /// Number of bond types written (the number of bonds on route a).
+    pub bond_types: usize,
+    /// What quantising into types cost ([`LammpsOptions::types`] given), else None.
+    pub types: Option<TypesReport>,
+}
+
+/// What quantising the springs into bond types costs (`bond-types.json` of the export).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TypesReport {
+    /// K asked for (`--types`).
+    pub requested: usize,
+    /// Types written (≤ K; the number of distinct spring sets when that is smaller).
+    pub types: usize,
+    /// Distinct spring sets `[k_n, k_s, k_r, k_tw]` among the bonds.
+    pub distinct_springs: usize,
+    /// True when every bond keeps its exact springs (K ≥ the distinct sets): no error.
+    pub exact: bool,
+    /// Lloyd iterations of the clustering (0 when exact).
+    pub iterations: usize,
+    /// max |C_q − C| / max |C| of the relaxed tensors with the midpoint lever arm (what the
+    /// deck converges to), C_q of the quantised network, C of the exact one.
+    pub tensor_error: f64,
+    /// The same for the Voigt sums.
+    pub voigt_tensor_error: f64,
+    /// Largest relative error of each spring over the bonds
+    /// ([`crate::bonds::types::spring_errors`]).
+    pub spring_max_relative_error: SpringErrors,
+    /// Relaxed tensor (midpoint lever arm, Pa) of the exact network; None when exact.
+    #[serde(rename = "relaxed_exact_Pa", serialize_with = "optional_rows")]
+    pub relaxed_exact: Option<Stiffness6>,
+    /// Relaxed tensor (midpoint lever arm, Pa) of the quantised network; None when exact.
+    #[serde(rename = "relaxed_quantised_Pa", serialize_with = "optional_rows")]
+    pub relaxed_quantised: Option<Stiffness6>,
+}
+
+/// Per-spring largest relative errors of a [`TypesReport`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SpringErrors {
+    /// k_n (bpm/rotational k_r).
+    pub kn: f64,
+    /// k_s (k_s).
+    pub ks: f64,
+    /// k_r (k_b).
+    pub kr: f64,
+    /// k_tw (k_t).
+    pub ktw: f64,
+}
+
+fn optional_rows<S: serde::Serializer>(
+    c: &Option<Stiffness6>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match c {
+        Some(c) => crate::validate::harness::matrix_rows(c, s),
+        None => s.serialize_none(),
+    }
+}
+
+impl TypesReport {
+    /// One line for a summary: the types, and the error or that there is none.
+    pub fn summary(&self) -> String {
+        if self.exact {
+            format!(
+                "{} bond types for {} distinct spring sets (--types {}): every bond's springs exact, no tensor error",
+                self.types, self.distinct_springs, self.requested
+            )
+        } else {
+            let e = &self.spring_max_relative_error;
+            format!(
+                "{} bond types for {} distinct spring sets (--types {}): relaxed tensor (midpoint lever \
+                 arm) error max|ΔC|/max|C| = {:.3e} against the exact springs (Voigt sum {:.3e}); \
+                 largest relative spring error k_n {:.3e}, k_s {:.3e}, k_r {:.3e}, k_tw {:.3e}",
+                self.types,
+                self.distinct_springs,
+                self.requested,
+                self.tensor_error,
+                self.voigt_tensor_error,
+                e.kn,
+                e.ks,
+                e.kr,
+                e.ktw
+            )
+        }
+    }
+}
+
+/// Quantise the springs of `bonds` into at most `max_types` bond types
+/// ([`crate::bonds::types::quantise`]) and measure the cost: the relaxed tensors (midpoint
+/// lever arm, CG to 1e-10) of the quantised and the exact network, their Voigt sums and the
+/// springs' relative errors. Returns every bond's type, the springs every bond gets and the
+/// report. Refuses `max_types` = 0.
+pub fn bond_types(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    max_types: usize,
+) -> Result<(Vec<u32>, BondStiffness, TypesReport)> {
+    if max_types == 0 {
+        return Err(Error::Invalid(
+            "LAMMPS export: the number of bond types (--types) must be at least 1, got 0".into(),
+        ));
+    }
+    let t = quantise(bonds, k, max_types)?;
+    let kq = t.stiffness(k);
+    let e = spring_errors(k, &kq);
+    let (tensor_error, voigt_error, exact_c, quantised_c) = if t.exact {
+        (0.0, 0.0, None, None)
+    } else {
+        let opts = RelaxedOptions {
+            lever_arm: LeverArm::HalfLength,
+            tolerance: 1e-10,
+            ..Default::default()
+        };
+        let c = relaxed_tensor(packing, bonds, k, &opts)?.c;
+        let cq = relaxed_tensor(packing, bonds, &kq, &opts)?.c;
+        let v = packing.volume();
+        let voigt = relative_difference(&voigt_tensor(bonds, &kq, v), &voigt_tensor(bonds, k, v));
+        (relative_difference(&cq, &c), voigt, Some(c), Some(cq))
+    };
+    if !(tensor_error.is_finite() && voigt_error.is_finite() && e.iter().all(|x| x.is_finite())) {
+        return Err(Error::Degenerate(format!(
+            "LAMMPS export: the error of {} bond types is not finite (tensor {tensor_error},              Voigt {voigt_error}, springs {e:?})",
+            t.len()
+        )));
+    }
+    let report = TypesReport {
+        requested: max_types,
+        types: t.len(),
+        distinct_springs: t.distinct,
+        exact: t.exact,
+        iterations: t.iterations,
+        tensor_error,
+        voigt_tensor_error: voigt_error,
+        spring_max_relative_error: SpringErrors {
+            kn: e[0],
+            ks: e[1],
+            kr: e[2],
+            ktw: e[3],
+        },
+        relaxed_exact: exact_c,
+        relaxed_quantised: quantised_c,
+    };
+    Ok((t.type_of, kq, report))
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
@@ -101,8 +262,9 @@ fn check(o: &LammpsOptions) -> Result<()> {
 }
 
 /// Write `data.lmp`, `bond_coeffs.lmp`, `params.lmp`, `in.elastic` and `run.sh` into `dir`
-/// (which must exist). The packing must be periodic and every bond shorter than half the
-/// cell (LAMMPS takes the minimum image of a bond).
+/// (which must exist), and `bond-types.json` with [`LammpsOptions::types`]. The packing must
+/// be periodic and every bond shorter than half the cell (LAMMPS takes the minimum image of a
+/// bond).
 pub fn export_lammps(
     dir: &Path,
     packing: &Packing,
@@ -129,6 +291,32 @@ pub fn export_lammps(
     if bonds.is_empty() {
         return Err(Error::Invalid("LAMMPS export: no bonds".into()));
     }
+    // Bond types: one per bond (exact), or the quantised springs of at most K types.
+    let (type_of, kq, n_types, types): (Cow<[u32]>, Cow<BondStiffness>, usize, _) = match o.types {
+        None => (
+            Cow::Owned((0..bonds.len() as u32).collect()),
+            Cow::Borrowed(k),
+            bonds.len(),
+            None,
+        ),
+        Some(max) => {
+            let (t, kq, report) = bond_types(packing, bonds, k, max)?;
+            let n = report.types;
+            (Cow::Owned(t), Cow::Owned(kq), n, Some(report))
+        }
+    };
+    let k: &BondStiffness = &kq;
+    let what = match &types {
+        None => "one bond type per bond".to_string(),
+        Some(r) if r.exact => format!(
+            "{} bond types: the {} distinct spring sets, exact",
+            r.types, r.distinct_springs
+        ),
+        Some(r) => format!(
+            "{} bond types quantised from {} distinct spring sets; relaxed tensor error {:.3e}, see bond-types.json",
+            r.types, r.distinct_springs, r.tensor_error
+        ),
+    };
     let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
     let mut files = Vec::new();
 
@@ -138,7 +326,7 @@ pub fn export_lammps(
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "LAMMPS data file written by anisobond {}: {} particles, {} bonds (one bond type per bond)\n",
+        "LAMMPS data file written by anisobond {}: {} particles, {} bonds ({what})\n",
         env!("CARGO_PKG_VERSION"),
         packing.len(),
         bonds.len()
@@ -148,7 +336,7 @@ pub fn export_lammps(
         "{} atoms\n1 atom types\n{} bonds\n{} bond types\n",
         packing.len(),
         bonds.len(),
-        bonds.len()
+        n_types
     );
     let l = cell.lengths;
     let _ = writeln!(
@@ -176,7 +364,7 @@ pub fn export_lammps(
             s,
             "{} {} {} {}",
             b + 1,
-            b + 1,
+            type_of[b] + 1,
             bonds.i[b] + 1,
             bonds.j[b] + 1
         );
@@ -197,13 +385,15 @@ pub fn export_lammps(
     );
     let _ = writeln!(
         c,
-        "# damping ratio {} of each bond's own spring and reduced mass/inertia",
+        "# damping ratio {} of each bond's own spring and reduced mass/inertia (of a type: the least\n\
+         # damping over its bonds, so that no bond is damped more than that); {what}",
         num(o.damping_ratio)
     );
     let mass = |p: usize| {
         let r = packing.radii[p];
         o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
     };
+    let mut gamma = vec![[f64::INFINITY; 4]; n_types];
     for b in 0..bonds.len() {
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         let (mi, mj) = (mass(i), mass(j));
@@ -223,18 +413,29 @@ pub fn export_lammps(
         // Twisting: torque ½γ_t·Δω; without a twisting spring the rolling scale damps it.
         let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
         let g_t = 4.0 * z * (k_twist * i_red).sqrt();
+        let g = &mut gamma[type_of[b] as usize];
+        for (m, v) in g.iter_mut().zip([g_n, g_s, g_r, g_t]) {
+            *m = m.min(v);
+        }
+    }
+    // The springs of type t: those of its first bond (all its bonds have the same).
+    let mut first = vec![usize::MAX; n_types];
+    for (b, &t) in type_of.iter().enumerate().rev() {
+        first[t as usize] = b;
+    }
+    for (t, (&b, g)) in first.iter().zip(&gamma).enumerate() {
         let _ = writeln!(
             c,
             "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
-            b + 1,
+            t + 1,
             num(k.kn[b]),
             num(k.ks[b]),
             num(k.ktw[b]),
             num(k.kr[b]),
-            num(g_n),
-            num(g_s),
-            num(g_r),
-            num(g_t)
+            num(g[0]),
+            num(g[1]),
+            num(g[2]),
+            num(g[3])
         );
     }
     crate::io::write_string_atomic(&coeffs, &c)?;
@@ -244,11 +445,13 @@ pub fn export_lammps(
     crate::io::write_string_atomic(
         &params,
         &format!(
-            "# Settings of in.elastic (override any with -var NAME VALUE)\n\
-             variable dt index {}\nvariable cut index {}\nvariable strain index {}\n\
+            "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {}\n\
+             variable dt index {}\nvariable cut index {}\nvariable skin index {}\nvariable strain index {}\n\
              variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
+            types_comment(&what, types.as_ref()),
             num(dt),
             num(1.6 * max_len),
+            num(0.16 * max_len),
             num(o.strain),
             o.chunk_steps,
             o.max_chunks,
@@ -258,8 +461,23 @@ pub fn export_lammps(
     files.push(params);
 
     let deck = dir.join("in.elastic");
-    crate::io::write_string_atomic(&deck, &elastic_deck(packing.len(), bonds.len()))?;
+    crate::io::write_string_atomic(
+        &deck,
+        &elastic_deck(
+            packing.len(),
+            bonds.len(),
+            &types_comment(&what, types.as_ref()),
+        ),
+    )?;
     files.push(deck);
+
+    if let Some(r) = &types {
+        let json = dir.join("bond-types.json");
+        let text = serde_json::to_string_pretty(r)
+            .map_err(|e| Error::Invalid(format!("bond-types.json: {e}")))?;
+        crate::io::write_string_atomic(&json, &(text + "\n"))?;
+        files.push(json);
+    }
 
     let run = dir.join("run.sh");
     crate::io::write_string_atomic(&run, RUN_SH)?;
@@ -269,17 +487,41 @@ pub fn export_lammps(
         files,
         time_step: dt,
         max_bond_length: max_len,
+        bond_types: n_types,
+        types,
     })
+}
+
+/// The bond types as comment text (after `# `) for params.lmp and in.elastic.
+fn types_comment(what: &str, types: Option<&TypesReport>) -> String {
+    match types {
+        Some(r) if !r.exact => {
+            let e = &r.spring_max_relative_error;
+            format!(
+                "{what}.\n#   Quantised (--types {}): relaxed tensor (midpoint lever arm) max|ΔC|/max|C| = {} against the\n\
+                 #   exact springs (Voigt sum {}); largest relative spring error k_n {}, k_s {}, k_r {}, k_tw {}.",
+                r.requested,
+                num(r.tensor_error),
+                num(r.voigt_tensor_error),
+                num(e.kn),
+                num(e.ks),
+                num(e.kr),
+                num(e.ktw)
+            )
+        }
+        _ => format!("{what}."),
+    }
 }
 
 /// The six element tests in one input: each case reads the data anew (`clear`), stores the
 /// bonds' reference state (`run 0`), strains the box at once with `change_box … remap`, and
 /// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
-fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
+fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
         "# anisobond → LAMMPS (BPM package) element tests: {n_particles} particles, {n_bonds} bonds.\n\
+         # Bonds: {types}\n\
          # Run:  ./run.sh [NP]   (or: mpirun -np NP lmp -in in.elastic)\n\
          # Six load cases in Voigt order 11 22 33 23 13 12: the box is strained by `strain` at once\n\
          #   (change_box … remap; shears tilt the triclinic box, engineering γ = tilt / height), then the\n\
@@ -288,6 +530,8 @@ fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
          # Bond law: bpm/rotational (no breaking, no smoothing, normalize no): k_r = anisobond k_n, k_s = k_s\n\
          #   (N/m), k_t = k_tw, k_b = k_r (N·m/rad); rest length and reference direction = the initial bond;\n\
          #   shear displacement and torques at the bond's midpoint (anisobond's lever arm `half-length`).\n\
+         # Neighbour lists (pair_style zero: only the ghost atoms that bonds need) with a skin of 0.1 `cut`,\n\
+         #   rebuilt only when an atom has moved half of it (a skin of 0 rebuilt them every step).\n\
          # Stress σ = −p (virial only, Pa, tension positive). Output: lammps-tensor.json (C in Pa, SPEC\n\
          #   tensor form), lammps-history.csv (stress every 100 steps), log.lammps.\n\
          # Units: SI."
@@ -310,7 +554,8 @@ fn elastic_deck(n_particles: usize, n_bonds: usize) -> String {
          include bond_coeffs.lmp\n\
          pair_style zero ${cut}\n\
          pair_coeff * *\n\
-         neighbor 0.0 bin\n\
+         neighbor ${skin} bin\n\
+         neigh_modify every 1 delay 0 check yes\n\
          fix integrate all nve/bpm/sphere\n\
          timestep ${dt}\n\
          compute p all pressure NULL virial\n\
