@@ -23,6 +23,11 @@
 //! ([`crate::homogenize::voigt::voigt_tensor`]: its bulk modulus is Σ l² k_n / 9V), so the
 //! quantisation error of the tensor is in its anisotropic part and in the relaxation.
 //!
+//! These are the affine weights w_b = (l², l², 1, 1) of d_b² = Σ_c w_b,c² Δk_c²
+//! ([`affine_weights`]). [`quantise_weighted`] takes any weights; [`sensitivity_weights`]
+//! gives those of the relaxed solution (V × the derivative of the tensor's trace with respect
+//! to each spring), which count the relaxation too.
+//!
 //! Determinism: the first centre is the bond nearest the overall (weighted) centre, each next
 //! one the bond farthest (largest d²) from the centres so far, ties to the lower bond index;
 //! then Lloyd's iterations until no bond changes type (at most [`MAX_ITERATIONS`]). A centre
@@ -88,17 +93,36 @@ fn springs_of(k: &BondStiffness, b: usize) -> [f64; 4] {
     [k.kn[b], k.ks[b], k.kr[b], k.ktw[b]]
 }
 
-/// d_b(q)² of the module doc.
-fn cost(s: &[f64; 4], l2: f64, q: &[f64; 4]) -> f64 {
-    let l4 = l2 * l2;
-    l4 * ((s[0] - q[0]).powi(2) + (s[1] - q[1]).powi(2))
-        + (s[2] - q[2]).powi(2)
-        + (s[3] - q[3]).powi(2)
+/// d_b(q)² = Σ_c w_c² (k_c − q_c)² of the module doc.
+fn cost(s: &[f64; 4], w: &[f64; 4], q: &[f64; 4]) -> f64 {
+    (0..4).map(|c| (w[c] * (s[c] - q[c])).powi(2)).sum()
+}
+
+/// The affine weights of the module doc: `[l², l², 1, 1]` per bond.
+pub fn affine_weights(bonds: &BondSet) -> Vec<[f64; 4]> {
+    bonds
+        .length
+        .iter()
+        .map(|l| [l * l, l * l, 1.0, 1.0])
+        .collect()
 }
 
 /// Quantise the springs `k` of `bonds` into at most `max_types` types (module doc). Refuses
 /// `max_types` = 0, no bonds, and a spring that is negative or not finite (naming the bond).
 pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<BondTypes> {
+    quantise_weighted(bonds, k, max_types, &affine_weights(bonds))
+}
+
+/// [`quantise`] with each bond's weights w_b = `[w_n, w_s, w_r, w_tw]` (≥ 0, finite) in
+/// d_b(q)² = Σ_c w_b,c² (k_b,c − q_c)², and a type's springs the w-weighted means of its
+/// bonds' (plain means where its weights are all 0). With w_b,c = V·∂(trace C)/∂k_b,c
+/// ([`sensitivity_weights`]) every type keeps the first-order trace of the tensor.
+pub fn quantise_weighted(
+    bonds: &BondSet,
+    k: &BondStiffness,
+    max_types: usize,
+    weights: &[[f64; 4]],
+) -> Result<BondTypes> {
     if max_types == 0 {
         return Err(Error::Invalid(
             "bond types: the number of types must be at least 1, got 0".into(),
@@ -111,13 +135,18 @@ pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<
             k.len()
         )));
     }
-    for b in 0..n {
+    if weights.len() != n {
+        return Err(Error::Invalid(format!(
+            "bond types: {n} bonds with {} weights",
+            weights.len()
+        )));
+    }
+    for (b, &w) in weights.iter().enumerate() {
         let s = springs_of(k, b);
-        let l = bonds.length[b];
-        if s.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || !(l.is_finite() && l > 0.0) {
+        if s.iter().chain(&w).any(|v| !(v.is_finite() && *v >= 0.0)) {
             return Err(Error::Invalid(format!(
-                "bond types: bond {b} has springs {s:?} and length {l}; every spring must be \
-                 finite and ≥ 0 and the length finite and > 0"
+                "bond types: bond {b} has springs {s:?} and weights {w:?}; each must be \
+                 finite and ≥ 0"
             )));
         }
     }
@@ -145,14 +174,14 @@ pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<
         });
     }
 
-    let l2: Vec<f64> = bonds.length.iter().map(|l| l * l).collect();
+    let w = weights;
     let s: Vec<[f64; 4]> = (0..n).map(|b| springs_of(k, b)).collect();
 
     // Farthest-first seeding from the bond nearest the overall centre.
-    let mut centres = vec![centre(&s, &l2, 0..n)];
-    let first = argmax(n, |b| -cost(&s[b], l2[b], &centres[0]));
+    let mut centres = vec![centre(&s, w, 0..n, 2)];
+    let first = argmax(n, |b| -cost(&s[b], &w[b], &centres[0]));
     centres[0] = s[first];
-    let mut near: Vec<f64> = (0..n).map(|b| cost(&s[b], l2[b], &centres[0])).collect();
+    let mut near: Vec<f64> = (0..n).map(|b| cost(&s[b], &w[b], &centres[0])).collect();
     while centres.len() < max_types {
         let far = argmax(n, |b| near[b]);
         if near[far] <= 0.0 {
@@ -160,7 +189,7 @@ pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<
         }
         let c = s[far];
         for b in 0..n {
-            near[b] = near[b].min(cost(&s[b], l2[b], &c));
+            near[b] = near[b].min(cost(&s[b], &w[b], &c));
         }
         centres.push(c);
     }
@@ -169,7 +198,7 @@ pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<
     let mut iterations = 0;
     for it in 1..=MAX_ITERATIONS {
         iterations = it;
-        let next = assign(&s, &l2, &centres);
+        let next = assign(&s, w, &centres);
         let changed = next != type_of;
         type_of = next;
         // Update: each centre the minimiser of its bonds' cost; an empty one re-seeded.
@@ -180,37 +209,31 @@ pub fn quantise(bonds: &BondSet, k: &BondStiffness, max_types: usize) -> Result<
         let mut reseeded = false;
         for (t, m) in members.iter().enumerate() {
             if m.is_empty() {
-                let far = argmax(n, |b| cost(&s[b], l2[b], &centres[type_of[b] as usize]));
+                let far = argmax(n, |b| cost(&s[b], &w[b], &centres[type_of[b] as usize]));
                 centres[t] = s[far];
                 reseeded = true;
             } else {
-                centres[t] = centre(&s, &l2, m.iter().copied());
+                centres[t] = centre(&s, w, m.iter().copied(), 2);
             }
         }
         if !changed && !reseeded {
             break;
         }
     }
-    let type_of = assign(&s, &l2, &centres);
+    let type_of = assign(&s, w, &centres);
 
-    // Final springs: l²-weighted means of k_n, k_s, plain means of k_r, k_tw; types left
-    // empty are dropped and the rest renumbered in order.
-    let mut sums = vec![[0.0f64; 6]; centres.len()];
-    for b in 0..n {
-        let a = &mut sums[type_of[b] as usize];
-        a[0] += l2[b] * s[b][0];
-        a[1] += l2[b] * s[b][1];
-        a[2] += s[b][2];
-        a[3] += s[b][3];
-        a[4] += l2[b];
-        a[5] += 1.0;
+    // Final springs: w-weighted means (w, not w²: the first-order sum Σ w·Δk over a type
+    // is 0); types left empty are dropped and the rest renumbered in order.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); centres.len()];
+    for (b, &t) in type_of.iter().enumerate() {
+        members[t as usize].push(b);
     }
     let mut renumber = vec![u32::MAX; centres.len()];
     let mut springs = Vec::new();
-    for (t, a) in sums.iter().enumerate() {
-        if a[5] > 0.0 {
+    for (t, m) in members.iter().enumerate() {
+        if !m.is_empty() {
             renumber[t] = springs.len() as u32;
-            springs.push([a[0] / a[4], a[1] / a[4], a[2] / a[5], a[3] / a[5]]);
+            springs.push(centre(&s, w, m.iter().copied(), 1));
         }
     }
     Ok(BondTypes {
@@ -236,24 +259,38 @@ fn argmax(n: usize, f: impl Fn(usize) -> f64) -> usize {
     best
 }
 
-/// The minimiser of Σ d_b(q)² over `members`: l⁴-weighted means of k_n, k_s, plain means of
-/// k_r, k_tw.
-fn centre(s: &[[f64; 4]], l2: &[f64], members: impl Iterator<Item = usize>) -> [f64; 4] {
-    let mut a = [0.0f64; 6];
+/// The means of the springs over `members` weighted by w^`power` (power 2: the minimiser of
+/// Σ d_b(q)²; power 1: the final springs), a plain mean where the weights are all 0.
+fn centre(
+    s: &[[f64; 4]],
+    w: &[[f64; 4]],
+    members: impl Iterator<Item = usize>,
+    power: i32,
+) -> [f64; 4] {
+    let mut num = [0.0f64; 4];
+    let mut den = [0.0f64; 4];
+    let mut plain = [0.0f64; 4];
+    let mut count = 0.0;
     for b in members {
-        let l4 = l2[b] * l2[b];
-        a[0] += l4 * s[b][0];
-        a[1] += l4 * s[b][1];
-        a[2] += s[b][2];
-        a[3] += s[b][3];
-        a[4] += l4;
-        a[5] += 1.0;
+        for c in 0..4 {
+            let wc = w[b][c].powi(power);
+            num[c] += wc * s[b][c];
+            den[c] += wc;
+            plain[c] += s[b][c];
+        }
+        count += 1.0;
     }
-    [a[0] / a[4], a[1] / a[4], a[2] / a[5], a[3] / a[5]]
+    std::array::from_fn(|c| {
+        if den[c] > 0.0 {
+            num[c] / den[c]
+        } else {
+            plain[c] / count
+        }
+    })
 }
 
 /// Each bond's nearest centre (ties to the lower index), in parallel chunks.
-fn assign(s: &[[f64; 4]], l2: &[f64], centres: &[[f64; 4]]) -> Vec<u32> {
+fn assign(s: &[[f64; 4]], w: &[[f64; 4]], centres: &[[f64; 4]]) -> Vec<u32> {
     let mut out = vec![0u32; s.len()];
     out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
         for (i, t) in o.iter_mut().enumerate() {
@@ -261,7 +298,7 @@ fn assign(s: &[[f64; 4]], l2: &[f64], centres: &[[f64; 4]]) -> Vec<u32> {
             let mut best = 0;
             let mut d = f64::INFINITY;
             for (j, q) in centres.iter().enumerate() {
-                let v = cost(&s[b], l2[b], q);
+                let v = cost(&s[b], &w[b], q);
                 if v < d {
                     d = v;
                     best = j;
@@ -295,4 +332,61 @@ pub fn spring_errors(exact: &BondStiffness, quantised: &BondStiffness) -> [f64; 
         }
     }
     out
+}
+
+/// Each bond's weights from the relaxed solution of the exact network: w_b,c = Σ_a δ_b,c,a²,
+/// the squared deformation of spring c of bond b (normal and shear relative displacement at
+/// the contact point, bending and twisting relative rotation) under unit engineering strain
+/// a of the six load cases, with the particles at equilibrium. By the minimum property of
+/// the relaxed tensor (envelope theorem), V·∂C_aa/∂k_b,c = δ_b,c,a², so w is V times the
+/// derivative of the trace of C: the first-order change of C that counts, relaxation
+/// included (a bond that the relaxation unloads weighs little; a pruned one nothing).
+/// Also returns the relaxed tensor (Pa).
+pub fn sensitivity_weights(
+    packing: &crate::packing::Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &crate::homogenize::relaxed::RelaxedOptions,
+) -> Result<(Vec<[f64; 4]>, crate::tensor::Stiffness6)> {
+    use crate::homogenize::network::affine_map;
+    use crate::{Mat3, Vec3};
+    let sol = crate::homogenize::relaxed::relaxed_solve(packing, bonds, k, opts, None)?;
+    let mut index = vec![u32::MAX; packing.len()];
+    for (a, &p) in sol.active.iter().enumerate() {
+        index[p as usize] = a as u32;
+    }
+    let skew = |a: Vec3| Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0);
+    let mut w = vec![[0.0f64; 4]; bonds.len()];
+    w.par_iter_mut().enumerate().for_each(|(b, wb)| {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let (ai, aj) = (index[i], index[j]);
+        if ai == u32::MAX || aj == u32::MAX {
+            return; // pruned: carries no load
+        }
+        let (qi, qj) = (&sol.q[ai as usize], &sol.q[aj as usize]);
+        let n = bonds.normal[b];
+        let l = bonds.length[b];
+        let (ri, rj) = opts.lever_arm.arms(packing.radii[i], packing.radii[j], l);
+        let lmap = affine_map(&(n * l));
+        for a in 0..6 {
+            // Fluctuation u = −Q e_a: displacements (rows 0–2) and rotations (3–5).
+            let (di, oi) = (-qi.fixed_view::<3, 1>(0, a), -qi.fixed_view::<3, 1>(3, a));
+            let (dj, oj) = (-qj.fixed_view::<3, 1>(0, a), -qj.fixed_view::<3, 1>(3, a));
+            let (oi, oj): (Vec3, Vec3) = if opts.rotations {
+                (oi, oj)
+            } else {
+                (Vec3::zeros(), Vec3::zeros())
+            };
+            // Relative displacement at the contact: L e_a + B_i u_i + B_j u_j (network.rs).
+            let delta: Vec3 = lmap.column(a) - di + skew(n * ri) * oi + dj + skew(n * rj) * oj;
+            let dn = n.dot(&delta);
+            let rot = oj - oi;
+            let tw = n.dot(&rot);
+            wb[0] += dn * dn;
+            wb[1] += (delta - n * dn).norm_squared();
+            wb[2] += (rot - n * tw).norm_squared();
+            wb[3] += tw * tw;
+        }
+    });
+    Ok((w, sol.result.c))
 }

@@ -15,7 +15,7 @@
 //! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
 //! quantised network against the exact one, and each spring's largest relative error.
 
-use crate::bonds::types::{quantise, spring_errors};
+use crate::bonds::types::{quantise, quantise_weighted, sensitivity_weights, spring_errors};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
@@ -98,6 +98,10 @@ pub struct TypesReport {
     pub exact: bool,
     /// Lloyd iterations of the clustering (0 when exact).
     pub iterations: usize,
+    /// The clustering kept: `affine` (weights l², l², 1, 1) or `relaxed` (the exact
+    /// network's relaxed deformations, [`crate::bonds::types::sensitivity_weights`]), the one
+    /// with the smaller tensor error; `none (exact)` when exact.
+    pub weights: String,
     /// max |C_q − C| / max |C| of the relaxed tensors with the midpoint lever arm (what the
     /// deck converges to), C_q of the quantised network, C of the exact one.
     pub tensor_error: f64,
@@ -166,10 +170,14 @@ impl TypesReport {
 }
 
 /// Quantise the springs of `bonds` into at most `max_types` bond types
-/// ([`crate::bonds::types::quantise`]) and measure the cost: the relaxed tensors (midpoint
-/// lever arm, CG to 1e-10) of the quantised and the exact network, their Voigt sums and the
-/// springs' relative errors. Returns every bond's type, the springs every bond gets and the
-/// report. Refuses `max_types` = 0.
+/// ([`crate::bonds::types`]) and measure the cost: the relaxed tensors (midpoint lever arm,
+/// CG to 1e-10) of the quantised and the exact network, their Voigt sums and the springs'
+/// relative errors. Unless that is exact, the clustering is run with the affine weights
+/// ([`crate::bonds::types::quantise`]) and with the relaxed deformations of the exact network
+/// ([`crate::bonds::types::sensitivity_weights`]), and the one with the smaller relaxed
+/// tensor error kept: neither wins always (k-means finds local minima), the pair is
+/// monotone in K on the models measured (docs/lammps.md). Returns every bond's type, the
+/// springs every bond gets and the report. Refuses `max_types` = 0.
 pub fn bond_types(
     packing: &Packing,
     bonds: &BondSet,
@@ -181,26 +189,53 @@ pub fn bond_types(
             "LAMMPS export: the number of bond types (--types) must be at least 1, got 0".into(),
         ));
     }
-    let t = quantise(bonds, k, max_types)?;
-    let kq = t.stiffness(k);
-    let e = spring_errors(k, &kq);
-    let (tensor_error, voigt_error, exact_c, quantised_c) = if t.exact {
-        (0.0, 0.0, None, None)
-    } else {
-        let opts = RelaxedOptions {
-            lever_arm: LeverArm::HalfLength,
-            tolerance: 1e-10,
-            ..Default::default()
-        };
-        let c = relaxed_tensor(packing, bonds, k, &opts)?.c;
-        let cq = relaxed_tensor(packing, bonds, &kq, &opts)?.c;
-        let v = packing.volume();
-        let voigt = relative_difference(&voigt_tensor(bonds, &kq, v), &voigt_tensor(bonds, k, v));
-        (relative_difference(&cq, &c), voigt, Some(c), Some(cq))
+    let opts = RelaxedOptions {
+        lever_arm: LeverArm::HalfLength,
+        tolerance: 1e-10,
+        ..Default::default()
     };
-    if !(tensor_error.is_finite() && voigt_error.is_finite() && e.iter().all(|x| x.is_finite())) {
+    // Exact when the springs have at most K distinct sets. Otherwise clustered twice, with
+    // the affine weights and with those of the exact network's relaxed solution; the one
+    // whose relaxed tensor is nearer the exact one is kept (affine on a tie).
+    let first = quantise(bonds, k, max_types)?;
+    let mut weights = "none (exact)";
+    let (t, kq, tensor_error, exact_c, quantised_c) = if first.exact {
+        let kq = first.stiffness(k);
+        (first, kq, 0.0, None, None)
+    } else {
+        let (w, c) = sensitivity_weights(packing, bonds, k, &opts)?;
+        let second = quantise_weighted(bonds, k, max_types, &w)?;
+        let mut best = None;
+        for (name, t) in [("affine", first), ("relaxed", second)] {
+            let kq = t.stiffness(k);
+            let cq = relaxed_tensor(packing, bonds, &kq, &opts)?.c;
+            let err = relative_difference(&cq, &c);
+            if !err.is_finite() {
+                return Err(Error::Degenerate(format!(
+                    "LAMMPS export: the tensor error of {} bond types ({name} weights) is not \
+                     finite ({err})",
+                    t.len()
+                )));
+            }
+            if best.as_ref().map_or(true, |(_, _, _, e, _)| err < *e) {
+                best = Some((name, t, kq, err, cq));
+            }
+        }
+        let (name, t, kq, err, cq) = best.expect("two candidates");
+        weights = name;
+        (t, kq, err, Some(c), Some(cq))
+    };
+    let e = spring_errors(k, &kq);
+    let voigt_error = if t.exact {
+        0.0
+    } else {
+        let v = packing.volume();
+        relative_difference(&voigt_tensor(bonds, &kq, v), &voigt_tensor(bonds, k, v))
+    };
+    if !(voigt_error.is_finite() && e.iter().all(|x| x.is_finite())) {
         return Err(Error::Degenerate(format!(
-            "LAMMPS export: the error of {} bond types is not finite (tensor {tensor_error},              Voigt {voigt_error}, springs {e:?})",
+            "LAMMPS export: the error of {} bond types is not finite (Voigt {voigt_error}, \
+             springs {e:?})",
             t.len()
         )));
     }
@@ -210,6 +245,7 @@ pub fn bond_types(
         distinct_springs: t.distinct,
         exact: t.exact,
         iterations: t.iterations,
+        weights: weights.to_string(),
         tensor_error,
         voigt_tensor_error: voigt_error,
         spring_max_relative_error: SpringErrors {

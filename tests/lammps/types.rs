@@ -5,7 +5,9 @@
 //! exact; K = 0 or not a number is refused naming `--types`; the quantised deck run by
 //! `lmp` gives the relaxed tensor of the quantised network within 1e-4.
 
-use super::export::{lammps_tensor, lmp, max_relative, relaxed, CROSS, ROTATED_CUBIC};
+use super::export::{
+    lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS, ROTATED_CUBIC,
+};
 use crate::common::{bin, packing, stderr, succeeds, tmp, write};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -258,6 +260,7 @@ fn quantised_deck_gives_the_relaxed_tensor_of_the_quantised_network() {
     let Some(lmp) = lmp("quantised_deck") else {
         return;
     };
+    let _alone = one_lammps_at_a_time();
     let dir = tmp();
     let pk = packing(dir.path(), 1000);
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
@@ -280,4 +283,48 @@ fn quantised_deck_gives_the_relaxed_tensor_of_the_quantised_network() {
     assert!(d < 1e-4, "{d:e}");
     // LAMMPS ran the quantised network, not the exact one.
     assert!(reported > 1e-3 && (from_exact - reported).abs() < 2e-4);
+}
+
+#[test]
+fn relaxed_weights_sum_to_the_trace_of_the_relaxed_tensor() {
+    // At equilibrium the energy under unit strain a is ½ V C_aa = ½ Σ_b Σ_c k_b,c δ_b,c,a²,
+    // so Σ_b Σ_c k_b,c w_b,c = V · trace(C): here against the `tensor` command's C.
+    use anisobond::homogenize::network::LeverArm;
+    use anisobond::homogenize::relaxed::RelaxedOptions;
+    let dir = tmp();
+    let pk = packing(dir.path(), 1000);
+    for (name, text) in [("cubic", ROTATED_CUBIC), ("cross", CROSS)] {
+        let sub = dir.path().join(name);
+        std::fs::create_dir(&sub).unwrap();
+        let model = write(&sub, "model.toml", text);
+        let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+        let opts = RelaxedOptions {
+            lever_arm: LeverArm::HalfLength,
+            tolerance: 1e-10,
+            ..Default::default()
+        };
+        let (w, _) = anisobond::bonds::types::sensitivity_weights(
+            &asm.packing,
+            &asm.bonds,
+            &asm.springs,
+            &opts,
+        )
+        .unwrap();
+        let k = &asm.springs;
+        let energy: f64 = (0..w.len())
+            .map(|b| w[b][0] * k.kn[b] + w[b][1] * k.ks[b] + w[b][2] * k.kr[b] + w[b][3] * k.ktw[b])
+            .sum();
+        let c = relaxed(&sub, "relaxed.json", &pk, &model, &[]);
+        let trace: f64 = (0..6).map(|a| c[a][a]).sum();
+        let here = energy / asm.packing.volume();
+        eprintln!("{name}: Σ k·w / V = {here:.9e} Pa, trace C = {trace:.9e} Pa");
+        assert!(
+            (here - trace).abs() < 1e-8 * trace,
+            "{name}: {here:e} vs {trace:e}"
+        );
+        // The rotational springs take part (cubic: parallel-bond moments).
+        if name == "cubic" {
+            assert!(w.iter().any(|x| x[2] > 0.0 && x[3] > 0.0));
+        }
+    }
 }
