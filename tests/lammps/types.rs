@@ -2,8 +2,9 @@
 //! tensor error is recomputed here from the files LAMMPS reads (data.lmp's bond types and
 //! bond_coeffs.lmp's springs, put into a bond table for `tensor --bonds`); one type is exact
 //! for a model whose bonds all have the same springs, and K ≥ the distinct spring sets is
-//! exact; K = 0 or not a number is refused naming `--types`; the quantised deck run by
-//! `lmp` gives the relaxed tensor of the quantised network within 1e-4.
+//! exact; K = 0 or not a number is refused naming `--types`; the relaxed clustering weights
+//! satisfy the energy identity Σ k·w = V trace C against the `tensor` command; the quantised
+//! deck run by `lmp` gives the relaxed tensor of the quantised network within 1e-4.
 
 use super::export::{
     lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS, ROTATED_CUBIC,
