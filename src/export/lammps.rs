@@ -175,9 +175,9 @@ impl TypesReport {
 /// relative errors. Unless that is exact, the clustering is run with the affine weights
 /// ([`crate::bonds::types::quantise`]) and with the relaxed deformations of the exact network
 /// ([`crate::bonds::types::sensitivity_weights`]), and the one with the smaller relaxed
-/// tensor error kept: neither wins always (k-means finds local minima), the pair is
-/// monotone in K on the models measured (docs/lammps.md). Returns every bond's type, the
-/// springs every bond gets and the report. Refuses `max_types` = 0.
+/// tensor error kept: neither wins for every K (k-means finds local minima); the better of
+/// the two fell monotonically with K on the models measured (docs/lammps.md). Returns every
+/// bond's type, the springs every bond gets and the report. Refuses `max_types` = 0.
 pub fn bond_types(
     packing: &Packing,
     bonds: &BondSet,
