@@ -8,6 +8,7 @@
 pub mod rules;
 pub mod stiffness;
 pub mod table;
+pub mod types;
 
 use crate::packing::Packing;
 use crate::{Error, Result, Vec3};

@@ -1,7 +1,7 @@
 //! `anisobond export lammps PACKING --model MODEL -o DIR`: a LAMMPS (BPM package) data file,
-//! per-bond coefficients, the six element tests and `run.sh [NP]`.
+//! per-bond coefficients (or, with `--types K`, at most K quantised bond types and their
+//! tensor error), the six element tests and `run.sh [NP]`.
 
-use anisobond::assembly::Assembly;
 use anisobond::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions};
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
@@ -10,11 +10,8 @@ use std::path::PathBuf;
 /// Options of `anisobond export lammps`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Periodic packing file.
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON).
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory (created; must not exist as a file).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -48,6 +45,11 @@ pub struct Args {
     /// this executable, when it exists.
     #[arg(long)]
     pub plugin: Option<PathBuf>,
+    /// Quantise the per-bond springs into at most K bond types (default: one type per bond,
+    /// exact); the relaxed tensor's error against the exact springs is printed and written to
+    /// bond-types.json.
+    #[arg(long, value_name = "K", allow_negative_numbers = true, value_parser = parse_types)]
+    pub types: Option<usize>,
 }
 
 /// `--bond-style`.
@@ -84,6 +86,20 @@ fn plugin_path(given: Option<&PathBuf>) -> Result<PathBuf> {
     std::path::absolute(&path).map_err(|e| Error::io(&path, e))
 }
 
+/// `--types K`: a whole number from 1 to 2³² − 1 (LAMMPS numbers bond types with `int`).
+fn parse_types(s: &str) -> std::result::Result<usize, String> {
+    match s.trim().parse::<i128>() {
+        Ok(k) if (1..=u32::MAX as i128).contains(&k) => Ok(k as usize),
+        Ok(k) => Err(format!(
+            "the number of bond types must be at least 1 (and at most {}), got {k}",
+            u32::MAX
+        )),
+        Err(_) => Err(format!(
+            "expected a whole number of bond types (at least 1), got '{s}'"
+        )),
+    }
+}
+
 /// Run `anisobond export lammps`.
 pub fn run(a: Args) -> Result<()> {
     let bond_style = match a.bond_style {
@@ -97,9 +113,9 @@ pub fn run(a: Args) -> Result<()> {
             "export lammps: --plugin is for --bond-style anisobond".into(),
         ));
     }
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let mut set = OutputSet::new(&a.input.paths());
     let staged = set.dir(&a.output)?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     let opts = LammpsOptions {
         density: a.density,
         strain: a.strain,
@@ -108,16 +124,21 @@ pub fn run(a: Args) -> Result<()> {
         max_chunks: a.max_chunks,
         tolerance: a.tolerance,
         safety: a.safety,
+        types: a.types,
         bond_style,
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;
+    let types = match &e.types {
+        None => "one bond type per bond".to_string(),
+        Some(_) => format!("{} bond types", e.bond_types),
+    };
     println!(
         "wrote LAMMPS (BPM) element tests for {} particles, {} bonds ({}) into {}:",
         asm.packing.len(),
         asm.bonds.len(),
         match &opts.bond_style {
-            LammpsBondStyle::BpmRotational => "bpm/rotational, one bond type per bond".to_string(),
+            LammpsBondStyle::BpmRotational => format!("bpm/rotational, {types}"),
             LammpsBondStyle::Anisobond { plugin } =>
                 format!("bond_style anisobond from {}", plugin.display()),
         },
@@ -132,5 +153,8 @@ pub fn run(a: Args) -> Result<()> {
         e.time_step,
         a.output.display()
     );
+    if let Some(t) = &e.types {
+        println!("{}", t.summary());
+    }
     Ok(())
 }

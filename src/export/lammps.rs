@@ -14,10 +14,23 @@
 //! (`bond_style anisobond`, cpp/lammps/) instead: one bond type, the springs of every bond
 //! from `bonds.csv` (SPEC bond table) or, by editing `params.lmp`, from the model through
 //! the bridge; same element tests, same quasi-static tensor.
+//!
+//! With [`LammpsOptions::types`] = Some(K) the springs are instead quantised into at most K
+//! bond types ([`crate::bonds::types`]) and the export reports what that costs
+//! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
+//! quantised network against the exact one, and each spring's largest relative error.
 
+use crate::bonds::types::{quantise, quantise_weighted, sensitivity_weights, spring_errors};
 use crate::bonds::{BondSet, BondStiffness};
+use crate::homogenize::network::LeverArm;
+use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use crate::homogenize::voigt::voigt_tensor;
 use crate::packing::Packing;
+use crate::tensor::compare::relative_difference;
+use crate::tensor::Stiffness6;
 use crate::{Error, Result};
+use serde::Serialize;
+use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -55,6 +68,10 @@ pub struct LammpsOptions {
     pub tolerance: f64,
     /// Time step as a fraction of the single-particle stable step.
     pub safety: f64,
+    /// None: one bond type per bond, every bond's springs exact (route a). Some(K): the
+    /// springs quantised into at most K types ([`crate::bonds::types`]), the tensor error
+    /// reported ([`TypesReport`]).
+    pub types: Option<usize>,
     /// The deck's bond style.
     pub bond_style: LammpsBondStyle,
 }
@@ -69,6 +86,7 @@ impl Default for LammpsOptions {
             max_chunks: 100,
             tolerance: 1e-5,
             safety: 0.8,
+            types: None,
             bond_style: LammpsBondStyle::BpmRotational,
         }
     }
@@ -83,6 +101,185 @@ pub struct LammpsExport {
     pub time_step: f64,
     /// Longest bond (m); the ghost cutoff is 1.6 times it.
     pub max_bond_length: f64,
+    /// Number of bond types written (the number of bonds on route a).
+    pub bond_types: usize,
+    /// What quantising into types cost ([`LammpsOptions::types`] given), else None.
+    pub types: Option<TypesReport>,
+}
+
+/// What quantising the springs into bond types costs (`bond-types.json` of the export).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TypesReport {
+    /// K asked for (`--types`).
+    pub requested: usize,
+    /// Types written (≤ K; the number of distinct spring sets when that is smaller).
+    pub types: usize,
+    /// Distinct spring sets `[k_n, k_s, k_r, k_tw]` among the bonds.
+    pub distinct_springs: usize,
+    /// True when every bond keeps its exact springs (K ≥ the distinct sets): no error.
+    pub exact: bool,
+    /// Lloyd iterations of the clustering (0 when exact).
+    pub iterations: usize,
+    /// The clustering kept: `affine` (weights l², l², 1, 1) or `relaxed` (the exact
+    /// network's relaxed deformations, [`crate::bonds::types::sensitivity_weights`]), the one
+    /// with the smaller tensor error; `none (exact)` when exact.
+    pub weights: String,
+    /// max |C_q − C| / max |C| of the relaxed tensors with the midpoint lever arm (what the
+    /// deck converges to), C_q of the quantised network, C of the exact one.
+    pub tensor_error: f64,
+    /// The same for the Voigt sums.
+    pub voigt_tensor_error: f64,
+    /// Largest relative error of each spring over the bonds
+    /// ([`crate::bonds::types::spring_errors`]).
+    pub spring_max_relative_error: SpringErrors,
+    /// Relaxed tensor (midpoint lever arm, Pa) of the exact network; None when exact.
+    #[serde(rename = "relaxed_exact_Pa", serialize_with = "optional_rows")]
+    pub relaxed_exact: Option<Stiffness6>,
+    /// Relaxed tensor (midpoint lever arm, Pa) of the quantised network; None when exact.
+    #[serde(rename = "relaxed_quantised_Pa", serialize_with = "optional_rows")]
+    pub relaxed_quantised: Option<Stiffness6>,
+}
+
+/// Per-spring largest relative errors of a [`TypesReport`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SpringErrors {
+    /// k_n (bpm/rotational k_r).
+    pub kn: f64,
+    /// k_s (k_s).
+    pub ks: f64,
+    /// k_r (k_b).
+    pub kr: f64,
+    /// k_tw (k_t).
+    pub ktw: f64,
+}
+
+fn optional_rows<S: serde::Serializer>(
+    c: &Option<Stiffness6>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match c {
+        Some(c) => crate::validate::harness::matrix_rows(c, s),
+        None => s.serialize_none(),
+    }
+}
+
+impl TypesReport {
+    /// One line for a summary: the types, and the error or that there is none.
+    pub fn summary(&self) -> String {
+        if self.exact {
+            format!(
+                "{} bond types for {} distinct spring sets (--types {}): every bond's springs exact, no tensor error",
+                self.types, self.distinct_springs, self.requested
+            )
+        } else {
+            let e = &self.spring_max_relative_error;
+            format!(
+                "{} bond types for {} distinct spring sets (--types {}): relaxed tensor (midpoint lever \
+                 arm) error max|ΔC|/max|C| = {:.3e} against the exact springs (Voigt sum {:.3e}); \
+                 largest relative spring error k_n {:.3e}, k_s {:.3e}, k_r {:.3e}, k_tw {:.3e}",
+                self.types,
+                self.distinct_springs,
+                self.requested,
+                self.tensor_error,
+                self.voigt_tensor_error,
+                e.kn,
+                e.ks,
+                e.kr,
+                e.ktw
+            )
+        }
+    }
+}
+
+/// Quantise the springs of `bonds` into at most `max_types` bond types
+/// ([`crate::bonds::types`]) and measure the cost: the relaxed tensors (midpoint lever arm,
+/// CG to 1e-10) of the quantised and the exact network, their Voigt sums and the springs'
+/// relative errors. Unless that is exact, the clustering is run with the affine weights
+/// ([`crate::bonds::types::quantise`]) and with the relaxed deformations of the exact network
+/// ([`crate::bonds::types::sensitivity_weights`]), and the one with the smaller relaxed
+/// tensor error kept: neither wins for every K (k-means finds local minima); the better of
+/// the two fell monotonically with K on the models measured (docs/lammps.md). Returns every
+/// bond's type, the springs every bond gets and the report. Refuses `max_types` = 0.
+pub fn bond_types(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    max_types: usize,
+) -> Result<(Vec<u32>, BondStiffness, TypesReport)> {
+    if max_types == 0 {
+        return Err(Error::Invalid(
+            "LAMMPS export: the number of bond types (--types) must be at least 1, got 0".into(),
+        ));
+    }
+    let opts = RelaxedOptions {
+        lever_arm: LeverArm::HalfLength,
+        tolerance: 1e-10,
+        ..Default::default()
+    };
+    // Exact when the springs have at most K distinct sets. Otherwise clustered twice, with
+    // the affine weights and with those of the exact network's relaxed solution; the one
+    // whose relaxed tensor is nearer the exact one is kept (affine on a tie).
+    let first = quantise(bonds, k, max_types)?;
+    let mut weights = "none (exact)";
+    let (t, kq, tensor_error, exact_c, quantised_c) = if first.exact {
+        let kq = first.stiffness(k);
+        (first, kq, 0.0, None, None)
+    } else {
+        let (w, c) = sensitivity_weights(packing, bonds, k, &opts)?;
+        let second = quantise_weighted(bonds, k, max_types, &w)?;
+        let mut best = None;
+        for (name, t) in [("affine", first), ("relaxed", second)] {
+            let kq = t.stiffness(k);
+            let cq = relaxed_tensor(packing, bonds, &kq, &opts)?.c;
+            let err = relative_difference(&cq, &c);
+            if !err.is_finite() {
+                return Err(Error::Degenerate(format!(
+                    "LAMMPS export: the tensor error of {} bond types ({name} weights) is not \
+                     finite ({err})",
+                    t.len()
+                )));
+            }
+            if best.as_ref().map_or(true, |(_, _, _, e, _)| err < *e) {
+                best = Some((name, t, kq, err, cq));
+            }
+        }
+        let (name, t, kq, err, cq) = best.expect("two candidates");
+        weights = name;
+        (t, kq, err, Some(c), Some(cq))
+    };
+    let e = spring_errors(k, &kq);
+    let voigt_error = if t.exact {
+        0.0
+    } else {
+        let v = packing.volume();
+        relative_difference(&voigt_tensor(bonds, &kq, v), &voigt_tensor(bonds, k, v))
+    };
+    if !(voigt_error.is_finite() && e.iter().all(|x| x.is_finite())) {
+        return Err(Error::Degenerate(format!(
+            "LAMMPS export: the error of {} bond types is not finite (Voigt {voigt_error}, \
+             springs {e:?})",
+            t.len()
+        )));
+    }
+    let report = TypesReport {
+        requested: max_types,
+        types: t.len(),
+        distinct_springs: t.distinct,
+        exact: t.exact,
+        iterations: t.iterations,
+        weights: weights.to_string(),
+        tensor_error,
+        voigt_tensor_error: voigt_error,
+        spring_max_relative_error: SpringErrors {
+            kn: e[0],
+            ks: e[1],
+            kr: e[2],
+            ktw: e[3],
+        },
+        relaxed_exact: exact_c,
+        relaxed_quantised: quantised_c,
+    };
+    Ok((t.type_of, kq, report))
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
@@ -123,8 +320,10 @@ fn check(o: &LammpsOptions) -> Result<()> {
 }
 
 /// Write `data.lmp`, `bond_coeffs.lmp` (`bonds.csv` for the plugin), `params.lmp`,
-/// `in.elastic` and `run.sh` into `dir` (which must exist). The packing must be periodic and
-/// every bond shorter than half the cell (LAMMPS takes the minimum image of a bond).
+/// `in.elastic` and `run.sh` into `dir` (which must exist), and `bond-types.json` with
+/// [`LammpsOptions::types`]. The packing must
+/// be periodic and every bond shorter than half the cell (LAMMPS takes the minimum image of a
+/// bond).
 pub fn export_lammps(
     dir: &Path,
     packing: &Packing,
@@ -151,14 +350,11 @@ pub fn export_lammps(
     if bonds.is_empty() {
         return Err(Error::Invalid("LAMMPS export: no bonds".into()));
     }
-    let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
-    let mut files = Vec::new();
     // The plugin takes every bond's springs per bond: one bond type.
     let plugin = match &o.bond_style {
         LammpsBondStyle::BpmRotational => None,
         LammpsBondStyle::Anisobond { plugin } => Some(plugin),
     };
-    let n_types = if plugin.is_some() { 1 } else { bonds.len() };
     if let Some(p) = plugin {
         // The deck substitutes the path into `plugin load ${plugin}`, which splits at blanks.
         let ok = p.to_str().is_some_and(|t| {
@@ -171,23 +367,57 @@ pub fn export_lammps(
                 p.display()
             )));
         }
+        if o.types.is_some() {
+            return Err(Error::Invalid(
+                "LAMMPS export: --types quantises bpm/rotational's bond types; the plugin \
+                 (--bond-style anisobond) takes every bond's own springs, exactly"
+                    .into(),
+            ));
+        }
     }
+    // Bond types: one per bond (exact), the quantised springs of at most K types, or one type
+    // for the plugin (its springs per bond from bonds.csv).
+    let (type_of, kq, n_types, types): (Cow<[u32]>, Cow<BondStiffness>, usize, _) = match o.types {
+        None if plugin.is_some() => (Cow::Owned(vec![0; bonds.len()]), Cow::Borrowed(k), 1, None),
+        None => (
+            Cow::Owned((0..bonds.len() as u32).collect()),
+            Cow::Borrowed(k),
+            bonds.len(),
+            None,
+        ),
+        Some(max) => {
+            let (t, kq, report) = bond_types(packing, bonds, k, max)?;
+            let n = report.types;
+            (Cow::Owned(t), Cow::Owned(kq), n, Some(report))
+        }
+    };
+    let k: &BondStiffness = &kq;
+    let what = match &types {
+        None if plugin.is_some() => "bond_style anisobond: one bond type".to_string(),
+        None => "one bond type per bond".to_string(),
+        Some(r) if r.exact => format!(
+            "{} bond types: the {} distinct spring sets, exact",
+            r.types, r.distinct_springs
+        ),
+        Some(r) => format!(
+            "{} bond types quantised from {} distinct spring sets; relaxed tensor error {:.3e}, see bond-types.json",
+            r.types, r.distinct_springs, r.tensor_error
+        ),
+    };
+    let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
+    let mut files = Vec::new();
 
     // Data file: atom_style bpm/sphere `id mol type diameter density x y z`, a triclinic box
-    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1 (1 for the plugin).
+    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1 (route a), of its
+    // quantised type, or 1 (plugin).
     let data = dir.join("data.lmp");
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "LAMMPS data file written by anisobond {}: {} particles, {} bonds ({})\n",
+        "LAMMPS data file written by anisobond {}: {} particles, {} bonds ({what})\n",
         env!("CARGO_PKG_VERSION"),
         packing.len(),
-        bonds.len(),
-        if plugin.is_some() {
-            "bond_style anisobond: one bond type"
-        } else {
-            "one bond type per bond"
-        }
+        bonds.len()
     );
     let _ = writeln!(
         s,
@@ -222,7 +452,7 @@ pub fn export_lammps(
             s,
             "{} {} {} {}",
             b + 1,
-            if plugin.is_some() { 1 } else { b + 1 },
+            type_of[b] + 1,
             bonds.i[b] + 1,
             bonds.j[b] + 1
         );
@@ -236,16 +466,85 @@ pub fn export_lammps(
         crate::bonds::table::write_bond_table(&table, bonds, k)?;
         files.push(table);
     } else {
-        write_bond_coeffs(dir, packing, bonds, k, o, &mut files)?;
+        // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
+        let coeffs = dir.join("bond_coeffs.lmp");
+        let mut c = String::with_capacity(bonds.len() * 200);
+        let _ = writeln!(
+            c,
+            "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t"
+        );
+        let _ = writeln!(
+            c,
+            "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
+        );
+        let _ = writeln!(
+            c,
+            "# damping ratio {} of each bond's own spring and reduced mass/inertia (of a type: the least\n\
+             # damping over its bonds, so that no bond is damped more than that); {what}",
+            num(o.damping_ratio)
+        );
+        let mass = |p: usize| {
+            let r = packing.radii[p];
+            o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        };
+        let mut gamma = vec![[f64::INFINITY; 4]; n_types];
+        for b in 0..bonds.len() {
+            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+            let (mi, mj) = (mass(i), mass(j));
+            let (ii, ij) = (
+                0.4 * mi * packing.radii[i].powi(2),
+                0.4 * mj * packing.radii[j].powi(2),
+            );
+            let m_red = mi * mj / (mi + mj);
+            let i_red = ii * ij / (ii + ij);
+            let len = bonds.length[b];
+            let z = o.damping_ratio;
+            let g_n = 2.0 * z * (k.kn[b] * m_red).sqrt();
+            let g_s = 2.0 * z * (k.ks[b] * m_red).sqrt();
+            // Rolling: torque ½γ_r·l·Δω against the bending and shear-lever stiffness.
+            let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
+            let g_r = 4.0 * z * (k_roll * i_red).sqrt() / len;
+            // Twisting: torque ½γ_t·Δω; without a twisting spring the rolling scale damps it.
+            let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
+            let g_t = 4.0 * z * (k_twist * i_red).sqrt();
+            let g = &mut gamma[type_of[b] as usize];
+            for (m, v) in g.iter_mut().zip([g_n, g_s, g_r, g_t]) {
+                *m = m.min(v);
+            }
+        }
+        // The springs of type t: those of its first bond (all its bonds have the same).
+        let mut first = vec![usize::MAX; n_types];
+        for (b, &t) in type_of.iter().enumerate().rev() {
+            first[t as usize] = b;
+        }
+        for (t, (&b, g)) in first.iter().zip(&gamma).enumerate() {
+            let _ = writeln!(
+                c,
+                "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
+                t + 1,
+                num(k.kn[b]),
+                num(k.ks[b]),
+                num(k.ktw[b]),
+                num(k.kr[b]),
+                num(g[0]),
+                num(g[1]),
+                num(g[2]),
+                num(g[3])
+            );
+        }
+        crate::io::write_string_atomic(&coeffs, &c)?;
+        files.push(coeffs);
     }
 
     let params = dir.join("params.lmp");
     let mut p = format!(
-        "# Settings of in.elastic (override any with -var NAME VALUE)\n\
-         variable dt index {}\nvariable cut index {}\nvariable strain index {}\n\
+        "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {}\n\
+         variable dt index {}\nvariable cut index {}\nvariable skin index {}\nvariable strain index {}\n\
          variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
+        types_comment(&what, types.as_ref()),
         num(dt),
         num(1.6 * max_len),
+        num(0.16 * max_len),
         num(o.strain),
         o.chunk_steps,
         o.max_chunks,
@@ -269,9 +568,22 @@ pub fn export_lammps(
     let deck = dir.join("in.elastic");
     crate::io::write_string_atomic(
         &deck,
-        &elastic_deck(packing.len(), bonds.len(), plugin.is_some()),
+        &elastic_deck(
+            packing.len(),
+            bonds.len(),
+            &types_comment(&what, types.as_ref()),
+            plugin.is_some(),
+        ),
     )?;
     files.push(deck);
+
+    if let Some(r) = &types {
+        let json = dir.join("bond-types.json");
+        let text = serde_json::to_string_pretty(r)
+            .map_err(|e| Error::Invalid(format!("bond-types.json: {e}")))?;
+        crate::io::write_string_atomic(&json, &(text + "\n"))?;
+        files.push(json);
+    }
 
     let run = dir.join("run.sh");
     crate::io::write_string_atomic(&run, RUN_SH)?;
@@ -281,74 +593,30 @@ pub fn export_lammps(
         files,
         time_step: dt,
         max_bond_length: max_len,
+        bond_types: n_types,
+        types,
     })
 }
 
-/// `bond_coeffs.lmp`: one `bond_coeff` line of bpm/rotational per bond (type b + 1).
-fn write_bond_coeffs(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &LammpsOptions,
-    files: &mut Vec<PathBuf>,
-) -> Result<()> {
-    // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
-    let coeffs = dir.join("bond_coeffs.lmp");
-    let mut c = String::with_capacity(bonds.len() * 200);
-    let _ = writeln!(
-        c,
-        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t"
-    );
-    let _ = writeln!(
-        c,
-        "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
-    );
-    let _ = writeln!(
-        c,
-        "# damping ratio {} of each bond's own spring and reduced mass/inertia",
-        num(o.damping_ratio)
-    );
-    let mass = |p: usize| {
-        let r = packing.radii[p];
-        o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
-    };
-    for b in 0..bonds.len() {
-        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-        let (mi, mj) = (mass(i), mass(j));
-        let (ii, ij) = (
-            0.4 * mi * packing.radii[i].powi(2),
-            0.4 * mj * packing.radii[j].powi(2),
-        );
-        let m_red = mi * mj / (mi + mj);
-        let i_red = ii * ij / (ii + ij);
-        let len = bonds.length[b];
-        let z = o.damping_ratio;
-        let g_n = 2.0 * z * (k.kn[b] * m_red).sqrt();
-        let g_s = 2.0 * z * (k.ks[b] * m_red).sqrt();
-        // Rolling: torque ½γ_r·l·Δω against the bending and shear-lever stiffness.
-        let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
-        let g_r = 4.0 * z * (k_roll * i_red).sqrt() / len;
-        // Twisting: torque ½γ_t·Δω; without a twisting spring the rolling scale damps it.
-        let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
-        let g_t = 4.0 * z * (k_twist * i_red).sqrt();
-        let _ = writeln!(
-            c,
-            "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
-            b + 1,
-            num(k.kn[b]),
-            num(k.ks[b]),
-            num(k.ktw[b]),
-            num(k.kr[b]),
-            num(g_n),
-            num(g_s),
-            num(g_r),
-            num(g_t)
-        );
+/// The bond types as comment text (after `# `) for params.lmp and in.elastic.
+fn types_comment(what: &str, types: Option<&TypesReport>) -> String {
+    match types {
+        Some(r) if !r.exact => {
+            let e = &r.spring_max_relative_error;
+            format!(
+                "{what}.\n#   Quantised (--types {}): relaxed tensor (midpoint lever arm) max|ΔC|/max|C| = {} against the\n\
+                 #   exact springs (Voigt sum {}); largest relative spring error k_n {}, k_s {}, k_r {}, k_tw {}.",
+                r.requested,
+                num(r.tensor_error),
+                num(r.voigt_tensor_error),
+                num(e.kn),
+                num(e.ks),
+                num(e.kr),
+                num(e.ktw)
+            )
+        }
+        _ => format!("{what}."),
     }
-    crate::io::write_string_atomic(&coeffs, &c)?;
-    files.push(coeffs);
-    Ok(())
 }
 
 /// The six element tests in one input: each case reads the data anew (`clear`), stores the
@@ -356,7 +624,7 @@ fn write_bond_coeffs(
 /// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
 /// `plugin`: the bonds are anisobond's `bond_style anisobond` (loaded once; LAMMPS restores
 /// loaded plugins after `clear`) instead of bpm/rotational.
-fn elastic_deck(n_particles: usize, n_bonds: usize, plugin: bool) -> String {
+fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -> String {
     let mut s = String::new();
     let law = if plugin {
         "# Bond law: bond_style anisobond (anisobond's LAMMPS plugin, cpp/lammps/): anisobond's incremental\n\
@@ -371,12 +639,15 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, plugin: bool) -> String {
     let _ = writeln!(
         s,
         "# anisobond → LAMMPS (BPM package) element tests: {n_particles} particles, {n_bonds} bonds.\n\
+         # Bonds: {types}\n\
          # Run:  ./run.sh [NP]   (or: mpirun -np NP lmp -in in.elastic)\n\
          # Six load cases in Voigt order 11 22 33 23 13 12: the box is strained by `strain` at once\n\
          #   (change_box … remap; shears tilt the triclinic box, engineering γ = tilt / height), then the\n\
          #   bonds' own damping relaxes it in chunks of `chunk_steps` steps until the stress changes by\n\
          #   less than `tolerance` (relative) over a chunk; `max_chunks` without that is an error.\n\
          {law}\n\
+         # Neighbour lists (pair_style zero: only the ghost atoms that bonds need) with a skin of 0.1 `cut`,\n\
+         #   rebuilt only when an atom has moved half of it (a skin of 0 rebuilt them every step).\n\
          # Stress σ = −p (virial only, Pa, tension positive). Output: lammps-tensor.json (C in Pa, SPEC\n\
          #   tensor form), lammps-history.csv (stress every 100 steps), log.lammps.\n\
          # Units: SI."
@@ -414,7 +685,8 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, plugin: bool) -> String {
     s.push_str(
         "pair_style zero ${cut}\n\
          pair_coeff * *\n\
-         neighbor 0.0 bin\n\
+         neighbor ${skin} bin\n\
+         neigh_modify every 1 delay 0 check yes\n\
          fix integrate all nve/bpm/sphere\n\
          timestep ${dt}\n\
          compute p all pressure NULL virial\n\

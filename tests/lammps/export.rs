@@ -1,15 +1,17 @@
-//! `anisobond export lammps`: the deck run by the real `lmp` (bpm/rotational, one bond type
-//! per bond) gives the quasi-static tensor of the relaxed solver with bpm/rotational's
-//! midpoint lever arm (`half-length`) within 1e-4, for a rotated cubic crystal and a
-//! cross-anisotropic model; one and two MPI processes agree, shear cases included.
+//! `anisobond export lammps` on a 1,000-particle packing: the deck run by the real `lmp`
+//! (bpm/rotational, one bond type per bond) gives the quasi-static tensor of the relaxed
+//! solver with bpm/rotational's midpoint lever arm (`half-length`) within 1e-4, for a rotated
+//! cubic crystal and a cross-anisotropic model; `validate lammps` passes with one and two MPI
+//! processes, which agree, shear cases included.
 
 use crate::common::{bin, packing, root, succeeds, tmp, write};
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The `lmp` to use: $ANISOBOND_LMP, target/lammps-venv/bin/lmp, or `lmp` on PATH. None
 /// (with the reason printed) outside CI; a failure under CI.
-pub(crate) fn lmp(test: &str) -> Option<PathBuf> {
+pub fn lmp(test: &str) -> Option<PathBuf> {
     let candidates = [
         std::env::var_os("ANISOBOND_LMP").map(PathBuf::from),
         Some(root().join("target/lammps-venv/bin/lmp")),
@@ -28,13 +30,24 @@ pub(crate) fn lmp(test: &str) -> Option<PathBuf> {
     None
 }
 
-/// Export, run `run.sh NP` with `lmp`, return LAMMPS' tensor (Pa, rows of stress).
-pub(crate) fn lammps_tensor(
+/// Held by every test that runs `lmp`, so that they run one at a time: an MPI rank of the
+/// venv's MPICH spins while it waits, and `-np 2` sharing the two cores of CI with another
+/// `lmp` took 142 s instead of ~15 s (1,000 particles). The other tests of the group run
+/// beside them.
+pub fn one_lammps_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Export (with the `extra` options), run `run.sh NP` with `lmp`, return LAMMPS' tensor (Pa,
+/// rows of stress).
+pub fn lammps_tensor(
     lmp: &Path,
     dir: &Path,
     pk: &Path,
     model: &Path,
     np: usize,
+    extra: &[&str],
 ) -> [[f64; 6]; 6] {
     let out = dir.join(format!("lammps-np{np}"));
     succeeds(
@@ -43,6 +56,7 @@ pub(crate) fn lammps_tensor(
             .arg(pk)
             .arg("--model")
             .arg(model)
+            .args(extra)
             .arg("-o")
             .arg(&out),
     );
@@ -62,9 +76,13 @@ pub(crate) fn lammps_tensor(
             .join("\n"),
         String::from_utf8_lossy(&run.stderr)
     );
+    tensor_of(&out.join("lammps-tensor.json"))
+}
+
+/// The tensor `C` (rows) of a JSON file.
+pub fn tensor_of(path: &Path) -> [[f64; 6]; 6] {
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("lammps-tensor.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let mut c = [[0.0; 6]; 6];
     for (r, row) in json["C"].as_array().unwrap().iter().enumerate() {
         for (k, v) in row.as_array().unwrap().iter().enumerate() {
@@ -74,15 +92,17 @@ pub(crate) fn lammps_tensor(
     c
 }
 
-/// The relaxed tensor (Pa) with the midpoint lever arm, from the command.
-pub(crate) fn relaxed(dir: &Path, pk: &Path, model: &Path) -> [[f64; 6]; 6] {
-    let report = dir.join("relaxed.json");
+/// The relaxed tensor (Pa) with the midpoint lever arm, from the command (with the `extra`
+/// options, e.g. `--bonds TABLE`), written to `dir/name`.
+pub fn relaxed(dir: &Path, name: &str, pk: &Path, model: &Path, extra: &[&OsStr]) -> [[f64; 6]; 6] {
+    let report = dir.join(name);
     succeeds(
         bin()
             .args(["tensor"])
             .arg(pk)
             .arg("--model")
             .arg(model)
+            .args(extra)
             .args([
                 "--method",
                 "relaxed",
@@ -94,18 +114,11 @@ pub(crate) fn relaxed(dir: &Path, pk: &Path, model: &Path) -> [[f64; 6]; 6] {
             ])
             .arg(&report),
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
-    let mut c = [[0.0; 6]; 6];
-    for (r, row) in json["C"].as_array().unwrap().iter().enumerate() {
-        for (k, v) in row.as_array().unwrap().iter().enumerate() {
-            c[r][k] = v.as_f64().unwrap();
-        }
-    }
-    c
+    tensor_of(&report)
 }
 
-pub(crate) fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
+/// max |a − b| / max |b|, computed here.
+pub fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
     let scale = b.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
     let diff = (0..36).fold(0.0_f64, |m, k| {
         m.max((a[k / 6][k % 6] - b[k / 6][k % 6]).abs())
@@ -113,7 +126,7 @@ pub(crate) fn max_relative(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> f64 {
     diff / scale
 }
 
-pub(crate) const ROTATED_CUBIC: &str = r#"
+pub const ROTATED_CUBIC: &str = r#"
 [bonding]
 rule = "gap"
 value = 0.17
@@ -129,7 +142,7 @@ euler_zyz_deg = [10, 20, 30]
 moments = "parallel-bond"
 "#;
 
-pub(crate) const CROSS: &str = r#"
+pub const CROSS: &str = r#"
 [bonding]
 rule = "gap"
 value = 0.17
@@ -150,14 +163,15 @@ fn deck_gives_the_relaxed_tensor_for_rotated_cubic_and_cross_anisotropic_models(
     let Some(lmp) = lmp("deck_gives_the_relaxed_tensor") else {
         return;
     };
+    let _alone = one_lammps_at_a_time();
     let dir = tmp();
-    let pk = packing(dir.path(), 400);
+    let pk = packing(dir.path(), 1000);
     for (name, text) in [("cubic", ROTATED_CUBIC), ("cross", CROSS)] {
         let sub = dir.path().join(name);
         std::fs::create_dir(&sub).unwrap();
         let model = write(&sub, "model.toml", text);
-        let c_lammps = lammps_tensor(&lmp, &sub, &pk, &model, 1);
-        let c_relaxed = relaxed(&sub, &pk, &model);
+        let c_lammps = lammps_tensor(&lmp, &sub, &pk, &model, 1, &[]);
+        let c_relaxed = relaxed(&sub, "relaxed.json", &pk, &model, &[]);
         let d = max_relative(&c_lammps, &c_relaxed);
         eprintln!("{name}: max |C_lammps − C_relaxed| / max |C_relaxed| = {d:.2e}");
         assert!(d < 1e-4, "{name}: {d:e}");
@@ -169,8 +183,9 @@ fn validate_lammps_passes_with_one_and_two_processes_including_shear() {
     let Some(lmp) = lmp("validate_lammps") else {
         return;
     };
+    let _alone = one_lammps_at_a_time();
     let dir = tmp();
-    let pk = packing(dir.path(), 400);
+    let pk = packing(dir.path(), 1000);
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
     let out = dir.path().join("validation");
     let stdout = succeeds(

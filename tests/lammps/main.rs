@@ -9,3 +9,4 @@ mod common;
 
 mod export;
 mod plugin;
+mod types;
