@@ -60,6 +60,19 @@ pub fn lammps_tensor(
             .arg("-o")
             .arg(&out),
     );
+    run_deck(lmp, &out, np).c
+}
+
+/// A deck's results: LAMMPS' tensor (Pa, rows of stress), the JSON file it wrote and its
+/// standard output.
+pub struct DeckRun {
+    pub c: [[f64; 6]; 6],
+    pub json: serde_json::Value,
+    pub stdout: String,
+}
+
+/// Run an exported deck's `run.sh NP` in `out` with `lmp`, asserting it succeeded.
+pub fn run_deck(lmp: &Path, out: &Path, np: usize) -> DeckRun {
     let run = Command::new("sh")
         .arg(out.join("run.sh"))
         .arg(np.to_string())
@@ -68,7 +81,8 @@ pub fn lammps_tensor(
         .unwrap();
     assert!(
         run.status.success(),
-        "run.sh {np} failed:\n{}\n{}",
+        "{}: run.sh {np} failed:\n{}\n{}",
+        out.display(),
         String::from_utf8_lossy(&run.stdout)
             .lines()
             .filter(|l| l.contains("anisobond") || l.contains("ERROR"))
@@ -76,7 +90,12 @@ pub fn lammps_tensor(
             .join("\n"),
         String::from_utf8_lossy(&run.stderr)
     );
-    tensor_of(&out.join("lammps-tensor.json"))
+    let path = out.join("lammps-tensor.json");
+    DeckRun {
+        c: tensor_of(&path),
+        json: serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap(),
+        stdout: String::from_utf8_lossy(&run.stdout).into_owned(),
+    }
 }
 
 /// The tensor `C` (rows) of a JSON file.

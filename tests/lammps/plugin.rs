@@ -8,7 +8,7 @@
 //! migrate); misuse is refused with the reason.
 
 use super::export::{
-    lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS, ROTATED_CUBIC,
+    lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, run_deck, CROSS, ROTATED_CUBIC,
 };
 use crate::common::{packing, root, succeeds, target_dir, tmp, write};
 use std::path::{Path, PathBuf};
@@ -122,35 +122,12 @@ fn plugin_tensor(
         let to = format!("variable springs index \"model {}\"", m.display());
         std::fs::write(&params, text.replace(from, &to)).unwrap();
     }
-    let lock = one_lammps_at_a_time();
-    let run = Command::new("sh")
-        .arg(out.join("run.sh"))
-        .arg(np.to_string())
-        .env("LMP", &l.lmp)
-        .output()
-        .unwrap();
-    drop(lock);
-    let log = String::from_utf8_lossy(&run.stdout).to_string();
-    assert!(
-        run.status.success(),
-        "{name}: run.sh {np} failed:\n{}\n{}",
-        log.lines()
-            .filter(|l| l.contains("anisobond") || l.contains("ERROR"))
-            .collect::<Vec<_>>()
-            .join("\n"),
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("lammps-tensor.json")).unwrap())
-            .unwrap();
-    assert_eq!(json["bond_style"], "anisobond");
-    let mut c = [[0.0; 6]; 6];
-    for (r, row) in json["C"].as_array().unwrap().iter().enumerate() {
-        for (k, v) in row.as_array().unwrap().iter().enumerate() {
-            c[r][k] = v.as_f64().unwrap();
-        }
-    }
-    (c, log)
+    let run = {
+        let _one = one_lammps_at_a_time();
+        run_deck(&l.lmp, &out, np)
+    };
+    assert_eq!(run.json["bond_style"], "anisobond");
+    (run.c, run.stdout)
 }
 
 #[test]
