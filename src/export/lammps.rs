@@ -158,7 +158,7 @@ fn optional_rows<S: serde::Serializer>(
     s: S,
 ) -> std::result::Result<S::Ok, S::Error> {
     match c {
-        Some(c) => crate::validate::harness::matrix_rows(c, s),
+        Some(c) => crate::tensor::compare::matrix_rows(c, s),
         None => s.serialize_none(),
     }
 }

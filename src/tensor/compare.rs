@@ -30,3 +30,16 @@ pub fn relative_difference_to(a: &Stiffness6, b: &Stiffness6, scale: &Stiffness6
         f64::INFINITY
     }
 }
+
+/// A 6×6 tensor as row-major arrays.
+pub fn rows(c: &Stiffness6) -> [[f64; 6]; 6] {
+    std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]))
+}
+
+/// A 6×6 tensor as row-major arrays, for JSON (`#[serde(serialize_with)]`).
+pub fn matrix_rows<S: serde::Serializer>(
+    c: &Stiffness6,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&rows(c), s)
+}

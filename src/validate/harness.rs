@@ -3,7 +3,6 @@
 //! checks as a text table or CSV. An engine (YADE, LIGGGHTS, …) adds only a runner that
 //! runs its code, parses its outputs and fills a [`Report`] with its [`EngineDetails`].
 
-use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -252,18 +251,7 @@ pub fn write_report_json<D: EngineDetails>(path: &Path, r: &Report<D>) -> Result
     crate::io::write_string_atomic(path, &report_json(r)?)
 }
 
-/// A 6×6 tensor as row-major arrays, for JSON (`#[serde(serialize_with)]`).
-pub fn matrix_rows<S: serde::Serializer>(
-    c: &Stiffness6,
-    s: S,
-) -> std::result::Result<S::Ok, S::Error> {
-    rows(c).serialize(s)
-}
-
-/// A 6×6 tensor as row-major arrays.
-pub fn rows(c: &Stiffness6) -> [[f64; 6]; 6] {
-    std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]))
-}
+pub use crate::tensor::compare::{matrix_rows, rows};
 
 /// The checks as a text table (relative differences, dimensionless).
 pub fn checks_table<D>(r: &Report<D>) -> String {
