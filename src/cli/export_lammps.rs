@@ -36,6 +36,14 @@ pub struct Args {
     /// Time step as a fraction of the single-particle stable step.
     #[arg(long, default_value_t = 0.8)]
     pub safety: f64,
+    #[command(flatten)]
+    pub bonds: BondArgs,
+}
+
+/// How the deck's bonds are written: `--bond-style`, `--plugin`, `--types` (shared by
+/// `export lammps` and `validate lammps`).
+#[derive(clap::Args, Debug)]
+pub struct BondArgs {
     /// Bond style of the deck: stock bpm/rotational with one bond type per bond, or
     /// anisobond's plugin `bond_style anisobond` (one bond type, springs from bonds.csv).
     #[arg(long, value_enum, default_value_t = BondStyleArg::BpmRotational)]
@@ -52,6 +60,24 @@ pub struct Args {
     pub types: Option<usize>,
 }
 
+impl BondArgs {
+    /// The export options these give (`command` names the command in errors).
+    pub fn options(&self, command: &str) -> Result<(LammpsBondStyle, Option<usize>)> {
+        if self.plugin.is_some() && self.bond_style != BondStyleArg::Anisobond {
+            return Err(Error::Invalid(format!(
+                "{command}: --plugin is for --bond-style anisobond"
+            )));
+        }
+        let style = match self.bond_style {
+            BondStyleArg::BpmRotational => LammpsBondStyle::BpmRotational,
+            BondStyleArg::Anisobond => LammpsBondStyle::Anisobond {
+                plugin: plugin_path(command, self.plugin.as_ref())?,
+            },
+        };
+        Ok((style, self.types))
+    }
+}
+
 /// `--bond-style`.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BondStyleArg {
@@ -64,7 +90,7 @@ pub enum BondStyleArg {
 /// The plugin for `--bond-style anisobond`: `--plugin`, or the build's own beside the
 /// executable (target/<profile>/anisobond → target/cpp/anisobond_lammps.so), made absolute
 /// so the deck finds it from its own directory.
-fn plugin_path(given: Option<&PathBuf>) -> Result<PathBuf> {
+fn plugin_path(command: &str, given: Option<&PathBuf>) -> Result<PathBuf> {
     let path = match given {
         Some(p) => p.clone(),
         None => {
@@ -74,12 +100,13 @@ fn plugin_path(given: Option<&PathBuf>) -> Result<PathBuf> {
                 .map(|d| d.join("anisobond_lammps.so"));
             match beside {
                 Some(p) if p.is_file() => p,
-                _ => return Err(Error::Invalid(
-                    "export lammps --bond-style anisobond: no plugin given and none beside this \
+                _ => {
+                    return Err(Error::Invalid(format!(
+                        "{command} --bond-style anisobond: no plugin given and none beside this \
                          executable (../cpp/anisobond_lammps.so): build it with `make -C cpp \
                          PROFILE=release lammps-plugin` and/or pass --plugin PATH"
-                        .into(),
-                )),
+                    )))
+                }
             }
         }
     };
@@ -102,17 +129,7 @@ fn parse_types(s: &str) -> std::result::Result<usize, String> {
 
 /// Run `anisobond export lammps`.
 pub fn run(a: Args) -> Result<()> {
-    let bond_style = match a.bond_style {
-        BondStyleArg::BpmRotational => LammpsBondStyle::BpmRotational,
-        BondStyleArg::Anisobond => LammpsBondStyle::Anisobond {
-            plugin: plugin_path(a.plugin.as_ref())?,
-        },
-    };
-    if a.plugin.is_some() && a.bond_style != BondStyleArg::Anisobond {
-        return Err(Error::Invalid(
-            "export lammps: --plugin is for --bond-style anisobond".into(),
-        ));
-    }
+    let (bond_style, types) = a.bonds.options("export lammps")?;
     let mut set = OutputSet::new(&a.input.paths());
     let staged = set.dir(&a.output)?;
     let asm = a.input.assembly()?;
@@ -124,7 +141,7 @@ pub fn run(a: Args) -> Result<()> {
         max_chunks: a.max_chunks,
         tolerance: a.tolerance,
         safety: a.safety,
-        types: a.types,
+        types,
         bond_style,
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;

@@ -1,9 +1,8 @@
-//! `anisobond validate lammps PACKING --model MODEL [--np 1|2] [-o DIR]`: the exported
-//! element tests run by LAMMPS (BPM package) against the relaxed solver, and on two MPI
-//! processes against one; a table, report.json and checks.csv, non-zero exit outside
-//! tolerance.
+//! `anisobond validate lammps PACKING --model MODEL [--np 1|2] [-o DIR] [--bond-style
+//! anisobond] [--types K]`: the exported element tests run by LAMMPS (BPM package) against
+//! the relaxed solver (of the quantised network with `--types`), and on two MPI processes
+//! against one; a table, report.json and checks.csv, non-zero exit outside tolerance.
 
-use anisobond::assembly::Assembly;
 use anisobond::io::OutputSet;
 use anisobond::validate::harness::checks_table;
 use anisobond::validate::lammps::{validate_lammps, write_report, LammpsValidateOptions};
@@ -13,11 +12,8 @@ use std::path::PathBuf;
 /// Options of `anisobond validate lammps`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Periodic packing file.
-    pub packing: PathBuf,
-    /// Model file (TOML or JSON).
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
     /// Output directory (the exported run, report.json, checks.csv).
     #[arg(short, long, default_value = "validate-lammps")]
     pub output: PathBuf,
@@ -30,6 +26,9 @@ pub struct Args {
     /// Tolerance of LAMMPS' tensor against the relaxed one (largest difference / largest C).
     #[arg(long, default_value_t = 1e-4)]
     pub tolerance: f64,
+    /// The deck's bonds, as for `export lammps`.
+    #[command(flatten)]
+    pub bonds: super::export_lammps::BondArgs,
 }
 
 /// Run `anisobond validate lammps`.
@@ -45,10 +44,13 @@ pub fn run(a: Args) -> Result<()> {
                     .into(),
             )
         })?;
-    let mut set = OutputSet::new(&[&a.packing, &a.model]);
+    let (bond_style, types) = a.bonds.options("validate lammps")?;
+    let mut set = OutputSet::new(&a.input.paths());
     let dir = set.dir(&a.output)?;
-    let asm = Assembly::from_files(&a.packing, &a.model)?;
+    let asm = a.input.assembly()?;
     let mut opts = LammpsValidateOptions::new(lmp);
+    opts.export.bond_style = bond_style;
+    opts.export.types = types;
     opts.two_processes = a.np == 2;
     opts.relaxed_tolerance = a.tolerance;
     println!(

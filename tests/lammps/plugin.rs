@@ -437,3 +437,47 @@ fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_st
     );
     assert!(!dir.path().join("out").exists());
 }
+
+#[test]
+fn validate_lammps_runs_the_plugin_deck_and_a_quantised_deck() {
+    let Some(l) = lammps("validate_lammps_plugin_and_types") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 200);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    for (name, extra) in [
+        ("plugin", vec!["--bond-style", "anisobond", "--plugin"]),
+        ("types", vec!["--types", "8"]),
+    ] {
+        let out = dir.path().join(name);
+        let mut cmd = crate::common::bin();
+        cmd.args(["validate", "lammps"])
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--np", "1", "--lmp"])
+            .arg(&l.lmp)
+            .args(&extra);
+        if name == "plugin" {
+            cmd.arg(&l.so);
+        }
+        cmd.arg("-o").arg(&out);
+        let stdout = {
+            let _one = one_lammps_at_a_time();
+            succeeds(&mut cmd)
+        };
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+                .unwrap();
+        assert_eq!(report["passed"], true, "{name}: {stdout}");
+        // The deck LAMMPS ran is the one asked for.
+        let deck = std::fs::read_to_string(out.join("in.elastic")).unwrap();
+        let want = if name == "plugin" {
+            "bond_style anisobond"
+        } else {
+            "Quantised (--types 8)"
+        };
+        assert!(deck.contains(want), "{name}: deck lacks `{want}`");
+    }
+}
