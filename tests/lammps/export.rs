@@ -50,16 +50,7 @@ pub fn lammps_tensor(
     extra: &[&str],
 ) -> [[f64; 6]; 6] {
     let out = dir.join(format!("lammps-np{np}"));
-    succeeds(
-        bin()
-            .args(["export", "lammps"])
-            .arg(pk)
-            .arg("--model")
-            .arg(model)
-            .args(extra)
-            .arg("-o")
-            .arg(&out),
-    );
+    succeeds(&mut export_cmd(pk, model, extra, &out));
     run_deck(lmp, &out, np).c
 }
 
@@ -69,6 +60,19 @@ pub struct DeckRun {
     pub c: [[f64; 6]; 6],
     pub json: serde_json::Value,
     pub stdout: String,
+}
+
+/// `anisobond export lammps PK --model MODEL EXTRA… -o OUT`, to run.
+pub fn export_cmd(pk: &Path, model: &Path, extra: &[&str], out: &Path) -> Command {
+    let mut c = bin();
+    c.args(["export", "lammps"])
+        .arg(pk)
+        .arg("--model")
+        .arg(model)
+        .args(extra)
+        .arg("-o")
+        .arg(out);
+    c
 }
 
 /// Run an exported deck's `run.sh NP` in `out` with `lmp`, asserting it succeeded.

@@ -8,7 +8,8 @@
 //! migrate); misuse is refused with the reason.
 
 use super::export::{
-    lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, run_deck, CROSS, ROTATED_CUBIC,
+    export_cmd, lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, run_deck, CROSS,
+    ROTATED_CUBIC,
 };
 use crate::common::{packing, root, succeeds, target_dir, tmp, write};
 use std::path::{Path, PathBuf};
@@ -86,17 +87,14 @@ fn lammps(test: &str) -> Option<Lammps> {
 /// Export the plugin deck into `dir/name`, with the springs from the bond table (the
 /// export's own) or, given `springs`, from that model file; run it on `np` processes;
 /// `anisobond export lammps PK --model MODEL --bond-style anisobond --plugin SO -o OUT`.
-fn export_plugin(pk: &Path, model: &Path, so: &Path, out: &Path) -> std::process::Command {
-    let mut c = crate::common::bin();
-    c.args(["export", "lammps"])
-        .arg(pk)
-        .arg("--model")
-        .arg(model)
-        .args(["--bond-style", "anisobond", "--plugin"])
-        .arg(so)
-        .arg("-o")
-        .arg(out);
-    c
+fn export_plugin(pk: &Path, model: &Path, so: &Path, out: &Path) -> Command {
+    let so = so.to_str().expect("a UTF-8 plugin path");
+    export_cmd(
+        pk,
+        model,
+        &["--bond-style", "anisobond", "--plugin", so],
+        out,
+    )
 }
 
 /// LAMMPS' tensor and standard output.
@@ -422,15 +420,12 @@ fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_st
         &dir.path().join("out"),
     ));
     assert!(err.contains("without blanks"), "{err}");
-    let err = crate::common::fails(
-        crate::common::bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--plugin", "x.so", "-o"])
-            .arg(dir.path().join("out")),
-    );
+    let err = crate::common::fails(&mut export_cmd(
+        &pk,
+        &model,
+        &["--plugin", "x.so"],
+        &dir.path().join("out"),
+    ));
     assert!(
         err.contains("--plugin is for --bond-style anisobond"),
         "{err}"

@@ -7,7 +7,8 @@
 //! deck run by `lmp` gives the relaxed tensor of the quantised network within 1e-4.
 
 use super::export::{
-    lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS, ROTATED_CUBIC,
+    export_cmd, lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS,
+    ROTATED_CUBIC,
 };
 use crate::common::{bin, packing, stderr, succeeds, tmp, write};
 use std::ffi::OsStr;
@@ -15,15 +16,7 @@ use std::path::{Path, PathBuf};
 
 /// `export lammps PACKING --model MODEL --types K -o DIR`; returns bond-types.json.
 fn export_types(pk: &Path, model: &Path, k: &str, dir: &Path) -> serde_json::Value {
-    let out = succeeds(
-        bin()
-            .args(["export", "lammps"])
-            .arg(pk)
-            .arg("--model")
-            .arg(model)
-            .args(["--types", k, "-o"])
-            .arg(dir),
-    );
+    let out = succeeds(&mut export_cmd(pk, model, &["--types", k], dir));
     eprintln!("{}", out.lines().last().unwrap_or(""));
     serde_json::from_str(&std::fs::read_to_string(dir.join("bond-types.json")).unwrap()).unwrap()
 }
@@ -208,15 +201,12 @@ fn types_at_least_the_distinct_spring_sets_keep_every_bond_exact() {
     let pk = packing(dir.path(), 400);
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
     let export = dir.path().join("export");
-    let out = succeeds(
-        bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--types", "4000000000", "-o"])
-            .arg(&export),
-    );
+    let out = succeeds(&mut export_cmd(
+        &pk,
+        &model,
+        &["--types", "4000000000"],
+        &export,
+    ));
     assert!(
         out.contains("every bond's springs exact, no tensor error"),
         "{out}"
@@ -240,13 +230,7 @@ fn types_zero_or_not_a_number_is_refused_naming_the_option() {
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
     for bad in ["0", "-3", "two", "1.5", ""] {
         let export = dir.path().join("export");
-        let out = bin()
-            .args(["export", "lammps"])
-            .arg(&pk)
-            .arg("--model")
-            .arg(&model)
-            .args(["--types", bad, "-o"])
-            .arg(&export)
+        let out = export_cmd(&pk, &model, &["--types", bad], &export)
             .output()
             .unwrap();
         assert_eq!(out.status.code(), Some(2), "--types {bad:?}");
