@@ -39,32 +39,15 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from lammps_plugin import BIN, MODEL, PLUGIN, ROOT, VENV  # noqa: E402
+from lammps_plugin import DECK as PLUGIN_DECK  # noqa: E402
 
-DECK = """include {params}
-units si
-dimension 3
-boundary p p p
-atom_style bpm/sphere
-special_bonds lj 0 1 1 coul 1 1 1
-newton on ${{nb}}
-comm_modify vel yes cutoff ${{cut}}
-shell sh ${{stamp}} read
-read_data ${{data}}
-include ${{bonds}}
-pair_style zero ${{cut}}
-pair_coeff * *
-neighbor 1e-4 bin
-fix integrate all nve/bpm/sphere
-timestep ${{dt}}
-compute p all pressure NULL virial
-thermo_style custom step press
-thermo 100
-timer full
-run 0
-shell sh ${{stamp}} setup
-change_box all xy delta $(1e-4*ly) x scale 1.0001 remap
-run ${{steps}}
-"""
+# The run script of benches/lammps_plugin.py, with rank 0's clock read before `read_data` and
+# after the first `run 0` (input + setup time).
+DECK = (
+    PLUGIN_DECK.replace("read_data ${{data}}\n", "shell sh ${{stamp}} read\nread_data ${{data}}\n", 1)
+    .replace("run 0\n", "run 0\nshell sh ${{stamp}} setup\n", 1)
+)
+assert DECK.count("${{stamp}}") == 2, "benches/lammps_plugin.py's DECK changed: place the clock reads again"
 
 # Each rank under GNU time: its peak resident set, into one file per rank (MPICH's PMI_RANK).
 WRAP = """#!/bin/sh
