@@ -13,6 +13,7 @@ use crate::dem::stress_tests::{
 use crate::dem::{build_law, DemOptions, LawKind, Simulation};
 use crate::homogenize::laf::{laf_tensor, LafResult};
 use crate::homogenize::network::LeverArm;
+use crate::homogenize::prestress::{prestressed_tensor, Prestress, PrestressedTensor};
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
 use crate::homogenize::{mean_field, voigt};
@@ -43,6 +44,15 @@ pub enum Method {
     Voigt,
     /// Exact static equilibrium of the bond network under each unit strain.
     Relaxed(RelaxedOptions),
+    /// The relaxed tangent of the assembly under an isotropic preload of its central springs
+    /// (compressive `pressure`, Pa): what an element test started from that confined state
+    /// measures ([`crate::homogenize::prestress`]; symmetric part).
+    Prestressed {
+        /// Relaxed solver settings.
+        options: RelaxedOptions,
+        /// Mean compressive stress of the preload (Pa).
+        pressure: f64,
+    },
     /// Kruyt 2014's local adjustment field with shells of order `shell`.
     Laf {
         /// Shell order m (1–6).
@@ -73,6 +83,7 @@ impl Method {
             Method::MeanField => "mean-field",
             Method::Voigt => "voigt",
             Method::Relaxed(_) => "relaxed",
+            Method::Prestressed { .. } => "prestressed",
             Method::Laf { .. } => "laf",
             Method::Dynamic { .. } => "dynamic",
         }
@@ -86,6 +97,8 @@ pub enum Detail {
     None,
     /// The relaxed solve: residual, iterations, null space.
     Relaxed(Box<RelaxedResult>),
+    /// The pre-stressed tangent: energy and Cauchy forms, the preload stress, the solve.
+    Prestressed(Box<PrestressedTensor>),
     /// Both LAF estimates and the shell size.
     Laf(Box<LafResult>),
     /// The six element-test paths, time step and stability.
@@ -259,6 +272,14 @@ impl Assembly {
                 let r = relaxed_tensor(p, b, k, opts)?;
                 (r.c, Detail::Relaxed(Box::new(r)))
             }
+            Method::Prestressed { options, pressure } => {
+                let pre = Prestress::isotropic(p, b, k, *pressure, options)?;
+                let t = prestressed_tensor(p, b, k, &pre, options)?;
+                (
+                    (t.c + t.c.transpose()) * 0.5,
+                    Detail::Prestressed(Box::new(t)),
+                )
+            }
             Method::Laf {
                 shell,
                 energy,
@@ -274,8 +295,10 @@ impl Assembly {
             }
         };
         let mut report = TensorReport::new(method.name(), c, Some((p, b)))?;
-        if let Detail::Relaxed(r) = &detail {
-            report.relative_residual = Some(r.relative_residual);
+        match &detail {
+            Detail::Relaxed(r) => report.relative_residual = Some(r.relative_residual),
+            Detail::Prestressed(t) => report.relative_residual = Some(t.relaxed.relative_residual),
+            _ => {}
         }
         Ok(TensorResult { report, detail })
     }

@@ -80,6 +80,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         lever_arm: LeverArmArg::MidGap,
         cg_tolerance: 1e-6,
         solver: super::SolverArg::Cg,
+        prestress: 0.0,
         shell: 2,
         energy: false,
     };

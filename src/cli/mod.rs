@@ -106,6 +106,9 @@ enum MethodArg {
     Voigt,
     /// Exact quasi-static equilibrium of the periodic bond network (sparse solve).
     Relaxed,
+    /// Relaxed tangent under an isotropic preload of the central springs (--prestress Pa):
+    /// what an element test from that confined state measures (docs/prestress.md).
+    Prestressed,
     /// Kruyt's local-adjustment-field estimate with shells of order --shell.
     Laf,
     /// Element tests with the reference DEM integrator (needs a periodic packing).
@@ -172,6 +175,9 @@ struct StaticArgs {
     /// Relaxed: linear solver of the equilibrium system.
     #[arg(long, value_enum, default_value_t = SolverArg::Cg)]
     solver: SolverArg,
+    /// Prestressed: mean compressive stress of the preload (Pa).
+    #[arg(long, default_value_t = 0.0)]
+    prestress: f64,
     /// LAF: shell order m (1–6).
     #[arg(long, default_value_t = 2)]
     shell: usize,
@@ -247,6 +253,16 @@ fn bonds_cmd(a: BondsArgs) -> Result<()> {
     Ok(())
 }
 
+/// The relaxed solver's settings from the command line.
+fn relaxed_options(st: &StaticArgs) -> RelaxedOptions {
+    RelaxedOptions {
+        lever_arm: st.lever_arm.into(),
+        tolerance: st.cg_tolerance,
+        solver: st.solver.into(),
+        ..Default::default()
+    }
+}
+
 /// The library's method for a command-line method and its options.
 fn library_method(
     m: MethodArg,
@@ -256,12 +272,11 @@ fn library_method(
     Ok(match m {
         MethodArg::MeanField => Method::MeanField,
         MethodArg::Voigt => Method::Voigt,
-        MethodArg::Relaxed => Method::Relaxed(RelaxedOptions {
-            lever_arm: st.lever_arm.into(),
-            tolerance: st.cg_tolerance,
-            solver: st.solver.into(),
-            ..Default::default()
-        }),
+        MethodArg::Relaxed => Method::Relaxed(relaxed_options(st)),
+        MethodArg::Prestressed => Method::Prestressed {
+            options: relaxed_options(st),
+            pressure: st.prestress,
+        },
         MethodArg::Laf => Method::Laf {
             shell: st.shell,
             energy: st.energy,
@@ -308,6 +323,13 @@ fn report_of(
                 },
                 r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles
+            );
+        }
+        Detail::Prestressed(t) => {
+            let s = &t.stress;
+            eprintln!(
+                "prestressed: preload stress diag ({:.4e}, {:.4e}, {:.4e}) Pa; energy tangent C11 {:.4e} Pa; residual {:.1e}, {} active particles",
+                s[(0, 0)], s[(1, 1)], s[(2, 2)], t.c_energy[(0, 0)], t.relaxed.relative_residual, t.relaxed.active_particles
             );
         }
         Detail::Laf(r) => eprintln!(
@@ -404,6 +426,7 @@ impl MethodArg {
             MethodArg::MeanField => "mean-field",
             MethodArg::Voigt => "voigt",
             MethodArg::Relaxed => "relaxed",
+            MethodArg::Prestressed => "prestressed",
             MethodArg::Laf => "laf",
             MethodArg::Dynamic => "dynamic",
         }

@@ -7,12 +7,14 @@
 //! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - [`cholesky`], [`two_level`]: the relaxed solve's direct solver and CG preconditioner.
 //! - [`network`]: the linearised bond network the last two share.
+//! - [`prestress`]: the tangent of an assembly deformed from a loaded state (geometric terms).
 //! - [`report`]: the SPEC tensor report (JSON).
 
 pub mod cholesky;
 pub mod laf;
 pub mod mean_field;
 pub mod network;
+pub mod prestress;
 pub mod relaxed;
 pub mod report;
 pub mod two_level;

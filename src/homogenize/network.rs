@@ -160,6 +160,39 @@ pub fn element(law: &BondLaw, rotations: bool) -> Element {
     }
 }
 
+/// The initial-stress (geometric) element of a bond carrying the axial force N (tension
+/// positive, N): the second-order energy ½(N/l)|Δ_⊥|² of a preloaded central bond whose
+/// centre-line relative displacement Δ = u_j − u_i + ε·l turns it (Δ_⊥ = (I − nn)Δ), so
+/// S_g = (N/l)(I − nn) with no rotation coupling (the force acts along the centre line).
+/// Geometric terms of preloaded shear forces and moments are not included.
+pub fn geometric_element(normal: &Vec3, length: f64, axial_force: f64) -> Element {
+    let s = (Mat3::identity() - normal * normal.transpose()) * (axial_force / length);
+    let mut bj = Matrix3x6::zeros();
+    bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+    let bi = -bj;
+    let lmap = affine_map(&(normal * length));
+    let (sbj, sl) = (s * bj, s * lmap);
+    Element {
+        kii: bi.transpose() * (s * bi),
+        kjj: bj.transpose() * sbj,
+        kij: bi.transpose() * sbj,
+        gi: bi.transpose() * sl,
+        gj: bj.transpose() * sl,
+        h: lmap.transpose() * sl,
+    }
+}
+
+impl std::ops::AddAssign for Element {
+    fn add_assign(&mut self, o: Element) {
+        self.kii += o.kii;
+        self.kjj += o.kjj;
+        self.kij += o.kij;
+        self.gi += o.gi;
+        self.gj += o.gj;
+        self.h += o.h;
+    }
+}
+
 /// Remove particles with fewer than two bonds, repeatedly. Returns the active flag of every
 /// bond and the number of active bonds of every particle.
 fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
@@ -229,6 +262,19 @@ impl Network {
         lever_arm: LeverArm,
         rotations: bool,
     ) -> Result<Network> {
+        Network::build_prestressed(packing, bonds, k, lever_arm, rotations, None)
+    }
+
+    /// [`Network::build`] with every bond's axial preload N (N, tension positive; one per
+    /// bond) adding its [`geometric_element`]: the network linearised about a loaded state.
+    pub fn build_prestressed(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+        axial_force: Option<&[f64]>,
+    ) -> Result<Network> {
         if packing.cell.is_none() {
             return Err(Error::Invalid(
                 "static stiffness methods need a periodic packing (a `# periodic Lx Ly Lz` header)"
@@ -241,6 +287,15 @@ impl Network {
                 bonds.len(),
                 k.len()
             )));
+        }
+        if let Some(f) = axial_force {
+            if f.len() != bonds.len() {
+                return Err(Error::Invalid(format!(
+                    "{} bonds but {} axial preloads",
+                    bonds.len(),
+                    f.len()
+                )));
+            }
         }
         let n = packing.len();
         let (bond_active, degree_all) = prune(n, bonds);
@@ -271,7 +326,11 @@ impl Network {
                     kr: k.kr[b],
                     ktw: k.ktw[b],
                 };
-                element(&law, rotations)
+                let mut e = element(&law, rotations);
+                if let Some(f) = axial_force.filter(|f| f[b] != 0.0) {
+                    e += geometric_element(&law.normal, law.length, f[b]);
+                }
+                e
             })
             .collect();
         let mut h = Block6::zeros();

@@ -349,8 +349,29 @@ pub fn relaxed_solve(
     opts: &RelaxedOptions,
     initial: Option<&[Block6]>,
 ) -> Result<RelaxedSolution> {
+    relaxed_solve_preloaded(packing, bonds, k, opts, initial, None)
+}
+
+/// [`relaxed_solve`] of the network linearised about a state where every bond carries the
+/// axial force `axial_force[b]` (N, tension positive; [`super::prestress`]): K, G and H gain
+/// the geometric terms, so the result is the energy (first Piola–Kirchhoff) tangent.
+pub(crate) fn relaxed_solve_preloaded(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &RelaxedOptions,
+    initial: Option<&[Block6]>,
+    axial_force: Option<&[f64]>,
+) -> Result<RelaxedSolution> {
     opts.validate()?;
-    let mut net = Network::build(packing, bonds, k, opts.lever_arm, opts.rotations)?;
+    let mut net = Network::build_prestressed(
+        packing,
+        bonds,
+        k,
+        opts.lever_arm,
+        opts.rotations,
+        axial_force,
+    )?;
     let c_affine = net.h / net.volume;
     let m = net.n_active;
     if !opts.fluctuations || m == 0 {
@@ -584,6 +605,15 @@ fn pcg(
         }
         k.apply(&p, &mut ap);
         let pap = column_dots(&p, &ap);
+        if let Some(c) = (0..6).find(|&c| live[c] && pap[c] < 0.0) {
+            // Only a preloaded network (geometric stiffness) can make K indefinite.
+            return Err(Error::Degenerate(format!(
+                "relaxed solver: the stiffness matrix is not positive (pᵀKp = {:.3e} < 0 in \
+                 load case {}): under this preload the network is unstable (buckles)",
+                pap[c],
+                c + 1
+            )));
+        }
         let alpha: [f64; 6] = std::array::from_fn(|c| {
             if live[c] && pap[c] > 0.0 {
                 rz[c] / pap[c]

@@ -588,12 +588,13 @@ struct MethodArgs {
     strain: f64,
     damping: f64,
     max_steps: usize,
+    prestress: f64,
     progress: Option<Py<PyAny>>,
 }
 
 /// The keyword arguments `MethodArgs::parse` accepts, in the order of the stubs.
 const METHOD_OPTIONS: &str = "shell, energy, lever_arm, tolerance, solver, law, strain, \
-                              damping, max_steps, progress";
+                              damping, max_steps, prestress, progress";
 
 impl MethodArgs {
     /// `method` with the keyword `options`; an unknown keyword or a value of the wrong type
@@ -610,6 +611,7 @@ impl MethodArgs {
             strain: 1e-5,
             damping: 0.4,
             max_steps: 20_000,
+            prestress: 0.0,
             progress: None,
         };
         let Some(options) = options else {
@@ -636,6 +638,7 @@ impl MethodArgs {
                 "strain" => a.strain = get(&key, &value, "a number")?,
                 "damping" => a.damping = get(&key, &value, "a number")?,
                 "max_steps" => a.max_steps = get(&key, &value, "an integer ≥ 0")?,
+                "prestress" => a.prestress = get(&key, &value, "a number (Pa)")?,
                 "progress" => a.progress = (!value.is_none()).then(|| value.clone().unbind()),
                 other => {
                     return Err(InputError::new_err(format!(
@@ -653,7 +656,7 @@ impl MethodArgs {
         Ok(match self.method.as_str() {
             "mean-field" => Method::MeanField,
             "voigt" => Method::Voigt,
-            "relaxed" => {
+            "relaxed" | "prestressed" => {
                 let opts = RelaxedOptions {
                     lever_arm: lever_arm(&self.lever_arm)?,
                     tolerance: self.tolerance,
@@ -661,7 +664,14 @@ impl MethodArgs {
                     ..Default::default()
                 };
                 opts.validate().map_err(to_py)?;
-                Method::Relaxed(opts)
+                if self.method == "prestressed" {
+                    Method::Prestressed {
+                        options: opts,
+                        pressure: self.prestress,
+                    }
+                } else {
+                    Method::Relaxed(opts)
+                }
             }
             "laf" => Method::Laf {
                 shell: self.shell,

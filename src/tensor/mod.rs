@@ -21,6 +21,20 @@ pub const fn voigt_index(i: usize, j: usize) -> usize {
 /// Tensor index pair of Voigt index `a` (inverse of [`voigt_index`]).
 pub const VOIGT_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
 
+/// The symmetric strain tensor of a Voigt engineering strain (ε_ij = e_a/2 off the diagonal).
+pub fn strain_tensor(e: &Voigt6) -> crate::Mat3 {
+    let mut m = crate::Mat3::zeros();
+    for (a, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
+        if i == j {
+            m[(i, i)] = e[a];
+        } else {
+            m[(i, j)] = 0.5 * e[a];
+            m[(j, i)] = 0.5 * e[a];
+        }
+    }
+    m
+}
+
 pub mod compare;
 pub mod elastic;
 pub mod fit;

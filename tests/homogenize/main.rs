@@ -5,6 +5,7 @@
 mod common;
 
 mod meanfield_cubic;
+mod prestress;
 mod relaxed;
 mod relaxed_solvers;
 mod voigt;

@@ -24,6 +24,7 @@ class TensorOptions(TypedDict, total=False):
     strain: float  # dynamic: strain per path [1e-5]
     damping: float  # dynamic: Cundall damping [0.4]
     max_steps: int  # dynamic: step limit per path [20000]
+    prestress: float  # prestressed: compressive preload, Pa [0]
     progress: _Progress  # dynamic: callable(fraction) [None]
 
 __version__: str
@@ -129,7 +130,7 @@ class Assembly:
         method: str = "relaxed",
         **options: Unpack[TensorOptions],
     ) -> np.ndarray:
-        """(6, 6) stiffness in Pa: 'mean-field', 'voigt', 'relaxed', 'laf' or 'dynamic'."""
+        """(6, 6) stiffness in Pa: 'mean-field', 'voigt', 'relaxed', 'prestressed', 'laf' or 'dynamic'."""
     def tensor_report(
         self,
         method: str = "relaxed",
