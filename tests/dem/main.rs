@@ -10,5 +10,6 @@ mod grips_lattice;
 mod grips_motion;
 mod lanes;
 mod laws;
+mod prestress;
 mod servo_element;
 mod stop_rule;
