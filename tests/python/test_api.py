@@ -36,6 +36,18 @@ def test_tensor_equals_cli_to_the_last_digit(files, cubic, method):
     assert np.array_equal(c, np.array(expected["C"]))
 
 
+def test_prestressed_equals_cli_and_raises_c12(files, cubic):
+    # The preloaded tangent (docs/prestress.md): same digits as the command, and a compressive
+    # preload raises C12 and lowers C44 against the stress-free relaxed tensor.
+    free = cubic.tensor_report("relaxed")["cubic"]
+    p = 0.05 * free["C11"]
+    report = cubic.tensor_report("prestressed", prestress=p)
+    assert report == cli_report(files, "prestressed", "cubic.toml", "--prestress", repr(p))
+    assert report["cubic"]["C12"] > free["C12"] and report["cubic"]["C44"] < free["C44"]
+    with pytest.raises(ab.InputError, match="prestress"):
+        cubic.tensor("prestressed", prestress="high")
+
+
 def test_cross_anisotropic_relaxed_equals_cli(files):
     asm = ab.Assembly(ab.Packing.load(files / "packing.txt"), ab.Model.load(files / "cross.toml"))
     assert asm.tensor_report("relaxed") == cli_report(files, "relaxed", "cross.toml")
