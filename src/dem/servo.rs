@@ -16,8 +16,8 @@
 use super::element::to_voigt;
 use super::equilibrium::{self, SteadyWindow, Unbalance, DEFAULT_UNBALANCED_TOLERANCE};
 use super::sim::Simulation;
-use crate::tensor::{Stiffness6, Voigt6, VOIGT_PAIRS};
-use crate::{Error, Mat3, Result};
+use crate::tensor::{strain_tensor, Stiffness6, Voigt6, VOIGT_PAIRS};
+use crate::{Error, Result};
 
 /// How one symmetric component (Voigt order xx, yy, zz, yz, xz, xy; engineering shear
 /// strain) of the cell's deformation is driven.
@@ -269,7 +269,7 @@ impl StressServo {
                 stress_pred.as_slice()
             )));
         }
-        sim.set_velocity_gradient(voigt_to_symmetric(&inc) / dt)?;
+        sim.set_velocity_gradient(strain_tensor(&inc) / dt)?;
         Ok(inc)
     }
 
@@ -312,20 +312,6 @@ impl StressServo {
             })
             .fold(0.0, f64::max)
     }
-}
-
-/// Symmetric tensor of a Voigt strain (engineering shear halved).
-pub fn voigt_to_symmetric(v: &Voigt6) -> Mat3 {
-    let mut m = Mat3::zeros();
-    for (k, &(a, b)) in VOIGT_PAIRS.iter().enumerate() {
-        if a == b {
-            m[(a, a)] = v[k];
-        } else {
-            m[(a, b)] = 0.5 * v[k];
-            m[(b, a)] = 0.5 * v[k];
-        }
-    }
-    m
 }
 
 /// The converged state of a servo-controlled run.
@@ -433,7 +419,7 @@ mod tests {
     #[test]
     fn voigt_round_trip() {
         let v = Voigt6::new(1.0, 2.0, 3.0, 4.0, 5.0, 6.0);
-        let m = voigt_to_symmetric(&v);
+        let m = strain_tensor(&v);
         assert_eq!(to_voigt(&m, true), v);
         assert_eq!(m, m.transpose());
     }
