@@ -568,8 +568,9 @@ fn law_kind(name: &str) -> PyResult<LawKind> {
         "yade" => Ok(LawKind::Yade),
         "parallel-bond" => Ok(LawKind::ParallelBond),
         "kumar" => Ok(LawKind::Kumar),
+        "lammps-bpm" => Ok(LawKind::LammpsBpm),
         other => Err(InputError::new_err(format!(
-            "law `{other}`: expected 'yade', 'parallel-bond' or 'kumar'"
+            "law `{other}`: expected 'yade', 'parallel-bond', 'kumar' or 'lammps-bpm'"
         ))),
     }
 }
