@@ -558,3 +558,123 @@ pub fn write_report(dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf
     }
     Ok(files)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec3;
+
+    /// Two equal spheres on a stretched bond of law `lammps-bpm` (pure stretch: a linear
+    /// spring k_r along the line, exactly) started at rest like velocity Verlet: every
+    /// position equals velocity Verlet's own recurrence for the same oscillator,
+    /// x₁ = x₀ + ½dt²a₀, x_{n+1} = 2x_n − x_{n−1} + dt²a_n, to rounding.
+    #[test]
+    fn the_leapfrog_started_like_velocity_verlet_follows_velocity_verlet() {
+        let (r, l0, stretch) = (1e-3, 2e-3, 1e-5);
+        let packing = Packing::new(
+            vec![Vec3::zeros(), Vec3::new(l0, 0.0, 0.0)],
+            vec![r, r],
+            None,
+        )
+        .unwrap();
+        let mut bonds = BondSet::default();
+        bonds.push(0, 1, Vec3::new(l0, 0.0, 0.0), [0, 0, 0]);
+        let kr = 5e5;
+        let k = BondStiffness {
+            radius: vec![r],
+            kn: vec![kr],
+            ks: vec![2e5],
+            kr: vec![0.1],
+            ktw: vec![0.1],
+        };
+        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
+        let dt = 1e-8;
+        let mut sim = Simulation::new(
+            &packing,
+            &bonds,
+            law,
+            &DemOptions {
+                time_step: Some(dt),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        sim.particles.position[1].x += stretch;
+        start_like_velocity_verlet(&mut sim).unwrap();
+        let m = sim.particles.mass[1];
+        // Gap e = x₁ − x₀ − l0; relative acceleration −2k_r e / m.
+        let acc = |e: f64| -2.0 * kr * e / m;
+        // Velocity Verlet's gaps after steps 1, 2, … (step 1 from the half kick).
+        let mut vv = vec![stretch + 0.5 * dt * dt * acc(stretch)];
+        let mut prev = stretch;
+        for _ in 0..2000 {
+            let e = *vv.last().unwrap();
+            vv.push(2.0 * e - prev + dt * dt * acc(e));
+            prev = e;
+        }
+        let gap = |s: &Simulation| s.particles.position[1].x - s.particles.position[0].x - l0;
+        let worst = |s: &mut Simulation| {
+            vv.iter().fold(0.0f64, |w, e| {
+                s.step().unwrap();
+                w.max((gap(s) - e).abs())
+            })
+        };
+        // About one oscillation period of 1e-5 m amplitude.
+        let started = worst(&mut sim);
+        assert!(started < 1e-9 * stretch, "worst {started:e}");
+        // Without the start (v(−dt/2) = 0) the history is another one.
+        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
+        let mut plain = Simulation::new(
+            &packing,
+            &bonds,
+            law,
+            &DemOptions {
+                time_step: Some(dt),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        plain.particles.position[1].x += stretch;
+        let off = worst(&mut plain);
+        assert!(off > 1e-3 * stretch, "{off:e}");
+    }
+
+    /// in.history's box changes: `x scale` multiplies x, a tilt `yz delta γ·lz` with remap
+    /// adds γ·z to y (simple shear), and so on.
+    #[test]
+    fn box_changes_are_lammps_remaps() {
+        let x = Vec3::new(0.3, 0.5, 0.7);
+        let g = 1e-3;
+        assert_eq!(box_change(0, g) * x, Vec3::new(0.3 * (1.0 + g), 0.5, 0.7));
+        assert_eq!(box_change(2, g) * x, Vec3::new(0.3, 0.5, 0.7 * (1.0 + g)));
+        assert_eq!(box_change(3, g) * x, Vec3::new(0.3, 0.5 + g * 0.7, 0.7));
+        assert_eq!(box_change(4, g) * x, Vec3::new(0.3 + g * 0.7, 0.5, 0.7));
+        assert_eq!(box_change(5, g) * x, Vec3::new(0.3 + g * 0.5, 0.5, 0.7));
+    }
+
+    /// The history file: titles skipped, rows read; a bad row is refused naming the file
+    /// and line.
+    #[test]
+    fn lammps_history_rows_are_read_and_bad_rows_named() {
+        let dir = std::env::temp_dir().join(format!("anisobond-lmp-hist-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(HISTORY_CSV);
+        std::fs::write(
+            &p,
+            "case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\n# Fix print output for fix history\n\
+             4,10,1,2,3,4,5,6\n",
+        )
+        .unwrap();
+        let rows = read_lammps_history(&p, 2.0, 1e-3).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!((rows[0].path, rows[0].step, rows[0].time), (3, 10, 20.0));
+        assert_eq!((rows[0].stress[5], rows[0].strain[3]), (6.0, 1e-3));
+        std::fs::write(&p, "case,step\n7,0,1,2,3,4,5,6\n").unwrap();
+        let e = read_lammps_history(&p, 2.0, 1e-3).unwrap_err().to_string();
+        assert!(e.contains(HISTORY_CSV) && e.contains("case 1–6"), "{e}");
+        std::fs::write(&p, "1,0,1,2,3,nan,5,6\n").unwrap();
+        let e = read_lammps_history(&p, 2.0, 1e-3).unwrap_err().to_string();
+        assert!(e.contains("finite"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
