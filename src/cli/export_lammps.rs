@@ -143,6 +143,7 @@ pub fn run(a: Args) -> Result<()> {
         safety: a.safety,
         types,
         bond_style,
+        history: Default::default(),
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;

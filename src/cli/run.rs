@@ -22,6 +22,8 @@ pub enum LawArg {
     ParallelBond,
     /// (c) Kumar 2016 Eqs. 2–8 with viscous bond damping.
     Kumar,
+    /// (d) LAMMPS bond_style bpm/rotational (BPM package), undamped, no breaking.
+    LammpsBpm,
 }
 
 impl From<LawArg> for LawKind {
@@ -30,6 +32,7 @@ impl From<LawArg> for LawKind {
             LawArg::Yade => LawKind::Yade,
             LawArg::ParallelBond => LawKind::ParallelBond,
             LawArg::Kumar => LawKind::Kumar,
+            LawArg::LammpsBpm => LawKind::LammpsBpm,
         }
     }
 }

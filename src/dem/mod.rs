@@ -1,10 +1,10 @@
 //! The reference DEM integrator: bonded spheres in a periodic cell deformed by a velocity
-//! gradient (or free), three bond laws, Cundall local and viscous bond damping, the Love
+//! gradient (or free), four bond laws, Cundall local and viscous bond damping, the Love
 //! stress, energies, and the element tests that measure the 6×6 stiffness dynamically.
 //!
 //! - [`state`]: structure-of-arrays particles, the deforming cell, bond topology + CSR.
 //! - [`laws`]: the [`laws::BondLaw`] trait and laws (a) YADE cohesive, (b) parallel bond,
-//!   (c) Kumar 2016.
+//!   (c) Kumar 2016, (d) LAMMPS bpm/rotational.
 //! - [`sim`]: [`sim::Simulation`], YADE's NewtonIntegrator step by step.
 //! - [`element`]: six strain paths → Truszkowska 2018 Eq. 27 → C.
 //! - [`equilibrium`]: the stop rule of every damped relaxation (unbalanced force/torque).
@@ -44,6 +44,9 @@ pub enum LawKind {
     ParallelBond,
     /// (c) Kumar 2016 Eqs. 2–8 with his viscous bond damping.
     Kumar,
+    /// (d) LAMMPS `bond_style bpm/rotational` (`break no smooth no normalize no`, undamped),
+    /// k_r = k_n, k_s = k_s, k_t = k_tw, k_b = k_r.
+    LammpsBpm,
 }
 
 /// Build the bond law `kind` for the springs `k` of `bonds`.
@@ -62,5 +65,6 @@ pub fn build_law(
             k,
             Some(laws::kumar::KUMAR_DAMPING),
         )?),
+        LawKind::LammpsBpm => Box::new(laws::lammps_bpm::lammps_bpm_law(k)?),
     })
 }

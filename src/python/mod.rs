@@ -568,8 +568,9 @@ fn law_kind(name: &str) -> PyResult<LawKind> {
         "yade" => Ok(LawKind::Yade),
         "parallel-bond" => Ok(LawKind::ParallelBond),
         "kumar" => Ok(LawKind::Kumar),
+        "lammps-bpm" => Ok(LawKind::LammpsBpm),
         other => Err(InputError::new_err(format!(
-            "law `{other}`: expected 'yade', 'parallel-bond' or 'kumar'"
+            "law `{other}`: expected 'yade', 'parallel-bond', 'kumar' or 'lammps-bpm'"
         ))),
     }
 }
@@ -872,7 +873,7 @@ impl PyAssembly {
     /// lever_arm: "mid-gap" (YADE's contact point), "proportional" or "half-length"
     /// (LAMMPS bpm/rotational). tolerance, solver: relaxed only; relative CG residual in [1e-12, 1e-2], "cg",
     /// "cg-jacobi" or "cholesky".
-    /// law, strain, damping, max_steps: dynamic only; "yade", "parallel-bond" or "kumar",
+    /// law, strain, damping, max_steps: dynamic only; "yade", "parallel-bond", "kumar" or "lammps-bpm",
     /// strain per path, Cundall damping, step limit per path.
     /// progress: a callable taking the completed fraction (0-1), called as the dynamic
     /// method advances. The GIL is released during the computation.

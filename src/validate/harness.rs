@@ -253,6 +253,125 @@ pub fn write_report_json<D: EngineDetails>(path: &Path, r: &Report<D>) -> Result
 
 pub use crate::tensor::compare::{matrix_rows, rows};
 
+use crate::history::HistoryRow;
+
+const PATH_LABELS: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+
+/// Compare two codes' histories of strain path `path` (Voigt 0–5) step by step, rows
+/// matched by step number; `reference` = (name, rows) is the one differences are relative
+/// to. Errors (naming both codes) when either has no row of the path or the steps differ.
+pub fn compare_history_rows(
+    path: usize,
+    reference: (&str, &[HistoryRow]),
+    other: (&str, &[HistoryRow]),
+) -> Result<HistoryComparison> {
+    let label = PATH_LABELS[path.min(5)];
+    let r: Vec<&HistoryRow> = reference.1.iter().filter(|x| x.path == path).collect();
+    let o: Vec<&HistoryRow> = other.1.iter().filter(|x| x.path == path).collect();
+    if r.is_empty() || o.is_empty() {
+        return Err(Error::Invalid(format!(
+            "history comparison of path {label}: {} {} rows and {} {} rows",
+            r.len(),
+            reference.0,
+            o.len(),
+            other.0
+        )));
+    }
+    let pairs: Vec<(&HistoryRow, &HistoryRow)> = r
+        .iter()
+        .filter_map(|a| o.iter().find(|b| b.step == a.step).map(|b| (*a, *b)))
+        .collect();
+    if pairs.len() != r.len() || pairs.len() != o.len() {
+        return Err(Error::Invalid(format!(
+            "history comparison of path {label}: {} has {} rows, {} {}, {} steps in common",
+            reference.0,
+            r.len(),
+            other.0,
+            o.len(),
+            pairs.len()
+        )));
+    }
+    Ok(HistoryComparison::of_rows(
+        label,
+        pairs
+            .iter()
+            .map(|(a, b)| (a.step as u64, a.stress.as_slice(), b.stress.as_slice())),
+    ))
+}
+
+/// CSV of two codes' histories side by side: `path,step,time_s,e_path`, the first code's
+/// six stress components, the second's, and the largest absolute difference (Pa). Rows in
+/// the first code's order; `names` are the column prefixes.
+pub fn side_by_side_csv(title: &str, a: (&str, &[HistoryRow]), b: (&str, &[HistoryRow])) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# {title}");
+    let _ = writeln!(
+        s,
+        "# units: time_s in s; stresses in Pa (Love stress, tension positive, \
+         Voigt 11,22,33,23,13,12); e_path = engineering strain of the loaded component"
+    );
+    s.push_str("path,step,time_s,e_path");
+    for who in [a.0, b.0] {
+        for l in PATH_LABELS {
+            let _ = write!(s, ",{who}_s{l}_Pa");
+        }
+    }
+    s.push_str(",max_abs_diff_Pa\n");
+    for r in a.1 {
+        let o = b.1.iter().find(|o| o.path == r.path && o.step == r.step);
+        let _ = write!(
+            s,
+            "{},{},{:e},{:e}",
+            PATH_LABELS[r.path.min(5)],
+            r.step,
+            r.time,
+            r.strain[r.path.min(5)]
+        );
+        for v in r.stress.iter() {
+            let _ = write!(s, ",{v:e}");
+        }
+        match o {
+            Some(o) => {
+                for v in o.stress.iter() {
+                    let _ = write!(s, ",{v:e}");
+                }
+                let _ = writeln!(s, ",{:e}", (o.stress - r.stress).amax());
+            }
+            None => s.push_str(",,,,,,,\n"),
+        }
+    }
+    s
+}
+
+/// Plot curves of the loaded stress component (MPa) against step, per path, for two codes:
+/// the first as lines, the second as dots.
+pub fn history_series(
+    a: (&str, &[HistoryRow]),
+    b: (&str, &[HistoryRow]),
+) -> Vec<crate::plot::Series> {
+    let mut out = Vec::new();
+    let mut paths: Vec<usize> = a.1.iter().map(|r| r.path).collect();
+    paths.dedup();
+    for p in paths {
+        for ((who, rows), dashed) in [(a, false), (b, true)] {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.path == p)
+                .map(|r| (r.step as f64, r.stress[p] / 1e6))
+                .collect();
+            if points.len() >= 2 {
+                out.push(crate::plot::Series {
+                    label: format!("{who}: path {}, σ{}", PATH_LABELS[p], PATH_LABELS[p]),
+                    points,
+                    dashed,
+                    colour: Some(p),
+                });
+            }
+        }
+    }
+    out
+}
+
 /// The checks as a text table (relative differences, dimensionless).
 pub fn checks_table<D>(r: &Report<D>) -> String {
     let mut s = String::new();

@@ -3,15 +3,33 @@
 //! MPI processes, against the relaxed solver with bpm/rotational's midpoint lever arm
 //! ([`LeverArm::HalfLength`]), and the two process counts against each other (shear cases
 //! included).
+//!
+//! With stock bpm/rotational and exact springs (no `--types`), the deck's undamped history
+//! (`in.history`: each of the six cases strained at once, 1,000 steps of `fix nve/bpm/sphere`
+//! without damping) is repeated by the integrator with law (d) `lammps-bpm` from the same
+//! data (masses ρ(4/3)πR³, inertias (2/5)mR² of `atom_style bpm/sphere`, the same time step
+//! and box change), and the virial stresses compared step by step. The integrators differ
+//! only in form: LAMMPS's velocity Verlet and the integrator's leapfrog give the same
+//! positions in exact arithmetic, and Richardson's quaternion update differs from the
+//! exact spin rotation by O((ω·dt)³) per step (~1e-21 here); what separates the histories
+//! is rounding, amplified by bpm/rotational's acos of cosines near 1.
 
-use super::harness::{matrix_rows, timed, Check, EngineDetails, Report, Timing};
+use super::harness::{
+    compare_history_rows, history_series, matrix_rows, side_by_side_csv, timed, Check,
+    EngineDetails, HistoryComparison, Report, Timing,
+};
 use crate::bonds::{BondSet, BondStiffness};
-use crate::export::lammps::{export_lammps, LammpsOptions};
+use crate::dem::state::deterministic_sum_mat3;
+use crate::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use crate::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions, UndampedHistory};
+use crate::history::HistoryRow;
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
+use crate::tensor::Voigt6;
+use crate::Mat3;
 use crate::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -30,6 +48,9 @@ pub struct LammpsValidateOptions {
     pub relaxed_tolerance: f64,
     /// Two processes against one (each stops its relaxation at its own point).
     pub processes_tolerance: f64,
+    /// Undamped histories, LAMMPS against the integrator with `lammps-bpm` (and two processes
+    /// against one): largest |Δσ| over steps and components / largest |σ| of the path.
+    pub history_tolerance: f64,
 }
 
 impl LammpsValidateOptions {
@@ -41,6 +62,7 @@ impl LammpsValidateOptions {
             export: LammpsOptions::default(),
             relaxed_tolerance: 1e-4,
             processes_tolerance: 5e-5,
+            history_tolerance: 1e-8,
         }
     }
 }
@@ -52,6 +74,41 @@ pub struct LammpsDetails {
     pub relaxed: Stiffness6,
     /// LAMMPS' quasi-static tensor per number of MPI processes (Pa).
     pub lammps: Vec<(usize, Stiffness6)>,
+    /// The undamped histories, when run (stock bpm/rotational with exact springs).
+    pub history: Option<UndampedComparison>,
+}
+
+/// The undamped histories of LAMMPS and of the integrator with law `lammps-bpm`.
+#[derive(Clone, Debug)]
+pub struct UndampedComparison {
+    /// The history's settings (steps, output interval, strain).
+    pub settings: UndampedHistory,
+    /// The integrator's rows (Voigt stress, Pa).
+    pub integrator: Vec<HistoryRow>,
+    /// LAMMPS's rows per number of MPI processes.
+    pub lammps: Vec<(usize, Vec<HistoryRow>)>,
+    /// Per path: LAMMPS (reference) against the integrator, per number of processes.
+    pub vs_integrator: Vec<(usize, Vec<HistoryComparison>)>,
+    /// Per path: two processes against one (reference), when run on two.
+    pub np2_vs_np1: Vec<HistoryComparison>,
+}
+
+/// JSON of [`UndampedComparison`] (the rows are in the CSV).
+#[derive(Serialize)]
+pub struct UndampedJson<'a> {
+    steps: usize,
+    every: usize,
+    strain: f64,
+    law: &'static str,
+    vs_integrator: Vec<UndampedRun<'a>>,
+    np2_vs_np1: &'a [HistoryComparison],
+}
+
+/// One process count's comparisons in the JSON.
+#[derive(Serialize)]
+pub struct UndampedRun<'a> {
+    processes: usize,
+    paths: &'a [HistoryComparison],
 }
 
 /// JSON of [`LammpsDetails`].
@@ -61,6 +118,8 @@ pub struct LammpsJson<'a> {
     relaxed: &'a Stiffness6,
     #[serde(rename = "lammps_Pa")]
     lammps: Vec<LammpsRun<'a>>,
+    /// None when not run (plugin deck or quantised types).
+    undamped_history: Option<UndampedJson<'a>>,
 }
 
 /// One LAMMPS run in the JSON.
@@ -85,6 +144,21 @@ impl EngineDetails for LammpsDetails {
                     c,
                 })
                 .collect(),
+            undamped_history: self.history.as_ref().map(|h| UndampedJson {
+                steps: h.settings.steps,
+                every: h.settings.every,
+                strain: h.settings.strain,
+                law: "lammps-bpm",
+                vs_integrator: h
+                    .vs_integrator
+                    .iter()
+                    .map(|(processes, paths)| UndampedRun {
+                        processes: *processes,
+                        paths,
+                    })
+                    .collect(),
+                np2_vs_np1: &h.np2_vs_np1,
+            }),
         }
     }
 }
@@ -130,7 +204,180 @@ fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {
     }
     let renamed = dir.join(format!("lammps-tensor-np{np}.json"));
     std::fs::rename(&path, &renamed).map_err(|e| Error::io(&renamed, e))?;
+    let history = dir.join(HISTORY_CSV);
+    if history.exists() {
+        let renamed = dir.join(format!("lammps-undamped-history-np{np}.csv"));
+        std::fs::rename(&history, &renamed).map_err(|e| Error::io(&renamed, e))?;
+    }
     Ok(c)
+}
+
+/// What in.history writes.
+const HISTORY_CSV: &str = "lammps-undamped-history.csv";
+
+/// Read in.history's `case,step,s11_Pa,…,s12_Pa` (σ = −p, Pa); `#` lines are fix print's
+/// titles. Path = case − 1, time = step·dt, strain = the box change's.
+pub fn read_lammps_history(path: &Path, dt: f64, strain: f64) -> Result<Vec<HistoryRow>> {
+    let text = crate::io::read_to_string(path)?;
+    let mut rows = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') || line.starts_with("case") {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let bad = |what: &str| {
+            Error::parse(
+                path,
+                n + 1,
+                format!("expected `case,step,s11,s22,s33,s23,s13,s12` ({what}): {line}"),
+            )
+        };
+        if f.len() != 8 {
+            return Err(bad("8 fields"));
+        }
+        let case: usize = f[0].trim().parse().map_err(|_| bad("case 1–6"))?;
+        if !(1..=6).contains(&case) {
+            return Err(bad("case 1–6"));
+        }
+        let step: usize = f[1].trim().parse().map_err(|_| bad("a step number"))?;
+        let mut stress = Voigt6::zeros();
+        for k in 0..6 {
+            let v: f64 = f[2 + k].trim().parse().map_err(|_| bad("numbers"))?;
+            if !v.is_finite() {
+                return Err(bad("finite stresses"));
+            }
+            stress[k] = v;
+        }
+        let mut e = Voigt6::zeros();
+        e[case - 1] = strain;
+        rows.push(HistoryRow {
+            path: case - 1,
+            step,
+            time: step as f64 * dt,
+            strain: e,
+            stress,
+        });
+    }
+    Ok(rows)
+}
+
+/// in.history's box change of case `path` (Voigt 0–5) by `strain` as a deformation
+/// gradient: x scale (1 + e), or the tilt `yz`, `xz`, `xy` delta γ·height with remap
+/// (F = I + γ e_a ⊗ e_b, simple shear).
+pub fn box_change(path: usize, strain: f64) -> Mat3 {
+    let mut f = Mat3::identity();
+    match path {
+        0..=2 => f[(path, path)] += strain,
+        3 => f[(1, 2)] = strain,
+        4 => f[(0, 2)] = strain,
+        _ => f[(0, 1)] = strain,
+    }
+    f
+}
+
+/// Start the leapfrog as LAMMPS's velocity Verlet starts from rest: VV's first half kick
+/// gives v(dt/2) = (dt/2)·a(0), the leapfrog's v(dt/2) = v(−dt/2) + dt·a(0), so the
+/// particles at rest at t = 0 get v(−dt/2) = −(dt/2)·F(0)/m and ω(−dt/2) = −(dt/2)·T(0)/I
+/// (from the forces at the current positions; a copy of the simulation takes one step to
+/// evaluate them). From then on both give the same positions in exact arithmetic.
+pub fn start_like_velocity_verlet(sim: &mut Simulation) -> Result<()> {
+    let mut probe = sim.clone();
+    probe.step()?;
+    let dt = sim.time_step();
+    let p = &mut sim.particles;
+    for k in 0..p.len() {
+        p.velocity[k] = probe.force[k] * (-0.5 * dt / p.mass[k]);
+        p.angular_velocity[k] = probe.torque[k] * (-0.5 * dt / p.inertia[k]);
+    }
+    Ok(())
+}
+
+/// The integrator's repetition of in.history: law (d) `lammps-bpm` with the springs `k`,
+/// masses from `density`, time step `dt`, the reference state stored at the packing, each
+/// case's box change applied at once to the cell and the positions (x ← F·x), then the
+/// steps with no damping. The stress of step n is LAMMPS's virial stress: the bond forces
+/// at the positions of step n with those positions' branch vectors, σ_ab = Σ l_a f_b / V
+/// (l from the bond's i to j end, f the force on i; Pa, tension positive).
+pub fn integrator_history(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+    dt: f64,
+    h: &UndampedHistory,
+) -> Result<Vec<HistoryRow>> {
+    let law = build_law(LawKind::LammpsBpm, packing, bonds, k)?;
+    let base = Simulation::new(
+        packing,
+        bonds,
+        law,
+        &DemOptions {
+            time_step: Some(dt),
+            local_damping: 0.0,
+            mass: MassOptions {
+                density,
+                scaling: 1.0,
+            },
+            ..Default::default()
+        },
+    )?;
+    let mut rows = Vec::new();
+    for path in 0..6 {
+        let mut sim = base.clone();
+        let f = box_change(path, h.strain);
+        let cell = sim.cell.as_mut().ok_or_else(|| {
+            Error::Invalid("undamped history: the packing is not periodic".into())
+        })?;
+        cell.h = f * cell.h;
+        cell.prev_h = cell.h;
+        cell.trsf = f;
+        for x in sim.particles.position.iter_mut() {
+            *x = f * *x;
+        }
+        start_like_velocity_verlet(&mut sim)?;
+        let mut e = Voigt6::zeros();
+        e[path] = h.strain;
+        for step in 0..=h.steps {
+            let record = step % h.every == 0;
+            let branches: Vec<crate::Vec3> = if record {
+                (0..bonds.len()).map(|b| sim.branch(b)).collect()
+            } else {
+                Vec::new()
+            };
+            let volume = sim.volume();
+            // Forces at the positions of this step, then the move to the next.
+            sim.step()?;
+            if record {
+                let m = deterministic_sum_mat3(bonds.len(), |b| {
+                    branches[b] * sim.loads.force_i(b).transpose()
+                }) / volume;
+                let stress = Voigt6::from_column_slice(&[
+                    m[(0, 0)],
+                    m[(1, 1)],
+                    m[(2, 2)],
+                    m[(1, 2)],
+                    m[(0, 2)],
+                    m[(0, 1)],
+                ]);
+                if stress.iter().any(|v| !v.is_finite()) {
+                    return Err(Error::Degenerate(format!(
+                        "undamped history with law lammps-bpm: non-finite stress at step {step} \
+                         of case {}",
+                        path + 1
+                    )));
+                }
+                rows.push(HistoryRow {
+                    path,
+                    step,
+                    time: step as f64 * dt,
+                    strain: e,
+                    stress,
+                });
+            }
+        }
+    }
+    Ok(rows)
 }
 
 /// Export the element tests into `dir` (which must exist), run them with LAMMPS, compare.
@@ -176,6 +423,42 @@ pub fn validate_lammps(
         })?;
         lammps.push((np, c));
     }
+    // The undamped history: stock bpm/rotational with every bond's own springs.
+    let history_run =
+        o.export.bond_style == LammpsBondStyle::BpmRotational && o.export.types.is_none();
+    let history = if history_run {
+        let h = o.export.history;
+        let integrator = timed(&mut timings, "integrator undamped history", || {
+            integrator_history(packing, bonds, k, o.export.density, export.time_step, &h)
+        })?;
+        let mut runs = Vec::new();
+        for &(np, _) in &lammps {
+            let path = dir.join(format!("lammps-undamped-history-np{np}.csv"));
+            runs.push((np, read_lammps_history(&path, export.time_step, h.strain)?));
+        }
+        let compare = |a: (&str, &[HistoryRow]), b: (&str, &[HistoryRow])| {
+            (0..6)
+                .map(|p| compare_history_rows(p, a, b))
+                .collect::<Result<Vec<_>>>()
+        };
+        let mut vs_integrator = Vec::new();
+        for (np, rows) in &runs {
+            vs_integrator.push((*np, compare(("LAMMPS", rows), ("integrator", &integrator))?));
+        }
+        let np2_vs_np1 = match runs.as_slice() {
+            [(_, one), (_, two)] => compare(("LAMMPS -np 1", one), ("LAMMPS -np 2", two))?,
+            _ => Vec::new(),
+        };
+        Some(UndampedComparison {
+            settings: h,
+            integrator,
+            lammps: runs,
+            vs_integrator,
+            np2_vs_np1,
+        })
+    } else {
+        None
+    };
     let mut checks = vec![Check::new(
         "tensor-lammps-relaxed",
         "LAMMPS quasi-static tensor (1 process) vs the relaxed tensor with the midpoint lever arm",
@@ -190,21 +473,208 @@ pub fn validate_lammps(
             o.processes_tolerance,
         ));
     }
+    if let Some(h) = &history {
+        let worst = |v: &[HistoryComparison]| v.iter().map(|c| c.relative).fold(0.0, nan_max);
+        for (np, paths) in &h.vs_integrator {
+            checks.push(Check::new(
+                format!("history-np{np}-lammps-bpm"),
+                format!(
+                    "undamped histories ({} steps, six paths, strain {:e}), LAMMPS on {np} \
+                     process(es) vs the integrator with law lammps-bpm: max |Δσ| / max |σ|",
+                    h.settings.steps, h.settings.strain
+                ),
+                worst(paths),
+                o.history_tolerance,
+            ));
+        }
+        if !h.np2_vs_np1.is_empty() {
+            checks.push(Check::new(
+                "history-np2-np1",
+                "undamped histories, LAMMPS on 2 MPI processes vs 1 (six paths, shears included)",
+                worst(&h.np2_vs_np1),
+                o.history_tolerance,
+            ));
+        }
+    }
     Ok(Report {
         n_particles: packing.len(),
         n_bonds: bonds.len(),
         time_step: export.time_step,
         checks,
         timings,
-        details: LammpsDetails { relaxed, lammps },
+        details: LammpsDetails {
+            relaxed,
+            lammps,
+            history,
+        },
     })
 }
 
-/// Write `report.json` (the harness schema) and `checks.csv` into `dir`; returns the paths.
+/// The larger of two values, NaN if either is (a NaN difference must fail its check).
+fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Write `report.json` (the harness schema) and `checks.csv` into `dir`, and with the
+/// undamped history `undamped-history.csv` (LAMMPS on one process and the integrator side by
+/// side, Pa) and `undamped-history.png`; returns the paths.
 pub fn write_report(dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
     let json = dir.join("report.json");
     super::harness::write_report_json(&json, r)?;
     let csv = dir.join("checks.csv");
     crate::io::write_string_atomic(&csv, &super::harness::checks_csv(&r.checks))?;
-    Ok(vec![json, csv])
+    let mut files = vec![json, csv];
+    if let Some(h) = &r.history {
+        if let Some((np, rows)) = h.lammps.first() {
+            let path = dir.join("undamped-history.csv");
+            crate::io::write_string_atomic(
+                &path,
+                &side_by_side_csv(
+                    &format!(
+                        "undamped histories: LAMMPS bpm/rotational on {np} process(es) and the \
+                         integrator with law lammps-bpm; box strained by {:e} at once, {} steps \
+                         of {:e} s, {} particles, {} bonds; stress = virial (−p)",
+                        h.settings.strain, h.settings.steps, r.time_step, r.n_particles, r.n_bonds
+                    ),
+                    ("lammps", rows),
+                    ("anisobond", &h.integrator),
+                ),
+            )?;
+            files.push(path);
+            let png = dir.join("undamped-history.png");
+            crate::plot::plot_series(
+                &png,
+                &history_series(("LAMMPS", rows), ("anisobond lammps-bpm", &h.integrator)),
+                "undamped stress histories: LAMMPS (lines) and the integrator (dots)",
+                "step",
+                "stress in the loaded direction (MPa)",
+            )?;
+            files.push(png);
+        }
+    }
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec3;
+
+    /// Two equal spheres on a stretched bond of law `lammps-bpm` (pure stretch: a linear
+    /// spring k_r along the line, exactly) started at rest like velocity Verlet: every
+    /// position equals velocity Verlet's own recurrence for the same oscillator,
+    /// x₁ = x₀ + ½dt²a₀, x_{n+1} = 2x_n − x_{n−1} + dt²a_n, to rounding.
+    #[test]
+    fn the_leapfrog_started_like_velocity_verlet_follows_velocity_verlet() {
+        let (r, l0, stretch) = (1e-3, 2e-3, 1e-5);
+        let packing = Packing::new(
+            vec![Vec3::zeros(), Vec3::new(l0, 0.0, 0.0)],
+            vec![r, r],
+            None,
+        )
+        .unwrap();
+        let mut bonds = BondSet::default();
+        bonds.push(0, 1, Vec3::new(l0, 0.0, 0.0), [0, 0, 0]);
+        let kr = 5e5;
+        let k = BondStiffness {
+            radius: vec![r],
+            kn: vec![kr],
+            ks: vec![2e5],
+            kr: vec![0.1],
+            ktw: vec![0.1],
+        };
+        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
+        let dt = 1e-8;
+        let mut sim = Simulation::new(
+            &packing,
+            &bonds,
+            law,
+            &DemOptions {
+                time_step: Some(dt),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        sim.particles.position[1].x += stretch;
+        start_like_velocity_verlet(&mut sim).unwrap();
+        let m = sim.particles.mass[1];
+        // Gap e = x₁ − x₀ − l0; relative acceleration −2k_r e / m.
+        let acc = |e: f64| -2.0 * kr * e / m;
+        // Velocity Verlet's gaps after steps 1, 2, … (step 1 from the half kick).
+        let mut vv = vec![stretch + 0.5 * dt * dt * acc(stretch)];
+        let mut prev = stretch;
+        for _ in 0..2000 {
+            let e = *vv.last().unwrap();
+            vv.push(2.0 * e - prev + dt * dt * acc(e));
+            prev = e;
+        }
+        let gap = |s: &Simulation| s.particles.position[1].x - s.particles.position[0].x - l0;
+        let worst = |s: &mut Simulation| {
+            vv.iter().fold(0.0f64, |w, e| {
+                s.step().unwrap();
+                w.max((gap(s) - e).abs())
+            })
+        };
+        // About one oscillation period of 1e-5 m amplitude.
+        let started = worst(&mut sim);
+        assert!(started < 1e-9 * stretch, "worst {started:e}");
+        // Without the start (v(−dt/2) = 0) the history is another one.
+        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
+        let mut plain = Simulation::new(
+            &packing,
+            &bonds,
+            law,
+            &DemOptions {
+                time_step: Some(dt),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        plain.particles.position[1].x += stretch;
+        let off = worst(&mut plain);
+        assert!(off > 1e-3 * stretch, "{off:e}");
+    }
+
+    /// in.history's box changes: `x scale` multiplies x, a tilt `yz delta γ·lz` with remap
+    /// adds γ·z to y (simple shear), and so on.
+    #[test]
+    fn box_changes_are_lammps_remaps() {
+        let x = Vec3::new(0.3, 0.5, 0.7);
+        let g = 1e-3;
+        assert_eq!(box_change(0, g) * x, Vec3::new(0.3 * (1.0 + g), 0.5, 0.7));
+        assert_eq!(box_change(2, g) * x, Vec3::new(0.3, 0.5, 0.7 * (1.0 + g)));
+        assert_eq!(box_change(3, g) * x, Vec3::new(0.3, 0.5 + g * 0.7, 0.7));
+        assert_eq!(box_change(4, g) * x, Vec3::new(0.3 + g * 0.7, 0.5, 0.7));
+        assert_eq!(box_change(5, g) * x, Vec3::new(0.3 + g * 0.5, 0.5, 0.7));
+    }
+
+    /// The history file: titles skipped, rows read; a bad row is refused naming the file
+    /// and line.
+    #[test]
+    fn lammps_history_rows_are_read_and_bad_rows_named() {
+        let dir = std::env::temp_dir().join(format!("anisobond-lmp-hist-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(HISTORY_CSV);
+        std::fs::write(
+            &p,
+            "case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\n# Fix print output for fix history\n\
+             4,10,1,2,3,4,5,6\n",
+        )
+        .unwrap();
+        let rows = read_lammps_history(&p, 2.0, 1e-3).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!((rows[0].path, rows[0].step, rows[0].time), (3, 10, 20.0));
+        assert_eq!((rows[0].stress[5], rows[0].strain[3]), (6.0, 1e-3));
+        std::fs::write(&p, "case,step\n7,0,1,2,3,4,5,6\n").unwrap();
+        let e = read_lammps_history(&p, 2.0, 1e-3).unwrap_err().to_string();
+        assert!(e.contains(HISTORY_CSV) && e.contains("case 1–6"), "{e}");
+        std::fs::write(&p, "1,0,1,2,3,nan,5,6\n").unwrap();
+        let e = read_lammps_history(&p, 2.0, 1e-3).unwrap_err().to_string();
+        assert!(e.contains("finite"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

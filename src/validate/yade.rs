@@ -41,7 +41,6 @@ use crate::validate::harness::{
 };
 use crate::{Error, Mat3, Result};
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -371,37 +370,7 @@ pub fn compare_histories(
     yade: &[HistoryRow],
     anisobond: &[HistoryRow],
 ) -> Result<HistoryComparison> {
-    let y: Vec<&HistoryRow> = yade.iter().filter(|r| r.path == path).collect();
-    let a: Vec<&HistoryRow> = anisobond.iter().filter(|r| r.path == path).collect();
-    if y.is_empty() || a.is_empty() {
-        return Err(Error::Invalid(format!(
-            "history comparison of path {}: {} YADE rows and {} anisobond rows",
-            PATH_LABELS[path.min(5)],
-            y.len(),
-            a.len()
-        )));
-    }
-    let common = y
-        .iter()
-        .filter_map(|r| a.iter().find(|o| o.step == r.step).map(|o| (r, o)))
-        .count();
-    if common != y.len() || common != a.len() {
-        return Err(Error::Invalid(format!(
-            "history comparison of path {}: YADE has {} rows, anisobond {}, {} steps in common",
-            PATH_LABELS[path.min(5)],
-            y.len(),
-            a.len(),
-            common
-        )));
-    }
-    Ok(HistoryComparison::of_rows(
-        PATH_LABELS[path],
-        y.iter().filter_map(|r| {
-            a.iter()
-                .find(|o| o.step == r.step)
-                .map(|o| (r.step as u64, r.stress.as_slice(), o.stress.as_slice()))
-        }),
-    ))
+    crate::validate::harness::compare_history_rows(path, ("YADE", yade), ("anisobond", anisobond))
 }
 
 fn run_options(o: &YadeValidationOptions, dt: f64, undamped: bool) -> YadeRunOptions {
@@ -715,46 +684,7 @@ pub fn validate_yade(
 /// CSV of two histories side by side: `path,step,time_s`, YADE's six stress components,
 /// anisobond's, and the largest absolute difference (Pa). Rows in YADE's order.
 pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRow]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# {title}");
-    let _ = writeln!(
-        s,
-        "# units: time_s in s; stresses in Pa (symmetric Love stress, tension positive, \
-         Voigt 11,22,33,23,13,12); e_path = engineering strain of the loaded component"
-    );
-    s.push_str("path,step,time_s,e_path");
-    for who in ["yade", "anisobond"] {
-        for l in PATH_LABELS {
-            let _ = write!(s, ",{who}_s{l}_Pa");
-        }
-    }
-    s.push_str(",max_abs_diff_Pa\n");
-    for r in yade {
-        let o = anisobond
-            .iter()
-            .find(|o| o.path == r.path && o.step == r.step);
-        let _ = write!(
-            s,
-            "{},{},{:e},{:e}",
-            PATH_LABELS[r.path.min(5)],
-            r.step,
-            r.time,
-            r.strain[r.path.min(5)]
-        );
-        for v in r.stress.iter() {
-            let _ = write!(s, ",{v:e}");
-        }
-        match o {
-            Some(o) => {
-                for v in o.stress.iter() {
-                    let _ = write!(s, ",{v:e}");
-                }
-                let _ = writeln!(s, ",{:e}", (o.stress - r.stress).amax());
-            }
-            None => s.push_str(",,,,,,,\n"),
-        }
-    }
-    s
+    crate::validate::harness::side_by_side_csv(title, ("yade", yade), ("anisobond", anisobond))
 }
 
 /// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the
@@ -820,28 +750,7 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
 
 /// Curves of the loaded stress component against step, per path, for both codes.
 fn history_series(yade: &[HistoryRow], anisobond: &[HistoryRow]) -> Vec<crate::plot::Series> {
-    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
-    let mut out = Vec::new();
-    let mut paths: Vec<usize> = yade.iter().map(|r| r.path).collect();
-    paths.dedup();
-    for p in paths {
-        for (rows, who, dashed) in [(yade, "YADE", false), (anisobond, "anisobond", true)] {
-            let points: Vec<(f64, f64)> = rows
-                .iter()
-                .filter(|r| r.path == p)
-                .map(|r| (r.step as f64, r.stress[p] / 1e6))
-                .collect();
-            if points.len() >= 2 {
-                out.push(crate::plot::Series {
-                    label: format!("{who}: path {}, σ{}", NAMES[p], NAMES[p]),
-                    points,
-                    dashed,
-                    colour: Some(p),
-                });
-            }
-        }
-    }
-    out
+    crate::validate::harness::history_series(("YADE", yade), ("anisobond", anisobond))
 }
 
 #[cfg(test)]

@@ -67,7 +67,7 @@ fn two_particle_closed_forms_all_laws() {
         // Kumar: k_n R*², 2 k_s R*²; YADE: as given).
         let r_star = r1 * r2 / (r1 + r2);
         let (kr, ktw) = match kind {
-            LawKind::Yade => (0.3, 0.2),
+            LawKind::Yade | LawKind::LammpsBpm => (0.3, 0.2),
             LawKind::ParallelBond => (kn * r1 * r1 / 4.0, ks * r1 * r1 / 2.0),
             LawKind::Kumar => (kn * r_star * r_star, 2.0 * ks * r_star * r_star),
         };

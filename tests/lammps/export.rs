@@ -244,4 +244,37 @@ fn validate_lammps_passes_with_one_and_two_processes_including_shear() {
         );
     }
     assert!(out.join("checks.csv").exists() && out.join("in.elastic").exists());
+    // The undamped histories: LAMMPS (1 and 2 processes) against the integrator with law
+    // lammps-bpm, every path within 1e-8 of its largest stress (measured 2e-9 to 3.4e-9 on
+    // one process, 2.3e-9 between two and one), the shears included.
+    for id in [
+        "history-np1-lammps-bpm",
+        "history-np2-lammps-bpm",
+        "history-np2-np1",
+    ] {
+        let c = checks.iter().find(|c| c["id"] == id).unwrap();
+        assert_eq!(c["passed"], true, "{c}");
+        assert!(c["value"].as_f64().unwrap() < 1e-8, "{c}");
+    }
+    let h = &report["undamped_history"];
+    assert_eq!(
+        (h["steps"].as_u64(), h["law"].as_str()),
+        (Some(1000), Some("lammps-bpm"))
+    );
+    for run in h["vs_integrator"].as_array().unwrap() {
+        let paths = run["paths"].as_array().unwrap();
+        assert_eq!(paths.len(), 6);
+        for p in paths {
+            // 101 rows (step 0 and every 10th); the stress moved: the history is not trivial.
+            assert_eq!(p["steps"], 101, "{p}");
+            assert!(p["max_stress_Pa"].as_f64().unwrap() > 1e6, "{p}");
+            assert!(p["relative"].as_f64().unwrap() < 1e-8, "{p}");
+        }
+    }
+    let csv = std::fs::read_to_string(out.join("undamped-history.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| !l.starts_with('#')).count(),
+        1 + 6 * 101
+    );
+    assert!(out.join("undamped-history.png").exists());
 }

@@ -8,13 +8,17 @@
 //!   (Truszkowska 2018 Eq. 3): incremental forces k̄_n·A, k̄_s·A and moments k̄_n·I, k̄_s·J.
 //! - [`kumar::kumar_law`] — law (c), Kumar 2016 Eqs. 2–8 with R* = R_iR_j/(R_i+R_j), the
 //!   resisting moments of Eqs. 7–8 and the viscous bond damping of Eqs. 5–6.
+//! - [`lammps_bpm::lammps_bpm_law`] — law (d), LAMMPS's `bond_style bpm/rotational` (BPM
+//!   package, 22 Jul 2025): total forces and torques from each bond's stored rest length and
+//!   direction and the particles' quaternions (Mora & Wang 2009), optional damping.
 //!
-//! All three share the contact kinematics of YADE's ScGeom (contact point mid-gap, the
+//! Laws (a)–(c) share the contact kinematics of YADE's ScGeom (contact point mid-gap, the
 //! shear force rotated with the contact normal and the mean spin about it, relative
 //! velocity at the contact point including the periodic image's velocity L·H_prev·c);
 //! they differ in the springs and in how moments accumulate.
 
 pub mod kumar;
+pub mod lammps_bpm;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod lanes;
 pub mod parallel_bond;
@@ -138,7 +142,7 @@ struct BondMoments {
     twist: Vec3,
 }
 
-/// The shared linear bond kernel behind the three laws: springs per bond, YADE ScGeom
+/// The shared linear bond kernel behind laws (a)–(c): springs per bond, YADE ScGeom
 /// kinematics, total or incremental moments, optional viscous bond damping.
 ///
 /// Data are split hot/cold: what every step reads lives in compact per-bond records, the

@@ -20,7 +20,7 @@ class TensorOptions(TypedDict, total=False):
     lever_arm: str  # "mid-gap" | "proportional" | "half-length" ["mid-gap"]
     tolerance: float  # relaxed: relative CG residual [1e-6]
     solver: str  # relaxed: "cg" | "cg-jacobi" | "cholesky" ["cg"]
-    law: str  # dynamic: "yade" | "parallel-bond" | "kumar" ["yade"]
+    law: str  # dynamic: "yade" | "parallel-bond" | "kumar" | "lammps-bpm" ["yade"]
     strain: float  # dynamic: strain per path [1e-5]
     damping: float  # dynamic: Cundall damping [0.4]
     max_steps: int  # dynamic: step limit per path [20000]

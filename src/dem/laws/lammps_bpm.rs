@@ -1,0 +1,720 @@
+//! Law (d): LAMMPS's `bond_style bpm/rotational` (BPM package, LAMMPS 22 Jul 2025) with
+//! `break no smooth no`, reproduced from its documentation (doc/src/bond_bpm_rotational.rst:
+//! Wang 2009 / Mora & Wang 2009 elastic forces, Wang, Alonso-Marroquin & Guo 2015 damping).
+//!
+//! The bond is ordered by atom id (here: particle index), 1 = the smaller. Its reference
+//! state is stored once, at [`BondLaw::initialize`]: rest length r₀ and the unit vector
+//! r̂₀ = (x₁ − x₂)/r₀ in the lab frame (with the initial orientations the identity, the
+//! body frame of particle 2). At the current state, with r = x₁ − x₂ and r_b = q₂*·r·q₂
+//! (the bond vector in particle 2's body frame):
+//!
+//! - normal: F_r = k_r (|r| − r₀) along r_b;
+//! - shear from the bond's direction: γ = acos(r₀·r_b / (r₀|r|)), F_s = k_s |r| γ along
+//!   r_b × (r_b × r₀) (normalised), with the torque ½|r|·F_s about r₀ × r_b;
+//! - relative rotation q₂₁ = m_q*·(q₂*·q₁)·m_q, m_q the rotation of ẑ onto r_b (Mora & Wang
+//!   2009's X'Y'Z' representation): twist ψ = ±2 acos(w/√(w² + z²)), bending
+//!   θ = acos(w² − x² − y² + z²) in the direction φ; torques T_b = k_b θ (−sin φ, cos φ, 0),
+//!   T_t = k_t ψ ẑ, and the shear of the rotation F = −½k_s|r|θ (cos φ, sin φ, 0) with its
+//!   torque ¼k_s|r|²θ (sin φ, −cos φ, 0), all rotated back by m_q then by q₂ to the lab;
+//! - particle 1 gets −F and T_s − T_t − T_b, particle 2 gets F and T_s + T_t + T_b;
+//! - damping (optional, γ_n γ_s γ_r γ_t): normal −γ_n (v₁ − v₂)·r̂, sliding on the objective
+//!   tangential velocities with its torque, rolling ½γ_r r × (ω₁ × r̂ − ω₂ × r̂), twisting
+//!   ½γ_t (ω₁ − ω₂)·r̂ r̂.
+//!
+//! `normalize yes` divides k_r and k_s by r₀ ([`BpmNormalize`]). With anisobond's springs the
+//! coefficients are k_r = k_n, k_s = k_s, k_t = k_tw, k_b = k_r (the export's mapping); the
+//! shear lever arm is the bond's midpoint. The operations follow the documented formulas
+//! in their order, so that histories agree with LAMMPS to rounding (acos near 1 amplifies a
+//! rounding of the cosine to ~√ε in the angle; see docs/lammps.md).
+
+use super::{BondContext, BondLaw, BOND_CHUNK};
+use crate::bonds::BondStiffness;
+use crate::dem::quat::Quat;
+use crate::dem::state::BondLoads;
+use crate::{Error, Result, Vec3};
+use rayon::prelude::*;
+
+/// bpm/rotational's `normalize` setting.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BpmNormalize {
+    /// `normalize no` (LAMMPS default): F_r = k_r Δr, k_r and k_s in N/m.
+    #[default]
+    Absolute,
+    /// `normalize yes`: k_r and k_s are divided by each bond's rest length r₀ (k in N).
+    PerRestLength,
+}
+
+/// One bond's `bond_coeff` values of bpm/rotational (SI): springs k_r, k_s (N/m, or N with
+/// [`BpmNormalize::PerRestLength`]), k_t, k_b (N·m/rad), damping γ_n, γ_s (N·s/m), γ_r (N·s/m,
+/// torque ½γ_r l Δv_roll), γ_t (N·m·s/rad, torque ½γ_t Δω).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BpmCoefficients {
+    /// k_r, normal spring.
+    pub kr: f64,
+    /// k_s, shear spring.
+    pub ks: f64,
+    /// k_t, twisting spring.
+    pub kt: f64,
+    /// k_b, bending spring.
+    pub kb: f64,
+    /// γ_n, normal damping.
+    pub gamma_n: f64,
+    /// γ_s, sliding damping.
+    pub gamma_s: f64,
+    /// γ_r, rolling damping.
+    pub gamma_r: f64,
+    /// γ_t, twisting damping.
+    pub gamma_t: f64,
+}
+
+/// A bond's reference and current results.
+#[derive(Clone, Copy, Debug, Default)]
+struct BpmBond {
+    /// Particle 1 (smaller index) and 2.
+    p1: u32,
+    p2: u32,
+    /// Cell distance of particle 2's image relative to particle 1 (integer, as the topology's).
+    image2: Vec3,
+    /// Rest length r₀ (m).
+    r0_mag: f64,
+    /// Unit reference direction (x₁ − x₂)/r₀, lab frame.
+    r0_hat: Vec3,
+    /// The topology's i end is particle 2.
+    flipped: bool,
+}
+
+/// Per-bond results of the last evaluation: force on the topology's j end and its normal.
+#[derive(Clone, Copy, Debug, Default)]
+struct BpmResult {
+    force_j: Vec3,
+    normal: Vec3,
+}
+
+/// LAMMPS `bpm/rotational` as a [`BondLaw`].
+#[derive(Clone, Debug)]
+pub struct LammpsBpmLaw {
+    coeffs: Vec<BpmCoefficients>,
+    normalize: BpmNormalize,
+    bonds: Vec<BpmBond>,
+    results: Vec<BpmResult>,
+    /// (damping power, elastic energy) per bond chunk of the last evaluation.
+    chunk_sums: Vec<[f64; 2]>,
+    dissipated: f64,
+}
+
+/// LAMMPS `MathExtra::quatrotvec`: q·v·q* for the pure quaternion v.
+#[inline(always)]
+fn rotate(q: &Quat, v: &Vec3) -> Vec3 {
+    q.rotate(v)
+}
+
+/// acos with its argument clamped to [−1, 1] (bpm/rotational's `acos_limit`).
+#[inline(always)]
+fn acos_limit(c: f64) -> f64 {
+    c.clamp(-1.0, 1.0).acos()
+}
+
+/// v/|v|, or v unchanged when |v| = 0 (LAMMPS `MathExtra::norm3` divides by zero and gives
+/// NaN there; a zero shear direction has a zero shear force, γ = 0).
+#[inline(always)]
+fn unit_or_zero(v: Vec3) -> Vec3 {
+    let n = v.norm();
+    if n > 0.0 {
+        v * (1.0 / n)
+    } else {
+        v
+    }
+}
+
+/// Elastic loads (Wang 2009; Mora & Wang 2009) of one bond: (force on 2, torque on 2,
+/// torque on 1, elastic energy). `r` = x₁ − x₂, `r0` = r₀·r̂₀, q₁, q₂ the orientations.
+#[allow(clippy::too_many_arguments)]
+fn elastic_loads(
+    c: &BpmCoefficients,
+    normalize: BpmNormalize,
+    r_mag: f64,
+    r0_mag: f64,
+    r_mag_inv: f64,
+    r: &Vec3,
+    r0: &Vec3,
+    q1: &Quat,
+    q2: &Quat,
+) -> (Vec3, Vec3, Vec3, f64) {
+    let r0_mag_inv = 1.0 / r0_mag;
+    let (mut kr, mut ks) = (c.kr, c.ks);
+    if normalize == BpmNormalize::PerRestLength {
+        kr *= r0_mag_inv;
+        ks *= r0_mag_inv;
+    }
+    // Bond vector in particle 2's body frame.
+    let q2inv = q2.conjugate();
+    let rb = rotate(&q2inv, r);
+    let fr = kr * (r_mag - r0_mag);
+    let mut f_rot = rb * (fr * r_mag_inv);
+    // Shear from the change of the bond's direction.
+    let c0 = r0.dot(&rb) * r_mag_inv * r0_mag_inv;
+    let gamma = acos_limit(c0);
+    let s = unit_or_zero(rb.cross(&rb.cross(r0)));
+    let mut fs = s * (ks * r_mag * gamma);
+    let t = unit_or_zero(r0.cross(&rb));
+    let mut ts = t * (0.5 * r_mag * ks * r_mag * gamma);
+    // m_q: the rotation taking ẑ onto r_b (Mora & Wang 2009).
+    let h = std::f64::consts::SQRT_2 * 0.5;
+    let mq0 = h * ((r_mag + rb.z).max(0.0) * r_mag_inv).sqrt();
+    let rxy = (rb.x * rb.x + rb.y * rb.y).sqrt();
+    let (mq1, mq2) = if rxy != 0.0 {
+        let a = -h / rxy * ((r_mag - rb.z).max(0.0) * r_mag_inv).sqrt();
+        (a * rb.y, -a * rb.x)
+    } else {
+        (0.0, 0.0)
+    };
+    let mq = Quat {
+        w: mq0,
+        v: Vec3::new(mq1, mq2, 0.0),
+    };
+    // q21 = m_q*·(q₂*·q₁)·m_q: particle 1's rotation relative to 2 in the bond frame.
+    let qp21 = q2inv.mul(q1);
+    let q21 = mq.conjugate().mul(&qp21).mul(&mq);
+    let (w, x, y, z) = (q21.w, q21.v.x, q21.v.y, q21.v.z);
+    let wz = (w * w + z * z).sqrt();
+    let mut psi = if wz != 0.0 {
+        2.0 * acos_limit(w / wz)
+    } else {
+        0.0
+    };
+    if z < 0.0 {
+        psi = -psi;
+    }
+    if z == 0.0 {
+        psi = 0.0;
+    }
+    let theta = acos_limit(w * w - x * x - y * y + z * z);
+    let out_plane = w * w + z * z;
+    let in_plane = x * x + y * y;
+    let (cos_phi, sin_phi) = if in_plane == 0.0 {
+        (0.0, 0.0)
+    } else if out_plane == 0.0 {
+        (y / in_plane.sqrt(), -x / in_plane.sqrt())
+    } else {
+        let d = (out_plane * in_plane).sqrt();
+        ((x * z + w * y) / d, (y * z - w * x) / d)
+    };
+    let tbp = Vec3::new(-c.kb * theta * sin_phi, c.kb * theta * cos_phi, 0.0);
+    let ttp = Vec3::new(0.0, 0.0, c.kt * psi);
+    let fsp = Vec3::new(
+        -0.5 * ks * r_mag * theta * cos_phi,
+        -0.5 * ks * r_mag * theta * sin_phi,
+        0.0,
+    );
+    let tsp = Vec3::new(
+        0.25 * ks * r_mag * r_mag * theta * sin_phi,
+        -0.25 * ks * r_mag * r_mag * theta * cos_phi,
+        0.0,
+    );
+    fs += rotate(&mq, &fsp);
+    ts += rotate(&mq, &tsp);
+    let tb = rotate(&mq, &tbp);
+    let tt = rotate(&mq, &ttp);
+    f_rot += fs;
+    let force1on2 = rotate(q2, &f_rot);
+    let torque1on2 = rotate(q2, &(ts + tt + tb));
+    let torque2on1 = rotate(q2, &(ts - tt - tb));
+    let mut energy = 0.0;
+    for (load2, k) in [
+        (fr * fr, kr),
+        (fs.norm_squared(), ks),
+        (tb.norm_squared(), c.kb),
+        (tt.norm_squared(), c.kt),
+    ] {
+        if k > 0.0 {
+            energy += 0.5 * load2 / k;
+        }
+    }
+    (force1on2, torque1on2, torque2on1, energy)
+}
+
+/// Damping loads (Wang, Alonso-Marroquin & Guo 2015) added to (force on 2, torque on 2,
+/// torque on 1); returns them as deltas.
+#[allow(clippy::too_many_arguments)]
+fn damping_loads(
+    c: &BpmCoefficients,
+    rhat: &Vec3,
+    r: &Vec3,
+    v1: &Vec3,
+    v2: &Vec3,
+    w1: &Vec3,
+    w2: &Vec3,
+) -> (Vec3, Vec3, Vec3) {
+    let vn1 = rhat * v1.dot(rhat);
+    let vn2 = rhat * v2.dot(rhat);
+    let mut f = (vn1 - vn2) * c.gamma_n;
+    let (mut t12, mut t21) = (Vec3::zeros(), Vec3::zeros());
+    // Sliding on the objective tangential velocities.
+    let vt1 = v1 - vn1;
+    let vt2 = v2 - vn2;
+    let half_dvt = (vt2 - vt1) * 0.5;
+    let s1 = w1.cross(r) * -0.5 - half_dvt;
+    let s2 = w2.cross(r) * 0.5 + half_dvt;
+    let slide = (s1 - s2) * c.gamma_s;
+    f += slide;
+    let tdamp = r.cross(&slide) * 0.5;
+    t12 += tdamp;
+    t21 += tdamp;
+    // Rolling.
+    let vroll = w1.cross(rhat) - w2.cross(rhat);
+    let troll = r.cross(&vroll) * (0.5 * c.gamma_r);
+    t12 += troll;
+    t21 -= troll;
+    // Twisting.
+    let ttw = (rhat * w1.dot(rhat) - rhat * w2.dot(rhat)) * (0.5 * c.gamma_t);
+    t12 += ttw;
+    t21 -= ttw;
+    (f, t12, t21)
+}
+
+impl LammpsBpmLaw {
+    /// A law with per-bond coefficients; errors on a negative or non-finite value.
+    pub fn new(coeffs: Vec<BpmCoefficients>, normalize: BpmNormalize) -> Result<Self> {
+        for (b, c) in coeffs.iter().enumerate() {
+            let all = [
+                ("k_r", c.kr),
+                ("k_s", c.ks),
+                ("k_t", c.kt),
+                ("k_b", c.kb),
+                ("gamma_n", c.gamma_n),
+                ("gamma_s", c.gamma_s),
+                ("gamma_r", c.gamma_r),
+                ("gamma_t", c.gamma_t),
+            ];
+            if let Some((name, v)) = all.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+                return Err(Error::Invalid(format!(
+                    "bond law `lammps-bpm`: bond {b} has {name} = {v}; expected a finite value ≥ 0"
+                )));
+            }
+        }
+        let n = coeffs.len();
+        Ok(LammpsBpmLaw {
+            coeffs,
+            normalize,
+            bonds: vec![BpmBond::default(); n],
+            results: vec![BpmResult::default(); n],
+            chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
+            dissipated: 0.0,
+        })
+    }
+
+    /// The coefficients of bond `b`.
+    pub fn coefficients(&self, b: usize) -> &BpmCoefficients {
+        &self.coeffs[b]
+    }
+}
+
+/// bpm/rotational undamped with anisobond's springs `k`, `normalize no`: k_r = k_n,
+/// k_s = k_s, k_t = k_tw, k_b = k_r (the mapping of [`crate::export::lammps`]).
+pub fn lammps_bpm_law(k: &BondStiffness) -> Result<LammpsBpmLaw> {
+    let n = k.kn.len();
+    if [k.ks.len(), k.kr.len(), k.ktw.len()]
+        .iter()
+        .any(|&l| l != n)
+    {
+        return Err(Error::Invalid(
+            "bond law `lammps-bpm`: spring arrays of different lengths".into(),
+        ));
+    }
+    let coeffs = (0..n)
+        .map(|b| BpmCoefficients {
+            kr: k.kn[b],
+            ks: k.ks[b],
+            kt: k.ktw[b],
+            kb: k.kr[b],
+            ..Default::default()
+        })
+        .collect();
+    LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute)
+}
+
+impl BondLaw for LammpsBpmLaw {
+    fn name(&self) -> &'static str {
+        "lammps-bpm"
+    }
+
+    fn initialize(&mut self, ctx: &BondContext) -> Result<()> {
+        let topo = ctx.topology;
+        if topo.len() != self.coeffs.len() {
+            return Err(Error::Invalid(format!(
+                "bond law `lammps-bpm` has coefficients for {} bonds but the assembly has {}",
+                self.coeffs.len(),
+                topo.len()
+            )));
+        }
+        let p = ctx.particles;
+        for b in 0..topo.len() {
+            let (i, j) = (topo.i[b], topo.j[b]);
+            let cd = topo.cell_dist[b];
+            // Particle 1 = the smaller index (LAMMPS: the smaller atom id).
+            let flipped = i > j;
+            let (p1, p2, image2) = if flipped { (j, i, -cd) } else { (i, j, cd) };
+            let r = p.position[p1 as usize] - (p.position[p2 as usize] + ctx.h * image2);
+            let r0_mag = r.norm();
+            if !(r0_mag > 0.0 && r0_mag.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: its two particles coincide (centre distance {r0_mag})"
+                )));
+            }
+            let inv = 1.0 / r0_mag;
+            self.bonds[b] = BpmBond {
+                p1,
+                p2,
+                image2,
+                r0_mag,
+                r0_hat: r * inv,
+                flipped,
+            };
+        }
+        self.results
+            .iter_mut()
+            .for_each(|r| *r = BpmResult::default());
+        self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
+        self.dissipated = 0.0;
+        Ok(())
+    }
+
+    fn compute(&mut self, ctx: &BondContext, loads: &mut BondLoads) {
+        let p = ctx.particles;
+        let (h, sv) = (ctx.h, ctx.shift_velocity);
+        let normalize = self.normalize;
+        (
+            self.bonds.par_chunks(BOND_CHUNK),
+            self.coeffs.par_chunks(BOND_CHUNK),
+            self.results.par_chunks_mut(BOND_CHUNK),
+            loads.per_bond.par_chunks_mut(BOND_CHUNK),
+            self.chunk_sums.par_iter_mut(),
+        )
+            .into_par_iter()
+            .for_each(|(bonds, coeffs, results, out, slot)| {
+                let mut sums = [0.0, 0.0];
+                for k in 0..bonds.len() {
+                    let bd = &bonds[k];
+                    let c = &coeffs[k];
+                    let (a, b) = (bd.p1 as usize, bd.p2 as usize);
+                    let imaged = bd.image2 != Vec3::zeros();
+                    let x2 = if imaged {
+                        p.position[b] + h * bd.image2
+                    } else {
+                        p.position[b]
+                    };
+                    let r = p.position[a] - x2;
+                    let r_mag = r.norm_squared().sqrt();
+                    let r_mag_inv = 1.0 / r_mag;
+                    let rhat = r * r_mag_inv;
+                    let r0 = bd.r0_hat * bd.r0_mag;
+                    let (q1, q2) = (&p.orientation[a], &p.orientation[b]);
+                    let (mut f12, mut t12, mut t21, energy) =
+                        elastic_loads(c, normalize, r_mag, bd.r0_mag, r_mag_inv, &r, &r0, q1, q2);
+                    let damped =
+                        c.gamma_n > 0.0 || c.gamma_s > 0.0 || c.gamma_r > 0.0 || c.gamma_t > 0.0;
+                    if damped {
+                        let v1 = p.velocity[a];
+                        let v2 = if imaged {
+                            p.velocity[b] + sv * bd.image2
+                        } else {
+                            p.velocity[b]
+                        };
+                        let (w1, w2) = (p.angular_velocity[a], p.angular_velocity[b]);
+                        let (df, dt12, dt21) = damping_loads(c, &rhat, &r, &v1, &v2, &w1, &w2);
+                        f12 += df;
+                        t12 += dt12;
+                        t21 += dt21;
+                        // Power removed: −(loads on 1 and 2 · their velocities).
+                        sums[0] -= (-df).dot(&v1) + df.dot(&v2) + dt21.dot(&w1) + dt12.dot(&w2);
+                    }
+                    sums[1] += energy;
+                    let o = &mut out[k];
+                    if bd.flipped {
+                        // Topology i = particle 2.
+                        o.force_i = f12;
+                        o.torque_i = t12;
+                        o.torque_j = t21;
+                        results[k] = BpmResult {
+                            force_j: -f12,
+                            normal: rhat,
+                        };
+                    } else {
+                        o.force_i = -f12;
+                        o.torque_i = t21;
+                        o.torque_j = t12;
+                        results[k] = BpmResult {
+                            force_j: f12,
+                            normal: -rhat,
+                        };
+                    }
+                }
+                *slot = sums;
+            });
+        self.dissipated += ctx.dt * self.chunk_sums.iter().map(|s| s[0]).sum::<f64>();
+    }
+
+    fn elastic_energy(&self) -> f64 {
+        self.chunk_sums.iter().map(|s| s[1]).sum()
+    }
+
+    fn viscous_dissipation(&self) -> f64 {
+        self.dissipated
+    }
+
+    fn springs(&self, b: usize) -> (f64, f64, f64, f64) {
+        let c = &self.coeffs[b];
+        let scale = match self.normalize {
+            BpmNormalize::Absolute => 1.0,
+            BpmNormalize::PerRestLength => {
+                let r0 = self.bonds[b].r0_mag;
+                if r0 > 0.0 {
+                    1.0 / r0
+                } else {
+                    1.0
+                }
+            }
+        };
+        (c.kr * scale, c.ks * scale, c.kb, c.kt)
+    }
+
+    fn viscosity(&self, b: usize) -> (f64, f64) {
+        let c = &self.coeffs[b];
+        (c.gamma_n, c.gamma_s)
+    }
+
+    fn bond_forces(&self, b: usize) -> (f64, Vec3) {
+        let r = &self.results[b];
+        let fn_ = r.force_j.dot(&r.normal);
+        (fn_, r.force_j - r.normal * fn_)
+    }
+
+    fn box_clone(&self) -> Box<dyn BondLaw> {
+        Box::new(self.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bonds::BondSet;
+    use crate::dem::state::{BondTopology, Particles};
+    use crate::homogenize::network::{element, BondLaw as LinearBond, LeverArm};
+    use crate::Mat3;
+
+    const L: f64 = 2e-3;
+    const C: BpmCoefficients = BpmCoefficients {
+        kr: 3.0e6,
+        ks: 1.1e6,
+        kt: 0.7,
+        kb: 1.9,
+        gamma_n: 0.0,
+        gamma_s: 0.0,
+        gamma_r: 0.0,
+        gamma_t: 0.0,
+    };
+
+    /// Two spheres bonded along the unit `dir`, at rest, reference state stored.
+    fn pair(dir: Vec3) -> (Particles, BondTopology, LammpsBpmLaw) {
+        let x0 = Vec3::new(0.1, -0.2, 0.3);
+        let p = Particles {
+            position: vec![x0, x0 + dir * L],
+            velocity: vec![Vec3::zeros(); 2],
+            angular_velocity: vec![Vec3::zeros(); 2],
+            orientation: vec![Quat::identity(); 2],
+            radius: vec![0.5 * L; 2],
+            mass: vec![1e-5; 2],
+            inertia: vec![1e-11; 2],
+        };
+        let mut bonds = BondSet::default();
+        bonds.push(0, 1, dir * L, [0, 0, 0]);
+        let topo = BondTopology::new(&bonds, 2).unwrap();
+        let mut law = LammpsBpmLaw::new(vec![C], BpmNormalize::Absolute).unwrap();
+        law.initialize(&ctx(&p, &topo)).unwrap();
+        (p, topo, law)
+    }
+
+    fn ctx<'a>(p: &'a Particles, topo: &'a BondTopology) -> BondContext<'a> {
+        BondContext {
+            particles: p,
+            topology: topo,
+            h: Mat3::zeros(),
+            shift_velocity: Mat3::zeros(),
+            dt: 1e-7,
+            simd: false,
+        }
+    }
+
+    /// (force on 0, torque on 0, force on 1, torque on 1).
+    fn loads(p: &Particles, topo: &BondTopology, law: &mut LammpsBpmLaw) -> [Vec3; 4] {
+        let mut out = BondLoads::zeros(1);
+        law.compute(&ctx(p, topo), &mut out);
+        let l = out.per_bond[0];
+        [l.force_i, l.torque_i, -l.force_i, l.torque_j]
+    }
+
+    fn unit(v: Vec3) -> Vec3 {
+        v / v.norm()
+    }
+
+    /// Pure stretch: F_r = k_r (|r| − r₀) along the bond, exactly, at any stretch; no torque.
+    #[test]
+    fn stretch_gives_kr_times_the_elongation_along_the_bond() {
+        let dir = unit(Vec3::new(0.3, -0.5, 0.8));
+        for delta in [1e-9, 1e-6, 2e-4] {
+            let (mut p, topo, mut law) = pair(dir);
+            p.position[1] += dir * delta;
+            let [f0, t0, f1, t1] = loads(&p, &topo, &mut law);
+            let expected = dir * (C.kr * delta);
+            assert!(
+                (f0 - expected).norm() <= 1e-6 * expected.norm(),
+                "{f0} vs {expected}"
+            );
+            assert!((f1 + expected).norm() <= 1e-6 * expected.norm());
+            assert!(
+                t0.norm() <= 1e-9 * expected.norm() * L && t1.norm() <= 1e-9 * expected.norm() * L
+            );
+        }
+    }
+
+    /// Pure twist by ψ about the bond: torque k_t ψ about the axis, exactly (ψ up to 1 rad,
+    /// any bond direction), no force.
+    #[test]
+    fn twist_gives_kt_times_the_angle() {
+        for dir in [-Vec3::z(), unit(Vec3::new(1.0, 2.0, -0.5)), Vec3::x()] {
+            for psi in [1e-4, 0.3, 1.0] {
+                let (mut p, topo, mut law) = pair(dir);
+                p.orientation[1] = Quat::from_angle_axis(psi, &dir);
+                let [f0, t0, _, t1] = loads(&p, &topo, &mut law);
+                let expected = dir * (C.kt * psi);
+                // acos of a cosine near 1 leaves a bending of ~√ε rad (k_b·3e-8 N·m).
+                let tol = 1e-7 * expected.norm() + 3e-8 * C.kb;
+                assert!(
+                    (t1 + expected).norm() <= tol,
+                    "{dir} {psi}: {t1} vs −{expected}"
+                );
+                assert!(
+                    (t0 - expected).norm() <= tol,
+                    "{dir} {psi}: {t0} vs {expected}"
+                );
+                assert!(f0.norm() <= 3e-8 * C.ks * L, "{f0}");
+            }
+        }
+    }
+
+    /// Small displacements and rotations of both ends (stretch, shear, bending, twist at
+    /// once): the loads are −K·d of the linear bond element with springs k_n = k_r,
+    /// k_s = k_s, k_r = k_b, k_tw = k_t and the lever arm at the midpoint (an independent
+    /// implementation, crate::homogenize::network), to O(|d|) = 1e-5 (tolerance 2e-4 of the
+    /// largest load); and force and moment balance.
+    #[test]
+    fn small_motions_follow_the_midpoint_linear_element() {
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        for _ in 0..20 {
+            let dir = unit(Vec3::new(rnd(), rnd(), rnd()));
+            let (mut p, topo, mut law) = pair(dir);
+            // Large enough that acos's rounding (ε/θ relative) stays below the tolerance.
+            let eps = 1e-5;
+            let d: Vec<Vec3> = (0..4)
+                .map(|k| {
+                    let s = if k % 2 == 0 { eps * L } else { eps };
+                    Vec3::new(rnd(), rnd(), rnd()) * s
+                })
+                .collect();
+            p.position[0] += d[0];
+            p.position[1] += d[2];
+            for (k, e) in [(0, 1), (1, 3)] {
+                let a = d[e].norm();
+                p.orientation[k] = Quat::from_angle_axis(a, &(d[e] / a));
+            }
+            let got = loads(&p, &topo, &mut law);
+            let e = element(
+                &LinearBond {
+                    normal: dir,
+                    length: L,
+                    arms: LeverArm::HalfLength.arms(0.5 * L, 0.5 * L, L),
+                    kn: C.kr,
+                    ks: C.ks,
+                    kr: C.kb,
+                    ktw: C.kt,
+                },
+                true,
+            );
+            let mut dv = nalgebra::SVector::<f64, 12>::zeros();
+            for (k, v) in d.iter().enumerate() {
+                dv.fixed_rows_mut::<3>(3 * k).copy_from(v);
+            }
+            let mut k12 = nalgebra::SMatrix::<f64, 12, 12>::zeros();
+            k12.fixed_view_mut::<6, 6>(0, 0).copy_from(&e.kii);
+            k12.fixed_view_mut::<6, 6>(0, 6).copy_from(&e.kij);
+            k12.fixed_view_mut::<6, 6>(6, 0)
+                .copy_from(&e.kij.transpose());
+            k12.fixed_view_mut::<6, 6>(6, 6).copy_from(&e.kjj);
+            let want = -(k12 * dv);
+            let scale_f = want
+                .fixed_rows::<3>(0)
+                .norm()
+                .max(want.fixed_rows::<3>(6).norm());
+            let scale_t = want
+                .fixed_rows::<3>(3)
+                .norm()
+                .max(want.fixed_rows::<3>(9).norm());
+            for (k, g) in got.iter().enumerate() {
+                let w: Vec3 = want.fixed_rows::<3>(3 * k).into();
+                let scale = if k % 2 == 0 { scale_f } else { scale_t };
+                assert!(
+                    (g - w).norm() <= 2e-4 * scale,
+                    "dir {:?}, block {k}: {:?} vs {:?}",
+                    dir.as_slice(),
+                    g.as_slice(),
+                    w.as_slice()
+                );
+            }
+            // Balance: no net force; no net moment about the origin.
+            let [f0, t0, f1, t1] = got;
+            assert!((f0 + f1).norm() <= 1e-12 * scale_f);
+            let m = p.position[0].cross(&f0) + p.position[1].cross(&f1) + t0 + t1;
+            assert!(m.norm() <= 1e-9 * (scale_t + scale_f * L), "moment {m}");
+        }
+    }
+
+    /// Damping: a normal approach speed v gives γ_n v against it, nothing else; the power
+    /// removed is γ_n v².
+    #[test]
+    fn normal_damping_opposes_the_approach() {
+        let dir = unit(Vec3::new(0.2, 0.4, -1.0));
+        let (mut p, topo, _) = pair(dir);
+        let mut c = C;
+        c.gamma_n = 0.3;
+        let mut law = LammpsBpmLaw::new(vec![c], BpmNormalize::Absolute).unwrap();
+        law.initialize(&ctx(&p, &topo)).unwrap();
+        let v = 0.01;
+        p.velocity[1] = -dir * v;
+        let [f0, _, f1, _] = loads(&p, &topo, &mut law);
+        assert!((f1 - dir * (0.3 * v)).norm() <= 1e-12 * 0.3 * v, "{f1}");
+        assert!((f0 + f1).norm() == 0.0);
+        assert!(
+            (law.viscous_dissipation() - 1e-7 * 0.3 * v * v).abs() <= 1e-12 * 0.3 * v * v * 1e-7
+        );
+    }
+
+    /// `normalize yes` divides k_r by the rest length.
+    #[test]
+    fn normalize_divides_the_force_springs_by_the_rest_length() {
+        let dir = Vec3::x();
+        let (mut p, topo, _) = pair(dir);
+        let mut law = LammpsBpmLaw::new(vec![C], BpmNormalize::PerRestLength).unwrap();
+        law.initialize(&ctx(&p, &topo)).unwrap();
+        p.position[1] += dir * 1e-7;
+        let [_, _, f1, _] = loads(&p, &topo, &mut law);
+        let expected = C.kr / L * 1e-7;
+        assert!((f1.x + expected).abs() <= 1e-6 * expected, "{f1}");
+        assert!((law.springs(0).0 - C.kr / L).abs() <= 1e-15 * C.kr / L);
+    }
+}
