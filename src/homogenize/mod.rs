@@ -9,7 +9,9 @@
 //! - [`network`]: the linearised bond network the last two share.
 //! - [`report`]: the SPEC tensor report (JSON).
 
+pub mod buckling;
 pub mod cholesky;
+pub mod geometric;
 pub mod laf;
 pub mod mean_field;
 pub mod network;

@@ -235,6 +235,19 @@ impl Network {
                     .into(),
             ));
         }
+        Network::build_free(packing, bonds, k, lever_arm, rotations)
+    }
+
+    /// [`Network::build`] without requiring a periodic cell: the network of a free assembly
+    /// (e.g. a bar cut by [`crate::packing::cut`]), whose boundary conditions the caller
+    /// applies (clamped ends); `volume` is then the spheres' bounding box.
+    pub fn build_free(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+    ) -> Result<Network> {
         if k.len() != bonds.len() {
             return Err(Error::Invalid(format!(
                 "{} bonds but {} stiffness entries",

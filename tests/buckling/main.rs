@@ -1,0 +1,7 @@
+//! Free-boundary bars and their buckling: cutting, geometric stiffness, linearised buckling.
+//! See tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod explore;
