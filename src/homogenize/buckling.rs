@@ -99,6 +99,12 @@ pub struct BucklingResult {
     pub unloaded_particles: usize,
     /// Bonds of the network.
     pub bonds: usize,
+    /// The bar's own bending stiffness EI (N·m²): moment × l per radian of relative end
+    /// rotation under pure bending (ends clamped and rotated rigidly about their centroids).
+    pub bending_stiffness: f64,
+    /// Transverse stiffness (N/m) of the clamped–guided bar (one end moved across the axis
+    /// without rotation): l³/(12 EI) + l/(κGA) per newton for a Timoshenko beam.
+    pub transverse_stiffness: f64,
     /// Bonds in compression in the pre-buckling state.
     pub compressed_bonds: usize,
     /// Translation of every particle in the first buckling mode (unit max norm; zero for
@@ -230,14 +236,34 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
     }
     let clamped = (0..m).filter(|&q| node_role[q] != 0).count();
 
-    // Pre-buckling state under unit strain: the second end moves by −l along the axis.
+    // Three load cases in one solve (columns of the 6-column blocks), ends moved rigidly
+    // (translation + rotation about the end set's centroid c):
+    // 0: unit axial strain, the second end moved by −l·axis (the pre-buckling state);
+    // 1: pure bending, the ends rotated by ∓½ rad about e₁ (constant moment, no shear);
+    // 2: the second end moved by 1 m along e₂ without rotation (clamped–guided shear).
+    let (e1, e2) = transverse(&bar.axis);
+    let centroid = |set: &[u32]| {
+        set.iter()
+            .map(|&p| a.packing.positions[p as usize])
+            .sum::<Vec3>()
+            / set.len() as f64
+    };
+    let (c1, c2) = (centroid(bar.first_end), centroid(bar.second_end));
     let k = BlockSparse::assemble(&net);
     let mut u = vec![Block6::zeros(); m];
     for q in 0..m {
-        if node_role[q] == 2 {
-            u[q].fixed_view_mut::<3, 1>(0, 0)
-                .copy_from(&(-bar.axis * bar.length));
-        }
+        let x = a.packing.positions[net.original[q] as usize];
+        let (centre, axial, half_turn, shift) = match node_role[q] {
+            1 => (c1, Vec3::zeros(), -0.5, Vec3::zeros()),
+            2 => (c2, -bar.axis * bar.length, 0.5, e2),
+            _ => continue,
+        };
+        let phi = e1 * half_turn;
+        u[q].fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
+        u[q].fixed_view_mut::<3, 1>(0, 1)
+            .copy_from(&phi.cross(&(x - centre)));
+        u[q].fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
+        u[q].fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
     }
     let mut ku = vec![Block6::zeros(); m];
     k.apply(&u, &mut ku);
@@ -247,19 +273,22 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
     let sol = chol.solve(&rhs)?;
     let mut check = vec![Block6::zeros(); free_nodes.len()];
     kff.apply(&sol, &mut check);
-    let rnorm: f64 = check
-        .iter()
-        .zip(&rhs)
-        .map(|(x, b)| (x - b).column(0).norm_squared())
-        .sum::<f64>()
-        .sqrt();
-    let bnorm: f64 = rhs
-        .iter()
-        .map(|b| b.column(0).norm_squared())
-        .sum::<f64>()
-        .sqrt();
-    let static_residual = rnorm / bnorm.max(f64::MIN_POSITIVE);
-    if !(static_residual < 1e-8) {
+    let mut static_residual: f64 = 0.0;
+    for c in 0..3 {
+        let rnorm: f64 = check
+            .iter()
+            .zip(&rhs)
+            .map(|(x, b)| (x - b).column(c).norm_squared())
+            .sum::<f64>()
+            .sqrt();
+        let bnorm: f64 = rhs
+            .iter()
+            .map(|b| b.column(c).norm_squared())
+            .sum::<f64>()
+            .sqrt();
+        static_residual = static_residual.max(rnorm / bnorm.max(f64::MIN_POSITIVE));
+    }
+    if static_residual.is_nan() || static_residual >= 1e-8 {
         return Err(Error::NotConverged(format!(
             "buckling: the pre-buckling solve has relative residual {static_residual:e} (> 1e-8)"
         )));
@@ -268,15 +297,23 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         u[q] = sol[f];
     }
     k.apply(&u, &mut ku);
-    let (mut r1, mut r2) = (Vec3::zeros(), Vec3::zeros());
+    // Reactions (force the clamps apply, moment about the end's centroid) per load case.
+    let mut react = [[Vec3::zeros(); 4]; 3];
     for q in 0..m {
-        let f: Vec3 = ku[q].fixed_view::<3, 1>(0, 0).into_owned();
-        match node_role[q] {
-            1 => r1 += f,
-            2 => r2 += f,
-            _ => {}
+        let (slot, centre) = match node_role[q] {
+            1 => (0, c1),
+            2 => (2, c2),
+            _ => continue,
+        };
+        let x = a.packing.positions[net.original[q] as usize];
+        for (c, r) in react.iter_mut().enumerate() {
+            let f: Vec3 = ku[q].fixed_view::<3, 1>(0, c).into_owned();
+            let mq: Vec3 = ku[q].fixed_view::<3, 1>(3, c).into_owned();
+            r[slot] += f;
+            r[slot + 1] += (x - centre).cross(&f) + mq;
         }
     }
+    let (r1, r2) = (react[0][0], react[0][2]);
     let force = -r2.dot(&bar.axis);
     if !(force.is_finite() && force > 0.0) {
         return Err(Error::Degenerate(format!(
@@ -286,6 +323,22 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
     }
     let reaction_imbalance = (r1 + r2).norm() / r2.norm();
     let modulus = force / bar.area;
+    // Pure bending: M = EI·θ/l with θ = 1 rad between the ends.
+    let bending_stiffness = react[1][3].dot(&e1) * bar.length;
+    // Clamped–guided: V = k_t·1 m.
+    let transverse_stiffness = react[2][2].dot(&e2);
+    if !(bending_stiffness > 0.0 && transverse_stiffness > 0.0) {
+        return Err(Error::Degenerate(format!(
+            "buckling: bending stiffness {bending_stiffness:e} N·m², transverse stiffness \
+             {transverse_stiffness:e} N/m: expected both > 0"
+        )));
+    }
+    // Keep only the axial case for the bond forces.
+    for uq in u.iter_mut() {
+        let axial: Vector6<f64> = uq.column(0).into_owned();
+        *uq = Block6::zeros();
+        uq.set_column(0, &axial);
+    }
 
     // Bond forces f = S Δ (N > 0 in tension), per original bond.
     let bonds = &a.bonds;
@@ -317,7 +370,6 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
 
     // Start vectors: clamped–clamped bending shapes along two transverse directions plus a
     // seeded 1 % perturbation of every component.
-    let (e1, e2) = transverse(&bar.axis);
     let origin = bar
         .first_end
         .iter()
@@ -449,6 +501,8 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         clamped_particles: clamped,
         unloaded_particles: n - nf - clamped,
         bonds: net.ends.len(),
+        bending_stiffness,
+        transverse_stiffness,
         compressed_bonds,
         mode,
     })
@@ -470,4 +524,41 @@ pub fn mazzilli_stress(modulus: f64, slenderness: f64) -> f64 {
         return f64::NAN;
     }
     (1.0 - d.sqrt()) * modulus / 2.0
+}
+
+impl BucklingResult {
+    /// The bar's shear stiffness κGA (N) of a Timoshenko beam, from the clamped–guided
+    /// stiffness k_t and EI: 1/k_t = l³/(12 EI) + l/(κGA); infinite when the bar bends like
+    /// an Euler–Bernoulli beam to rounding.
+    pub fn shear_stiffness(&self, length: f64) -> f64 {
+        let shear_compliance =
+            1.0 / self.transverse_stiffness - length.powi(3) / (12.0 * self.bending_stiffness);
+        if shear_compliance > 0.0 {
+            length / shear_compliance
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Euler's clamped–clamped critical force with the bar's own bending stiffness,
+    /// P = 4π²EI/l² (N) (Kumar 2016 Eq. 14 with EI instead of E·πr⁴/4).
+    pub fn euler_force_own(&self, length: f64) -> f64 {
+        4.0 * std::f64::consts::PI.powi(2) * self.bending_stiffness / (length * length)
+    }
+
+    /// Engesser's shear-corrected critical force P_E/(1 + P_E/κGA) (N) with the bar's own
+    /// EI and κGA: the continuum value a linearised (small-strain) network tends to for a
+    /// short bar.
+    pub fn engesser_force_own(&self, length: f64) -> f64 {
+        let pe = self.euler_force_own(length);
+        pe / (1.0 + pe / self.shear_stiffness(length))
+    }
+
+    /// The bar's bending stiffness over E·πr⁴/4 of a solid round bar of the area's radius,
+    /// (EI)/(E·A·r²/4) with r² = A/π: below 1 when the outer layer is less stiff (the cut
+    /// surface's broken bonds). σ_cr/σ_Euler of a slender bar tends to this ratio.
+    pub fn bending_ratio(&self, area: f64) -> f64 {
+        let r2 = area / std::f64::consts::PI;
+        self.bending_stiffness / (self.modulus * area * r2 / 4.0)
+    }
 }

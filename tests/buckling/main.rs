@@ -1,7 +1,6 @@
-//! Free-boundary bars and their buckling: cutting, geometric stiffness, linearised buckling.
-//! See tests/README.md.
+//! Free-boundary bars and their buckling: cutting from periodic packings, the geometric
+//! stiffness, linearised buckling against Euler/Engesser/Mazzilli. See tests/README.md.
 
-#[path = "../common/mod.rs"]
-mod common;
-
-mod explore;
+mod cut;
+mod euler;
+mod geometric;
