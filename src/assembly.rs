@@ -115,6 +115,19 @@ impl Assembly {
         Assembly::springs_of(packing, model, bonds)
     }
 
+    /// The free assembly of the spheres of `packing` whose centres lie in `region`
+    /// ([`packing::cut::cut`]: periodic images unwrapped), bonded by the model's rule as in
+    /// [`Assembly::new`]; returns the cut too (where each sphere came from, boundary sets).
+    pub fn cut(
+        packing: &Packing,
+        region: &packing::cut::Region,
+        model: Model,
+    ) -> Result<(Assembly, packing::cut::Cut)> {
+        let cut = packing::cut::cut(packing, region)?;
+        let assembly = Assembly::new(cut.packing.clone(), model)?;
+        Ok((assembly, cut))
+    }
+
     /// An assembly of given bonds (a scene's own interactions, [`BondSet::from_pairs`])
     /// instead of the model's bonding rule; the springs are assigned as in [`Assembly::new`].
     pub fn with_bonds(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {

@@ -20,6 +20,9 @@ use super::geometric::geometric_stiffness;
 use super::network::{Block6, LeverArm, Network};
 use super::relaxed::BlockSparse;
 use crate::assembly::Assembly;
+use crate::model::Model;
+use crate::packing::cut::{BoundarySets, Region};
+use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
 use nalgebra::{Matrix6, Vector6};
 use rand::{Rng, SeedableRng};
@@ -105,6 +108,10 @@ pub struct BucklingResult {
     /// Transverse stiffness (N/m) of the clamped–guided bar (one end moved across the axis
     /// without rotation): l³/(12 EI) + l/(κGA) per newton for a Timoshenko beam.
     pub transverse_stiffness: f64,
+    /// Share of the axial Love stress Σ(f·a)(l·a) carried by the bonds' normal forces,
+    /// Σ N(n·a)(l·a) over it: the part of the pre-stress the geometric stiffness sees (the
+    /// rest, carried by shear forces, is neglected, [`super::geometric`]).
+    pub normal_force_share: f64,
     /// Bonds in compression in the pre-buckling state.
     pub compressed_bonds: usize,
     /// Translation of every particle in the first buckling mode (unit max norm; zero for
@@ -344,6 +351,7 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
     let bonds = &a.bonds;
     let mut forces = vec![Vec3::zeros(); bonds.len()];
     let mut compressed_bonds = 0;
+    let (mut love_total, mut love_normal) = (0.0, 0.0);
     for (e, &(pi, pj)) in net.ends.iter().enumerate() {
         let b = net.bond[e];
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
@@ -363,6 +371,9 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         if f.dot(&nrm) < 0.0 {
             compressed_bonds += 1;
         }
+        let la = bonds.length[b] * nrm.dot(&bar.axis);
+        love_total += f.dot(&bar.axis) * la;
+        love_normal += f.dot(&nrm) * nrm.dot(&bar.axis) * la;
         forces[b] = f;
     }
     let kg = geometric_stiffness(&net, bonds, &forces)?;
@@ -504,6 +515,7 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         bending_stiffness,
         transverse_stiffness,
         compressed_bonds,
+        normal_force_share: love_normal / love_total,
         mode,
     })
 }
@@ -560,5 +572,83 @@ impl BucklingResult {
     pub fn bending_ratio(&self, area: f64) -> f64 {
         let r2 = area / std::f64::consts::PI;
         self.bending_stiffness / (self.modulus * area * r2 / 4.0)
+    }
+}
+
+/// A round bar cut from a packing (Kumar 2016 Sec. 5): the bonded assembly, its clamped end
+/// sets and its dimensions.
+#[derive(Clone, Debug)]
+pub struct RoundBar {
+    /// The bonded bar.
+    pub assembly: Assembly,
+    /// End and surface sets.
+    pub boundary: BoundarySets,
+    /// The region the bar was cut with.
+    pub region: Region,
+    /// Radius r (m) of the cylinder holding the sphere centres.
+    pub radius: f64,
+    /// Length l (m).
+    pub length: f64,
+}
+
+impl RoundBar {
+    /// Cut the bar of radius `radius` (m) and slenderness l/r = `slenderness` along z out of
+    /// `packing` (centred on the cell's axis when periodic, the cell tiled along z as far as
+    /// the length needs), bond it by `model` and clamp the spheres within `clamp_depth` (m)
+    /// of each end face (Kumar: the spheres touching the end planes, depth = R̄).
+    pub fn cut(
+        packing: &Packing,
+        model: Model,
+        radius: f64,
+        slenderness: f64,
+        clamp_depth: f64,
+    ) -> Result<RoundBar> {
+        if !(slenderness.is_finite() && slenderness > 0.0) {
+            return Err(Error::Invalid(format!(
+                "bar: slenderness l/r must be finite and > 0, got {slenderness}"
+            )));
+        }
+        let length = slenderness * radius;
+        let centre = match &packing.cell {
+            Some(c) => Vec3::new(0.5 * c.lengths.x, 0.5 * c.lengths.y, 0.5 * length),
+            None => {
+                let (lo, hi) = packing.bounding_box();
+                let mid = (lo + hi) * 0.5;
+                Vec3::new(mid.x, mid.y, lo.z + 0.5 * length)
+            }
+        };
+        let region = Region::Cylinder {
+            centre,
+            axis: Vec3::z(),
+            radius,
+            length,
+        };
+        let (assembly, cut) = Assembly::cut(packing, &region, model)?;
+        let boundary = cut.boundary(clamp_depth)?;
+        Ok(RoundBar {
+            assembly,
+            boundary,
+            region,
+            radius,
+            length,
+        })
+    }
+
+    /// Cross-section area πr² (m²).
+    pub fn area(&self) -> f64 {
+        std::f64::consts::PI * self.radius * self.radius
+    }
+
+    /// Linearised buckling of the bar clamped at both end sets ([`clamped_bar_buckling`]).
+    pub fn buckling(&self, opts: &BucklingOptions) -> Result<BucklingResult> {
+        let bar = ClampedBar {
+            assembly: &self.assembly,
+            first_end: &self.boundary.first_end,
+            second_end: &self.boundary.second_end,
+            axis: self.region.axis(),
+            length: self.length,
+            area: self.area(),
+        };
+        clamped_bar_buckling(&bar, opts)
     }
 }
