@@ -7,6 +7,8 @@
 //! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - [`cholesky`], [`two_level`]: the relaxed solve's direct solver and CG preconditioner.
 //! - [`network`]: the linearised bond network the last two share.
+//! - [`geometric`]: the initial-stress stiffness of a pre-loaded network;
+//!   [`buckling`]: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - [`report`]: the SPEC tensor report (JSON).
 
 pub mod buckling;

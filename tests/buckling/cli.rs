@@ -1,0 +1,73 @@
+//! `anisobond buckle` end to end: the table's Euler and Mazzilli columns recomputed from its
+//! own E (Kumar 2016 Eqs. 14–15), the files, and refusals that leave no output.
+
+use crate::common::{bin, tmp};
+use std::f64::consts::PI;
+
+#[test]
+fn buckle_writes_table_consistent_with_eqs_14_15() {
+    let dir = tmp();
+    let out = dir.path().join("bk");
+    let o = bin()
+        .args([
+            "buckle",
+            "--route",
+            "unjammed",
+            "--slenderness",
+            "20,40",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(header.contains(&"E [Pa]") && header.contains(&"sigma_network [Pa]"));
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        let f = |name: &str| r[col(name)].parse::<f64>().unwrap();
+        let (s, e) = (f("l_over_r"), f("E [Pa]"));
+        let euler = PI * PI * e / (4.0 * (0.5 * s).powi(2));
+        assert!((f("sigma_euler [Pa]") / euler - 1.0).abs() < 1e-9);
+        let maz = (1.0 - (1.0 - PI * PI / (0.5 * s).powi(2)).sqrt()) * e / 2.0;
+        assert!((f("sigma_mazzilli [Pa]") / maz - 1.0).abs() < 1e-9);
+        let ratio = f("sigma_network [Pa]") / euler;
+        assert!((f("network_over_euler") / ratio - 1.0).abs() < 1e-9);
+        assert!(ratio > 0.0 && ratio.is_finite());
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("buckling.json")).unwrap()).unwrap();
+    assert_eq!(json["units"]["sigma_network"], "Pa");
+    assert_eq!(json["rows"].as_array().unwrap().len(), 2);
+    let png = std::fs::read(out.join("buckling.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+}
+
+#[test]
+fn buckle_refuses_bad_options_without_output() {
+    let dir = tmp();
+    for (args, expect) in [
+        (vec!["--slenderness", "5"], "--slenderness 5"),
+        (vec!["--alpha=-1"], "--alpha -1"),
+        (vec!["--radius-particles", "0"], "--radius-particles 0"),
+    ] {
+        let out = dir.path().join("bk");
+        let o = bin()
+            .arg("buckle")
+            .args(&args)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(expect), "{err}");
+        assert!(!out.exists());
+    }
+}
