@@ -7,5 +7,6 @@ mod common;
 
 mod cli;
 mod cut;
+mod dem;
 mod euler;
 mod geometric;
