@@ -3,6 +3,7 @@
 //! Euler (Eq. 14, k = 0.5) and Mazzilli (Eq. 15), E from the bar's own axial modulus.
 
 use anisobond::bonds::BondingRule;
+use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions};
 use anisobond::homogenize::buckling::{
     euler_stress, mazzilli_stress, BucklingOptions, BucklingResult, RoundBar,
 };
@@ -73,7 +74,17 @@ pub struct BuckleArgs {
     /// Relative residual of the eigen-iteration.
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
-    /// Output folder: buckling.csv, buckling.json, buckling.png.
+    /// Also compress every bar with the integrator (Kumar's law) over this many time steps
+    /// to `--dem-strain` × the linearised critical strain, and report the maximum stress
+    /// and Kumar's Ẽ_kin (Eq. 16) before it; 0 (default) skips it. About 2e-7 s per
+    /// sphere and step here (50,000 steps: 6 s for 600 spheres).
+    #[arg(long, default_value_t = 0)]
+    dem_steps: usize,
+    /// Final strain of the compression, in units of the linearised critical strain.
+    #[arg(long, default_value_t = 2.5)]
+    dem_strain: f64,
+    /// Output folder: buckling.csv, buckling.json, buckling.png (and with --dem-steps
+    /// history_ROUTE_LR.csv: strain, stress [Pa], Ẽ_kin per bar).
     #[arg(short, long, default_value = "anisobond-buckle")]
     output: PathBuf,
 }
@@ -104,6 +115,18 @@ struct Row {
     normal_force_share: f64,
     iterations: usize,
     residual: f64,
+    /// DEM maximum stress (Pa), when run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_max_stress: Option<f64>,
+    /// Strain at the DEM maximum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_strain_at_max: Option<f64>,
+    /// Largest Ẽ_kin (Eq. 16) up to the DEM maximum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_max_kinetic_ratio: Option<f64>,
+    /// True when the DEM maximum is the run's last point (no buckling by the final strain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_peak_at_end: Option<bool>,
 }
 
 fn check(a: &BuckleArgs) -> Result<()> {
@@ -127,6 +150,7 @@ fn check(a: &BuckleArgs) -> Result<()> {
         ("--sigma-n", a.sigma_n),
         ("--clamp-depth", a.clamp_depth),
         ("--tolerance", a.tolerance),
+        ("--dem-strain", a.dem_strain),
     ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(Error::Invalid(format!(
@@ -163,6 +187,10 @@ fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult) -> Row {
         normal_force_share: r.normal_force_share,
         iterations: r.iterations,
         residual: r.residuals[0].max(r.residuals[1]),
+        dem_max_stress: None,
+        dem_strain_at_max: None,
+        dem_max_kinetic_ratio: None,
+        dem_peak_at_end: None,
     }
 }
 
@@ -233,7 +261,40 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             let res = bar
                 .buckling(&opts)
                 .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
-            let r = row(route, s, &bar, &res);
+            let mut r = row(route, s, &bar, &res);
+            if a.dem_steps > 0 {
+                let copts = CompressionOptions {
+                    max_strain: a.dem_strain * res.critical_strain,
+                    steps: a.dem_steps,
+                    record_every: (a.dem_steps / 200).max(1),
+                    ..CompressionOptions::default()
+                };
+                let t1 = Instant::now();
+                let c = compress_clamped_bar(&bar, &copts).map_err(|e| {
+                    e.in_context(format!("{} bar, l/r = {s}, compression", r.route))
+                })?;
+                let mut h = String::from("strain,stress [Pa],kinetic_ratio\n");
+                for pt in &c.history {
+                    h += &format!("{:e},{:e},{:e}\n", pt.strain, pt.stress, pt.kinetic_ratio);
+                }
+                write_string_atomic(&dir.join(format!("history_{}_{s}.csv", r.route)), &h)?;
+                println!(
+                    "  DEM {} steps ({:.1} s): σ_max = {:.4e} Pa = {:.4} σ_Euler = {:.4} σ_network \
+                     at ε = {:.3e}{}; max Ẽ_kin before it {:.2e}",
+                    a.dem_steps,
+                    t1.elapsed().as_secs_f64(),
+                    c.max_stress,
+                    c.max_stress / r.sigma_euler,
+                    c.max_stress / r.sigma_network,
+                    c.strain_at_max,
+                    if c.peak_at_end { " (end of run: not buckled)" } else { "" },
+                    c.max_kinetic_ratio_before_peak
+                );
+                r.dem_max_stress = Some(c.max_stress);
+                r.dem_strain_at_max = Some(c.strain_at_max);
+                r.dem_max_kinetic_ratio = Some(c.max_kinetic_ratio_before_peak);
+                r.dem_peak_at_end = Some(c.peak_at_end);
+            }
             println!(
                 "{:<14} {:>6} {:>7} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.4} {:>8.4} {:>8.4} {:>8.4}",
                 r.route,
@@ -251,15 +312,16 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             rows.push(r);
         }
     }
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:e}")).unwrap_or_default();
     let mut csv = String::from(
         "route,l_over_r,particles,bonds,E [Pa],sigma_euler [Pa],sigma_mazzilli [Pa],\
          sigma_network [Pa],network_over_euler,network_over_mazzilli,bending_ratio,\
          network_over_euler_own_EI,network_over_engesser_own,normal_force_share,iterations,\
-         residual\n",
+         residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end\n",
     );
     for r in &rows {
         csv += &format!(
-            "{},{},{},{},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e}\n",
+            "{},{},{},{},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
             r.route,
             r.slenderness,
             r.particles,
@@ -275,19 +337,24 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             r.network_over_engesser_own,
             r.normal_force_share,
             r.iterations,
-            r.residual
+            r.residual,
+            opt(r.dem_max_stress),
+            opt(r.dem_strain_at_max),
+            opt(r.dem_max_kinetic_ratio),
+            r.dem_peak_at_end.map(|b| b.to_string()).unwrap_or_default()
         );
     }
     write_string_atomic(&dir.join("buckling.csv"), &csv)?;
     let json = serde_json::json!({
         "units": {
             "modulus": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
-            "sigma_network": "Pa", "slenderness": "l/r (1)", "ratios": "1"
+            "sigma_network": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
         },
         "parameters": {
             "radius_in_mean_radii": a.radius_particles, "cell_particles": a.cell_particles,
             "alpha": a.alpha, "kappa": a.kappa, "sigma_n_pa": a.sigma_n, "seed": a.seed,
             "clamp_depth_in_mean_radii": a.clamp_depth, "tolerance": a.tolerance,
+            "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,
             "euler": "Kumar 2016 Eq. 14, k = 0.5", "mazzilli": "Kumar 2016 Eq. 15, k = 0.5"
         },
         "rows": rows,
@@ -312,6 +379,20 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             colour: Some(c),
         })
         .collect();
+    if a.dem_steps > 0 {
+        for (c, route) in a.route.iter().enumerate() {
+            series.push(Series {
+                label: format!("DEM maximum, {}", route.route().as_str()),
+                points: rows
+                    .iter()
+                    .filter(|r| r.route == route.route().as_str())
+                    .filter_map(|r| r.dem_max_stress.map(|m| (r.slenderness, m / r.sigma_euler)))
+                    .collect(),
+                dashed: true,
+                colour: Some(c),
+            });
+        }
+    }
     let (lo, hi) = a
         .slenderness
         .iter()

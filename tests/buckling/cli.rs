@@ -71,3 +71,50 @@ fn buckle_refuses_bad_options_without_output() {
         assert!(!out.exists());
     }
 }
+
+/// `--dem-steps`: the compression's maximum, strain and Ẽ_kin columns are filled, the
+/// history file's last strain is `--dem-strain` × the linearised critical strain
+/// (σ_network/E), and its largest stress is the table's maximum.
+#[test]
+fn buckle_dem_columns_and_history() {
+    let dir = tmp();
+    let out = dir.path().join("bk");
+    let o = bin()
+        .args([
+            "buckle",
+            "--route",
+            "weakly-jammed",
+            "--slenderness",
+            "10",
+            "--dem-steps",
+            "20000",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    let f = |name: &str| {
+        row[header.iter().position(|h| *h == name).unwrap()]
+            .parse::<f64>()
+            .unwrap()
+    };
+    let hist = std::fs::read_to_string(out.join("history_weakly-jammed_10.csv")).unwrap();
+    let pts: Vec<Vec<f64>> = hist
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let eps_cr = f("sigma_network [Pa]") / f("E [Pa]");
+    let last = pts.last().unwrap()[0];
+    assert!(
+        (last / (2.5 * eps_cr) - 1.0).abs() < 1e-9,
+        "{last} vs {eps_cr}"
+    );
+    let max = pts.iter().map(|p| p[1]).fold(f64::MIN, f64::max);
+    assert_eq!(max, f("dem_max_stress [Pa]"));
+    assert!(f("dem_max_kinetic_ratio") > 0.0);
+}
