@@ -2,16 +2,19 @@
 //! and preparation routes, with the bonded network's own linearised critical stress beside
 //! Euler (Eq. 14, k = 0.5) and Mazzilli (Eq. 15), E from the bar's own axial modulus.
 
+use anisobond::assembly::Assembly;
 use anisobond::bonds::BondingRule;
 use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions};
 use anisobond::homogenize::buckling::{
     euler_stress, mazzilli_stress, BucklingOptions, BucklingResult, RoundBar,
 };
+use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::io::{write_string_atomic, OutputSet};
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
 use anisobond::plot::{plot_series, Series};
 use anisobond::schemes::{Convention, Geometry, Moments};
+use anisobond::tensor::elastic::compliance;
 use anisobond::{Error, Result};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -55,6 +58,12 @@ pub struct BuckleArgs {
     /// bars are cut from; the cell is tiled along the bar.
     #[arg(long, default_value_t = 1000)]
     cell_particles: usize,
+    /// A model file (docs/formats.md) instead of Kumar's bonds (then --alpha, --kappa and
+    /// --sigma-n are not used): e.g. a cubic crystal rotated so that <100> or <111> lies
+    /// along the bar axis z. E along the axis is compared with 1/S'₃₃ of the periodic cell's
+    /// relaxed tensor.
+    #[arg(long, conflicts_with_all = ["alpha", "kappa", "sigma_n"])]
+    model: Option<PathBuf>,
     /// α = Σ_T/Σ_N, tangential to normal bond stiffness (Kumar 2016: 0.2).
     #[arg(long, default_value_t = 0.2)]
     alpha: f64,
@@ -98,6 +107,9 @@ struct Row {
     bonds: usize,
     /// E (Pa).
     modulus: f64,
+    /// 1/S'₃₃ of the periodic cell's relaxed tensor (Pa): E along the axis of the material
+    /// the bar is cut from.
+    modulus_cell: f64,
     /// σ_Euler, Eq. 14 (Pa).
     sigma_euler: f64,
     /// σ_Mazzilli, Eq. 15 (Pa).
@@ -167,7 +179,7 @@ fn check(a: &BuckleArgs) -> Result<()> {
     Ok(())
 }
 
-fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult) -> Row {
+fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult, e_cell: f64) -> Row {
     let (e, l) = (r.modulus, bar.length);
     let (se, sm) = (euler_stress(e, s), mazzilli_stress(e, s));
     Row {
@@ -176,6 +188,7 @@ fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult) -> Row {
         particles: bar.assembly.packing.len(),
         bonds: bar.assembly.bonds.len(),
         modulus: e,
+        modulus_cell: e_cell,
         sigma_euler: se,
         sigma_mazzilli: sm,
         sigma_network: r.critical_stress,
@@ -196,9 +209,10 @@ fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult) -> Row {
 
 pub fn run(a: BuckleArgs) -> Result<()> {
     check(&a)?;
-    let mut out = OutputSet::new(&[]);
+    let inputs: Vec<&std::path::Path> = a.model.as_deref().into_iter().collect();
+    let mut out = OutputSet::new(&inputs);
     let dir = out.dir(&a.output)?;
-    let model = Model {
+    let kumar = Model {
         bonding: BondingRule::Factor(a.kappa),
         scheme: SchemeSpec::Isotropic {
             normal: a.sigma_n,
@@ -210,14 +224,25 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             ..Geometry::default()
         },
     };
+    let model = match &a.model {
+        Some(path) => Model::from_path(path)?,
+        None => kumar,
+    };
     let opts = BucklingOptions {
         tolerance: a.tolerance,
         ..BucklingOptions::default()
     };
-    println!(
-        "clamped round bars, r = {} R̄, α = {}, κ = {}, Σ_N = {:e} Pa; E, σ in Pa",
-        a.radius_particles, a.alpha, a.kappa, a.sigma_n
-    );
+    match &a.model {
+        Some(path) => println!(
+            "clamped round bars along z, r = {} R̄, model {}; E, σ in Pa",
+            a.radius_particles,
+            path.display()
+        ),
+        None => println!(
+            "clamped round bars, r = {} R̄, α = {}, κ = {}, Σ_N = {:e} Pa; E, σ in Pa",
+            a.radius_particles, a.alpha, a.kappa, a.sigma_n
+        ),
+    }
     println!(
         "{:<14} {:>6} {:>7} {:>11} {:>11} {:>11} {:>11} {:>8} {:>8} {:>8} {:>8}",
         "route",
@@ -243,11 +268,21 @@ pub fn run(a: BuckleArgs) -> Result<()> {
         };
         let (packing, _) = prepare(&ro, &|_| {})?;
         let rbar = packing.mean_radius();
+        let cell = Assembly::new(packing.clone(), model.clone())?;
+        let c = relaxed_tensor(
+            &cell.packing,
+            &cell.bonds,
+            &cell.springs,
+            &RelaxedOptions::default(),
+        )?
+        .c;
+        let e_cell = 1.0 / compliance(&c, "the cell's relaxed tensor")?[(2, 2)];
         println!(
-            "  ({} cell of {} spheres prepared in {:.1} s)",
+            "  ({} cell of {} spheres prepared in {:.1} s; its relaxed tensor gives E_z = 1/S'33 = {:.4e} Pa)",
             route.route().as_str(),
             packing.len(),
-            t0.elapsed().as_secs_f64()
+            t0.elapsed().as_secs_f64(),
+            e_cell
         );
         for &s in &a.slenderness {
             let bar = RoundBar::cut(
@@ -261,7 +296,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             let res = bar
                 .buckling(&opts)
                 .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
-            let mut r = row(route, s, &bar, &res);
+            let mut r = row(route, s, &bar, &res, e_cell);
             if a.dem_steps > 0 {
                 let copts = CompressionOptions {
                     max_strain: a.dem_strain * res.critical_strain,
@@ -314,19 +349,20 @@ pub fn run(a: BuckleArgs) -> Result<()> {
     }
     let opt = |v: Option<f64>| v.map(|x| format!("{x:e}")).unwrap_or_default();
     let mut csv = String::from(
-        "route,l_over_r,particles,bonds,E [Pa],sigma_euler [Pa],sigma_mazzilli [Pa],\
+        "route,l_over_r,particles,bonds,E [Pa],E_cell [Pa],sigma_euler [Pa],sigma_mazzilli [Pa],\
          sigma_network [Pa],network_over_euler,network_over_mazzilli,bending_ratio,\
          network_over_euler_own_EI,network_over_engesser_own,normal_force_share,iterations,\
          residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end\n",
     );
     for r in &rows {
         csv += &format!(
-            "{},{},{},{},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
+            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
             r.route,
             r.slenderness,
             r.particles,
             r.bonds,
             r.modulus,
+            r.modulus_cell,
             r.sigma_euler,
             r.sigma_mazzilli,
             r.sigma_network,
@@ -347,7 +383,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
     write_string_atomic(&dir.join("buckling.csv"), &csv)?;
     let json = serde_json::json!({
         "units": {
-            "modulus": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
+            "modulus": "Pa", "modulus_cell": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
             "sigma_network": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
         },
         "parameters": {
