@@ -223,10 +223,14 @@ impl BlockCholesky {
                 Default::default(),
             )
             .map_err(|e| {
+                let removed = if pin {
+                    "rigid translation and local mechanisms removed"
+                } else {
+                    "held nodes and local mechanisms removed"
+                };
                 Error::Invalid(format!(
-                    "Cholesky: the stiffness matrix (rigid translation and local mechanisms \
-                     removed) is not positive definite ({e:?}): the bond network contains a \
-                     global mechanism"
+                    "Cholesky: the stiffness matrix ({removed}) is not positive definite \
+                     ({e:?}): the bond network contains a global mechanism"
                 ))
             })?;
         Ok(BlockCholesky {
