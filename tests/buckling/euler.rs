@@ -185,3 +185,36 @@ fn jammed_bars_follow_engesser_with_their_own_stiffness() {
         );
     }
 }
+
+/// No silent answers: an iteration limit below what the tolerance needs is an error naming
+/// the residuals; overlapping end sets and a non-unit axis are refused.
+#[test]
+fn non_convergence_and_bad_bars_are_errors() {
+    let (asm, first, second, l, area) = lattice_bar(40);
+    let mut bar = ClampedBar {
+        assembly: &asm,
+        first_end: &first,
+        second_end: &second,
+        axis: Vec3::z(),
+        length: l,
+        area,
+    };
+    let opts = BucklingOptions {
+        max_iterations: 2,
+        tolerance: 1e-12,
+        ..BucklingOptions::default()
+    };
+    let err = clamped_bar_buckling(&bar, &opts).unwrap_err();
+    assert!(matches!(err, anisobond::Error::NotConverged(_)), "{err}");
+    assert!(
+        err.to_string().contains("did not converge in 2 iterations"),
+        "{err}"
+    );
+    bar.second_end = &first;
+    let err = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("in both end sets"), "{err}");
+    bar.second_end = &second;
+    bar.axis = Vec3::new(0.0, 0.0, 2.0);
+    let err = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("unit vector"), "{err}");
+}
