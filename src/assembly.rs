@@ -128,6 +128,42 @@ impl Assembly {
         Assembly::springs_of(packing, model, bonds)
     }
 
+    /// The free assembly of the spheres of `packing` whose centres lie in `region`
+    /// ([`packing::cut::cut`]: periodic images unwrapped), bonded by the model's rule as in
+    /// [`Assembly::new`]; returns the cut too (where each sphere came from, boundary sets).
+    /// A scheme that depends on the packing (cross-anisotropic: Šmilauer's lattice scaling
+    /// μ, Eq. 20) takes it from the source `packing`, the material the bar is cut from — the
+    /// cut's own volume would be its bounding box.
+    pub fn cut(
+        packing: &Packing,
+        region: &packing::cut::Region,
+        model: Model,
+    ) -> Result<(Assembly, packing::cut::Cut)> {
+        let cut = packing::cut::cut(packing, region)?;
+        if !model.needs_packing() {
+            let assembly = Assembly::new(cut.packing.clone(), model)?;
+            return Ok((assembly, cut));
+        }
+        let source_bonds = bonds::rules::build_bonds(packing, model.bonding)?;
+        let scheme = model.build_scheme(Some((packing, &source_bonds)))?;
+        let bonds = bonds::rules::build_bonds(&cut.packing, model.bonding)?;
+        if bonds.is_empty() {
+            return Err(Error::Degenerate(format!(
+                "the bonding rule bonds no pair of the {} particles of the cut",
+                cut.packing.len()
+            )));
+        }
+        let springs =
+            bonds::assign_stiffness(&cut.packing, &bonds, scheme.as_ref(), &model.geometry)?;
+        let assembly = Assembly {
+            packing: cut.packing.clone(),
+            model,
+            bonds,
+            springs,
+        };
+        Ok((assembly, cut))
+    }
+
     /// An assembly of given bonds (a scene's own interactions, [`BondSet::from_pairs`])
     /// instead of the model's bonding rule; the springs are assigned as in [`Assembly::new`].
     pub fn with_bonds(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {

@@ -1,6 +1,7 @@
 //! Command-line interface (README.md "Commands"). Every command reads its inputs, calls
 //! the library, prints human-readable results with units, and writes files atomically.
 
+mod buckle;
 mod calibrate;
 mod cell;
 mod convert;
@@ -77,6 +78,10 @@ enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
     Domain(domain::DomainArgs),
+    /// Kumar 2016 Sec. 5: clamped round bars cut from packings of the three preparation
+    /// routes at several l/r; the bonded network's linearised critical stress beside Euler
+    /// (Eq. 14) and Mazzilli (Eq. 15), E from the bar's own axial modulus (CSV, JSON, PNG).
+    Buckle(buckle::BuckleArgs),
     /// Pictures of a model (PNG).
     #[command(subcommand)]
     Plot(plot::PlotCommand),
@@ -231,6 +236,7 @@ pub fn run() -> Result<()> {
         Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
+        Command::Buckle(a) => buckle::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
         Command::Convert(a) => convert::run(a),

@@ -8,10 +8,12 @@
 //! - [`sim`]: [`sim::Simulation`], YADE's NewtonIntegrator step by step.
 //! - [`element`]: six strain paths → Truszkowska 2018 Eq. 27 → C.
 //! - [`equilibrium`]: the stop rule of every damped relaxation (unbalanced force/torque).
+//! - [`buckling`]: quasi-static compression of a clamped bar (Kumar 2016 Sec. 5).
 //!
 //! Every parallel loop writes per-item results and every reduction sums fixed chunks in
 //! order, so a history is bit-for-bit the same on any number of threads.
 
+pub mod buckling;
 pub mod element;
 pub mod equilibrium;
 pub mod grips;

@@ -7,10 +7,14 @@
 //! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - [`cholesky`], [`two_level`]: the relaxed solve's direct solver and CG preconditioner.
 //! - [`network`]: the linearised bond network the last two share.
+//! - [`geometric`]: the initial-stress stiffness of a pre-loaded network;
+//!   [`buckling`]: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - [`prestress`]: the tangent of an assembly deformed from a loaded state (geometric terms).
 //! - [`report`]: the SPEC tensor report (JSON).
 
+pub mod buckling;
 pub mod cholesky;
+pub mod geometric;
 pub mod laf;
 pub mod mean_field;
 pub mod network;

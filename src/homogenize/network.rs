@@ -166,7 +166,7 @@ pub fn element(law: &BondLaw, rotations: bool) -> Element {
 /// S_g = (N/l)(I − nn) with no rotation coupling (the force acts along the centre line).
 /// Geometric terms of preloaded shear forces and moments are not included.
 pub fn geometric_element(normal: &Vec3, length: f64, axial_force: f64) -> Element {
-    let s = (Mat3::identity() - normal * normal.transpose()) * (axial_force / length);
+    let s = super::geometric::bond_geometric_stiffness(&(normal * axial_force), normal, length);
     let mut bj = Matrix3x6::zeros();
     bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
     let bi = -bj;
@@ -281,6 +281,31 @@ impl Network {
                     .into(),
             ));
         }
+        Network::build_any(packing, bonds, k, lever_arm, rotations, axial_force)
+    }
+
+    /// [`Network::build`] without requiring a periodic cell: the network of a free assembly
+    /// (e.g. a bar cut by [`crate::packing::cut`]), whose boundary conditions the caller
+    /// applies (clamped ends); `volume` is then the spheres' bounding box.
+    pub fn build_free(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+    ) -> Result<Network> {
+        Network::build_any(packing, bonds, k, lever_arm, rotations, None)
+    }
+
+    /// The network of a periodic or free assembly, with optional axial preloads.
+    fn build_any(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+        axial_force: Option<&[f64]>,
+    ) -> Result<Network> {
         if k.len() != bonds.len() {
             return Err(Error::Invalid(format!(
                 "{} bonds but {} stiffness entries",

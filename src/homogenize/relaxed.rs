@@ -150,10 +150,25 @@ pub struct BlockSparse {
 impl BlockSparse {
     /// Assemble K of a network.
     pub fn assemble(net: &Network) -> BlockSparse {
-        let m = net.n_active;
+        BlockSparse::assemble_blocks(net.n_active, &net.ends, |e| {
+            let el = &net.elements[e];
+            (el.kii, el.kjj, el.kij)
+        })
+    }
+
+    /// Assemble a symmetric matrix over `m` nodes from per-edge blocks: edge e joining
+    /// `ends[e] = (i, j)` adds `blocks(e) = (K_ii, K_jj, K_ij)` (and K_ijᵀ to K_ji), summed
+    /// in edge order (so the result does not depend on the thread count).
+    pub fn assemble_blocks(
+        m: usize,
+        ends: &[(u32, u32)],
+        blocks: impl Fn(usize) -> (Block6, Block6, Block6),
+    ) -> BlockSparse {
+        let blocks: Vec<(Block6, Block6, Block6)> = (0..ends.len()).map(&blocks).collect();
+        let net_ends = ends;
         // (row, col, element, kind: 0 = kii, 1 = kjj, 2 = kij, 3 = kijᵀ)
-        let mut entries: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(4 * net.ends.len());
-        for (e, &(pi, pj)) in net.ends.iter().enumerate() {
+        let mut entries: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(4 * net_ends.len());
+        for (e, &(pi, pj)) in net_ends.iter().enumerate() {
             entries.push((pi, pi, e as u32, 0));
             entries.push((pj, pj, e as u32, 1));
             entries.push((pi, pj, e as u32, 2));
@@ -169,12 +184,12 @@ impl BlockSparse {
             let mut acc = Block6::zeros();
             let mut k1 = k0;
             while k1 < entries.len() && entries[k1].0 == r && entries[k1].1 == c {
-                let e = &net.elements[entries[k1].2 as usize];
+                let (kii, kjj, kij) = &blocks[entries[k1].2 as usize];
                 match entries[k1].3 {
-                    0 => acc += e.kii,
-                    1 => acc += e.kjj,
-                    2 => acc += e.kij,
-                    _ => acc += e.kij.transpose(),
+                    0 => acc += kii,
+                    1 => acc += kjj,
+                    2 => acc += kij,
+                    _ => acc += kij.transpose(),
                 }
                 k1 += 1;
             }

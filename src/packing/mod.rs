@@ -4,7 +4,9 @@
 //! LIGGGHTS `atom_style granular` data files; [`neighbours`] finds all pairs within a
 //! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings;
 //! [`routes`] prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
+//! [`cut`] cuts free assemblies (a bar, a block) out of them, with boundary particle sets.
 
+pub mod cut;
 mod fire;
 pub mod generate;
 pub mod io;

@@ -1,0 +1,467 @@
+//! `anisobond buckle`: Kumar 2016 Sec. 5's clamped round bars at several slenderness ratios
+//! and preparation routes, with the bonded network's own linearised critical stress beside
+//! Euler (Eq. 14, k = 0.5) and Mazzilli (Eq. 15), E from the bar's own axial modulus.
+
+use anisobond::assembly::Assembly;
+use anisobond::bonds::BondingRule;
+use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions};
+use anisobond::homogenize::buckling::{
+    euler_stress, mazzilli_stress, BucklingOptions, BucklingResult, RoundBar,
+};
+use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::io::{write_string_atomic, OutputSet};
+use anisobond::model::{Model, SchemeSpec};
+use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
+use anisobond::plot::{plot_series, Series};
+use anisobond::schemes::{Convention, Geometry, Moments};
+use anisobond::tensor::elastic::compliance;
+use anisobond::{Error, Result};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Kumar 2016's preparation routes (Sec. 3).
+#[derive(Clone, Copy, clap::ValueEnum, PartialEq, Eq, Debug)]
+pub enum BuckleRoute {
+    /// Random gas at 0.3, affine densification to 0.65.
+    Unjammed,
+    /// Repulsive compression to 0.5, then affine.
+    WeaklyJammed,
+    /// Compression to the jamming point (≈ 0.636), then affine.
+    Jammed,
+}
+
+impl BuckleRoute {
+    fn route(self) -> PreparationRoute {
+        match self {
+            BuckleRoute::Unjammed => PreparationRoute::Unjammed,
+            BuckleRoute::WeaklyJammed => PreparationRoute::WeaklyJammed,
+            BuckleRoute::Jammed => PreparationRoute::Jammed,
+        }
+    }
+}
+
+/// Options of `anisobond buckle`.
+#[derive(clap::Args)]
+pub struct BuckleArgs {
+    /// Slenderness ratios l/r, comma-separated (Kumar 2016: 10 to 120; each > 2π, where
+    /// Mazzilli's Eq. 15 has a root).
+    #[arg(long, value_delimiter = ',', default_values_t = [10.0, 20.0, 40.0, 80.0])]
+    slenderness: Vec<f64>,
+    /// Preparation routes, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values = ["unjammed", "weakly-jammed", "jammed"])]
+    route: Vec<BuckleRoute>,
+    /// Bar radius r in mean particle radii R̄, the same at every l/r (so the particles per
+    /// unit length are the same, as Kumar's).
+    #[arg(long, default_value_t = 5.0)]
+    radius_particles: f64,
+    /// Particles of the periodic cell (Kumar's route, R̄ = 1 mm ± 5 %, D = 0.65) that the
+    /// bars are cut from; the cell is tiled along the bar.
+    #[arg(long, default_value_t = 1000)]
+    cell_particles: usize,
+    /// A model file (docs/formats.md) instead of Kumar's bonds (then --alpha, --kappa and
+    /// --sigma-n are not used): e.g. a cubic crystal rotated so that <100> or <111> lies
+    /// along the bar axis z. E along the axis is compared with 1/S'₃₃ of the periodic cell's
+    /// relaxed tensor.
+    #[arg(long, conflicts_with_all = ["alpha", "kappa", "sigma_n"])]
+    model: Option<PathBuf>,
+    /// α = Σ_T/Σ_N, tangential to normal bond stiffness (Kumar 2016: 0.2).
+    #[arg(long, default_value_t = 0.2)]
+    alpha: f64,
+    /// κ, interaction range of the bonding (Kumar 2016 Eq. 10: 1).
+    #[arg(long, default_value_t = 1.0)]
+    kappa: f64,
+    /// Σ_N, normal bond stiffness magnitude (Pa; Kumar Eqs. 1–3). Stresses scale with it.
+    #[arg(long, default_value_t = 1.0e8)]
+    sigma_n: f64,
+    /// Seed of the packing.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Depth of the clamped end sets in R̄ (spheres whose centres are within it of an end
+    /// face: Kumar's spheres touching the end planes at 1).
+    #[arg(long, default_value_t = 1.0)]
+    clamp_depth: f64,
+    /// Relative residual of the eigen-iteration.
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// Also compress every bar with the integrator (Kumar's law) over this many time steps
+    /// to `--dem-strain` × the linearised critical strain, and report the maximum stress
+    /// and Kumar's Ẽ_kin (Eq. 16) before it; 0 (default) skips it. About 2e-7 s per
+    /// sphere and step here (50,000 steps: 6 s for 600 spheres).
+    #[arg(long, default_value_t = 0)]
+    dem_steps: usize,
+    /// Final strain of the compression, in units of the linearised critical strain.
+    #[arg(long, default_value_t = 2.5)]
+    dem_strain: f64,
+    /// Output folder: buckling.csv, buckling.json, buckling.png (and with --dem-steps
+    /// history_ROUTE_LR.csv: strain, stress [Pa], Ẽ_kin per bar).
+    #[arg(short, long, default_value = "anisobond-buckle")]
+    output: PathBuf,
+}
+
+/// One bar of the table.
+#[derive(serde::Serialize)]
+struct Row {
+    route: &'static str,
+    slenderness: f64,
+    particles: usize,
+    bonds: usize,
+    /// E (Pa).
+    modulus: f64,
+    /// 1/S'₃₃ of the periodic cell's relaxed tensor (Pa): E along the axis of the material
+    /// the bar is cut from.
+    modulus_cell: f64,
+    /// σ_Euler, Eq. 14 (Pa).
+    sigma_euler: f64,
+    /// σ_Mazzilli, Eq. 15 (Pa).
+    sigma_mazzilli: f64,
+    /// Linearised critical stress of the network (Pa).
+    sigma_network: f64,
+    network_over_euler: f64,
+    network_over_mazzilli: f64,
+    /// EI/(E·πr⁴/4).
+    bending_ratio: f64,
+    /// P_cr/(4π²EI/l²) with the bar's own EI.
+    network_over_euler_own_ei: f64,
+    /// P_cr over Engesser's P_E/(1 + P_E/κGA) with the bar's own EI, κGA.
+    network_over_engesser_own: f64,
+    normal_force_share: f64,
+    iterations: usize,
+    residual: f64,
+    /// DEM maximum stress (Pa), when run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_max_stress: Option<f64>,
+    /// Strain at the DEM maximum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_strain_at_max: Option<f64>,
+    /// Largest Ẽ_kin (Eq. 16) up to the DEM maximum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_max_kinetic_ratio: Option<f64>,
+    /// True when the DEM maximum is the run's last point (no buckling by the final strain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_peak_at_end: Option<bool>,
+}
+
+fn check(a: &BuckleArgs) -> Result<()> {
+    if a.slenderness.is_empty() || a.route.is_empty() {
+        return Err(Error::Invalid(
+            "--slenderness and --route need at least one value".into(),
+        ));
+    }
+    if let Some(s) = a
+        .slenderness
+        .iter()
+        .find(|s| !(s.is_finite() && **s > 2.0 * std::f64::consts::PI))
+    {
+        return Err(Error::Invalid(format!(
+            "--slenderness {s}: expected l/r > 2π (Mazzilli's Eq. 15 needs k·l/r > π, k = 0.5)"
+        )));
+    }
+    for (name, v) in [
+        ("--radius-particles", a.radius_particles),
+        ("--kappa", a.kappa),
+        ("--sigma-n", a.sigma_n),
+        ("--clamp-depth", a.clamp_depth),
+        ("--tolerance", a.tolerance),
+        ("--dem-strain", a.dem_strain),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::Invalid(format!(
+                "{name} {v}: expected a finite value > 0"
+            )));
+        }
+    }
+    if !(a.alpha.is_finite() && a.alpha >= 0.0) {
+        return Err(Error::Invalid(format!(
+            "--alpha {}: expected a finite value ≥ 0",
+            a.alpha
+        )));
+    }
+    Ok(())
+}
+
+fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult, e_cell: f64) -> Row {
+    let (e, l) = (r.modulus, bar.length);
+    let (se, sm) = (euler_stress(e, s), mazzilli_stress(e, s));
+    Row {
+        route: route.route().as_str(),
+        slenderness: s,
+        particles: bar.assembly.packing.len(),
+        bonds: bar.assembly.bonds.len(),
+        modulus: e,
+        modulus_cell: e_cell,
+        sigma_euler: se,
+        sigma_mazzilli: sm,
+        sigma_network: r.critical_stress,
+        network_over_euler: r.critical_stress / se,
+        network_over_mazzilli: r.critical_stress / sm,
+        bending_ratio: r.bending_ratio(bar.area()),
+        network_over_euler_own_ei: r.critical_force / r.euler_force_own(l),
+        network_over_engesser_own: r.critical_force / r.engesser_force_own(l),
+        normal_force_share: r.normal_force_share,
+        iterations: r.iterations,
+        residual: r.residuals[0].max(r.residuals[1]),
+        dem_max_stress: None,
+        dem_strain_at_max: None,
+        dem_max_kinetic_ratio: None,
+        dem_peak_at_end: None,
+    }
+}
+
+pub fn run(a: BuckleArgs) -> Result<()> {
+    check(&a)?;
+    let inputs: Vec<&std::path::Path> = a.model.as_deref().into_iter().collect();
+    let mut out = OutputSet::new(&inputs);
+    let dir = out.dir(&a.output)?;
+    let kumar = Model {
+        bonding: BondingRule::Factor(a.kappa),
+        scheme: SchemeSpec::Isotropic {
+            normal: a.sigma_n,
+            shear: a.alpha * a.sigma_n,
+        },
+        geometry: Geometry {
+            convention: Convention::Kumar,
+            moments: Moments::Kumar,
+            ..Geometry::default()
+        },
+    };
+    let model = match &a.model {
+        Some(path) => Model::from_path(path)?,
+        None => kumar,
+    };
+    let opts = BucklingOptions {
+        tolerance: a.tolerance,
+        ..BucklingOptions::default()
+    };
+    match &a.model {
+        Some(path) => println!(
+            "clamped round bars along z, r = {} R̄, model {}; E, σ in Pa",
+            a.radius_particles,
+            path.display()
+        ),
+        None => println!(
+            "clamped round bars, r = {} R̄, α = {}, κ = {}, Σ_N = {:e} Pa; E, σ in Pa",
+            a.radius_particles, a.alpha, a.kappa, a.sigma_n
+        ),
+    }
+    println!(
+        "{:<14} {:>6} {:>7} {:>11} {:>11} {:>11} {:>11} {:>8} {:>8} {:>8} {:>8}",
+        "route",
+        "l/r",
+        "spheres",
+        "E",
+        "σ_Euler",
+        "σ_Mazzilli",
+        "σ_network",
+        "/Euler",
+        "/Mazz.",
+        "EI ratio",
+        "/Eng.own"
+    );
+    let mut rows = Vec::new();
+    for &route in &a.route {
+        let t0 = Instant::now();
+        let ro = RouteOptions {
+            route: route.route(),
+            n_particles: a.cell_particles,
+            seed: a.seed,
+            ..RouteOptions::default()
+        };
+        let (packing, _) = prepare(&ro, &|_| {})?;
+        let rbar = packing.mean_radius();
+        let cell = Assembly::new(packing.clone(), model.clone())?;
+        let c = relaxed_tensor(
+            &cell.packing,
+            &cell.bonds,
+            &cell.springs,
+            &RelaxedOptions::default(),
+        )?
+        .c;
+        let e_cell = 1.0 / compliance(&c, "the cell's relaxed tensor")?[(2, 2)];
+        println!(
+            "  ({} cell of {} spheres prepared in {:.1} s; its relaxed tensor gives E_z = 1/S'33 = {:.4e} Pa)",
+            route.route().as_str(),
+            packing.len(),
+            t0.elapsed().as_secs_f64(),
+            e_cell
+        );
+        for &s in &a.slenderness {
+            let bar = RoundBar::cut(
+                &packing,
+                model.clone(),
+                a.radius_particles * rbar,
+                s,
+                a.clamp_depth * rbar,
+            )
+            .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
+            let res = bar
+                .buckling(&opts)
+                .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
+            let mut r = row(route, s, &bar, &res, e_cell);
+            if a.dem_steps > 0 {
+                let copts = CompressionOptions {
+                    max_strain: a.dem_strain * res.critical_strain,
+                    steps: a.dem_steps,
+                    record_every: (a.dem_steps / 200).max(1),
+                    ..CompressionOptions::default()
+                };
+                let t1 = Instant::now();
+                let c = compress_clamped_bar(&bar, &copts).map_err(|e| {
+                    e.in_context(format!("{} bar, l/r = {s}, compression", r.route))
+                })?;
+                let mut h = String::from("strain,stress [Pa],kinetic_ratio\n");
+                for pt in &c.history {
+                    h += &format!("{:e},{:e},{:e}\n", pt.strain, pt.stress, pt.kinetic_ratio);
+                }
+                write_string_atomic(&dir.join(format!("history_{}_{s}.csv", r.route)), &h)?;
+                println!(
+                    "  DEM {} steps ({:.1} s): σ_max = {:.4e} Pa = {:.4} σ_Euler = {:.4} σ_network \
+                     at ε = {:.3e}{}; max Ẽ_kin before it {:.2e}",
+                    a.dem_steps,
+                    t1.elapsed().as_secs_f64(),
+                    c.max_stress,
+                    c.max_stress / r.sigma_euler,
+                    c.max_stress / r.sigma_network,
+                    c.strain_at_max,
+                    if c.peak_at_end { " (end of run: not buckled)" } else { "" },
+                    c.max_kinetic_ratio_before_peak
+                );
+                r.dem_max_stress = Some(c.max_stress);
+                r.dem_strain_at_max = Some(c.strain_at_max);
+                r.dem_max_kinetic_ratio = Some(c.max_kinetic_ratio_before_peak);
+                r.dem_peak_at_end = Some(c.peak_at_end);
+            }
+            println!(
+                "{:<14} {:>6} {:>7} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.4} {:>8.4} {:>8.4} {:>8.4}",
+                r.route,
+                s,
+                r.particles,
+                r.modulus,
+                r.sigma_euler,
+                r.sigma_mazzilli,
+                r.sigma_network,
+                r.network_over_euler,
+                r.network_over_mazzilli,
+                r.bending_ratio,
+                r.network_over_engesser_own
+            );
+            rows.push(r);
+        }
+    }
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:e}")).unwrap_or_default();
+    let mut csv = String::from(
+        "route,l_over_r,particles,bonds,E [Pa],E_cell [Pa],sigma_euler [Pa],sigma_mazzilli [Pa],\
+         sigma_network [Pa],network_over_euler,network_over_mazzilli,bending_ratio,\
+         network_over_euler_own_EI,network_over_engesser_own,normal_force_share,iterations,\
+         residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end\n",
+    );
+    for r in &rows {
+        csv += &format!(
+            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
+            r.route,
+            r.slenderness,
+            r.particles,
+            r.bonds,
+            r.modulus,
+            r.modulus_cell,
+            r.sigma_euler,
+            r.sigma_mazzilli,
+            r.sigma_network,
+            r.network_over_euler,
+            r.network_over_mazzilli,
+            r.bending_ratio,
+            r.network_over_euler_own_ei,
+            r.network_over_engesser_own,
+            r.normal_force_share,
+            r.iterations,
+            r.residual,
+            opt(r.dem_max_stress),
+            opt(r.dem_strain_at_max),
+            opt(r.dem_max_kinetic_ratio),
+            r.dem_peak_at_end.map(|b| b.to_string()).unwrap_or_default()
+        );
+    }
+    write_string_atomic(&dir.join("buckling.csv"), &csv)?;
+    let json = serde_json::json!({
+        "units": {
+            "modulus": "Pa", "modulus_cell": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
+            "sigma_network": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
+        },
+        "parameters": {
+            "radius_in_mean_radii": a.radius_particles, "cell_particles": a.cell_particles,
+            "alpha": a.alpha, "kappa": a.kappa, "sigma_n_pa": a.sigma_n, "seed": a.seed,
+            "clamp_depth_in_mean_radii": a.clamp_depth, "tolerance": a.tolerance,
+            "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,
+            "euler": "Kumar 2016 Eq. 14, k = 0.5", "mazzilli": "Kumar 2016 Eq. 15, k = 0.5"
+        },
+        "rows": rows,
+    });
+    super::output::check_json_numbers(&json, "buckling.json")?;
+    write_string_atomic(
+        &dir.join("buckling.json"),
+        &serde_json::to_string_pretty(&json).map_err(|e| Error::Invalid(e.to_string()))?,
+    )?;
+    let mut series: Vec<Series> = a
+        .route
+        .iter()
+        .enumerate()
+        .map(|(c, route)| Series {
+            label: format!("network, {}", route.route().as_str()),
+            points: rows
+                .iter()
+                .filter(|r| r.route == route.route().as_str())
+                .map(|r| (r.slenderness, r.network_over_euler))
+                .collect(),
+            dashed: false,
+            colour: Some(c),
+        })
+        .collect();
+    if a.dem_steps > 0 {
+        for (c, route) in a.route.iter().enumerate() {
+            series.push(Series {
+                label: format!("DEM maximum, {}", route.route().as_str()),
+                points: rows
+                    .iter()
+                    .filter(|r| r.route == route.route().as_str())
+                    .filter_map(|r| r.dem_max_stress.map(|m| (r.slenderness, m / r.sigma_euler)))
+                    .collect(),
+                dashed: true,
+                colour: Some(c),
+            });
+        }
+    }
+    let (lo, hi) = a
+        .slenderness
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(l, h), &s| (l.min(s), h.max(s)));
+    let curve = |f: &dyn Fn(f64) -> f64| -> Vec<(f64, f64)> {
+        (0..=100)
+            .map(|k| lo + (hi - lo).max(1.0) * k as f64 / 100.0)
+            .map(|s| (s, f(s)))
+            .collect()
+    };
+    series.push(Series {
+        label: "Mazzilli (Eq. 15)".into(),
+        points: curve(&|s| mazzilli_stress(1.0, s) / euler_stress(1.0, s)),
+        dashed: true,
+        colour: Some(4),
+    });
+    series.push(Series {
+        label: "Euler (Eq. 14)".into(),
+        points: curve(&|_| 1.0),
+        dashed: true,
+        colour: Some(5),
+    });
+    plot_series(
+        &dir.join("buckling.png"),
+        &series,
+        "clamped round bars: linearised critical stress",
+        "l/r",
+        "σ_cr / σ_Euler (1)",
+    )?;
+    out.commit()?;
+    println!(
+        "wrote {}/buckling.csv, buckling.json, buckling.png",
+        a.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,654 @@
+//! Linearised buckling of a clamped bonded bar (Kumar 2016 Sec. 5, Eqs. 14–15).
+//!
+//! Both end sets are clamped (translations and rotations prescribed); the second end is
+//! moved along the axis by the unit strain shortening δ = L (the problem is linear, so the
+//! pre-buckling state is taken per unit strain). One sparse solve of the network's
+//! stiffness K (the relaxed solver's, [`super::network`]) gives the pre-buckling state: the
+//! axial force P per unit strain (hence E = P/A, the bar's own axial modulus) and every
+//! bond's force. The critical load factor λ is the smallest positive eigenvalue of
+//! (K + λ K_g) φ = 0 with K_g the geometric stiffness of those forces
+//! ([`super::geometric`]): the critical strain is λ, the critical stress σ_cr = λ·E.
+//!
+//! The eigenproblem K φ = λ (−K_g) φ is solved by subspace iteration with six vectors (a
+//! round bar has two degenerate bending modes per order): Y = K⁻¹(−K_g)X by the supernodal
+//! Cholesky of K, then Rayleigh–Ritz on span(Y). Converged when the relative residual
+//! ‖Kφ − λ(−K_g)φ‖/‖Kφ‖ of the two lowest modes is below the tolerance; a run that does not
+//! converge is an error.
+
+use super::cholesky::BlockCholesky;
+use super::geometric::geometric_stiffness;
+use super::network::{Block6, LeverArm, Network};
+use super::relaxed::BlockSparse;
+use crate::assembly::Assembly;
+use crate::model::Model;
+use crate::packing::cut::{BoundarySets, Region};
+use crate::packing::Packing;
+use crate::{Error, Result, Vec3};
+use nalgebra::{Matrix6, Vector6};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A clamped-clamped bar: an assembly with two end sets.
+#[derive(Clone, Copy, Debug)]
+pub struct ClampedBar<'a> {
+    /// The bonded free assembly.
+    pub assembly: &'a Assembly,
+    /// Particles of the fixed end (indices into the packing).
+    pub first_end: &'a [u32],
+    /// Particles of the end moved along the axis.
+    pub second_end: &'a [u32],
+    /// Unit bar axis (from the first end to the second).
+    pub axis: Vec3,
+    /// Bar length l (m): the strain is the end displacement over l.
+    pub length: f64,
+    /// Cross-section area (m²) that turns the axial force into a stress (πr² for a bar of
+    /// radius r).
+    pub area: f64,
+}
+
+/// Solver settings.
+#[derive(Clone, Copy, Debug)]
+pub struct BucklingOptions {
+    /// Relative residual of the two lowest modes at which the iteration stops.
+    pub tolerance: f64,
+    /// Subspace iterations allowed.
+    pub max_iterations: usize,
+    /// Contact point of the bonds (as the relaxed solver).
+    pub lever_arm: LeverArm,
+    /// Seed of the small random part of the start vectors.
+    pub seed: u64,
+}
+
+impl Default for BucklingOptions {
+    fn default() -> Self {
+        BucklingOptions {
+            tolerance: 1e-6,
+            max_iterations: 2000,
+            lever_arm: LeverArm::MidGap,
+            seed: 1,
+        }
+    }
+}
+
+/// The pre-buckling state and the critical load.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BucklingResult {
+    /// Axial force per unit axial strain, P/ε (N): the bar's axial stiffness times l.
+    pub axial_force_per_strain: f64,
+    /// The bar's own axial modulus E = (P/A)/ε (Pa).
+    pub modulus: f64,
+    /// The two lowest load factors λ₁ ≤ λ₂ (critical strains; for a round bar a near-equal
+    /// pair of bending modes).
+    pub load_factors: [f64; 2],
+    /// Critical axial strain ε_cr = λ₁.
+    pub critical_strain: f64,
+    /// Critical axial stress σ_cr = λ₁·E (Pa, compressive).
+    pub critical_stress: f64,
+    /// Critical axial force (N).
+    pub critical_force: f64,
+    /// Subspace iterations used.
+    pub iterations: usize,
+    /// Final relative residuals of the two lowest modes.
+    pub residuals: [f64; 2],
+    /// Relative residual of the pre-buckling static solve.
+    pub static_residual: f64,
+    /// |R₁ + R₂|/|R₂| of the two ends' reactions (force balance of the solve).
+    pub reaction_imbalance: f64,
+    /// Particles free to move (connected to the clamps).
+    pub free_particles: usize,
+    /// Clamped particles of the network.
+    pub clamped_particles: usize,
+    /// Particles left out: fewer than two bonds, or not connected to the clamps.
+    pub unloaded_particles: usize,
+    /// Bonds of the network.
+    pub bonds: usize,
+    /// The bar's own bending stiffness EI (N·m²): moment × l per radian of relative end
+    /// rotation under pure bending (ends clamped and rotated rigidly about their centroids).
+    pub bending_stiffness: f64,
+    /// Transverse stiffness (N/m) of the clamped–guided bar (one end moved across the axis
+    /// without rotation): l³/(12 EI) + l/(κGA) per newton for a Timoshenko beam.
+    pub transverse_stiffness: f64,
+    /// Share of the axial Love stress Σ(f·a)(l·a) carried by the bonds' normal forces,
+    /// Σ N(n·a)(l·a) over it: the part of the pre-stress the geometric stiffness sees (the
+    /// rest, carried by shear forces, is neglected, [`super::geometric`]).
+    pub normal_force_share: f64,
+    /// Bonds in compression in the pre-buckling state.
+    pub compressed_bonds: usize,
+    /// Translation of every particle in the first buckling mode (unit max norm; zero for
+    /// clamped and unloaded particles).
+    #[serde(skip)]
+    pub mode: Vec<Vec3>,
+}
+
+/// Two unit vectors normal to `axis` and to each other.
+fn transverse(axis: &Vec3) -> (Vec3, Vec3) {
+    let trial = if axis.x.abs() < 0.9 {
+        Vec3::x()
+    } else {
+        Vec3::y()
+    };
+    let e1 = (trial - axis * axis.dot(&trial)).normalize();
+    (e1, axis.cross(&e1))
+}
+
+/// Σ_p a_pᵀ b_p, summed in node order.
+fn gram(a: &[Block6], b: &[Block6]) -> Matrix6<f64> {
+    let mut s = Matrix6::zeros();
+    for (x, y) in a.iter().zip(b) {
+        s += x.transpose() * y;
+    }
+    s
+}
+
+/// Rows of `k` for the nodes with `map[p] != u32::MAX`, renumbered by `map`, scaled by `sign`.
+fn restrict(k: &BlockSparse, map: &[u32], sign: f64) -> BlockSparse {
+    let rows = (0..k.rows())
+        .filter(|&p| map[p] != u32::MAX)
+        .map(|p| {
+            k.row(p)
+                .filter(|(c, _)| map[*c] != u32::MAX)
+                .map(|(c, b)| (map[c], b * sign))
+                .collect()
+        })
+        .collect();
+    BlockSparse::from_rows(rows)
+}
+
+/// Linearised buckling load of a clamped bar (see the module docs). Refuses an axis that is
+/// not a unit vector, a length or area that is not finite and > 0, empty or overlapping end
+/// sets and ends with no load-carrying particle; errors ([`Error::Degenerate`]) when the bar
+/// carries no axial force or has no positive load factor, ([`Error::NotConverged`]) when the
+/// iteration does not reach the tolerance.
+pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<BucklingResult> {
+    let a = bar.assembly;
+    let n = a.packing.len();
+    if (bar.axis.norm() - 1.0).abs() > 1e-9 {
+        return Err(Error::Invalid(format!(
+            "buckling: the bar axis must be a unit vector, |axis| = {}",
+            bar.axis.norm()
+        )));
+    }
+    for (what, v) in [("length", bar.length), ("area", bar.area)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::Invalid(format!(
+                "buckling: the bar {what} must be finite and > 0, got {v:e}"
+            )));
+        }
+    }
+    if !(opts.tolerance.is_finite() && opts.tolerance > 0.0 && opts.max_iterations > 0) {
+        return Err(Error::Invalid(format!(
+            "buckling: tolerance must be finite and > 0 and iterations > 0, got {:e} and {}",
+            opts.tolerance, opts.max_iterations
+        )));
+    }
+    // Role of every original particle: 0 free, 1 first end, 2 second end.
+    let mut role = vec![0u8; n];
+    for (ends, r) in [(bar.first_end, 1u8), (bar.second_end, 2u8)] {
+        if ends.is_empty() {
+            return Err(Error::Invalid("buckling: an end set is empty".into()));
+        }
+        for &p in ends {
+            let p = p as usize;
+            if p >= n {
+                return Err(Error::Invalid(format!(
+                    "buckling: end particle {p}, but the packing has {n}"
+                )));
+            }
+            if role[p] != 0 {
+                return Err(Error::Invalid(format!(
+                    "buckling: particle {p} is in both end sets (or twice in one)"
+                )));
+            }
+            role[p] = r;
+        }
+    }
+    let net = Network::build_free(&a.packing, &a.bonds, &a.springs, opts.lever_arm, true)?;
+    let m = net.n_active;
+    let node_role: Vec<u8> = net.original.iter().map(|&p| role[p as usize]).collect();
+    for r in [1u8, 2] {
+        if !node_role.contains(&r) {
+            return Err(Error::Degenerate(format!(
+                "buckling: no particle of the {} end carries load (all have fewer than two bonds)",
+                if r == 1 { "first" } else { "second" }
+            )));
+        }
+    }
+    // The part connected to the clamps (a floating cluster would be a mechanism).
+    let (start, adj) = net.adjacency();
+    let mut reached = vec![false; m];
+    let mut stack: Vec<usize> = (0..m).filter(|&q| node_role[q] != 0).collect();
+    for &q in &stack {
+        reached[q] = true;
+    }
+    while let Some(q) = stack.pop() {
+        for &o in &adj[start[q]..start[q + 1]] {
+            if !reached[o as usize] {
+                reached[o as usize] = true;
+                stack.push(o as usize);
+            }
+        }
+    }
+    let mut free_map = vec![u32::MAX; m];
+    let mut free_nodes = Vec::new();
+    for q in 0..m {
+        if node_role[q] == 0 && reached[q] {
+            free_map[q] = free_nodes.len() as u32;
+            free_nodes.push(q);
+        }
+    }
+    if free_nodes.is_empty() {
+        return Err(Error::Degenerate(
+            "buckling: no free particle between the clamped ends".into(),
+        ));
+    }
+    let clamped = (0..m).filter(|&q| node_role[q] != 0).count();
+
+    // Three load cases in one solve (columns of the 6-column blocks), ends moved rigidly
+    // (translation + rotation about the end set's centroid c):
+    // 0: unit axial strain, the second end moved by −l·axis (the pre-buckling state);
+    // 1: pure bending, the ends rotated by ∓½ rad about e₁ (constant moment, no shear);
+    // 2: the second end moved by 1 m along e₂ without rotation (clamped–guided shear).
+    let (e1, e2) = transverse(&bar.axis);
+    let centroid = |set: &[u32]| {
+        set.iter()
+            .map(|&p| a.packing.positions[p as usize])
+            .sum::<Vec3>()
+            / set.len() as f64
+    };
+    let (c1, c2) = (centroid(bar.first_end), centroid(bar.second_end));
+    let k = BlockSparse::assemble(&net);
+    let mut u = vec![Block6::zeros(); m];
+    for q in 0..m {
+        let x = a.packing.positions[net.original[q] as usize];
+        let (centre, axial, half_turn, shift) = match node_role[q] {
+            1 => (c1, Vec3::zeros(), -0.5, Vec3::zeros()),
+            2 => (c2, -bar.axis * bar.length, 0.5, e2),
+            _ => continue,
+        };
+        let phi = e1 * half_turn;
+        u[q].fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
+        u[q].fixed_view_mut::<3, 1>(0, 1)
+            .copy_from(&phi.cross(&(x - centre)));
+        u[q].fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
+        u[q].fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
+    }
+    let mut ku = vec![Block6::zeros(); m];
+    k.apply(&u, &mut ku);
+    let rhs: Vec<Block6> = free_nodes.iter().map(|&q| -ku[q]).collect();
+    let kff = restrict(&k, &free_map, 1.0);
+    let chol = BlockCholesky::factor_definite(&kff)?;
+    let sol = chol.solve(&rhs)?;
+    let mut check = vec![Block6::zeros(); free_nodes.len()];
+    kff.apply(&sol, &mut check);
+    let mut static_residual: f64 = 0.0;
+    for c in 0..3 {
+        let rnorm: f64 = check
+            .iter()
+            .zip(&rhs)
+            .map(|(x, b)| (x - b).column(c).norm_squared())
+            .sum::<f64>()
+            .sqrt();
+        let bnorm: f64 = rhs
+            .iter()
+            .map(|b| b.column(c).norm_squared())
+            .sum::<f64>()
+            .sqrt();
+        static_residual = static_residual.max(rnorm / bnorm.max(f64::MIN_POSITIVE));
+    }
+    if static_residual.is_nan() || static_residual >= 1e-8 {
+        return Err(Error::NotConverged(format!(
+            "buckling: the pre-buckling solve has relative residual {static_residual:e} (> 1e-8)"
+        )));
+    }
+    for (f, &q) in free_nodes.iter().enumerate() {
+        u[q] = sol[f];
+    }
+    k.apply(&u, &mut ku);
+    // Reactions (force the clamps apply, moment about the end's centroid) per load case.
+    let mut react = [[Vec3::zeros(); 4]; 3];
+    for q in 0..m {
+        let (slot, centre) = match node_role[q] {
+            1 => (0, c1),
+            2 => (2, c2),
+            _ => continue,
+        };
+        let x = a.packing.positions[net.original[q] as usize];
+        for (c, r) in react.iter_mut().enumerate() {
+            let f: Vec3 = ku[q].fixed_view::<3, 1>(0, c).into_owned();
+            let mq: Vec3 = ku[q].fixed_view::<3, 1>(3, c).into_owned();
+            r[slot] += f;
+            r[slot + 1] += (x - centre).cross(&f) + mq;
+        }
+    }
+    let (r1, r2) = (react[0][0], react[0][2]);
+    let force = -r2.dot(&bar.axis);
+    if !(force.is_finite() && force > 0.0) {
+        return Err(Error::Degenerate(format!(
+            "buckling: the bar carries no compressive axial force under shortening (P = \
+             {force:e} N): the ends are not connected by the bond network"
+        )));
+    }
+    let reaction_imbalance = (r1 + r2).norm() / r2.norm();
+    let modulus = force / bar.area;
+    // Pure bending: M = EI·θ/l with θ = 1 rad between the ends.
+    let bending_stiffness = react[1][3].dot(&e1) * bar.length;
+    // Clamped–guided: V = k_t·1 m.
+    let transverse_stiffness = react[2][2].dot(&e2);
+    if !(bending_stiffness > 0.0 && transverse_stiffness > 0.0) {
+        return Err(Error::Degenerate(format!(
+            "buckling: bending stiffness {bending_stiffness:e} N·m², transverse stiffness \
+             {transverse_stiffness:e} N/m: expected both > 0"
+        )));
+    }
+    // Keep only the axial case for the bond forces.
+    for uq in u.iter_mut() {
+        let axial: Vector6<f64> = uq.column(0).into_owned();
+        *uq = Block6::zeros();
+        uq.set_column(0, &axial);
+    }
+
+    // Bond forces f = S Δ (N > 0 in tension), per original bond.
+    let bonds = &a.bonds;
+    let mut forces = vec![Vec3::zeros(); bonds.len()];
+    let mut compressed_bonds = 0;
+    let (mut love_total, mut love_normal) = (0.0, 0.0);
+    for (e, &(pi, pj)) in net.ends.iter().enumerate() {
+        let b = net.bond[e];
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let nrm = bonds.normal[b];
+        let (ri, rj) = opts
+            .lever_arm
+            .arms(a.packing.radii[i], a.packing.radii[j], bonds.length[b]);
+        let ui: Vector6<f64> = u[pi as usize].column(0).into_owned();
+        let uj: Vector6<f64> = u[pj as usize].column(0).into_owned();
+        let wi = Vec3::new(ui[3], ui[4], ui[5]);
+        let wj = Vec3::new(uj[3], uj[4], uj[5]);
+        let delta = Vec3::new(uj[0] - ui[0], uj[1] - ui[1], uj[2] - ui[2])
+            + (nrm * ri).cross(&wi)
+            + (nrm * rj).cross(&wj);
+        let (kn, ks) = (a.springs.kn[b], a.springs.ks[b]);
+        let f = delta * ks + nrm * ((kn - ks) * nrm.dot(&delta));
+        if f.dot(&nrm) < 0.0 {
+            compressed_bonds += 1;
+        }
+        let la = bonds.length[b] * nrm.dot(&bar.axis);
+        love_total += f.dot(&bar.axis) * la;
+        love_normal += f.dot(&nrm) * nrm.dot(&bar.axis) * la;
+        forces[b] = f;
+    }
+    let kg = geometric_stiffness(&net, bonds, &forces)?;
+    let aff = restrict(&kg, &free_map, -1.0);
+
+    // Start vectors: clamped–clamped bending shapes along two transverse directions plus a
+    // seeded 1 % perturbation of every component.
+    let origin = bar
+        .first_end
+        .iter()
+        .map(|&p| a.packing.positions[p as usize])
+        .sum::<Vec3>()
+        / bar.first_end.len() as f64;
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let tau = 2.0 * std::f64::consts::PI;
+    let mut x: Vec<Block6> = free_nodes
+        .iter()
+        .map(|&q| {
+            let pos = a.packing.positions[net.original[q] as usize];
+            let t = (pos - origin).dot(&bar.axis) / bar.length;
+            let shapes = [
+                1.0 - (tau * t).cos(),
+                (tau * t).sin(),
+                1.0 - (2.0 * tau * t).cos(),
+            ];
+            let mut blk = Block6::zeros();
+            for (s, shape) in shapes.iter().enumerate() {
+                for (c, e) in [(2 * s, e1), (2 * s + 1, e2)] {
+                    blk.fixed_view_mut::<3, 1>(0, c).copy_from(&(e * *shape));
+                }
+            }
+            for v in blk.iter_mut() {
+                *v += 0.01 * (rng.gen::<f64>() - 0.5);
+            }
+            blk
+        })
+        .collect();
+
+    let nf = free_nodes.len();
+    let mut ax = vec![Block6::zeros(); nf];
+    let mut kx: Vec<Block6> = Vec::new();
+    let mut lambda = [f64::INFINITY; 6];
+    let mut residuals = [f64::INFINITY; 2];
+    let mut ay = vec![Block6::zeros(); nf];
+    let mut iterations = 0;
+    let mut converged = false;
+    for it in 0..=opts.max_iterations {
+        aff.apply(&x, &mut ax);
+        if it > 0 {
+            for (c, res) in residuals.iter_mut().enumerate() {
+                let (mut num, mut den) = (0.0, 0.0);
+                for (kp, ap) in kx.iter().zip(&ax) {
+                    num += (kp.column(c) - ap.column(c) * lambda[c]).norm_squared();
+                    den += kp.column(c).norm_squared();
+                }
+                *res = (num / den.max(f64::MIN_POSITIVE)).sqrt();
+            }
+            iterations = it;
+            if residuals.iter().all(|r| *r < opts.tolerance) {
+                converged = true;
+                break;
+            }
+            if it == opts.max_iterations {
+                break;
+            }
+        }
+        let y = chol.solve(&ax)?;
+        let kr = gram(&y, &ax);
+        let kr = (kr + kr.transpose()) * 0.5;
+        aff.apply(&y, &mut ay);
+        let ar = gram(&y, &ay);
+        let ar = (ar + ar.transpose()) * 0.5;
+        let l = kr.cholesky().ok_or_else(|| {
+            Error::Degenerate(
+                "buckling: the iterated subspace collapsed (−K_g maps the start vectors to \
+                 zero: no bond carries force in the free part)"
+                    .into(),
+            )
+        })?;
+        let linv = l
+            .l()
+            .try_inverse()
+            .ok_or_else(|| Error::Degenerate("buckling: singular Ritz basis".into()))?;
+        let c = linv * ar * linv.transpose();
+        let eig = nalgebra::SymmetricEigen::new((c + c.transpose()) * 0.5);
+        let mut order: Vec<usize> = (0..6).collect();
+        order.sort_by(|&p, &q| eig.eigenvalues[q].total_cmp(&eig.eigenvalues[p]));
+        let mut z = Matrix6::zeros();
+        for (col, &o) in order.iter().enumerate() {
+            z.set_column(col, &(linv.transpose() * eig.eigenvectors.column(o)));
+            let mu = eig.eigenvalues[o];
+            lambda[col] = if mu > 0.0 { 1.0 / mu } else { f64::INFINITY };
+        }
+        x = y.iter().map(|yp| yp * z).collect();
+        kx = ax.iter().map(|ap| ap * z).collect();
+    }
+    if !lambda[0].is_finite() {
+        return Err(Error::Degenerate(
+            "buckling: no positive load factor (the geometric stiffness does not soften the \
+             bar under compression)"
+                .into(),
+        ));
+    }
+    if !converged {
+        return Err(Error::NotConverged(format!(
+            "buckling: subspace iteration did not converge in {} iterations (residuals {:e}, \
+             {:e} > {:e}; λ₁ = {:e})",
+            opts.max_iterations, residuals[0], residuals[1], opts.tolerance, lambda[0]
+        )));
+    }
+    let mut mode = vec![Vec3::zeros(); n];
+    let mut peak: f64 = 0.0;
+    for (f, &q) in free_nodes.iter().enumerate() {
+        let v = Vec3::new(x[f][(0, 0)], x[f][(1, 0)], x[f][(2, 0)]);
+        peak = peak.max(v.norm());
+        mode[net.original[q] as usize] = v;
+    }
+    if peak > 0.0 {
+        for v in &mut mode {
+            *v /= peak;
+        }
+    }
+    let critical_strain = lambda[0];
+    Ok(BucklingResult {
+        axial_force_per_strain: force,
+        modulus,
+        load_factors: [lambda[0], lambda[1]],
+        critical_strain,
+        critical_stress: critical_strain * modulus,
+        critical_force: critical_strain * force,
+        iterations,
+        residuals,
+        static_residual,
+        reaction_imbalance,
+        free_particles: nf,
+        clamped_particles: clamped,
+        unloaded_particles: n - nf - clamped,
+        bonds: net.ends.len(),
+        bending_stiffness,
+        transverse_stiffness,
+        compressed_bonds,
+        normal_force_share: love_normal / love_total,
+        mode,
+    })
+}
+
+/// Euler's critical stress of a clamped–clamped round bar, Kumar 2016 Eq. 14:
+/// σ = π²E / (4 (k l/r)²) with k = 0.5 (Pa, for E in Pa).
+pub fn euler_stress(modulus: f64, slenderness: f64) -> f64 {
+    let kl = 0.5 * slenderness;
+    std::f64::consts::PI.powi(2) * modulus / (4.0 * kl * kl)
+}
+
+/// Mazzilli's critical stress of an extensible clamped–clamped round bar, Kumar 2016 Eq. 15:
+/// σ = (1 − √(1 − π²/(k l/r)²))·E/2 with k = 0.5; NaN when k·l/r < π (no real root).
+pub fn mazzilli_stress(modulus: f64, slenderness: f64) -> f64 {
+    let kl = 0.5 * slenderness;
+    let d = 1.0 - std::f64::consts::PI.powi(2) / (kl * kl);
+    if d < 0.0 {
+        return f64::NAN;
+    }
+    (1.0 - d.sqrt()) * modulus / 2.0
+}
+
+impl BucklingResult {
+    /// The bar's shear stiffness κGA (N) of a Timoshenko beam, from the clamped–guided
+    /// stiffness k_t and EI: 1/k_t = l³/(12 EI) + l/(κGA); infinite when the bar bends like
+    /// an Euler–Bernoulli beam to rounding.
+    pub fn shear_stiffness(&self, length: f64) -> f64 {
+        let shear_compliance =
+            1.0 / self.transverse_stiffness - length.powi(3) / (12.0 * self.bending_stiffness);
+        if shear_compliance > 0.0 {
+            length / shear_compliance
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Euler's clamped–clamped critical force with the bar's own bending stiffness,
+    /// P = 4π²EI/l² (N) (Kumar 2016 Eq. 14 with EI instead of E·πr⁴/4).
+    pub fn euler_force_own(&self, length: f64) -> f64 {
+        4.0 * std::f64::consts::PI.powi(2) * self.bending_stiffness / (length * length)
+    }
+
+    /// Engesser's shear-corrected critical force P_E/(1 + P_E/κGA) (N) with the bar's own
+    /// EI and κGA: the continuum value a linearised (small-strain) network tends to for a
+    /// short bar.
+    pub fn engesser_force_own(&self, length: f64) -> f64 {
+        let pe = self.euler_force_own(length);
+        pe / (1.0 + pe / self.shear_stiffness(length))
+    }
+
+    /// The bar's bending stiffness over E·πr⁴/4 of a solid round bar of the area's radius,
+    /// (EI)/(E·A·r²/4) with r² = A/π: below 1 when the outer layer is less stiff (the cut
+    /// surface's broken bonds). σ_cr/σ_Euler of a slender bar tends to this ratio.
+    pub fn bending_ratio(&self, area: f64) -> f64 {
+        let r2 = area / std::f64::consts::PI;
+        self.bending_stiffness / (self.modulus * area * r2 / 4.0)
+    }
+}
+
+/// A round bar cut from a packing (Kumar 2016 Sec. 5): the bonded assembly, its clamped end
+/// sets and its dimensions.
+#[derive(Clone, Debug)]
+pub struct RoundBar {
+    /// The bonded bar.
+    pub assembly: Assembly,
+    /// End and surface sets.
+    pub boundary: BoundarySets,
+    /// The region the bar was cut with.
+    pub region: Region,
+    /// Radius r (m) of the cylinder holding the sphere centres.
+    pub radius: f64,
+    /// Length l (m).
+    pub length: f64,
+}
+
+impl RoundBar {
+    /// Cut the bar of radius `radius` (m) and slenderness l/r = `slenderness` along z out of
+    /// `packing` (centred on the cell's axis when periodic, the cell tiled along z as far as
+    /// the length needs), bond it by `model` and clamp the spheres within `clamp_depth` (m)
+    /// of each end face (Kumar: the spheres touching the end planes, depth = R̄).
+    pub fn cut(
+        packing: &Packing,
+        model: Model,
+        radius: f64,
+        slenderness: f64,
+        clamp_depth: f64,
+    ) -> Result<RoundBar> {
+        if !(slenderness.is_finite() && slenderness > 0.0) {
+            return Err(Error::Invalid(format!(
+                "bar: slenderness l/r must be finite and > 0, got {slenderness}"
+            )));
+        }
+        let length = slenderness * radius;
+        let centre = match &packing.cell {
+            Some(c) => Vec3::new(0.5 * c.lengths.x, 0.5 * c.lengths.y, 0.5 * length),
+            None => {
+                let (lo, hi) = packing.bounding_box();
+                let mid = (lo + hi) * 0.5;
+                Vec3::new(mid.x, mid.y, lo.z + 0.5 * length)
+            }
+        };
+        let region = Region::Cylinder {
+            centre,
+            axis: Vec3::z(),
+            radius,
+            length,
+        };
+        let (assembly, cut) = Assembly::cut(packing, &region, model)?;
+        let boundary = cut.boundary(clamp_depth)?;
+        Ok(RoundBar {
+            assembly,
+            boundary,
+            region,
+            radius,
+            length,
+        })
+    }
+
+    /// Cross-section area πr² (m²).
+    pub fn area(&self) -> f64 {
+        std::f64::consts::PI * self.radius * self.radius
+    }
+
+    /// Linearised buckling of the bar clamped at both end sets ([`clamped_bar_buckling`]).
+    pub fn buckling(&self, opts: &BucklingOptions) -> Result<BucklingResult> {
+        let bar = ClampedBar {
+            assembly: &self.assembly,
+            first_end: &self.boundary.first_end,
+            second_end: &self.boundary.second_end,
+            axis: self.region.axis(),
+            length: self.length,
+            area: self.area(),
+        };
+        clamped_bar_buckling(&bar, opts)
+    }
+}

@@ -1,0 +1,12 @@
+//! Free-boundary bars and their buckling: cutting from periodic packings, the geometric
+//! stiffness, linearised buckling against Euler/Engesser/Mazzilli, `anisobond buckle`.
+//! See tests/README.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cli;
+mod cut;
+mod dem;
+mod euler;
+mod geometric;
