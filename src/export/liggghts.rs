@@ -120,7 +120,7 @@ pub fn stable_timestep(
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
-fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     let mut b = ryu::Buffer::new();
     b.format(v).to_string()
 }
@@ -380,13 +380,7 @@ pub fn export_liggghts(
     );
     let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
     let _ = writeln!(h, "variable dt index {}", num(dt));
-    let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
-    let _ = writeln!(
-        h,
-        "communicate single vel yes cutoff {}",
-        num(1.1 * max_len)
-    );
-    let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data");
+    harmonic_setup(&mut h, "harmonic.data", max_len);
     let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(h, "timestep ${{dt}}");
     let _ = writeln!(
@@ -524,6 +518,19 @@ fn write_harmonic_data(
 }
 
 pub use crate::history::StressHistory;
+
+/// The set-up of a stock `bond_style harmonic` deck reading `data_file`: granular +
+/// molecular atoms, periodic box, and a ghost cut-off of 1.1 × the longest bond (m) so that
+/// every bond's partner is present on each process.
+pub(crate) fn harmonic_setup(s: &mut String, data_file: &str, max_bond_length: f64) {
+    let _ = writeln!(s, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
+    let _ = writeln!(
+        s,
+        "communicate single vel yes cutoff {}",
+        num(1.1 * max_bond_length)
+    );
+    let _ = writeln!(s, "bond_style harmonic\nread_data {data_file}");
+}
 
 /// The deck variables `s11 … s12`: the stress σ = −p (Pa, tension positive) in Voigt order
 /// from `compute p all pressure` (whose order is xx yy zz xy xz yz).
