@@ -214,6 +214,16 @@ pub(crate) fn draw_radii(
     radii
 }
 
+/// Total volume Σ (4/3)πR³ of the spheres (R in units of R̄, so in R̄³).
+pub(crate) fn solid_volume_of(radii: &[f64]) -> f64 {
+    radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum()
+}
+
+/// The largest radius (0 for no sphere).
+pub(crate) fn largest_radius(radii: &[f64]) -> f64 {
+    radii.iter().copied().fold(0.0, f64::max)
+}
+
 /// Renumber the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
 /// neighbours are close in memory; radii were drawn independently of position, so this
 /// does not change the distribution.
@@ -291,7 +301,7 @@ fn fire_relax_in_pool(
     on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
     let n = x.len();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
     let skin = 0.3f64.min(0.49 * side - 2.0 * r_max);
     if skin < 0.05 {
@@ -487,9 +497,9 @@ pub fn generate_with_report(
 
     // Radii in units of R̄, sample mean exactly 1.
     let radii = draw_radii(n, opts.polydispersity, &mut rng);
-    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
+    let solid_volume = solid_volume_of(&radii);
     let side = (solid_volume / opts.solid_fraction).cbrt();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(&radii);
     if 0.3f64.min(0.49 * side - 2.0 * r_max) < 0.05 {
         return Err(Error::Invalid(format!(
             "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
@@ -740,7 +750,7 @@ fn fire_jam_in_pool(
     on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
     let n = x.len();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     let cutoff = 2.0 * r_max + JAM_SKIN;
     if cutoff >= 0.49 * *side {
         return Err(cell_too_small(n, *side));
