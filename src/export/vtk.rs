@@ -187,18 +187,17 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
                                 .with_attribute(("NumberOfPoints", np.as_str()))
                                 .with_attribute(("NumberOfCells", nc.as_str()))
                                 .write_inner_content(|w| {
-                                    w.create_element("PointData").write_inner_content(|w| {
-                                        for (name, c, text) in &grid.point_data {
-                                            data_array(w, "Float64", Some(name), *c, text)?;
-                                        }
-                                        Ok(())
-                                    })?;
-                                    w.create_element("CellData").write_inner_content(|w| {
-                                        for (name, c, text) in &grid.cell_data {
-                                            data_array(w, "Float64", Some(name), *c, text)?;
-                                        }
-                                        Ok(())
-                                    })?;
+                                    for (element, fields) in [
+                                        ("PointData", &grid.point_data),
+                                        ("CellData", &grid.cell_data),
+                                    ] {
+                                        w.create_element(element).write_inner_content(|w| {
+                                            for (name, c, text) in fields {
+                                                data_array(w, "Float64", Some(name), *c, text)?;
+                                            }
+                                            Ok(())
+                                        })?;
+                                    }
                                     w.create_element("Points").write_inner_content(|w| {
                                         data_array(
                                             w,
@@ -209,21 +208,14 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
                                         )
                                     })?;
                                     w.create_element("Cells").write_inner_content(|w| {
-                                        data_array(
-                                            w,
-                                            "Int64",
-                                            Some("connectivity"),
-                                            1,
-                                            &join(&grid.connectivity),
-                                        )?;
-                                        data_array(
-                                            w,
-                                            "Int64",
-                                            Some("offsets"),
-                                            1,
-                                            &join(&grid.offsets),
-                                        )?;
-                                        data_array(w, "UInt8", Some("types"), 1, &join(&grid.types))
+                                        for (kind, name, text) in [
+                                            ("Int64", "connectivity", join(&grid.connectivity)),
+                                            ("Int64", "offsets", join(&grid.offsets)),
+                                            ("UInt8", "types", join(&grid.types)),
+                                        ] {
+                                            data_array(w, kind, Some(name), 1, &text)?;
+                                        }
+                                        Ok(())
                                     })?;
                                     Ok(())
                                 })?;
