@@ -11,7 +11,7 @@
 //! is taken in a fixed order, so the packing is bit-identical on any number of threads.
 
 use super::fire::{self, FireStep, FireSystem, FIRE_FIXED_CELL, FIRE_VARIABLE_CELL};
-use super::repulsion::{lanes_available, particle_contacts, ScaledVerletList};
+use super::repulsion::{lanes_available, ScaledVerletList, Spheres};
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
@@ -152,13 +152,19 @@ fn forces(
     contact: &mut [ContactSums],
 ) {
     let lanes = lanes_available();
+    let spheres = Spheres {
+        list,
+        x,
+        radii,
+        side,
+    };
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
         .zip(contact.par_iter_mut())
         .enumerate()
         .with_min_len(256)
         .for_each(|(i, ((fi, oi), ci))| {
-            let c = particle_contacts(list, i, x, radii, side, lanes, (0.0, 0.0));
+            let c = spheres.contacts(i, lanes, (0.0, 0.0));
             *fi = c.force;
             *oi = c.worst;
             *ci = ContactSums {
@@ -194,13 +200,21 @@ fn max_of(v: &[f64]) -> f64 {
         .reduce(|| 0.0, f64::max)
 }
 
-/// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
-/// the sample mean is exactly 1.
-pub(crate) fn draw_radii(
+/// Radii in units of R̄ (sample mean exactly 1, [`draw_radii`]) from a ChaCha8 generator
+/// seeded with `seed`, and the generator, which goes on to place the spheres.
+pub(crate) fn seeded_radii(
     n: usize,
     polydispersity: Polydispersity,
-    rng: &mut ChaCha8Rng,
-) -> Vec<f64> {
+    seed: u64,
+) -> (Vec<f64>, ChaCha8Rng) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let radii = draw_radii(n, polydispersity, &mut rng);
+    (radii, rng)
+}
+
+/// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
+/// the sample mean is exactly 1.
+fn draw_radii(n: usize, polydispersity: Polydispersity, rng: &mut ChaCha8Rng) -> Vec<f64> {
     let mut radii: Vec<f64> = match polydispersity {
         Polydispersity::Monodisperse => vec![1.0; n],
         Polydispersity::Uniform { half_width } => (0..n)
@@ -493,10 +507,7 @@ pub fn generate_with_report(
 ) -> Result<(Packing, GenerationReport)> {
     check_options(opts)?;
     let n = opts.n_particles;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-
-    // Radii in units of R̄, sample mean exactly 1.
-    let radii = draw_radii(n, opts.polydispersity, &mut rng);
+    let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
     let solid_volume = solid_volume_of(&radii);
     let side = (solid_volume / opts.solid_fraction).cbrt();
     let r_max = largest_radius(&radii);
@@ -687,6 +698,12 @@ fn forces_and_sums(
     f: &mut [Vec3],
 ) -> ChunkSums {
     let lanes = lanes_available();
+    let spheres = Spheres {
+        list,
+        x,
+        radii,
+        side,
+    };
     let parts: Vec<ChunkSums> = f
         .par_chunks_mut(PASS_CHUNK)
         .enumerate()
@@ -695,7 +712,7 @@ fn forces_and_sums(
             for (k, fi) in fc.iter_mut().enumerate() {
                 let i = c * PASS_CHUNK + k;
                 // The overlap and virial sums run on across the chunk's spheres.
-                let pc = particle_contacts(list, i, x, radii, side, lanes, (s.force, s.virial));
+                let pc = spheres.contacts(i, lanes, (s.force, s.virial));
                 s.force = pc.overlap_sum;
                 s.virial = pc.virial;
                 s.contacts += u64::from(pc.contacts);

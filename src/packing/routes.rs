@@ -29,12 +29,12 @@
 
 pub use super::generate::ForceBalance;
 use super::generate::{
-    check_radii, draw_radii, fire_jam_at_pressure, fire_relax, largest_radius, solid_volume_of,
+    check_radii, fire_jam_at_pressure, fire_relax, largest_radius, seeded_radii, solid_volume_of,
     spatial_order, Polydispersity, PressureOutcome, PressureTarget, RelaxOutcome, RelaxTarget,
 };
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 /// Relative half width of Kumar 2016's "nearly monomodal" radii, R̄ ± 5 % (Sec. 3).
@@ -387,8 +387,7 @@ pub fn prepare_with_status(
 ) -> Result<(Packing, RouteReport)> {
     check_options(opts)?;
     let n = opts.n_particles;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let radii = draw_radii(n, opts.polydispersity, &mut rng);
+    let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
     let solid_volume = solid_volume_of(&radii);
     let phi_of = |side: f64| solid_volume / (side * side * side);
     let side_of = |phi: f64| (solid_volume / phi).cbrt();
