@@ -12,8 +12,7 @@
 //! Kruyt 2014 Eqs. 10–14).
 
 use crate::bonds::{BondSet, BondStiffness};
-use crate::calibrate::warm::relaxed_with_start;
-use crate::homogenize::relaxed::RelaxedOptions;
+use crate::homogenize::relaxed::{relaxed_solve, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::Voigt6;
 use crate::{Error, Mat3, Result, Vec3};
@@ -61,7 +60,7 @@ pub fn strained_state(
     strain: &Voigt6,
     opts: &RelaxedOptions,
 ) -> Result<StrainedState> {
-    let sol = relaxed_with_start(packing, bonds, k, opts, None)?;
+    let sol = relaxed_solve(packing, bonds, k, opts, None)?;
     let eps = strain_tensor(strain);
     let n = packing.len();
     let mut fluct = vec![Vec3::zeros(); n];
