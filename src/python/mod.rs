@@ -308,7 +308,7 @@ impl PyModel {
         match self.inner.scheme {
             SchemeSpec::Cubic(_) => "cubic",
             SchemeSpec::Isotropic { .. } => "isotropic",
-            SchemeSpec::CrossAnisotropic { .. } => "cross-anisotropic",
+            SchemeSpec::CrossAnisotropic(_) => "cross-anisotropic",
         }
     }
 
