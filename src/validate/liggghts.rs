@@ -805,17 +805,27 @@ pub fn validate_liggghts(
         compare("harmonic-history", &harmonic_rows, &rust.normal_springs).relative,
         o.history_tolerance,
     ));
+    // A comparison of the driver on -np N processes with its serial run (same tolerance for
+    // the undamped histories and the damped columns).
+    let mpi_check = |id: &str, what: String, serial: &[[f64; 6]], parallel: &[[f64; 6]]| {
+        Check::new(
+            id,
+            what,
+            compare(id, serial, parallel).relative,
+            o.mpi_tolerance,
+        )
+    };
     let mut driver_mpi_rows = Vec::new();
     if let Some(h2) = &lig.driver_undamped_mpi {
         driver_mpi_rows = rows_at(h2, &steps, "driver -np N undamped")?;
-        checks.push(Check::new(
+        checks.push(mpi_check(
             "mpi-history",
             format!(
                 "undamped stress history: driver -np 1 vs -np {}",
                 o.processes
             ),
-            compare("mpi-history", &driver_rows, &driver_mpi_rows).relative,
-            o.mpi_tolerance,
+            &driver_rows,
+            &driver_mpi_rows,
         ));
     }
 
@@ -861,14 +871,14 @@ pub fn validate_liggghts(
     let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
     if lig.driver_mpi_columns.is_some() {
         let serial_cols = columns_of(&driver_tensor, 3);
-        checks.push(Check::new(
+        checks.push(mpi_check(
             "mpi-columns",
             format!(
                 "damped normal load cases, columns 1–3: driver -np {} (orthogonal box) vs -np 1 (six cases, triclinic box)",
                 o.processes
             ),
-            compare("mpi-columns", &serial_cols, &driver_mpi_columns).relative,
-            o.mpi_tolerance,
+            &serial_cols,
+            &driver_mpi_columns,
         ));
     }
 
