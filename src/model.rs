@@ -37,18 +37,7 @@ pub enum SchemeSpec {
     /// checked when the scheme is built ([`CubicSpheroid::checked`]).
     Cubic(CubicSpheroid),
     /// Šmilauer's cross-anisotropic elliptic scheme, given by its target tensor.
-    CrossAnisotropic {
-        /// Target C11 (Pa).
-        c11: f64,
-        /// Target C33 (Pa).
-        c33: f64,
-        /// Target C13 (Pa).
-        c13: f64,
-        /// Target C12 (Pa).
-        c12: f64,
-        /// Unit symmetry axis (lab frame).
-        axis: Vec3,
-    },
+    CrossAnisotropic(CrossTarget),
     /// Constant magnitudes.
     Isotropic {
         /// Normal magnitude.
@@ -56,6 +45,29 @@ pub enum SchemeSpec {
         /// Shear magnitude.
         shear: f64,
     },
+}
+
+/// The target of Šmilauer's cross-anisotropic elliptic scheme: the transversely isotropic
+/// tensor (Pa) about `axis` that the scheme is made to reproduce.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrossTarget {
+    /// Target C11 (Pa).
+    pub c11: f64,
+    /// Target C33 (Pa).
+    pub c33: f64,
+    /// Target C13 (Pa).
+    pub c13: f64,
+    /// Target C12 (Pa).
+    pub c12: f64,
+    /// Unit symmetry axis (lab frame).
+    pub axis: Vec3,
+}
+
+impl CrossTarget {
+    /// The scheme for this target with lattice scaling μ ([`CrossAnisotropic::from_target`]).
+    pub fn scheme(&self, mu: f64) -> Result<CrossAnisotropic> {
+        CrossAnisotropic::from_target(self.c11, self.c33, self.c13, self.c12, self.axis, mu)
+    }
 }
 
 /// A complete model: bonding rule, scheme and geometry.
@@ -530,24 +542,19 @@ impl Model {
                         ))
                     }
                 };
-                let (c11, c33, c13, c12) = (
-                    finite(s.c11, "C11")?,
-                    finite(s.c33, "C33")?,
-                    finite(s.c13, "C13")?,
-                    finite(s.c12, "C12")?,
-                );
+                let target = CrossTarget {
+                    c11: finite(s.c11, "C11")?,
+                    c33: finite(s.c33, "C33")?,
+                    c13: finite(s.c13, "C13")?,
+                    c12: finite(s.c12, "C12")?,
+                    axis,
+                };
                 // Positive definiteness and non-negative lattice moduli do not depend on the
                 // lattice scaling μ > 0 (E′ = A⁻¹C/μ), so they are checked here with μ = 1,
                 // before any packing is read.
-                CrossAnisotropic::from_target(c11, c33, c13, c12, axis, 1.0)?;
+                target.scheme(1.0)?;
                 scheme_pi_hat = s.pi_hat;
-                SchemeSpec::CrossAnisotropic {
-                    c11,
-                    c33,
-                    c13,
-                    c12,
-                    axis,
-                }
+                SchemeSpec::CrossAnisotropic(target)
             }
             RawScheme::Isotropic(s) => SchemeSpec::Isotropic {
                 normal: finite(s.normal, "normal")?,
@@ -558,7 +565,7 @@ impl Model {
         // others default to the PFC parallel-bond `area` convention.
         let mut geometry = match (&raw.geometry, &scheme) {
             (Some(g), _) => *g,
-            (None, SchemeSpec::CrossAnisotropic { .. }) => Geometry {
+            (None, SchemeSpec::CrossAnisotropic(_)) => Geometry {
                 convention: Convention::Modulus,
                 ..Geometry::default()
             },
@@ -573,7 +580,7 @@ impl Model {
             geometry.pi_hat = p;
         }
         geometry.validate()?;
-        if let SchemeSpec::CrossAnisotropic { .. } = scheme {
+        if let SchemeSpec::CrossAnisotropic(_) = scheme {
             if geometry.convention != Convention::Modulus {
                 return Err(Error::Model(
                     "cross-anisotropic scheme needs [geometry] convention = \"modulus\" (k = E'·π̂r²/(2r'), Šmilauer)".into(),
@@ -587,7 +594,7 @@ impl Model {
         };
         // Validate the scheme parameters now (negative stiffness, a ≤ 0, …) where that
         // needs no packing.
-        if !matches!(model.scheme, SchemeSpec::CrossAnisotropic { .. }) {
+        if !matches!(model.scheme, SchemeSpec::CrossAnisotropic(_)) {
             model.build_scheme(None)?;
         }
         Ok(model)
@@ -595,7 +602,7 @@ impl Model {
 
     /// True when the scheme needs the bonded packing to be built (cross-anisotropic: μ).
     pub fn needs_packing(&self) -> bool {
-        matches!(self.scheme, SchemeSpec::CrossAnisotropic { .. })
+        matches!(self.scheme, SchemeSpec::CrossAnisotropic(_))
     }
 
     /// Build the stiffness scheme. The cross-anisotropic scheme needs the bonded packing
@@ -605,10 +612,10 @@ impl Model {
         bonded: Option<(&Packing, &BondSet)>,
     ) -> Result<Box<dyn StiffnessScheme>> {
         let mu = match (&self.scheme, bonded) {
-            (SchemeSpec::CrossAnisotropic { .. }, Some((packing, bonds))) => Some(
+            (SchemeSpec::CrossAnisotropic(_), Some((packing, bonds))) => Some(
                 cross_anisotropic::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
             ),
-            (SchemeSpec::CrossAnisotropic { .. }, None) => {
+            (SchemeSpec::CrossAnisotropic(_), None) => {
                 return Err(Error::Model(
                     "the cross-anisotropic scheme needs a bonded packing (its lattice scaling μ comes from the bonds)".into(),
                 ))
@@ -652,13 +659,7 @@ impl Model {
         Ok(match &self.scheme {
             SchemeSpec::Cubic(cubic) => Box::new(cubic.checked()?),
             SchemeSpec::Isotropic { normal, shear } => Box::new(Isotropic::new(*normal, *shear)?),
-            SchemeSpec::CrossAnisotropic {
-                c11,
-                c33,
-                c13,
-                c12,
-                axis,
-            } => {
+            SchemeSpec::CrossAnisotropic(target) => {
                 let mu = lattice_scaling.ok_or_else(|| {
                     Error::Model(
                         "the cross-anisotropic scheme's springs depend on the packing's lattice \
@@ -671,9 +672,7 @@ impl Model {
                         "springs: lattice scaling μ = {mu}, expected a finite value > 0"
                     )));
                 }
-                Box::new(CrossAnisotropic::from_target(
-                    *c11, *c33, *c13, *c12, *axis, mu,
-                )?)
+                Box::new(target.scheme(mu)?)
             }
         })
     }
@@ -696,18 +695,12 @@ impl Model {
                 rotation: Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| c.rotation[(i, j)]))),
                 euler_zyz_deg: None,
             }),
-            SchemeSpec::CrossAnisotropic {
-                c11,
-                c33,
-                c13,
-                c12,
-                axis,
-            } => RawScheme::CrossAnisotropic(RawCross {
-                c11: *c11,
-                c33: *c33,
-                c13: *c13,
-                c12: *c12,
-                axis: Some([axis.x, axis.y, axis.z]),
+            SchemeSpec::CrossAnisotropic(t) => RawScheme::CrossAnisotropic(RawCross {
+                c11: t.c11,
+                c33: t.c33,
+                c13: t.c13,
+                c12: t.c12,
+                axis: Some([t.axis.x, t.axis.y, t.axis.z]),
                 strike_deg: None,
                 dip_deg: None,
                 pi_hat: None,

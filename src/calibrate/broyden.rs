@@ -198,26 +198,40 @@ mod tests {
         }
     }
 
+    /// [`solve`] from `x0` (residual `f0` there) with a constant Jacobian `jac` (also the
+    /// restart Jacobian), no projection, and [`opts`].
+    fn solve_from(
+        x0: DVector<f64>,
+        f0: DVector<f64>,
+        jac: DMatrix<f64>,
+        residual: impl FnMut(&DVector<f64>) -> Result<Evaluation<()>>,
+    ) -> BroydenResult<()> {
+        let n = x0.len();
+        let start = Point {
+            f: f0,
+            x: x0,
+            data: (),
+        };
+        solve(
+            start,
+            jac.clone(),
+            residual,
+            |_| {},
+            |_| jac.clone(),
+            &opts(n),
+        )
+        .unwrap()
+    }
+
     /// x² = 2, y³ = 3 from a poor Jacobian.
     #[test]
     fn solves_a_square_system() {
         let r = |x: &DVector<f64>| DVector::from_vec(vec![x[0] * x[0] - 2.0, x[1].powi(3) - 3.0]);
         let x0 = DVector::from_vec(vec![1.0, 1.0]);
-        let start = Point {
-            f: r(&x0),
-            x: x0,
-            data: (),
-        };
         let jac = DMatrix::from_diagonal(&DVector::from_vec(vec![2.0, 3.0]));
-        let out = solve(
-            start,
-            jac.clone(),
-            |x| Ok(Evaluation::Admissible(r(x), ())),
-            |_| {},
-            |_| jac.clone(),
-            &opts(2),
-        )
-        .unwrap();
+        let out = solve_from(x0.clone(), r(&x0), jac, |x| {
+            Ok(Evaluation::Admissible(r(x), ()))
+        });
         assert!(matches!(out.end, End::Converged), "{out:?}");
         assert!((out.point.x[0] - 2f64.sqrt()).abs() < 1e-9);
         assert!((out.point.x[1] - 3f64.cbrt()).abs() < 1e-9);
@@ -227,17 +241,12 @@ mod tests {
     /// Jacobian that overshoots: the step is halved until the trial is admissible.
     #[test]
     fn halves_steps_into_inadmissible_points() {
-        let x0 = DVector::from_vec(vec![2.0]);
-        let start = Point {
-            f: DVector::from_vec(vec![1.4]),
-            x: x0,
-            data: (),
-        };
         let jac = DMatrix::from_element(1, 1, 0.5);
         let mut inadmissible = 0;
-        let out = solve(
-            start,
-            jac.clone(),
+        let out = solve_from(
+            DVector::from_vec(vec![2.0]),
+            DVector::from_vec(vec![1.4]),
+            jac,
             |x| {
                 if x[0] < 0.5 {
                     inadmissible += 1;
@@ -246,11 +255,7 @@ mod tests {
                     Ok(Evaluation::Admissible(x.add_scalar(-0.6), ()))
                 }
             },
-            |_| {},
-            |_| jac.clone(),
-            &opts(1),
-        )
-        .unwrap();
+        );
         assert!(matches!(out.end, End::Converged), "{out:?}");
         assert!(inadmissible > 0);
         assert!((out.point.x[0] - 0.6).abs() < 1e-10);
@@ -259,22 +264,12 @@ mod tests {
     /// Every trial inadmissible: the iteration stops and says where.
     #[test]
     fn reports_an_inadmissible_neighbourhood() {
-        let x0 = DVector::from_vec(vec![1.0]);
-        let start = Point {
-            f: DVector::from_vec(vec![1.0]),
-            x: x0,
-            data: (),
-        };
-        let jac = DMatrix::from_element(1, 1, 1.0);
-        let out = solve(
-            start,
-            jac.clone(),
-            |_| Ok(Evaluation::<()>::Inadmissible),
-            |_| {},
-            |_| jac.clone(),
-            &opts(1),
-        )
-        .unwrap();
+        let out = solve_from(
+            DVector::from_vec(vec![1.0]),
+            DVector::from_vec(vec![1.0]),
+            DMatrix::from_element(1, 1, 1.0),
+            |_| Ok(Evaluation::Inadmissible),
+        );
         assert!(matches!(out.end, End::Inadmissible(_)), "{out:?}");
         assert_eq!(out.evaluations, 1);
     }

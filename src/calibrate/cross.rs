@@ -15,7 +15,7 @@ use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::warm::WarmRelaxed;
 use crate::bonds::{assign_stiffness, BondSet};
 use crate::homogenize::relaxed::RelaxedOptions;
-use crate::model::{Model, SchemeSpec};
+use crate::model::{CrossTarget, Model, SchemeSpec};
 use crate::packing::Packing;
 use crate::schemes::cross_anisotropic::{lattice_scaling, target_lattice_moduli, CrossAnisotropic};
 use crate::tensor::{Stiffness6, TransverseProjection};
@@ -72,13 +72,13 @@ impl CrossCalibration {
     /// The base model with the corrected constants.
     pub fn model(&self, base: &Model) -> Model {
         let mut m = base.clone();
-        m.scheme = SchemeSpec::CrossAnisotropic {
+        m.scheme = SchemeSpec::CrossAnisotropic(CrossTarget {
             c11: self.written[0],
             c33: self.written[1],
             c13: self.written[2],
             c12: self.written[3],
             axis: self.axis,
-        };
+        });
         m
     }
 }
@@ -97,7 +97,7 @@ pub fn calibrate_cross_relaxed(
     opts: &CrossOptions,
 ) -> Result<CrossCalibration> {
     super::check_iteration_options(opts.tolerance, opts.max_iterations)?;
-    let SchemeSpec::CrossAnisotropic { axis, .. } = base.scheme else {
+    let SchemeSpec::CrossAnisotropic(CrossTarget { axis, .. }) = base.scheme else {
         return Err(Error::Invalid(
             "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\" (it gives the axis and geometry)".into(),
         ));

@@ -282,15 +282,24 @@ pub struct MeanFieldMap<'k> {
 pub(crate) fn extended_interval(model: CubicModel, lo: f64, hi: f64, normal: bool) -> (f64, f64) {
     admissible_interval(lo, hi, |x| {
         let a = x.exp();
-        CubicSpheroid::new_unchecked(model, true, a, a, 1.0, 1.0, Mat3::identity())
-            .map(|s| {
-                if normal {
-                    s.min_normal_factor().0
-                } else {
-                    s.min_shear_factor().0
-                }
-            })
-            .unwrap_or(-1.0)
+        CubicSpheroid {
+            model,
+            extended: true,
+            a_n: a,
+            a_s: a,
+            normal: 1.0,
+            shear: 1.0,
+            rotation: Mat3::identity(),
+        }
+        .parameters_checked()
+        .map(|s| {
+            if normal {
+                s.min_normal_factor().0
+            } else {
+                s.min_shear_factor().0
+            }
+        })
+        .unwrap_or(-1.0)
             >= 0.0
     })
 }
@@ -889,8 +898,16 @@ pub fn calibrate_cubic_relaxed(
     // (negative normal or shear stiffness along some direction: extended models).
     let scheme_at = |p: &MapPoint, normal: f64| -> Result<Option<CubicSpheroid>> {
         let (a_n, a_s, shear) = (p.x.exp(), p.y.exp(), normal * p.rho);
-        let scheme =
-            CubicSpheroid::new_unchecked(model, opts.extended, a_n, a_s, normal, shear, rotation)?;
+        let scheme = CubicSpheroid {
+            model,
+            extended: opts.extended,
+            a_n,
+            a_s,
+            normal,
+            shear,
+            rotation,
+        }
+        .parameters_checked()?;
         let negative = (normal > 0.0 && scheme.min_normal_factor().0 < 0.0)
             || (shear > 0.0 && scheme.min_shear_factor().0 < 0.0);
         Ok((!negative).then_some(scheme))

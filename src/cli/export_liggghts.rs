@@ -70,10 +70,7 @@ pub fn run(a: Args) -> Result<()> {
         s.max_bond_length,
         a.output.display()
     );
-    for f in &s.files {
-        let name = f.strip_prefix(&staged).unwrap_or(f);
-        println!("  {}", a.output.join(name).display());
-    }
+    super::output::print_written("  ", &s.files, &staged, &a.output);
     println!(
         "time step {:.4e} s, damping rate {:.4e} 1/s; load cases end at steps {:?}",
         s.timestep, s.damping_rate, s.case_end_steps

@@ -118,14 +118,12 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     let report = TensorReport::new("gripped", t.c, Some((&asm.packing, &asm.bonds)))?;
     if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the Table 3 heterogeneity and the block's set-up.
-        let mut json = serde_json::to_value(&report)
-            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
-        json["heterogeneity"] = serde_json::json!({
+        let heterogeneity = serde_json::json!({
             "definition": "std / |mean| across measurement spheres of the loaded strain component, mean over paths 1-3 (normal) and 4-6 (shear) (Truszkowska 2018 Table 3)",
             "normal": t.heterogeneity.normal,
             "shear": t.heterogeneity.shear,
         });
-        json["grips"] = serde_json::json!({
+        let grips = serde_json::json!({
             "grip_particles": t.grips,
             "grip_shell_mean_radii": a.grip_shell,
             "measurement_spheres": a.spheres,
@@ -133,11 +131,11 @@ pub fn grips(a: GripsArgs) -> Result<()> {
             "mean_particles_per_sphere": t.mean_members,
             "time_step_s": t.time_step,
         });
-        super::output::check_json_numbers(&json["heterogeneity"], "heterogeneity")?;
-        super::output::check_json_numbers(&json["grips"], "grips")?;
-        let text = serde_json::to_string_pretty(&json)
-            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
-        anisobond::io::write_string_atomic(path, &(text + "\n"))?;
+        super::output::write_json_with(
+            path,
+            &report,
+            vec![("heterogeneity", heterogeneity), ("grips", grips)],
+        )?;
         out.commit()?;
         println!("wrote {}", shown.display());
     }

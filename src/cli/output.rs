@@ -5,7 +5,7 @@ use anisobond::packing::{generate, Packing};
 use anisobond::tensor::CubicUncertainty;
 use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The input files of a command that reads an optional packing and a model, for
 /// [`anisobond::io::OutputSet::new`].
@@ -34,6 +34,38 @@ pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
 /// Write a JSON report atomically.
 pub fn write_json(path: &Path, report: &TensorReport) -> Result<()> {
     anisobond::io::write_string_atomic(path, &(report.to_json() + "\n"))
+}
+
+/// Write a tensor report with a command's own sections added (`sections`: key and JSON
+/// value) atomically, refusing a non-finite number in any added section
+/// ([`check_json_numbers`]).
+pub fn write_json_with(
+    path: &Path,
+    report: &TensorReport,
+    sections: Vec<(&str, serde_json::Value)>,
+) -> Result<()> {
+    let tensor_report_error =
+        |e: serde_json::Error| anisobond::Error::Invalid(format!("tensor report: {e}"));
+    let mut json = serde_json::to_value(report).map_err(tensor_report_error)?;
+    for (key, value) in sections {
+        check_json_numbers(&value, key)?;
+        json[key] = value;
+    }
+    let text = serde_json::to_string_pretty(&json).map_err(tensor_report_error)?;
+    anisobond::io::write_string_atomic(path, &(text + "\n"))
+}
+
+/// Where `file`, written into the staging folder `staged`, lands in the final folder `output`.
+pub fn final_path(file: &Path, staged: &Path, output: &Path) -> PathBuf {
+    output.join(file.strip_prefix(staged).unwrap_or(file))
+}
+
+/// Print the files a command wrote into the staging folder `staged` under their final
+/// folder `output` ([`final_path`]), one a line after `prefix`.
+pub fn print_written(prefix: &str, files: &[PathBuf], staged: &Path, output: &Path) {
+    for f in files {
+        println!("{prefix}{}", final_path(f, staged, output).display());
+    }
 }
 
 /// Print a tensor report as a human-readable table (GPa).

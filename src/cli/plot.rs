@@ -61,7 +61,7 @@ fn stiffness(a: StiffnessArgs) -> Result<()> {
     let scheme = model.build_scheme(bonded.as_ref().map(|b| (&b.packing, &b.bonds)))?;
     let sections = match &model.scheme {
         SchemeSpec::Cubic(c) => Section::cubic_planes(&c.rotation),
-        SchemeSpec::CrossAnisotropic { axis, .. } => Section::axis_planes(axis),
+        SchemeSpec::CrossAnisotropic(t) => Section::axis_planes(&t.axis),
         SchemeSpec::Isotropic { .. } => Section::cubic_planes(&anisobond::Mat3::identity()),
     };
     plot_stiffness_sections(

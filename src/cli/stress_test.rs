@@ -162,8 +162,6 @@ pub fn run(a: StressTestArgs) -> Result<()> {
     }
     if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the measured engineering constants (Pa, dimensionless).
-        let mut json = serde_json::to_value(&report)
-            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
         let mut young = serde_json::Map::new();
         let mut poisson = serde_json::Map::new();
         for u in &r.uniaxial {
@@ -180,7 +178,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             .iter()
             .map(|g| (format!("G_{}", SHEARS[g.component - 3]), g.modulus.into()))
             .collect();
-        json["engineering"] = serde_json::json!({
+        let engineering = serde_json::json!({
             "units": "Pa (moduli); Poisson ratios dimensionless, nu_ij = −ε_j/ε_i under σ_i",
             "strain": a.strain,
             "young": young,
@@ -190,10 +188,7 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             "transverse_isotropic_z": {"C11": r.cross_anisotropic[0], "C12": r.cross_anisotropic[1],
                 "C13": r.cross_anisotropic[2], "C33": r.cross_anisotropic[3], "C44": r.cross_anisotropic[4]},
         });
-        super::output::check_json_numbers(&json["engineering"], "engineering")?;
-        let text = serde_json::to_string_pretty(&json)
-            .map_err(|e| anisobond::Error::Invalid(format!("tensor report: {e}")))?;
-        anisobond::io::write_string_atomic(path, &(text + "\n"))?;
+        super::output::write_json_with(path, &report, vec![("engineering", engineering)])?;
         out.commit()?;
         println!("wrote {}", shown.display());
     }

@@ -7,7 +7,7 @@ use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::tensor::Stiffness6;
-use anisobond::validate::harness::{checks_table, failure_lines, unsettled_lines};
+use anisobond::validate::harness::{checks_table, failure_lines, unsettled_lines, Report};
 use anisobond::validate::yade::{
     validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
 };
@@ -140,26 +140,39 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
     if let Some(out) = &a.output {
         let written = write_validation_files(&dir, &v)?;
         set.commit()?;
-        let shown = |p: &Path| out.join(p.strip_prefix(&dir).unwrap_or(p));
-        for p in written {
-            println!("wrote {}", shown(&p).display());
-        }
+        super::output::print_written("wrote ", &written, &dir, out);
         println!(
             "YADE export and YADE's own outputs: {}",
-            shown(&v.yade_dir).display()
+            super::output::final_path(&v.yade_dir, &dir, out).display()
         );
     }
-    let failures = failure_lines(&v);
+    verdict(
+        &v,
+        "PASSED: YADE and anisobond agree within every tolerance",
+        |failures| {
+            format!(
+                "validate yade FAILED ({} of {} checks out of tolerance):\n  {}",
+                failures.len(),
+                v.checks.len(),
+                failures.join("\n  ")
+            )
+        },
+    )
+}
+
+/// The end of a validation: `passed` printed when every check of `report` is within its
+/// tolerance, else the error that `failed` words from the lines of the failed checks.
+fn verdict<D>(
+    report: &Report<D>,
+    passed: &str,
+    failed: impl FnOnce(&[String]) -> String,
+) -> Result<()> {
+    let failures = failure_lines(report);
     if failures.is_empty() {
-        println!("PASSED: YADE and anisobond agree within every tolerance");
+        println!("{passed}");
         Ok(())
     } else {
-        Err(Error::Invalid(format!(
-            "validate yade FAILED ({} of {} checks out of tolerance):\n  {}",
-            failures.len(),
-            v.checks.len(),
-            failures.join("\n  ")
-        )))
+        Err(Error::Invalid(failed(&failures)))
     }
 }
 
@@ -229,7 +242,7 @@ fn print_table(v: &YadeValidation) {
 /// tolerance.
 pub(super) fn finish<D>(
     engine: &str,
-    report: &anisobond::validate::harness::Report<D>,
+    report: &Report<D>,
     tensors: &[(String, Stiffness6)],
     files: &[PathBuf],
     staged: &Path,
@@ -254,24 +267,15 @@ pub(super) fn finish<D>(
         println!("  {:<40} {:8.2} s", t.stage, t.seconds);
     }
     println!();
-    for f in files {
-        println!(
-            "wrote {}",
-            output.join(f.strip_prefix(staged).unwrap_or(f)).display()
-        );
-    }
+    super::output::print_written("wrote ", files, staged, output);
     for line in unsettled_lines(report) {
         println!("not judged: {line}");
     }
-    let failed = failure_lines(report);
-    if failed.is_empty() {
-        println!("all checks within tolerance");
-        Ok(())
-    } else {
-        Err(Error::Invalid(format!(
+    verdict(report, "all checks within tolerance", |failed| {
+        format!(
             "validate {engine}: {} check(s) outside tolerance: {}",
             failed.len(),
             failed.join("; ")
-        )))
-    }
+        )
+    })
 }

@@ -59,6 +59,21 @@ fn damp3(a: V, vel: V, mass: F, c: &UpdateConsts) -> (V, [F; 3]) {
     (V { x, y, z }, [tx, ty, tz])
 }
 
+/// The quaternion product a·b per lane, components (w, x, y, z): `Quat::mul`'s (Eigen's)
+/// component formulas in the same operation order.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn quat_mul(a: [F; 4], b: [F; 4]) -> [F; 4] {
+    let [aw, ax, ay, az] = a;
+    let [bw, bx, by, bz] = b;
+    [
+        sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz)),
+        sub(add(add(mul(aw, bx), mul(ax, bw)), mul(ay, bz)), mul(az, by)),
+        sub(add(add(mul(aw, by), mul(ay, bw)), mul(az, bx)), mul(ax, bz)),
+        sub(add(add(mul(aw, bz), mul(az, bw)), mul(ax, by)), mul(ay, bx)),
+    ]
+}
+
 /// Four particles of the leapfrog update (see `sim::update_particle`): returns their
 /// kinetic energies and the six damping terms each, in the scalar summation order.
 ///
@@ -166,51 +181,30 @@ pub(crate) unsafe fn update4(
         cos_h = ld(pairs.map(|p| p.0));
         sin_over_w = ld(pairs.map(|p| p.1));
     }
-    let (bw, bx, by, bz) = (
+    let b = [
         ld(std::array::from_fn(|l| qs[l].w)),
         ld(std::array::from_fn(|l| qs[l].v.x)),
         ld(std::array::from_fn(|l| qs[l].v.y)),
         ld(std::array::from_fn(|l| qs[l].v.z)),
-    );
-    let (aw, ax, ay, az) = (
+    ];
+    let dq = [
         cos_h,
         mul(w.x, sin_over_w),
         mul(w.y, sin_over_w),
         mul(w.z, sin_over_w),
-    );
-    // Quat::mul (Eigen's component formulas), kept only on spinning lanes.
-    let mut qw = select(
-        spinning,
-        sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz)),
-        bw,
-    );
-    let mut qx = select(
-        spinning,
-        sub(add(add(mul(aw, bx), mul(ax, bw)), mul(ay, bz)), mul(az, by)),
-        bx,
-    );
-    let mut qy = select(
-        spinning,
-        sub(add(add(mul(aw, by), mul(ay, bw)), mul(az, bx)), mul(ax, bz)),
-        by,
-    );
-    let mut qz = select(
-        spinning,
-        sub(add(add(mul(aw, bz), mul(az, bw)), mul(ax, by)), mul(ay, bx)),
-        bz,
-    );
+    ];
+    // dq·q, kept only on spinning lanes.
+    let product = quat_mul(dq, b);
+    let q: [F; 4] = std::array::from_fn(|k| select(spinning, product[k], b[k]));
     // Quat::normalize.
+    let [qw, qx, qy, qz] = q;
     let n = sqrt(add(
         add(add(mul(qx, qx), mul(qy, qy)), mul(qz, qz)),
         mul(qw, qw),
     ));
     let positive = gt(n, zero);
     let inv = div(splat(1.0), n);
-    qw = select(positive, mul(qw, inv), qw);
-    qx = select(positive, mul(qx, inv), qx);
-    qy = select(positive, mul(qy, inv), qy);
-    qz = select(positive, mul(qz, inv), qz);
-    let (qw, qx, qy, qz) = (st4(qw), st4(qx), st4(qy), st4(qz));
+    let [qw, qx, qy, qz] = q.map(|c| st4(select(positive, mul(c, inv), c)));
     let (x, v, w) = (x.lanes(), v.lanes(), w.lanes());
     for l in 0..LANES {
         xs[l] = x[l];

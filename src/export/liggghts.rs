@@ -120,7 +120,7 @@ pub fn stable_timestep(
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
-fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     let mut b = ryu::Buffer::new();
     b.format(v).to_string()
 }
@@ -359,19 +359,7 @@ pub fn export_liggghts(
         packing.len(),
         bonds.len()
     );
-    let _ = writeln!(h, "# Run:  stdbuf -o0 liggghts -in harmonic.in   (stdbuf keeps LIGGGHTS' ERROR message on abort)");
-    let _ = writeln!(h, "# LIMITS: normal springs only. Each bond is its own bond type with K = k_n/2 (harmonic energy K(r−r0)²)");
-    let _ = writeln!(h, "#   and r0 = its initial length. k_s, k_r, k_tw are IGNORED: this is the model with k_s = 0 and no moments,");
-    let _ = writeln!(h, "#   which is softer than the anisobond model (and may be a mechanism where k_s carried load).");
-    let _ = writeln!(
-        h,
-        "#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law."
-    );
-    let _ = writeln!(h, "# LIMITS: normal load cases only (11, 22, 33; columns 1-3 of C): LIGGGHTS 3.8 builds no periodic ghost images");
-    let _ = writeln!(
-        h,
-        "#   for a triclinic box, so bonds across the boundary would break under shear of the box."
-    );
+    h.push_str(HARMONIC_LIMITS);
     let _ = writeln!(h, "# Element test and output as anisobond.in: case k ends at step k*{period}; stress_history.txt.");
     let _ = writeln!(
         h,
@@ -380,13 +368,7 @@ pub fn export_liggghts(
     );
     let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
     let _ = writeln!(h, "variable dt index {}", num(dt));
-    let _ = writeln!(h, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
-    let _ = writeln!(
-        h,
-        "communicate single vel yes cutoff {}",
-        num(1.1 * max_len)
-    );
-    let _ = writeln!(h, "bond_style harmonic\nread_data harmonic.data");
+    harmonic_setup(&mut h, "harmonic.data", max_len);
     let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
     let _ = writeln!(h, "timestep ${{dt}}");
     let _ = writeln!(
@@ -524,6 +506,31 @@ fn write_harmonic_data(
 }
 
 pub use crate::history::StressHistory;
+
+/// The header lines of the stock deck `harmonic.in` that say how to run it and what it
+/// leaves out.
+const HARMONIC_LIMITS: &str = "\
+# Run:  stdbuf -o0 liggghts -in harmonic.in   (stdbuf keeps LIGGGHTS' ERROR message on abort)
+# LIMITS: normal springs only. Each bond is its own bond type with K = k_n/2 (harmonic energy K(r−r0)²)
+#   and r0 = its initial length. k_s, k_r, k_tw are IGNORED: this is the model with k_s = 0 and no moments,
+#   which is softer than the anisobond model (and may be a mechanism where k_s carried load).
+#   Use the driver deck anisobond.in (anisobond-liggghts) for the full per-bond law.
+# LIMITS: normal load cases only (11, 22, 33; columns 1-3 of C): LIGGGHTS 3.8 builds no periodic ghost images
+#   for a triclinic box, so bonds across the boundary would break under shear of the box.
+";
+
+/// The set-up of a stock `bond_style harmonic` deck reading `data_file`: granular +
+/// molecular atoms, periodic box, and a ghost cut-off of 1.1 × the longest bond (m) so that
+/// every bond's partner is present on each process.
+pub(crate) fn harmonic_setup(s: &mut String, data_file: &str, max_bond_length: f64) {
+    let _ = writeln!(s, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
+    let _ = writeln!(
+        s,
+        "communicate single vel yes cutoff {}",
+        num(1.1 * max_bond_length)
+    );
+    let _ = writeln!(s, "bond_style harmonic\nread_data {data_file}");
+}
 
 /// The deck variables `s11 … s12`: the stress σ = −p (Pa, tension positive) in Voigt order
 /// from `compute p all pressure` (whose order is xx yy zz xy xz yz).

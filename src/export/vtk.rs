@@ -12,8 +12,7 @@
 //! Kruyt 2014 Eqs. 10–14).
 
 use crate::bonds::{BondSet, BondStiffness};
-use crate::calibrate::warm::relaxed_with_start;
-use crate::homogenize::relaxed::RelaxedOptions;
+use crate::homogenize::relaxed::{relaxed_solve, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::Voigt6;
 use crate::{Error, Mat3, Result, Vec3};
@@ -61,7 +60,7 @@ pub fn strained_state(
     strain: &Voigt6,
     opts: &RelaxedOptions,
 ) -> Result<StrainedState> {
-    let sol = relaxed_with_start(packing, bonds, k, opts, None)?;
+    let sol = relaxed_solve(packing, bonds, k, opts, None)?;
     let eps = strain_tensor(strain);
     let n = packing.len();
     let mut fluct = vec![Vec3::zeros(); n];
@@ -187,18 +186,17 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
                                 .with_attribute(("NumberOfPoints", np.as_str()))
                                 .with_attribute(("NumberOfCells", nc.as_str()))
                                 .write_inner_content(|w| {
-                                    w.create_element("PointData").write_inner_content(|w| {
-                                        for (name, c, text) in &grid.point_data {
-                                            data_array(w, "Float64", Some(name), *c, text)?;
-                                        }
-                                        Ok(())
-                                    })?;
-                                    w.create_element("CellData").write_inner_content(|w| {
-                                        for (name, c, text) in &grid.cell_data {
-                                            data_array(w, "Float64", Some(name), *c, text)?;
-                                        }
-                                        Ok(())
-                                    })?;
+                                    for (element, fields) in [
+                                        ("PointData", &grid.point_data),
+                                        ("CellData", &grid.cell_data),
+                                    ] {
+                                        w.create_element(element).write_inner_content(|w| {
+                                            for (name, c, text) in fields {
+                                                data_array(w, "Float64", Some(name), *c, text)?;
+                                            }
+                                            Ok(())
+                                        })?;
+                                    }
                                     w.create_element("Points").write_inner_content(|w| {
                                         data_array(
                                             w,
@@ -209,21 +207,14 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
                                         )
                                     })?;
                                     w.create_element("Cells").write_inner_content(|w| {
-                                        data_array(
-                                            w,
-                                            "Int64",
-                                            Some("connectivity"),
-                                            1,
-                                            &join(&grid.connectivity),
-                                        )?;
-                                        data_array(
-                                            w,
-                                            "Int64",
-                                            Some("offsets"),
-                                            1,
-                                            &join(&grid.offsets),
-                                        )?;
-                                        data_array(w, "UInt8", Some("types"), 1, &join(&grid.types))
+                                        for (kind, name, text) in [
+                                            ("Int64", "connectivity", join(&grid.connectivity)),
+                                            ("Int64", "offsets", join(&grid.offsets)),
+                                            ("UInt8", "types", join(&grid.types)),
+                                        ] {
+                                            data_array(w, kind, Some(name), 1, &text)?;
+                                        }
+                                        Ok(())
                                     })?;
                                     Ok(())
                                 })?;

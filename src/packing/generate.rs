@@ -11,7 +11,7 @@
 //! is taken in a fixed order, so the packing is bit-identical on any number of threads.
 
 use super::fire::{self, FireStep, FireSystem, FIRE_FIXED_CELL, FIRE_VARIABLE_CELL};
-use super::repulsion::{lanes_available, particle_contacts, ScaledVerletList};
+use super::repulsion::{lanes_available, ScaledVerletList, Spheres};
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
@@ -152,13 +152,19 @@ fn forces(
     contact: &mut [ContactSums],
 ) {
     let lanes = lanes_available();
+    let spheres = Spheres {
+        list,
+        x,
+        radii,
+        side,
+    };
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
         .zip(contact.par_iter_mut())
         .enumerate()
         .with_min_len(256)
         .for_each(|(i, ((fi, oi), ci))| {
-            let c = particle_contacts(list, i, x, radii, side, lanes, (0.0, 0.0));
+            let c = spheres.contacts(i, lanes, (0.0, 0.0));
             *fi = c.force;
             *oi = c.worst;
             *ci = ContactSums {
@@ -194,13 +200,21 @@ fn max_of(v: &[f64]) -> f64 {
         .reduce(|| 0.0, f64::max)
 }
 
-/// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
-/// the sample mean is exactly 1.
-pub(crate) fn draw_radii(
+/// Radii in units of R̄ (sample mean exactly 1, [`draw_radii`]) from a ChaCha8 generator
+/// seeded with `seed`, and the generator, which goes on to place the spheres.
+pub(crate) fn seeded_radii(
     n: usize,
     polydispersity: Polydispersity,
-    rng: &mut ChaCha8Rng,
-) -> Vec<f64> {
+    seed: u64,
+) -> (Vec<f64>, ChaCha8Rng) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let radii = draw_radii(n, polydispersity, &mut rng);
+    (radii, rng)
+}
+
+/// Radii in units of R̄ drawn from `rng` (one draw per sphere, in order), rescaled so that
+/// the sample mean is exactly 1.
+fn draw_radii(n: usize, polydispersity: Polydispersity, rng: &mut ChaCha8Rng) -> Vec<f64> {
     let mut radii: Vec<f64> = match polydispersity {
         Polydispersity::Monodisperse => vec![1.0; n],
         Polydispersity::Uniform { half_width } => (0..n)
@@ -212,6 +226,16 @@ pub(crate) fn draw_radii(
         radii.iter_mut().for_each(|r| *r /= mean);
     }
     radii
+}
+
+/// Total volume Σ (4/3)πR³ of the spheres (R in units of R̄, so in R̄³).
+pub(crate) fn solid_volume_of(radii: &[f64]) -> f64 {
+    radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum()
+}
+
+/// The largest radius (0 for no sphere).
+pub(crate) fn largest_radius(radii: &[f64]) -> f64 {
+    radii.iter().copied().fold(0.0, f64::max)
 }
 
 /// Renumber the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
@@ -291,7 +315,7 @@ fn fire_relax_in_pool(
     on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
     let n = x.len();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
     let skin = 0.3f64.min(0.49 * side - 2.0 * r_max);
     if skin < 0.05 {
@@ -483,13 +507,10 @@ pub fn generate_with_report(
 ) -> Result<(Packing, GenerationReport)> {
     check_options(opts)?;
     let n = opts.n_particles;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-
-    // Radii in units of R̄, sample mean exactly 1.
-    let radii = draw_radii(n, opts.polydispersity, &mut rng);
-    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
+    let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
+    let solid_volume = solid_volume_of(&radii);
     let side = (solid_volume / opts.solid_fraction).cbrt();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(&radii);
     if 0.3f64.min(0.49 * side - 2.0 * r_max) < 0.05 {
         return Err(Error::Invalid(format!(
             "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
@@ -677,6 +698,12 @@ fn forces_and_sums(
     f: &mut [Vec3],
 ) -> ChunkSums {
     let lanes = lanes_available();
+    let spheres = Spheres {
+        list,
+        x,
+        radii,
+        side,
+    };
     let parts: Vec<ChunkSums> = f
         .par_chunks_mut(PASS_CHUNK)
         .enumerate()
@@ -685,7 +712,7 @@ fn forces_and_sums(
             for (k, fi) in fc.iter_mut().enumerate() {
                 let i = c * PASS_CHUNK + k;
                 // The overlap and virial sums run on across the chunk's spheres.
-                let pc = particle_contacts(list, i, x, radii, side, lanes, (s.force, s.virial));
+                let pc = spheres.contacts(i, lanes, (s.force, s.virial));
                 s.force = pc.overlap_sum;
                 s.virial = pc.virial;
                 s.contacts += u64::from(pc.contacts);
@@ -740,7 +767,7 @@ fn fire_jam_in_pool(
     on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
     let n = x.len();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     let cutoff = 2.0 * r_max + JAM_SKIN;
     if cutoff >= 0.49 * *side {
         return Err(cell_too_small(n, *side));

@@ -4,7 +4,7 @@
 //! sums of the force-balance test and the pressure.
 //!
 //! The sums are taken over each sphere's neighbours in list order (ascending index), so
-//! they are the same bits on any thread count. The AVX2 path ([`particle_contacts`], when
+//! they are the same bits on any thread count. The AVX2 path ([`Spheres::contacts`], when
 //! the CPU has it) computes four neighbours' branch vectors, distances (one packed square
 //! root) and contact normals (packed divisions) at once — the divider is the bottleneck of
 //! the scalar loop — and then adds the four contributions to the sums one by one in list
@@ -248,165 +248,161 @@ impl ParticleContacts {
     }
 }
 
-/// Whether [`particle_contacts`] may take the AVX2 path (checked once per force pass).
+/// What a force pass reads: the Verlet list, the positions and radii (units of R̄) and the
+/// side of the periodic cube.
+#[derive(Clone, Copy)]
+pub(super) struct Spheres<'a> {
+    pub list: &'a ScaledVerletList,
+    pub x: &'a [Vec3],
+    pub radii: &'a [f64],
+    pub side: f64,
+}
+
+/// Whether [`Spheres::contacts`] may take the AVX2 path (checked once per force pass).
 pub(super) fn lanes_available() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
 }
 
-/// Contact sums of sphere i (cube of side `side`), on the AVX2 lanes when `lanes` (from
-/// [`lanes_available`]), else scalar; both give the same bits. The overlap and virial sums
-/// continue from `sums` (so that a caller can run them across many spheres in one chain);
-/// the force, contact count and worst gap start afresh.
-#[inline(always)]
-pub(super) fn particle_contacts(
-    list: &ScaledVerletList,
-    i: usize,
-    x: &[Vec3],
-    radii: &[f64],
-    side: f64,
-    lanes: bool,
-    sums: (f64, f64),
-) -> ParticleContacts {
-    let start = ParticleContacts {
-        overlap_sum: sums.0,
-        virial: sums.1,
-        ..Default::default()
-    };
-    if lanes {
-        // SAFETY: `lanes` comes from `lanes_available`, so the CPU supports AVX2.
-        unsafe { particle_contacts_avx2(list, i, x, radii, side, start) }
-    } else {
-        particle_contacts_scalar(list, i, x, radii, side, start)
-    }
-}
-
-/// The scalar reference of [`particle_contacts`].
-fn particle_contacts_scalar(
-    list: &ScaledVerletList,
-    i: usize,
-    x: &[Vec3],
-    radii: &[f64],
-    side: f64,
-    start: ParticleContacts,
-) -> ParticleContacts {
-    let ri = radii[i];
-    let mut c = start;
-    list.for_each_neighbour(i, x, side, |j, l| {
-        let dist = l.norm_squared().sqrt();
-        c.add(i, j, l, dist, ri + radii[j]);
-    });
-    c
-}
-
-/// [`particle_contacts`] four neighbours at a time: the neighbours' positions and radii
-/// packed into lanes, then the branch vectors (x_j + image·L − x_i; image 0 adds exact zeros),
-/// |l|² (as nalgebra's `(x² + y²) + z²`), |l|, the gap, the overlap, n = l/|l| and −n·δ
-/// for four lanes in packed AVX2 arithmetic (every lane the scalar operations, in the same
-/// order), then the four contributions added to the running sums one by one in list order
-/// (a 4×4 transpose makes (F_x, F_y, F_z, δ) of one neighbour one packed add). Padding
-/// lanes add exact zeros: no sum here is ever −0, so x + (±0) = x bit for bit. A group
-/// with coincident centres (|l| = 0) takes the scalar path.
-#[target_feature(enable = "avx2")]
-unsafe fn particle_contacts_avx2(
-    list: &ScaledVerletList,
-    i: usize,
-    x: &[Vec3],
-    radii: &[f64],
-    side: f64,
-    start: ParticleContacts,
-) -> ParticleContacts {
-    use std::arch::x86_64::*;
-    let xi = x[i];
-    let ri = radii[i];
-    let (begin, end) = (list.start[i] as usize, list.start[i + 1] as usize);
-    let entries = &list.j[begin..end];
-    let (xi_x, xi_y, xi_z) = (
-        _mm256_set1_pd(xi.x),
-        _mm256_set1_pd(xi.y),
-        _mm256_set1_pd(xi.z),
-    );
-    let ri_v = _mm256_set1_pd(ri);
-    let side_v = _mm256_set1_pd(side);
-    let zero = _mm256_setzero_pd();
-    let sign = _mm256_set1_pd(-0.0);
-    let image_bits = _mm_set1_epi32(!INDEX_MASK as i32);
-    let mut worst = _mm256_set1_pd(f64::NEG_INFINITY);
-    // (F_x, F_y, F_z, Σδ), lane by lane the scalar chains.
-    let mut acc = _mm256_set_pd(start.overlap_sum, 0.0, 0.0, 0.0);
-    let mut c = start;
-    for group in entries.chunks_exact(LANES) {
-        // SAFETY: `group` holds LANES entries (the list is padded to whole groups).
-        let e = unsafe { _mm_loadu_si128(group.as_ptr() as *const __m128i) };
-        // Scalar loads and packing beat the AVX2 gathers here (measured).
-        let k = [0, 1, 2, 3].map(|lane| (group[lane] & INDEX_MASK) as usize);
-        let (a0, a1, a2, a3) = (x[k[0]], x[k[1]], x[k[2]], x[k[3]]);
-        let mut px = _mm256_set_pd(a3.x, a2.x, a1.x, a0.x);
-        let mut py = _mm256_set_pd(a3.y, a2.y, a1.y, a0.y);
-        let mut pz = _mm256_set_pd(a3.z, a2.z, a1.z, a0.z);
-        let rj = _mm256_set_pd(radii[k[3]], radii[k[2]], radii[k[1]], radii[k[0]]);
-        if _mm_testz_si128(e, image_bits) == 0 {
-            let ix = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(_mm_slli_epi32::<4>(e)));
-            let iy = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(_mm_slli_epi32::<2>(e)));
-            let iz = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(e));
-            px = _mm256_add_pd(px, _mm256_mul_pd(ix, side_v));
-            py = _mm256_add_pd(py, _mm256_mul_pd(iy, side_v));
-            pz = _mm256_add_pd(pz, _mm256_mul_pd(iz, side_v));
+impl Spheres<'_> {
+    /// Contact sums of sphere i (cube of side `side`), on the AVX2 lanes when `lanes` (from
+    /// [`lanes_available`]), else scalar; both give the same bits. The overlap and virial sums
+    /// continue from `sums` (so that a caller can run them across many spheres in one chain);
+    /// the force, contact count and worst gap start afresh.
+    #[inline(always)]
+    pub(super) fn contacts(&self, i: usize, lanes: bool, sums: (f64, f64)) -> ParticleContacts {
+        let start = ParticleContacts {
+            overlap_sum: sums.0,
+            virial: sums.1,
+            ..Default::default()
+        };
+        if lanes {
+            // SAFETY: `lanes` comes from `lanes_available`, so the CPU supports AVX2.
+            unsafe { self.contacts_avx2(i, start) }
+        } else {
+            self.contacts_scalar(i, start)
         }
-        let lx = _mm256_sub_pd(px, xi_x);
-        let ly = _mm256_sub_pd(py, xi_y);
-        let lz = _mm256_sub_pd(pz, xi_z);
-        let d2 = _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(lx, lx), _mm256_mul_pd(ly, ly)),
-            _mm256_mul_pd(lz, lz),
+    }
+
+    /// The scalar reference of [`Self::contacts`].
+    fn contacts_scalar(&self, i: usize, start: ParticleContacts) -> ParticleContacts {
+        let ri = self.radii[i];
+        let mut c = start;
+        self.list.for_each_neighbour(i, self.x, self.side, |j, l| {
+            let dist = l.norm_squared().sqrt();
+            c.add(i, j, l, dist, ri + self.radii[j]);
+        });
+        c
+    }
+
+    /// [`Self::contacts`] four neighbours at a time: the neighbours' positions and radii
+    /// packed into lanes, then the branch vectors (x_j + image·L − x_i; image 0 adds exact zeros),
+    /// |l|² (as nalgebra's `(x² + y²) + z²`), |l|, the gap, the overlap, n = l/|l| and −n·δ
+    /// for four lanes in packed AVX2 arithmetic (every lane the scalar operations, in the same
+    /// order), then the four contributions added to the running sums one by one in list order
+    /// (a 4×4 transpose makes (F_x, F_y, F_z, δ) of one neighbour one packed add). Padding
+    /// lanes add exact zeros: no sum here is ever −0, so x + (±0) = x bit for bit. A group
+    /// with coincident centres (|l| = 0) takes the scalar path.
+    #[target_feature(enable = "avx2")]
+    unsafe fn contacts_avx2(&self, i: usize, start: ParticleContacts) -> ParticleContacts {
+        use std::arch::x86_64::*;
+        let Spheres {
+            list,
+            x,
+            radii,
+            side,
+        } = *self;
+        let xi = x[i];
+        let ri = radii[i];
+        let (begin, end) = (list.start[i] as usize, list.start[i + 1] as usize);
+        let entries = &list.j[begin..end];
+        let (xi_x, xi_y, xi_z) = (
+            _mm256_set1_pd(xi.x),
+            _mm256_set1_pd(xi.y),
+            _mm256_set1_pd(xi.z),
         );
-        let dist = _mm256_sqrt_pd(d2);
-        if _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(dist, zero)) != 0b1111 {
-            // Coincident centres (or a NaN): this group on the scalar path.
-            let mut f = [0.0; LANES];
-            _mm256_storeu_pd(f.as_mut_ptr(), acc);
-            c.force = Vec3::new(f[0], f[1], f[2]);
-            c.overlap_sum = f[3];
-            for_each_entry(group, xi, x, side, &mut |j, l| {
-                c.add(i, j, l, l.norm_squared().sqrt(), ri + radii[j]);
-            });
-            acc = _mm256_set_pd(c.overlap_sum, c.force.z, c.force.y, c.force.x);
-            continue;
+        let ri_v = _mm256_set1_pd(ri);
+        let side_v = _mm256_set1_pd(side);
+        let zero = _mm256_setzero_pd();
+        let sign = _mm256_set1_pd(-0.0);
+        let image_bits = _mm_set1_epi32(!INDEX_MASK as i32);
+        let mut worst = _mm256_set1_pd(f64::NEG_INFINITY);
+        // (F_x, F_y, F_z, Σδ), lane by lane the scalar chains.
+        let mut acc = _mm256_set_pd(start.overlap_sum, 0.0, 0.0, 0.0);
+        let mut c = start;
+        for group in entries.chunks_exact(LANES) {
+            // SAFETY: `group` holds LANES entries (the list is padded to whole groups).
+            let e = unsafe { _mm_loadu_si128(group.as_ptr() as *const __m128i) };
+            // Scalar loads and packing beat the AVX2 gathers here (measured).
+            let k = [0, 1, 2, 3].map(|lane| (group[lane] & INDEX_MASK) as usize);
+            let (a0, a1, a2, a3) = (x[k[0]], x[k[1]], x[k[2]], x[k[3]]);
+            let mut px = _mm256_set_pd(a3.x, a2.x, a1.x, a0.x);
+            let mut py = _mm256_set_pd(a3.y, a2.y, a1.y, a0.y);
+            let mut pz = _mm256_set_pd(a3.z, a2.z, a1.z, a0.z);
+            let rj = _mm256_set_pd(radii[k[3]], radii[k[2]], radii[k[1]], radii[k[0]]);
+            if _mm_testz_si128(e, image_bits) == 0 {
+                let ix = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(_mm_slli_epi32::<4>(e)));
+                let iy = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(_mm_slli_epi32::<2>(e)));
+                let iz = _mm256_cvtepi32_pd(_mm_srai_epi32::<30>(e));
+                px = _mm256_add_pd(px, _mm256_mul_pd(ix, side_v));
+                py = _mm256_add_pd(py, _mm256_mul_pd(iy, side_v));
+                pz = _mm256_add_pd(pz, _mm256_mul_pd(iz, side_v));
+            }
+            let lx = _mm256_sub_pd(px, xi_x);
+            let ly = _mm256_sub_pd(py, xi_y);
+            let lz = _mm256_sub_pd(pz, xi_z);
+            let d2 = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(lx, lx), _mm256_mul_pd(ly, ly)),
+                _mm256_mul_pd(lz, lz),
+            );
+            let dist = _mm256_sqrt_pd(d2);
+            if _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(dist, zero)) != 0b1111 {
+                // Coincident centres (or a NaN): this group on the scalar path.
+                let mut f = [0.0; LANES];
+                _mm256_storeu_pd(f.as_mut_ptr(), acc);
+                c.force = Vec3::new(f[0], f[1], f[2]);
+                c.overlap_sum = f[3];
+                for_each_entry(group, xi, x, side, &mut |j, l| {
+                    c.add(i, j, l, l.norm_squared().sqrt(), ri + radii[j]);
+                });
+                acc = _mm256_set_pd(c.overlap_sum, c.force.z, c.force.y, c.force.x);
+                continue;
+            }
+            let gap = _mm256_sub_pd(_mm256_add_pd(ri_v, rj), dist);
+            // max(new, acc) returns acc for a NaN gap, as f64::max ignores NaN.
+            worst = _mm256_max_pd(gap, worst);
+            let ov = _mm256_max_pd(gap, zero);
+            let fx = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(lx, dist), ov), sign);
+            let fy = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(ly, dist), ov), sign);
+            let fz = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(lz, dist), ov), sign);
+            let vir = _mm256_mul_pd(ov, dist);
+            c.contacts += _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(ov, zero)).count_ones();
+            // Transpose to one (F_x, F_y, F_z, δ) per neighbour and add them in list order.
+            let a = _mm256_unpacklo_pd(fx, fy);
+            let b = _mm256_unpackhi_pd(fx, fy);
+            let cz = _mm256_unpacklo_pd(fz, ov);
+            let d = _mm256_unpackhi_pd(fz, ov);
+            acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x20>(a, cz));
+            acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x20>(b, d));
+            acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x31>(a, cz));
+            acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x31>(b, d));
+            let lo = _mm256_castpd256_pd128(vir);
+            let hi = _mm256_extractf128_pd::<1>(vir);
+            c.virial += _mm_cvtsd_f64(lo);
+            c.virial += _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo));
+            c.virial += _mm_cvtsd_f64(hi);
+            c.virial += _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
         }
-        let gap = _mm256_sub_pd(_mm256_add_pd(ri_v, rj), dist);
-        // max(new, acc) returns acc for a NaN gap, as f64::max ignores NaN.
-        worst = _mm256_max_pd(gap, worst);
-        let ov = _mm256_max_pd(gap, zero);
-        let fx = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(lx, dist), ov), sign);
-        let fy = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(ly, dist), ov), sign);
-        let fz = _mm256_xor_pd(_mm256_mul_pd(_mm256_div_pd(lz, dist), ov), sign);
-        let vir = _mm256_mul_pd(ov, dist);
-        c.contacts += _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(ov, zero)).count_ones();
-        // Transpose to one (F_x, F_y, F_z, δ) per neighbour and add them in list order.
-        let a = _mm256_unpacklo_pd(fx, fy);
-        let b = _mm256_unpackhi_pd(fx, fy);
-        let cz = _mm256_unpacklo_pd(fz, ov);
-        let d = _mm256_unpackhi_pd(fz, ov);
-        acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x20>(a, cz));
-        acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x20>(b, d));
-        acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x31>(a, cz));
-        acc = _mm256_add_pd(acc, _mm256_permute2f128_pd::<0x31>(b, d));
-        let lo = _mm256_castpd256_pd128(vir);
-        let hi = _mm256_extractf128_pd::<1>(vir);
-        c.virial += _mm_cvtsd_f64(lo);
-        c.virial += _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo));
-        c.virial += _mm_cvtsd_f64(hi);
-        c.virial += _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
+        let mut f = [0.0; LANES];
+        _mm256_storeu_pd(f.as_mut_ptr(), acc);
+        c.force = Vec3::new(f[0], f[1], f[2]);
+        c.overlap_sum = f[3];
+        let mut w = [0.0; LANES];
+        _mm256_storeu_pd(w.as_mut_ptr(), worst);
+        for lane_worst in w {
+            c.worst = c.worst.max(lane_worst);
+        }
+        c
     }
-    let mut f = [0.0; LANES];
-    _mm256_storeu_pd(f.as_mut_ptr(), acc);
-    c.force = Vec3::new(f[0], f[1], f[2]);
-    c.overlap_sum = f[3];
-    let mut w = [0.0; LANES];
-    _mm256_storeu_pd(w.as_mut_ptr(), worst);
-    for lane_worst in w {
-        c.worst = c.worst.max(lane_worst);
-    }
-    c
 }
 
 #[cfg(test)]
@@ -449,8 +445,14 @@ mod tests {
                 virial: 0.5,
                 ..Default::default()
             };
-            let a = particle_contacts_scalar(&list, i, &x, &radii, scaled, start);
-            let b = particle_contacts(&list, i, &x, &radii, scaled, true, (0.125 * i as f64, 0.5));
+            let spheres = Spheres {
+                list: &list,
+                x: &x,
+                radii: &radii,
+                side: scaled,
+            };
+            let a = spheres.contacts_scalar(i, start);
+            let b = spheres.contacts(i, true, (0.125 * i as f64, 0.5));
             touching += a.contacts;
             for k in 0..3 {
                 assert_eq!(a.force[k].to_bits(), b.force[k].to_bits(), "sphere {i}");

@@ -29,14 +29,13 @@
 
 pub use super::generate::ForceBalance;
 use super::generate::{
-    check_radii, draw_radii, fire_jam_at_pressure, fire_relax, spatial_order, Polydispersity,
-    PressureOutcome, PressureTarget, RelaxOutcome, RelaxTarget,
+    check_radii, fire_jam_at_pressure, fire_relax, largest_radius, seeded_radii, solid_volume_of,
+    spatial_order, Polydispersity, PressureOutcome, PressureTarget, RelaxOutcome, RelaxTarget,
 };
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use std::f64::consts::PI;
 
 /// Relative half width of Kumar 2016's "nearly monomodal" radii, R̄ ± 5 % (Sec. 3).
 pub const KUMAR_2016_HALF_WIDTH: f64 = 0.05;
@@ -280,7 +279,7 @@ fn random_sequential_addition(
     rng: &mut ChaCha8Rng,
     max_attempts: usize,
 ) -> Result<Vec<Vec3>> {
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     let dims = ((side / (2.0 * r_max)).floor() as usize).max(1);
     let width = side / dims as f64;
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
@@ -357,7 +356,7 @@ fn scale_affinely(x: &mut [Vec3], side: &mut f64, s: f64) {
 /// (spheres with fewer than 4 contacts) of a configuration in R̄ units.
 fn contact_statistics(x: &[Vec3], radii: &[f64], side: f64) -> Result<(f64, usize)> {
     let cell = PeriodicCell::new(Vec3::repeat(side))?;
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(radii);
     let pairs =
         super::neighbours::pairs_in(x, radii, Some(&cell), 2.0 * r_max, |ri, rj, d| d <= ri + rj)?;
     let mut degree = vec![0u32; x.len()];
@@ -388,12 +387,11 @@ pub fn prepare_with_status(
 ) -> Result<(Packing, RouteReport)> {
     check_options(opts)?;
     let n = opts.n_particles;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let radii = draw_radii(n, opts.polydispersity, &mut rng);
-    let solid_volume: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r * r * r).sum();
+    let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
+    let solid_volume = solid_volume_of(&radii);
     let phi_of = |side: f64| solid_volume / (side * side * side);
     let side_of = |phi: f64| (solid_volume / phi).cbrt();
-    let r_max = radii.iter().copied().fold(0.0, f64::max);
+    let r_max = largest_radius(&radii);
     // The final cell must stay wider than 4.1 R_max for a unique minimum image.
     let smallest_side = side_of(opts.solid_fraction.max(0.66));
     if 0.49 * smallest_side - 2.0 * r_max < 0.05 {

@@ -204,25 +204,17 @@ fn json_to_py<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// Write to `path` atomically through an output set (a folder that exists, not a folder).
-fn write_file(
+/// Write a file or a directory atomically through an output set: `plan` stages `path`
+/// ([`OutputSet::file`]: a file in a folder that exists; [`OutputSet::dir`]: a directory),
+/// `write` fills the staging path, and only a successful write replaces `path` (nothing is
+/// left behind otherwise).
+fn write_staged(
     path: PathBuf,
+    plan: fn(&mut OutputSet, &std::path::Path) -> crate::Result<PathBuf>,
     write: impl FnOnce(&std::path::Path) -> crate::Result<()>,
 ) -> PyResult<()> {
     let mut out = OutputSet::new(&[]);
-    let staged = out.file(&path).map_err(to_py)?;
-    write(&staged).map_err(to_py)?;
-    out.commit().map_err(to_py)
-}
-
-/// Write a directory atomically through an output set: `write` fills a staging directory
-/// that replaces `path` only when it succeeded (nothing is left behind otherwise).
-fn write_dir(
-    path: PathBuf,
-    write: impl FnOnce(&std::path::Path) -> crate::Result<()>,
-) -> PyResult<()> {
-    let mut out = OutputSet::new(&[]);
-    let staged = out.dir(&path).map_err(to_py)?;
+    let staged = plan(&mut out, &path).map_err(to_py)?;
     write(&staged).map_err(to_py)?;
     out.commit().map_err(to_py)
 }
@@ -305,7 +297,9 @@ impl PyModel {
     /// Write the model file (TOML) atomically.
     fn save(&self, path: PathBuf) -> PyResult<()> {
         let text = self.inner.to_toml_string();
-        write_file(path, |p| crate::io::write_string_atomic(p, &text))
+        write_staged(path, OutputSet::file, |p| {
+            crate::io::write_string_atomic(p, &text)
+        })
     }
 
     /// The scheme kind: `cubic`, `isotropic` or `cross-anisotropic`.
@@ -314,7 +308,7 @@ impl PyModel {
         match self.inner.scheme {
             SchemeSpec::Cubic(_) => "cubic",
             SchemeSpec::Isotropic { .. } => "isotropic",
-            SchemeSpec::CrossAnisotropic { .. } => "cross-anisotropic",
+            SchemeSpec::CrossAnisotropic(_) => "cross-anisotropic",
         }
     }
 
@@ -473,7 +467,9 @@ impl PyPacking {
 
     /// Write the packing as anisobond's text format (`# periodic Lx Ly Lz`, `x y z r`).
     fn save(&self, path: PathBuf) -> PyResult<()> {
-        write_file(path, |p| crate::packing::io::write_packing(p, &self.inner))
+        write_staged(path, OutputSet::file, |p| {
+            crate::packing::io::write_packing(p, &self.inner)
+        })
     }
 
     /// Centres, shape (N, 3), m (wrapped into the cell when periodic).
@@ -539,43 +535,52 @@ pub struct PyAssembly {
     inner: Assembly,
 }
 
-fn lever_arm(name: &str) -> PyResult<LeverArm> {
-    match name {
-        "mid-gap" => Ok(LeverArm::MidGap),
-        "proportional" => Ok(LeverArm::Proportional),
-        "half-length" => Ok(LeverArm::HalfLength),
-        other => Err(InputError::new_err(format!(
-            "lever_arm `{other}`: expected 'mid-gap', 'proportional' or 'half-length'"
-        ))),
+/// The value `name` stands for among `choices` (the strings keyword argument `key` takes),
+/// or an error listing them all: "key `name`: expected 'a', 'b' or 'c'".
+fn one_of<T: Clone>(key: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T> {
+    if let Some((_, value)) = choices.iter().find(|(n, _)| *n == name) {
+        return Ok(value.clone());
     }
+    let quoted: Vec<String> = choices.iter().map(|(n, _)| format!("'{n}'")).collect();
+    let expected = match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => "nothing".into(),
+    };
+    Err(InputError::new_err(format!(
+        "{key} `{name}`: expected {expected}"
+    )))
 }
 
-fn relaxed_solver(name: &str) -> PyResult<RelaxedSolver> {
-    match name {
-        "cg" => Ok(RelaxedSolver::default()),
-        "cg-jacobi" => Ok(RelaxedSolver::Cg {
-            preconditioner: CgPreconditioner::BlockJacobi,
-        }),
-        "cholesky" => Ok(RelaxedSolver::Cholesky),
-        other => Err(InputError::new_err(format!(
-            "solver `{other}`: expected 'cg', 'cg-jacobi' or 'cholesky'"
-        ))),
-    }
+/// The lever arms of the relaxed and LAF methods (`lever_arm=`).
+const LEVER_ARMS: [(&str, LeverArm); 3] = [
+    ("mid-gap", LeverArm::MidGap),
+    ("proportional", LeverArm::Proportional),
+    ("half-length", LeverArm::HalfLength),
+];
+
+/// The solvers of the relaxed method (`solver=`; "cg" is the default, two-level CG).
+fn relaxed_solvers() -> [(&'static str, RelaxedSolver); 3] {
+    [
+        ("cg", RelaxedSolver::default()),
+        (
+            "cg-jacobi",
+            RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::BlockJacobi,
+            },
+        ),
+        ("cholesky", RelaxedSolver::Cholesky),
+    ]
 }
 
-fn law_kind(name: &str) -> PyResult<LawKind> {
-    match name {
-        "yade" => Ok(LawKind::Yade),
-        "parallel-bond" => Ok(LawKind::ParallelBond),
-        "kumar" => Ok(LawKind::Kumar),
-        "lammps-bpm" => Ok(LawKind::LammpsBpm),
-        other => Err(InputError::new_err(format!(
-            "law `{other}`: expected 'yade', 'parallel-bond', 'kumar' or 'lammps-bpm'"
-        ))),
-    }
-}
+/// The bond laws of the dynamic method (`law=`).
+const LAWS: [(&str, LawKind); 4] = [
+    ("yade", LawKind::Yade),
+    ("parallel-bond", LawKind::ParallelBond),
+    ("kumar", LawKind::Kumar),
+    ("lammps-bpm", LawKind::LammpsBpm),
+];
 
-/// The options of [`PyAssembly::tensor`] that choose and tune the method.
 /// The options of `Assembly.tensor` / `tensor_report` (keyword arguments; defaults as the
 /// CLI's `tensor`): one parser for both methods.
 struct MethodArgs {
@@ -659,9 +664,9 @@ impl MethodArgs {
             "voigt" => Method::Voigt,
             "relaxed" | "prestressed" => {
                 let opts = RelaxedOptions {
-                    lever_arm: lever_arm(&self.lever_arm)?,
+                    lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
                     tolerance: self.tolerance,
-                    solver: relaxed_solver(&self.solver)?,
+                    solver: one_of("solver", &self.solver, &relaxed_solvers())?,
                     ..Default::default()
                 };
                 opts.validate().map_err(to_py)?;
@@ -677,7 +682,7 @@ impl MethodArgs {
             "laf" => Method::Laf {
                 shell: self.shell,
                 energy: self.energy,
-                lever_arm: lever_arm(&self.lever_arm)?,
+                lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
             },
             "dynamic" => {
                 let mut options = ElementTestOptions {
@@ -688,7 +693,7 @@ impl MethodArgs {
                 };
                 options.dem.local_damping = self.damping;
                 Method::Dynamic {
-                    law: law_kind(&self.law)?,
+                    law: one_of("law", &self.law, &LAWS)?,
                     options,
                 }
             }
@@ -904,7 +909,7 @@ impl PyAssembly {
 
     /// Write the bond table (CSV, docs/formats.md) to `path` atomically.
     fn write_bonds(&self, path: PathBuf) -> PyResult<()> {
-        write_file(path, |p| self.inner.write_bonds(p))
+        write_staged(path, OutputSet::file, |p| self.inner.write_bonds(p))
     }
 
     /// Write a directory YADE 2023.02a runs as it is (`yade -n -x DIR/run.py`), as
@@ -936,7 +941,7 @@ impl PyAssembly {
         };
         opts.validate().map_err(to_py)?;
         let a = &self.inner;
-        write_dir(directory, |d| {
+        write_staged(directory, OutputSet::dir, |d| {
             write_assembly_export(d, a, &opts).map(|_| ())
         })
     }
@@ -951,7 +956,7 @@ impl PyAssembly {
             ..Default::default()
         };
         let a = &self.inner;
-        write_dir(directory, |d| {
+        write_staged(directory, OutputSet::dir, |d| {
             export_liggghts(d, &a.packing, &a.bonds, &a.springs, &opts).map(|_| ())
         })
     }
@@ -974,7 +979,7 @@ impl PyAssembly {
             _ => None,
         };
         let a = &self.inner;
-        write_dir(directory, |d| {
+        write_staged(directory, OutputSet::dir, |d| {
             py.detach(|| a.write_vtk(d, strain.as_ref())).map(|_| ())
         })
     }

@@ -213,20 +213,6 @@ pub struct CubicSpheroid {
 }
 
 impl CubicSpheroid {
-    /// This scheme as [`Self::new`] checks it (a model file's cubic scheme is read into the
-    /// struct and checked when its springs are first needed).
-    pub fn checked(&self) -> Result<Self> {
-        Self::new(
-            self.model,
-            self.extended,
-            self.a_n,
-            self.a_s,
-            self.normal,
-            self.shear,
-            self.rotation,
-        )
-    }
-
     /// A checked scheme: aspect ratios finite and > 0, magnitudes finite and ≥ 0, `rotation`
     /// a proper rotation (|RᵀR − I| ≤ 1e-9, det > 0; see [`orthonormalize_rotation`] for a
     /// printed matrix), and neither stiffness negative anywhere on the sphere.
@@ -239,40 +225,56 @@ impl CubicSpheroid {
         shear: f64,
         rotation: Mat3,
     ) -> Result<Self> {
-        let scheme = Self::new_unchecked(model, extended, a_n, a_s, normal, shear, rotation)?;
-        let name = scheme.name();
-        let (min_n, dir_n) = scheme.min_normal_factor();
-        if normal > 0.0 && min_n < 0.0 {
-            return Err(Error::Model(format!(
-                "{name} with a_n = {a_n} has negative normal stiffness: the normal factor \
-                 reaches {min_n:.6} along crystal direction {} (it must be ≥ 0 on the whole \
-                 sphere; choose a_n closer to 1)",
-                fmt_dir(&dir_n)
-            )));
+        CubicSpheroid {
+            model,
+            extended,
+            a_n,
+            a_s,
+            normal,
+            shear,
+            rotation,
         }
-        let (min_s, dir_s) = scheme.min_shear_factor();
-        if shear > 0.0 && min_s < 0.0 {
-            return Err(Error::Model(format!(
-                "{name} with a_s = {a_s} has negative shear stiffness: the shear factor \
-                 reaches {min_s:.6} along crystal direction {} (it must be ≥ 0 on the whole \
-                 sphere; choose a_s closer to 1)",
-                fmt_dir(&dir_s)
-            )));
+        .checked()
+    }
+
+    /// This scheme as [`Self::new`] checks it (a model file's cubic scheme is read into the
+    /// struct and checked when its springs are first needed).
+    pub fn checked(&self) -> Result<Self> {
+        let scheme = self.parameters_checked()?;
+        let name = scheme.name();
+        for (stiffness, label, a, magnitude, (min, dir)) in [
+            (
+                "normal",
+                "a_n",
+                self.a_n,
+                self.normal,
+                scheme.min_normal_factor(),
+            ),
+            (
+                "shear",
+                "a_s",
+                self.a_s,
+                self.shear,
+                scheme.min_shear_factor(),
+            ),
+        ] {
+            if magnitude > 0.0 && min < 0.0 {
+                return Err(Error::Model(format!(
+                    "{name} with {label} = {a} has negative {stiffness} stiffness: the \
+                     {stiffness} factor reaches {min:.6} along crystal direction {} (it must \
+                     be ≥ 0 on the whole sphere; choose {label} closer to 1)",
+                    fmt_dir(&dir)
+                )));
+            }
         }
         Ok(scheme)
     }
 
-    /// As [`Self::new`] without the negativity check (mean-field studies of the extended
-    /// model); the parameter checks still apply.
-    pub fn new_unchecked(
-        model: CubicModel,
-        extended: bool,
-        a_n: f64,
-        a_s: f64,
-        normal: f64,
-        shear: f64,
-        rotation: Mat3,
-    ) -> Result<Self> {
+    /// As [`Self::checked`] without the negativity check (mean-field studies of the extended
+    /// model): only the aspect ratios, magnitudes and rotation are checked.
+    pub fn parameters_checked(&self) -> Result<Self> {
+        let (a_n, a_s, normal, shear, rotation) =
+            (self.a_n, self.a_s, self.normal, self.shear, &self.rotation);
         for (label, a) in [("a_n", a_n), ("a_s", a_s)] {
             if !a.is_finite() || a <= 0.0 {
                 return Err(Error::Model(format!(
@@ -287,21 +289,13 @@ impl CubicSpheroid {
                 )));
             }
         }
-        check_rotation(&rotation, ROTATION_TOLERANCE).map_err(|why| {
+        check_rotation(rotation, ROTATION_TOLERANCE).map_err(|why| {
             Error::Model(format!(
                 "cubic scheme: rotation is not a proper rotation matrix: {why} \
                  (re-orthonormalise a printed matrix with orthonormalize_rotation)"
             ))
         })?;
-        Ok(CubicSpheroid {
-            model,
-            extended,
-            a_n,
-            a_s,
-            normal,
-            shear,
-            rotation,
-        })
+        Ok(self.clone())
     }
 
     /// (f_n, f_s) at crystal-frame unit `m` (Truszkowska 2018, Eqs. 8–15; Sec. 6.1 when

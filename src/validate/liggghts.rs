@@ -39,8 +39,8 @@ use crate::dem::laws::{LinearBondKernel, MomentForm};
 use crate::dem::quat::Quat;
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
-    columns_from_cases, export_liggghts, read_stress_history, run_liggghts, stable_timestep,
-    stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
+    columns_from_cases, export_liggghts, harmonic_setup, num, read_stress_history, run_liggghts,
+    stable_timestep, stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
 };
 use crate::history::Settling;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
@@ -276,11 +276,6 @@ pub fn initial_motion(packing: &Packing, dt: f64, o: &ValidateOptions) -> (Vec<V
     (v, w)
 }
 
-/// Shortest round-trip text of a number.
-fn num(v: f64) -> String {
-    ryu::Buffer::new().format(v).to_string()
-}
-
 /// Which program an undamped deck is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum UndampedDeck {
@@ -337,13 +332,7 @@ pub fn write_undamped_deck(
             let _ = writeln!(s, "pair_style anisobond table bonds.csv\npair_coeff * *");
         }
         UndampedDeck::Harmonic => {
-            let _ = writeln!(s, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
-            let _ = writeln!(
-                s,
-                "communicate single vel yes cutoff {}",
-                num(1.1 * max_bond_length)
-            );
-            let _ = writeln!(s, "bond_style harmonic\nread_data {data_out}");
+            harmonic_setup(&mut s, data_out, max_bond_length);
         }
     }
     let _ = writeln!(s, "neighbor {} bin\nneigh_modify delay 0", num(skin));
@@ -546,34 +535,41 @@ fn liggghts_runs(
         1,
     )?;
 
-    let ddir = dir.join("element_driver_np1");
-    let sum = export_liggghts(&ddir, packing, bonds, k, &deck(o.damping, true))?;
-    let driver_element = timed(
-        &mut timings,
-        "element_driver_np1 (six damped cases)",
-        || {
-            run_liggghts(&launch(&programs.driver, 1), &ddir, "anisobond.in")?;
-            read_stress_history(&ddir.join("stress_history.txt"))
-        },
+    // A damped element test: its deck exported into dir/`sub`, `deck_file` run by `program`
+    // on `np` processes (timed, with the number of load cases), and the stress history.
+    let mut element = |sub: &str,
+                       cases: &str,
+                       deck_options: &DeckOptions,
+                       program: &Path,
+                       np: usize,
+                       deck_file: &str| {
+        let d = dir.join(sub);
+        let summary = export_liggghts(&d, packing, bonds, k, deck_options)?;
+        let stage = format!("{sub} ({cases} damped cases)");
+        let history = timed(&mut timings, &stage, || {
+            run_liggghts(&launch(program, np), &d, deck_file)?;
+            read_stress_history(&d.join("stress_history.txt"))
+        })?;
+        Ok::<_, Error>((summary, history))
+    };
+    let (sum, driver_element) = element(
+        "element_driver_np1",
+        "six",
+        &deck(o.damping, true),
+        &programs.driver,
+        1,
+        "anisobond.in",
     )?;
-    let hdir = dir.join("element_harmonic");
-    let hsum = export_liggghts(
-        &hdir,
-        packing,
-        bonds,
-        k,
+    let (hsum, hh) = element(
+        "element_harmonic",
+        "three",
         &DeckOptions {
             relax_steps: o.harmonic_relax_steps,
             ..deck(o.harmonic_damping, false)
         },
-    )?;
-    let hh = timed(
-        &mut timings,
-        "element_harmonic (three damped cases)",
-        || {
-            run_liggghts(&launch(&programs.liggghts, 1), &hdir, "harmonic.in")?;
-            read_stress_history(&hdir.join("stress_history.txt"))
-        },
+        &programs.liggghts,
+        1,
+        "harmonic.in",
     )?;
     let harmonic_columns = columns_from_cases(&hh, &hsum.case_end_steps[..3])?;
     // The last fifth of each hold, twice: how fast the stock deck was still relaxing.
@@ -584,13 +580,14 @@ fn liggghts_runs(
         .collect();
     let driver_mpi_columns = if o.processes > 1 {
         let np = o.processes;
-        let sub = format!("element_driver_np{np}");
-        let d = dir.join(&sub);
-        let s = export_liggghts(&d, packing, bonds, k, &deck(o.damping, false))?;
-        let h = timed(&mut timings, &format!("{sub} (three damped cases)"), || {
-            run_liggghts(&launch(&programs.driver, np), &d, "anisobond.in")?;
-            read_stress_history(&d.join("stress_history.txt"))
-        })?;
+        let (s, h) = element(
+            &format!("element_driver_np{np}"),
+            "three",
+            &deck(o.damping, false),
+            &programs.driver,
+            np,
+            "anisobond.in",
+        )?;
         Some(columns_from_cases(&h, &s.case_end_steps)?)
     } else {
         None
@@ -808,17 +805,27 @@ pub fn validate_liggghts(
         compare("harmonic-history", &harmonic_rows, &rust.normal_springs).relative,
         o.history_tolerance,
     ));
+    // A comparison of the driver on -np N processes with its serial run (same tolerance for
+    // the undamped histories and the damped columns).
+    let mpi_check = |id: &str, what: String, serial: &[[f64; 6]], parallel: &[[f64; 6]]| {
+        Check::new(
+            id,
+            what,
+            compare(id, serial, parallel).relative,
+            o.mpi_tolerance,
+        )
+    };
     let mut driver_mpi_rows = Vec::new();
     if let Some(h2) = &lig.driver_undamped_mpi {
         driver_mpi_rows = rows_at(h2, &steps, "driver -np N undamped")?;
-        checks.push(Check::new(
+        checks.push(mpi_check(
             "mpi-history",
             format!(
                 "undamped stress history: driver -np 1 vs -np {}",
                 o.processes
             ),
-            compare("mpi-history", &driver_rows, &driver_mpi_rows).relative,
-            o.mpi_tolerance,
+            &driver_rows,
+            &driver_mpi_rows,
         ));
     }
 
@@ -864,14 +871,14 @@ pub fn validate_liggghts(
     let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
     if lig.driver_mpi_columns.is_some() {
         let serial_cols = columns_of(&driver_tensor, 3);
-        checks.push(Check::new(
+        checks.push(mpi_check(
             "mpi-columns",
             format!(
                 "damped normal load cases, columns 1–3: driver -np {} (orthogonal box) vs -np 1 (six cases, triclinic box)",
                 o.processes
             ),
-            compare("mpi-columns", &serial_cols, &driver_mpi_columns).relative,
-            o.mpi_tolerance,
+            &serial_cols,
+            &driver_mpi_columns,
         ));
     }
 
@@ -903,6 +910,17 @@ pub fn validate_liggghts(
             driver_element_history: lig.driver_element,
         },
     })
+}
+
+/// A CSV cell `,value` (`{:e}`), or an empty cell where a series has no value (a run that
+/// was not made, or a shorter history).
+fn push_cell(c: &mut String, value: Option<f64>) {
+    match value {
+        Some(v) => {
+            let _ = write!(c, ",{v:e}");
+        }
+        None => c.push(','),
+    }
 }
 
 /// Write `report.json` (everything), `checks.csv`, `undamped_history.csv` (Pa),
@@ -940,12 +958,7 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         let _ = write!(c, "{step},{t:e}");
         for (_, rows) in series {
             for k in 0..6 {
-                match rows.get(row) {
-                    Some(v) => {
-                        let _ = write!(c, ",{:e}", v[k]);
-                    }
-                    None => c.push(','),
-                }
+                push_cell(&mut c, rows.get(row).map(|v| v[k]));
             }
         }
         c.push('\n');
@@ -959,12 +972,7 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         for b in 0..6 {
             let _ = write!(c, "{name},{}", b + 1);
             for a in 0..6 {
-                match cols.get(a) {
-                    Some(col) => {
-                        let _ = write!(c, ",{:e}", col[b]);
-                    }
-                    None => c.push(','),
-                }
+                push_cell(&mut c, cols.get(a).map(|col| col[b]));
             }
             c.push('\n');
         }

@@ -691,50 +691,43 @@ pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRo
 /// paths written.
 pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let undamped = dir.join(outputs::UNDAMPED_CSV);
-    crate::io::write_string_atomic(
-        &undamped,
-        &side_by_side_csv(
-            &format!(
-                "undamped (damping 0), strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
-                v.options.strain, v.time_step, v.n_particles, v.n_bonds
-            ),
-            &v.undamped_yade,
-            &v.undamped_anisobond,
-        ),
-    )?;
-    let damped = dir.join(outputs::DAMPED_CSV);
-    crate::io::write_string_atomic(
-        &damped,
-        &side_by_side_csv(
-            &format!(
-                "damped (Cundall {}), strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
-                v.options.damping, v.options.strain, v.time_step, v.n_particles, v.n_bonds
-            ),
-            &v.damped_yade,
-            &v.damped_anisobond,
-        ),
-    )?;
-    let summary = dir.join(outputs::SUMMARY_JSON);
-    write_report_json(&summary, v)?;
-    let mut written = vec![undamped, damped, summary];
-    for (rows_y, rows_a, name, what) in [
+    // Both regimes: CSV name, plot name, what, the CSV's title line, YADE's and our rows.
+    let o = &v.options;
+    let regimes = [
         (
-            &v.undamped_yade,
-            &v.undamped_anisobond,
+            outputs::UNDAMPED_CSV,
             outputs::UNDAMPED_PNG,
             "undamped",
+            "undamped (damping 0)".to_string(),
+            &v.undamped_yade,
+            &v.undamped_anisobond,
         ),
         (
-            &v.damped_yade,
-            &v.damped_anisobond,
+            outputs::DAMPED_CSV,
             outputs::DAMPED_PNG,
             "damped",
+            format!("damped (Cundall {})", o.damping),
+            &v.damped_yade,
+            &v.damped_anisobond,
         ),
-    ] {
+    ];
+    let mut written = Vec::new();
+    for (csv, _, _, regime, rows_y, rows_a) in &regimes {
+        let path = dir.join(csv);
+        let title = format!(
+            "{regime}, strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
+            o.strain, v.time_step, v.n_particles, v.n_bonds
+        );
+        crate::io::write_string_atomic(&path, &side_by_side_csv(&title, rows_y, rows_a))?;
+        written.push(path);
+    }
+    let summary = dir.join(outputs::SUMMARY_JSON);
+    write_report_json(&summary, v)?;
+    written.push(summary);
+    for (_, png_name, what, _, rows_y, rows_a) in &regimes {
         let series = history_series(rows_y, rows_a);
         if !series.is_empty() {
-            let png = dir.join(name);
+            let png = dir.join(png_name);
             crate::plot::plot_series(
                 &png,
                 &series,

@@ -8,7 +8,7 @@ use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
 use anisobond::calibrate::cubic::{calibrate_cubic_relaxed, CubicOptions};
 use anisobond::calibrate::target::CubicTarget;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use anisobond::model::{Model, SchemeSpec};
+use anisobond::model::{CrossTarget, Model, SchemeSpec};
 use anisobond::packing::Packing;
 use anisobond::schemes::Convention;
 use anisobond::tensor::{CubicProjection, TransverseProjection};
@@ -106,13 +106,13 @@ fn cross_anisotropic_relaxed_tensor_hits_the_target() {
     // (exact, docs/references.md inverse) has healthy shear moduli: reachable after relaxation.
     let target = [130e6, 80e6, 20e6, 30e6];
     let mut base = Model::truszkowska_mrv();
-    base.scheme = SchemeSpec::CrossAnisotropic {
+    base.scheme = SchemeSpec::CrossAnisotropic(CrossTarget {
         c11: target[0],
         c33: target[1],
         c13: target[2],
         c12: target[3],
         axis: Vec3::z(),
-    };
+    });
     base.geometry.convention = Convention::Modulus;
     // Plain inversion: relaxed is soft (docs/references.md: 4–6 %).
     let plain = relaxed_of(&base, &p, &b);

@@ -389,15 +389,9 @@ fn check_model(m: &Model) -> Result<(), TestCaseError> {
             .into_iter()
             .chain(c.rotation.iter().copied())
             .collect(),
-        SchemeSpec::CrossAnisotropic {
-            c11,
-            c33,
-            c13,
-            c12,
-            axis,
-        } => [*c11, *c33, *c13, *c12]
+        SchemeSpec::CrossAnisotropic(t) => [t.c11, t.c33, t.c13, t.c12]
             .into_iter()
-            .chain(axis.iter().copied())
+            .chain(t.axis.iter().copied())
             .collect(),
         SchemeSpec::Isotropic { normal, shear } => vec![*normal, *shear],
     };

@@ -56,8 +56,8 @@ fn json_model_parses() {
     let m = Model::from_json_str(json, "m.json").unwrap();
     assert_eq!(m.bonding, BondingRule::Factor(1.8));
     match m.scheme {
-        SchemeSpec::CrossAnisotropic { axis, .. } => {
-            assert!((axis - anisobond::Vec3::z()).norm() < 1e-15)
+        SchemeSpec::CrossAnisotropic(t) => {
+            assert!((t.axis - anisobond::Vec3::z()).norm() < 1e-15)
         }
         _ => panic!(),
     }
@@ -383,16 +383,16 @@ fn written_models_of_every_kind_read_back_identically() {
             normal: 1e9,
             shear: 2.5e8,
         },
-        SchemeSpec::CrossAnisotropic {
+        SchemeSpec::CrossAnisotropic(anisobond::model::CrossTarget {
             c11: 130e6,
             c33: 55e6,
             c13: 28e6,
             c12: 40e6,
             axis: anisobond::Vec3::new(0.0, 0.6, 0.8),
-        },
+        }),
     ] {
         m.scheme = scheme;
-        if matches!(m.scheme, SchemeSpec::CrossAnisotropic { .. }) {
+        if matches!(m.scheme, SchemeSpec::CrossAnisotropic(_)) {
             m.geometry.convention = anisobond::schemes::Convention::Modulus;
         }
         let text = m.to_toml_string();

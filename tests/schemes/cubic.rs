@@ -42,7 +42,17 @@ fn all_models() -> Vec<(CubicModel, bool)> {
 }
 
 fn scheme(model: CubicModel, extended: bool, rotation: Mat3) -> CubicSpheroid {
-    CubicSpheroid::new_unchecked(model, extended, A_N, A_S, 1.0, 1.0, rotation).unwrap()
+    CubicSpheroid {
+        model,
+        extended,
+        a_n: A_N,
+        a_s: A_S,
+        normal: 1.0,
+        shear: 1.0,
+        rotation,
+    }
+    .parameters_checked()
+    .unwrap()
 }
 
 /// The 48 signed permutation matrices of O_h.
@@ -314,16 +324,17 @@ fn negative_shear_stiffness_is_refused() {
             .to_string();
         assert!(err.contains("negative shear stiffness"), "{err}");
         assert!(err.contains("a_s = 10"), "{err}");
-        // The unchecked constructor accepts it for mean-field studies.
-        assert!(CubicSpheroid::new_unchecked(
+        // Checking only the parameters accepts it for mean-field studies.
+        assert!(CubicSpheroid {
             model,
-            true,
-            A_N,
-            A_S,
-            1e13,
-            3.55e12,
-            Mat3::identity()
-        )
+            extended: true,
+            a_n: A_N,
+            a_s: A_S,
+            normal: 1e13,
+            shear: 3.55e12,
+            rotation: Mat3::identity(),
+        }
+        .parameters_checked()
         .is_ok());
         // Non-extended with the paper's parameters is fine.
         assert!(
@@ -351,7 +362,17 @@ fn bad_parameters_are_refused() {
         assert!(err.to_string().contains("aspect ratio"), "{err}");
     }
     for (kn, ks) in [(-1.0, 1.0), (1.0, f64::NAN), (f64::INFINITY, 1.0)] {
-        let err = CubicSpheroid::new_unchecked(m, false, 2.0, 2.0, kn, ks, id).unwrap_err();
+        let err = CubicSpheroid {
+            model: m,
+            extended: false,
+            a_n: 2.0,
+            a_s: 2.0,
+            normal: kn,
+            shear: ks,
+            rotation: id,
+        }
+        .parameters_checked()
+        .unwrap_err();
         assert!(err.to_string().contains("magnitude"), "{err}");
     }
     let skew = Mat3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
@@ -425,8 +446,17 @@ fn rotated_scheme_is_evaluated_at_r_n() {
             let (a, b) = (rotated.factors(&n), plain.factors(&(r * n)));
             assert!((a.0 - b.0).abs() < 1e-13 && (a.1 - b.1).abs() < 1e-13);
             // Magnitudes are the factors times the magnitudes, and even in n.
-            let s =
-                CubicSpheroid::new_unchecked(model, extended, A_N, A_S, 1e13, 3.55e12, r).unwrap();
+            let s = CubicSpheroid {
+                model,
+                extended,
+                a_n: A_N,
+                a_s: A_S,
+                normal: 1e13,
+                shear: 3.55e12,
+                rotation: r,
+            }
+            .parameters_checked()
+            .unwrap();
             let (m, mneg) = (s.magnitudes(&n), s.magnitudes(&-n));
             assert!((m.normal - 1e13 * a.0).abs() < 1e-2);
             assert!((m.shear - 3.55e12 * a.1).abs() < 1e-2);
@@ -569,9 +599,17 @@ fn minimum_search_beats_a_brute_force_grid() {
     }
     for (model, extended) in all_models() {
         for (a_n, a_s) in [(0.05, 0.3), (0.3, 40.0), (2.5, 0.02), (40.0, 1.7)] {
-            let s =
-                CubicSpheroid::new_unchecked(model, extended, a_n, a_s, 1.0, 1.0, Mat3::identity())
-                    .unwrap();
+            let s = CubicSpheroid {
+                model,
+                extended,
+                a_n,
+                a_s,
+                normal: 1.0,
+                shear: 1.0,
+                rotation: Mat3::identity(),
+            }
+            .parameters_checked()
+            .unwrap();
             let (min_n, min_s) = s.min_factors();
             let (mut grid_n, mut grid_s) = (f64::INFINITY, f64::INFINITY);
             for n in &directions {
