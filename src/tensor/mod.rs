@@ -27,6 +27,7 @@ pub mod fit;
 pub mod fourth;
 pub mod rotate;
 pub mod symmetry;
+pub mod waves;
 
 pub use compare::relative_difference;
 pub use elastic::{
@@ -43,3 +44,4 @@ pub use symmetry::{
     CubicProjection, CubicUncertainty, TransverseProjection, TransverseUncertainty,
     OFF_SYMMETRY_TERMS,
 };
+pub use waves::{acoustic_tensor, phase_velocities, PhaseVelocities, WaveMode};
