@@ -93,7 +93,7 @@ pub struct BlockCholesky {
     n: usize,
     symbolic: SymbolicCholesky<usize>,
     factor: Vec<f64>,
-    /// Node whose translations were fixed.
+    /// Node whose translations were fixed (`usize::MAX` for [`Self::factor_supported`]).
     pub pinned: usize,
     /// Stored entries of the upper triangle of the reduced matrix.
     pub matrix_nonzeros: usize,
@@ -103,6 +103,17 @@ impl BlockCholesky {
     /// Reduce, order (AMD) and factor `k`. Errors when no node can be pinned or when the
     /// reduced matrix is not positive definite (a global mechanism).
     pub fn factor(k: &BlockSparse) -> Result<BlockCholesky> {
+        Self::factor_with(k, true)
+    }
+
+    /// Reduce, order and factor `k` of a structure held by supports (e.g. clamped particles
+    /// already removed from `k`): no rigid translation to pin, only local mechanisms are
+    /// removed. A remaining global mechanism makes the factorisation fail (an error).
+    pub fn factor_supported(k: &BlockSparse) -> Result<BlockCholesky> {
+        Self::factor_with(k, false)
+    }
+
+    fn factor_with(k: &BlockSparse, pin: bool) -> Result<BlockCholesky> {
         let m = k.rows();
         if m == 0 {
             return Err(Error::Invalid("Cholesky: empty stiffness matrix".into()));
@@ -111,16 +122,21 @@ impl BlockCholesky {
             .into_par_iter()
             .map(|p| range_basis(&k.diagonal(p)))
             .collect();
-        let (pinned, pb) = (0..m)
-            .find_map(|p| pinned_basis(&basis[p]).map(|b| (p, b)))
-            .ok_or_else(|| {
-                Error::Invalid(
-                    "Cholesky: no particle is held in all three translations, so the rigid \
-                     translation cannot be removed; use the CG solver"
-                        .into(),
-                )
-            })?;
-        basis[pinned] = pb;
+        let pinned = if pin {
+            let (pinned, pb) = (0..m)
+                .find_map(|p| pinned_basis(&basis[p]).map(|b| (p, b)))
+                .ok_or_else(|| {
+                    Error::Invalid(
+                        "Cholesky: no particle is held in all three translations, so the rigid \
+                         translation cannot be removed; use the CG solver"
+                            .into(),
+                    )
+                })?;
+            basis[pinned] = pb;
+            pinned
+        } else {
+            usize::MAX
+        };
         let mut offset = vec![0usize; m + 1];
         for p in 0..m {
             offset[p + 1] = offset[p] + basis[p].1;

@@ -5,6 +5,7 @@
 //! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings;
 //! [`routes`] prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
 
+pub mod cut;
 mod fire;
 pub mod generate;
 pub mod io;

@@ -101,7 +101,7 @@ pub fn phase_velocities(c: &Stiffness6, density: f64, direction: &Vec3) -> Resul
     }; 3];
     for (slot, &k) in order.iter().enumerate() {
         let lam = eig.eigenvalues[k];
-        if !(lam > 1e-12 * scale) {
+        if lam.is_nan() || lam <= 1e-12 * scale {
             return Err(Error::Degenerate(format!(
                 "acoustic tensor along ({:.4}, {:.4}, {:.4}) has eigenvalue {lam:.4e} Pa ≤ 0: \
                  the stiffness is not positive definite, no real wave speed",
