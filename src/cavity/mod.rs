@@ -423,3 +423,23 @@ pub fn lame_wall_displacement(p: f64, a: f64, b: f64, lambda: f64, mu: f64) -> f
     let bb = p / (2.0 * (lambda + mu) / (b * b) + 2.0 * mu / (a * a));
     bb * (1.0 / a - a / (b * b))
 }
+
+/// The Lamé constants (λ, μ) of the isotropic projection of C by group means:
+/// λ = mean(C12, C13, C23), μ = mean(C44, C55, C66) (Pa); exact for an isotropic C.
+pub fn isotropic_lame_constants(c: &crate::tensor::Stiffness6) -> (f64, f64) {
+    (
+        (c[(0, 1)] + c[(0, 2)] + c[(1, 2)]) / 3.0,
+        (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]) / 3.0,
+    )
+}
+
+/// Bulk density of a packing of spheres of material density `material_density` (kg/m³):
+/// ρ_s·Σ(4/3)πR³/V (kg/m³), the density of the continuum its waves see.
+pub fn bulk_density(packing: &crate::packing::Packing, material_density: f64) -> f64 {
+    let solid: f64 = packing
+        .radii
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+        .sum();
+    material_density * solid / packing.volume()
+}

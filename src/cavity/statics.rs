@@ -118,3 +118,45 @@ impl Cavity {
         })
     }
 }
+
+impl StaticCavity {
+    /// Write one CSV row per sphere of the cut: `id,x [m],y [m],z [m],radius [m],rho [m],
+    /// theta [deg],ux [m],uy [m],uz [m],u_radial [m],fx [N],fy [N],clamped` (the wall force
+    /// p·share, zero off the wall; θ from x towards y about the hole's axis).
+    pub fn write_csv(&self, cavity: &Cavity, path: &std::path::Path) -> Result<()> {
+        crate::io::write_atomic(path, |w| {
+            let io = |e| Error::io(path, e);
+            writeln!(
+                w,
+                "id,x [m],y [m],z [m],radius [m],rho [m],theta [deg],ux [m],uy [m],uz [m],\
+                 u_radial [m],fx [N],fy [N],clamped"
+            )
+            .map_err(io)?;
+            for p in 0..cavity.cut.packing.len() {
+                let x = cavity.cut.packing.positions[p];
+                let rel = cavity.relative_position(p);
+                let u = self.displacement[p];
+                let f = cavity.unit_load[p] * self.pressure;
+                writeln!(
+                    w,
+                    "{p},{:e},{:e},{:e},{:e},{:e},{:.3},{:e},{:e},{:e},{:e},{:e},{:e},{}",
+                    x.x,
+                    x.y,
+                    x.z,
+                    cavity.cut.packing.radii[p],
+                    rel.x.hypot(rel.y),
+                    rel.y.atan2(rel.x).to_degrees(),
+                    u.x,
+                    u.y,
+                    u.z,
+                    u.dot(&cavity.radial_unit(p)),
+                    f.x,
+                    f.y,
+                    u8::from(cavity.clamped[p])
+                )
+                .map_err(io)?;
+            }
+            Ok(())
+        })
+    }
+}

@@ -2,6 +2,7 @@
 //! the library, prints human-readable results with units, and writes files atomically.
 
 mod calibrate;
+mod cavity;
 mod cell;
 mod convert;
 mod demo;
@@ -75,6 +76,10 @@ enum Command {
     /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
     /// packing with the exact relaxed solver; writes the calibrated model file.
     Calibrate(calibrate::CalibrateArgs),
+    /// A pressurised circular hole in a slab cut from a periodic packing (periodic along
+    /// the hole, outer ring clamped): wall displacement (m) beside Lamé, in-plane Christoffel
+    /// wave speeds (m/s) of the relaxed tensor; JSON, CSV and VTK.
+    Cavity(cavity::CavityArgs),
     /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
     Domain(domain::DomainArgs),
     /// Pictures of a model (PNG).
@@ -225,6 +230,7 @@ pub fn run() -> Result<()> {
         Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
+        Command::Cavity(a) => cavity::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
         Command::Convert(a) => convert::run(a),
