@@ -21,6 +21,7 @@
 //! [`statics`] solves the linear equilibrium on the relaxed solver's block-sparse stiffness;
 //! [`lame_wall_displacement`] is the continuum reference.
 
+pub mod dynamics;
 pub mod statics;
 
 use crate::assembly::Assembly;

@@ -6,5 +6,6 @@
 mod common;
 
 mod cli;
+mod fronts;
 mod lame;
 mod waves;
