@@ -8,4 +8,5 @@ mod common;
 mod cli;
 mod fronts;
 mod lame;
+mod tilted;
 mod waves;
