@@ -240,3 +240,32 @@ fn peak_time(sig: &[f64], times: &[f64]) -> Option<f64> {
     let h = times[k + 1] - times[k];
     Some(times[k] + shift * h)
 }
+
+impl WaveRun {
+    /// Write the snapshots as a VTK time series into `dir`: `cavity_NNNN.vtu` (particles with
+    /// `radius` m, `displacement` m) and `cavity.pvd` (ParaView's collection, times in s).
+    pub fn write_vtk_series(&self, cavity: &Cavity, dir: &std::path::Path) -> Result<()> {
+        let mut pvd = String::from(
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n",
+        );
+        for (k, (t, u)) in self.snapshots.iter().enumerate() {
+            let name = format!("cavity_{k:04}.vtu");
+            let state = crate::export::vtk::StrainedState {
+                strain: crate::tensor::Voigt6::zeros(),
+                displacement: u.clone(),
+                rotation: vec![Vec3::zeros(); u.len()],
+                force: Vec::new(),
+            };
+            crate::export::vtk::write_particles_vtu(
+                &dir.join(&name),
+                &cavity.cut.packing,
+                Some(&state),
+            )?;
+            pvd.push_str(&format!(
+                "<DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{name}\"/>\n"
+            ));
+        }
+        pvd.push_str("</Collection>\n</VTKFile>\n");
+        crate::io::write_string_atomic(&dir.join("cavity.pvd"), &pvd)
+    }
+}

@@ -38,7 +38,18 @@ pub struct CavityArgs {
     /// Material density of the spheres (kg/m³), for the wave speeds.
     #[arg(long, default_value_t = 2600.0)]
     density: f64,
-    /// Output folder: cavity.json, particles.csv, cavity.vtu.
+    /// Also run the ramp-loaded cavity in time (undamped integrator, YADE's law): wave
+    /// fronts along 0°, 45° and 90° beside Christoffel, a VTK time series and PNG snapshots
+    /// in OUTPUT/waves/.
+    #[arg(long)]
+    waves: bool,
+    /// Waves: ramp duration (s); default 20 R̄ / v (v the fastest in-plane Christoffel speed).
+    #[arg(long)]
+    ramp_time: Option<f64>,
+    /// Waves: number of snapshots (VTK and PNG).
+    #[arg(long, default_value_t = 8)]
+    snapshots: usize,
+    /// Output folder: cavity.json, particles.csv, cavity.vtu (and waves/ with --waves).
     #[arg(short, long, default_value = "anisobond-cavity")]
     output: PathBuf,
 }
@@ -95,7 +106,12 @@ pub fn run(a: CavityArgs) -> Result<()> {
             "quasi_longitudinal_m_per_s": w.quasi_longitudinal().speed,
         }));
     }
-    let json = serde_json::json!({
+    let waves = if a.waves {
+        Some(run_waves(&a, &cavity, &relaxed, rho, &dir)?)
+    } else {
+        None
+    };
+    let mut json = serde_json::json!({
         "units": "SI: m, Pa, kg/m³, m/s",
         "pressure_pa": a.pressure,
         "hole_radius_m": ga,
@@ -117,6 +133,9 @@ pub fn run(a: CavityArgs) -> Result<()> {
         "bulk_density_kg_per_m3": rho,
         "christoffel_in_plane": speeds,
     });
+    if let Some(w) = waves {
+        json["waves"] = w;
+    }
     check_json_numbers(&json, "cavity")?;
     anisobond::io::write_string_atomic(
         &dir.join("cavity.json"),
@@ -152,9 +171,112 @@ pub fn run(a: CavityArgs) -> Result<()> {
         "  mean axial wall displacement {:.4e} m; residual {:.1e}",
         s.wall_axial_displacement, s.relative_residual
     );
+    if let Some(fronts) = json["waves"]["fronts"].as_array() {
+        for f in fronts {
+            println!(
+                "  wave front at {}° from x: {:.1} m/s (DEM), {:.1} m/s (Christoffel, quasi-P)",
+                f["angle_from_x_deg"],
+                f["front_speed_m_per_s"].as_f64().unwrap_or(f64::NAN),
+                f["christoffel_m_per_s"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+    }
     println!(
-        "wrote {}/cavity.json, particles.csv, cavity.vtu",
-        a.output.display()
+        "wrote {}/cavity.json, particles.csv, cavity.vtu{}",
+        a.output.display(),
+        if a.waves {
+            ", waves/ (cavity.pvd, cavity_NNNN.vtu, snapshot_NNNN.png)"
+        } else {
+            ""
+        }
     );
     Ok(())
+}
+
+/// The wave run of `--waves`: fronts (JSON), VTK series and PNG snapshots into `dir/waves`.
+fn run_waves(
+    a: &CavityArgs,
+    cavity: &Cavity,
+    relaxed: &Stiffness6,
+    rho: f64,
+    dir: &std::path::Path,
+) -> Result<serde_json::Value> {
+    use anisobond::cavity::dynamics::WaveOptions;
+    let g = cavity.geometry;
+    let r = cavity.cut.packing.mean_radius();
+    let dirs = [0.0f64, 45.0, 90.0];
+    let speeds: Vec<f64> = dirs
+        .iter()
+        .map(|d| {
+            let t = d.to_radians();
+            phase_velocities(relaxed, rho, &Vec3::new(t.cos(), t.sin(), 0.0))
+                .map(|w| w.quasi_longitudinal().speed)
+        })
+        .collect::<Result<_>>()?;
+    let vmax = speeds.iter().copied().fold(0.0, f64::max);
+    let vmin = speeds.iter().copied().fold(f64::INFINITY, f64::min);
+    let ramp = a.ramp_time.unwrap_or(20.0 * r / vmax);
+    if !(ramp.is_finite() && ramp > 0.0) {
+        return Err(anisobond::Error::Invalid(format!(
+            "--ramp-time must be finite and > 0 s, got {ramp}"
+        )));
+    }
+    let (r1, r2) = (
+        g.inner_radius + 0.3 * (g.outer_radius - g.inner_radius),
+        g.inner_radius + 0.75 * (g.outer_radius - g.inner_radius),
+    );
+    let run = cavity.run_waves(&WaveOptions {
+        pressure: a.pressure,
+        ramp_time: ramp,
+        duration: 1.5 * ramp + (r2 - g.inner_radius + 2.0 * r) / vmin,
+        material_density: a.density,
+        law: anisobond::dem::LawKind::Yade,
+        directions: dirs.iter().map(|d| d.to_radians()).collect(),
+        probe_radii: vec![r1, r2],
+        probe_half_angle: 15f64.to_radians(),
+        snapshots: a.snapshots,
+    })?;
+    let wdir = dir.join("waves");
+    std::fs::create_dir_all(&wdir).map_err(|e| anisobond::Error::io(&wdir, e))?;
+    run.write_vtk_series(cavity, &wdir)?;
+    let points: Vec<(f64, f64)> = cavity
+        .cut
+        .packing
+        .positions
+        .iter()
+        .map(|x| (x.x - cavity.cut.axis[0], x.y - cavity.cut.axis[1]))
+        .collect();
+    for (k, (t, u)) in run.snapshots.iter().enumerate() {
+        let ur: Vec<f64> = (0..u.len())
+            .map(|p| u[p].dot(&cavity.radial_unit(p)))
+            .collect();
+        anisobond::plot::plot_particle_map(
+            &wdir.join(format!("snapshot_{k:04}.png")),
+            &points,
+            &ur,
+            &format!("radial displacement (red out, blue in), t = {t:.3e} s"),
+        )?;
+    }
+    let fronts: Vec<serde_json::Value> = dirs
+        .iter()
+        .enumerate()
+        .map(|(d, angle)| {
+            serde_json::json!({
+                "angle_from_x_deg": angle,
+                "front_speed_m_per_s": run.front_speed[d],
+                "christoffel_m_per_s": speeds[d],
+                "arrival_s": run.arrival[d],
+                "probe_spheres": run.probe_sizes[d],
+            })
+        })
+        .collect();
+    Ok(serde_json::json!({
+        "ramp_time_s": ramp,
+        "time_step_s": run.time_step,
+        "steps": run.times.len(),
+        "probe_radii_m": [r1, r2],
+        "detection": "peak of the probes' mean velocity along the direction (±15°, ±R̄ in radius); speed = Δr/Δt between the two probes",
+        "fronts": fronts,
+        "snapshot_times_s": run.snapshots.iter().map(|s| s.0).collect::<Vec<_>>(),
+    }))
 }

@@ -53,6 +53,37 @@ fn cavity_command_writes_the_library_solution() {
     assert!(csv.starts_with("id,x [m],y [m],z [m],radius [m]"));
     assert_eq!(csv.lines().count(), cav.cut.packing.len() + 1);
     assert!(out.join("cavity.vtu").exists());
+    // the wave run (a hole wide enough for a front): three fronts with finite speeds, a 2-step VTK series and PNG snapshots
+    let out = dir.path().join("waves");
+    succeeds(
+        bin()
+            .arg("cavity")
+            .arg(&pk)
+            .arg("--model")
+            .arg(&model)
+            .args(["--hole-radius", "8e-3", "--outer-radius", "40e-3"])
+            .args(["--waves", "--snapshots", "2", "-o"])
+            .arg(&out),
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cavity.json")).unwrap()).unwrap();
+    let fronts = json["waves"]["fronts"].as_array().unwrap();
+    assert_eq!(fronts.len(), 3);
+    for f in fronts {
+        let v = f["front_speed_m_per_s"].as_f64().unwrap();
+        let c = f["christoffel_m_per_s"].as_f64().unwrap();
+        assert!(v > 0.5 * c && v < 2.0 * c, "{f}");
+    }
+    for name in [
+        "cavity.pvd",
+        "cavity_0000.vtu",
+        "cavity_0001.vtu",
+        "snapshot_0001.png",
+    ] {
+        assert!(out.join("waves").join(name).exists(), "{name}");
+    }
+    let pvd = std::fs::read_to_string(out.join("waves/cavity.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count(), 2);
 }
 
 #[test]
