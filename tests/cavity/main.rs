@@ -6,6 +6,7 @@
 mod common;
 
 mod cli;
+mod external;
 mod fronts;
 mod lame;
 mod tilted;
