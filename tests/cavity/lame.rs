@@ -143,3 +143,36 @@ fn bad_geometry_is_refused() {
     assert!(cav.solve_static(f64::NAN).is_err());
     assert!(cav.solve_static(0.0).is_err());
 }
+
+#[test]
+fn static_and_wave_results_do_not_depend_on_the_thread_count() {
+    let src = source(300, 5, isotropic_model());
+    let r = src.packing.mean_radius();
+    let cav = Cavity::new(&src, geometry(&src, 4.0, 10.0)).unwrap();
+    let opts = anisobond::cavity::dynamics::WaveOptions {
+        pressure: 1e6,
+        ramp_time: 2e-6,
+        duration: 6e-6,
+        material_density: 2600.0,
+        law: anisobond::dem::LawKind::Yade,
+        directions: vec![0.0],
+        probe_radii: vec![5.0 * r, 8.0 * r],
+        probe_half_angle: 0.5,
+        snapshots: 1,
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let s = cav.solve_static(1e6).unwrap();
+            let w = cav.run_waves(&opts).map(|w| w.snapshots[0].1.clone());
+            (s.displacement, w)
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.0, b.0);
+    // the wave run's snapshot, bit for bit
+    assert_eq!(a.1.unwrap(), b.1.unwrap());
+}
