@@ -59,6 +59,41 @@ pub struct WaveRun {
 }
 
 impl Cavity {
+    /// The integrator on the slab: the clamped ring held still (zero prescribed velocity),
+    /// the wall loads at pressure `pressure` (Pa) as external forces at scale 1 (set the
+    /// scale for a ramp), Cundall local damping `local_damping` (0 for waves).
+    pub fn simulation(
+        &self,
+        pressure: f64,
+        material_density: f64,
+        law: LawKind,
+        local_damping: f64,
+    ) -> Result<Simulation> {
+        let packing = &self.cut.packing;
+        let n = packing.len();
+        let law = build_law(law, packing, &self.bonds, &self.springs)?;
+        let mut sim = Simulation::new(
+            packing,
+            &self.bonds,
+            law,
+            &DemOptions {
+                local_damping,
+                mass: MassOptions {
+                    density: material_density,
+                    scaling: 1.0,
+                },
+                ..Default::default()
+            },
+        )?;
+        let held: Vec<usize> = (0..n).filter(|&p| self.clamped[p]).collect();
+        sim.set_prescribed_motion(Some(PrescribedMotion {
+            velocity: vec![Vec3::zeros(); held.len()],
+            particles: held,
+        }))?;
+        sim.set_external_forces(Some(self.unit_load.iter().map(|f| f * pressure).collect()))?;
+        Ok(sim)
+    }
+
     /// Run the ramp-loaded cavity in time and detect the wave front (module doc). Errors on
     /// non-positive times, no directions, fewer than two probe radii, an empty probe, or a
     /// signal whose peak lies at the end of the run (the front did not pass).
@@ -82,28 +117,7 @@ impl Cavity {
         }
         let packing = &self.cut.packing;
         let n = packing.len();
-        let law = build_law(opts.law, packing, &self.bonds, &self.springs)?;
-        let mut sim = Simulation::new(
-            packing,
-            &self.bonds,
-            law,
-            &DemOptions {
-                local_damping: 0.0,
-                mass: MassOptions {
-                    density: opts.material_density,
-                    scaling: 1.0,
-                },
-                ..Default::default()
-            },
-        )?;
-        let held: Vec<usize> = (0..n).filter(|&p| self.clamped[p]).collect();
-        sim.set_prescribed_motion(Some(PrescribedMotion {
-            velocity: vec![Vec3::zeros(); held.len()],
-            particles: held,
-        }))?;
-        sim.set_external_forces(Some(
-            self.unit_load.iter().map(|f| f * opts.pressure).collect(),
-        ))?;
+        let mut sim = self.simulation(opts.pressure, opts.material_density, opts.law, 0.0)?;
         let r_mean = packing.mean_radius();
         // Probes.
         let mut probes: Vec<Vec<Vec<usize>>> = Vec::new();

@@ -176,3 +176,36 @@ fn static_and_wave_results_do_not_depend_on_the_thread_count() {
     // the wave run's snapshot, bit for bit
     assert_eq!(a.1.unwrap(), b.1.unwrap());
 }
+
+#[test]
+fn damped_integrator_settles_on_the_static_solution() {
+    // the integrator (YADE's law, external wall forces, clamped ring held) against the
+    // direct solve of the same network
+    let src = source(300, 5, isotropic_model());
+    let cav = Cavity::new(&src, geometry(&src, 4.0, 9.0)).unwrap();
+    let p = 1e6;
+    let s = cav.solve_static(p).unwrap();
+    let mut sim = cav
+        .simulation(p, 2600.0, anisobond::dem::LawKind::Yade, 0.3)
+        .unwrap();
+    let start = sim.particles.position.clone();
+    let mut last = f64::NAN;
+    for k in 0..200 {
+        for _ in 0..100 {
+            sim.step().unwrap();
+        }
+        let u: Vec<anisobond::Vec3> = (0..start.len())
+            .map(|q| sim.particles.position[q] - start[q])
+            .collect();
+        last = cav.wall_displacement(&u);
+        if sim.energies().kinetic < 1e-12 * p * 1e-9 && k > 5 {
+            break;
+        }
+    }
+    let ratio = last / s.wall_displacement;
+    // measured: 1.0000376 after 1300 steps
+    assert!(
+        (ratio - 1.0).abs() < 1e-3,
+        "dynamic/static wall displacement {ratio}"
+    );
+}
