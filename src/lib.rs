@@ -34,6 +34,7 @@
 pub mod assembly;
 pub mod bonds;
 pub mod calibrate;
+pub mod cavity;
 pub mod dem;
 pub mod error;
 pub mod export;

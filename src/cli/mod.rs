@@ -3,6 +3,7 @@
 
 mod buckle;
 mod calibrate;
+mod cavity;
 mod cell;
 mod convert;
 mod demo;
@@ -76,6 +77,10 @@ enum Command {
     /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
     /// packing with the exact relaxed solver; writes the calibrated model file.
     Calibrate(calibrate::CalibrateArgs),
+    /// A pressurised circular hole in a slab cut from a periodic packing (periodic along
+    /// the hole, outer ring clamped): wall displacement (m) beside Lamé, in-plane Christoffel
+    /// wave speeds (m/s) of the relaxed tensor; JSON, CSV and VTK.
+    Cavity(cavity::CavityArgs),
     /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
     Domain(domain::DomainArgs),
     /// Kumar 2016 Sec. 5: clamped round bars cut from packings of the three preparation
@@ -237,6 +242,7 @@ pub fn run() -> Result<()> {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
         Command::Buckle(a) => buckle::run(a),
+        Command::Cavity(a) => cavity::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),
         Command::Convert(a) => convert::run(a),

@@ -28,7 +28,7 @@ pub mod state;
 pub mod stress_tests;
 
 pub use laws::BondLaw;
-pub use sim::{DemOptions, Energies, Simulation, StabilityReport};
+pub use sim::{DemOptions, Energies, ExternalForces, Simulation, StabilityReport};
 pub use state::{MassOptions, Particles};
 
 use crate::bonds::{BondSet, BondStiffness};

@@ -207,6 +207,19 @@ pub struct Simulation {
     watch: Vec<f64>,
     free_volume: f64,
     prescribed: Option<HeldParticles>,
+    external: Option<ExternalForces>,
+}
+
+/// Per-particle external forces (N), e.g. a pressure on exposed surface particles: each
+/// step adds `scale × force[k]` to particle k's resultant before the leapfrog update, so a
+/// ramped or pulsed load is one vector and a scale set before every step
+/// ([`Simulation::set_external_force_scale`]). Their work is not in [`Energies`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExternalForces {
+    /// Force on every particle at scale 1 (N), one per particle.
+    pub force: Vec<Vec3>,
+    /// Current multiplier (dimensionless).
+    pub scale: f64,
 }
 
 /// The held particles' own state, advanced exactly (no round trip through the leapfrog).
@@ -253,6 +266,7 @@ impl Clone for Simulation {
             watch: self.watch.clone(),
             free_volume: self.free_volume,
             prescribed: self.prescribed.clone(),
+            external: self.external.clone(),
         }
     }
 }
@@ -304,6 +318,7 @@ impl Simulation {
             watch: Vec::new(),
             free_volume: packing.volume(),
             prescribed: None,
+            external: None,
         };
         let mut law = law;
         law.initialize(
@@ -436,6 +451,51 @@ impl Simulation {
         Ok(())
     }
 
+    /// Apply external forces (N, one per particle, at scale 1; None removes them). Errors on
+    /// a wrong length or a non-finite force.
+    pub fn set_external_forces(&mut self, force: Option<Vec<Vec3>>) -> Result<()> {
+        if let Some(f) = &force {
+            if f.len() != self.particles.len() {
+                return Err(Error::Invalid(format!(
+                    "external forces: {} given for {} particles",
+                    f.len(),
+                    self.particles.len()
+                )));
+            }
+            if let Some(k) = f.iter().position(|v| v.iter().any(|c| !c.is_finite())) {
+                return Err(Error::Invalid(format!(
+                    "external forces: particle {k} has a non-finite force"
+                )));
+            }
+        }
+        self.external = force.map(|force| ExternalForces { force, scale: 1.0 });
+        Ok(())
+    }
+
+    /// Multiply the external forces by `scale` from the next step on (a ramp or pulse);
+    /// errors when none are set or the scale is not finite.
+    pub fn set_external_force_scale(&mut self, scale: f64) -> Result<()> {
+        if !scale.is_finite() {
+            return Err(Error::Invalid(format!(
+                "external force scale must be finite, got {scale}"
+            )));
+        }
+        match &mut self.external {
+            Some(e) => {
+                e.scale = scale;
+                Ok(())
+            }
+            None => Err(Error::Invalid(
+                "external force scale: no external forces are set".into(),
+            )),
+        }
+    }
+
+    /// The external forces in force, if any.
+    pub fn external_forces(&self) -> Option<&ExternalForces> {
+        self.external.as_ref()
+    }
+
     /// The prescribed motion in force, if any.
     pub fn prescribed_motion(&self) -> Option<&PrescribedMotion> {
         self.prescribed.as_ref().map(|h| &h.motion)
@@ -527,8 +587,12 @@ impl Simulation {
         // Resultant force and torque on particle k, gathered in the fixed CSR order.
         // Branch-free (the side of each bond is unpredictable): f ± force_i as
         // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
+        let external = self.external.as_ref();
         let gather = |k: usize| {
-            let mut f = Vec3::zeros();
+            let mut f = match external {
+                Some(e) => e.force[k] * e.scale,
+                None => Vec3::zeros(),
+            };
             let mut t = Vec3::zeros();
             for &e in &entries[start[k]..start[k + 1]] {
                 let load = &loads[(e >> 1) as usize];

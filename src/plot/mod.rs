@@ -611,3 +611,88 @@ fn draw_lines(path: &Path, plot: LinePlot, series: &[Series]) -> Result<()> {
         Ok(())
     })
 }
+
+/// A cross-section map: one dot per particle at `points` (m, in-plane coordinates),
+/// coloured by `values` on a diverging blue–white–red scale symmetric about zero (saturated
+/// at the 99th percentile of |value|, so that a few outliers do not wash the map out), e.g. the radial displacement of the cavity's snapshots.
+/// 800 × 800 pixels, equal axis scales, written atomically as PNG.
+pub fn plot_particle_map(
+    path: &Path,
+    points: &[(f64, f64)],
+    values: &[f64],
+    title: &str,
+) -> Result<()> {
+    if points.is_empty() || points.len() != values.len() {
+        return Err(Error::Invalid(format!(
+            "particle map: {} points and {} values (need the same, at least one)",
+            points.len(),
+            values.len()
+        )));
+    }
+    if values
+        .iter()
+        .chain(points.iter().flat_map(|p| [&p.0, &p.1]))
+        .any(|v| !v.is_finite())
+    {
+        return Err(Error::Invalid(
+            "particle map: non-finite point or value".into(),
+        ));
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = points.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
+    );
+    // equal scales: the larger extent on both axes
+    let half = 0.5 * (x1 - x0).max(y1 - y0).max(f64::MIN_POSITIVE) * 1.02;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (x0, x1, y0, y1) = (cx - half, cx + half, cy - half, cy + half);
+    let mut mags: Vec<f64> = values.iter().map(|v| v.abs()).collect();
+    mags.sort_by(f64::total_cmp);
+    let vmax = mags[((mags.len() - 1) as f64 * 0.99) as usize];
+    let colour = |v: f64| -> RGBColor {
+        let t = if vmax > 0.0 {
+            (v / vmax).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        };
+        let f = |a: f64| (255.0 * (1.0 - a)).round() as u8;
+        if t >= 0.0 {
+            RGBColor(255, f(t), f(t))
+        } else {
+            RGBColor(f(-t), f(-t), 255)
+        }
+    };
+    render(path, (800, 800), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .light_line_style(WHITE)
+            .x_label_formatter(&|v| format!("{v:.3e}"))
+            .y_label_formatter(&|v| format!("{v:.3e}"))
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(s)?;
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .zip(values)
+                    .map(|(&p, &v)| Circle::new(p, 2, colour(v).filled())),
+            )
+            .map_err(s)?;
+        Ok(())
+    })
+}

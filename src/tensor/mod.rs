@@ -41,6 +41,7 @@ pub mod fit;
 pub mod fourth;
 pub mod rotate;
 pub mod symmetry;
+pub mod waves;
 
 pub use compare::relative_difference;
 pub use elastic::{
@@ -57,3 +58,4 @@ pub use symmetry::{
     CubicProjection, CubicUncertainty, TransverseProjection, TransverseUncertainty,
     OFF_SYMMETRY_TERMS,
 };
+pub use waves::{acoustic_tensor, phase_velocities, PhaseVelocities, WaveMode};
