@@ -754,21 +754,9 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          bond_style bpm/rotational break no smooth no\n\
          include bond_coeffs.lmp\n"
     });
+    s.push_str(STRESS_SETUP);
     s.push_str(
-        "pair_style zero ${cut}\n\
-         pair_coeff * *\n\
-         neighbor ${skin} bin\n\
-         neigh_modify every 1 delay 0 check yes\n\
-         fix integrate all nve/bpm/sphere\n\
-         timestep ${dt}\n\
-         compute p all pressure NULL virial\n\
-         variable s1 equal -c_p[1]\n\
-         variable s2 equal -c_p[2]\n\
-         variable s3 equal -c_p[3]\n\
-         variable s4 equal -c_p[6]\n\
-         variable s5 equal -c_p[5]\n\
-         variable s6 equal -c_p[4]\n\
-         variable norm equal sqrt(v_s1^2+v_s2^2+v_s3^2+v_s4^2+v_s5^2+v_s6^2)\n\
+        "variable norm equal sqrt(v_s1^2+v_s2^2+v_s3^2+v_s4^2+v_s5^2+v_s6^2)\n\
          thermo_style custom step v_s1 v_s2 v_s3 v_s4 v_s5 v_s6\n\
          thermo ${chunk_steps}\n\
          variable st equal step\n\
@@ -780,13 +768,11 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          variable r4 equal $(v_s4:%.17g)\n\
          variable r5 equal $(v_s5:%.17g)\n\
          variable r6 equal $(v_s6:%.17g)\n\
-         if \"${case} == 1\" then \"change_box all x scale $(1.0+v_strain:%.17g) remap\"\n\
-         if \"${case} == 2\" then \"change_box all y scale $(1.0+v_strain:%.17g) remap\"\n\
-         if \"${case} == 3\" then \"change_box all z scale $(1.0+v_strain:%.17g) remap\"\n\
-         if \"${case} == 4\" then \"change_box all yz delta $(v_strain*lz:%.17g) remap\"\n\
-         if \"${case} == 5\" then \"change_box all xz delta $(v_strain*lz:%.17g) remap\"\n\
-         if \"${case} == 6\" then \"change_box all xy delta $(v_strain*ly:%.17g) remap\"\n\
-         run ${chunk_steps}\n\
+         ",
+    );
+    s.push_str(&box_changes("strain"));
+    s.push_str(
+        "run ${chunk_steps}\n\
          variable before equal $(v_norm:%.17g)\n\
          variable chunk loop ${max_chunks}\n\
          label relax\n\
@@ -860,8 +846,29 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
          comm_modify vel yes cutoff ${cut}\n\
          read_data data.lmp\n\
          bond_style bpm/rotational break no smooth no\n\
-         include bond_coeffs_undamped.lmp\n\
-         pair_style zero ${cut}\n\
+         include bond_coeffs_undamped.lmp\n",
+    );
+    s.push_str(STRESS_SETUP);
+    s.push_str(
+        "thermo_style custom step v_s1 v_s2 v_s3 v_s4 v_s5 v_s6\n\
+         thermo ${history_steps}\n\
+         variable st equal step\n\
+         run 0\n",
+    );
+    s.push_str(&box_changes("history_strain"));
+    s.push_str(
+        "fix history all print ${history_every} \"${case},${st},${s1},${s2},${s3},${s4},${s5},${s6}\" append lammps-undamped-history.csv screen no\n\
+         run ${history_steps}\n\
+         unfix history\n\
+         next case\n\
+         jump SELF case_loop\n",
+    );
+    s
+}
+
+/// The deck lines between the bonds and the loading: no pair forces, the integrator, and the
+/// virial stress σ = −p in Voigt order as variables s1…s6 (Pa).
+const STRESS_SETUP: &str = "pair_style zero ${cut}\n\
          pair_coeff * *\n\
          neighbor ${skin} bin\n\
          neigh_modify every 1 delay 0 check yes\n\
@@ -873,24 +880,29 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
          variable s3 equal -c_p[3]\n\
          variable s4 equal -c_p[6]\n\
          variable s5 equal -c_p[5]\n\
-         variable s6 equal -c_p[4]\n\
-         thermo_style custom step v_s1 v_s2 v_s3 v_s4 v_s5 v_s6\n\
-         thermo ${history_steps}\n\
-         variable st equal step\n\
-         run 0\n\
-         if \"${case} == 1\" then \"change_box all x scale $(1.0+v_history_strain:%.17g) remap\"\n\
-         if \"${case} == 2\" then \"change_box all y scale $(1.0+v_history_strain:%.17g) remap\"\n\
-         if \"${case} == 3\" then \"change_box all z scale $(1.0+v_history_strain:%.17g) remap\"\n\
-         if \"${case} == 4\" then \"change_box all yz delta $(v_history_strain*lz:%.17g) remap\"\n\
-         if \"${case} == 5\" then \"change_box all xz delta $(v_history_strain*lz:%.17g) remap\"\n\
-         if \"${case} == 6\" then \"change_box all xy delta $(v_history_strain*ly:%.17g) remap\"\n\
-         fix history all print ${history_every} \"${case},${st},${s1},${s2},${s3},${s4},${s5},${s6}\" append lammps-undamped-history.csv screen no\n\
-         run ${history_steps}\n\
-         unfix history\n\
-         next case\n\
-         jump SELF case_loop\n",
-    );
-    s
+         variable s6 equal -c_p[4]\n";
+
+/// The six load cases' box changes by the strain variable `strain`, one per `${case}`: three
+/// stretches (`scale 1 + e`) and three tilts (engineering γ = tilt / height), all `remap`.
+fn box_changes(strain: &str) -> String {
+    let change = [
+        format!("x scale $(1.0+v_{strain}:%.17g)"),
+        format!("y scale $(1.0+v_{strain}:%.17g)"),
+        format!("z scale $(1.0+v_{strain}:%.17g)"),
+        format!("yz delta $(v_{strain}*lz:%.17g)"),
+        format!("xz delta $(v_{strain}*lz:%.17g)"),
+        format!("xy delta $(v_{strain}*ly:%.17g)"),
+    ];
+    change
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            format!(
+                "if \"${{case}} == {}\" then \"change_box all {c} remap\"\n",
+                k + 1
+            )
+        })
+        .collect()
 }
 
 /// `run.sh [NP]`: the deck with the `lmp` on PATH (or $LMP), through the `mpirun` next to it

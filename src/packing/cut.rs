@@ -184,6 +184,41 @@ pub struct Cut {
     pub region: Region,
 }
 
+/// The spheres of `packing` copied to the periodic images `images` (all at the origin for a
+/// free packing) whose shifted centres `keep` accepts, ordered by image, then by index.
+struct Copies {
+    positions: Vec<Vec3>,
+    radii: Vec<f64>,
+    source: Vec<u32>,
+    image: Vec<[i32; 3]>,
+}
+
+fn copies(
+    packing: &Packing,
+    images: impl Iterator<Item = [i32; 3]>,
+    keep: impl Fn(&Vec3) -> bool,
+) -> Copies {
+    let mut c = Copies {
+        positions: Vec::new(),
+        radii: Vec::new(),
+        source: Vec::new(),
+        image: Vec::new(),
+    };
+    for s in images {
+        let shift = packing.cell.map_or(Vec3::zeros(), |cell| cell.shift(s));
+        for (p, (x, &r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+            let y = x + shift;
+            if keep(&y) {
+                c.positions.push(y);
+                c.radii.push(r);
+                c.source.push(p as u32);
+                c.image.push(s);
+            }
+        }
+    }
+    c
+}
+
 /// Cut the spheres whose centres lie inside `region` out of `packing`. A periodic packing is
 /// tiled by its images as far as the region reaches (so the region may be larger than the
 /// cell); a free one is filtered. The kept spheres are ordered by image, then by source
@@ -193,10 +228,6 @@ pub struct Cut {
 pub fn cut(packing: &Packing, region: &Region) -> Result<Cut> {
     region.check()?;
     let (lo, hi) = region.bounding_box();
-    let mut positions = Vec::new();
-    let mut radii = Vec::new();
-    let mut source = Vec::new();
-    let mut image = Vec::new();
     let ranges: [(i32, i32); 3] = match &packing.cell {
         Some(cell) => {
             let mut r = [(0, 0); 3];
@@ -220,26 +251,16 @@ pub fn cut(packing: &Packing, region: &Region) -> Result<Cut> {
         }
         None => [(0, 0); 3],
     };
-    for sx in ranges[0].0..=ranges[0].1 {
-        for sy in ranges[1].0..=ranges[1].1 {
-            for sz in ranges[2].0..=ranges[2].1 {
-                let s = [sx, sy, sz];
-                let shift = match &packing.cell {
-                    Some(cell) => cell.shift(s),
-                    None => Vec3::zeros(),
-                };
-                for (p, (x, &r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
-                    let y = x + shift;
-                    if region.contains(&y) {
-                        positions.push(y);
-                        radii.push(r);
-                        source.push(p as u32);
-                        image.push(s);
-                    }
-                }
-            }
-        }
-    }
+    let images = (ranges[0].0..=ranges[0].1).flat_map(|sx| {
+        (ranges[1].0..=ranges[1].1)
+            .flat_map(move |sy| (ranges[2].0..=ranges[2].1).map(move |sz| [sx, sy, sz]))
+    });
+    let Copies {
+        positions,
+        radii,
+        source,
+        image,
+    } = copies(packing, images, |y| region.contains(y));
     if positions.len() < 2 {
         return Err(Error::Degenerate(format!(
             "cut: the region holds {} sphere centres, need at least 2",
@@ -394,26 +415,16 @@ pub fn cut_holed_slab(packing: &Packing, slab: &HoledSlab, margin: f64) -> Resul
         cell.lengths.z,
     );
     let axis = [0.5 * lengths.x, 0.5 * lengths.y];
-    let mut positions = Vec::new();
-    let mut radii = Vec::new();
-    let mut source = Vec::new();
-    let mut image = Vec::new();
-    for sx in 0..nx {
-        for sy in 0..ny {
-            let s = [sx, sy, 0];
-            let shift = cell.shift(s);
-            for (p, (x, &r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
-                let y = x + shift;
-                let rho = (y.x - axis[0]).hypot(y.y - axis[1]);
-                if rho >= a && rho <= b {
-                    positions.push(y);
-                    radii.push(r);
-                    source.push(p as u32);
-                    image.push(s);
-                }
-            }
-        }
-    }
+    let images = (0..nx).flat_map(|sx| (0..ny).map(move |sy| [sx, sy, 0]));
+    let Copies {
+        positions,
+        radii,
+        source,
+        image,
+    } = copies(packing, images, |y| {
+        let rho = (y.x - axis[0]).hypot(y.y - axis[1]);
+        rho >= a && rho <= b
+    });
     if positions.len() < 2 {
         return Err(Error::Degenerate(format!(
             "holed slab: the annulus {a:e} m ≤ ρ ≤ {b:e} m holds {} sphere centres, need at \
