@@ -141,7 +141,7 @@ impl Cavity {
             .map(|p| degree[p] < source_degree[cut.source[p] as usize])
             .collect();
         let (bonds, springs) = supported_bonds(n, bonds, springs, &clamped, cut_surface);
-        let network = Network::build(&cut.packing, &bonds, &springs, LeverArm::MidGap, true)?;
+        let network = Network::build(&cut.packing, &bonds, &springs, LeverArm::MidGap, true, None)?;
         if !(0..n).any(|p| clamped[p] && network.index[p] != u32::MAX) {
             return Err(Error::Degenerate(
                 "cavity: the clamped ring holds no bonded sphere".into(),
@@ -207,15 +207,7 @@ fn supported_bonds(
         // Surface layer of the cut: a sphere that lost bonds to the cut (or to this pruning)
         // keeps at least three bonds or goes; two-bond spheres next to each other there form
         // hinges (12 DOFs, 9 constraints, 2 local rotations).
-        let (start, adj) = crate::homogenize::network::csr(
-            n,
-            bonds
-                .i
-                .iter()
-                .zip(&bonds.j)
-                .map(|(&i, &j)| (i as usize, j as usize)),
-            |b, other| (b, other),
-        );
+        let (start, adj) = bond_adjacency(n, &bonds);
         let mut degree = bonds.degrees(n);
         let mut stack: Vec<usize> = (0..n)
             .filter(|&p| cut_surface[p] && degree[p] > 0 && degree[p] < 3 && !clamped[p])
@@ -292,17 +284,19 @@ fn subset(bonds: &BondSet, springs: &BondStiffness, keep: &[bool]) -> (BondSet, 
     (out, k)
 }
 
+/// Every sphere's (bond, neighbour) pairs in CSR form: start offsets and the list.
+fn bond_adjacency(n: usize, bonds: &BondSet) -> (Vec<usize>, Vec<(usize, usize)>) {
+    let ends = bonds.i.iter().zip(&bonds.j);
+    crate::homogenize::network::csr(
+        n,
+        ends.map(|(&i, &j)| (i as usize, j as usize)),
+        |b, other| (b, other),
+    )
+}
+
 /// Bridges of the bond graph (Tarjan's low-link, iterative depth-first search): flag per bond.
 fn bridges(n: usize, bonds: &BondSet) -> Vec<bool> {
-    let (start, adj) = crate::homogenize::network::csr(
-        n,
-        bonds
-            .i
-            .iter()
-            .zip(&bonds.j)
-            .map(|(&i, &j)| (i as usize, j as usize)),
-        |b, other| (b, other),
-    );
+    let (start, adj) = bond_adjacency(n, bonds);
     let mut order = vec![usize::MAX; n];
     let mut low = vec![0usize; n];
     let mut is_bridge = vec![false; bonds.len()];

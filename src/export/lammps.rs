@@ -624,28 +624,18 @@ pub fn export_lammps(
     crate::io::write_string_atomic(&params, &p)?;
     files.push(params);
 
-    let deck = dir.join("in.elastic");
-    crate::io::write_string_atomic(
-        &deck,
-        &elastic_deck(
-            packing.len(),
-            bonds.len(),
-            &types_comment(&what, types.as_ref()),
-            plugin.is_some(),
-        ),
-    )?;
-    files.push(deck);
-
+    let comment = types_comment(&what, types.as_ref());
+    let (n, nb) = (packing.len(), bonds.len());
+    let mut decks = vec![(
+        "in.elastic",
+        elastic_deck(n, nb, &comment, plugin.is_some()),
+    )];
     if plugin.is_none() {
-        let deck = dir.join("in.history");
-        crate::io::write_string_atomic(
-            &deck,
-            &history_deck(
-                packing.len(),
-                bonds.len(),
-                &types_comment(&what, types.as_ref()),
-            ),
-        )?;
+        decks.push(("in.history", history_deck(n, nb, &comment)));
+    }
+    for (name, text) in decks {
+        let deck = dir.join(name);
+        crate::io::write_string_atomic(&deck, &text)?;
         files.push(deck);
     }
 

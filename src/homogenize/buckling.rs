@@ -202,7 +202,7 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
             role[p] = r;
         }
     }
-    let net = Network::build_free(&a.packing, &a.bonds, &a.springs, opts.lever_arm, true)?;
+    let net = Network::build(&a.packing, &a.bonds, &a.springs, opts.lever_arm, true, None)?;
     let m = net.n_active;
     let node_role: Vec<u8> = net.original.iter().map(|&p| role[p as usize]).collect();
     for r in [1u8, 2] {

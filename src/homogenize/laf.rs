@@ -113,7 +113,8 @@ pub fn laf_tensor(
             "--shell must be between 1 and 6, got {shell}"
         )));
     }
-    let net = Network::build(packing, bonds, k, lever_arm, true)?;
+    super::network::require_cell(packing)?;
+    let net = Network::build(packing, bonds, k, lever_arm, true, None)?;
     let m = net.n_active;
     let (start, nb) = net.adjacency();
     // Incident elements of every particle (same CSR layout as `adjacency`).

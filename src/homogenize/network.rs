@@ -193,6 +193,17 @@ impl std::ops::AddAssign for Element {
     }
 }
 
+/// Refuse a packing without a periodic cell: the static tensor methods load the cell.
+pub fn require_cell(packing: &Packing) -> Result<()> {
+    if packing.cell.is_none() {
+        return Err(Error::Invalid(
+            "static stiffness methods need a periodic packing (a `# periodic Lx Ly Lz` header)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Remove particles with fewer than two bonds, repeatedly. Returns the active flag of every
 /// bond and the number of active bonds of every particle.
 fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
@@ -254,51 +265,13 @@ pub struct Network {
 }
 
 impl Network {
-    /// Prune the packing's bonds to the load-carrying network and build the elements.
+    /// Prune the packing's bonds to the load-carrying network and build the elements; with
+    /// every bond's axial preload N (N, tension positive; one per bond) each element gains its
+    /// [`geometric_element`] (the network linearised about a loaded state). A free assembly
+    /// (e.g. a bar cut by [`crate::packing::cut`]) is accepted: its boundary conditions are
+    /// the caller's and `volume` is then the spheres' bounding box; the periodic methods
+    /// check the cell first ([`require_cell`]).
     pub fn build(
-        packing: &Packing,
-        bonds: &BondSet,
-        k: &BondStiffness,
-        lever_arm: LeverArm,
-        rotations: bool,
-    ) -> Result<Network> {
-        Network::build_prestressed(packing, bonds, k, lever_arm, rotations, None)
-    }
-
-    /// [`Network::build`] with every bond's axial preload N (N, tension positive; one per
-    /// bond) adding its [`geometric_element`]: the network linearised about a loaded state.
-    pub fn build_prestressed(
-        packing: &Packing,
-        bonds: &BondSet,
-        k: &BondStiffness,
-        lever_arm: LeverArm,
-        rotations: bool,
-        axial_force: Option<&[f64]>,
-    ) -> Result<Network> {
-        if packing.cell.is_none() {
-            return Err(Error::Invalid(
-                "static stiffness methods need a periodic packing (a `# periodic Lx Ly Lz` header)"
-                    .into(),
-            ));
-        }
-        Network::build_any(packing, bonds, k, lever_arm, rotations, axial_force)
-    }
-
-    /// [`Network::build`] without requiring a periodic cell: the network of a free assembly
-    /// (e.g. a bar cut by [`crate::packing::cut`]), whose boundary conditions the caller
-    /// applies (clamped ends); `volume` is then the spheres' bounding box.
-    pub fn build_free(
-        packing: &Packing,
-        bonds: &BondSet,
-        k: &BondStiffness,
-        lever_arm: LeverArm,
-        rotations: bool,
-    ) -> Result<Network> {
-        Network::build_any(packing, bonds, k, lever_arm, rotations, None)
-    }
-
-    /// The network of a periodic or free assembly, with optional axial preloads.
-    fn build_any(
         packing: &Packing,
         bonds: &BondSet,
         k: &BondStiffness,

@@ -14,7 +14,7 @@
 //! the right-hand sides are orthogonal to them, so CG converges in the range of K.
 
 use super::cholesky::BlockCholesky;
-use super::network::{pinv_psd, Block6, LeverArm, Network, NullSpaceReport};
+use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
 use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
@@ -379,7 +379,8 @@ pub(crate) fn relaxed_solve_preloaded(
     axial_force: Option<&[f64]>,
 ) -> Result<RelaxedSolution> {
     opts.validate()?;
-    let mut net = Network::build_prestressed(
+    require_cell(packing)?;
+    let mut net = Network::build(
         packing,
         bonds,
         k,

@@ -587,19 +587,19 @@ mod tests {
             kr: vec![0.1],
             ktw: vec![0.1],
         };
-        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
         let dt = 1e-8;
-        let mut sim = Simulation::new(
-            &packing,
-            &bonds,
-            law,
-            &DemOptions {
+        // The two spheres with sphere 1 moved by `stretch`, at rest.
+        let stretched = || {
+            let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
+            let options = DemOptions {
                 time_step: Some(dt),
                 ..Default::default()
-            },
-        )
-        .unwrap();
-        sim.particles.position[1].x += stretch;
+            };
+            let mut sim = Simulation::new(&packing, &bonds, law, &options).unwrap();
+            sim.particles.position[1].x += stretch;
+            sim
+        };
+        let mut sim = stretched();
         start_like_velocity_verlet(&mut sim).unwrap();
         let m = sim.particles.mass[1];
         // Gap e = x₁ − x₀ − l0; relative acceleration −2k_r e / m.
@@ -623,18 +623,7 @@ mod tests {
         let started = worst(&mut sim);
         assert!(started < 1e-9 * stretch, "worst {started:e}");
         // Without the start (v(−dt/2) = 0) the history is another one.
-        let law = build_law(LawKind::LammpsBpm, &packing, &bonds, &k).unwrap();
-        let mut plain = Simulation::new(
-            &packing,
-            &bonds,
-            law,
-            &DemOptions {
-                time_step: Some(dt),
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        plain.particles.position[1].x += stretch;
+        let mut plain = stretched();
         let off = worst(&mut plain);
         assert!(off > 1e-3 * stretch, "{off:e}");
     }

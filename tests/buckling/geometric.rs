@@ -59,7 +59,7 @@ fn pre_tensioned_string() {
         kr: vec![0.0; 3],
         ktw: vec![0.0; 3],
     };
-    let net = Network::build_free(&p, &bonds, &k, LeverArm::MidGap, false).unwrap();
+    let net = Network::build(&p, &bonds, &k, LeverArm::MidGap, false, None).unwrap();
     let tension = 3.0;
     let forces = vec![Vec3::x() * tension, Vec3::x() * tension, Vec3::zeros()];
     let kg = geometric_stiffness(&net, &bonds, &forces).unwrap();
