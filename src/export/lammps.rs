@@ -718,17 +718,7 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
     if plugin {
         s.push_str("plugin load ${plugin}\n");
     }
-    s.push_str(
-        "print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-history.csv screen no\n\
-         variable case loop 6\n\
-         label case_loop\n\
-         clear\n\
-         units si\n\
-         dimension 3\n\
-         boundary p p p\n\
-         atom_style bpm/sphere\n\
-         special_bonds lj 0 1 1 coul 1 1 1\n",
-    );
+    s.push_str(&case_loop("lammps-history.csv"));
     // bpm/rotational as validated with newton_bond off; the plugin stores each bond (and its
     // state) once, on its first atom: newton_bond on.
     s.push_str(if plugin {
@@ -821,18 +811,10 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
          # Stress σ = −p (virial only, Pa, tension positive) at step 0 and every `history_every` steps:\n\
          #   lammps-undamped-history.csv. Units: SI."
     );
+    s.push_str("include params.lmp\n");
+    s.push_str(&case_loop("lammps-undamped-history.csv"));
     s.push_str(
-        "include params.lmp\n\
-         print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file lammps-undamped-history.csv screen no\n\
-         variable case loop 6\n\
-         label case_loop\n\
-         clear\n\
-         units si\n\
-         dimension 3\n\
-         boundary p p p\n\
-         atom_style bpm/sphere\n\
-         special_bonds lj 0 1 1 coul 1 1 1\n\
-         newton on off\n\
+        "newton on off\n\
          comm_modify vel yes cutoff ${cut}\n\
          read_data data.lmp\n\
          bond_style bpm/rotational break no smooth no\n\
@@ -854,6 +836,22 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
          jump SELF case_loop\n",
     );
     s
+}
+
+/// The header of the history CSV `csv` and the start of the loop over the six load cases,
+/// each from a cleared LAMMPS in SI units with `atom_style bpm/sphere`.
+fn case_loop(csv: &str) -> String {
+    format!(
+        "print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file {csv} screen no\n\
+         variable case loop 6\n\
+         label case_loop\n\
+         clear\n\
+         units si\n\
+         dimension 3\n\
+         boundary p p p\n\
+         atom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\n"
+    )
 }
 
 /// The deck lines between the bonds and the loading: no pair forces, the integrator, and the
