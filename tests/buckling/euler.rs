@@ -23,8 +23,31 @@ fn kumar_model(kappa: f64, alpha: f64) -> Model {
     Model::from_toml_str(&text, "kumar").unwrap()
 }
 
-/// A 2×2 × nz simple-cubic column of touching spheres, clamped on its end layers.
-fn lattice_bar(nz: usize) -> (Assembly, Vec<u32>, Vec<u32>, f64, f64) {
+/// A 2×2 × nz simple-cubic column of touching spheres with its clamped end layers, length
+/// (m) and section area (m²).
+struct LatticeBar {
+    asm: Assembly,
+    first: Vec<u32>,
+    second: Vec<u32>,
+    length: f64,
+    area: f64,
+}
+
+impl LatticeBar {
+    /// The column as a bar clamped on its end layers along z.
+    fn bar(&self) -> ClampedBar<'_> {
+        ClampedBar {
+            assembly: &self.asm,
+            first_end: &self.first,
+            second_end: &self.second,
+            axis: Vec3::z(),
+            length: self.length,
+            area: self.area,
+        }
+    }
+}
+
+fn lattice_bar(nz: usize) -> LatticeBar {
     let rad = 1e-3;
     let mut pos = Vec::new();
     for k in 0..nz {
@@ -39,8 +62,13 @@ fn lattice_bar(nz: usize) -> (Assembly, Vec<u32>, Vec<u32>, f64, f64) {
     let asm = Assembly::new(p, kumar_model(1.01, 0.2)).unwrap();
     let first = (0..4).collect();
     let second = (n as u32 - 4..n as u32).collect();
-    let length = (nz - 1) as f64 * 2.0 * rad;
-    (asm, first, second, length, 16.0 * rad * rad)
+    LatticeBar {
+        asm,
+        first,
+        second,
+        length: (nz - 1) as f64 * 2.0 * rad,
+        area: 16.0 * rad * rad,
+    }
 }
 
 /// Slender lattice column (80 layers, l/h = 40): λ within 3 % of Euler 4π²EI/l² with the
@@ -48,16 +76,9 @@ fn lattice_bar(nz: usize) -> (Assembly, Vec<u32>, Vec<u32>, f64, f64) {
 /// clamped–guided κGA; the two bending modes (x, y) are equal by the square's symmetry.
 #[test]
 fn slender_lattice_column_is_euler() {
-    let (asm, first, second, l, area) = lattice_bar(80);
-    let bar = ClampedBar {
-        assembly: &asm,
-        first_end: &first,
-        second_end: &second,
-        axis: Vec3::z(),
-        length: l,
-        area,
-    };
-    let r = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap();
+    let lattice = lattice_bar(80);
+    let l = lattice.length;
+    let r = clamped_bar_buckling(&lattice.bar(), &BucklingOptions::default()).unwrap();
     let euler = r.critical_force / r.euler_force_own(l);
     let engesser = r.critical_force / r.engesser_force_own(l);
     assert!((euler - 1.0).abs() < 0.03, "P/P_Euler = {euler}");
@@ -73,16 +94,9 @@ fn slender_lattice_column_is_euler() {
 /// contain.
 #[test]
 fn short_lattice_column_is_engesser() {
-    let (asm, first, second, l, area) = lattice_bar(20);
-    let bar = ClampedBar {
-        assembly: &asm,
-        first_end: &first,
-        second_end: &second,
-        axis: Vec3::z(),
-        length: l,
-        area,
-    };
-    let r = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap();
+    let lattice = lattice_bar(20);
+    let l = lattice.length;
+    let r = clamped_bar_buckling(&lattice.bar(), &BucklingOptions::default()).unwrap();
     let engesser = r.critical_force / r.engesser_force_own(l);
     assert!((engesser - 1.0).abs() < 0.01, "P/P_Engesser = {engesser}");
     let shear = r.euler_force_own(l) / r.shear_stiffness(l);
@@ -190,15 +204,8 @@ fn jammed_bars_follow_engesser_with_their_own_stiffness() {
 /// the residuals; overlapping end sets and a non-unit axis are refused.
 #[test]
 fn non_convergence_and_bad_bars_are_errors() {
-    let (asm, first, second, l, area) = lattice_bar(40);
-    let mut bar = ClampedBar {
-        assembly: &asm,
-        first_end: &first,
-        second_end: &second,
-        axis: Vec3::z(),
-        length: l,
-        area,
-    };
+    let lattice = lattice_bar(40);
+    let mut bar = lattice.bar();
     let opts = BucklingOptions {
         max_iterations: 2,
         tolerance: 1e-12,
@@ -210,10 +217,10 @@ fn non_convergence_and_bad_bars_are_errors() {
         err.to_string().contains("did not converge in 2 iterations"),
         "{err}"
     );
-    bar.second_end = &first;
+    bar.second_end = &lattice.first;
     let err = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap_err();
     assert!(err.to_string().contains("in both end sets"), "{err}");
-    bar.second_end = &second;
+    bar.second_end = &lattice.second;
     bar.axis = Vec3::new(0.0, 0.0, 2.0);
     let err = clamped_bar_buckling(&bar, &BucklingOptions::default()).unwrap_err();
     assert!(err.to_string().contains("unit vector"), "{err}");
