@@ -6,7 +6,8 @@ use anisobond::assembly::Assembly;
 use anisobond::bonds::BondingRule;
 use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions};
 use anisobond::homogenize::buckling::{
-    euler_stress, mazzilli_stress, BucklingOptions, BucklingResult, RoundBar,
+    euler_stress, extensible_stress, mazzilli_stress, BucklingOptions, BucklingResult, PreBuckling,
+    RoundBar,
 };
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::io::{write_string_atomic, OutputSet};
@@ -80,9 +81,13 @@ pub struct BuckleArgs {
     /// face: Kumar's spheres touching the end planes at 1).
     #[arg(long, default_value_t = 1.0)]
     clamp_depth: f64,
-    /// Relative residual of the eigen-iteration.
+    /// Relative residual of the eigen-iteration (and of the deformed bar's fixed point).
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
+    /// Skip the second eigenproblem on the bar deformed by its pre-buckling shortening (the
+    /// extensible bar, Mazzilli's Eq. 15); it costs about as much again as the linear one.
+    #[arg(long)]
+    linear_only: bool,
     /// Also compress every bar with the integrator (Kumar's law) over this many time steps
     /// to `--dem-strain` × the linearised critical strain, and report the maximum stress
     /// and Kumar's Ẽ_kin (Eq. 16) before it; 0 (default) skips it. About 2e-7 s per
@@ -118,6 +123,13 @@ struct Row {
     sigma_network: f64,
     network_over_euler: f64,
     network_over_mazzilli: f64,
+    /// Critical stress on the deformed pre-buckling geometry (Pa; nominal, ε·E).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sigma_deformed: Option<f64>,
+    /// σ_deformed over Mazzilli's σ(1 − σ/E) = σ_network (the extensible rod with the
+    /// network's own small-strain load).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    deformed_over_extensible_own: Option<f64>,
     /// EI/(E·πr⁴/4).
     bending_ratio: f64,
     /// P_cr/(4π²EI/l²) with the bar's own EI.
@@ -179,6 +191,11 @@ fn check(a: &BuckleArgs) -> Result<()> {
     Ok(())
 }
 
+/// A ratio to four decimals, or "-" when not computed.
+fn fixed4(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into())
+}
+
 fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult, e_cell: f64) -> Row {
     let (e, l) = (r.modulus, bar.length);
     let (se, sm) = (euler_stress(e, s), mazzilli_stress(e, s));
@@ -194,6 +211,10 @@ fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult, e_cell: f
         sigma_network: r.critical_stress,
         network_over_euler: r.critical_stress / se,
         network_over_mazzilli: r.critical_stress / sm,
+        sigma_deformed: r.updated_geometry.map(|u| u.critical_stress),
+        deformed_over_extensible_own: r
+            .updated_geometry
+            .map(|u| u.critical_stress / extensible_stress(r.critical_stress, e)),
         bending_ratio: r.bending_ratio(bar.area()),
         network_over_euler_own_ei: r.critical_force / r.euler_force_own(l),
         network_over_engesser_own: r.critical_force / r.engesser_force_own(l),
@@ -230,6 +251,11 @@ pub fn run(a: BuckleArgs) -> Result<()> {
     };
     let opts = BucklingOptions {
         tolerance: a.tolerance,
+        pre_buckling: if a.linear_only {
+            PreBuckling::Linear
+        } else {
+            PreBuckling::UpdatedGeometry
+        },
         ..BucklingOptions::default()
     };
     match &a.model {
@@ -244,7 +270,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
         ),
     }
     println!(
-        "{:<14} {:>6} {:>7} {:>11} {:>11} {:>11} {:>11} {:>8} {:>8} {:>8} {:>8}",
+        "{:<14} {:>6} {:>7} {:>11} {:>11} {:>11} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "route",
         "l/r",
         "spheres",
@@ -255,7 +281,9 @@ pub fn run(a: BuckleArgs) -> Result<()> {
         "/Euler",
         "/Mazz.",
         "EI ratio",
-        "/Eng.own"
+        "/Eng.own",
+        "def/Eul",
+        "def/Maz"
     );
     let mut rows = Vec::new();
     for &route in &a.route {
@@ -331,7 +359,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                 r.dem_peak_at_end = Some(c.peak_at_end);
             }
             println!(
-                "{:<14} {:>6} {:>7} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.4} {:>8.4} {:>8.4} {:>8.4}",
+                "{:<14} {:>6} {:>7} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8} {:>8}",
                 r.route,
                 s,
                 r.particles,
@@ -342,7 +370,9 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                 r.network_over_euler,
                 r.network_over_mazzilli,
                 r.bending_ratio,
-                r.network_over_engesser_own
+                r.network_over_engesser_own,
+                fixed4(r.sigma_deformed.map(|d| d / r.sigma_euler)),
+                fixed4(r.sigma_deformed.map(|d| d / r.sigma_mazzilli))
             );
             rows.push(r);
         }
@@ -350,13 +380,14 @@ pub fn run(a: BuckleArgs) -> Result<()> {
     let opt = |v: Option<f64>| v.map(|x| format!("{x:e}")).unwrap_or_default();
     let mut csv = String::from(
         "route,l_over_r,particles,bonds,E [Pa],E_cell [Pa],sigma_euler [Pa],sigma_mazzilli [Pa],\
-         sigma_network [Pa],network_over_euler,network_over_mazzilli,bending_ratio,\
+         sigma_network [Pa],network_over_euler,network_over_mazzilli,sigma_deformed [Pa],\
+         deformed_over_extensible_own,bending_ratio,\
          network_over_euler_own_EI,network_over_engesser_own,normal_force_share,iterations,\
          residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end\n",
     );
     for r in &rows {
         csv += &format!(
-            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
+            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
             r.route,
             r.slenderness,
             r.particles,
@@ -368,6 +399,10 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             r.sigma_network,
             r.network_over_euler,
             r.network_over_mazzilli,
+            opt(r.sigma_deformed),
+            r.deformed_over_extensible_own
+                .map(|x| x.to_string())
+                .unwrap_or_default(),
             r.bending_ratio,
             r.network_over_euler_own_ei,
             r.network_over_engesser_own,
@@ -384,13 +419,13 @@ pub fn run(a: BuckleArgs) -> Result<()> {
     let json = serde_json::json!({
         "units": {
             "modulus": "Pa", "modulus_cell": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
-            "sigma_network": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
+            "sigma_network": "Pa", "sigma_deformed": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
         },
         "parameters": {
             "radius_in_mean_radii": a.radius_particles, "cell_particles": a.cell_particles,
             "alpha": a.alpha, "kappa": a.kappa, "sigma_n_pa": a.sigma_n, "seed": a.seed,
             "clamp_depth_in_mean_radii": a.clamp_depth, "tolerance": a.tolerance,
-            "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,
+            "deformed_bar": !a.linear_only, "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,
             "euler": "Kumar 2016 Eq. 14, k = 0.5", "mazzilli": "Kumar 2016 Eq. 15, k = 0.5"
         },
         "rows": rows,

@@ -57,6 +57,44 @@ pub struct BucklingOptions {
     pub lever_arm: LeverArm,
     /// Seed of the small random part of the start vectors.
     pub seed: u64,
+    /// Where the eigenproblem is linearised: the undeformed bar, or also the bar deformed
+    /// by its pre-buckling shortening (the extensible bar).
+    pub pre_buckling: PreBuckling,
+}
+
+/// The geometry the buckling eigenproblem is set up on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PreBuckling {
+    /// Small strain: K and K_g on the undeformed bar (Euler, Kumar 2016 Eq. 14; Engesser
+    /// with shear flexibility).
+    #[default]
+    Linear,
+    /// Also on the bar deformed by its pre-buckling state: positions x + ε·u₁ (u₁ the
+    /// displacement per unit axial strain), bond normals, lengths and contact arms updated,
+    /// axial forces ε·N₁ along the deformed bonds; ε is the fixed point ε = λ(ε). The
+    /// extensible rod of Mazzilli (Kumar 2016 Eq. 15), whose σ(1 − σ/E) = σ_Euler this gives
+    /// for a shear-rigid bar without lateral expansion.
+    UpdatedGeometry,
+}
+
+/// The critical state of the bar on its deformed pre-buckling geometry
+/// ([`PreBuckling::UpdatedGeometry`]).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct UpdatedGeometryResult {
+    /// Critical axial strain ε (nominal: shortening over the undeformed length).
+    pub critical_strain: f64,
+    /// Critical axial stress ε·E (Pa, nominal: force over the undeformed section, E the
+    /// linear axial modulus), comparable with Mazzilli's σ.
+    pub critical_stress: f64,
+    /// Critical axial force (N).
+    pub critical_force: f64,
+    /// Secant steps of the fixed point ε = λ(ε).
+    pub fixed_point_iterations: usize,
+    /// |λ(ε) − ε|/ε at the end.
+    pub fixed_point_residual: f64,
+    /// Subspace iterations summed over the steps.
+    pub eigen_iterations: usize,
 }
 
 impl Default for BucklingOptions {
@@ -66,6 +104,7 @@ impl Default for BucklingOptions {
             max_iterations: 2000,
             lever_arm: LeverArm::MidGap,
             seed: 1,
+            pre_buckling: PreBuckling::Linear,
         }
     }
 }
@@ -114,6 +153,8 @@ pub struct BucklingResult {
     pub normal_force_share: f64,
     /// Bonds in compression in the pre-buckling state.
     pub compressed_bonds: usize,
+    /// With [`PreBuckling::UpdatedGeometry`]: the critical state on the deformed bar.
+    pub updated_geometry: Option<UpdatedGeometryResult>,
     /// Translation of every particle in the first buckling mode (unit max norm; zero for
     /// clamped and unloaded particles).
     #[serde(skip)]
@@ -389,7 +430,7 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         / bar.first_end.len() as f64;
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let tau = 2.0 * std::f64::consts::PI;
-    let mut x: Vec<Block6> = free_nodes
+    let x: Vec<Block6> = free_nodes
         .iter()
         .map(|&q| {
             let pos = a.packing.positions[net.original[q] as usize];
@@ -413,6 +454,99 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         .collect();
 
     let nf = free_nodes.len();
+    let linear = lowest_load_factors(&chol, &aff, x, opts)?;
+    let lambda = linear.lambda;
+    let updated_geometry = match opts.pre_buckling {
+        PreBuckling::Linear => None,
+        PreBuckling::UpdatedGeometry => {
+            // Axial force N₁ of every bond per unit strain, and the translations u₁.
+            let axial: Vec<f64> = (0..bonds.len())
+                .map(|b| forces[b].dot(&bonds.normal[b]))
+                .collect();
+            let shift: Vec<Vec3> = u
+                .iter()
+                .map(|uq| uq.fixed_view::<3, 1>(0, 0).into_owned())
+                .collect();
+            let deformed = |strain: f64, start: Vec<Block6>| -> Result<LoadFactors> {
+                let mut moved = bonds.clone();
+                for (e, &(pi, pj)) in net.ends.iter().enumerate() {
+                    let b = net.bond[e];
+                    let branch = bonds.normal[b] * bonds.length[b]
+                        + (shift[pj as usize] - shift[pi as usize]) * strain;
+                    moved.length[b] = branch.norm();
+                    moved.normal[b] = branch / moved.length[b];
+                }
+                let net_d =
+                    Network::build(&a.packing, &moved, &a.springs, opts.lever_arm, true, None)?;
+                let kff_d = restrict(&BlockSparse::assemble(&net_d), &free_map, 1.0);
+                let chol_d = BlockCholesky::factor_definite(&kff_d)?;
+                let unit: Vec<Vec3> = (0..bonds.len())
+                    .map(|b| moved.normal[b] * axial[b])
+                    .collect();
+                let kg_d = geometric_stiffness(&net_d, &moved, &unit)?;
+                lowest_load_factors(&chol_d, &restrict(&kg_d, &free_map, -1.0), start, opts)
+            };
+            Some(
+                updated_fixed_point(lambda[0], linear.vectors.clone(), deformed, opts)?
+                    .with_force(force, modulus),
+            )
+        }
+    };
+    let (x, residuals, iterations) = (linear.vectors, linear.residuals, linear.iterations);
+    let mut mode = vec![Vec3::zeros(); n];
+    let mut peak: f64 = 0.0;
+    for (f, &q) in free_nodes.iter().enumerate() {
+        let v = Vec3::new(x[f][(0, 0)], x[f][(1, 0)], x[f][(2, 0)]);
+        peak = peak.max(v.norm());
+        mode[net.original[q] as usize] = v;
+    }
+    if peak > 0.0 {
+        for v in &mut mode {
+            *v /= peak;
+        }
+    }
+    let critical_strain = lambda[0];
+    Ok(BucklingResult {
+        axial_force_per_strain: force,
+        modulus,
+        load_factors: [lambda[0], lambda[1]],
+        critical_strain,
+        critical_stress: critical_strain * modulus,
+        critical_force: critical_strain * force,
+        iterations,
+        residuals,
+        static_residual,
+        reaction_imbalance,
+        updated_geometry,
+        free_particles: nf,
+        clamped_particles: clamped,
+        unloaded_particles: n - nf - clamped,
+        bonds: net.ends.len(),
+        bending_stiffness,
+        transverse_stiffness,
+        compressed_bonds,
+        normal_force_share: love_normal / love_total,
+        mode,
+    })
+}
+
+/// The two lowest load factors of K φ = λ(−K_g)φ, their Ritz vectors and residuals.
+struct LoadFactors {
+    lambda: [f64; 6],
+    residuals: [f64; 2],
+    iterations: usize,
+    vectors: Vec<Block6>,
+}
+
+/// Subspace iteration for the lowest load factors of K φ = λ(−K_g)φ: `chol` factors K,
+/// `aff` is −K_g (both restricted to the free nodes), `x` holds six start vectors per node.
+fn lowest_load_factors(
+    chol: &BlockCholesky,
+    aff: &BlockSparse,
+    mut x: Vec<Block6>,
+    opts: &BucklingOptions,
+) -> Result<LoadFactors> {
+    let nf = x.len();
     let mut ax = vec![Block6::zeros(); nf];
     let mut kx: Vec<Block6> = Vec::new();
     let mut lambda = [f64::INFINITY; 6];
@@ -484,40 +618,68 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
             opts.max_iterations, residuals[0], residuals[1], opts.tolerance, lambda[0]
         )));
     }
-    let mut mode = vec![Vec3::zeros(); n];
-    let mut peak: f64 = 0.0;
-    for (f, &q) in free_nodes.iter().enumerate() {
-        let v = Vec3::new(x[f][(0, 0)], x[f][(1, 0)], x[f][(2, 0)]);
-        peak = peak.max(v.norm());
-        mode[net.original[q] as usize] = v;
-    }
-    if peak > 0.0 {
-        for v in &mut mode {
-            *v /= peak;
-        }
-    }
-    let critical_strain = lambda[0];
-    Ok(BucklingResult {
-        axial_force_per_strain: force,
-        modulus,
-        load_factors: [lambda[0], lambda[1]],
-        critical_strain,
-        critical_stress: critical_strain * modulus,
-        critical_force: critical_strain * force,
-        iterations,
+    Ok(LoadFactors {
+        lambda,
         residuals,
-        static_residual,
-        reaction_imbalance,
-        free_particles: nf,
-        clamped_particles: clamped,
-        unloaded_particles: n - nf - clamped,
-        bonds: net.ends.len(),
-        bending_stiffness,
-        transverse_stiffness,
-        compressed_bonds,
-        normal_force_share: love_normal / love_total,
-        mode,
+        iterations,
+        vectors: x,
     })
+}
+
+/// The fixed point ε = λ(ε) of [`PreBuckling::UpdatedGeometry`] by secant steps from
+/// (0, λ_lin): `deformed(ε, start)` solves the eigenproblem on the bar deformed by ε.
+/// Converged when |λ(ε) − ε| < tolerance·ε; an error when it leaves (0, 1) or does not
+/// converge in 50 steps.
+fn updated_fixed_point(
+    linear: f64,
+    start: Vec<Block6>,
+    deformed: impl Fn(f64, Vec<Block6>) -> Result<LoadFactors>,
+    opts: &BucklingOptions,
+) -> Result<UpdatedGeometryResult> {
+    let (mut e0, mut h0) = (0.0, linear);
+    let mut e1 = linear;
+    let mut step = deformed(e1, start)?;
+    let mut eigen_iterations = step.iterations;
+    let mut h1 = step.lambda[0] - e1;
+    let mut iterations = 1;
+    while h1.abs() >= opts.tolerance * e1 {
+        if iterations == 50 {
+            return Err(Error::NotConverged(format!(
+                "buckling on the deformed bar: the fixed point ε = λ(ε) did not converge in \
+                 50 steps (ε = {e1:e}, |λ(ε) − ε|/ε = {:e})",
+                h1.abs() / e1
+            )));
+        }
+        let e2 = e1 - h1 * (e1 - e0) / (h1 - h0);
+        if !(e2.is_finite() && e2 > 0.0 && e2 < 1.0) {
+            return Err(Error::Degenerate(format!(
+                "buckling on the deformed bar: no critical strain in (0, 1) (the secant step \
+                 from ε = {e1:e} gives {e2:e}; linear ε_cr = {linear:e})"
+            )));
+        }
+        (e0, h0, e1) = (e1, h1, e2);
+        step = deformed(e1, step.vectors)?;
+        eigen_iterations += step.iterations;
+        h1 = step.lambda[0] - e1;
+        iterations += 1;
+    }
+    Ok(UpdatedGeometryResult {
+        critical_strain: e1,
+        critical_stress: f64::NAN,
+        critical_force: f64::NAN,
+        fixed_point_iterations: iterations,
+        fixed_point_residual: h1.abs() / e1,
+        eigen_iterations,
+    })
+}
+
+impl UpdatedGeometryResult {
+    /// Fill the stress and force from the linear axial force per strain and modulus.
+    fn with_force(mut self, force_per_strain: f64, modulus: f64) -> Self {
+        self.critical_stress = self.critical_strain * modulus;
+        self.critical_force = self.critical_strain * force_per_strain;
+        self
+    }
 }
 
 /// Euler's critical stress of a clamped–clamped round bar, Kumar 2016 Eq. 14:
@@ -530,8 +692,14 @@ pub fn euler_stress(modulus: f64, slenderness: f64) -> f64 {
 /// Mazzilli's critical stress of an extensible clamped–clamped round bar, Kumar 2016 Eq. 15:
 /// σ = (1 − √(1 − π²/(k l/r)²))·E/2 with k = 0.5; NaN when k·l/r < π (no real root).
 pub fn mazzilli_stress(modulus: f64, slenderness: f64) -> f64 {
-    let kl = 0.5 * slenderness;
-    let d = 1.0 - std::f64::consts::PI.powi(2) / (kl * kl);
+    extensible_stress(euler_stress(modulus, slenderness), modulus)
+}
+
+/// The extensible rod's critical stress for a given inextensible (Euler) one: the smaller
+/// root of σ(1 − σ/E) = σ_E, σ = (1 − √(1 − 4σ_E/E))·E/2 (Kumar 2016 Eq. 15 with any
+/// σ_E, e.g. a bar's own); NaN when 4σ_E > E (no real root).
+pub fn extensible_stress(euler: f64, modulus: f64) -> f64 {
+    let d = 1.0 - 4.0 * euler / modulus;
     if d < 0.0 {
         return f64::NAN;
     }

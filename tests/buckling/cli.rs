@@ -40,6 +40,12 @@ fn buckle_writes_table_consistent_with_eqs_14_15() {
         let ratio = f("sigma_network [Pa]") / euler;
         assert!((f("network_over_euler") / ratio - 1.0).abs() < 1e-9);
         assert!(ratio > 0.0 && ratio.is_finite());
+        // The deformed bar (on by default) against Eq. 15 with the network's own load.
+        let sn = f("sigma_network [Pa]");
+        let extensible = (1.0 - (1.0 - 4.0 * sn / e).sqrt()) * e / 2.0;
+        let deformed = f("sigma_deformed [Pa]");
+        assert!((f("deformed_over_extensible_own") / (deformed / extensible) - 1.0).abs() < 1e-9);
+        assert!((deformed / sn - 1.0).abs() < 0.1, "{deformed} vs {sn}");
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("buckling.json")).unwrap()).unwrap();
