@@ -263,9 +263,11 @@ def applications(threads):
     rows.append(["Šmilauer's cavity, static, isotropic springs: a = 10 R̄, b = 24 R̄ (1000-sphere "
                  "source, seed 7, gap 0.17 R̄)",
                  "`%s`" % cmd_text(cmd), cav_size(j), threads, "%.2f s" % wall, "%.0f MB" % rss,
-                 "wall displacement DEM / Lamé = %.4f (%.4e / %.4e m); in-plane Christoffel "
-                 "quasi-P at 0° / 45° / 90° from x: %s m/s" % (
+                 "wall displacement DEM / Lamé = %.4f (%.4e / %.4e m), DEM / continuum (full "
+                 "relaxed tensor) = %.4f; in-plane Christoffel quasi-P at 0° / 45° / 90° from x: "
+                 "%s m/s" % (
                      j["dem_over_lame"], j["wall_displacement_m"], j["lame_wall_displacement_m"],
+                     j["continuum"]["dem_over_continuum"],
                      speeds(j, "quasi_longitudinal_m_per_s"))])
     cmd, wall, rss, j = cavity(tilt, os.path.join(WORK, "cavity-tilted"), ["--pressure", "1e4"])
     rows.append(["Šmilauer's cavity, static, his tilted cross-anisotropy (C11 = 130, C33 = 55, "
@@ -273,8 +275,13 @@ def applications(threads):
                  "axis)",
                  "`%s`" % cmd_text(cmd), cav_size(j), threads, "%.2f s" % wall, "%.0f MB" % rss,
                  "in-plane Christoffel quasi-P at 0° / 45° / 90° from x: %s m/s (faster along the "
-                 "stiff horizontal, as in his report); wall displacement DEM / isotropic Lamé = %.4f"
-                 % (speeds(j, "quasi_longitudinal_m_per_s"), j["dem_over_lame"])])
+                 "stiff horizontal, as in his report); DEM / anisotropic continuum: mean wall "
+                 "displacement %.4f, axial u_z at the top (90°) %s and bottom (270°) %s"
+                 % (speeds(j, "quasi_longitudinal_m_per_s"), j["continuum"]["dem_over_continuum"],
+                    *["%.3f (%.3e / %.3e m)" % (b["dem_axial_m"] / b["continuum_axial_m"],
+                                                 b["dem_axial_m"], b["continuum_axial_m"])
+                      for b in j["continuum"]["wall_bins_20deg"]
+                      if round(b["angle_from_x_deg"]) in (90, 270)])])
     b_waves = 40 if QUICK else 64
     cmd, wall, rss, j = cavity(tilt, os.path.join(WORK, "cavity-waves"),
                                ["--hole-radius", "8e-3", "--outer-radius", "%de-3" % b_waves,

@@ -21,6 +21,7 @@
 //! [`statics`] solves the linear equilibrium on the relaxed solver's block-sparse stiffness;
 //! [`lame_wall_displacement`] is the continuum reference.
 
+pub mod continuum;
 pub mod dynamics;
 pub mod statics;
 
@@ -185,6 +186,24 @@ impl Cavity {
             .map(|&p| self.unit_load[p as usize].dot(&displacement[p as usize]))
             .sum();
         work / self.wall_area
+    }
+
+    /// Mean (radial, axial) displacement (m) of the wall spheres within ±`half_width`
+    /// (degrees) of the direction `direction` (degrees from x towards y); NaN when the bin
+    /// holds no wall sphere. The continuum's counterpart is
+    /// [`continuum::ContinuumCavity::wall_bin`].
+    pub fn wall_bin(&self, displacement: &[Vec3], direction: f64, half_width: f64) -> (f64, f64) {
+        let (mut ur, mut uz, mut n) = (0.0, 0.0, 0.0);
+        for &p in &self.wall {
+            let rel = self.relative_position(p as usize);
+            if continuum::in_bin(rel.x, rel.y, direction, half_width) {
+                let u = displacement[p as usize];
+                ur += u.dot(&self.radial_unit(p as usize));
+                uz += u.z;
+                n += 1.0;
+            }
+        }
+        (ur / n, uz / n)
     }
 }
 

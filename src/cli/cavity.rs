@@ -6,7 +6,9 @@
 use super::cell;
 use super::output::check_json_numbers;
 use anisobond::cavity::{
-    bulk_density, isotropic_lame_constants, lame_wall_displacement, Cavity, CavityGeometry,
+    bulk_density,
+    continuum::{solve_annulus, AnnulusMesh},
+    isotropic_lame_constants, lame_wall_displacement, Cavity, CavityGeometry,
 };
 use anisobond::export::vtk::{write_particles_vtu, StrainedState};
 use anisobond::io::OutputSet;
@@ -94,6 +96,19 @@ pub fn run(a: CavityArgs) -> Result<()> {
     let (lambda, mu) = isotropic_lame_constants(&relaxed);
     let (ga, gb) = (geometry.inner_radius, geometry.outer_radius);
     let lame = lame_wall_displacement(a.pressure, ga, gb, lambda, mu);
+    let fe = solve_annulus(&relaxed, ga, gb, a.pressure, &AnnulusMesh::default())?;
+    // Wall bins of ±20° along x, y, −x, −y: DEM spheres beside the continuum's nodes.
+    let bins: Vec<serde_json::Value> = [0.0, 90.0, 180.0, 270.0]
+        .iter()
+        .map(|&d| {
+            let (ur, uz) = cavity.wall_bin(&s.displacement, d, 20.0);
+            let (fr, fz) = fe.wall_bin(d, 20.0);
+            serde_json::json!({
+                "angle_from_x_deg": d, "dem_radial_m": ur, "dem_axial_m": uz,
+                "continuum_radial_m": fr, "continuum_axial_m": fz,
+            })
+        })
+        .collect();
     let rho = bulk_density(&src.packing, a.density);
     let mut speeds = Vec::new();
     for k in 0..12 {
@@ -129,6 +144,15 @@ pub fn run(a: CavityArgs) -> Result<()> {
         "dem_over_lame": s.wall_displacement / lame,
         "lame_lambda_pa": lambda,
         "lame_mu_pa": mu,
+        "continuum": {
+            "method": "generalized plane strain (u_x, u_y, u_z of x, y) with the relaxed tensor, \
+                       linear triangles, clamped at b (cavity::continuum)",
+            "mesh_rings": AnnulusMesh::default().radial,
+            "mesh_around": fe.around,
+            "wall_displacement_m": fe.wall_displacement,
+            "dem_over_continuum": s.wall_displacement / fe.wall_displacement,
+            "wall_bins_20deg": bins,
+        },
         "relaxed_tensor_pa": anisobond::tensor::compare::rows(&relaxed),
         "bulk_density_kg_per_m3": rho,
         "christoffel_in_plane": speeds,
@@ -167,6 +191,30 @@ pub fn run(a: CavityArgs) -> Result<()> {
         mu,
         s.wall_displacement / lame
     );
+    println!(
+        "  continuum (generalized plane strain, full relaxed tensor, {} × {} triangles' mesh): \
+         {:.5e} m: DEM/continuum {:.4}",
+        AnnulusMesh::default().radial,
+        fe.around,
+        fe.wall_displacement,
+        s.wall_displacement / fe.wall_displacement
+    );
+    for b in json["continuum"]["wall_bins_20deg"]
+        .as_array()
+        .into_iter()
+        .flatten()
+    {
+        let g = |k: &str| b[k].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "  wall at {:>3}° ± 20°: u_r {:.4e} m (DEM) {:.4e} m (continuum); u_z {:.4e} m (DEM) \
+             {:.4e} m (continuum)",
+            g("angle_from_x_deg"),
+            g("dem_radial_m"),
+            g("continuum_radial_m"),
+            g("dem_axial_m"),
+            g("continuum_axial_m")
+        );
+    }
     println!(
         "  mean axial wall displacement {:.4e} m; residual {:.1e}",
         s.wall_axial_displacement, s.relative_residual

@@ -49,6 +49,16 @@ fn cavity_command_writes_the_library_solution() {
     let again = lame_wall_displacement(1e6, 6e-3, 14e-3, lambda, mu);
     assert!((lame - again).abs() < 1e-12 * lame);
     assert_eq!(json["christoffel_in_plane"].as_array().unwrap().len(), 12);
+    // the continuum of the full relaxed tensor: near Lamé for these nearly isotropic bonds,
+    // its ratio the DEM's, four wall bins
+    let c = &json["continuum"];
+    let fe = c["wall_displacement_m"].as_f64().unwrap();
+    assert!(
+        (fe / lame - 1.0).abs() < 0.03,
+        "continuum {fe:e}, Lamé {lame:e}"
+    );
+    assert!((c["dem_over_continuum"].as_f64().unwrap() * fe / u - 1.0).abs() < 1e-12);
+    assert_eq!(c["wall_bins_20deg"].as_array().unwrap().len(), 4);
     let csv = std::fs::read_to_string(out.join("particles.csv")).unwrap();
     assert!(csv.starts_with("id,x [m],y [m],z [m],radius [m]"));
     assert_eq!(csv.lines().count(), cav.cut.packing.len() + 1);

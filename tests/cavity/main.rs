@@ -6,6 +6,7 @@
 mod common;
 
 mod cli;
+mod continuum;
 mod external;
 mod fronts;
 mod lame;
