@@ -35,6 +35,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "benches"))
+import lammps_scale  # noqa: E402  (its section_lines renders every section)
 QUICK = "--quick" in sys.argv
 ONLY = None
 for _i, _a in enumerate(sys.argv):
@@ -110,24 +112,12 @@ def mem_gib():
     return float("nan")
 
 
-def render_section(title, intro, header, rows, after=""):
-    """The markdown lines of one section."""
-    lines = ["## " + title, "", intro, "", "| " + " | ".join(header) + " |",
-             "|" + "---|" * len(header)]
-    for r in rows:
-        lines.append("| " + " | ".join(str(x) for x in r) + " |")
-    lines.append("")
-    if after:
-        lines += [after, ""]
-    return lines
-
-
 def splice_sections(path):
     """Rewrite only this run's sections in an existing BENCHMARKS.md (a section not there yet
     is appended); every other line stays as it is."""
     lines = open(path).read().split("\n")
     for title, intro, header, rows, after in sections:
-        new = render_section(title, intro, header, rows, after)
+        new = lammps_scale.section_lines(title, intro, header, rows, after)
         heads = [i for i, l in enumerate(lines) if l.startswith("## ")]
         start = next((i for i in heads if lines[i] == "## " + title), None)
         if start is None:
@@ -520,8 +510,6 @@ def main():
              "Bond CPU time per bond-step", "loop time per bond-step"], rows)
 
     # --- LAMMPS at scale -------------------------------------------------------------------
-    sys.path.insert(0, os.path.join(ROOT, "benches"))
-    import lammps_scale
     title = "LAMMPS at scale"
     if NO_SCALE:
         section(title, "Not run (`--no-scale` or ANISOBOND_BENCH_NO_SCALE=1).", lammps_scale.SCALE_HEADER, [])
@@ -586,7 +574,7 @@ def main():
              "to ±20 %%. Earlier figures are in git history." % (cpu_name(), os.cpu_count(), mem_gib(), platform.platform()),
              ""]
     for sec in sections:
-        lines += render_section(*sec)
+        lines += lammps_scale.section_lines(*sec)
     open(os.path.join(ROOT, "BENCHMARKS.md"), "w").write("\n".join(lines))
     shutil.rmtree(WORK, ignore_errors=True)
     print("wrote BENCHMARKS.md (%d sections)" % len(sections))
