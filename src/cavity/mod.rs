@@ -46,6 +46,28 @@ pub struct CavityGeometry {
     pub ray_spacing: f64,
 }
 
+impl CavityGeometry {
+    /// The geometry for `source` with the documented defaults for what is `None`: hole
+    /// radius a = 10 R̄, clamped radius b = 24 R̄, clamp width = the longest bond, tiles of
+    /// R̄/4 (R̄ the source's mean radius).
+    pub fn with_defaults(
+        source: &Assembly,
+        inner_radius: Option<f64>,
+        outer_radius: Option<f64>,
+        clamp_width: Option<f64>,
+        ray_spacing: Option<f64>,
+    ) -> CavityGeometry {
+        let r = source.packing.mean_radius();
+        CavityGeometry {
+            inner_radius: inner_radius.unwrap_or(10.0 * r),
+            outer_radius: outer_radius.unwrap_or(24.0 * r),
+            clamp_width: clamp_width
+                .unwrap_or_else(|| source.bonds.length.iter().copied().fold(0.0, f64::max)),
+            ray_spacing: ray_spacing.unwrap_or(0.25 * r),
+        }
+    }
+}
+
 /// The bonded holed slab with its supports and its wall loads per unit pressure.
 pub struct Cavity {
     /// The cut (packing with its z-periodic cell, sources, the axis).

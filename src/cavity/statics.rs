@@ -160,3 +160,76 @@ impl StaticCavity {
         })
     }
 }
+
+/// One ±half-width bin of the wall: the DEM's wall spheres beside the continuum's wall nodes.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct WallBin {
+    /// Direction of the bin (degrees from x towards y).
+    pub angle_from_x_deg: f64,
+    /// Mean radial displacement of the wall spheres (m).
+    pub dem_radial_m: f64,
+    /// Mean axial displacement of the wall spheres (m).
+    pub dem_axial_m: f64,
+    /// Mean radial displacement of the continuum's wall nodes (m).
+    pub continuum_radial_m: f64,
+    /// Mean axial displacement of the continuum's wall nodes (m).
+    pub continuum_axial_m: f64,
+}
+
+/// The static solution beside its continuum references: Lamé with the tensor's isotropic
+/// projection, and the anisotropic continuum of the full tensor ([`super::continuum`]).
+#[derive(Clone, Debug)]
+pub struct StaticComparison {
+    /// The bonded slab's solution.
+    pub solution: StaticCavity,
+    /// Lamé's wall displacement (m) with λ, μ the group means of the tensor.
+    pub lame_wall_displacement: f64,
+    /// Lamé constants (λ, μ) used (Pa).
+    pub lame_constants: (f64, f64),
+    /// The continuum solution (default mesh).
+    pub continuum: super::continuum::ContinuumCavity,
+    /// Wall bins of ±20° along +x, +y, −x, −y.
+    pub bins: Vec<WallBin>,
+}
+
+impl Cavity {
+    /// Solve under `pressure` (Pa) and set the result beside Lamé and the anisotropic
+    /// continuum of `tensor` (the source's relaxed tensor, Pa, in the slab's frame).
+    pub fn compare_static(
+        &self,
+        tensor: &crate::tensor::Stiffness6,
+        pressure: f64,
+    ) -> Result<StaticComparison> {
+        let solution = self.solve_static(pressure)?;
+        let (a, b) = (self.geometry.inner_radius, self.geometry.outer_radius);
+        let (lambda, mu) = super::isotropic_lame_constants(tensor);
+        let continuum = super::continuum::solve_annulus(
+            tensor,
+            a,
+            b,
+            pressure,
+            &super::continuum::AnnulusMesh::default(),
+        )?;
+        let bins = [0.0, 90.0, 180.0, 270.0]
+            .iter()
+            .map(|&d| {
+                let (dem_radial_m, dem_axial_m) = self.wall_bin(&solution.displacement, d, 20.0);
+                let (continuum_radial_m, continuum_axial_m) = continuum.wall_bin(d, 20.0);
+                WallBin {
+                    angle_from_x_deg: d,
+                    dem_radial_m,
+                    dem_axial_m,
+                    continuum_radial_m,
+                    continuum_axial_m,
+                }
+            })
+            .collect();
+        Ok(StaticComparison {
+            lame_wall_displacement: super::lame_wall_displacement(pressure, a, b, lambda, mu),
+            lame_constants: (lambda, mu),
+            solution,
+            continuum,
+            bins,
+        })
+    }
+}

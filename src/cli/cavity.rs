@@ -5,11 +5,7 @@
 
 use super::cell;
 use super::output::check_json_numbers;
-use anisobond::cavity::{
-    bulk_density,
-    continuum::{solve_annulus, AnnulusMesh},
-    isotropic_lame_constants, lame_wall_displacement, Cavity, CavityGeometry,
-};
+use anisobond::cavity::{bulk_density, continuum::AnnulusMesh, Cavity, CavityGeometry};
 use anisobond::export::vtk::{write_particles_vtu, StrainedState};
 use anisobond::io::OutputSet;
 use anisobond::prelude::*;
@@ -81,34 +77,19 @@ pub fn run(a: CavityArgs) -> Result<()> {
     let mut out = OutputSet::new(&a.input.paths());
     let dir = out.dir(&a.output)?;
     let src = a.input.assembly()?;
-    let r = src.packing.mean_radius();
-    let geometry = CavityGeometry {
-        inner_radius: a.hole_radius.unwrap_or(10.0 * r),
-        outer_radius: a.outer_radius.unwrap_or(24.0 * r),
-        clamp_width: a
-            .clamp_width
-            .unwrap_or_else(|| src.bonds.length.iter().copied().fold(0.0, f64::max)),
-        ray_spacing: a.ray_spacing.unwrap_or(0.25 * r),
-    };
+    let geometry = CavityGeometry::with_defaults(
+        &src,
+        a.hole_radius,
+        a.outer_radius,
+        a.clamp_width,
+        a.ray_spacing,
+    );
     let relaxed = src.tensor(&Method::relaxed())?.report.tensor();
     let cavity = Cavity::new(&src, geometry)?;
-    let s = cavity.solve_static(a.pressure)?;
-    let (lambda, mu) = isotropic_lame_constants(&relaxed);
+    let cmp = cavity.compare_static(&relaxed, a.pressure)?;
+    let (s, fe) = (&cmp.solution, &cmp.continuum);
+    let ((lambda, mu), lame) = (cmp.lame_constants, cmp.lame_wall_displacement);
     let (ga, gb) = (geometry.inner_radius, geometry.outer_radius);
-    let lame = lame_wall_displacement(a.pressure, ga, gb, lambda, mu);
-    let fe = solve_annulus(&relaxed, ga, gb, a.pressure, &AnnulusMesh::default())?;
-    // Wall bins of ±20° along x, y, −x, −y: DEM spheres beside the continuum's nodes.
-    let bins: Vec<serde_json::Value> = [0.0, 90.0, 180.0, 270.0]
-        .iter()
-        .map(|&d| {
-            let (ur, uz) = cavity.wall_bin(&s.displacement, d, 20.0);
-            let (fr, fz) = fe.wall_bin(d, 20.0);
-            serde_json::json!({
-                "angle_from_x_deg": d, "dem_radial_m": ur, "dem_axial_m": uz,
-                "continuum_radial_m": fr, "continuum_axial_m": fz,
-            })
-        })
-        .collect();
     let rho = bulk_density(&src.packing, a.density);
     let mut speeds = Vec::new();
     for k in 0..12 {
@@ -151,7 +132,7 @@ pub fn run(a: CavityArgs) -> Result<()> {
             "mesh_around": fe.around,
             "wall_displacement_m": fe.wall_displacement,
             "dem_over_continuum": s.wall_displacement / fe.wall_displacement,
-            "wall_bins_20deg": bins,
+            "wall_bins_20deg": cmp.bins,
         },
         "relaxed_tensor_pa": anisobond::tensor::compare::rows(&relaxed),
         "bulk_density_kg_per_m3": rho,

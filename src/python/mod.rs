@@ -907,6 +907,89 @@ impl PyAssembly {
         json_to_py(py, &r.to_json())
     }
 
+    /// Šmilauer's pressurised cavity (docs/cavity.md), as `anisobond cavity` without the
+    /// wave run: a slab with a hole of radius `hole_radius` (m; default 10 R̄) cut from this
+    /// periodic assembly, clamped beyond `outer_radius` (default 24 R̄), the wall under
+    /// `pressure` (Pa). Returns a dict: the DEM wall displacement (m) beside Lamé (the
+    /// relaxed tensor's isotropic projection) and the anisotropic continuum of the full
+    /// relaxed tensor (`continuum_*`), the ±20° wall bins along ±x, ±y (u_r, u_z, m), and
+    /// numpy arrays `positions`, `displacement` (m) of the slab's spheres. GIL released.
+    #[pyo3(signature = (hole_radius = None, *, outer_radius = None, pressure = 1e6,
+        clamp_width = None, ray_spacing = None))]
+    fn cavity<'py>(
+        &self,
+        py: Python<'py>,
+        hole_radius: Option<f64>,
+        outer_radius: Option<f64>,
+        pressure: f64,
+        clamp_width: Option<f64>,
+        ray_spacing: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        use crate::cavity::{Cavity, CavityGeometry};
+        for (name, v) in [
+            ("hole_radius", hole_radius),
+            ("outer_radius", outer_radius),
+            ("clamp_width", clamp_width),
+            ("ray_spacing", ray_spacing),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(InputError::new_err(format!(
+                        "{name} must be finite and > 0 m, got {v}"
+                    )));
+                }
+            }
+        }
+        let src = &self.inner;
+        let (cavity, cmp) = py
+            .detach(|| {
+                let geometry = CavityGeometry::with_defaults(
+                    src,
+                    hole_radius,
+                    outer_radius,
+                    clamp_width,
+                    ray_spacing,
+                );
+                let relaxed = src.tensor(&Method::relaxed())?.report.tensor();
+                let cavity = Cavity::new(src, geometry)?;
+                let cmp = cavity.compare_static(&relaxed, pressure)?;
+                Ok::<_, Error>((cavity, cmp))
+            })
+            .map_err(to_py)?;
+        let s = &cmp.solution;
+        let d = PyDict::new(py);
+        d.set_item("pressure_pa", pressure)?;
+        d.set_item("hole_radius_m", cavity.geometry.inner_radius)?;
+        d.set_item("clamped_radius_m", cavity.geometry.outer_radius)?;
+        d.set_item("spheres", cavity.cut.packing.len())?;
+        d.set_item("free_spheres", s.free_spheres)?;
+        d.set_item("wall_spheres", cavity.wall.len())?;
+        d.set_item("relative_residual", s.relative_residual)?;
+        d.set_item("wall_displacement_m", s.wall_displacement)?;
+        d.set_item("wall_axial_displacement_m", s.wall_axial_displacement)?;
+        d.set_item("lame_wall_displacement_m", cmp.lame_wall_displacement)?;
+        d.set_item(
+            "dem_over_lame",
+            s.wall_displacement / cmp.lame_wall_displacement,
+        )?;
+        d.set_item("lame_lambda_pa", cmp.lame_constants.0)?;
+        d.set_item("lame_mu_pa", cmp.lame_constants.1)?;
+        d.set_item(
+            "continuum_wall_displacement_m",
+            cmp.continuum.wall_displacement,
+        )?;
+        d.set_item(
+            "dem_over_continuum",
+            s.wall_displacement / cmp.continuum.wall_displacement,
+        )?;
+        let bins =
+            serde_json::to_string(&cmp.bins).map_err(|e| InputError::new_err(e.to_string()))?;
+        d.set_item("wall_bins_20deg", json_to_py(py, &bins)?)?;
+        d.set_item("positions", vec3_array(py, &cavity.cut.packing.positions)?)?;
+        d.set_item("displacement", vec3_array(py, &s.displacement)?)?;
+        Ok(d)
+    }
+
     /// Write the bond table (CSV, docs/formats.md) to `path` atomically.
     fn write_bonds(&self, path: PathBuf) -> PyResult<()> {
         write_staged(path, OutputSet::file, |p| self.inner.write_bonds(p))
@@ -996,6 +1079,74 @@ impl PyAssembly {
 
 /// Calibrate `model`'s scheme parameters to `target`; returns (Model, details dict).
 /// Use anisobond.calibrate (documented there).
+/// Kumar 2016 Sec. 5 (docs/buckling.md), as one row of `anisobond buckle`: the round bar of
+/// radius `radius` (m) and slenderness l/r = `slenderness` cut along z from `packing`,
+/// bonded by `model`, the spheres within `clamp_depth` (m; default the mean radius) of each
+/// end clamped. Returns a dict: E (Pa), the network's linearised critical stress (Pa) beside
+/// Euler (Eq. 14) and Mazzilli (Eq. 15), with `deformed` also on the bar deformed by its
+/// pre-buckling shortening (`sigma_deformed_pa`), EI, κGA, solver figures and the first mode
+/// (numpy, unit max norm). GIL released.
+#[pyfunction]
+#[pyo3(signature = (packing, model, radius, slenderness, *, clamp_depth = None,
+    deformed = true, tolerance = 1e-6))]
+#[allow(clippy::too_many_arguments)]
+fn buckle_bar<'py>(
+    py: Python<'py>,
+    packing: &PyPacking,
+    model: &PyModel,
+    radius: f64,
+    slenderness: f64,
+    clamp_depth: Option<f64>,
+    deformed: bool,
+    tolerance: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crate::homogenize::buckling::{
+        euler_stress, mazzilli_stress, BucklingOptions, PreBuckling, RoundBar,
+    };
+    let (p, m) = (&packing.inner, model.inner.clone());
+    let depth = clamp_depth.unwrap_or_else(|| p.mean_radius());
+    let opts = BucklingOptions {
+        tolerance,
+        pre_buckling: if deformed {
+            PreBuckling::UpdatedGeometry
+        } else {
+            PreBuckling::Linear
+        },
+        ..BucklingOptions::default()
+    };
+    let (bar, r) = py
+        .detach(|| {
+            let bar = RoundBar::cut(p, m, radius, slenderness, depth)?;
+            let r = bar.buckling(&opts)?;
+            Ok::<_, Error>((bar, r))
+        })
+        .map_err(to_py)?;
+    let json = serde_json::to_string(&r).map_err(|e| InputError::new_err(e.to_string()))?;
+    let d = json_to_py(py, &json)?.cast_into::<PyDict>()?;
+    let (e, l) = (r.modulus, bar.length);
+    // None, never NaN or infinity: Mazzilli has no root below l/r = 2π, a bar without
+    // measurable shear flexibility has κGA = ∞.
+    let finite = |x: f64| Some(x).filter(|x| x.is_finite());
+    d.set_item("spheres", bar.assembly.packing.len())?;
+    d.set_item("radius_m", radius)?;
+    d.set_item("length_m", l)?;
+    d.set_item("sigma_euler_pa", euler_stress(e, slenderness))?;
+    d.set_item("sigma_mazzilli_pa", finite(mazzilli_stress(e, slenderness)))?;
+    d.set_item("sigma_network_pa", r.critical_stress)?;
+    d.set_item(
+        "sigma_deformed_pa",
+        r.updated_geometry.map(|u| u.critical_stress),
+    )?;
+    d.set_item("bending_ratio", r.bending_ratio(bar.area()))?;
+    d.set_item("shear_stiffness_n", finite(r.shear_stiffness(l)))?;
+    d.set_item(
+        "network_over_engesser_own",
+        finite(r.critical_force / r.engesser_force_own(l)),
+    )?;
+    d.set_item("mode", vec3_array(py, &r.mode)?)?;
+    Ok(d)
+}
+
 #[pyfunction]
 #[pyo3(signature = (model, target, on = None, *, family = "nearest", cubic_model = "auto",
     extended = false, tolerance = 5e-4, max_iterations = 30, coordination = 7.7,
@@ -1155,6 +1306,7 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPacking>()?;
     m.add_class::<PyAssembly>()?;
     m.add_function(wrap_pyfunction!(calibrate_model, m)?)?;
+    m.add_function(wrap_pyfunction!(buckle_bar, m)?)?;
     m.add_function(wrap_pyfunction!(engineering_constants, m)?)?;
     Ok(())
 }

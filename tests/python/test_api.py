@@ -342,3 +342,61 @@ def test_degenerate_and_not_converged_are_their_own_exceptions(cubic):
         ab.calibrate(cubic.model, {"C12/C11": 0.30, "C44/C11": 0.43}, on=cubic.packing,
                      max_iterations=1, tolerance=1e-9)
     assert issubclass(ab.DegenerateError, ValueError)
+
+
+def test_cavity_equals_cli_and_follows_the_continuum(files, tmp_path):
+    # Šmilauer's tilted cross-anisotropy: the package's cavity is the command's to the last
+    # digit, and the slab's wall displacement is near the anisotropic continuum's.
+    asm = ab.Assembly(ab.Packing.load(files / "packing.txt"), ab.Model.load(files / "cross.toml"))
+    r = asm.cavity(6e-3, outer_radius=14e-3, pressure=1e4)
+    out = tmp_path / "cav"
+    cli("cavity", files / "packing.txt", "--model", files / "cross.toml", "--hole-radius", "6e-3",
+        "--outer-radius", "14e-3", "--pressure", "1e4", "-o", out)
+    j = json.loads((out / "cavity.json").read_text())
+    assert r["wall_displacement_m"] == j["wall_displacement_m"]
+    assert r["lame_wall_displacement_m"] == j["lame_wall_displacement_m"]
+    assert r["continuum_wall_displacement_m"] == j["continuum"]["wall_displacement_m"]
+    assert r["wall_bins_20deg"] == j["continuum"]["wall_bins_20deg"]
+    assert abs(r["dem_over_continuum"] - 1) < 0.1, r["dem_over_continuum"]
+    assert r["positions"].shape == r["displacement"].shape == (r["spheres"], 3)
+    assert np.isfinite(r["displacement"]).all()
+    with pytest.raises(ab.InputError, match="hole_radius"):
+        asm.cavity(-1.0)
+
+
+KUMAR_STIFF_SHEAR = """
+[bonding]
+rule = "factor"
+value = 1.01
+[scheme]
+kind = "isotropic"
+normal = 1e8
+shear = 1e10
+[geometry]
+convention = "kumar"
+moments = "kumar"
+"""
+
+
+def test_buckle_bar_lattice_column_is_euler_and_mazzilli():
+    # A 2 x 2 x 10 simple-cubic column of touching spheres (shear-rigid bonds): Euler and
+    # Mazzilli (Kumar 2016 Eqs. 14-15) from the bar's E, and on the deformed bar Mazzilli's
+    # sigma (1 - sigma/E) = sigma_network (docs/buckling.md).
+    rad = 1e-3
+    pos = [[2 * rad * i, 2 * rad * j, 2 * rad * k] for k in range(10) for i in range(2) for j in range(2)]
+    packing = ab.Packing(np.array(pos), np.full(len(pos), rad))
+    model = ab.Model.from_toml(KUMAR_STIFF_SHEAR)
+    # the bar runs between the end planes (l = 20 R, Kumar's), its end layers clamped
+    r = ab.buckle_bar(packing, model, 1.5 * rad, 20 / 1.5, clamp_depth=1.5 * rad)
+    e, s = r["modulus"], r["length_m"] / r["radius_m"]
+    assert r["spheres"] == 40 and r["length_m"] == pytest.approx(20 * rad, rel=1e-12)
+    assert r["sigma_euler_pa"] == pytest.approx(np.pi ** 2 * e / (4 * (0.5 * s) ** 2), rel=1e-12)
+    # Mazzilli's relation holds with the strain of the deformed part, between the clamped
+    # layers' centres (18 R): E over that length is e * 18/20
+    lin, e_c = r["sigma_network_pa"], e * 18 / 20
+    extensible = (1 - np.sqrt(1 - 4 * lin / e_c)) * e_c / 2
+    assert r["sigma_deformed_pa"] == pytest.approx(extensible, rel=2e-3)
+    assert r["sigma_deformed_pa"] > 1.2 * lin
+    assert r["mode"].shape == (40, 3)
+    linear = ab.buckle_bar(packing, model, 1.5 * rad, s, clamp_depth=1.5 * rad, deformed=False)
+    assert linear["sigma_deformed_pa"] is None and linear["sigma_network_pa"] == lin

@@ -33,6 +33,7 @@ from ._anisobond import (
     NotConvergedError,
     Packing,
     __version__,
+    buckle_bar,
     calibrate_model as _calibrate_model,
     engineering_constants,
 )
@@ -48,6 +49,7 @@ __all__ = [
     "NotConvergedError",
     "Packing",
     "__version__",
+    "buckle_bar",
     "calibrate",
     "engineering_constants",
 ]

@@ -152,9 +152,32 @@ class Assembly:
     def export_liggghts(self, directory: _Path, *, shear: bool = True) -> None: ...
     def export_vtk(self, directory: _Path, *, strain: Optional[_Floats] = None) -> None:
         """particles.vtu, bonds.vtu; strain: 6 Voigt components (|e| <= 0.1), periodic only."""
+    def cavity(
+        self,
+        hole_radius: Optional[float] = None,
+        *,
+        outer_radius: Optional[float] = None,
+        pressure: float = 1e6,
+        clamp_width: Optional[float] = None,
+        ray_spacing: Optional[float] = None,
+    ) -> Dict[str, Any]:
+        """The pressurised cavity (docs/cavity.md): wall displacement (m) beside Lamé and the
+        anisotropic continuum, wall bins, positions and displacement arrays (m)."""
 
 def calibrate_model(
     model: Model, target: Union[str, Mapping[str, float]], on: Any = None, **options: Any
 ) -> Tuple[Model, Dict[str, Any]]: ...
+def buckle_bar(
+    packing: Packing,
+    model: Model,
+    radius: float,
+    slenderness: float,
+    *,
+    clamp_depth: Optional[float] = None,
+    deformed: bool = True,
+    tolerance: float = 1e-6,
+) -> Dict[str, Any]:
+    """Kumar 2016's clamped round bar (docs/buckling.md): E, σ_network, σ_Euler, σ_Mazzilli,
+    σ_deformed (Pa), EI, κGA, the first mode."""
 def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
     """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""
