@@ -56,6 +56,26 @@ fn buckle_refuses_bad_options_without_output() {
         (vec!["--slenderness", "5"], "--slenderness 5"),
         (vec!["--alpha=-1"], "--alpha -1"),
         (vec!["--radius-particles", "0"], "--radius-particles 0"),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "NaN"],
+            "--kinetic-limit NaN",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit=-1e-8"],
+            "--kinetic-limit -1e-8",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "0"],
+            "--kinetic-limit 0.0",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "inf"],
+            "--kinetic-limit inf",
+        ),
+        (
+            vec!["--kinetic-limit", "1e-8"],
+            "--kinetic-limit needs --dem-steps",
+        ),
     ] {
         let out = dir.path().join("bk");
         let o = bin()
