@@ -155,7 +155,7 @@ struct Row {
     /// Largest Ẽ_kin (Eq. 16) up to the DEM maximum.
     #[serde(skip_serializing_if = "Option::is_none")]
     dem_max_kinetic_ratio: Option<f64>,
-    /// True when the DEM maximum is the run's last point (no buckling by the final strain).
+    /// True when the DEM maximum is the run's last point (no stress drop by the final strain).
     #[serde(skip_serializing_if = "Option::is_none")]
     dem_peak_at_end: Option<bool>,
     /// Time steps of the compression (loading + holds).
@@ -421,7 +421,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                     c.max_stress / r.sigma_network,
                     c.strain_at_max,
                     if c.peak_at_end {
-                        " (end of run: not buckled)"
+                        " (the run's last point: no stress drop by the final strain)"
                     } else {
                         ""
                     },

@@ -102,8 +102,9 @@ pub struct CompressionResult {
     pub max_kinetic_ratio_before_peak: f64,
     /// Time step used (s).
     pub time_step: f64,
-    /// True when the maximum is the last point that met the limit (the bar had not buckled
-    /// by `max_strain`).
+    /// True when the maximum is the last point that met the limit: no stress drop by
+    /// `max_strain` (not buckled, or buckled on a branch still rising, as quasi-static
+    /// curves near the buckling load can be).
     pub peak_at_end: bool,
     /// Time steps done (loading + holds).
     pub total_steps: usize,
