@@ -392,9 +392,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                     bar_progress.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
                 });
                 bar_progress.finish_and_clear();
-                let c = c.map_err(|e| {
-                    e.in_context(format!("{} bar, l/r = {s}, compression", r.route))
-                })?;
+                let c = c.map_err(|e| e.in_context(format!("{} bar, l/r = {s}", r.route)))?;
                 write_string_atomic(
                     &dir.join(format!("history_{}_{s}.csv", r.route)),
                     &history_csv(&c, a.kinetic_limit.is_some()),

@@ -204,3 +204,38 @@ fn cubic_bars_follow_the_compliance_along_the_axis() {
     assert!(cell > 1.05, "E<111>/E<100> of the tensor = {cell}");
     assert!((bar / cell - 1.0).abs() < 0.1, "bars {bar}, tensor {cell}");
 }
+
+/// `--kinetic-limit` with a step cap too small to reach the maximum: an error naming the
+/// bar and the figures, and nothing written.
+#[test]
+fn buckle_kinetic_limit_out_of_steps_is_an_error_without_output() {
+    let dir = tmp();
+    let out = dir.path().join("bk");
+    let o = bin()
+        .args([
+            "buckle",
+            "--route",
+            "weakly-jammed",
+            "--slenderness",
+            "10",
+            "--dem-steps",
+            "5000",
+            "--kinetic-limit",
+            "1e-8",
+            "--dem-max-steps",
+            "6000",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("weakly-jammed bar, l/r = 10")
+            && err.contains("not met within 6000 steps")
+            && err.contains("loading steps of 5000"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
