@@ -4,7 +4,9 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::bonds::BondingRule;
-use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions};
+use anisobond::dem::buckling::{
+    compress_clamped_bar_with_progress, CompressionOptions, CompressionResult, Loading,
+};
 use anisobond::homogenize::buckling::{
     euler_stress, extensible_stress, mazzilli_stress, BucklingOptions, BucklingResult, PreBuckling,
     RoundBar,
@@ -97,8 +99,25 @@ pub struct BuckleArgs {
     /// Final strain of the compression, in units of the linearised critical strain.
     #[arg(long, default_value_t = 2.5)]
     dem_strain: f64,
+    /// Quasi-static compression by Kumar's criterion (Eq. 16; he asks for 1e-8): the end
+    /// moves at the `--dem-steps` rate only while Ẽ_kin is below this limit (checked every
+    /// 1/200 of the loading) and holds still until the bar has relaxed below it otherwise;
+    /// points are recorded at relaxed states only (and, flagged, where the end stopped). The
+    /// hold steps come on top of `--dem-steps`.
+    #[arg(long)]
+    kinetic_limit: Option<f64>,
+    /// Cundall local damping λ while the end holds (with `--kinetic-limit`); 0 relaxes by the
+    /// bond damping alone, which is slow for the bar's own modes.
+    #[arg(long, default_value_t = 0.7, requires = "kinetic_limit")]
+    hold_damping: f64,
+    /// Cap on the total steps (loading + holds) with `--kinetic-limit`; default 20 ×
+    /// `--dem-steps`. Reaching it after the stress maximum ends the run (reported);
+    /// before it is an error.
+    #[arg(long, requires = "kinetic_limit")]
+    dem_max_steps: Option<usize>,
     /// Output folder: buckling.csv, buckling.json, buckling.png (and with --dem-steps
-    /// history_ROUTE_LR.csv: strain, stress [Pa], Ẽ_kin per bar).
+    /// history_ROUTE_LR.csv: strain, stress [Pa], Ẽ_kin per bar; with --kinetic-limit also
+    /// whether the point met the limit and the steps so far).
     #[arg(short, long, default_value = "anisobond-buckle")]
     output: PathBuf,
 }
@@ -148,9 +167,15 @@ struct Row {
     /// Largest Ẽ_kin (Eq. 16) up to the DEM maximum.
     #[serde(skip_serializing_if = "Option::is_none")]
     dem_max_kinetic_ratio: Option<f64>,
-    /// True when the DEM maximum is the run's last point (no buckling by the final strain).
+    /// True when the DEM maximum is the run's last point (no stress drop by the final strain).
     #[serde(skip_serializing_if = "Option::is_none")]
     dem_peak_at_end: Option<bool>,
+    /// Time steps of the compression (loading + holds).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_total_steps: Option<usize>,
+    /// True when the step cap ended the compression after the maximum (`--kinetic-limit`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dem_ran_out: Option<bool>,
 }
 
 fn check(a: &BuckleArgs) -> Result<()> {
@@ -179,6 +204,32 @@ fn check(a: &BuckleArgs) -> Result<()> {
         if !(v.is_finite() && v > 0.0) {
             return Err(Error::Invalid(format!(
                 "{name} {v}: expected a finite value > 0"
+            )));
+        }
+    }
+    if let Some(l) = a.kinetic_limit {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(Error::Invalid(format!(
+                "--kinetic-limit {l:?}: expected a finite value > 0 (Kumar's criterion: 1e-8)"
+            )));
+        }
+        if a.dem_steps == 0 {
+            return Err(Error::Invalid(
+                "--kinetic-limit needs --dem-steps N > 0 (the loading steps)".into(),
+            ));
+        }
+        if !(a.hold_damping.is_finite() && (0.0..1.0).contains(&a.hold_damping)) {
+            return Err(Error::Invalid(format!(
+                "--hold-damping {}: expected a value in [0, 1)",
+                a.hold_damping
+            )));
+        }
+    }
+    if let Some(m) = a.dem_max_steps {
+        if m < a.dem_steps {
+            return Err(Error::Invalid(format!(
+                "--dem-max-steps {m}: expected at least --dem-steps ({})",
+                a.dem_steps
             )));
         }
     }
@@ -225,7 +276,27 @@ fn row(route: BuckleRoute, s: f64, bar: &RoundBar, r: &BucklingResult, e_cell: f
         dem_strain_at_max: None,
         dem_max_kinetic_ratio: None,
         dem_peak_at_end: None,
+        dem_total_steps: None,
+        dem_ran_out: None,
     }
+}
+
+/// The compression history: strain, stress (Pa), Ẽ_kin; with `--kinetic-limit` also whether
+/// the point met the limit and the time steps so far.
+fn history_csv(c: &CompressionResult, limited: bool) -> String {
+    let mut h = String::from(if limited {
+        "strain,stress [Pa],kinetic_ratio,met_limit,steps\n"
+    } else {
+        "strain,stress [Pa],kinetic_ratio\n"
+    });
+    for pt in &c.history {
+        h += &format!("{:e},{:e},{:e}", pt.strain, pt.stress, pt.kinetic_ratio);
+        if limited {
+            h += &format!(",{},{}", pt.met_limit, pt.steps);
+        }
+        h.push('\n');
+    }
+    h
 }
 
 pub fn run(a: BuckleArgs) -> Result<()> {
@@ -326,37 +397,68 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                 .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
             let mut r = row(route, s, &bar, &res, e_cell);
             if a.dem_steps > 0 {
+                let record_every = (a.dem_steps / 200).max(1);
                 let copts = CompressionOptions {
                     max_strain: a.dem_strain * res.critical_strain,
                     steps: a.dem_steps,
-                    record_every: (a.dem_steps / 200).max(1),
+                    record_every,
+                    loading: match a.kinetic_limit {
+                        None => Loading::ConstantRate,
+                        Some(limit) => Loading::KineticLimit {
+                            limit,
+                            check_every: record_every,
+                            max_steps: a.dem_max_steps.unwrap_or(20 * a.dem_steps),
+                            hold_damping: a.hold_damping,
+                        },
+                    },
                     ..CompressionOptions::default()
                 };
                 let t1 = Instant::now();
-                let c = compress_clamped_bar(&bar, &copts).map_err(|e| {
-                    e.in_context(format!("{} bar, l/r = {s}, compression", r.route))
-                })?;
-                let mut h = String::from("strain,stress [Pa],kinetic_ratio\n");
-                for pt in &c.history {
-                    h += &format!("{:e},{:e},{:e}\n", pt.strain, pt.stress, pt.kinetic_ratio);
-                }
-                write_string_atomic(&dir.join(format!("history_{}_{s}.csv", r.route)), &h)?;
+                let bar_progress =
+                    super::output::progress_bar(&format!("compression {} l/r = {s}", r.route));
+                let c = compress_clamped_bar_with_progress(&bar, &copts, &|f: f64| {
+                    bar_progress.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
+                });
+                bar_progress.finish_and_clear();
+                let c = c.map_err(|e| e.in_context(format!("{} bar, l/r = {s}", r.route)))?;
+                write_string_atomic(
+                    &dir.join(format!("history_{}_{s}.csv", r.route)),
+                    &history_csv(&c, a.kinetic_limit.is_some()),
+                )?;
+                let steps = match a.kinetic_limit {
+                    None => format!("{} steps", a.dem_steps),
+                    Some(l) => format!(
+                        "{} loading steps + holds = {} steps{}, Ẽ_kin < {l:e} at every recorded point",
+                        a.dem_steps,
+                        c.total_steps,
+                        if c.ran_out {
+                            " (step cap reached after the maximum)"
+                        } else {
+                            ""
+                        }
+                    ),
+                };
                 println!(
-                    "  DEM {} steps ({:.1} s): σ_max = {:.4e} Pa = {:.4} σ_Euler = {:.4} σ_network \
+                    "  DEM {steps} ({:.1} s): σ_max = {:.4e} Pa = {:.4} σ_Euler = {:.4} σ_network \
                      at ε = {:.3e}{}; max Ẽ_kin before it {:.2e}",
-                    a.dem_steps,
                     t1.elapsed().as_secs_f64(),
                     c.max_stress,
                     c.max_stress / r.sigma_euler,
                     c.max_stress / r.sigma_network,
                     c.strain_at_max,
-                    if c.peak_at_end { " (end of run: not buckled)" } else { "" },
+                    if c.peak_at_end {
+                        " (the run's last point: no stress drop by the final strain)"
+                    } else {
+                        ""
+                    },
                     c.max_kinetic_ratio_before_peak
                 );
                 r.dem_max_stress = Some(c.max_stress);
                 r.dem_strain_at_max = Some(c.strain_at_max);
                 r.dem_max_kinetic_ratio = Some(c.max_kinetic_ratio_before_peak);
                 r.dem_peak_at_end = Some(c.peak_at_end);
+                r.dem_total_steps = Some(c.total_steps);
+                r.dem_ran_out = Some(c.ran_out);
             }
             println!(
                 "{:<14} {:>6} {:>7} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8} {:>8}",
@@ -383,11 +485,13 @@ pub fn run(a: BuckleArgs) -> Result<()> {
          sigma_network [Pa],network_over_euler,network_over_mazzilli,sigma_deformed [Pa],\
          deformed_over_extensible_own,bending_ratio,\
          network_over_euler_own_EI,network_over_engesser_own,normal_force_share,iterations,\
-         residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end\n",
+         residual,dem_max_stress [Pa],dem_strain_at_max,dem_max_kinetic_ratio,dem_peak_at_end,\
+         dem_total_steps,dem_ran_out\n",
     );
     for r in &rows {
         csv += &format!(
-            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{},{},{:e},{},{},{},{}\n",
+            "{},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{},{},{},{},{:e},{},{},{},{},{},{}
+",
             r.route,
             r.slenderness,
             r.particles,
@@ -412,14 +516,17 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             opt(r.dem_max_stress),
             opt(r.dem_strain_at_max),
             opt(r.dem_max_kinetic_ratio),
-            r.dem_peak_at_end.map(|b| b.to_string()).unwrap_or_default()
+            r.dem_peak_at_end.map(|b| b.to_string()).unwrap_or_default(),
+            r.dem_total_steps.map(|n| n.to_string()).unwrap_or_default(),
+            r.dem_ran_out.map(|b| b.to_string()).unwrap_or_default()
         );
     }
     write_string_atomic(&dir.join("buckling.csv"), &csv)?;
-    let json = serde_json::json!({
+    let mut json = serde_json::json!({
         "units": {
             "modulus": "Pa", "modulus_cell": "Pa", "sigma_euler": "Pa", "sigma_mazzilli": "Pa",
-            "sigma_network": "Pa", "sigma_deformed": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1"
+            "sigma_network": "Pa", "sigma_deformed": "Pa", "dem_max_stress": "Pa", "slenderness": "l/r (1)", "ratios": "1",
+            "dem_total_steps": "time steps", "dem_kinetic_limit": "Ẽ_kin, Kumar 2016 Eq. 16 (1)"
         },
         "parameters": {
             "radius_in_mean_radii": a.radius_particles, "cell_particles": a.cell_particles,
@@ -430,6 +537,11 @@ pub fn run(a: BuckleArgs) -> Result<()> {
         },
         "rows": rows,
     });
+    if let Some(limit) = a.kinetic_limit {
+        json["parameters"]["dem_kinetic_limit"] = limit.into();
+        json["parameters"]["dem_hold_damping"] = a.hold_damping.into();
+        json["parameters"]["dem_max_steps"] = a.dem_max_steps.unwrap_or(20 * a.dem_steps).into();
+    }
     super::output::check_json_numbers(&json, "buckling.json")?;
     write_string_atomic(
         &dir.join("buckling.json"),

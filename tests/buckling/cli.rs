@@ -62,6 +62,26 @@ fn buckle_refuses_bad_options_without_output() {
         (vec!["--slenderness", "5"], "--slenderness 5"),
         (vec!["--alpha=-1"], "--alpha -1"),
         (vec!["--radius-particles", "0"], "--radius-particles 0"),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "NaN"],
+            "--kinetic-limit NaN",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit=-1e-8"],
+            "--kinetic-limit -1e-8",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "0"],
+            "--kinetic-limit 0.0",
+        ),
+        (
+            vec!["--dem-steps", "1000", "--kinetic-limit", "inf"],
+            "--kinetic-limit inf",
+        ),
+        (
+            vec!["--kinetic-limit", "1e-8"],
+            "--kinetic-limit needs --dem-steps",
+        ),
     ] {
         let out = dir.path().join("bk");
         let o = bin()
@@ -189,4 +209,39 @@ fn cubic_bars_follow_the_compliance_along_the_axis() {
     let cell = moduli[1].1 / moduli[0].1;
     assert!(cell > 1.05, "E<111>/E<100> of the tensor = {cell}");
     assert!((bar / cell - 1.0).abs() < 0.1, "bars {bar}, tensor {cell}");
+}
+
+/// `--kinetic-limit` with a step cap too small to reach the maximum: an error naming the
+/// bar and the figures, and nothing written.
+#[test]
+fn buckle_kinetic_limit_out_of_steps_is_an_error_without_output() {
+    let dir = tmp();
+    let out = dir.path().join("bk");
+    let o = bin()
+        .args([
+            "buckle",
+            "--route",
+            "weakly-jammed",
+            "--slenderness",
+            "10",
+            "--dem-steps",
+            "5000",
+            "--kinetic-limit",
+            "1e-8",
+            "--dem-max-steps",
+            "6000",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("weakly-jammed bar, l/r = 10")
+            && err.contains("not met within 6000 steps")
+            && err.contains("loading steps of 5000"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }
