@@ -16,9 +16,12 @@
 //!
 //! - the gas places the sphere *centres* uniformly inside the container (a sphere may cross
 //!   a wall): centres kept a radius away from the walls would put the gas above random
-//!   sequential addition's saturation in a bar a few spheres wide. The unjammed route
-//!   (no minimisation) keeps these crossings; the minimisations of the other routes push
-//!   the spheres back inside;
+//!   sequential addition's saturation in a bar a few spheres wide (0.3 of the container is
+//!   0.42 of the volume left to the centres at r = 6.5 R̄). The addition runs over the
+//!   container widened by 2·R_max, the spheres drawn in the margin dropped at the end, so
+//!   that the gas is as uniform as the periodic one (without them it piles up at the walls).
+//!   The unjammed route (no minimisation) keeps the crossings, so its bar is the periodic
+//!   gas's cut, densified; the minimisations of the other routes push the spheres inside;
 //! - coordination and rattlers count a wall that a sphere touches as one of its contacts.
 //!
 //! The result is a free packing (no cell) and its container; the clamped end sets are the

@@ -274,10 +274,17 @@ fn check_options(o: &RouteOptions) -> Result<()> {
 }
 
 /// Random sequential addition of spheres with radii `radii` (R̄ = 1) into `domain` of side
-/// `side`: each sphere is placed at a uniformly random position (in a container: its centre
-/// anywhere inside the cylinder and between the planes, so a sphere may cross a wall),
-/// redrawn while it would overlap a sphere already placed. Errors when a sphere needs more
-/// than `max_attempts` draws (the fraction is too close to saturation).
+/// `side`: each sphere is placed at a uniformly random position, redrawn while it would
+/// overlap a sphere already placed. Errors when a sphere needs more than `max_attempts`
+/// draws (the fraction is too close to saturation).
+///
+/// In a container the centres lie anywhere inside it (a sphere may cross a wall), and the
+/// addition runs over the container widened by 2·R_max on every side: a draw that falls in
+/// the margin places a *ghost* (radii taken in turn from `radii`) that excludes like a
+/// sphere and is dropped at the end. The gas inside is then as uniform as the periodic
+/// one: with nothing outside the walls, near saturation the draws would be accepted far
+/// more often next to a wall, and the gas would pile up there (measured: centre density
+/// 0.74 within R̄ of the mantle against 0.52–0.60 inside, 0.3 on average, r = 6.5 R̄).
 fn random_sequential_addition(
     radii: &[f64],
     domain: Domain,
@@ -285,16 +292,19 @@ fn random_sequential_addition(
     rng: &mut ChaCha8Rng,
     max_attempts: usize,
 ) -> Result<Vec<Vec3>> {
+    let n = radii.len();
     let r_max = largest_radius(radii);
     let cell = domain.cell(side)?;
     let (lo, hi) = domain.bounds(side);
-    let extent = hi - lo;
+    let margin = if cell.is_some() { 0.0 } else { 2.0 * r_max };
+    let (grid_lo, grid_hi) = (lo.add_scalar(-margin), hi.add_scalar(margin));
+    let extent = grid_hi - grid_lo;
     let dims = extent.map(|e| ((e / (2.0 * r_max)).floor() as usize).max(1));
     let width = extent.component_div(&dims.map(|d| d as f64));
     let mut members: Vec<Vec<u32>> = vec![Vec::new(); dims.product()];
     let index = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
     let cell_of = |p: &Vec3| {
-        let c = |k: usize| (((p[k] - lo[k]) / width[k]) as usize).min(dims[k] - 1);
+        let c = |k: usize| (((p[k] - grid_lo[k]) / width[k]) as usize).min(dims[k] - 1);
         [c(0), c(1), c(2)]
     };
     // The grid cells next to cell `ck` on axis `k` (as many as the first of the pair says):
@@ -313,64 +323,77 @@ fn random_sequential_addition(
             }
         }
     };
-    let mut x: Vec<Vec3> = Vec::with_capacity(radii.len());
-    for (k, &rk) in radii.iter().enumerate() {
-        let mut attempts = 0usize;
-        loop {
-            attempts += 1;
-            if attempts > max_attempts {
-                return Err(Error::Invalid(format!(
-                    "packing preparation: random gas: sphere {k} found no free place in \
-                     {max_attempts} draws (gas solid fraction too close to saturation)"
-                )));
+    // Every sphere placed (ghosts too), and the spheres of the domain in order.
+    let mut placed: Vec<(Vec3, f64)> = Vec::with_capacity(n);
+    let mut x: Vec<Vec3> = Vec::with_capacity(n);
+    let mut ghosts = 0usize;
+    let mut attempts = 0usize;
+    while x.len() < n {
+        let k = x.len();
+        attempts += 1;
+        if attempts > max_attempts {
+            return Err(Error::Invalid(format!(
+                "packing preparation: random gas: sphere {k} found no free place in \
+                 {max_attempts} draws (gas solid fraction too close to saturation)"
+            )));
+        }
+        let (p, rk, inside) = match &cell {
+            Some(cell) => {
+                let p = Vec3::new(
+                    rng.gen::<f64>() * side,
+                    rng.gen::<f64>() * side,
+                    rng.gen::<f64>() * side,
+                );
+                (cell.wrap(p).0, radii[k], true)
             }
-            let p = match &cell {
-                Some(cell) => {
-                    let p = Vec3::new(
-                        rng.gen::<f64>() * side,
-                        rng.gen::<f64>() * side,
-                        rng.gen::<f64>() * side,
-                    );
-                    cell.wrap(p).0
+            None => {
+                // Uniform in the widened disc by rejection from its square, then along the
+                // widened axis.
+                let r = hi.x + margin;
+                let (px, py) = loop {
+                    let px = (2.0 * rng.gen::<f64>() - 1.0) * r;
+                    let py = (2.0 * rng.gen::<f64>() - 1.0) * r;
+                    if px * px + py * py <= r * r {
+                        break (px, py);
+                    }
+                };
+                let p = Vec3::new(px, py, grid_lo.z + rng.gen::<f64>() * extent.z);
+                if px.hypot(py) <= hi.x && p.z >= 0.0 && p.z <= hi.z {
+                    (p, radii[k], true)
+                } else {
+                    (p, radii[ghosts % n], false)
                 }
-                None => {
-                    // Uniform in the disc by rejection from its square, then along the axis.
-                    let r = hi.x;
-                    let (px, py) = loop {
-                        let px = (2.0 * rng.gen::<f64>() - 1.0) * r;
-                        let py = (2.0 * rng.gen::<f64>() - 1.0) * r;
-                        if px * px + py * py <= r * r {
-                            break (px, py);
-                        }
-                    };
-                    Vec3::new(px, py, rng.gen::<f64>() * hi.z)
-                }
-            };
-            let c = cell_of(&p);
-            let (nz, ny, nx) = (near(2, c[2]), near(1, c[1]), near(0, c[0]));
-            let mut free = true;
-            'search: for &cz in &nz.0[..nz.1] {
-                for &cy in &ny.0[..ny.1] {
-                    for &cx in &nx.0[..nx.1] {
-                        for &j in &members[index([cx, cy, cz])] {
-                            let j = j as usize;
-                            let d = match &cell {
-                                Some(cell) => cell.minimum_image(x[j] - p).0,
-                                None => x[j] - p,
-                            };
-                            let reach = radii[j] + rk;
-                            if d.norm_squared() < reach * reach {
-                                free = false;
-                                break 'search;
-                            }
+            }
+        };
+        let c = cell_of(&p);
+        let (nz, ny, nx) = (near(2, c[2]), near(1, c[1]), near(0, c[0]));
+        let mut free = true;
+        'search: for &cz in &nz.0[..nz.1] {
+            for &cy in &ny.0[..ny.1] {
+                for &cx in &nx.0[..nx.1] {
+                    for &j in &members[index([cx, cy, cz])] {
+                        let (xj, rj) = placed[j as usize];
+                        let d = match &cell {
+                            Some(cell) => cell.minimum_image(xj - p).0,
+                            None => xj - p,
+                        };
+                        let reach = rj + rk;
+                        if d.norm_squared() < reach * reach {
+                            free = false;
+                            break 'search;
                         }
                     }
                 }
             }
-            if free {
-                members[index(c)].push(k as u32);
+        }
+        if free {
+            members[index(c)].push(placed.len() as u32);
+            placed.push((p, rk));
+            if inside {
                 x.push(p);
-                break;
+                attempts = 0;
+            } else {
+                ghosts += 1;
             }
         }
     }
