@@ -3,6 +3,7 @@
 //! by definition, the jammed state recomputed from the packing (overlaps, pressure and
 //! force balance with the walls' contacts), determinism on one and two threads.
 
+use crate::common::on_threads;
 use anisobond::packing::container::{
     container_particles, prepare_in_container, Container, ContainerPacking,
 };
@@ -177,11 +178,7 @@ fn container_route_is_bit_identical_on_one_and_two_threads() {
             .collect()
     };
     let on = |threads: usize, seed: u64| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| prepare(PreparationRoute::Jammed, 16.0, seed))
+        on_threads(threads, || prepare(PreparationRoute::Jammed, 16.0, seed))
     };
     let (a, ra) = on(1, 5);
     assert!(a.packing.len() > 512, "{} spheres", a.packing.len());
