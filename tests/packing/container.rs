@@ -144,6 +144,11 @@ fn jammed_container_state_is_force_balanced_with_small_overlaps() {
     let mean_ratio =
         (net.iter().map(|f| f.norm()).sum::<f64>() / n as f64) / (total / contacts as f64);
     let largest_ratio = net.iter().map(|f| f.norm()).fold(0.0, f64::max) / largest;
+    println!(
+        "jammed container: φ_J = {phi_j:.4}, largest overlap {largest:.2e} R̄, P = {pressure:.2e} \
+         Σ_N, mean |F|/mean contact force {mean_ratio:.2e}, Z = {:.3}, {} rattlers of {n}",
+        report.compressed_coordination, report.rattlers
+    );
     assert!(largest < 1e-2, "largest overlap {largest} R̄");
     assert!(pressure > 0.0 && pressure <= 1e-4, "P = {pressure:e}");
     assert!(
