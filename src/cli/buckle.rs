@@ -43,6 +43,16 @@ impl BuckleRoute {
     }
 }
 
+/// How the bars' spheres are packed.
+#[derive(Clone, Copy, clap::ValueEnum, PartialEq, Eq, Debug)]
+pub enum Preparation {
+    /// Cut out of one periodic cell per route (tiled along the bar).
+    Cut,
+    /// Kumar's own: each bar packed by the route inside a rigid cylinder of radius r and two
+    /// planes, which are then removed; the spheres touching the planes are clamped.
+    Container,
+}
+
 /// Options of `anisobond buckle`.
 #[derive(clap::Args)]
 pub struct BuckleArgs {
@@ -57,6 +67,10 @@ pub struct BuckleArgs {
     /// unit length are the same, as Kumar's).
     #[arg(long, default_value_t = 5.0)]
     radius_particles: f64,
+    /// How the bars are prepared: cut from a periodic cell, or packed one by one in a rigid
+    /// cylinder and two planes (Kumar's; as many spheres per unit length as a cut bar).
+    #[arg(long, value_enum, default_value_t = Preparation::Cut)]
+    preparation: Preparation,
     /// Particles of the periodic cell (Kumar's route, R̄ = 1 mm ± 5 %, D = 0.65) that the
     /// bars are cut from; the cell is tiled along the bar.
     #[arg(long, default_value_t = 1000)]
@@ -80,7 +94,8 @@ pub struct BuckleArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Depth of the clamped end sets in R̄ (spheres whose centres are within it of an end
-    /// face: Kumar's spheres touching the end planes at 1).
+    /// face: Kumar's spheres touching the end planes at 1). Cut bars only: a container's
+    /// end sets are the spheres touching its planes.
     #[arg(long, default_value_t = 1.0)]
     clamp_depth: f64,
     /// Relative residual of the eigen-iteration (and of the deformed bar's fixed point).
@@ -384,13 +399,34 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             e_cell
         );
         for &s in &a.slenderness {
-            let bar = RoundBar::cut(
-                &packing,
-                model.clone(),
-                a.radius_particles * rbar,
-                s,
-                a.clamp_depth * rbar,
-            )
+            let t1 = Instant::now();
+            let bar = match a.preparation {
+                Preparation::Cut => RoundBar::cut(
+                    &packing,
+                    model.clone(),
+                    a.radius_particles * rbar,
+                    s,
+                    a.clamp_depth * rbar,
+                ),
+                Preparation::Container => RoundBar::in_container(
+                    &ro,
+                    model.clone(),
+                    a.radius_particles * ro.mean_radius,
+                    s,
+                )
+                .map(|(bar, rep)| {
+                    println!(
+                        "  ({} container bar, l/r = {s}: {} spheres packed in {:.1} s, \
+                         compressed to D = {:.4}, then affine to {})",
+                        route.route().as_str(),
+                        bar.assembly.packing.len(),
+                        t1.elapsed().as_secs_f64(),
+                        rep.compressed_solid_fraction,
+                        ro.solid_fraction
+                    );
+                    bar
+                }),
+            }
             .map_err(|e| e.in_context(format!("{} bar, l/r = {s}", route.route().as_str())))?;
             let res = bar
                 .buckling(&opts)
@@ -530,6 +566,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
         },
         "parameters": {
             "radius_in_mean_radii": a.radius_particles, "cell_particles": a.cell_particles,
+            "preparation": match a.preparation { Preparation::Cut => "cut", Preparation::Container => "container" },
             "alpha": a.alpha, "kappa": a.kappa, "sigma_n_pa": a.sigma_n, "seed": a.seed,
             "clamp_depth_in_mean_radii": a.clamp_depth, "tolerance": a.tolerance,
             "deformed_bar": !a.linear_only, "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,

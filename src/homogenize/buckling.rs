@@ -21,7 +21,9 @@ use super::network::{Block6, LeverArm, Network};
 use super::relaxed::BlockSparse;
 use crate::assembly::Assembly;
 use crate::model::Model;
+use crate::packing::container::{container_particles, prepare_in_container};
 use crate::packing::cut::{BoundarySets, Region};
+use crate::packing::routes::{RouteOptions, RouteReport};
 use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
 use nalgebra::{Matrix6, Vector6};
@@ -743,17 +745,17 @@ impl BucklingResult {
     }
 }
 
-/// A round bar cut from a packing (Kumar 2016 Sec. 5): the bonded assembly, its clamped end
-/// sets and its dimensions.
+/// A round bar cut from a packing or prepared in a container (Kumar 2016 Sec. 5): the
+/// bonded assembly, its clamped end sets and its dimensions.
 #[derive(Clone, Debug)]
 pub struct RoundBar {
     /// The bonded bar.
     pub assembly: Assembly,
     /// End and surface sets.
     pub boundary: BoundarySets,
-    /// The region the bar was cut with.
+    /// The region the bar was cut with (the container, for [`RoundBar::in_container`]).
     pub region: Region,
-    /// Radius r (m) of the cylinder holding the sphere centres.
+    /// Radius r (m) of the cylinder holding the sphere centres (the container's).
     pub radius: f64,
     /// Length l (m).
     pub length: f64,
@@ -800,6 +802,39 @@ impl RoundBar {
             radius,
             length,
         })
+    }
+
+    /// Kumar 2016 Sec. 5's own preparation: the spheres of a bar of radius `radius` (m) and
+    /// slenderness l/r = `slenderness` packed by `route` (its route, radius distribution,
+    /// solid fraction and seed; the number of spheres is
+    /// [`container_particles`]: as many per unit length as a cut bar's) inside a rigid
+    /// cylinder and two planes ([`prepare_in_container`]), the container removed, the
+    /// spheres bonded by `model` and the spheres in contact with the planes clamped. The
+    /// bar's radius and length are the container's (its radius within a fraction of a
+    /// percent of `radius`: the volume follows the drawn radii). Also returns how the
+    /// preparation went.
+    pub fn in_container(
+        route: &RouteOptions,
+        model: Model,
+        radius: f64,
+        slenderness: f64,
+    ) -> Result<(RoundBar, RouteReport)> {
+        let opts = RouteOptions {
+            n_particles: container_particles(radius, slenderness, route),
+            ..route.clone()
+        };
+        let (prepared, report) = prepare_in_container(&opts, slenderness, &|_| {})?;
+        let boundary = prepared.boundary()?;
+        let region = prepared.container.region();
+        let assembly = Assembly::new(prepared.packing, model)?;
+        let bar = RoundBar {
+            assembly,
+            boundary,
+            region,
+            radius: prepared.container.radius,
+            length: prepared.container.length,
+        };
+        Ok((bar, report))
     }
 
     /// Cross-section area πr² (m²).

@@ -1,8 +1,8 @@
 //! Free (non-periodic) assemblies cut out of a packing, and their boundary particle sets.
 //!
 //! Kumar 2016 (Sec. 5) jams the spheres of a bar inside a rigid cylinder and two planes,
-//! removes them and bonds; here the bar is cut from a periodic packing made by the same
-//! route: the periodic images are unwrapped (the cell is tiled as often as the region
+//! removes them and bonds ([`super::container`] does that); here the bar is cut from a
+//! periodic packing made by the same route: the periodic images are unwrapped (the cell is tiled as often as the region
 //! needs), so the cut is contiguous, and every sphere whose centre lies inside the region
 //! is kept. A region longer than the cell therefore repeats the cell's structure along the
 //! bar (period = the cell length). The cut keeps, for every sphere, the index of the

@@ -11,7 +11,7 @@
 //! is taken in a fixed order, so the packing is bit-identical on any number of threads.
 
 use super::fire::{self, FireStep, FireSystem, FIRE_FIXED_CELL, FIRE_VARIABLE_CELL};
-use super::repulsion::{lanes_available, ScaledVerletList, Spheres};
+use super::repulsion::{lanes_available, ScaledVerletList, Spheres, Walls};
 use super::{Packing, PeriodicCell};
 use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
@@ -142,10 +142,12 @@ fn check_options(opts: &GenerateOptions) -> Result<()> {
 /// Repulsive harmonic forces F_i = Σ_j max(0, R_i + R_j − |l|)·(−l/|l|) (unit stiffness),
 /// the largest overlap of each particle, and per particle (Σ overlap, Σ overlap·|l|,
 /// number of overlapping neighbours) for the force-balance test and the virial pressure.
+#[allow(clippy::too_many_arguments)]
 fn forces(
     x: &[Vec3],
     radii: &[f64],
     side: f64,
+    walls: Option<Walls>,
     list: &ScaledVerletList,
     f: &mut [Vec3],
     overlap: &mut [f64],
@@ -157,6 +159,7 @@ fn forces(
         x,
         radii,
         side,
+        walls,
     };
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
@@ -238,14 +241,21 @@ pub(crate) fn largest_radius(radii: &[f64]) -> f64 {
     radii.iter().copied().fold(0.0, f64::max)
 }
 
-/// Renumber the spheres in spatial order (cells of about 2 R̄, z then y then x) so that
-/// neighbours are close in memory; radii were drawn independently of position, so this
-/// does not change the distribution.
-pub(crate) fn spatial_order(x: &[Vec3], radii: &[f64], side: f64) -> (Vec<Vec3>, Vec<f64>) {
-    let grid = ((side / 2.0).floor() as usize).max(1);
+/// Renumber the spheres in the box [lo, hi] in spatial order (cells of about 2 R̄, z then y
+/// then x) so that neighbours are close in memory; radii were drawn independently of
+/// position, so this does not change the distribution.
+pub(crate) fn spatial_order(
+    x: &[Vec3],
+    radii: &[f64],
+    lo: Vec3,
+    hi: Vec3,
+) -> (Vec<Vec3>, Vec<f64>) {
+    let extent = hi - lo;
+    let grid = extent.map(|e| ((e / 2.0).floor() as usize).max(1));
     let cell_key = |p: &Vec3| {
-        let c = |v: f64| ((v / side * grid as f64) as usize).min(grid - 1);
-        (c(p.z) * grid + c(p.y)) * grid + c(p.x)
+        let c =
+            |k: usize| (((p[k] - lo[k]) / extent[k] * grid[k] as f64) as usize).min(grid[k] - 1);
+        (c(2) * grid[1] + c(1)) * grid[0] + c(0)
     };
     let mut order: Vec<usize> = (0..x.len()).collect();
     order.sort_by_key(|&k| (cell_key(&x[k]), k));
@@ -253,6 +263,74 @@ pub(crate) fn spatial_order(x: &[Vec3], radii: &[f64], side: f64) -> (Vec<Vec3>,
         order.iter().map(|&k| x[k]).collect(),
         order.iter().map(|&k| radii[k]).collect(),
     )
+}
+
+/// Where the spheres of a minimisation live (lengths in units of R̄). The "side" L of the
+/// minimisers is the cube root of the volume in both cases, and scaling it scales the
+/// domain about the origin with the positions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Domain {
+    /// The periodic cube [0, L)³.
+    Periodic,
+    /// A rigid container, free space with soft repulsive walls ([`Walls`]): the cylinder of
+    /// radius `radius`·L about the z axis between the planes z = 0 and z = `length`·L
+    /// (π·radius²·length = 1, so that its volume is L³).
+    Container {
+        /// Container radius over L.
+        radius: f64,
+        /// Container length over L.
+        length: f64,
+    },
+}
+
+impl Domain {
+    /// The container of slenderness (length over radius) `aspect`, of volume L³.
+    pub(crate) fn container(aspect: f64) -> Domain {
+        let radius = (1.0 / (PI * aspect)).cbrt();
+        Domain::Container {
+            radius,
+            length: aspect * radius,
+        }
+    }
+
+    /// The box [lo, hi] the sphere centres are drawn in: the periodic cube, or the
+    /// container's bounding box.
+    pub(crate) fn bounds(self, side: f64) -> (Vec3, Vec3) {
+        match self {
+            Domain::Periodic => (Vec3::zeros(), Vec3::repeat(side)),
+            Domain::Container { radius, length } => {
+                let r = radius * side;
+                (Vec3::new(-r, -r, 0.0), Vec3::new(r, r, length * side))
+            }
+        }
+    }
+
+    /// The periodic cube of side `side`, or `None` in a container.
+    pub(crate) fn cell(self, side: f64) -> Result<Option<PeriodicCell>> {
+        match self {
+            Domain::Periodic => Ok(Some(PeriodicCell::new(Vec3::repeat(side))?)),
+            Domain::Container { .. } => Ok(None),
+        }
+    }
+
+    /// The container's walls at side `side` (`None` when periodic).
+    pub(super) fn walls(self, side: f64) -> Option<Walls> {
+        match self {
+            Domain::Periodic => None,
+            Domain::Container { radius, length } => Some(Walls {
+                radius: radius * side,
+                length: length * side,
+            }),
+        }
+    }
+
+    /// Wrap the positions into the cube of side `side` (periodic; nothing in a container).
+    fn wrap(self, x: &mut [Vec3], side: f64) -> Result<()> {
+        if let Some(cell) = self.cell(side)? {
+            x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+        }
+        Ok(())
+    }
 }
 
 /// When [`fire_relax`] stops (lengths in units of R̄, unit contact stiffness).
@@ -290,7 +368,8 @@ impl RelaxOutcome {
 }
 
 /// Minimise the soft-sphere energy E = ½ Σ max(0, R_i + R_j − |l|)² over the positions `x`
-/// (R̄ = 1, cube of side `side`) with FIRE (Bitzek et al. 2006), semi-implicit Euler steps,
+/// (R̄ = 1, cube of side `side`, or the container of that volume, `domain`, whose walls
+/// repel as spheres do) with FIRE (Bitzek et al. 2006), semi-implicit Euler steps,
 /// unit masses and stiffness, Verlet lists rebuilt when a sphere has moved half the skin.
 /// `on_check(iterations, largest overlap)` is called at the start and every 25 iterations.
 /// Positions are wrapped into the cell on return.
@@ -301,39 +380,45 @@ pub(crate) fn fire_relax(
     x: &mut [Vec3],
     radii: &[f64],
     side: f64,
+    domain: Domain,
     target: &RelaxTarget,
     on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
-    rayon::scope(|_| fire_relax_in_pool(x, radii, side, target, on_check))
+    rayon::scope(|_| fire_relax_in_pool(x, radii, side, domain, target, on_check))
 }
 
 fn fire_relax_in_pool(
     x: &mut [Vec3],
     radii: &[f64],
     side: f64,
+    domain: Domain,
     target: &RelaxTarget,
     on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
     let n = x.len();
     let r_max = largest_radius(radii);
     // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
-    let skin = 0.3f64.min(0.49 * side - 2.0 * r_max);
+    let skin = match domain {
+        Domain::Periodic => 0.3f64.min(0.49 * side - 2.0 * r_max),
+        Domain::Container { .. } => 0.3,
+    };
     if skin < 0.05 {
         return Err(Error::Invalid(format!(
             "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
              small for a unique minimum image (need more than 4.1·R_max); use more particles"
         )));
     }
-    let cell = PeriodicCell::new(Vec3::repeat(side))?;
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    let cell = domain.cell(side)?;
+    domain.wrap(x, side)?;
 
-    let list = ScaledVerletList::build(x, radii, &cell, skin)?;
+    let list = ScaledVerletList::build(x, radii, cell.as_ref(), skin)?;
     let x_ref = x.to_vec();
     let mut system = FixedCell {
         x,
         radii,
         side,
         cell,
+        walls: domain.walls(side),
         skin,
         target,
         on_check,
@@ -351,13 +436,12 @@ fn fire_relax_in_pool(
     let run = fire::minimise(&FIRE_FIXED_CELL, &mut system, target.max_iterations)?;
     let FixedCell {
         x,
-        cell,
         rebuilds,
         worst,
         force_balanced,
         ..
     } = system;
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    domain.wrap(x, side)?;
     Ok(RelaxOutcome {
         iterations: run.iterations,
         rebuilds,
@@ -367,12 +451,15 @@ fn fire_relax_in_pool(
     })
 }
 
-/// The soft-sphere energy in a fixed cube, as the [`FireSystem`] of [`fire_relax`].
+/// The soft-sphere energy in a fixed cube or container, as the [`FireSystem`] of
+/// [`fire_relax`].
 struct FixedCell<'a> {
     x: &'a mut [Vec3],
     radii: &'a [f64],
     side: f64,
-    cell: PeriodicCell,
+    /// The periodic cube (`None` in a container).
+    cell: Option<PeriodicCell>,
+    walls: Option<Walls>,
     skin: f64,
     target: &'a RelaxTarget,
     on_check: &'a mut (dyn FnMut(usize, f64) + Send),
@@ -396,6 +483,7 @@ impl FixedCell<'_> {
             self.x,
             self.radii,
             self.side,
+            self.walls,
             &self.list,
             &mut self.f,
             &mut self.overlap,
@@ -489,9 +577,10 @@ impl FireSystem for FixedCell<'_> {
             .map(|(a, b)| (a - b).norm())
             .reduce(|| 0.0, f64::max);
         if 2.0 * moved > self.skin {
-            let cell = &self.cell;
-            self.x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            self.list = ScaledVerletList::build(self.x, self.radii, &self.cell, self.skin)?;
+            if let Some(cell) = &self.cell {
+                self.x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+            }
+            self.list = ScaledVerletList::build(self.x, self.radii, self.cell.as_ref(), self.skin)?;
             self.rebuilds += 1;
             self.x_ref.copy_from_slice(self.x);
         }
@@ -528,7 +617,7 @@ pub fn generate_with_report(
         })
         .map(|p| cell.wrap(p).0)
         .collect();
-    let (mut x, radii) = spatial_order(&x, &radii, side);
+    let (mut x, radii) = spatial_order(&x, &radii, Vec3::zeros(), Vec3::repeat(side));
 
     let tol = opts.max_overlap;
     let mut initial = 2.0 * tol;
@@ -538,6 +627,7 @@ pub fn generate_with_report(
         &mut x,
         &radii,
         side,
+        Domain::Periodic,
         &RelaxTarget {
             max_overlap: tol,
             force_balance: None,
@@ -694,6 +784,7 @@ fn forces_and_sums(
     v: &[Vec3],
     radii: &[f64],
     side: f64,
+    walls: Option<Walls>,
     list: &ScaledVerletList,
     f: &mut [Vec3],
 ) -> ChunkSums {
@@ -703,6 +794,7 @@ fn forces_and_sums(
         x,
         radii,
         side,
+        walls,
     };
     let parts: Vec<ChunkSums> = f
         .par_chunks_mut(PASS_CHUNK)
@@ -733,7 +825,9 @@ fn forces_and_sums(
 }
 
 /// Minimise the enthalpy H = ½ Σ max(0, R_i + R_j − |l|)² + P_t·V over the positions `x`
-/// and the (cubic) cell side `side` with FIRE (Bitzek et al. 2006): the cell's log-strain
+/// and the (cubic) cell side `side` (or the scale of the container of volume `side`³,
+/// `domain`: its walls' overlaps join E, and their virial δ·d, d the centre's distance from
+/// the wall, the pressure) with FIRE (Bitzek et al. 2006): the cell's log-strain
 /// ε = ln L is one more degree of freedom with generalised force −∂H/∂ε = 3V(P − P_t)
 /// (virial pressure P) and mass 2N, so the cell and the particles relax on the same time
 /// scale. This is O'Hern et al. (2003)'s route to the jamming point, used by Kumar 2016
@@ -753,37 +847,39 @@ pub(crate) fn fire_jam_at_pressure(
     x: &mut [Vec3],
     radii: &[f64],
     side: &mut f64,
+    domain: Domain,
     target: &PressureTarget,
     on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
-    rayon::scope(|_| fire_jam_in_pool(x, radii, side, target, on_check))
+    rayon::scope(|_| fire_jam_in_pool(x, radii, side, domain, target, on_check))
 }
 
 fn fire_jam_in_pool(
     x: &mut [Vec3],
     radii: &[f64],
     side: &mut f64,
+    domain: Domain,
     target: &PressureTarget,
     on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
     let n = x.len();
     let r_max = largest_radius(radii);
     let cutoff = 2.0 * r_max + JAM_SKIN;
-    if cutoff >= 0.49 * *side {
+    if domain == Domain::Periodic && cutoff >= 0.49 * *side {
         return Err(cell_too_small(n, *side));
     }
-    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    domain.wrap(x, *side)?;
 
     // Mass of the mass-weighted cell coordinate η = √M·ε.
     let mass = 2.0 * n as f64;
     let v = vec![Vec3::zeros(); n];
     let mut f = vec![Vec3::zeros(); n];
-    let list = ScaledVerletList::build(x, radii, &cell, JAM_SKIN)?;
+    let list = ScaledVerletList::build(x, radii, domain.cell(*side)?.as_ref(), JAM_SKIN)?;
     // Reference positions in units of the cell side (displacements exclude the affine part).
     let u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
-    let sums = forces_and_sums(x, &v, radii, *side, &list, &mut f);
+    let sums = forces_and_sums(x, &v, radii, *side, domain.walls(*side), &list, &mut f);
     let mut system = VariableCell {
+        domain,
         side_ref: *side,
         x,
         radii,
@@ -813,8 +909,7 @@ fn fire_jam_in_pool(
         largest_unbalanced,
         ..
     } = system;
-    let cell = PeriodicCell::new(Vec3::repeat(*side))?;
-    x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
+    domain.wrap(x, *side)?;
     Ok(PressureOutcome {
         iterations: run.iterations,
         pressure,
@@ -837,6 +932,7 @@ fn cell_too_small(n: usize, side: f64) -> Error {
 /// The enthalpy with the cell side as a degree of freedom, as the [`FireSystem`] of
 /// [`fire_jam_at_pressure`].
 struct VariableCell<'a> {
+    domain: Domain,
     x: &'a mut [Vec3],
     radii: &'a [f64],
     side: &'a mut f64,
@@ -931,7 +1027,7 @@ impl FireSystem for VariableCell<'_> {
         let d_eps = (dt * self.v_eta - eta_back) / self.sqrt_mass;
         let scale = d_eps.exp();
         let new_side = *self.side * scale;
-        if self.cutoff >= 0.49 * new_side {
+        if self.domain == Domain::Periodic && self.cutoff >= 0.49 * new_side {
             return Err(cell_too_small(self.x.len(), new_side));
         }
         *self.side = new_side;
@@ -959,9 +1055,9 @@ impl FireSystem for VariableCell<'_> {
         let moved_max = self.moved.iter().copied().fold(0.0, f64::max);
         let strain = (*self.side / self.side_ref - 1.0).abs();
         if 2.0 * moved_max + strain * self.cutoff > JAM_SKIN {
-            let cell = PeriodicCell::new(Vec3::repeat(*self.side))?;
-            self.x.iter_mut().for_each(|p| *p = cell.wrap(*p).0);
-            self.list = ScaledVerletList::build(self.x, self.radii, &cell, JAM_SKIN)?;
+            let cell = self.domain.cell(*self.side)?;
+            self.domain.wrap(self.x, *self.side)?;
+            self.list = ScaledVerletList::build(self.x, self.radii, cell.as_ref(), JAM_SKIN)?;
             self.side_ref = *self.side;
             let s = *self.side;
             self.u_ref
@@ -974,6 +1070,7 @@ impl FireSystem for VariableCell<'_> {
             &self.v,
             self.radii,
             *self.side,
+            self.domain.walls(*self.side),
             &self.list,
             &mut self.f,
         );

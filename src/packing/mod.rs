@@ -4,8 +4,11 @@
 //! LIGGGHTS `atom_style granular` data files; [`neighbours`] finds all pairs within a
 //! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings;
 //! [`routes`] prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
-//! [`cut`] cuts free assemblies (a bar, a block) out of them, with boundary particle sets.
+//! [`cut`] cuts free assemblies (a bar, a block) out of them, with boundary particle sets;
+//! [`container`] prepares a bar's spheres by the same routes inside a rigid cylinder and two
+//! planes (Kumar 2016 Sec. 5).
 
+pub mod container;
 pub mod cut;
 mod fire;
 pub mod generate;

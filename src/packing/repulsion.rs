@@ -45,9 +45,10 @@ fn image_component(entry: u32, axis: u32) -> i32 {
 }
 
 impl ScaledVerletList {
-    /// Every pair of `x` (radii `radii`, positions wrapped into the cube `cell`) with
-    /// |l| ≤ R_i + R_j + `skin`, found by cell lists: each sphere's neighbours in ascending
-    /// index order (the order of the force sums), padded to whole groups.
+    /// Every pair of `x` (radii `radii`, positions wrapped into the cube `cell`, or free
+    /// with `cell` = `None`: then no entry has an image) with |l| ≤ R_i + R_j + `skin`,
+    /// found by cell lists: each sphere's neighbours in ascending index order (the order of
+    /// the force sums), padded to whole groups.
     ///
     /// Only pairs in reach matter: a pair out of contact adds exact zeros, so which of
     /// them are listed does not change any sum. The list stays valid (every pair that can
@@ -55,13 +56,14 @@ impl ScaledVerletList {
     pub(super) fn build(
         x: &[Vec3],
         radii: &[f64],
-        cell: &PeriodicCell,
+        cell: Option<&PeriodicCell>,
         skin: f64,
     ) -> Result<ScaledVerletList> {
         let n = x.len();
         let r_max = radii.iter().copied().fold(0.0, f64::max);
         let cutoff = 2.0 * r_max + skin;
-        let side = cell.lengths;
+        // A free set has no image: an infinite side makes every shift below zero.
+        let side = cell.map_or(Vec3::repeat(f64::INFINITY), |c| c.lengths);
         if (0..3).any(|k| cutoff >= 0.5 * side[k]) || skin.is_nan() || skin < 0.0 {
             return Err(Error::Invalid(format!(
                 "packing preparation: neighbour cutoff {cutoff:.3} R̄ is not below half the \
@@ -75,7 +77,7 @@ impl ScaledVerletList {
                  {INDEX_MASK})"
             )));
         }
-        let grid = CellGrid::new(x, Some(cell), cutoff);
+        let grid = CellGrid::new(x, cell, cutoff);
         const BLOCK: usize = 512;
         let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(BLOCK))
             .into_par_iter()
@@ -103,7 +105,9 @@ impl ScaledVerletList {
                                 } else {
                                     0
                                 };
-                                d[k] += image as f64 * side[k];
+                                if image != 0 {
+                                    d[k] += image as f64 * side[k];
+                                }
                                 code |= ((image as u32) & 0b11) << (INDEX_BITS + 2 * k as u32);
                             }
                             let limit = reach + radii[j as usize];
@@ -248,14 +252,56 @@ impl ParticleContacts {
     }
 }
 
-/// What a force pass reads: the Verlet list, the positions and radii (units of R̄) and the
-/// side of the periodic cube.
+/// The rigid container of a packing prepared for a bar (Kumar 2016 Sec. 5): the cylinder
+/// ρ = √(x² + y²) = `radius` about the z axis and the planes z = 0 and z = `length`
+/// (units of R̄). Each is a soft repulsive surface: a sphere overlapping it by δ is pushed
+/// back by δ along its normal, as by a sphere (unit stiffness).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Walls {
+    pub radius: f64,
+    pub length: f64,
+}
+
+impl ParticleContacts {
+    /// Add the container's contacts of a sphere at `x` of radius `r`. A wall contact has one
+    /// end but is counted as two, like a pair summed from both ends: 2δ to the overlap sum,
+    /// two contacts, and 2δ·d to the virial with d = R − δ the centre's distance from the wall,
+    /// so that half the virial sum is −∂E/∂ln s when positions and container scale by s
+    /// about the origin. The wall's gap δ also enters the largest gap.
+    fn add_walls(&mut self, x: Vec3, r: f64, walls: &Walls) {
+        let rho = x.x.hypot(x.y);
+        let mantle = if rho > 0.0 {
+            Vec3::new(x.x / rho, x.y / rho, 0.0)
+        } else {
+            Vec3::x()
+        };
+        // (gap δ, outward normal, distance of the centre from the wall).
+        for (gap, outward, d) in [
+            (rho + r - walls.radius, mantle, walls.radius - rho),
+            (r - x.z, -Vec3::z(), x.z),
+            (x.z + r - walls.length, Vec3::z(), walls.length - x.z),
+        ] {
+            self.worst = self.worst.max(gap);
+            if gap > 0.0 {
+                self.force -= outward * gap;
+                self.overlap_sum += 2.0 * gap;
+                self.virial += 2.0 * gap * d;
+                self.contacts += 2;
+            }
+        }
+    }
+}
+
+/// What a force pass reads: the Verlet list, the positions and radii (units of R̄), the
+/// side of the periodic cube (for a free list only the padding entries use it: it keeps
+/// them out of reach) and the container's walls, if any.
 #[derive(Clone, Copy)]
 pub(super) struct Spheres<'a> {
     pub list: &'a ScaledVerletList,
     pub x: &'a [Vec3],
     pub radii: &'a [f64],
     pub side: f64,
+    pub walls: Option<Walls>,
 }
 
 /// Whether [`Spheres::contacts`] may take the AVX2 path (checked once per force pass).
@@ -275,12 +321,16 @@ impl Spheres<'_> {
             virial: sums.1,
             ..Default::default()
         };
-        if lanes {
+        let mut c = if lanes {
             // SAFETY: `lanes` comes from `lanes_available`, so the CPU supports AVX2.
             unsafe { self.contacts_avx2(i, start) }
         } else {
             self.contacts_scalar(i, start)
+        };
+        if let Some(walls) = &self.walls {
+            c.add_walls(self.x[i], self.radii[i], walls);
         }
+        c
     }
 
     /// The scalar reference of [`Self::contacts`].
@@ -310,6 +360,7 @@ impl Spheres<'_> {
             x,
             radii,
             side,
+            ..
         } = *self;
         let xi = x[i];
         let ri = radii[i];
@@ -428,7 +479,7 @@ mod tests {
         x[5] = x[4];
         let radii: Vec<f64> = (0..n).map(|_| 0.9 + 0.2 * rng.gen::<f64>()).collect();
         let cell = PeriodicCell::new(Vec3::repeat(side)).unwrap();
-        let list = ScaledVerletList::build(&x, &radii, &cell, 0.4).unwrap();
+        let list = ScaledVerletList::build(&x, &radii, Some(&cell), 0.4).unwrap();
         assert!(
             list.j
                 .iter()
@@ -450,6 +501,7 @@ mod tests {
                 x: &x,
                 radii: &radii,
                 side: scaled,
+                walls: None,
             };
             let a = spheres.contacts_scalar(i, start);
             let b = spheres.contacts(i, true, (0.125 * i as f64, 0.5));

@@ -55,6 +55,41 @@ fn buckle_writes_table_consistent_with_eqs_14_15() {
     assert_eq!(&png[1..4], b"PNG");
 }
 
+/// `--preparation container`: each bar packed in its own container, as many spheres per
+/// unit length as a cut bar (608 at r = 5 R̄, l/r = 10: D·πr²l/⟨(4/3)πR³⟩), the preparation
+/// named in buckling.json.
+#[test]
+fn buckle_prepares_bars_in_a_container_on_request() {
+    let dir = tmp();
+    let out = dir.path().join("bk");
+    let o = bin()
+        .args([
+            "buckle",
+            "--preparation",
+            "container",
+            "--route",
+            "unjammed,weakly-jammed",
+            "--slenderness",
+            "10",
+            "--linear-only",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("buckling.json")).unwrap()).unwrap();
+    assert_eq!(json["parameters"]["preparation"], "container");
+    let rows = json["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for r in rows {
+        assert_eq!(r["particles"], 608);
+        let ratio = r["network_over_euler"].as_f64().unwrap();
+        assert!(ratio > 0.0 && ratio < 1.2, "{ratio}");
+    }
+}
+
 #[test]
 fn buckle_refuses_bad_options_without_output() {
     let dir = tmp();

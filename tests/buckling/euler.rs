@@ -15,7 +15,7 @@ use anisobond::Vec3;
 use std::f64::consts::PI;
 
 /// Kumar 2016's bonds: interaction range κ, α = Σ_T/Σ_N, Eqs. 7–8 moments.
-fn kumar_model(kappa: f64, alpha: f64) -> Model {
+pub(crate) fn kumar_model(kappa: f64, alpha: f64) -> Model {
     let text = format!(
         "[bonding]\nrule = \"factor\"\nvalue = {kappa}\n[scheme]\nkind = \"isotropic\"\n\
          normal = 1e8\nshear = {}\n[geometry]\nconvention = \"kumar\"\nmoments = \"kumar\"\n",
