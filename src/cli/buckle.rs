@@ -114,6 +114,11 @@ pub struct BuckleArgs {
     /// Final strain of the compression, in units of the linearised critical strain.
     #[arg(long, default_value_t = 2.5)]
     dem_strain: f64,
+    /// Compress a bar with a stress-free geometric imperfection instead of the perfect one:
+    /// the centres moved along the network's first buckling mode, this amplitude (in R̄) at
+    /// its largest. 0 (default): the random packing's own imperfection only.
+    #[arg(long, default_value_t = 0.0)]
+    imperfection: f64,
     /// Quasi-static compression by Kumar's criterion (Eq. 16; he asks for 1e-8): the end
     /// moves at the `--dem-steps` rate only while Ẽ_kin is below this limit (checked every
     /// 1/200 of the loading) and holds still until the bar has relaxed below it otherwise;
@@ -221,6 +226,17 @@ fn check(a: &BuckleArgs) -> Result<()> {
                 "{name} {v}: expected a finite value > 0"
             )));
         }
+    }
+    if !(a.imperfection.is_finite() && a.imperfection >= 0.0) {
+        return Err(Error::Invalid(format!(
+            "--imperfection {}: expected a finite value ≥ 0 (in mean radii)",
+            a.imperfection
+        )));
+    }
+    if a.imperfection > 0.0 && a.dem_steps == 0 {
+        return Err(Error::Invalid(
+            "--imperfection needs --dem-steps N > 0 (it shapes the compressed bar)".into(),
+        ));
     }
     if let Some(l) = a.kinetic_limit {
         if !(l.is_finite() && l > 0.0) {
@@ -452,7 +468,14 @@ pub fn run(a: BuckleArgs) -> Result<()> {
                 let t1 = Instant::now();
                 let bar_progress =
                     super::output::progress_bar(&format!("compression {} l/r = {s}", r.route));
-                let c = compress_clamped_bar_with_progress(&bar, &copts, &|f: f64| {
+                let imperfect;
+                let compressed = if a.imperfection > 0.0 {
+                    imperfect = bar.imperfect(&res.mode, a.imperfection * rbar)?;
+                    &imperfect
+                } else {
+                    &bar
+                };
+                let c = compress_clamped_bar_with_progress(compressed, &copts, &|f: f64| {
                     bar_progress.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
                 });
                 bar_progress.finish_and_clear();
@@ -570,6 +593,7 @@ pub fn run(a: BuckleArgs) -> Result<()> {
             "alpha": a.alpha, "kappa": a.kappa, "sigma_n_pa": a.sigma_n, "seed": a.seed,
             "clamp_depth_in_mean_radii": a.clamp_depth, "tolerance": a.tolerance,
             "deformed_bar": !a.linear_only, "dem_steps": a.dem_steps, "dem_strain_over_critical": a.dem_strain,
+            "dem_imperfection_in_mean_radii": a.imperfection,
             "euler": "Kumar 2016 Eq. 14, k = 0.5", "mazzilli": "Kumar 2016 Eq. 15, k = 0.5"
         },
         "rows": rows,

@@ -837,6 +837,44 @@ impl RoundBar {
         Ok((bar, report))
     }
 
+    /// The same bar with its sphere centres moved by `amplitude` (m) × `mode` (one vector per
+    /// sphere with unit largest norm, e.g. [`BucklingResult::mode`]): a stress-free geometric
+    /// imperfection in the shape of the buckling mode. Bonds and springs are kept; their
+    /// lengths and normals follow the moved centres (the integrator takes them as the rest
+    /// state). Refuses a mode of the wrong length, a non-finite or negative amplitude and a
+    /// periodic bar.
+    pub fn imperfect(&self, mode: &[Vec3], amplitude: f64) -> Result<RoundBar> {
+        let p = &self.assembly.packing;
+        if mode.len() != p.len() {
+            return Err(Error::Invalid(format!(
+                "imperfection: {} mode vectors for {} spheres",
+                mode.len(),
+                p.len()
+            )));
+        }
+        if !(amplitude.is_finite() && amplitude >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "imperfection: the amplitude must be finite and ≥ 0 m, got {amplitude:e}"
+            )));
+        }
+        if p.cell.is_some() {
+            return Err(Error::Invalid(
+                "imperfection: the bar must be a free assembly (no periodic cell)".into(),
+            ));
+        }
+        let mut bar = self.clone();
+        for (x, m) in bar.assembly.packing.positions.iter_mut().zip(mode) {
+            *x += m * amplitude;
+        }
+        let (positions, bonds) = (&bar.assembly.packing.positions, &mut bar.assembly.bonds);
+        for b in 0..bonds.len() {
+            let branch = positions[bonds.j[b] as usize] - positions[bonds.i[b] as usize];
+            bonds.length[b] = branch.norm();
+            bonds.normal[b] = branch / bonds.length[b];
+        }
+        Ok(bar)
+    }
+
     /// Cross-section area πr² (m²).
     pub fn area(&self) -> f64 {
         std::f64::consts::PI * self.radius * self.radius

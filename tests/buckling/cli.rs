@@ -97,6 +97,11 @@ fn buckle_refuses_bad_options_without_output() {
         (vec!["--slenderness", "5"], "--slenderness 5"),
         (vec!["--alpha=-1"], "--alpha -1"),
         (vec!["--radius-particles", "0"], "--radius-particles 0"),
+        (vec!["--imperfection=-1"], "--imperfection -1"),
+        (
+            vec!["--imperfection", "0.1"],
+            "--imperfection needs --dem-steps",
+        ),
         (
             vec!["--dem-steps", "1000", "--kinetic-limit", "NaN"],
             "--kinetic-limit NaN",

@@ -167,3 +167,52 @@ fn cut_bar_keeps_the_materials_springs() {
         assert!((bar.springs.kn[b] / k - 1.0).abs() < 1e-12, "bond {b}");
     }
 }
+
+/// `RoundBar::imperfect`: every centre moves by amplitude × its mode vector, the bonds
+/// (same pairs, same springs) take the moved centres' lengths and normals (a stress-free
+/// imperfect bar); amplitude 0 changes nothing; bad modes and amplitudes are refused.
+#[test]
+fn imperfect_bar_moves_centres_along_the_mode() {
+    use anisobond::homogenize::buckling::RoundBar;
+    let p = periodic(600);
+    let rbar = p.mean_radius();
+    let model = anisobond::model::Model::from_toml_str(
+        "[bonding]\nrule = \"factor\"\nvalue = 1.0\n[scheme]\nkind = \"isotropic\"\nnormal = 1e8\n\
+         shear = 2e7\n[geometry]\nconvention = \"kumar\"\nmoments = \"kumar\"\n",
+        "kumar",
+    )
+    .unwrap();
+    let bar = RoundBar::cut(&p, model, 4.0 * rbar, 8.0, rbar).unwrap();
+    let n = bar.assembly.packing.len();
+    let l = bar.length;
+    let mode: Vec<Vec3> = bar
+        .assembly
+        .packing
+        .positions
+        .iter()
+        .map(|x| Vec3::new((PI * x.z / l).sin(), 0.0, 0.0))
+        .collect();
+    let amp = 0.1 * rbar;
+    let imp = bar.imperfect(&mode, amp).unwrap();
+    for k in 0..n {
+        let d = imp.assembly.packing.positions[k] - bar.assembly.packing.positions[k];
+        assert!((d - mode[k] * amp).norm() < 1e-15 * l);
+    }
+    let (b0, b1) = (&bar.assembly.bonds, &imp.assembly.bonds);
+    assert_eq!((&b0.i, &b0.j), (&b1.i, &b1.j));
+    assert_eq!(bar.assembly.springs.kn, imp.assembly.springs.kn);
+    for b in 0..b1.len() {
+        let x = &imp.assembly.packing.positions;
+        let branch = x[b1.j[b] as usize] - x[b1.i[b] as usize];
+        assert!((branch - b1.normal[b] * b1.length[b]).norm() < 1e-12 * b1.length[b]);
+    }
+    let same = bar.imperfect(&mode, 0.0).unwrap();
+    assert_eq!(
+        same.assembly.packing.positions,
+        bar.assembly.packing.positions
+    );
+    assert_eq!(same.assembly.bonds.length, bar.assembly.bonds.length);
+    assert!(bar.imperfect(&mode[1..], amp).is_err());
+    assert!(bar.imperfect(&mode, -amp).is_err());
+    assert!(bar.imperfect(&mode, f64::NAN).is_err());
+}
