@@ -183,7 +183,6 @@ fn imperfect_bar_moves_centres_along_the_mode() {
     )
     .unwrap();
     let bar = RoundBar::cut(&p, model, 4.0 * rbar, 8.0, rbar).unwrap();
-    let n = bar.assembly.packing.len();
     let l = bar.length;
     let mode: Vec<Vec3> = bar
         .assembly
@@ -194,9 +193,9 @@ fn imperfect_bar_moves_centres_along_the_mode() {
         .collect();
     let amp = 0.1 * rbar;
     let imp = bar.imperfect(&mode, amp).unwrap();
-    for k in 0..n {
-        let d = imp.assembly.packing.positions[k] - bar.assembly.packing.positions[k];
-        assert!((d - mode[k] * amp).norm() < 1e-15 * l);
+    let moved = imp.assembly.packing.positions.iter();
+    for ((x1, x0), m) in moved.zip(&bar.assembly.packing.positions).zip(&mode) {
+        assert!(((x1 - x0) - m * amp).norm() < 1e-15 * l);
     }
     let (b0, b1) = (&bar.assembly.bonds, &imp.assembly.bonds);
     assert_eq!((&b0.i, &b0.j), (&b1.i, &b1.j));
