@@ -2,36 +2,55 @@
 //! own E (Kumar 2016 Eqs. 14–15), the files, and refusals that leave no output.
 
 use crate::common::{bin, tmp};
+use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::path::Path;
+use std::process::Output;
+
+/// `anisobond buckle ARGS -o OUT`.
+fn buckle(args: &[&str], out: &Path) -> Output {
+    bin()
+        .arg("buckle")
+        .args(args)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// `anisobond buckle ARGS -o OUT`, which must succeed; the rows of OUT/buckling.csv by
+/// column name.
+fn buckle_table(args: &[&str], out: &Path) -> Vec<HashMap<String, String>> {
+    let o = buckle(args, out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .zip(l.split(','))
+                .map(|(h, v)| (h.to_string(), v.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Column `name` of a table row as a number.
+fn num(row: &HashMap<String, String>, name: &str) -> f64 {
+    row[name].parse().unwrap()
+}
 
 #[test]
 fn buckle_writes_table_consistent_with_eqs_14_15() {
     let dir = tmp();
     let out = dir.path().join("bk");
-    let o = bin()
-        .args([
-            "buckle",
-            "--route",
-            "unjammed",
-            "--slenderness",
-            "20,40",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert!(header.contains(&"E [Pa]") && header.contains(&"sigma_network [Pa]"));
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<String>> = lines
-        .map(|l| l.split(',').map(String::from).collect())
-        .collect();
+    let rows = buckle_table(&["--route", "unjammed", "--slenderness", "20,40"], &out);
+    assert!(rows[0].contains_key("E [Pa]") && rows[0].contains_key("sigma_network [Pa]"));
     assert_eq!(rows.len(), 2);
     for r in &rows {
-        let f = |name: &str| r[col(name)].parse::<f64>().unwrap();
+        let f = |name: &str| num(r, name);
         let (s, e) = (f("l_over_r"), f("E [Pa]"));
         let euler = PI * PI * e / (4.0 * (0.5 * s).powi(2));
         assert!((f("sigma_euler [Pa]") / euler - 1.0).abs() < 1e-9);
@@ -62,21 +81,16 @@ fn buckle_writes_table_consistent_with_eqs_14_15() {
 fn buckle_prepares_bars_in_a_container_on_request() {
     let dir = tmp();
     let out = dir.path().join("bk");
-    let o = bin()
-        .args([
-            "buckle",
-            "--preparation",
-            "container",
-            "--route",
-            "unjammed,weakly-jammed",
-            "--slenderness",
-            "10",
-            "--linear-only",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let args = [
+        "--preparation",
+        "container",
+        "--route",
+        "unjammed,weakly-jammed",
+        "--slenderness",
+        "10",
+        "--linear-only",
+    ];
+    let o = buckle(&args, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("buckling.json")).unwrap()).unwrap();
@@ -124,13 +138,7 @@ fn buckle_refuses_bad_options_without_output() {
         ),
     ] {
         let out = dir.path().join("bk");
-        let o = bin()
-            .arg("buckle")
-            .args(&args)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = buckle(&args, &out);
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(expect), "{err}");
@@ -145,29 +153,18 @@ fn buckle_refuses_bad_options_without_output() {
 fn buckle_dem_columns_and_history() {
     let dir = tmp();
     let out = dir.path().join("bk");
-    let o = bin()
-        .args([
-            "buckle",
+    let rows = buckle_table(
+        &[
             "--route",
             "weakly-jammed",
             "--slenderness",
             "10",
             "--dem-steps",
             "20000",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
-    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
-    let f = |name: &str| {
-        row[header.iter().position(|h| *h == name).unwrap()]
-            .parse::<f64>()
-            .unwrap()
-    };
+        ],
+        &out,
+    );
+    let f = |name: &str| num(&rows[0], name);
     let hist = std::fs::read_to_string(out.join("history_weakly-jammed_10.csv")).unwrap();
     let pts: Vec<Vec<f64>> = hist
         .lines()
@@ -219,29 +216,10 @@ fn cubic_bars_follow_the_compliance_along_the_axis() {
     .map(|(name, text)| {
         let model = crate::common::write(dir.path(), name, text);
         let out = dir.path().join(format!("out-{name}"));
-        let o = bin()
-            .args([
-                "buckle",
-                "--route",
-                "jammed",
-                "--slenderness",
-                "20",
-                "--model",
-            ])
-            .arg(&model)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let csv = std::fs::read_to_string(out.join("buckling.csv")).unwrap();
-        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-        let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
-        let f = |n: &str| {
-            row[header.iter().position(|h| *h == n).unwrap()]
-                .parse::<f64>()
-                .unwrap()
-        };
+        let model = model.to_str().unwrap();
+        let args = ["--route", "jammed", "--slenderness", "20", "--model", model];
+        let rows = buckle_table(&args, &out);
+        let f = |name: &str| num(&rows[0], name);
         (f("E [Pa]"), f("E_cell [Pa]"))
     })
     .collect();
@@ -257,24 +235,19 @@ fn cubic_bars_follow_the_compliance_along_the_axis() {
 fn buckle_kinetic_limit_out_of_steps_is_an_error_without_output() {
     let dir = tmp();
     let out = dir.path().join("bk");
-    let o = bin()
-        .args([
-            "buckle",
-            "--route",
-            "weakly-jammed",
-            "--slenderness",
-            "10",
-            "--dem-steps",
-            "5000",
-            "--kinetic-limit",
-            "1e-8",
-            "--dem-max-steps",
-            "6000",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let args = [
+        "--route",
+        "weakly-jammed",
+        "--slenderness",
+        "10",
+        "--dem-steps",
+        "5000",
+        "--kinetic-limit",
+        "1e-8",
+        "--dem-max-steps",
+        "6000",
+    ];
+    let o = buckle(&args, &out);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
