@@ -58,7 +58,7 @@ pub enum Preparation {
 pub struct BuckleArgs {
     /// Slenderness ratios l/r, comma-separated (Kumar 2016: 10 to 120; each > 2π, where
     /// Mazzilli's Eq. 15 has a root).
-    #[arg(long, value_delimiter = ',', default_values_t = [10.0, 20.0, 40.0, 80.0])]
+    #[arg(long, value_delimiter = ',', default_values_t = [10.0, 20.0, 40.0, 80.0, 120.0])]
     slenderness: Vec<f64>,
     /// Preparation routes, comma-separated.
     #[arg(long, value_delimiter = ',', default_values = ["unjammed", "weakly-jammed", "jammed"])]
