@@ -149,11 +149,7 @@ fn random_bar_pair_and_threads() {
     let sets = c.boundary(rbar).unwrap();
     let asm = Assembly::new(c.packing.clone(), kumar_model(1.0, 0.2)).unwrap();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        crate::common::on_threads(threads, || {
             let bar = ClampedBar {
                 assembly: &asm,
                 first_end: &sets.first_end,

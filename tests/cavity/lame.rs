@@ -174,11 +174,7 @@ fn static_and_wave_results_do_not_depend_on_the_thread_count() {
         snapshots: 1,
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        crate::common::on_threads(threads, || {
             let s = cav.solve_static(1e6).unwrap();
             let w = cav.run_waves(&opts).map(|w| w.snapshots[0].1.clone());
             (s.displacement, w)

@@ -116,11 +116,9 @@ fn gripped_tensor_same_bits_on_one_and_two_threads() {
         ..options()
     };
     let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| gripped_tensor(&p, &b, &k, LawKind::Yade, &opts, &|_| {}).unwrap())
+        crate::common::on_threads(threads, || {
+            gripped_tensor(&p, &b, &k, LawKind::Yade, &opts, &|_| {}).unwrap()
+        })
     };
     let (one, two) = (on(1), on(2));
     assert_eq!(one.c, two.c);

@@ -206,11 +206,7 @@ fn undamped_energy_band_shrinks_as_dt_squared() {
 fn one_and_two_threads_give_identical_histories() {
     let (p, b, k) = periodic_bonded(600, 5);
     let history = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        crate::common::on_threads(threads, || {
             let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
             let mut sim = Simulation::new(
                 &p,

@@ -204,11 +204,7 @@ fn servo_is_bit_identical_on_one_and_two_threads() {
     };
     let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        crate::common::on_threads(threads, || {
             let mut s = yade_sim(&p, &b, &k, None);
             s.set_local_damping(0.4).unwrap();
             let mut controls = [ComponentControl::Stress(0.0); 6];

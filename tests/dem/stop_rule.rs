@@ -147,16 +147,12 @@ fn element_tests_same_bits_on_one_and_two_threads() {
     let (p, b) = gap_bonded(1200, 3);
     let k = directional_springs(&p, &b, false);
     let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let s = yade_sim(&p, &b, &k, None);
-                let d = dynamic_tensor(&s, &ElementTestOptions::default(), &|_| {}).unwrap();
-                let u: Vec<_> = d.paths.iter().map(|p| (p.steps, p.unbalance)).collect();
-                (d.c, u)
-            })
+        crate::common::on_threads(threads, || {
+            let s = yade_sim(&p, &b, &k, None);
+            let d = dynamic_tensor(&s, &ElementTestOptions::default(), &|_| {}).unwrap();
+            let u: Vec<_> = d.paths.iter().map(|p| (p.steps, p.unbalance)).collect();
+            (d.c, u)
+        })
     };
     let (one, two) = (on(1), on(2));
     assert_eq!(one.1, two.1);

@@ -380,13 +380,7 @@ fn prefactor_scales_and_equal_sphere_prefactor_matches_simple_cubic() {
 fn result_does_not_depend_on_thread_count() {
     let s = LocalCubic::zener_above_1();
     let q = SphereQuadrature::new(&s.kink_planes(), 20);
-    let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool")
-            .install(|| orientation_average(&s, &q))
-    };
+    let run = |threads: usize| crate::common::on_threads(threads, || orientation_average(&s, &q));
     let one = run(1);
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));

@@ -98,23 +98,19 @@ fn relaxed_is_thread_count_independent_and_lever_arms_agree_for_equal_spheres() 
     let (p, b) = disordered_fcc(5, 2, 0.25);
     let k = uniform_springs(b.len(), 1e6, 0.5e6, 0.0, 0.0);
     let run = |t: usize, arm| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
+        crate::common::on_threads(t, || {
+            relaxed_tensor(
+                &p,
+                &b,
+                &k,
+                &RelaxedOptions {
+                    lever_arm: arm,
+                    ..Default::default()
+                },
+            )
             .unwrap()
-            .install(|| {
-                relaxed_tensor(
-                    &p,
-                    &b,
-                    &k,
-                    &RelaxedOptions {
-                        lever_arm: arm,
-                        ..Default::default()
-                    },
-                )
-                .unwrap()
-                .c
-            })
+            .c
+        })
     };
     let c1 = run(1, LeverArm::MidGap);
     assert_eq!(c1, run(2, LeverArm::MidGap));

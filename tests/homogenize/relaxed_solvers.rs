@@ -149,13 +149,7 @@ fn every_solver_is_thread_count_independent() {
     let (p, b) = disordered_fcc(5, 2, 0.2);
     let k = uniform_springs(b.len(), 1e6, 0.5e6, 0.0, 0.0);
     for solver in SOLVERS {
-        let run = |t: usize| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(t)
-                .build()
-                .unwrap()
-                .install(|| solve(&p, &b, &k, solver, 1e-8, true))
-        };
+        let run = |t: usize| crate::common::on_threads(t, || solve(&p, &b, &k, solver, 1e-8, true));
         let (one, two) = (run(1), run(2));
         assert_eq!(one.c, two.c, "{solver:?}");
         assert_eq!(one.iterations, two.iterations, "{solver:?}");

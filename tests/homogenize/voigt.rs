@@ -149,12 +149,6 @@ fn voigt_sum_is_thread_count_independent() {
         bonds.push(b, b + 1, v, [0, 0, 0]);
     }
     let k = springs(bonds.len(), 1e6, 3e5);
-    let run = |t| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .unwrap()
-            .install(|| voigt_tensor(&bonds, &k, 1.0))
-    };
+    let run = |t| crate::common::on_threads(t, || voigt_tensor(&bonds, &k, 1.0));
     assert_eq!(run(1), run(2));
 }

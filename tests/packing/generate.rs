@@ -44,13 +44,8 @@ fn max_overlap(p: &Packing) -> f64 {
 #[test]
 fn deterministic_same_seed_and_any_thread_count() {
     let opts = options(1000, 0.6, 42);
-    let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| generate(&opts, &|_| {}).unwrap())
-    };
+    let run =
+        |threads: usize| crate::common::on_threads(threads, || generate(&opts, &|_| {}).unwrap());
     let a = run(1);
     let b = run(2);
     let c = run(2);

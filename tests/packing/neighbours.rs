@@ -107,11 +107,7 @@ fn centre_distance_predicate_matches_brute_force() {
 fn independent_of_thread_count() {
     let p = random_packing(5, 20_000, 40.0, 0.4, 0.8, true);
     let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| pairs_within(&p, |_, _| 0.2, 0.2).unwrap())
+        crate::common::on_threads(threads, || pairs_within(&p, |_, _| 0.2, 0.2).unwrap())
     };
     let one = run(1);
     let two = run(2);

@@ -166,11 +166,9 @@ fn jammed_route_is_bit_identical_on_one_and_two_threads() {
     };
     // 1500 spheres: 3 chunks of the fused passes, so the threads really split the work.
     let on = |threads: usize, seed: u64| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| prepare(&options(PreparationRoute::Jammed, 1500, seed), &|_| {}).unwrap())
+        crate::common::on_threads(threads, || {
+            prepare(&options(PreparationRoute::Jammed, 1500, seed), &|_| {}).unwrap()
+        })
     };
     let (a, ra) = on(1, 21);
     let (b, rb) = on(2, 21);

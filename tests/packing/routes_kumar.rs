@@ -143,11 +143,7 @@ fn gas_is_overlap_free_and_deterministic_on_any_thread_count() {
             .collect()
     };
     let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| run(PreparationRoute::Jammed, 500, 11).0)
+        crate::common::on_threads(threads, || run(PreparationRoute::Jammed, 500, 11).0)
     };
     let a = on(1);
     let b = on(2);
