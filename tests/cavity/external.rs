@@ -4,7 +4,6 @@
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::packing::cut::{cut_holed_slab, HoledSlab};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
 use anisobond::Vec3;
 
@@ -67,15 +66,7 @@ fn pulled_pair_stretches_by_force_over_normal_stiffness() {
 
 #[test]
 fn holed_slab_keeps_exactly_the_annulus_of_the_tiled_packing() {
-    let src = generate(
-        &GenerateOptions {
-            n_particles: 200,
-            seed: 11,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let src = crate::common::bonded::generated(200, 11);
     let l = src.cell.unwrap().lengths;
     let (a, b, margin) = (3e-3, 12e-3, 2.5e-3);
     let cut = cut_holed_slab(

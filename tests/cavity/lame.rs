@@ -2,9 +2,8 @@
 //! with λ and μ from the source packing's own relaxed tensor.
 
 use anisobond::bonds::BondingRule;
-use anisobond::cavity::{lame_wall_displacement, Cavity, CavityGeometry};
+use anisobond::cavity::{isotropic_lame_constants, lame_wall_displacement, Cavity, CavityGeometry};
 use anisobond::model::{Model, SchemeSpec};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::prelude::*;
 use anisobond::schemes::Geometry;
 
@@ -21,35 +20,15 @@ pub fn isotropic_model() -> Model {
 }
 
 pub fn source(n: usize, seed: u64, model: Model) -> Assembly {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let p = crate::common::bonded::generated(n, seed);
     Assembly::new(p, model).unwrap()
 }
 
-/// The in-plane Lamé constants of the isotropic projection of C (group means):
-/// λ = mean(C12, C13, C23), μ = mean(C44, C55, C66).
-pub fn lame_constants(c: &Stiffness6) -> (f64, f64) {
-    (
-        (c[(0, 1)] + c[(0, 2)] + c[(1, 2)]) / 3.0,
-        (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]) / 3.0,
-    )
-}
-
+/// The cavity geometry a = `a`·R̄, b = `b`·R̄ with the library's defaults for the rest
+/// (clamp width the longest bond, tiles of R̄/4).
 pub fn geometry(src: &Assembly, a: f64, b: f64) -> CavityGeometry {
     let r = src.packing.mean_radius();
-    CavityGeometry {
-        inner_radius: a * r,
-        outer_radius: b * r,
-        clamp_width: src.bonds.length.iter().copied().fold(0.0, f64::max),
-        ray_spacing: 0.25 * r,
-    }
+    CavityGeometry::with_defaults(src, Some(a * r), Some(b * r), None, None)
 }
 
 #[test]
@@ -81,7 +60,7 @@ fn wall_loads_balance_and_add_up_to_the_wall_area() {
 fn wall_displacement_matches_lame() {
     let src = source(1000, 7, isotropic_model());
     let c = src.tensor(&Method::relaxed()).unwrap().report.tensor();
-    let (lambda, mu) = lame_constants(&c);
+    let (lambda, mu) = isotropic_lame_constants(&c);
     let (a, b) = (10.0, 24.0);
     let cav = Cavity::new(&src, geometry(&src, a, b)).unwrap();
     let p = 1e6;

@@ -8,10 +8,9 @@ use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResu
 use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
 
-/// A generated periodic packing of `n` particles (`seed`, default generation options),
-/// bonded with gap 0.17 R̄.
-pub fn gap_bonded(n: usize, seed: u64) -> (Packing, BondSet) {
-    let p = generate(
+/// A generated periodic packing of `n` particles (`seed`, default generation options).
+pub fn generated(n: usize, seed: u64) -> Packing {
+    generate(
         &GenerateOptions {
             n_particles: n,
             seed,
@@ -19,7 +18,12 @@ pub fn gap_bonded(n: usize, seed: u64) -> (Packing, BondSet) {
         },
         &|_| {},
     )
-    .expect("packing");
+    .expect("packing")
+}
+
+/// [`generated`], bonded with gap 0.17 R̄.
+pub fn gap_bonded(n: usize, seed: u64) -> (Packing, BondSet) {
+    let p = generated(n, seed);
     let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
     (p, b)
 }

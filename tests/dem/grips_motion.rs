@@ -8,7 +8,6 @@ use anisobond::dem::grips::{grip_motion, gripped_setup, GrippedOptions};
 use anisobond::dem::measure::{MeasureOptions, StrainIntegrator};
 use anisobond::dem::sim::PrescribedMotion;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
 use anisobond::Vec3;
 
@@ -110,15 +109,7 @@ fn time_integrated_strain_rate_equals_displacement_fit() {
 /// dissipation, although the bonds are strained and damping is on.
 #[test]
 fn held_particles_energy_ledger_is_that_of_the_prescribed_motion() {
-    let p = generate(
-        &GenerateOptions {
-            n_particles: 200,
-            seed: 5,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let p = crate::common::bonded::generated(200, 5);
     let p = Packing::new(p.positions.clone(), p.radii.clone(), None).unwrap();
     let b = build_bonds(&p, BondingRule::Gap(0.17)).unwrap();
     let r = p.mean_radius();

@@ -11,7 +11,6 @@ use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::LawKind;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::schemes::geometry::Moments;
 use anisobond::tensor::{relative_difference, CubicProjection};
 
@@ -29,15 +28,7 @@ fn table_3_heterogeneity_of_the_mrv_model() {
     let n = env("GRIPS_N", 20_000);
     let count = env("GRIPS_SPHERES", 2_000);
     let t0 = std::time::Instant::now();
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed: 2018,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let p = crate::common::bonded::generated(n, 2018);
     // PFC parallel bonds carry bending and twisting springs (k_r = k_n R_b²/4,
     // k_tw = k_s R_b²/2): give them to the relaxed reference too, as the law derives them.
     let mut model = Model::truszkowska_mrv();

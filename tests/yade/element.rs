@@ -11,7 +11,6 @@ use anisobond::homogenize::network::LeverArm;
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::homogenize::voigt::voigt_tensor;
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::schemes::geometry::Moments;
 use anisobond::tensor::Stiffness6;
 
@@ -19,15 +18,7 @@ fn run_case(test: &str, n: usize, seed: u64, moments: Moments) {
     if !yade_available(test) {
         return;
     }
-    let packing = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
+    let packing = crate::common::bonded::generated(n, seed);
     let mut model = Model::truszkowska_mrv();
     model.bonding = BondingRule::Gap(0.17);
     model.geometry.moments = moments;

@@ -8,7 +8,6 @@ use crate::common::yade::yade_available;
 use anisobond::bonds::{self, rules::build_bonds};
 use anisobond::export::yade::{run_yade_script, write_yade_export, YadeRunOptions};
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::Vec3;
 
 const SCRIPT: &str = r#"
@@ -53,15 +52,7 @@ fn every_bond_has_the_table_branch_vector_in_yade() {
     if !yade_available("every_bond_has_the_table_branch_vector_in_yade") {
         return;
     }
-    let packing = generate(
-        &GenerateOptions {
-            n_particles: 200,
-            seed: 11,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let packing = crate::common::bonded::generated(200, 11);
     let model = Model::truszkowska_mrv();
     let bond_set = build_bonds(&packing, model.bonding).unwrap();
     let scheme = model.build_scheme(Some((&packing, &bond_set))).unwrap();
@@ -159,15 +150,7 @@ fn a_bond_table_inconsistent_with_the_packing_fails_loudly() {
     if !yade_available("a_bond_table_inconsistent_with_the_packing_fails_loudly") {
         return;
     }
-    let packing = generate(
-        &GenerateOptions {
-            n_particles: 100,
-            seed: 3,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .unwrap();
+    let packing = crate::common::bonded::generated(100, 3);
     let model = Model::truszkowska_mrv();
     let bond_set = build_bonds(&packing, model.bonding).unwrap();
     let scheme = model.build_scheme(Some((&packing, &bond_set))).unwrap();

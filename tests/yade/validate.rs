@@ -13,7 +13,6 @@ use anisobond::bonds::{self, rules::build_bonds, BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use anisobond::homogenize::voigt::voigt_tensor;
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::{io::write_packing, Packing};
 use anisobond::tensor::compare::relative_difference;
 use anisobond::validate::yade::{
@@ -23,15 +22,7 @@ use anisobond::validate::yade::{
 use std::process::Command;
 
 fn bonded_packing(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness, Model) {
-    let packing = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
+    let packing = crate::common::bonded::generated(n, seed);
     let model = Model::truszkowska_mrv(); // gap 0.17 R̄, cubic Zener > 1
     let b = build_bonds(&packing, model.bonding).expect("bonds");
     let scheme = model.build_scheme(Some((&packing, &b))).expect("scheme");
