@@ -1,29 +1,145 @@
 //! Atomic file output: everything the library writes goes to a temporary file in the
 //! target's directory and is renamed into place only when complete, so a failure never
 //! leaves a half-written file behind.
+//!
+//! The staging files and folders of the process are registered ([`remove_staging`]), so a
+//! client that catches SIGINT or SIGTERM can remove them before it exits; the paths they stand
+//! for are remembered too, so an I/O error on a staging path names the user's path
+//! ([`Error::with_user_paths`]). A target that exists and is not a regular file or folder (a
+//! character device such as `/dev/null`, a FIFO) is written into, as a shell redirection
+//! does, never replaced.
 
 use crate::{Error, Result};
 use std::io::Write;
-use std::path::Path;
-use tempfile::NamedTempFile;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use tempfile::{NamedTempFile, TempPath};
+
+/// The staging paths of this process that may still exist (files and folders), each with the
+/// user's path it stands for.
+static STAGING: Mutex<Vec<(PathBuf, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Every staging path this process made and the user's path it stands for (kept after the
+/// staging path is gone, so an error reported later still names the user's path).
+static NAMES: Mutex<Vec<(PathBuf, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Held while a set of outputs is moved into place, so that [`remove_staging`] (called from a
+/// signal-handling thread) waits for a commit to finish or roll back instead of cutting it.
+static COMMITTING: Mutex<()> = Mutex::new(());
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Remember that `staged` is a staging path for the user's `target`.
+fn register(staged: &Path, target: &Path) {
+    lock(&STAGING).push((staged.to_path_buf(), target.to_path_buf()));
+    lock(&NAMES).push((staged.to_path_buf(), target.to_path_buf()));
+}
+
+/// Forget `staged` (it was moved into place or removed).
+fn unregister(staged: &Path) {
+    lock(&STAGING).retain(|(s, _)| s != staged);
+}
+
+/// Remove every staging file and folder this process still has, after any commit in progress
+/// has finished (or rolled back). For a client's SIGINT/SIGTERM handler, just before it exits:
+/// the outputs of an interrupted command are then left exactly as they were.
+pub fn remove_staging() {
+    let _commit = lock(&COMMITTING);
+    let staged: Vec<(PathBuf, PathBuf)> = std::mem::take(&mut *lock(&STAGING));
+    for (path, _) in staged {
+        match std::fs::symlink_metadata(&path) {
+            Ok(m) if m.is_dir() => {
+                let _ = std::fs::remove_dir_all(&path);
+            }
+            Ok(_) => {
+                let _ = std::fs::remove_file(&path);
+            }
+            Err(_) => {}
+        }
+    }
+}
+
+/// The user's path for `path` when it is (or lies inside) a staging path this process made;
+/// `None` otherwise.
+pub(crate) fn user_path(path: &Path) -> Option<PathBuf> {
+    lock(&NAMES).iter().rev().find_map(|(s, t)| {
+        path.strip_prefix(s).ok().map(|rel| {
+            if rel.as_os_str().is_empty() {
+                t.clone()
+            } else {
+                t.join(rel)
+            }
+        })
+    })
+}
+
+/// `text` with every staging path this process made replaced by the user's path.
+pub(crate) fn user_paths_in(text: &str) -> String {
+    let names = lock(&NAMES);
+    let mut out = text.to_string();
+    for (s, t) in names.iter().rev() {
+        let staged = s.display().to_string();
+        if out.contains(&staged) {
+            out = out.replace(&staged, &t.display().to_string());
+        }
+    }
+    out
+}
+
+/// True when `path` exists and is neither a regular file nor a folder (a character or block
+/// device, a FIFO, a socket), links followed: such a target is written into, not replaced.
+fn is_special(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+}
+
+/// Copy the complete staged file into the existing non-regular `target` (as `cmd > target`
+/// would), then remove the staged file.
+fn write_into_special(staged: TempPath, target: &Path) -> Result<()> {
+    let mut from = std::fs::File::open(&staged).map_err(|e| Error::io(target, e))?;
+    let mut to = std::fs::OpenOptions::new()
+        .write(true)
+        .open(target)
+        .map_err(|e| Error::io(target, e))?;
+    std::io::copy(&mut from, &mut to).map_err(|e| Error::io(target, e))?;
+    to.flush().map_err(|e| Error::io(target, e))?;
+    unregister(&staged);
+    drop(staged);
+    Ok(())
+}
 
 /// Write `path` atomically: `fill` writes the content into a buffered temporary file in the
 /// same folder, which is flushed and renamed onto `path` only if `fill` succeeds (on any
 /// error the temporary file is removed). The rename makes the file appear complete or not
 /// at all; it is not fsynced (a power cut may still lose it, as with any ordinary write).
+/// An existing device or FIFO at `path` is written into instead (see the module doc).
 pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut dyn Write) -> Result<()>,
 {
     check_output_directory(path)?;
     let dir = parent_dir(path);
-    let tmp = output_temp_file(dir, ".tmp").map_err(|e| Error::io(path, e))?;
+    let tmp = output_temp_file(dir, ".tmp", path).map_err(|e| Error::io(path, e))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file());
         fill(&mut w)?;
         w.flush().map_err(|e| Error::io(path, e))?;
     }
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    persist(tmp.into_temp_path(), path)
+}
+
+/// Move the complete staged file onto `target` (renamed; written into a device or FIFO).
+pub(crate) fn persist(staged: TempPath, target: &Path) -> Result<()> {
+    if is_special(target) {
+        return write_into_special(staged, target);
+    }
+    let path = staged.to_path_buf();
+    let _commit = lock(&COMMITTING);
+    staged
+        .persist(target)
+        .map_err(|e| Error::io(target, e.error))?;
+    unregister(&path);
     Ok(())
 }
 
@@ -35,10 +151,15 @@ fn parent_dir(path: &Path) -> &Path {
     }
 }
 
-/// A temporary file in `dir` created as an ordinary file would be: on Unix with mode 0666
-/// less the umask (0644 under the usual umask), not tempfile's private 0600, so that an
-/// output renamed from it can be read by the group and others like any file the user writes.
-pub(crate) fn output_temp_file(dir: &Path, suffix: &str) -> std::io::Result<NamedTempFile> {
+/// A temporary file in `dir` for the user's `target`, created as an ordinary file would be: on
+/// Unix with mode 0666 less the umask (0644 under the usual umask), not tempfile's private
+/// 0600, so that an output renamed from it can be read by the group and others like any file
+/// the user writes. Registered for [`remove_staging`].
+pub(crate) fn output_temp_file(
+    dir: &Path,
+    suffix: &str,
+    target: &Path,
+) -> std::io::Result<NamedTempFile> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(".anisobond").suffix(suffix);
     #[cfg(unix)]
@@ -46,7 +167,9 @@ pub(crate) fn output_temp_file(dir: &Path, suffix: &str) -> std::io::Result<Name
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    builder.tempfile_in(dir)
+    let file = builder.tempfile_in(dir)?;
+    register(file.path(), target);
+    Ok(file)
 }
 
 /// Refuse an output path whose directory does not exist, naming both (the CLI calls this
@@ -115,7 +238,8 @@ impl OutputSet {
                 .iter()
                 .filter_map(|p| std::fs::canonicalize(p).ok())
                 .collect(),
-            ..Default::default()
+            files: Vec::new(),
+            dirs: Vec::new(),
         }
     }
 
@@ -169,7 +293,7 @@ impl OutputSet {
             Some(e) => format!(".{}", e.to_string_lossy()),
             None => ".tmp".into(),
         };
-        let staged = output_temp_file(dir, &suffix)
+        let staged = output_temp_file(dir, &suffix, target)
             .map_err(|e| Error::io(target, e))?
             .into_temp_path();
         let path = staged.to_path_buf();
@@ -204,6 +328,7 @@ impl OutputSet {
             .tempdir_in(parent)
             .map_err(|e| Error::io(target, e))?;
         let path = staged.path().to_path_buf();
+        register(&path, target);
         self.dirs.push((staged, target.to_path_buf()));
         Ok(path)
     }
@@ -234,7 +359,10 @@ impl OutputSet {
         Ok(out)
     }
 
-    /// Check every final path, then move the staged outputs into place.
+    /// Check every final path, then move the staged outputs into place as one set: an
+    /// existing file is first moved aside, and if any move fails every target already moved
+    /// is put back as it was (the error names the target that failed). Devices and FIFOs
+    /// among the targets are written into last, once everything else is in place.
     pub fn commit(self) -> Result<()> {
         for (_, target) in &self.files {
             self.check_not_input(target)?;
@@ -266,26 +394,162 @@ impl OutputSet {
             }
             dir_files.push(files);
         }
-        for (staged, target) in self.files {
-            staged
-                .persist(&target)
-                .map_err(|e| Error::io(&target, e.error))?;
-        }
-        for ((staged, target), files) in self.dirs.into_iter().zip(dir_files) {
-            if !target.exists() {
-                let path = staged.keep();
-                std::fs::rename(&path, &target).map_err(|e| Error::io(&target, e))?;
-                continue;
-            }
-            for rel in files {
-                let fin = target.join(&rel);
-                if let Some(p) = fin.parent() {
-                    std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))?;
+        let _commit = lock(&COMMITTING);
+        let mut moves = Moves::default();
+        let mut special: Vec<(PathBuf, PathBuf)> = Vec::new();
+        let result = (|| -> Result<()> {
+            for (staged, target) in &self.files {
+                if is_special(target) {
+                    special.push((staged.to_path_buf(), target.clone()));
+                } else {
+                    moves.replace(staged, target)?;
                 }
-                std::fs::rename(staged.path().join(&rel), &fin).map_err(|e| Error::io(&fin, e))?;
             }
+            for ((staged, target), files) in self.dirs.iter().zip(&dir_files) {
+                if !target.exists() {
+                    moves.replace(staged.path(), target)?;
+                    continue;
+                }
+                for rel in files {
+                    let fin = target.join(rel);
+                    if is_special(&fin) {
+                        special.push((staged.path().join(rel), fin));
+                        continue;
+                    }
+                    if let Some(p) = fin.parent() {
+                        moves.create_dirs(p)?;
+                    }
+                    moves.replace(&staged.path().join(rel), &fin)?;
+                }
+            }
+            for (from, to) in &special {
+                copy_into_special(from, to)?;
+            }
+            Ok(())
+        })();
+        match result {
+            Ok(()) => {
+                moves.finish();
+                Ok(())
+            }
+            Err(e) => {
+                moves.roll_back();
+                Err(e)
+            }
+        }
+    }
+}
+
+impl Drop for OutputSet {
+    /// The staging paths are removed with their `TempPath`/`TempDir`; forget them here.
+    fn drop(&mut self) {
+        let mut registry = lock(&STAGING);
+        registry.retain(|(s, _)| {
+            !self.files.iter().any(|(f, _)| s == &**f)
+                && !self.dirs.iter().any(|(d, _)| d.path() == s)
+        });
+    }
+}
+
+/// Copy the complete file `from` into the existing non-regular `target` (as `cmd > target`).
+fn copy_into_special(from: &Path, target: &Path) -> Result<()> {
+    let mut src = std::fs::File::open(from).map_err(|e| Error::io(target, e))?;
+    let mut to = std::fs::OpenOptions::new()
+        .write(true)
+        .open(target)
+        .map_err(|e| Error::io(target, e))?;
+    std::io::copy(&mut src, &mut to).map_err(|e| Error::io(target, e))?;
+    to.flush().map_err(|e| Error::io(target, e))
+}
+
+/// The moves of one commit, so that they can be undone: each target replaced (with the file it
+/// replaced, moved aside to a hidden name in the same folder) and each folder created.
+#[derive(Default)]
+struct Moves {
+    /// (staged path, target, the target's earlier file moved aside).
+    done: Vec<(PathBuf, PathBuf, Option<PathBuf>)>,
+    /// Folders created for a merged folder's new subfolders, outermost first.
+    created: Vec<PathBuf>,
+}
+
+impl Moves {
+    /// Move `staged` onto `target`, moving an existing `target` aside first.
+    fn replace(&mut self, staged: &Path, target: &Path) -> Result<()> {
+        let aside = if std::fs::symlink_metadata(target).is_ok() {
+            // A reserved hidden name in the same folder, which the rename then replaces.
+            let reserved = tempfile::Builder::new()
+                .prefix(".anisobond-previous")
+                .tempfile_in(parent_dir(target))
+                .and_then(|f| f.into_temp_path().keep().map_err(|e| e.error))
+                .map_err(|e| Error::io(target, e))?;
+            if let Err(e) = std::fs::rename(target, &reserved) {
+                let _ = std::fs::remove_file(&reserved);
+                return Err(Error::io(target, e));
+            }
+            Some(reserved)
+        } else {
+            None
+        };
+        if let Some(a) = &aside {
+            register(a, target);
+        }
+        if let Err(e) = std::fs::rename(staged, target) {
+            if let Some(a) = &aside {
+                let _ = std::fs::rename(a, target);
+                unregister(a);
+            }
+            return Err(Error::io(target, e));
+        }
+        self.done
+            .push((staged.to_path_buf(), target.to_path_buf(), aside));
+        Ok(())
+    }
+
+    /// Create `dir` and its missing parents, remembering what was created.
+    fn create_dirs(&mut self, dir: &Path) -> Result<()> {
+        let mut missing = Vec::new();
+        let mut d = Some(dir);
+        while let Some(p) = d.filter(|p| !p.as_os_str().is_empty() && !p.exists()) {
+            missing.push(p.to_path_buf());
+            d = p.parent();
+        }
+        for p in missing.into_iter().rev() {
+            std::fs::create_dir(&p).map_err(|e| Error::io(&p, e))?;
+            self.created.push(p);
         }
         Ok(())
+    }
+
+    /// Undo every move, newest first: the staged output goes back to its staging path (removed
+    /// with it), the earlier file to its name; created folders are removed.
+    fn roll_back(self) {
+        for (staged, target, aside) in self.done.into_iter().rev() {
+            let _ = std::fs::rename(&target, &staged);
+            if let Some(a) = aside {
+                let _ = std::fs::rename(&a, &target);
+                unregister(&a);
+            }
+        }
+        for d in self.created.into_iter().rev() {
+            let _ = std::fs::remove_dir(&d);
+        }
+    }
+
+    /// Every move stands: remove the earlier files moved aside.
+    fn finish(self) {
+        for (_, _, aside) in self.done {
+            if let Some(a) = aside {
+                match std::fs::symlink_metadata(&a) {
+                    Ok(m) if m.is_dir() => {
+                        let _ = std::fs::remove_dir_all(&a);
+                    }
+                    _ => {
+                        let _ = std::fs::remove_file(&a);
+                    }
+                }
+                unregister(&a);
+            }
+        }
     }
 }
 

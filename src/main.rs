@@ -3,8 +3,9 @@
 mod cli;
 
 fn main() {
+    cli::interrupt::remove_staging_on_signals();
     if let Err(e) = cli::run() {
-        eprintln!("error: {e}");
+        eprintln!("error: {}", e.with_user_paths());
         std::process::exit(1);
     }
 }

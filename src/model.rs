@@ -47,6 +47,17 @@ pub enum SchemeSpec {
     },
 }
 
+impl SchemeSpec {
+    /// The scheme's `kind` in the model file: `cubic`, `cross-anisotropic` or `isotropic`.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            SchemeSpec::Cubic(_) => "cubic",
+            SchemeSpec::CrossAnisotropic(_) => "cross-anisotropic",
+            SchemeSpec::Isotropic { .. } => "isotropic",
+        }
+    }
+}
+
 /// The target of Šmilauer's cross-anisotropic elliptic scheme: the transversely isotropic
 /// tensor (Pa) about `axis` that the scheme is made to reproduce.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,9 +130,17 @@ struct RawCubic {
     a_s: f64,
     normal: f64,
     shear: f64,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "exact::matrix3",
+        skip_serializing_if = "Option::is_none"
+    )]
     rotation: Option<[[f64; 3]; 3]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "exact::triple",
+        skip_serializing_if = "Option::is_none"
+    )]
     euler_zyz_deg: Option<[f64; 3]>,
 }
 
@@ -137,7 +156,11 @@ struct RawCross {
     c13: f64,
     #[serde(rename = "C12")]
     c12: f64,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "exact::triple",
+        skip_serializing_if = "Option::is_none"
+    )]
     axis: Option<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     strike_deg: Option<f64>,
@@ -145,6 +168,42 @@ struct RawCross {
     dip_deg: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pi_hat: Option<f64>,
+}
+
+/// Readers of the keys that hold three numbers or a 3×3 matrix: exactly that many, no `null`
+/// (a present key is always read as a value; absent keys take the field's default).
+mod exact {
+    use serde::{de::Error as _, Deserialize, Deserializer};
+
+    fn three<E: serde::de::Error>(v: Vec<f64>, what: &str) -> Result<[f64; 3], E> {
+        <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+            E::custom(format!(
+                "expected {what} of exactly 3 numbers, found {}",
+                v.len()
+            ))
+        })
+    }
+
+    /// Three numbers (`axis`, `euler_zyz_deg`).
+    pub fn triple<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
+        three(Vec::<f64>::deserialize(d)?, "a list").map(Some)
+    }
+
+    /// A 3×3 matrix as three rows of three numbers (`rotation`).
+    pub fn matrix3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f64; 3]; 3]>, D::Error> {
+        let rows = Vec::<Vec<f64>>::deserialize(d)?;
+        if rows.len() != 3 {
+            return Err(D::Error::custom(format!(
+                "expected 3 rows of 3 numbers, found {} rows",
+                rows.len()
+            )));
+        }
+        let mut m = [[0.0; 3]; 3];
+        for (k, row) in rows.into_iter().enumerate() {
+            m[k] = three(row, &format!("row {}", k + 1))?;
+        }
+        Ok(Some(m))
+    }
 }
 
 /// `kind = "isotropic"`.
@@ -400,15 +459,27 @@ impl Model {
 
     /// Read a model file: TOML, or JSON when the extension is `.json`.
     pub fn from_path(path: &Path) -> Result<Model> {
-        let text = crate::io::read_to_string(path)?;
+        Model::from_str_for(&crate::io::read_to_string(path)?, path)
+    }
+
+    /// Parse model text in the format `path`'s extension names (JSON for `.json`, TOML
+    /// otherwise); `path` is used in error messages.
+    pub fn from_str_for(text: &str, path: &Path) -> Result<Model> {
         let name = path.display().to_string();
-        if path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
-        {
-            Model::from_json_str(&text, &name)
+        if is_json(path) {
+            Model::from_json_str(text, &name)
         } else {
-            Model::from_toml_str(&text, &name)
+            Model::from_toml_str(text, &name)
+        }
+    }
+
+    /// The model file text in the format `path`'s extension names (JSON for `.json`, TOML
+    /// otherwise), so that a written model reads back through [`Model::from_path`].
+    pub fn to_string_for(&self, path: &Path) -> String {
+        if is_json(path) {
+            self.to_json_string()
+        } else {
+            self.to_toml_string()
         }
     }
 
@@ -677,8 +748,8 @@ impl Model {
         })
     }
 
-    /// Serialise as TOML in the SPEC layout (used for calibrated models and exports).
-    pub fn to_toml_string(&self) -> String {
+    /// The model in the file layout of the SPEC (both formats serialise this).
+    fn to_raw(&self) -> RawModel {
         let (rule, value) = match self.bonding {
             BondingRule::Gap(v) => ("gap", v),
             BondingRule::Factor(v) => ("factor", v),
@@ -710,16 +781,31 @@ impl Model {
                 shear: *shear,
             }),
         };
-        let raw = RawModel {
+        RawModel {
             bonding: Some(RawBonding {
                 rule: rule.into(),
                 value,
             }),
             scheme: s,
             geometry: Some(self.geometry),
-        };
-        toml::to_string(&raw).unwrap_or_default()
+        }
     }
+
+    /// Serialise as TOML in the SPEC layout (used for calibrated models and exports).
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string(&self.to_raw()).unwrap_or_default()
+    }
+
+    /// Serialise as JSON (the same tables and keys as the TOML file), with a final newline.
+    pub fn to_json_string(&self) -> String {
+        serde_json::to_string_pretty(&self.to_raw()).unwrap_or_default() + "\n"
+    }
+}
+
+/// A model path in JSON (extension `.json`, any case); TOML otherwise.
+fn is_json(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
 
 fn prefix(name: &str, e: Error) -> Error {

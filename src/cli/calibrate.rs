@@ -65,7 +65,7 @@ pub struct CalibrateArgs {
     /// for absolute targets) or `relaxed PACKING` (the exact relaxed tensor of that packing).
     #[arg(long, num_args = 1..=2, value_names = ["LEVEL", "PACKING"], default_values_t = ["mean-field".to_string()])]
     on: Vec<String>,
-    /// Calibrated model file to write (TOML).
+    /// Calibrated model file to write: JSON when it ends in `.json`, TOML otherwise.
     #[arg(short, long)]
     output: PathBuf,
     /// Cubic: which of the equivalent parameter sets (Truszkowska 2018 Sec. 6.3).
@@ -252,14 +252,22 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     let start = Instant::now();
     let calibrated = calibrate(&base, &target, on, &opts)?;
     let secs = start.elapsed().as_secs_f64();
+    let (from, to) = (base.scheme.kind_name(), calibrated.model.scheme.kind_name());
+    if from != to {
+        println!(
+            "note: {} has kind = \"{from}\"; the target needs the {to} scheme, so {} is written with kind = \"{to}\"",
+            a.model.display(),
+            a.output.display()
+        );
+    }
     match &calibrated.calibration {
         Calibration::Cubic(cal) => print_cubic(cal, secs),
         Calibration::CrossRelaxed(cal) => print_cross(cal, secs),
         Calibration::CrossMeanField => println!("calibrated (mean field): cross-anisotropic; Šmilauer's inversion E′ = A⁻¹C/μ reproduces the target exactly under uniform strain, so the model holds the target itself. Its relaxed tensor on a packing is a few % softer: use --on relaxed PACKING to correct for that."),
     }
     // Round trip: the written file must read back as the same model.
-    let text = calibrated.model.to_toml_string();
-    Model::from_toml_str(&text, &a.output.display().to_string())?;
+    let text = calibrated.model.to_string_for(&a.output);
+    Model::from_str_for(&text, &a.output)?;
     anisobond::io::write_string_atomic(&staged, &text)?;
     out.commit()?;
     println!("wrote {}", a.output.display());

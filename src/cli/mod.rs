@@ -12,6 +12,7 @@ mod export;
 mod export_lammps;
 mod export_liggghts;
 mod grips;
+pub mod interrupt;
 mod output;
 mod pack;
 mod plot;
@@ -60,10 +61,9 @@ enum Command {
     /// Bond a packing and write the bond-stiffness table (CSV: i,j,nx,ny,nz,length [m],
     /// radius [m],kn [N/m],ks [N/m],kr [N·m/rad],ktw [N·m/rad],ix,iy,iz).
     Bonds(BondsArgs),
-    /// Stiffness tensor (Pa) of a model, by the mean-field orientation integral or the Voigt
-    /// sum over the actual bonds.
+    /// Stiffness tensor (Pa) of a model (the methods are listed by `command()`).
     Tensor(TensorArgs),
-    /// Export a packing + model to YADE (ready-to-run script) or VTK (ParaView files).
+    /// Export a packing + model (the codes are listed by `command()`).
     Export(export::ExportArgs),
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
@@ -90,8 +90,7 @@ enum Command {
     /// Pictures of a model (PNG).
     #[command(subcommand)]
     Plot(plot::PlotCommand),
-    /// Validate anisobond against another DEM code (YADE): the same problem in both, the
-    /// differences as a table and files; non-zero exit status when out of tolerance.
+    /// Validate anisobond against another DEM code (the codes are listed by `command()`).
     Validate(validate::ValidateArgs),
     /// Convert a packing file for another program's loader: YADE `SpherePack.load`
     /// (spherepack) or `ymport.text` (text), LIGGGHTS `read_data` (liggghts), or SPEC text,
@@ -226,9 +225,58 @@ struct TensorArgs {
     integrator: run::IntegratorArgs,
 }
 
+/// The names a subcommand's own subcommands or a value enum accept, joined by ", ".
+fn names<I: IntoIterator<Item = String>>(names: I) -> String {
+    names.into_iter().collect::<Vec<_>>().join(", ")
+}
+
+/// The subcommands of `name` (without `help`), as the parser accepts them.
+fn subcommand_names(cmd: &clap::Command, name: &str) -> String {
+    names(
+        cmd.find_subcommand(name)
+            .into_iter()
+            .flat_map(|c| c.get_subcommands())
+            .map(|s| s.get_name().to_string())
+            .filter(|n| n != "help"),
+    )
+}
+
+/// The command line parser, with the lists in the one-line help of `tensor`, `export` and
+/// `validate` taken from the names the parser itself accepts (so they cannot go stale).
+fn command() -> clap::Command {
+    use clap::CommandFactory;
+    let cmd = Cli::command();
+    let methods = names(
+        MethodArg::value_variants()
+            .iter()
+            .filter_map(|m| m.to_possible_value())
+            .map(|p| p.get_name().to_string()),
+    );
+    let exports = subcommand_names(&cmd, "export");
+    let engines = subcommand_names(&cmd, "validate");
+    cmd.mut_subcommand("tensor", |c| {
+        c.about(format!(
+            "Stiffness tensor (Pa) of a model by --method: {methods}"
+        ))
+    })
+    .mut_subcommand("export", |c| {
+        c.about(format!(
+            "Export a packing + model, ready to run or view: {exports}"
+        ))
+    })
+    .mut_subcommand("validate", |c| {
+        c.about(format!(
+            "Validate anisobond against another DEM code ({engines}): the same problem in \
+             both, the differences as a table and files; non-zero exit status when out of \
+             tolerance"
+        ))
+    })
+}
+
 /// Parse the command line and run it.
 pub fn run() -> Result<()> {
-    let cli = Cli::parse();
+    use clap::FromArgMatches;
+    let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
     cell::set(&cli.cell)?;
     match cli.command {
         Command::Demo(a) => demo::run(a),

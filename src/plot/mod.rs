@@ -42,15 +42,14 @@ where
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let tmp = crate::io::output_temp_file(dir, ".png").map_err(|e| Error::io(path, e))?;
+    let tmp = crate::io::output_temp_file(dir, ".png", path).map_err(|e| Error::io(path, e))?;
     {
         let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
         draw(&root).map_err(|e| plot_error(path, e))?;
         root.present().map_err(|e| plot_error(path, e))?;
     }
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    crate::io::persist(tmp.into_temp_path(), path)
 }
 
 fn s<E: std::fmt::Display>(e: E) -> String {

@@ -19,7 +19,7 @@ use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{CgPreconditioner, RelaxedOptions, RelaxedSolver};
 use crate::homogenize::report::TensorReport;
 use crate::io::OutputSet;
-use crate::model::{Model, SchemeSpec};
+use crate::model::Model;
 use crate::packing::{Packing, PeriodicCell};
 use crate::schemes::StiffnessScheme;
 use crate::tensor::elastic::EngineeringConstants;
@@ -74,6 +74,7 @@ create_exception!(
 
 /// The package's exception for a library error, with the library's message.
 fn to_py(e: Error) -> PyErr {
+    let e = e.with_user_paths();
     let message = e.to_string();
     match e {
         Error::Model(_) => ModelError::new_err(message),
@@ -294,9 +295,9 @@ impl PyModel {
             })
     }
 
-    /// Write the model file (TOML) atomically.
+    /// Write the model file atomically: JSON when `path` ends in `.json`, TOML otherwise.
     fn save(&self, path: PathBuf) -> PyResult<()> {
-        let text = self.inner.to_toml_string();
+        let text = self.inner.to_string_for(&path);
         write_staged(path, OutputSet::file, |p| {
             crate::io::write_string_atomic(p, &text)
         })
@@ -305,11 +306,7 @@ impl PyModel {
     /// The scheme kind: `cubic`, `isotropic` or `cross-anisotropic`.
     #[getter]
     fn kind(&self) -> &'static str {
-        match self.inner.scheme {
-            SchemeSpec::Cubic(_) => "cubic",
-            SchemeSpec::Isotropic { .. } => "isotropic",
-            SchemeSpec::CrossAnisotropic(_) => "cross-anisotropic",
-        }
+        self.inner.scheme.kind_name()
     }
 
     /// Springs of arbitrary bonds, exactly as an Assembly assigns them.

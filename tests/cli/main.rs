@@ -5,6 +5,7 @@
 mod common;
 
 mod commands;
+mod outputs;
 mod reader_refusals;
 mod refusals;
 mod routes;

@@ -85,4 +85,12 @@ def calibrate(model, target, on="mean-field", *, details=False, **options):
     Model, or (Model, dict) with ``details=True``.
     """
     new, info = _calibrate_model(model, target, on, **options)
+    if new.kind != model.kind:
+        import warnings
+
+        warnings.warn(
+            f"the base model's scheme is {model.kind}; the target needs the {new.kind} "
+            f"scheme, so the calibrated model is {new.kind}",
+            stacklevel=2,
+        )
     return (new, info) if details else new
