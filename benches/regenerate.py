@@ -8,7 +8,8 @@ as a ratio of two figures measured in the same run.
     python3 benches/regenerate.py --no-scale # without "LAMMPS at scale" (or ANISOBOND_BENCH_NO_SCALE=1)
     python3 benches/regenerate.py --only applications  # just "Papers' applications" (about 1 minute),
                                              # rewriting only that section of BENCHMARKS.md
-    python3 benches/regenerate.py --only table3  # just "Truszkowska 2018 Table 3" (about 4 minutes)
+    python3 benches/regenerate.py --only table3  # just "Truszkowska 2018 Table 3" (30,700 spheres,
+                                             # about 15 minutes on 2 idle cores)
 
 "Papers' applications" (Truszkowska 2018 Eq. 30 on an 8,000-sphere standard assembly, Kumar
 2016's buckling, Šmilauer's cavity with its wave run) takes about 1 minute on 2 cores; its wave
@@ -323,7 +324,7 @@ def table3(threads):
     """Truszkowska 2018 Table 3: the eight zener-below-1 parameter sets her DEM puts on
     C12/C11 = 0.20, C44/C11 = 0.35, through the command line: relaxed tensor (with and without
     parallel-bond moments), mean field, gripped element tests' strain heterogeneity."""
-    n = 2000 if QUICK else 8000
+    n = 2000 if QUICK else 30700  # the paper's standard assembly (Sec. 5.2)
     spheres = 500 if QUICK else 2000
     pk = os.path.join(WORK, "table3.txt")
     sh(ab("pack", "--quiet", "--preset", "truszkowska-standard", "--particles", n, "--seed", 1,
@@ -384,8 +385,8 @@ def table3(threads):
         "model (normal stiffness from three spheroids along <100>, shear from four along <111>; "
         "k_n = 1e13 Pa/m, k_s = a_k·k_n, gap 0.17 R̄) that the paper's DEM puts on one contour, "
         "C12/C11 = 0.20 and C44/C11 = 0.35. Every anisobond figure is predicted from the paper's "
-        "parameters; nothing is fitted. Standard assembly of %d spheres (seed 1), %s bonds; "
-        "the paper's is 30,700. Relaxed: the exact static tensor, with PFC parallel-bond moments "
+        "parameters; nothing is fitted. Standard assembly of %d spheres (seed 1), %s bonds "
+        "(the paper's: 30,700 elements, 118,008 bonds). Relaxed: the exact static tensor, with PFC parallel-bond moments "
         "(k_r = k_n R_b²/4, k_tw = k_s R_b²/2) as in the paper, and without. Mean field: App. A's "
         "orientation integral. The paper's last two columns are headed Δ = (C/C11)_DEM − "
         "(C/C11)_Model, but its numbers are Model − DEM: 0.20 + Δ12 and 0.35 + Δ44 equal the App. A "

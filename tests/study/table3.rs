@@ -11,8 +11,8 @@
 //! The always-run tests check that column and the relaxed tensor of a small standard assembly
 //! against the paper's contour; `table_3_full` (ignored) prints the whole table:
 //! `cargo test --release --test study -- --ignored --nocapture table3::table_3_full`
-//! (STUDY_N particles, default 8000; TABLE3_SPHERES measurement spheres, default 2000, 0 skips
-//! the gripped runs). BENCHMARKS.md's table comes from `python3 benches/regenerate.py --only
+//! (STUDY_N particles, default 30,700 as the paper; TABLE3_SPHERES measurement spheres,
+//! default 2000, 0 skips the gripped runs). BENCHMARKS.md's table comes from `python3 benches/regenerate.py --only
 //! table3` (the same numbers through the command line); docs/truszkowska-table3.md explains it.
 
 use anisobond::bonds::assign_stiffness;
@@ -220,7 +220,7 @@ fn env_usize(name: &str, default: usize) -> usize {
 #[ignore]
 fn table_3_full() {
     let _alone = crate::common::alone();
-    let n = env_usize("STUDY_N", 8000);
+    let n = env_usize("STUDY_N", 30_700);
     let spheres = env_usize("TABLE3_SPHERES", 2000);
     let p = standard(n, 1);
     println!(
