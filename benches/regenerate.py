@@ -3,7 +3,7 @@
 one current table per section (figure, command, size, threads), with each comparison given
 as a ratio of two figures measured in the same run.
 
-    python3 benches/regenerate.py            # all sections (about 11 minutes on 2 cores, plus 11 for the scale section)
+    python3 benches/regenerate.py            # all sections (about 11 minutes on 2 cores, plus 15 for Table 3 and 11 for the scale section)
     python3 benches/regenerate.py --quick    # smaller sizes, for checking the script
     python3 benches/regenerate.py --no-scale # without "LAMMPS at scale" (or ANISOBOND_BENCH_NO_SCALE=1)
     python3 benches/regenerate.py --only applications  # just "Papers' applications" (about 1 minute),
