@@ -7,3 +7,4 @@ mod common;
 mod grips;
 mod papers;
 mod servo;
+mod table3;

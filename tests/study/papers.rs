@@ -184,7 +184,7 @@ fn kumar_fig5_table() {
     }
 }
 
-fn standard_packing(n: usize, seed: u64) -> Packing {
+pub(crate) fn standard_packing(n: usize, seed: u64) -> Packing {
     let o = GenerateOptions {
         n_particles: n,
         solid_fraction: 0.6,
