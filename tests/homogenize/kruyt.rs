@@ -77,7 +77,8 @@ fn contacts(pk: &Packing, b: &BondSet, kn: f64, kt: f64) -> Vec<Contact> {
             let mut dp = Matrix3x6::zeros();
             let mut dq = Matrix3x6::zeros();
             // −(u_p + ω_p × r^pq) = −u_p + r^pq × ω_p
-            dp.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Mat3::identity()));
+            dp.fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(&(-Mat3::identity()));
             dp.fixed_view_mut::<3, 3>(0, 3).copy_from(&cross(r_pq));
             // u_q + ω_q × r^qp = u_q − r^qp × ω_q
             dq.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
@@ -270,7 +271,11 @@ fn k_and_g(c: &Stiffness6) -> (f64, f64) {
 fn laf_equals_kruyt_equations_and_full_shell_is_exact() {
     let p = generated(200, 11);
     let n = p.len();
-    let b = without_rattlers(&build_bonds(&p, BondingRule::Coordination(5.9)).unwrap(), n, 3);
+    let b = without_rattlers(
+        &build_bonds(&p, BondingRule::Coordination(5.9)).unwrap(),
+        n,
+        3,
+    );
     let z = 2.0 * b.len() as f64 / b.degrees(n).iter().filter(|&&d| d > 0).count() as f64;
     assert!((5.0..6.2).contains(&z), "Z = {z}");
     let (kn, kt) = (1e6, 0.8e6);
@@ -284,7 +289,10 @@ fn laf_equals_kruyt_equations_and_full_shell_is_exact() {
     let u: Vec<[[f64; 6]; 6]> = full.iter().map(|x| x.unwrap_or([[0.0; 6]; 6])).collect();
     let (ex_s, ex_w) = estimates(&cs, &u, v);
     let scale = max_abs(&ex_w);
-    assert!(max_abs(&(ex_s - ex_w)) < 1e-9 * scale, "stress ≠ energy for the true field");
+    assert!(
+        max_abs(&(ex_s - ex_w)) < 1e-9 * scale,
+        "stress ≠ energy for the true field"
+    );
     let lib = relaxed_tensor(
         &p,
         &b,
@@ -297,7 +305,10 @@ fn laf_equals_kruyt_equations_and_full_shell_is_exact() {
     )
     .unwrap();
     assert_eq!(lib.null_space.removed_bonds, 0);
-    assert!(max_abs(&(lib.c - ex_w)) < 1e-9 * scale, "relaxed ≠ full solve");
+    assert!(
+        max_abs(&(lib.c - ex_w)) < 1e-9 * scale,
+        "relaxed ≠ full solve"
+    );
 
     let (kx, gx) = k_and_g(&ex_w);
     let mut last = (f64::INFINITY, f64::INFINITY);
@@ -309,9 +320,18 @@ fn laf_equals_kruyt_equations_and_full_shell_is_exact() {
         // ~2e-7 here, against differences of percent for a wrong shell or sign. (At Z = 5.5
         // this packing has a nearly singular m = 3 shell, where the two solves part more:
         // the estimate is then ill-conditioned, whichever solver.)
-        assert!(max_abs(&(laf.c_stress - hs)) < 2e-6 * scale, "m = {m}: stress-based");
-        assert!(max_abs(&(laf.c_energy - hw)) < 2e-6 * scale, "m = {m}: energy-based");
-        assert!(min_eigenvalue(&(hw - ex_w)) > -1e-9 * scale, "m = {m}: Eq. 15 bound");
+        assert!(
+            max_abs(&(laf.c_stress - hs)) < 2e-6 * scale,
+            "m = {m}: stress-based"
+        );
+        assert!(
+            max_abs(&(laf.c_energy - hw)) < 2e-6 * scale,
+            "m = {m}: energy-based"
+        );
+        assert!(
+            min_eigenvalue(&(hw - ex_w)) > -1e-9 * scale,
+            "m = {m}: Eq. 15 bound"
+        );
         let (ks, gs) = k_and_g(&hs);
         let (kw, gw) = k_and_g(&hw);
         let (ek, eg) = (ks / kx - 1.0, gs / gx - 1.0);
@@ -323,8 +343,14 @@ fn laf_equals_kruyt_equations_and_full_shell_is_exact() {
             100.0 * (gw / gx - 1.0)
         );
         assert!(kw >= kx && gw >= gx);
-        assert!(eg.abs() > ek.abs(), "m = {m}: G error {eg} not above K error {ek}");
-        assert!(kw < last.0 && gw < last.1, "m = {m}: energy bound not tighter");
+        assert!(
+            eg.abs() > ek.abs(),
+            "m = {m}: G error {eg} not above K error {ek}"
+        );
+        assert!(
+            kw < last.0 && gw < last.1,
+            "m = {m}: energy bound not tighter"
+        );
         last = (kw, gw);
     }
 }

@@ -5,5 +5,6 @@
 mod common;
 
 mod grips;
+mod kruyt;
 mod papers;
 mod servo;
