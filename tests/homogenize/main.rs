@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod kruyt;
 mod meanfield_cubic;
 mod prestress;
 mod relaxed;

@@ -5,6 +5,7 @@
 mod common;
 
 mod grips;
+mod kruyt;
 mod papers;
 mod servo;
 mod table3;
