@@ -151,7 +151,7 @@ impl CavityGeometry {
              about {spheres:.3e} spheres",
             b + w
         );
-        if !(spheres < u32::MAX as f64) {
+        if spheres.is_nan() || spheres >= u32::MAX as f64 {
             return Err(Error::Invalid(format!(
                 "cavity: {slab}, more than 2³² − 1 (32-bit indices)"
             )));
@@ -162,7 +162,7 @@ impl CavityGeometry {
         let reach = a + (7.0 + PROBE_RADIUS) * r_mean;
         let candidates = 3.0 * density * pi * (reach * reach - a * a) * lz;
         let ray_tests = rays * candidates;
-        if !(ray_tests <= MAX_RAY_TESTS) {
+        if ray_tests.is_nan() || ray_tests > MAX_RAY_TESTS {
             return Err(Error::Invalid(format!(
                 "cavity: ray spacing {:e} m gives {rays:.3e} wall rays × about {candidates:.3e} \
                  candidate spheres = {ray_tests:.3e} ray tests, beyond the limit of \
@@ -174,7 +174,7 @@ impl CavityGeometry {
         }
         let around =
             std::f64::consts::TAU * continuum::AnnulusMesh::default().radial as f64 / (b / a).ln();
-        if !(around <= MAX_MESH_AROUND) {
+        if around.is_nan() || around > MAX_MESH_AROUND {
             return Err(Error::Invalid(format!(
                 "cavity: clamped radius / hole radius = {:.6} is too close to 1: the continuum \
                  reference's square elements need {around:.3e} nodes around, more than \

@@ -126,7 +126,7 @@ fn wave_options_are_checked_against_the_steps() {
     assert!(cav.check_waves(&opts(10, 9.5 * dt)).is_ok());
     for err in [
         cav.check_waves(&opts(11, 9.5 * dt)).unwrap_err(),
-        cav.run_waves(&opts(11, 9.5 * dt)).err().expect("refused"),
+        cav.run_waves(&opts(11, 9.5 * dt)).expect_err("refused"),
     ] {
         assert!(matches!(err, anisobond::Error::Invalid(_)), "{err}");
         assert!(err.to_string().contains("11 snapshots asked"), "{err}");
