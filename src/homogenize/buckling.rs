@@ -109,8 +109,9 @@ pub struct UpdatedGeometryResult {
 /// keeps a factor 30 from the first failure.
 pub const MAX_TOLERANCE: f64 = 1e-4;
 
-/// Tightest accepted [`BucklingOptions::tolerance`]: near the rounding level of the sparse
-/// solves the residual stops falling and the iteration would run to its limit.
+/// Tightest accepted [`BucklingOptions::tolerance`]: measured, the default bars reach it in
+/// 20–29 steps (residuals 5e-13–9e-13); much below it the residual stops at the rounding
+/// level of the sparse solves and the iteration would run to its limit.
 pub const MIN_TOLERANCE: f64 = 1e-12;
 
 impl BucklingOptions {
