@@ -101,9 +101,9 @@ pub struct BuckleArgs {
     #[arg(long, default_value_t = 1.0)]
     clamp_depth: f64,
     /// Relative residual of the eigen-iteration (and of the deformed bar's fixed point), in
-    /// [1e-12, 1e-4]: a looser one can stop on a higher mode before the lowest emerges (at
-    /// 3e-3 one default bar came out 9 % high), a tighter one is below the solves' rounding.
-    /// Not reached in 2000 iterations: an error.
+    /// [1e-12, 1e-4]. σ_network is certified within 10 × this of the lowest mode (an inertia
+    /// test); a tighter one is below the solves' rounding. Not reached in 2000 iterations:
+    /// an error.
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
     /// Skip the second eigenproblem on the bar deformed by its pre-buckling shortening (the
