@@ -34,6 +34,10 @@ impl Default for AnnulusMesh {
     }
 }
 
+/// Memory per mesh node of [`solve_annulus`] (bytes), an upper estimate: three unknowns,
+/// about seven neighbours' 3×3 blocks in the sparse stiffness and its Cholesky fill.
+const BYTES_PER_NODE: f64 = 4000.0;
+
 /// The continuum solution.
 #[derive(Clone, Debug)]
 pub struct ContinuumCavity {
@@ -68,7 +72,7 @@ fn strain_node(gx: f64, gy: f64) -> SMatrix<f64, 6, 3> {
 /// Solve the annulus a ≤ ρ ≤ b (m), clamped at b, under pressure `pressure` (Pa, > 0 pushes the
 /// wall outward) for the Voigt stiffness `c` (Pa, engineering shears, the hole along z).
 /// Refuses radii that are not 0 < a < b, a non-finite pressure or stiffness, a mesh below 2
-/// rings or 8 nodes around; errors when `c` is not positive definite on the plane problem
+/// rings or 8 nodes around or beyond the machine's memory; errors when `c` is not positive definite on the plane problem
 /// (factorisation) or the residual exceeds 1e-10.
 pub fn solve_annulus(
     c: &Stiffness6,
@@ -111,6 +115,11 @@ pub fn solve_annulus(
              {around}"
         )));
     }
+    let nodes_total = (radial as f64 + 1.0) * around as f64;
+    crate::io::check_memory(
+        &format!("continuum cavity: the mesh of {radial} × {around} elements"),
+        nodes_total * BYTES_PER_NODE,
+    )?;
     let node = |i: usize, j: usize| i * around + j % around;
     let mut nodes = Vec::with_capacity((radial + 1) * around);
     for i in 0..=radial {

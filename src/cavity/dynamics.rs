@@ -35,7 +35,8 @@ pub struct WaveOptions {
     pub probe_radii: Vec<f64>,
     /// Half opening angle of a probe (rad).
     pub probe_half_angle: f64,
-    /// Displacement snapshots to keep (evenly spaced in time; 0 = none).
+    /// Displacement snapshots to keep, exactly this many (evenly spaced in steps, the last
+    /// at the end; 0 = none; at most one per time step).
     pub snapshots: usize,
 }
 
@@ -94,11 +95,18 @@ impl Cavity {
         Ok(sim)
     }
 
-    /// Run the ramp-loaded cavity in time and detect the wave front (module doc). Errors on
-    /// non-positive times, no directions, fewer than two probe radii, an empty probe, or a
-    /// signal whose peak lies at the end of the run (the front did not pass).
-    pub fn run_waves(&self, opts: &WaveOptions) -> Result<WaveRun> {
-        if !(opts.ramp_time > 0.0 && opts.duration > opts.ramp_time) {
+    /// Refuse wave options before anything runs (what [`Cavity::run_waves`] refuses up
+    /// front), and return the time step (s) and the number of steps: times that are not
+    /// finite with 0 < ramp time < duration, no directions, fewer than two probe radii, a
+    /// zero or non-finite pressure, a run beyond [`crate::dem::MAX_PARTICLE_STEPS`] (spheres ×
+    /// duration / time step), more snapshots than steps (at most one per step; never fewer
+    /// or more than asked), and signals and snapshots beyond the machine's memory.
+    pub fn check_waves(&self, opts: &WaveOptions) -> Result<(f64, usize)> {
+        if !(opts.ramp_time.is_finite()
+            && opts.duration.is_finite()
+            && opts.ramp_time > 0.0
+            && opts.duration > opts.ramp_time)
+        {
             return Err(Error::Invalid(format!(
                 "wave run: need 0 < ramp time < duration, got {:e} s and {:e} s",
                 opts.ramp_time, opts.duration
@@ -115,6 +123,47 @@ impl Cavity {
                 opts.pressure
             )));
         }
+        let n = self.cut.packing.len();
+        let dt = self
+            .simulation(opts.pressure, opts.material_density, opts.law, 0.0)?
+            .time_step();
+        let steps = (opts.duration / dt).ceil();
+        crate::dem::check_run_size(
+            &format!(
+                "wave run: duration {:e} s (ramp time {:e} s) at time step {dt:e} s",
+                opts.duration, opts.ramp_time
+            ),
+            n,
+            steps,
+        )?;
+        let steps = steps as usize;
+        if opts.snapshots > steps {
+            return Err(Error::Invalid(format!(
+                "wave run: {} snapshots asked, but the run has {steps} time steps (at most one \
+                 snapshot per step)",
+                opts.snapshots
+            )));
+        }
+        // Signals and times (f64 per step) and snapshots (a Vec3 per sphere).
+        let bytes =
+            steps as f64 * 8.0 * (1.0 + (opts.directions.len() * opts.probe_radii.len()) as f64)
+                + opts.snapshots as f64 * n as f64 * 24.0;
+        crate::io::check_memory(
+            &format!(
+                "wave run: {steps} steps' probe signals and {} snapshots of {n} spheres",
+                opts.snapshots
+            ),
+            bytes,
+        )?;
+        Ok((dt, steps))
+    }
+
+    /// Run the ramp-loaded cavity in time and detect the wave front (module doc). Refuses
+    /// what [`Cavity::check_waves`] refuses; errors on an empty probe or a signal whose peak
+    /// lies at the end of the run (the front did not pass). Keeps exactly `snapshots`
+    /// snapshots, the k-th (k = 1…) after step ⌊k·steps/snapshots⌋.
+    pub fn run_waves(&self, opts: &WaveOptions) -> Result<WaveRun> {
+        let (_, steps) = self.check_waves(opts)?;
         let packing = &self.cut.packing;
         let n = packing.len();
         let mut sim = self.simulation(opts.pressure, opts.material_density, opts.law, 0.0)?;
@@ -147,10 +196,11 @@ impl Cavity {
             probes.push(along);
         }
         let dt = sim.time_step();
-        let steps = (opts.duration / dt).ceil() as usize;
-        let every = steps
-            .checked_div(opts.snapshots)
-            .map_or(usize::MAX, |e| e.max(1));
+        // Step after which snapshot k (0-based) is taken: ⌊(k+1)·steps/snapshots⌋, strictly
+        // increasing as snapshots ≤ steps, the last the final step.
+        let snapshot_after =
+            |k: usize| ((k as u128 + 1) * steps as u128 / opts.snapshots as u128) as usize;
+        let mut next_snapshot = 0;
         let start = sim.particles.position.clone();
         let mut times = Vec::with_capacity(steps);
         let mut signal =
@@ -177,7 +227,8 @@ impl Cavity {
                     signal[d][k].push(v);
                 }
             }
-            if (s + 1) % every == 0 {
+            if next_snapshot < opts.snapshots && s + 1 == snapshot_after(next_snapshot) {
+                next_snapshot += 1;
                 let u: Vec<Vec3> = (0..n)
                     .map(|p| sim.particles.position[p] - start[p])
                     .collect();

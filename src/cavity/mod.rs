@@ -68,6 +68,129 @@ impl CavityGeometry {
     }
 }
 
+/// Peak memory (bytes) of the static cavity problem on a slab of `spheres` spheres, fitted:
+/// 3000·N^{4/3}. The sparse Cholesky's fill grows as N^{4/3}; peak resident memory was
+/// measured 0.17, 0.52, 1.08 and 2.34 GB at 4,272, 9,839, 17,542 and 31,021 spheres (slab
+/// 16 R̄ thick, defaults otherwise), which 2400·N^{4/3} fits to 3 %; 3000 leaves a margin.
+pub fn static_memory_estimate(spheres: f64) -> f64 {
+    3000.0 * spheres.powf(4.0 / 3.0)
+}
+
+/// Largest number of ray–sphere tests of the wall loads (rays × candidate spheres near the
+/// wall) accepted: about a minute here. The defaults need some 5e7.
+pub const MAX_RAY_TESTS: f64 = 1e10;
+
+/// Largest number of nodes around the continuum's mesh ([`continuum::AnnulusMesh`] with
+/// square elements needs 2π·48/ln(b/a)): 20,000 is b/a < 1.015, a free ring thinner than
+/// 1.5 % of the hole's radius.
+pub const MAX_MESH_AROUND: f64 = 20_000.0;
+
+/// What a cavity geometry costs, estimated from the source packing's number density before
+/// anything is cut ([`CavityGeometry::check`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CavitySize {
+    /// Sphere centres in the slab a ≤ ρ ≤ b + w (expected).
+    pub spheres: f64,
+    /// Peak memory of the static problem (bytes), [`static_memory_estimate`].
+    pub bytes: f64,
+    /// Pressure tiles (rays) on the wall.
+    pub rays: f64,
+    /// Ray–sphere tests of the wall loads.
+    pub ray_tests: f64,
+}
+
+impl CavityGeometry {
+    /// Refuse a geometry `source` cannot give a result for, before anything is allocated:
+    /// radii that are not 0 < a < b, a clamp width below the longest bond, a ray spacing not
+    /// in (0, R̄], a slab whose spheres (estimated from the source's number density) need
+    /// more memory than this machine has ([`static_memory_estimate`]) or more than 2³² − 1
+    /// indices, wall loads beyond [`MAX_RAY_TESTS`], a free ring too thin for the continuum
+    /// mesh ([`MAX_MESH_AROUND`]). Returns the estimate.
+    pub fn check(&self, source: &Assembly) -> Result<CavitySize> {
+        let g = self;
+        let cell = source.packing.cell.ok_or_else(|| {
+            Error::Invalid(
+                "cavity: the source packing must be periodic (a `# periodic Lx Ly Lz` header)"
+                    .into(),
+            )
+        })?;
+        let r_mean = source.packing.mean_radius();
+        let longest = source.bonds.length.iter().copied().fold(0.0, f64::max);
+        if !(g.inner_radius.is_finite() && g.inner_radius > 0.0) {
+            return Err(Error::Invalid(format!(
+                "cavity: hole radius {:e} m must be finite and > 0",
+                g.inner_radius
+            )));
+        }
+        if !(g.outer_radius.is_finite() && g.outer_radius > g.inner_radius) {
+            return Err(Error::Invalid(format!(
+                "cavity: need hole radius < clamped radius, got {:e} m and {:e} m",
+                g.inner_radius, g.outer_radius
+            )));
+        }
+        if !(g.clamp_width.is_finite() && g.clamp_width >= longest) {
+            return Err(Error::Invalid(format!(
+                "cavity: clamp width {:e} m must be at least the longest bond, {longest:e} m",
+                g.clamp_width
+            )));
+        }
+        if !(g.ray_spacing.is_finite() && g.ray_spacing > 0.0 && g.ray_spacing <= r_mean) {
+            return Err(Error::Invalid(format!(
+                "cavity: ray spacing {:e} m must be in (0, R̄ = {r_mean:e} m]",
+                g.ray_spacing
+            )));
+        }
+        let (a, b, w) = (g.inner_radius, g.outer_radius, g.clamp_width);
+        let lz = cell.lengths.z;
+        let density = source.packing.len() as f64 / source.packing.volume();
+        let pi = std::f64::consts::PI;
+        let spheres = density * pi * ((b + w).powi(2) - a * a) * lz;
+        let bytes = static_memory_estimate(spheres);
+        let slab = format!(
+            "the slab {a:e} m ≤ ρ ≤ {:e} m (hole radius, clamped radius + clamp width) holds \
+             about {spheres:.3e} spheres",
+            b + w
+        );
+        if spheres.is_nan() || spheres >= u32::MAX as f64 {
+            return Err(Error::Invalid(format!(
+                "cavity: {slab}, more than 2³² − 1 (32-bit indices)"
+            )));
+        }
+        crate::io::check_memory(&format!("cavity: {slab}, which"), bytes)?;
+        let rays = (2.0 * pi * a / g.ray_spacing).ceil().max(8.0) * (lz / g.ray_spacing).ceil();
+        // Candidates: the spheres within reach of the wall (module doc), three z images each.
+        let reach = a + (7.0 + PROBE_RADIUS) * r_mean;
+        let candidates = 3.0 * density * pi * (reach * reach - a * a) * lz;
+        let ray_tests = rays * candidates;
+        if ray_tests.is_nan() || ray_tests > MAX_RAY_TESTS {
+            return Err(Error::Invalid(format!(
+                "cavity: ray spacing {:e} m gives {rays:.3e} wall rays × about {candidates:.3e} \
+                 candidate spheres = {ray_tests:.3e} ray tests, beyond the limit of \
+                 {MAX_RAY_TESTS:e} (about a minute); a spacing of R̄/4 = {:e} m (the default) \
+             is fine enough",
+                g.ray_spacing,
+                0.25 * r_mean
+            )));
+        }
+        let around =
+            std::f64::consts::TAU * continuum::AnnulusMesh::default().radial as f64 / (b / a).ln();
+        if around.is_nan() || around > MAX_MESH_AROUND {
+            return Err(Error::Invalid(format!(
+                "cavity: clamped radius / hole radius = {:.6} is too close to 1: the continuum \
+                 reference's square elements need {around:.3e} nodes around, more than \
+                 {MAX_MESH_AROUND}",
+                b / a
+            )));
+        }
+        Ok(CavitySize {
+            spheres,
+            bytes,
+            rays,
+            ray_tests,
+        })
+    }
+}
+
 /// The bonded holed slab with its supports and its wall loads per unit pressure.
 pub struct Cavity {
     /// The cut (packing with its z-periodic cell, sources, the axis).
@@ -92,32 +215,14 @@ pub struct Cavity {
 
 impl Cavity {
     /// Cut the slab from the periodic `source` assembly, bond it by the source's model, and
-    /// find the wall loads. Refuses radii that are not 0 < a < b, a clamp width below the
-    /// longest bond, a ray spacing not in (0, R̄], a bond crossing an x or y face, a
-    /// wall ray that meets no sphere within 6 R̄ of the wall, and a clamped ring that
-    /// holds nothing.
+    /// find the wall loads. Refuses what [`CavityGeometry::check`] refuses (before anything
+    /// is allocated), a bond crossing an x or y face, a wall ray that meets no sphere within
+    /// 6 R̄ of the wall, and a clamped ring that holds nothing.
     pub fn new(source: &Assembly, geometry: CavityGeometry) -> Result<Cavity> {
+        geometry.check(source)?;
         let g = geometry;
         let r_mean = source.packing.mean_radius();
         let longest = source.bonds.length.iter().copied().fold(0.0, f64::max);
-        if !(g.clamp_width.is_finite() && g.clamp_width >= longest) {
-            return Err(Error::Invalid(format!(
-                "cavity: clamp width {:e} m must be at least the longest bond, {longest:e} m",
-                g.clamp_width
-            )));
-        }
-        if !(g.ray_spacing.is_finite() && g.ray_spacing > 0.0 && g.ray_spacing <= r_mean) {
-            return Err(Error::Invalid(format!(
-                "cavity: ray spacing {:e} m must be in (0, R̄ = {r_mean:e} m]",
-                g.ray_spacing
-            )));
-        }
-        if g.outer_radius.is_nan() || g.outer_radius <= g.inner_radius {
-            return Err(Error::Invalid(format!(
-                "cavity: need hole radius < clamped radius, got {:e} m and {:e} m",
-                g.inner_radius, g.outer_radius
-            )));
-        }
         let slab = HoledSlab {
             inner_radius: g.inner_radius,
             outer_radius: g.outer_radius + g.clamp_width,

@@ -7,6 +7,7 @@ use anisobond::bonds::BondingRule;
 use anisobond::dem::buckling::{
     compress_clamped_bar_with_progress, CompressionOptions, CompressionResult, Loading,
 };
+use anisobond::dem::check_run_size;
 use anisobond::homogenize::buckling::{
     euler_stress, extensible_stress, mazzilli_stress, BucklingOptions, BucklingResult, PreBuckling,
     RoundBar,
@@ -14,6 +15,7 @@ use anisobond::homogenize::buckling::{
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::io::{write_string_atomic, OutputSet};
 use anisobond::model::{Model, SchemeSpec};
+use anisobond::packing::container::container_particles;
 use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
 use anisobond::plot::{plot_series, Series};
 use anisobond::schemes::{Convention, Geometry, Moments};
@@ -98,7 +100,10 @@ pub struct BuckleArgs {
     /// end sets are the spheres touching its planes.
     #[arg(long, default_value_t = 1.0)]
     clamp_depth: f64,
-    /// Relative residual of the eigen-iteration (and of the deformed bar's fixed point).
+    /// Relative residual of the eigen-iteration (and of the deformed bar's fixed point), in
+    /// [1e-12, 1e-4]. σ_network is certified within 10 × this of the lowest mode (an inertia
+    /// test); a tighter one is below the solves' rounding. Not reached in 2000 iterations:
+    /// an error.
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
     /// Skip the second eigenproblem on the bar deformed by its pre-buckling shortening (the
@@ -108,7 +113,8 @@ pub struct BuckleArgs {
     /// Also compress every bar with the integrator (Kumar's law) over this many time steps
     /// to `--dem-strain` × the linearised critical strain, and report the maximum stress
     /// and Kumar's Ẽ_kin (Eq. 16) before it; 0 (default) skips it. About 2e-7 s per
-    /// sphere and step here (50,000 steps: 6 s for 600 spheres).
+    /// sphere and step here (50,000 steps: 6 s for 600 spheres). Runs beyond 1e12 sphere ×
+    /// steps (the steps with --kinetic-limit: --dem-max-steps) are refused up front.
     #[arg(long, default_value_t = 0)]
     dem_steps: usize,
     /// Final strain of the compression, in units of the linearised critical strain.
@@ -218,7 +224,6 @@ fn check(a: &BuckleArgs) -> Result<()> {
         ("--kappa", a.kappa),
         ("--sigma-n", a.sigma_n),
         ("--clamp-depth", a.clamp_depth),
-        ("--tolerance", a.tolerance),
         ("--dem-strain", a.dem_strain),
     ] {
         if !(v.is_finite() && v > 0.0) {
@@ -227,6 +232,12 @@ fn check(a: &BuckleArgs) -> Result<()> {
             )));
         }
     }
+    BucklingOptions {
+        tolerance: a.tolerance,
+        ..BucklingOptions::default()
+    }
+    .check()
+    .map_err(|e| e.in_context(format!("--tolerance {}", a.tolerance)))?;
     if !(a.imperfection.is_finite() && a.imperfection >= 0.0) {
         return Err(Error::Invalid(format!(
             "--imperfection {}: expected a finite value ≥ 0 (in mean radii)",
@@ -255,6 +266,28 @@ fn check(a: &BuckleArgs) -> Result<()> {
                 a.hold_damping
             )));
         }
+    }
+    if a.dem_steps > 0 {
+        // Before any packing is made: the longest bar's spheres (as many per unit length as
+        // a container bar, the count of a cut bar on average) × the steps it may take.
+        let ro = RouteOptions::default();
+        let longest = a.slenderness.iter().copied().fold(0.0, f64::max);
+        let spheres = container_particles(a.radius_particles * ro.mean_radius, longest, &ro);
+        let (steps, which) = match a.kinetic_limit {
+            None => (a.dem_steps as f64, "--dem-steps"),
+            Some(_) => (
+                a.dem_max_steps
+                    .map_or(20.0 * a.dem_steps as f64, |m| m as f64),
+                "--dem-max-steps (default 20 × --dem-steps)",
+            ),
+        };
+        check_run_size(
+            &format!(
+                "{which}: the compression of the l/r = {longest} bar (about {spheres} spheres)"
+            ),
+            spheres,
+            steps,
+        )?;
     }
     if let Some(m) = a.dem_max_steps {
         if m < a.dem_steps {

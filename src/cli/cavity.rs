@@ -21,13 +21,16 @@ pub struct CavityArgs {
     /// Hole radius a (m); default 10 R̄. Sphere centres with ρ ≥ a are kept.
     #[arg(long)]
     hole_radius: Option<f64>,
-    /// Radius b of the clamped boundary (m); default 24 R̄. Spheres beyond b are held.
+    /// Radius b of the clamped boundary (m); default 24 R̄. Spheres beyond b are held. A slab
+    /// (out to b + the clamp width) whose estimated memory exceeds what the machine has
+    /// available is refused up front, with the estimate.
     #[arg(long)]
     outer_radius: Option<f64>,
     /// Width of the clamped ring (m); default the longest bond.
     #[arg(long)]
     clamp_width: Option<f64>,
-    /// Side of the wall's pressure tiles (m); default R̄/4.
+    /// Side of the wall's pressure tiles (m), in (0, R̄]; default R̄/4. Refused when the
+    /// wall loads would take more than 1e10 ray–sphere tests (about a minute).
     #[arg(long)]
     ray_spacing: Option<f64>,
     /// Pressure in the hole (Pa; > 0 pushes the wall out).
@@ -42,9 +45,12 @@ pub struct CavityArgs {
     #[arg(long)]
     waves: bool,
     /// Waves: ramp duration (s); default 20 R̄ / v (v the fastest in-plane Christoffel speed).
+    /// The run lasts 1.5 × this plus the front's travel; beyond 1e12 spheres × time steps
+    /// it is refused up front.
     #[arg(long)]
     ramp_time: Option<f64>,
-    /// Waves: number of snapshots (VTK and PNG).
+    /// Waves: number of snapshots (VTK and PNG), exactly this many, evenly spaced; at most
+    /// one per time step (more is refused, as are more than the memory holds).
     #[arg(long, default_value_t = 8)]
     snapshots: usize,
     /// Output folder: cavity.json, particles.csv, cavity.vtu (and waves/ with --waves).
@@ -84,13 +90,29 @@ pub fn run(a: CavityArgs) -> Result<()> {
         a.clamp_width,
         a.ray_spacing,
     );
+    geometry.check(&src).map_err(|e| {
+        e.in_context(format!(
+            "--hole-radius {:e} m, --outer-radius {:e} m, --clamp-width {:e} m, --ray-spacing \
+             {:e} m",
+            geometry.inner_radius,
+            geometry.outer_radius,
+            geometry.clamp_width,
+            geometry.ray_spacing
+        ))
+    })?;
     let relaxed = src.tensor(&Method::relaxed())?.report.tensor();
     let cavity = Cavity::new(&src, geometry)?;
+    let rho = bulk_density(&src.packing, a.density);
+    // The wave run's options are checked (steps, snapshots, memory) before the static solve.
+    let wave_setup = if a.waves {
+        Some(wave_options(&a, &cavity, &relaxed, rho)?)
+    } else {
+        None
+    };
     let cmp = cavity.compare_static(&relaxed, a.pressure)?;
     let (s, fe) = (&cmp.solution, &cmp.continuum);
     let ((lambda, mu), lame) = (cmp.lame_constants, cmp.lame_wall_displacement);
     let (ga, gb) = (geometry.inner_radius, geometry.outer_radius);
-    let rho = bulk_density(&src.packing, a.density);
     let mut speeds = Vec::new();
     for k in 0..12 {
         let angle = 15.0 * k as f64;
@@ -102,10 +124,9 @@ pub fn run(a: CavityArgs) -> Result<()> {
             "quasi_longitudinal_m_per_s": w.quasi_longitudinal().speed,
         }));
     }
-    let waves = if a.waves {
-        Some(run_waves(&a, &cavity, &relaxed, rho, &dir)?)
-    } else {
-        None
+    let waves = match wave_setup {
+        Some(setup) => Some(run_waves(&cavity, &setup, &dir)?),
+        None => None,
     };
     let mut json = serde_json::json!({
         "units": "SI: m, Pa, kg/m³, m/s",
@@ -222,14 +243,23 @@ pub fn run(a: CavityArgs) -> Result<()> {
     Ok(())
 }
 
-/// The wave run of `--waves`: fronts (JSON), VTK series and PNG snapshots into `dir/waves`.
-fn run_waves(
+/// The wave run of `--waves`: its options, the Christoffel speeds along its directions.
+struct WaveSetup {
+    opts: anisobond::cavity::dynamics::WaveOptions,
+    /// Directions (degrees from x).
+    dirs: [f64; 3],
+    /// Quasi-longitudinal Christoffel speed along each (m/s).
+    speeds: Vec<f64>,
+}
+
+/// The options of `--waves` (ramp, duration, probes), refused (naming `--ramp-time` and
+/// `--snapshots`) when the library's [`Cavity::check_waves`] refuses them.
+fn wave_options(
     a: &CavityArgs,
     cavity: &Cavity,
     relaxed: &Stiffness6,
     rho: f64,
-    dir: &std::path::Path,
-) -> Result<serde_json::Value> {
+) -> Result<WaveSetup> {
     use anisobond::cavity::dynamics::WaveOptions;
     let g = cavity.geometry;
     let r = cavity.cut.packing.mean_radius();
@@ -254,7 +284,7 @@ fn run_waves(
         g.inner_radius + 0.3 * (g.outer_radius - g.inner_radius),
         g.inner_radius + 0.75 * (g.outer_radius - g.inner_radius),
     );
-    let run = cavity.run_waves(&WaveOptions {
+    let opts = WaveOptions {
         pressure: a.pressure,
         ramp_time: ramp,
         duration: 1.5 * ramp + (r2 - g.inner_radius + 2.0 * r) / vmin,
@@ -264,7 +294,29 @@ fn run_waves(
         probe_radii: vec![r1, r2],
         probe_half_angle: 15f64.to_radians(),
         snapshots: a.snapshots,
+    };
+    cavity.check_waves(&opts).map_err(|e| {
+        e.in_context(format!(
+            "--waves with --ramp-time {ramp:e} s, --snapshots {}",
+            a.snapshots
+        ))
     })?;
+    Ok(WaveSetup { opts, dirs, speeds })
+}
+
+/// The wave run of `--waves`: fronts (JSON), VTK series and PNG snapshots into `dir/waves`.
+fn run_waves(
+    cavity: &Cavity,
+    setup: &WaveSetup,
+    dir: &std::path::Path,
+) -> Result<serde_json::Value> {
+    let (dirs, speeds) = (&setup.dirs, &setup.speeds);
+    let (ramp, r1, r2) = (
+        setup.opts.ramp_time,
+        setup.opts.probe_radii[0],
+        setup.opts.probe_radii[1],
+    );
+    let run = cavity.run_waves(&setup.opts)?;
     let wdir = dir.join("waves");
     std::fs::create_dir_all(&wdir).map_err(|e| anisobond::Error::io(&wdir, e))?;
     run.write_vtk_series(cavity, &wdir)?;

@@ -198,7 +198,8 @@ fn peak(history: &[CompressionPoint]) -> Option<usize> {
 /// Compress `bar` (clamped ends) with the integrator and record σ, ε, Ẽ_kin. Refuses a
 /// strain that is not finite and in (0, 0.5), zero steps or recording interval, and for
 /// [`Loading::KineticLimit`] a limit that is not finite and > 0, a zero check interval or a
-/// step cap below `steps`.
+/// step cap below `steps`; and a run longer than [`super::MAX_PARTICLE_STEPS`] (particles ×
+/// `steps`, or × the step cap).
 pub fn compress_clamped_bar(
     bar: &RoundBar,
     opts: &CompressionOptions,
@@ -250,6 +251,11 @@ pub fn compress_clamped_bar_with_progress(
         }
     }
     let a = &bar.assembly;
+    let cap = match opts.loading {
+        Loading::ConstantRate => opts.steps,
+        Loading::KineticLimit { max_steps, .. } => max_steps,
+    };
+    super::check_run_size("compression", a.packing.len(), cap as f64)?;
     let law = build_law(opts.law, &a.packing, &a.bonds, &a.springs)?;
     let sim = Simulation::new(&a.packing, &a.bonds, law, &opts.dem)?;
     let dt = sim.time_step();

@@ -136,3 +136,41 @@ fn quasi_static_compression_without_enough_steps_is_an_error() {
         "{msg}"
     );
 }
+
+/// Issue 29 A6 in the library: a compression beyond [`MAX_PARTICLE_STEPS`] (spheres × steps,
+/// or × the step cap with a kinetic limit) is refused at once, not run for ever; one just
+/// below it is not refused by that check (it fails later only for its own reasons).
+#[test]
+fn endless_compression_is_refused_at_once() {
+    use anisobond::dem::MAX_PARTICLE_STEPS;
+    let (bar, lin) = short_bar();
+    let n = bar.assembly.packing.len() as f64;
+    let over = (MAX_PARTICLE_STEPS / n) as usize + 1;
+    let t = std::time::Instant::now();
+    for loading in [
+        Loading::ConstantRate,
+        Loading::KineticLimit {
+            limit: 1e-8,
+            check_every: 100,
+            max_steps: usize::MAX,
+            hold_damping: 0.7,
+        },
+    ] {
+        let opts = CompressionOptions {
+            max_strain: 2.5 * lin.critical_strain,
+            steps: if loading == Loading::ConstantRate {
+                over
+            } else {
+                1000
+            },
+            record_every: 1000,
+            loading,
+            ..Default::default()
+        };
+        let err = compress_clamped_bar(&bar, &opts).unwrap_err();
+        assert!(matches!(err, anisobond::Error::Invalid(_)), "{err}");
+        assert!(err.to_string().contains("beyond the limit"), "{err}");
+    }
+    assert!(t.elapsed().as_secs() < 5, "{:?}", t.elapsed());
+    assert!(anisobond::dem::check_run_size("run", n as usize, (over - 2) as f64).is_ok());
+}

@@ -11,3 +11,4 @@ mod cut;
 mod dem;
 mod euler;
 mod geometric;
+mod refusals;

@@ -10,5 +10,6 @@ mod continuum;
 mod external;
 mod fronts;
 mod lame;
+mod refusals;
 mod tilted;
 mod waves;
