@@ -41,7 +41,7 @@ impl PeriodicCell {
     /// of every way a cell is given (file headers, `--cell`, Python `cell=`).
     pub fn check_lengths(l: &Vec3) -> Option<String> {
         for (k, name) in ["Lx", "Ly", "Lz"].iter().enumerate() {
-            if !(l[k] > 0.0) {
+            if l[k] <= 0.0 || l[k].is_nan() {
                 return Some(format!("cell length {name} must be > 0, found {}", l[k]));
             }
             if !l[k].is_finite() {
