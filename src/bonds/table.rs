@@ -174,7 +174,9 @@ pub fn check_against_packing(
 ) -> Result<()> {
     let n = packing.len();
     if bonds.is_empty() {
-        return Err(Error::Invalid(format!("{name}: the bond table holds no bonds")));
+        return Err(Error::Invalid(format!(
+            "{name}: the bond table holds no bonds"
+        )));
     }
     let v = |x: Vec3| format!("({:e}, {:e}, {:e})", x.x, x.y, x.z);
     for b in 0..bonds.len() {
@@ -221,10 +223,12 @@ pub fn check_against_packing(
             let right_image = (nearest.0 - table_branch).norm() <= BRANCH_TOLERANCE * l;
             let message = if right_image {
                 format!(
-                    "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but the packing puts the \
-                     image of j that n·length = {} m reaches at {:?} (of the positions as \
-                     given): the bond table is not of this packing",
+                    "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but n·length = {} m \
+                     reaches the image {:?} of particle {j} among the packing's positions as \
+                     given: expected ix,iy,iz = {:?}; the bond table is not of this packing \
+                     (or its images are of other positions)",
                     v(table_branch),
+                    packing.image_to_given(i, j, nearest.1),
                     packing.image_to_given(i, j, nearest.1)
                 )
             } else {

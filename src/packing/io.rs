@@ -987,8 +987,12 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 }
             }
         } else if n_words == 3 && words[1..] == ["atom", "types"] {
-            let t: u64 =
-                parse_count(words[0], "an atom type count in `N atom types`", source, line)?;
+            let t: u64 = parse_count(
+                words[0],
+                "an atom type count in `N atom types`",
+                source,
+                line,
+            )?;
             n_types = Some((t, line));
         }
         // Other header lines (bonds, extra bond per atom, …) are irrelevant.

@@ -155,7 +155,10 @@ fn images_are_of_the_positions_as_given() {
     let mut across = 0;
     for r in &rows {
         let f = |c: usize| -> f64 { r[c].parse().unwrap() };
-        let (i, j) = (r[0].parse::<usize>().unwrap(), r[1].parse::<usize>().unwrap());
+        let (i, j) = (
+            r[0].parse::<usize>().unwrap(),
+            r[1].parse::<usize>().unwrap(),
+        );
         let img = Vec3::new(f(11), f(12), f(13));
         let branch = given[j] + img * l - given[i];
         let table_branch = Vec3::new(f(2), f(3), f(4)) * f(5);
@@ -206,7 +209,11 @@ fn cell_option_takes_the_header_check() {
     let d = dir.path();
     let m = write(d, "model.toml", CUBIC_MODEL);
     let bare = write(d, "bare.txt", "1 1 1 0.5\n2 1 1 0.5\n");
-    let stated = write(d, "stated.txt", "# periodic 1e300 1e300 1e300\n1 1 1 0.5\n2 1 1 0.5\n");
+    let stated = write(
+        d,
+        "stated.txt",
+        "# periodic 1e300 1e300 1e300\n1 1 1 0.5\n2 1 1 0.5\n",
+    );
     let out = d.join("never.json");
     let by_file = fails(&mut cmd(
         "tensor {p} --model {m} --method voigt -o {o}",
@@ -216,7 +223,10 @@ fn cell_option_takes_the_header_check() {
         "tensor {p} --model {m} --method voigt --cell 1e300,1e300,1e300 -o {o}",
         &[("p", &bare), ("m", &m), ("o", &out)],
     ));
-    assert!(by_file.contains("stated.txt:1: the cell volume"), "{by_file}");
+    assert!(
+        by_file.contains("stated.txt:1: the cell volume"),
+        "{by_file}"
+    );
     assert!(
         by_option.contains("--cell 1e300,1e300,1e300: the cell volume")
             && by_option.contains("overflows"),
@@ -265,7 +275,11 @@ fn laf_stress_estimate_reports_its_asymmetry() {
     let reported = v["asymmetry"].as_f64().unwrap();
     eprintln!("LAF stress-based, 300 particles: asymmetry {reported:.3e}");
     assert!(skew > 0.0);
-    assert!((reported - skew / scale).abs() <= 1e-12 * reported, "{reported} vs {}", skew / scale);
+    assert!(
+        (reported - skew / scale).abs() <= 1e-12 * reported,
+        "{reported} vs {}",
+        skew / scale
+    );
     assert!(err.contains(&format!("{:.2e}", skew / scale)), "{err}");
     let o = cmd(
         "tensor {p} --model {m} --method laf --energy -o {o}",

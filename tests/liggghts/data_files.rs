@@ -287,7 +287,12 @@ fn atom_id_and_type_zero_are_refused_as_liggghts_refuses_them() {
     for (name, column, value, needle) in [
         ("id0.data", 0, "0", "atom id (column 1) must be ≥ 1"),
         ("type0.data", 1, "0", "atom type (column 2) must be ≥ 1"),
-        ("type2.data", 1, "2", "exceeds the 1 atom types of the header"),
+        (
+            "type2.data",
+            1,
+            "2",
+            "exceeds the 1 atom types of the header",
+        ),
     ] {
         let mut w = words.clone();
         w[column] = value;
