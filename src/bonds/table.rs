@@ -179,8 +179,7 @@ pub fn check_against_packing(
         )));
     }
     let v = |x: Vec3| format!("({:e}, {:e}, {:e})", x.x, x.y, x.z);
-    for b in 0..bonds.len() {
-        let line = lines[b];
+    for (b, &line) in lines.iter().enumerate().take(bonds.len()) {
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         if j >= n {
             return Err(Error::parse(

@@ -87,9 +87,9 @@ fn rotated_normals_flipped_sign_and_wrong_image_are_refused_by_row() {
 
     // One normal's sign flipped (row 7, line 8).
     let mut flipped = good.clone();
-    for c in 2..5 {
-        let v: f64 = flipped[6][c].parse().unwrap();
-        flipped[6][c] = (-v).to_string();
+    for field in &mut flipped[6][2..5] {
+        let v: f64 = field.parse().unwrap();
+        *field = (-v).to_string();
     }
     write_rows(&bad, &header, &flipped);
     refused(&p, &m, &bad, 8, d);
@@ -266,10 +266,10 @@ fn laf_stress_estimate_reports_its_asymmetry() {
         .map(|i| (0..6).map(|j| v["C"][i][j].as_f64().unwrap()).collect())
         .collect();
     let (mut skew, mut scale) = (0.0f64, 0.0f64);
-    for i in 0..6 {
-        for j in 0..6 {
-            skew = skew.max((c[i][j] - c[j][i]).abs());
-            scale = scale.max(c[i][j].abs());
+    for (i, row) in c.iter().enumerate() {
+        for (j, x) in row.iter().enumerate() {
+            skew = skew.max((x - c[j][i]).abs());
+            scale = scale.max(x.abs());
         }
     }
     let reported = v["asymmetry"].as_f64().unwrap();
