@@ -190,46 +190,11 @@ impl Assembly {
 
     /// An assembly whose bonds and springs are a bond table's (docs/formats.md; e.g. a YADE
     /// scene's own bond network written by `anisobond_yade.bond_table`), not the model's
-    /// rule and scheme; the model still serves the mean field. Refuses, naming the table, a
-    /// particle index the packing does not have and a bond whose length is not its
-    /// particles' (minimum-image) distance within 1e-6.
+    /// rule and scheme; the model still serves the mean field. Refuses, naming the table and
+    /// line, a particle index the packing does not have and a row whose normal, length or
+    /// image is not the packing's ([`bonds::table::check_against_packing`]).
     pub fn from_table_file(packing: Packing, model: Model, table_path: &Path) -> Result<Assembly> {
-        let (bonds, springs) = crate::bonds::table::read_bond_table(table_path)?;
-        let n = packing.len();
-        if let Some(b) = (0..bonds.len()).find(|&b| bonds.j[b] as usize >= n) {
-            return Err(Error::Invalid(format!(
-                "{}: bond {b} joins particles {} and {} but the packing has {n} (0 to {})",
-                table_path.display(),
-                bonds.i[b],
-                bonds.j[b],
-                n.saturating_sub(1)
-            )));
-        }
-        if bonds.is_empty() {
-            return Err(Error::Invalid(format!(
-                "{}: the bond table holds no bonds",
-                table_path.display()
-            )));
-        }
-        // The table must be of this packing: every bond's length is its particles' distance
-        // (the minimum image in a periodic cell), or the tensor would be of another network.
-        for b in 0..bonds.len() {
-            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-            let d = packing.positions[j] - packing.positions[i];
-            let d = match &packing.cell {
-                Some(cell) => cell.minimum_image(d).0,
-                None => d,
-            }
-            .norm();
-            let l = bonds.length[b];
-            if (d - l).abs() > 1e-6 * l || d.is_nan() {
-                return Err(Error::Invalid(format!(
-                    "{}: bond {b} ({i}–{j}) has length {l:e} m, but the packing puts its \
-                     particles {d:e} m apart: the bond table is not of this packing",
-                    table_path.display()
-                )));
-            }
-        }
+        let (bonds, springs) = bonds::table::read_bond_table_of(table_path, &packing)?;
         Ok(Assembly {
             packing,
             model,
@@ -306,11 +271,13 @@ impl Assembly {
             Method::Voigt => (voigt::voigt_tensor(b, k, p.volume()), Detail::None),
             Method::Relaxed(opts) => {
                 let r = relaxed_tensor(p, b, k, opts)?;
+                check_relaxed_scale(&r.c, p, b, k, "relaxed")?;
                 (r.c, Detail::Relaxed(Box::new(r)))
             }
             Method::Prestressed { options, pressure } => {
                 let pre = Prestress::isotropic(p, b, k, *pressure, options)?;
                 let t = prestressed_tensor(p, b, k, &pre, options)?;
+                check_relaxed_scale(&t.relaxed.c, p, b, k, "prestressed")?;
                 (
                     (t.c + t.c.transpose()) * 0.5,
                     Detail::Prestressed(Box::new(t)),
@@ -334,6 +301,9 @@ impl Assembly {
         match &detail {
             Detail::Relaxed(r) => report.relative_residual = Some(r.relative_residual),
             Detail::Prestressed(t) => report.relative_residual = Some(t.relaxed.relative_residual),
+            Detail::Laf(r) if !matches!(method, Method::Laf { energy: true, .. }) => {
+                report.asymmetry = Some(r.stress_asymmetry)
+            }
             _ => {}
         }
         Ok(TensorResult { report, detail })
@@ -426,11 +396,63 @@ impl Assembly {
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
         bonds::table::write_bond_table_with_ids(
             path,
-            &self.bonds,
+            &self.bonds_as_given(),
             &self.springs,
             self.packing.ids.as_deref(),
         )
     }
+
+    /// The bonds with their periodic images among the positions as given
+    /// ([`Packing::given_positions`]), as bond tables carry them.
+    pub fn bonds_as_given(&self) -> BondSet {
+        let mut b = self.bonds.clone();
+        if self.packing.given_positions.is_some() {
+            for k in 0..b.len() {
+                let (i, j) = (b.i[k] as usize, b.j[k] as usize);
+                b.image[k] = self.packing.image_to_given(i, j, b.image[k]);
+            }
+        }
+        b
+    }
+}
+
+/// The smallest ratio max|C_relaxed| / max|C_Voigt| taken as a result. The relaxed tensor
+/// lies below the Voigt (affine) one of the same bonds; orders of magnitude below it, the
+/// network carries no load across the cell ([`check_relaxed_scale`]).
+pub const RELAXED_TO_VOIGT_MIN: f64 = 1e-6;
+
+/// Refuse ([`Error::Degenerate`]) a relaxed tensor `c` whose largest entry is below
+/// [`RELAXED_TO_VOIGT_MIN`] times the Voigt tensor's of the same bonds: a periodic packing
+/// whose bonds do not cross the cell faces (a finite specimen, e.g. a walled LIGGGHTS box,
+/// read as periodic) relaxes almost freely, and its tiny "tensor" is no stiffness.
+fn check_relaxed_scale(
+    c: &crate::tensor::Stiffness6,
+    p: &Packing,
+    b: &BondSet,
+    k: &BondStiffness,
+    method: &str,
+) -> Result<()> {
+    let affine = voigt::voigt_tensor(b, k, p.volume()).amax();
+    let relaxed = c.amax();
+    if affine > 0.0 && affine.is_finite() && relaxed < RELAXED_TO_VOIGT_MIN * affine {
+        let Some(_) = &p.cell else {
+            return Err(Error::Degenerate(format!(
+                "the {method} tensor (largest entry {relaxed:.3e} Pa) is below \
+                 {RELAXED_TO_VOIGT_MIN:e} of the Voigt tensor of the same bonds ({affine:.3e} \
+                 Pa): the bond network carries no load"
+            )));
+        };
+        let crossing = b.image.iter().filter(|m| **m != [0, 0, 0]).count();
+        return Err(Error::Degenerate(format!(
+            "the {method} tensor (largest entry {relaxed:.3e} Pa) is below {RELAXED_TO_VOIGT_MIN:e} \
+             of the Voigt tensor of the same bonds ({affine:.3e} Pa): the network carries no \
+             load across the periodic cell ({crossing} of {} bonds cross its faces); a finite \
+             specimen (e.g. a walled LIGGGHTS box) read as periodic? Give --free (Python: \
+             free=True) or the specimen's own periodic packing",
+            b.len()
+        )));
+    }
+    Ok(())
 }
 
 /// A bond density given by numbers instead of a packing: equal spheres of radius R at solid

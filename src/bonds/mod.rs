@@ -53,10 +53,13 @@ impl BondSet {
     }
 
     /// The bonds between given pairs (i, j) of `packing`, e.g. the interactions of a YADE or
-    /// LIGGGHTS scene: `image` is the periodic image of j seen from i (the minimum image of a
-    /// periodic cell when `None`; zero for a free cluster). Each pair is stored with i < j
-    /// (the image negated when swapped). Refuses, naming the row, an index out of range, a
-    /// self-bond, a pair given twice, an image in a cluster and a zero branch vector.
+    /// LIGGGHTS scene: `image` is the periodic image of j seen from i among the positions as
+    /// given ([`Packing::given_positions`]: YADE's `cellDist` is of its unwrapped positions;
+    /// the minimum image of a periodic cell when `None`; zero for a free cluster). Each pair
+    /// is stored with i < j (the image negated when swapped). Refuses, naming the row, an
+    /// index out of range, a self-bond, a pair given twice, an image in a cluster, a zero
+    /// branch vector and an image that is not the nearest one of j (a branch vector longer
+    /// than the particles' minimum-image distance: the image is of other positions).
     pub fn from_pairs(
         packing: &Packing,
         i: &[u32],
@@ -83,7 +86,22 @@ impl BondSet {
             }
             let d = packing.positions[c as usize] - packing.positions[a as usize];
             let (branch, img) = match (&packing.cell, image) {
-                (Some(cell), Some(m)) => (d + cell.shift(m[b]), m[b]),
+                (Some(cell), Some(m)) => {
+                    let img = packing.image_from_given(a as usize, c as usize, m[b]);
+                    let branch = d + cell.shift(img);
+                    let nearest = cell.minimum_image(d).0.norm();
+                    if branch.norm() > nearest * (1.0 + 1e-9) + 1e-12 * cell.lengths.max() {
+                        return Err(Error::Invalid(format!(
+                            "bond {b}: particles {a} and {c} with image {:?} are {:e} m \
+                             apart, but their nearest images are {nearest:e} m apart: expected \
+                             the image of j seen from i among the positions as given (a \
+                             scene's own, e.g. YADE's cellDist with its body positions)",
+                            m[b],
+                            branch.norm()
+                        )));
+                    }
+                    (branch, img)
+                }
                 (Some(cell), None) => cell.minimum_image(d),
                 (None, Some(m)) if m[b] != [0, 0, 0] => {
                     return Err(Error::Invalid(format!(

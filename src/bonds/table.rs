@@ -6,6 +6,7 @@
 //! same bits. Rows are formatted in parallel chunks and written in bond order.
 
 use super::{BondSet, BondStiffness};
+use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
 use rayon::prelude::*;
 use std::io::Write;
@@ -143,6 +144,116 @@ pub fn read_bond_table(path: &Path) -> Result<(BondSet, BondStiffness)> {
 /// Parse a bond table; `name` is used in error messages. Columns are found by header
 /// name, so extra columns are allowed; every SPEC column is required.
 pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffness)> {
+    parse_bond_table_lines(text, name).map(|(b, k, _)| (b, k))
+}
+
+/// Read a bond table that must be of `packing` ([`check_against_packing`]); its images
+/// are returned among the packing's stored (wrapped) positions.
+pub fn read_bond_table_of(path: &Path, packing: &Packing) -> Result<(BondSet, BondStiffness)> {
+    let text = crate::io::read_to_string(path)?;
+    let name = path.display().to_string();
+    let (mut bonds, k, lines) = parse_bond_table_lines(&text, &name)?;
+    check_against_packing(&mut bonds, &lines, packing, &name)?;
+    Ok((bonds, k))
+}
+
+/// Relative tolerance of a table row's branch vector n·length against the packing's.
+pub const BRANCH_TOLERANCE: f64 = 1e-6;
+
+/// Check every row (on `lines` of the table `name`) against `packing`: the particle
+/// indices exist, and the branch vector n·length equals the one from i to the image
+/// (ix,iy,iz) of j among the packing's positions as given ([`Packing::given_positions`])
+/// within [`BRANCH_TOLERANCE`]·length, so that normals (direction and sign), lengths and
+/// images are those of this packing. The images are then converted to the stored
+/// (wrapped) positions. Refusals name the file, the line and what was expected.
+pub fn check_against_packing(
+    bonds: &mut BondSet,
+    lines: &[usize],
+    packing: &Packing,
+    name: &str,
+) -> Result<()> {
+    let n = packing.len();
+    if bonds.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{name}: the bond table holds no bonds"
+        )));
+    }
+    let v = |x: Vec3| format!("({:e}, {:e}, {:e})", x.x, x.y, x.z);
+    for (b, &line) in lines.iter().enumerate().take(bonds.len()) {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        if j >= n {
+            return Err(Error::parse(
+                name,
+                line,
+                format!(
+                    "bond {b} joins particles {i} and {j} but the packing has {n} (0 to {})",
+                    n.saturating_sub(1)
+                ),
+            ));
+        }
+        let given = bonds.image[b];
+        let l = bonds.length[b];
+        let table_branch = bonds.normal[b] * l;
+        let d = packing.positions[j] - packing.positions[i];
+        let (img, branch) = match &packing.cell {
+            Some(cell) => {
+                let img = packing.image_from_given(i, j, given);
+                (img, d + cell.shift(img))
+            }
+            None if given != [0, 0, 0] => {
+                return Err(Error::parse(
+                    name,
+                    line,
+                    format!(
+                        "bond {b} ({i}–{j}): image ix,iy,iz = {given:?} in a packing without a \
+                         periodic cell: expected 0,0,0"
+                    ),
+                ))
+            }
+            None => ([0; 3], d),
+        };
+        let off = (branch - table_branch).norm();
+        if off.is_nan() || off > BRANCH_TOLERANCE * l {
+            // Say what is wrong: the image alone, or the normal / length.
+            let nearest = match &packing.cell {
+                Some(cell) => cell.minimum_image(d),
+                None => (d, [0; 3]),
+            };
+            let right_image = (nearest.0 - table_branch).norm() <= BRANCH_TOLERANCE * l;
+            let message = if right_image {
+                format!(
+                    "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but n·length = {} m \
+                     reaches the image {:?} of particle {j} among the packing's positions as \
+                     given: expected ix,iy,iz = {:?}; the bond table is not of this packing \
+                     (or its images are of other positions)",
+                    v(table_branch),
+                    packing.image_to_given(i, j, nearest.1),
+                    packing.image_to_given(i, j, nearest.1)
+                )
+            } else {
+                let len = branch.norm();
+                format!(
+                    "bond {b} ({i}–{j}): nx,ny,nz = {} and length {l:e} m, but the packing \
+                     puts the image {given:?} of particle {j} at {} m from particle {i}: \
+                     expected nx,ny,nz = {} and length {len:e} m (within {BRANCH_TOLERANCE:e} \
+                     of the length): the bond table is not of this packing",
+                    v(bonds.normal[b]),
+                    v(branch),
+                    v(branch / len)
+                )
+            };
+            return Err(Error::parse(name, line, message));
+        }
+        bonds.image[b] = img;
+    }
+    Ok(())
+}
+
+/// [`parse_bond_table`], with the line of every bond.
+pub fn parse_bond_table_lines(
+    text: &str,
+    name: &str,
+) -> Result<(BondSet, BondStiffness, Vec<usize>)> {
     let mut lines = text
         .lines()
         .enumerate()
@@ -167,6 +278,7 @@ pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffnes
     }
     let mut bonds = BondSet::default();
     let mut k = BondStiffness::default();
+    let mut rows = Vec::new();
     for (ln, line) in lines {
         let line_no = ln + 1;
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -258,6 +370,7 @@ pub fn parse_bond_table(text: &str, name: &str) -> Result<(BondSet, BondStiffnes
         k.ks.push(springs[1]);
         k.kr.push(springs[2]);
         k.ktw.push(springs[3]);
+        rows.push(line_no);
     }
-    Ok((bonds, k))
+    Ok((bonds, k, rows))
 }

@@ -5,7 +5,7 @@
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
 use anisobond::packing::io::{read_packing_as, CellChoice, CellOptionNames};
-use anisobond::packing::Packing;
+use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::{Error, Result, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -41,7 +41,15 @@ pub fn set(a: &CellArgs) -> Result<()> {
                 "--cell {text}: expected three lengths > 0 in m, `Lx,Ly,Lz`"
             )));
         }
-        CellChoice::Cell(Vec3::new(lengths[0], lengths[1], lengths[2]))
+        let l = Vec3::new(lengths[0], lengths[1], lengths[2]);
+        // The check of a `# periodic` header too (one function): the volume must not
+        // overflow or underflow.
+        if let Some(problem) = PeriodicCell::check_lengths(&l) {
+            return Err(Error::Invalid(format!(
+                "--cell {text}: {problem}; expected three lengths > 0 in m, `Lx,Ly,Lz`"
+            )));
+        }
+        CellChoice::Cell(l)
     } else if a.periodic {
         CellChoice::Periodic
     } else if a.free {

@@ -392,16 +392,26 @@ fn report_of(
                 s[(0, 0)], s[(1, 1)], s[(2, 2)], t.c_energy[(0, 0)], t.relaxed.relative_residual, t.relaxed.active_particles
             );
         }
-        Detail::Laf(r) => eprintln!(
-            "laf: shell order {}, {:.1} free particles per shell; reporting the {} estimate",
-            r.shell,
-            r.mean_free_particles,
-            if st.energy {
-                "energy-based (upper bound)"
-            } else {
-                "stress-based"
+        Detail::Laf(r) => {
+            eprintln!(
+                "laf: shell order {}, {:.1} free particles per shell; reporting the {} estimate",
+                r.shell,
+                r.mean_free_particles,
+                if st.energy {
+                    "energy-based (upper bound)"
+                } else {
+                    "stress-based"
+                }
+            );
+            if !st.energy {
+                eprintln!(
+                    "note: the stress-based LAF estimate is not major-symmetric (Kruyt 2014 \
+                     Sec. 4): max|C - C^T| / max|C| = {:.2e}, reported as `asymmetry`; it is \
+                     given as computed, not symmetrised",
+                    r.stress_asymmetry
+                );
             }
-        ),
+        }
         Detail::Dynamic(d) => run::print_stability(d),
         Detail::None => {}
     }

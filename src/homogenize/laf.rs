@@ -27,7 +27,9 @@ use rayon::prelude::*;
 pub struct LafResult {
     /// Shell order m.
     pub shell: usize,
-    /// Stress-based estimate (Pa); not exactly symmetric in general.
+    /// Stress-based estimate (Pa), as Kruyt 2014 Sec. 4.1 defines it: not symmetrised. The
+    /// LAF field only approximates the relaxed one, so GᵀQ and with it C_σ lack major
+    /// symmetry in general; [`LafResult::stress_asymmetry`] says by how much.
     pub c_stress: Stiffness6,
     /// Energy-based estimate (Pa), ≥ the relaxed tensor.
     pub c_energy: Stiffness6,
@@ -35,6 +37,9 @@ pub struct LafResult {
     pub c_affine: Stiffness6,
     /// Mean number of free particles per shell.
     pub mean_free_particles: f64,
+    /// The stress-based estimate's departure from major symmetry, max|C_σ − C_σᵀ| /
+    /// max|C_σ| (0 for exact shells, e.g. a lattice whose relaxed field is affine).
+    pub stress_asymmetry: f64,
     /// Singular modes of the network.
     pub null_space: NullSpaceReport,
 }
@@ -181,9 +186,12 @@ pub fn laf_tensor(
     let (gtq, qtkq) = BlockSparse::assemble(&net).fluctuation_terms(&net.g, &q);
     let v = net.volume;
     let c_energy = (net.h - gtq - gtq.transpose() + qtkq) / v;
+    let c_stress = (net.h - gtq) / v;
+    let stress_asymmetry = (c_stress - c_stress.transpose()).amax() / c_stress.amax();
     Ok(LafResult {
         shell,
-        c_stress: (net.h - gtq) / v,
+        stress_asymmetry,
+        c_stress,
         c_energy: (c_energy + c_energy.transpose()) * 0.5,
         c_affine: net.h / v,
         mean_free_particles: free_total as f64 / m.max(1) as f64,

@@ -47,6 +47,10 @@ pub struct TensorReport {
     /// tensor's relative error is of the order of its square).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relative_residual: Option<f64>,
+    /// LAF stress-based estimate: its departure from major symmetry max|C − Cᵀ| / max|C|
+    /// (Kruyt 2014 Sec. 4: C_σ = (H − GᵀQ)/V is not symmetric unless the shells are exact).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub asymmetry: Option<f64>,
 }
 
 /// Refuse a computed tensor that is not a result: non-finite entries (an overflow in the
@@ -105,6 +109,7 @@ impl TensorReport {
             cubic: cp,
             transverse: tp,
             relative_residual: None,
+            asymmetry: None,
         };
         report.check_finite()?;
         Ok(report)

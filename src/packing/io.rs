@@ -3,7 +3,8 @@
 //!
 //! - SPEC text: one sphere per line `x y z r`, whitespace-separated, `#` starts a comment;
 //!   a header comment `# periodic Lx Ly Lz` declares the periodic cell [0,Lx)×[0,Ly)×[0,Lz)
-//!   (positions outside are wrapped); a `# free` line states a free cluster (anisobond
+//!   (positions outside are wrapped, and kept as given for the periodic images of bond
+//!   tables and for writing); a `# free` line states a free cluster (anisobond
 //!   writes it for free packings). A file with neither does not state its cell: see
 //!   [`read_packing_as`] and [`CellChoice`]. YADE `export.text` / `export.textExt` files are read
 //!   by their `#format` line: `x_y_z_r`, `x_y_z_r_matId` (integer matId, ignored),
@@ -365,25 +366,14 @@ fn out_of_range(v: f64) -> &'static str {
     }
 }
 
-/// Check that the cell volume Lx·Ly·Lz of a header on `line` is finite and > 0: each
-/// length may be fine while their product overflows (1e300³) or underflows.
+/// Check the cell lengths of a header on `line` ([`PeriodicCell::check_lengths`], the
+/// check `--cell` takes too): each finite and > 0, and their product Lx·Ly·Lz, which may
+/// overflow (1e300³) or underflow while each length is fine.
 fn check_cell_volume(l: &Vec3, source: &str, line: usize) -> Result<()> {
-    let v = l.x * l.y * l.z;
-    if !v.is_finite() || v <= 0.0 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!(
-                "the cell volume Lx·Ly·Lz = {:e}·{:e}·{:e} m³ {}; expected cell lengths whose \
-                 product is a finite number > 0",
-                l.x,
-                l.y,
-                l.z,
-                out_of_range(v)
-            ),
-        ));
+    match PeriodicCell::check_lengths(l) {
+        Some(problem) => Err(Error::parse(source, line, problem)),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -> Result<Vec3> {
@@ -401,13 +391,6 @@ fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -
     for (k, w) in words.iter().enumerate() {
         let name = ["Lx", "Ly", "Lz"][k];
         l[k] = parse_number(w, &format!("cell length {name}"), source, line)?;
-        if l[k] <= 0.0 {
-            return Err(Error::parse(
-                source,
-                line,
-                format!("cell length {name} must be > 0, found {}", l[k]),
-            ));
-        }
     }
     check_cell_volume(&l, source, line)?;
     Ok(l)
@@ -863,6 +846,7 @@ const ATOMS_HINT: &str = "expected a header line `N atoms` with N ≥ 1 and an `
 /// One atom line of a LIGGGHTS data file.
 struct Atom {
     id: u64,
+    atom_type: u64,
     position: Vec3,
     diameter: f64,
     line: usize,
@@ -882,6 +866,27 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
         ));
     }
     let id: u64 = parse_count(words[0], "a positive integer atom id", source, line)?;
+    // LAMMPS/LIGGGHTS atom ids and types start at 1 (read_data refuses 0).
+    if id == 0 {
+        return Err(Error::parse(
+            source,
+            line,
+            "atom id (column 1) must be ≥ 1 (LAMMPS/LIGGGHTS ids start at 1), found 0",
+        ));
+    }
+    let atom_type: u64 = parse_count(
+        words[1],
+        "a positive integer atom type (column 2)",
+        source,
+        line,
+    )?;
+    if atom_type == 0 {
+        return Err(Error::parse(
+            source,
+            line,
+            "atom type (column 2) must be ≥ 1 (LAMMPS/LIGGGHTS types start at 1), found 0",
+        ));
+    }
     let d = parse_positive(words[2], "diameter", "diameter", source, line)?;
     parse_positive(words[3], "density", "density (column 4)", source, line)?;
     let x = parse_number(words[4], "x", source, line)?;
@@ -902,6 +907,7 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
     }
     Ok(Atom {
         id,
+        atom_type,
         position: Vec3::new(x, y, z),
         diameter: d,
         line,
@@ -912,6 +918,7 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
 pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<Packing> {
     let lines = text_lines(text);
     let mut n_atoms: Option<(usize, usize)> = None;
+    let mut n_types: Option<(u64, usize)> = None;
     let mut bounds: [Option<(f64, f64, usize)>; 3] = [None; 3];
     let mut atoms: Vec<Atom> = Vec::new();
     let mut atoms_line: Option<usize> = None;
@@ -979,8 +986,16 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                     ));
                 }
             }
+        } else if n_words == 3 && words[1..] == ["atom", "types"] {
+            let t: u64 = parse_count(
+                words[0],
+                "an atom type count in `N atom types`",
+                source,
+                line,
+            )?;
+            n_types = Some((t, line));
         }
-        // Other header lines (atom types, bonds, extra bond per atom, …) are irrelevant.
+        // Other header lines (bonds, extra bond per atom, …) are irrelevant.
     }
     // Sections.
     while let Some((line, raw, words)) = rows.next() {
@@ -1051,6 +1066,19 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 atoms.len()
             ),
         ));
+    }
+    if let Some((t, t_line)) = n_types {
+        if let Some(a) = atoms.iter().find(|a| a.atom_type > t) {
+            return Err(Error::parse(
+                source,
+                a.line,
+                format!(
+                    "atom type {} (column 2) exceeds the {t} atom types of the header (line \
+                     {t_line}): expected a type from 1 to {t}",
+                    a.atom_type
+                ),
+            ));
+        }
     }
     atoms.sort_by_key(|a| a.id);
     for w in atoms.windows(2) {
@@ -1154,7 +1182,10 @@ pub fn format_packing(p: &Packing) -> String {
         }
         None => s.push_str("# free\n"),
     }
-    for (x, r) in p.positions.iter().zip(&p.radii) {
+    // The positions as given (YADE's outside the cell included), so that the periodic
+    // images of a bond table written with this packing read back the same.
+    for (i, r) in p.radii.iter().enumerate() {
+        let x = p.given_position(i);
         let _ = writeln!(s, "{} {} {} {}", num(x.x), num(x.y), num(x.z), num(*r));
     }
     s

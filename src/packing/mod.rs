@@ -28,15 +28,42 @@ pub struct PeriodicCell {
 }
 
 impl PeriodicCell {
-    /// A cell with the given edge lengths; each must be finite and positive.
+    /// A cell with the given edge lengths, checked by [`PeriodicCell::check_lengths`].
     pub fn new(lengths: Vec3) -> Result<Self> {
-        if lengths.iter().any(|l| !l.is_finite() || *l <= 0.0) {
-            return Err(Error::Invalid(format!(
-                "periodic cell lengths must be finite and > 0, got {} {} {}",
-                lengths.x, lengths.y, lengths.z
-            )));
+        if let Some(problem) = PeriodicCell::check_lengths(&lengths) {
+            return Err(Error::Invalid(format!("periodic cell: {problem}")));
         }
         Ok(PeriodicCell { lengths })
+    }
+
+    /// What is wrong with cell lengths `l`, if anything: each must be finite and > 0, and
+    /// so must their product Lx·Ly·Lz (1e300³ overflows, 1e-300³ underflows). The one check
+    /// of every way a cell is given (file headers, `--cell`, Python `cell=`).
+    pub fn check_lengths(l: &Vec3) -> Option<String> {
+        for (k, name) in ["Lx", "Ly", "Lz"].iter().enumerate() {
+            if l[k] <= 0.0 || l[k].is_nan() {
+                return Some(format!("cell length {name} must be > 0, found {}", l[k]));
+            }
+            if !l[k].is_finite() {
+                return Some(format!("cell length {name} must be finite, found {}", l[k]));
+            }
+        }
+        let v = l.x * l.y * l.z;
+        if !v.is_finite() || v <= 0.0 {
+            return Some(format!(
+                "the cell volume Lx·Ly·Lz = {:e}·{:e}·{:e} m³ {}; expected cell lengths whose \
+                 product is a finite number > 0",
+                l.x,
+                l.y,
+                l.z,
+                if v.is_finite() {
+                    "underflows to 0"
+                } else {
+                    "overflows"
+                }
+            ));
+        }
+        None
     }
 
     /// Cell volume (m³).
@@ -105,6 +132,10 @@ pub struct Packing {
     /// `#format id_x_y_z_r_matId`), one per particle, distinct; written to bond tables as
     /// `id_i,id_j`. `None`: the particles are known by their index only.
     pub ids: Option<Vec<u64>>,
+    /// The centres as given to [`Packing::new`] when wrapping moved any of them (YADE keeps
+    /// periodic positions outside the cell), else `None`. Periodic images read or written
+    /// (bond tables, [`crate::bonds::BondSet::from_pairs`]) are of these positions.
+    pub given_positions: Option<Vec<Vec3>>,
 }
 
 impl Packing {
@@ -130,16 +161,60 @@ impl Packing {
                 )));
             }
         }
-        let positions = match &cell {
-            Some(c) => positions.into_iter().map(|p| c.wrap(p).0).collect(),
-            None => positions,
+        let (positions, given_positions) = match &cell {
+            Some(c) => {
+                let wrapped: Vec<Vec3> = positions.iter().map(|p| c.wrap(*p).0).collect();
+                let moved = wrapped.iter().zip(&positions).any(|(w, p)| w != p);
+                (wrapped, moved.then_some(positions))
+            }
+            None => (positions, None),
         };
         Ok(Packing {
             positions,
             radii,
             cell,
             ids: None,
+            given_positions,
         })
+    }
+
+    /// The cell shift s of sphere `i` that wrapping removed: position as given = stored
+    /// position + s∘L ([`Packing::given_positions`]); zero when nothing was wrapped (or the
+    /// stored position was changed since).
+    pub fn given_shift(&self, i: usize) -> [i32; 3] {
+        match (&self.cell, &self.given_positions) {
+            (Some(c), Some(g)) => {
+                let (w, s) = c.wrap(g[i]);
+                if w == self.positions[i] {
+                    s
+                } else {
+                    [0; 3]
+                }
+            }
+            _ => [0; 3],
+        }
+    }
+
+    /// The periodic image of j seen from i among the stored (wrapped) positions for an image
+    /// `m` given among the positions as given: x_j + m∘L − x_i is the same branch vector when
+    /// m' = m + s_j − s_i (s: [`Packing::given_shift`]).
+    pub fn image_from_given(&self, i: usize, j: usize, m: [i32; 3]) -> [i32; 3] {
+        let (si, sj) = (self.given_shift(i), self.given_shift(j));
+        [0, 1, 2].map(|k| m[k] + sj[k] - si[k])
+    }
+
+    /// The inverse of [`Packing::image_from_given`]: the image among the positions as given.
+    pub fn image_to_given(&self, i: usize, j: usize, m: [i32; 3]) -> [i32; 3] {
+        let (si, sj) = (self.given_shift(i), self.given_shift(j));
+        [0, 1, 2].map(|k| m[k] - sj[k] + si[k])
+    }
+
+    /// The positions as given (see [`Packing::given_positions`]): stored + shift∘L.
+    pub fn given_position(&self, i: usize) -> Vec3 {
+        match (&self.given_positions, &self.cell) {
+            (Some(g), Some(_)) if self.given_shift(i) != [0; 3] => g[i],
+            _ => self.positions[i],
+        }
     }
 
     /// The packing with these particle ids (one per particle, all distinct).

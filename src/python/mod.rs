@@ -367,7 +367,9 @@ impl PyModel {
 ///
 /// Packing(positions, radii, cell=None, ids=None): positions (N, 3) in m, radii (N,) in m
 /// (> 0), cell (Lx, Ly, Lz) in m or None for a free cluster, ids N distinct integers (e.g.
-/// LIGGGHTS atom ids; bond tables then carry id_i, id_j). Positions are wrapped into the cell.
+/// LIGGGHTS atom ids; bond tables then carry id_i, id_j). Positions are wrapped into the cell;
+/// periodic images (from_bonds, bond tables) are of the positions as given (YADE's cellDist
+/// with its body positions, also outside the cell).
 /// Packing.load(path, cell=None, periodic=False, free=False) reads every format the command
 /// line reads (docs/formats.md).
 #[pyclass(name = "Packing", module = "anisobond", frozen)]
@@ -797,7 +799,8 @@ impl PyAssembly {
 
     /// The bond table as a dict of numpy columns: i, j (particle indices, i < j), normal
     /// (Nb, 3, unit, from i to the image of j), length (m), radius (bond radius, m), kn, ks
-    /// (N/m), kr, ktw (N·m/rad), image (Nb, 3, cell shifts of j).
+    /// (N/m), kr, ktw (N·m/rad), image (Nb, 3, cell shifts of j among the positions as
+    /// given to Packing, as from_bonds takes them).
     #[getter]
     fn bonds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let (b, k) = (&self.inner.bonds, &self.inner.springs);
@@ -811,7 +814,8 @@ impl PyAssembly {
         d.set_item("ks", PyArray1::from_slice(py, &k.ks))?;
         d.set_item("kr", PyArray1::from_slice(py, &k.kr))?;
         d.set_item("ktw", PyArray1::from_slice(py, &k.ktw))?;
-        let image: Vec<i32> = b.image.iter().flatten().copied().collect();
+        let as_given = self.inner.bonds_as_given();
+        let image: Vec<i32> = as_given.image.iter().flatten().copied().collect();
         d.set_item(
             "image",
             PyArray1::from_vec(py, image).reshape([b.len(), 3])?,

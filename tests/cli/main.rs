@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod bond_tables;
 mod commands;
 mod outputs;
 mod reader_refusals;

@@ -221,3 +221,108 @@ fn convert_to_liggghts_loads_back_in_read_data() {
     let e = anisobond::packing::io::write_liggghts_data_with_ids(&d.join("x.data"), &p, 1.0);
     assert!(e.unwrap_err().to_string().contains("atom ids must be ≥ 1"));
 }
+
+/// Issue 29, B3: the bond table of LIGGGHTS's own walled box (`boundary f f f`, bonded with
+/// `--free`) given to `tensor --method relaxed` without `--free` reads the box as the
+/// periodic cell; no bond crosses its faces, so the "relaxed tensor" is orders of magnitude
+/// below the Voigt tensor of the same bonds. Refused (no report written), naming `--free`;
+/// with `--free` the same table gives a tensor. The Voigt tensor of the table is the scale.
+#[test]
+fn walled_box_table_read_as_periodic_is_refused() {
+    if let Some(r) = missing(&["liggghts"]) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let dir = tmp();
+    let d = dir.path();
+    write_data(d, "f", "0.02", "0.0005", "wall.data");
+    let model = write(d, "model.toml", CUBIC_MODEL);
+    let (data, table) = (d.join("wall.data"), d.join("wall.csv"));
+    crate::common::succeeds(&mut cmd(
+        "bonds {p} --model {m} -o {t} --free",
+        &[("p", &data), ("m", &model), ("t", &table)],
+    ));
+    let voigt = d.join("voigt.json");
+    crate::common::succeeds(&mut cmd(
+        "tensor {p} --model {m} --bonds {t} --method voigt -o {o}",
+        &[("p", &data), ("m", &model), ("t", &table), ("o", &voigt)],
+    ));
+    let out = d.join("relaxed.json");
+    let msg = fails(&mut cmd(
+        "tensor {p} --model {m} --bonds {t} --method relaxed -o {o}",
+        &[("p", &data), ("m", &model), ("t", &table), ("o", &out)],
+    ));
+    eprintln!("{msg}");
+    assert!(
+        msg.contains("below 1e-6 of the Voigt tensor") && msg.contains("--free"),
+        "{msg}"
+    );
+    assert!(msg.contains("0 of"), "no bond crosses the faces: {msg}");
+    assert!(!out.exists());
+    // The refusal's scale: the Voigt tensor is GPa-sized.
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&voigt).unwrap()).unwrap();
+    assert!(v["C"][0][0].as_f64().unwrap() > 1e8, "{v}");
+}
+
+/// Issue 29, A12: atom id 0 and atom type 0 in a data file LIGGGHTS wrote (one atom line
+/// edited) are refused naming the line, as LIGGGHTS's own `read_data` refuses them; a type
+/// above the header's `N atom types` likewise.
+#[test]
+fn atom_id_and_type_zero_are_refused_as_liggghts_refuses_them() {
+    if let Some(r) = missing(&["liggghts"]) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let dir = tmp();
+    let d = dir.path();
+    write_data(d, "p", "0.01", "0.0065", "peri.data");
+    let text = std::fs::read_to_string(d.join("peri.data")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let atoms = lines.iter().position(|l| l.starts_with("Atoms")).unwrap();
+    // The first atom line (after the blank line that follows `Atoms`).
+    let first = atoms + 2;
+    let words: Vec<&str> = lines[first].split_whitespace().collect();
+    assert!(words.len() >= 7, "{}", lines[first]);
+    for (name, column, value, needle) in [
+        ("id0.data", 0, "0", "atom id (column 1) must be ≥ 1"),
+        ("type0.data", 1, "0", "atom type (column 2) must be ≥ 1"),
+        (
+            "type2.data",
+            1,
+            "2",
+            "exceeds the 1 atom types of the header",
+        ),
+    ] {
+        let mut w = words.clone();
+        w[column] = value;
+        let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        edited[first] = w.join(" ");
+        let path = d.join(name);
+        std::fs::write(&path, edited.join("\n") + "\n").unwrap();
+        let e = read_packing_as(&path, CellChoice::Periodic)
+            .unwrap_err()
+            .to_string();
+        let at = format!("{}:{}: ", path.display(), first + 1);
+        assert!(e.contains(&at) && e.contains(needle), "{name}: {e}");
+        // LIGGGHTS's own read_data refuses the same file.
+        std::fs::write(
+            d.join("read.in"),
+            format!(
+                "units si\natom_style granular\natom_modify map array\nboundary p p p\n\
+                 read_data {name}\n"
+            ),
+        )
+        .unwrap();
+        let out = Command::new("liggghts")
+            .args(["-in", "read.in"])
+            .current_dir(d)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(
+            log.contains("ERROR") || !out.status.success(),
+            "LIGGGHTS read {name}:\n{log}"
+        );
+    }
+}
