@@ -179,13 +179,14 @@ fn check_shared_object(command: &str, path: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
-/// `--types K`: a whole number from 1 to 2³¹ − 1 (LAMMPS numbers bond types with `int`).
+/// `--types K`: a whole number from 1 to 2³² − 1 (at most K types are written: no more than
+/// the bonds' distinct spring sets, which the export checks against LAMMPS' `int`).
 fn parse_types(s: &str) -> std::result::Result<usize, String> {
     match s.trim().parse::<i128>() {
-        Ok(k) if (1..=MAX_BOND_TYPES as i128).contains(&k) => Ok(k as usize),
+        Ok(k) if (1..=u32::MAX as i128).contains(&k) => Ok(k as usize),
         Ok(k) => Err(format!(
             "the number of bond types must be at least 1 (and at most {}), got {k}",
-            MAX_BOND_TYPES
+            u32::MAX
         )),
         Err(_) => Err(format!(
             "expected a whole number of bond types (at least 1), got '{s}'"
