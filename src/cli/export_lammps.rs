@@ -2,7 +2,7 @@
 //! per-bond coefficients (or, with `--types K`, at most K quantised bond types and their
 //! tensor error), the six element tests and `run.sh [NP]`.
 
-use anisobond::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions, MAX_BOND_TYPES};
+use anisobond::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions};
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use std::path::PathBuf;
