@@ -461,7 +461,8 @@ def initial_forces(interactions, table):
         sigma = [[x / volume for x in row] for row in sigma]
     else:
         sigma = None
-    worst = lambda v: max(range(len(v)), key=lambda b: abs(v[b])) if v else None
+    # The bond of the largest |value|, None when every value is zero.
+    worst = lambda v: max(range(len(v)), key=lambda b: abs(v[b])) if any(v) else None
     bn, bs = worst(axial), worst(shear)
     bond = lambda b: None if b is None else (table.i[b], table.j[b])
     loaded = sum(1 for a, c in zip(rel_n, rel_s) if max(a, c) > STRESS_FREE_TOLERANCE)
@@ -469,10 +470,10 @@ def initial_forces(interactions, table):
         "stress_free": loaded == 0,
         "n_loaded": loaded,
         "n_bonds": len(axial),
-        "max_axial_force_N": abs(axial[bn]) if axial else 0.0,
+        "max_axial_force_N": abs(axial[bn]) if bn is not None else 0.0,
         "max_axial_force_bond": bond(bn),
         "max_axial_relative": max(rel_n) if rel_n else 0.0,
-        "max_shear_force_N": shear[bs] if shear else 0.0,
+        "max_shear_force_N": shear[bs] if bs is not None else 0.0,
         "max_shear_force_bond": bond(bs),
         "max_shear_relative": max(rel_s) if rel_s else 0.0,
         "preload_stress_Pa": sigma,

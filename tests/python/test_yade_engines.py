@@ -106,6 +106,7 @@ def test_bond_table_reports_the_forces_yades_cohesive_bonds_start_with(tmp_path)
     assert f["max_axial_force_N"] == pytest.approx(d["yade_max_normal_force"], rel=1e-9)
     assert f["max_axial_relative"] == pytest.approx(d["independent_max_relative"], rel=1e-9)
     assert f["max_shear_force_N"] == 0.0  # no shear displacement yet
+    assert f["max_shear_force_bond"] is None and len(f["max_axial_force_bond"]) == 2
     assert f["preload_mean_stress_Pa"] == pytest.approx(d["sigma_mean_independent"], rel=1e-9)
     assert "prestressed" in f["accounted_by"]
     assert len(d["warnings"]) == 1
