@@ -79,6 +79,7 @@ import os
 import sys
 import tempfile
 import time
+import warnings
 
 VOIGT_LABELS = ("11", "22", "33", "23", "13", "12")
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
@@ -93,6 +94,11 @@ class InputError(ValueError):
 
 class BondMismatch(RuntimeError):
     """A bond's branch vector in YADE differs from the table's length*n."""
+
+
+class PrestressWarning(UserWarning):
+    """The bonds of a scene carry forces: its relaxed tensor (stress-free bonds) is not what
+    YADE's element tests from that state measure (docs/prestress.md)."""
 
 
 # --------------------------------------------------------------------------------------
@@ -346,6 +352,16 @@ def scene_bonds(model, interactions=None):
     return packing, assign_springs(model, packing, BondTable(cols))
 
 
+def penetration_depth(I):
+    """Penetration depth R_1 + R_2 - |x_2 + shift - x_1| (m, negative across a gap) of
+    interaction I from the bodies' current positions, as ``Ig2_Sphere_Sphere_ScGeom``
+    computes it at the next step (same operations, same rounding). ScGeom's own
+    ``penetrationDepth`` is not saved by ``O.save``: NaN on a loaded scene until a step."""
+    from yade import O
+    return (O.bodies[I.id1].shape.radius + O.bodies[I.id2].shape.radius
+            - branch_vector(I).norm())
+
+
 def cohesive_interactions():
     """The real interactions of the current scene whose physics is cohesive (CohFrictPhys):
     the bonds of a YADE bonded-particle model."""
@@ -358,7 +374,10 @@ def assign(model, interactions=None):
     model, in place: kn, ks, kr, ktw from the interaction's own normal, radii, centre
     distance and periodic image (computed by the anisobond package; for a cross-anisotropic
     model with the lattice scaling mu of these interactions), and make the current state
-    stress-free the way YADE needs: ``unp = penetrationDepth``, forces and moments zero,
+    stress-free the way YADE needs: ``unp`` = the penetration depth of the current positions
+    (``penetration_depth``: right on a scene read by ``O.load``, whose stored
+    ``penetrationDepth`` is NaN until a step; a non-finite one raises ``BondMismatch``),
+    forces and moments zero,
     ``cohesionBroken = False``, never-breaking adhesion, the moment law on, and
     ``avoidGranularRatcheting = False`` on the scene's Ig2_Sphere_Sphere_ScGeom6D functors
     (otherwise YADE scales the shear spring by (R1+R2)/d). Engines are otherwise left as the
@@ -374,11 +393,21 @@ def assign(model, interactions=None):
             for f in e.geomDispatcher.functors:
                 if isinstance(f, Ig2_Sphere_Sphere_ScGeom6D):
                     f.avoidGranularRatcheting = False
+    # The penetration depth the next step's Ig2 computes from the current positions, not
+    # ScGeom's stored one: that is NaN on a scene read by O.load until a step is taken (it is
+    # not saved), and one step old on a scene that has moved since.
+    depths = [penetration_depth(I) for I in inters]
+    bad = [(I, d) for I, d in zip(inters, depths) if not math.isfinite(d)]
+    if bad:
+        raise BondMismatch("%d of %d bonds have a non-finite penetration depth (first: %d-%d, "
+                           "%r): non-finite positions or radii" % (len(bad), len(inters),
+                                                                   bad[0][0].id1, bad[0][0].id2,
+                                                                   bad[0][1]))
     _, table = scene_bonds(model, inters)
     for b, I in enumerate(inters):
-        ph, g = I.phys, I.geom
+        ph = I.phys
         ph.kn, ph.ks, ph.kr, ph.ktw = table.kn[b], table.ks[b], table.kr[b], table.ktw[b]
-        ph.unp = g.penetrationDepth
+        ph.unp = depths[b]
         ph.unpMax = -1.0
         ph.normalForce = Vector3.Zero
         ph.shearForce = Vector3.Zero
@@ -395,10 +424,96 @@ def assign(model, interactions=None):
     return table
 
 
+STRESS_FREE_TOLERANCE = 1e-9
+
+
+def initial_forces(interactions, table):
+    """The forces the bonds carry now, as YADE holds them (``phys.normalForce``,
+    ``phys.shearForce``): per bond the axial force N = -F_n . n (N, tension positive; n the
+    unit branch vector from id1 to id2, the direction of YADE's normal) and |F_s| (N); the largest of each with its bond, relative to
+    k_n R_mean of that bond (a strain: the relative size of the stress-measure terms the
+    relaxed tensor leaves out, docs/prestress.md); and the Love stress of the axial
+    preloads, sigma0 = (1/V) sum N l n (x) n (Pa, docs/prestress.md), with its mean.
+    ``stress_free`` when no bond exceeds ``STRESS_FREE_TOLERANCE`` relative."""
+    from yade import O
+    axial, shear, rel_n, rel_s = [], [], [], []
+    sigma = [[0.0] * 3 for _ in range(3)]
+    for b, I in enumerate(interactions):
+        ph = I.phys
+        n = (table.nx[b], table.ny[b], table.nz[b])
+        # YADE's normal force is along ScGeom's normal, from id1 to id2: the axial force
+        # (a scalar) from the branch vector of the same direction.
+        l = branch_vector(I)
+        fn = ph.normalForce
+        N = -sum(fn[k] * l[k] for k in range(3)) / l.norm()
+        fs = ph.shearForce.norm()
+        axial.append(N)
+        shear.append(fs)
+        scale = ph.kn * 0.5 * (O.bodies[table.i[b]].shape.radius
+                               + O.bodies[table.j[b]].shape.radius)
+        rel_n.append(abs(N) / scale if scale > 0 else (0.0 if N == 0 else float("inf")))
+        rel_s.append(fs / scale if scale > 0 else (0.0 if fs == 0 else float("inf")))
+        for a in range(3):
+            for c in range(3):
+                sigma[a][c] += N * table.length[b] * n[a] * n[c]
+    volume = O.cell.volume if O.periodic else None
+    if volume:
+        sigma = [[x / volume for x in row] for row in sigma]
+    else:
+        sigma = None
+    # The bond of the largest |value|, None when every value is zero.
+    worst = lambda v: max(range(len(v)), key=lambda b: abs(v[b])) if any(v) else None
+    bn, bs = worst(axial), worst(shear)
+    bond = lambda b: None if b is None else (table.i[b], table.j[b])
+    loaded = sum(1 for a, c in zip(rel_n, rel_s) if max(a, c) > STRESS_FREE_TOLERANCE)
+    return {
+        "stress_free": loaded == 0,
+        "n_loaded": loaded,
+        "n_bonds": len(axial),
+        "max_axial_force_N": abs(axial[bn]) if bn is not None else 0.0,
+        "max_axial_force_bond": bond(bn),
+        "max_axial_relative": max(rel_n) if rel_n else 0.0,
+        "max_shear_force_N": shear[bs] if bs is not None else 0.0,
+        "max_shear_force_bond": bond(bs),
+        "max_shear_relative": max(rel_s) if rel_s else 0.0,
+        "preload_stress_Pa": sigma,
+        "preload_mean_stress_Pa": None if sigma is None else (sigma[0][0] + sigma[1][1]
+                                                              + sigma[2][2]) / 3.0,
+        "accounted_by": "anisobond tensor --method prestressed (docs/prestress.md)",
+        "axial_force": axial,
+        "shear_force": shear,
+    }
+
+
+def prestress_message(f):
+    """The warning ``bond_table`` gives for bonds that are not stress-free."""
+    text = ("%d of %d bonds are not stress-free: largest |axial force| %.4g N (bond %s, "
+            "%.3g k_n R_mean), largest |shear force| %.4g N (bond %s, %.3g k_n R_mean). The "
+            "relaxed tensor of this bond table assumes stress-free bonds and leaves out the "
+            "preloads' stress-measure terms (of relative size ~%.2g); the `prestressed` tensor "
+            "method accounts for axial preloads (docs/prestress.md)"
+            % (f["n_loaded"], f["n_bonds"], f["max_axial_force_N"], f["max_axial_force_bond"],
+               f["max_axial_relative"], f["max_shear_force_N"], f["max_shear_force_bond"],
+               f["max_shear_relative"], max(f["max_axial_relative"], f["max_shear_relative"])))
+    if f["preload_mean_stress_Pa"] is not None:
+        text += (": the axial preloads' mean Love stress is %.6g Pa (tension positive), i.e. "
+                 "`anisobond tensor ... --method prestressed --prestress %.6g` for its isotropic "
+                 "part" % (f["preload_mean_stress_Pa"], -f["preload_mean_stress_Pa"]))
+    text += ("; shear preloads are not accounted for by any method. To measure the stress-free "
+             "network instead, make the bonds stress-free first (anisobond_yade.assign).")
+    return text
+
+
 def bond_table(path=None, interactions=None):
     """The current scene's cohesive interactions as an anisobond bond table with the springs
     YADE holds now (``BondTable``; written as CSV to ``path`` when given, atomically), so
-    that ``anisobond`` gives the exact relaxed tensor of the user's own bond network."""
+    that ``anisobond`` gives the exact relaxed tensor of the user's own bond network.
+
+    The relaxed tensor assumes stress-free bonds. The table also carries the forces the
+    bonds hold now (``axial_force``, ``shear_force`` per bond, and ``initial_forces``, see
+    ``initial_forces``); when they are not zero (YADE's own cohesive bonds start in tension
+    across a gap: ``unp`` = 0, not the penetration depth) a ``PrestressWarning`` says how
+    large they are and which method accounts for them."""
     from yade import O
     inters = cohesive_interactions() if interactions is None else list(interactions)
     cols = dict((c, []) for c in BOND_COLUMNS)
@@ -418,6 +533,12 @@ def bond_table(path=None, interactions=None):
         for k, c in enumerate(("ix", "iy", "iz")):
             cols[c].append(sign * int(I.cellDist[k]))
     table = BondTable(cols)
+    forces = initial_forces(inters, table)
+    table.axial_force = forces.pop("axial_force")
+    table.shear_force = forces.pop("shear_force")
+    table.initial_forces = forces
+    if not forces["stress_free"]:
+        warnings.warn(prestress_message(forces), PrestressWarning, stacklevel=2)
     if path is not None:
         lines = [",".join(BOND_COLUMNS)]
         for b in range(len(table)):
@@ -446,22 +567,44 @@ def tensor_of_paths(histories, paths):
     return columns, c
 
 
+_COPY_SCENE = []  # the scene number element_tests_in_place runs its copies in, reused
+
+
 def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 3, 4, 5)):
     """The six-path element tests on the current scene as the user built it (periodic cell,
-    their engines, time step and bonds): every path starts from the current state
-    (``O.saveTmp``/``O.loadTmp``), the strain in one step, then ``steps`` steps with Cundall
-    damping ``damping``. Returns an ``ElementResult`` as ``element_tests`` does."""
+    their engines, time step and bonds): every path starts from the current state, the
+    strain in one step, then ``steps`` steps with Cundall damping ``damping``. Returns an
+    ``ElementResult`` as ``element_tests`` does.
+
+    The paths run on copies (``O.saveTmp``, then ``O.loadTmp`` into a second scene,
+    ``O.addScene``/``O.switchToScene``); the user's scene is not stepped and its objects
+    stay the scene's: engine, functor, body and material handles the script holds still
+    reach it afterwards, and ``O.iter``, ``O.time``, positions and bond states are as
+    before. Engine labels are mapped back to the user's objects (``O.engines =
+    O.engines``). The copies run every engine of the scene (PyRunners included). Call it
+    while the scene is not running (not from an engine)."""
     from yade import O
     if not O.periodic:
         raise InputError("element tests deform the periodic cell: the scene is not periodic")
+    home = O.thisScene
     O.saveTmp("anisobond-in-place")
+    if not _COPY_SCENE or _COPY_SCENE[0] == home:
+        _COPY_SCENE[:] = [O.addScene()]
     histories = {}
-    for p in paths:
-        O.loadTmp("anisobond-in-place")
-        histories[p] = run_path(p, strain, steps, damping)
-    O.loadTmp("anisobond-in-place")
+    try:
+        O.switchToScene(_COPY_SCENE[0])
+        for p in paths:
+            O.loadTmp("anisobond-in-place")
+            histories[p] = run_path(p, strain, steps, damping)
+        dt = O.dt
+    finally:
+        if O.thisScene != home:
+            O.resetThisScene()
+            O.switchToScene(home)
+        # Loading the copies bound the labels to their objects: bind them to the user's.
+        O.engines = O.engines
     columns, c = tensor_of_paths(histories, paths)
-    return ElementResult(c=c, histories=histories, columns=columns, timings={}, dt=O.dt,
+    return ElementResult(c=c, histories=histories, columns=columns, timings={}, dt=dt,
                          strain=strain, steps=steps, damping=damping, density=None,
                          paths=list(paths), safety=None)
 

