@@ -265,7 +265,7 @@ impl Assembly {
             Method::MeanField => {
                 let scheme = self.model.build_scheme(Some((p, b)))?;
                 let pre = self.mean_field_prefactor();
-                let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+                let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
                 (c, Detail::None)
             }
             Method::Voigt => (voigt::voigt_tensor(b, k, p.volume()), Detail::None),
@@ -502,7 +502,7 @@ impl EqualSpheres {
         }
         let pre = self.prefactor(&model.geometry)?;
         let scheme = model.build_scheme(None)?;
-        let c = mean_field::mean_field(scheme.as_ref(), pre, mean_field::DEFAULT_ORDER);
+        let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
         let mut report = TensorReport::new("mean-field", c, None)?;
         report.coordination = Some(self.coordination);
         Ok(report)

@@ -24,7 +24,7 @@ use super::kernel::{Cubic3, CubicKernel};
 use super::target::CubicTarget;
 use super::warm::WarmRelaxed;
 use crate::bonds::{assign_stiffness, BondSet};
-use crate::homogenize::mean_field::{mean_field, DEFAULT_ORDER};
+use crate::homogenize::mean_field::mean_field_converged;
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::Packing;
@@ -804,7 +804,7 @@ pub fn calibrate_cubic_mean_field(
         normal * p.rho,
         Mat3::identity(),
     )?;
-    let achieved = mean_field(&scheme, prefactor, DEFAULT_ORDER);
+    let achieved = mean_field_converged(&scheme, prefactor)?;
     Ok(CubicCalibration {
         parameters,
         normal,
