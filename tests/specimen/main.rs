@@ -1,0 +1,7 @@
+//! The specimen solve (`anisobond::specimen`, `anisobond specimen`): a finite bonded
+//! specimen between platens, against closed forms, an energy identity and symmetry.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod closed_forms;
