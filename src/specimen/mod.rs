@@ -416,14 +416,41 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
             };
         }
     }
+    // Rotations in units of the mean radius (R̄·ω, m) so that translational (N/m) and
+    // rotational (N·m/rad) stiffnesses are of one size: the null directions of each diagonal
+    // block are then told from soft ones well above rounding (with ω in rad and spheres of
+    // 1 mm the two differ by R̄² = 1e-6, and rounding of the translational part polluted the
+    // rotational one).
+    let mean_radius = packing.radii.iter().sum::<f64>() / n as f64;
+    let dof_scale = |d: usize| if d < 3 { 1.0 } else { 1.0 / mean_radius };
+    let rows: Vec<Vec<(u32, Block6)>> = rows
+        .into_iter()
+        .map(|row| {
+            row.into_iter()
+                .map(|(c, mut b)| {
+                    for r in 0..6 {
+                        for q in 0..6 {
+                            b[(r, q)] *= dof_scale(r) * dof_scale(q);
+                        }
+                    }
+                    (c, b)
+                })
+                .collect()
+        })
+        .collect();
+    for r in rhs.iter_mut() {
+        for d in 0..6 {
+            r[(d, 0)] *= dof_scale(d);
+        }
+    }
     let kmod = BlockSparse::from_rows(rows);
     // Direct solve where the held specimen is definite; CG where it has zero-energy modes
     // the load does not excite (e.g. counter-rotating neighbours without bending springs).
     let (x, unknowns, solver) = match BlockCholesky::factor_definite(&kmod) {
         Ok(chol) => (chol.solve(&rhs)?, chol.unknowns(), SpecimenSolver::Cholesky),
         Err(_) => {
-            let (x, iterations, _) =
-                block_jacobi_cg(&kmod, &rhs, CG_TOLERANCE, 2 * m + 1000).map_err(|e| {
+            let (x, iterations, _) = block_jacobi_cg(&kmod, &rhs, CG_TOLERANCE, 2 * m + 1000)
+                .map_err(|e| {
                     e.in_context(
                         "specimen: the bonded specimen held by its platens has a mechanism that \
                          the load excites, or the solve did not converge",
@@ -432,6 +459,15 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
             (x, 6 * m, SpecimenSolver::Cg { iterations })
         }
     };
+    let x: Vec<Block6> = x
+        .into_iter()
+        .map(|mut b| {
+            for d in 0..6 {
+                b[(d, 0)] *= dof_scale(d);
+            }
+            b
+        })
+        .collect();
     // Prescribed DOFs take their values exactly; a DOF removed as a local mechanism is 0.
     let mut u = x.clone();
     for (a, ua) in u.iter_mut().enumerate() {
@@ -456,7 +492,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
         }
     }
     let relative_residual = (rr / ff).sqrt();
-    if !(relative_residual <= RESIDUAL_LIMIT) {
+    if relative_residual.is_nan() || relative_residual > RESIDUAL_LIMIT {
         return Err(Error::NotConverged(format!(
             "specimen: static solve residual {relative_residual:.3e} > {RESIDUAL_LIMIT:e}: the \
              bonded specimen is too ill-conditioned or has a mechanism"
@@ -476,7 +512,8 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     for &(a, d) in &supports {
         let f = ku[a][(d, 0)];
         let scale = if d >= 3 { length } else { 1.0 };
-        if !((f / scale).abs() <= SUPPORT_LIMIT * axial_force.abs()) {
+        let allowed = SUPPORT_LIMIT * axial_force.abs();
+        if (f / scale).is_nan() || (f / scale).abs() > allowed {
             return Err(Error::Degenerate(format!(
                 "specimen: the lateral support of a frictionless platen carries {f:.3e} (N or \
                  N·m) against an axial force {axial_force:.3e} N; the specimen is not held by \
@@ -583,7 +620,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
         report.platen_stiffness,
         report.axial_force,
     ];
-    if !finite.iter().all(|v| v.is_finite()) || !(report.platen_stiffness > 0.0) {
+    if !finite.iter().all(|v| v.is_finite()) || report.platen_stiffness <= 0.0 {
         return Err(Error::Degenerate(format!(
             "specimen: platen stiffness {:.3e} N/m, Young's modulus {:.3e} Pa: not a positive \
              finite response",

@@ -3,7 +3,6 @@
 //! strain energy summed bond by bond; a random specimen loaded along y equals the same
 //! specimen turned so that y becomes z.
 
-use crate::common::*;
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
 use anisobond::packing::Packing;
@@ -163,27 +162,4 @@ fn a_specimen_that_falls_apart_or_is_periodic_is_refused() {
     let asm = Assembly::new(periodic, Model::truszkowska_mrv()).unwrap();
     let e = solve(&asm, &SpecimenOptions::new(2, 1e-3)).unwrap_err();
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
-}
-
-#[test]
-fn zz_debug() {
-    let p = crate::common::bonded::generated(1200, 3);
-    let free = Packing::new(p.positions.clone(), p.radii.clone(), None).unwrap();
-    let mean_r = free.radii.iter().sum::<f64>() / free.len() as f64;
-    for text in [
-        "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"isotropic\"\nnormal = 1e13\nshear = 4e12\n",
-        "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"isotropic\"\nnormal = 1e13\nshear = 1e13\n",
-        "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"isotropic\"\nnormal = 1e13\nshear = 4e12\n[geometry]\nmoments = \"parallel-bond\"\n",
-        "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"cubic\"\nmodel = \"zener-above-1\"\na_n = 1.0\na_s = 1.0\nnormal = 1e13\nshear = 4e12\n",
-    ] {
-        let model = Model::from_toml_str(text, "<t>").unwrap();
-        let a = Assembly::new(free.clone(), model).unwrap();
-        println!("kn[0..3] {:?} ks {:?}", &a.springs.kn[0..3], &a.springs.ks[0..3]);
-        let mut o = SpecimenOptions::new(2, mean_r);
-        o.platens = Platens::Bonded;
-        match solve(&a, &o) {
-            Ok(r) => println!("{:?} k {:.6e}", r.solver, r.platen_stiffness),
-            Err(e) => println!("ERR {e}"),
-        }
-    }
 }
