@@ -50,6 +50,7 @@ pub mod plot;
 #[cfg(feature = "python")]
 pub mod python;
 pub mod schemes;
+pub mod specimen;
 pub mod tensor;
 #[cfg(feature = "engines")]
 pub mod validate;

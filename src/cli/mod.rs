@@ -17,6 +17,7 @@ mod output;
 mod pack;
 mod plot;
 pub mod run;
+mod specimen;
 mod stress_test;
 mod validate;
 mod validate_lammps;
@@ -83,6 +84,10 @@ enum Command {
     Cavity(cavity::CavityArgs),
     /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
     Domain(domain::DomainArgs),
+    /// A finite bonded specimen between two platens (bottom layer held, top layer moved along
+    /// --axis): its exact static response — platen stiffness (N/m), apparent E (Pa) and ν,
+    /// the displacement field (JSON, CSV, VTK).
+    Specimen(specimen::SpecimenArgs),
     /// Kumar 2016 Sec. 5: clamped round bars cut from packings of the three preparation
     /// routes at several l/r; the bonded network's linearised critical stress beside Euler
     /// (Eq. 14) and Mazzilli (Eq. 15), E from the bar's own axial modulus (CSV, JSON, PNG).
@@ -289,6 +294,7 @@ pub fn run() -> Result<()> {
         Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Domain(a) => domain::run(a),
+        Command::Specimen(a) => specimen::run(a),
         Command::Buckle(a) => buckle::run(a),
         Command::Cavity(a) => cavity::run(a),
         Command::Plot(c) => plot::run(c),

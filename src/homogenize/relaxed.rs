@@ -504,6 +504,29 @@ pub(crate) fn relaxed_solve_preloaded(
     })
 }
 
+/// X with K X = B by block-Jacobi preconditioned CG to the relative residual `tolerance` on
+/// every non-zero column: for a held structure whose K is only semi-definite (zero-energy
+/// modes such as counter-rotating "gear" particles, which a consistent load never excites),
+/// where the Cholesky factorisation meets a zero pivot.
+pub(crate) fn block_jacobi_cg(
+    k: &BlockSparse,
+    b: &[Block6],
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<Block6>, usize, f64)> {
+    let pre: Vec<(Block6, usize)> = (0..k.rows())
+        .into_par_iter()
+        .map(|p| pinv_psd(&k.diagonal(p)))
+        .collect();
+    let scale = column_dots(b, b).map(f64::sqrt);
+    let opts = RelaxedOptions {
+        tolerance,
+        max_iterations,
+        ..Default::default()
+    };
+    pcg(k, b, &pre, None, &scale, &opts, None)
+}
+
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
 /// scale before cancellation), and the column norms.
 fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {

@@ -1,0 +1,8 @@
+//! The specimen solve (`anisobond::specimen`, `anisobond specimen`): a finite bonded
+//! specimen between platens, against closed forms, an energy identity and symmetry.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cli;
+mod closed_forms;
