@@ -908,6 +908,55 @@ impl PyAssembly {
         json_to_py(py, &r.to_json())
     }
 
+    /// The assembly as a finite specimen between two platens (`anisobond specimen`,
+    /// docs/specimens.md): the dict of specimen.json (platen_stiffness N/m, young Pa, poisson,
+    /// …) plus "displacement" (N, 3) m and "layer" (N,) 0/1/2 (none, held, moved).
+    #[pyo3(signature = (axis = "z", *, end_layer = None, platens = "frictionless", strain = 1e-4))]
+    fn specimen<'py>(
+        &self,
+        py: Python<'py>,
+        axis: &str,
+        end_layer: Option<f64>,
+        platens: &str,
+        strain: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        use crate::specimen::{solve, Platens, SpecimenOptions};
+        let axis = match axis {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            other => {
+                return Err(InputError::new_err(format!(
+                    "axis {other:?}: expected \"x\", \"y\" or \"z\""
+                )))
+            }
+        };
+        let platens = match platens {
+            "frictionless" => Platens::Frictionless,
+            "bonded" => Platens::Bonded,
+            other => {
+                return Err(InputError::new_err(format!(
+                    "platens {other:?}: expected \"frictionless\" or \"bonded\""
+                )))
+            }
+        };
+        let src = &self.inner;
+        let mean_radius = src.packing.radii.iter().sum::<f64>() / src.packing.len() as f64;
+        let mut opts = SpecimenOptions::new(axis, end_layer.unwrap_or(mean_radius));
+        opts.platens = platens;
+        opts.strain = strain;
+        let r = py.detach(|| solve(src, &opts)).map_err(to_py)?;
+        let text = serde_json::to_string(&r)
+            .map_err(|e| InputError::new_err(format!("specimen report: {e}")))?;
+        let d = json_to_py(py, &text)?;
+        d.set_item("displacement", vec3_array(py, &r.displacement_field)?)?;
+        d.set_item(
+            "layer",
+            numpy::PyArray1::from_vec(py, r.layer.iter().map(|&l| l as i64).collect()),
+        )?;
+        Ok(d)
+    }
+
     /// Šmilauer's pressurised cavity (docs/cavity.md), as `anisobond cavity` without the
     /// wave run: a slab with a hole of radius `hole_radius` (m; default 10 R̄) cut from this
     /// periodic assembly, clamped beyond `outer_radius` (default 24 R̄), the wall under

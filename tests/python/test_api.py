@@ -400,3 +400,39 @@ def test_buckle_bar_lattice_column_is_euler_and_mazzilli():
     assert r["mode"].shape == (40, 3)
     linear = ab.buckle_bar(packing, model, 1.5 * rad, s, clamp_depth=1.5 * rad, deformed=False)
     assert linear["sigma_deformed_pa"] is None and linear["sigma_network_pa"] == lin
+
+
+SC_SPRINGS = """
+[bonding]
+rule = "gap"
+value = 0.01
+[scheme]
+kind = "isotropic"
+normal = 2e6
+shear = 7e5
+[geometry]
+convention = "spring"
+"""
+
+
+def test_specimen_equals_cli_and_the_simple_cubic_closed_form(tmp_path):
+    # A free 3 x 3 x 7 simple-cubic column of 1 mm spheres: platen stiffness 9 k_n / 6 and
+    # E = k_n / (2R) in closed form; the package's dict is the command's specimen.json.
+    grid = np.array([(i, j, k) for i in range(3) for j in range(3) for k in range(7)], float)
+    pk = ab.Packing(grid * 2e-3, np.full(len(grid), 1e-3))
+    pk.save(tmp_path / "column.txt")
+    (tmp_path / "springs.toml").write_text(SC_SPRINGS)
+    asm = ab.Assembly(pk, ab.Model.load(tmp_path / "springs.toml"))
+    r = asm.specimen("z", platens="bonded")
+    assert abs(r["platen_stiffness"] / (9 * 2e6 / 6) - 1) < 1e-10
+    assert abs(r["young"] / (2e6 / 2e-3) - 1) < 1e-10
+    assert r["displacement"].shape == (len(grid), 3)
+    assert set(r["layer"].tolist()) == {0, 1, 2}
+    out = tmp_path / "spec"
+    cli("specimen", tmp_path / "column.txt", "--model", tmp_path / "springs.toml", "--free",
+        "--platens", "bonded", "-o", out)
+    j = json.loads((out / "specimen.json").read_text())
+    for key in ("platen_stiffness", "young", "poisson", "axial_force", "length", "area"):
+        assert r[key] == j[key], key
+    with pytest.raises(ab.InputError, match="axis"):
+        asm.specimen("w")

@@ -152,6 +152,17 @@ class Assembly:
     def export_liggghts(self, directory: _Path, *, shear: bool = True) -> None: ...
     def export_vtk(self, directory: _Path, *, strain: Optional[_Floats] = None) -> None:
         """particles.vtu, bonds.vtu; strain: 6 Voigt components (|e| <= 0.1), periodic only."""
+    def specimen(
+        self,
+        axis: str = "z",
+        *,
+        end_layer: Optional[float] = None,
+        platens: str = "frictionless",
+        strain: float = 1e-4,
+    ) -> Dict[str, Any]:
+        """The assembly as a finite specimen between platens (docs/specimens.md): the keys
+        of specimen.json (platen_stiffness N/m, young Pa, poisson, …), "displacement" (N, 3)
+        m and "layer" (N,) 0 none / 1 held / 2 moved."""
     def cavity(
         self,
         hole_radius: Optional[float] = None,
