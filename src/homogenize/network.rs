@@ -120,6 +120,29 @@ pub struct BondLaw {
     pub ktw: f64,
 }
 
+impl BondLaw {
+    /// Bond `b` of a bonded packing: its normal, length, contact arms by `lever_arm` and
+    /// springs.
+    pub fn of(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        b: usize,
+        lever_arm: LeverArm,
+    ) -> BondLaw {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        BondLaw {
+            normal: bonds.normal[b],
+            length: bonds.length[b],
+            arms: lever_arm.arms(packing.radii[i], packing.radii[j], bonds.length[b]),
+            kn: k.kn[b],
+            ks: k.ks[b],
+            kr: k.kr[b],
+            ktw: k.ktw[b],
+        }
+    }
+}
+
 /// Element matrices of a bond; `rotations = false` locks the particle rotations.
 pub fn element(law: &BondLaw, rotations: bool) -> Element {
     let n = law.normal;
@@ -314,16 +337,7 @@ impl Network {
         let elements: Vec<Element> = bond
             .par_iter()
             .map(|&b| {
-                let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-                let law = BondLaw {
-                    normal: bonds.normal[b],
-                    length: bonds.length[b],
-                    arms: lever_arm.arms(packing.radii[i], packing.radii[j], bonds.length[b]),
-                    kn: k.kn[b],
-                    ks: k.ks[b],
-                    kr: k.kr[b],
-                    ktw: k.ktw[b],
-                };
+                let law = BondLaw::of(packing, bonds, k, b, lever_arm);
                 let mut e = element(&law, rotations);
                 if let Some(f) = axial_force.filter(|f| f[b] != 0.0) {
                     e += geometric_element(&law.normal, law.length, f[b]);

@@ -314,23 +314,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
         .collect();
     let elements: Vec<_> = loaded_bonds
         .iter()
-        .map(|&b| {
-            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-            element(
-                &BondLaw {
-                    normal: bonds.normal[b],
-                    length: bonds.length[b],
-                    arms: opts
-                        .lever_arm
-                        .arms(packing.radii[i], packing.radii[j], bonds.length[b]),
-                    kn: k.kn[b],
-                    ks: k.ks[b],
-                    kr: k.kr[b],
-                    ktw: k.ktw[b],
-                },
-                true,
-            )
-        })
+        .map(|&b| element(&BondLaw::of(packing, bonds, k, b, opts.lever_arm), true))
         .collect();
     let kfull = BlockSparse::assemble_blocks(m, &ends, |e| {
         let el = &elements[e];

@@ -10,13 +10,6 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-/// The folder holds exactly `names` (no staging file or folder left behind).
-fn holds_exactly(dir: &Path, names: &[&str]) {
-    let mut want: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-    want.sort();
-    assert_eq!(entries(dir), want, "contents of {}", dir.display());
-}
-
 /// File type of `path` without following links.
 fn file_type(path: &Path) -> std::fs::FileType {
     std::fs::symlink_metadata(path).unwrap().file_type()

@@ -6,13 +6,6 @@
 use crate::common::*;
 use std::path::Path;
 
-/// The folder holds exactly `names` (so no staging file or folder was left behind).
-fn holds_exactly(dir: &Path, names: &[&str]) {
-    let mut want: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-    want.sort();
-    assert_eq!(entries(dir), want, "contents of {}", dir.display());
-}
-
 /// `cmd(line, vars)` must fail without writing `out`; returns standard error.
 fn refused(line: &str, vars: &[(&str, &Path)], out: &Path) -> String {
     let err = fails(&mut cmd(line, vars));

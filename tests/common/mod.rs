@@ -91,6 +91,13 @@ pub fn succeeds(cmd: &mut Command) -> String {
     stdout(&out)
 }
 
+/// The folder holds exactly `names` (so no staging file or folder was left behind).
+pub fn holds_exactly(dir: &Path, names: &[&str]) {
+    let mut want: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+    want.sort();
+    assert_eq!(entries(dir), want, "contents of {}", dir.display());
+}
+
 /// Every entry of `dir` (names, sorted), hidden ones included.
 pub fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
