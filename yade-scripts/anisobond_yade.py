@@ -569,6 +569,41 @@ def tensor_of_paths(histories, paths):
 
 _COPY_SCENE = []  # the scene number element_tests_in_place runs its copies in, reused
 
+# Largest resultant bond force on a body that element_tests_in_place accepts, relative to the
+# force its strain step puts on a mean bond (k_n * strain * |l|): above it the tests would
+# measure the scene relaxing towards equilibrium, not its stiffness.
+UNBALANCE_TOLERANCE = 1e-2
+
+
+def unbalanced_bond_force(strain, interactions=None):
+    """The scene's imbalance as the element tests see it: the largest resultant of the bond
+    forces on a free body (N) and its ratio to k_n * strain * |l| averaged over the bonds.
+    Each bond's force is the one YADE's cohesive law applies at the next step with the
+    current positions (``Law2_ScGeom6D_CohFrictPhys_CohesionMoment``, total form:
+    F = k_n (depth - unp) n + F_s, minus on id1, plus on id2). Bodies with blocked degrees
+    of freedom (supports) are left out. Returns (force, ratio, body id)."""
+    from yade import O
+    bonds = cohesive_interactions() if interactions is None else interactions
+    resultant = {}
+    scale = 0.0
+    for I in bonds:
+        l = branch_vector(I)
+        length = l.norm()
+        n = l / length
+        f = n * (I.phys.kn * (penetration_depth(I) - I.phys.unp)) + I.phys.shearForce
+        resultant[I.id1] = resultant.get(I.id1, 0 * n) - f
+        resultant[I.id2] = resultant.get(I.id2, 0 * n) + f
+        scale += I.phys.kn * abs(strain) * length
+    if not bonds or scale == 0.0:
+        return 0.0, 0.0, None
+    scale /= len(bonds)
+    free = [(v.norm(), b) for b, v in resultant.items()
+            if O.bodies[b].dynamic and not O.bodies[b].state.blockedDOFs]
+    if not free:
+        return 0.0, 0.0, None
+    force, body = max(free)
+    return force, force / scale, body
+
 
 def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 3, 4, 5)):
     """The six-path element tests on the current scene as the user built it (periodic cell,
@@ -582,10 +617,22 @@ def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 
     reach it afterwards, and ``O.iter``, ``O.time``, positions and bond states are as
     before. Engine labels are mapped back to the user's objects (``O.engines =
     O.engines``). The copies run every engine of the scene (PyRunners included). Call it
-    while the scene is not running (not from an engine)."""
+    while the scene is not running (not from an engine). A scene out of static equilibrium
+    (``unbalanced_bond_force`` above ``UNBALANCE_TOLERANCE``: e.g. YADE's own cohesive bonds,
+    which start loaded) is refused with ``InputError``."""
     from yade import O
     if not O.periodic:
         raise InputError("element tests deform the periodic cell: the scene is not periodic")
+    force, ratio, body = unbalanced_bond_force(strain)
+    if ratio > UNBALANCE_TOLERANCE:
+        raise InputError(
+            "the scene is not in static equilibrium: the bond forces leave a resultant of "
+            "%.4g N on body %d, %.3g times the force the strain step of %g puts on a mean "
+            "bond (tolerance %g); the element tests would measure the scene relaxing, not its "
+            "stiffness. Make the bonds stress-free first (anisobond_yade.assign), or relax the "
+            "scene to equilibrium and call again (the relaxed, preloaded state is what "
+            "`anisobond tensor --method prestressed` describes)"
+            % (force, body, ratio, strain, UNBALANCE_TOLERANCE))
     home = O.thisScene
     O.saveTmp("anisobond-in-place")
     if not _COPY_SCENE or _COPY_SCENE[0] == home:

@@ -74,8 +74,10 @@ def test_element_tests_in_place_keep_the_users_objects(tmp_path):
     objects (settings changed through them are seen by the scene), the scene was not moved
     (iteration, time, positions, bond forces as before), and running the tests again gives
     the same tensor."""
-    yade_only()
-    d = run(tmp_path, "handles")
+    env = {"PYTHONPATH": yade_pythonpath()}
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    d = run(tmp_path, "handles", model, env=env)
     assert d["seen"] == {k: True for k in ("ig2_ratcheting", "ig2_factor", "newton", "body",
                                            "material", "material_of_body", "label")}
     assert d["unchanged"]
@@ -116,3 +118,22 @@ def test_bond_table_reports_the_forces_yades_cohesive_bonds_start_with(tmp_path)
                  "`prestressed` tensor method", "docs/prestress.md", "--prestress",
                  "anisobond_yade.assign"):
         assert said in message, (said, message)
+
+
+def test_element_tests_in_place_refuse_a_scene_out_of_equilibrium(tmp_path):
+    """YADE's own cohesive bonds start loaded (unp = 0 across gaps), so the scene is not in
+    static equilibrium: element tests from it would measure the scene relaxing (a 203-sphere
+    scene gave C11 = -136 GPa against a relaxed 0.50 GPa). element_tests_in_place refuses it,
+    naming the imbalance; after assign (stress-free bonds) the imbalance is zero and the tests
+    run, with a positive diagonal."""
+    env = {"PYTHONPATH": yade_pythonpath()}
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    d = run(tmp_path, "unbalanced", model, env=env)
+    print("imbalance / (k_n strain |l|): %.3g as YADE bonds them, %.3g after assign"
+          % (d["before"], d["after"]))
+    assert d["before"] > 1e-2, d["before"]
+    assert d["refused"] is not None and "not in static equilibrium" in d["refused"], d["refused"]
+    assert "anisobond_yade.assign" in d["refused"]
+    assert d["after"] < 1e-9, d["after"]
+    assert all(c > 0 for c in d["c_diagonal"]), d["c_diagonal"]

@@ -5,8 +5,11 @@ setCohesionNow), then what anisobond_yade does with them.
 Modes:
   fresh MODEL SCENE   build the scene, O.save it to SCENE, assign(MODEL), run the steps
   loaded MODEL SCENE  O.load(SCENE) in this new process, assign(MODEL), run the same steps
-  handles             element_tests_in_place, then settings changed through the script's
-                      own handles (functor, labelled engine, body, material)
+  handles MODEL       assign(MODEL) (stress-free bonds), element_tests_in_place, then
+                      settings changed through the script's own handles (functor,
+                      labelled engine, body, material)
+  unbalanced MODEL    element_tests_in_place on YADE's bonds as they start (loaded, out of
+                      equilibrium): refused; then after assign(MODEL): accepted
   prestress           bond_table of YADE's cohesive bonds as they start (in tension)
 """
 
@@ -100,6 +103,7 @@ if mode in ("fresh", "loaded"):
                         and all(finite(p) for p in result["positions"]))
 elif mode == "handles":
     yade_scene(seed=3, size=1.0e-2)
+    ay.assign(sys.argv[3])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ay.PrestressWarning)
         table = ay.bond_table()
@@ -166,6 +170,23 @@ elif mode == "prestress":
     result["sigma_mean_independent"] = sum(
         n * (O.bodies[I.id2].state.pos + O.cell.hSize * I.cellDist
              - O.bodies[I.id1].state.pos).norm() for n, I in zip(indep, bonds)) / (3.0 * v)
+elif mode == "unbalanced":
+    yade_scene(seed=3, size=1.0e-2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ay.PrestressWarning)
+        table = ay.bond_table()
+    O.dt = time_step(table)
+    result["before"] = ay.unbalanced_bond_force(1e-5)[1]
+    try:
+        ay.element_tests_in_place(strain=1e-5, steps=40, damping=0.4)
+        result["refused"] = None
+    except ay.InputError as e:
+        result["refused"] = str(e)
+    table = ay.assign(sys.argv[3])
+    O.dt = time_step(table)
+    result["after"] = ay.unbalanced_bond_force(1e-5)[1]
+    c = ay.element_tests_in_place(strain=1e-5, steps=40, damping=0.4).c
+    result["c_diagonal"] = [c[k][k] for k in range(6)]
 else:
     raise SystemExit("unknown mode %s" % mode)
 
