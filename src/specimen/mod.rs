@@ -99,7 +99,7 @@ pub struct SpecimenReport {
     pub unloaded_particles: usize,
     /// Bonds that take part.
     pub loaded_bonds: usize,
-    /// Particles of the held bottom layer and of the moved top layer.
+    /// Particles of the held bottom layer.
     pub bottom_layer: usize,
     /// Particles of the moved top layer.
     pub top_layer: usize,
@@ -620,7 +620,7 @@ fn axis_name(axis: usize) -> &'static str {
 }
 
 /// Least-squares coefficients of `y ≈ Σ c_k x_k` (normal equations, 4 unknowns); `None` when
-/// the fit is singular or has fewer rows than unknowns.
+/// the fit is singular or has fewer than 8 rows (twice the unknowns).
 fn least_squares(rows: &[([f64; 4], f64)]) -> Option<[f64; 4]> {
     if rows.len() < 8 {
         return None;
