@@ -42,6 +42,51 @@ pub enum Error {
     /// preparation, calibration.
     #[error("{0}")]
     NotConverged(String),
+    /// An external program anisobond runs (YADE, LIGGGHTS, LAMMPS, mpirun, make) could not be
+    /// started, exited with an error or wrote no usable result: the inputs may be fine, the
+    /// engine's installation or run is not.
+    #[error("{engine}: {message}")]
+    EngineFailed {
+        /// The program, as the user knows it (`YADE`, `LIGGGHTS`, `LAMMPS`).
+        engine: String,
+        /// What it did and said (exit status, its error lines).
+        message: String,
+    },
+    /// A validation ran to the end and some comparison lies outside its tolerance.
+    #[error("{message}")]
+    OutOfTolerance {
+        /// Checks outside their tolerance.
+        failed: usize,
+        /// Checks made.
+        checks: usize,
+        /// The failed checks, one a line.
+        message: String,
+    },
+}
+
+/// The documented exit status of the `anisobond` command for each kind of error (README
+/// "Errors and limits"); 2 is clap's malformed command line, 128 + n a signal.
+impl Error {
+    /// Exit status: 1 bad input (file, model, option), 3 file system, 4 degenerate result,
+    /// 5 not converged, 6 engine failed, 7 validation out of tolerance.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Error::Parse { .. } | Error::Model(_) | Error::Invalid(_) => 1,
+            Error::Io { .. } => 3,
+            Error::Degenerate(_) => 4,
+            Error::NotConverged(_) => 5,
+            Error::EngineFailed { .. } => 6,
+            Error::OutOfTolerance { .. } => 7,
+        }
+    }
+
+    /// An [`Error::EngineFailed`] of `engine`.
+    pub fn engine(engine: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::EngineFailed {
+            engine: engine.into(),
+            message: message.into(),
+        }
+    }
 }
 
 /// `"N: "` for a line number, `" "` for line 0 (the whole file), after `path:`.
@@ -98,6 +143,19 @@ impl Error {
             Error::Invalid(m) => Error::Invalid(text(m)),
             Error::Degenerate(m) => Error::Degenerate(text(m)),
             Error::NotConverged(m) => Error::NotConverged(text(m)),
+            Error::EngineFailed { engine, message } => Error::EngineFailed {
+                engine,
+                message: text(message),
+            },
+            Error::OutOfTolerance {
+                failed,
+                checks,
+                message,
+            } => Error::OutOfTolerance {
+                failed,
+                checks,
+                message: text(message),
+            },
         }
     }
 
@@ -109,6 +167,10 @@ impl Error {
             Error::Invalid(m) => Error::Invalid(format!("{context}: {m}")),
             Error::Degenerate(m) => Error::Degenerate(format!("{context}: {m}")),
             Error::NotConverged(m) => Error::NotConverged(format!("{context}: {m}")),
+            Error::EngineFailed { engine, message } => Error::EngineFailed {
+                engine,
+                message: format!("{context}: {message}"),
+            },
             other => other,
         }
     }

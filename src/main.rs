@@ -5,7 +5,8 @@ mod cli;
 fn main() {
     cli::interrupt::remove_staging_on_signals();
     if let Err(e) = cli::run() {
-        eprintln!("error: {}", e.with_user_paths());
-        std::process::exit(1);
+        let e = e.with_user_paths();
+        eprintln!("error: {e}");
+        std::process::exit(e.exit_code());
     }
 }

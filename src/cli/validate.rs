@@ -172,7 +172,11 @@ fn verdict<D>(
         println!("{passed}");
         Ok(())
     } else {
-        Err(Error::Invalid(failed(&failures)))
+        Err(Error::OutOfTolerance {
+            failed: failures.len(),
+            checks: report.checks.len(),
+            message: failed(&failures),
+        })
     }
 }
 

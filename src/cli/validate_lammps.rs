@@ -51,6 +51,7 @@ pub fn run(a: Args) -> Result<()> {
     opts.export.types = types;
     opts.two_processes = a.np == 2;
     opts.relaxed_tolerance = a.tolerance;
+    opts.check()?;
     println!(
         "validate lammps: {} particles, {} bonds, {} process(es)",
         asm.packing.len(),

@@ -677,10 +677,12 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
     for (k, v) in &launch.vars {
         args.extend(["-var".into(), k.clone(), v.clone()]);
     }
-    let out =
-        cmd.args(&args).current_dir(dir).output().map_err(|e| {
-            Error::Invalid(format!("cannot start {}: {e}", launch.program.display()))
-        })?;
+    let out = cmd.args(&args).current_dir(dir).output().map_err(|e| {
+        Error::engine(
+            "LIGGGHTS",
+            format!("cannot start {}: {e}", launch.program.display()),
+        )
+    })?;
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     let error_line = stdout
@@ -693,12 +695,15 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
             let tail: Vec<&str> = stderr.lines().rev().take(5).collect();
             tail.into_iter().rev().collect::<Vec<_>>().join(" | ")
         });
-        return Err(Error::Invalid(format!(
-            "{} -in {deck} failed in {} ({}): {msg}",
-            launch.program.display(),
-            dir.display(),
-            out.status
-        )));
+        return Err(Error::engine(
+            "LIGGGHTS",
+            format!(
+                "{} -in {deck} failed in {} ({}): {msg}",
+                launch.program.display(),
+                dir.display(),
+                out.status
+            ),
+        ));
     }
     Ok(stdout)
 }

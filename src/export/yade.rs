@@ -415,13 +415,16 @@ pub fn run_yade_script(script: &Path, args: &[String]) -> Result<YadeOutput> {
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     if !out.status.success() {
-        return Err(Error::Invalid(format!(
-            "yade -n -x {} failed ({}):\n{}\n{}",
-            script.display(),
-            out.status,
-            tail(&stdout, 40),
-            tail(&stderr, 40)
-        )));
+        return Err(Error::engine(
+            "YADE",
+            format!(
+                "yade -n -x {} failed ({}):\n{}\n{}",
+                script.display(),
+                out.status,
+                tail(&stdout, 40),
+                tail(&stderr, 40)
+            ),
+        ));
     }
     Ok(YadeOutput {
         stdout,

@@ -72,6 +72,19 @@ create_exception!(
     "A file could not be read or written (the message names it)."
 );
 
+create_exception!(
+    anisobond,
+    EngineError,
+    AnisobondError,
+    "An external program (YADE, LIGGGHTS, LAMMPS) could not be started, failed or wrote no usable result."
+);
+create_exception!(
+    anisobond,
+    ValidationError,
+    AnisobondError,
+    "A validation against another code ran, and some comparison lies outside its tolerance."
+);
+
 /// The package's exception for a library error, with the library's message.
 fn to_py(e: Error) -> PyErr {
     let e = e.with_user_paths();
@@ -82,6 +95,8 @@ fn to_py(e: Error) -> PyErr {
         Error::Parse { .. } | Error::Invalid(_) => InputError::new_err(message),
         Error::Degenerate(_) => DegenerateError::new_err(message),
         Error::NotConverged(_) => NotConvergedError::new_err(message),
+        Error::EngineFailed { .. } => EngineError::new_err(message),
+        Error::OutOfTolerance { .. } => ValidationError::new_err(message),
     }
 }
 
@@ -1352,6 +1367,8 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FileError", py.get_type::<FileError>())?;
     m.add("DegenerateError", py.get_type::<DegenerateError>())?;
     m.add("NotConvergedError", py.get_type::<NotConvergedError>())?;
+    m.add("EngineError", py.get_type::<EngineError>())?;
+    m.add("ValidationError", py.get_type::<ValidationError>())?;
     m.add_class::<PyModel>()?;
     m.add_class::<PyPacking>()?;
     m.add_class::<PyAssembly>()?;

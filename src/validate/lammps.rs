@@ -64,6 +64,23 @@ impl LammpsValidateOptions {
             history_tolerance: 1e-8,
         }
     }
+
+    /// Every tolerance must be a number in (0, 1): a tolerance of 0 (or a negative one) no
+    /// run can meet, one of 1 or more accepts anything.
+    pub fn check(&self) -> Result<()> {
+        for (name, t) in [
+            ("relaxed tolerance (--tolerance)", self.relaxed_tolerance),
+            ("processes tolerance", self.processes_tolerance),
+            ("history tolerance", self.history_tolerance),
+        ] {
+            if !(t > 0.0 && t < 1.0) {
+                return Err(Error::Invalid(format!(
+                    "validate lammps: the {name} must lie in (0, 1), got {t}"
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The LAMMPS part of a validation report.
@@ -220,7 +237,12 @@ fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {
         .env("LMP", lmp)
         .current_dir(dir)
         .output()
-        .map_err(|e| Error::Invalid(format!("cannot start sh {}/run.sh: {e}", dir.display())))?;
+        .map_err(|e| {
+            Error::engine(
+                "LAMMPS",
+                format!("cannot start sh {}/run.sh: {e}", dir.display()),
+            )
+        })?;
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     if !out.status.success() {
@@ -229,14 +251,18 @@ fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {
             .chain(stderr.lines())
             .filter(|l| l.contains("ERROR") || l.contains("run.sh:"))
             .collect();
-        let message = said.join(" | ");
-        return Err(if message.contains("did not converge") {
-            Error::Invalid(format!("LAMMPS on {np} process(es): {message}"))
+        let message = if said.is_empty() {
+            "it printed no error line".to_string()
         } else {
-            Error::Invalid(format!(
-                "LAMMPS on {np} process(es) failed ({}): {message}",
-                out.status
-            ))
+            said.join(" | ")
+        };
+        return Err(if message.contains("did not converge") {
+            Error::NotConverged(format!("LAMMPS on {np} process(es): {message}"))
+        } else {
+            Error::engine(
+                "LAMMPS",
+                format!("on {np} process(es) failed ({}): {message}", out.status),
+            )
         });
     }
     let path = dir.join("lammps-tensor.json");
@@ -439,6 +465,7 @@ pub fn validate_lammps(
     k: &BondStiffness,
     o: &LammpsValidateOptions,
 ) -> Result<Report<LammpsDetails>> {
+    o.check()?;
     let lmp = resolve_program(&o.lmp)?;
     let mut timings: Vec<Timing> = Vec::new();
     let export = timed(&mut timings, "export", || {

@@ -18,20 +18,24 @@ numpy arrays in Pa, Voigt order 11, 22, 33, 23, 13, 12, acting on engineering st
 Errors are exceptions of this package, subclasses of ``ValueError``: ``InputError`` (a file,
 array or option; the message names which and what was expected), ``ModelError`` (a model
 that is not admissible), ``DegenerateError`` (no bonds, a tensor that is zero or a
-mechanism), ``NotConvergedError`` (an iteration limit reached before the tolerance) and
-``FileError`` (a file that cannot be read or written).
+mechanism), ``NotConvergedError`` (an iteration limit reached before the tolerance),
+``FileError`` (a file that cannot be read or written), ``EngineError`` (YADE, LIGGGHTS or
+LAMMPS could not be started or failed) and ``ValidationError`` (a comparison with another
+code outside its tolerance).
 """
 
 from ._anisobond import (
     AnisobondError,
     Assembly,
     DegenerateError,
+    EngineError,
     FileError,
     InputError,
     Model,
     ModelError,
     NotConvergedError,
     Packing,
+    ValidationError,
     __version__,
     buckle_bar,
     calibrate_model as _calibrate_model,
@@ -42,12 +46,14 @@ __all__ = [
     "AnisobondError",
     "Assembly",
     "DegenerateError",
+    "EngineError",
     "FileError",
     "InputError",
     "Model",
     "ModelError",
     "NotConvergedError",
     "Packing",
+    "ValidationError",
     "__version__",
     "buckle_bar",
     "calibrate",
