@@ -45,6 +45,7 @@ pub fn read_packing(path: &Path) -> Result<Packing> {
 pub fn parse_packing(text: &str, source_name: &str) -> Result<Packing> {
     match detect_format(text) {
         PackingFormat::LiggghtsData => parse_liggghts_data(text, source_name, true),
+        PackingFormat::Dump => parse_dump(text, source_name),
         PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
             Ok(parse_sphere_text(text, source_name)?.0)
         }
@@ -191,6 +192,27 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
                 ))
             }
         },
+        PackingFormat::Dump => {
+            let p = parse_dump(text, source)?;
+            let agrees = match choice {
+                CellChoice::AsStated => true,
+                CellChoice::Periodic => p.cell.is_some(),
+                CellChoice::Free => p.cell.is_none(),
+                CellChoice::Cell(_) => false,
+            };
+            if !agrees {
+                return Err(refuse(format!(
+                    "the dump's BOX BOUNDS state {}; expected no --cell, --periodic or --free \
+                     that contradicts them",
+                    if p.cell.is_some() {
+                        "a periodic box (pp pp pp)"
+                    } else {
+                        "a non-periodic box"
+                    }
+                )));
+            }
+            (p, CellOrigin::Stated)
+        }
         PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
             let (p, stated) = parse_sphere_text(text, source)?;
             if stated {
@@ -255,6 +277,9 @@ pub enum PackingFormat {
     YadeSpherePack,
     /// LIGGGHTS / LAMMPS data file, `atom_style granular`.
     LiggghtsData,
+    /// LIGGGHTS / LAMMPS `dump custom` (or `dump atom`) snapshot: `ITEM: BOX BOUNDS` with the
+    /// boundary flags per axis, `ITEM: ATOMS` with named columns ([`parse_dump`]).
+    Dump,
 }
 
 /// The lines of `text` without a leading UTF-8 BOM, split at `\n`, `\r\n` or a lone `\r`
@@ -293,6 +318,9 @@ pub fn detect_format(text: &str) -> PackingFormat {
     let mut yade = false;
     for line in text_lines(text) {
         let t = line.trim();
+        if t.starts_with("ITEM:") {
+            return PackingFormat::Dump;
+        }
         if t.starts_with("##PERIODIC::") {
             yade = true;
         }
@@ -1143,6 +1171,278 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
     finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
         .with_ids(atoms.iter().map(|a| a.id).collect())
         .map_err(|e| Error::parse(source, 0, e.to_string()))
+}
+
+/// A dump's box: (lo, hi) per axis, the boundary flags per axis, the `ITEM: BOX BOUNDS` line.
+type DumpBox = ([(f64, f64); 3], [String; 3], usize);
+
+/// What a dump's `ITEM: ATOMS` line offers: the columns anisobond reads.
+struct DumpColumns {
+    id: Option<usize>,
+    /// Positions: (x, y, z) columns and whether they are scaled (xs ys zs).
+    position: ([usize; 3], bool),
+    /// Radius or diameter column, and the factor that makes it a radius.
+    radius: (usize, f64),
+    count: usize,
+}
+
+/// The columns of `ITEM: ATOMS <names>`: `id` (optional), positions `x y z`, `xu yu zu`
+/// (unwrapped) or `xs ys zs` (scaled by the box), and `radius` or `diameter`.
+fn dump_columns(words: &[&str], source: &str, line: usize) -> Result<DumpColumns> {
+    let find = |name: &str| words.iter().position(|w| *w == name);
+    let position = [
+        ("x", "y", "z", false),
+        ("xu", "yu", "zu", false),
+        ("xs", "ys", "zs", true),
+    ]
+    .iter()
+    .find_map(|&(a, b, c, scaled)| Some(([find(a)?, find(b)?, find(c)?], scaled)))
+    .ok_or_else(|| {
+        Error::parse(
+            source,
+            line,
+            format!(
+                "`ITEM: ATOMS {}` has no positions: expected columns x y z, xu yu zu or \
+                     xs ys zs",
+                words.join(" ")
+            ),
+        )
+    })?;
+    let radius = match (find("radius"), find("diameter")) {
+        (Some(r), _) => (r, 1.0),
+        (None, Some(d)) => (d, 0.5),
+        (None, None) => {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "`ITEM: ATOMS {}` has no radius: expected a `radius` or `diameter` column \
+                     (dump custom ... id type x y z radius)",
+                    words.join(" ")
+                ),
+            ))
+        }
+    };
+    Ok(DumpColumns {
+        id: find("id"),
+        position,
+        radius,
+        count: words.len(),
+    })
+}
+
+/// Parse a LIGGGHTS / LAMMPS dump snapshot (`dump custom` or `dump atom` style, text).
+///
+/// With several snapshots the last is read (the state the run ended in). `ITEM: BOX BOUNDS`
+/// gives the box; its boundary flags decide the cell: `pp pp pp` is a periodic cell (the
+/// box, positions taken relative to its lower corner), any non-periodic flag on every axis
+/// (`ff`, `fs`, `ss`, `fm`, …) a free cluster; mixed periodicity and triclinic boxes are
+/// refused by name. Columns are found by name (`ITEM: ATOMS id type x y z radius`): `id`
+/// (kept as the particles' ids, atoms sorted by it: dumps from several MPI ranks are not in
+/// order), `x y z` / `xu yu zu` / `xs ys zs`, `radius` or `diameter`.
+pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
+    let lines = text_lines(text);
+    // The last snapshot: from its last `ITEM: TIMESTEP` (or the start).
+    let start = lines
+        .iter()
+        .rposition(|l| l.trim() == "ITEM: TIMESTEP")
+        .unwrap_or(0);
+    let mut k = start;
+    let mut n_atoms: Option<(usize, usize)> = None;
+    let mut bounds: Option<DumpBox> = None;
+    let mut atoms: Vec<(u64, Vec3, f64, usize)> = Vec::new();
+    let mut columns: Option<(DumpColumns, usize)> = None;
+    while k < lines.len() {
+        let line = k + 1;
+        let t = lines[k].trim();
+        k += 1;
+        if t.is_empty() {
+            continue;
+        }
+        let Some(item) = t.strip_prefix("ITEM:") else {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("expected an `ITEM:` line of a dump, found `{t}`"),
+            ));
+        };
+        let words: Vec<&str> = item.split_whitespace().collect();
+        match words.as_slice() {
+            ["TIMESTEP"] => k += 1,
+            ["NUMBER", "OF", "ATOMS"] => {
+                let w = lines.get(k).map(|l| l.trim()).unwrap_or("");
+                n_atoms = Some((
+                    parse_count(w, "the number of atoms", source, line + 1)?,
+                    line + 1,
+                ));
+                k += 1;
+            }
+            ["BOX", "BOUNDS", flags @ ..] => {
+                if flags.len() != 3 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "`ITEM: BOX BOUNDS {}`: triclinic boxes are not supported; \
+                             expected three boundary flags (pp pp pp, ff ff ff, …)",
+                            flags.join(" ")
+                        ),
+                    ));
+                }
+                let mut b = [(0.0, 0.0); 3];
+                for (axis, slot) in b.iter_mut().enumerate() {
+                    let l = line + 1 + axis;
+                    let w: Vec<&str> = lines
+                        .get(k + axis)
+                        .map(|s| s.split_whitespace().collect())
+                        .unwrap_or_default();
+                    let name = ["x", "y", "z"][axis];
+                    if w.len() != 2 {
+                        return Err(Error::parse(
+                            source,
+                            l,
+                            format!("expected the box bounds `{name}lo {name}hi`"),
+                        ));
+                    }
+                    let lo = parse_number(w[0], &format!("{name}lo"), source, l)?;
+                    let hi = parse_number(w[1], &format!("{name}hi"), source, l)?;
+                    if !(hi > lo && (hi - lo).is_finite()) {
+                        return Err(Error::parse(
+                            source,
+                            l,
+                            format!("box bound {name}hi = {hi} must exceed {name}lo = {lo} by a finite length"),
+                        ));
+                    }
+                    *slot = (lo, hi);
+                }
+                k += 3;
+                bounds = Some((b, [0, 1, 2].map(|a| flags[a].to_string()), line));
+            }
+            ["ATOMS", names @ ..] => {
+                let c = dump_columns(names, source, line)?;
+                let (n, n_line) = n_atoms.ok_or_else(|| {
+                    Error::parse(source, line, "expected `ITEM: NUMBER OF ATOMS` before `ITEM: ATOMS`")
+                })?;
+                let box_lengths = bounds.as_ref().map(|(b, _, _)| b.map(|(lo, hi)| (lo, hi - lo)));
+                for r in 0..n {
+                    let l = k + r + 1;
+                    let w: Vec<&str> = lines
+                        .get(k + r)
+                        .map(|s| s.split_whitespace().collect())
+                        .unwrap_or_default();
+                    if w.len() != c.count {
+                        return Err(Error::parse(
+                            source,
+                            l,
+                            format!(
+                                "expected {} values (the columns of line {line}), found {}; \
+                                 line {n_line} declares {n} atoms",
+                                c.count,
+                                w.len()
+                            ),
+                        ));
+                    }
+                    let mut x = Vec3::zeros();
+                    for a in 0..3 {
+                        let v = parse_number(w[c.position.0[a]], ["x", "y", "z"][a], source, l)?;
+                        x[a] = match (c.position.1, box_lengths) {
+                            (true, Some(bl)) => bl[a].0 + v * bl[a].1,
+                            (true, None) => {
+                                return Err(Error::parse(
+                                    source,
+                                    l,
+                                    "scaled positions need `ITEM: BOX BOUNDS` first",
+                                ))
+                            }
+                            (false, _) => v,
+                        };
+                    }
+                    let size = parse_number(w[c.radius.0], "radius", source, l)?;
+                    let id = match c.id {
+                        Some(i) => {
+                            let id: u64 = parse_count(w[i], "an atom id", source, l)?;
+                            if id == 0 {
+                                return Err(Error::parse(source, l, "atom id 0: LAMMPS ids start at 1"));
+                            }
+                            id
+                        }
+                        None => r as u64 + 1,
+                    };
+                    atoms.push((id, x, size * c.radius.1, l));
+                }
+                k += n;
+                columns = Some((c, line));
+            }
+            _ => {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("expected ITEM: TIMESTEP, NUMBER OF ATOMS, BOX BOUNDS or ATOMS, found `ITEM:{item}`"),
+                ))
+            }
+        }
+    }
+    let Some((columns, _)) = columns else {
+        return Err(Error::parse(source, 0, "dump: no `ITEM: ATOMS` section"));
+    };
+    let Some((b, flags, box_line)) = bounds else {
+        return Err(Error::parse(source, 0, "dump: no `ITEM: BOX BOUNDS`"));
+    };
+    let periodic: Vec<bool> = flags.iter().map(|f| f == "pp").collect();
+    let cell = if periodic.iter().all(|&p| p) {
+        let lengths = Vec3::new(b[0].1 - b[0].0, b[1].1 - b[1].0, b[2].1 - b[2].0);
+        check_cell_volume(&lengths, source, box_line)?;
+        Some(CellSource {
+            lengths,
+            line: box_line,
+        })
+    } else if periodic.iter().any(|&p| p) {
+        return Err(Error::parse(
+            source,
+            box_line,
+            format!(
+                "boundary `{}`: mixed periodicity is not supported yet; expected pp pp pp (a \
+                 periodic cell) or non-periodic flags on every axis (a free cluster)",
+                flags.join(" ")
+            ),
+        ));
+    } else {
+        None
+    };
+    let origin = Vec3::new(b[0].0, b[1].0, b[2].0);
+    atoms.sort_by_key(|a| a.0);
+    for w in atoms.windows(2) {
+        if w[0].0 == w[1].0 {
+            return Err(Error::parse(
+                source,
+                w[1].3,
+                format!("atom id {} appears twice (also line {})", w[1].0, w[0].3),
+            ));
+        }
+    }
+    let mut spheres = Spheres::default();
+    for (_, x, r, l) in &atoms {
+        let p = if cell.is_some() { x - origin } else { *x };
+        spheres.push(
+            p,
+            *r,
+            if columns.radius.1 == 1.0 {
+                "radius"
+            } else {
+                "diameter / 2"
+            },
+            source,
+            *l,
+        )?;
+    }
+    let hint = "expected `ITEM: ATOMS id type x y z radius` rows";
+    let packing = finish(source, spheres, cell, hint)?;
+    match columns.id {
+        Some(_) => packing
+            .with_ids(atoms.iter().map(|a| a.0).collect())
+            .map_err(|e| Error::parse(source, 0, e.to_string())),
+        None => Ok(packing),
+    }
 }
 
 /// Shortest text that parses back to exactly `v`.

@@ -7,6 +7,7 @@ mod common;
 mod bench;
 mod data_files;
 mod driver;
+mod dumps;
 mod harmonic;
 mod in_place;
 mod validate;
