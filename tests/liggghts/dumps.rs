@@ -82,5 +82,19 @@ fn liggghts_dump_custom_reads_as_its_data_file() {
         c.arg(other);
         let err = fails(&mut c);
         assert!(err.contains("BOX BOUNDS"), "{err}");
+        // The real dump cut after every line: read (a whole first snapshot) or refused with
+        // a line number, never a panic; its boundary made mixed: refused by name.
+        let text = std::fs::read_to_string(&dump_path).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for cut in 0..lines.len() {
+            let part = lines[..cut].join("\n");
+            let _ = anisobond::packing::io::parse_packing(&part, "cut.dump");
+        }
+        if periodic {
+            let mixed = text.replace("ITEM: BOX BOUNDS pp pp pp", "ITEM: BOX BOUNDS pp pp ff");
+            assert_ne!(mixed, text, "the dump's boundary line");
+            let e = anisobond::packing::io::parse_packing(&mixed, "mixed.dump").unwrap_err();
+            assert!(e.to_string().contains("mixed periodicity"), "{e}");
+        }
     }
 }
