@@ -230,8 +230,23 @@ pub fn require_cell(packing: &Packing) -> Result<()> {
 /// Remove particles with fewer than two bonds, repeatedly. Returns the active flag of every
 /// bond and the number of active bonds of every particle.
 fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
-    let mut degree = bonds.degrees(n_particles);
-    let mut active = vec![true; bonds.len()];
+    prune_dangling(n_particles, bonds, vec![true; bonds.len()], |_| false)
+}
+
+/// [`prune`] starting from the bonds flagged in `active`, never removing a particle for
+/// which `held(p)` is true (a specimen's platen layers: a held particle with one bond
+/// carries load). Returns the active flags and every particle's number of active bonds.
+pub(crate) fn prune_dangling(
+    n_particles: usize,
+    bonds: &BondSet,
+    mut active: Vec<bool>,
+    held: impl Fn(usize) -> bool,
+) -> (Vec<bool>, Vec<u32>) {
+    let mut degree = vec![0u32; n_particles];
+    for b in (0..bonds.len()).filter(|&b| active[b]) {
+        degree[bonds.i[b] as usize] += 1;
+        degree[bonds.j[b] as usize] += 1;
+    }
     // Adjacency: bonds of each particle.
     let ends = bonds.i.iter().zip(&bonds.j);
     let (start, adj) = csr(
@@ -239,7 +254,9 @@ fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
         ends.map(|(&i, &j)| (i as usize, j as usize)),
         |b, _| b,
     );
-    let mut stack: Vec<usize> = (0..n_particles).filter(|&p| degree[p] == 1).collect();
+    let mut stack: Vec<usize> = (0..n_particles)
+        .filter(|&p| degree[p] == 1 && !held(p))
+        .collect();
     while let Some(p) = stack.pop() {
         if degree[p] != 1 {
             continue;
@@ -251,7 +268,7 @@ fn prune(n_particles: usize, bonds: &BondSet) -> (Vec<bool>, Vec<u32>) {
                 degree[i] -= 1;
                 degree[j] -= 1;
                 let other = if i == p { j } else { i };
-                if degree[other] == 1 {
+                if degree[other] == 1 && !held(other) {
                     stack.push(other);
                 }
             }

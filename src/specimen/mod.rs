@@ -17,7 +17,7 @@
 
 use crate::assembly::Assembly;
 use crate::homogenize::cholesky::BlockCholesky;
-use crate::homogenize::network::{element, Block6, BondLaw, LeverArm};
+use crate::homogenize::network::{element, prune_dangling, Block6, BondLaw, LeverArm};
 use crate::homogenize::relaxed::{block_jacobi_cg, BlockSparse};
 use crate::{Error, Result, Vec3};
 use serde::Serialize;
@@ -255,37 +255,14 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     // Dangling chains (particles off the layers left with one bond, repeatedly) carry no
     // load and would swing freely: prune them, as the periodic network does.
     let in_loaded_component = |p: usize| touches[roots[p] as usize] == 3;
-    let mut active: Vec<bool> = (0..bonds.len())
-        .map(|b| in_loaded_component(bonds.i[b] as usize))
-        .collect();
-    let mut degree = vec![0u32; n];
-    let mut adjacency: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for b in (0..bonds.len()).filter(|&b| active[b]) {
-        for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
-            degree[p] += 1;
-            adjacency[p].push(b);
-        }
-    }
-    let mut stack: Vec<usize> = (0..n)
-        .filter(|&p| layer[p] == 0 && degree[p] == 1)
-        .collect();
-    while let Some(p) = stack.pop() {
-        if degree[p] != 1 {
-            continue;
-        }
-        for &b in &adjacency[p] {
-            if active[b] {
-                active[b] = false;
-                let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-                degree[i] -= 1;
-                degree[j] -= 1;
-                let other = if i == p { j } else { i };
-                if layer[other] == 0 && degree[other] == 1 {
-                    stack.push(other);
-                }
-            }
-        }
-    }
+    let (active, degree) = prune_dangling(
+        n,
+        bonds,
+        (0..bonds.len())
+            .map(|b| in_loaded_component(bonds.i[b] as usize))
+            .collect(),
+        |p| layer[p] != 0,
+    );
     let loaded: Vec<bool> = (0..n)
         .map(|p| in_loaded_component(p) && degree[p] > 0)
         .collect();
