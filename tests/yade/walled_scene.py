@@ -17,7 +17,7 @@ import warnings
 
 sys.path.insert(0, os.environ.get("ANISOBOND_YADE_SCRIPTS", os.path.dirname(os.path.abspath(sys.argv[0]))))
 import anisobond_yade as ay  # noqa: E402
-from yade import O, pack, utils  # noqa: E402
+from yade import O, export, pack, utils  # noqa: E402
 from yade.minieigenHP import Vector3  # noqa: E402
 from yade.wrapper import (Bo1_Box_Aabb, Bo1_Facet_Aabb, Bo1_Sphere_Aabb,  # noqa: E402
                           Bo1_Wall_Aabb, CohFrictMat, CohFrictPhys, ForceResetter,
@@ -139,6 +139,7 @@ def tables(periodic=False):
         warnings.simplefilter("always")
         table = ay.bond_table("bonds.csv")
     written = ay.write_packing("packing.txt")
+    export.text("text6.txt")  # YADE's own writer of the same spheres: 6 significant digits
     return {
         "ids": [b.id for b in spheres],
         "x_bits": [[bits(b.state.pos[k]) for k in range(3)] for b in spheres],
