@@ -137,3 +137,29 @@ def test_element_tests_in_place_refuse_a_scene_out_of_equilibrium(tmp_path):
     assert "anisobond_yade.assign" in d["refused"]
     assert d["after"] < 1e-9, d["after"]
     assert all(c > 0 for c in d["c_diagonal"]), d["c_diagonal"]
+
+
+def test_assign_on_a_walled_non_periodic_scene_bonds_only_spheres(tmp_path):
+    """A non-periodic YADE scene with walls, a box floor and a facet lid, bonded by YADE's own
+    functors (tests/yade/walled_scene.py; before, assign raised AttributeError on
+    O.cell.hSize, and 'Wall' object has no attribute 'radius'): assign gives every cohesive
+    sphere-sphere interaction the model's springs (the package's Model.springs of each
+    bond's own normal, radii and length, called in the script), makes it stress-free, and
+    leaves YADE's cohesive contacts with the box and facets as they were, counting them."""
+    env = dict(os.environ, PYTHONPATH=yade_pythonpath(),
+               ANISOBOND_YADE_SCRIPTS=str(HERE.parent.parent / "yade-scripts"))
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    out = tmp_path / "assign.json"
+    r = subprocess.run(["yade", "-n", "-x", str(HERE.parent / "yade" / "walled_scene.py"),
+                        "assign", str(model), str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=900, env=env)
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    d = json.loads(out.read_text())
+    print("walled prism: %d bonds assigned, %d cohesive box/facet contacts left as they were; "
+          "springs vs Model.springs %.2e" % (d["n_bonds"], d["n_other"], d["spring_difference"]))
+    assert d["n_bonds"] > 100 and d["table_bonds"] == d["n_bonds"]
+    assert d["n_other"] > 0 and d["table_skipped"] == d["n_other"]
+    assert d["spring_difference"] <= 1e-12
+    assert d["unp_minus_depth"] == 0.0
+    assert d["others_unchanged"] and all(k > 0 for k in d["others_kn"])
