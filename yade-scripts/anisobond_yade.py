@@ -99,6 +99,12 @@ class BondMismatch(RuntimeError):
     """A bond's branch vector in YADE differs from the table's length*n."""
 
 
+class RotationWarning(UserWarning):
+    """Bonds whose spheres have rotated since YADE made their geometry: the total-form moment
+    law measures rotations from those orientations, so the moments come back at the next step
+    whatever ``assign`` set."""
+
+
 class PrestressWarning(UserWarning):
     """The bonds of a scene carry forces: its relaxed tensor (stress-free bonds) is not what
     YADE's element tests from that state measure (docs/prestress.md)."""
@@ -522,6 +528,14 @@ def assign(model, interactions=None):
     user set them. Only sphere-sphere interactions are bonds: cohesive contacts with walls,
     boxes or facets keep their physics (counted in ``table.skipped_interactions``); a scene
     with clumps is refused (``ClumpError``). Works with or without a periodic cell.
+
+    Rotations: YADE's total-form moment law measures each bond's rotation from the
+    orientations its geometry was made with (``ScGeom6D.initialOrientation1/2``, read-only
+    from Python), which assign cannot reset: where spheres have rotated since and the bond
+    has k_r or k_tw, the moments come back at the next step. assign then warns
+    (``RotationWarning``, with the largest angles and moments; ``table.rotations`` holds
+    (bending, twist) per bond, ``bond_rotations``) unless the scene's law uses
+    ``useIncrementalForm=True``, whose moments start from the zero set here.
     Returns the bond table (see ``scene_bonds``) of what was assigned."""
     from yade import O
     from yade.minieigenHP import Vector3
@@ -548,6 +562,7 @@ def assign(model, interactions=None):
                                                                    bad[0][1]))
     _, table = scene_bonds(model, inters)
     table.skipped_interactions = n_skipped
+    table.rotations = bond_rotations(inters)
     for b, I in enumerate(inters):
         ph = I.phys
         ph.kn, ph.ks, ph.kr, ph.ktw = table.kn[b], table.ks[b], table.kr[b], table.ktw[b]
@@ -565,7 +580,59 @@ def assign(model, interactions=None):
         ph.maxRollPl = -1.0
         ph.maxTwistPl = -1.0
         ph.momentRotationLaw = True
+    incremental = any(getattr(f, "useIncrementalForm", False)
+                      for e in O.engines if isinstance(e, InteractionLoop)
+                      for f in e.lawDispatcher.functors)
+    message = None if incremental else rotation_message(table.rotations, table)
+    if message is not None:
+        warnings.warn(message, RotationWarning, stacklevel=2)
     return table
+
+
+def bond_rotations(interactions):
+    """Per bond (bending, twist) angles (rad) of the relative rotation that YADE's total-form
+    moment law (``Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=False)``)
+    measures at the next step: ScGeom6D's delta = (q1 q01^-1)(q02 q2^-1) between the bodies'
+    orientations and the geometry's ``initialOrientation1/2`` (set when YADE made the
+    geometry, read-only from Python), its angle split along the current normal (as
+    ``ScGeom6D.bending``/``twist``, without twist creep). Zero for bonds whose spheres have
+    not rotated since."""
+    from yade import O
+    out = []
+    for I in interactions:
+        g = I.geom
+        delta = ((O.bodies[I.id1].state.ori * g.initialOrientation1.conjugate())
+                 * (g.initialOrientation2 * O.bodies[I.id2].state.ori.conjugate()))
+        angle, axis = delta.toAngleAxis()
+        if angle > math.pi:
+            angle -= 2.0 * math.pi
+        n = branch_vector(I).normalized()
+        twist = angle * axis.dot(n)
+        out.append(((axis * angle - n * twist).norm(), abs(twist)))
+    return out
+
+
+def rotation_message(rotations, table):
+    """The ``RotationWarning`` of ``assign``, or None when no bond with a rotational spring
+    has rotated by more than ``STRESS_FREE_TOLERANCE`` rad."""
+    rows = [(b, bend, tw) for b, (bend, tw) in enumerate(rotations)
+            if (table.kr[b] > 0 and bend > STRESS_FREE_TOLERANCE)
+            or (table.ktw[b] > 0 and tw > STRESS_FREE_TOLERANCE)]
+    if not rows:
+        return None
+    bb = max(rows, key=lambda r: r[1])[0]
+    bt = max(rows, key=lambda r: r[2])[0]
+    pair = lambda b: (table.id_i[b], table.id_j[b])
+    return ("%d of %d bonds have spheres that rotated since YADE made their geometry "
+            "(ScGeom6D.initialOrientation1/2, read-only from Python): YADE's total-form moment "
+            "law will apply k_r theta and k_tw theta from the next step, whatever assign set. "
+            "Largest bending %.4g rad (bond %s: %.4g N m), largest twist %.4g rad (bond %s: "
+            "%.4g N m). To start the moments from zero, use "
+            "Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True) (moments then "
+            "accumulate from the zero assign sets), or bond the scene before the spheres rotate"
+            % (len(rows), len(rotations), rotations[bb][0], pair(bb),
+               table.kr[bb] * rotations[bb][0], rotations[bt][1], pair(bt),
+               table.ktw[bt] * rotations[bt][1]))
 
 
 STRESS_FREE_TOLERANCE = 1e-9

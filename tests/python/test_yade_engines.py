@@ -163,3 +163,40 @@ def test_assign_on_a_walled_non_periodic_scene_bonds_only_spheres(tmp_path):
     assert d["spring_difference"] <= 1e-12
     assert d["unp_minus_depth"] == 0.0
     assert d["others_unchanged"] and all(k > 0 for k in d["others_kn"])
+
+
+def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path):
+    """YADE's total-form moment law measures rotations from the orientations ScGeom6D kept
+    when YADE made the contact (initialOrientation1/2, read-only from Python): assign cannot
+    reset them, so on a scene that has moved the moments come back at the next step. On the
+    walled prism after YADE's own 5 steps, with every tenth sphere turned by 1-4 mrad: the
+    rotations assign predicts are YADE's own ScGeom6D bending and twist after one step (to
+    1e-15 rad), YADE then applies k_r * bending, and assign warned (RotationWarning) with the
+    largest angle; with useIncrementalForm=True (moments from the zero assign sets) it does
+    not warn."""
+    env = dict(os.environ, PYTHONPATH=yade_pythonpath(),
+               ANISOBOND_YADE_SCRIPTS=str(HERE.parent.parent / "yade-scripts"))
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    out = tmp_path / "rotated.json"
+    r = subprocess.run(["yade", "-n", "-x", str(HERE.parent / "yade" / "walled_scene.py"),
+                        "rotated", str(model), str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=900, env=env)
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    d = json.loads(out.read_text())
+    predicted, yade = np.array(d["predicted"]), np.array(d["yade"])
+    kr = np.array(d["kr"])
+    print("%d bonds: rotations since YADE made them, median %.3g rad, largest %.3g rad; "
+          "assign's prediction vs YADE's ScGeom6D %.2e rad"
+          % (len(kr), np.median(predicted[:, 0]), predicted[:, 0].max(),
+             np.abs(predicted - yade).max()))
+    assert np.all(kr > 0)
+    assert np.abs(predicted - yade).max() <= 1e-15
+    assert predicted[:, 0].max() > 1e-3  # the turned spheres
+    # The moments came back: YADE applies k_r * bending although assign zeroed them.
+    np.testing.assert_allclose(d["moment_bending"], kr * yade[:, 0], rtol=1e-12, atol=0)
+    assert len(d["warnings"]) == 1 and d["warnings"][0][0] == "RotationWarning"
+    message = d["warnings"][0][1]
+    assert "Largest bending %.4g rad" % predicted[:, 0].max() in message, message
+    assert "useIncrementalForm=True" in message
+    assert d["incremental_warnings"] == []

@@ -6,6 +6,8 @@
 #
 #   yade -n -x walled_scene.py tables OUT.json        bond_table + write_packing, what YADE holds
 #   yade -n -x walled_scene.py assign MODEL OUT.json  anisobond_yade.assign (needs the package)
+#   yade -n -x walled_scene.py rotated MODEL OUT.json some spheres turned after YADE bonded
+#                                                     them, then assign (needs the package)
 #   yade -n -x walled_scene.py clump OUT.json         a scene with clumps: every entry refuses it
 #   yade -n -x walled_scene.py periodic OUT.json      tables of a periodic scene, some spheres
 #                                                     placed outside the cell
@@ -18,7 +20,7 @@ import warnings
 sys.path.insert(0, os.environ.get("ANISOBOND_YADE_SCRIPTS", os.path.dirname(os.path.abspath(sys.argv[0]))))
 import anisobond_yade as ay  # noqa: E402
 from yade import O, export, pack, utils  # noqa: E402
-from yade.minieigenHP import Vector3  # noqa: E402
+from yade.minieigenHP import Quaternion, Vector3  # noqa: E402
 from yade.wrapper import (Bo1_Box_Aabb, Bo1_Facet_Aabb, Bo1_Sphere_Aabb,  # noqa: E402
                           Bo1_Wall_Aabb, CohFrictMat, CohFrictPhys, ForceResetter,
                           Ig2_Box_Sphere_ScGeom6D, Ig2_Facet_Sphere_ScGeom6D,
@@ -195,6 +197,40 @@ def assign(model):
     }
 
 
+def rotated(model):
+    walled_scene()
+    spheres = [b for b in O.bodies if isinstance(b.shape, Sphere)]
+    # Turn every tenth sphere by a known small angle, as if the scene had moved since YADE
+    # made the contacts (ScGeom6D keeps the orientations of that moment).
+    for k, b in enumerate(spheres[::10]):
+        axis = Vector3(1.0, 2.0, 3.0 - k % 3).normalized()
+        b.state.ori = Quaternion(axis, 1e-3 * (1 + k % 4)) * b.state.ori
+    bonds = ay.cohesive_interactions()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = ay.assign(model, interactions=bonds)
+    predicted = table.rotations
+    O.dt = 0.0
+    O.step()  # nothing moves; YADE's Ig2 and law measure the rotations and set the moments
+    law = [f for f in O.engines[2].lawDispatcher.functors
+           if isinstance(f, Law2_ScGeom6D_CohFrictPhys_CohesionMoment)][0]
+    result = {
+        "predicted": [list(r) for r in predicted],
+        "yade": [[I.geom.bending.norm(), abs(I.geom.twist)] for I in bonds],
+        "moment_bending": [I.phys.moment_bending.norm() for I in bonds],
+        "moment_twist": [I.phys.moment_twist.norm() for I in bonds],
+        "kr": [I.phys.kr for I in bonds], "ktw": [I.phys.ktw for I in bonds],
+        "warnings": [[w.category.__name__, str(w.message)] for w in caught],
+    }
+    # With the incremental moment law the moments start from the zero assign sets: no warning.
+    law.useIncrementalForm = True
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ay.assign(model, interactions=bonds)
+    result["incremental_warnings"] = [w.category.__name__ for w in caught]
+    return result
+
+
 def clump():
     mat = O.materials.append(CohFrictMat(isCohesive=True))
     O.bodies.append(utils.wall(0, axis=2, material=O.materials.append(FrictMat())))
@@ -227,6 +263,8 @@ elif mode == "periodic":
     result = tables(periodic=True)
 elif mode == "assign":
     result = assign(sys.argv[2])
+elif mode == "rotated":
+    result = rotated(sys.argv[2])
 elif mode == "clump":
     result = clump()
 else:
