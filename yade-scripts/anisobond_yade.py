@@ -20,6 +20,13 @@ import yade; YADE does not set ``__file__`` for ``-x`` scripts, use ``sys.argv[0
     ab.write_history_csv("yade-history.csv", result)
     ab.write_tensor_json("yade-tensor.json", result, packing, bonds)
 
+In place on the user's own scene (periodic or not; walls, boxes and facets skipped, clumps
+refused), with the anisobond package importable for ``assign``::
+
+    table = ab.assign("model.toml")     # the model's springs on YADE's sphere-sphere bonds
+    ab.bond_table("bonds.csv")          # the bonds, full precision, i/j = sphere index
+    ab.write_packing("packing.txt")     # the spheres, full precision, body ids, cell or free
+
 or the command line (what the exported ``run.py`` calls)::
 
     yade -n -x anisobond_yade.py --packing packing.txt --bonds bonds.csv --out DIR \
