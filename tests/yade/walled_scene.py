@@ -17,7 +17,9 @@ import struct
 import sys
 import warnings
 
-sys.path.insert(0, os.environ.get("ANISOBOND_YADE_SCRIPTS", os.path.dirname(os.path.abspath(sys.argv[0]))))
+# The module: beside this script (the Rust test copies it there) or $ANISOBOND_YADE_SCRIPTS.
+sys.path.insert(0, os.environ.get("ANISOBOND_YADE_SCRIPTS",
+                                  os.path.dirname(os.path.abspath(sys.argv[0]))))
 import anisobond_yade as ay  # noqa: E402
 from yade import O, export, pack, utils  # noqa: E402
 from yade.minieigenHP import Quaternion, Vector3  # noqa: E402
