@@ -244,6 +244,11 @@ fn periodic_scene_with_spheres_outside_the_cell() {
         );
     }
     assert!(packing.given_positions.is_some(), "positions kept as given");
+    // anisobond_yade.read_packing (what build_scene reads) takes the same file back.
+    let back = &info["read_back"];
+    assert_eq!(back["ids"], info["ids"]);
+    assert_eq!(back["r_bits"], info["r_bits"]);
+    assert_eq!(back["cell_bits"], info["cell_bits"]);
     let n = check_tables(d, &info, "relaxed", &[]);
     eprintln!(
         "periodic scene: {} spheres ({} outside the cell), {n} bonds",

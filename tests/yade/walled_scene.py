@@ -160,6 +160,10 @@ def tables(periodic=False):
         "warnings": [w.category.__name__ for w in caught],
         "periodic": bool(O.periodic),
         "cell_bits": [bits(x) for x in cell] if periodic else None,
+        # The module's own reader (what build_scene takes) reads write_packing's file back.
+        "read_back": (lambda p: {"ids": p.ids, "r_bits": [bits(r) for r in p.radii],
+                                 "cell_bits": [bits(x) for x in p.cell]})(
+            ay.read_packing("packing.txt")) if periodic else None,
         "outside": sum(1 for b in spheres if any(not 0 <= b.state.pos[k] < cell[k]
                                                      for k in range(3))) if periodic else 0,
         "non_sphere_contacts": sum(1 for I in O.interactions if I.isReal and not (
