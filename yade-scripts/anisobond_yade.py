@@ -520,7 +520,27 @@ def _bonds_of(interactions):
     return pairs, len(others)
 
 
-def assign(model, interactions=None):
+def renew_interactions(interactions):
+    """Make each interaction anew, so that YADE's ScGeom6D takes the bodies' current
+    orientations as its reference (``initialOrientation1/2``, read-only from Python): erase
+    it and ``utils.createInteraction`` the same pair, with the same periodic image
+    (``cellDist``; createInteraction may pick another, see the module's traps). Its geometry
+    is recomputed at the next step. Returns the new interactions in the same order; the old
+    objects (and any handle to them) are dead."""
+    from yade import O, utils
+    renewed = []
+    for I in interactions:
+        id1, id2 = I.id1, I.id2
+        image = I.cellDist if O.periodic else None
+        O.interactions.erase(id1, id2)
+        J = utils.createInteraction(id1, id2)
+        if image is not None:
+            J.cellDist = image if J.id1 == id1 else -image
+        renewed.append(J)
+    return renewed
+
+
+def assign(model, interactions=None, renew=False):
     """Give every cohesive interaction of the current YADE scene the springs of an anisobond
     model, in place: kn, ks, kr, ktw from the interaction's own normal, radii, centre
     distance and periodic image (computed by the anisobond package; for a cross-anisotropic
@@ -542,7 +562,10 @@ def assign(model, interactions=None):
     has k_r or k_tw, the moments come back at the next step. assign then warns
     (``RotationWarning``, with the largest angles and moments; ``table.rotations`` holds
     (bending, twist) per bond, ``bond_rotations``) unless the scene's law uses
-    ``useIncrementalForm=True``, whose moments start from the zero set here.
+    ``useIncrementalForm=True``, whose moments start from the zero set here. With
+    ``renew=True`` every bond is first made anew (``renew_interactions``: the current
+    orientations become the reference, so the moments start from zero in the total form too;
+    handles to the old interaction objects die).
     Returns the bond table (see ``scene_bonds``) of what was assigned."""
     from yade import O
     from yade.minieigenHP import Vector3
@@ -552,6 +575,8 @@ def assign(model, interactions=None):
         raise InputError("the scene has no sphere-sphere cohesive interactions (CohFrictPhys, "
                          "cohesionBroken False) to assign (%d with a wall, box or facet "
                          "skipped)" % n_skipped)
+    if renew:
+        inters = renew_interactions(inters)
     for e in O.engines:
         if isinstance(e, InteractionLoop):
             for f in e.geomDispatcher.functors:
@@ -634,9 +659,10 @@ def rotation_message(rotations, table):
             "(ScGeom6D.initialOrientation1/2, read-only from Python): YADE's total-form moment "
             "law will apply k_r theta and k_tw theta from the next step, whatever assign set. "
             "Largest bending %.4g rad (bond %s: %.4g N m), largest twist %.4g rad (bond %s: "
-            "%.4g N m). To start the moments from zero, use "
+            "%.4g N m). To start the moments from zero, call assign(..., renew=True) (the bonds "
+            "made anew, the current orientations their reference), or use "
             "Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True) (moments then "
-            "accumulate from the zero assign sets), or bond the scene before the spheres rotate"
+            "accumulate from the zero assign sets)"
             % (len(rows), len(rotations), rotations[bb][0], pair(bb),
                table.kr[bb] * rotations[bb][0], rotations[bt][1], pair(bt),
                table.ktw[bt] * rotations[bt][1]))

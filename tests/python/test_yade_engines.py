@@ -165,7 +165,8 @@ def test_assign_on_a_walled_non_periodic_scene_bonds_only_spheres(tmp_path):
     assert d["others_unchanged"] and all(k > 0 for k in d["others_kn"])
 
 
-def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path):
+@pytest.mark.parametrize("scene", ["rotated", "rotated-periodic"])
+def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path, scene):
     """YADE's total-form moment law measures rotations from the orientations ScGeom6D kept
     when YADE made the contact (initialOrientation1/2, read-only from Python): assign cannot
     reset them, so on a scene that has moved the moments come back at the next step. On the
@@ -173,14 +174,16 @@ def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path):
     rotations assign predicts are YADE's own ScGeom6D bending and twist after one step (to
     1e-15 rad), YADE then applies k_r * bending, and assign warned (RotationWarning) with the
     largest angle; with useIncrementalForm=True (moments from the zero assign sets) it does
-    not warn."""
+    not warn. assign(renew=True) makes the bonds anew: the same pairs and periodic images
+    (the periodic scene has spheres outside the cell, where createInteraction picks wrong
+    images), and after a step YADE's rotations, moments and normal forces are all zero."""
     env = dict(os.environ, PYTHONPATH=yade_pythonpath(),
                ANISOBOND_YADE_SCRIPTS=str(HERE.parent.parent / "yade-scripts"))
     model = tmp_path / "model.toml"
     model.write_text(CUBIC_MODEL)
     out = tmp_path / "rotated.json"
     r = subprocess.run(["yade", "-n", "-x", str(HERE.parent / "yade" / "walled_scene.py"),
-                        "rotated", str(model), str(out)],
+                        scene, str(model), str(out)],
                        capture_output=True, text=True, cwd=tmp_path, timeout=900, env=env)
     assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
     d = json.loads(out.read_text())
@@ -200,3 +203,10 @@ def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path):
     assert "Largest bending %.4g rad" % predicted[:, 0].max() in message, message
     assert "useIncrementalForm=True" in message
     assert d["incremental_warnings"] == []
+    renewed = d["renewed"]
+    assert renewed["warnings"] == [] and renewed["same_pairs"] and renewed["n"] == len(kr)
+    for key in ("rotations", "yade_rotations", "moments", "normal_force_over_kn",
+                "unp_minus_depth"):
+        assert renewed[key] == 0.0, (key, renewed)
+    if scene == "rotated-periodic":
+        assert renewed["images_nonzero"] > 100, renewed

@@ -8,6 +8,7 @@
 #   yade -n -x walled_scene.py assign MODEL OUT.json  anisobond_yade.assign (needs the package)
 #   yade -n -x walled_scene.py rotated MODEL OUT.json some spheres turned after YADE bonded
 #                                                     them, then assign (needs the package)
+#   yade -n -x walled_scene.py rotated-periodic MODEL OUT.json   the same on the periodic scene
 #   yade -n -x walled_scene.py clump OUT.json         a scene with clumps: every entry refuses it
 #   yade -n -x walled_scene.py periodic OUT.json      tables of a periodic scene, some spheres
 #                                                     placed outside the cell
@@ -203,8 +204,8 @@ def assign(model):
     }
 
 
-def rotated(model):
-    walled_scene()
+def rotated(model, periodic=False):
+    periodic_scene() if periodic else walled_scene()
     spheres = [b for b in O.bodies if isinstance(b.shape, Sphere)]
     # Turn every tenth sphere by a known small angle, as if the scene had moved since YADE
     # made the contacts (ScGeom6D keeps the orientations of that moment).
@@ -232,8 +233,31 @@ def rotated(model):
     law.useIncrementalForm = True
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ay.assign(model, interactions=bonds)
+        ay.assign(model)
     result["incremental_warnings"] = [w.category.__name__ for w in caught]
+    law.useIncrementalForm = False
+    # assign(renew=True): the bonds made anew, the current orientations their reference; the
+    # total-form moments then start from zero (YADE's own bending, twist and moments after a
+    # step), and the pairs, images and penetration depths are those of before.
+    pairs = [(I.id1, I.id2, tuple(I.cellDist)) for I in bonds]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renewed_table = ay.assign(model, renew=True)
+    renewed = ay.cohesive_interactions()
+    O.step()
+    result["renewed"] = {
+        "warnings": [w.category.__name__ for w in caught],
+        "same_pairs": sorted(pairs) == sorted((I.id1, I.id2, tuple(I.cellDist))
+                                              for I in renewed),
+        "n": len(renewed_table),
+        "rotations": max(max(r) for r in renewed_table.rotations),
+        "yade_rotations": max(max(I.geom.bending.norm(), abs(I.geom.twist)) for I in renewed),
+        "moments": max(max(I.phys.moment_bending.norm(), I.phys.moment_twist.norm())
+                       for I in renewed),
+        "normal_force_over_kn": max(I.phys.normalForce.norm() / I.phys.kn for I in renewed),
+        "unp_minus_depth": max(abs(I.phys.unp - I.geom.penetrationDepth) for I in renewed),
+        "images_nonzero": sum(1 for I in renewed if tuple(I.cellDist) != (0, 0, 0)),
+    }
     return result
 
 
@@ -271,6 +295,8 @@ elif mode == "assign":
     result = assign(sys.argv[2])
 elif mode == "rotated":
     result = rotated(sys.argv[2])
+elif mode == "rotated-periodic":
+    result = rotated(sys.argv[2], periodic=True)
 elif mode == "clump":
     result = clump()
 else:
