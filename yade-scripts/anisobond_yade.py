@@ -154,10 +154,11 @@ def read_packing(path):
     Lines ``x y z r`` (``SpherePack.save``'s ``x y z r clumpId`` with clumpId -1 too;
     ``#format id_x_y_z_r_matId`` as ``write_packing`` writes, body ids kept in ``ids``);
     ``# periodic Lx Ly Lz`` (or ``##PERIODIC:: Lx Ly Lz``) declares the
-    periodic cell [0,L); ``#format x_y_z_r[_matId]`` is accepted. A periodic cell is
-    required (the element tests deform it).
+    periodic cell [0,L); ``# free`` a free cluster (``cell`` None: for ``build_scene`` and
+    ``platen_test``; the element tests need the periodic cell); ``#format
+    x_y_z_r[_matId]`` is accepted. A file stating neither is refused.
     """
-    positions, radii, cell, columns, ids = [], [], None, 4, []
+    positions, radii, cell, columns, ids, free = [], [], None, 4, [], False
     with open(path) as f:
         for n, raw in enumerate(f, 1):
             t = raw.strip()
@@ -168,6 +169,9 @@ def read_packing(path):
                 words = t[1:].split()
                 if words and words[0].lower() == "periodic":
                     header = words[1:]
+                elif words and words[0].lower() == "free" and len(words) == 1:
+                    free = True
+                    continue
                 elif t.startswith("#format"):
                     fmt = words[1] if len(words) > 1 else ""
                     if fmt not in ("x_y_z_r", "x_y_z_r_matId", "id_x_y_z_r_matId"):
@@ -212,11 +216,15 @@ def read_packing(path):
                 raise InputError("%s:%d: radius must be > 0, found %r" % (path, n, r))
             positions.append((x, y, z))
             radii.append(r)
-    if cell is None:
-        raise InputError("%s: no `# periodic Lx Ly Lz` header: the YADE element tests need "
-                         "a periodic packing" % path)
+    if cell is not None and free:
+        raise InputError("%s: both `# periodic` and `# free`: expected one" % path)
+    if cell is None and not free:
+        raise InputError("%s: no `# periodic Lx Ly Lz` header (nor `# free` for a free "
+                         "cluster): the YADE element tests need a periodic packing" % path)
     if not radii:
         raise InputError("%s: no spheres" % path)
+    if cell is None:
+        return Packing(positions, radii, None, ids=ids if columns == 6 else None)
     # Wrap into [0, L) like anisobond does.
     wrapped = []
     for p in positions:
@@ -1022,7 +1030,9 @@ class Scene(object):
 
 def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8,
                 branch_tolerance=1e-9, verify=True):
-    """Reset YADE's ``O`` and build the bonded periodic scene.
+    """Reset YADE's ``O`` and build the bonded scene: periodic with the packing's cell, or
+    free (``O.periodic = False``, no cell; every bond's image must then be 0, 0, 0) when
+    ``packing.cell`` is None.
 
     Spheres of CohFrictMat (``density`` kg/m^3), one interaction per table row with the
     table's periodic image and springs, stress-free and unbreakable, engines
@@ -1041,16 +1051,22 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
 
     t0 = time.time()
     n = len(packing)
+    periodic = packing.cell is not None
     for b in range(len(bonds)):
         if bonds.j[b] >= n:
             raise InputError("bond %d joins particle %d but the packing has %d"
                              % (b, bonds.j[b], n))
+        if not periodic and (bonds.ix[b], bonds.iy[b], bonds.iz[b]) != (0, 0, 0):
+            raise InputError("bond %d (%d-%d) has the periodic image %d,%d,%d but the packing "
+                             "is free (no cell)" % (b, bonds.i[b], bonds.j[b], bonds.ix[b],
+                                                    bonds.iy[b], bonds.iz[b]))
     if dt is None:
         dt = safety * critical_time_step(packing, bonds, density)
     O.reset()
-    O.periodic = True
-    O.cell.setBox(*packing.cell)
-    O.cell.velGrad = Matrix3.Zero
+    O.periodic = periodic
+    if periodic:
+        O.cell.setBox(*packing.cell)
+        O.cell.velGrad = Matrix3.Zero
     mat = O.materials.append(CohFrictMat(
         young=1.0, poisson=1.0, density=density, frictionAngle=0.0, isCohesive=True,
         momentRotationLaw=True, normalCohesion=HUGE_ADHESION, shearCohesion=HUGE_ADHESION,
@@ -1071,9 +1087,10 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
     for b in range(len(bonds)):
         i, j = bonds.i[b], bonds.j[b]
         I = utils.createInteraction(i, j)
-        image = Vector3i(bonds.ix[b], bonds.iy[b], bonds.iz[b])
-        # The table's image is that of j seen from i; YADE shifts body id2.
-        I.cellDist = image if I.id1 == i else -image
+        if periodic:
+            image = Vector3i(bonds.ix[b], bonds.iy[b], bonds.iz[b])
+            # The table's image is that of j seen from i; YADE shifts body id2.
+            I.cellDist = image if I.id1 == i else -image
         ph = I.phys
         ph.cohesionBroken = False
         ph.initCohesion = False
@@ -1343,6 +1360,181 @@ def write_tensor_json(path, result, packing, bonds):
 # --------------------------------------------------------------------------------------
 # Command line
 # --------------------------------------------------------------------------------------
+
+# --------------------------------------------------------------------------------------
+# Platen tests of finite specimens (issue 31 item 5)
+# --------------------------------------------------------------------------------------
+
+AXES = "xyz"
+
+
+class PlatenResult(object):
+    """What ``platen_test`` measured: the layers (body ids), gauge length and shortening (m),
+    the axial forces on the moved and held layers (N, compression positive), the steps run,
+    and the estimated remaining relative change of the force (``remaining``)."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    def stiffness(self):
+        """Platen stiffness F/delta (N/m) of the moved layer."""
+        return self.force_top / self.displacement
+
+
+def end_layers(axis, depth=None, bodies=None):
+    """(bottom, top): body ids of the spheres whose centres lie within ``depth`` (m; default
+    the mean radius) of the lowest and of the highest centre along ``axis`` (0, 1, 2) -- the
+    same rule as ``anisobond specimen --end-layer``. ``bodies`` defaults to the scene's
+    spheres."""
+    if bodies is None:
+        bodies = scene_spheres()[0]
+    if not bodies:
+        raise InputError("no spheres: no end layers")
+    if depth is None:
+        depth = sum(b.shape.radius for b in bodies) / len(bodies)
+    coords = [b.state.pos[axis] for b in bodies]
+    lo, hi = min(coords), max(coords)
+    bottom = [b.id for b, c in zip(bodies, coords) if c <= lo + depth]
+    top = [b.id for b, c in zip(bodies, coords) if c >= hi - depth]
+    if set(bottom) & set(top):
+        raise InputError("end layers of depth %r m overlap along %s (extent %r m)"
+                         % (depth, AXES[axis], hi - lo))
+    return bottom, top
+
+
+def _axial_force(ids, axis):
+    from yade import O
+    return sum(O.forces.f(i)[axis] for i in ids)
+
+
+def platen_test(axis=2, depth=None, platens="frictionless", strain=1e-6, ramp_steps=200,
+                check_every=500, tolerance=1e-6, max_steps=400000, progress=None):
+    """Quasi-static platen test of the current scene (its bonds as they are, its
+    NewtonIntegrator's damping): the bottom end layer held, the top one moved towards it by
+    ``strain`` x the gauge length (distance between the layers' mean centres) along
+    ``axis``, at constant speed over ``ramp_steps`` steps (YADE's shear springs are
+    incremental: a layer teleported would strain only the normal springs), then held while
+    the specimen relaxes.
+
+    ``frictionless`` blocks only the axial DOF of the layers' spheres (``blockedDOFs``
+    ``'z'`` for axis z) and, to remove the rigid motions, the lateral translations of one
+    bottom sphere and one lateral translation of the bottom sphere farthest from it;
+    ``bonded`` blocks all six DOFs of the layers' spheres -- the boundary conditions of
+    ``anisobond specimen --platens``. Runs ``check_every`` steps at a time until the force
+    on the moved layer changes by less than ``tolerance`` (relative, geometric extrapolation
+    of the last two changes) and both layers carry the same force to ``tolerance``, or
+    ``max_steps``. Returns a ``PlatenResult``; ``remaining`` is the estimated remaining
+    relative change (the run did not settle when it exceeds ``tolerance``). Compare
+    ``stiffness()`` with ``anisobond specimen``'s ``platen_stiffness``."""
+    from yade import O
+    from yade.minieigenHP import Vector3
+    if platens not in ("frictionless", "bonded"):
+        raise InputError("platens must be frictionless or bonded, got %r" % (platens,))
+    if axis not in (0, 1, 2):
+        raise InputError("axis must be 0, 1 or 2, got %r" % (axis,))
+    if not 0 < strain < 1 or ramp_steps < 1 or check_every < 1:
+        raise InputError("need 0 < strain < 1, ramp_steps >= 1, check_every >= 1")
+    bottom, top = end_layers(axis, depth)
+    pos = lambda i: O.bodies[i].state.pos[axis]
+    length = sum(pos(i) for i in top) / len(top) - sum(pos(i) for i in bottom) / len(bottom)
+    delta = strain * length
+    letter = AXES[axis]
+    for i in bottom + top:
+        O.bodies[i].state.blockedDOFs = letter if platens == "frictionless" else "xyzXYZ"
+        O.bodies[i].state.vel = Vector3.Zero
+        O.bodies[i].state.angVel = Vector3.Zero
+    if platens == "frictionless":
+        # Rigid motions removed by translations only (a blocked spin would leave the
+        # specimen's rigid rotation about the axis held by one sphere's bonds: a mode so
+        # slow that Cundall damping does not settle it): one bottom sphere's lateral
+        # translations, and the farthest bottom sphere from it its translation
+        # perpendicular to the line joining them. They carry no force at equilibrium.
+        a = O.bodies[bottom[0]].state.pos
+        far = max(bottom, key=lambda i: (O.bodies[i].state.pos - a).norm())
+        d = O.bodies[far].state.pos - a
+        lateral = [k for k in range(3) if k != axis]
+        block = lateral[0] if abs(d[lateral[1]]) >= abs(d[lateral[0]]) else lateral[1]
+        O.bodies[bottom[0]].state.blockedDOFs = "xyz"
+        O.bodies[far].state.blockedDOFs = letter + AXES[block]
+    # Only the axial velocity component is set and reset: YADE's shear increment of a step
+    # is the relative velocity (the one of the last position update) x dt, so zeroing a
+    # free lateral velocity would drop that step's lateral motion from the shear springs.
+    for i in top:
+        O.bodies[i].state.vel[axis] = -delta / (ramp_steps * O.dt)
+    start = O.iter
+    O.run(ramp_steps, True)
+    for i in top:
+        O.bodies[i].state.vel[axis] = 0.0
+    forces, remaining = [], float("inf")
+    f_top = f_bottom = float("nan")
+    while O.iter - start < max_steps:
+        O.run(min(check_every, max_steps - (O.iter - start)), True)
+        f_top = _axial_force(top, axis)
+        f_bottom = -_axial_force(bottom, axis)
+        forces.append(f_top)
+        if len(forces) >= 3:
+            d1, d2 = forces[-2] - forces[-3], forces[-1] - forces[-2]
+            ratio = abs(d2 / d1) if d1 != 0 else 0.0
+            remaining = abs(d2) / (1 - ratio) / abs(f_top) if ratio < 1 else float("inf")
+        if progress is not None:
+            progress(O.iter - start, f_top, remaining)
+        if remaining <= tolerance and abs(f_top - f_bottom) <= tolerance * abs(f_top):
+            break
+    return PlatenResult(axis=axis, platens=platens, bottom=bottom, top=top, length=length,
+                        displacement=delta, force_top=f_top, force_bottom=f_bottom,
+                        steps=O.iter - start, remaining=remaining)
+
+
+def platen_main(argv=None):
+    """Command line of the specimen validation: build the free scene of --packing (``#
+    free``) and --bonds, run ``platen_test`` and write its result as JSON to --out."""
+    import argparse
+    ap = argparse.ArgumentParser(prog="anisobond_yade platen",
+                                 description="YADE platen test of a free bonded specimen")
+    ap.add_argument("--packing", required=True)
+    ap.add_argument("--bonds", required=True)
+    ap.add_argument("--out", required=True, help="result JSON file")
+    ap.add_argument("--axis", type=int, default=2)
+    ap.add_argument("--depth", type=float, default=None)
+    ap.add_argument("--platens", default="frictionless")
+    ap.add_argument("--strain", type=float, default=1e-6)
+    ap.add_argument("--damping", type=float, default=0.8)
+    ap.add_argument("--density", type=float, default=2600.0)
+    ap.add_argument("--dt", type=float, default=None)
+    ap.add_argument("--safety", type=float, default=0.8)
+    ap.add_argument("--ramp-steps", type=int, default=200)
+    ap.add_argument("--check-every", type=int, default=500)
+    ap.add_argument("--tolerance", type=float, default=1e-6)
+    ap.add_argument("--max-steps", type=int, default=400000)
+    a = ap.parse_args(argv)
+    packing = read_packing(a.packing)
+    if packing.cell is not None:
+        ap.error("%s: the platen test runs a free specimen (`# free`), not a periodic cell"
+                 % a.packing)
+    bonds = read_bond_table(a.bonds, len(packing))
+    t0 = time.time()
+    scene = build_scene(packing, bonds, density=a.density, damping=a.damping, dt=a.dt,
+                        safety=a.safety)
+    t1 = time.time()
+    r = platen_test(axis=a.axis, depth=a.depth, platens=a.platens, strain=a.strain,
+                    ramp_steps=a.ramp_steps, check_every=a.check_every,
+                    tolerance=a.tolerance, max_steps=a.max_steps)
+    t2 = time.time()
+    out = {"yade": {"version": yade_version()}, "dt": scene.dt, "damping": a.damping,
+           "density": a.density, "axis": r.axis, "platens": r.platens,
+           "strain": a.strain, "ramp_steps": a.ramp_steps, "check_every": a.check_every,
+           "tolerance": a.tolerance, "bottom": r.bottom, "top": r.top, "length": r.length,
+           "displacement": r.displacement, "force_top": r.force_top,
+           "force_bottom": r.force_bottom, "stiffness": r.stiffness(), "steps": r.steps,
+           "remaining": r.remaining if math.isfinite(r.remaining) else None,
+           "build_seconds": t1 - t0, "run_seconds": t2 - t1}
+    _write_atomic(a.out, json.dumps(out, indent=1) + "\n")
+    print("anisobond_yade platen: %s platens, %d + %d layer spheres, stiffness %r N/m after "
+          "%d steps (remaining %.3g) in %.1f s" % (r.platens, len(r.bottom), len(r.top),
+                                                   r.stiffness(), r.steps, r.remaining,
+                                                   t2 - t1))
+    return r
+
 
 def main(argv=None):
     """Command line: element tests on a packing + bond table, results into --out."""

@@ -4,11 +4,14 @@
 //! agreement is outside its tolerance ([`run_engine`], the one path every engine takes).
 
 use super::cell::BondedInput;
+use super::specimen::{AxisArg, PlatensArg};
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
+use anisobond::specimen::Platens;
 use anisobond::validate::harness::{failure_lines, summary, unsettled_lines, EngineDetails};
+use anisobond::validate::specimen::{self, SpecimenTest};
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
-use anisobond::validate::{validate, Engine, Problem, Tolerances};
+use anisobond::validate::{validate, validate_specimen, Engine, Problem, Tolerances};
 use anisobond::{Error, Result};
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
@@ -80,6 +83,9 @@ pub struct YadeValidateArgs {
     /// Largest admissible relative difference of each damped tensor from the relaxed one.
     #[arg(long, default_value_t = 1e-3)]
     pub relaxed_tolerance: f64,
+    /// The specimen test instead of the element tests.
+    #[command(flatten)]
+    pub specimen: SpecimenFlags,
 }
 
 impl YadeValidateArgs {
@@ -105,13 +111,149 @@ impl YadeValidateArgs {
     }
 }
 
+/// `--specimen` and its options, shared by every engine.
+#[derive(clap::Args, Clone, Debug)]
+pub struct SpecimenFlags {
+    /// Run the specimen test instead of the periodic element tests: the free packing's
+    /// bonded specimen loaded between platens by the engine, quasi-statically to rest, its
+    /// platen stiffness against `anisobond specimen`'s (needs a free packing: --free).
+    #[arg(long)]
+    pub specimen: bool,
+    /// Loading axis of the specimen test.
+    #[arg(long, value_enum, default_value_t = AxisArg::Z)]
+    pub axis: AxisArg,
+    /// Depth of each end layer (m), as `anisobond specimen --end-layer`; default the mean
+    /// radius.
+    #[arg(long)]
+    pub end_layer: Option<f64>,
+    /// How the platens hold the end layers.
+    #[arg(long, value_enum, default_value_t = PlatensArg::Frictionless)]
+    pub platens: PlatensArg,
+    /// Axial compressive strain the engine applies to the specimen.
+    #[arg(long, default_value_t = 1e-6)]
+    pub specimen_strain: f64,
+    /// Largest admissible relative difference of the platen stiffness.
+    #[arg(long, default_value_t = 1e-3)]
+    pub specimen_tolerance: f64,
+    /// The engine's relaxation stops when its platen force's estimated remaining relative
+    /// change is below this.
+    #[arg(long, default_value_t = 1e-6)]
+    pub settle: f64,
+    /// Most steps of the engine's relaxation.
+    #[arg(long, default_value_t = 400_000)]
+    pub max_steps: u64,
+}
+
+impl SpecimenFlags {
+    /// The test on `asm` (the end layer defaults to its mean radius).
+    fn test(&self, asm: &anisobond::assembly::Assembly) -> SpecimenTest {
+        let p = &asm.packing;
+        let mean = p.radii.iter().sum::<f64>() / p.len().max(1) as f64;
+        let mut t = SpecimenTest::new(
+            self.axis as usize,
+            self.end_layer.unwrap_or(mean),
+            match self.platens {
+                PlatensArg::Frictionless => Platens::Frictionless,
+                PlatensArg::Bonded => Platens::Bonded,
+            },
+        );
+        t.strain = self.specimen_strain;
+        t.tolerance = self.specimen_tolerance;
+        t.settle = self.settle;
+        t.max_steps = self.max_steps;
+        t
+    }
+}
+
 /// Run `validate`.
 pub fn run(a: ValidateArgs) -> Result<()> {
     match a.target {
-        ValidateTarget::Yade(y) => run_engine(&y.engine()?, &y.input, y.output.as_deref()),
-        ValidateTarget::Liggghts(a) => run_engine(&a.engine()?, &a.input, Some(&a.output)),
-        ValidateTarget::Lammps(a) => run_engine(&a.engine()?, &a.input, Some(&a.output)),
+        ValidateTarget::Yade(y) => {
+            dispatch(&y.engine()?, &y.input, y.output.as_deref(), &y.specimen)
+        }
+        ValidateTarget::Liggghts(a) => {
+            dispatch(&a.engine()?, &a.input, Some(&a.output), &a.specimen)
+        }
+        ValidateTarget::Lammps(a) => dispatch(&a.engine()?, &a.input, Some(&a.output), &a.specimen),
     }
+}
+
+/// The element tests, or the specimen test with `--specimen`.
+fn dispatch<E: Engine>(
+    engine: &E,
+    input: &BondedInput,
+    output: Option<&Path>,
+    specimen: &SpecimenFlags,
+) -> Result<()> {
+    if specimen.specimen {
+        run_specimen(engine, input, output, specimen)
+    } else {
+        run_engine(engine, input, output)
+    }
+}
+
+/// `validate ENGINE --specimen`: as [`run_engine`], with the specimen test.
+fn run_specimen<E: Engine>(
+    engine: &E,
+    input: &BondedInput,
+    output: Option<&Path>,
+    flags: &SpecimenFlags,
+) -> Result<()> {
+    engine.check()?;
+    let name = E::Details::ENGINE;
+    let mut set = OutputSet::new(&input.paths());
+    let staged = set.optional_dir(output)?;
+    let asm = input.assembly()?;
+    let test = flags.test(&asm);
+    test.check(name)?;
+    let temp;
+    let dir = match &staged {
+        Some(d) => d.clone(),
+        None => {
+            temp = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
+            temp.path().to_path_buf()
+        }
+    };
+    println!(
+        "validate {name} --specimen: {} particles, {} bonds; runs in {}",
+        asm.packing.len(),
+        asm.bonds.len(),
+        dir.display()
+    );
+    let t0 = std::time::Instant::now();
+    let progress = |m: &str| eprintln!("[{:7.1} s] {m}", t0.elapsed().as_secs_f64());
+    let report = validate_specimen(engine, &Problem::of(&dir, &asm), &test, &progress)?;
+    print!("{}", specimen::summary(&report));
+    if let Some(out) = output {
+        let files = specimen::write_files(&dir, &report)?;
+        set.commit()?;
+        println!();
+        super::output::print_written("wrote ", &files, &dir, out);
+    }
+    finish(name, &report)
+}
+
+/// The end of every validation: the unsettled checks named, exit 0 when every check is
+/// within its tolerance, else [`Error::OutOfTolerance`] naming the failed ones.
+fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Result<()> {
+    for line in unsettled_lines(report) {
+        println!("not judged: {line}");
+    }
+    let failures = failure_lines(report);
+    if failures.is_empty() {
+        println!("PASSED: {name} and anisobond agree within every tolerance");
+        return Ok(());
+    }
+    Err(Error::OutOfTolerance {
+        failed: failures.len(),
+        checks: report.checks.len(),
+        message: format!(
+            "validate {name} FAILED ({} of {} checks outside tolerance):\n  {}",
+            failures.len(),
+            report.checks.len(),
+            failures.join("\n  ")
+        ),
+    })
 }
 
 /// Every `validate ENGINE`: options checked, the bonded input read, the engine run in the
@@ -154,22 +296,5 @@ fn run_engine<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>)
         println!();
         super::output::print_written("wrote ", &files, &dir, out);
     }
-    for line in unsettled_lines(&report) {
-        println!("not judged: {line}");
-    }
-    let failures = failure_lines(&report);
-    if failures.is_empty() {
-        println!("PASSED: {name} and anisobond agree within every tolerance");
-        return Ok(());
-    }
-    Err(Error::OutOfTolerance {
-        failed: failures.len(),
-        checks: report.checks.len(),
-        message: format!(
-            "validate {name} FAILED ({} of {} checks outside tolerance):\n  {}",
-            failures.len(),
-            report.checks.len(),
-            failures.join("\n  ")
-        ),
-    })
+    finish(name, &report)
 }

@@ -27,6 +27,9 @@ pub struct Args {
     /// The deck's bonds, as for `export lammps`.
     #[command(flatten)]
     pub bonds: super::export_lammps::BondArgs,
+    /// The specimen test instead of the element tests.
+    #[command(flatten)]
+    pub specimen: super::validate::SpecimenFlags,
 }
 
 impl Args {

@@ -5,6 +5,7 @@
 //! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
 
 use super::harness::{EngineDetails, Report};
+use super::specimen::{SpecimenDetails, SpecimenTest};
 use crate::assembly::Assembly;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::model::Model;
@@ -114,6 +115,35 @@ pub trait Engine: Sync {
     fn run(&self, problem: &Problem, progress: Progress) -> Result<Report<Self::Details>>;
     /// Write the report files into `dir` (atomically each); returns the paths written.
     fn write_files(&self, dir: &Path, report: &Report<Self::Details>) -> Result<Vec<PathBuf>>;
+    /// The specimen test ([`super::specimen`]) of the free packing of `problem`: the engine
+    /// builds the bonded specimen, loads it between platens by its own means, and its
+    /// platen stiffness is compared with the specimen solve's. Its report is the same for
+    /// every engine, so it is a method of its own rather than a [`TestKind`]. Default:
+    /// refused.
+    fn specimen(
+        &self,
+        _problem: &Problem,
+        _test: &SpecimenTest,
+        _progress: Progress,
+    ) -> Result<Report<SpecimenDetails>> {
+        Err(Error::Invalid(format!(
+            "validate {}: the engine does not run the specimen test",
+            Self::Details::ENGINE
+        )))
+    }
+}
+
+/// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's
+/// options checked, then [`Engine::specimen`].
+pub fn validate_specimen<E: Engine>(
+    engine: &E,
+    problem: &Problem,
+    test: &SpecimenTest,
+    progress: Progress,
+) -> Result<Report<SpecimenDetails>> {
+    engine.check()?;
+    test.check(E::Details::ENGINE)?;
+    engine.specimen(problem, test, progress)
 }
 
 /// Run `engine` on `problem`: its options checked, the test kind refused unless the engine

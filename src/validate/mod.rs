@@ -12,6 +12,9 @@
 //!   relaxed solver ([`crate::homogenize::relaxed`]) — `anisobond validate yade`.
 //! - [`liggghts`]: the LIGGGHTS driver (`pair_style anisobond`) and stock LIGGGHTS
 //!   (`bond_style harmonic`) against the same — `anisobond validate liggghts`.
+//! - [`specimen`]: the specimen test every engine runs — a free bonded specimen loaded
+//!   between platens by the engine, its platen stiffness against the specimen solve
+//!   ([`crate::specimen`]) — `anisobond validate ENGINE --specimen`.
 //! - [`lammps`]: the exported LAMMPS (BPM) element tests against the relaxed solver, one and
 //!   two MPI processes — `anisobond validate lammps`.
 
@@ -19,6 +22,7 @@ pub mod engine;
 pub mod harness;
 pub mod lammps;
 pub mod liggghts;
+pub mod specimen;
 pub mod yade;
 
-pub use engine::{validate, Engine, Problem, Progress, TestKind, Tolerances};
+pub use engine::{validate, validate_specimen, Engine, Problem, Progress, TestKind, Tolerances};

@@ -530,6 +530,14 @@ impl Engine for Yade {
     fn write_files(&self, dir: &Path, r: &YadeValidation) -> Result<Vec<PathBuf>> {
         write_validation_files(dir, r)
     }
+    fn specimen(
+        &self,
+        p: &Problem,
+        test: &super::specimen::SpecimenTest,
+        progress: Progress,
+    ) -> Result<Report<super::specimen::SpecimenDetails>> {
+        super::specimen::yade::run(&self.0, p, test, progress)
+    }
 }
 
 /// [`engine::validate`] with [`Yade`]: the periodic element tests of the packing `bonds`

@@ -9,6 +9,7 @@ mod element;
 mod export_cli;
 mod in_place_scene;
 mod periodic_image;
+mod specimen;
 mod two_sphere;
 mod validate;
 mod yade_files;

@@ -1,0 +1,371 @@
+//! The specimen test every engine runs (issue 31 item 5): the finite bonded specimen of a
+//! free packing, built by the engine from the packing and the bond table, its bottom end
+//! layer held and its top one moved along the axis by the engine's own means, relaxed
+//! quasi-statically to equilibrium; the engine's platen stiffness F/δ against the specimen
+//! solve's ([`crate::specimen::solve`]) with the engine's contact-point convention.
+//!
+//! An engine implements [`super::Engine::specimen`]: it runs its code and returns an
+//! [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
+//! `platen-stiffness` (|k_engine − k_solve| / k_solve, default tolerance 1e-3).
+
+use super::harness::{checks_csv, write_report_json, Check, EngineDetails, Report, Timing};
+use crate::assembly::Assembly;
+use crate::homogenize::network::LeverArm;
+use crate::specimen::{self, Platens, SpecimenOptions, SpecimenReport};
+use crate::{Error, Result};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+pub mod yade;
+
+/// Files a specimen validation writes into its directory.
+pub mod outputs {
+    /// The report: settings, prediction, measurement, check, timings.
+    pub const REPORT_JSON: &str = "specimen-validation.json";
+    /// The check as CSV.
+    pub const CHECKS_CSV: &str = "checks.csv";
+}
+
+/// What the specimen test is asked for (the load test of `anisobond specimen`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SpecimenTest {
+    /// Loading axis: 0 = x, 1 = y, 2 = z.
+    pub axis: usize,
+    /// Depth of each end layer (m): centres within it of the lowest / highest centre.
+    pub end_layer: f64,
+    /// How the platens hold the layers.
+    pub platens: Platens,
+    /// Axial compressive strain the engine applies (small: the response is linear).
+    pub strain: f64,
+    /// Largest admissible |k_engine − k_solve| / k_solve.
+    pub tolerance: f64,
+    /// The engine's run is settled when its force's estimated remaining relative change
+    /// is below this (and both layers carry the same force to it).
+    pub settle: f64,
+    /// Most steps the engine relaxes before giving up (the check is then not judged).
+    pub max_steps: u64,
+}
+
+impl SpecimenTest {
+    /// Along `axis` with end layers `end_layer` (m) deep held by `platens`: strain 1e-6,
+    /// tolerance 1e-3, settled at 1e-6, at most 400,000 steps.
+    pub fn new(axis: usize, end_layer: f64, platens: Platens) -> SpecimenTest {
+        SpecimenTest {
+            axis,
+            end_layer,
+            platens,
+            strain: 1e-6,
+            tolerance: 1e-3,
+            settle: 1e-6,
+            max_steps: 400_000,
+        }
+    }
+
+    /// Refuse values no run can satisfy, naming the option.
+    pub fn check(&self, engine: &str) -> Result<()> {
+        let bad = |m: String| Err(Error::Invalid(format!("validate {engine} --specimen: {m}")));
+        if self.axis > 2 {
+            return bad(format!("axis {} is not x, y or z", self.axis));
+        }
+        if !(self.end_layer.is_finite() && self.end_layer >= 0.0) {
+            return bad(format!(
+                "--end-layer must be a finite depth ≥ 0 m, got {}",
+                self.end_layer
+            ));
+        }
+        if !(self.strain.is_finite() && self.strain > 0.0 && self.strain < 1e-2) {
+            return bad(format!(
+                "the strain must be in (0, 0.01) (a small strain: the solve is linear), got {}",
+                self.strain
+            ));
+        }
+        for (name, v) in [("tolerance", self.tolerance), ("settle", self.settle)] {
+            if !(v.is_finite() && v > 0.0 && v < 1.0) {
+                return bad(format!("the {name} must be in (0, 1), got {v}"));
+            }
+        }
+        if self.max_steps < 1000 {
+            return bad(format!(
+                "at least 1000 relaxation steps are needed, got {}",
+                self.max_steps
+            ));
+        }
+        Ok(())
+    }
+
+    /// The specimen solve's options with the engine's contact point.
+    pub fn solve_options(&self, lever_arm: LeverArm) -> SpecimenOptions {
+        let mut o = SpecimenOptions::new(self.axis, self.end_layer);
+        o.platens = self.platens;
+        o.strain = self.strain;
+        o.lever_arm = lever_arm;
+        o
+    }
+}
+
+/// What the engine measured once its specimen had settled.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EngineMeasurement {
+    /// The engine's version string.
+    pub version: String,
+    /// Particles (indices into the packing) the engine held as the bottom layer, ascending.
+    pub bottom: Vec<usize>,
+    /// Particles it moved as the top layer, ascending.
+    pub top: Vec<usize>,
+    /// Shortening δ it applied (m).
+    #[serde(rename = "displacement_m")]
+    pub displacement: f64,
+    /// Axial force on the moved layer (N, compression positive).
+    #[serde(rename = "force_top_N")]
+    pub force_top: f64,
+    /// Axial force on the held layer (N, compression positive).
+    #[serde(rename = "force_bottom_N")]
+    pub force_bottom: f64,
+    /// Time step (s).
+    #[serde(rename = "time_step_s")]
+    pub time_step: f64,
+    /// Steps run (loading and relaxation).
+    pub steps: u64,
+    /// Estimated remaining relative change of the force when it stopped (infinite: no
+    /// estimate).
+    #[serde(serialize_with = "finite_or_null")]
+    pub remaining: f64,
+    /// How it loaded and relaxed, in words.
+    pub how: String,
+    /// Wall time of the engine's process (s).
+    #[serde(rename = "wall_s")]
+    pub seconds: f64,
+    /// Where the engine ran (its deck or script, its outputs).
+    #[serde(skip)]
+    pub dir: PathBuf,
+}
+
+fn finite_or_null<S: serde::Serializer>(v: &f64, s: S) -> std::result::Result<S::Ok, S::Error> {
+    if v.is_finite() {
+        s.serialize_f64(*v)
+    } else {
+        s.serialize_none()
+    }
+}
+
+impl EngineMeasurement {
+    /// Platen stiffness F/δ (N/m) of the moved layer.
+    pub fn stiffness(&self) -> f64 {
+        self.force_top / self.displacement
+    }
+}
+
+/// The specimen validation's own results inside the [`Report`].
+#[derive(Clone, Debug)]
+pub struct SpecimenDetails {
+    /// The engine (`yade`, `lammps`, `liggghts`).
+    pub engine: &'static str,
+    /// The test run.
+    pub test: SpecimenTest,
+    /// The contact point of the engine's bond law, used by the solve.
+    pub lever_arm: LeverArm,
+    /// The specimen solve.
+    pub predicted: SpecimenReport,
+    /// What the engine measured.
+    pub measured: EngineMeasurement,
+}
+
+/// The specimen part of the report JSON.
+#[derive(Serialize)]
+pub struct SpecimenJson<'a> {
+    engine: &'static str,
+    test: &'a SpecimenTest,
+    lever_arm: LeverArm,
+    #[serde(rename = "platen_stiffness_engine_N_per_m")]
+    engine_stiffness: f64,
+    #[serde(rename = "platen_stiffness_solve_N_per_m")]
+    solve_stiffness: f64,
+    measured: &'a EngineMeasurement,
+    predicted: &'a SpecimenReport,
+}
+
+impl EngineDetails for SpecimenDetails {
+    type Json<'a> = SpecimenJson<'a>;
+    const ENGINE: &'static str = "specimen";
+    fn json(&self) -> SpecimenJson<'_> {
+        SpecimenJson {
+            engine: self.engine,
+            test: &self.test,
+            lever_arm: self.lever_arm,
+            engine_stiffness: self.measured.stiffness(),
+            solve_stiffness: self.predicted.platen_stiffness,
+            measured: &self.measured,
+            predicted: &self.predicted,
+        }
+    }
+    fn tensors(&self) -> Vec<(String, crate::tensor::Stiffness6)> {
+        Vec::new()
+    }
+    fn summary(r: &Report<Self>) -> String {
+        let (m, p) = (&r.measured, &r.predicted);
+        let mut s = format!(
+            "{} {} vs the specimen solve: {} particles, {} bonds; {} platens along {}, end \
+             layers {:e} m deep ({} held, {} moved), strain {:e}\n",
+            r.engine,
+            m.version,
+            r.n_particles,
+            r.n_bonds,
+            match r.test.platens {
+                Platens::Frictionless => "frictionless",
+                Platens::Bonded => "bonded",
+            },
+            p.axis,
+            r.test.end_layer,
+            m.bottom.len(),
+            m.top.len(),
+            r.test.strain
+        );
+        let _ = writeln!(s, "  {}", m.how);
+        let _ = writeln!(
+            s,
+            "  platen stiffness: {} {:.7e} N/m, specimen solve {:.7e} N/m ({} contact point)",
+            r.engine,
+            m.stiffness(),
+            p.platen_stiffness,
+            lever_name(r.lever_arm)
+        );
+        let _ = writeln!(
+            s,
+            "  {} steps, remaining relative change {:.2e}, forces top {:.6e} N, bottom {:.6e} N\n",
+            m.steps, m.remaining, m.force_top, m.force_bottom
+        );
+        s
+    }
+}
+
+fn lever_name(l: LeverArm) -> &'static str {
+    match l {
+        LeverArm::MidGap => "mid-gap",
+        LeverArm::Proportional => "proportional",
+        LeverArm::HalfLength => "half-length",
+    }
+}
+
+/// The problem's bonded packing as an assembly for the solve, refused unless it is a free
+/// cluster (a specimen has no periodic cell).
+pub fn free_assembly(problem: &super::Problem, engine: &str) -> Result<Assembly> {
+    if problem.packing.cell.is_some() {
+        return Err(Error::Invalid(format!(
+            "validate {engine} --specimen: the packing is periodic; the specimen test runs a \
+             free cluster (read it with --free, or a file with a `# free` line)"
+        )));
+    }
+    Ok(Assembly {
+        packing: problem.packing.clone(),
+        model: problem.model.cloned().ok_or_else(|| {
+            Error::Invalid(format!(
+                "validate {engine} --specimen: the problem has no model (the report records it)"
+            ))
+        })?,
+        bonds: problem.bonds.clone(),
+        springs: problem.springs.clone(),
+    })
+}
+
+/// The specimen solve of `asm` for `test` with `lever_arm`, timed into `timings`.
+pub fn predict(
+    asm: &Assembly,
+    test: &SpecimenTest,
+    lever_arm: LeverArm,
+    timings: &mut Vec<Timing>,
+) -> Result<SpecimenReport> {
+    super::harness::timed(timings, "specimen_solve", || {
+        specimen::solve(asm, &test.solve_options(lever_arm))
+    })
+}
+
+/// The end layers of the solve as ascending index lists (bottom, top).
+pub fn layers(p: &SpecimenReport) -> (Vec<usize>, Vec<usize>) {
+    let of = |w: u8| (0..p.layer.len()).filter(|&k| p.layer[k] == w).collect();
+    (of(1), of(2))
+}
+
+/// The report: the engine's stiffness against the solve's (one check), after making sure
+/// the engine held and moved the solve's layers (else [`Error::EngineFailed`]: the two did
+/// not run the same problem).
+pub fn compare(
+    engine: &'static str,
+    test: &SpecimenTest,
+    lever_arm: LeverArm,
+    asm: &Assembly,
+    predicted: SpecimenReport,
+    measured: EngineMeasurement,
+    timings: Vec<Timing>,
+) -> Result<Report<SpecimenDetails>> {
+    let (bottom, top) = layers(&predicted);
+    if bottom != measured.bottom || top != measured.top {
+        return Err(Error::engine(
+            engine,
+            format!(
+                "the engine's end layers ({} held, {} moved) are not the specimen solve's ({} \
+                 and {}): the two did not load the same specimen",
+                measured.bottom.len(),
+                measured.top.len(),
+                bottom.len(),
+                top.len()
+            ),
+        ));
+    }
+    let k = measured.stiffness();
+    let rel = ((k - predicted.platen_stiffness) / predicted.platen_stiffness).abs();
+    let rel = if rel.is_finite() { rel } else { f64::NAN };
+    let checks = vec![
+        Check::unless_unsettled(
+            "platen-stiffness",
+            format!(
+                "platen stiffness F/δ, {engine} vs the specimen solve ({} contact point)",
+                lever_name(lever_arm)
+            ),
+            rel,
+            test.tolerance,
+            measured.remaining,
+        ),
+        Check::info(
+            "force-balance",
+            format!("|F_top − F_bottom| / F_top in {engine}"),
+            ((measured.force_top - measured.force_bottom) / measured.force_top).abs(),
+        ),
+    ];
+    Ok(Report {
+        n_particles: asm.packing.len(),
+        n_bonds: asm.bonds.len(),
+        time_step: measured.time_step,
+        checks,
+        timings,
+        details: SpecimenDetails {
+            engine,
+            test: *test,
+            lever_arm,
+            predicted,
+            measured,
+        },
+    })
+}
+
+/// The report as text: the engine's and the solve's lines, the checks table, wall times.
+pub fn summary(r: &Report<SpecimenDetails>) -> String {
+    let mut s = SpecimenDetails::summary(r);
+    let _ = writeln!(s, "relative differences (dimensionless):");
+    s += &super::harness::checks_table(r);
+    let _ = writeln!(s, "\nwall time:");
+    for t in &r.timings {
+        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    s
+}
+
+/// Write the report JSON and the checks CSV into `dir` (atomically each).
+pub fn write_files(dir: &Path, r: &Report<SpecimenDetails>) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let json = dir.join(outputs::REPORT_JSON);
+    write_report_json(&json, r)?;
+    let csv = dir.join(outputs::CHECKS_CSV);
+    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
+    Ok(vec![json, csv])
+}

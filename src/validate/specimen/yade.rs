@@ -1,0 +1,202 @@
+//! YADE's specimen test: `anisobond_yade.platen_main` builds the free scene of the packing
+//! and bond table (`build_scene`, `O.periodic = False`) and runs `platen_test` — the end
+//! layers' `blockedDOFs`, the top layer moved at constant axial speed (YADE's shear
+//! springs are incremental: a layer moved by position would strain only the normal
+//! springs), Cundall damping [`DAMPING`], relaxed until the force settles. The solve uses
+//! YADE's mid-gap contact point ([`LeverArm::MidGap`]).
+
+use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use crate::bonds::table;
+use crate::export::yade::{files, find_yade, run_yade_script, YADE_MODULE};
+use crate::homogenize::network::LeverArm;
+use crate::packing;
+use crate::specimen::Platens;
+use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{Report, Timing};
+use crate::validate::yade::YadeValidationOptions;
+use crate::{Error, Result};
+use std::path::Path;
+
+/// Cundall local damping of YADE's platen test (fast relaxation; no effect on the
+/// equilibrium).
+pub const DAMPING: f64 = 0.8;
+
+/// Sub-directory of the validation directory YADE runs in.
+pub const DIR: &str = "yade-specimen";
+
+/// The script YADE runs (in [`DIR`]).
+pub const SCRIPT: &str = "platen.py";
+
+/// YADE's result (in [`DIR`]).
+pub const RESULT: &str = "yade-platen.json";
+
+/// The `platen.py` text: `anisobond_yade.platen_main` with the directory's files and
+/// `args`; arguments given to `yade -n -x platen.py …` override them.
+fn script(args: &[String]) -> String {
+    let mut s = format!(
+        "# Written by anisobond {}: YADE platen test of a free bonded specimen.\n\
+         # Run:  yade -n -x {SCRIPT}   (writes {RESULT} here; options after the script name\n\
+         #       override: --axis --depth --platens --strain --damping --density --dt --safety\n\
+         #       --ramp-steps --check-every --tolerance --max-steps)\n\
+         import os\nimport sys\n\n\
+         sys.dont_write_bytecode = True\n\
+         HERE = os.path.dirname(os.path.abspath(sys.argv[0]))  # YADE sets no __file__\n\
+         sys.path.insert(0, HERE)\n\
+         import anisobond_yade  # noqa: E402\n\n\
+         DEFAULTS = [\n    \"--packing\", os.path.join(HERE, {:?}),\n    \"--bonds\", \
+         os.path.join(HERE, {:?}),\n    \"--out\", os.path.join(HERE, {RESULT:?}),\n",
+        env!("CARGO_PKG_VERSION"),
+        files::PACKING,
+        files::BONDS
+    );
+    for pair in args.chunks(2) {
+        s += &format!("    {:?}, {:?},\n", pair[0], pair[1]);
+    }
+    s += "]\n\nanisobond_yade.platen_main(DEFAULTS + sys.argv[1:])\n";
+    s
+}
+
+/// Run YADE's platen test of `problem`'s free specimen and compare with the solve.
+pub fn run(
+    opts: &YadeValidationOptions,
+    problem: &Problem,
+    test: &SpecimenTest,
+    progress: Progress,
+) -> Result<Report<SpecimenDetails>> {
+    let asm = free_assembly(problem, "yade")?;
+    if find_yade().is_none() {
+        return Err(Error::Invalid(
+            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
+                .into(),
+        ));
+    }
+    let dir = problem.dir.join(DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    packing::io::write_packing(&dir.join(files::PACKING), &asm.packing)?;
+    table::write_bond_table(&dir.join(files::BONDS), &asm.bonds, &asm.springs)?;
+    crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
+    // anisobond solves what YADE reads.
+    let p2 = packing::io::read_packing(&dir.join(files::PACKING))?;
+    let (b2, k2) = table::read_bond_table(&dir.join(files::BONDS))?;
+    if p2.positions != asm.packing.positions
+        || p2.radii != asm.packing.radii
+        || p2.cell.is_some()
+        || b2.i != asm.bonds.i
+        || b2.j != asm.bonds.j
+        || k2.kn != asm.springs.kn
+        || k2.ks != asm.springs.ks
+        || k2.kr != asm.springs.kr
+        || k2.ktw != asm.springs.ktw
+    {
+        return Err(Error::Invalid(
+            "validate yade --specimen: the packing or bond table YADE reads does not read back \
+             bit for bit; the two codes would not load the same specimen"
+                .into(),
+        ));
+    }
+    let mut args: Vec<String> = vec![
+        "--axis".into(),
+        test.axis.to_string(),
+        "--depth".into(),
+        format!("{:e}", test.end_layer),
+        "--platens".into(),
+        match test.platens {
+            Platens::Frictionless => "frictionless",
+            Platens::Bonded => "bonded",
+        }
+        .into(),
+        "--strain".into(),
+        format!("{:e}", test.strain),
+        "--damping".into(),
+        DAMPING.to_string(),
+        "--density".into(),
+        format!("{:e}", opts.density),
+        "--safety".into(),
+        opts.safety.to_string(),
+        "--tolerance".into(),
+        format!("{:e}", test.settle),
+        "--max-steps".into(),
+        test.max_steps.to_string(),
+    ];
+    if let Some(dt) = opts.time_step {
+        args.extend(["--dt".into(), format!("{dt:e}")]);
+    }
+    let script_path = dir.join(SCRIPT);
+    crate::io::write_string_atomic(&script_path, &script(&args))?;
+    let mut timings = Vec::new();
+    let predicted = predict(&asm, test, LeverArm::MidGap, &mut timings)?;
+    progress(&format!(
+        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
+        predicted.platen_stiffness
+    ));
+    let out = run_yade_script(&script_path, &[])?;
+    timings.push(Timing {
+        stage: "yade_process".into(),
+        seconds: out.wall_seconds,
+    });
+    let mut measured = read_result(&dir.join(RESULT), asm.packing.len(), out.wall_seconds)?;
+    measured.dir = dir;
+    progress(&format!(
+        "YADE: platen test done in {:.1} s ({} steps): platen stiffness {:.7e} N/m",
+        out.wall_seconds,
+        measured.steps,
+        measured.stiffness()
+    ));
+    compare(
+        "yade",
+        test,
+        LeverArm::MidGap,
+        &asm,
+        predicted,
+        measured,
+        timings,
+    )
+}
+
+/// Read `platen_main`'s JSON; body ids are the packing's indices (`build_scene` appends
+/// the spheres in order).
+fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement> {
+    let text = crate::io::read_to_string(path)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
+    let bad = |what: &str| {
+        Error::engine(
+            "YADE",
+            format!("{}: no valid `{what}` in YADE's result", path.display()),
+        )
+    };
+    let num = |k: &str| v[k].as_f64().ok_or_else(|| bad(k));
+    let ids = |k: &str| -> Result<Vec<usize>> {
+        let mut out = v[k]
+            .as_array()
+            .ok_or_else(|| bad(k))?
+            .iter()
+            .map(|x| x.as_u64().map(|i| i as usize).filter(|&i| i < n))
+            .collect::<Option<Vec<usize>>>()
+            .ok_or_else(|| bad(k))?;
+        out.sort_unstable();
+        Ok(out)
+    };
+    Ok(EngineMeasurement {
+        version: v["yade"]["version"]
+            .as_str()
+            .unwrap_or("unknown")
+            .to_string(),
+        bottom: ids("bottom")?,
+        top: ids("top")?,
+        displacement: num("displacement")?,
+        force_top: num("force_top")?,
+        force_bottom: num("force_bottom")?,
+        time_step: num("dt")?,
+        steps: v["steps"].as_u64().ok_or_else(|| bad("steps"))?,
+        remaining: v["remaining"].as_f64().unwrap_or(f64::INFINITY),
+        how: format!(
+            "blockedDOFs on the end layers, the top layer moved at constant axial speed over \
+             {} steps, Cundall damping {}, relaxed until the force settled",
+            v["ramp_steps"].as_u64().unwrap_or(0),
+            num("damping")?
+        ),
+        seconds,
+        dir: Default::default(),
+    })
+}
