@@ -129,9 +129,10 @@ pub struct SpecimenFlags {
     /// How the platens hold the end layers.
     #[arg(long, value_enum, default_value_t = PlatensArg::Frictionless)]
     pub platens: PlatensArg,
-    /// Axial compressive strain the engine applies to the specimen.
-    #[arg(long, default_value_t = 1e-6)]
-    pub specimen_strain: f64,
+    /// Axial compressive strain the engine applies to the specimen; default the engine's
+    /// (YADE 1e-6, LAMMPS 1e-5).
+    #[arg(long)]
+    pub specimen_strain: Option<f64>,
     /// Largest admissible relative difference of the platen stiffness.
     #[arg(long, default_value_t = 1e-3)]
     pub specimen_tolerance: f64,

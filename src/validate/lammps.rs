@@ -411,6 +411,14 @@ impl Engine for Lammps {
     fn write_files(&self, dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
+    fn specimen(
+        &self,
+        p: &Problem,
+        test: &super::specimen::SpecimenTest,
+        progress: Progress,
+    ) -> Result<Report<super::specimen::SpecimenDetails>> {
+        super::specimen::lammps::run(&self.0, p, test, progress)
+    }
 }
 
 /// Export the element tests into the problem's directory, run them with LAMMPS, compare.

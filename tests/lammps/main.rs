@@ -10,4 +10,5 @@ mod common;
 mod exit_codes;
 mod export;
 mod plugin;
+mod specimen;
 mod types;

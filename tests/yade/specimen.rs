@@ -52,20 +52,20 @@ fn yade_platen_stiffness_matches_the_specimen_solve() {
         eprintln!(
             "{test}: {platens:?} platens: YADE {:.7e} N/m, solve {:.7e} N/m, relative \
              difference {:.3e} (tolerance {:.0e}), {} steps, YADE {:.1} s, layers {} + {}",
-            r.measured.stiffness(),
+            r.measured[0].stiffness(),
             r.predicted.platen_stiffness,
             c.value,
             t.tolerance,
-            r.measured.steps,
-            r.measured.seconds,
-            r.measured.bottom.len(),
-            r.measured.top.len()
+            r.measured[0].steps,
+            r.measured[0].seconds,
+            r.measured[0].bottom.len(),
+            r.measured[0].top.len()
         );
         assert_eq!(c.id, "platen-stiffness");
         assert!(c.not_converged.is_none(), "YADE did not settle: {c:?}");
         assert!(r.passed(), "{:?}", r.failures());
         assert!(c.value <= 1e-3);
-        stiffness.push((r.measured.stiffness(), r.predicted.platen_stiffness));
+        stiffness.push((r.measured[0].stiffness(), r.predicted.platen_stiffness));
     }
     // The check discriminates the boundary conditions: bonded platens are stiffer than
     // frictionless ones by far more than the tolerance, and YADE's frictionless value is
@@ -144,7 +144,7 @@ fn the_specimen_test_refuses_a_periodic_packing() {
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
     assert!(e.to_string().contains("--free"), "{e}");
     let mut bad = t;
-    bad.strain = 0.5;
+    bad.strain = Some(0.5);
     let e = validate_specimen(
         &Yade(YadeValidationOptions::default()),
         &Problem::of(dir.path(), &asm),

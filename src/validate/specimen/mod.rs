@@ -17,6 +17,7 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+pub mod lammps;
 pub mod yade;
 
 /// Files a specimen validation writes into its directory.
@@ -36,8 +37,10 @@ pub struct SpecimenTest {
     pub end_layer: f64,
     /// How the platens hold the layers.
     pub platens: Platens,
-    /// Axial compressive strain the engine applies (small: the response is linear).
-    pub strain: f64,
+    /// Axial compressive strain the engine applies (small: the response is linear); `None`:
+    /// the engine's own default (YADE 1e-6; LAMMPS 1e-5, where bpm/rotational's angles from
+    /// acos lose √ε of precision and 1e-6 measured 4.6e-4 off).
+    pub strain: Option<f64>,
     /// Largest admissible |k_engine − k_solve| / k_solve.
     pub tolerance: f64,
     /// The engine's run is settled when its force's estimated remaining relative change
@@ -48,14 +51,14 @@ pub struct SpecimenTest {
 }
 
 impl SpecimenTest {
-    /// Along `axis` with end layers `end_layer` (m) deep held by `platens`: strain 1e-6,
-    /// tolerance 1e-3, settled at 1e-6, at most 400,000 steps.
+    /// Along `axis` with end layers `end_layer` (m) deep held by `platens`: the engine's
+    /// strain, tolerance 1e-3, settled at 1e-6, at most 400,000 steps.
     pub fn new(axis: usize, end_layer: f64, platens: Platens) -> SpecimenTest {
         SpecimenTest {
             axis,
             end_layer,
             platens,
-            strain: 1e-6,
+            strain: None,
             tolerance: 1e-3,
             settle: 1e-6,
             max_steps: 400_000,
@@ -74,11 +77,12 @@ impl SpecimenTest {
                 self.end_layer
             ));
         }
-        if !(self.strain.is_finite() && self.strain > 0.0 && self.strain < 1e-2) {
-            return bad(format!(
-                "the strain must be in (0, 0.01) (a small strain: the solve is linear), got {}",
-                self.strain
-            ));
+        if let Some(e) = self.strain {
+            if !(e.is_finite() && e > 0.0 && e < 1e-2) {
+                return bad(format!(
+                    "the strain must be in (0, 0.01) (a small strain: the solve is linear), got {e}"
+                ));
+            }
         }
         for (name, v) in [("tolerance", self.tolerance), ("settle", self.settle)] {
             if !(v.is_finite() && v > 0.0 && v < 1.0) {
@@ -94,11 +98,24 @@ impl SpecimenTest {
         Ok(())
     }
 
+    /// The test with the engine's `default` strain when none is given.
+    pub fn resolved(&self, default: f64) -> SpecimenTest {
+        SpecimenTest {
+            strain: Some(self.strain.unwrap_or(default)),
+            ..*self
+        }
+    }
+
+    /// The strain (NaN when not resolved).
+    pub fn strain(&self) -> f64 {
+        self.strain.unwrap_or(f64::NAN)
+    }
+
     /// The specimen solve's options with the engine's contact point.
     pub fn solve_options(&self, lever_arm: LeverArm) -> SpecimenOptions {
         let mut o = SpecimenOptions::new(self.axis, self.end_layer);
         o.platens = self.platens;
-        o.strain = self.strain;
+        o.strain = self.strain();
         o.lever_arm = lever_arm;
         o
     }
@@ -109,6 +126,8 @@ impl SpecimenTest {
 pub struct EngineMeasurement {
     /// The engine's version string.
     pub version: String,
+    /// MPI processes of the run (1 for YADE).
+    pub processes: usize,
     /// Particles (indices into the packing) the engine held as the bottom layer, ascending.
     pub bottom: Vec<usize>,
     /// Particles it moved as the top layer, ascending.
@@ -167,8 +186,8 @@ pub struct SpecimenDetails {
     pub lever_arm: LeverArm,
     /// The specimen solve.
     pub predicted: SpecimenReport,
-    /// What the engine measured.
-    pub measured: EngineMeasurement,
+    /// What the engine measured: one run per number of MPI processes, the first on one.
+    pub measured: Vec<EngineMeasurement>,
 }
 
 /// The specimen part of the report JSON.
@@ -181,7 +200,7 @@ pub struct SpecimenJson<'a> {
     engine_stiffness: f64,
     #[serde(rename = "platen_stiffness_solve_N_per_m")]
     solve_stiffness: f64,
-    measured: &'a EngineMeasurement,
+    measured: &'a [EngineMeasurement],
     predicted: &'a SpecimenReport,
 }
 
@@ -193,7 +212,7 @@ impl EngineDetails for SpecimenDetails {
             engine: self.engine,
             test: &self.test,
             lever_arm: self.lever_arm,
-            engine_stiffness: self.measured.stiffness(),
+            engine_stiffness: self.measured[0].stiffness(),
             solve_stiffness: self.predicted.platen_stiffness,
             measured: &self.measured,
             predicted: &self.predicted,
@@ -203,7 +222,7 @@ impl EngineDetails for SpecimenDetails {
         Vec::new()
     }
     fn summary(r: &Report<Self>) -> String {
-        let (m, p) = (&r.measured, &r.predicted);
+        let (m, p) = (&r.measured[0], &r.predicted);
         let mut s = format!(
             "{} {} vs the specimen solve: {} particles, {} bonds; {} platens along {}, end \
              layers {:e} m deep ({} held, {} moved), strain {:e}\n",
@@ -219,22 +238,31 @@ impl EngineDetails for SpecimenDetails {
             r.test.end_layer,
             m.bottom.len(),
             m.top.len(),
-            r.test.strain
+            r.test.strain()
         );
         let _ = writeln!(s, "  {}", m.how);
         let _ = writeln!(
             s,
-            "  platen stiffness: {} {:.7e} N/m, specimen solve {:.7e} N/m ({} contact point)",
-            r.engine,
-            m.stiffness(),
+            "  specimen solve: platen stiffness {:.7e} N/m ({} contact point)",
             p.platen_stiffness,
             lever_name(r.lever_arm)
         );
-        let _ = writeln!(
-            s,
-            "  {} steps, remaining relative change {:.2e}, forces top {:.6e} N, bottom {:.6e} N\n",
-            m.steps, m.remaining, m.force_top, m.force_bottom
-        );
+        for m in &r.measured {
+            let _ = writeln!(
+                s,
+                "  {} on {} process(es): {:.7e} N/m after {} steps (remaining relative change \
+                 {:.2e}; forces top {:.6e} N, bottom {:.6e} N; {:.1} s)",
+                r.engine,
+                m.processes,
+                m.stiffness(),
+                m.steps,
+                m.remaining,
+                m.force_top,
+                m.force_bottom,
+                m.seconds
+            );
+        }
+        s.push('\n');
         s
     }
 }
@@ -286,56 +314,64 @@ pub fn layers(p: &SpecimenReport) -> (Vec<usize>, Vec<usize>) {
     (of(1), of(2))
 }
 
-/// The report: the engine's stiffness against the solve's (one check), after making sure
-/// the engine held and moved the solve's layers (else [`Error::EngineFailed`]: the two did
-/// not run the same problem).
+/// The report: each run's stiffness against the solve's (one check per run:
+/// `platen-stiffness`, `platen-stiffness-np2`, …), after making sure every run held and
+/// moved the solve's layers (else [`Error::EngineFailed`]: they did not load the same
+/// specimen).
 pub fn compare(
     engine: &'static str,
     test: &SpecimenTest,
     lever_arm: LeverArm,
     asm: &Assembly,
     predicted: SpecimenReport,
-    measured: EngineMeasurement,
+    measured: Vec<EngineMeasurement>,
     timings: Vec<Timing>,
 ) -> Result<Report<SpecimenDetails>> {
     let (bottom, top) = layers(&predicted);
-    if bottom != measured.bottom || top != measured.top {
-        return Err(Error::engine(
-            engine,
+    let mut checks = Vec::new();
+    for m in &measured {
+        if bottom != m.bottom || top != m.top {
+            return Err(Error::engine(
+                engine,
+                format!(
+                    "the engine's end layers ({} held, {} moved) are not the specimen solve's \
+                     ({} and {}): the two did not load the same specimen",
+                    m.bottom.len(),
+                    m.top.len(),
+                    bottom.len(),
+                    top.len()
+                ),
+            ));
+        }
+        let rel = ((m.stiffness() - predicted.platen_stiffness) / predicted.platen_stiffness).abs();
+        let suffix = if m.processes == 1 {
+            String::new()
+        } else {
+            format!("-np{}", m.processes)
+        };
+        checks.push(Check::unless_unsettled(
+            format!("platen-stiffness{suffix}"),
             format!(
-                "the engine's end layers ({} held, {} moved) are not the specimen solve's ({} \
-                 and {}): the two did not load the same specimen",
-                measured.bottom.len(),
-                measured.top.len(),
-                bottom.len(),
-                top.len()
-            ),
-        ));
-    }
-    let k = measured.stiffness();
-    let rel = ((k - predicted.platen_stiffness) / predicted.platen_stiffness).abs();
-    let rel = if rel.is_finite() { rel } else { f64::NAN };
-    let checks = vec![
-        Check::unless_unsettled(
-            "platen-stiffness",
-            format!(
-                "platen stiffness F/δ, {engine} vs the specimen solve ({} contact point)",
+                "platen stiffness F/δ, {engine} on {} process(es) vs the specimen solve ({} \
+                 contact point)",
+                m.processes,
                 lever_name(lever_arm)
             ),
-            rel,
+            if rel.is_finite() { rel } else { f64::NAN },
             test.tolerance,
-            measured.remaining,
-        ),
-        Check::info(
-            "force-balance",
+            m.remaining,
+        ));
+        checks.push(Check::info(
+            format!("force-balance{suffix}"),
             format!("|F_top − F_bottom| / F_top in {engine}"),
-            ((measured.force_top - measured.force_bottom) / measured.force_top).abs(),
-        ),
-    ];
+            ((m.force_top - m.force_bottom) / m.force_top).abs(),
+        ));
+    }
+    let time_step = measured.first().map_or(f64::NAN, |m| m.time_step);
     Ok(Report {
         n_particles: asm.packing.len(),
         n_bonds: asm.bonds.len(),
-        time_step: measured.time_step,
+        time_step,
         checks,
         timings,
         details: SpecimenDetails {

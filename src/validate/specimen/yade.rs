@@ -21,6 +21,9 @@ use std::path::Path;
 /// equilibrium).
 pub const DAMPING: f64 = 0.8;
 
+/// Default strain of YADE's test.
+pub const STRAIN: f64 = 1e-6;
+
 /// Sub-directory of the validation directory YADE runs in.
 pub const DIR: &str = "yade-specimen";
 
@@ -63,6 +66,7 @@ pub fn run(
     test: &SpecimenTest,
     progress: Progress,
 ) -> Result<Report<SpecimenDetails>> {
+    let test = &test.resolved(STRAIN);
     let asm = free_assembly(problem, "yade")?;
     if find_yade().is_none() {
         return Err(Error::Invalid(
@@ -106,7 +110,7 @@ pub fn run(
         }
         .into(),
         "--strain".into(),
-        format!("{:e}", test.strain),
+        format!("{:e}", test.strain()),
         "--damping".into(),
         DAMPING.to_string(),
         "--density".into(),
@@ -148,7 +152,7 @@ pub fn run(
         LeverArm::MidGap,
         &asm,
         predicted,
-        measured,
+        vec![measured],
         timings,
     )
 }
@@ -182,6 +186,7 @@ fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement>
             .as_str()
             .unwrap_or("unknown")
             .to_string(),
+        processes: 1,
         bottom: ids("bottom")?,
         top: ids("top")?,
         displacement: num("displacement")?,

@@ -1,0 +1,487 @@
+//! LAMMPS' specimen test (BPM package): `in.specimen` reads the free specimen
+//! (`boundary f f f`, `atom_style bpm/sphere`, `bond_style bpm/rotational` with one bond
+//! type per bond, as `export lammps` route (a)), its end layers as atom types (2 bottom, 3
+//! top, 4 and 5 the bottom's lateral supports), stores the bonds' reference state, moves
+//! the top layer by `displace_atoms` (bpm/rotational is a total-form law: the bonds see
+//! the displacement, not its path) and relaxes with the bonds' own damping and `fix viscous` in chunks until
+//! the platen force settles. `bonded` platens: the layers are not integrated (all six DOFs
+//! held: positions and orientations stay); `frictionless`: they are, with `fix setforce`
+//! zeroing the axial force only (the supports' lateral forces too). The platen force is
+//! `fix setforce`'s global vector: the force on the group before it is zeroed. The solve
+//! uses bpm/rotational's midpoint contact point ([`LeverArm::HalfLength`]).
+
+use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use crate::bonds::{BondSet, BondStiffness};
+use crate::homogenize::network::LeverArm;
+use crate::packing::Packing;
+use crate::specimen::{Platens, SpecimenReport};
+use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{Report, Timing};
+use crate::validate::lammps::LammpsValidateOptions;
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::Command;
+
+/// Default strain of LAMMPS' test: bpm/rotational takes its bond angles from acos, which
+/// leaves √ε ≈ 1.5e-8 rad of rounding; at 1e-6 the stiffness came out 4.6e-4 off.
+pub const STRAIN: f64 = 1e-5;
+
+/// Sub-directory of the validation directory LAMMPS runs in.
+pub const DIR: &str = "lammps-specimen";
+
+/// Damping ratio ζ of every bond's normal, sliding, rolling and twisting damping.
+pub const DAMPING_RATIO: f64 = 0.3;
+
+/// Steps between two readings of the platen force.
+pub const CHUNK_STEPS: u64 = 500;
+
+fn num(x: f64) -> String {
+    format!("{x:e}")
+}
+
+/// Write `data.lmp` and `bond_coeffs.lmp`: atoms `id mol type diameter density x y z`
+/// (type 1 free, 2 bottom layer, 3 top layer, 4 and 5 bottom supports), bond b of type
+/// b + 1 with its own springs and damping (γ = 2ζ√(k m*) as `export lammps`).
+fn write_inputs(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    types: &[u8],
+    density: f64,
+) -> Result<f64> {
+    let n = packing.len();
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (x, r) in packing.positions.iter().zip(&packing.radii) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a] - r);
+            hi[a] = hi[a].max(x[a] + r);
+        }
+    }
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let margin = 2.0 * max_len;
+    let mut s = format!(
+        "LAMMPS data file written by anisobond {}: free specimen, {n} particles, {} bonds \
+         (one bond type per bond)\n\n{n} atoms\n5 atom types\n{} bonds\n{} bond types\n\n",
+        env!("CARGO_PKG_VERSION"),
+        bonds.len(),
+        bonds.len(),
+        bonds.len()
+    );
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{} {} {name}lo {name}hi",
+            num(lo[a] - margin),
+            num(hi[a] + margin)
+        );
+    }
+    s.push_str("\nAtoms # bpm/sphere\n\n");
+    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+        let _ = writeln!(
+            s,
+            "{} 1 {} {} {} {} {} {}",
+            p + 1,
+            types[p],
+            num(2.0 * r),
+            num(density),
+            num(x.x),
+            num(x.y),
+            num(x.z)
+        );
+    }
+    s.push_str("\nBonds\n\n");
+    for b in 0..bonds.len() {
+        let _ = writeln!(
+            s,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        );
+    }
+    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    let mut c = String::from(
+        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t\n\
+         # k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30;\n",
+    );
+    let _ = writeln!(
+        c,
+        "# damping ratio {DAMPING_RATIO} of each bond's own spring and reduced mass/inertia"
+    );
+    let mass = |p: usize| density * 4.0 / 3.0 * std::f64::consts::PI * packing.radii[p].powi(3);
+    for b in 0..bonds.len() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let (mi, mj) = (mass(i), mass(j));
+        let (ii, ij) = (
+            0.4 * mi * packing.radii[i].powi(2),
+            0.4 * mj * packing.radii[j].powi(2),
+        );
+        let (m_red, i_red) = (mi * mj / (mi + mj), ii * ij / (ii + ij));
+        let (len, z) = (bonds.length[b], DAMPING_RATIO);
+        let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
+        let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
+        let _ = writeln!(
+            c,
+            "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
+            b + 1,
+            num(k.kn[b]),
+            num(k.ks[b]),
+            num(k.ktw[b]),
+            num(k.kr[b]),
+            num(2.0 * z * (k.kn[b] * m_red).sqrt()),
+            num(2.0 * z * (k.ks[b] * m_red).sqrt()),
+            num(4.0 * z * (k_roll * i_red).sqrt() / len),
+            num(4.0 * z * (k_twist * i_red).sqrt())
+        );
+    }
+    crate::io::write_string_atomic(&dir.join("bond_coeffs.lmp"), &c)?;
+    Ok(max_len)
+}
+
+/// The atom types of the specimen: the solve's layers, and for frictionless platens the
+/// bottom's supports (one sphere's lateral translations, the farthest bottom sphere from it
+/// its lateral translation across the line joining them), as the YADE test holds them.
+/// Returns the types and the held lateral axis of the far support.
+fn atom_types(packing: &Packing, p: &SpecimenReport, axis: usize) -> (Vec<u8>, usize) {
+    let mut types: Vec<u8> = p.layer.iter().map(|&l| 1 + l).collect();
+    let bottom: Vec<usize> = (0..types.len()).filter(|&k| p.layer[k] == 1).collect();
+    let lateral = [(axis + 1) % 3, (axis + 2) % 3];
+    let Some(&a) = bottom.first() else {
+        return (types, lateral[0]);
+    };
+    let xa = packing.positions[a];
+    let far = bottom
+        .iter()
+        .copied()
+        .max_by(|&u, &v| {
+            (packing.positions[u] - xa)
+                .norm()
+                .total_cmp(&(packing.positions[v] - xa).norm())
+        })
+        .unwrap_or(a);
+    let d = packing.positions[far] - xa;
+    let (l0, l1) = (lateral[0].min(lateral[1]), lateral[0].max(lateral[1]));
+    let block = if d[l1].abs() >= d[l0].abs() { l0 } else { l1 };
+    types[a] = 4;
+    if far != a {
+        types[far] = 5;
+    }
+    (types, block)
+}
+
+/// The deck: read, group, store the reference state, displace, hold, relax in chunks.
+fn deck(
+    test: &SpecimenTest,
+    delta: f64,
+    dt: f64,
+    viscous: f64,
+    cut: f64,
+    far_block: usize,
+    max_chunks: u64,
+) -> String {
+    let ax = test.axis;
+    let component = |values: [&str; 3]| values.join(" ");
+    let along = |v: &str, other: &str| {
+        let mut c = [other; 3];
+        c[ax] = v;
+        component(c)
+    };
+    let displacement = along("$(-v_delta)", "0");
+    let (integrated, layer_force) = match test.platens {
+        Platens::Bonded => ("mobile", component(["0.0"; 3])),
+        Platens::Frictionless => ("all", along("0.0", "NULL")),
+    };
+    let mut support_a = ["0.0"; 3];
+    support_a[ax] = "NULL";
+    let mut support_far = ["NULL"; 3];
+    support_far[far_block] = "0.0";
+    let index = ax + 1;
+    let mut s = format!(
+        "# anisobond → LAMMPS (BPM package) specimen test, {} platens along {}.\n\
+         # Run:  lmp -in in.specimen   (or mpirun -np N lmp -in in.specimen)\n\
+         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
+         # The top layer is displaced by `delta` towards the bottom at once after the bonds'\n\
+         # reference state is stored (bpm/rotational: total form), then the bonds' own damping\n\
+         # relaxes the specimen in chunks of `chunk_steps` until the platen force's estimated\n\
+         # remaining relative change (geometric extrapolation of the last two changes) and\n\
+         # |F_top - F_bottom| / F_top are below `settle`, or `max_chunks`. Writes lammps-platen.json.\n",
+        match test.platens {
+            Platens::Frictionless => "frictionless",
+            Platens::Bonded => "bonded",
+        },
+        ["x", "y", "z"][ax]
+    );
+    let _ = write!(
+        s,
+        "variable dt index {}\nvariable delta index {}\nvariable settle index {}\n\
+         variable viscous index {}\n\
+         variable chunk_steps index {CHUNK_STEPS}\nvariable max_chunks index {max_chunks}\n\
+         units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\nnewton on off\n\
+         comm_modify vel yes cutoff {}\nread_data data.lmp\n\
+         bond_style bpm/rotational break no smooth no\ninclude bond_coeffs.lmp\n\
+         pair_style zero {}\npair_coeff * *\nneighbor {} bin\n\
+         neigh_modify every 1 delay 0 check yes\n\
+         group bottom type 2 4 5\ngroup top type 3\ngroup support_a type 4\n\
+         group support_far type 5\ngroup layers union bottom top\n\
+         group mobile subtract all layers\n\
+         timestep ${{dt}}\n\
+         fix integrate {integrated} nve/bpm/sphere\n\
+         run 0\n\
+         displace_atoms top move {displacement} units box\n\
+         fix ftop top setforce {layer_force}\n\
+         fix fbottom bottom setforce {layer_force}\n",
+        num(dt),
+        num(delta),
+        num(test.settle),
+        num(viscous),
+        num(cut),
+        num(cut),
+        num(0.1 * cut)
+    );
+    if test.platens == Platens::Frictionless {
+        let _ = write!(
+            s,
+            "fix fsupport_a support_a setforce {}\nfix fsupport_far support_far setforce {}\n",
+            component(support_a),
+            component(support_far)
+        );
+    }
+    let _ = writeln!(s, "fix damp {integrated} viscous ${{viscous}}");
+    let _ = write!(
+        s,
+        "variable ft equal f_ftop[{index}]\nvariable fb equal -f_fbottom[{index}]\n\
+         thermo_style custom step v_ft v_fb\nthermo ${{chunk_steps}}\n\
+         run ${{chunk_steps}}\nvariable f1 equal $(v_ft:%.17g)\n\
+         run ${{chunk_steps}}\nvariable f2 equal $(v_ft:%.17g)\n\
+         variable chunk loop ${{max_chunks}}\n\
+         label relax\n\
+         run ${{chunk_steps}}\n\
+         variable f3 equal $(v_ft:%.17g)\nvariable b3 equal $(v_fb:%.17g)\n\
+         variable done equal \"abs(v_f3-v_f2)*abs(v_f2-v_f1) <= v_settle*abs(v_f3)*(abs(v_f2-v_f1)-abs(v_f3-v_f2)) && abs(v_f3-v_b3) <= v_settle*abs(v_f3)\"\n\
+         if \"${{done}} == 1\" then \"jump SELF settled\"\n\
+         variable f1 equal ${{f2}}\nvariable f2 equal ${{f3}}\n\
+         next chunk\njump SELF relax\n\
+         label settled\n\
+         print \"\"\"{{\"force_top\": ${{f3}}, \"force_bottom\": ${{b3}}, \"f1\": ${{f1}}, \"f2\": ${{f2}}, \"steps\": $(step), \"dt\": ${{dt}}, \"delta\": ${{delta}}}}\"\"\" file lammps-platen.json\n"
+    );
+    s
+}
+
+/// Run `lmp -in in.specimen` in `dir` on `np` processes (the `mpirun` beside `lmp`, else on
+/// PATH); returns the wall time (s).
+fn run_lmp(dir: &Path, lmp: &Path, np: usize) -> Result<f64> {
+    let bin = lmp.parent().unwrap_or(Path::new("."));
+    let mut cmd = if np > 1 {
+        let beside = bin.join("mpirun");
+        let mut c = Command::new(if beside.is_file() {
+            beside
+        } else {
+            "mpirun".into()
+        });
+        c.args(["-np", &np.to_string()]).arg(lmp);
+        c
+    } else {
+        Command::new(lmp)
+    };
+    let lib = bin.parent().unwrap_or(Path::new(".")).join("lib");
+    let ld = match std::env::var_os("LD_LIBRARY_PATH") {
+        Some(v) if !v.is_empty() => {
+            let mut s = lib.into_os_string();
+            s.push(":");
+            s.push(v);
+            s
+        }
+        _ => lib.into_os_string(),
+    };
+    let log = format!("log-np{np}.lammps");
+    let t0 = std::time::Instant::now();
+    let out = cmd
+        .args(["-in", "in.specimen", "-log", &log, "-screen", "none"])
+        .env("LD_LIBRARY_PATH", ld)
+        .current_dir(dir)
+        .output()
+        .map_err(|e| Error::engine("LAMMPS", format!("cannot start {}: {e}", lmp.display())))?;
+    if !out.status.success() {
+        let text = crate::io::read_to_string(&dir.join(&log)).unwrap_or_default();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let said: Vec<&str> = text
+            .lines()
+            .chain(stderr.lines())
+            .filter(|l| l.contains("ERROR"))
+            .map(|l| l.trim())
+            .collect::<Vec<_>>();
+        return Err(Error::engine(
+            "LAMMPS",
+            format!(
+                "the specimen test on {np} process(es) failed ({}): {}",
+                out.status,
+                if said.is_empty() {
+                    "no ERROR line (see the log)".to_string()
+                } else {
+                    said.join(" | ")
+                }
+            ),
+        ));
+    }
+    Ok(t0.elapsed().as_secs_f64())
+}
+
+/// Read `lammps-platen.json` of a run on `np` processes.
+fn read_result(
+    dir: &Path,
+    np: usize,
+    layers: &(Vec<usize>, Vec<usize>),
+    seconds: f64,
+) -> Result<EngineMeasurement> {
+    let path = dir.join("lammps-platen.json");
+    let text = crate::io::read_to_string(&path)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::engine("LAMMPS", format!("{}: {e}", path.display())))?;
+    let renamed = dir.join(format!("lammps-platen-np{np}.json"));
+    std::fs::rename(&path, &renamed).map_err(|e| Error::io(&renamed, e))?;
+    let num = |k: &str| {
+        v[k].as_f64().ok_or_else(|| {
+            Error::engine("LAMMPS", format!("{}: no number `{k}`", renamed.display()))
+        })
+    };
+    let (f1, f2, f3) = (num("f1")?, num("f2")?, num("force_top")?);
+    let (d1, d2) = (f2 - f1, f3 - f2);
+    let ratio = if d1 != 0.0 { (d2 / d1).abs() } else { 0.0 };
+    let remaining = if ratio < 1.0 {
+        d2.abs() / (1.0 - ratio) / f3.abs()
+    } else {
+        f64::INFINITY
+    };
+    let log =
+        crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
+    let version = log
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("LAMMPS ("))
+        .and_then(|l| l.split(')').next())
+        .unwrap_or("unknown")
+        .to_string();
+    Ok(EngineMeasurement {
+        version,
+        processes: np,
+        bottom: layers.0.clone(),
+        top: layers.1.clone(),
+        displacement: num("delta")?,
+        force_top: f3,
+        force_bottom: num("force_bottom")?,
+        time_step: num("dt")?,
+        steps: v["steps"]
+            .as_u64()
+            .ok_or_else(|| Error::engine("LAMMPS", format!("{}: no steps", renamed.display())))?,
+        remaining,
+        how: format!(
+            "end layers as atom types; top displaced at once (displace_atoms), bonded: layers \
+             not integrated, frictionless: fix setforce on the axial force; bonds' damping \
+             ratio {DAMPING_RATIO} and fix viscous, chunks of {CHUNK_STEPS} steps"
+        ),
+        seconds,
+        dir: dir.to_path_buf(),
+    })
+}
+
+/// Run LAMMPS' specimen test of `problem`'s free specimen (on one process, and on two with
+/// `two_processes`) and compare with the solve.
+pub fn run(
+    opts: &LammpsValidateOptions,
+    problem: &Problem,
+    test: &SpecimenTest,
+    progress: Progress,
+) -> Result<Report<SpecimenDetails>> {
+    let test = &test.resolved(STRAIN);
+    let asm = free_assembly(problem, "lammps")?;
+    if asm.bonds.is_empty() {
+        return Err(Error::Invalid(
+            "validate lammps --specimen: no bonds".into(),
+        ));
+    }
+    let density = opts.export.density;
+    let mut timings = Vec::new();
+    let predicted = predict(&asm, test, LeverArm::HalfLength, &mut timings)?;
+    progress(&format!(
+        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
+        predicted.platen_stiffness
+    ));
+    let layers = super::layers(&predicted);
+    let (types, far_block) = atom_types(&asm.packing, &predicted, test.axis);
+    let dir = problem.dir.join(DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let max_len = write_inputs(
+        &dir,
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        &types,
+        density,
+    )?;
+    // The time step of the element-test export: `safety` × the single-particle bound (the
+    // whole network's critical step is not stable with the bonds' dashpots: it blew up).
+    let dt = opts.export.safety
+        * crate::export::liggghts::stable_timestep(
+            &asm.packing,
+            &asm.bonds,
+            &asm.springs,
+            density,
+        )?;
+    // Viscous damping of the free spheres' translations (fix viscous), chosen to damp the
+    // specimen's slow modes: γ = m̄·√(K/M)/4 with K the solve's platen stiffness and M the
+    // specimen's mass (it changes the way to rest, not the rest state).
+    let masses: Vec<f64> = asm
+        .packing
+        .radii
+        .iter()
+        .map(|r| density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .collect();
+    let total: f64 = masses.iter().sum();
+    let viscous = total / masses.len() as f64 * (predicted.platen_stiffness / total).sqrt() / 4.0;
+    // δ = strain × the gauge length (between the layers' mean centres), as the solve.
+    let delta = test.strain() * predicted.length;
+    let max_chunks = test.max_steps.div_ceil(CHUNK_STEPS).max(3) - 2;
+    crate::io::write_string_atomic(
+        &dir.join("in.specimen"),
+        &deck(
+            test,
+            delta,
+            dt,
+            viscous,
+            1.6 * max_len,
+            far_block,
+            max_chunks,
+        ),
+    )?;
+    let mut measured = Vec::new();
+    let runs: &[usize] = if opts.two_processes { &[1, 2] } else { &[1] };
+    for &np in runs {
+        let seconds = run_lmp(&dir, &opts.lmp, np)?;
+        timings.push(Timing {
+            stage: format!("lammps_np{np}"),
+            seconds,
+        });
+        let m = read_result(&dir, np, &layers, seconds)?;
+        progress(&format!(
+            "LAMMPS on {np} process(es): done in {seconds:.1} s ({} steps): platen stiffness \
+             {:.7e} N/m",
+            m.steps,
+            m.stiffness()
+        ));
+        measured.push(m);
+    }
+    compare(
+        "lammps",
+        test,
+        LeverArm::HalfLength,
+        &asm,
+        predicted,
+        measured,
+        timings,
+    )
+}
