@@ -9,10 +9,11 @@ use super::errors::{to_py, InputError};
 use super::method::MethodArgs;
 use super::model::PyModel;
 use super::packing::PyPacking;
-use crate::assembly::{Assembly, Method};
+use crate::assembly::Assembly;
 use crate::homogenize::report::TensorReport;
 use crate::io::OutputSet;
-use crate::Error;
+use crate::study::cavity::CavityStudyOptions;
+use crate::study::OptionNames;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -284,83 +285,48 @@ impl PyAssembly {
     /// Šmilauer's pressurised cavity (docs/cavity.md), as `anisobond cavity` without the
     /// wave run: a slab with a hole of radius `hole_radius` (m; default 10 R̄) cut from this
     /// periodic assembly, clamped beyond `outer_radius` (default 24 R̄), the wall under
-    /// `pressure` (Pa). Returns a dict: the DEM wall displacement (m) beside Lamé (the
-    /// relaxed tensor's isotropic projection) and the anisotropic continuum of the full
-    /// relaxed tensor (`continuum_*`), the ±20° wall bins along ±x, ±y (u_r, u_z, m), and
+    /// `pressure` (Pa; default 1e6). Returns the dict of cavity.json (the same keys): the DEM
+    /// wall displacement (m) beside Lamé (the relaxed tensor's isotropic projection) and,
+    /// under `continuum`, the anisotropic continuum of the full relaxed tensor and the ±20°
+    /// wall bins; the in-plane Christoffel speeds at `density` (kg/m³; default 2600); and
     /// numpy arrays `positions`, `displacement` (m) of the slab's spheres. GIL released.
-    #[pyo3(signature = (hole_radius = None, *, outer_radius = None, pressure = 1e6,
-        clamp_width = None, ray_spacing = None))]
+    #[pyo3(signature = (hole_radius = None, *, outer_radius = None, pressure = None,
+        clamp_width = None, ray_spacing = None, density = None))]
+    #[allow(clippy::too_many_arguments)]
     fn cavity<'py>(
         &self,
         py: Python<'py>,
         hole_radius: Option<f64>,
         outer_radius: Option<f64>,
-        pressure: f64,
+        pressure: Option<f64>,
         clamp_width: Option<f64>,
         ray_spacing: Option<f64>,
+        density: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        use crate::cavity::{Cavity, CavityGeometry};
-        for (name, v) in [
-            ("hole_radius", hole_radius),
-            ("outer_radius", outer_radius),
-            ("clamp_width", clamp_width),
-            ("ray_spacing", ray_spacing),
-        ] {
-            if let Some(v) = v {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(InputError::new_err(format!(
-                        "{name} must be finite and > 0 m, got {v}"
-                    )));
-                }
-            }
-        }
+        let defaults = CavityStudyOptions::default();
+        let opts = CavityStudyOptions {
+            hole_radius,
+            outer_radius,
+            clamp_width,
+            ray_spacing,
+            pressure: pressure.unwrap_or(defaults.pressure),
+            density: density.unwrap_or(defaults.density),
+            ..defaults
+        };
         let src = &self.inner;
-        let (cavity, cmp) = py
+        let (json, positions, displacement) = py
             .detach(|| {
-                let geometry = CavityGeometry::with_defaults(
-                    src,
-                    hole_radius,
-                    outer_radius,
-                    clamp_width,
-                    ray_spacing,
-                );
-                let relaxed = src.tensor(&Method::relaxed())?.report.tensor();
-                let cavity = Cavity::new(src, geometry)?;
-                let cmp = cavity.compare_static(&relaxed, pressure)?;
-                Ok::<_, Error>((cavity, cmp))
+                let r = crate::study::cavity::run(src, &opts, OptionNames::Keywords)?;
+                Ok::<_, crate::Error>((
+                    r.to_json()?,
+                    r.cavity.cut.packing.positions,
+                    r.comparison.solution.displacement,
+                ))
             })
             .map_err(to_py)?;
-        let s = &cmp.solution;
-        let d = PyDict::new(py);
-        d.set_item("pressure_pa", pressure)?;
-        d.set_item("hole_radius_m", cavity.geometry.inner_radius)?;
-        d.set_item("clamped_radius_m", cavity.geometry.outer_radius)?;
-        d.set_item("spheres", cavity.cut.packing.len())?;
-        d.set_item("free_spheres", s.free_spheres)?;
-        d.set_item("wall_spheres", cavity.wall.len())?;
-        d.set_item("relative_residual", s.relative_residual)?;
-        d.set_item("wall_displacement_m", s.wall_displacement)?;
-        d.set_item("wall_axial_displacement_m", s.wall_axial_displacement)?;
-        d.set_item("lame_wall_displacement_m", cmp.lame_wall_displacement)?;
-        d.set_item(
-            "dem_over_lame",
-            s.wall_displacement / cmp.lame_wall_displacement,
-        )?;
-        d.set_item("lame_lambda_pa", cmp.lame_constants.0)?;
-        d.set_item("lame_mu_pa", cmp.lame_constants.1)?;
-        d.set_item(
-            "continuum_wall_displacement_m",
-            cmp.continuum.wall_displacement,
-        )?;
-        d.set_item(
-            "dem_over_continuum",
-            s.wall_displacement / cmp.continuum.wall_displacement,
-        )?;
-        let bins =
-            serde_json::to_string(&cmp.bins).map_err(|e| InputError::new_err(e.to_string()))?;
-        d.set_item("wall_bins_20deg", json_to_py(py, &bins)?)?;
-        d.set_item("positions", vec3_array(py, &cavity.cut.packing.positions)?)?;
-        d.set_item("displacement", vec3_array(py, &s.displacement)?)?;
+        let d = json_to_py(py, &json)?.cast_into::<PyDict>()?;
+        d.set_item("positions", vec3_array(py, &positions)?)?;
+        d.set_item("displacement", vec3_array(py, &displacement)?)?;
         Ok(d)
     }
 

@@ -12,6 +12,7 @@ use crate::assembly::{Assembly, EqualSpheres};
 use crate::calibrate::cubic::{CubicOptions, Family};
 use crate::calibrate::target::Target;
 use crate::calibrate::{calibrate, CalibrateOn, Calibration};
+use crate::model::Model;
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -37,24 +38,7 @@ pub(super) fn calibrate_model<'py>(
     solid_fraction: f64,
     radius: f64,
 ) -> PyResult<(PyModel, Bound<'py, PyDict>)> {
-    let text = if let Ok(s) = target.extract::<String>() {
-        s
-    } else if let Ok(d) = target.cast::<PyDict>() {
-        let mut parts = Vec::new();
-        for (k, v) in d.iter() {
-            let k: String = k.extract()?;
-            let v: f64 = v.extract().map_err(|_| {
-                InputError::new_err(format!("target {k}: expected a number (Pa or a ratio)"))
-            })?;
-            parts.push(format!("{k}={v:e}"));
-        }
-        parts.join(",")
-    } else {
-        return Err(PyTypeError::new_err(
-            "target: expected a dict such as {'C12/C11': 0.30, 'C44/C11': 0.43} or the CLI's text",
-        ));
-    };
-    let target = Target::parse(&text).map_err(to_py)?;
+    let target = Target::parse(&target_text(target)?).map_err(to_py)?;
     let opts = CubicOptions {
         family: Family::from_name(family).map_err(to_py)?,
         extended,
@@ -64,32 +48,7 @@ pub(super) fn calibrate_model<'py>(
         ..Default::default()
     };
     let base = &model.inner;
-    let on_assembly: Option<(Assembly, bool)> = match on {
-        None => None,
-        Some(o) if o.is_none() => None,
-        Some(o) => {
-            if let Ok(s) = o.extract::<String>() {
-                if s != "mean-field" {
-                    return Err(InputError::new_err(format!(
-                        "on = '{s}': expected 'mean-field', a Packing (relaxed tensor) or None"
-                    )));
-                }
-                None
-            } else if let Ok(p) = o.cast::<PyPacking>() {
-                let p = p.get().inner.clone();
-                let m = base.clone();
-                Some((py.detach(|| Assembly::new(p, m)).map_err(to_py)?, true))
-            } else if let Ok(a) = o.cast::<PyAssembly>() {
-                let a = &a.get().inner;
-                let rebonded = Assembly::new(a.packing.clone(), base.clone()).map_err(to_py)?;
-                Some((rebonded, true))
-            } else {
-                return Err(PyTypeError::new_err(
-                    "on: expected 'mean-field', a Packing or an Assembly",
-                ));
-            }
-        }
-    };
+    let on_assembly = on_assembly(py, on, base)?;
     let spheres = EqualSpheres {
         coordination,
         solid_fraction,
@@ -105,8 +64,72 @@ pub(super) fn calibrate_model<'py>(
             calibrate(base, &target, on, &opts)
         })
         .map_err(to_py)?;
+    let info = info_dict(py, &calibrated.calibration)?;
+    Ok((PyModel::wrap(calibrated.model)?, info))
+}
+
+/// The target as the CLI's text (`C12/C11=0.3,…`), from that text or a dict.
+fn target_text(target: &Bound<'_, PyAny>) -> PyResult<String> {
+    if let Ok(s) = target.extract::<String>() {
+        Ok(s)
+    } else if let Ok(d) = target.cast::<PyDict>() {
+        let mut parts = Vec::new();
+        for (k, v) in d.iter() {
+            let k: String = k.extract()?;
+            let v: f64 = v.extract().map_err(|_| {
+                InputError::new_err(format!("target {k}: expected a number (Pa or a ratio)"))
+            })?;
+            parts.push(format!("{k}={v:e}"));
+        }
+        Ok(parts.join(","))
+    } else {
+        Err(PyTypeError::new_err(
+            "target: expected a dict such as {'C12/C11': 0.30, 'C44/C11': 0.43} or the CLI's text",
+        ))
+    }
+}
+
+/// `on`: None or 'mean-field' (the mean field of equal spheres), or a Packing or Assembly
+/// bonded by `base` (its relaxed tensor).
+fn on_assembly(
+    py: Python<'_>,
+    on: Option<&Bound<'_, PyAny>>,
+    base: &Model,
+) -> PyResult<Option<(Assembly, bool)>> {
+    let o = match on {
+        None => return Ok(None),
+        Some(o) if o.is_none() => return Ok(None),
+        Some(o) => o,
+    };
+    if let Ok(s) = o.extract::<String>() {
+        if s != "mean-field" {
+            return Err(InputError::new_err(format!(
+                "on = '{s}': expected 'mean-field', a Packing (relaxed tensor) or None"
+            )));
+        }
+        Ok(None)
+    } else if let Ok(p) = o.cast::<PyPacking>() {
+        let p = p.get().inner.clone();
+        let m = base.clone();
+        Ok(Some((
+            py.detach(|| Assembly::new(p, m)).map_err(to_py)?,
+            true,
+        )))
+    } else if let Ok(a) = o.cast::<PyAssembly>() {
+        let a = &a.get().inner;
+        let rebonded = Assembly::new(a.packing.clone(), base.clone()).map_err(to_py)?;
+        Ok(Some((rebonded, true)))
+    } else {
+        Err(PyTypeError::new_err(
+            "on: expected 'mean-field', a Packing or an Assembly",
+        ))
+    }
+}
+
+/// What the calibration achieved, as the details dict.
+fn info_dict<'py>(py: Python<'py>, calibration: &Calibration) -> PyResult<Bound<'py, PyDict>> {
     let info = PyDict::new(py);
-    match &calibrated.calibration {
+    match calibration {
         Calibration::Cubic(c) => {
             info.set_item("level", format!("{:?}", c.level).to_lowercase())?;
             info.set_item("a_n", c.parameters.a_n)?;
@@ -133,5 +156,5 @@ pub(super) fn calibrate_model<'py>(
             info.set_item("level", "meanfield")?;
         }
     }
-    Ok((PyModel::wrap(calibrated.model)?, info))
+    Ok(info)
 }
