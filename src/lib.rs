@@ -51,6 +51,7 @@ pub mod plot;
 pub mod python;
 pub mod schemes;
 pub mod specimen;
+pub mod study;
 pub mod tensor;
 #[cfg(feature = "engines")]
 pub mod validate;

@@ -377,7 +377,14 @@ fn report_of(
     });
     bar.finish_and_clear();
     let result = result?;
-    match &result.detail {
+    print_detail(&result.detail, st);
+    Ok(result.report)
+}
+
+/// What a method says about its solution, on standard error (`st`: the static options it
+/// ran with, for the solver's and LAF estimate's names).
+fn print_detail(detail: &Detail, st: &StaticArgs) {
+    match detail {
         Detail::Relaxed(r) => {
             let ns = &r.null_space;
             eprintln!(
@@ -421,7 +428,6 @@ fn report_of(
         Detail::Dynamic(d) => run::print_stability(d),
         Detail::None => {}
     }
-    Ok(result.report)
 }
 
 /// Name the input files in a refusal whose cause lies in them: a computed tensor that is not
