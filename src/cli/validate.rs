@@ -1,16 +1,14 @@
-//! `anisobond validate yade PACKING --model MODEL [-o DIR]`: the same problem in YADE and in
-//! anisobond, the differences as a table with units, files in DIR, and a non-zero exit
-//! status when any agreement is outside its tolerance.
+//! `anisobond validate yade|liggghts|lammps PACKING --model MODEL [-o DIR]`: the same problem
+//! in another DEM code and in anisobond through the engine's [`Engine`] implementation, the
+//! differences as a table with units, files in DIR, and a non-zero exit status when any
+//! agreement is outside its tolerance ([`run_engine`], the one path every engine takes).
 
-use anisobond::assembly::Assembly;
+use super::cell::BondedInput;
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
-use anisobond::model::Model;
-use anisobond::tensor::Stiffness6;
-use anisobond::validate::harness::{checks_table, failure_lines, unsettled_lines, Report};
-use anisobond::validate::yade::{
-    validate_yade, write_validation_files, Tolerances, YadeValidation, YadeValidationOptions,
-};
+use anisobond::validate::harness::{failure_lines, summary, unsettled_lines, EngineDetails};
+use anisobond::validate::yade::{Yade, YadeValidationOptions};
+use anisobond::validate::{validate, Engine, Problem, Tolerances};
 use anisobond::{Error, Result};
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
@@ -42,7 +40,7 @@ pub enum ValidateTarget {
 #[derive(clap::Args)]
 pub struct YadeValidateArgs {
     #[command(flatten)]
-    pub input: super::cell::BondedInput,
+    pub input: BondedInput,
     /// Output directory (created if missing); default: a temporary directory, removed.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -84,42 +82,50 @@ pub struct YadeValidateArgs {
     pub relaxed_tolerance: f64,
 }
 
-/// Run `validate`.
-pub fn run(a: ValidateArgs) -> Result<()> {
-    match a.target {
-        ValidateTarget::Yade(y) => validate_yade_cmd(y),
-        ValidateTarget::Liggghts(a) => super::validate_liggghts::run(a),
-        ValidateTarget::Lammps(a) => super::validate_lammps::run(a),
+impl YadeValidateArgs {
+    /// The YADE engine with these settings.
+    fn engine(&self) -> Result<Yade> {
+        Ok(Yade(YadeValidationOptions {
+            strain: self.strain,
+            density: self.density,
+            time_step: self.dt,
+            safety: self.safety,
+            undamped_steps: self.undamped_steps,
+            undamped_paths: parse_paths(&self.undamped_paths)?,
+            damped_steps: self.damped_steps,
+            damping: self.damping,
+            cg_tolerance: self.cg_tolerance,
+            tolerances: Tolerances {
+                history: self.history_tolerance,
+                tensor: self.tensor_tolerance,
+                relaxed: self.relaxed_tolerance,
+                processes: 0.0,
+            },
+        }))
     }
 }
 
-fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
-    let opts = YadeValidationOptions {
-        strain: a.strain,
-        density: a.density,
-        time_step: a.dt,
-        safety: a.safety,
-        undamped_steps: a.undamped_steps,
-        undamped_paths: parse_paths(&a.undamped_paths)?,
-        damped_steps: a.damped_steps,
-        damping: a.damping,
-        cg_tolerance: a.cg_tolerance,
-        tolerances: Tolerances {
-            history: a.history_tolerance,
-            tensor: a.tensor_tolerance,
-            relaxed: a.relaxed_tolerance,
-        },
-    };
-    opts.validate()?;
-    let mut set = OutputSet::new(&a.input.paths());
-    let staged = set.optional_dir(a.output.as_deref())?;
-    let model = Model::from_path(&a.input.model)?;
-    let Assembly {
-        packing,
-        bonds: b,
-        springs: k,
-        ..
-    } = super::cell::assembly_with(&a.input.packing, model.clone(), &a.input.model)?;
+/// Run `validate`.
+pub fn run(a: ValidateArgs) -> Result<()> {
+    match a.target {
+        ValidateTarget::Yade(y) => run_engine(&y.engine()?, &y.input, y.output.as_deref()),
+        ValidateTarget::Liggghts(a) => run_engine(&a.engine()?, &a.input, Some(&a.output)),
+        ValidateTarget::Lammps(a) => run_engine(&a.engine()?, &a.input, Some(&a.output)),
+    }
+}
+
+/// Every `validate ENGINE`: options checked, the bonded input read, the engine run in the
+/// staged `output` (a temporary directory, removed, without one) with one progress line
+/// per stage, the summary printed, the report files written and moved into place, and the
+/// end: exit 0 when every check is within its tolerance, else [`Error::OutOfTolerance`]
+/// naming the failed checks (an engine that failed or did not settle has ended earlier
+/// with [`Error::EngineFailed`] or [`Error::NotConverged`]).
+fn run_engine<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>) -> Result<()> {
+    engine.check()?;
+    let name = E::Details::ENGINE;
+    let mut set = OutputSet::new(&input.paths());
+    let staged = set.optional_dir(output)?;
+    let asm = input.assembly()?;
     let temp;
     let dir = match &staged {
         Some(d) => d.clone(),
@@ -128,158 +134,42 @@ fn validate_yade_cmd(a: YadeValidateArgs) -> Result<()> {
             temp.path().to_path_buf()
         }
     };
-    eprintln!(
-        "validate yade: {} particles, {} bonds; running YADE and anisobond …",
-        packing.len(),
-        b.len()
+    println!(
+        "validate {name}: {} particles, {} bonds; runs in {}{}",
+        asm.packing.len(),
+        asm.bonds.len(),
+        dir.display(),
+        output.map_or(String::new(), |o| format!(
+            " (moved to {} when done)",
+            o.display()
+        ))
     );
-    let v = validate_yade(&dir, &packing, &b, &k, Some(&model), &opts, &|m: &str| {
-        eprintln!("  {m}")
-    })?;
-    print_table(&v);
-    if let Some(out) = &a.output {
-        let written = write_validation_files(&dir, &v)?;
+    let t0 = std::time::Instant::now();
+    let progress = |m: &str| eprintln!("[{:7.1} s] {m}", t0.elapsed().as_secs_f64());
+    let report = validate(engine, &Problem::of(&dir, &asm), &progress)?;
+    print!("{}", summary(&report));
+    if let Some(out) = output {
+        let files = engine.write_files(&dir, &report)?;
         set.commit()?;
-        super::output::print_written("wrote ", &written, &dir, out);
-        println!(
-            "YADE export and YADE's own outputs: {}",
-            super::output::final_path(&v.yade_dir, &dir, out).display()
-        );
+        println!();
+        super::output::print_written("wrote ", &files, &dir, out);
     }
-    verdict(
-        &v,
-        "PASSED: YADE and anisobond agree within every tolerance",
-        |failures| {
-            format!(
-                "validate yade FAILED ({} of {} checks out of tolerance):\n  {}",
-                failures.len(),
-                v.checks.len(),
-                failures.join("\n  ")
-            )
-        },
-    )
-}
-
-/// The end of a validation: `passed` printed when every check of `report` is within its
-/// tolerance, else the error that `failed` words from the lines of the failed checks.
-fn verdict<D>(
-    report: &Report<D>,
-    passed: &str,
-    failed: impl FnOnce(&[String]) -> String,
-) -> Result<()> {
-    let failures = failure_lines(report);
-    if failures.is_empty() {
-        println!("{passed}");
-        Ok(())
-    } else {
-        Err(Error::OutOfTolerance {
-            failed: failures.len(),
-            checks: report.checks.len(),
-            message: failed(&failures),
-        })
-    }
-}
-
-fn gpa_row(c: &Stiffness6, i: usize) -> String {
-    (0..6)
-        .map(|j| format!("{:9.4}", c[(i, j)] / 1e9))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-fn print_table(v: &YadeValidation) {
-    let o = &v.options;
-    println!(
-        "YADE {} vs anisobond: {} particles, {} bonds, dt {:.4e} s (critical estimate {:.4e} s), \
-         density {} kg/m³, strain {:e} in one step",
-        v.yade_version,
-        v.n_particles,
-        v.n_bonds,
-        v.time_step,
-        v.critical_time_step,
-        o.density,
-        o.strain
-    );
-    println!();
-    println!(
-        "undamped stress histories ({} steps, damping 0):",
-        o.undamped_steps
-    );
-    println!(
-        "  {:<6} {:>14} {:>16} {:>12} {:>11}",
-        "path", "max |σ| (Pa)", "max |Δσ| (Pa)", "relative", "worst step"
-    );
-    for h in &v.undamped {
-        println!(
-            "  {:<6} {:>14.4e} {:>16.4e} {:>12.3e} {:>11}",
-            h.label, h.max_stress, h.max_difference, h.relative, h.worst_step
-        );
-    }
-    println!();
-    println!(
-        "damped element tests (Cundall {}, {} steps per path, C = S·E⁻¹), GPa, Voigt 11 22 33 23 13 12:",
-        o.damping, o.damped_steps
-    );
-    for (name, c) in [
-        ("YADE", &v.c_yade),
-        ("anisobond", &v.c_anisobond),
-        ("relaxed", &v.c_relaxed),
-    ] {
-        println!("  {name}:");
-        for i in 0..6 {
-            println!("    {}", gpa_row(c, i));
-        }
-    }
-    println!();
-    print!("{}", checks_table(v));
-    println!();
-    let times: Vec<String> = v
-        .timings
-        .iter()
-        .map(|t| format!("{} {:.2}", t.stage, t.seconds))
-        .collect();
-    println!("time (s): {}", times.join(", "));
-}
-
-/// The end of `validate liggghts|lammps`: the tensors' diagonal and C12 (GPa), the wall times,
-/// the files written (named under `output`), and an error listing the checks outside their
-/// tolerance.
-pub(super) fn finish<D>(
-    engine: &str,
-    report: &Report<D>,
-    tensors: &[(String, Stiffness6)],
-    files: &[PathBuf],
-    staged: &Path,
-    output: &Path,
-) -> Result<()> {
-    let gpa = |c: &Stiffness6, i: usize, j: usize| c[(i, j)] / 1e9;
-    println!("\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
-    for (name, c) in tensors {
-        println!(
-            "  {name:<14} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4} {:9.4}",
-            gpa(c, 0, 0),
-            gpa(c, 1, 1),
-            gpa(c, 2, 2),
-            gpa(c, 0, 1),
-            gpa(c, 3, 3),
-            gpa(c, 4, 4),
-            gpa(c, 5, 5)
-        );
-    }
-    println!("\nwall time:");
-    for t in &report.timings {
-        println!("  {:<40} {:8.2} s", t.stage, t.seconds);
-    }
-    println!();
-    super::output::print_written("wrote ", files, staged, output);
-    for line in unsettled_lines(report) {
+    for line in unsettled_lines(&report) {
         println!("not judged: {line}");
     }
-    verdict(report, "all checks within tolerance", |failed| {
-        format!(
-            "validate {engine}: {} check(s) outside tolerance: {}",
-            failed.len(),
-            failed.join("; ")
-        )
+    let failures = failure_lines(&report);
+    if failures.is_empty() {
+        println!("PASSED: {name} and anisobond agree within every tolerance");
+        return Ok(());
+    }
+    Err(Error::OutOfTolerance {
+        failed: failures.len(),
+        checks: report.checks.len(),
+        message: format!(
+            "validate {name} FAILED ({} of {} checks outside tolerance):\n  {}",
+            failures.len(),
+            report.checks.len(),
+            failures.join("\n  ")
+        ),
     })
 }

@@ -3,11 +3,7 @@
 //! the relaxed solver (of the quantised network with `--types`), and on two MPI processes
 //! against one; a table, report.json and checks.csv, non-zero exit outside tolerance.
 
-use anisobond::io::OutputSet;
-use anisobond::validate::harness::checks_table;
-use anisobond::validate::lammps::{
-    resolve_program, validate_lammps, write_report, LammpsValidateOptions,
-};
+use anisobond::validate::lammps::{resolve_program, Lammps, LammpsValidateOptions};
 use anisobond::Result;
 use std::path::PathBuf;
 
@@ -33,40 +29,21 @@ pub struct Args {
     pub bonds: super::export_lammps::BondArgs,
 }
 
-/// Run `anisobond validate lammps`.
-pub fn run(a: Args) -> Result<()> {
-    let (bond_style, types) = a.bonds.options("validate lammps")?;
-    // --lmp, $ANISOBOND_LMP, else `lmp` on PATH; made absolute (run.sh runs in the deck's
-    // directory and takes `mpirun` from beside `lmp`).
-    let lmp = a
-        .lmp
-        .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("lmp"));
-    let lmp = resolve_program(&lmp)?;
-    let mut set = OutputSet::new(&a.input.paths());
-    let dir = set.dir(&a.output)?;
-    let asm = a.input.assembly()?;
-    let mut opts = LammpsValidateOptions::new(lmp);
-    opts.export.bond_style = bond_style;
-    opts.export.types = types;
-    opts.two_processes = a.np == 2;
-    opts.relaxed_tolerance = a.tolerance;
-    opts.check()?;
-    println!(
-        "validate lammps: {} particles, {} bonds, {} process(es)",
-        asm.packing.len(),
-        asm.bonds.len(),
-        a.np
-    );
-    let report = validate_lammps(&dir, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
-    println!("time step {:.4e} s\n", report.time_step);
-    println!("relative differences (dimensionless; tensors in Pa):");
-    print!("{}", checks_table(&report));
-    let mut tensors = vec![("relaxed".to_string(), report.relaxed)];
-    for (np, c) in &report.lammps {
-        tensors.push((format!("lammps -np {np}"), *c));
+impl Args {
+    /// The LAMMPS engine: `lmp` from --lmp, $ANISOBOND_LMP, else `lmp` on PATH, made
+    /// absolute (run.sh runs in the deck's directory and takes `mpirun` from beside `lmp`).
+    pub fn engine(&self) -> Result<Lammps> {
+        let (bond_style, types) = self.bonds.options("validate lammps")?;
+        let lmp = self
+            .lmp
+            .clone()
+            .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from("lmp"));
+        let mut opts = LammpsValidateOptions::new(resolve_program(&lmp)?);
+        opts.export.bond_style = bond_style;
+        opts.export.types = types;
+        opts.two_processes = self.np == 2;
+        opts.tolerances.relaxed = self.tolerance;
+        Ok(Lammps(opts))
     }
-    let files = write_report(&dir, &report)?;
-    set.commit()?;
-    super::validate::finish("lammps", &report, &tensors, &files, &dir, &a.output)
 }

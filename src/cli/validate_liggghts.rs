@@ -4,9 +4,8 @@
 //! non-zero exit naming the checks outside tolerance.
 
 use anisobond::export::liggghts::which;
-use anisobond::io::OutputSet;
-use anisobond::validate::harness::checks_table;
-use anisobond::validate::liggghts::{validate_liggghts, write_report, Programs, ValidateOptions};
+use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
+use anisobond::validate::Tolerances;
 use anisobond::{Error, Result};
 use std::path::PathBuf;
 
@@ -74,47 +73,29 @@ fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {
     }
 }
 
-/// Run the command.
-pub fn run(a: Args) -> Result<()> {
-    let mut set = OutputSet::new(&a.input.paths());
-    let dir = set.dir(&a.output)?;
-    let programs = Programs {
-        driver: find_driver(a.driver)?,
-        liggghts: a.liggghts,
-    };
-    let asm = a.input.assembly()?;
-    let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
-    let opts = ValidateOptions {
-        density: a.density,
-        timestep: a.timestep,
-        history_steps: a.history_steps,
-        relax_steps: a.relax_steps,
-        processes: a.np as usize,
-        history_tolerance: a.history_tolerance,
-        tensor_tolerance: a.tensor_tolerance,
-        ..ValidateOptions::default()
-    };
-    println!(
-        "validate liggghts: {} particles, {} bonds; runs in {} (moved to {} when done)",
-        packing.len(),
-        bonds.len(),
-        dir.display(),
-        a.output.display()
-    );
-    let t0 = std::time::Instant::now();
-    let report = validate_liggghts(&dir, packing, bonds, k, &programs, &opts, &mut |stage| {
-        println!("[{:7.1} s] {stage}", t0.elapsed().as_secs_f64())
-    })?;
-    println!("time step {:.4e} s\n", report.time_step);
-    println!("relative differences (dimensionless; stresses in Pa, tensors in Pa):");
-    print!("{}", checks_table(&report));
-    let tensors = [
-        ("driver", report.driver_tensor),
-        ("integrator", report.integrator_tensor),
-        ("relaxed", report.relaxed_tensor),
-    ]
-    .map(|(name, c)| (name.to_string(), c));
-    let files = write_report(&dir, &report)?;
-    set.commit()?;
-    super::validate::finish("liggghts", &report, &tensors, &files, &dir, &a.output)
+impl Args {
+    /// The LIGGGHTS engine with these programs and settings.
+    pub fn engine(&self) -> Result<Liggghts> {
+        let t = ValidateOptions::default().tolerances;
+        Ok(Liggghts {
+            programs: Programs {
+                driver: find_driver(self.driver.clone())?,
+                liggghts: self.liggghts.clone(),
+            },
+            options: ValidateOptions {
+                density: self.density,
+                timestep: self.timestep,
+                history_steps: self.history_steps,
+                relax_steps: self.relax_steps,
+                processes: self.np as usize,
+                tolerances: Tolerances {
+                    history: self.history_tolerance,
+                    tensor: self.tensor_tolerance,
+                    relaxed: self.tensor_tolerance,
+                    ..t
+                },
+                ..ValidateOptions::default()
+            },
+        })
+    }
 }

@@ -3,10 +3,16 @@
 //! checks as a text table or CSV. An engine (YADE, LIGGGHTS, …) adds only a runner that
 //! runs its code, parses its outputs and fills a [`Report`] with its [`EngineDetails`].
 
-use crate::{Error, Result};
+use crate::bonds::BondSet;
+use crate::dem::quat::Quat;
+use crate::dem::state::deterministic_sum_mat3;
+use crate::dem::{BondLaw, DemOptions, MassOptions, Simulation};
+use crate::packing::Packing;
+use crate::tensor::Stiffness6;
+use crate::{Error, Mat3, Result, Vec3};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// One comparison: the measured relative difference and, for a pass/fail check, the
@@ -176,6 +182,15 @@ pub trait EngineDetails {
     const ENGINE: &'static str;
     /// The engine's part of the JSON.
     fn json(&self) -> Self::Json<'_>;
+    /// The tensors compared, named (Pa), for the summary's table.
+    fn tensors(&self) -> Vec<(String, Stiffness6)>;
+    /// The engine's own lines of the summary, before the checks (none by default).
+    fn summary(_report: &Report<Self>) -> String
+    where
+        Self: Sized,
+    {
+        String::new()
+    }
 }
 
 /// Everything a validation measured: the shared part and the engine's `details`
@@ -249,6 +264,19 @@ pub fn report_json<D: EngineDetails>(r: &Report<D>) -> Result<String> {
 /// Write the report JSON to `path` (atomically).
 pub fn write_report_json<D: EngineDetails>(path: &Path, r: &Report<D>) -> Result<()> {
     crate::io::write_string_atomic(path, &report_json(r)?)
+}
+
+/// Write `report.json` ([`report_json`]) and `checks.csv` ([`checks_csv`]) into `dir`;
+/// returns their paths.
+pub fn write_report_and_checks<D: EngineDetails>(
+    dir: &Path,
+    r: &Report<D>,
+) -> Result<Vec<PathBuf>> {
+    let json = dir.join("report.json");
+    write_report_json(&json, r)?;
+    let csv = dir.join("checks.csv");
+    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
+    Ok(vec![json, csv])
 }
 
 pub use crate::tensor::compare::{matrix_rows, rows};
@@ -372,6 +400,147 @@ pub fn history_series(
     out
 }
 
+/// The reference integrator free of damping, as the engines run it: `law` on the packing,
+/// masses ρ(4/3)πR³ and inertias (2/5)mR² from `density`, time step `dt` (`None`: `safety`
+/// × the critical estimate).
+pub fn reference_simulation(
+    packing: &Packing,
+    bonds: &BondSet,
+    law: Box<dyn BondLaw>,
+    density: f64,
+    dt: Option<f64>,
+    safety: f64,
+) -> Result<Simulation> {
+    let options = DemOptions {
+        time_step: dt,
+        safety,
+        local_damping: 0.0,
+        mass: MassOptions {
+            density,
+            scaling: 1.0,
+        },
+        ..DemOptions::default()
+    };
+    Simulation::new(packing, bonds, law, &options)
+}
+
+/// How the reference integrator starts an undamped history, to match the engine's own
+/// integrator.
+#[derive(Clone, Copy, Debug)]
+pub enum HistoryStart<'a> {
+    /// LAMMPS (in.history): the box changed at once by the deformation gradient F (cell
+    /// and positions, x ← F·x), particles at rest, the leapfrog started like velocity
+    /// Verlet ([`start_like_velocity_verlet`]).
+    Strained(Mat3),
+    /// LIGGGHTS: particles moving with `velocities` (m/s) and `spins` (rad/s) from the
+    /// stress-free packing, started after velocity Verlet's first drift (x₁ = x₀ + dt·v₀,
+    /// orientations turned by ω₀·dt), so that the integrator's step n evaluates the forces
+    /// at LIGGGHTS' x_n.
+    Moving {
+        /// Initial velocities (m/s), one per particle.
+        velocities: &'a [Vec3],
+        /// Initial spins (rad/s), one per particle.
+        spins: &'a [Vec3],
+    },
+}
+
+/// Start the leapfrog as LAMMPS's velocity Verlet starts from rest: VV's first half kick
+/// gives v(dt/2) = (dt/2)·a(0), the leapfrog's v(dt/2) = v(−dt/2) + dt·a(0), so the
+/// particles at rest at t = 0 get v(−dt/2) = −(dt/2)·F(0)/m and ω(−dt/2) = −(dt/2)·T(0)/I
+/// (from the forces at the current positions; a copy of the simulation takes one step to
+/// evaluate them). From then on both give the same positions in exact arithmetic.
+pub fn start_like_velocity_verlet(sim: &mut Simulation) -> Result<()> {
+    let mut probe = sim.clone();
+    probe.step()?;
+    let dt = sim.time_step();
+    let p = &mut sim.particles;
+    for k in 0..p.len() {
+        p.velocity[k] = probe.force[k] * (-0.5 * dt / p.mass[k]);
+        p.angular_velocity[k] = probe.torque[k] * (-0.5 * dt / p.inertia[k]);
+    }
+    Ok(())
+}
+
+/// The reference integrator's run of the engine's undamped history: `sim` started as
+/// `start`, stepped free, and at each iteration of `record` (ascending) the engines'
+/// virial stress of that step's force evaluation, σ_ab = Σ l_a f_b / V (branch vectors l
+/// from the bond's i to j end at the positions of the evaluation, f the force on i; Pa,
+/// tension positive), Voigt 11 22 33 23 13 12 from the upper triangle (σ_23 = Σ l_y f_z /
+/// V, …, as LAMMPS' and LIGGGHTS' virials). Errors name `what` when the start does not fit
+/// the packing or a stress is not finite.
+pub fn integrator_history(
+    mut sim: Simulation,
+    start: HistoryStart,
+    record: &[u64],
+    what: &str,
+) -> Result<Vec<[f64; 6]>> {
+    match start {
+        HistoryStart::Strained(f) => {
+            let cell = sim
+                .cell
+                .as_mut()
+                .ok_or_else(|| Error::Invalid(format!("{what}: the packing is not periodic")))?;
+            cell.h = f * cell.h;
+            cell.prev_h = cell.h;
+            cell.trsf = f;
+            for x in sim.particles.position.iter_mut() {
+                *x = f * *x;
+            }
+            start_like_velocity_verlet(&mut sim)?;
+        }
+        HistoryStart::Moving { velocities, spins } => {
+            let (dt, p) = (sim.time_step(), &mut sim.particles);
+            if velocities.len() != p.len() || spins.len() != p.len() {
+                return Err(Error::Invalid(format!(
+                    "{what}: {} velocities and {} spins for {} particles",
+                    velocities.len(),
+                    spins.len(),
+                    p.len()
+                )));
+            }
+            for k in 0..p.len() {
+                p.position[k] += velocities[k] * dt;
+                p.velocity[k] = velocities[k];
+                p.angular_velocity[k] = spins[k];
+                let w = spins[k].norm();
+                if w > 0.0 {
+                    let dq = Quat::from_angle_axis(w * dt, &(spins[k] / w));
+                    p.orientation[k] = dq.mul(&p.orientation[k]);
+                    p.orientation[k].normalize();
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(record.len());
+    for &n in record {
+        while sim.iteration() < n {
+            sim.step()?;
+        }
+        let branches: Vec<Vec3> = (0..sim.topology.len()).map(|b| sim.branch(b)).collect();
+        let volume = sim.volume();
+        // Forces at the positions of this step, then the move to the next.
+        sim.step()?;
+        let m = deterministic_sum_mat3(branches.len(), |b| {
+            branches[b] * sim.loads.force_i(b).transpose()
+        }) / volume;
+        let s = [
+            m[(0, 0)],
+            m[(1, 1)],
+            m[(2, 2)],
+            m[(1, 2)],
+            m[(0, 2)],
+            m[(0, 1)],
+        ];
+        if s.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Degenerate(format!(
+                "{what}: non-finite stress at step {n}"
+            )));
+        }
+        out.push(s);
+    }
+    Ok(out)
+}
+
 /// The checks as a text table (relative differences, dimensionless).
 pub fn checks_table<D>(r: &Report<D>) -> String {
     let mut s = String::new();
@@ -403,6 +572,36 @@ pub fn checks_table<D>(r: &Report<D>) -> String {
                 ""
             );
         }
+    }
+    s
+}
+
+/// Tensors with their names, as [`EngineDetails::tensors`] returns them.
+pub fn named(tensors: &[(&str, Stiffness6)]) -> Vec<(String, Stiffness6)> {
+    tensors.iter().map(|(n, c)| (n.to_string(), *c)).collect()
+}
+
+/// The report as text: the engine's own lines, the time step, the checks table, the
+/// compared tensors' C11 C22 C33 C12 C44 C55 C66 (GPa) and the wall times.
+pub fn summary<D: EngineDetails>(r: &Report<D>) -> String {
+    let mut s = D::summary(r);
+    let _ = writeln!(s, "time step {:.4e} s\n", r.time_step);
+    let _ = writeln!(
+        s,
+        "relative differences (dimensionless; stresses and tensors in Pa):"
+    );
+    s += &checks_table(r);
+    let _ = writeln!(s, "\nC11 C22 C33 C12 C44 C55 C66 (GPa):");
+    for (name, c) in r.details.tensors() {
+        let _ = write!(s, "  {name:<14}");
+        for (i, j) in [(0, 0), (1, 1), (2, 2), (0, 1), (3, 3), (4, 4), (5, 5)] {
+            let _ = write!(s, " {:9.4}", c[(i, j)] / 1e9);
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(s, "\nwall time:");
+    for t in &r.timings {
+        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
     }
     s
 }

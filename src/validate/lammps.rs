@@ -14,19 +14,20 @@
 //! exact spin rotation by O((ω·dt)³) per step (~1e-21 here); what separates the histories
 //! is rounding, amplified by bpm/rotational's acos of cosines near 1.
 
+pub use super::harness::start_like_velocity_verlet;
 use super::harness::{
-    compare_history_rows, history_series, matrix_rows, side_by_side_csv, timed, Check,
-    EngineDetails, HistoryComparison, Report, Timing,
+    self, compare_history_rows, history_series, matrix_rows, reference_simulation,
+    side_by_side_csv, timed, Check, EngineDetails, HistoryComparison, HistoryStart, Report, Timing,
 };
 use crate::bonds::{BondSet, BondStiffness};
-use crate::dem::state::deterministic_sum_mat3;
-use crate::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use crate::dem::{build_law, LawKind};
 use crate::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions, UndampedHistory};
 use crate::history::HistoryRow;
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
 use crate::tensor::Voigt6;
+use crate::validate::engine::{check_tolerances, Engine, Problem, Progress, TestKind, Tolerances};
 use crate::Mat3;
 use crate::{Error, Result};
 use serde::Serialize;
@@ -43,43 +44,41 @@ pub struct LammpsValidateOptions {
     pub two_processes: bool,
     /// The exported deck's settings.
     pub export: LammpsOptions,
-    /// LAMMPS' tensor against the relaxed tensor: largest |difference| / largest |C|.
-    pub relaxed_tolerance: f64,
-    /// Two processes against one (each stops its relaxation at its own point).
-    pub processes_tolerance: f64,
-    /// Undamped histories, LAMMPS against the integrator with `lammps-bpm` (and two processes
-    /// against one): largest |Δσ| over steps and components / largest |σ| of the path.
-    pub history_tolerance: f64,
+    /// Tolerances: `relaxed` of LAMMPS' tensor against the relaxed tensor (largest
+    /// |difference| / largest |C|), `processes` of two processes against one (each stops
+    /// its relaxation at its own point), `history` of the undamped histories, LAMMPS
+    /// against the integrator with `lammps-bpm` and two processes against one (largest |Δσ|
+    /// over steps and components / largest |σ| of the path); `tensor` is not used.
+    pub tolerances: Tolerances,
 }
 
 impl LammpsValidateOptions {
-    /// Defaults with the given `lmp`: tolerances 1e-4 (relaxed) and 5e-5 (processes).
+    /// Defaults with the given `lmp`: tolerances 1e-4 (relaxed), 5e-5 (processes) and 1e-8
+    /// (histories).
     pub fn new(lmp: PathBuf) -> Self {
         LammpsValidateOptions {
             lmp,
             two_processes: true,
             export: LammpsOptions::default(),
-            relaxed_tolerance: 1e-4,
-            processes_tolerance: 5e-5,
-            history_tolerance: 1e-8,
+            tolerances: Tolerances {
+                history: 1e-8,
+                tensor: f64::NAN,
+                relaxed: 1e-4,
+                processes: 5e-5,
+            },
         }
     }
 
     /// Every tolerance must be a number in (0, 1): a tolerance of 0 (or a negative one) no
     /// run can meet, one of 1 or more accepts anything.
     pub fn check(&self) -> Result<()> {
-        for (name, t) in [
-            ("relaxed tolerance (--tolerance)", self.relaxed_tolerance),
-            ("processes tolerance", self.processes_tolerance),
-            ("history tolerance", self.history_tolerance),
-        ] {
-            if !(t > 0.0 && t < 1.0) {
-                return Err(Error::Invalid(format!(
-                    "validate lammps: the {name} must lie in (0, 1), got {t}"
-                )));
-            }
-        }
-        Ok(())
+        let t = &self.tolerances;
+        let named = [
+            ("relaxed tolerance (--tolerance)", t.relaxed),
+            ("processes tolerance", t.processes),
+            ("history tolerance", t.history),
+        ];
+        check_tolerances("lammps", &named, "in (0, 1)", |t| t > 0.0 && t < 1.0)
     }
 }
 
@@ -176,6 +175,13 @@ impl EngineDetails for LammpsDetails {
                 np2_vs_np1: &h.np2_vs_np1,
             }),
         }
+    }
+    fn tensors(&self) -> Vec<(String, Stiffness6)> {
+        let runs = self.lammps.iter();
+        let named = runs.map(|(np, c)| (format!("lammps -np {np}"), *c));
+        std::iter::once(("relaxed".to_string(), self.relaxed))
+            .chain(named)
+            .collect()
     }
 }
 
@@ -351,29 +357,11 @@ pub fn box_change(path: usize, strain: f64) -> Mat3 {
     f
 }
 
-/// Start the leapfrog as LAMMPS's velocity Verlet starts from rest: VV's first half kick
-/// gives v(dt/2) = (dt/2)·a(0), the leapfrog's v(dt/2) = v(−dt/2) + dt·a(0), so the
-/// particles at rest at t = 0 get v(−dt/2) = −(dt/2)·F(0)/m and ω(−dt/2) = −(dt/2)·T(0)/I
-/// (from the forces at the current positions; a copy of the simulation takes one step to
-/// evaluate them). From then on both give the same positions in exact arithmetic.
-pub fn start_like_velocity_verlet(sim: &mut Simulation) -> Result<()> {
-    let mut probe = sim.clone();
-    probe.step()?;
-    let dt = sim.time_step();
-    let p = &mut sim.particles;
-    for k in 0..p.len() {
-        p.velocity[k] = probe.force[k] * (-0.5 * dt / p.mass[k]);
-        p.angular_velocity[k] = probe.torque[k] * (-0.5 * dt / p.inertia[k]);
-    }
-    Ok(())
-}
-
 /// The integrator's repetition of in.history: law (d) `lammps-bpm` with the springs `k`,
 /// masses from `density`, time step `dt`, the reference state stored at the packing, each
-/// case's box change applied at once to the cell and the positions (x ← F·x), then the
-/// steps with no damping. The stress of step n is LAMMPS's virial stress: the bond forces
-/// at the positions of step n with those positions' branch vectors, σ_ab = Σ l_a f_b / V
-/// (l from the bond's i to j end, f the force on i; Pa, tension positive).
+/// case's box change applied at once ([`HistoryStart::Strained`]), then the steps with no
+/// damping; LAMMPS's virial stress every `h.every` steps from step 0
+/// ([`harness::integrator_history`]).
 pub fn integrator_history(
     packing: &Packing,
     bonds: &BondSet,
@@ -383,89 +371,57 @@ pub fn integrator_history(
     h: &UndampedHistory,
 ) -> Result<Vec<HistoryRow>> {
     let law = build_law(LawKind::LammpsBpm, packing, bonds, k)?;
-    let base = Simulation::new(
-        packing,
-        bonds,
-        law,
-        &DemOptions {
-            time_step: Some(dt),
-            local_damping: 0.0,
-            mass: MassOptions {
-                density,
-                scaling: 1.0,
-            },
-            ..Default::default()
-        },
-    )?;
+    let base = reference_simulation(packing, bonds, law, density, Some(dt), 0.8)?;
+    let steps: Vec<u64> = (0..=h.steps as u64).step_by(h.every).collect();
     let mut rows = Vec::new();
     for path in 0..6 {
-        let mut sim = base.clone();
-        let f = box_change(path, h.strain);
-        let cell = sim.cell.as_mut().ok_or_else(|| {
-            Error::Invalid("undamped history: the packing is not periodic".into())
-        })?;
-        cell.h = f * cell.h;
-        cell.prev_h = cell.h;
-        cell.trsf = f;
-        for x in sim.particles.position.iter_mut() {
-            *x = f * *x;
-        }
-        start_like_velocity_verlet(&mut sim)?;
+        let stresses = harness::integrator_history(
+            base.clone(),
+            HistoryStart::Strained(box_change(path, h.strain)),
+            &steps,
+            &format!("undamped history with law lammps-bpm, case {}", path + 1),
+        )?;
         let mut e = Voigt6::zeros();
         e[path] = h.strain;
-        for step in 0..=h.steps {
-            let record = step % h.every == 0;
-            let branches: Vec<crate::Vec3> = if record {
-                (0..bonds.len()).map(|b| sim.branch(b)).collect()
-            } else {
-                Vec::new()
-            };
-            let volume = sim.volume();
-            // Forces at the positions of this step, then the move to the next.
-            sim.step()?;
-            if record {
-                let m = deterministic_sum_mat3(bonds.len(), |b| {
-                    branches[b] * sim.loads.force_i(b).transpose()
-                }) / volume;
-                let stress = Voigt6::from_column_slice(&[
-                    m[(0, 0)],
-                    m[(1, 1)],
-                    m[(2, 2)],
-                    m[(1, 2)],
-                    m[(0, 2)],
-                    m[(0, 1)],
-                ]);
-                if stress.iter().any(|v| !v.is_finite()) {
-                    return Err(Error::Degenerate(format!(
-                        "undamped history with law lammps-bpm: non-finite stress at step {step} \
-                         of case {}",
-                        path + 1
-                    )));
-                }
-                rows.push(HistoryRow {
-                    path,
-                    step,
-                    time: step as f64 * dt,
-                    strain: e,
-                    stress,
-                });
-            }
-        }
+        rows.extend(steps.iter().zip(stresses).map(|(&step, s)| HistoryRow {
+            path,
+            step: step as usize,
+            time: step as f64 * dt,
+            strain: e,
+            stress: Voigt6::from_row_slice(&s),
+        }));
     }
     Ok(rows)
 }
 
-/// Export the element tests into `dir` (which must exist), run them with LAMMPS, compare.
+/// The exported LAMMPS (BPM) element tests as a validation [`Engine`], with their settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lammps(pub LammpsValidateOptions);
+
+impl Engine for Lammps {
+    type Details = LammpsDetails;
+    fn check(&self) -> Result<()> {
+        self.0.check()
+    }
+    fn run(&self, p: &Problem, progress: Progress) -> Result<Report<LammpsDetails>> {
+        match p.kind {
+            TestKind::PeriodicElement => element_tests(p, &self.0, progress),
+        }
+    }
+    fn write_files(&self, dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
+        write_report(dir, r)
+    }
+}
+
+/// Export the element tests into the problem's directory, run them with LAMMPS, compare.
 /// With quantised bond types (`o.export.types`) the reference is the relaxed tensor of the
 /// quantised network, which the export computed.
-pub fn validate_lammps(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
+fn element_tests(
+    p: &Problem,
     o: &LammpsValidateOptions,
+    progress: Progress,
 ) -> Result<Report<LammpsDetails>> {
-    o.check()?;
+    let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
     let lmp = resolve_program(&o.lmp)?;
     let mut timings: Vec<Timing> = Vec::new();
     let export = timed(&mut timings, "export", || {
@@ -482,6 +438,7 @@ pub fn validate_lammps(
         let c = timed(&mut timings, &format!("lammps -np {np}"), || {
             run_deck(dir, &lmp, np)
         })?;
+        progress(&format!("LAMMPS on {np} process(es) done"));
         lammps.push((np, c));
     }
     // The undamped history: stock bpm/rotational with every bond's own springs.
@@ -524,14 +481,14 @@ pub fn validate_lammps(
         "tensor-lammps-relaxed",
         "LAMMPS quasi-static tensor (1 process) vs the relaxed tensor with the midpoint lever arm",
         relative_difference(&lammps[0].1, &relaxed),
-        o.relaxed_tolerance,
+        o.tolerances.relaxed,
     )];
     if let [(_, one), (_, two)] = lammps.as_slice() {
         checks.push(Check::new(
             "tensor-np2-np1",
             "LAMMPS on 2 MPI processes vs 1 (all six cases, shears included)",
             relative_difference(two, one),
-            o.processes_tolerance,
+            o.tolerances.processes,
         ));
     }
     if let Some(h) = &history {
@@ -545,7 +502,7 @@ pub fn validate_lammps(
                     h.settings.steps, h.settings.strain
                 ),
                 worst(paths),
-                o.history_tolerance,
+                o.tolerances.history,
             ));
         }
         if !h.np2_vs_np1.is_empty() {
@@ -553,7 +510,7 @@ pub fn validate_lammps(
                 "history-np2-np1",
                 "undamped histories, LAMMPS on 2 MPI processes vs 1 (six paths, shears included)",
                 worst(&h.np2_vs_np1),
-                o.history_tolerance,
+                o.tolerances.history,
             ));
         }
     }
@@ -584,11 +541,7 @@ fn nan_max(a: f64, b: f64) -> f64 {
 /// undamped history `undamped-history.csv` (LAMMPS on one process and the integrator side by
 /// side, Pa) and `undamped-history.png`; returns the paths.
 pub fn write_report(dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
-    let json = dir.join("report.json");
-    super::harness::write_report_json(&json, r)?;
-    let csv = dir.join("checks.csv");
-    crate::io::write_string_atomic(&csv, &super::harness::checks_csv(&r.checks))?;
-    let mut files = vec![json, csv];
+    let mut files = harness::write_report_and_checks(dir, r)?;
     if let Some(h) = &r.history {
         if let Some((np, rows)) = h.lammps.first() {
             let path = dir.join("undamped-history.csv");
@@ -623,6 +576,7 @@ pub fn write_report(dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dem::{DemOptions, Simulation};
     use crate::Vec3;
 
     /// Two equal spheres on a stretched bond of law `lammps-bpm` (pure stretch: a linear

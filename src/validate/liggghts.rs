@@ -36,7 +36,6 @@
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::element::{dynamic_tensor, ElementTestOptions};
 use crate::dem::laws::{LinearBondKernel, MomentForm};
-use crate::dem::quat::Quat;
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
     columns_from_cases, export_liggghts, harmonic_setup, num, read_stress_history, run_liggghts,
@@ -47,12 +46,15 @@ use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference_to;
 use crate::tensor::Stiffness6;
+use crate::validate::engine::{
+    self, check_tolerances, Engine, Problem, Progress, TestKind, Tolerances,
+};
 pub use crate::validate::harness::checks_table;
 use crate::validate::harness::{
-    checks_csv, rows, timed, write_report_json, Check, EngineDetails, HistoryComparison, Report,
-    Timing,
+    self, named, reference_simulation, rows, timed, Check, EngineDetails, HistoryComparison,
+    HistoryStart, Report, Timing,
 };
-use crate::{Error, Mat3, Result, Vec3};
+use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -105,12 +107,11 @@ pub struct ValidateOptions {
     pub integrator_tolerance: f64,
     /// Processes of the MPI runs (≥ 2 runs the MPI checks; 1 skips them).
     pub processes: usize,
-    /// Tolerance of the undamped history checks (relative to the largest stress).
-    pub history_tolerance: f64,
-    /// Tolerance of the quasi-static tensor checks (relative to the largest entry).
-    pub tensor_tolerance: f64,
-    /// Tolerance of the -np 1 vs -np N checks (relative).
-    pub mpi_tolerance: f64,
+    /// Tolerances: `history` of the undamped history checks (relative to the largest
+    /// stress), `tensor` of the driver against the integrator and `relaxed` of each against
+    /// the relaxed solver (quasi-static tensors, relative to the largest entry), `processes`
+    /// of the -np 1 vs -np N checks.
+    pub tolerances: Tolerances,
 }
 
 impl Default for ValidateOptions {
@@ -131,9 +132,12 @@ impl Default for ValidateOptions {
             local_damping: 0.4,
             integrator_tolerance: 1e-6,
             processes: 2,
-            history_tolerance: 1e-6,
-            tensor_tolerance: 5e-3,
-            mpi_tolerance: 1e-6,
+            tolerances: Tolerances {
+                history: 1e-6,
+                tensor: 5e-3,
+                relaxed: 5e-3,
+                processes: 1e-6,
+            },
         }
     }
 }
@@ -207,6 +211,13 @@ impl EngineDetails for LiggghtsDetails {
             driver_mpi_columns_pa: &self.driver_mpi_columns,
         }
     }
+    fn tensors(&self) -> Vec<(String, Stiffness6)> {
+        named(&[
+            ("driver", self.driver_tensor),
+            ("integrator", self.integrator_tensor),
+            ("relaxed", self.relaxed_tensor),
+        ])
+    }
 }
 
 fn check_options(o: &ValidateOptions) -> Result<()> {
@@ -223,16 +234,16 @@ fn check_options(o: &ValidateOptions) -> Result<()> {
     if o.processes == 0 {
         return bad("processes must be ≥ 1".into());
     }
-    for (name, v) in [
-        ("history tolerance", o.history_tolerance),
-        ("tensor tolerance", o.tensor_tolerance),
-        ("MPI tolerance", o.mpi_tolerance),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return bad(format!("{name} must be finite and > 0, got {v}"));
-        }
-    }
-    Ok(())
+    let t = &o.tolerances;
+    let named = [
+        ("history tolerance", t.history),
+        ("tensor tolerance", t.tensor),
+        ("relaxed tolerance", t.relaxed),
+        ("MPI tolerance", t.processes),
+    ];
+    check_tolerances("liggghts", &named, "finite and > 0", |v| {
+        v.is_finite() && v > 0.0
+    })
 }
 
 /// Rows `other` against `reference`, matched by position (steps, or columns 1, 2, …).
@@ -247,18 +258,6 @@ fn compare(label: &str, reference: &[[f64; 6]], other: &[[f64; 6]]) -> HistoryCo
 
 fn columns_of(c: &Stiffness6, n: usize) -> Vec<[f64; 6]> {
     (0..n).map(|a| std::array::from_fn(|b| c[(b, a)])).collect()
-}
-
-/// Stress in LIGGGHTS' Voigt triangle from a Love-stress matrix s_ab = Σ f_a l_b / V.
-fn liggghts_triangle(s: &Mat3) -> [f64; 6] {
-    [
-        s[(0, 0)],
-        s[(1, 1)],
-        s[(2, 2)],
-        s[(2, 1)],
-        s[(2, 0)],
-        s[(1, 0)],
-    ]
 }
 
 /// Seeded initial velocities and spins (see [`ValidateOptions::motion_amplitude`]).
@@ -356,7 +355,8 @@ pub fn write_undamped_deck(
     Ok(deck)
 }
 
-/// The integrator's undamped history at the LIGGGHTS output steps `steps` (≥ 1).
+/// The integrator's undamped history at the LIGGGHTS output steps `steps` (≥ 1), from the
+/// packing with initial velocities and spins ([`HistoryStart::Moving`]).
 ///
 /// Initial state, matched to LIGGGHTS: the bonds are made stress-free at the packing's
 /// positions x₀, and the particles start with velocities v₀ and spins ω₀. LIGGGHTS' first
@@ -364,10 +364,9 @@ pub fn write_undamped_deck(
 /// displacement x₁ − x₀ (plus ω₀·dt at the contact point). YADE's law (the integrator's)
 /// increments the shear by the leapfrog velocity at t − dt/2 at every force evaluation,
 /// also the first one at x₀, where it would count a displacement dt·v₀ that has not
-/// happened. So the integrator is started after that first drift: bonds initialised at x₀,
-/// then positions x₁ = x₀ + dt·v₀, orientations turned by ω₀·dt, velocities v₀ and spins ω₀
-/// at t₁ − dt/2. Its step n then evaluates the forces at x_n, as LIGGGHTS' step n, and the
-/// stress is taken with the branch vectors of that evaluation (before the step's drift).
+/// happened. So the integrator is started after that first drift; its step n then
+/// evaluates the forces at x_n, as LIGGGHTS' step n, and the stress is taken with the
+/// branch vectors of that evaluation (before the step's drift), in LIGGGHTS' triangle.
 #[allow(clippy::too_many_arguments)]
 pub fn integrator_history(
     packing: &Packing,
@@ -379,58 +378,15 @@ pub fn integrator_history(
     steps: &[u64],
     density: f64,
 ) -> Result<Vec<[f64; 6]>> {
-    let opts = DemOptions {
-        time_step: Some(dt),
-        local_damping: 0.0,
-        mass: MassOptions {
-            density,
-            scaling: 1.0,
-        },
-        ..DemOptions::default()
-    };
-    if velocities.len() != packing.len() || spins.len() != packing.len() {
-        return Err(Error::Invalid(format!(
-            "integrator history: {} velocities and {} spins for {} particles",
-            velocities.len(),
-            spins.len(),
-            packing.len()
-        )));
+    if steps.contains(&0) {
+        return Err(Error::Invalid(
+            "integrator history: output steps start at 1".into(),
+        ));
     }
-    let mut sim = Simulation::new(packing, bonds, law, &opts)?;
-    {
-        let p = &mut sim.particles;
-        for k in 0..p.len() {
-            p.position[k] += velocities[k] * dt;
-            p.velocity[k] = velocities[k];
-            p.angular_velocity[k] = spins[k];
-            let w = spins[k].norm();
-            if w > 0.0 {
-                let dq = Quat::from_angle_axis(w * dt, &(spins[k] / w));
-                p.orientation[k] = dq.mul(&p.orientation[k]);
-                p.orientation[k].normalize();
-            }
-        }
-    }
-    let mut out = Vec::with_capacity(steps.len());
-    for &n in steps {
-        if n == 0 {
-            return Err(Error::Invalid(
-                "integrator history: output steps start at 1".into(),
-            ));
-        }
-        while sim.iteration() + 1 < n {
-            sim.step()?;
-        }
-        let branches: Vec<Vec3> = (0..sim.topology.len()).map(|b| sim.branch(b)).collect();
-        let volume = sim.volume();
-        sim.step()?;
-        let mut s = Mat3::zeros();
-        for (b, l) in branches.iter().enumerate() {
-            s += sim.loads.force_i(b) * l.transpose();
-        }
-        out.push(liggghts_triangle(&(s / volume)));
-    }
-    Ok(out)
+    let sim = reference_simulation(packing, bonds, law, density, Some(dt), 0.8)?;
+    let iterations: Vec<u64> = steps.iter().map(|n| n - 1).collect();
+    let start = HistoryStart::Moving { velocities, spins };
+    harness::integrator_history(sim, start, &iterations, "integrator history")
 }
 
 /// The stock deck's estimated remaining change of its columns (Pa per unit strain, max
@@ -623,7 +579,7 @@ fn rust_runs(
     dt: f64,
     steps: &[u64],
     o: &ValidateOptions,
-    progress: &mut dyn FnMut(&str),
+    progress: Progress,
 ) -> Result<RustRuns> {
     let mut timings = Vec::new();
     let (velocities, spins) = initial_motion(packing, dt, o);
@@ -723,11 +679,33 @@ fn rows_at(h: &StressHistory, steps: &[u64], run: &str) -> Result<Vec<[f64; 6]>>
         .collect()
 }
 
-/// Run every comparison for `packing` with `bonds` and springs `k` in `dir` (one
-/// sub-directory per LIGGGHTS run). The LIGGGHTS runs (one process at a time) go on in a
-/// second thread beside the integrator and the relaxed solver. `progress` receives a line
-/// per Rust-side stage. Checks outside tolerance are in `ValidationReport::failures()`, not
-/// errors. Errors: a run that fails (with LIGGGHTS' ERROR line), bad options.
+/// The LIGGGHTS driver and the stock LIGGGHTS as a validation [`Engine`]: the programs and
+/// the settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Liggghts {
+    /// The programs to run.
+    pub programs: Programs,
+    /// The settings.
+    pub options: ValidateOptions,
+}
+
+impl Engine for Liggghts {
+    type Details = LiggghtsDetails;
+    fn check(&self) -> Result<()> {
+        check_options(&self.options)
+    }
+    fn run(&self, p: &Problem, progress: Progress) -> Result<ValidationReport> {
+        match p.kind {
+            TestKind::PeriodicElement => element_tests(p, &self.programs, &self.options, progress),
+        }
+    }
+    fn write_files(&self, dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
+        write_report(dir, r)
+    }
+}
+
+/// [`engine::validate`] with [`Liggghts`]: the periodic element tests of `packing` with
+/// `bonds` and springs `k` in `dir`.
 pub fn validate_liggghts(
     dir: &Path,
     packing: &Packing,
@@ -735,9 +713,35 @@ pub fn validate_liggghts(
     k: &BondStiffness,
     programs: &Programs,
     o: &ValidateOptions,
-    progress: &mut dyn FnMut(&str),
+    progress: Progress,
 ) -> Result<ValidationReport> {
-    check_options(o)?;
+    let problem = Problem {
+        dir,
+        packing,
+        bonds,
+        springs: k,
+        model: None,
+        kind: TestKind::PeriodicElement,
+    };
+    let engine = Liggghts {
+        programs: programs.clone(),
+        options: o.clone(),
+    };
+    engine::validate(&engine, &problem, progress)
+}
+
+/// Every comparison, one sub-directory of `dir` per LIGGGHTS run. The LIGGGHTS runs (one
+/// process at a time) go on in a second thread beside the integrator and the relaxed
+/// solver. `progress` receives a line per Rust-side stage. Checks outside tolerance are in
+/// `ValidationReport::failures()`, not errors. Errors: a run that fails (with LIGGGHTS'
+/// ERROR line).
+fn element_tests(
+    p: &Problem,
+    programs: &Programs,
+    o: &ValidateOptions,
+    progress: Progress,
+) -> Result<ValidationReport> {
+    let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
     let dt = match o.timestep {
         Some(dt) => dt,
         None => stable_timestep(packing, bonds, k, o.density)?,
@@ -788,7 +792,7 @@ pub fn validate_liggghts(
             o.history_steps
         ),
         history.relative,
-        o.history_tolerance,
+        o.tolerances.history,
     ));
     checks.push(Check::info(
         "history-total-form",
@@ -803,7 +807,7 @@ pub fn validate_liggghts(
             o.history_steps
         ),
         compare("harmonic-history", &harmonic_rows, &rust.normal_springs).relative,
-        o.history_tolerance,
+        o.tolerances.history,
     ));
     // A comparison of the driver on -np N processes with its serial run (same tolerance for
     // the undamped histories and the damped columns).
@@ -812,7 +816,7 @@ pub fn validate_liggghts(
             id,
             what,
             compare(id, serial, parallel).relative,
-            o.mpi_tolerance,
+            o.tolerances.processes,
         )
     };
     let mut driver_mpi_rows = Vec::new();
@@ -842,7 +846,11 @@ pub fn validate_liggghts(
             id,
             format!("damped quasi-static 6×6 tensor: {x} vs {y} (max |ΔC| / max |C_relaxed|)"),
             relative_difference_to(a, b, &rust.relaxed),
-            o.tensor_tolerance,
+            if id.ends_with("-relaxed") {
+                o.tolerances.relaxed
+            } else {
+                o.tolerances.tensor
+            },
         ));
     }
 
@@ -863,7 +871,7 @@ pub fn validate_liggghts(
             if decaying { "" } else { "; the deck's relaxation was not decaying (remaining: a lower bound)" }
         ),
         compare("harmonic-relaxed", &relaxed0_cols, &lig.harmonic_columns).relative,
-        o.tensor_tolerance,
+        o.tolerances.relaxed,
         if scale > 0.0 { remaining / scale } else { f64::NAN },
     ));
 
@@ -927,14 +935,7 @@ fn push_cell(c: &mut String, value: Option<f64>) {
 /// `tensors.csv` (Pa) and `driver_stress_strain.png` into `dir`. Returns the files.
 pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut files = Vec::new();
-    let p = dir.join("report.json");
-    write_report_json(&p, r)?;
-    files.push(p);
-
-    let p = dir.join("checks.csv");
-    crate::io::write_string_atomic(&p, &checks_csv(&r.checks))?;
-    files.push(p);
+    let mut files = harness::write_report_and_checks(dir, r)?;
 
     let h = &r.history;
     let names = ["s11", "s22", "s33", "s23", "s13", "s12"];

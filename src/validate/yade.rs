@@ -25,7 +25,7 @@
 
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::dem::element::to_voigt;
-use crate::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
+use crate::dem::{build_law, LawKind, Simulation};
 use crate::export::yade::{
     self as export, files, read_yade_history, read_yade_tensor, run_yade_script, HistoryRow,
     YadeRunOptions, PATH_LABELS,
@@ -36,11 +36,14 @@ use crate::model::Model;
 use crate::packing::{self, Packing};
 use crate::tensor::compare::relative_difference;
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
+use crate::validate::engine::{self, check_tolerances, Engine, Problem, Progress, TestKind};
 use crate::validate::harness::{
-    matrix_rows, write_report_json, Check, EngineDetails, HistoryComparison, Report, Timing,
+    history_series, matrix_rows, named, reference_simulation, side_by_side_csv, write_report_json,
+    Check, EngineDetails, HistoryComparison, Report, Timing,
 };
 use crate::{Error, Mat3, Result};
 use serde::Serialize;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -68,27 +71,7 @@ pub mod outputs {
     pub const YADE_DAMPED_TENSOR: &str = "damped-yade-tensor.json";
 }
 
-/// Agreement required by each comparison (relative).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Tolerances {
-    /// Undamped stress histories: max |σ_anisobond − σ_YADE| / max |σ_YADE| per path.
-    pub history: f64,
-    /// Damped tensors, YADE against the reference integrator.
-    pub tensor: f64,
-    /// Damped tensors (each of YADE and the integrator) against the relaxed solver.
-    pub relaxed: f64,
-}
-
-impl Default for Tolerances {
-    /// 1e-6 for the undamped histories, 0.1 % for the tensors.
-    fn default() -> Self {
-        Tolerances {
-            history: 1e-6,
-            tensor: 1e-3,
-            relaxed: 1e-3,
-        }
-    }
-}
+pub use super::engine::Tolerances;
 
 /// Settings of a YADE validation.
 #[derive(Clone, Debug, PartialEq)]
@@ -129,7 +112,13 @@ impl Default for YadeValidationOptions {
             damped_steps: 200,
             damping: 0.4,
             cg_tolerance: 1e-8,
-            tolerances: Tolerances::default(),
+            // 1e-6 for the undamped histories, 0.1 % for the tensors; no MPI runs.
+            tolerances: Tolerances {
+                history: 1e-6,
+                tensor: 1e-3,
+                relaxed: 1e-3,
+                processes: 0.0,
+            },
         }
     }
 }
@@ -165,15 +154,14 @@ impl YadeValidationOptions {
             ));
         }
         let t = &self.tolerances;
-        for (name, v) in [
+        let named = [
             ("history tolerance", t.history),
             ("tensor tolerance", t.tensor),
             ("relaxed tolerance", t.relaxed),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be finite and ≥ 0, got {v}"));
-            }
-        }
+        ];
+        check_tolerances("yade", &named, "finite and ≥ 0", |v| {
+            v.is_finite() && v >= 0.0
+        })?;
         Ok(())
     }
 }
@@ -278,6 +266,45 @@ impl EngineDetails for YadeDetails {
             c_relaxed: &self.c_relaxed,
             c_affine: &self.c_affine,
         }
+    }
+    fn tensors(&self) -> Vec<(String, Stiffness6)> {
+        named(&[
+            ("YADE", self.c_yade),
+            ("anisobond", self.c_anisobond),
+            ("relaxed", self.c_relaxed),
+        ])
+    }
+    fn summary(v: &YadeValidation) -> String {
+        let o = &v.options;
+        let mut s = format!(
+            "YADE {} vs anisobond: {} particles, {} bonds, dt {:.4e} s (critical estimate \
+             {:.4e} s), density {} kg/m³, strain {:e} in one step\n\n",
+            v.yade_version,
+            v.n_particles,
+            v.n_bonds,
+            v.time_step,
+            v.critical_time_step,
+            o.density,
+            o.strain
+        );
+        let _ = writeln!(
+            s,
+            "undamped stress histories ({} steps, damping 0):\n  {:<6} {:>14} {:>16} {:>12} {:>11}",
+            o.undamped_steps, "path", "max |σ| (Pa)", "max |Δσ| (Pa)", "relative", "worst step"
+        );
+        for h in &v.undamped {
+            let _ = writeln!(
+                s,
+                "  {:<6} {:>14.4e} {:>16.4e} {:>12.3e} {:>11}",
+                h.label, h.max_stress, h.max_difference, h.relative, h.worst_step
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\ndamped element tests: Cundall {}, {} steps per path, C = S·E⁻¹ of the final columns",
+            o.damping, o.damped_steps
+        );
+        s
     }
 }
 
@@ -401,21 +428,7 @@ fn simulation(
     dt: Option<f64>,
 ) -> Result<Simulation> {
     let law = build_law(LawKind::Yade, packing, bonds, k)?;
-    Simulation::new(
-        packing,
-        bonds,
-        law,
-        &DemOptions {
-            time_step: dt,
-            safety: o.safety,
-            local_damping: 0.0,
-            mass: MassOptions {
-                density: o.density,
-                scaling: 1.0,
-            },
-            ..Default::default()
-        },
-    )
+    reference_simulation(packing, bonds, law, o.density, dt, o.safety)
 }
 
 /// What the YADE thread returns: histories, damped tensor report, wall times.
@@ -432,7 +445,7 @@ fn run_yade(
     dir: &Path,
     o: &YadeValidationOptions,
     dt: f64,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: Progress,
 ) -> Result<YadeRuns> {
     // One YADE run: the undamped or the damped paths, into their history and tensor files.
     let run = |undamped: bool, history: &str, tensor: &str, what: &str| {
@@ -498,11 +511,27 @@ fn check_round_trip(
     }
 }
 
-/// Run the validation: export to `dir/yade/`, run YADE there (in a second thread) and
-/// anisobond's reference integrator and relaxed solver here, and compare. `progress`
-/// receives one line per finished part. Errors when YADE is missing or fails, or the
-/// inputs are not a periodic bonded packing; a comparison outside tolerance is not an
-/// error but a failed [`Check`] (see [`YadeValidation::passed`]).
+/// YADE 2023.02a (`yade` on PATH) as a validation [`Engine`], with its settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Yade(pub YadeValidationOptions);
+
+impl Engine for Yade {
+    type Details = YadeDetails;
+    fn check(&self) -> Result<()> {
+        self.0.validate()
+    }
+    fn run(&self, p: &Problem, progress: Progress) -> Result<YadeValidation> {
+        match p.kind {
+            TestKind::PeriodicElement => element_tests(p, &self.0, progress),
+        }
+    }
+    fn write_files(&self, dir: &Path, r: &YadeValidation) -> Result<Vec<PathBuf>> {
+        write_validation_files(dir, r)
+    }
+}
+
+/// [`engine::validate`] with [`Yade`]: the periodic element tests of the packing `bonds`
+/// and `springs` (of `model`) in `dir`.
 pub fn validate_yade(
     dir: &Path,
     packing: &Packing,
@@ -510,9 +539,30 @@ pub fn validate_yade(
     springs: &BondStiffness,
     model: Option<&Model>,
     opts: &YadeValidationOptions,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: Progress,
 ) -> Result<YadeValidation> {
-    opts.validate()?;
+    let problem = Problem {
+        dir,
+        packing,
+        bonds,
+        springs,
+        model,
+        kind: TestKind::PeriodicElement,
+    };
+    engine::validate(&Yade(opts.clone()), &problem, progress)
+}
+
+/// The element tests: export to `dir/yade/`, run YADE there (in a second thread) and
+/// anisobond's reference integrator and relaxed solver here, and compare. `progress`
+/// receives one line per finished part. Errors when YADE is missing or fails, or the
+/// inputs are not a periodic bonded packing; a comparison outside tolerance is not an
+/// error but a failed [`Check`] (see [`YadeValidation::passed`]).
+fn element_tests(
+    p: &Problem,
+    opts: &YadeValidationOptions,
+    progress: Progress,
+) -> Result<YadeValidation> {
+    let (dir, packing, bonds, springs) = (p.dir, p.packing, p.bonds, p.springs);
     export::check_exportable(packing, bonds, springs)?;
     if export::find_yade().is_none() {
         return Err(Error::Invalid(
@@ -528,7 +578,7 @@ pub fn validate_yade(
         packing,
         bonds,
         springs,
-        model,
+        p.model,
         &run_options(opts, dt, false),
     )?;
     // anisobond runs what YADE reads.
@@ -681,12 +731,6 @@ pub fn validate_yade(
     })
 }
 
-/// CSV of two histories side by side: `path,step,time_s`, YADE's six stress components,
-/// anisobond's, and the largest absolute difference (Pa). Rows in YADE's order.
-pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRow]) -> String {
-    crate::validate::harness::side_by_side_csv(title, ("yade", yade), ("anisobond", anisobond))
-}
-
 /// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the
 /// paths written.
 pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
@@ -718,14 +762,15 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
             "{regime}, strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
             o.strain, v.time_step, v.n_particles, v.n_bonds
         );
-        crate::io::write_string_atomic(&path, &side_by_side_csv(&title, rows_y, rows_a))?;
+        let csv = side_by_side_csv(&title, ("yade", rows_y), ("anisobond", rows_a));
+        crate::io::write_string_atomic(&path, &csv)?;
         written.push(path);
     }
     let summary = dir.join(outputs::SUMMARY_JSON);
     write_report_json(&summary, v)?;
     written.push(summary);
     for (_, png_name, what, _, rows_y, rows_a) in &regimes {
-        let series = history_series(rows_y, rows_a);
+        let series = history_series(("YADE", rows_y), ("anisobond", rows_a));
         if !series.is_empty() {
             let png = dir.join(png_name);
             crate::plot::plot_series(
@@ -739,11 +784,6 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
         }
     }
     Ok(written)
-}
-
-/// Curves of the loaded stress component against step, per path, for both codes.
-fn history_series(yade: &[HistoryRow], anisobond: &[HistoryRow]) -> Vec<crate::plot::Series> {
-    crate::validate::harness::history_series(("YADE", yade), ("anisobond", anisobond))
 }
 
 #[cfg(test)]
@@ -838,7 +878,7 @@ mod tests {
             YadeValidationOptions {
                 tolerances: Tolerances {
                     history: f64::NAN,
-                    ..Default::default()
+                    ..YadeValidationOptions::default().tolerances
                 },
                 ..Default::default()
             },

@@ -53,7 +53,7 @@ fn liggghts_driver_integrator_and_relaxed_agree_within_tolerance() {
         &b.k,
         &programs,
         &options(),
-        &mut |s| eprintln!("[{:6.1} s] {s}", t0.elapsed().as_secs_f64()),
+        &|s| eprintln!("[{:6.1} s] {s}", t0.elapsed().as_secs_f64()),
     )
     .expect("validation runs");
     eprintln!("{}", checks_table(&r));

@@ -1,0 +1,154 @@
+//! The engine interface: what every validation engine (YADE, LIGGGHTS, LAMMPS) is given — a
+//! [`Problem`] and its own options —, what it returns — a [`Report`] with its
+//! [`EngineDetails`] —, how it reports progress — one [`Progress`] callback —, and the
+//! [`TestKind`]s it runs. A client runs any engine through [`validate`]; a new test kind is
+//! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
+
+use super::harness::{EngineDetails, Report};
+use crate::assembly::Assembly;
+use crate::bonds::{BondSet, BondStiffness};
+use crate::model::Model;
+use crate::packing::Packing;
+use crate::{Error, Result};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// One line per finished stage of a run; called from the engine's threads (hence `Sync`).
+pub type Progress<'a> = &'a (dyn Fn(&str) + Sync);
+
+/// The test an engine runs on the problem.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TestKind {
+    /// Element tests of a periodic bonded cell: undamped stress histories step by step
+    /// against the reference integrator, and damped quasi-static 6×6 tensors against the
+    /// integrator and the relaxed solver (every engine today).
+    #[default]
+    PeriodicElement,
+}
+
+impl TestKind {
+    /// Name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            TestKind::PeriodicElement => "periodic element",
+        }
+    }
+}
+
+/// What every engine is given: where to run, the bonded packing, its model, the test kind.
+#[derive(Clone, Copy, Debug)]
+pub struct Problem<'a> {
+    /// Directory the engine writes its decks into and runs in (must exist).
+    pub dir: &'a Path,
+    /// The spheres and their cell.
+    pub packing: &'a Packing,
+    /// The bonds.
+    pub bonds: &'a BondSet,
+    /// Each bond's springs.
+    pub springs: &'a BondStiffness,
+    /// The model the springs came from (written beside an export that records it).
+    pub model: Option<&'a Model>,
+    /// The test to run.
+    pub kind: TestKind,
+}
+
+impl<'a> Problem<'a> {
+    /// The periodic element tests of `a` in `dir`.
+    pub fn of(dir: &'a Path, a: &'a Assembly) -> Problem<'a> {
+        Problem {
+            dir,
+            packing: &a.packing,
+            bonds: &a.bonds,
+            springs: &a.springs,
+            model: Some(&a.model),
+            kind: TestKind::PeriodicElement,
+        }
+    }
+}
+
+/// Agreement required by the comparisons every engine makes (relative differences); an
+/// engine that makes no comparison of a kind ignores its tolerance.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Tolerances {
+    /// Undamped stress histories: max |Δσ| / max |σ| of the reference run.
+    pub history: f64,
+    /// Damped tensors, the engine against the reference integrator.
+    pub tensor: f64,
+    /// Damped tensors against the relaxed solver.
+    pub relaxed: f64,
+    /// The engine on N MPI processes against one.
+    #[serde(skip)]
+    pub processes: f64,
+}
+
+/// Refuse any tolerance of `named` (option name, value) for which `admissible` is false,
+/// saying what is `expected`.
+pub fn check_tolerances(
+    engine: &str,
+    named: &[(&str, f64)],
+    expected: &str,
+    admissible: fn(f64) -> bool,
+) -> Result<()> {
+    match named.iter().find(|(_, v)| !admissible(*v)) {
+        Some((name, v)) => Err(Error::Invalid(format!(
+            "validate {engine}: the {name} must be {expected}, got {v}"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// A validation engine: runs a [`Problem`] in another code and in anisobond, and compares.
+pub trait Engine: Sync {
+    /// The engine's own results inside the [`Report`].
+    type Details: EngineDetails;
+    /// Refuse options no run can satisfy, before anything is written or run.
+    fn check(&self) -> Result<()>;
+    /// The test kinds the engine runs.
+    fn kinds(&self) -> &'static [TestKind] {
+        &[TestKind::PeriodicElement]
+    }
+    /// Run `problem` (options checked, kind among [`Engine::kinds`]). A comparison outside
+    /// tolerance is a failed check of the report, not an error; errors: the engine's program
+    /// failed ([`Error::EngineFailed`]), did not settle ([`Error::NotConverged`]), or the
+    /// input cannot be run.
+    fn run(&self, problem: &Problem, progress: Progress) -> Result<Report<Self::Details>>;
+    /// Write the report files into `dir` (atomically each); returns the paths written.
+    fn write_files(&self, dir: &Path, report: &Report<Self::Details>) -> Result<Vec<PathBuf>>;
+}
+
+/// Run `engine` on `problem`: its options checked, the test kind refused unless the engine
+/// runs it, then [`Engine::run`].
+pub fn validate<E: Engine>(
+    engine: &E,
+    problem: &Problem,
+    progress: Progress,
+) -> Result<Report<E::Details>> {
+    engine.check()?;
+    if !engine.kinds().contains(&problem.kind) {
+        return Err(Error::Invalid(format!(
+            "validate {}: the engine does not run the {} test",
+            E::Details::ENGINE,
+            problem.kind.name()
+        )));
+    }
+    engine.run(problem, progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tolerance_outside_its_range_is_refused_by_name() {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let named = [("history tolerance", 1e-6), ("MPI tolerance", f64::NAN)];
+        let e = check_tolerances("x", &named, "finite and > 0", positive).unwrap_err();
+        assert!(matches!(e, Error::Invalid(_)));
+        let e = e.to_string();
+        assert!(
+            e.contains("validate x: the MPI tolerance must be finite and > 0"),
+            "{e}"
+        );
+        assert!(check_tolerances("x", &named[..1], "finite and > 0", positive).is_ok());
+    }
+}
