@@ -18,6 +18,7 @@ use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
 use crate::homogenize::{mean_field, voigt};
 use crate::model::Model;
+use crate::names::Named;
 use crate::packing::{self, Packing};
 use crate::{Error, Result};
 use std::path::Path;
@@ -77,15 +78,151 @@ impl Method {
         Method::Relaxed(RelaxedOptions::default())
     }
 
+    /// Which method this is, without its options.
+    pub fn kind(&self) -> MethodKind {
+        match self {
+            Method::MeanField => MethodKind::MeanField,
+            Method::Voigt => MethodKind::Voigt,
+            Method::Relaxed(_) => MethodKind::Relaxed,
+            Method::Prestressed { .. } => MethodKind::Prestressed,
+            Method::Laf { .. } => MethodKind::Laf,
+            Method::Dynamic { .. } => MethodKind::Dynamic,
+        }
+    }
+
     /// The name used in reports and on the command line.
     pub fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+}
+
+/// The tensor methods by name, without their options: the one list the CLI's `--method` and
+/// its help, Python's `method=` and the C++ bridge's `compute_tensor` accept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MethodKind {
+    /// [`Method::MeanField`].
+    MeanField,
+    /// [`Method::Voigt`].
+    Voigt,
+    /// [`Method::Relaxed`].
+    Relaxed,
+    /// [`Method::Prestressed`].
+    Prestressed,
+    /// [`Method::Laf`].
+    Laf,
+    /// [`Method::Dynamic`].
+    Dynamic,
+}
+
+impl MethodKind {
+    /// The name users type and reports print.
+    pub fn name(self) -> &'static str {
         match self {
-            Method::MeanField => "mean-field",
-            Method::Voigt => "voigt",
-            Method::Relaxed(_) => "relaxed",
-            Method::Prestressed { .. } => "prestressed",
-            Method::Laf { .. } => "laf",
-            Method::Dynamic { .. } => "dynamic",
+            MethodKind::MeanField => "mean-field",
+            MethodKind::Voigt => "voigt",
+            MethodKind::Relaxed => "relaxed",
+            MethodKind::Prestressed => "prestressed",
+            MethodKind::Laf => "laf",
+            MethodKind::Dynamic => "dynamic",
+        }
+    }
+
+    /// What the method is, in one line (the help of the value).
+    pub fn description(self) -> &'static str {
+        match self {
+            MethodKind::MeanField => "Continuous orientation integral (needs no packing)",
+            MethodKind::Voigt => "Sum over the actual bonds (uniform strain)",
+            MethodKind::Relaxed => {
+                "Exact quasi-static equilibrium of the periodic bond network (sparse solve)"
+            }
+            MethodKind::Prestressed => {
+                "Relaxed tangent under an isotropic preload of the central springs \
+                 (--prestress Pa): what an element test from that confined state measures \
+                 (docs/prestress.md)"
+            }
+            MethodKind::Laf => {
+                "Kruyt's local-adjustment-field estimate with shells of order --shell"
+            }
+            MethodKind::Dynamic => {
+                "Element tests with the reference DEM integrator (needs a periodic packing)"
+            }
+        }
+    }
+}
+
+impl Named for MethodKind {
+    const ALL: &'static [MethodKind] = &[
+        MethodKind::MeanField,
+        MethodKind::Voigt,
+        MethodKind::Relaxed,
+        MethodKind::Prestressed,
+        MethodKind::Laf,
+        MethodKind::Dynamic,
+    ];
+    const WHAT: &'static str = "method";
+
+    fn name(self) -> &'static str {
+        MethodKind::name(self)
+    }
+
+    fn description(self) -> &'static str {
+        MethodKind::description(self)
+    }
+}
+
+crate::names::display_and_parse_by_name!(MethodKind);
+
+/// The options of every method with their defaults: the one set of defaults the CLI's
+/// `tensor`, Python's `Assembly.tensor` and the C++ bridge start from.
+#[derive(Clone, Copy, Debug)]
+pub struct MethodOptions {
+    /// Relaxed and prestressed: solver, tolerance, lever arm (also the LAF's lever arm).
+    pub relaxed: RelaxedOptions,
+    /// Prestressed: mean compressive stress of the preload (Pa).
+    pub prestress: f64,
+    /// LAF: shell order m (1–6).
+    pub shell: usize,
+    /// LAF: the energy-based estimate (an upper bound) instead of the stress-based one.
+    pub energy: bool,
+    /// Dynamic: the integrator's bond law.
+    pub law: LawKind,
+    /// Dynamic: strain, damping, stop rule, time step and masses.
+    pub element: ElementTestOptions,
+}
+
+impl Default for MethodOptions {
+    fn default() -> Self {
+        MethodOptions {
+            relaxed: RelaxedOptions::default(),
+            prestress: 0.0,
+            shell: 2,
+            energy: false,
+            law: LawKind::default(),
+            element: ElementTestOptions::default(),
+        }
+    }
+}
+
+impl MethodOptions {
+    /// The method `kind` with these options.
+    pub fn method(&self, kind: MethodKind) -> Method {
+        match kind {
+            MethodKind::MeanField => Method::MeanField,
+            MethodKind::Voigt => Method::Voigt,
+            MethodKind::Relaxed => Method::Relaxed(self.relaxed),
+            MethodKind::Prestressed => Method::Prestressed {
+                options: self.relaxed,
+                pressure: self.prestress,
+            },
+            MethodKind::Laf => Method::Laf {
+                shell: self.shell,
+                energy: self.energy,
+                lever_arm: self.relaxed.lever_arm,
+            },
+            MethodKind::Dynamic => Method::Dynamic {
+                law: self.law,
+                options: self.element,
+            },
         }
     }
 }

@@ -8,7 +8,7 @@
 #![allow(missing_docs)]
 #![allow(clippy::useless_conversion)]
 
-use crate::assembly::{Assembly, EqualSpheres, Method};
+use crate::assembly::{Assembly, EqualSpheres, Method, MethodKind, MethodOptions};
 use crate::bonds::stiffness::{check_bond_columns, springs_along};
 use crate::calibrate::cubic::{CubicOptions, Family};
 use crate::calibrate::target::Target;
@@ -620,18 +620,19 @@ impl MethodArgs {
     /// `method` with the keyword `options`; an unknown keyword or a value of the wrong type
     /// is an `InputError` naming it.
     fn parse(method: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let d = MethodOptions::default();
         let mut a = MethodArgs {
             method: method.to_owned(),
-            shell: 2,
-            energy: false,
+            shell: d.shell,
+            energy: d.energy,
             lever_arm: "mid-gap".into(),
-            tolerance: 1e-6,
+            tolerance: d.relaxed.tolerance,
             solver: "cg".into(),
             law: "yade".into(),
-            strain: 1e-5,
-            damping: 0.4,
-            max_steps: 20_000,
-            prestress: 0.0,
+            strain: d.element.strain,
+            damping: d.element.local_damping,
+            max_steps: d.element.max_steps,
+            prestress: d.prestress,
             progress: None,
         };
         let Some(options) = options else {
@@ -673,10 +674,11 @@ impl MethodArgs {
 
 impl MethodArgs {
     fn method(&self) -> PyResult<Method> {
-        Ok(match self.method.as_str() {
-            "mean-field" => Method::MeanField,
-            "voigt" => Method::Voigt,
-            "relaxed" | "prestressed" => {
+        let kind: MethodKind = self.method.parse().map_err(to_py)?;
+        Ok(match kind {
+            MethodKind::MeanField => Method::MeanField,
+            MethodKind::Voigt => Method::Voigt,
+            MethodKind::Relaxed | MethodKind::Prestressed => {
                 let opts = RelaxedOptions {
                     lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
                     tolerance: self.tolerance,
@@ -684,7 +686,7 @@ impl MethodArgs {
                     ..Default::default()
                 };
                 opts.validate().map_err(to_py)?;
-                if self.method == "prestressed" {
+                if kind == MethodKind::Prestressed {
                     Method::Prestressed {
                         options: opts,
                         pressure: self.prestress,
@@ -693,12 +695,12 @@ impl MethodArgs {
                     Method::Relaxed(opts)
                 }
             }
-            "laf" => Method::Laf {
+            MethodKind::Laf => Method::Laf {
                 shell: self.shell,
                 energy: self.energy,
                 lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
             },
-            "dynamic" => {
+            MethodKind::Dynamic => {
                 let mut options = ElementTestOptions {
                     strain: self.strain,
                     local_damping: self.damping,
@@ -710,11 +712,6 @@ impl MethodArgs {
                     law: one_of("law", &self.law, &LAWS)?,
                     options,
                 }
-            }
-            other => {
-                return Err(InputError::new_err(format!(
-                "method `{other}`: expected 'mean-field', 'voigt', 'relaxed', 'laf' or 'dynamic'"
-            )))
             }
         })
     }
@@ -885,7 +882,8 @@ impl PyAssembly {
     /// The (6, 6) stiffness tensor in Pa (Voigt order 11 22 33 23 13 12, engineering strain).
     ///
     /// method: "mean-field" (orientation integral at the bond density), "voigt" (affine sum
-    /// over the bonds), "relaxed" (exact static equilibrium, sparse solve), "laf" (Kruyt's
+    /// over the bonds), "relaxed" (exact static equilibrium, sparse solve), "prestressed"
+    /// (relaxed tangent under the isotropic preload `prestress` Pa), "laf" (Kruyt's
     /// local adjustment field, shell order `shell` 1-6, `energy` for the upper bound) or
     /// "dynamic" (the reference integrator's damped element tests).
     /// Keyword options (defaults): shell=2, energy=False, lever_arm="mid-gap",

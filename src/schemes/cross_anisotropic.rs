@@ -272,7 +272,7 @@ impl CrossAnisotropic {
 
 impl StiffnessScheme for CrossAnisotropic {
     fn name(&self) -> String {
-        "cross-anisotropic".into()
+        super::SchemeKind::CrossAnisotropic.to_string()
     }
 
     /// (E_N′(θ), E_T′(θ)) in Pa, for the `modulus` geometry convention:
