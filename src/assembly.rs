@@ -18,7 +18,6 @@ use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
 use crate::homogenize::{mean_field, voigt};
 use crate::model::Model;
-use crate::names::Named;
 use crate::packing::{self, Packing};
 use crate::{Error, Result};
 use std::path::Path;
@@ -96,81 +95,28 @@ impl Method {
     }
 }
 
-/// The tensor methods by name, without their options: the one list the CLI's `--method` and
-/// its help, Python's `method=` and the C++ bridge's `compute_tensor` accept.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum MethodKind {
-    /// [`Method::MeanField`].
-    MeanField,
-    /// [`Method::Voigt`].
-    Voigt,
-    /// [`Method::Relaxed`].
-    Relaxed,
-    /// [`Method::Prestressed`].
-    Prestressed,
-    /// [`Method::Laf`].
-    Laf,
-    /// [`Method::Dynamic`].
-    Dynamic,
-}
-
-impl MethodKind {
-    /// The name users type and reports print.
-    pub fn name(self) -> &'static str {
-        match self {
-            MethodKind::MeanField => "mean-field",
-            MethodKind::Voigt => "voigt",
-            MethodKind::Relaxed => "relaxed",
-            MethodKind::Prestressed => "prestressed",
-            MethodKind::Laf => "laf",
-            MethodKind::Dynamic => "dynamic",
-        }
-    }
-
-    /// What the method is, in one line (the help of the value).
-    pub fn description(self) -> &'static str {
-        match self {
-            MethodKind::MeanField => "Continuous orientation integral (needs no packing)",
-            MethodKind::Voigt => "Sum over the actual bonds (uniform strain)",
-            MethodKind::Relaxed => {
-                "Exact quasi-static equilibrium of the periodic bond network (sparse solve)"
-            }
-            MethodKind::Prestressed => {
-                "Relaxed tangent under an isotropic preload of the central springs \
-                 (--prestress Pa): what an element test from that confined state measures \
-                 (docs/prestress.md)"
-            }
-            MethodKind::Laf => {
-                "Kruyt's local-adjustment-field estimate with shells of order --shell"
-            }
-            MethodKind::Dynamic => {
-                "Element tests with the reference DEM integrator (needs a periodic packing)"
-            }
-        }
+crate::names::named! {
+    /// The tensor methods by name, without their options: the one list the CLI's `--method`
+    /// and its help, Python's `method=` and the C++ bridge's `compute_tensor` accept.
+    pub enum MethodKind ("method") {
+        /// [`Method::MeanField`].
+        MeanField = "mean-field", "Continuous orientation integral (needs no packing)";
+        /// [`Method::Voigt`].
+        Voigt = "voigt", "Sum over the actual bonds (uniform strain)";
+        /// [`Method::Relaxed`].
+        Relaxed = "relaxed",
+            "Exact quasi-static equilibrium of the periodic bond network (sparse solve)";
+        /// [`Method::Prestressed`].
+        Prestressed = "prestressed",
+            "Relaxed tangent under an isotropic preload of the central springs (--prestress \
+             Pa): what an element test from that confined state measures (docs/prestress.md)";
+        /// [`Method::Laf`].
+        Laf = "laf", "Kruyt's local-adjustment-field estimate with shells of order --shell";
+        /// [`Method::Dynamic`].
+        Dynamic = "dynamic",
+            "Element tests with the reference DEM integrator (needs a periodic packing)";
     }
 }
-
-impl Named for MethodKind {
-    const ALL: &'static [MethodKind] = &[
-        MethodKind::MeanField,
-        MethodKind::Voigt,
-        MethodKind::Relaxed,
-        MethodKind::Prestressed,
-        MethodKind::Laf,
-        MethodKind::Dynamic,
-    ];
-    const WHAT: &'static str = "method";
-
-    fn name(self) -> &'static str {
-        MethodKind::name(self)
-    }
-
-    fn description(self) -> &'static str {
-        MethodKind::description(self)
-    }
-}
-
-crate::names::display_and_parse_by_name!(MethodKind);
 
 /// The options of every method with their defaults: the one set of defaults the CLI's
 /// `tensor`, Python's `Assembly.tensor` and the C++ bridge start from.

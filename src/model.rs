@@ -191,7 +191,7 @@ struct RawCross {
     dip_deg: Option<f64>,
     #[serde(
         default,
-        deserialize_with = "keys::optional_pi_hat",
+        deserialize_with = "keys::pi_hat",
         skip_serializing_if = "Option::is_none"
     )]
     pi_hat: Option<f64>,
@@ -590,7 +590,7 @@ impl Model {
     ) -> Result<Box<dyn StiffnessScheme>> {
         let mu = match (&self.scheme, bonded) {
             (SchemeSpec::CrossAnisotropic(_), Some((packing, bonds))) => Some(
-                cross_anisotropic::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
+                crate::bonds::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
             ),
             (SchemeSpec::CrossAnisotropic(_), None) => {
                 return Err(Error::Model(

@@ -43,12 +43,56 @@ pub trait Named: Copy + PartialEq + Sized + 'static {
     }
 }
 
-/// `Display` and `FromStr` of a [`Named`] type by its names.
-macro_rules! display_and_parse_by_name {
-    ($t:ty) => {
+/// Declares a set of names from one table: the enum, its inherent `ALL`, `name` and
+/// `description` (usable without importing [`Named`]), [`Named`], `Display` and `FromStr`.
+macro_rules! named {
+    (
+        $(#[$meta:meta])*
+        pub enum $t:ident ($what:literal) {
+            $($(#[$vmeta:meta])* $v:ident = $name:literal, $desc:literal;)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum $t {
+            $($(#[$vmeta])* $v,)*
+        }
+
+        impl $t {
+            /// Every member, in the order lists show them.
+            pub const ALL: &'static [$t] = &[$($t::$v),*];
+
+            /// The name users type and reports print.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($t::$v => $name,)*
+                }
+            }
+
+            /// What it is, in one line (the help of the value).
+            pub fn description(self) -> &'static str {
+                match self {
+                    $($t::$v => $desc,)*
+                }
+            }
+        }
+
+        impl $crate::names::Named for $t {
+            const ALL: &'static [$t] = $t::ALL;
+            const WHAT: &'static str = $what;
+
+            fn name(self) -> &'static str {
+                $t::name(self)
+            }
+
+            fn description(self) -> &'static str {
+                $t::description(self)
+            }
+        }
+
         impl std::fmt::Display for $t {
             fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str($crate::names::Named::name(*self))
+                f.write_str($t::name(*self))
             }
         }
 
@@ -61,4 +105,4 @@ macro_rules! display_and_parse_by_name {
         }
     };
 }
-pub(crate) use display_and_parse_by_name;
+pub(crate) use named;

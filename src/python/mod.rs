@@ -871,12 +871,7 @@ impl PyAssembly {
     #[getter]
     fn lattice_scaling(&self) -> PyResult<f64> {
         let a = &self.inner;
-        crate::schemes::cross_anisotropic::lattice_scaling(
-            &a.packing,
-            &a.bonds,
-            a.model.geometry.pi_hat,
-        )
-        .map_err(to_py)
+        crate::bonds::lattice_scaling(&a.packing, &a.bonds, a.model.geometry.pi_hat).map_err(to_py)
     }
 
     /// The (6, 6) stiffness tensor in Pa (Voigt order 11 22 33 23 13 12, engineering strain).

@@ -17,61 +17,21 @@ pub mod isotropic;
 
 pub use geometry::{BondLength, BondRadius, Convention, Geometry, Moments};
 
-use crate::names::Named;
 use crate::Vec3;
 
-/// The schemes by their `kind` in the model file (`[scheme] kind = "cubic"`): the one list
-/// the model reader, its messages and the reports use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SchemeKind {
-    /// [`cubic`]: Truszkowska 2018's overlapping spheroids.
-    Cubic,
-    /// [`cross_anisotropic`]: Šmilauer's elliptic scheme, given by its target tensor.
-    CrossAnisotropic,
-    /// [`isotropic`]: constant magnitudes.
-    Isotropic,
-}
-
-impl SchemeKind {
-    /// The name users type and reports print.
-    pub fn name(self) -> &'static str {
-        match self {
-            SchemeKind::Cubic => "cubic",
-            SchemeKind::CrossAnisotropic => "cross-anisotropic",
-            SchemeKind::Isotropic => "isotropic",
-        }
-    }
-
-    /// What the scheme is, in one line.
-    pub fn description(self) -> &'static str {
-        match self {
-            SchemeKind::Cubic => "overlapping spheroids with cubic symmetry (Truszkowska 2018)",
-            SchemeKind::CrossAnisotropic => {
-                "Šmilauer's elliptic scheme for a transversely isotropic target tensor"
-            }
-            SchemeKind::Isotropic => "constant normal and shear magnitudes",
-        }
+crate::names::named! {
+    /// The schemes by their `kind` in the model file (`[scheme] kind = "cubic"`): the one
+    /// list the model reader, its messages and the reports use.
+    pub enum SchemeKind ("[scheme] kind") {
+        /// [`cubic`]: Truszkowska 2018's overlapping spheroids.
+        Cubic = "cubic", "overlapping spheroids with cubic symmetry (Truszkowska 2018)";
+        /// [`cross_anisotropic`]: Šmilauer's elliptic scheme, given by its target tensor.
+        CrossAnisotropic = "cross-anisotropic",
+            "Šmilauer's elliptic scheme for a transversely isotropic target tensor";
+        /// [`isotropic`]: constant magnitudes.
+        Isotropic = "isotropic", "constant normal and shear magnitudes";
     }
 }
-
-impl Named for SchemeKind {
-    const ALL: &'static [SchemeKind] = &[
-        SchemeKind::Cubic,
-        SchemeKind::CrossAnisotropic,
-        SchemeKind::Isotropic,
-    ];
-    const WHAT: &'static str = "[scheme] kind";
-
-    fn name(self) -> &'static str {
-        SchemeKind::name(self)
-    }
-
-    fn description(self) -> &'static str {
-        SchemeKind::description(self)
-    }
-}
-
-crate::names::display_and_parse_by_name!(SchemeKind);
 
 /// Normal and shear magnitudes of a bond along one direction, in the unit of the model's
 /// geometry convention (Pa/m for `area`, Pa for `modulus` and `kumar`, N/m for `spring`).
