@@ -9,15 +9,23 @@ use std::fmt;
 /// Any value as a parser gives it, before its key's type is checked.
 #[derive(Debug)]
 pub enum Raw {
+    /// `true` or `false`.
     Bool(bool),
+    /// An integer read as signed (TOML: every integer; JSON: a negative one).
     Signed(i64),
+    /// An integer read as unsigned (JSON: a non-negative one).
     Unsigned(u64),
+    /// A floating-point number (`nan` and `inf` included; finiteness is checked later).
     Float(f64),
+    /// A string.
     Str(String),
     /// A TOML date or time (the toml crate hands it over as a one-entry table).
     Datetime(String),
+    /// JSON `null`.
     Null,
+    /// A list.
     Seq(Vec<Raw>),
+    /// A table (its entries are not needed: no key takes one).
     Map,
 }
 
@@ -138,12 +146,18 @@ fn exactly<E: de::Error, const N: usize>(key: &str, raw: &Raw, what: &str) -> Re
 
 /// A type a key's value is read as, refused with a message naming the key.
 pub trait Read: Sized {
+    /// Whether an optional key of this type given `null` (JSON) counts as absent; the
+    /// fixed-size lists refuse it (a present key is a value).
+    const NULL_IS_ABSENT: bool = false;
+
     /// The value of `key` from `raw`.
     fn from_raw<E: de::Error>(key: &str, raw: &Raw) -> Result<Self, E>;
 }
 
 /// A number (an integer is taken as the float it names).
 impl Read for f64 {
+    const NULL_IS_ABSENT: bool = true;
+
     fn from_raw<E: de::Error>(key: &str, raw: &Raw) -> Result<f64, E> {
         number_of(key, raw)
     }
@@ -199,7 +213,10 @@ impl Read for [[f64; 3]; 3] {
 /// An optional key, when given: its value (absent keys take the field's `default`).
 impl<T: Read> Read for Option<T> {
     fn from_raw<E: de::Error>(key: &str, raw: &Raw) -> Result<Option<T>, E> {
-        T::from_raw(key, raw).map(Some)
+        match raw {
+            Raw::Null if T::NULL_IS_ABSENT => Ok(None),
+            _ => T::from_raw(key, raw).map(Some),
+        }
     }
 }
 
@@ -334,6 +351,27 @@ mod tests {
             "one of `area`, `modulus`, `spring-rate`"
         );
         assert_eq!(one_of(variants::<Two>()), "`above` or `below`");
+    }
+
+    /// JSON `null` for an optional number is an absent key (as serde's `Option` reads it);
+    /// for a fixed-size list it is refused by name.
+    #[test]
+    fn null_is_absent_for_optional_numbers_only() {
+        #[derive(serde::Deserialize, Debug)]
+        struct T {
+            #[serde(default, deserialize_with = "strike_deg")]
+            strike_deg: Option<f64>,
+            #[serde(default, deserialize_with = "axis")]
+            axis: Option<[f64; 3]>,
+        }
+        let t: T = serde_json::from_str("{\"strike_deg\": null}").unwrap();
+        assert_eq!((t.strike_deg, t.axis), (None, None));
+        let e = serde_json::from_str::<T>("{\"axis\": null}").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("`axis`: invalid type: null, expected a sequence"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -4,7 +4,6 @@
 
 use crate::common::bin;
 use anisobond::assembly::{MethodKind, MethodOptions};
-use anisobond::names::Named;
 use anisobond::schemes::SchemeKind;
 use anisobond::Error;
 
