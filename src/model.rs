@@ -231,7 +231,7 @@ struct KindName(SchemeKind);
 
 impl<'de> Deserialize<'de> for KindName {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        let kind = String::deserialize(d)?;
+        let kind: String = keys::read(d, "kind")?;
         SchemeKind::from_name(&kind)
             .map(KindName)
             .map_err(|_| unknown_kind(format!("{kind:?}")))

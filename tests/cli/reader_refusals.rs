@@ -215,6 +215,18 @@ fn bad_model_keys_name_the_file_and_the_line() {
             "`convention`: expected one of `area`",
         ),
         (
+            "g.toml",
+            CUBIC.replace("kind = \"cubic\"", "kind = 3"),
+            "kind",
+            "`kind`: invalid type: integer `3`, expected a string",
+        ),
+        (
+            "h.toml",
+            CUBIC.replace("a_s = 10.0", "a_s = 10.0\neuler_zyz_deg = [1, \"a\", 3]"),
+            "euler",
+            "`euler_zyz_deg`: invalid type: string \"a\", expected a number",
+        ),
+        (
             "e.json",
             CUBIC_JSON.replace("\"a_n\"", "\"a_m\""),
             "a_m",
