@@ -20,6 +20,13 @@ import yade; YADE does not set ``__file__`` for ``-x`` scripts, use ``sys.argv[0
     ab.write_history_csv("yade-history.csv", result)
     ab.write_tensor_json("yade-tensor.json", result, packing, bonds)
 
+In place on the user's own scene (periodic or not; walls, boxes and facets skipped, clumps
+refused), with the anisobond package importable for ``assign``::
+
+    table = ab.assign("model.toml")     # the model's springs on YADE's sphere-sphere bonds
+    ab.bond_table("bonds.csv")          # the bonds, full precision, i/j = sphere index
+    ab.write_packing("packing.txt")     # the spheres, full precision, body ids, cell or free
+
 or the command line (what the exported ``run.py`` calls)::
 
     yade -n -x anisobond_yade.py --packing packing.txt --bonds bonds.csv --out DIR \
@@ -85,6 +92,9 @@ VOIGT_LABELS = ("11", "22", "33", "23", "13", "12")
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 BOND_COLUMNS = ("i", "j", "nx", "ny", "nz", "length", "radius", "kn", "ks", "kr", "ktw",
                 "ix", "iy", "iz")
+# Trailing columns of a table written from a YADE scene: the spheres' body ids.
+ID_COLUMNS = ("id_i", "id_j")
+INT_COLUMNS = ("i", "j", "ix", "iy", "iz", "id_i", "id_j")
 HUGE_ADHESION = 1e300
 
 
@@ -94,6 +104,12 @@ class InputError(ValueError):
 
 class BondMismatch(RuntimeError):
     """A bond's branch vector in YADE differs from the table's length*n."""
+
+
+class RotationWarning(UserWarning):
+    """Bonds whose spheres have rotated since YADE made their geometry: the total-form moment
+    law measures rotations from those orientations, so the moments come back at the next step
+    whatever ``assign`` set."""
 
 
 class PrestressWarning(UserWarning):
@@ -106,12 +122,14 @@ class PrestressWarning(UserWarning):
 # --------------------------------------------------------------------------------------
 
 class Packing(object):
-    """Spheres: positions (m, list of 3-tuples), radii (m), cell lengths (m) or None."""
+    """Spheres: positions (m, list of 3-tuples), radii (m), cell lengths (m) or None, and
+    the spheres' own ids (YADE body ids) or None when they are known by index only."""
 
-    def __init__(self, positions, radii, cell):
+    def __init__(self, positions, radii, cell, ids=None):
         self.positions = positions
         self.radii = radii
         self.cell = cell
+        self.ids = ids
 
     def __len__(self):
         return len(self.radii)
@@ -133,12 +151,13 @@ def _number(word, what, path, line):
 def read_packing(path):
     """Read a SPEC packing (also YADE ``export.text`` / ``SpherePack.save`` text).
 
-    Lines ``x y z r`` (``SpherePack.save``'s ``x y z r clumpId`` with clumpId -1 too);
+    Lines ``x y z r`` (``SpherePack.save``'s ``x y z r clumpId`` with clumpId -1 too;
+    ``#format id_x_y_z_r_matId`` as ``write_packing`` writes, body ids kept in ``ids``);
     ``# periodic Lx Ly Lz`` (or ``##PERIODIC:: Lx Ly Lz``) declares the
     periodic cell [0,L); ``#format x_y_z_r[_matId]`` is accepted. A periodic cell is
     required (the element tests deform it).
     """
-    positions, radii, cell, columns = [], [], None, 4
+    positions, radii, cell, columns, ids = [], [], None, 4, []
     with open(path) as f:
         for n, raw in enumerate(f, 1):
             t = raw.strip()
@@ -151,10 +170,10 @@ def read_packing(path):
                     header = words[1:]
                 elif t.startswith("#format"):
                     fmt = words[1] if len(words) > 1 else ""
-                    if fmt not in ("x_y_z_r", "x_y_z_r_matId"):
-                        raise InputError("%s:%d: unsupported `#format %s`: expected x_y_z_r"
-                                         % (path, n, fmt))
-                    columns = 4 if fmt == "x_y_z_r" else 5
+                    if fmt not in ("x_y_z_r", "x_y_z_r_matId", "id_x_y_z_r_matId"):
+                        raise InputError("%s:%d: unsupported `#format %s`: expected x_y_z_r, "
+                                         "x_y_z_r_matId or id_x_y_z_r_matId" % (path, n, fmt))
+                    columns = {"x_y_z_r": 4, "x_y_z_r_matId": 5, "id_x_y_z_r_matId": 6}[fmt]
                     continue
                 else:
                     continue
@@ -177,8 +196,17 @@ def read_packing(path):
                                      "body, not bonded spheres" % (path, n, words[4]))
                 words = words[:4]
             if len(words) != columns:
-                raise InputError("%s:%d: expected %d numbers `x y z r`, found %d"
-                                 % (path, n, columns, len(words)))
+                raise InputError("%s:%d: expected %d numbers `%s`, found %d"
+                                 % (path, n, columns, {4: "x y z r", 5: "x y z r matId",
+                                                       6: "id x y z r matId"}[columns],
+                                    len(words)))
+            if columns == 6:
+                try:
+                    ids.append(int(words[0]))
+                except ValueError:
+                    raise InputError("%s:%d: expected an integer body id, found `%s`"
+                                     % (path, n, words[0]))
+                words = words[1:]
             x, y, z, r = (_number(w, c, path, n) for w, c in zip(words, "xyzr"))
             if r <= 0:
                 raise InputError("%s:%d: radius must be > 0, found %r" % (path, n, r))
@@ -193,7 +221,7 @@ def read_packing(path):
     wrapped = []
     for p in positions:
         wrapped.append(tuple(p[k] - math.floor(p[k] / cell[k]) * cell[k] for k in range(3)))
-    return Packing(wrapped, radii, cell)
+    return Packing(wrapped, radii, cell, ids=ids if columns == 6 else None)
 
 
 class BondTable(object):
@@ -323,33 +351,120 @@ def assign_springs(model, packing, bonds):
     return bonds
 
 
-def scene_bonds(model, interactions=None):
-    """The bond table of the current YADE scene: one bond per real interaction (YADE's own
-    ids, normal, branch vector and periodic image ``cellDist``), springs computed by the
-    anisobond package for ``model``; with it, the packing of the scene's bodies. Returns
-    (Packing, BondTable)."""
+class ClumpError(InputError):
+    """The scene holds clumps: a clump is one rigid body, not bonded spheres."""
+
+
+def scene_clumps():
+    """The clumps of the current scene: {clump body id: [member body ids]}."""
     from yade import O
+    clumps = {}
+    for body in O.bodies:
+        if body is None:
+            continue
+        if body.isClump:
+            clumps.setdefault(body.id, [])
+        elif body.isClumpMember:
+            clumps.setdefault(body.clumpId, []).append(body.id)
+    return clumps
+
+
+def refuse_clumps():
+    """Raise ``ClumpError`` naming every clump (and its members) of the current scene."""
+    clumps = scene_clumps()
+    if clumps:
+        named = ["clump %d (members %s)" % (c, ", ".join(str(m) for m in sorted(clumps[c])))
+                 for c in sorted(clumps)]
+        raise ClumpError(
+            "the scene holds %d clump(s): %s. A clump is one rigid body, not bonded spheres: "
+            "anisobond bonds standalone spheres only (build the scene without clumps, or with "
+            "each member as its own sphere)" % (len(clumps), "; ".join(named)))
+
+
+def _is_sphere(body):
+    from yade.wrapper import Sphere
+    return body is not None and isinstance(body.shape, Sphere)
+
+
+def scene_spheres():
+    """The current scene's spheres in body-id order, and the ids of its other bodies
+    (walls, boxes, facets, ...: they get no springs and are not in the packing). A scene
+    with clumps is refused (``ClumpError``)."""
+    from yade import O
+    refuse_clumps()
+    spheres, others = [], []
+    for body in O.bodies:
+        if body is None:
+            continue
+        if _is_sphere(body):
+            spheres.append(body)
+        else:
+            others.append(body.id)
+    return spheres, others
+
+
+def scene_cell():
+    """The lengths (m) of the current scene's periodic cell, or None when it is not periodic.
+    A cell that is not an axis-aligned box (sheared ``hSize``) is refused: anisobond's cells
+    are boxes [0, L)."""
+    from yade import O
+    if not O.periodic:
+        return None
+    h = O.cell.hSize
+    off = [(a, b) for a in range(3) for b in range(3) if a != b and h[a, b] != 0]
+    if off:
+        raise InputError("the periodic cell is not an axis-aligned box (hSize[%d,%d] = %r): "
+                         "anisobond's periodic cells are boxes [0, Lx)x[0, Ly)x[0, Lz)"
+                         % (off[0][0], off[0][1], h[off[0][0], off[0][1]]))
+    return tuple(float(h[k, k]) for k in range(3))
+
+
+def _image(I):
+    """The periodic image (cellDist) of interaction I as ints; (0, 0, 0) without a cell."""
+    from yade import O
+    if not O.periodic:
+        return (0, 0, 0)
+    return tuple(int(I.cellDist[k]) for k in range(3))
+
+
+def scene_bonds(model, interactions=None):
+    """The bond table of the current YADE scene: one bond per real sphere-sphere interaction
+    (normal, branch vector, periodic image ``cellDist``; images 0 without a periodic cell),
+    springs computed by the anisobond package for ``model``; with it, the packing of the
+    scene's spheres (body-id order, ``ids`` their body ids; walls, boxes, facets left out).
+    ``i``, ``j`` index that packing (``id_i``, ``id_j`` are the body ids). Interactions with
+    a non-sphere body are skipped and counted (``table.skipped_interactions``,
+    ``table.non_sphere_bodies``). Returns (Packing, BondTable)."""
+    from yade import O
+    spheres, others = scene_spheres()
     inters = [I for I in O.interactions if I.isReal] if interactions is None else list(interactions)
+    inters, skipped = _sphere_pairs(inters)
     if not inters:
-        raise InputError("the scene has no real interactions to bond")
-    positions = [tuple(b.state.pos) for b in O.bodies]
-    radii = [b.shape.radius for b in O.bodies]
-    cell = tuple(O.cell.hSize[k, k] for k in range(3)) if O.periodic else None
+        raise InputError("the scene has no real sphere-sphere interactions to bond "
+                         "(%d with a non-sphere body skipped)" % len(skipped))
+    index = dict((body.id, k) for k, body in enumerate(spheres))
+    positions = [tuple(body.state.pos) for body in spheres]
+    radii = [body.shape.radius for body in spheres]
+    packing = Packing(positions, radii, scene_cell(), ids=[body.id for body in spheres])
     cols = dict((c, []) for c in BOND_COLUMNS)
     for I in inters:
         l = branch_vector(I)
         length = l.norm()
-        cols["i"].append(I.id1)
-        cols["j"].append(I.id2)
+        cols["i"].append(index[I.id1])
+        cols["j"].append(index[I.id2])
         for k, c in enumerate(("nx", "ny", "nz")):
             cols[c].append(l[k] / length)
         cols["length"].append(length)
         for k, c in enumerate(("ix", "iy", "iz")):
-            cols[c].append(int(I.cellDist[k]))
+            cols[c].append(_image(I)[k])
         for c in ("radius", "kn", "ks", "kr", "ktw"):
             cols[c].append(0.0)
-    packing = Packing(positions, radii, cell)
-    return packing, assign_springs(model, packing, BondTable(cols))
+    table = BondTable(cols)
+    table.id_i = [I.id1 for I in inters]
+    table.id_j = [I.id2 for I in inters]
+    table.skipped_interactions = len(skipped)
+    table.non_sphere_bodies = others
+    return packing, assign_springs(model, packing, table)
 
 
 def penetration_depth(I):
@@ -362,14 +477,70 @@ def penetration_depth(I):
             - branch_vector(I).norm())
 
 
-def cohesive_interactions():
-    """The real interactions of the current scene whose physics is cohesive (CohFrictPhys):
-    the bonds of a YADE bonded-particle model."""
+def _sphere_pairs(interactions):
+    """Split interactions into (sphere-sphere, with a non-sphere body: wall, box, facet...)."""
     from yade import O
-    return [I for I in O.interactions if I.isReal and hasattr(I.phys, "cohesionBroken")]
+    pairs, others = [], []
+    for I in interactions:
+        both = _is_sphere(O.bodies[I.id1]) and _is_sphere(O.bodies[I.id2])
+        (pairs if both else others).append(I)
+    return pairs, others
 
 
-def assign(model, interactions=None):
+def _is_cohesive(I):
+    return I.isReal and hasattr(I.phys, "cohesionBroken") and not I.phys.cohesionBroken
+
+
+def cohesive_interactions():
+    """The bonds of a YADE bonded-particle scene: its real sphere-sphere interactions whose
+    physics is cohesive (CohFrictPhys with ``cohesionBroken`` False). Cohesive contacts with
+    walls, boxes or facets are not bonds (``skipped_cohesive_interactions``). A scene with
+    clumps is refused (``ClumpError``)."""
+    from yade import O
+    refuse_clumps()
+    return _sphere_pairs([I for I in O.interactions if _is_cohesive(I)])[0]
+
+
+def skipped_cohesive_interactions():
+    """The real cohesive interactions of the current scene with a body that is not a sphere
+    (wall, box, facet, ...): not bonds, left as they are."""
+    from yade import O
+    return _sphere_pairs([I for I in O.interactions if _is_cohesive(I)])[1]
+
+
+def _bonds_of(interactions):
+    """(sphere-sphere cohesive interactions, number skipped) of a given list, or of the scene."""
+    from yade import O
+    refuse_clumps()
+    if interactions is None:
+        inters = [I for I in O.interactions if _is_cohesive(I)]
+    else:
+        inters = list(interactions)
+    pairs, others = _sphere_pairs(inters)
+    return pairs, len(others)
+
+
+def renew_interactions(interactions):
+    """Make each interaction anew, so that YADE's ScGeom6D takes the bodies' current
+    orientations as its reference (``initialOrientation1/2``, read-only from Python): erase
+    it and ``utils.createInteraction`` the same pair, with the same periodic image
+    (``cellDist``; createInteraction may pick another, see the module's traps). Its geometry
+    is recomputed at the next step. Returns the new interactions in the same order; the old
+    objects (and any handle to them) are dead."""
+    from yade import O, utils
+    renewed = []
+    for I in interactions:
+        id1, id2 = I.id1, I.id2
+        image = I.cellDist if O.periodic else None
+        O.interactions.erase(id1, id2)
+        J = utils.createInteraction(id1, id2)
+        if image is not None:
+            J.cellDist = image if J.id1 == id1 else -image
+        renewed.append(J)
+    return renewed
+
+
+def assign(model, interactions=None, renew=False):
     """Give every cohesive interaction of the current YADE scene the springs of an anisobond
     model, in place: kn, ks, kr, ktw from the interaction's own normal, radii, centre
     distance and periodic image (computed by the anisobond package; for a cross-anisotropic
@@ -381,13 +552,31 @@ def assign(model, interactions=None):
     ``cohesionBroken = False``, never-breaking adhesion, the moment law on, and
     ``avoidGranularRatcheting = False`` on the scene's Ig2_Sphere_Sphere_ScGeom6D functors
     (otherwise YADE scales the shear spring by (R1+R2)/d). Engines are otherwise left as the
-    user set them. Returns the bond table (see ``bond_table``) of what was assigned."""
+    user set them. Only sphere-sphere interactions are bonds: cohesive contacts with walls,
+    boxes or facets keep their physics (counted in ``table.skipped_interactions``); a scene
+    with clumps is refused (``ClumpError``). Works with or without a periodic cell.
+
+    Rotations: YADE's total-form moment law measures each bond's rotation from the
+    orientations its geometry was made with (``ScGeom6D.initialOrientation1/2``, read-only
+    from Python), which assign cannot reset: where spheres have rotated since and the bond
+    has k_r or k_tw, the moments come back at the next step. assign then warns
+    (``RotationWarning``, with the largest angles and moments; ``table.rotations`` holds
+    (bending, twist) per bond, ``bond_rotations``) unless the scene's law uses
+    ``useIncrementalForm=True``, whose moments start from the zero set here. With
+    ``renew=True`` every bond is first made anew (``renew_interactions``: the current
+    orientations become the reference, so the moments start from zero in the total form too;
+    handles to the old interaction objects die).
+    Returns the bond table (see ``scene_bonds``) of what was assigned."""
     from yade import O
     from yade.minieigenHP import Vector3
     from yade.wrapper import Ig2_Sphere_Sphere_ScGeom6D, InteractionLoop
-    inters = cohesive_interactions() if interactions is None else list(interactions)
+    inters, n_skipped = _bonds_of(interactions)
     if not inters:
-        raise InputError("the scene has no cohesive interactions (CohFrictPhys) to assign")
+        raise InputError("the scene has no sphere-sphere cohesive interactions (CohFrictPhys, "
+                         "cohesionBroken False) to assign (%d with a wall, box or facet "
+                         "skipped)" % n_skipped)
+    if renew:
+        inters = renew_interactions(inters)
     for e in O.engines:
         if isinstance(e, InteractionLoop):
             for f in e.geomDispatcher.functors:
@@ -404,6 +593,8 @@ def assign(model, interactions=None):
                                                                    bad[0][0].id1, bad[0][0].id2,
                                                                    bad[0][1]))
     _, table = scene_bonds(model, inters)
+    table.skipped_interactions = n_skipped
+    table.rotations = bond_rotations(inters)
     for b, I in enumerate(inters):
         ph = I.phys
         ph.kn, ph.ks, ph.kr, ph.ktw = table.kn[b], table.ks[b], table.kr[b], table.ktw[b]
@@ -421,7 +612,60 @@ def assign(model, interactions=None):
         ph.maxRollPl = -1.0
         ph.maxTwistPl = -1.0
         ph.momentRotationLaw = True
+    incremental = any(getattr(f, "useIncrementalForm", False)
+                      for e in O.engines if isinstance(e, InteractionLoop)
+                      for f in e.lawDispatcher.functors)
+    message = None if incremental else rotation_message(table.rotations, table)
+    if message is not None:
+        warnings.warn(message, RotationWarning, stacklevel=2)
     return table
+
+
+def bond_rotations(interactions):
+    """Per bond (bending, twist) angles (rad) of the relative rotation that YADE's total-form
+    moment law (``Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=False)``)
+    measures at the next step: ScGeom6D's delta = (q1 q01^-1)(q02 q2^-1) between the bodies'
+    orientations and the geometry's ``initialOrientation1/2`` (set when YADE made the
+    geometry, read-only from Python), its angle split along the current normal (as
+    ``ScGeom6D.bending``/``twist``, without twist creep). Zero for bonds whose spheres have
+    not rotated since."""
+    from yade import O
+    out = []
+    for I in interactions:
+        g = I.geom
+        delta = ((O.bodies[I.id1].state.ori * g.initialOrientation1.conjugate())
+                 * (g.initialOrientation2 * O.bodies[I.id2].state.ori.conjugate()))
+        angle, axis = delta.toAngleAxis()
+        if angle > math.pi:
+            angle -= 2.0 * math.pi
+        n = branch_vector(I).normalized()
+        twist = angle * axis.dot(n)
+        out.append(((axis * angle - n * twist).norm(), abs(twist)))
+    return out
+
+
+def rotation_message(rotations, table):
+    """The ``RotationWarning`` of ``assign``, or None when no bond with a rotational spring
+    has rotated by more than ``STRESS_FREE_TOLERANCE`` rad."""
+    rows = [(b, bend, tw) for b, (bend, tw) in enumerate(rotations)
+            if (table.kr[b] > 0 and bend > STRESS_FREE_TOLERANCE)
+            or (table.ktw[b] > 0 and tw > STRESS_FREE_TOLERANCE)]
+    if not rows:
+        return None
+    bb = max(rows, key=lambda r: r[1])[0]
+    bt = max(rows, key=lambda r: r[2])[0]
+    pair = lambda b: (table.id_i[b], table.id_j[b])
+    return ("%d of %d bonds have spheres that rotated since YADE made their geometry "
+            "(ScGeom6D.initialOrientation1/2, read-only from Python): YADE's total-form moment "
+            "law will apply k_r theta and k_tw theta from the next step, whatever assign set. "
+            "Largest bending %.4g rad (bond %s: %.4g N m), largest twist %.4g rad (bond %s: "
+            "%.4g N m). To start the moments from zero, call assign(..., renew=True) (the bonds "
+            "made anew, the current orientations their reference), or use "
+            "Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True) (moments then "
+            "accumulate from the zero assign sets)"
+            % (len(rows), len(rotations), rotations[bb][0], pair(bb),
+               table.kr[bb] * rotations[bb][0], rotations[bt][1], pair(bt),
+               table.ktw[bt] * rotations[bt][1]))
 
 
 STRESS_FREE_TOLERANCE = 1e-9
@@ -449,8 +693,7 @@ def initial_forces(interactions, table):
         fs = ph.shearForce.norm()
         axial.append(N)
         shear.append(fs)
-        scale = ph.kn * 0.5 * (O.bodies[table.i[b]].shape.radius
-                               + O.bodies[table.j[b]].shape.radius)
+        scale = ph.kn * 0.5 * (O.bodies[I.id1].shape.radius + O.bodies[I.id2].shape.radius)
         rel_n.append(abs(N) / scale if scale > 0 else (0.0 if N == 0 else float("inf")))
         rel_s.append(fs / scale if scale > 0 else (0.0 if fs == 0 else float("inf")))
         for a in range(3):
@@ -505,9 +748,16 @@ def prestress_message(f):
 
 
 def bond_table(path=None, interactions=None):
-    """The current scene's cohesive interactions as an anisobond bond table with the springs
-    YADE holds now (``BondTable``; written as CSV to ``path`` when given, atomically), so
-    that ``anisobond`` gives the exact relaxed tensor of the user's own bond network.
+    """The current scene's cohesive sphere-sphere interactions as an anisobond bond table
+    with the springs YADE holds now (``BondTable``; written as CSV to ``path`` when given,
+    atomically, every number at full precision), so that ``anisobond`` gives the exact
+    relaxed tensor of the user's own bond network.
+
+    ``i``, ``j`` index the scene's spheres in body-id order -- the packing ``write_packing``
+    writes -- and ``id_i``, ``id_j`` are YADE's body ids. Works with or without a periodic
+    cell (images 0 without one). Cohesive contacts with walls, boxes or facets are not bonds:
+    they are skipped and counted (``table.skipped_interactions``; the non-sphere bodies in
+    ``table.non_sphere_bodies``). A scene with clumps is refused (``ClumpError``).
 
     The relaxed tensor assumes stress-free bonds. The table also carries the forces the
     bonds hold now (``axial_force``, ``shear_force`` per bond, and ``initial_forces``, see
@@ -515,14 +765,18 @@ def bond_table(path=None, interactions=None):
     across a gap: ``unp`` = 0, not the penetration depth) a ``PrestressWarning`` says how
     large they are and which method accounts for them."""
     from yade import O
-    inters = cohesive_interactions() if interactions is None else list(interactions)
-    cols = dict((c, []) for c in BOND_COLUMNS)
+    inters, n_skipped = _bonds_of(interactions)
+    spheres, others = scene_spheres()
+    index = dict((body.id, k) for k, body in enumerate(spheres))
+    cols = dict((c, []) for c in BOND_COLUMNS + ID_COLUMNS)
     for I in inters:
         l = branch_vector(I)
         length = l.norm()
         i, j, sign = (I.id1, I.id2, 1) if I.id1 < I.id2 else (I.id2, I.id1, -1)
-        cols["i"].append(i)
-        cols["j"].append(j)
+        cols["i"].append(index[i])
+        cols["j"].append(index[j])
+        cols["id_i"].append(i)
+        cols["id_j"].append(j)
         for k, c in enumerate(("nx", "ny", "nz")):
             cols[c].append(sign * l[k] / length)
         cols["length"].append(length)
@@ -531,8 +785,10 @@ def bond_table(path=None, interactions=None):
         for c in ("kn", "ks", "kr", "ktw"):
             cols[c].append(getattr(I.phys, c))
         for k, c in enumerate(("ix", "iy", "iz")):
-            cols[c].append(sign * int(I.cellDist[k]))
+            cols[c].append(sign * _image(I)[k])
     table = BondTable(cols)
+    table.skipped_interactions = n_skipped
+    table.non_sphere_bodies = others
     forces = initial_forces(inters, table)
     table.axial_force = forces.pop("axial_force")
     table.shear_force = forces.pop("shear_force")
@@ -540,12 +796,43 @@ def bond_table(path=None, interactions=None):
     if not forces["stress_free"]:
         warnings.warn(prestress_message(forces), PrestressWarning, stacklevel=2)
     if path is not None:
-        lines = [",".join(BOND_COLUMNS)]
+        lines = [",".join(BOND_COLUMNS + ID_COLUMNS)]
         for b in range(len(table)):
-            lines.append(",".join(str(int(cols[c][b])) if c in ("i", "j", "ix", "iy", "iz")
-                                  else _g(cols[c][b]) for c in BOND_COLUMNS))
+            lines.append(",".join(str(int(cols[c][b])) if c in INT_COLUMNS else _g(cols[c][b])
+                                  for c in BOND_COLUMNS + ID_COLUMNS))
         _write_atomic(path, "\n".join(lines) + "\n")
     return table
+
+
+def write_packing(path):
+    """Write the current scene's spheres as an anisobond packing file (atomically) at full
+    precision -- every number the shortest ``repr`` that reads back bit for bit -- to go with
+    ``bond_table``: ``#format id_x_y_z_r_matId`` lines ``body-id x y z r matId`` in body-id
+    order (the order ``bond_table``'s ``i``, ``j`` index; the ids come back as the table's
+    ``id_i``, ``id_j``), under ``# periodic Lx Ly Lz`` for a periodic scene (positions as
+    YADE holds them, outside the cell too: ``cellDist`` is of those) or ``# free``. Walls,
+    boxes and facets are left out (named in a comment); a scene with clumps is refused
+    (``ClumpError``), a sheared cell too. YADE's own ``export.text`` and
+    ``SpherePack.save`` keep 6 digits, which a full-precision bond table rightly refuses.
+    Returns the ``Packing`` written (``ids`` the body ids)."""
+    spheres, others = scene_spheres()
+    if not spheres:
+        raise InputError("the scene has no spheres to write")
+    cell = scene_cell()
+    positions = [tuple(float(x) for x in body.state.pos) for body in spheres]
+    radii = [float(body.shape.radius) for body in spheres]
+    lines = ["# anisobond_yade.write_packing: the %d spheres of a YADE scene, body ids, "
+             "positions and radii in m at full precision" % len(spheres)]
+    if others:
+        lines.append("# %d non-sphere bodies left out (walls, boxes, facets): ids %s"
+                     % (len(others), " ".join(str(i) for i in others)))
+    lines.append("# periodic %s %s %s" % tuple(_g(x) for x in cell) if cell else "# free")
+    lines.append("#format id_x_y_z_r_matId")
+    for body, p, r in zip(spheres, positions, radii):
+        mat = body.material.id if body.material is not None else -1
+        lines.append("%d %s %s %s %s %d" % (body.id, _g(p[0]), _g(p[1]), _g(p[2]), _g(r), mat))
+    _write_atomic(path, "\n".join(lines) + "\n")
+    return Packing(positions, radii, cell, ids=[body.id for body in spheres])
 
 
 def tensor_of_paths(histories, paths):
@@ -821,9 +1108,13 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
 
 
 def branch_vector(I):
-    """Branch vector x_2 + shift - x_1 of interaction I in YADE (m), from id1 to id2."""
+    """Branch vector x_2 + shift - x_1 of interaction I in YADE (m), from id1 to id2; the
+    shift is hSize * cellDist in a periodic scene, none otherwise (the operations of YADE's
+    Ig2_Sphere_Sphere_ScGeom, so the same rounding)."""
     from yade import O
     b1, b2 = O.bodies[I.id1], O.bodies[I.id2]
+    if not O.periodic:
+        return b2.state.pos - b1.state.pos
     return b2.state.pos + O.cell.hSize * I.cellDist - b1.state.pos
 
 

@@ -113,9 +113,6 @@ struct BondsArgs {
     output: PathBuf,
 }
 
-/// The library's method names (the name `demo` uses).
-type MethodArg = MethodKind;
-
 /// The parser of `--method`: the library's registry of method names, each value's help its
 /// one-line description.
 fn method_parser() -> impl clap::builder::TypedValueParser<Value = MethodKind> {
@@ -362,7 +359,14 @@ fn report_of(
     });
     bar.finish_and_clear();
     let result = result?;
-    match &result.detail {
+    print_detail(&result.detail, st);
+    Ok(result.report)
+}
+
+/// What a method says about its solution, on standard error (`st`: the static options it
+/// ran with, for the solver's and LAF estimate's names).
+fn print_detail(detail: &Detail, st: &StaticArgs) {
+    match detail {
         Detail::Relaxed(r) => {
             let ns = &r.null_space;
             eprintln!(
@@ -406,7 +410,6 @@ fn report_of(
         Detail::Dynamic(d) => run::print_stability(d),
         Detail::None => {}
     }
-    Ok(result.report)
 }
 
 /// Name the input files in a refusal whose cause lies in them: a computed tensor that is not

@@ -228,31 +228,7 @@ pub fn plot_element_tests(
     result: &element::DynamicTensor,
     a: &IntegratorArgs,
 ) -> Result<()> {
-    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
-    let series: Vec<anisobond::plot::Series> = result
-        .paths
-        .iter()
-        .map(|p| anisobond::plot::Series {
-            label: format!("path {}: σ{}", NAMES[p.path], NAMES[p.path]),
-            points: p
-                .history
-                .iter()
-                .map(|h| (h.step as f64, h.stress[p.path] / 1e6))
-                .collect(),
-            dashed: false,
-            colour: Some(p.path),
-        })
-        .collect();
-    anisobond::plot::plot_series(
-        path,
-        &series,
-        &format!(
-            "element tests: strain {:e} in one step, Cundall damping {}",
-            a.strain, a.damping
-        ),
-        "step",
-        "stress in the loaded direction (MPa)",
-    )
+    anisobond::plot::plot_element_tests(path, result, a.strain, a.damping)
 }
 
 /// Run the six element tests of `asm` (with a progress bar), recording histories if asked.

@@ -137,3 +137,76 @@ def test_element_tests_in_place_refuse_a_scene_out_of_equilibrium(tmp_path):
     assert "anisobond_yade.assign" in d["refused"]
     assert d["after"] < 1e-9, d["after"]
     assert all(c > 0 for c in d["c_diagonal"]), d["c_diagonal"]
+
+
+def test_assign_on_a_walled_non_periodic_scene_bonds_only_spheres(tmp_path):
+    """A non-periodic YADE scene with walls, a box floor and a facet lid, bonded by YADE's own
+    functors (tests/yade/walled_scene.py; before, assign raised AttributeError on
+    O.cell.hSize, and 'Wall' object has no attribute 'radius'): assign gives every cohesive
+    sphere-sphere interaction the model's springs (the package's Model.springs of each
+    bond's own normal, radii and length, called in the script), makes it stress-free, and
+    leaves YADE's cohesive contacts with the box and facets as they were, counting them."""
+    env = dict(os.environ, PYTHONPATH=yade_pythonpath(),
+               ANISOBOND_YADE_SCRIPTS=str(HERE.parent.parent / "yade-scripts"))
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    out = tmp_path / "assign.json"
+    r = subprocess.run(["yade", "-n", "-x", str(HERE.parent / "yade" / "walled_scene.py"),
+                        "assign", str(model), str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=900, env=env)
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    d = json.loads(out.read_text())
+    print("walled prism: %d bonds assigned, %d cohesive box/facet contacts left as they were; "
+          "springs vs Model.springs %.2e" % (d["n_bonds"], d["n_other"], d["spring_difference"]))
+    assert d["n_bonds"] > 100 and d["table_bonds"] == d["n_bonds"]
+    assert d["n_other"] > 0 and d["table_skipped"] == d["n_other"]
+    assert d["spring_difference"] <= 1e-12
+    assert d["unp_minus_depth"] == 0.0
+    assert d["others_unchanged"] and all(k > 0 for k in d["others_kn"])
+
+
+@pytest.mark.parametrize("scene", ["rotated", "rotated-periodic"])
+def test_assign_warns_when_spheres_rotated_since_yade_made_the_bonds(tmp_path, scene):
+    """YADE's total-form moment law measures rotations from the orientations ScGeom6D kept
+    when YADE made the contact (initialOrientation1/2, read-only from Python): assign cannot
+    reset them, so on a scene that has moved the moments come back at the next step. On the
+    walled prism after YADE's own 5 steps, with every tenth sphere turned by 1-4 mrad: the
+    rotations assign predicts are YADE's own ScGeom6D bending and twist after one step (to
+    1e-15 rad), YADE then applies k_r * bending, and assign warned (RotationWarning) with the
+    largest angle; with useIncrementalForm=True (moments from the zero assign sets) it does
+    not warn. assign(renew=True) makes the bonds anew: the same pairs and periodic images
+    (the periodic scene has spheres outside the cell, where createInteraction picks wrong
+    images), and after a step YADE's rotations, moments and normal forces are all zero."""
+    env = dict(os.environ, PYTHONPATH=yade_pythonpath(),
+               ANISOBOND_YADE_SCRIPTS=str(HERE.parent.parent / "yade-scripts"))
+    model = tmp_path / "model.toml"
+    model.write_text(CUBIC_MODEL)
+    out = tmp_path / "rotated.json"
+    r = subprocess.run(["yade", "-n", "-x", str(HERE.parent / "yade" / "walled_scene.py"),
+                        scene, str(model), str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=900, env=env)
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    d = json.loads(out.read_text())
+    predicted, yade = np.array(d["predicted"]), np.array(d["yade"])
+    kr = np.array(d["kr"])
+    print("%d bonds: rotations since YADE made them, median %.3g rad, largest %.3g rad; "
+          "assign's prediction vs YADE's ScGeom6D %.2e rad"
+          % (len(kr), np.median(predicted[:, 0]), predicted[:, 0].max(),
+             np.abs(predicted - yade).max()))
+    assert np.all(kr > 0)
+    assert np.abs(predicted - yade).max() <= 1e-15
+    assert predicted[:, 0].max() > 1e-3  # the turned spheres
+    # The moments came back: YADE applies k_r * bending although assign zeroed them.
+    np.testing.assert_allclose(d["moment_bending"], kr * yade[:, 0], rtol=1e-12, atol=0)
+    assert len(d["warnings"]) == 1 and d["warnings"][0][0] == "RotationWarning"
+    message = d["warnings"][0][1]
+    assert "Largest bending %.4g rad" % predicted[:, 0].max() in message, message
+    assert "useIncrementalForm=True" in message
+    assert d["incremental_warnings"] == []
+    renewed = d["renewed"]
+    assert renewed["warnings"] == [] and renewed["same_pairs"] and renewed["n"] == len(kr)
+    for key in ("rotations", "yade_rotations", "moments", "normal_force_over_kn",
+                "unp_minus_depth"):
+        assert renewed[key] == 0.0, (key, renewed)
+    if scene == "rotated-periodic":
+        assert renewed["images_nonzero"] > 100, renewed

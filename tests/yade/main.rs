@@ -7,6 +7,7 @@ mod common;
 mod dem_twoparticle;
 mod element;
 mod export_cli;
+mod in_place_scene;
 mod periodic_image;
 mod two_sphere;
 mod validate;
