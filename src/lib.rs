@@ -43,7 +43,9 @@ pub mod ffi;
 pub mod history;
 pub mod homogenize;
 pub mod io;
+pub(crate) mod keys;
 pub mod model;
+pub mod names;
 pub mod packing;
 #[cfg(feature = "plot")]
 pub mod plot;

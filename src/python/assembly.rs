@@ -184,18 +184,14 @@ impl PyAssembly {
     #[getter]
     fn lattice_scaling(&self) -> PyResult<f64> {
         let a = &self.inner;
-        crate::schemes::cross_anisotropic::lattice_scaling(
-            &a.packing,
-            &a.bonds,
-            a.model.geometry.pi_hat,
-        )
-        .map_err(to_py)
+        crate::bonds::lattice_scaling(&a.packing, &a.bonds, a.model.geometry.pi_hat).map_err(to_py)
     }
 
     /// The (6, 6) stiffness tensor in Pa (Voigt order 11 22 33 23 13 12, engineering strain).
     ///
     /// method: "mean-field" (orientation integral at the bond density), "voigt" (affine sum
-    /// over the bonds), "relaxed" (exact static equilibrium, sparse solve), "laf" (Kruyt's
+    /// over the bonds), "relaxed" (exact static equilibrium, sparse solve), "prestressed"
+    /// (relaxed tangent under the isotropic preload `prestress` Pa), "laf" (Kruyt's
     /// local adjustment field, shell order `shell` 1-6, `energy` for the upper bound) or
     /// "dynamic" (the reference integrator's damped element tests).
     /// Keyword options (defaults): shell=2, energy=False, lever_arm="mid-gap",

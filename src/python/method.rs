@@ -1,7 +1,7 @@
 //! The method names and keyword options of `Assembly.tensor` / `tensor_report`.
 
 use super::errors::{to_py, InputError};
-use crate::assembly::Method;
+use crate::assembly::{Method, MethodKind, MethodOptions};
 use crate::dem::element::ElementTestOptions;
 use crate::dem::LawKind;
 use crate::homogenize::network::LeverArm;
@@ -81,18 +81,19 @@ impl MethodArgs {
     /// `method` with the keyword `options`; an unknown keyword or a value of the wrong type
     /// is an `InputError` naming it.
     pub(super) fn parse(method: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let d = MethodOptions::default();
         let mut a = MethodArgs {
             method: method.to_owned(),
-            shell: 2,
-            energy: false,
+            shell: d.shell,
+            energy: d.energy,
             lever_arm: "mid-gap".into(),
-            tolerance: 1e-6,
+            tolerance: d.relaxed.tolerance,
             solver: "cg".into(),
             law: "yade".into(),
-            strain: 1e-5,
-            damping: 0.4,
-            max_steps: 20_000,
-            prestress: 0.0,
+            strain: d.element.strain,
+            damping: d.element.local_damping,
+            max_steps: d.element.max_steps,
+            prestress: d.prestress,
             progress: None,
         };
         let Some(options) = options else {
@@ -134,10 +135,11 @@ impl MethodArgs {
 
 impl MethodArgs {
     pub(super) fn method(&self) -> PyResult<Method> {
-        Ok(match self.method.as_str() {
-            "mean-field" => Method::MeanField,
-            "voigt" => Method::Voigt,
-            "relaxed" | "prestressed" => {
+        let kind: MethodKind = self.method.parse().map_err(to_py)?;
+        Ok(match kind {
+            MethodKind::MeanField => Method::MeanField,
+            MethodKind::Voigt => Method::Voigt,
+            MethodKind::Relaxed | MethodKind::Prestressed => {
                 let opts = RelaxedOptions {
                     lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
                     tolerance: self.tolerance,
@@ -145,7 +147,7 @@ impl MethodArgs {
                     ..Default::default()
                 };
                 opts.validate().map_err(to_py)?;
-                if self.method == "prestressed" {
+                if kind == MethodKind::Prestressed {
                     Method::Prestressed {
                         options: opts,
                         pressure: self.prestress,
@@ -154,12 +156,12 @@ impl MethodArgs {
                     Method::Relaxed(opts)
                 }
             }
-            "laf" => Method::Laf {
+            MethodKind::Laf => Method::Laf {
                 shell: self.shell,
                 energy: self.energy,
                 lever_arm: one_of("lever_arm", &self.lever_arm, &LEVER_ARMS)?,
             },
-            "dynamic" => {
+            MethodKind::Dynamic => {
                 let mut options = ElementTestOptions {
                     strain: self.strain,
                     local_damping: self.damping,
@@ -171,11 +173,6 @@ impl MethodArgs {
                     law: one_of("law", &self.law, &LAWS)?,
                     options,
                 }
-            }
-            other => {
-                return Err(InputError::new_err(format!(
-                "method `{other}`: expected 'mean-field', 'voigt', 'relaxed', 'laf' or 'dynamic'"
-            )))
             }
         })
     }

@@ -9,7 +9,7 @@
 //! println!("{}", r.tensors[3].cubic.c11);
 //! ```
 
-use crate::assembly::{Assembly, Detail, Method, TensorResult};
+use crate::assembly::{Assembly, Detail, Method, MethodKind, MethodOptions, TensorResult};
 use crate::dem::element::{DynamicTensor, ElementTestOptions};
 use crate::dem::LawKind;
 use crate::homogenize::report::TensorReport;
@@ -58,19 +58,17 @@ impl DemoOptions {
 
 /// The static methods of the demo, in order, with the name printed for each: mean field,
 /// Voigt, LAF (shell 2, stress), relaxed (two-level CG, 1e-6); the dynamic one follows.
+/// (Each with the library's default options, [`MethodOptions::default`].)
 pub fn static_methods() -> [(&'static str, Method); 4] {
+    let o = MethodOptions::default();
     [
-        ("mean-field", Method::MeanField),
-        ("voigt", Method::Voigt),
         (
-            "laf (m = 2, stress)",
-            Method::Laf {
-                shell: 2,
-                energy: false,
-                lever_arm: crate::homogenize::network::LeverArm::MidGap,
-            },
+            MethodKind::MeanField.name(),
+            o.method(MethodKind::MeanField),
         ),
-        ("relaxed", Method::relaxed()),
+        (MethodKind::Voigt.name(), o.method(MethodKind::Voigt)),
+        ("laf (m = 2, stress)", o.method(MethodKind::Laf)),
+        (MethodKind::Relaxed.name(), o.method(MethodKind::Relaxed)),
     ]
 }
 
