@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -194,7 +195,10 @@ int main() {
       close_rel(c.c[3 * 6 + 3], kt / (4 * R), 1e-9, w + "C44 = k_t/(4R)");
       close_rel(c.c[5 * 6 + 5], kt / (4 * R), 1e-9, w + "C66 = k_t/(4R)");
     }
-    throws_with([&] { compute_tensor(pack, *m, "dynamic"); }, "dynamic", "unknown method");
+    throws_with([&] { compute_tensor(pack, *m, "relax"); }, "method `relax`: expected",
+                "unknown method");
+    throws_with([&] { compute_tensor(pack, *m, "relax"); }, "prestressed, laf or dynamic",
+                "the refusal lists every method of the registry");
   }
 
   // 7. bond_atoms: the same SC lattice given as arrays the way the LIGGGHTS pair style gathers
@@ -303,6 +307,27 @@ int main() {
       close_rel(a.kn, b.kn, 1e-12, "k_n with μ = π̂/8 = k_n bound to the lattice");
       close_rel(a.ks, b.ks, 1e-12, "k_s with μ = π̂/8 = k_s bound to the lattice");
       check(a.kn > 0.0, "k_n > 0");
+    }
+  }
+
+  // 9. Every method of the library's registry: when tests/ffi/cpp.rs names a packing, a model
+  //    and an output file (ANISOBOND_BRIDGE_PACKING, _MODEL, _OUT), write the laf and
+  //    prestressed tensors there, full precision, for it to compare with the library's own.
+  {
+    const char *pack = std::getenv("ANISOBOND_BRIDGE_PACKING");
+    const char *model = std::getenv("ANISOBOND_BRIDGE_MODEL");
+    const char *out = std::getenv("ANISOBOND_BRIDGE_OUT");
+    if (pack && model && out) {
+      auto m = load_model(model);
+      std::ofstream f(out);
+      f.precision(17);
+      for (const char *method : {"laf", "prestressed"}) {
+        Tensor6 c = compute_tensor(pack, *m, method);
+        f << method;
+        for (double x : c.c) f << " " << x;
+        f << "\n";
+      }
+      check(static_cast<bool>(f), "laf and prestressed tensors written");
     }
   }
 

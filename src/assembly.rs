@@ -77,15 +77,98 @@ impl Method {
         Method::Relaxed(RelaxedOptions::default())
     }
 
+    /// Which method this is, without its options.
+    pub fn kind(&self) -> MethodKind {
+        match self {
+            Method::MeanField => MethodKind::MeanField,
+            Method::Voigt => MethodKind::Voigt,
+            Method::Relaxed(_) => MethodKind::Relaxed,
+            Method::Prestressed { .. } => MethodKind::Prestressed,
+            Method::Laf { .. } => MethodKind::Laf,
+            Method::Dynamic { .. } => MethodKind::Dynamic,
+        }
+    }
+
     /// The name used in reports and on the command line.
     pub fn name(&self) -> &'static str {
-        match self {
-            Method::MeanField => "mean-field",
-            Method::Voigt => "voigt",
-            Method::Relaxed(_) => "relaxed",
-            Method::Prestressed { .. } => "prestressed",
-            Method::Laf { .. } => "laf",
-            Method::Dynamic { .. } => "dynamic",
+        self.kind().name()
+    }
+}
+
+crate::names::named! {
+    /// The tensor methods by name, without their options: the one list the CLI's `--method`
+    /// and its help, Python's `method=` and the C++ bridge's `compute_tensor` accept.
+    pub enum MethodKind ("method") {
+        /// [`Method::MeanField`].
+        MeanField = "mean-field", "Continuous orientation integral (needs no packing)";
+        /// [`Method::Voigt`].
+        Voigt = "voigt", "Sum over the actual bonds (uniform strain)";
+        /// [`Method::Relaxed`].
+        Relaxed = "relaxed",
+            "Exact quasi-static equilibrium of the periodic bond network (sparse solve)";
+        /// [`Method::Prestressed`].
+        Prestressed = "prestressed",
+            "Relaxed tangent under an isotropic preload of the central springs (--prestress \
+             Pa): what an element test from that confined state measures (docs/prestress.md)";
+        /// [`Method::Laf`].
+        Laf = "laf", "Kruyt's local-adjustment-field estimate with shells of order --shell";
+        /// [`Method::Dynamic`].
+        Dynamic = "dynamic",
+            "Element tests with the reference DEM integrator (needs a periodic packing)";
+    }
+}
+
+/// The options of every method with their defaults: the one set of defaults the CLI's
+/// `tensor`, Python's `Assembly.tensor` and the C++ bridge start from.
+#[derive(Clone, Copy, Debug)]
+pub struct MethodOptions {
+    /// Relaxed and prestressed: solver, tolerance, lever arm (also the LAF's lever arm).
+    pub relaxed: RelaxedOptions,
+    /// Prestressed: mean compressive stress of the preload (Pa).
+    pub prestress: f64,
+    /// LAF: shell order m (1–6).
+    pub shell: usize,
+    /// LAF: the energy-based estimate (an upper bound) instead of the stress-based one.
+    pub energy: bool,
+    /// Dynamic: the integrator's bond law.
+    pub law: LawKind,
+    /// Dynamic: strain, damping, stop rule, time step and masses.
+    pub element: ElementTestOptions,
+}
+
+impl Default for MethodOptions {
+    fn default() -> Self {
+        MethodOptions {
+            relaxed: RelaxedOptions::default(),
+            prestress: 0.0,
+            shell: 2,
+            energy: false,
+            law: LawKind::default(),
+            element: ElementTestOptions::default(),
+        }
+    }
+}
+
+impl MethodOptions {
+    /// The method `kind` with these options.
+    pub fn method(&self, kind: MethodKind) -> Method {
+        match kind {
+            MethodKind::MeanField => Method::MeanField,
+            MethodKind::Voigt => Method::Voigt,
+            MethodKind::Relaxed => Method::Relaxed(self.relaxed),
+            MethodKind::Prestressed => Method::Prestressed {
+                options: self.relaxed,
+                pressure: self.prestress,
+            },
+            MethodKind::Laf => Method::Laf {
+                shell: self.shell,
+                energy: self.energy,
+                lever_arm: self.relaxed.lever_arm,
+            },
+            MethodKind::Dynamic => Method::Dynamic {
+                law: self.law,
+                options: self.element,
+            },
         }
     }
 }

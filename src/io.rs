@@ -582,3 +582,21 @@ pub fn check_memory(what: &str, bytes: f64) -> Result<()> {
     }
     Ok(())
 }
+
+/// Refuse a JSON value holding a `null` (what serde writes for NaN or infinity) anywhere
+/// below it; `at` names the value in the message.
+pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
+    match v {
+        serde_json::Value::Null => Err(crate::Error::Invalid(format!(
+            "`{at}` is not a finite number (overflow or a degenerate result); nothing was written"
+        ))),
+        serde_json::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, x)| check_json_numbers(x, &format!("{at}[{i}]"))),
+        serde_json::Value::Object(m) => m
+            .iter()
+            .try_for_each(|(k, x)| check_json_numbers(x, &format!("{at}.{k}"))),
+        _ => Ok(()),
+    }
+}

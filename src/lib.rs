@@ -43,7 +43,9 @@ pub mod ffi;
 pub mod history;
 pub mod homogenize;
 pub mod io;
+pub(crate) mod keys;
 pub mod model;
+pub mod names;
 pub mod packing;
 #[cfg(feature = "plot")]
 pub mod plot;
@@ -51,6 +53,7 @@ pub mod plot;
 pub mod python;
 pub mod schemes;
 pub mod specimen;
+pub mod study;
 pub mod tensor;
 #[cfg(feature = "engines")]
 pub mod validate;

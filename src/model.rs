@@ -21,11 +21,13 @@
 //! must be finite and admissible (a cross-anisotropic target positive definite) when read.
 
 use crate::bonds::{BondSet, BondingRule};
+use crate::keys;
+use crate::names::Named;
 use crate::packing::Packing;
 use crate::schemes::cross_anisotropic::{self, CrossAnisotropic};
 use crate::schemes::cubic::{self, CubicModel, CubicSpheroid};
 use crate::schemes::isotropic::Isotropic;
-use crate::schemes::{Convention, Geometry, StiffnessScheme};
+use crate::schemes::{Convention, Geometry, SchemeKind, StiffnessScheme};
 use crate::{Error, Mat3, Result, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -48,13 +50,18 @@ pub enum SchemeSpec {
 }
 
 impl SchemeSpec {
+    /// The scheme's kind.
+    pub fn kind(&self) -> SchemeKind {
+        match self {
+            SchemeSpec::Cubic(_) => SchemeKind::Cubic,
+            SchemeSpec::CrossAnisotropic(_) => SchemeKind::CrossAnisotropic,
+            SchemeSpec::Isotropic { .. } => SchemeKind::Isotropic,
+        }
+    }
+
     /// The scheme's `kind` in the model file: `cubic`, `cross-anisotropic` or `isotropic`.
     pub fn kind_name(&self) -> &'static str {
-        match self {
-            SchemeSpec::Cubic(_) => "cubic",
-            SchemeSpec::CrossAnisotropic(_) => "cross-anisotropic",
-            SchemeSpec::Isotropic { .. } => "isotropic",
-        }
+        self.kind().name()
     }
 }
 
@@ -105,12 +112,15 @@ struct RawModel {
 #[derive(Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct RawBonding {
+    #[serde(deserialize_with = "keys::rule")]
     rule: String,
+    #[serde(deserialize_with = "keys::value")]
     value: f64,
 }
 
 /// The `[scheme]` table, one type per `kind`: each variant refuses the keys of the other
-/// kinds by name (`deny_unknown_fields`), so no key is silently ignored.
+/// kinds by name (`deny_unknown_fields`), so no key is silently ignored. Every value is read
+/// by [`crate::keys`], whose refusals name the key.
 #[derive(Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 enum RawScheme {
@@ -123,22 +133,27 @@ enum RawScheme {
 #[derive(Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct RawCubic {
+    #[serde(deserialize_with = "keys::model")]
     model: CubicModel,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "keys::extended")]
     extended: bool,
+    #[serde(deserialize_with = "keys::a_n")]
     a_n: f64,
+    #[serde(deserialize_with = "keys::a_s")]
     a_s: f64,
+    #[serde(deserialize_with = "keys::normal")]
     normal: f64,
+    #[serde(deserialize_with = "keys::shear")]
     shear: f64,
     #[serde(
         default,
-        deserialize_with = "exact::matrix3",
+        deserialize_with = "keys::rotation",
         skip_serializing_if = "Option::is_none"
     )]
     rotation: Option<[[f64; 3]; 3]>,
     #[serde(
         default,
-        deserialize_with = "exact::triple",
+        deserialize_with = "keys::euler_zyz_deg",
         skip_serializing_if = "Option::is_none"
     )]
     euler_zyz_deg: Option<[f64; 3]>,
@@ -148,74 +163,57 @@ struct RawCubic {
 #[derive(Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct RawCross {
-    #[serde(rename = "C11")]
+    #[serde(rename = "C11", deserialize_with = "keys::c11")]
     c11: f64,
-    #[serde(rename = "C33")]
+    #[serde(rename = "C33", deserialize_with = "keys::c33")]
     c33: f64,
-    #[serde(rename = "C13")]
+    #[serde(rename = "C13", deserialize_with = "keys::c13")]
     c13: f64,
-    #[serde(rename = "C12")]
+    #[serde(rename = "C12", deserialize_with = "keys::c12")]
     c12: f64,
     #[serde(
         default,
-        deserialize_with = "exact::triple",
+        deserialize_with = "keys::axis",
         skip_serializing_if = "Option::is_none"
     )]
     axis: Option<[f64; 3]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "keys::strike_deg",
+        skip_serializing_if = "Option::is_none"
+    )]
     strike_deg: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "keys::dip_deg",
+        skip_serializing_if = "Option::is_none"
+    )]
     dip_deg: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "keys::pi_hat",
+        skip_serializing_if = "Option::is_none"
+    )]
     pi_hat: Option<f64>,
-}
-
-/// Readers of the keys that hold three numbers or a 3×3 matrix: exactly that many, no `null`
-/// (a present key is always read as a value; absent keys take the field's default).
-mod exact {
-    use serde::{de::Error as _, Deserialize, Deserializer};
-
-    fn three<E: serde::de::Error>(v: Vec<f64>, what: &str) -> Result<[f64; 3], E> {
-        <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
-            E::custom(format!(
-                "expected {what} of exactly 3 numbers, found {}",
-                v.len()
-            ))
-        })
-    }
-
-    /// Three numbers (`axis`, `euler_zyz_deg`).
-    pub fn triple<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
-        three(Vec::<f64>::deserialize(d)?, "a list").map(Some)
-    }
-
-    /// A 3×3 matrix as three rows of three numbers (`rotation`).
-    pub fn matrix3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f64; 3]; 3]>, D::Error> {
-        let rows = Vec::<Vec<f64>>::deserialize(d)?;
-        if rows.len() != 3 {
-            return Err(D::Error::custom(format!(
-                "expected 3 rows of 3 numbers, found {} rows",
-                rows.len()
-            )));
-        }
-        let mut m = [[0.0; 3]; 3];
-        for (k, row) in rows.into_iter().enumerate() {
-            m[k] = three(row, &format!("row {}", k + 1))?;
-        }
-        Ok(Some(m))
-    }
 }
 
 /// `kind = "isotropic"`.
 #[derive(Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct RawIsotropic {
+    #[serde(deserialize_with = "keys::normal")]
     normal: f64,
+    #[serde(deserialize_with = "keys::shear")]
     shear: f64,
 }
 
-/// The kinds, in the words of the model file.
-const KINDS: &str = "expected cubic, cross-anisotropic or isotropic";
+/// `[scheme] kind = "other": expected cubic, …` (the kinds of [`SchemeKind`]).
+fn unknown_kind<E: serde::de::Error>(other: impl std::fmt::Display) -> E {
+    E::custom(format!(
+        "[scheme] kind = {other}: expected {}",
+        SchemeKind::expected()
+    ))
+}
 
 impl<'de> Deserialize<'de> for RawScheme {
     /// Reads `kind` and then the rest of the table straight into that kind's struct, so a
@@ -229,34 +227,28 @@ impl<'de> Deserialize<'de> for RawScheme {
 struct SchemeVisitor;
 
 /// A `kind` value, refused at its own position when it is not one of the kinds.
-struct KindName(String);
+struct KindName(SchemeKind);
 
 impl<'de> Deserialize<'de> for KindName {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        let kind = String::deserialize(d)?;
-        match kind.as_str() {
-            "cubic" | "cross-anisotropic" | "isotropic" => Ok(KindName(kind)),
-            other => Err(serde::de::Error::custom(format!(
-                "[scheme] kind = \"{other}\": {KINDS}"
-            ))),
-        }
+        let kind: String = keys::read(d, "kind")?;
+        SchemeKind::from_name(&kind)
+            .map(KindName)
+            .map_err(|_| unknown_kind(format!("{kind:?}")))
     }
 }
 
 impl SchemeVisitor {
     fn variant<'de, D: serde::Deserializer<'de>>(
-        kind: &str,
+        kind: SchemeKind,
         rest: D,
     ) -> std::result::Result<RawScheme, D::Error> {
         Ok(match kind {
-            "cubic" => RawScheme::Cubic(RawCubic::deserialize(rest)?),
-            "cross-anisotropic" => RawScheme::CrossAnisotropic(RawCross::deserialize(rest)?),
-            "isotropic" => RawScheme::Isotropic(RawIsotropic::deserialize(rest)?),
-            other => {
-                return Err(serde::de::Error::custom(format!(
-                    "[scheme] kind = \"{other}\": {KINDS}"
-                )))
+            SchemeKind::Cubic => RawScheme::Cubic(RawCubic::deserialize(rest)?),
+            SchemeKind::CrossAnisotropic => {
+                RawScheme::CrossAnisotropic(RawCross::deserialize(rest)?)
             }
+            SchemeKind::Isotropic => RawScheme::Isotropic(RawIsotropic::deserialize(rest)?),
         })
     }
 }
@@ -265,9 +257,7 @@ impl<'de> serde::de::Visitor<'de> for SchemeVisitor {
     type Value = RawScheme;
 
     fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str(
-            "a [scheme] table with kind = \"cubic\", \"cross-anisotropic\" or \"isotropic\"",
-        )
+        write!(f, "a [scheme] table with kind = {}", SchemeKind::expected())
     }
 
     fn visit_map<A: serde::de::MapAccess<'de>>(
@@ -280,7 +270,7 @@ impl<'de> serde::de::Visitor<'de> for SchemeVisitor {
             None => Err(A::Error::missing_field("kind")),
             Some("kind") => {
                 let kind: KindName = map.next_value()?;
-                Self::variant(&kind.0, serde::de::value::MapAccessDeserializer::new(map))
+                Self::variant(kind.0, serde::de::value::MapAccessDeserializer::new(map))
             }
             Some(key) => {
                 // `kind` comes later: buffer the table, then read it as that kind.
@@ -291,21 +281,19 @@ impl<'de> serde::de::Visitor<'de> for SchemeVisitor {
                     table.insert(k, v);
                 }
                 let kind = match table.remove("kind") {
-                    Some(serde_json::Value::String(s)) => s,
+                    Some(serde_json::Value::String(s)) => SchemeKind::from_name(&s)
+                        .map_err(|_| unknown_kind::<A::Error>(format!("{s:?}")))?,
                     Some(other) => {
                         return Err(A::Error::custom(format!(
-                            "[scheme] kind = {other}: {KINDS} (a string)"
+                            "[scheme] kind = {other}: expected {} (a string)",
+                            SchemeKind::expected()
                         )))
                     }
                     None => return Err(A::Error::missing_field("kind")),
                 };
-                Self::variant(&kind, serde_json::Value::Object(table)).map_err(|e| {
-                    let e = e.to_string();
-                    match e.starts_with("[scheme]") {
-                        true => A::Error::custom(e),
-                        false => A::Error::custom(format!("[scheme] {e}")),
-                    }
-                })
+                // The kind is known: what is refused now is a key or value of the table.
+                Self::variant(kind, serde_json::Value::Object(table))
+                    .map_err(|e| A::Error::custom(format!("[scheme] {e}")))
             }
         }
     }
@@ -332,62 +320,12 @@ fn normalized(text: &str) -> String {
     out
 }
 
-/// The `key` whose value starts at byte `pos` (`key = value` in TOML), if any.
-fn key_before(text: &str, pos: usize) -> Option<&str> {
-    let before = text.get(..pos)?.trim_end().strip_suffix('=')?.trim_end();
-    let start = before
-        .char_indices()
-        .rev()
-        .find(|(_, c)| !(c.is_ascii_alphanumeric() || *c == '_' || *c == '-'))
-        .map_or(0, |(k, c)| k + c.len_utf8());
-    let key = &before[start..];
-    (!key.is_empty()).then_some(key)
-}
-
-/// The JSON key whose value ends before column `column` of line `line` (both 1-based, as
-/// serde_json reports a type error), if it is on that line: `"key": value`.
-fn json_key_before(text: &str, line: usize, column: usize) -> Option<&str> {
-    let l = text.split('\n').nth(line.checked_sub(1)?)?;
-    let end = (0..=column.min(l.len()))
-        .rev()
-        .find(|&k| l.is_char_boundary(k))?;
-    let before = &l[..end];
-    let colon = before.rfind(':')?;
-    let quoted = before[..colon].trim_end().strip_suffix('"')?;
-    let start = quoted.rfind('"')?;
-    Some(&quoted[start + 1..])
-}
-
-/// The allowed names of the `[scheme]`/`[geometry]` keys whose value is one of a fixed
-/// list, from serde's own "unknown variant" message (so the list cannot go stale).
-fn allowed_names(key: &str) -> Option<String> {
-    fn names<T: serde::de::DeserializeOwned>() -> Option<String> {
-        let e = serde_json::from_str::<T>("\"\"").err()?.to_string();
-        let list = e.split("expected ").nth(1)?;
-        Some(list.split(" at line").next()?.to_string())
-    }
-    use crate::schemes::{BondLength, BondRadius, Moments};
-    match key {
-        "model" => names::<CubicModel>(),
-        "convention" => names::<Convention>(),
-        "bond_radius" => names::<BondRadius>(),
-        "bond_length" => names::<BondLength>(),
-        "moments" => names::<Moments>(),
-        _ => None,
-    }
-}
-
-/// A TOML error as `file:line: message`, the message made to say what was expected where
-/// the parser's does not: a lone `\r` gets an empty message, an enum key given a number
-/// gets "wanted string or table", a date a "map".
+/// A TOML error as `file:line: message`: the line from the error's span, the message the
+/// parser's or, for a value, the one [`crate::keys`] made naming its key. A message left
+/// empty (a lone control character) is replaced by what was expected there.
 fn toml_error(text: &str, name: &str, e: &toml::de::Error) -> Error {
     let span = e.span();
     let line = span.as_ref().map(|s| line_of(text, s.start)).unwrap_or(0);
-    let found = span
-        .as_ref()
-        .and_then(|s| text.get(s.clone()))
-        .filter(|f| !f.contains('\n') && f.len() <= 60);
-    let key = span.as_ref().and_then(|s| key_before(text, s.start));
     let mut message = e.message().trim().replace('\n', "; ");
     if message.is_empty() {
         let c = span
@@ -402,29 +340,20 @@ fn toml_error(text: &str, name: &str, e: &toml::de::Error) -> Error {
                 .to_string(),
         };
     }
-    if message == "wanted string or table" {
-        message = match key.and_then(allowed_names) {
-            Some(list) => format!("expected {list}"),
-            None => "expected a string".to_string(),
-        };
-    }
-    if message.starts_with("invalid type: map") && !found.is_some_and(|f| f.starts_with('{')) {
-        if let Some(f) = found {
-            message = message.replacen("map", &format!("`{f}`"), 1);
-        }
-    }
-    message = message.replace("expected f64", "expected a number");
-    if let Some(k) = key {
-        if !message.contains(&format!("`{k}`")) && !message.contains(&format!("{k} =")) {
-            message = format!("`{k}`: {message}");
-        }
-    }
-    if let (Some(f), true) = (found, message.starts_with("invalid type")) {
-        if !message.contains(f) {
-            message.push_str(&format!(" (found `{f}`)"));
-        }
-    }
     Error::parse(name, line, message)
+}
+
+/// A JSON error as `file:line: message (column C)`: line and column from the error, the
+/// message without serde_json's own ` at line L column C` ending.
+fn json_error(name: &str, e: &serde_json::Error) -> Error {
+    let text = e.to_string();
+    let position = format!(" at line {} column {}", e.line(), e.column());
+    let message = text.strip_suffix(&position).unwrap_or(&text);
+    let message = match e.line() {
+        0 => message.to_string(),
+        _ => format!("{message} (column {})", e.column()),
+    };
+    Error::parse(name, e.line(), message)
 }
 
 /// `value` of a model key must be finite (TOML accepts `inf` and `nan`).
@@ -494,30 +423,7 @@ impl Model {
     /// Parse a JSON model; `name` is used in error messages. A UTF-8 BOM is accepted.
     pub fn from_json_str(text: &str, name: &str) -> Result<Model> {
         let text = normalized(text);
-        let raw: RawModel = serde_json::from_str(&text).map_err(|e| {
-            let message = e.to_string();
-            // serde_json appends " at line L column C"; the line is in the prefix already.
-            let mut message = match message.rfind(" at line ") {
-                Some(k) => format!("{} (column {})", &message[..k], e.column()),
-                None => message,
-            };
-            let key = json_key_before(&text, e.line(), e.column());
-            if message.starts_with("invalid type") || message.starts_with("unknown variant") {
-                if let Some(key) = key {
-                    message = format!("`{key}`: {message}");
-                }
-            } else if message.starts_with("expected value") {
-                // serde_json's word for a name-list key given a number or array.
-                if let Some((key, list)) = key.and_then(|k| Some((k, allowed_names(k)?))) {
-                    message = format!("`{key}`: expected {list} (column {})", e.column());
-                }
-            }
-            Error::parse(
-                name,
-                e.line(),
-                message.replace("expected f64", "expected a number"),
-            )
-        })?;
+        let raw: RawModel = serde_json::from_str(&text).map_err(|e| json_error(name, &e))?;
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
@@ -684,7 +590,7 @@ impl Model {
     ) -> Result<Box<dyn StiffnessScheme>> {
         let mu = match (&self.scheme, bonded) {
             (SchemeSpec::CrossAnisotropic(_), Some((packing, bonds))) => Some(
-                cross_anisotropic::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
+                crate::bonds::lattice_scaling(packing, bonds, self.geometry.pi_hat)?,
             ),
             (SchemeSpec::CrossAnisotropic(_), None) => {
                 return Err(Error::Model(
@@ -812,25 +718,5 @@ fn prefix(name: &str, e: Error) -> Error {
     match e {
         Error::Model(m) => Error::Model(format!("{name}: {m}")),
         other => other,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn key_before_handles_multibyte_text() {
-        // "Ⱥ" is two bytes: the key search must step over it whole (the fuzz test found a
-        // slice inside it).
-        assert_eq!(key_before("Ⱥ= 1", 4), None);
-        assert_eq!(key_before("éa_n = 1", 8), Some("a_n"));
-        assert_eq!(key_before("x = { convention = 3 }", 19), Some("convention"));
-        assert_eq!(
-            json_key_before("{\"a\": {\"normal\": \"x\",", 1, 21),
-            Some("normal")
-        );
-        assert_eq!(json_key_before("é\"Ⱥ\": 1", 1, 3), None);
-        assert_eq!(json_key_before("", 7, 3), None);
     }
 }

@@ -14,7 +14,7 @@ use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
 
 pub use rules::BondingRule;
-pub use stiffness::{assign_stiffness, BondStiffness};
+pub use stiffness::{assign_stiffness, lattice_scaling, BondStiffness};
 
 /// The bonds of a packing, structure of arrays (one entry per bond in every vector).
 #[derive(Clone, Debug, Default, PartialEq)]

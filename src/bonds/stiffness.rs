@@ -140,3 +140,46 @@ pub fn check_bond_columns(
     }
     Ok(())
 }
+
+/// Šmilauer's lattice scaling μ = (1/3)·N_b·π̂·mean(r′·r²)/V (Šmilauer Eq. 20; Woo's
+/// `muStiffnessScaling`), with r′ = half each bond's centre distance, r = the smaller radius
+/// of its two spheres, N_b the number of bonds and V = [`Packing::volume`]. The lattice
+/// tensor is then μ·C_micro(𝓔′). Woo's C++ default π̂ is π (its Python binding's π/2).
+pub fn lattice_scaling(packing: &Packing, bonds: &BondSet, pi_hat: f64) -> Result<f64> {
+    if !pi_hat.is_finite() || pi_hat <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "lattice scaling: pi_hat must be finite and > 0, got {pi_hat}"
+        )));
+    }
+    if bonds.is_empty() {
+        return Err(Error::Invalid(
+            "lattice scaling: the packing has no bonds (μ needs at least one)".into(),
+        ));
+    }
+    let n_spheres = packing.len();
+    let mut sum = 0.0;
+    for b in 0..bonds.len() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        if i >= n_spheres || j >= n_spheres {
+            return Err(Error::Invalid(format!(
+                "lattice scaling: bond {b} joins spheres {i} and {j}, but the packing has {n_spheres}"
+            )));
+        }
+        let length = bonds.length[b];
+        if !length.is_finite() || length <= 0.0 {
+            return Err(Error::Invalid(format!(
+                "lattice scaling: bond {b} has centre distance {length}, expected finite and > 0"
+            )));
+        }
+        let r = packing.radii[i].min(packing.radii[j]);
+        sum += 0.5 * length * r * r;
+    }
+    let volume = packing.volume();
+    if !volume.is_finite() || volume <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "lattice scaling: packing volume must be finite and > 0, got {volume}"
+        )));
+    }
+    // (1/3)·N·π̂·mean(r′r²)/V = (1/3)·π̂·Σ(r′r²)/V.
+    Ok(pi_hat * sum / (3.0 * volume))
+}

@@ -13,11 +13,11 @@
 
 use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::warm::WarmRelaxed;
-use crate::bonds::{assign_stiffness, BondSet};
+use crate::bonds::{assign_stiffness, lattice_scaling, BondSet};
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{CrossTarget, Model, SchemeSpec};
 use crate::packing::Packing;
-use crate::schemes::cross_anisotropic::{lattice_scaling, target_lattice_moduli, CrossAnisotropic};
+use crate::schemes::cross_anisotropic::{target_lattice_moduli, CrossAnisotropic};
 use crate::tensor::{Stiffness6, TransverseProjection};
 use crate::{Error, Result, Vec3};
 use nalgebra::{DMatrix, DVector};

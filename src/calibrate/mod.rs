@@ -46,8 +46,8 @@ pub fn check_iteration_options(tolerance: f64, max_iterations: usize) -> crate::
 }
 
 use crate::assembly::{Assembly, EqualSpheres};
+use crate::bonds::lattice_scaling;
 use crate::model::{CrossTarget, Model, SchemeSpec};
-use crate::schemes::cross_anisotropic::lattice_scaling;
 use crate::schemes::cubic::CubicModel;
 use crate::{Error, Result};
 

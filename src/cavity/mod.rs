@@ -238,13 +238,11 @@ impl Cavity {
             )));
         }
         let lattice_scaling = match source.model.scheme {
-            SchemeSpec::CrossAnisotropic(_) => {
-                Some(crate::schemes::cross_anisotropic::lattice_scaling(
-                    &source.packing,
-                    &source.bonds,
-                    source.model.geometry.pi_hat,
-                )?)
-            }
+            SchemeSpec::CrossAnisotropic(_) => Some(crate::bonds::lattice_scaling(
+                &source.packing,
+                &source.bonds,
+                source.model.geometry.pi_hat,
+            )?),
             _ => None,
         };
         let radius = |ends: &[u32]| -> Vec<f64> {

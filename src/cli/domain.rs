@@ -1,20 +1,22 @@
 //! `anisobond domain`: the accessible (C12/C11, C44/C11) domain of the cubic models, sampled
 //! in the log-normalised parameter space (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a), as
-//! CSV and PNG.
+//! CSV and PNG. The study is the library's ([`anisobond::study::domain`]); this file parses,
+//! calls and prints.
 
-use super::LeverArmArg;
 use anisobond::assembly::Assembly;
-use anisobond::calibrate::domain::{
-    sample_mean_field, sample_relaxed, write_csv, DomainOptions, DomainSample,
-};
+use anisobond::calibrate::domain::DomainOptions;
 use anisobond::calibrate::target::Target;
-use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::schemes::cubic::CubicModel;
+use anisobond::study::domain::{run as run_study, DomainOn, DomainReport};
 use anisobond::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The sampling's defaults (the library's, once).
+fn d() -> DomainOptions {
+    DomainOptions::default()
+}
 
 /// Options of `anisobond domain`.
 #[derive(clap::Args)]
@@ -30,22 +32,22 @@ pub struct DomainArgs {
     #[arg(long)]
     samples: Option<usize>,
     /// Random seed.
-    #[arg(long, default_value_t = 2018)]
+    #[arg(long, default_value_t = d().seed)]
     seed: u64,
     /// Plain models only.
     #[arg(long)]
     no_extended: bool,
     /// Smallest aspect ratio a_n, a_s sampled (Truszkowska 2018: 0.022).
-    #[arg(long, default_value_t = 0.022)]
+    #[arg(long, default_value_t = d().a_min)]
     a_min: f64,
     /// Largest aspect ratio sampled (Truszkowska 2018: 5).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = d().a_max)]
     a_max: f64,
     /// Smallest shear/normal ratio (Truszkowska 2018: 0.005).
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(long, default_value_t = d().ratio_min)]
     ratio_min: f64,
     /// Largest shear/normal ratio (Truszkowska 2018: 1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = d().ratio_max)]
     ratio_max: f64,
     /// Mean field: keep extended models whose shear stiffness goes negative somewhere
     /// (Truszkowska 2018 Fig. C.1a; such models cannot be used in DEM).
@@ -59,35 +61,34 @@ pub struct DomainArgs {
     output: PathBuf,
 }
 
-fn summary(samples: &[DomainSample]) {
-    for model in [CubicModel::ZenerAbove1, CubicModel::ZenerBelow1] {
-        for extended in [false, true] {
-            let v: Vec<_> = samples
-                .iter()
-                .filter(|s| s.model == model && s.extended == extended)
-                .collect();
-            if v.is_empty() {
-                continue;
-            }
-            let lo = |f: &dyn Fn(&DomainSample) -> f64| {
-                v.iter().map(|s| f(s)).fold(f64::INFINITY, f64::min)
-            };
-            let hi = |f: &dyn Fn(&DomainSample) -> f64| {
-                v.iter().map(|s| f(s)).fold(f64::NEG_INFINITY, f64::max)
-            };
-            println!(
-                "  {:<28} {:>6} samples: Zener {:.3}–{:.3}, C12/C11 {:.3}–{:.3}, C44/C11 {:.3}–{:.3}, max (C12 − C44)/C11 {:+.4}",
-                format!("{}{}", model.as_str(), if extended { " extended" } else { "" }),
-                v.len(),
-                lo(&|s| s.zener),
-                hi(&|s| s.zener),
-                lo(&|s| s.c12_over_c11),
-                hi(&|s| s.c12_over_c11),
-                lo(&|s| s.c44_over_c11),
-                hi(&|s| s.c44_over_c11),
-                hi(&|s| s.c12_over_c11 - s.c44_over_c11)
-            );
-        }
+/// The ranges of every model variant.
+fn print_summary(r: &DomainReport) {
+    for v in r.summary() {
+        println!(
+            "  {:<28} {:>6} samples: Zener {:.3}–{:.3}, C12/C11 {:.3}–{:.3}, C44/C11 {:.3}–{:.3}, max (C12 − C44)/C11 {:+.4}",
+            format!("{}{}", v.model, if v.extended { " extended" } else { "" }),
+            v.samples,
+            v.zener.0,
+            v.zener.1,
+            v.c12_over_c11.0,
+            v.c12_over_c11.1,
+            v.c44_over_c11.0,
+            v.c44_over_c11.1,
+            v.max_c12_minus_c44_over_c11
+        );
+    }
+}
+
+/// `--target` as the point (C12/C11, C44/C11) to mark.
+fn target_point(target: Option<&str>) -> Result<Option<(f64, f64)>> {
+    match target {
+        Some(t) => match Target::parse(t)? {
+            Target::Cubic(c) => Ok(Some((c.c12_over_c11, c.c44_over_c11))),
+            _ => Err(Error::Invalid(
+                "--target: the domain map is cubic; give C11, C12, C44 or the ratios".into(),
+            )),
+        },
+        None => Ok(None),
     }
 }
 
@@ -110,19 +111,25 @@ pub fn run(a: DomainArgs) -> Result<()> {
             )))
         }
     };
-    let target = match &a.target {
-        Some(t) => match Target::parse(t)? {
-            Target::Cubic(c) => Some((c.c12_over_c11, c.c44_over_c11)),
-            _ => {
-                return Err(Error::Invalid(
-                    "--target: the domain map is cubic; give C11, C12, C44 or the ratios".into(),
-                ))
-            }
-        },
-        None => None,
+    let target = target_point(a.target.as_deref())?;
+    let assembly = if relaxed {
+        let path = a.on.get(1).ok_or_else(|| {
+            Error::Invalid("--on relaxed needs the packing: --on relaxed PACKING".into())
+        })?;
+        let model = match &a.model {
+            Some(m) => Model::from_path(m)?,
+            None => Model::truszkowska_mrv(),
+        };
+        Some(Assembly::new(super::cell::read(Path::new(path))?, model)?)
+    } else {
+        None
+    };
+    let on = match &assembly {
+        Some(b) => DomainOn::Relaxed(b),
+        None => DomainOn::MeanField,
     };
     let opts = DomainOptions {
-        samples: a.samples.unwrap_or(if relaxed { 60 } else { 2500 }),
+        samples: a.samples.unwrap_or(on.default_samples()),
         seed: a.seed,
         a_min: a.a_min,
         a_max: a.a_max,
@@ -132,46 +139,16 @@ pub fn run(a: DomainArgs) -> Result<()> {
         allow_negative: a.allow_negative,
     };
     let start = Instant::now();
-    let (samples, skipped, label) = if relaxed {
-        let path = a.on.get(1).ok_or_else(|| {
-            Error::Invalid("--on relaxed needs the packing: --on relaxed PACKING".into())
-        })?;
-        let model = match &a.model {
-            Some(m) => Model::from_path(m)?,
-            None => Model::truszkowska_mrv(),
-        };
-        let b = Assembly::new(
-            super::cell::read(std::path::Path::new(path))?,
-            model.clone(),
-        )?;
-        let (s, k) = sample_relaxed(
-            &b.packing,
-            &b.bonds,
-            &model.geometry,
-            &RelaxedOptions {
-                lever_arm: LeverArmArg::MidGap.into(),
-                ..Default::default()
-            },
-            &opts,
-        )?;
-        (s, k, format!("relaxed, {} particles", b.packing.len()))
-    } else {
-        let (s, k) = sample_mean_field(&opts)?;
-        (s, k, "mean field".to_string())
-    };
+    let r = run_study(on, &opts)?;
     let secs = start.elapsed().as_secs_f64();
     println!(
-        "accessible domain ({label}): {} samples in {secs:.2} s; {skipped} extended samples skipped (negative stiffness)",
-        samples.len()
+        "accessible domain ({}): {} samples in {secs:.2} s; {} extended samples skipped (negative stiffness)",
+        r.label,
+        r.samples.len(),
+        r.skipped
     );
-    summary(&samples);
-    write_csv(&dir.join("domain.csv"), &samples)?;
-    anisobond::plot::plot_domain(
-        &dir.join("domain.png"),
-        &samples,
-        &format!("Accessible cubic domain ({label})"),
-        target,
-    )?;
+    print_summary(&r);
+    r.write(&dir, target)?;
     out.commit()?;
     for name in ["domain.csv", "domain.png"] {
         println!("wrote {}", a.output.join(name).display());

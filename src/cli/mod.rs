@@ -23,7 +23,7 @@ mod validate;
 mod validate_lammps;
 mod validate_liggghts;
 
-use anisobond::assembly::{Assembly, Detail, EqualSpheres, Method};
+use anisobond::assembly::{Assembly, Detail, EqualSpheres, MethodKind, MethodOptions};
 use anisobond::homogenize::network::LeverArm;
 use anisobond::homogenize::relaxed::{
     CgPreconditioner, RelaxedOptions, RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
@@ -31,6 +31,7 @@ use anisobond::homogenize::relaxed::{
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
+use anisobond::names::Named;
 use anisobond::{Error, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -112,21 +113,16 @@ struct BondsArgs {
     output: PathBuf,
 }
 
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-enum MethodArg {
-    /// Continuous orientation integral (needs no packing).
-    MeanField,
-    /// Sum over the actual bonds (uniform strain).
-    Voigt,
-    /// Exact quasi-static equilibrium of the periodic bond network (sparse solve).
-    Relaxed,
-    /// Relaxed tangent under an isotropic preload of the central springs (--prestress Pa):
-    /// what an element test from that confined state measures (docs/prestress.md).
-    Prestressed,
-    /// Kruyt's local-adjustment-field estimate with shells of order --shell.
-    Laf,
-    /// Element tests with the reference DEM integrator (needs a periodic packing).
-    Dynamic,
+/// The parser of `--method`: the library's registry of method names, each value's help its
+/// one-line description.
+fn method_parser() -> impl clap::builder::TypedValueParser<Value = MethodKind> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        MethodKind::ALL
+            .iter()
+            .map(|m| PossibleValue::new(m.name()).help(m.description())),
+    )
+    .map(|name| MethodKind::from_name(&name).expect("a name of MethodKind::ALL"))
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -184,16 +180,16 @@ struct StaticArgs {
     #[arg(long, value_enum, default_value_t = LeverArmArg::MidGap)]
     lever_arm: LeverArmArg,
     /// Relaxed: CG tolerance on the relative residual (the tensor's error is ~its square).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = MethodOptions::default().relaxed.tolerance)]
     cg_tolerance: f64,
     /// Relaxed: linear solver of the equilibrium system.
     #[arg(long, value_enum, default_value_t = SolverArg::Cg)]
     solver: SolverArg,
     /// Prestressed: mean compressive stress of the preload (Pa).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = MethodOptions::default().prestress)]
     prestress: f64,
     /// LAF: shell order m (1–6).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = MethodOptions::default().shell)]
     shell: usize,
     /// LAF: report the energy-based (upper bound) estimate instead of the stress-based one.
     #[arg(long)]
@@ -213,8 +209,8 @@ struct TensorArgs {
     #[arg(long)]
     bonds: Option<PathBuf>,
     /// Homogenisation method.
-    #[arg(long, value_enum)]
-    method: MethodArg,
+    #[arg(long, value_parser = method_parser())]
+    method: MethodKind,
     /// Print the SPEC tensor report as JSON instead of a table.
     #[arg(long)]
     json: bool,
@@ -251,12 +247,7 @@ fn subcommand_names(cmd: &clap::Command, name: &str) -> String {
 fn command() -> clap::Command {
     use clap::CommandFactory;
     let cmd = Cli::command();
-    let methods = names(
-        MethodArg::value_variants()
-            .iter()
-            .filter_map(|m| m.to_possible_value())
-            .map(|p| p.get_name().to_string()),
-    );
+    let methods = names(MethodKind::ALL.iter().map(|m| m.name().to_string()));
     let exports = subcommand_names(&cmd, "export");
     let engines = subcommand_names(&cmd, "validate");
     cmd.mut_subcommand("tensor", |c| {
@@ -329,32 +320,23 @@ fn relaxed_options(st: &StaticArgs) -> RelaxedOptions {
     }
 }
 
-/// The library's method for a command-line method and its options.
-fn library_method(
-    m: MethodArg,
+/// The options of every method from the command line (the integrator's checked when `m` is
+/// the dynamic method).
+fn method_options(
+    m: MethodKind,
     st: &StaticArgs,
     integrator: &run::IntegratorArgs,
-) -> Result<Method> {
-    Ok(match m {
-        MethodArg::MeanField => Method::MeanField,
-        MethodArg::Voigt => Method::Voigt,
-        MethodArg::Relaxed => Method::Relaxed(relaxed_options(st)),
-        MethodArg::Prestressed => Method::Prestressed {
-            options: relaxed_options(st),
-            pressure: st.prestress,
-        },
-        MethodArg::Laf => Method::Laf {
-            shell: st.shell,
-            energy: st.energy,
-            lever_arm: st.lever_arm.into(),
-        },
-        MethodArg::Dynamic => {
-            integrator.validate()?;
-            Method::Dynamic {
-                law: integrator.law.into(),
-                options: run::element_options(integrator, false),
-            }
-        }
+) -> Result<MethodOptions> {
+    if m == MethodKind::Dynamic {
+        integrator.validate()?;
+    }
+    Ok(MethodOptions {
+        relaxed: relaxed_options(st),
+        prestress: st.prestress,
+        shell: st.shell,
+        energy: st.energy,
+        law: integrator.law.into(),
+        element: run::element_options(integrator, false),
     })
 }
 
@@ -362,12 +344,12 @@ fn library_method(
 /// what the method says about its solution on standard error.
 fn report_of(
     asm: &Assembly,
-    m: MethodArg,
+    m: MethodKind,
     st: &StaticArgs,
     integrator: &run::IntegratorArgs,
 ) -> Result<TensorReport> {
-    let method = library_method(m, st, integrator)?;
-    let bar = if m == MethodArg::Dynamic {
+    let method = method_options(m, st, integrator)?.method(m);
+    let bar = if m == MethodKind::Dynamic {
         output::progress_bar("element tests")
     } else {
         indicatif::ProgressBar::hidden()
@@ -377,7 +359,14 @@ fn report_of(
     });
     bar.finish_and_clear();
     let result = result?;
-    match &result.detail {
+    print_detail(&result.detail, st);
+    Ok(result.report)
+}
+
+/// What a method says about its solution, on standard error (`st`: the static options it
+/// ran with, for the solver's and LAF estimate's names).
+fn print_detail(detail: &Detail, st: &StaticArgs) {
+    match detail {
         Detail::Relaxed(r) => {
             let ns = &r.null_space;
             eprintln!(
@@ -421,7 +410,6 @@ fn report_of(
         Detail::Dynamic(d) => run::print_stability(d),
         Detail::None => {}
     }
-    Ok(result.report)
 }
 
 /// Name the input files in a refusal whose cause lies in them: a computed tensor that is not
@@ -495,22 +483,8 @@ impl EqualSphereArgs {
     }
 }
 
-impl MethodArg {
-    /// The method's name on the command line and in reports.
-    fn name(self) -> &'static str {
-        match self {
-            MethodArg::MeanField => "mean-field",
-            MethodArg::Voigt => "voigt",
-            MethodArg::Relaxed => "relaxed",
-            MethodArg::Prestressed => "prestressed",
-            MethodArg::Laf => "laf",
-            MethodArg::Dynamic => "dynamic",
-        }
-    }
-}
-
 fn tensor_cmd(a: TensorArgs) -> Result<()> {
-    if matches!(a.method, MethodArg::Dynamic) {
+    if a.method == MethodKind::Dynamic {
         a.integrator.validate()?;
     }
     let mut inputs = output::inputs(a.packing.as_deref(), &a.model);
@@ -528,7 +502,7 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
             };
             report_of(&asm, m, &a.statics, &a.integrator).map_err(|e| blame_inputs(e, &inputs))?
         }
-        (None, MethodArg::MeanField) => {
+        (None, MethodKind::MeanField) => {
             a.spheres
                 .equal_spheres(&model.geometry)?
                 .mean_field(&model)

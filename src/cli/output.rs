@@ -1,7 +1,6 @@
 //! Printing and file helpers of the CLI: tables in GPa, JSON files, progress bars.
 
 use anisobond::homogenize::report::{CubicSummary, TensorReport};
-use anisobond::packing::{generate, Packing};
 use anisobond::tensor::CubicUncertainty;
 use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -13,23 +12,7 @@ pub fn inputs<'a>(packing: Option<&'a Path>, model: &'a Path) -> Vec<&'a Path> {
     packing.into_iter().chain([model]).collect()
 }
 
-/// Refuse a JSON value holding a `null` (what serde writes for NaN or infinity) anywhere
-/// below it; `at` names the value in the message.
-pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
-    match v {
-        serde_json::Value::Null => Err(anisobond::Error::Invalid(format!(
-            "`{at}` is not a finite number (overflow or a degenerate result); nothing was written"
-        ))),
-        serde_json::Value::Array(a) => a
-            .iter()
-            .enumerate()
-            .try_for_each(|(i, x)| check_json_numbers(x, &format!("{at}[{i}]"))),
-        serde_json::Value::Object(m) => m
-            .iter()
-            .try_for_each(|(k, x)| check_json_numbers(x, &format!("{at}.{k}"))),
-        _ => Ok(()),
-    }
-}
+pub use anisobond::io::check_json_numbers;
 
 /// Write a JSON report atomically.
 pub fn write_json(path: &Path, report: &TensorReport) -> Result<()> {
@@ -124,14 +107,4 @@ pub fn progress_bar(what: &str) -> ProgressBar {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
-}
-
-/// Generate a packing with a progress bar on stderr.
-pub fn generate_with_progress(opts: &generate::GenerateOptions) -> Result<Packing> {
-    let bar = progress_bar("generating packing");
-    let result = generate::generate(opts, &|f: f64| {
-        bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
-    });
-    bar.finish_and_clear();
-    result
 }

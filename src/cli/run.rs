@@ -4,7 +4,6 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::dem::element::{self, ElementTestOptions};
-use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::{DemOptions, LawKind, MassOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
@@ -98,35 +97,37 @@ pub struct IntegratorArgs {
     #[arg(long, value_enum, default_value_t = LawArg::Yade)]
     pub law: LawArg,
     /// Cundall local damping λ during the relaxation.
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = ElementTestOptions::default().local_damping)]
     pub damping: f64,
     /// Strain magnitude of each of the six paths.
-    #[arg(long, default_value_t = 1e-5)]
+    #[arg(long, default_value_t = ElementTestOptions::default().strain)]
     pub strain: f64,
     #[command(flatten)]
     pub step: StepArgs,
     /// Convergence: relative stress change over 10 steps (and --unbalanced-tolerance).
-    #[arg(long, default_value_t = 1e-7)]
+    #[arg(long, default_value_t = ElementTestOptions::default().tolerance)]
     pub tolerance: f64,
     /// Equilibrium: largest unbalanced force and torque (mean resultant over mean bond
     /// force/torque, as YADE's unbalancedForce) at which a path counts as relaxed.
-    #[arg(long, default_value_t = DEFAULT_UNBALANCED_TOLERANCE)]
+    #[arg(long, default_value_t = ElementTestOptions::default().unbalanced_tolerance)]
     pub unbalanced_tolerance: f64,
     /// Step limit per path; a path not relaxed within it is an error.
-    #[arg(long, default_value_t = 20_000)]
+    #[arg(long, default_value_t = ElementTestOptions::default().max_steps)]
     pub max_steps: usize,
 }
 
 impl Default for IntegratorArgs {
+    /// The library's element-test defaults ([`ElementTestOptions::default`]).
     fn default() -> Self {
+        let d = ElementTestOptions::default();
         IntegratorArgs {
             law: LawArg::Yade,
-            damping: 0.4,
-            strain: 1e-5,
+            damping: d.local_damping,
+            strain: d.strain,
             step: StepArgs::default(),
-            tolerance: 1e-7,
-            unbalanced_tolerance: DEFAULT_UNBALANCED_TOLERANCE,
-            max_steps: 20_000,
+            tolerance: d.tolerance,
+            unbalanced_tolerance: d.unbalanced_tolerance,
+            max_steps: d.max_steps,
         }
     }
 }
@@ -227,31 +228,7 @@ pub fn plot_element_tests(
     result: &element::DynamicTensor,
     a: &IntegratorArgs,
 ) -> Result<()> {
-    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
-    let series: Vec<anisobond::plot::Series> = result
-        .paths
-        .iter()
-        .map(|p| anisobond::plot::Series {
-            label: format!("path {}: σ{}", NAMES[p.path], NAMES[p.path]),
-            points: p
-                .history
-                .iter()
-                .map(|h| (h.step as f64, h.stress[p.path] / 1e6))
-                .collect(),
-            dashed: false,
-            colour: Some(p.path),
-        })
-        .collect();
-    anisobond::plot::plot_series(
-        path,
-        &series,
-        &format!(
-            "element tests: strain {:e} in one step, Cundall damping {}",
-            a.strain, a.damping
-        ),
-        "step",
-        "stress in the loaded direction (MPa)",
-    )
+    anisobond::plot::plot_element_tests(path, result, a.strain, a.damping)
 }
 
 /// Run the six element tests of `asm` (with a progress bar), recording histories if asked.

@@ -8,7 +8,7 @@
 //! Conventions as in the Rust library: SI units, Voigt order 11, 22, 33, 23, 13, 12,
 //! engineering shear strain, tensors row-major in [`bridge::Tensor6::c`].
 
-use crate::assembly::{Assembly, Method};
+use crate::assembly::{Assembly, MethodKind, MethodOptions};
 use crate::bonds::{self, BondSet, BondStiffness};
 use crate::homogenize::mean_field;
 use crate::model::Model;
@@ -173,8 +173,9 @@ pub mod bridge {
         ) -> Result<AtomBonds>;
         /// Write bond rows as a SPEC bond table.
         fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()>;
-        /// Stiffness tensor (Pa) of a packing file + model; `method` is "voigt",
-        /// "mean-field" or "relaxed" (exact static relaxation, mid-gap lever arms).
+        /// Stiffness tensor (Pa) of a packing file + model by `method`, any name of
+        /// `anisobond tensor --method` (mean-field, voigt, relaxed, prestressed, laf,
+        /// dynamic) with the default options of `MethodOptions`.
         fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str)
             -> Result<Tensor6>;
         /// The library's version.
@@ -481,16 +482,10 @@ fn write_bond_table(path: &str, rows: &[BondRow]) -> Result<()> {
 }
 
 fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Result<Tensor6> {
-    let method = match method {
-        "voigt" => Method::Voigt,
-        "relaxed" => Method::relaxed(),
-        "mean-field" => Method::MeanField,
-        other => {
-            return Err(Error::Invalid(format!(
-                "compute_tensor: method \"{other}\": expected voigt, mean-field or relaxed"
-            )))
-        }
-    };
+    let kind: MethodKind = method
+        .parse()
+        .map_err(|e: Error| e.in_context("compute_tensor"))?;
+    let method = MethodOptions::default().method(kind);
     let result = assembly(packing_path, model)?.tensor(&method)?;
     Ok(tensor6(&result.report.tensor()))
 }

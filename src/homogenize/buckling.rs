@@ -90,8 +90,10 @@ pub struct UpdatedGeometryResult {
     pub critical_strain: f64,
     /// Critical axial stress ε·E (Pa, nominal: force over the undeformed section, E the
     /// linear axial modulus), comparable with Mazzilli's σ.
+    #[serde(rename = "critical_stress_pa")]
     pub critical_stress: f64,
     /// Critical axial force (N).
+    #[serde(rename = "critical_force_n")]
     pub critical_force: f64,
     /// Secant steps of the fixed point ε = λ(ε).
     pub fixed_point_iterations: usize,
@@ -154,8 +156,10 @@ impl Default for BucklingOptions {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct BucklingResult {
     /// Axial force per unit axial strain, P/ε (N): the bar's axial stiffness times l.
+    #[serde(rename = "axial_force_per_strain_n")]
     pub axial_force_per_strain: f64,
     /// The bar's own axial modulus E = (P/A)/ε (Pa).
+    #[serde(rename = "modulus_pa")]
     pub modulus: f64,
     /// The two lowest load factors λ₁ ≤ λ₂ (critical strains; for a round bar a near-equal
     /// pair of bending modes).
@@ -163,8 +167,10 @@ pub struct BucklingResult {
     /// Critical axial strain ε_cr = λ₁.
     pub critical_strain: f64,
     /// Critical axial stress σ_cr = λ₁·E (Pa, compressive).
+    #[serde(rename = "critical_stress_pa")]
     pub critical_stress: f64,
     /// Critical axial force (N).
+    #[serde(rename = "critical_force_n")]
     pub critical_force: f64,
     /// Subspace iterations used.
     pub iterations: usize,
@@ -184,9 +190,11 @@ pub struct BucklingResult {
     pub bonds: usize,
     /// The bar's own bending stiffness EI (N·m²): moment × l per radian of relative end
     /// rotation under pure bending (ends clamped and rotated rigidly about their centroids).
+    #[serde(rename = "bending_stiffness_n_m2")]
     pub bending_stiffness: f64,
     /// Transverse stiffness (N/m) of the clamped–guided bar (one end moved across the axis
     /// without rotation): l³/(12 EI) + l/(κGA) per newton for a Timoshenko beam.
+    #[serde(rename = "transverse_stiffness_n_per_m")]
     pub transverse_stiffness: f64,
     /// Share of the axial Love stress Σ(f·a)(l·a) carried by the bonds' normal forces,
     /// Σ N(n·a)(l·a) over it: the part of the pre-stress the geometric stiffness sees (the

@@ -695,3 +695,35 @@ pub fn plot_particle_map(
         Ok(())
     })
 }
+
+/// PNG of the loaded stress component (MPa) against step for every element-test path, the
+/// title naming the path strain and the Cundall damping λ.
+pub fn plot_element_tests(
+    path: &Path,
+    result: &crate::dem::element::DynamicTensor,
+    strain: f64,
+    damping: f64,
+) -> Result<()> {
+    const NAMES: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
+    let series: Vec<Series> = result
+        .paths
+        .iter()
+        .map(|p| Series {
+            label: format!("path {}: σ{}", NAMES[p.path], NAMES[p.path]),
+            points: p
+                .history
+                .iter()
+                .map(|h| (h.step as f64, h.stress[p.path] / 1e6))
+                .collect(),
+            dashed: false,
+            colour: Some(p.path),
+        })
+        .collect();
+    plot_series(
+        path,
+        &series,
+        &format!("element tests: strain {strain:e} in one step, Cundall damping {damping}"),
+        "step",
+        "stress in the loaded direction (MPa)",
+    )
+}

@@ -8,13 +8,11 @@
 //! Moduli are kept in the paper's order 𝓔′ = (E_N^a′, E_N^b′, E_T^a′, E_T^b′).
 //!
 //! The microplane tensor is 𝓒 = μ·A·𝓔′ with 𝓒 = (C11, C33, C13, C12), A the exact 1/35
-//! matrix ([`microplane_matrix`]) and μ the lattice scaling ([`lattice_scaling`]); inverted,
+//! matrix ([`microplane_matrix`]) and μ the lattice scaling ([`crate::bonds::lattice_scaling`]); inverted,
 //! 𝓔′ = A⁻¹𝓒/μ (Šmilauer Eqs. 21, Eq. 22). C44 is dependent
 //! ([`dependent_c44`], Eq. 12). A bond's springs are k = E′·π̂r²/(2r′) (Eq. 14),
 //! i.e. the `modulus` geometry convention with the centre distance as bond length.
 
-use crate::bonds::BondSet;
-use crate::packing::Packing;
 use crate::schemes::{Magnitudes, StiffnessScheme};
 use crate::{Error, Result, Vec3};
 
@@ -55,49 +53,6 @@ pub fn inverse_block() -> [[f64; 4]; 4] {
 /// C44 = (C11 + C33)/4 − C13/2 (Šmilauer Eq. 12).
 pub fn dependent_c44(c11: f64, c33: f64, c13: f64) -> f64 {
     0.25 * (c11 + c33) - 0.5 * c13
-}
-
-/// Šmilauer's lattice scaling μ = (1/3)·N_b·π̂·mean(r′·r²)/V (Šmilauer Eq. 20; Woo's
-/// `muStiffnessScaling`), with r′ = half each bond's centre distance, r = the smaller radius
-/// of its two spheres, N_b the number of bonds and V = [`Packing::volume`]. The lattice
-/// tensor is then μ·C_micro(𝓔′). Woo's C++ default π̂ is π (its Python binding's π/2).
-pub fn lattice_scaling(packing: &Packing, bonds: &BondSet, pi_hat: f64) -> Result<f64> {
-    if !pi_hat.is_finite() || pi_hat <= 0.0 {
-        return Err(Error::Invalid(format!(
-            "lattice scaling: pi_hat must be finite and > 0, got {pi_hat}"
-        )));
-    }
-    if bonds.is_empty() {
-        return Err(Error::Invalid(
-            "lattice scaling: the packing has no bonds (μ needs at least one)".into(),
-        ));
-    }
-    let n_spheres = packing.len();
-    let mut sum = 0.0;
-    for b in 0..bonds.len() {
-        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-        if i >= n_spheres || j >= n_spheres {
-            return Err(Error::Invalid(format!(
-                "lattice scaling: bond {b} joins spheres {i} and {j}, but the packing has {n_spheres}"
-            )));
-        }
-        let length = bonds.length[b];
-        if !length.is_finite() || length <= 0.0 {
-            return Err(Error::Invalid(format!(
-                "lattice scaling: bond {b} has centre distance {length}, expected finite and > 0"
-            )));
-        }
-        let r = packing.radii[i].min(packing.radii[j]);
-        sum += 0.5 * length * r * r;
-    }
-    let volume = packing.volume();
-    if !volume.is_finite() || volume <= 0.0 {
-        return Err(Error::Invalid(format!(
-            "lattice scaling: packing volume must be finite and > 0, got {volume}"
-        )));
-    }
-    // (1/3)·N·π̂·mean(r′r²)/V = (1/3)·π̂·Σ(r′r²)/V.
-    Ok(pi_hat * sum / (3.0 * volume))
 }
 
 /// Unit cross-anisotropy axis from strike α and dip β in degrees (Woo's convention, Šmilauer
@@ -272,7 +227,7 @@ impl CrossAnisotropic {
 
 impl StiffnessScheme for CrossAnisotropic {
     fn name(&self) -> String {
-        "cross-anisotropic".into()
+        super::SchemeKind::CrossAnisotropic.to_string()
     }
 
     /// (E_N′(θ), E_T′(θ)) in Pa, for the `modulus` geometry convention:

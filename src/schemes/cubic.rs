@@ -353,9 +353,13 @@ impl CubicSpheroid {
 impl StiffnessScheme for CubicSpheroid {
     fn name(&self) -> String {
         if self.extended {
-            format!("cubic {} (extended)", self.model.as_str())
+            format!(
+                "{} {} (extended)",
+                super::SchemeKind::Cubic,
+                self.model.as_str()
+            )
         } else {
-            format!("cubic {}", self.model.as_str())
+            format!("{} {}", super::SchemeKind::Cubic, self.model.as_str())
         }
     }
 

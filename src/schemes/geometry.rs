@@ -69,14 +69,19 @@ pub enum Moments {
 #[serde(default, deny_unknown_fields)]
 pub struct Geometry {
     /// Magnitude → spring constant.
+    #[serde(deserialize_with = "crate::keys::convention")]
     pub convention: Convention,
     /// R_b rule.
+    #[serde(deserialize_with = "crate::keys::bond_radius")]
     pub bond_radius: BondRadius,
     /// L_b rule (modulus convention only).
+    #[serde(deserialize_with = "crate::keys::bond_length")]
     pub bond_length: BondLength,
     /// π̂ in A_b = π̂·R_b² (Šmilauer; Woo's C++ default is π).
+    #[serde(deserialize_with = "crate::keys::pi_hat")]
     pub pi_hat: f64,
     /// Bending and twisting springs.
+    #[serde(deserialize_with = "crate::keys::moments")]
     pub moments: Moments,
 }
 

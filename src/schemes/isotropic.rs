@@ -32,7 +32,7 @@ impl Isotropic {
 
 impl StiffnessScheme for Isotropic {
     fn name(&self) -> String {
-        "isotropic".to_string()
+        super::SchemeKind::Isotropic.to_string()
     }
 
     fn magnitudes(&self, _n: &Vec3) -> Magnitudes {

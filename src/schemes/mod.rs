@@ -19,6 +19,20 @@ pub use geometry::{BondLength, BondRadius, Convention, Geometry, Moments};
 
 use crate::Vec3;
 
+crate::names::named! {
+    /// The schemes by their `kind` in the model file (`[scheme] kind = "cubic"`): the one
+    /// list the model reader, its messages and the reports use.
+    pub enum SchemeKind ("[scheme] kind") {
+        /// [`cubic`]: Truszkowska 2018's overlapping spheroids.
+        Cubic = "cubic", "overlapping spheroids with cubic symmetry (Truszkowska 2018)";
+        /// [`cross_anisotropic`]: Šmilauer's elliptic scheme, given by its target tensor.
+        CrossAnisotropic = "cross-anisotropic",
+            "Šmilauer's elliptic scheme for a transversely isotropic target tensor";
+        /// [`isotropic`]: constant magnitudes.
+        Isotropic = "isotropic", "constant normal and shear magnitudes";
+    }
+}
+
 /// Normal and shear magnitudes of a bond along one direction, in the unit of the model's
 /// geometry convention (Pa/m for `area`, Pa for `modulus` and `kumar`, N/m for `spring`).
 #[derive(Clone, Copy, Debug, PartialEq)]

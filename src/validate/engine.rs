@@ -163,3 +163,22 @@ pub fn validate<E: Engine>(
     }
     engine.run(problem, progress)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tolerance_outside_its_range_is_refused_by_name() {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let named = [("history tolerance", 1e-6), ("MPI tolerance", f64::NAN)];
+        let e = check_tolerances("x", &named, "finite and > 0", positive).unwrap_err();
+        assert!(matches!(e, Error::Invalid(_)));
+        let e = e.to_string();
+        assert!(
+            e.contains("validate x: the MPI tolerance must be finite and > 0"),
+            "{e}"
+        );
+        assert!(check_tolerances("x", &named[..1], "finite and > 0", positive).is_ok());
+    }
+}

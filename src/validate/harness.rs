@@ -12,7 +12,7 @@ use crate::tensor::Stiffness6;
 use crate::{Error, Mat3, Result, Vec3};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// One comparison: the measured relative difference and, for a pass/fail check, the
@@ -264,6 +264,19 @@ pub fn report_json<D: EngineDetails>(r: &Report<D>) -> Result<String> {
 /// Write the report JSON to `path` (atomically).
 pub fn write_report_json<D: EngineDetails>(path: &Path, r: &Report<D>) -> Result<()> {
     crate::io::write_string_atomic(path, &report_json(r)?)
+}
+
+/// Write `report.json` ([`report_json`]) and `checks.csv` ([`checks_csv`]) into `dir`;
+/// returns their paths.
+pub fn write_report_and_checks<D: EngineDetails>(
+    dir: &Path,
+    r: &Report<D>,
+) -> Result<Vec<PathBuf>> {
+    let json = dir.join("report.json");
+    write_report_json(&json, r)?;
+    let csv = dir.join("checks.csv");
+    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
+    Ok(vec![json, csv])
 }
 
 pub use crate::tensor::compare::{matrix_rows, rows};
@@ -561,6 +574,11 @@ pub fn checks_table<D>(r: &Report<D>) -> String {
         }
     }
     s
+}
+
+/// Tensors with their names, as [`EngineDetails::tensors`] returns them.
+pub fn named(tensors: &[(&str, Stiffness6)]) -> Vec<(String, Stiffness6)> {
+    tensors.iter().map(|(n, c)| (n.to_string(), *c)).collect()
 }
 
 /// The report as text: the engine's own lines, the time step, the checks table, the

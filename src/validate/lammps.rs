@@ -549,11 +549,7 @@ fn nan_max(a: f64, b: f64) -> f64 {
 /// undamped history `undamped-history.csv` (LAMMPS on one process and the integrator side by
 /// side, Pa) and `undamped-history.png`; returns the paths.
 pub fn write_report(dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
-    let json = dir.join("report.json");
-    super::harness::write_report_json(&json, r)?;
-    let csv = dir.join("checks.csv");
-    crate::io::write_string_atomic(&csv, &super::harness::checks_csv(&r.checks))?;
-    let mut files = vec![json, csv];
+    let mut files = harness::write_report_and_checks(dir, r)?;
     if let Some(h) = &r.history {
         if let Some((np, rows)) = h.lammps.first() {
             let path = dir.join("undamped-history.csv");

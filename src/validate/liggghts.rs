@@ -51,8 +51,8 @@ use crate::validate::engine::{
 };
 pub use crate::validate::harness::checks_table;
 use crate::validate::harness::{
-    self, checks_csv, reference_simulation, rows, timed, write_report_json, Check, EngineDetails,
-    HistoryComparison, HistoryStart, Report, Timing,
+    self, named, reference_simulation, rows, timed, Check, EngineDetails, HistoryComparison,
+    HistoryStart, Report, Timing,
 };
 use crate::{Error, Result, Vec3};
 use rand::{Rng, SeedableRng};
@@ -212,13 +212,11 @@ impl EngineDetails for LiggghtsDetails {
         }
     }
     fn tensors(&self) -> Vec<(String, Stiffness6)> {
-        [
+        named(&[
             ("driver", self.driver_tensor),
             ("integrator", self.integrator_tensor),
             ("relaxed", self.relaxed_tensor),
-        ]
-        .map(|(name, c)| (name.to_string(), c))
-        .to_vec()
+        ])
     }
 }
 
@@ -937,14 +935,7 @@ fn push_cell(c: &mut String, value: Option<f64>) {
 /// `tensors.csv` (Pa) and `driver_stress_strain.png` into `dir`. Returns the files.
 pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut files = Vec::new();
-    let p = dir.join("report.json");
-    write_report_json(&p, r)?;
-    files.push(p);
-
-    let p = dir.join("checks.csv");
-    crate::io::write_string_atomic(&p, &checks_csv(&r.checks))?;
-    files.push(p);
+    let mut files = harness::write_report_and_checks(dir, r)?;
 
     let h = &r.history;
     let names = ["s11", "s22", "s33", "s23", "s13", "s12"];

@@ -38,8 +38,8 @@ use crate::tensor::compare::relative_difference;
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
 use crate::validate::engine::{self, check_tolerances, Engine, Problem, Progress, TestKind};
 use crate::validate::harness::{
-    history_series, matrix_rows, reference_simulation, write_report_json, Check, EngineDetails,
-    HistoryComparison, Report, Timing,
+    history_series, matrix_rows, named, reference_simulation, side_by_side_csv, write_report_json,
+    Check, EngineDetails, HistoryComparison, Report, Timing,
 };
 use crate::{Error, Mat3, Result};
 use serde::Serialize;
@@ -268,13 +268,11 @@ impl EngineDetails for YadeDetails {
         }
     }
     fn tensors(&self) -> Vec<(String, Stiffness6)> {
-        [
+        named(&[
             ("YADE", self.c_yade),
             ("anisobond", self.c_anisobond),
             ("relaxed", self.c_relaxed),
-        ]
-        .map(|(name, c)| (name.to_string(), c))
-        .to_vec()
+        ])
     }
     fn summary(v: &YadeValidation) -> String {
         let o = &v.options;
@@ -303,7 +301,7 @@ impl EngineDetails for YadeDetails {
         }
         let _ = writeln!(
             s,
-            "\ndamped element tests: Cundall {}, {} steps per path, C = S·E⁻¹ of the final columns\n",
+            "\ndamped element tests: Cundall {}, {} steps per path, C = S·E⁻¹ of the final columns",
             o.damping, o.damped_steps
         );
         s
@@ -741,12 +739,6 @@ fn element_tests(
     })
 }
 
-/// CSV of two histories side by side: `path,step,time_s`, YADE's six stress components,
-/// anisobond's, and the largest absolute difference (Pa). Rows in YADE's order.
-pub fn side_by_side_csv(title: &str, yade: &[HistoryRow], anisobond: &[HistoryRow]) -> String {
-    crate::validate::harness::side_by_side_csv(title, ("yade", yade), ("anisobond", anisobond))
-}
-
 /// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the
 /// paths written.
 pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
@@ -778,7 +770,8 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
             "{regime}, strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
             o.strain, v.time_step, v.n_particles, v.n_bonds
         );
-        crate::io::write_string_atomic(&path, &side_by_side_csv(&title, rows_y, rows_a))?;
+        let csv = side_by_side_csv(&title, ("yade", rows_y), ("anisobond", rows_a));
+        crate::io::write_string_atomic(&path, &csv)?;
         written.push(path);
     }
     let summary = dir.join(outputs::SUMMARY_JSON);

@@ -54,7 +54,7 @@ fn loosest_tolerance_gives_the_printed_digits() {
                 .unwrap();
         let row = &json["rows"][0];
         assert!(row["residual"].as_f64().unwrap() < t.parse::<f64>().unwrap());
-        row["sigma_network"].as_f64().unwrap()
+        row["sigma_network_pa"].as_f64().unwrap()
     };
     let (loose, tight) = (sigma("1e-4"), sigma("1e-10"));
     assert!(

@@ -180,3 +180,70 @@ fn calibrate_refuses_inadmissible_targets_before_writing() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.exists());
 }
+
+/// A bad key or value in a model file, given to `tensor`: the refusal names the file and the
+/// line the bad text is on (counted here from the text), in TOML and JSON, and writes nothing.
+#[test]
+fn bad_model_keys_name_the_file_and_the_line() {
+    let d = tempfile::tempdir().unwrap();
+    let packing = crate::common::packing(d.path(), 100);
+    let out = d.path().join("t.json");
+    let json = "{\"scheme\": {\"kind\": \"isotropic\", \"normal\": 1e9, \"shear\": 1e8},\n\"geometry\": {\"convention\": \"spring\",\n\"moments\": 1}}";
+    for (name, text, bad, expected) in [
+        (
+            "a.toml",
+            CUBIC.replace("a_s = 10.0", "a_z = 10.0"),
+            "a_z",
+            "unknown field `a_z`",
+        ),
+        (
+            "b.toml",
+            CUBIC.replace("a_s = 10.0", "a_s = [10.0]"),
+            "a_s",
+            "`a_s`: invalid type: sequence, expected a number",
+        ),
+        (
+            "c.toml",
+            CUBIC.replace("zener-above-1", "zener"),
+            "model",
+            "`model`: unknown variant `zener`",
+        ),
+        (
+            "d.toml",
+            format!("{CUBIC}[geometry]\nconvention = true\n"),
+            "convention",
+            "`convention`: expected one of `area`",
+        ),
+        (
+            "g.toml",
+            CUBIC.replace("kind = \"cubic\"", "kind = 3"),
+            "kind",
+            "`kind`: invalid type: integer `3`, expected a string",
+        ),
+        (
+            "h.toml",
+            CUBIC.replace("a_s = 10.0", "a_s = 10.0\neuler_zyz_deg = [1, \"a\", 3]"),
+            "euler",
+            "`euler_zyz_deg`: invalid type: string \"a\", expected a number",
+        ),
+        (
+            "e.json",
+            CUBIC_JSON.replace("\"a_n\"", "\"a_m\""),
+            "a_m",
+            "unknown field `a_m`",
+        ),
+        ("f.json", json.to_string(), "moments", "`moments`: expected"),
+    ] {
+        let line = 1 + text.lines().position(|l| l.contains(bad)).unwrap();
+        let m = write(d.path(), name, &text);
+        let err = refused(tensor(&packing, &m, &out), &out);
+        let at = format!("{}:{line}: ", m.display());
+        assert!(
+            err.contains(&format!("{at}{expected}")),
+            "{name}: want `{at}{expected}` in {err}"
+        );
+    }
+}
+
+/// The demo's cubic model as JSON, a key on each line.
+const CUBIC_JSON: &str = "{\"bonding\": {\"rule\": \"gap\", \"value\": 0.17},\n\"scheme\": {\"kind\": \"cubic\",\n\"model\": \"zener-above-1\",\n\"a_n\": 4.31,\n\"a_s\": 10.0,\n\"normal\": 1e13,\n\"shear\": 3.55e12}}\n";

@@ -5,6 +5,7 @@
 //! stiffness built from them the same as built from the relaxed tensor.
 
 use crate::common::bonded::{relaxed_exact, yade_sim};
+use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondStiffness, BondingRule};
 use anisobond::dem::servo::{servo_until_converged, ComponentControl, ServoOptions, StressServo};
 use anisobond::dem::stress_tests::{
@@ -14,7 +15,7 @@ use anisobond::dem::stress_tests::{
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::packing::generate::{generate, GenerateOptions, Polydispersity};
 use anisobond::packing::Packing;
-use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use anisobond::schemes::cross_anisotropic::CrossAnisotropic;
 use anisobond::schemes::isotropic::Isotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;

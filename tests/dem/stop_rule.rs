@@ -7,6 +7,7 @@
 
 use crate::common::bonded::{directional_springs, gap_bonded, relaxed_exact, yade_sim};
 use crate::common::{bin, fails, CUBIC_MODEL as MODEL};
+use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondingRule};
 use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
@@ -16,7 +17,7 @@ use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
 use anisobond::dem::{DemOptions, LawKind};
 use anisobond::packing::Packing;
-use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use anisobond::schemes::cross_anisotropic::CrossAnisotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;
 use anisobond::Vec3;

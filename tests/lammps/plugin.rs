@@ -189,12 +189,9 @@ fn plugin_cross_anisotropic_from_the_table_and_from_the_model_on_two_processes()
         .expect("the plugin reports μ");
     let mu: f64 = mu_line.split_whitespace().nth(6).unwrap().parse().unwrap();
     let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
-    let mu_lib = anisobond::schemes::cross_anisotropic::lattice_scaling(
-        &asm.packing,
-        &asm.bonds,
-        asm.model.geometry.pi_hat,
-    )
-    .unwrap();
+    let mu_lib =
+        anisobond::bonds::lattice_scaling(&asm.packing, &asm.bonds, asm.model.geometry.pi_hat)
+            .unwrap();
     assert!(
         (mu - mu_lib).abs() < 1e-12 * mu_lib,
         "μ: plugin {mu} vs library {mu_lib} ({mu_line})"

@@ -5,14 +5,14 @@
 use crate::common::transverse;
 use std::f64::consts::PI;
 
+use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::BondSet;
 use anisobond::homogenize::mean_field::{
     mean_field, orientation_average, SphereQuadrature, DEFAULT_ORDER,
 };
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::schemes::cross_anisotropic::{
-    axis_from_strike_dip, dependent_c44, inverse_block, lattice_scaling, microplane_matrix,
-    CrossAnisotropic,
+    axis_from_strike_dip, dependent_c44, inverse_block, microplane_matrix, CrossAnisotropic,
 };
 use anisobond::schemes::StiffnessScheme;
 use anisobond::tensor::{Stiffness6, VOIGT_PAIRS};

@@ -6,13 +6,14 @@
 //! ε̂ = −1e-5 and at the paper's −1 %, beside the relaxed and affine tensors and the paper's
 //! 122, 52.8, 26.7, 37.9, 30.8 MPa.
 
+use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondingRule};
 use anisobond::dem::servo::ServoOptions;
 use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use anisobond::packing::generate::{generate, GenerateOptions, Polydispersity};
-use anisobond::schemes::cross_anisotropic::{lattice_scaling, CrossAnisotropic};
+use anisobond::schemes::cross_anisotropic::CrossAnisotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::Stiffness6;
 use anisobond::Vec3;

@@ -6,5 +6,6 @@ mod common;
 
 mod elastic;
 mod fit;
+mod method_names;
 mod rotate;
 mod symmetry;

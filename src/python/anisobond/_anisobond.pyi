@@ -170,12 +170,15 @@ class Assembly:
         hole_radius: Optional[float] = None,
         *,
         outer_radius: Optional[float] = None,
-        pressure: float = 1e6,
+        pressure: Optional[float] = None,
         clamp_width: Optional[float] = None,
         ray_spacing: Optional[float] = None,
+        density: Optional[float] = None,
     ) -> Dict[str, Any]:
-        """The pressurised cavity (docs/cavity.md): wall displacement (m) beside Lamé and the
-        anisotropic continuum, wall bins, positions and displacement arrays (m)."""
+        """The pressurised cavity (docs/cavity.md): the keys of cavity.json (wall
+        displacement (m) beside Lamé, `continuum` with its wall bins, Christoffel speeds at
+        `density`), positions and displacement arrays (m). None: the library's defaults
+        (pressure 1e6 Pa, density 2600 kg/m³)."""
 
 def calibrate_model(
     model: Model, target: Union[str, Mapping[str, float]], on: Any = None, **options: Any
@@ -188,9 +191,10 @@ def buckle_bar(
     *,
     clamp_depth: Optional[float] = None,
     deformed: bool = True,
-    tolerance: float = 1e-6,
+    tolerance: Optional[float] = None,
 ) -> Dict[str, Any]:
-    """Kumar 2016's clamped round bar (docs/buckling.md): E, σ_network, σ_Euler, σ_Mazzilli,
-    σ_deformed (Pa), EI, κGA, the first mode."""
+    """Kumar 2016's clamped round bar (docs/buckling.md): a row of buckling.json
+    (modulus_pa, sigma_network_pa, sigma_euler_pa, sigma_mazzilli_pa, sigma_deformed_pa,
+    shear_stiffness_n, network with EI, …) and the first mode. tolerance None: 1e-6."""
 def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
     """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""

@@ -1,0 +1,52 @@
+//! The studies: computations with options, a run and a report that is their one output
+//! schema. The command line and Python only parse, call [`run`](buckling::run) and print
+//! or convert the report; the defaults live in each study's options, once.
+//!
+//! - [`buckling`]: Kumar 2016 Sec. 5's clamped round bars (`anisobond buckle`,
+//!   `anisobond.buckle_bar`).
+//! - [`cavity`]: Šmilauer's pressurised cavity (`anisobond cavity`, `Assembly.cavity`).
+//! - [`demo`]: Truszkowska 2018's assembly by every method (`anisobond demo`).
+//! - [`domain`]: the accessible cubic domain (`anisobond domain`).
+
+pub mod buckling;
+pub mod cavity;
+pub mod demo;
+pub mod domain;
+
+/// How a study's checks name its options: as the command line's flags (`--dem-steps`) or as
+/// the keyword arguments of Python (`dem_steps`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionNames {
+    /// `--kebab-case` flags.
+    Flags,
+    /// `snake_case` keywords.
+    Keywords,
+}
+
+impl OptionNames {
+    /// The option of field `field` (snake_case) as the client calls it.
+    pub fn name(self, field: &str) -> String {
+        match self {
+            OptionNames::Flags => format!("--{}", field.replace('_', "-")),
+            OptionNames::Keywords => field.to_owned(),
+        }
+    }
+}
+
+/// `Some(x)` when `x` is finite; `None` (JSON `null`, Python `None`) for a value that has no
+/// finite value by its definition (Mazzilli below l/r = 2π, κGA of a shear-rigid bar).
+pub fn finite(x: f64) -> Option<f64> {
+    Some(x).filter(|x| x.is_finite())
+}
+
+/// `x`, or [`crate::Error::Degenerate`] naming `what` when it is not finite: a report holds
+/// finite numbers or refuses.
+pub fn require_finite(x: f64, what: &str) -> crate::Result<f64> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(crate::Error::Degenerate(format!(
+            "{what} = {x} is not a finite number (overflow or a degenerate result)"
+        )))
+    }
+}
