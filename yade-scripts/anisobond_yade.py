@@ -27,6 +27,12 @@ refused), with the anisobond package importable for ``assign``::
     ab.bond_table("bonds.csv")          # the bonds, full precision, i/j = sphere index
     ab.write_packing("packing.txt")     # the spheres, full precision, body ids, cell or free
 
+A platen test of a finite specimen, in place on the current scene (``build_scene`` of a
+``# free`` packing, or the user's own bonded scene), to compare with ``anisobond specimen``::
+
+    r = ab.platen_test(axis=2, platens="frictionless", strain=1e-6)   # or "bonded"
+    print(r.stiffness(), r.steps, r.remaining)   # N/m; see docs/specimens.md
+
 or the command line (what the exported ``run.py`` calls)::
 
     yade -n -x anisobond_yade.py --packing packing.txt --bonds bonds.csv --out DIR \

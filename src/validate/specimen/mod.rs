@@ -405,3 +405,133 @@ pub fn write_files(dir: &Path, r: &Report<SpecimenDetails>) -> Result<Vec<PathBu
     crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
     Ok(vec![json, csv])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::packing::Packing;
+    use crate::Vec3;
+
+    /// A 3 × 3 × 9 simple-cubic column of touching spheres, k_n = 2e6 N/m, k_s = 7e5 N/m:
+    /// platen stiffness 9 k_n / 8 = 2.25e6 N/m (closed form, any platens).
+    fn column() -> Assembly {
+        let r = 1e-3;
+        let mut pos = Vec::new();
+        for i in 0..3 {
+            for j in 0..3 {
+                for k in 0..9 {
+                    pos.push(Vec3::new(i as f64, j as f64, k as f64) * 2.0 * r);
+                }
+            }
+        }
+        let n = pos.len();
+        let model = crate::model::Model::from_toml_str(
+            "[bonding]\nrule = \"gap\"\nvalue = 0.01\n[scheme]\nkind = \"isotropic\"\n\
+             normal = 2e6\nshear = 7e5\n[geometry]\nconvention = \"spring\"\n",
+            "<test>",
+        )
+        .unwrap();
+        Assembly::new(Packing::new(pos, vec![r; n], None).unwrap(), model).unwrap()
+    }
+
+    fn measured(p: &SpecimenReport, force: f64, remaining: f64) -> EngineMeasurement {
+        let (bottom, top) = layers(p);
+        EngineMeasurement {
+            version: "test".into(),
+            processes: 1,
+            bottom,
+            top,
+            displacement: 1e-9,
+            force_top: force,
+            force_bottom: force,
+            time_step: 1e-7,
+            steps: 1000,
+            remaining,
+            how: String::new(),
+            seconds: 0.0,
+            dir: PathBuf::new(),
+        }
+    }
+
+    #[test]
+    fn the_engine_stiffness_is_checked_against_the_solve() {
+        let asm = column();
+        let test = SpecimenTest::new(2, 0.5e-3, Platens::Bonded).resolved(1e-6);
+        let mut t = Vec::new();
+        let p = predict(&asm, &test, LeverArm::MidGap, &mut t).unwrap();
+        assert!((p.platen_stiffness / 2.25e6 - 1.0).abs() < 1e-10);
+        let run = |force: f64, remaining: f64| {
+            compare(
+                "yade",
+                &test,
+                LeverArm::MidGap,
+                &asm,
+                p.clone(),
+                vec![measured(&p, force, remaining)],
+                Vec::new(),
+            )
+            .unwrap()
+        };
+        // 2.25e6 N/m × 1e-9 m = 2.25e-3 N: passes; 0.2 % more fails; unsettled is not judged.
+        assert!(run(2.25e-3, 1e-8).passed());
+        let off = run(2.2545e-3, 1e-8);
+        assert!(!off.passed() && (off.checks[0].value - 2e-3).abs() < 1e-9);
+        let unsettled = run(2.2545e-3, 1e-2);
+        assert!(unsettled.passed() && unsettled.checks[0].not_converged == Some(1e-2));
+        // Other end layers: not the same specimen.
+        let mut m = measured(&p, 2.25e-3, 1e-8);
+        m.top.pop();
+        let e = compare(
+            "yade",
+            &test,
+            LeverArm::MidGap,
+            &asm,
+            p,
+            vec![m],
+            Vec::new(),
+        )
+        .unwrap_err();
+        assert!(matches!(e, Error::EngineFailed { .. }), "{e}");
+    }
+
+    #[test]
+    fn bad_tests_and_periodic_packings_are_refused() {
+        let ok = SpecimenTest::new(2, 1e-3, Platens::Frictionless);
+        assert!(ok.check("yade").is_ok());
+        for bad in [
+            SpecimenTest { axis: 3, ..ok },
+            SpecimenTest {
+                end_layer: f64::NAN,
+                ..ok
+            },
+            SpecimenTest {
+                strain: Some(0.0),
+                ..ok
+            },
+            SpecimenTest {
+                tolerance: 0.0,
+                ..ok
+            },
+            SpecimenTest { settle: 1.0, ..ok },
+            SpecimenTest {
+                max_steps: 10,
+                ..ok
+            },
+        ] {
+            assert!(
+                matches!(bad.check("yade"), Err(Error::Invalid(_))),
+                "{bad:?}"
+            );
+        }
+        let mut asm = column();
+        asm.packing = Packing::new(
+            asm.packing.positions.clone(),
+            asm.packing.radii.clone(),
+            Some(crate::packing::PeriodicCell::new(Vec3::new(6e-3, 6e-3, 1.8e-2)).unwrap()),
+        )
+        .unwrap();
+        let dir = std::env::temp_dir();
+        let e = free_assembly(&super::super::Problem::of(&dir, &asm), "yade").unwrap_err();
+        assert!(e.to_string().contains("--free"), "{e}");
+    }
+}
