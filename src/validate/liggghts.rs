@@ -702,6 +702,14 @@ impl Engine for Liggghts {
     fn write_files(&self, dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
+    fn specimen(
+        &self,
+        p: &Problem,
+        test: &super::specimen::SpecimenTest,
+        progress: Progress,
+    ) -> Result<Report<super::specimen::SpecimenDetails>> {
+        super::specimen::liggghts::run(&self.programs, &self.options, p, test, progress)
+    }
 }
 
 /// [`engine::validate`] with [`Liggghts`]: the periodic element tests of `packing` with

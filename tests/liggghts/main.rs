@@ -10,4 +10,5 @@ mod driver;
 mod dumps;
 mod harmonic;
 mod in_place;
+mod specimen;
 mod validate;

@@ -146,7 +146,7 @@ fn write_inputs(
 /// bottom's supports (one sphere's lateral translations, the farthest bottom sphere from it
 /// its lateral translation across the line joining them), as the YADE test holds them.
 /// Returns the types and the held lateral axis of the far support.
-fn atom_types(packing: &Packing, p: &SpecimenReport, axis: usize) -> (Vec<u8>, usize) {
+pub(super) fn atom_types(packing: &Packing, p: &SpecimenReport, axis: usize) -> (Vec<u8>, usize) {
     let mut types: Vec<u8> = p.layer.iter().map(|&l| 1 + l).collect();
     let bottom: Vec<usize> = (0..types.len()).filter(|&k| p.layer[k] == 1).collect();
     let lateral = [(axis + 1) % 3, (axis + 2) % 3];

@@ -18,6 +18,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 pub mod lammps;
+pub mod liggghts;
 pub mod yade;
 
 /// Files a specimen validation writes into its directory.

@@ -1,0 +1,353 @@
+//! LIGGGHTS' specimen test, in the driver `anisobond-liggghts` (`pair_style anisobond`:
+//! YADE's cohesive law in incremental form, mid-gap contact points): `specimen.in` reads the
+//! free specimen (`boundary f f f`, `atom_style granular`, the end layers as atom types: 2
+//! bottom, 3 top, 4 and 5 the bottom's lateral supports), holds the layers — `bonded`:
+//! the top one `fix freeze` (force and torque zeroed), the bottom one not integrated,
+//! `frictionless`: `fix setforce` on the axial force
+//! only (and the supports' lateral forces) — and moves the top layer by its velocity over a
+//! ramp (the shear springs are incremental: a layer moved by position would strain only the
+//! normal springs; only the axial component is set and reset), then relaxes with the pair
+//! style's viscous damping in chunks until the platen force settles. The platen force is
+//! the fix's global vector: the force on the group before it was zeroed. The solve uses the
+//! mid-gap contact point ([`LeverArm::MidGap`]).
+
+use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use crate::bonds::table;
+use crate::export::liggghts::{run_liggghts, stable_timestep, Launch};
+use crate::homogenize::network::LeverArm;
+use crate::packing::Packing;
+use crate::specimen::Platens;
+use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{Report, Timing};
+use crate::validate::liggghts::{Programs, ValidateOptions};
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Default strain of LIGGGHTS' test.
+pub const STRAIN: f64 = 1e-6;
+
+/// Sub-directory of the validation directory LIGGGHTS runs in.
+pub const DIR: &str = "liggghts-specimen";
+
+/// Steps of the top layer's ramp.
+pub const RAMP_STEPS: u64 = 200;
+
+/// Steps between two readings of the platen force.
+pub const CHUNK_STEPS: u64 = 500;
+
+fn num(x: f64) -> String {
+    format!("{x:e}")
+}
+
+/// `specimen.data`: atoms `id type diameter density x y z` in a box a margin larger than
+/// the spheres.
+fn write_data(
+    path: &Path,
+    packing: &Packing,
+    types: &[u8],
+    density: f64,
+    margin: f64,
+) -> Result<()> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (x, r) in packing.positions.iter().zip(&packing.radii) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a] - r);
+            hi[a] = hi[a].max(x[a] + r);
+        }
+    }
+    let mut s = format!(
+        "LIGGGHTS data file written by anisobond {}: free specimen (atom_style granular)\n\n\
+         {} atoms\n5 atom types\n\n",
+        env!("CARGO_PKG_VERSION"),
+        packing.len()
+    );
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{} {} {name}lo {name}hi",
+            num(lo[a] - margin),
+            num(hi[a] + margin)
+        );
+    }
+    s.push_str("\nAtoms\n\n");
+    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {} {} {}",
+            p + 1,
+            types[p],
+            num(2.0 * r),
+            num(density),
+            num(x.x),
+            num(x.y),
+            num(x.z)
+        );
+    }
+    crate::io::write_string_atomic(path, &s)
+}
+
+/// The deck.
+#[allow(clippy::too_many_arguments)]
+fn deck(
+    test: &SpecimenTest,
+    speed: f64,
+    dt: f64,
+    damping: f64,
+    skin: f64,
+    far_block: usize,
+    max_chunks: u64,
+) -> String {
+    let ax = test.axis;
+    let along = |v: &str, other: &str| {
+        let mut c = [other; 3];
+        c[ax] = v;
+        c.join(" ")
+    };
+    let mut support_a = ["0.0"; 3];
+    support_a[ax] = "NULL";
+    let mut support_far = ["NULL"; 3];
+    support_far[far_block] = "0.0";
+    let index = ax + 1;
+    // LIGGGHTS allows one fix freeze: bonded platens freeze the moved top layer (its force
+    // and torque zeroed, it moves with its velocity) and leave the bottom one out of the
+    // integration (fix setforce only reads its reaction).
+    let integrated = match test.platens {
+        Platens::Bonded => "mobile",
+        Platens::Frictionless => "all",
+    };
+    let mut s = format!(
+        "# anisobond → LIGGGHTS driver (pair_style anisobond) specimen test, {} platens along {}.\n\
+         # Run:  anisobond-liggghts -in specimen.in   (or mpirun -np N anisobond-liggghts -in specimen.in)\n\
+         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
+         # The top layer moves towards the bottom at `speed` for `ramp` steps, then is held; the\n\
+         # pair style's viscous damping relaxes the specimen in chunks until the platen force's\n\
+         # estimated remaining relative change and |F_top - F_bottom| / F_top are below `settle`.\n",
+        match test.platens {
+            Platens::Frictionless => "frictionless",
+            Platens::Bonded => "bonded",
+        },
+        ["x", "y", "z"][ax]
+    );
+    let _ = write!(
+        s,
+        "variable dt index {}\nvariable damp index {}\nvariable speed index {}\n\
+         variable ramp index {RAMP_STEPS}\nvariable settle index {}\n\
+         variable chunk_steps index {CHUNK_STEPS}\nvariable max_chunks index {max_chunks}\n\
+         units si\natom_style granular\natom_modify map array\nboundary f f f\nnewton on\n\
+         communicate single vel yes\nread_data specimen.data\n\
+         pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *\n\
+         neighbor {} bin\nneigh_modify delay 0\ntimestep ${{dt}}\n\
+         group bottom type 2 4 5\ngroup top type 3\ngroup support_a type 4\n\
+         group support_far type 5\ngroup mobile subtract all bottom\n\
+         fix integrate {integrated} nve/sphere\n\
+         run 0\n",
+        num(dt),
+        num(damping),
+        num(speed),
+        num(test.settle),
+        num(skin)
+    );
+    match test.platens {
+        Platens::Bonded => {
+            s.push_str("fix ftop top freeze\nfix fbottom bottom setforce 0.0 0.0 0.0\n")
+        }
+        Platens::Frictionless => {
+            let f = along("0.0", "NULL");
+            let _ = write!(
+                s,
+                "fix ftop top setforce {f}\nfix fbottom bottom setforce {f}\n\
+                 fix fsupport_a support_a setforce {}\nfix fsupport_far support_far setforce {}\n",
+                support_a.join(" "),
+                support_far.join(" ")
+            );
+        }
+    }
+    let _ = write!(
+        s,
+        "velocity top set {} units box\nrun ${{ramp}}\nvelocity top set {} units box\n\
+         variable ft equal f_ftop[{index}]\nvariable fb equal -f_fbottom[{index}]\n\
+         variable st equal step\n\
+         thermo_style custom step v_ft v_fb\nthermo ${{chunk_steps}}\n\
+         run ${{chunk_steps}}\nvariable f1 equal ${{ft}}\n\
+         run ${{chunk_steps}}\nvariable f2 equal ${{ft}}\n\
+         variable chunk loop ${{max_chunks}}\n\
+         label relax\n\
+         run ${{chunk_steps}}\n\
+         variable f3 equal ${{ft}}\nvariable b3 equal ${{fb}}\n\
+         variable done equal \"abs(v_f3-v_f2)*abs(v_f2-v_f1) <= v_settle*abs(v_f3)*(abs(v_f2-v_f1)-abs(v_f3-v_f2)) && abs(v_f3-v_b3) <= v_settle*abs(v_f3)\"\n\
+         if \"${{done}} == 1\" then \"jump SELF settled\"\n\
+         variable f1 equal ${{f2}}\nvariable f2 equal ${{f3}}\n\
+         next chunk\njump SELF relax\n\
+         label settled\n\
+         print \"SPECIMEN ${{f3}} ${{b3}} ${{f1}} ${{f2}} ${{st}}\"\n",
+        along(&num(-speed), "NULL"),
+        along("0.0", "NULL")
+    );
+    s
+}
+
+/// Run the driver's specimen test of `problem`'s free specimen (one process, and `processes`
+/// when more) and compare with the solve.
+pub fn run(
+    programs: &Programs,
+    opts: &ValidateOptions,
+    problem: &Problem,
+    test: &SpecimenTest,
+    progress: Progress,
+) -> Result<Report<SpecimenDetails>> {
+    let test = &test.resolved(STRAIN);
+    let asm = free_assembly(problem, "liggghts")?;
+    if asm.bonds.is_empty() {
+        return Err(Error::Invalid(
+            "validate liggghts --specimen: no bonds".into(),
+        ));
+    }
+    let mut timings = Vec::new();
+    let predicted = predict(&asm, test, LeverArm::MidGap, &mut timings)?;
+    progress(&format!(
+        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
+        predicted.platen_stiffness
+    ));
+    let layers = super::layers(&predicted);
+    let (types, far_block) = super::lammps::atom_types(&asm.packing, &predicted, test.axis);
+    let dir = problem.dir.join(DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let density = opts.density;
+    let max_len = asm.bonds.length.iter().copied().fold(0.0, f64::max);
+    write_data(
+        &dir.join("specimen.data"),
+        &asm.packing,
+        &types,
+        density,
+        2.0 * max_len,
+    )?;
+    table::write_bond_table(&dir.join("bonds.csv"), &asm.bonds, &asm.springs)?;
+    let dt = match opts.timestep {
+        Some(dt) => dt,
+        None => stable_timestep(&asm.packing, &asm.bonds, &asm.springs, density)?,
+    };
+    // Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
+    // stiffness, M its mass (as LAMMPS' test; it changes the way to rest, not the rest).
+    let mass: f64 = asm
+        .packing
+        .radii
+        .iter()
+        .map(|r| density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
+    let damping = (predicted.platen_stiffness / mass).sqrt() / 4.0;
+    let delta = test.strain() * predicted.length;
+    let speed = delta / (RAMP_STEPS as f64 * dt);
+    let max_chunks = test.max_steps.div_ceil(CHUNK_STEPS).max(3) - 2;
+    crate::io::write_string_atomic(
+        &dir.join("specimen.in"),
+        &deck(
+            test,
+            speed,
+            dt,
+            damping,
+            0.05 * max_len,
+            far_block,
+            max_chunks,
+        ),
+    )?;
+    let mut measured = Vec::new();
+    let mut runs = vec![1];
+    if opts.processes > 1 {
+        runs.push(opts.processes);
+    }
+    for np in runs {
+        let launch = Launch {
+            program: programs.driver.clone(),
+            mpi_processes: (np > 1).then_some(np),
+            vars: Vec::new(),
+        };
+        let t0 = std::time::Instant::now();
+        let out = run_liggghts(&launch, &dir, "specimen.in")?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let _ = std::fs::rename(
+            dir.join("log.liggghts"),
+            dir.join(format!("log-np{np}.liggghts")),
+        );
+        timings.push(Timing {
+            stage: format!("liggghts_np{np}"),
+            seconds,
+        });
+        let m = read_result(&out, np, &layers, delta, dt, seconds, &dir)?;
+        progress(&format!(
+            "LIGGGHTS on {np} process(es): done in {seconds:.1} s ({} steps): platen stiffness \
+             {:.7e} N/m",
+            m.steps,
+            m.stiffness()
+        ));
+        measured.push(m);
+    }
+    compare(
+        "liggghts",
+        test,
+        LeverArm::MidGap,
+        &asm,
+        predicted,
+        measured,
+        timings,
+    )
+}
+
+/// The `SPECIMEN F_top F_bottom F_1 F_2 STEP` line the deck prints (the last three force
+/// readings give the remaining change).
+fn read_result(
+    out: &str,
+    np: usize,
+    layers: &(Vec<usize>, Vec<usize>),
+    delta: f64,
+    dt: f64,
+    seconds: f64,
+    dir: &Path,
+) -> Result<EngineMeasurement> {
+    let bad = |m: &str| Error::engine("LIGGGHTS", format!("on {np} process(es): {m}"));
+    let line = out
+        .lines()
+        .rev()
+        .find_map(|l| l.trim().strip_prefix("SPECIMEN "))
+        .ok_or_else(|| bad("no SPECIMEN line in its output"))?;
+    let words: Vec<f64> = line
+        .split_whitespace()
+        .map(|w| w.parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| bad(&format!("SPECIMEN line `{line}`: {e}")))?;
+    let [f3, b3, f1, f2, steps] = words[..] else {
+        return Err(bad(&format!("SPECIMEN line `{line}`: expected 5 numbers")));
+    };
+    let (d1, d2) = (f2 - f1, f3 - f2);
+    let ratio = if d1 != 0.0 { (d2 / d1).abs() } else { 0.0 };
+    let remaining = if ratio < 1.0 {
+        d2.abs() / (1.0 - ratio) / f3.abs()
+    } else {
+        f64::INFINITY
+    };
+    let version = out
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("LIGGGHTS ("))
+        .map(|l| l.trim_end_matches(')').to_string())
+        .unwrap_or_else(|| "unknown".into());
+    Ok(EngineMeasurement {
+        version,
+        processes: np,
+        bottom: layers.0.clone(),
+        top: layers.1.clone(),
+        displacement: delta,
+        force_top: f3,
+        force_bottom: b3,
+        time_step: dt,
+        steps: steps as u64,
+        remaining,
+        how: format!(
+            "end layers as atom types; bonded: fix freeze, frictionless: fix setforce on the \
+             axial force; the top layer moved by velocity over {RAMP_STEPS} steps; the pair \
+             style's viscous damping, chunks of {CHUNK_STEPS} steps"
+        ),
+        seconds,
+        dir: dir.to_path_buf(),
+    })
+}
