@@ -4,14 +4,17 @@
 //! cells about one mean diameter 2R̄ on a side; in every cell the particle whose surface
 //! reaches farthest out (largest x·n + r over the centres that fall in the cell) carries the
 //! pressure on the cell's area, pushing inwards through its centre (along the face's inward
-//! normal, or radially for a cylinder). This is the boundary-particle rule of flexible
-//! (membrane) boundaries in DEM: Cheung & O'Sullivan 2008 (Particuology 6, 483–500) select the
-//! outermost particle of each cell of the lateral surface and give it the pressure times the
-//! cell's area. A cell holding no centre gives its area to the nearest cell that holds one,
-//! so the total force on each face is p × the face's area. The discrete forces are then
-//! made self-equilibrated (a pressure on a closed surface is): the least-squares correction
-//! removing their net lateral force and net moment about the axis is applied and its size
-//! reported.
+//! normal, or radially for a cylinder). This is the principle of flexible (membrane)
+//! boundaries in DEM — the pressure on the boundary surface is carried by the outermost
+//! particles, each with its share of the surface's area (Kuhn 1995, "A flexible boundary for
+//! three-dimensional DEM particle assemblies", Eng. Comput. 12, 175–183: triangular plates
+//! between boundary particles, each plate's traction split among its corner particles) — on a
+//! grid instead of a triangulation. A cell holding no centre gives its area to the nearest
+//! cell that holds one, so the total force on each face is p × the face's area. The discrete
+//! forces are then made self-equilibrated (a pressure on a closed surface is): the
+//! least-squares correction removing their net lateral force and net moment about the axis is
+//! applied and its size reported. On a simple-cubic block the grid matches the lattice and
+//! every surface particle carries p (2R)², which the closed-form test checks.
 
 use crate::{Error, Result, Vec3};
 use serde::Serialize;
