@@ -551,7 +551,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     let ((held_mean, n_held), (moved_mean, n_moved)) = (mean_of(1), mean_of(2));
     let sign = if moved_mean >= held_mean { 1.0 } else { -1.0 };
     let length = (moved_mean - held_mean).abs();
-    if n_held == 0 || n_moved == 0 || !(length > 0.0) {
+    if n_held == 0 || n_moved == 0 || length.is_nan() || length <= 0.0 {
         return Err(Error::Degenerate(format!(
             "specimen: the loaded part holds {n_held} held and {n_moved} moved particles, \
              {length:e} m apart along {}: no gauge length",
@@ -747,12 +747,12 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
                 })
                 .sum();
             let w = if den > 0.0 { num / den } else { 0.0 };
-            for a in 0..m {
+            for (a, ua) in u.iter_mut().enumerate().take(m) {
                 let t = turn(a);
                 for d in 0..3 {
-                    u[a][(d, case)] -= w * t[d];
+                    ua[(d, case)] -= w * t[d];
                 }
-                u[a][(3 + ax, case)] -= w;
+                ua[(3 + ax, case)] -= w;
             }
             if jump {
                 if let Some(l) = cell {
