@@ -56,7 +56,7 @@ pub enum LateralArg {
 /// Linear solver.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 pub enum SolverArg {
-    /// Sparse Cholesky up to 20,000 loaded particles, two-level CG above.
+    /// Sparse Cholesky up to 2,000 loaded particles, two-level CG above.
     Auto,
     /// Sparse Cholesky.
     Cholesky,
@@ -69,6 +69,11 @@ pub enum SolverArg {
 pub struct SpecimenArgs {
     #[command(flatten)]
     input: cell::BondedInput,
+    /// Bond table (CSV) whose bonds and springs replace the model's bonding rule and scheme
+    /// (your own bond network, e.g. written by `anisobond_yade.bond_table` or `anisobond
+    /// bonds`).
+    #[arg(long)]
+    bonds: Option<PathBuf>,
     /// Loading axis.
     #[arg(long, value_enum, default_value_t = AxisArg::Z)]
     axis: AxisArg,
@@ -215,9 +220,20 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
             "give one of --strain, --displacement and --force".into(),
         ));
     }
-    let mut out = OutputSet::new(&a.input.paths());
+    let mut inputs: Vec<&Path> = a.input.paths().to_vec();
+    if let Some(b) = &a.bonds {
+        inputs.push(b);
+    }
+    let mut out = OutputSet::new(&inputs);
     let dir = out.dir(&a.output)?;
-    let asm = a.input.assembly()?;
+    let asm = match &a.bonds {
+        Some(table) => anisobond::assembly::Assembly::from_table_file(
+            cell::read(&a.input.packing)?,
+            anisobond::model::Model::from_path(&a.input.model)?,
+            table,
+        )?,
+        None => a.input.assembly()?,
+    };
     let mean_radius = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
     let mut opts = SpecimenOptions::new(a.axis as usize, a.end_layer.unwrap_or(mean_radius));
     opts.platens = match a.platens {

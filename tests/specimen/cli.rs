@@ -117,3 +117,40 @@ fn specimen_command_takes_groups_force_and_confining_pressure() {
         assert!(!o2.exists(), "{args}");
     }
 }
+
+/// `--bonds TABLE`: the table's springs replace the model's. The column's table written by
+/// `anisobond bonds` with every k_n doubled doubles the closed-form platen stiffness.
+#[test]
+fn specimen_command_takes_the_users_bond_table() {
+    let t = tmp();
+    let d = t.path();
+    let p = write(d, "column.txt", &sc_text(3, 3, 7));
+    let m = write(d, "springs.toml", SPRINGS);
+    let table = d.join("bonds.csv");
+    succeeds(&mut cmd(
+        "bonds {p} --model {m} --free -o {t}",
+        &[("p", &p), ("m", &m), ("t", &table)],
+    ));
+    let text = std::fs::read_to_string(&table).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let kn_col = header.split(',').position(|c| c.starts_with("kn")).unwrap();
+    let mut doubled = format!("{header}\n");
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        let kn: f64 = cells[kn_col].parse().unwrap();
+        cells[kn_col] = format!("{:e}", 2.0 * kn);
+        doubled += &(cells.join(",") + "\n");
+    }
+    let stiff = write(d, "stiff.csv", &doubled);
+    let o = d.join("out");
+    succeeds(&mut cmd(
+        "specimen {p} --model {m} --free --bonds {b} --platens bonded -o {o}",
+        &[("p", &p), ("m", &m), ("b", &stiff), ("o", &o)],
+    ));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("specimen.json")).unwrap()).unwrap();
+    let k = json["platen_stiffness"].as_f64().unwrap();
+    let closed = 2.0 * 9.0 * 2e6 / 6.0;
+    assert!(((k - closed) / closed).abs() < 1e-10, "{k} vs {closed}");
+}
