@@ -17,6 +17,20 @@ use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::{Error, Result};
 
+/// Give a written script its run bit (`chmod 755`), so that `./run.sh` runs as the
+/// export's message says.
+pub(crate) fn make_executable(path: &std::path::Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
+            .map_err(|e| Error::io(path, e))?;
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
+}
+
 /// An upper bound of the critical time step of the explicit (central-difference) integration
 /// of a bonded packing: 2/ω_max ≤ 2/√(q_i) for every particle i, where q_i =
 /// Σ_b (k_n + 2k_s)/(3m_i) is the Rayleigh quotient of M⁻¹K for a unit translation of i
