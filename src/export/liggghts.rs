@@ -222,8 +222,8 @@ fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
 /// Write the LIGGGHTS files for `packing` with `bonds` and springs `k` into `dir`
 /// (created if needed): `packing.data`, `bonds.csv`, `anisobond.in`, `harmonic.data`,
 /// `harmonic.in`, `run.sh`. The packing must be periodic; the bonds must be those of this
-/// packing. Atom ids are the packing's own ([`Packing::ids`]) when it has them, else
-/// index + 1.
+/// packing. Atom ids are the packing's own ([`Packing::ids`]) when it has them (all ≥ 1),
+/// else index + 1.
 pub fn export_liggghts(
     dir: &Path,
     packing: &Packing,
@@ -278,10 +278,14 @@ pub fn export_liggghts(
     let data = dir.join("packing.data");
     // The packing's own atom ids (a data file's, a dump's) are kept in both data files and
     // as `id_i,id_j` of the bond table, by which the driver finds each bond.
-    crate::packing::io::write_liggghts_data_with_ids(&data, packing, o.density)?;
+    let ids = super::engine_ids(packing);
+    match ids {
+        Some(_) => crate::packing::io::write_liggghts_data_with_ids(&data, packing, o.density)?,
+        None => crate::packing::io::write_liggghts_data(&data, packing, o.density)?,
+    }
     files.push(data);
     let table_path = dir.join("bonds.csv");
-    table::write_bond_table_with_ids(&table_path, bonds, k, packing.ids.as_deref())?;
+    table::write_bond_table_with_ids(&table_path, bonds, k, ids)?;
     files.push(table_path);
 
     let period = o.deform_steps + hold_steps(o);
@@ -452,7 +456,7 @@ fn run_script(shear: bool) -> String {
 /// density molecule`), one bond type per bond with `K = k_n/2` and `r0` = bond length.
 /// The atom id of particle `p`: the packing's own (a data file's, a dump's), else p + 1.
 fn id_of(packing: &Packing, p: usize) -> u64 {
-    packing.ids.as_ref().map_or(p as u64 + 1, |ids| ids[p])
+    super::engine_ids(packing).map_or(p as u64 + 1, |ids| ids[p])
 }
 
 fn write_harmonic_data(

@@ -380,11 +380,12 @@ fn load_bond_table(path: &str) -> Result<Vec<BondRow>> {
 }
 
 /// The bonds of a packing file by the model (or a data file's own Bonds section), keyed
-/// as [`load_bond_table`] keys them: by atom id − 1 when the file gives atom ids.
+/// as [`load_bond_table`] keys them: by atom id − 1 when the file gives atom ids (all ≥ 1,
+/// as the exports write them: `crate::export::engine_ids`).
 fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>> {
     let asm = assembly(packing_path, model)?;
     let mut rows = rows(&asm.bonds, &asm.springs);
-    if let Some(ids) = &asm.packing.ids {
+    if let Some(ids) = crate::export::engine_ids(&asm.packing) {
         let fit = |p: u32| {
             let id = ids[p as usize];
             u32::try_from(id.wrapping_sub(1)).map_err(|_| {

@@ -46,15 +46,42 @@ fn refused(text: &str, periodic: bool) -> String {
 #[test]
 fn inconsistent_bonds_sections_are_refused_with_their_line() {
     let cases = [
-        (BPM.replace("4 bonds", "5 bonds"), "declares 5 bonds but the Bonds section has 4"),
-        (BPM.replace("2 24 17", "2 24 18"), "ring.data:33: bond 2 names atom 18, which is not in the Atoms section"),
-        (BPM.replace("2 24 17", "2 24 24"), "ring.data:33: bond 2 joins atom 24 to itself"),
-        (BPM.replace("3 1 24 31", "3 1 17 10"), "ring.data:34: atoms 17 and 10 are bonded twice (also line 32)"),
-        (BPM.replace("2 2 24 17", "2 3 24 17"), "ring.data:33: bond type 3 exceeds the 2 bond types"),
-        (BPM.replace("1 1 10 17", "1 1 10"), "ring.data:32: expected 4 values `id type atom1 atom2`"),
-        (BPM.replace("\nBonds\n", "\nAngles\n"), "declares 4 bonds but the file has no `Bonds` section"),
-        (BPM.replace("Atoms # bpm/sphere", "Atoms # full"), "found atom style `full`"),
-        (BPM.replace("17 3 1 1.0 2600 1.5 1 1 0 0 0", "17 1 1.0 2600 1.5 1 1"), "ring.data:20: expected 8 values `id molecule type diameter density x y z`"),
+        (
+            BPM.replace("4 bonds", "5 bonds"),
+            "declares 5 bonds but the Bonds section has 4",
+        ),
+        (
+            BPM.replace("2 24 17", "2 24 18"),
+            "ring.data:33: bond 2 names atom 18, which is not in the Atoms section",
+        ),
+        (
+            BPM.replace("2 24 17", "2 24 24"),
+            "ring.data:33: bond 2 joins atom 24 to itself",
+        ),
+        (
+            BPM.replace("3 1 24 31", "3 1 17 10"),
+            "ring.data:34: atoms 17 and 10 are bonded twice (also line 32)",
+        ),
+        (
+            BPM.replace("2 2 24 17", "2 3 24 17"),
+            "ring.data:33: bond type 3 exceeds the 2 bond types",
+        ),
+        (
+            BPM.replace("1 1 10 17", "1 1 10"),
+            "ring.data:32: expected 4 values `id type atom1 atom2`",
+        ),
+        (
+            BPM.replace("\nBonds\n", "\nAngles\n"),
+            "declares 4 bonds but the file has no `Bonds` section",
+        ),
+        (
+            BPM.replace("Atoms # bpm/sphere", "Atoms # full"),
+            "found atom style `full`",
+        ),
+        (
+            BPM.replace("17 3 1 1.0 2600 1.5 1 1 0 0 0", "17 1 1.0 2600 1.5 1 1"),
+            "ring.data:20: expected 8 values `id molecule type diameter density x y z`",
+        ),
     ];
     for (text, want) in cases {
         let e = refused(&text, true);
@@ -62,6 +89,9 @@ fn inconsistent_bonds_sections_are_refused_with_their_line() {
     }
     // Read as a walled box, the bond 31–10 spans 3 m of the 4 m box: across its x faces.
     let e = refused(BPM, false);
-    assert!(e.contains("ring.data:35: bond 4 between atoms 31 and 10 spans 3e0 m along x"), "{e}");
+    assert!(
+        e.contains("ring.data:35: bond 4 between atoms 31 and 10 spans 3e0 m along x"),
+        "{e}"
+    );
     assert!(e.contains("crosses a periodic face"), "{e}");
 }
