@@ -388,6 +388,7 @@ pub fn relaxed_tensor(
     k: &BondStiffness,
     opts: &RelaxedOptions,
 ) -> Result<RelaxedResult> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "relaxed tensor")?;
     Ok(relaxed_solve(packing, bonds, k, opts, None)?.result)
 }
 

@@ -11,3 +11,4 @@ mod exit_codes;
 mod export;
 mod plugin;
 mod types;
+mod user_data;
