@@ -6,7 +6,7 @@ use super::output::check_json_numbers;
 use anisobond::export::vtk::{write_bonds_vtu, write_particles_vtu, StrainedState};
 use anisobond::io::OutputSet;
 use anisobond::specimen::{
-    self, Lateral, Platens, Selection, Shape, SolverChoice, SpecimenOptions, SpecimenReport,
+    Lateral, Load, Platens, Selection, Shape, SolverChoice, SpecimenOptions, SpecimenReport,
 };
 use anisobond::tensor::Voigt6;
 use anisobond::{Error, Result};
@@ -120,100 +120,17 @@ pub struct SpecimenArgs {
     output: PathBuf,
 }
 
-/// A group option's value as a [`Selection`]; `option` names it in errors.
-fn parse_group(text: &str, option: &str) -> Result<Selection> {
-    let bad = |what: String| {
-        Error::Invalid(format!(
-            "{option} {text:?}: {what}; expected box:XLO,YLO,ZLO,XHI,YHI,ZHI, \
-             cylinder:DIM,C1,C2,RADIUS,LO,HI, ids:ID,ID,… or file:PATH"
-        ))
-    };
-    let (kind, rest) = text
-        .split_once(':')
-        .ok_or_else(|| bad("no kind before ':'".into()))?;
-    let numbers = |count: usize| -> Result<Vec<f64>> {
-        let v: Vec<&str> = rest.split(',').map(str::trim).collect();
-        if v.len() != count {
-            return Err(bad(format!("{} numbers, expected {count}", v.len())));
-        }
-        v.iter()
-            .map(|t| {
-                t.parse::<f64>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| bad(format!("{t:?} is not a finite number")))
-            })
-            .collect()
-    };
-    let sel = match kind {
-        "box" => {
-            let v = numbers(6)?;
-            Selection::Box {
-                lo: anisobond::Vec3::new(v[0], v[1], v[2]),
-                hi: anisobond::Vec3::new(v[3], v[4], v[5]),
-            }
-        }
-        "cylinder" => {
-            let (dim, rest) = rest
-                .split_once(',')
-                .ok_or_else(|| bad("no axis before the numbers".into()))?;
-            let dim = match dim.trim() {
-                "x" => 0,
-                "y" => 1,
-                "z" => 2,
-                other => return Err(bad(format!("axis {other:?} is not x, y or z"))),
-            };
-            let w: Vec<&str> = rest.split(',').map(str::trim).collect();
-            if w.len() != 5 {
-                return Err(bad(format!(
-                    "{} numbers after the axis, expected 5",
-                    w.len()
-                )));
-            }
-            let w: Vec<f64> = w
-                .iter()
-                .map(|t| {
-                    t.parse::<f64>()
-                        .ok()
-                        .filter(|x| x.is_finite())
-                        .ok_or_else(|| bad(format!("{t:?} is not a finite number")))
-                })
-                .collect::<Result<_>>()?;
-            Selection::Cylinder {
-                dim,
-                c1: w[0],
-                c2: w[1],
-                radius: w[2],
-                lo: w[3],
-                hi: w[4],
-            }
-        }
-        "ids" => Selection::Ids(specimen::parse_ids(rest, option)?),
-        "file" => {
-            let path = Path::new(rest);
-            let body = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-            Selection::Ids(specimen::parse_ids(&body, rest)?)
-        }
-        other => return Err(bad(format!("unknown kind {other:?}"))),
-    };
-    sel.check().map_err(|e| match e {
-        Error::Invalid(m) => bad(m),
-        other => other,
-    })?;
-    Ok(sel)
-}
-
 /// Run `anisobond specimen`.
 pub fn run(a: SpecimenArgs) -> Result<()> {
     let held = a
         .held
         .as_deref()
-        .map(|t| parse_group(t, "--held"))
+        .map(|t| Selection::parse(t, "--held"))
         .transpose()?;
     let moved = a
         .moved
         .as_deref()
-        .map(|t| parse_group(t, "--moved"))
+        .map(|t| Selection::parse(t, "--moved"))
         .transpose()?;
     if a.strain.is_some() as u8 + a.displacement.is_some() as u8 + a.force.is_some() as u8 > 1 {
         return Err(Error::Invalid(
@@ -240,11 +157,12 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         PlatensArg::Frictionless => Platens::Frictionless,
         PlatensArg::Bonded => Platens::Bonded,
     };
-    if let Some(s) = a.strain {
-        opts.strain = s;
-    }
-    opts.displacement = a.displacement;
-    opts.force = a.force;
+    opts.load = match (a.strain, a.displacement, a.force) {
+        (Some(s), None, None) => Load::Strain(s),
+        (None, Some(d), None) => Load::Displacement(d),
+        (None, None, Some(f)) => Load::Force(f),
+        _ => Load::default(),
+    };
     opts.held = held;
     opts.moved = moved;
     opts.confining_pressure = a.confining_pressure;
@@ -261,7 +179,7 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         SolverArg::Cholesky => SolverChoice::Cholesky,
         SolverArg::Cg => SolverChoice::Cg,
     };
-    let r = specimen::solve(&asm, &opts).map_err(|e| match e {
+    let r = anisobond::specimen::solve(&asm, &opts).map_err(|e| match e {
         Error::Invalid(m) => Error::Invalid(format!(
             "{m} (options --axis, --end-layer {} m, --held, --moved, --strain, --displacement, \
              --force, --confining-pressure, --lateral)",

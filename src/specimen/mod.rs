@@ -79,6 +79,53 @@ pub enum SolverChoice {
 /// Cholesky, 1.5 s by two-level CG, `benches/regenerate.py --only specimen --quick`).
 pub const DIRECT_LIMIT: usize = 2_000;
 
+/// How the moved group is driven along the axis (compression positive); the response is
+/// linear, so a strain or shortening sets only the scale of the field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Load {
+    /// Axial engineering strain δ/L, in (0, 1).
+    Strain(f64),
+    /// Shortening δ (m) of the moved group towards the held one, finite and non-zero.
+    Displacement(f64),
+    /// Axial force (N) on the moved group, a rigid platen: δ is computed (force control).
+    Force(f64),
+}
+
+impl Default for Load {
+    /// A compressive strain of 1e-4.
+    fn default() -> Load {
+        Load::Strain(1e-4)
+    }
+}
+
+impl Load {
+    fn check(self) -> Result<()> {
+        let bad = |what: &str, v: f64| Err(Error::Invalid(format!("specimen: {what}, got {v}")));
+        match self {
+            Load::Strain(s) if !(s.is_finite() && s > 0.0 && s < 1.0) => {
+                bad("strain must be in (0, 1)", s)
+            }
+            Load::Displacement(d) if !(d.is_finite() && d != 0.0) => {
+                bad("displacement must be a finite non-zero length (m)", d)
+            }
+            Load::Force(f) if !(f.is_finite() && f != 0.0) => {
+                bad("force must be a finite non-zero force (N)", f)
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The shortening δ₀ (m) of the first load case over the gauge `length`: the one asked
+    /// for, or under force control a strain of 1e-4, scaled afterwards to the force.
+    fn trial_shortening(self, length: f64) -> f64 {
+        match self {
+            Load::Strain(s) => s * length,
+            Load::Displacement(d) => d,
+            Load::Force(_) => 1e-4 * length,
+        }
+    }
+}
+
 /// What the specimen solve is asked for.
 #[derive(Clone, Debug)]
 pub struct SpecimenOptions {
@@ -89,14 +136,8 @@ pub struct SpecimenOptions {
     pub end_layer: f64,
     /// How the platens hold the groups.
     pub platens: Platens,
-    /// Axial engineering strain applied (compression positive) when neither `displacement`
-    /// nor `force` is given.
-    pub strain: f64,
-    /// Shortening δ (m) of the moved group towards the held one (displacement control).
-    pub displacement: Option<f64>,
-    /// Axial force (N, compression positive) on the moved group, a rigid platen (force
-    /// control): δ is computed.
-    pub force: Option<f64>,
+    /// How the moved group is driven: a strain, a shortening or a force.
+    pub load: Load,
     /// Where the bond's contact point sits (YADE's mid-gap by default).
     pub lever_arm: LeverArm,
     /// The held group (default: the lowest end layer).
@@ -122,9 +163,7 @@ impl SpecimenOptions {
             axis,
             end_layer,
             platens: Platens::Frictionless,
-            strain: 1e-4,
-            displacement: None,
-            force: None,
+            load: Load::default(),
             lever_arm: LeverArm::MidGap,
             held: None,
             moved: None,
@@ -148,31 +187,7 @@ impl SpecimenOptions {
                 self.end_layer
             )));
         }
-        if !(self.strain.is_finite() && self.strain > 0.0 && self.strain < 1.0) {
-            return Err(Error::Invalid(format!(
-                "specimen: strain must be in (0, 1), got {}",
-                self.strain
-            )));
-        }
-        if self.displacement.is_some() && self.force.is_some() {
-            return Err(Error::Invalid(
-                "specimen: give a displacement or a force for the moved group, not both".into(),
-            ));
-        }
-        if let Some(d) = self.displacement {
-            if !(d.is_finite() && d != 0.0) {
-                return Err(Error::Invalid(format!(
-                    "specimen: displacement must be a finite non-zero length (m), got {d}"
-                )));
-            }
-        }
-        if let Some(f) = self.force {
-            if !(f.is_finite() && f != 0.0) {
-                return Err(Error::Invalid(format!(
-                    "specimen: force must be a finite non-zero force (N), got {f}"
-                )));
-            }
-        }
+        self.load.check()?;
         if let Some(p) = self.confining_pressure {
             if !(p.is_finite() && p != 0.0) {
                 return Err(Error::Invalid(format!(
@@ -562,7 +577,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     }
     // Load case 0: the moved group shortened by δ₀; case 1: the confining pressure with the
     // groups held in place.
-    let delta0 = opts.displacement.unwrap_or(opts.strain * length);
+    let delta0 = opts.load.trial_shortening(length);
     let mut prescribed: Vec<[Option<f64>; 6]> = vec![[None; 6]; nodes];
     for (a, &p) in original.iter().enumerate() {
         let value = if layer[p] == 2 { -sign * delta0 } else { 0.0 };
@@ -823,9 +838,9 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     }
     // The load factor of case 0: 1 under displacement control; under force control the
     // shortening that makes the moved group's axial force F.
-    let (alpha, control) = match opts.force {
-        Some(f) => ((f - force_b) / force_a, "force"),
-        None => (1.0, "displacement"),
+    let (alpha, control) = match opts.load {
+        Load::Force(f) => ((f - force_b) / force_a, "force"),
+        Load::Strain(_) | Load::Displacement(_) => (1.0, "displacement"),
     };
     let delta = alpha * delta0;
     let combine =

@@ -44,6 +44,91 @@ pub enum Selection {
 }
 
 impl Selection {
+    /// A group as the CLI and Python write it — `box:XLO,YLO,ZLO,XHI,YHI,ZHI`,
+    /// `cylinder:DIM,C1,C2,RADIUS,LO,HI` (LAMMPS' `region cylinder` order), `ids:ID,ID,…` or
+    /// `file:PATH` (ids, one or more per line) — checked; `option` names it in errors.
+    pub fn parse(text: &str, option: &str) -> Result<Selection> {
+        let bad = |what: String| {
+            Error::Invalid(format!(
+                "{option} {text:?}: {what}; expected box:XLO,YLO,ZLO,XHI,YHI,ZHI, \
+                 cylinder:DIM,C1,C2,RADIUS,LO,HI, ids:ID,ID,… or file:PATH"
+            ))
+        };
+        let (kind, rest) = text
+            .split_once(':')
+            .ok_or_else(|| bad("no kind before ':'".into()))?;
+        let numbers = |count: usize| -> Result<Vec<f64>> {
+            let v: Vec<&str> = rest.split(',').map(str::trim).collect();
+            if v.len() != count {
+                return Err(bad(format!("{} numbers, expected {count}", v.len())));
+            }
+            v.iter()
+                .map(|t| {
+                    t.parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| bad(format!("{t:?} is not a finite number")))
+                })
+                .collect()
+        };
+        let sel = match kind {
+            "box" => {
+                let v = numbers(6)?;
+                Selection::Box {
+                    lo: Vec3::new(v[0], v[1], v[2]),
+                    hi: Vec3::new(v[3], v[4], v[5]),
+                }
+            }
+            "cylinder" => {
+                let (dim, rest) = rest
+                    .split_once(',')
+                    .ok_or_else(|| bad("no axis before the numbers".into()))?;
+                let dim = match dim.trim() {
+                    "x" => 0,
+                    "y" => 1,
+                    "z" => 2,
+                    other => return Err(bad(format!("axis {other:?} is not x, y or z"))),
+                };
+                let w: Vec<&str> = rest.split(',').map(str::trim).collect();
+                if w.len() != 5 {
+                    return Err(bad(format!(
+                        "{} numbers after the axis, expected 5",
+                        w.len()
+                    )));
+                }
+                let w: Vec<f64> = w
+                    .iter()
+                    .map(|t| {
+                        t.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite())
+                            .ok_or_else(|| bad(format!("{t:?} is not a finite number")))
+                    })
+                    .collect::<Result<_>>()?;
+                Selection::Cylinder {
+                    dim,
+                    c1: w[0],
+                    c2: w[1],
+                    radius: w[2],
+                    lo: w[3],
+                    hi: w[4],
+                }
+            }
+            "ids" => Selection::Ids(parse_ids(rest, option)?),
+            "file" => {
+                let path = std::path::Path::new(rest);
+                let body = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+                Selection::Ids(parse_ids(&body, rest)?)
+            }
+            other => return Err(bad(format!("unknown kind {other:?}"))),
+        };
+        sel.check().map_err(|e| match e {
+            Error::Invalid(m) => bad(m),
+            other => other,
+        })?;
+        Ok(sel)
+    }
+
     /// A short description for reports and errors.
     pub fn describe(&self) -> String {
         match self {

@@ -7,7 +7,7 @@
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
 use anisobond::packing::Packing;
-use anisobond::specimen::{solve, Platens, Selection, Shape, SpecimenOptions};
+use anisobond::specimen::{solve, Load, Platens, Selection, Shape, SpecimenOptions};
 use anisobond::{Error, Vec3};
 
 const R: f64 = 1e-3;
@@ -139,7 +139,7 @@ fn force_control_gives_the_closed_form_shortening_and_balanced_reactions() {
     for platens in [Platens::Frictionless, Platens::Bonded] {
         let mut o = SpecimenOptions::new(2, 0.5 * R);
         o.platens = platens;
-        o.force = Some(3.0);
+        o.load = Load::Force(3.0);
         let r = solve(&asm, &o).unwrap();
         assert_eq!(r.control, "force");
         assert!(rel(r.displacement, 3.0 / k) < 1e-10, "{}", r.displacement);
@@ -172,11 +172,17 @@ fn force_control_gives_the_closed_form_shortening_and_balanced_reactions() {
     }
     // Displacement control by length: δ = 1 µm.
     let mut o = SpecimenOptions::new(2, 0.5 * R);
-    o.displacement = Some(1e-6);
+    o.load = Load::Displacement(1e-6);
     let r = solve(&asm, &o).unwrap();
     assert!(rel(r.axial_force, k * 1e-6) < 1e-10);
-    o.force = Some(1.0);
-    assert!(matches!(solve(&asm, &o), Err(Error::Invalid(_))));
+    // A load that moves nothing is refused, not answered with a zero field.
+    for load in [Load::Force(0.0), Load::Displacement(0.0), Load::Strain(1.5)] {
+        o.load = load;
+        assert!(
+            matches!(solve(&asm, &o), Err(Error::Invalid(_))),
+            "{load:?}"
+        );
+    }
 }
 
 /// Overlapping groups, an empty group and an id the packing does not have are refused.
@@ -223,7 +229,7 @@ fn confining_pressure_on_a_simple_cubic_block_gives_the_closed_form_lateral_stra
     let k = (nx * ny) as f64 * KN / (nz - 1) as f64;
     let mut o = SpecimenOptions::new(2, 0.5 * R);
     o.confining_pressure = Some(p);
-    o.force = Some(2.0);
+    o.load = Load::Force(2.0);
     let r = solve(&asm, &o).unwrap();
     let c = r.confining.as_ref().unwrap();
     let face = |a: usize, b: usize| (a as f64 * 2.0 * R) * (b as f64 * 2.0 * R);
