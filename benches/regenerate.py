@@ -11,6 +11,8 @@ as a ratio of two figures measured in the same run.
     python3 benches/regenerate.py --only table3  # just "Truszkowska 2018 Table 3" (30,700 spheres,
                                              # about 15 minutes on 2 idle cores)
     python3 benches/regenerate.py --only kruyt  # just "Kruyt 2014: ..." (tests/study/kruyt.rs, a few minutes)
+    python3 benches/regenerate.py --only specimen  # just "Specimen solve" (100,000 spheres: the
+                                             # specimen solve against the relaxed tensor, a few minutes)
 
 "Papers' applications" (Truszkowska 2018 Eq. 30 on an 8,000-sphere standard assembly, Kumar
 2016's buckling, Šmilauer's cavity with its wave run) takes about 1 minute on 2 cores; its wave
@@ -48,7 +50,8 @@ for _i, _a in enumerate(sys.argv):
     elif _a.startswith("--only="):
         ONLY = _a.split("=", 1)[1]
 ONLY_SECTIONS = {"applications": "Papers' applications", "table3": "Truszkowska 2018 Table 3",
-                 "kruyt": "Kruyt 2014: local adjustment field against the exact moduli"}
+                 "kruyt": "Kruyt 2014: local adjustment field against the exact moduli",
+                 "specimen": "Specimen solve"}
 NO_SCALE = "--no-scale" in sys.argv or os.environ.get("ANISOBOND_BENCH_NO_SCALE", "") not in ("", "0")
 BIN = os.path.join(ROOT, "target", "release", "anisobond")
 WORK = tempfile.mkdtemp(prefix="anisobond-bench-")
@@ -442,12 +445,61 @@ def kruyt(threads):
              "G, m = 1 / 2 / 3", "energy-based m = 3, K / G", "time (3 seeds: packing + solves)"], rows, after)
 
 
+def specimen(threads):
+    """The specimen solve (`anisobond specimen`) of a 100,000-sphere packing against the
+    relaxed tensor of the same packing, measured in the same run: the free cluster between
+    frictionless platens, and the same packing periodic across the axis."""
+    n = 10000 if QUICK else 100000
+    pk = os.path.join(WORK, "spec.txt")
+    sh(ab("pack", "--quiet", "--preset", "truszkowska-standard", "--particles", n, "-o", pk))
+    free = os.path.join(WORK, "spec-free.txt")
+    with open(pk) as f, open(free, "w") as g:
+        g.writelines(l for l in f if not l.startswith("# periodic"))
+    demo = os.path.join(WORK, "demo")
+    sh(ab("demo", "--particles", 300, "-o", demo))
+    model = os.path.join(demo, "model.toml")
+    rows = []
+    cmd = ab("tensor", pk, "--model", model, "--method", "relaxed")
+    t_rel, rss, text = sh(cmd)
+    c = re.search(r"C11 = ([0-9.]+) GPa, C12 = ([0-9.]+) GPa, C44 = ([0-9.]+) GPa", text)
+    rows.append(["relaxed tensor, two-level CG (default)", "`%s`" % cmd_text(cmd), n, threads,
+                 "%.1f s" % t_rel, "%.0f MB" % rss,
+                 "C11, C12, C44 = %s, %s, %s GPa; %s CG iterations" % (
+                     c.groups() + (grab(r"CG, (\d+) iterations", text),))])
+    walls = {}
+    for label, path, extra in [
+            ("specimen, free cluster, frictionless platens", free, []),
+            ("specimen, periodic across z, frictionless platens", pk, ["--lateral", "periodic"])]:
+        out = os.path.join(WORK, "specimen-out")
+        cmd = ab("specimen", path, "--model", model, *extra, "-o", out)
+        wall, rss, text = sh(cmd)
+        walls[label] = wall
+        j = json.load(open(os.path.join(out, "specimen.json")))
+        rows.append([label, "`%s`" % cmd_text(cmd), n, threads, "%.1f s" % wall, "%.0f MB" % rss,
+                     "E = %.3f GPa, ν = %.4f, platen stiffness %.4e N/m; %s, %s iterations, "
+                     "residual %.1e" % (j["young"] / 1e9, j["poisson"], j["platen_stiffness"],
+                                        "two-level CG" if j["solver"].get("two_level") else
+                                        j["solver"]["method"], j["solver"].get("iterations", "—"),
+                                        j["relative_residual"])])
+    intro = ("The exact static response of a finite specimen (docs/specimens.md) against the "
+             "periodic relaxed tensor of the same packing, same run: the free specimen takes "
+             "%.1f× the relaxed tensor's time, the laterally periodic prism %.1f× (whole "
+             "processes: reading, bonding, solving, writing the JSON, CSV and VTK files). "
+             "The demo's model (Truszkowska 2018 MRV); %s." % (
+                 walls["specimen, free cluster, frictionless platens"] / t_rel,
+                 walls["specimen, periodic across z, frictionless platens"] / t_rel,
+                 measured_at()))
+    section("Specimen solve", intro,
+            ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
+
+
 def main():
     if ONLY is not None:
         if ONLY not in ONLY_SECTIONS:
             sys.exit("--only: one of %s" % ", ".join(sorted(ONLY_SECTIONS)))
         subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
-        {"applications": applications, "table3": table3, "kruyt": kruyt}[ONLY](os.cpu_count())
+        {"applications": applications, "table3": table3, "kruyt": kruyt,
+         "specimen": specimen}[ONLY](os.cpu_count())
         splice_sections(os.path.join(ROOT, "BENCHMARKS.md"))
         shutil.rmtree(WORK, ignore_errors=True)
         print("rewrote %s in BENCHMARKS.md" % ", ".join(repr(s[0]) for s in sections))
@@ -707,6 +759,7 @@ def main():
     applications(threads)
     table3(threads)
     kruyt(threads)
+    specimen(threads)
 
     # --- Write ---------------------------------------------------------------------------
     commit = git("rev-parse", "--short", "HEAD")

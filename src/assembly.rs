@@ -18,7 +18,7 @@ use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
 use crate::homogenize::{mean_field, voigt};
 use crate::model::Model;
-use crate::packing::{self, Packing};
+use crate::packing::{self, Packing, PeriodicCell};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -33,6 +33,9 @@ pub struct Assembly {
     pub bonds: BondSet,
     /// Each bond's springs kn, ks (N/m), kr, ktw (N·m/rad).
     pub springs: BondStiffness,
+    /// Each bond's type in the user's file (a LAMMPS data file's Bonds section,
+    /// [`Assembly::from_data_bonds`]), written to bond tables as `type`; `None` otherwise.
+    pub bond_types: Option<Vec<u32>>,
 }
 
 /// How to get the assembly's 6×6 stiffness tensor.
@@ -222,6 +225,7 @@ impl Assembly {
         region: &packing::cut::Region,
         model: Model,
     ) -> Result<(Assembly, packing::cut::Cut)> {
+        PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "cutting a specimen")?;
         let cut = packing::cut::cut(packing, region)?;
         if !model.needs_packing() {
             let assembly = Assembly::new(cut.packing.clone(), model)?;
@@ -243,6 +247,7 @@ impl Assembly {
             model,
             bonds,
             springs,
+            bond_types: None,
         };
         Ok((assembly, cut))
     }
@@ -268,7 +273,37 @@ impl Assembly {
             model,
             bonds,
             springs,
+            bond_types: None,
         })
+    }
+
+    /// An assembly of a data file's own bond network ([`packing::io::DataBonds`], the
+    /// `Bonds` section read with `packing`) instead of the model's bonding rule, the bonds'
+    /// types kept; springs as in [`Assembly::new`]. Each bond joins the nearest periodic
+    /// images of its atoms, as LAMMPS takes them. Refuses, naming the file (`source`) and the
+    /// line, a bond whose atoms are at the same place.
+    pub fn from_data_bonds(
+        packing: Packing,
+        model: Model,
+        bonds: &packing::io::DataBonds,
+        source: &str,
+    ) -> Result<Assembly> {
+        let set = BondSet::from_pairs(&packing, &bonds.i, &bonds.j, None).map_err(|e| match e {
+            Error::Invalid(m) => {
+                // from_pairs names bond b by its place in the list.
+                let line = m
+                    .strip_prefix("bond ")
+                    .and_then(|r| r.split(':').next())
+                    .and_then(|b| b.parse::<usize>().ok())
+                    .and_then(|b| bonds.lines.get(b).copied())
+                    .unwrap_or(0);
+                Error::parse(source, line, m)
+            }
+            other => other,
+        })?;
+        let mut asm = Assembly::with_bonds(packing, model, set)?;
+        asm.bond_types = Some(bonds.types.clone());
+        Ok(asm)
     }
 
     /// An assembly whose bonds and springs are a bond table's (docs/formats.md; e.g. a YADE
@@ -283,15 +318,25 @@ impl Assembly {
             model,
             bonds,
             springs,
+            bond_types: None,
         })
     }
 
     /// Read the packing file (every format [`packing::io::read_packing`] knows) and bond it
-    /// by `model`; a refusal that comes from the model names `model_path`, one of a packing
-    /// without bonds names both files.
+    /// by `model` — or, for a data file with a `Bonds` section, take those bonds
+    /// ([`Assembly::from_data_bonds`]); a refusal that comes from the model names
+    /// `model_path`, one of a packing without bonds names both files.
     pub fn from_packing_file(packing_path: &Path, model: Model, model_path: &Path) -> Result<Self> {
-        let packing = packing::io::read_packing(packing_path)?;
-        Assembly::from_packing_read(packing, packing_path, model, model_path)
+        let read = packing::io::read_packing_as(packing_path, Default::default())?;
+        match &read.bonds {
+            Some(b) => Assembly::from_data_bonds(
+                read.packing,
+                model,
+                b,
+                &packing_path.display().to_string(),
+            ),
+            None => Assembly::from_packing_read(read.packing, packing_path, model, model_path),
+        }
     }
 
     /// Bond a packing already read from `packing_path` (e.g. by
@@ -343,6 +388,7 @@ impl Assembly {
         method: &Method,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<TensorResult> {
+        PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), method.name())?;
         let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
         let (c, detail) = match method {
             Method::MeanField => {
@@ -394,6 +440,7 @@ impl Assembly {
 
     /// The reference integrator on this assembly with bond law `law` and settings `dem`.
     pub fn simulation(&self, law: LawKind, dem: &DemOptions) -> Result<Simulation> {
+        PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the integrator")?;
         let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
         Simulation::new(&self.packing, &self.bonds, law, dem)
     }
@@ -429,6 +476,7 @@ impl Assembly {
         options: &GrippedOptions,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<GrippedTensor> {
+        PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the gripped tests")?;
         gripped_tensor(
             &self.packing,
             &self.bonds,
@@ -449,6 +497,7 @@ impl Assembly {
     ) -> Result<Option<crate::export::vtk::StrainedState>> {
         use crate::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
         if let Some(e) = strain {
+            PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "a strained state")?;
             if let Some(x) = e.iter().find(|x| x.abs() > 0.1 || x.is_nan()) {
                 return Err(Error::Invalid(format!(
                     "strain component {x} is not a small strain: the state is linear \
@@ -475,13 +524,14 @@ impl Assembly {
     }
 
     /// Write the bond-stiffness table (CSV, SPEC columns, then `id_i,id_j` when the packing
-    /// has particle ids) atomically.
+    /// has particle ids and `type` when the bonds came from a data file) atomically.
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
-        bonds::table::write_bond_table_with_ids(
+        bonds::table::write_bond_table_with_columns(
             path,
             &self.bonds_as_given(),
             &self.springs,
             self.packing.ids.as_deref(),
+            self.bond_types.as_deref(),
         )
     }
 

@@ -87,6 +87,15 @@ impl BondSet {
             let d = packing.positions[c as usize] - packing.positions[a as usize];
             let (branch, img) = match (&packing.cell, image) {
                 (Some(cell), Some(m)) => {
+                    if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && m[b][k] != 0) {
+                        return Err(Error::Invalid(format!(
+                            "bond {b}: particles {a} and {c} with image {:?}, but the box is \
+                             not periodic along {} (boundary {}): expected image 0 there",
+                            m[b],
+                            ["x", "y", "z"][k],
+                            cell.boundary()
+                        )));
+                    }
                     let img = packing.image_from_given(a as usize, c as usize, m[b]);
                     let branch = d + cell.shift(img);
                     let nearest = cell.minimum_image(d).0.norm();

@@ -1,6 +1,8 @@
 //! The bond table CSV of docs/formats.md, one bond per row:
 //! `i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz` — length = centre distance (m),
-//! radius = R_b (m), kn/ks in N/m, kr/ktw in N·m/rad, ix,iy,iz = periodic image of j.
+//! radius = R_b (m), kn/ks in N/m, kr/ktw in N·m/rad, ix,iy,iz = periodic image of j;
+//! then `id_i,id_j` (the particles' own ids) when the packing has them and `type` (the
+//! bond's type in the user's file) when the bonds came from one. Readers find columns by name.
 //!
 //! Numbers are written in their shortest round-trip form, so a table read back gives the
 //! same bits. Rows are formatted in parallel chunks and written in bond order.
@@ -31,6 +33,7 @@ fn format_rows(
     bonds: &BondSet,
     k: &BondStiffness,
     ids: Option<&[u64]>,
+    types: Option<&[u32]>,
     range: std::ops::Range<usize>,
 ) {
     s.clear();
@@ -65,6 +68,10 @@ fn format_rows(
             s.push(',');
             push_int(s, &mut ib, ids[bonds.j[b] as usize]);
         }
+        if let Some(types) = types {
+            s.push(',');
+            push_int(s, &mut ib, types[b]);
+        }
         s.push('\n');
     }
 }
@@ -86,10 +93,27 @@ pub fn write_bond_table_ids_to(
     k: &BondStiffness,
     ids: Option<&[u64]>,
 ) -> std::io::Result<()> {
-    match ids {
-        Some(_) => writeln!(w, "{HEADER},id_i,id_j")?,
-        None => writeln!(w, "{HEADER}")?,
+    write_bond_table_columns_to(w, bonds, k, ids, None)
+}
+
+/// Write the bond table to any writer, with the trailing columns `id_i,id_j` (the
+/// particles' own ids, indexed by `i` and `j`) when `ids` is given and `type` (each bond's
+/// type in the user's file, e.g. a LAMMPS data file's Bonds section) when `types` is.
+pub fn write_bond_table_columns_to(
+    w: &mut dyn Write,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+    types: Option<&[u32]>,
+) -> std::io::Result<()> {
+    let mut header = HEADER.to_string();
+    if ids.is_some() {
+        header.push_str(",id_i,id_j");
     }
+    if types.is_some() {
+        header.push_str(",type");
+    }
+    writeln!(w, "{header}")?;
     let n = bonds.len();
     let n_chunks = n.div_ceil(CHUNK);
     // Groups of chunks are formatted in parallel into buffers that are reused from group to
@@ -106,7 +130,14 @@ pub fn write_bond_table_ids_to(
             .enumerate()
             .for_each(|(g, buf)| {
                 let c = first + g;
-                format_rows(buf, bonds, k, ids, c * CHUNK..((c + 1) * CHUNK).min(n));
+                format_rows(
+                    buf,
+                    bonds,
+                    k,
+                    ids,
+                    types,
+                    c * CHUNK..((c + 1) * CHUNK).min(n),
+                );
             });
         for buf in &buffers[..count] {
             w.write_all(buf.as_bytes())?;
@@ -133,6 +164,60 @@ pub fn write_bond_table_with_ids(
     crate::io::write_atomic(path, |w| {
         write_bond_table_ids_to(w, bonds, k, ids).map_err(|e| Error::io(path, e))
     })
+}
+
+/// [`write_bond_table_with_ids`] with the `type` column too when `types` is given
+/// ([`write_bond_table_columns_to`]).
+pub fn write_bond_table_with_columns(
+    path: &Path,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+    types: Option<&[u32]>,
+) -> Result<()> {
+    crate::io::write_atomic(path, |w| {
+        write_bond_table_columns_to(w, bonds, k, ids, types).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// A bond table with each bond's particles by their own ids (`id_i,id_j`) when it has them.
+pub type TableWithIds = (BondSet, BondStiffness, Option<Vec<[u64; 2]>>);
+
+/// Read a bond table file with its `id_i,id_j` columns, when it has them: each bond's
+/// particles by their own ids (LAMMPS / LIGGGHTS atom ids), each ≥ 1.
+pub fn read_bond_table_atom_ids(path: &Path) -> Result<TableWithIds> {
+    let text = crate::io::read_to_string(path)?;
+    let name = path.display().to_string();
+    let (bonds, k, lines) = parse_bond_table_lines(&text, &name)?;
+    let mut rows = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let header: Vec<&str> = rows
+        .next()
+        .map(|(_, h)| h.split(',').map(str::trim).collect())
+        .unwrap_or_default();
+    let col = |n: &str| header.iter().position(|c| *c == n);
+    let (Some(ci), Some(cj)) = (col("id_i"), col("id_j")) else {
+        return Ok((bonds, k, None));
+    };
+    let mut ids = Vec::with_capacity(bonds.len());
+    for ((ln, line), &want) in rows.zip(&lines) {
+        debug_assert_eq!(ln + 1, want);
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let id = |c: usize, n: &str| -> Result<u64> {
+            match f[c].parse::<u64>() {
+                Ok(v) if v >= 1 => Ok(v),
+                _ => Err(Error::parse(
+                    &name,
+                    ln + 1,
+                    format!("column `{n}`: expected an atom id ≥ 1, found `{}`", f[c]),
+                )),
+            }
+        };
+        ids.push([id(ci, "id_i")?, id(cj, "id_j")?]);
+    }
+    Ok((bonds, k, Some(ids)))
 }
 
 /// Read a bond table file.
@@ -197,6 +282,18 @@ pub fn check_against_packing(
         let d = packing.positions[j] - packing.positions[i];
         let (img, branch) = match &packing.cell {
             Some(cell) => {
+                if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && given[k] != 0) {
+                    return Err(Error::parse(
+                        name,
+                        line,
+                        format!(
+                            "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but the packing's \
+                             box is not periodic along {} (boundary {}): expected 0 there",
+                            ["x", "y", "z"][k],
+                            cell.boundary()
+                        ),
+                    ));
+                }
                 let img = packing.image_from_given(i, j, given);
                 (img, d + cell.shift(img))
             }

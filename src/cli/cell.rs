@@ -4,7 +4,9 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::packing::io::{read_packing_as, CellChoice, CellOptionNames};
+use anisobond::packing::io::{
+    read_packing_as, CellChoice, CellOptionNames, DataBonds, PackingRead,
+};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::{Error, Result, Vec3};
 use std::path::{Path, PathBuf};
@@ -24,6 +26,11 @@ pub struct CellArgs {
     /// volume the spheres' bounding box), e.g. a walled LIGGGHTS box (`boundary f f f`).
     #[arg(long, global = true)]
     free: bool,
+    /// For a LAMMPS / LIGGGHTS data file: periodic along some axes only, as LAMMPS' `boundary`
+    /// says it, e.g. "p p f" (a settled bed: bonds across the x and y faces only; f, s or m
+    /// = not periodic). A dump's BOX BOUNDS state it themselves.
+    #[arg(long, global = true, value_name = "\"X Y Z\"", conflicts_with_all = ["cell", "periodic", "free"])]
+    boundary: Option<String>,
 }
 
 static CHOICE: OnceLock<CellChoice> = OnceLock::new();
@@ -50,6 +57,30 @@ pub fn set(a: &CellArgs) -> Result<()> {
             )));
         }
         CellChoice::Cell(l)
+    } else if let Some(text) = &a.boundary {
+        let words: Vec<&str> = text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|w| !w.is_empty())
+            .collect();
+        let flag = |w: &str| match w {
+            "p" => Some(true),
+            _ if !w.is_empty() && w.len() <= 2 && w.chars().all(|c| "fsm".contains(c)) => {
+                Some(false)
+            }
+            _ => None,
+        };
+        let flags: Vec<bool> = words.iter().filter_map(|w| flag(w)).collect();
+        if words.len() != 3 || flags.len() != 3 {
+            return Err(Error::Invalid(format!(
+                "--boundary {text}: expected three flags as LAMMPS' `boundary` gives them, e.g. \
+                 \"p p f\" (p periodic; f, s or m not)"
+            )));
+        }
+        match [flags[0], flags[1], flags[2]] {
+            [true, true, true] => CellChoice::Periodic,
+            [false, false, false] => CellChoice::Free,
+            b => CellChoice::Boundary(b),
+        }
     } else if a.periodic {
         CellChoice::Periodic
     } else if a.free {
@@ -63,12 +94,28 @@ pub fn set(a: &CellArgs) -> Result<()> {
 
 /// Read a packing file with the user's cell options, printing the note on its cell.
 pub fn read(path: &Path) -> Result<Packing> {
+    Ok(read_full(path)?.packing)
+}
+
+/// [`read`], with the file's own bonds (a data file's `Bonds` section) when it has them.
+pub fn read_full(path: &Path) -> Result<PackingRead> {
     let choice = CHOICE.get().copied().unwrap_or_default();
     let r = read_packing_as(path, choice)?;
     if let Some(note) = r.cell_note(&path.display().to_string(), CellOptionNames::CLI) {
         eprintln!("note: {note}");
     }
-    Ok(r.packing)
+    Ok(r)
+}
+
+/// The note of a packing whose file brings its own bonds (stderr).
+fn bonds_note(path: &Path, b: &DataBonds) -> String {
+    format!(
+        "{}: its Bonds section is the bond network ({} bonds, {} bond type(s), kept as `type` \
+         in bond tables) instead of the model's bonding rule; the model gives the springs",
+        path.display(),
+        b.len(),
+        b.distinct_types()
+    )
 }
 
 /// The `PACKING --model MODEL` pair of every command that bonds a packing.
@@ -101,8 +148,33 @@ pub fn assembly(packing_path: &Path, model_path: &Path) -> Result<Assembly> {
     assembly_with(packing_path, model, model_path)
 }
 
-/// [`read`] the packing and bond it by `model` ([`Assembly::from_packing_file`]).
+/// [`read`] the packing and bond it by `model` ([`Assembly::from_packing_file`]); a data
+/// file with a `Bonds` section keeps its own bonds ([`Assembly::from_data_bonds`]), said in
+/// a note.
 pub fn assembly_with(packing_path: &Path, model: Model, model_path: &Path) -> Result<Assembly> {
-    let packing = read(packing_path)?;
-    Assembly::from_packing_read(packing, packing_path, model, model_path)
+    let r = read_full(packing_path)?;
+    match &r.bonds {
+        Some(b) => {
+            eprintln!("note: {}", bonds_note(packing_path, b));
+            Assembly::from_data_bonds(r.packing, model, b, &packing_path.display().to_string())
+        }
+        None => Assembly::from_packing_read(r.packing, packing_path, model, model_path),
+    }
+}
+
+/// The packing of `packing_path` with the bonds and springs of the bond table `table`
+/// (`--bonds`, [`Assembly::from_table_file`]). The rule when the file has its own bonds
+/// too: the table given on the command line replaces them, said in a note.
+pub fn assembly_with_table(packing_path: &Path, model: Model, table: &Path) -> Result<Assembly> {
+    let r = read_full(packing_path)?;
+    if let Some(b) = &r.bonds {
+        eprintln!(
+            "note: {}: --bonds {} replaces the {} bonds of its Bonds section (the table's bonds \
+             and springs are used)",
+            packing_path.display(),
+            table.display(),
+            b.len()
+        );
+    }
+    Assembly::from_table_file(r.packing, model, table)
 }

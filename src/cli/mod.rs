@@ -497,7 +497,7 @@ fn tensor_cmd(a: TensorArgs) -> Result<()> {
     let report = match (&a.packing, a.method) {
         (Some(p), m) => {
             let asm = match &a.bonds {
-                Some(table) => Assembly::from_table_file(cell::read(p)?, model.clone(), table)?,
+                Some(table) => cell::assembly_with_table(p, model.clone(), table)?,
                 None => cell::assembly_with(p, model.clone(), &a.model)?,
             };
             report_of(&asm, m, &a.statics, &a.integrator).map_err(|e| blame_inputs(e, &inputs))?

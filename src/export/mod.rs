@@ -17,6 +17,35 @@ use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::{Error, Result};
 
+/// The atom ids an engine's files give the particles: the packing's own ([`Packing::ids`]:
+/// a data file's, a dump's) when every one is ≥ 1; else `None`, and the files number them
+/// index + 1 (YADE's body ids start at 0: no LAMMPS / LIGGGHTS atom id).
+pub(crate) fn engine_ids(packing: &Packing) -> Option<&[u64]> {
+    packing.ids.as_deref().filter(|ids| !ids.contains(&0))
+}
+
+/// Give a written script its run bit wherever it is readable (`chmod +x` under the
+/// user's umask: 644 → 755, 600 → 700), so that `./run.sh` runs as the export's message
+/// says.
+pub(crate) fn make_executable(path: &std::path::Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path)
+            .map_err(|e| Error::io(path, e))?
+            .permissions()
+            .mode();
+        std::fs::set_permissions(
+            path,
+            std::fs::Permissions::from_mode(mode | ((mode & 0o444) >> 2)),
+        )
+        .map_err(|e| Error::io(path, e))?;
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
+}
+
 /// An upper bound of the critical time step of the explicit (central-difference) integration
 /// of a bonded packing: 2/ω_max ≤ 2/√(q_i) for every particle i, where q_i =
 /// Σ_b (k_n + 2k_s)/(3m_i) is the Rayleigh quotient of M⁻¹K for a unit translation of i

@@ -305,6 +305,7 @@ pub fn write_yade_export(
     model: Option<&Model>,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "YADE export")?;
     check_exportable(packing, bonds, springs)?;
     opts.validate()?;
     if let Some(dt) = opts.time_step {
@@ -312,7 +313,14 @@ pub fn write_yade_export(
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     packing::io::write_packing(&dir.join(files::PACKING), packing)?;
-    table::write_bond_table(&dir.join(files::BONDS), bonds, springs)?;
+    // YADE's bodies are the packing's spheres in order; the user's own particle ids (a data
+    // file's, a dump's) are kept as the table's `id_i,id_j`, to map results back.
+    table::write_bond_table_with_ids(
+        &dir.join(files::BONDS),
+        bonds,
+        springs,
+        packing.ids.as_deref(),
+    )?;
     if let Some(m) = model {
         crate::io::write_string_atomic(&dir.join(files::MODEL), &m.to_toml_string())?;
     }

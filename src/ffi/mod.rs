@@ -359,14 +359,47 @@ fn parse_model(text: &str, format: &str) -> Result<Box<ModelHandle>> {
     ModelHandle::new(model)
 }
 
+/// The table's rows as the engines' plugins key them, by atom id − 1: a table with
+/// `id_i,id_j` columns (a packing with its own atom ids) gives i = id_i − 1, j = id_j − 1,
+/// so that the plugins find the user's atoms; else the packing indices (ids 1…N).
 fn load_bond_table(path: &str) -> Result<Vec<BondRow>> {
-    let (bonds, k) = bonds::table::read_bond_table(Path::new(path))?;
-    Ok(rows(&bonds, &k))
+    let (bonds, k, ids) = bonds::table::read_bond_table_atom_ids(Path::new(path))?;
+    let mut rows = rows(&bonds, &k);
+    if let Some(ids) = ids {
+        for (r, [a, b]) in rows.iter_mut().zip(ids) {
+            let fit = |id: u64| {
+                u32::try_from(id.wrapping_sub(1)).map_err(|_| {
+                    Error::Invalid(format!(
+                        "{path}: atom id {id} exceeds 2^32, the largest the bridge carries"
+                    ))
+                })
+            };
+            (r.i, r.j) = (fit(a)?, fit(b)?);
+        }
+    }
+    Ok(rows)
 }
 
+/// The bonds of a packing file by the model (or a data file's own Bonds section), keyed
+/// as [`load_bond_table`] keys them: by atom id − 1 when the file gives atom ids (all ≥ 1,
+/// as the exports write them: `crate::export::engine_ids`).
 fn build_bond_table(packing_path: &str, model: &ModelHandle) -> Result<Vec<BondRow>> {
     let asm = assembly(packing_path, model)?;
-    Ok(rows(&asm.bonds, &asm.springs))
+    let mut rows = rows(&asm.bonds, &asm.springs);
+    if let Some(ids) = crate::export::engine_ids(&asm.packing) {
+        let fit = |p: u32| {
+            let id = ids[p as usize];
+            u32::try_from(id.wrapping_sub(1)).map_err(|_| {
+                Error::Invalid(format!(
+                    "{packing_path}: atom id {id} is outside 1 to 2^32, the ids the bridge carries"
+                ))
+            })
+        };
+        for r in &mut rows {
+            (r.i, r.j) = (fit(r.i)?, fit(r.j)?);
+        }
+    }
+    Ok(rows)
 }
 
 /// The packing of atoms given by arrays (see the bridge's `bond_atoms`), sorted by id.

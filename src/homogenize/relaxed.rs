@@ -222,10 +222,16 @@ impl BlockSparse {
 
     /// Y = K X for a block vector X (one 6×6 block per particle: DOF × load case).
     pub fn apply(&self, x: &[Block6], y: &mut [Block6]) {
+        self.apply_cols(x, y, 6);
+    }
+
+    /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
+    /// solve with fewer than six right-hand sides does not pay for six.
+    pub fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
         y.par_iter_mut().enumerate().for_each(|(p, yp)| {
             let mut acc = Block6::zeros();
             for k in self.row_start[p]..self.row_start[p + 1] {
-                mul_add6(&mut acc, &self.block[k], &x[self.col[k] as usize]);
+                mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
             }
             *yp = acc;
         });
@@ -298,6 +304,37 @@ pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
     }
 }
 
+/// [`mul_add6`] on the first `cols` columns of b (and of acc); all six when `cols` ≥ 6, by
+/// the same kernel and in the same order.
+#[inline(always)]
+pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
+    if cols >= 6 {
+        return mul_add6(acc, a, b);
+    }
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = acc.as_mut_slice();
+    for j in 0..cols {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            let ak = &a[6 * k..6 * k + 6];
+            for i in 0..6 {
+                col[i] += ak[i] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
+/// a·b on the first `cols` columns of b (see [`mul_add6_cols`]).
+#[inline(always)]
+pub(crate) fn mul6_cols(a: &Block6, b: &Block6, cols: usize) -> Block6 {
+    let mut c = Block6::zeros();
+    mul_add6_cols(&mut c, a, b, cols);
+    c
+}
+
 /// a·b for 6×6 blocks (see [`mul_add6`]).
 #[inline(always)]
 pub(crate) fn mul6(a: &Block6, b: &Block6) -> Block6 {
@@ -351,6 +388,7 @@ pub fn relaxed_tensor(
     k: &BondStiffness,
     opts: &RelaxedOptions,
 ) -> Result<RelaxedResult> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "relaxed tensor")?;
     Ok(relaxed_solve(packing, bonds, k, opts, None)?.result)
 }
 
@@ -527,6 +565,40 @@ pub(crate) fn block_jacobi_cg(
     pcg(k, b, &pre, None, &scale, &opts, None)
 }
 
+/// [`block_jacobi_cg`] with the two-level preconditioner of [`super::two_level`] (aggregates
+/// of about [`DEFAULT_PARTICLES_PER_AGGREGATE`] nodes on a grid over `box_lengths`, `positions`
+/// inside [0, box_lengths)): iterations nearly independent of the size, for a held structure
+/// too large for the direct solve. Falls back to block-Jacobi when the coarse matrix cannot
+/// be factored (only the preconditioner is weaker).
+pub(crate) fn two_level_cg(
+    k: &BlockSparse,
+    b: &[Block6],
+    positions: &[crate::Vec3],
+    box_lengths: crate::Vec3,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<Block6>, usize, f64)> {
+    let pre: Vec<(Block6, usize)> = (0..k.rows())
+        .into_par_iter()
+        .map(|p| pinv_psd(&k.diagonal(p)))
+        .collect();
+    let scale = column_dots(b, b).map(f64::sqrt);
+    let opts = RelaxedOptions {
+        tolerance,
+        max_iterations,
+        ..Default::default()
+    };
+    let two_level = TwoLevel::new(
+        k,
+        positions,
+        box_lengths,
+        true,
+        DEFAULT_PARTICLES_PER_AGGREGATE,
+    )
+    .ok();
+    pcg(k, b, &pre, two_level.as_ref(), &scale, &opts, None)
+}
+
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
 /// scale before cancellation), and the column norms.
 fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {
@@ -561,11 +633,14 @@ fn pcg(
     start: Option<&[Block6]>,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let m = b.len();
+    let (live, bnorm) = live_columns(b, scale);
+    // Load cases past the last live one are zero throughout: not computed.
+    let cols = live.iter().rposition(|&l| l).map_or(1, |c| c + 1);
     let jacobi = |r: &[Block6], z: &mut [Block6]| {
         z.par_iter_mut()
             .zip(r.par_iter())
             .zip(pre.par_iter())
-            .for_each(|((z, r), (p, _))| *z = mul6(p, r));
+            .for_each(|((z, r), (p, _))| *z = mul6_cols(p, r, cols));
     };
     let (mut w, mut t) = match two_level {
         Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
@@ -580,13 +655,12 @@ fn pcg(
             return Ok(());
         };
         jacobi(r, &mut w); // w = M r
-        tl.coarse_of_k(&w, &mut t)?; // t = Q K w
+        tl.coarse_of_k_cols(&w, &mut t, cols)?; // t = Q K w
         z.par_iter_mut()
             .zip(w.par_iter().zip(t.par_iter()))
             .for_each(|(z, (w, t))| *z = w - t);
         Ok(())
     };
-    let (live, bnorm) = live_columns(b, scale);
     let mut x = match start {
         Some(s) => {
             let mut x = s.to_vec();
@@ -642,7 +716,7 @@ fn pcg(
         if it == opts.max_iterations {
             break;
         }
-        k.apply(&p, &mut ap);
+        k.apply_cols(&p, &mut ap, cols);
         let pap = column_dots(&p, &ap);
         if let Some(c) = (0..6).find(|&c| live[c] && pap[c] < 0.0) {
             // Only a preloaded network (geometric stiffness) can make K indefinite.

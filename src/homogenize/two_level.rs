@@ -10,7 +10,7 @@
 
 use super::cholesky::BlockCholesky;
 use super::network::Block6;
-use super::relaxed::{mul6, mul_add6, BlockSparse};
+use super::relaxed::{mul6, mul6_cols, mul_add6, mul_add6_cols, BlockSparse};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -230,19 +230,24 @@ impl TwoLevel {
 
     /// Q K w = P (PᵀKP)⁺ (KP)ᵀ w, written into `out` (no product with K itself).
     pub fn coarse_of_k(&self, w: &[Block6], out: &mut [Block6]) -> Result<()> {
+        self.coarse_of_k_cols(w, out, 6)
+    }
+
+    /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
+    pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
         let restricted: Vec<Block6> = (0..self.aggregates())
             .into_par_iter()
             .map(|a| {
                 let mut s = Block6::zeros();
                 for (p, kpt) in &self.kpt[self.kpt_start[a]..self.kpt_start[a + 1]] {
-                    mul_add6(&mut s, kpt, &w[*p as usize]);
+                    mul_add6_cols(&mut s, kpt, &w[*p as usize], cols);
                 }
                 s
             })
             .collect();
         let xc = self.coarse.solve(&restricted)?;
         out.par_iter_mut().enumerate().for_each(|(p, o)| {
-            *o = mul6(&self.prolongation[p], &xc[self.aggregate[p] as usize]);
+            *o = mul6_cols(&self.prolongation[p], &xc[self.aggregate[p] as usize], cols);
         });
         Ok(())
     }

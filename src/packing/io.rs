@@ -13,8 +13,11 @@
 //! - YADE `SpherePack.save`: optional first line `##PERIODIC:: Lx Ly Lz`, then
 //!   `x y z r clumpId` (or `x y z r`). A clumpId of −1 (a free sphere) is accepted; a sphere
 //!   that belongs to a clump (clumpId ≥ 0) is refused, since a clump is one rigid body.
-//! - LIGGGHTS data (LAMMPS data format): title line, header (`N atoms`, `xlo xhi`, …),
-//!   `Atoms` section with `id type diameter density x y z` (diameter, not radius).
+//! - LIGGGHTS / LAMMPS data files: title line, header (`N atoms`, `xlo xhi`, …), `Atoms`
+//!   section of `atom_style granular` / `sphere` (`id type diameter density x y z`) or
+//!   `bpm/sphere` (`id molecule type diameter density x y z`; diameter, not radius), and a
+//!   `Bonds` section (`id type atom1 atom2`), returned as the file's own bond network
+//!   ([`DataBonds`], [`parse_data`]).
 //!
 //! Particle ids are kept where the file gives them: LIGGGHTS atom ids and the body ids of
 //! `#format id_x_y_z_r_matId` ([`Packing::ids`]); bond tables then carry `id_i,id_j`.
@@ -69,6 +72,9 @@ pub enum CellChoice {
     Cell(Vec3),
     /// A free cluster: no bonds across faces; its volume is the spheres' bounding box.
     Free,
+    /// For LAMMPS / LIGGGHTS data: the box periodic along the flagged axes only (LAMMPS
+    /// `boundary p p f`: a settled bed); a dump's BOX BOUNDS must state the same.
+    Boundary([bool; 3]),
 }
 
 /// Where the cell (or its absence) of a packing read by [`read_packing_as`] came from.
@@ -91,6 +97,9 @@ pub struct PackingRead {
     pub format: PackingFormat,
     /// Whether the cell was stated by the file, chosen by the caller, or assumed.
     pub origin: CellOrigin,
+    /// The file's own bond network (a data file's `Bonds` section), to be used instead of
+    /// the model's bonding rule; `None` when the file has none.
+    pub bonds: Option<DataBonds>,
 }
 
 /// How a client names the [`CellChoice`] options in [`PackingRead::cell_note`].
@@ -173,17 +182,18 @@ pub fn read_packing_as(path: &Path, choice: CellChoice) -> Result<PackingRead> {
 pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<PackingRead> {
     let format = detect_format(text);
     let refuse = |what: String| Error::parse(source, 0, what);
+    let mut bonds = None;
+    let mut data = |periodic: [bool; 3]| -> Result<Packing> {
+        let (p, b) = parse_data_boundary(text, source, periodic)?;
+        bonds = b;
+        Ok(p)
+    };
     let (packing, origin) = match format {
         PackingFormat::LiggghtsData => match choice {
-            CellChoice::AsStated => (
-                parse_liggghts_data(text, source, true)?,
-                CellOrigin::Assumed,
-            ),
-            CellChoice::Periodic => (parse_liggghts_data(text, source, true)?, CellOrigin::Chosen),
-            CellChoice::Free => (
-                parse_liggghts_data(text, source, false)?,
-                CellOrigin::Chosen,
-            ),
+            CellChoice::AsStated => (data([true; 3])?, CellOrigin::Assumed),
+            CellChoice::Periodic => (data([true; 3])?, CellOrigin::Chosen),
+            CellChoice::Free => (data([false; 3])?, CellOrigin::Chosen),
+            CellChoice::Boundary(flags) => (data(flags)?, CellOrigin::Chosen),
             CellChoice::Cell(_) => {
                 return Err(refuse(
                     "a LIGGGHTS data file has its box: expected --periodic (the box is the \
@@ -194,20 +204,22 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
         },
         PackingFormat::Dump => {
             let p = parse_dump(text, source)?;
+            let flags = p.cell.map_or([false; 3], |c| c.periodic);
             let agrees = match choice {
                 CellChoice::AsStated => true,
-                CellChoice::Periodic => p.cell.is_some(),
+                CellChoice::Periodic => flags == [true; 3],
                 CellChoice::Free => p.cell.is_none(),
+                CellChoice::Boundary(b) => flags == b,
                 CellChoice::Cell(_) => false,
             };
             if !agrees {
                 return Err(refuse(format!(
-                    "the dump's BOX BOUNDS state {}; expected no --cell, --periodic or --free \
-                     that contradicts them",
-                    if p.cell.is_some() {
-                        "a periodic box (pp pp pp)"
-                    } else {
-                        "a non-periodic box"
+                    "the dump's BOX BOUNDS state {}; expected no --cell, --periodic, --free or \
+                     --boundary that contradicts them",
+                    match &p.cell {
+                        Some(c) if c.is_mixed() => format!("the boundary {}", c.boundary()),
+                        Some(_) => "a periodic box (pp pp pp)".to_string(),
+                        None => "a non-periodic box".to_string(),
                     }
                 )));
             }
@@ -218,8 +230,11 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
             if stated {
                 let agrees = match choice {
                     CellChoice::AsStated => true,
-                    CellChoice::Periodic => p.cell.is_some(),
+                    CellChoice::Periodic | CellChoice::Boundary([true, true, true]) => {
+                        p.cell.is_some()
+                    }
                     CellChoice::Free => p.cell.is_none(),
+                    CellChoice::Boundary(_) => false,
                     CellChoice::Cell(l) => p.cell.is_some_and(|c| c.lengths == l),
                 };
                 if !agrees {
@@ -250,6 +265,14 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
                                 .into(),
                         ))
                     }
+                    CellChoice::Boundary(_) => {
+                        return Err(refuse(
+                            "--boundary is for LAMMPS / LIGGGHTS data files and dumps, whose \
+                             box it makes periodic along some axes; this text file states no \
+                             box"
+                            .into(),
+                        ))
+                    }
                     CellChoice::Cell(l) => {
                         let cell = PeriodicCell::new(l)?;
                         let ids = p.ids;
@@ -265,6 +288,7 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
         packing,
         format,
         origin,
+        bonds,
     })
 }
 
@@ -490,6 +514,8 @@ struct CellSource {
     lengths: Vec3,
     /// The header line (the first box-bounds line for LIGGGHTS data).
     line: usize,
+    /// The periodic axes (all, but for a box of mixed periodicity).
+    periodic: [bool; 3],
 }
 
 /// The checked packing: refuses a file without particles (`empty_hint` says what a
@@ -514,7 +540,7 @@ fn finish(
             // Wrapping divides by L and counts the shift in an i32: a position more than
             // 2³¹ cell lengths out has lost every digit that would place it in the cell.
             for (p, &line) in spheres.positions.iter().zip(&spheres.lines) {
-                for k in 0..3 {
+                for k in (0..3).filter(|&k| c.periodic[k]) {
                     let cells = (p[k] / c.lengths[k]).abs();
                     if !cells.is_finite() || cells >= 2_147_483_647.0 {
                         return Err(Error::parse(
@@ -555,7 +581,7 @@ fn finish(
     }
     let cell = match cell {
         Some(c) => Some(
-            PeriodicCell::new(c.lengths)
+            PeriodicCell::with_periodic(c.lengths, c.periodic)
                 .map_err(|e| Error::parse(source, c.line, e.to_string()))?,
         ),
         None => None,
@@ -797,7 +823,11 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
         ));
     }
     let stated = stated_free || free_line.is_some() || cell.is_some();
-    let cell = cell.map(|(lengths, line)| CellSource { lengths, line });
+    let cell = cell.map(|(lengths, line)| CellSource {
+        lengths,
+        line,
+        periodic: [true; 3],
+    });
     let packing = finish(source, spheres, cell, SPHERE_LINE_HINT)?;
     let packing = if columns == SphereColumns::IdXyzrMatId {
         packing
@@ -866,12 +896,80 @@ const LAMMPS_SECTIONS: &[&str] = &[
     "AngleAngle",
 ];
 
-/// What the atoms of a LIGGGHTS data file look like (for the "no particles" error).
+/// What the atoms of a LAMMPS / LIGGGHTS data file look like (for the "no particles" error).
 const ATOMS_HINT: &str = "expected a header line `N atoms` with N ≥ 1 and an `Atoms # granular` \
-                          section of N lines `id type diameter density x y z` (optionally \
-                          followed by 3 integer image flags)";
+                          (or `# sphere`) section of N lines `id type diameter density x y z`, \
+                          or `Atoms # bpm/sphere` with lines `id molecule type diameter density \
+                          x y z` (each optionally followed by 3 integer image flags)";
 
-/// One atom line of a LIGGGHTS data file.
+/// The atom styles of a data file's `Atoms` section that anisobond reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AtomStyle {
+    /// LIGGGHTS `granular` or LAMMPS `sphere` (or no style comment): `id type diameter
+    /// density x y z`.
+    Sphere,
+    /// LAMMPS `bpm/sphere`: `id molecule-ID type diameter density x y z` (the molecule id
+    /// is not used).
+    BpmSphere,
+}
+
+impl AtomStyle {
+    /// The columns of an atom line before the optional image flags.
+    fn columns(self) -> usize {
+        match self {
+            AtomStyle::Sphere => 7,
+            AtomStyle::BpmSphere => 8,
+        }
+    }
+
+    /// The column names, for refusals.
+    fn names(self) -> &'static str {
+        match self {
+            AtomStyle::Sphere => "id type diameter density x y z",
+            AtomStyle::BpmSphere => "id molecule type diameter density x y z",
+        }
+    }
+}
+
+/// The bond network of a data file's `Bonds` section (`id type atom1 atom2`): the user's
+/// own topology, each bond between two particles of the packing read with it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DataBonds {
+    /// First particle of each bond (index into the packing, which is sorted by atom id).
+    pub i: Vec<u32>,
+    /// Second particle of each bond (index), as the file lists it (not necessarily > i).
+    pub j: Vec<u32>,
+    /// Each bond's type (column 2, ≥ 1).
+    pub types: Vec<u32>,
+    /// Each bond's id (column 1).
+    pub ids: Vec<u64>,
+    /// The line of each bond in the file.
+    pub lines: Vec<usize>,
+    /// The `N bond types` of the header, if given.
+    pub n_types: Option<u32>,
+}
+
+impl DataBonds {
+    /// Number of bonds.
+    pub fn len(&self) -> usize {
+        self.i.len()
+    }
+
+    /// True when the section lists no bond.
+    pub fn is_empty(&self) -> bool {
+        self.i.is_empty()
+    }
+
+    /// Number of distinct bond types used.
+    pub fn distinct_types(&self) -> usize {
+        let mut t = self.types.clone();
+        t.sort_unstable();
+        t.dedup();
+        t.len()
+    }
+}
+
+/// One atom line of a data file.
 struct Atom {
     id: u64,
     atom_type: u64,
@@ -880,15 +978,17 @@ struct Atom {
     line: usize,
 }
 
-/// Parse one `id type diameter density x y z [ix iy iz]` line of the Atoms section.
-fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
-    if words.len() != 7 && words.len() != 10 {
+/// Parse one atom line of the Atoms section of `style` (optionally followed by 3 image
+/// flags).
+fn parse_atom(words: &[&str], style: AtomStyle, source: &str, line: usize) -> Result<Atom> {
+    let c = style.columns();
+    if words.len() != c && words.len() != c + 3 {
         return Err(Error::parse(
             source,
             line,
             format!(
-                "expected 7 values `id type diameter density x y z` (optionally \
-                 followed by 3 image flags), found {}",
+                "expected {c} values `{}` (optionally followed by 3 image flags), found {}",
+                style.names(),
                 words.len()
             ),
         ));
@@ -902,9 +1002,14 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
             "atom id (column 1) must be ≥ 1 (LAMMPS/LIGGGHTS ids start at 1), found 0",
         ));
     }
+    // bpm/sphere: column 2 is the molecule id (an integer, 0 for none), not used.
+    let t = usize::from(style == AtomStyle::BpmSphere);
+    if t == 1 {
+        parse_count::<u64>(words[1], "an integer molecule id (column 2)", source, line)?;
+    }
     let atom_type: u64 = parse_count(
-        words[1],
-        "a positive integer atom type (column 2)",
+        words[t + 1],
+        &format!("a positive integer atom type (column {})", t + 2),
         source,
         line,
     )?;
@@ -912,22 +1017,31 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
         return Err(Error::parse(
             source,
             line,
-            "atom type (column 2) must be ≥ 1 (LAMMPS/LIGGGHTS types start at 1), found 0",
+            format!(
+                "atom type (column {}) must be ≥ 1 (LAMMPS/LIGGGHTS types start at 1), found 0",
+                t + 2
+            ),
         ));
     }
-    let d = parse_positive(words[2], "diameter", "diameter", source, line)?;
-    parse_positive(words[3], "density", "density (column 4)", source, line)?;
-    let x = parse_number(words[4], "x", source, line)?;
-    let y = parse_number(words[5], "y", source, line)?;
-    let z = parse_number(words[6], "z", source, line)?;
-    for (k, w) in words.iter().enumerate().skip(7) {
+    let d = parse_positive(words[t + 2], "diameter", "diameter", source, line)?;
+    parse_positive(
+        words[t + 3],
+        "density",
+        &format!("density (column {})", t + 4),
+        source,
+        line,
+    )?;
+    let x = parse_number(words[t + 4], "x", source, line)?;
+    let y = parse_number(words[t + 5], "y", source, line)?;
+    let z = parse_number(words[t + 6], "z", source, line)?;
+    for (k, w) in words.iter().enumerate().skip(c) {
         if w.parse::<i32>().is_err() {
             return Err(Error::parse(
                 source,
                 line,
                 format!(
                     "image flag {} (column {}) must be an integer, found `{w}`",
-                    ["ix", "iy", "iz"][k - 7],
+                    ["ix", "iy", "iz"][k - c],
                     k + 1
                 ),
             ));
@@ -942,14 +1056,89 @@ fn parse_atom(words: &[&str], source: &str, line: usize) -> Result<Atom> {
     })
 }
 
-/// Parse LIGGGHTS data text (see [`read_liggghts_data`]). Atoms are sorted by id.
+/// One line `id type atom1 atom2` of the Bonds section: (id, type, atom1, atom2, line).
+type BondLine = (u64, u64, u64, u64, usize);
+
+fn parse_bond_line(words: &[&str], source: &str, line: usize) -> Result<BondLine> {
+    if words.len() != 4 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "expected 4 values `id type atom1 atom2` in the Bonds section, found {}",
+                words.len()
+            ),
+        ));
+    }
+    let names = [
+        "bond id (column 1)",
+        "bond type (column 2)",
+        "atom1 (column 3)",
+        "atom2 (column 4)",
+    ];
+    let mut v = [0u64; 4];
+    for k in 0..4 {
+        v[k] = parse_count(
+            words[k],
+            &format!("a positive integer {}", names[k]),
+            source,
+            line,
+        )?;
+        if v[k] == 0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "{} must be ≥ 1 (LAMMPS numbers them from 1), found 0",
+                    names[k]
+                ),
+            ));
+        }
+    }
+    Ok((v[0], v[1], v[2], v[3], line))
+}
+
+/// Parse LIGGGHTS data text (see [`read_liggghts_data`]). Atoms are sorted by id. A
+/// `Bonds` section is checked but not returned (see [`parse_data`]).
 pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<Packing> {
+    Ok(parse_data(text, source, periodic)?.0)
+}
+
+/// Parse a LAMMPS / LIGGGHTS data file: `Atoms # granular`, `# sphere` (or no style
+/// comment: `id type diameter density x y z`) or `# bpm/sphere` (`id molecule type diameter
+/// density x y z`), each with optional image flags; atoms sorted by id, their ids kept. With
+/// `periodic` the box is the periodic cell and positions are shifted by the box origin into
+/// [0, L); without it the packing is free and positions are kept as written. A `Bonds`
+/// section (`id type atom1 atom2`) is returned as the file's bond network ([`DataBonds`]),
+/// checked: its count against the header's `N bonds`, types from 1 to `N bond types`, atoms
+/// that exist, no atom bonded to itself, no pair twice; in a free packing, a bond spanning
+/// more than half the box along an axis (it crosses a periodic face) is refused.
+pub fn parse_data(
+    text: &str,
+    source: &str,
+    periodic: bool,
+) -> Result<(Packing, Option<DataBonds>)> {
+    parse_data_boundary(text, source, [periodic; 3])
+}
+
+/// [`parse_data`] with the box periodic along the axes flagged in `periodic` (LAMMPS
+/// `boundary p p f`: a settled bed); along the others the box is a wall: positions are
+/// not wrapped and no bond crosses its faces. All false: a free packing.
+pub fn parse_data_boundary(
+    text: &str,
+    source: &str,
+    periodic: [bool; 3],
+) -> Result<(Packing, Option<DataBonds>)> {
     let lines = text_lines(text);
     let mut n_atoms: Option<(usize, usize)> = None;
     let mut n_types: Option<(u64, usize)> = None;
+    let mut n_bonds: Option<(usize, usize)> = None;
+    let mut n_bond_types: Option<(u64, usize)> = None;
     let mut bounds: [Option<(f64, f64, usize)>; 3] = [None; 3];
     let mut atoms: Vec<Atom> = Vec::new();
     let mut atoms_line: Option<usize> = None;
+    let mut bond_rows: Vec<BondLine> = Vec::new();
+    let mut bonds_line: Option<usize> = None;
     // The lines that are not blank after their comment: (line number, text, words). Line 1
     // is the title and always skipped (LAMMPS rule).
     let mut rows = lines
@@ -966,6 +1155,17 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         if n_words == 2 && words[1] == "atoms" {
             let n: usize = parse_count(words[0], "an atom count in `N atoms`", source, line)?;
             n_atoms = Some((n, line));
+        } else if n_words == 2 && words[1] == "bonds" {
+            let n: usize = parse_count(words[0], "a bond count in `N bonds`", source, line)?;
+            n_bonds = Some((n, line));
+        } else if n_words == 3 && words[1..] == ["bond", "types"] {
+            let t: u64 = parse_count(
+                words[0],
+                "a bond type count in `N bond types`",
+                source,
+                line,
+            )?;
+            n_bond_types = Some((t, line));
         } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
             let axis = match (words[2], words[3]) {
                 ("xlo", "xhi") => 0,
@@ -1023,9 +1223,10 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             )?;
             n_types = Some((t, line));
         }
-        // Other header lines (bonds, extra bond per atom, …) are irrelevant.
+        // Other header lines (extra bond per atom, angles, …) are irrelevant.
     }
     // Sections.
+    let mut style = AtomStyle::Sphere;
     while let Some((line, raw, words)) = rows.next() {
         if !LAMMPS_SECTIONS.contains(&words[0]) {
             return Err(Error::parse(
@@ -1038,6 +1239,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             ));
         }
         let is_atoms = words[0] == "Atoms";
+        let is_bonds = words == ["Bonds"];
         if is_atoms {
             if let Some(first) = atoms_line {
                 return Err(Error::parse(
@@ -1047,20 +1249,39 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 ));
             }
             atoms_line = Some(line);
-            if let Some(style) = raw.split('#').nth(1).map(str::trim) {
-                if !style.is_empty() && style != "granular" {
-                    return Err(Error::parse(
-                        source,
-                        line,
-                        format!("expected `Atoms # granular`, found atom style `{style}`"),
-                    ));
-                }
+            if let Some(s) = raw.split('#').nth(1).map(str::trim) {
+                style = match s {
+                    "" | "granular" | "sphere" => AtomStyle::Sphere,
+                    "bpm/sphere" => AtomStyle::BpmSphere,
+                    other => {
+                        return Err(Error::parse(
+                            source,
+                            line,
+                            format!(
+                                "expected `Atoms # granular`, `Atoms # sphere` or `Atoms # \
+                                 bpm/sphere`, found atom style `{other}`"
+                            ),
+                        ))
+                    }
+                };
             }
+        }
+        if is_bonds {
+            if let Some(first) = bonds_line {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("second `Bonds` section (the first is on line {first})"),
+                ));
+            }
+            bonds_line = Some(line);
         }
         // Section body: lines up to the next section name.
         while let Some((line, _, words)) = rows.next_if(not_section) {
             if is_atoms {
-                atoms.push(parse_atom(&words, source, line)?);
+                atoms.push(parse_atom(&words, style, source, line)?);
+            } else if is_bonds {
+                bond_rows.push(parse_bond_line(&words, source, line)?);
             }
         }
     }
@@ -1068,7 +1289,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         Error::parse(
             source,
             0,
-            format!("LIGGGHTS data: missing header line `N atoms`; {ATOMS_HINT}"),
+            format!("data file: missing header line `N atoms`; {ATOMS_HINT}"),
         )
     })?;
     if n == 0 && atoms.is_empty() {
@@ -1082,7 +1303,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         return Err(Error::parse(
             source,
             0,
-            "LIGGGHTS data: missing `Atoms` section",
+            "data file: missing `Atoms` section",
         ));
     };
     if atoms.len() != n {
@@ -1101,8 +1322,8 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 source,
                 a.line,
                 format!(
-                    "atom type {} (column 2) exceeds the {t} atom types of the header (line \
-                     {t_line}): expected a type from 1 to {t}",
+                    "atom type {} exceeds the {t} atom types of the header (line {t_line}): \
+                     expected a type from 1 to {t}",
                     a.atom_type
                 ),
             ));
@@ -1121,7 +1342,15 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             ));
         }
     }
-    let cell = if periodic {
+    let data_bonds = data_bonds(
+        &bond_rows,
+        bonds_line,
+        n_bonds,
+        n_bond_types,
+        &atoms,
+        source,
+    )?;
+    let cell = if periodic.iter().any(|&p| p) {
         let mut lo = Vec3::zeros();
         let mut len = Vec3::zeros();
         let mut first_line = usize::MAX;
@@ -1131,7 +1360,7 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
                 Error::parse(
                     source,
                     0,
-                    format!("LIGGGHTS data: missing header line `{name}lo {name}hi`"),
+                    format!("data file: missing header line `{name}lo {name}hi`"),
                 )
             })?;
             lo[axis] = l;
@@ -1144,11 +1373,44 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
             CellSource {
                 lengths: len,
                 line: first_line,
+                periodic,
             },
         ))
     } else {
         None
     };
+    if let Some(b) = &data_bonds {
+        // Along a non-periodic axis a bond must not reach across the box (the file's bonds
+        // across a periodic face would become bonds through the whole specimen).
+        for k in 0..b.len() {
+            let (ai, aj) = (&atoms[b.i[k] as usize], &atoms[b.j[k] as usize]);
+            let d = aj.position - ai.position;
+            for (axis, bound) in bounds.iter().enumerate() {
+                if periodic[axis] {
+                    continue;
+                }
+                let Some((lo, hi, _)) = bound else { continue };
+                if d[axis].abs() > 0.5 * (hi - lo) {
+                    let name = ["x", "y", "z"][axis];
+                    return Err(Error::parse(
+                        source,
+                        b.lines[k],
+                        format!(
+                            "bond {} between atoms {} and {} spans {:e} m along {name}, more \
+                             than half the box ({:e} m): it crosses a periodic face of the \
+                             box; expected the file read as periodic along {name} \
+                             (--periodic, or --boundary with p for {name})",
+                            b.ids[k],
+                            ai.id,
+                            aj.id,
+                            d[axis].abs(),
+                            hi - lo
+                        ),
+                    ));
+                }
+            }
+        }
+    }
     let mut spheres = Spheres::default();
     for a in &atoms {
         let mut p = a.position;
@@ -1168,9 +1430,106 @@ pub fn parse_liggghts_data(text: &str, source: &str, periodic: bool) -> Result<P
         }
         spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
     }
-    finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
+    let packing = finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
         .with_ids(atoms.iter().map(|a| a.id).collect())
-        .map_err(|e| Error::parse(source, 0, e.to_string()))
+        .map_err(|e| Error::parse(source, 0, e.to_string()))?;
+    Ok((packing, data_bonds))
+}
+
+/// The checked bond network of a data file's Bonds section (see [`parse_data`]), atoms
+/// sorted by id; `None` without a Bonds section and with `0 bonds`.
+fn data_bonds(
+    rows: &[BondLine],
+    section: Option<usize>,
+    n_bonds: Option<(usize, usize)>,
+    n_types: Option<(u64, usize)>,
+    atoms: &[Atom],
+    source: &str,
+) -> Result<Option<DataBonds>> {
+    match (section, n_bonds) {
+        (None, None) | (None, Some((0, _))) => return Ok(None),
+        (None, Some((n, line))) => {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("the header declares {n} bonds but the file has no `Bonds` section"),
+            ))
+        }
+        (Some(s), None) => {
+            return Err(Error::parse(
+                source,
+                s,
+                "a `Bonds` section without the header line `N bonds`",
+            ))
+        }
+        (Some(s), Some((n, line))) if n != rows.len() => {
+            return Err(Error::parse(
+                source,
+                s,
+                format!(
+                    "the header (line {line}) declares {n} bonds but the Bonds section has {}",
+                    rows.len()
+                ),
+            ))
+        }
+        _ => {}
+    }
+    let index = |id: u64| atoms.binary_search_by_key(&id, |a| a.id).ok();
+    let mut out = DataBonds {
+        n_types: n_types.map(|t| t.0.min(u32::MAX as u64) as u32),
+        ..Default::default()
+    };
+    let mut seen: std::collections::HashMap<(u32, u32), usize> = std::collections::HashMap::new();
+    for &(id, t, a1, a2, line) in rows {
+        if let Some((nt, nt_line)) = n_types {
+            if t > nt {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "bond type {t} exceeds the {nt} bond types of the header (line \
+                         {nt_line}): expected a type from 1 to {nt}"
+                    ),
+                ));
+            }
+        }
+        if t > u32::MAX as u64 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("bond type {t} exceeds 2^32 − 1"),
+            ));
+        }
+        let missing = |a: u64| {
+            Error::parse(
+                source,
+                line,
+                format!("bond {id} names atom {a}, which is not in the Atoms section"),
+            )
+        };
+        let i = index(a1).ok_or_else(|| missing(a1))? as u32;
+        let j = index(a2).ok_or_else(|| missing(a2))? as u32;
+        if i == j {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("bond {id} joins atom {a1} to itself"),
+            ));
+        }
+        if let Some(first) = seen.insert((i.min(j), i.max(j)), line) {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("atoms {a1} and {a2} are bonded twice (also line {first})"),
+            ));
+        }
+        out.i.push(i);
+        out.j.push(j);
+        out.types.push(t as u32);
+        out.ids.push(id);
+        out.lines.push(line);
+    }
+    Ok((!out.is_empty()).then_some(out))
 }
 
 /// A dump's box: (lo, hi) per axis, the boundary flags per axis, the `ITEM: BOX BOUNDS` line.
@@ -1236,7 +1595,8 @@ fn dump_columns(words: &[&str], source: &str, line: usize) -> Result<DumpColumns
 /// With several snapshots the last is read (the state the run ended in). `ITEM: BOX BOUNDS`
 /// gives the box; its boundary flags decide the cell: `pp pp pp` is a periodic cell (the
 /// box, positions taken relative to its lower corner), any non-periodic flag on every axis
-/// (`ff`, `fs`, `ss`, `fm`, …) a free cluster; mixed periodicity and triclinic boxes are
+/// (`ff`, `fs`, `ss`, `fm`, …) a free cluster, mixed flags (`pp pp ff`: a settled bed) a
+/// cell periodic along the `pp` axes only ([`PeriodicCell::periodic`]); triclinic boxes are
 /// refused by name. Columns are found by name (`ITEM: ATOMS id type x y z radius`): `id`
 /// (kept as the particles' ids, atoms sorted by it: dumps from several MPI ranks are not in
 /// order), `x y z` / `xu yu zu` / `xs ys zs`, `radius` or `diameter`.
@@ -1388,24 +1748,15 @@ pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
     let Some((b, flags, box_line)) = bounds else {
         return Err(Error::parse(source, 0, "dump: no `ITEM: BOX BOUNDS`"));
     };
-    let periodic: Vec<bool> = flags.iter().map(|f| f == "pp").collect();
-    let cell = if periodic.iter().all(|&p| p) {
+    let periodic = [0, 1, 2].map(|k| flags[k] == "pp");
+    let cell = if periodic.iter().any(|&p| p) {
         let lengths = Vec3::new(b[0].1 - b[0].0, b[1].1 - b[1].0, b[2].1 - b[2].0);
         check_cell_volume(&lengths, source, box_line)?;
         Some(CellSource {
             lengths,
             line: box_line,
+            periodic,
         })
-    } else if periodic.iter().any(|&p| p) {
-        return Err(Error::parse(
-            source,
-            box_line,
-            format!(
-                "boundary `{}`: mixed periodicity is not supported yet; expected pp pp pp (a \
-                 periodic cell) or non-periodic flags on every axis (a free cluster)",
-                flags.join(" ")
-            ),
-        ));
     } else {
         None
     };

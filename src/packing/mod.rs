@@ -20,20 +20,67 @@ pub mod routes;
 
 use crate::{Error, Result, Vec3};
 
-/// Orthorhombic periodic cell [0, Lx) × [0, Ly) × [0, Lz) (lengths in m).
+/// Orthorhombic periodic cell [0, Lx) × [0, Ly) × [0, Lz) (lengths in m), periodic along
+/// every axis or, for a box of mixed periodicity (LAMMPS `boundary p p f`: a settled bed, a
+/// slab), along some ([`PeriodicCell::periodic`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PeriodicCell {
     /// Edge lengths Lx, Ly, Lz (m).
     pub lengths: Vec3,
+    /// Which axes are periodic. Along a non-periodic axis the length is the box's extent
+    /// only: positions are not wrapped, images are 0, no bond crosses its faces. Every
+    /// homogenisation, simulation and export needs all three periodic and refuses a mixed
+    /// cell ([`PeriodicCell::require_fully_periodic`]).
+    pub periodic: [bool; 3],
 }
 
 impl PeriodicCell {
-    /// A cell with the given edge lengths, checked by [`PeriodicCell::check_lengths`].
+    /// A cell with the given edge lengths, checked by [`PeriodicCell::check_lengths`],
+    /// periodic along every axis.
     pub fn new(lengths: Vec3) -> Result<Self> {
+        PeriodicCell::with_periodic(lengths, [true; 3])
+    }
+
+    /// A box periodic along the axes flagged in `periodic` (at least one), with the given
+    /// edge lengths (checked as in [`PeriodicCell::new`]).
+    pub fn with_periodic(lengths: Vec3, periodic: [bool; 3]) -> Result<Self> {
         if let Some(problem) = PeriodicCell::check_lengths(&lengths) {
             return Err(Error::Invalid(format!("periodic cell: {problem}")));
         }
-        Ok(PeriodicCell { lengths })
+        if !periodic.iter().any(|&p| p) {
+            return Err(Error::Invalid(
+                "periodic cell: no periodic axis (a box periodic along no axis is a free \
+                 cluster: no cell)"
+                    .into(),
+            ));
+        }
+        Ok(PeriodicCell { lengths, periodic })
+    }
+
+    /// True when some axis is not periodic.
+    pub fn is_mixed(&self) -> bool {
+        self.periodic.iter().any(|&p| !p)
+    }
+
+    /// The boundary as LAMMPS writes it, e.g. `p p f`.
+    pub fn boundary(&self) -> String {
+        self.periodic.map(|p| if p { "p" } else { "f" }).join(" ")
+    }
+
+    /// Refuse ([`Error::Invalid`]) a cell of mixed periodicity for `what` (a tensor, a
+    /// simulation, an export): those strain or deform a fully periodic cell; a box with a
+    /// non-periodic axis is read and bonded (bonds across its periodic faces only) but has
+    /// no such strain along that axis.
+    pub fn require_fully_periodic(cell: Option<&PeriodicCell>, what: &str) -> Result<()> {
+        match cell {
+            Some(c) if c.is_mixed() => Err(Error::Invalid(format!(
+                "{what}: the packing's box is periodic along some axes only (boundary {}); \
+                 expected a fully periodic cell (p p p) or a free cluster: a mixed box is read \
+                 and bonded (`anisobond bonds`) but not yet strained, simulated or exported",
+                c.boundary()
+            ))),
+            _ => Ok(()),
+        }
     }
 
     /// What is wrong with cell lengths `l`, if anything: each must be finite and > 0, and
@@ -77,6 +124,9 @@ impl PeriodicCell {
         let mut out = p;
         let mut shift = [0i32; 3];
         for k in 0..3 {
+            if !self.periodic[k] {
+                continue;
+            }
             let l = self.lengths[k];
             let s = (p[k] / l).floor();
             let mut w = p[k] - s * l;
@@ -96,11 +146,15 @@ impl PeriodicCell {
     }
 
     /// Minimum-image branch vector for a raw difference `d = x_j − x_i` of wrapped
-    /// positions: returns `(d + image ∘ L, image)` with every component in [−L/2, L/2].
+    /// positions: returns `(d + image ∘ L, image)` with every component in [−L/2, L/2]
+    /// (along the periodic axes; a non-periodic one keeps `d`, image 0).
     pub fn minimum_image(&self, d: Vec3) -> (Vec3, [i32; 3]) {
         let mut out = d;
         let mut image = [0i32; 3];
         for k in 0..3 {
+            if !self.periodic[k] {
+                continue;
+            }
             let l = self.lengths[k];
             let s = -(d[k] / l).round();
             out[k] = d[k] + s * l;

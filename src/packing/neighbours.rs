@@ -104,7 +104,7 @@ pub(crate) fn pairs_in(
     }
     if let Some(c) = cell {
         for k in 0..3 {
-            if cutoff >= 0.5 * c.lengths[k] {
+            if c.periodic[k] && cutoff >= 0.5 * c.lengths[k] {
                 return Err(Error::Invalid(format!(
                     "neighbour search: cutoff distance {cutoff:e} m is not below half the \
                      periodic cell length L{} = {:e} m, so the periodic image of a pair would \
@@ -159,7 +159,7 @@ pub(crate) fn pairs_in(
 /// Cells at least one cutoff wide, with the spheres of each (counting sort by cell).
 pub(crate) struct CellGrid {
     dims: [usize; 3],
-    periodic: bool,
+    periodic: [bool; 3],
     cell_of: Vec<[usize; 3]>,
     start: Vec<usize>,
     members: Vec<u32>,
@@ -168,20 +168,24 @@ pub(crate) struct CellGrid {
 impl CellGrid {
     pub(crate) fn new(positions: &[Vec3], cell: Option<&PeriodicCell>, cutoff: f64) -> Self {
         let n = positions.len();
-        let (origin, extent) = match cell {
-            Some(c) => (Vec3::zeros(), c.lengths),
-            None => {
-                let mut lo = Vec3::repeat(f64::INFINITY);
-                let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-                for p in positions {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(p[k]);
-                        hi[k] = hi[k].max(p[k]);
-                    }
-                }
-                (lo, hi - lo)
+        // Periodic axes span the cell [0, L); the others the particles' extent.
+        let periodic = cell.map_or([false; 3], |c| c.periodic);
+        let mut lo = Vec3::repeat(f64::INFINITY);
+        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
+        for p in positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
             }
-        };
+        }
+        let mut origin = lo;
+        let mut extent = hi - lo;
+        if let Some(c) = cell {
+            for k in (0..3).filter(|&k| periodic[k]) {
+                origin[k] = 0.0;
+                extent[k] = c.lengths[k];
+            }
+        }
         // Cells per dimension: as many as fit with width ≥ cutoff, capped so that empty
         // space does not cost more than a few cells per particle.
         let mut dims = [1usize; 3];
@@ -246,7 +250,7 @@ impl CellGrid {
         }
         CellGrid {
             dims,
-            periodic: cell.is_some(),
+            periodic,
             cell_of,
             start,
             members,
@@ -267,7 +271,7 @@ impl CellGrid {
             let (list, len) = &mut per_dim[k];
             for o in -1i64..=1 {
                 let mut q = c[k] as i64 + o;
-                if self.periodic {
+                if self.periodic[k] {
                     q = q.rem_euclid(n);
                 } else if q < 0 || q >= n {
                     continue;

@@ -231,41 +231,74 @@ impl PyAssembly {
 
     /// The assembly as a finite specimen between two platens (`anisobond specimen`,
     /// docs/specimens.md): the dict of specimen.json (platen_stiffness N/m, young Pa, poisson,
-    /// …) plus "displacement" (N, 3) m and "layer" (N,) 0/1/2 (none, held, moved).
-    #[pyo3(signature = (axis = "z", *, end_layer = None, platens = "frictionless", strain = 1e-4))]
+    /// reactions N, …) plus "displacement" (N, 3) m and "layer" (N,) 0/1/2 (none, held,
+    /// moved). The options are the command's: `held`/`moved` as `box:…`, `cylinder:…`,
+    /// `ids:…` or `file:PATH`; at most one of `strain`, `displacement` (m), `force` (N);
+    /// `confining_pressure` (Pa), `shape` "prism" | "cylinder", `lateral` "free" |
+    /// "periodic". GIL released.
+    #[pyo3(signature = (axis = "z", *, end_layer = None, platens = "frictionless", strain = None,
+        displacement = None, force = None, held = None, moved = None, confining_pressure = None,
+        shape = "prism", lateral = "free"))]
+    #[allow(clippy::too_many_arguments)]
     fn specimen<'py>(
         &self,
         py: Python<'py>,
         axis: &str,
         end_layer: Option<f64>,
         platens: &str,
-        strain: f64,
+        strain: Option<f64>,
+        displacement: Option<f64>,
+        force: Option<f64>,
+        held: Option<&str>,
+        moved: Option<&str>,
+        confining_pressure: Option<f64>,
+        shape: &str,
+        lateral: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        use crate::specimen::{solve, Platens, SpecimenOptions};
-        let axis = match axis {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            other => {
-                return Err(InputError::new_err(format!(
-                    "axis {other:?}: expected \"x\", \"y\" or \"z\""
-                )))
+        use crate::specimen::{solve, Lateral, Load, Platens, Selection, Shape, SpecimenOptions};
+        let axis = choose("axis", axis, &[("x", 0), ("y", 1), ("z", 2)])?;
+        let platens = choose(
+            "platens",
+            platens,
+            &[
+                ("frictionless", Platens::Frictionless),
+                ("bonded", Platens::Bonded),
+            ],
+        )?;
+        let load = match (strain, displacement, force) {
+            (None, None, None) => Load::default(),
+            (Some(s), None, None) => Load::Strain(s),
+            (None, Some(d), None) => Load::Displacement(d),
+            (None, None, Some(f)) => Load::Force(f),
+            _ => {
+                return Err(InputError::new_err(
+                    "give at most one of strain, displacement and force",
+                ))
             }
         };
-        let platens = match platens {
-            "frictionless" => Platens::Frictionless,
-            "bonded" => Platens::Bonded,
-            other => {
-                return Err(InputError::new_err(format!(
-                    "platens {other:?}: expected \"frictionless\" or \"bonded\""
-                )))
-            }
+        let group = |t: Option<&str>, name: &str| {
+            t.map(|t| Selection::parse(t, name))
+                .transpose()
+                .map_err(to_py)
         };
         let src = &self.inner;
         let mean_radius = src.packing.radii.iter().sum::<f64>() / src.packing.len() as f64;
         let mut opts = SpecimenOptions::new(axis, end_layer.unwrap_or(mean_radius));
         opts.platens = platens;
-        opts.strain = strain;
+        opts.load = load;
+        opts.held = group(held, "held")?;
+        opts.moved = group(moved, "moved")?;
+        opts.confining_pressure = confining_pressure;
+        opts.shape = choose(
+            "shape",
+            shape,
+            &[("prism", Shape::Prism), ("cylinder", Shape::Cylinder)],
+        )?;
+        opts.lateral = choose(
+            "lateral",
+            lateral,
+            &[("free", Lateral::Free), ("periodic", Lateral::Periodic)],
+        )?;
         let r = py.detach(|| solve(src, &opts)).map_err(to_py)?;
         let text = serde_json::to_string(&r)
             .map_err(|e| InputError::new_err(format!("specimen report: {e}")))?;
@@ -411,4 +444,16 @@ impl PyAssembly {
             self.inner.coordination()
         )
     }
+}
+
+/// The value of `choices` called `given`, or an InputError naming `option` and every name.
+fn choose<T: Copy>(option: &str, given: &str, choices: &[(&str, T)]) -> PyResult<T> {
+    choices
+        .iter()
+        .find(|(name, _)| *name == given)
+        .map(|&(_, v)| v)
+        .ok_or_else(|| {
+            let names: Vec<String> = choices.iter().map(|(n, _)| format!("{n:?}")).collect();
+            InputError::new_err(format!("{option} {given:?}: expected {}", names.join(", ")))
+        })
 }

@@ -21,7 +21,9 @@ use super::harness::{
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::{build_law, LawKind};
-use crate::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions, UndampedHistory};
+use crate::export::lammps::{
+    export_lammps, LammpsBondStyle, LammpsOptions, UndampedHistory, NOT_CONVERGED_LINE,
+};
 use crate::history::HistoryRow;
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference;
@@ -255,14 +257,17 @@ fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {
         let said: Vec<&str> = stdout
             .lines()
             .chain(stderr.lines())
-            .filter(|l| l.contains("ERROR") || l.contains("run.sh:"))
+            .filter(|l| {
+                l.contains("ERROR") || l.contains("run.sh:") || l.starts_with(NOT_CONVERGED_LINE)
+            })
             .collect();
         let message = if said.is_empty() {
             "it printed no error line".to_string()
         } else {
             said.join(" | ")
         };
-        return Err(if message.contains("did not converge") {
+        let not_converged = stdout.lines().any(|l| l.starts_with(NOT_CONVERGED_LINE));
+        return Err(if not_converged {
             Error::NotConverged(format!("LAMMPS on {np} process(es): {message}"))
         } else {
             Error::engine(

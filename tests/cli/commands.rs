@@ -467,7 +467,8 @@ fn missing_output_directory_is_refused_up_front() {
 /// Every file an anisobond command writes gets the permissions of an ordinary file created
 /// by the same user in the same folder (std's `File::create`: 0666 less the umask), not the
 /// private 0600 of the temporary file it is written through: packings, tables, scripts and
-/// plots are meant to be shared and run by others (a YADE or LIGGGHTS user, a cluster job).
+/// plots are meant to be shared and run by others (a YADE or LIGGGHTS user, a cluster job);
+/// a `run.sh` also gets the run bit where it is readable.
 #[cfg(unix)]
 #[test]
 fn outputs_get_the_permissions_of_an_ordinary_file() {
@@ -497,6 +498,12 @@ fn outputs_get_the_permissions_of_an_ordinary_file() {
         .iter()
         .any(|p| p.extension().is_some_and(|e| e == "png")));
     for p in &files {
+        // Scripts to run (`./run.sh`) get the run bit wherever they are readable.
+        let expected = if p.file_name().is_some_and(|n| n == "run.sh") {
+            expected | ((expected & 0o444) >> 2)
+        } else {
+            expected
+        };
         assert_eq!(
             mode(p),
             expected,

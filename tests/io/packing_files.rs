@@ -199,8 +199,16 @@ fn liggghts_errors() {
     let text = LIGGGHTS.replace("3 1 0.5", "1 1 0.5");
     let err = parse_packing(&text, "in.data").unwrap_err().to_string();
     assert!(err.contains("atom id 1 appears twice"), "{err}");
+    // LAMMPS `atom_style sphere` has granular's columns (issue 31): read the same; another
+    // style is refused by name.
     let text = LIGGGHTS.replace("Atoms # granular", "Atoms # sphere");
-    assert!(parse_packing(&text, "in.data").is_err());
+    let sphere = parse_packing(&text, "in.data").unwrap();
+    let granular = parse_packing(LIGGGHTS, "in.data").unwrap();
+    assert_eq!(sphere.positions, granular.positions);
+    assert_eq!(sphere.radii, granular.radii);
+    let text = LIGGGHTS.replace("Atoms # granular", "Atoms # full");
+    let err = parse_packing(&text, "in.data").unwrap_err().to_string();
+    assert!(err.contains("found atom style `full`"), "{err}");
     let text = LIGGGHTS.replace("0 3 zlo zhi\n", "");
     let err = parse_packing(&text, "in.data").unwrap_err().to_string();
     assert!(err.contains("zlo zhi"), "{err}");

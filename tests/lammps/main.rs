@@ -12,3 +12,4 @@ mod export;
 mod plugin;
 mod specimen;
 mod types;
+mod user_data;

@@ -72,13 +72,13 @@ fn plugin(test: &str, lmp: &Path) -> Option<PathBuf> {
 }
 
 /// `lmp` and the plugin built for it.
-struct Lammps {
-    lmp: PathBuf,
-    so: PathBuf,
+pub struct Lammps {
+    pub lmp: PathBuf,
+    pub so: PathBuf,
 }
 
 /// `lmp` and the plugin, or None (reason printed) outside CI.
-fn lammps(test: &str) -> Option<Lammps> {
+pub fn lammps(test: &str) -> Option<Lammps> {
     let lmp = lmp(test)?;
     let so = plugin(test, &lmp)?;
     Some(Lammps { lmp, so })
@@ -87,7 +87,7 @@ fn lammps(test: &str) -> Option<Lammps> {
 /// Export the plugin deck into `dir/name`, with the springs from the bond table (the
 /// export's own) or, given `springs`, from that model file; run it on `np` processes;
 /// `anisobond export lammps PK --model MODEL --bond-style anisobond --plugin SO -o OUT`.
-fn export_plugin(pk: &Path, model: &Path, so: &Path, out: &Path) -> Command {
+pub fn export_plugin(pk: &Path, model: &Path, so: &Path, out: &Path) -> Command {
     let so = so.to_str().expect("a UTF-8 plugin path");
     export_cmd(
         pk,

@@ -446,3 +446,20 @@ def test_specimen_equals_cli_and_the_simple_cubic_closed_form(tmp_path):
         assert r[key] == j[key], key
     with pytest.raises(ab.InputError, match="axis"):
         asm.specimen("w")
+    # The command's options: force control on the top layer chosen by a box gives
+    # delta = F / k with k = 9 k_n / 6 (closed form), the held reaction balancing F; the same
+    # run by the command gives the same numbers.
+    k = 9 * 2e6 / 6
+    f = asm.specimen("z", platens="bonded", force=3.0, moved="box:-1,-1,0.0115,1,1,1")
+    assert abs(f["strain"] * f["length"] / (3.0 / k) - 1) < 1e-10
+    assert abs(f["held_force"] / 3.0 - 1) < 1e-10
+    cli("specimen", tmp_path / "column.txt", "--model", tmp_path / "springs.toml", "--free",
+        "--platens", "bonded", "--force", "3", "--moved", "box:-1,-1,0.0115,1,1,1", "-o",
+        tmp_path / "forced")
+    j = json.loads((tmp_path / "forced" / "specimen.json").read_text())
+    for key in ("platen_stiffness", "strain", "held_force", "axial_force"):
+        assert f[key] == j[key], key
+    with pytest.raises(ab.InputError, match="at most one"):
+        asm.specimen("z", strain=1e-4, force=1.0)
+    with pytest.raises(ab.InputError, match="moved"):
+        asm.specimen("z", moved="sphere:1,2,3")

@@ -160,7 +160,14 @@ class Assembly:
         *,
         end_layer: Optional[float] = None,
         platens: str = "frictionless",
-        strain: float = 1e-4,
+        strain: Optional[float] = None,
+        displacement: Optional[float] = None,
+        force: Optional[float] = None,
+        held: Optional[str] = None,
+        moved: Optional[str] = None,
+        confining_pressure: Optional[float] = None,
+        shape: str = "prism",
+        lateral: str = "free",
     ) -> Dict[str, Any]:
         """The assembly as a finite specimen between platens (docs/specimens.md): the keys
         of specimen.json (platen_stiffness N/m, young Pa, poisson, …), "displacement" (N, 3)

@@ -116,7 +116,7 @@ impl SpecimenTest {
     pub fn solve_options(&self, lever_arm: LeverArm) -> SpecimenOptions {
         let mut o = SpecimenOptions::new(self.axis, self.end_layer);
         o.platens = self.platens;
-        o.strain = self.strain();
+        o.load = specimen::Load::Strain(self.strain());
         o.lever_arm = lever_arm;
         o
     }
@@ -294,6 +294,7 @@ pub fn free_assembly(problem: &super::Problem, engine: &str) -> Result<Assembly>
         })?,
         bonds: problem.bonds.clone(),
         springs: problem.springs.clone(),
+        bond_types: None,
     })
 }
 
