@@ -9,7 +9,7 @@
 
 use crate::homogenize::cholesky::BlockCholesky;
 use crate::homogenize::network::Block6;
-use crate::homogenize::relaxed::BlockSparse;
+use crate::homogenize::sparse::BlockSparse;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
 use nalgebra::SMatrix;

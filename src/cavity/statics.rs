@@ -6,7 +6,7 @@
 use super::Cavity;
 use crate::homogenize::cholesky::BlockCholesky;
 use crate::homogenize::network::Block6;
-use crate::homogenize::relaxed::BlockSparse;
+use crate::homogenize::sparse::BlockSparse;
 use crate::{Error, Result, Vec3};
 
 /// Largest relative residual ‖K u − f‖/‖f‖ accepted from the direct solve.

@@ -20,7 +20,7 @@
 use super::cholesky::BlockCholesky;
 use super::geometric::geometric_stiffness;
 use super::network::{Block6, LeverArm, Network};
-use super::relaxed::BlockSparse;
+use super::sparse::BlockSparse;
 use crate::assembly::Assembly;
 use crate::model::Model;
 use crate::packing::container::{container_particles, prepare_in_container};

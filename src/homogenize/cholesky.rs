@@ -14,7 +14,7 @@
 //! the factorisation fail or the residual check fail: it is reported, not hidden.
 
 use super::network::Block6;
-use super::relaxed::BlockSparse;
+use super::sparse::BlockSparse;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{

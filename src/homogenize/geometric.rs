@@ -15,7 +15,7 @@
 //! part of the initial-stress stiffness is the axial one (the continuum's σ₀:∇δu·∇δu term).
 
 use super::network::{Block6, Network};
-use super::relaxed::BlockSparse;
+use super::sparse::BlockSparse;
 use crate::bonds::BondSet;
 use crate::{Error, Mat3, Result, Vec3};
 

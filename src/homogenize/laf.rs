@@ -16,7 +16,7 @@
 //! factorisation still cannot solve is refused as degenerate, never given a zero field.
 
 use super::network::{csr, Block6, LeverArm, Network, NullSpaceReport};
-use super::relaxed::BlockSparse;
+use super::sparse::BlockSparse;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;

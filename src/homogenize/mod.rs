@@ -21,6 +21,7 @@ pub mod network;
 pub mod prestress;
 pub mod relaxed;
 pub mod report;
+pub mod sparse;
 pub mod two_level;
 pub mod voigt;
 

@@ -10,7 +10,7 @@
 
 use super::cholesky::BlockCholesky;
 use super::network::Block6;
-use super::relaxed::{mul6, mul6_cols, mul_add6, mul_add6_cols, BlockSparse};
+use super::sparse::{mul6, mul6_cols, mul_add6, mul_add6_cols, BlockSparse};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;

@@ -34,7 +34,8 @@ pub use surface::Shape;
 use crate::assembly::Assembly;
 use crate::homogenize::cholesky::BlockCholesky;
 use crate::homogenize::network::{element, prune_dangling, Block6, BondLaw, LeverArm};
-use crate::homogenize::relaxed::{block_jacobi_cg, two_level_cg, BlockSparse};
+use crate::homogenize::relaxed::{block_jacobi_cg, two_level_cg};
+use crate::homogenize::sparse::BlockSparse;
 use crate::{Error, Result, Vec3};
 use serde::Serialize;
 

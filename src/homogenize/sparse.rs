@@ -1,0 +1,209 @@
+//! The 6×6 block-sparse symmetric matrix every static solve shares (the relaxed tensor, the
+//! specimen, the cavity, buckling, LAF) and its unrolled 6×6 block kernels: the bottom layer
+//! of `homogenize`, below the solvers (`cholesky`, `two_level`, `relaxed`) that use it.
+
+use super::network::{Block6, Network};
+use rayon::prelude::*;
+
+/// Block-sparse symmetric matrix with 6×6 blocks, stored by rows (both triangles).
+pub struct BlockSparse {
+    row_start: Vec<usize>,
+    col: Vec<u32>,
+    block: Vec<Block6>,
+}
+
+impl BlockSparse {
+    /// Assemble K of a network.
+    pub fn assemble(net: &Network) -> BlockSparse {
+        BlockSparse::assemble_blocks(net.n_active, &net.ends, |e| {
+            let el = &net.elements[e];
+            (el.kii, el.kjj, el.kij)
+        })
+    }
+
+    /// Assemble a symmetric matrix over `m` nodes from per-edge blocks: edge e joining
+    /// `ends[e] = (i, j)` adds `blocks(e) = (K_ii, K_jj, K_ij)` (and K_ijᵀ to K_ji), summed
+    /// in edge order (so the result does not depend on the thread count).
+    pub fn assemble_blocks(
+        m: usize,
+        ends: &[(u32, u32)],
+        blocks: impl Fn(usize) -> (Block6, Block6, Block6),
+    ) -> BlockSparse {
+        let blocks: Vec<(Block6, Block6, Block6)> = (0..ends.len()).map(&blocks).collect();
+        let net_ends = ends;
+        // (row, col, element, kind: 0 = kii, 1 = kjj, 2 = kij, 3 = kijᵀ)
+        let mut entries: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(4 * net_ends.len());
+        for (e, &(pi, pj)) in net_ends.iter().enumerate() {
+            entries.push((pi, pi, e as u32, 0));
+            entries.push((pj, pj, e as u32, 1));
+            entries.push((pi, pj, e as u32, 2));
+            entries.push((pj, pi, e as u32, 3));
+        }
+        entries.par_sort_unstable();
+        let mut row_start = vec![0usize; m + 1];
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        let mut k0 = 0;
+        while k0 < entries.len() {
+            let (r, c) = (entries[k0].0, entries[k0].1);
+            let mut acc = Block6::zeros();
+            let mut k1 = k0;
+            while k1 < entries.len() && entries[k1].0 == r && entries[k1].1 == c {
+                let (kii, kjj, kij) = &blocks[entries[k1].2 as usize];
+                match entries[k1].3 {
+                    0 => acc += kii,
+                    1 => acc += kjj,
+                    2 => acc += kij,
+                    _ => acc += kij.transpose(),
+                }
+                k1 += 1;
+            }
+            col.push(c);
+            block.push(acc);
+            row_start[r as usize + 1] = col.len();
+            k0 = k1;
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
+    }
+
+    /// Gᵀq and qᵀKq, summed particle by particle in order, for the fluctuation response q
+    /// (one 6×6 block per particle) to the load G: the relaxed tensor is
+    /// C·V = H − Gᵀq − qᵀG + qᵀKq.
+    pub fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
+        let mut kq = vec![Block6::zeros(); q.len()];
+        self.apply(q, &mut kq);
+        let mut gtq = Block6::zeros();
+        let mut qtkq = Block6::zeros();
+        for p in 0..q.len() {
+            gtq += g[p].transpose() * q[p];
+            qtkq += q[p].transpose() * kq[p];
+        }
+        (gtq, qtkq)
+    }
+
+    /// Y = K X for a block vector X (one 6×6 block per particle: DOF × load case).
+    pub fn apply(&self, x: &[Block6], y: &mut [Block6]) {
+        self.apply_cols(x, y, 6);
+    }
+
+    /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
+    /// solve with fewer than six right-hand sides does not pay for six.
+    pub fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+        y.par_iter_mut().enumerate().for_each(|(p, yp)| {
+            let mut acc = Block6::zeros();
+            for k in self.row_start[p]..self.row_start[p + 1] {
+                mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
+            }
+            *yp = acc;
+        });
+    }
+
+    /// The diagonal block of row `p`.
+    pub fn diagonal(&self, p: usize) -> Block6 {
+        (self.row_start[p]..self.row_start[p + 1])
+            .find(|&k| self.col[k] as usize == p)
+            .map(|k| self.block[k])
+            .unwrap_or_else(Block6::zeros)
+    }
+
+    /// Number of block rows (particles).
+    pub fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+
+    /// The stored blocks (column, K_pq) of row `p`, in increasing column order.
+    pub fn row(&self, p: usize) -> impl Iterator<Item = (usize, &Block6)> + '_ {
+        (self.row_start[p]..self.row_start[p + 1])
+            .map(move |k| (self.col[k] as usize, &self.block[k]))
+    }
+
+    /// A matrix from its block rows, each sorted by column (both triangles stored).
+    pub fn from_rows(rows: Vec<Vec<(u32, Block6)>>) -> BlockSparse {
+        let mut row_start = Vec::with_capacity(rows.len() + 1);
+        row_start.push(0);
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        for r in rows {
+            for (c, b) in r {
+                col.push(c);
+                block.push(b);
+            }
+            row_start.push(col.len());
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
+    }
+
+    /// Memory held by the matrix (bytes).
+    pub fn bytes(&self) -> usize {
+        self.block.len() * std::mem::size_of::<Block6>()
+            + self.col.len() * 4
+            + self.row_start.len() * 8
+    }
+}
+
+/// acc += a·b for 6×6 blocks: an unrolled column-major kernel (nalgebra's generic product
+/// of fixed 6×6 matrices goes through its gemm path and is several times slower here).
+#[inline(always)]
+pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = acc.as_mut_slice();
+    for j in 0..6 {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            let ak = &a[6 * k..6 * k + 6];
+            for i in 0..6 {
+                col[i] += ak[i] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
+/// [`mul_add6`] on the first `cols` columns of b (and of acc); all six when `cols` ≥ 6, by
+/// the same kernel and in the same order.
+#[inline(always)]
+pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
+    if cols >= 6 {
+        return mul_add6(acc, a, b);
+    }
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = acc.as_mut_slice();
+    for j in 0..cols {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            let ak = &a[6 * k..6 * k + 6];
+            for i in 0..6 {
+                col[i] += ak[i] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
+/// a·b on the first `cols` columns of b (see [`mul_add6_cols`]).
+#[inline(always)]
+pub(crate) fn mul6_cols(a: &Block6, b: &Block6, cols: usize) -> Block6 {
+    let mut c = Block6::zeros();
+    mul_add6_cols(&mut c, a, b, cols);
+    c
+}
+
+/// a·b for 6×6 blocks (see [`mul_add6`]).
+#[inline(always)]
+pub(crate) fn mul6(a: &Block6, b: &Block6) -> Block6 {
+    let mut c = Block6::zeros();
+    mul_add6(&mut c, a, b);
+    c
+}
