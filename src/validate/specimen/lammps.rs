@@ -10,7 +10,10 @@
 //! `fix setforce`'s global vector: the force on the group before it is zeroed. The solve
 //! uses bpm/rotational's midpoint contact point ([`LeverArm::HalfLength`]).
 
-use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use super::{
+    atom_lines, box_lines, compare, free_assembly, num, predict, EngineMeasurement,
+    SpecimenDetails, SpecimenTest,
+};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::packing::Packing;
@@ -36,10 +39,6 @@ pub const DAMPING_RATIO: f64 = 0.3;
 /// Steps between two readings of the platen force.
 pub const CHUNK_STEPS: u64 = 500;
 
-fn num(x: f64) -> String {
-    format!("{x:e}")
-}
-
 /// Write `data.lmp` and `bond_coeffs.lmp`: atoms `id mol type diameter density x y z`
 /// (type 1 free, 2 bottom layer, 3 top layer, 4 and 5 bottom supports), bond b of type
 /// b + 1 with its own springs and damping (γ = 2ζ√(k m*) as `export lammps`).
@@ -52,14 +51,6 @@ fn write_inputs(
     density: f64,
 ) -> Result<f64> {
     let n = packing.len();
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for (x, r) in packing.positions.iter().zip(&packing.radii) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(x[a] - r);
-            hi[a] = hi[a].max(x[a] + r);
-        }
-    }
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
     let margin = 2.0 * max_len;
     let mut s = format!(
@@ -70,28 +61,9 @@ fn write_inputs(
         bonds.len(),
         bonds.len()
     );
-    for (a, name) in ["x", "y", "z"].iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "{} {} {name}lo {name}hi",
-            num(lo[a] - margin),
-            num(hi[a] + margin)
-        );
-    }
+    s.push_str(&box_lines(packing, margin));
     s.push_str("\nAtoms # bpm/sphere\n\n");
-    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
-        let _ = writeln!(
-            s,
-            "{} 1 {} {} {} {} {} {}",
-            p + 1,
-            types[p],
-            num(2.0 * r),
-            num(density),
-            num(x.x),
-            num(x.y),
-            num(x.z)
-        );
-    }
+    s.push_str(&atom_lines(packing, types, density, true));
     s.push_str("\nBonds\n\n");
     for b in 0..bonds.len() {
         let _ = writeln!(

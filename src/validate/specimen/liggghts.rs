@@ -11,7 +11,10 @@
 //! the fix's global vector: the force on the group before it was zeroed. The solve uses the
 //! mid-gap contact point ([`LeverArm::MidGap`]).
 
-use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use super::{
+    atom_lines, box_lines, compare, free_assembly, num, predict, EngineMeasurement,
+    SpecimenDetails, SpecimenTest,
+};
 use crate::bonds::table;
 use crate::export::liggghts::{run_liggghts, stable_timestep, Launch};
 use crate::homogenize::network::LeverArm;
@@ -36,10 +39,6 @@ pub const RAMP_STEPS: u64 = 200;
 /// Steps between two readings of the platen force.
 pub const CHUNK_STEPS: u64 = 500;
 
-fn num(x: f64) -> String {
-    format!("{x:e}")
-}
-
 /// `specimen.data`: atoms `id type diameter density x y z` in a box a margin larger than
 /// the spheres.
 fn write_data(
@@ -49,42 +48,15 @@ fn write_data(
     density: f64,
     margin: f64,
 ) -> Result<()> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for (x, r) in packing.positions.iter().zip(&packing.radii) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(x[a] - r);
-            hi[a] = hi[a].max(x[a] + r);
-        }
-    }
     let mut s = format!(
         "LIGGGHTS data file written by anisobond {}: free specimen (atom_style granular)\n\n\
          {} atoms\n5 atom types\n\n",
         env!("CARGO_PKG_VERSION"),
         packing.len()
     );
-    for (a, name) in ["x", "y", "z"].iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "{} {} {name}lo {name}hi",
-            num(lo[a] - margin),
-            num(hi[a] + margin)
-        );
-    }
+    s.push_str(&box_lines(packing, margin));
     s.push_str("\nAtoms\n\n");
-    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
-        let _ = writeln!(
-            s,
-            "{} {} {} {} {} {} {}",
-            p + 1,
-            types[p],
-            num(2.0 * r),
-            num(density),
-            num(x.x),
-            num(x.y),
-            num(x.z)
-        );
-    }
+    s.push_str(&atom_lines(packing, types, density, false));
     crate::io::write_string_atomic(path, &s)
 }
 

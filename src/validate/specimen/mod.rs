@@ -408,6 +408,60 @@ pub fn write_files(dir: &Path, r: &Report<SpecimenDetails>) -> Result<Vec<PathBu
     Ok(vec![json, csv])
 }
 
+/// A number as the LAMMPS and LIGGGHTS specimen decks write it (shortest round-trip, `e`).
+pub(super) fn num(x: f64) -> String {
+    format!("{x:e}")
+}
+
+/// The box lines `lo hi xlo xhi`, … of a data file for a free specimen: the spheres'
+/// bounding box widened by `margin` (m) on every side.
+pub(super) fn box_lines(packing: &crate::packing::Packing, margin: f64) -> String {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (x, r) in packing.positions.iter().zip(&packing.radii) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a] - r);
+            hi[a] = hi[a].max(x[a] + r);
+        }
+    }
+    let mut s = String::new();
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{} {} {name}lo {name}hi",
+            num(lo[a] - margin),
+            num(hi[a] + margin)
+        );
+    }
+    s
+}
+
+/// The atom lines `id [mol] type diameter density x y z` (ids from 1; `molecule` writes the
+/// molecule id 1 of LAMMPS' `bpm/sphere` style), `types[p]` each atom's type.
+pub(super) fn atom_lines(
+    packing: &crate::packing::Packing,
+    types: &[u8],
+    density: f64,
+    molecule: bool,
+) -> String {
+    let mut s = String::new();
+    for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
+        let _ = writeln!(
+            s,
+            "{}{} {} {} {} {} {} {}",
+            p + 1,
+            if molecule { " 1" } else { "" },
+            types[p],
+            num(2.0 * r),
+            num(density),
+            num(x.x),
+            num(x.y),
+            num(x.z)
+        );
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
