@@ -414,6 +414,20 @@ impl Model {
 
     /// Parse a TOML model; `name` is used in error messages. A UTF-8 BOM and classic-Mac
     /// `\r` line ends are accepted.
+    ///
+    /// ```
+    /// use anisobond::model::Model;
+    /// let text = "[bonding]\nrule = \"gap\"\nvalue = 0.01\n\
+    ///             [scheme]\nkind = \"isotropic\"\nnormal = 2e6\nshear = 7e5\n\
+    ///             [geometry]\nconvention = \"spring\"\n";
+    /// let model = Model::from_toml_str(text, "model.toml")?;
+    /// assert_eq!(model.scheme.kind_name(), "isotropic");
+    /// // A key of another scheme kind is refused by name and line, never ignored.
+    /// let bad = text.replace("shear = 7e5", "shear = 7e5\neuler_zyz_deg = [0, 0, 0]");
+    /// let e = Model::from_toml_str(&bad, "model.toml").unwrap_err().to_string();
+    /// assert!(e.contains("euler_zyz_deg") && e.contains("model.toml:"), "{e}");
+    /// # Ok::<(), anisobond::Error>(())
+    /// ```
     pub fn from_toml_str(text: &str, name: &str) -> Result<Model> {
         let text = normalized(text);
         let raw: RawModel = toml::from_str(&text).map_err(|e| toml_error(&text, name, &e))?;

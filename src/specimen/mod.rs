@@ -382,6 +382,31 @@ fn root(parent: &mut [u32], mut p: u32) -> u32 {
 }
 
 /// The exact static response of `assembly`'s bonded specimen (see the module doc).
+///
+/// A 3 × 3 × 7 simple-cubic column of touching 1 mm spheres with normal springs k_n between
+/// bonded platens: the platen stiffness is n_x n_y k_n/(n_z − 1) = 1.5 k_n exactly.
+/// ```
+/// use anisobond::{assembly::Assembly, model::Model, packing::Packing, Vec3};
+/// use anisobond::specimen::{solve, Platens, SpecimenOptions};
+/// let r = 1e-3;
+/// let mut centres = Vec::new();
+/// for (i, j, k) in (0..3).flat_map(|i| (0..3).flat_map(move |j| (0..7).map(move |k| (i, j, k)))) {
+///     centres.push(Vec3::new(i as f64, j as f64, k as f64) * 2.0 * r);
+/// }
+/// let n = centres.len();
+/// let packing = Packing::new(centres, vec![r; n], None)?;
+/// let model = Model::from_toml_str(
+///     "[bonding]\nrule = \"gap\"\nvalue = 0.01\n[scheme]\nkind = \"isotropic\"\n\
+///      normal = 2e6\nshear = 7e5\n[geometry]\nconvention = \"spring\"\n",
+///     "springs.toml",
+/// )?;
+/// let column = Assembly::new(packing, model)?;
+/// let mut opts = SpecimenOptions::new(2, 0.5 * r); // axis z, end layers half a radius deep
+/// opts.platens = Platens::Bonded;
+/// let report = solve(&column, &opts)?;
+/// assert!((report.platen_stiffness / (1.5 * 2e6) - 1.0).abs() < 1e-10);
+/// # Ok::<(), anisobond::Error>(())
+/// ```
 pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenReport> {
     opts.check()?;
     let packing = &assembly.packing;

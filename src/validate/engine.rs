@@ -148,6 +148,27 @@ pub fn validate_specimen<E: Engine>(
 
 /// Run `engine` on `problem`: its options checked, the test kind refused unless the engine
 /// runs it, then [`Engine::run`].
+///
+/// Every engine runs the same way (here YADE, which must be installed to run it):
+/// ```no_run
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::assembly::Assembly;
+/// use anisobond::model::Model;
+/// use anisobond::validate::engine::{validate, Problem};
+/// use anisobond::validate::harness::write_report_json;
+/// use anisobond::validate::yade::{Yade, YadeValidationOptions};
+/// use std::path::Path;
+/// let packing = anisobond::packing::io::read_packing(Path::new("packing.txt"))?;
+/// let assembly = Assembly::new(packing, Model::from_path(Path::new("model.toml"))?)?;
+/// let dir = Path::new("yade-run");
+/// std::fs::create_dir_all(dir).map_err(|e| anisobond::Error::io(dir, e))?;
+/// let engine = Yade(YadeValidationOptions::default());
+/// let report = validate(&engine, &Problem::of(dir, &assembly), &|stage| eprintln!("{stage}"))?;
+/// write_report_json(&dir.join("validation.json"), &report)?;
+/// println!("passed: {}", report.passed());
+/// # Ok(())
+/// # }
+/// ```
 pub fn validate<E: Engine>(
     engine: &E,
     problem: &Problem,
