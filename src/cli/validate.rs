@@ -234,13 +234,25 @@ fn run_specimen<E: Engine>(
     finish(name, &report)
 }
 
-/// The end of every validation: the unsettled checks named, exit 0 when every check is
-/// within its tolerance, else [`Error::OutOfTolerance`] naming the failed ones.
+/// The end of every validation (its files already written): [`Error::OutOfTolerance`]
+/// naming the failed checks; else [`Error::NotConverged`] when a compared run had not
+/// settled (its checks not judged: neither a pass nor a failure, so not a success either);
+/// else exit 0.
 fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Result<()> {
-    for line in unsettled_lines(report) {
+    let unsettled = unsettled_lines(report);
+    for line in &unsettled {
         println!("not judged: {line}");
     }
     let failures = failure_lines(report);
+    if failures.is_empty() && !unsettled.is_empty() {
+        return Err(Error::NotConverged(format!(
+            "validate {name}: {} of {} checks not judged, the compared run had not settled \
+             (relax longer: more steps or a looser settling tolerance):\n  {}",
+            unsettled.len(),
+            report.checks.len(),
+            unsettled.join("\n  ")
+        )));
+    }
     if failures.is_empty() {
         println!("PASSED: {name} and anisobond agree within every tolerance");
         return Ok(());
@@ -260,9 +272,10 @@ fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Re
 /// Every `validate ENGINE`: options checked, the bonded input read, the engine run in the
 /// staged `output` (a temporary directory, removed, without one) with one progress line
 /// per stage, the summary printed, the report files written and moved into place, and the
-/// end: exit 0 when every check is within its tolerance, else [`Error::OutOfTolerance`]
-/// naming the failed checks (an engine that failed or did not settle has ended earlier
-/// with [`Error::EngineFailed`] or [`Error::NotConverged`]).
+/// end ([`finish`]): exit 0 when every check is within its tolerance, else
+/// [`Error::OutOfTolerance`] naming the failed checks, else [`Error::NotConverged`] when a
+/// compared run had not settled (an engine that failed has ended earlier with
+/// [`Error::EngineFailed`]).
 fn run_engine<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>) -> Result<()> {
     engine.check()?;
     let name = E::Details::ENGINE;

@@ -410,6 +410,7 @@ fn root(parent: &mut [u32], mut p: u32) -> u32 {
 pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenReport> {
     opts.check()?;
     let packing = &assembly.packing;
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "specimen")?;
     let bonds = &assembly.bonds;
     let k = &assembly.springs;
     let n = packing.len();
@@ -545,6 +546,16 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     let loaded_bonds: Vec<usize> = (0..bonds.len()).filter(|&b| active[b]).collect();
     let crosses = |b: usize| lateral.iter().any(|&d| bonds.image[b][d] != 0);
     let jump = cell.is_some() && loaded_bonds.iter().any(|&b| crosses(b));
+    if cell.is_some() && !jump {
+        // Laterally periodic by option but joined across no lateral face: its lateral strain
+        // would be read as 0 from period changes that nothing resists.
+        return Err(Error::Degenerate(
+            "specimen: periodic across the axis (--lateral periodic) but no loaded bond \
+             crosses a lateral face of the cell; the specimen is free laterally: use \
+             --lateral free"
+                .into(),
+        ));
+    }
     let nodes = m + usize::from(jump);
     let elements: Vec<_> = loaded_bonds
         .iter()

@@ -130,4 +130,36 @@ fn periodic_prism_refusals() {
     let mut o = SpecimenOptions::new(2, 1e-3);
     o.lateral = Lateral::Periodic;
     assert!(matches!(solve(&asm, &o), Err(Error::Invalid(m)) if m.contains("periodic")));
+    // A simple-cubic block inside a cell twice its width: periodic by option, but no bond
+    // crosses a lateral face, so its lateral strain is unmeasurable (not a ν of 0), and a
+    // box periodic along x and y only (p p f) is refused by name, not solved as free.
+    let r = 1e-3;
+    let mut centres = Vec::new();
+    for (i, j, k) in (0..3).flat_map(|i| (0..3).flat_map(move |j| (0..5).map(move |k| (i, j, k)))) {
+        centres.push(Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * 2.0 * r);
+    }
+    let n = centres.len();
+    let springs = Model::from_toml_str(
+        "[bonding]\nrule = \"gap\"\nvalue = 0.01\n[scheme]\nkind = \"isotropic\"\n\
+         normal = 2e6\nshear = 7e5\n[geometry]\nconvention = \"spring\"\n",
+        "<test>",
+    )
+    .unwrap();
+    let wide = PeriodicCell::new(Vec3::new(12.0 * r, 12.0 * r, 10.0 * r)).unwrap();
+    let block = Packing::new(centres.clone(), vec![r; n], Some(wide)).unwrap();
+    let asm = Assembly::new(block, springs.clone()).unwrap();
+    let mut o = SpecimenOptions::new(2, 0.5 * r);
+    o.lateral = Lateral::Periodic;
+    assert!(
+        matches!(solve(&asm, &o), Err(Error::Degenerate(m)) if m.contains("no loaded bond crosses")),
+        "{:?}",
+        solve(&asm, &o).map(|r| r.poisson)
+    );
+    let bed =
+        PeriodicCell::with_periodic(Vec3::new(6.0 * r, 6.0 * r, 10.0 * r), [true, true, false])
+            .unwrap();
+    let bed = Packing::new(centres, vec![r; n], Some(bed)).unwrap();
+    let asm = Assembly::new(bed, springs).unwrap();
+    let o = SpecimenOptions::new(2, 0.5 * r);
+    assert!(matches!(solve(&asm, &o), Err(Error::Invalid(m)) if m.contains("p p f")));
 }
