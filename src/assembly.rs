@@ -288,19 +288,16 @@ impl Assembly {
         bonds: &packing::io::DataBonds,
         source: &str,
     ) -> Result<Assembly> {
-        let set = BondSet::from_pairs(&packing, &bonds.i, &bonds.j, None).map_err(|e| match e {
-            Error::Invalid(m) => {
-                // from_pairs names bond b by its place in the list.
-                let line = m
-                    .strip_prefix("bond ")
-                    .and_then(|r| r.split(':').next())
-                    .and_then(|b| b.parse::<usize>().ok())
-                    .and_then(|b| bonds.lines.get(b).copied())
-                    .unwrap_or(0);
-                Error::parse(source, line, m)
-            }
-            other => other,
-        })?;
+        let set =
+            BondSet::from_pairs_at(&packing, &bonds.i, &bonds.j, None).map_err(|refused| {
+                match refused {
+                    // The refused pair's line of the Bonds section.
+                    (Some(b), Error::Invalid(m)) => {
+                        Error::parse(source, bonds.lines.get(b).copied().unwrap_or(0), m)
+                    }
+                    (_, e) => e,
+                }
+            })?;
         let mut asm = Assembly::with_bonds(packing, model, set)?;
         asm.bond_types = Some(bonds.types.clone());
         Ok(asm)

@@ -66,57 +66,83 @@ impl BondSet {
         j: &[u32],
         image: Option<&[[i32; 3]]>,
     ) -> Result<BondSet> {
+        BondSet::from_pairs_at(packing, i, j, image).map_err(|(_, e)| e)
+    }
+
+    /// [`BondSet::from_pairs`], a refusal carrying the index of the pair it names (`None`
+    /// for lists of different lengths), so that a reader can name its own file and line.
+    pub fn from_pairs_at(
+        packing: &Packing,
+        i: &[u32],
+        j: &[u32],
+        image: Option<&[[i32; 3]]>,
+    ) -> std::result::Result<BondSet, (Option<usize>, Error)> {
         let n = packing.len();
         if i.len() != j.len() || image.is_some_and(|m| m.len() != i.len()) {
-            return Err(Error::Invalid(format!(
-                "bonds: {} i, {} j and {} images (one of each per bond)",
-                i.len(),
-                j.len(),
-                image.map_or(i.len(), |m| m.len())
-            )));
+            return Err((
+                None,
+                Error::Invalid(format!(
+                    "bonds: {} i, {} j and {} images (one of each per bond)",
+                    i.len(),
+                    j.len(),
+                    image.map_or(i.len(), |m| m.len())
+                )),
+            ));
         }
         let mut set = BondSet::default();
         let mut seen = std::collections::HashSet::new();
         for b in 0..i.len() {
             let (a, c) = (i[b], j[b]);
             if a as usize >= n || c as usize >= n || a == c {
-                return Err(Error::Invalid(format!(
-                    "bond {b}: particles {a} and {c}, expected two different indices below {n}"
-                )));
+                return Err((
+                    Some(b),
+                    Error::Invalid(format!(
+                        "bond {b}: particles {a} and {c}, expected two different indices below {n}"
+                    )),
+                ));
             }
             let d = packing.positions[c as usize] - packing.positions[a as usize];
             let (branch, img) = match (&packing.cell, image) {
                 (Some(cell), Some(m)) => {
                     if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && m[b][k] != 0) {
-                        return Err(Error::Invalid(format!(
-                            "bond {b}: particles {a} and {c} with image {:?}, but the box is \
+                        return Err((
+                            Some(b),
+                            Error::Invalid(format!(
+                                "bond {b}: particles {a} and {c} with image {:?}, but the box is \
                              not periodic along {} (boundary {}): expected image 0 there",
-                            m[b],
-                            ["x", "y", "z"][k],
-                            cell.boundary()
-                        )));
+                                m[b],
+                                ["x", "y", "z"][k],
+                                cell.boundary()
+                            )),
+                        ));
                     }
                     let img = packing.image_from_given(a as usize, c as usize, m[b]);
                     let branch = d + cell.shift(img);
                     let nearest = cell.minimum_image(d).0.norm();
                     if branch.norm() > nearest * (1.0 + 1e-9) + 1e-12 * cell.lengths.max() {
-                        return Err(Error::Invalid(format!(
-                            "bond {b}: particles {a} and {c} with image {:?} are {:e} m \
+                        return Err((
+                            Some(b),
+                            Error::Invalid(format!(
+                                "bond {b}: particles {a} and {c} with image {:?} are {:e} m \
                              apart, but their nearest images are {nearest:e} m apart: expected \
                              the image of j seen from i among the positions as given (a \
                              scene's own, e.g. YADE's cellDist with its body positions)",
-                            m[b],
-                            branch.norm()
-                        )));
+                                m[b],
+                                branch.norm()
+                            )),
+                        ));
                     }
                     (branch, img)
                 }
                 (Some(cell), None) => cell.minimum_image(d),
                 (None, Some(m)) if m[b] != [0, 0, 0] => {
-                    return Err(Error::Invalid(format!(
-                        "bond {b}: periodic image {:?} in a packing without a cell",
-                        m[b]
-                    )))
+                    return Err((
+                        Some(b),
+                        Error::Invalid(format!(
+                            "bond {b}: periodic image {:?} in a packing without a cell",
+                            m[b]
+                        )),
+                    ))
                 }
                 (None, _) => (d, [0, 0, 0]),
             };
@@ -126,14 +152,20 @@ impl BondSet {
                 (c, a, -branch, [-img[0], -img[1], -img[2]])
             };
             if !seen.insert((lo, hi, img)) {
-                return Err(Error::Invalid(format!(
-                    "bond {b}: particles {lo}–{hi} (image {img:?}) are bonded twice"
-                )));
+                return Err((
+                    Some(b),
+                    Error::Invalid(format!(
+                        "bond {b}: particles {lo}–{hi} (image {img:?}) are bonded twice"
+                    )),
+                ));
             }
             if branch.norm() <= 0.0 || branch.norm().is_nan() {
-                return Err(Error::Invalid(format!(
-                    "bond {b}: particles {lo} and {hi} are at the same place"
-                )));
+                return Err((
+                    Some(b),
+                    Error::Invalid(format!(
+                        "bond {b}: particles {lo} and {hi} are at the same place"
+                    )),
+                ));
             }
             set.push(lo, hi, branch, img);
         }

@@ -95,3 +95,18 @@ fn inconsistent_bonds_sections_are_refused_with_their_line() {
     );
     assert!(e.contains("crosses a periodic face"), "{e}");
 }
+
+/// A bond whose two atoms sit at the same place (refused by the bond set, not the parser) is
+/// named by its own line of the Bonds section: the bond set gives the refused pair's index
+/// as data, not in its message.
+#[test]
+fn bond_between_coincident_atoms_names_its_line() {
+    let text = BPM.replace("17 3 1 1.0 2600 1.5 1 1", "17 3 1 1.0 2600 2.5 1 1");
+    let (p, b) = parse_data(&text, "ring.data", true).unwrap();
+    let model = anisobond::model::Model::truszkowska_mrv();
+    let e = anisobond::assembly::Assembly::from_data_bonds(p, model, &b.unwrap(), "ring.data")
+        .unwrap_err();
+    assert!(matches!(e, Error::Parse { .. }), "{e:?}");
+    // Bond 2 (24–17, line 33) is the first whose atoms coincide.
+    assert!(e.to_string().starts_with("ring.data:33: bond 1"), "{e}");
+}
