@@ -350,17 +350,7 @@ pub(crate) fn block_jacobi_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let pre: Vec<(Block6, usize)> = (0..k.rows())
-        .into_par_iter()
-        .map(|p| pinv_psd(&k.diagonal(p)))
-        .collect();
-    let scale = column_dots(b, b).map(f64::sqrt);
-    let opts = RelaxedOptions {
-        tolerance,
-        max_iterations,
-        ..Default::default()
-    };
-    pcg(k, b, &pre, None, &scale, &opts, None)
+    held_cg(k, b, None, tolerance, max_iterations)
 }
 
 /// [`block_jacobi_cg`] with the two-level preconditioner of [`super::two_level`] (aggregates
@@ -376,6 +366,26 @@ pub(crate) fn two_level_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
+    let two_level = TwoLevel::new(
+        k,
+        positions,
+        box_lengths,
+        true,
+        DEFAULT_PARTICLES_PER_AGGREGATE,
+    )
+    .ok();
+    held_cg(k, b, two_level.as_ref(), tolerance, max_iterations)
+}
+
+/// The CG of a held structure shared by [`block_jacobi_cg`] and [`two_level_cg`]: block-Jacobi
+/// blocks, column scales of `b`, and the two-level correction when given.
+fn held_cg(
+    k: &BlockSparse,
+    b: &[Block6],
+    two_level: Option<&TwoLevel>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<Block6>, usize, f64)> {
     let pre: Vec<(Block6, usize)> = (0..k.rows())
         .into_par_iter()
         .map(|p| pinv_psd(&k.diagonal(p)))
@@ -386,15 +396,7 @@ pub(crate) fn two_level_cg(
         max_iterations,
         ..Default::default()
     };
-    let two_level = TwoLevel::new(
-        k,
-        positions,
-        box_lengths,
-        true,
-        DEFAULT_PARTICLES_PER_AGGREGATE,
-    )
-    .ok();
-    pcg(k, b, &pre, two_level.as_ref(), &scale, &opts, None)
+    pcg(k, b, &pre, two_level, &scale, &opts, None)
 }
 
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
