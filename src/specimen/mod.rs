@@ -22,8 +22,9 @@
 //! A periodic packing can be solved as a prism periodic across the axis ([`Lateral::Periodic`]):
 //! bonds crossing the cell's faces normal to the axis are cut, those crossing the lateral
 //! faces are kept, and the two lateral periodicity vectors get unknown changes (the lateral
-//! strains, free for frictionless platens, zero for bonded ones): the packing's file format
-//! cannot say "periodic in x and y, free in z", so the cell is read periodic and cut here.
+//! strains, free for frictionless platens, zero for bonded ones). A box of mixed periodicity
+//! read as written (`p p f`: a slab, a settled bed) is the same problem with nothing to cut:
+//! loaded along its one free axis ([`slab_axis`]), laterally periodic along the others.
 
 mod select;
 pub mod surface;
@@ -381,6 +382,65 @@ fn root(parent: &mut [u32], mut p: u32) -> u32 {
     p
 }
 
+/// The lateral periods of the specimen (`None`: free across the axis), checked against the
+/// packing's box. A fully periodic cell is cut at its faces normal to the axis; a box of mixed
+/// periodicity is a slab as read only when both lateral axes are periodic (`p p f` loaded
+/// along z): a strip, free along one lateral axis, or a load along a periodic axis is refused.
+fn lateral_cell(assembly: &Assembly, opts: &SpecimenOptions) -> Result<Option<Vec3>> {
+    let (packing, bonds) = (&assembly.packing, &assembly.bonds);
+    let boundary = packing
+        .cell
+        .filter(|c| c.is_mixed())
+        .map(|c| format!(" (boundary {})", c.boundary()));
+    match opts.lateral {
+        Lateral::Free => {
+            if let Some(b) = bonds.image.iter().position(|im| *im != [0, 0, 0]) {
+                return Err(Error::Invalid(format!(
+                    "specimen: bond {b} ({} – {}) crosses a periodic face of the box{}; a free \
+                     specimen has none (solve it periodic across the axis, read it with \
+                     --free, or cut one from the cell)",
+                    bonds.i[b],
+                    bonds.j[b],
+                    boundary.unwrap_or_default()
+                )));
+            }
+            Ok(None)
+        }
+        Lateral::Periodic => {
+            let cell = packing.cell.ok_or_else(|| {
+                Error::Invalid(
+                    "specimen: periodic across the axis needs a periodic packing (a cell)".into(),
+                )
+            })?;
+            let ax = opts.axis;
+            if cell.is_mixed()
+                && (cell.periodic[ax]
+                    || !cell.periodic[(ax + 1) % 3]
+                    || !cell.periodic[(ax + 2) % 3])
+            {
+                return Err(Error::Invalid(format!(
+                    "specimen: periodic across the axis {} of a box periodic along some axes \
+                     only (boundary {}): a slab is loaded along its one non-periodic axis with \
+                     both lateral axes periodic (p p f along z); a strip free along a lateral \
+                     axis, or a load along a periodic axis of the box, is not solved",
+                    axis_name(ax),
+                    cell.boundary()
+                )));
+            }
+            Ok(Some(cell.lengths))
+        }
+    }
+}
+
+/// The loading axis of a slab as read: the one non-periodic axis of a box of mixed
+/// periodicity (`p p f`: z); `None` for a fully periodic cell, a free packing, or a box with
+/// two non-periodic axes.
+pub fn slab_axis(cell: Option<&crate::packing::PeriodicCell>) -> Option<usize> {
+    let c = cell?;
+    let free: Vec<usize> = (0..3).filter(|&d| !c.periodic[d]).collect();
+    (free.len() == 1).then(|| free[0])
+}
+
 /// The exact static response of `assembly`'s bonded specimen (see the module doc).
 ///
 /// A 3 × 3 × 7 simple-cubic column of touching 1 mm spheres with normal springs k_n between
@@ -410,32 +470,12 @@ fn root(parent: &mut [u32], mut p: u32) -> u32 {
 pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenReport> {
     opts.check()?;
     let packing = &assembly.packing;
-    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "specimen")?;
     let bonds = &assembly.bonds;
     let k = &assembly.springs;
     let n = packing.len();
     let ax = opts.axis;
     let lateral = [(ax + 1) % 3, (ax + 2) % 3];
-    // Bonds of the specimen: all of a free packing; a periodic one is cut at its faces
-    // normal to the axis.
-    let cell = match opts.lateral {
-        Lateral::Free => {
-            if let Some(b) = bonds.image.iter().position(|im| *im != [0, 0, 0]) {
-                return Err(Error::Invalid(format!(
-                    "specimen: bond {b} ({} – {}) crosses the periodic cell; a specimen is a \
-                     finite packing (read it with --free, cut one from the cell, or solve it \
-                     periodic across the axis)",
-                    bonds.i[b], bonds.j[b]
-                )));
-            }
-            None
-        }
-        Lateral::Periodic => Some(packing.cell.map(|c| c.lengths).ok_or_else(|| {
-            Error::Invalid(
-                "specimen: periodic across the axis needs a periodic packing (a cell)".into(),
-            )
-        })?),
-    };
+    let cell = lateral_cell(assembly, opts)?;
     let in_specimen: Vec<bool> = bonds.image.iter().map(|im| im[ax] == 0).collect();
     if bonds.is_empty() || !in_specimen.iter().any(|&b| b) {
         return Err(Error::Degenerate(
