@@ -74,9 +74,9 @@ pub struct SpecimenArgs {
     /// bonds`).
     #[arg(long)]
     bonds: Option<PathBuf>,
-    /// Loading axis.
-    #[arg(long, value_enum, default_value_t = AxisArg::Z)]
-    axis: AxisArg,
+    /// Loading axis (default: a slab's one non-periodic axis, e.g. z of a `p p f` box; else z).
+    #[arg(long, value_enum)]
+    axis: Option<AxisArg>,
     /// Depth of each end layer (m): the particles whose centres lie within it of the lowest
     /// (held) and of the highest (moved) centre along the axis; default the mean radius.
     #[arg(long)]
@@ -109,9 +109,11 @@ pub struct SpecimenArgs {
     #[arg(long, value_enum, default_value_t = ShapeArg::Prism)]
     shape: ShapeArg,
     /// Free or periodic across the axis (periodic: a periodic packing cut at its faces
-    /// normal to the axis, the lateral periods free with frictionless platens).
-    #[arg(long, value_enum, default_value_t = LateralArg::Free)]
-    lateral: LateralArg,
+    /// normal to the axis, or a slab as read, e.g. a `p p f` box loaded along z; the lateral
+    /// periods free with frictionless platens). Default: periodic for a box of mixed
+    /// periodicity, else free.
+    #[arg(long, value_enum)]
+    lateral: Option<LateralArg>,
     /// Linear solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Auto)]
     solver: SolverArg,
@@ -152,7 +154,12 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         None => a.input.assembly()?,
     };
     let mean_radius = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
-    let mut opts = SpecimenOptions::new(a.axis as usize, a.end_layer.unwrap_or(mean_radius));
+    let cell = asm.packing.cell;
+    let axis = match a.axis {
+        Some(axis) => axis as usize,
+        None => anisobond::specimen::slab_axis(cell.as_ref()).unwrap_or(2),
+    };
+    let mut opts = SpecimenOptions::new(axis, a.end_layer.unwrap_or(mean_radius));
     opts.platens = match a.platens {
         PlatensArg::Frictionless => Platens::Frictionless,
         PlatensArg::Bonded => Platens::Bonded,
@@ -171,8 +178,10 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         ShapeArg::Cylinder => Shape::Cylinder,
     };
     opts.lateral = match a.lateral {
-        LateralArg::Free => Lateral::Free,
-        LateralArg::Periodic => Lateral::Periodic,
+        Some(LateralArg::Free) => Lateral::Free,
+        Some(LateralArg::Periodic) => Lateral::Periodic,
+        None if cell.is_some_and(|c| c.is_mixed()) => Lateral::Periodic,
+        None => Lateral::Free,
     };
     opts.solver = match a.solver {
         SolverArg::Auto => SolverChoice::Auto,

@@ -57,10 +57,11 @@ impl Selection {
         let (kind, rest) = text
             .split_once(':')
             .ok_or_else(|| bad("no kind before ':'".into()))?;
-        let numbers = |count: usize| -> Result<Vec<f64>> {
-            let v: Vec<&str> = rest.split(',').map(str::trim).collect();
+        // `count` finite numbers separated by commas (`after`: where they start, for errors).
+        let numbers = |text: &str, count: usize, after: &str| -> Result<Vec<f64>> {
+            let v: Vec<&str> = text.split(',').map(str::trim).collect();
             if v.len() != count {
-                return Err(bad(format!("{} numbers, expected {count}", v.len())));
+                return Err(bad(format!("{} numbers{after}, expected {count}", v.len())));
             }
             v.iter()
                 .map(|t| {
@@ -73,7 +74,7 @@ impl Selection {
         };
         let sel = match kind {
             "box" => {
-                let v = numbers(6)?;
+                let v = numbers(rest, 6, "")?;
                 Selection::Box {
                     lo: Vec3::new(v[0], v[1], v[2]),
                     hi: Vec3::new(v[3], v[4], v[5]),
@@ -89,22 +90,7 @@ impl Selection {
                     "z" => 2,
                     other => return Err(bad(format!("axis {other:?} is not x, y or z"))),
                 };
-                let w: Vec<&str> = rest.split(',').map(str::trim).collect();
-                if w.len() != 5 {
-                    return Err(bad(format!(
-                        "{} numbers after the axis, expected 5",
-                        w.len()
-                    )));
-                }
-                let w: Vec<f64> = w
-                    .iter()
-                    .map(|t| {
-                        t.parse::<f64>()
-                            .ok()
-                            .filter(|x| x.is_finite())
-                            .ok_or_else(|| bad(format!("{t:?} is not a finite number")))
-                    })
-                    .collect::<Result<_>>()?;
+                let w = numbers(rest, 5, " after the axis")?;
                 Selection::Cylinder {
                     dim,
                     c1: w[0],

@@ -144,103 +144,196 @@ pub(crate) fn lateral_loads(
         return Err(Error::Degenerate("confining pressure: no particles".into()));
     }
     let size = 2.0 * radii.iter().sum::<f64>() / n as f64;
-    let sec = Section::of(centres, radii, axis);
-    let [l0, l1] = sec.lateral;
-    let alo = centres
-        .iter()
-        .zip(radii)
-        .map(|(x, r)| x[axis] - r)
-        .fold(f64::INFINITY, f64::min);
-    let ahi = centres
-        .iter()
-        .zip(radii)
-        .map(|(x, r)| x[axis] + r)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let height = ahi - alo;
-    let na = cells_along(height, size, 1);
-    let ha = height / na as f64;
-    let cell_a = |x: &Vec3| (((x[axis] - alo) / ha) as usize).min(na - 1);
-    let mut force = vec![Vec3::zeros(); n];
-    let (mut cells, mut empty_cells, area);
-    match shape {
-        Shape::Prism => {
-            cells = 0;
-            empty_cells = 0;
-            let mut total = 0.0;
-            for (k, d) in [(0usize, l0), (1, l1)] {
-                let e = [l0, l1][1 - k];
-                let ext_e = sec.hi[1 - k] - sec.lo[1 - k];
-                let ne = cells_along(ext_e, size, 1);
-                let he = ext_e / ne as f64;
-                let cell_area = he * ha;
-                for s in [1.0, -1.0] {
-                    let members = (0..n).map(|p| {
-                        let x = &centres[p];
-                        let ie = (((x[e] - sec.lo[1 - k]) / he) as usize).min(ne - 1);
-                        (p, ie * na + cell_a(x), s * x[d] + radii[p])
-                    });
-                    let dist = |a: usize, b: usize| {
-                        let (ea, aa) = ((a / na) as f64, (a % na) as f64);
-                        let (eb, ab) = ((b / na) as f64, (b % na) as f64);
-                        ((ea - eb) * he).hypot((aa - ab) * ha)
-                    };
-                    let (win, empty) = winners(ne * na, members, dist);
-                    for p in win.into_iter().flatten() {
-                        force[p][d] -= s * pressure * cell_area;
-                    }
-                    cells += ne * na;
-                    empty_cells += empty;
-                    total += ext_e * height;
-                }
-            }
-            area = total;
-        }
-        Shape::Cylinder => {
-            let rc = sec.radius;
-            let nt = cells_along(2.0 * std::f64::consts::PI * rc, size, 3);
-            let ht = 2.0 * std::f64::consts::PI / nt as f64;
-            let cell_area = ht * rc * ha;
-            let polar = |x: &Vec3| {
-                let (a, b) = (x[l0] - sec.centre[0], x[l1] - sec.centre[1]);
-                (
-                    a.hypot(b),
-                    b.atan2(a).rem_euclid(2.0 * std::f64::consts::PI),
-                )
-            };
-            let members = (0..n).map(|p| {
-                let (rho, th) = polar(&centres[p]);
-                let it = ((th / ht) as usize).min(nt - 1);
-                (p, it * na + cell_a(&centres[p]), rho + radii[p])
-            });
-            let dist = |a: usize, b: usize| {
-                let dt = (a / na).abs_diff(b / na);
-                let dt = dt.min(nt - dt) as f64;
-                let da = (a % na).abs_diff(b % na) as f64;
-                (dt * ht * rc).hypot(da * ha)
-            };
-            let (win, empty) = winners(nt * na, members, dist);
-            for p in win.into_iter().flatten() {
-                let (rho, _) = polar(&centres[p]);
-                if rho <= 0.0 {
-                    return Err(Error::Degenerate(
-                        "confining pressure: a particle on the cylinder's axis is its outermost \
-                         one (the specimen is one particle thick)"
-                            .into(),
-                    ));
-                }
-                let mut dir = Vec3::zeros();
-                dir[l0] = (centres[p][l0] - sec.centre[0]) / rho;
-                dir[l1] = (centres[p][l1] - sec.centre[1]) / rho;
-                force[p] -= dir * (pressure * cell_area);
-            }
-            cells = nt * na;
-            empty_cells = empty;
-            area = 2.0 * std::f64::consts::PI * rc * height;
+    let surface = Surface {
+        centres,
+        radii,
+        sec: Section::of(centres, radii, axis),
+        grid: AxialGrid::of(centres, radii, axis, size),
+        size,
+        pressure,
+    };
+    let mut raw = match shape {
+        Shape::Prism => surface.prism(),
+        Shape::Cylinder => surface.cylinder()?,
+    };
+    let (particles, correction) = self_equilibrate(&mut raw.force, centres, surface.sec.lateral);
+    Ok(SurfaceLoads {
+        force: raw.force,
+        particles,
+        area: raw.area,
+        cells: raw.cells,
+        empty_cells: raw.empty_cells,
+        correction,
+    })
+}
+
+/// The cells along the axis, about one mean diameter each, over the spheres' extent.
+struct AxialGrid {
+    axis: usize,
+    /// Lowest sphere surface along the axis (m).
+    lo: f64,
+    /// Extent of the spheres' surfaces along the axis (m).
+    height: f64,
+    /// Cells along the axis.
+    cells: usize,
+    /// Cell length (m).
+    h: f64,
+}
+
+impl AxialGrid {
+    fn of(centres: &[Vec3], radii: &[f64], axis: usize, size: f64) -> AxialGrid {
+        let lo = centres
+            .iter()
+            .zip(radii)
+            .map(|(x, r)| x[axis] - r)
+            .fold(f64::INFINITY, f64::min);
+        let hi = centres
+            .iter()
+            .zip(radii)
+            .map(|(x, r)| x[axis] + r)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let height = hi - lo;
+        let cells = cells_along(height, size, 1);
+        AxialGrid {
+            axis,
+            lo,
+            height,
+            cells,
+            h: height / cells as f64,
         }
     }
-    // Self-equilibrate: remove the net lateral force and the net moment about the axis (the
-    // rigid-body modes frictionless platens leave free), least squares.
-    let loaded: Vec<usize> = (0..n).filter(|&p| force[p].norm() > 0.0).collect();
+
+    /// The axial cell of a centre.
+    fn cell(&self, x: &Vec3) -> usize {
+        (((x[self.axis] - self.lo) / self.h) as usize).min(self.cells - 1)
+    }
+}
+
+/// The surface's forces before self-equilibration, with its grid's counts and area.
+struct RawLoads {
+    force: Vec<Vec3>,
+    cells: usize,
+    empty_cells: usize,
+    area: f64,
+}
+
+/// The lateral surface of the particles `centres`, `radii` under `pressure` (Pa): its section
+/// and axial grid, cells of about `size` (m) on a side.
+struct Surface<'a> {
+    centres: &'a [Vec3],
+    radii: &'a [f64],
+    sec: Section,
+    grid: AxialGrid,
+    size: f64,
+    pressure: f64,
+}
+
+impl Surface<'_> {
+    /// A prism's four faces: on each, cells of about `size` across and along the axis; each
+    /// cell's outermost particle carries pressure × cell area along the face's inward normal.
+    fn prism(&self) -> RawLoads {
+        let (centres, sec, grid) = (self.centres, &self.sec, &self.grid);
+        let (n, na, ha) = (centres.len(), grid.cells, grid.h);
+        let [l0, l1] = sec.lateral;
+        let mut out = RawLoads {
+            force: vec![Vec3::zeros(); n],
+            cells: 0,
+            empty_cells: 0,
+            area: 0.0,
+        };
+        for (k, d) in [(0usize, l0), (1, l1)] {
+            let e = [l0, l1][1 - k];
+            let ext_e = sec.hi[1 - k] - sec.lo[1 - k];
+            let ne = cells_along(ext_e, self.size, 1);
+            let he = ext_e / ne as f64;
+            let cell_area = he * ha;
+            for s in [1.0, -1.0] {
+                let members = (0..n).map(|p| {
+                    let x = &centres[p];
+                    let ie = (((x[e] - sec.lo[1 - k]) / he) as usize).min(ne - 1);
+                    (p, ie * na + grid.cell(x), s * x[d] + self.radii[p])
+                });
+                let dist = |a: usize, b: usize| {
+                    let (ea, aa) = ((a / na) as f64, (a % na) as f64);
+                    let (eb, ab) = ((b / na) as f64, (b % na) as f64);
+                    ((ea - eb) * he).hypot((aa - ab) * ha)
+                };
+                let (win, empty) = winners(ne * na, members, dist);
+                for p in win.into_iter().flatten() {
+                    out.force[p][d] -= s * self.pressure * cell_area;
+                }
+                out.cells += ne * na;
+                out.empty_cells += empty;
+                out.area += ext_e * grid.height;
+            }
+        }
+        out
+    }
+
+    /// A cylinder's mantle: cells of about `size` around and along the axis; each cell's
+    /// outermost particle carries pressure × cell area radially inwards. Refused when that
+    /// particle lies on the axis (a specimen one particle thick).
+    fn cylinder(&self) -> Result<RawLoads> {
+        let (centres, sec, na, ha) = (self.centres, &self.sec, self.grid.cells, self.grid.h);
+        let ([l0, l1], rc) = (sec.lateral, sec.radius);
+        let nt = cells_along(2.0 * std::f64::consts::PI * rc, self.size, 3);
+        let ht = 2.0 * std::f64::consts::PI / nt as f64;
+        let cell_area = ht * rc * ha;
+        let polar = |x: &Vec3| {
+            let (a, b) = (x[l0] - sec.centre[0], x[l1] - sec.centre[1]);
+            (
+                a.hypot(b),
+                b.atan2(a).rem_euclid(2.0 * std::f64::consts::PI),
+            )
+        };
+        let members = (0..centres.len()).map(|p| {
+            let (rho, th) = polar(&centres[p]);
+            let it = ((th / ht) as usize).min(nt - 1);
+            (
+                p,
+                it * na + self.grid.cell(&centres[p]),
+                rho + self.radii[p],
+            )
+        });
+        let dist = |a: usize, b: usize| {
+            let dt = (a / na).abs_diff(b / na);
+            let dt = dt.min(nt - dt) as f64;
+            let da = (a % na).abs_diff(b % na) as f64;
+            (dt * ht * rc).hypot(da * ha)
+        };
+        let (win, empty) = winners(nt * na, members, dist);
+        let mut force = vec![Vec3::zeros(); centres.len()];
+        for p in win.into_iter().flatten() {
+            let (rho, _) = polar(&centres[p]);
+            if rho <= 0.0 {
+                return Err(Error::Degenerate(
+                    "confining pressure: a particle on the cylinder's axis is its outermost \
+                     one (the specimen is one particle thick)"
+                        .into(),
+                ));
+            }
+            let mut dir = Vec3::zeros();
+            dir[l0] = (centres[p][l0] - sec.centre[0]) / rho;
+            dir[l1] = (centres[p][l1] - sec.centre[1]) / rho;
+            force[p] -= dir * (self.pressure * cell_area);
+        }
+        Ok(RawLoads {
+            force,
+            cells: nt * na,
+            empty_cells: empty,
+            area: 2.0 * std::f64::consts::PI * rc * self.grid.height,
+        })
+    }
+}
+
+/// Self-equilibrate the surface forces: remove, least squares, their net lateral force and
+/// their net moment about the axis (the rigid-body modes frictionless platens leave free).
+/// Returns the particles that carry a force and ‖correction‖/‖forces before it‖.
+fn self_equilibrate(force: &mut [Vec3], centres: &[Vec3], lateral: [usize; 2]) -> (usize, f64) {
+    let [l0, l1] = lateral;
+    let loaded: Vec<usize> = (0..force.len())
+        .filter(|&p| force[p].norm() > 0.0)
+        .collect();
     let raw = loaded
         .iter()
         .map(|&p| force[p].norm_squared())
@@ -273,12 +366,5 @@ pub(crate) fn lateral_loads(
         corr += c.norm_squared();
         force[p] -= c;
     }
-    Ok(SurfaceLoads {
-        force,
-        particles: loaded.len(),
-        area,
-        cells,
-        empty_cells,
-        correction: corr.sqrt() / raw,
-    })
+    (loaded.len(), corr.sqrt() / raw)
 }

@@ -9,3 +9,4 @@ mod cli;
 mod closed_forms;
 mod groups;
 mod periodic;
+mod slab;

@@ -12,9 +12,10 @@ use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::specimen::{solve, Lateral, Platens, SpecimenOptions};
 use anisobond::{Error, Vec3};
 
-/// `copies` copies of `p` stacked along z, in the cell (Lx, Ly, copies·Lz); particle q of
-/// copy c is c·n + q.
-fn stacked(p: &Packing, copies: usize) -> Packing {
+/// `copies` copies of `p` stacked along z, in the box (Lx, Ly, copies·Lz) periodic along the
+/// axes flagged in `periodic` (`[true; 3]`: the periodic cell; `[true, true, false]`: a slab,
+/// `p p f`, whose z faces no bond crosses); particle q of copy c is c·n + q.
+pub(crate) fn stacked_in(p: &Packing, copies: usize, periodic: [bool; 3]) -> Packing {
     let l = p.cell.unwrap().lengths;
     let mut pos = Vec::new();
     let mut radii = Vec::new();
@@ -24,16 +25,28 @@ fn stacked(p: &Packing, copies: usize) -> Packing {
             radii.push(*r);
         }
     }
-    let cell = PeriodicCell::new(Vec3::new(l.x, l.y, copies as f64 * l.z)).unwrap();
+    let lengths = Vec3::new(l.x, l.y, copies as f64 * l.z);
+    let cell = PeriodicCell::with_periodic(lengths, periodic).unwrap();
     Packing::new(pos, radii, Some(cell)).unwrap()
 }
 
 /// Middle-copy modulus σ/ε and the lateral Poisson's ratios −ε_lat/ε of a prism of `copies`
 /// copies of `cube`, periodic across z.
 fn prism(cube: &Packing, model: &Model, copies: usize, platens: Platens) -> (f64, [f64; 2]) {
+    prism_in(cube, model, copies, platens, [true; 3])
+}
+
+/// [`prism`] of the copies stacked in a box periodic along the axes flagged in `periodic`.
+pub(crate) fn prism_in(
+    cube: &Packing,
+    model: &Model,
+    copies: usize,
+    platens: Platens,
+    periodic: [bool; 3],
+) -> (f64, [f64; 2]) {
     let n = cube.len();
     let lz = cube.cell.unwrap().lengths.z;
-    let asm = Assembly::new(stacked(cube, copies), model.clone()).unwrap();
+    let asm = Assembly::new(stacked_in(cube, copies, periodic), model.clone()).unwrap();
     let mean_r = cube.radii.iter().sum::<f64>() / n as f64;
     let mut o = SpecimenOptions::new(2, mean_r);
     o.lateral = Lateral::Periodic;
