@@ -124,6 +124,18 @@ fn export_yade(a: YadeArgs) -> Result<()> {
     let written = export_yade_read(&a, &staged, &opts)?;
     set.commit()?;
     let out = yade::YadeExport::in_dir(&a.to.output);
+    if written.paths != opts.paths {
+        let labels: Vec<&str> = written
+            .paths
+            .iter()
+            .map(|&p| yade::PATH_LABELS[p])
+            .collect();
+        eprintln!(
+            "note: the box is periodic along some axes only: run.py runs the paths {} (those of \
+             the periodic axes; its header says how the free axes were extended)",
+            labels.join(",")
+        );
+    }
     println!(
         "wrote {}: {} particles, {} bonds (packing.txt, bonds.csv, model.toml, anisobond_yade.py, run.py)",
         out.dir.display(),

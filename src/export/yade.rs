@@ -179,6 +179,9 @@ pub struct YadeExport {
     pub n_particles: usize,
     /// Number of bonds.
     pub n_bonds: usize,
+    /// The strain paths `run.py` runs by default (Voigt indices): those asked for, or on a
+    /// box of mixed periodicity those of them that strain periodic axes only.
+    pub paths: Vec<usize>,
 }
 
 impl YadeExport {
@@ -191,6 +194,7 @@ impl YadeExport {
             tensor: dir.join(files::TENSOR),
             n_particles: 0,
             n_bonds: 0,
+            paths: Vec::new(),
         }
     }
 }
@@ -338,6 +342,7 @@ pub fn write_yade_export(
     let mut out = YadeExport::in_dir(dir);
     out.n_particles = packing.len();
     out.n_bonds = bonds.len();
+    out.paths = opts.paths.clone();
     Ok(out)
 }
 
@@ -394,12 +399,13 @@ impl MixedBox {
             .filter(|p| allowed.contains(p))
             .collect();
         if paths.is_empty() {
+            let labels = |p: &[usize]| p.iter().map(|&k| PATH_LABELS[k]).collect::<Vec<_>>();
             return Err(Error::Invalid(format!(
                 "YADE export: the box is periodic along some axes only (boundary {}): the strain \
-                 paths {:?} all strain a free axis; expected some of {:?} (Voigt indices)",
+                 paths {} all strain a free axis; expected some of {}",
                 self.read.boundary(),
-                opts.paths,
-                allowed
+                labels(&opts.paths).join(","),
+                labels(&allowed).join(",")
             )));
         }
         Ok(YadeRunOptions {
