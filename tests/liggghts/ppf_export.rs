@@ -168,7 +168,8 @@ fn a_p_p_f_dump_is_exported_to_liggghts_lammps_and_yade_and_runs_in_each() {
     let ends = case_ends(&lig, &[period, 2 * period]);
     let harmonic = [ends[0][7] / ends[0][1], ends[1][8] / ends[1][2]];
     eprintln!("LIGGGHTS harmonic C11, C22 = {harmonic:?} Pa, closed form {c11:e}");
-    assert!(rel(harmonic[0], c11) < 1e-6 && rel(harmonic[1], c22) < 1e-6);
+    // Case 22 runs on the box stretched by case 11: its volume is 1 + ε larger (1e-6).
+    assert!(rel(harmonic[0], c11) < 1e-5 && rel(harmonic[1], c22) < 1e-5);
     // The driver deck (full law): cases 11, 22, 12.
     let driver = crate::common::liggghts::driver();
     run(&lig, &driver, &["-in", "anisobond.in"], &[]);
