@@ -367,9 +367,34 @@ impl Assembly {
         self.bonds.coordination(self.packing.len())
     }
 
-    /// The mean-field prefactor N_c⟨l²·g⟩/V of these bonds (g: the geometry factor).
+    /// The mean-field prefactor N_c⟨l²·g⟩/V of these bonds (g: the geometry factor), V the
+    /// [`Assembly::affine_volume`].
     pub fn mean_field_prefactor(&self) -> f64 {
+        // packing_prefactor divides by the packing's volume; rescaled to the affine volume
+        // (the same for every packing but a box of mixed periodicity).
         mean_field::packing_prefactor(&self.packing, &self.bonds, &self.model.geometry)
+            * (self.packing.volume() / self.affine_volume())
+    }
+
+    /// The volume V (m³) of the affine estimates (Voigt, mean field: σ = (1/V) Σ f ⊗ l,
+    /// Truszkowska 2018 Eq. 11): the cell's for a periodic packing, the spheres' bounding box
+    /// for a free cluster, and for a box of mixed periodicity the cell's edges along its
+    /// periodic axes times the spheres' extent (surfaces included) along the free ones. A
+    /// free axis's box is a container of any height (a bed's box may be twice the bed): the
+    /// material is where the spheres are, as for a free cluster.
+    pub fn affine_volume(&self) -> f64 {
+        match &self.packing.cell {
+            Some(c) if c.is_mixed() => {
+                let (lo, hi) = self.packing.bounding_box();
+                (0..3)
+                    .map(|k| match c.periodic[k] {
+                        true => c.lengths[k],
+                        false => hi[k] - lo[k],
+                    })
+                    .product()
+            }
+            _ => self.packing.volume(),
+        }
     }
 
     /// The stiffness tensor by `method`, checked (finite, positive definite: see
@@ -385,7 +410,7 @@ impl Assembly {
         method: &Method,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<TensorResult> {
-        PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), method.name())?;
+        refuse_mixed_equilibrium(self.packing.cell.as_ref(), method)?;
         let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
         let (c, detail) = match method {
             Method::MeanField => {
@@ -394,7 +419,10 @@ impl Assembly {
                 let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
                 (c, Detail::None)
             }
-            Method::Voigt => (voigt::voigt_tensor(b, k, p.volume()), Detail::None),
+            Method::Voigt => (
+                voigt::voigt_tensor(b, k, self.affine_volume()),
+                Detail::None,
+            ),
             Method::Relaxed(opts) => {
                 let r = relaxed_tensor(p, b, k, opts)?;
                 check_relaxed_scale(&r.c, p, b, k, "relaxed")?;
@@ -424,6 +452,8 @@ impl Assembly {
             }
         };
         let mut report = TensorReport::new(method.name(), c, Some((p, b)))?;
+        // The volume the stresses are per (the box's but along a mixed box's free axes).
+        report.volume = Some(self.affine_volume());
         match &detail {
             Detail::Relaxed(r) => report.relative_residual = Some(r.relative_residual),
             Detail::Prestressed(t) => report.relative_residual = Some(t.relaxed.relative_residual),
@@ -636,5 +666,86 @@ impl EqualSpheres {
         let mut report = TensorReport::new("mean-field", c, None)?;
         report.coordination = Some(self.coordination);
         Ok(report)
+    }
+}
+
+/// Refuse ([`Error::Invalid`]) `method` on a box of mixed periodicity unless it is an
+/// affine estimate (Voigt, mean field: [`Assembly::affine_volume`]): the relaxed,
+/// prestressed, LAF and dynamic tensors are equilibria of a fully periodic cell, which a box
+/// with free faces has not; its response is that of a specimen (`anisobond specimen`).
+fn refuse_mixed_equilibrium(cell: Option<&PeriodicCell>, method: &Method) -> Result<()> {
+    match cell {
+        Some(c) if c.is_mixed() && !matches!(method, Method::Voigt | Method::MeanField) => {
+            Err(Error::Invalid(format!(
+                "tensor method {}: the packing's box is periodic along some axes only \
+                 (boundary {}): the {} tensor is the equilibrium of a fully periodic cell, and \
+                 a box with free faces has none; use `anisobond specimen` for the response of \
+                 this slab under its load test, or the affine estimates voigt and mean-field",
+                method.name(),
+                c.boundary(),
+                method.name()
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec3;
+
+    /// A simple-cubic slab of 4 × 4 × 3 spheres (spacing 1 m, radius 0.475 m) in a box of
+    /// 4 × 4 × 6 m periodic along x and y only (`p p f`, the box twice the slab's height).
+    fn slab() -> Assembly {
+        let mut positions = Vec::new();
+        for (i, j, k) in
+            (0..4).flat_map(|i| (0..4).flat_map(move |j| (0..3).map(move |k| (i, j, k))))
+        {
+            positions.push(Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5));
+        }
+        let n = positions.len();
+        let cell = PeriodicCell::with_periodic(Vec3::new(4.0, 4.0, 6.0), [true, true, false]);
+        let packing = Packing::new(positions, vec![0.475; n], Some(cell.unwrap())).unwrap();
+        let model = Model::from_toml_str(
+            "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"cubic\"\n\
+             model = \"zener-above-1\"\na_n = 4.31\na_s = 10.0\nnormal = 1.0e13\nshear = 3.55e12\n",
+            "<test>",
+        )
+        .unwrap();
+        Assembly::new(packing, model).unwrap()
+    }
+
+    /// On a `p p f` box the Voigt tensor divides by the slab's volume (4 × 4 × the spheres'
+    /// extent 2.95 m), not the box's: C11 = Σ over the 48 x bonds of k_n l² / V by hand;
+    /// the equilibrium tensors are refused by the error's kind, naming the method.
+    #[test]
+    fn a_mixed_box_gives_the_affine_tensors_per_the_slab_and_refuses_the_equilibria() {
+        let a = slab();
+        assert_eq!(a.bonds.len(), 48 + 48 + 32);
+        let v = 4.0 * 4.0 * (2.5 + 0.475 - (0.5 - 0.475));
+        assert!((a.affine_volume() - v).abs() < 1e-12 * v);
+        let sum: f64 = (0..a.bonds.len())
+            .filter(|&b| a.bonds.normal[b].x.abs() > 0.5)
+            .map(|b| a.springs.kn[b] * a.bonds.length[b].powi(2))
+            .sum();
+        let r = a.tensor(&Method::Voigt).unwrap();
+        let c11 = r.report.c[0][0];
+        assert!((c11 - sum / v).abs() < 1e-12 * c11, "{c11} vs {}", sum / v);
+        assert_eq!(r.report.volume, Some(a.affine_volume()));
+        a.tensor(&Method::MeanField).unwrap();
+        for m in [
+            Method::relaxed(),
+            Method::Laf {
+                shell: 1,
+                energy: false,
+                lever_arm: LeverArm::default(),
+            },
+        ] {
+            match a.tensor(&m) {
+                Err(Error::Invalid(e)) => assert!(e.contains(m.name()), "{e}"),
+                other => panic!("{}: expected Error::Invalid, got {other:?}", m.name()),
+            }
+        }
     }
 }

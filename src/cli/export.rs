@@ -33,14 +33,31 @@ pub enum ExportTarget {
     Vtk(super::plot::ExportVtkArgs),
 }
 
+/// What every engine export reads and where it writes.
+#[derive(clap::Args, Debug)]
+pub struct ExportPaths {
+    #[command(flatten)]
+    pub input: super::cell::BondedInput,
+    /// Output directory (created if missing; must not exist as a file).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+impl ExportPaths {
+    /// The output set of these inputs and the staged directory the export writes into
+    /// (committed to `output` once everything is written).
+    pub fn stage(&self) -> Result<(OutputSet, PathBuf)> {
+        let mut set = OutputSet::new(&self.input.paths());
+        let staged = set.dir(&self.output)?;
+        Ok((set, staged))
+    }
+}
+
 /// Arguments of `export yade`.
 #[derive(clap::Args)]
 pub struct YadeArgs {
     #[command(flatten)]
-    pub input: super::cell::BondedInput,
-    /// Output directory (created if missing).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    pub to: ExportPaths,
     /// Strain of each path, applied in one step (engineering strain).
     #[arg(long, default_value_t = 1e-5)]
     pub strain: f64,
@@ -81,13 +98,13 @@ fn export_yade_read(
     opts: &YadeRunOptions,
 ) -> Result<yade::YadeExport> {
     opts.validate()?;
-    let asm = a.input.assembly()?;
+    let asm = a.to.input.assembly()?;
     if asm.packing.cell.is_none() {
         return Err(anisobond::Error::Invalid(format!(
             "{}: the packing is not periodic (no `# periodic Lx Ly Lz` header; give --cell \
              Lx,Ly,Lz for a file that states none); the YADE element tests deform a periodic \
              cell",
-            a.input.packing.display()
+            a.to.input.packing.display()
         )));
     }
     yade::write_assembly_export(dir, &asm, opts)
@@ -103,11 +120,22 @@ fn export_yade(a: YadeArgs) -> Result<()> {
         safety: a.safety,
         paths: yade::parse_paths(&a.paths)?,
     };
-    let mut set = OutputSet::new(&a.input.paths());
-    let staged = set.dir(&a.output)?;
+    let (set, staged) = a.to.stage()?;
     let written = export_yade_read(&a, &staged, &opts)?;
     set.commit()?;
-    let out = yade::YadeExport::in_dir(&a.output);
+    let out = yade::YadeExport::in_dir(&a.to.output);
+    if written.paths != opts.paths {
+        let labels: Vec<&str> = written
+            .paths
+            .iter()
+            .map(|&p| yade::PATH_LABELS[p])
+            .collect();
+        eprintln!(
+            "note: the box is periodic along some axes only: run.py runs the paths {} (those of \
+             the periodic axes; its header says how the free axes were extended)",
+            labels.join(",")
+        );
+    }
     println!(
         "wrote {}: {} particles, {} bonds (packing.txt, bonds.csv, model.toml, anisobond_yade.py, run.py)",
         out.dir.display(),

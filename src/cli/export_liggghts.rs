@@ -3,18 +3,13 @@
 //! deck with normal springs only) for an element test of the bonded packing.
 
 use anisobond::export::liggghts::{export_liggghts, DeckOptions};
-use anisobond::io::OutputSet;
 use anisobond::Result;
-use std::path::PathBuf;
 
 /// Write LIGGGHTS input decks for a packing + model.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub input: super::cell::BondedInput,
-    /// Output directory (created if needed).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    pub to: super::export::ExportPaths,
     /// Particle density (kg/m³).
     #[arg(long, default_value_t = 2500.0)]
     pub density: f64,
@@ -46,9 +41,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(a: Args) -> Result<()> {
-    let mut set = OutputSet::new(&a.input.paths());
-    let staged = set.dir(&a.output)?;
-    let asm = a.input.assembly()?;
+    let (set, staged) = a.to.stage()?;
+    let asm = a.to.input.assembly()?;
     let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
     let opts = DeckOptions {
         density: a.density,
@@ -68,16 +62,16 @@ pub fn run(a: Args) -> Result<()> {
         packing.len(),
         bonds.len(),
         s.max_bond_length,
-        a.output.display()
+        a.to.output.display()
     );
-    super::output::print_written("  ", &s.files, &staged, &a.output);
+    super::output::print_written("  ", &s.files, &staged, &a.to.output);
     println!(
         "time step {:.4e} s, damping rate {:.4e} 1/s; load cases end at steps {:?}",
         s.timestep, s.damping_rate, s.case_end_steps
     );
     println!(
         "run: cd {} && anisobond-liggghts -in anisobond.in   (driver: make -C cpp)\n     or: stdbuf -o0 liggghts -in harmonic.in   (stock LIGGGHTS, normal springs only)",
-        a.output.display()
+        a.to.output.display()
     );
     Ok(())
 }

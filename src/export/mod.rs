@@ -14,8 +14,42 @@ pub mod vtk;
 pub mod yade;
 
 use crate::bonds::{BondSet, BondStiffness};
-use crate::packing::Packing;
+use crate::packing::{Packing, PeriodicCell};
 use crate::{Error, Result};
+
+/// The Voigt pairs (a, b) of the load cases 11 22 33 23 13 12, in order.
+const VOIGT_AXES: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
+
+/// The load cases (Voigt indices 0–5: 11 22 33 23 13 12) an exported element test runs on
+/// `cell`: all six on a fully periodic cell; on a box of mixed periodicity those whose
+/// strain moves periodic axes only. A free axis has no box strain the particles feel (its
+/// faces are free surfaces), and LAMMPS refuses a tilt whose second axis is not periodic.
+pub(crate) fn load_cases(cell: &PeriodicCell) -> Vec<usize> {
+    (0..6)
+        .filter(|&c| {
+            let (a, b) = VOIGT_AXES[c];
+            cell.periodic[a] && cell.periodic[b]
+        })
+        .collect()
+}
+
+/// The `boundary` line's flags of a LAMMPS / LIGGGHTS deck for `cell`: `p` along periodic
+/// axes, `m` along free ones. `m` (shrink-wrapped with a minimum) keeps every atom — a
+/// fixed `f` face loses an atom that crosses it — and keeps the face at least where the
+/// data file's box puts it, so that the virial stress is per the box as read unless an atom
+/// leaves it (LAMMPS and LIGGGHTS `boundary` documentation).
+pub(crate) fn deck_boundary(cell: &PeriodicCell) -> String {
+    cell.periodic.map(|p| if p { "p" } else { "m" }).join(" ")
+}
+
+/// The smallest edge of `cell` along its periodic axes (m): a bond must be shorter than
+/// half of it for the engines' minimum image (a free axis has no image).
+pub(crate) fn min_periodic_length(cell: &PeriodicCell) -> f64 {
+    (0..3)
+        .filter(|&k| cell.periodic[k])
+        .map(|k| cell.lengths[k])
+        .fold(f64::INFINITY, f64::min)
+}
 
 /// The atom ids an engine's files give the particles: the packing's own ([`Packing::ids`]:
 /// a data file's, a dump's) when every one is ≥ 1; else `None`, and the files number them
@@ -92,4 +126,24 @@ pub fn check_time_step(
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec3;
+
+    /// The load cases and boundary of a deck by the periodic axes: all six and `p p p` for
+    /// a periodic cell; for `p p f` the strains of x and y (11, 22, 12) and `p p m`.
+    #[test]
+    fn a_mixed_box_runs_the_cases_of_its_periodic_axes() {
+        let cell = |p| PeriodicCell::with_periodic(Vec3::new(1.0, 2.0, 3.0), p).unwrap();
+        assert_eq!(load_cases(&cell([true; 3])), vec![0, 1, 2, 3, 4, 5]);
+        assert_eq!(deck_boundary(&cell([true; 3])), "p p p");
+        assert_eq!(load_cases(&cell([true, true, false])), vec![0, 1, 5]);
+        assert_eq!(deck_boundary(&cell([true, true, false])), "p p m");
+        assert_eq!(load_cases(&cell([false, true, true])), vec![1, 2, 3]);
+        assert_eq!(load_cases(&cell([true, false, false])), vec![0]);
+        assert_eq!(min_periodic_length(&cell([false, true, true])), 2.0);
+    }
 }

@@ -179,6 +179,9 @@ pub struct YadeExport {
     pub n_particles: usize,
     /// Number of bonds.
     pub n_bonds: usize,
+    /// The strain paths `run.py` runs by default (Voigt indices): those asked for, or on a
+    /// box of mixed periodicity those of them that strain periodic axes only.
+    pub paths: Vec<usize>,
 }
 
 impl YadeExport {
@@ -191,6 +194,7 @@ impl YadeExport {
             tensor: dir.join(files::TENSOR),
             n_particles: 0,
             n_bonds: 0,
+            paths: Vec::new(),
         }
     }
 }
@@ -305,7 +309,11 @@ pub fn write_yade_export(
     model: Option<&Model>,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
-    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "YADE export")?;
+    let mixed = mixed_box(packing, bonds)?;
+    let (packing, opts) = match &mixed {
+        Some(m) => (&m.packing, &m.opts(opts)?),
+        None => (packing, opts),
+    };
     check_exportable(packing, bonds, springs)?;
     opts.validate()?;
     if let Some(dt) = opts.time_step {
@@ -325,14 +333,106 @@ pub fn write_yade_export(
         crate::io::write_string_atomic(&dir.join(files::MODEL), &m.to_toml_string())?;
     }
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
-    crate::io::write_string_atomic(
-        &dir.join(files::RUN),
-        &run_script(opts, packing.len(), bonds.len()),
-    )?;
+    let mut script = run_script(opts, packing.len(), bonds.len());
+    if let Some(m) = &mixed {
+        let first = script.find('\n').map_or(0, |n| n + 1);
+        script.insert_str(first, &m.note());
+    }
+    crate::io::write_string_atomic(&dir.join(files::RUN), &script)?;
     let mut out = YadeExport::in_dir(dir);
     out.n_particles = packing.len();
     out.n_bonds = bonds.len();
+    out.paths = opts.paths.clone();
     Ok(out)
+}
+
+/// A box of mixed periodicity as YADE runs it. YADE's cell is periodic along every axis, so
+/// each free axis's edge is extended to the spheres' extent along it plus a gap of
+/// 2 × (largest diameter + longest bond), the spheres shifted along it (only if one reaches
+/// below 0) so that they lie inside: no bond has an image along a free axis and the scene
+/// holds only the bonds (no collider), so nothing crosses the extended faces, which stay free
+/// surfaces. The stresses YADE reports are per the extended cell's volume.
+pub struct MixedBox {
+    /// The packing in the extended, fully periodic cell (ids and bonds' images unchanged).
+    pub packing: Packing,
+    /// The box as read: its edges and periodic axes.
+    pub read: packing::PeriodicCell,
+}
+
+/// [`MixedBox`] of a packing whose box is periodic along some axes only; None otherwise.
+pub fn mixed_box(packing: &Packing, bonds: &BondSet) -> Result<Option<MixedBox>> {
+    let Some(cell) = packing.cell.filter(|c| c.is_mixed()) else {
+        return Ok(None);
+    };
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let max_r = packing.radii.iter().copied().fold(0.0, f64::max);
+    let gap = 2.0 * (2.0 * max_r + max_len);
+    let mut out = packing.clone();
+    let mut lengths = cell.lengths;
+    for k in (0..3).filter(|&k| !cell.periodic[k]) {
+        let (lo, hi) = packing.bounding_box();
+        let shift = (-lo[k]).max(0.0);
+        for x in out.positions.iter_mut() {
+            x[k] += shift;
+        }
+        for x in out.given_positions.iter_mut().flatten() {
+            x[k] += shift;
+        }
+        lengths[k] = cell.lengths[k].max(hi[k] + shift) + gap;
+    }
+    out.cell = Some(packing::PeriodicCell::new(lengths)?);
+    Ok(Some(MixedBox {
+        packing: out,
+        read: cell,
+    }))
+}
+
+impl MixedBox {
+    /// The strain paths run: those of `opts` that strain periodic axes only
+    /// ([`super::load_cases`] of the box as read); none left is refused.
+    fn opts(&self, opts: &YadeRunOptions) -> Result<YadeRunOptions> {
+        let allowed = super::load_cases(&self.read);
+        let paths: Vec<usize> = opts
+            .paths
+            .iter()
+            .copied()
+            .filter(|p| allowed.contains(p))
+            .collect();
+        if paths.is_empty() {
+            let labels = |p: &[usize]| p.iter().map(|&k| PATH_LABELS[k]).collect::<Vec<_>>();
+            return Err(Error::Invalid(format!(
+                "YADE export: the box is periodic along some axes only (boundary {}): the strain \
+                 paths {} all strain a free axis; expected some of {}",
+                self.read.boundary(),
+                labels(&opts.paths).join(","),
+                labels(&allowed).join(",")
+            )));
+        }
+        Ok(YadeRunOptions {
+            paths,
+            ..opts.clone()
+        })
+    }
+
+    /// The comment lines of `run.py` that say what was done to the box.
+    fn note(&self) -> String {
+        let l = self.packing.cell.expect("extended cell").lengths;
+        let (v, box_volume) = (l.x * l.y * l.z, self.read.volume());
+        format!(
+            "# Box of mixed periodicity (boundary {} as read): YADE's cell is periodic along every axis, so\n\
+             #   the free axes' edges are extended ({} x {} x {} m) beyond the spheres by 2 x (largest diameter +\n\
+             #   longest bond): no bond crosses them, the scene has no collider, the free faces stay free surfaces.\n\
+             #   Only the paths of the periodic axes are run. Stresses and C are per YADE's cell volume {} m^3:\n\
+             #   multiply by {} for the box as read ({} m^3).\n",
+            self.read.boundary(),
+            super::liggghts::num(l.x),
+            super::liggghts::num(l.y),
+            super::liggghts::num(l.z),
+            super::liggghts::num(v),
+            super::liggghts::num(v / box_volume),
+            super::liggghts::num(box_volume),
+        )
+    }
 }
 
 /// Read a packing file and a model file, bond the packing by the model's rule, assign the

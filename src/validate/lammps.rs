@@ -444,7 +444,13 @@ fn element_tests(
     // 1e-10) the export computed, or with quantised bond types (`export.types`) the
     // quantised one, whose relaxed tensor the export computed too.
     let quantised = export.types.as_ref().and_then(|t| t.relaxed_quantised);
-    let relaxed = quantised.unwrap_or(export.relaxed);
+    let relaxed = quantised.or(export.relaxed).ok_or_else(|| {
+        Error::Invalid(
+            "validate lammps: the element tests compare against the relaxed tensor of a fully \
+             periodic cell; this box is periodic along some axes only"
+                .into(),
+        )
+    })?;
     let mut lammps = Vec::new();
     let counts: &[usize] = if o.two_processes { &[1, 2] } else { &[1] };
     for &np in counts {

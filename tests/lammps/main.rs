@@ -10,6 +10,7 @@ mod common;
 mod exit_codes;
 mod export;
 mod plugin;
+mod ppf_data;
 mod specimen;
 mod types;
 mod user_data;

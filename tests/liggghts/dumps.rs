@@ -98,7 +98,7 @@ fn liggghts_dump_custom_reads_as_its_data_file() {
 /// (diameter 1.9 mm, spacing 2 mm) filling a box of 10 × 10 × 6 mm: across the x and y faces
 /// the rows continue; across the z faces (walls) the bottom and top layers would be
 /// neighbours too if z were periodic. LIGGGHTS writes a `dump custom` and a data file.
-const BED: &str = "units si\n\
+pub(super) const BED: &str = "units si\n\
 atom_style granular\n\
 atom_modify map array\n\
 boundary p p f\n\
@@ -149,8 +149,9 @@ fn bonds_by_id(path: &std::path::Path) -> std::collections::BTreeSet<(u64, u64, 
 /// periodic along x and y only (from BOX BOUNDS `pp pp ff`), bonded across the x and y faces
 /// and never across z — the pairs of a brute-force search over the x, y minimum image made
 /// here from the dump's own lines; the data file of the same state read with `--boundary
-/// "p p f"` gives the same bonds, and read as `p p p` it gains the bonds across z. Tensors
-/// and exports refuse the mixed box by name.
+/// "p p f"` gives the same bonds, and read as `p p p` it gains the bonds across z. The
+/// tensors that need a periodic equilibrium refuse the mixed box by name (its exports:
+/// ppf_export.rs).
 #[test]
 fn liggghts_dump_of_a_p_p_f_bed_bonds_across_the_periodic_faces_only() {
     if let Some(r) = missing(&["liggghts"]) {
@@ -234,7 +235,7 @@ fn liggghts_dump_of_a_p_p_f_bed_bonds_across_the_periodic_faces_only() {
     let ppp = bonds_by_id(&b_ppp);
     assert_eq!(ppp.len(), 225, "p p p: the layers bonded across z too");
     assert!(ppp.iter().any(|b| b.2[2] != 0));
-    // A contradicting option, and what a mixed box cannot give yet, refused by name.
+    // A contradicting option, and a tensor a mixed box cannot give, refused by name.
     let mut c = cmd(
         "bonds {p} --model {m} -o {o}",
         &[("p", &dump), ("m", &m), ("o", &d.join("x.csv"))],
@@ -242,8 +243,8 @@ fn liggghts_dump_of_a_p_p_f_bed_bonds_across_the_periodic_faces_only() {
     c.arg("--periodic");
     assert!(fails(&mut c).contains("the boundary p p f"));
     for line in [
-        "tensor {p} --model {m} --method relaxed",
-        "export lammps {p} --model {m} -o {o}",
+        "tensor {p} --model {m} --method relaxed -o {o}",
+        "tensor {p} --model {m} --method laf -o {o}",
     ] {
         let e = fails(&mut cmd(
             line,

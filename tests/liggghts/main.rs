@@ -10,5 +10,6 @@ mod driver;
 mod dumps;
 mod harmonic;
 mod in_place;
+mod ppf_export;
 mod specimen;
 mod validate;

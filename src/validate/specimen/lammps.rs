@@ -84,31 +84,11 @@ fn write_inputs(
         c,
         "# damping ratio {DAMPING_RATIO} of each bond's own spring and reduced mass/inertia"
     );
-    let mass = |p: usize| density * 4.0 / 3.0 * std::f64::consts::PI * packing.radii[p].powi(3);
     for b in 0..bonds.len() {
-        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
-        let (mi, mj) = (mass(i), mass(j));
-        let (ii, ij) = (
-            0.4 * mi * packing.radii[i].powi(2),
-            0.4 * mj * packing.radii[j].powi(2),
-        );
-        let (m_red, i_red) = (mi * mj / (mi + mj), ii * ij / (ii + ij));
-        let (len, z) = (bonds.length[b], DAMPING_RATIO);
-        let k_roll = k.kr[b] + 0.25 * k.ks[b] * len * len;
-        let k_twist = if k.ktw[b] > 0.0 { k.ktw[b] } else { k_roll };
-        let _ = writeln!(
-            c,
-            "bond_coeff {} {} {} {} {} 1e30 1e30 1e30 1e30 {} {} {} {}",
-            b + 1,
-            num(k.kn[b]),
-            num(k.ks[b]),
-            num(k.ktw[b]),
-            num(k.kr[b]),
-            num(2.0 * z * (k.kn[b] * m_red).sqrt()),
-            num(2.0 * z * (k.ks[b] * m_red).sqrt()),
-            num(4.0 * z * (k_roll * i_red).sqrt() / len),
-            num(4.0 * z * (k_twist * i_red).sqrt())
-        );
+        let g = crate::export::lammps::bond_damping(packing, bonds, k, b, density, DAMPING_RATIO);
+        let springs = crate::export::lammps::bond_coeff_springs(b + 1, k, b, num);
+        let g = g.map(num);
+        let _ = writeln!(c, "{springs} {} {} {} {}", g[0], g[1], g[2], g[3]);
     }
     crate::io::write_string_atomic(&dir.join("bond_coeffs.lmp"), &c)?;
     Ok(max_len)
