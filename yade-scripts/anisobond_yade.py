@@ -1392,6 +1392,7 @@ def end_layers(axis, depth=None, bodies=None):
     the mean radius) of the lowest and of the highest centre along ``axis`` (0, 1, 2) -- the
     same rule as ``anisobond specimen --end-layer``. ``bodies`` defaults to the scene's
     spheres."""
+    _check_depth(depth)
     if bodies is None:
         bodies = scene_spheres()[0]
     if not bodies:
@@ -1406,6 +1407,39 @@ def end_layers(axis, depth=None, bodies=None):
         raise InputError("end layers of depth %r m overlap along %s (extent %r m)"
                          % (depth, AXES[axis], hi - lo))
     return bottom, top
+
+
+def _check_depth(depth):
+    """Refuse an end-layer ``depth`` that is not None or a finite number >= 0 (a negative
+    one selects no sphere: empty layers, and a gauge length divided by zero)."""
+    if depth is not None and not (_is_number(depth) and math.isfinite(depth) and depth >= 0):
+        raise InputError("depth must be None (the mean radius) or a finite end-layer depth "
+                         ">= 0 m, got %r" % (depth,))
+
+
+def _is_number(v):
+    """True for an int or float that is not a bool."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _check_platen_settling(tolerance, max_steps):
+    """Refuse a settling ``tolerance`` outside (0, 1) (0 or NaN never settles) and a
+    ``max_steps`` that is not an integer >= 1 (0 measures nothing: the forces stay NaN)."""
+    if not (_is_number(tolerance) and 0 < tolerance < 1):
+        raise InputError("tolerance must be a relative change in (0, 1), got %r" % (tolerance,))
+    if not (isinstance(max_steps, int) and not isinstance(max_steps, bool) and max_steps >= 1):
+        raise InputError("max_steps must be an integer >= 1, got %r" % (max_steps,))
+
+
+def _remaining(forces):
+    """Estimated remaining relative change of the last force of ``forces`` (at least three
+    readings a chunk apart): |d2| / (1 - |d2/d1|) / |f|, geometric extrapolation of the last
+    two changes; inf (no estimate) when they are not decaying or the force is zero."""
+    d1, d2 = forces[-2] - forces[-3], forces[-1] - forces[-2]
+    ratio = abs(d2 / d1) if d1 != 0 else 0.0
+    if ratio >= 1 or forces[-1] == 0:
+        return float("inf")
+    return abs(d2) / (1 - ratio) / abs(forces[-1])
 
 
 def _axial_force(ids, axis):
@@ -1431,7 +1465,11 @@ def platen_test(axis=2, depth=None, platens="frictionless", strain=1e-6, ramp_st
     of the last two changes) and both layers carry the same force to ``tolerance``, or
     ``max_steps``. Returns a ``PlatenResult``; ``remaining`` is the estimated remaining
     relative change (the run did not settle when it exceeds ``tolerance``). Compare
-    ``stiffness()`` with ``anisobond specimen``'s ``platen_stiffness``."""
+    ``stiffness()`` with ``anisobond specimen``'s ``platen_stiffness``. Refused
+    (``InputError``, a ``ValueError`` naming the argument): a ``depth`` not None or finite
+    >= 0, a ``tolerance`` outside (0, 1), a ``max_steps`` not an integer >= 1."""
+    _check_depth(depth)
+    _check_platen_settling(tolerance, max_steps)
     from yade import O
     from yade.minieigenHP import Vector3
     if platens not in ("frictionless", "bonded"):
@@ -1479,9 +1517,7 @@ def platen_test(axis=2, depth=None, platens="frictionless", strain=1e-6, ramp_st
         f_bottom = -_axial_force(bottom, axis)
         forces.append(f_top)
         if len(forces) >= 3:
-            d1, d2 = forces[-2] - forces[-3], forces[-1] - forces[-2]
-            ratio = abs(d2 / d1) if d1 != 0 else 0.0
-            remaining = abs(d2) / (1 - ratio) / abs(f_top) if ratio < 1 else float("inf")
+            remaining = _remaining(forces)
         if progress is not None:
             progress(O.iter - start, f_top, remaining)
         if remaining <= tolerance and abs(f_top - f_bottom) <= tolerance * abs(f_top):

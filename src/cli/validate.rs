@@ -179,59 +179,93 @@ pub fn run(a: ValidateArgs) -> Result<()> {
     }
 }
 
-/// The element tests, or the specimen test with `--specimen`.
+/// The element tests, or the specimen test with `--specimen`: the engine's options
+/// checked, the output staged and the bonded input read ([`RunDir::open`]), then the run.
 fn dispatch<E: Engine>(
     engine: &E,
     input: &BondedInput,
     output: Option<&Path>,
     specimen: &SpecimenFlags,
 ) -> Result<()> {
+    let run = RunDir::open(engine, input, output)?;
     if specimen.specimen {
-        run_specimen(engine, input, output, specimen)
+        run_specimen(engine, run, specimen)
     } else {
-        run_engine(engine, input, output)
+        run_engine(engine, run)
     }
 }
 
 /// `validate ENGINE --specimen`: as [`run_engine`], with the specimen test.
-fn run_specimen<E: Engine>(
-    engine: &E,
-    input: &BondedInput,
-    output: Option<&Path>,
-    flags: &SpecimenFlags,
-) -> Result<()> {
-    engine.check()?;
+fn run_specimen<E: Engine>(engine: &E, run: RunDir, flags: &SpecimenFlags) -> Result<()> {
     let name = E::Details::ENGINE;
-    let mut set = OutputSet::new(&input.paths());
-    let staged = set.optional_dir(output)?;
-    let asm = input.assembly()?;
-    let test = flags.test(&asm);
+    let test = flags.test(&run.asm);
     test.check(name)?;
-    let temp;
-    let dir = match &staged {
-        Some(d) => d.clone(),
-        None => {
-            temp = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
-            temp.path().to_path_buf()
-        }
-    };
     println!(
         "validate {name} --specimen: {} particles, {} bonds; runs in {}",
-        asm.packing.len(),
-        asm.bonds.len(),
-        dir.display()
+        run.asm.packing.len(),
+        run.asm.bonds.len(),
+        run.dir.display()
     );
-    let t0 = std::time::Instant::now();
-    let progress = |m: &str| eprintln!("[{:7.1} s] {m}", t0.elapsed().as_secs_f64());
-    let report = validate_specimen(engine, &Problem::of(&dir, &asm), &test, &progress)?;
+    let problem = Problem::of(&run.dir, &run.asm);
+    let report = validate_specimen(engine, &problem, &test, &|m| run.progress(m))?;
     print!("{}", specimen::summary(&report));
-    if let Some(out) = output {
-        let files = specimen::write_files(&dir, &report)?;
-        set.commit()?;
-        println!();
-        super::output::print_written("wrote ", &files, &dir, out);
-    }
+    run.keep(|dir| specimen::write_files(dir, &report))?;
     finish(name, &report)
+}
+
+/// Where a validation runs: the bonded input read, the staged `output` (a temporary
+/// directory, removed when dropped, without one), and the start time of the progress lines.
+struct RunDir {
+    set: OutputSet,
+    /// Where the report files go (`-o`), if anywhere.
+    output: Option<PathBuf>,
+    dir: PathBuf,
+    /// Keeps the temporary directory until the run is over.
+    _temp: Option<tempfile::TempDir>,
+    asm: anisobond::assembly::Assembly,
+    t0: std::time::Instant,
+}
+
+impl RunDir {
+    /// The engine's options checked, the output staged, the bonded input read.
+    fn open<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>) -> Result<RunDir> {
+        engine.check()?;
+        let mut set = OutputSet::new(&input.paths());
+        let staged = set.optional_dir(output)?;
+        let asm = input.assembly()?;
+        let (dir, temp) = match staged {
+            Some(d) => (d, None),
+            None => {
+                let t = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
+                (t.path().to_path_buf(), Some(t))
+            }
+        };
+        Ok(RunDir {
+            set,
+            output: output.map(Path::to_path_buf),
+            dir,
+            _temp: temp,
+            asm,
+            t0: std::time::Instant::now(),
+        })
+    }
+
+    /// A progress line on stderr with the seconds since the run started.
+    fn progress(&self, m: &str) {
+        eprintln!("[{:7.1} s] {m}", self.t0.elapsed().as_secs_f64());
+    }
+
+    /// With an `output`: the report files written by `write` into the staged directory,
+    /// moved into place, and listed.
+    fn keep(self, write: impl FnOnce(&Path) -> Result<Vec<PathBuf>>) -> Result<()> {
+        if let Some(out) = &self.output {
+            let files = write(&self.dir)?;
+            self.set.commit()?;
+            println!();
+            super::output::print_written("wrote ", &files, &self.dir, out);
+        }
+        Ok(())
+    }
 }
 
 /// The end of every validation (its files already written): [`Error::OutOfTolerance`]
@@ -269,46 +303,28 @@ fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Re
     })
 }
 
-/// Every `validate ENGINE`: options checked, the bonded input read, the engine run in the
-/// staged `output` (a temporary directory, removed, without one) with one progress line
-/// per stage, the summary printed, the report files written and moved into place, and the
+/// Every `validate ENGINE` in its [`RunDir`] (options checked, the bonded input read): the
+/// engine run in the staged output (a temporary directory, removed, without one) with one
+/// progress line per stage, the summary printed, the report files written and moved into place, and the
 /// end ([`finish`]): exit 0 when every check is within its tolerance, else
 /// [`Error::OutOfTolerance`] naming the failed checks, else [`Error::NotConverged`] when a
 /// compared run had not settled (an engine that failed has ended earlier with
 /// [`Error::EngineFailed`]).
-fn run_engine<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>) -> Result<()> {
-    engine.check()?;
+fn run_engine<E: Engine>(engine: &E, run: RunDir) -> Result<()> {
     let name = E::Details::ENGINE;
-    let mut set = OutputSet::new(&input.paths());
-    let staged = set.optional_dir(output)?;
-    let asm = input.assembly()?;
-    let temp;
-    let dir = match &staged {
-        Some(d) => d.clone(),
-        None => {
-            temp = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
-            temp.path().to_path_buf()
-        }
-    };
     println!(
         "validate {name}: {} particles, {} bonds; runs in {}{}",
-        asm.packing.len(),
-        asm.bonds.len(),
-        dir.display(),
-        output.map_or(String::new(), |o| format!(
+        run.asm.packing.len(),
+        run.asm.bonds.len(),
+        run.dir.display(),
+        run.output.as_ref().map_or(String::new(), |o| format!(
             " (moved to {} when done)",
             o.display()
         ))
     );
-    let t0 = std::time::Instant::now();
-    let progress = |m: &str| eprintln!("[{:7.1} s] {m}", t0.elapsed().as_secs_f64());
-    let report = validate(engine, &Problem::of(&dir, &asm), &progress)?;
+    let problem = Problem::of(&run.dir, &run.asm);
+    let report = validate(engine, &problem, &|m| run.progress(m))?;
     print!("{}", summary(&report));
-    if let Some(out) = output {
-        let files = engine.write_files(&dir, &report)?;
-        set.commit()?;
-        println!();
-        super::output::print_written("wrote ", &files, &dir, out);
-    }
+    run.keep(|dir| engine.write_files(dir, &report))?;
     finish(name, &report)
 }

@@ -181,107 +181,16 @@ pub fn read_packing_as(path: &Path, choice: CellChoice) -> Result<PackingRead> {
 /// Parse packing text like [`parse_packing`], with a [`CellChoice`] (see [`read_packing_as`]).
 pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<PackingRead> {
     let format = detect_format(text);
-    let refuse = |what: String| Error::parse(source, 0, what);
     let mut bonds = None;
-    let mut data = |periodic: [bool; 3]| -> Result<Packing> {
-        let (p, b) = parse_data_boundary(text, source, periodic)?;
-        bonds = b;
-        Ok(p)
-    };
     let (packing, origin) = match format {
-        PackingFormat::LiggghtsData => match choice {
-            CellChoice::AsStated => (data([true; 3])?, CellOrigin::Assumed),
-            CellChoice::Periodic => (data([true; 3])?, CellOrigin::Chosen),
-            CellChoice::Free => (data([false; 3])?, CellOrigin::Chosen),
-            CellChoice::Boundary(flags) => (data(flags)?, CellOrigin::Chosen),
-            CellChoice::Cell(_) => {
-                return Err(refuse(
-                    "a LIGGGHTS data file has its box: expected --periodic (the box is the \
-                     periodic cell) or --free (a walled box), not --cell"
-                        .into(),
-                ))
-            }
-        },
-        PackingFormat::Dump => {
-            let p = parse_dump(text, source)?;
-            let flags = p.cell.map_or([false; 3], |c| c.periodic);
-            let agrees = match choice {
-                CellChoice::AsStated => true,
-                CellChoice::Periodic => flags == [true; 3],
-                CellChoice::Free => p.cell.is_none(),
-                CellChoice::Boundary(b) => flags == b,
-                CellChoice::Cell(_) => false,
-            };
-            if !agrees {
-                return Err(refuse(format!(
-                    "the dump's BOX BOUNDS state {}; expected no --cell, --periodic, --free or \
-                     --boundary that contradicts them",
-                    match &p.cell {
-                        Some(c) if c.is_mixed() => format!("the boundary {}", c.boundary()),
-                        Some(_) => "a periodic box (pp pp pp)".to_string(),
-                        None => "a non-periodic box".to_string(),
-                    }
-                )));
-            }
-            (p, CellOrigin::Stated)
+        PackingFormat::LiggghtsData => {
+            let (p, origin, b) = data_as(text, source, choice)?;
+            bonds = b;
+            (p, origin)
         }
+        PackingFormat::Dump => (dump_as(text, source, choice)?, CellOrigin::Stated),
         PackingFormat::YadeSpherePack | PackingFormat::SpecText => {
-            let (p, stated) = parse_sphere_text(text, source)?;
-            if stated {
-                let agrees = match choice {
-                    CellChoice::AsStated => true,
-                    CellChoice::Periodic | CellChoice::Boundary([true, true, true]) => {
-                        p.cell.is_some()
-                    }
-                    CellChoice::Free => p.cell.is_none(),
-                    CellChoice::Boundary(_) => false,
-                    CellChoice::Cell(l) => p.cell.is_some_and(|c| c.lengths == l),
-                };
-                if !agrees {
-                    let states = match &p.cell {
-                        Some(c) => format!(
-                            "a periodic cell {} {} {}",
-                            num(c.lengths.x),
-                            num(c.lengths.y),
-                            num(c.lengths.z)
-                        ),
-                        None => "a free cluster".into(),
-                    };
-                    return Err(refuse(format!(
-                        "the file states {states}; expected no --cell, --periodic or --free \
-                         that contradicts it"
-                    )));
-                }
-                (p, CellOrigin::Stated)
-            } else {
-                match choice {
-                    CellChoice::AsStated => (p, CellOrigin::Assumed),
-                    CellChoice::Free => (p, CellOrigin::Chosen),
-                    CellChoice::Periodic => {
-                        return Err(refuse(
-                            "the file states no cell lengths (no `# periodic Lx Ly Lz` or \
-                             `##PERIODIC::` line): expected --cell Lx,Ly,Lz for a periodic \
-                             packing"
-                                .into(),
-                        ))
-                    }
-                    CellChoice::Boundary(_) => {
-                        return Err(refuse(
-                            "--boundary is for LAMMPS / LIGGGHTS data files and dumps, whose \
-                             box it makes periodic along some axes; this text file states no \
-                             box"
-                            .into(),
-                        ))
-                    }
-                    CellChoice::Cell(l) => {
-                        let cell = PeriodicCell::new(l)?;
-                        let ids = p.ids;
-                        let mut p = Packing::new(p.positions, p.radii, Some(cell))?;
-                        p.ids = ids;
-                        (p, CellOrigin::Chosen)
-                    }
-                }
-            }
+            sphere_text_as(text, source, choice)?
         }
     };
     Ok(PackingRead {
@@ -290,6 +199,126 @@ pub fn parse_packing_as(text: &str, source: &str, choice: CellChoice) -> Result<
         origin,
         bonds,
     })
+}
+
+/// A refusal of the caller's [`CellChoice`] for `source` (no line: it is about the file).
+fn refuse_choice(source: &str, what: String) -> Error {
+    Error::parse(source, 0, what)
+}
+
+/// A LAMMPS / LIGGGHTS data file read with `choice`: its box is periodic (assumed when the
+/// caller says nothing), walled, or periodic along some axes; `--cell` is refused (the
+/// box is the cell). Also returns the file's `Bonds` section.
+fn data_as(
+    text: &str,
+    source: &str,
+    choice: CellChoice,
+) -> Result<(Packing, CellOrigin, Option<DataBonds>)> {
+    let (flags, origin) = match choice {
+        CellChoice::AsStated => ([true; 3], CellOrigin::Assumed),
+        CellChoice::Periodic => ([true; 3], CellOrigin::Chosen),
+        CellChoice::Free => ([false; 3], CellOrigin::Chosen),
+        CellChoice::Boundary(flags) => (flags, CellOrigin::Chosen),
+        CellChoice::Cell(_) => {
+            return Err(refuse_choice(
+                source,
+                "a LIGGGHTS data file has its box: expected --periodic (the box is the \
+                 periodic cell) or --free (a walled box), not --cell"
+                    .into(),
+            ))
+        }
+    };
+    let (p, b) = parse_data_boundary(text, source, flags)?;
+    Ok((p, origin, b))
+}
+
+/// A dump, which states its boundary: read as stated, `choice` refused when it
+/// contradicts the BOX BOUNDS flags.
+fn dump_as(text: &str, source: &str, choice: CellChoice) -> Result<Packing> {
+    let p = parse_dump(text, source)?;
+    let flags = p.cell.map_or([false; 3], |c| c.periodic);
+    let agrees = match choice {
+        CellChoice::AsStated => true,
+        CellChoice::Periodic => flags == [true; 3],
+        CellChoice::Free => p.cell.is_none(),
+        CellChoice::Boundary(b) => flags == b,
+        CellChoice::Cell(_) => false,
+    };
+    if !agrees {
+        return Err(refuse_choice(
+            source,
+            format!(
+                "the dump's BOX BOUNDS state {}; expected no --cell, --periodic, --free or \
+                 --boundary that contradicts them",
+                match &p.cell {
+                    Some(c) if c.is_mixed() => format!("the boundary {}", c.boundary()),
+                    Some(_) => "a periodic box (pp pp pp)".to_string(),
+                    None => "a non-periodic box".to_string(),
+                }
+            ),
+        ));
+    }
+    Ok(p)
+}
+
+/// SPEC / YADE text read with `choice`: a stated cell (or `# free`) must agree with it;
+/// without one the choice decides (a free cluster when the caller says nothing; a
+/// periodic cell needs its lengths, `--cell`).
+fn sphere_text_as(text: &str, source: &str, choice: CellChoice) -> Result<(Packing, CellOrigin)> {
+    let (p, stated) = parse_sphere_text(text, source)?;
+    if stated {
+        let agrees = match choice {
+            CellChoice::AsStated => true,
+            CellChoice::Periodic | CellChoice::Boundary([true, true, true]) => p.cell.is_some(),
+            CellChoice::Free => p.cell.is_none(),
+            CellChoice::Boundary(_) => false,
+            CellChoice::Cell(l) => p.cell.is_some_and(|c| c.lengths == l),
+        };
+        if !agrees {
+            let states = match &p.cell {
+                Some(c) => format!(
+                    "a periodic cell {} {} {}",
+                    num(c.lengths.x),
+                    num(c.lengths.y),
+                    num(c.lengths.z)
+                ),
+                None => "a free cluster".into(),
+            };
+            return Err(refuse_choice(
+                source,
+                format!(
+                    "the file states {states}; expected no --cell, --periodic or --free \
+                     that contradicts it"
+                ),
+            ));
+        }
+        return Ok((p, CellOrigin::Stated));
+    }
+    match choice {
+        CellChoice::AsStated => Ok((p, CellOrigin::Assumed)),
+        CellChoice::Free => Ok((p, CellOrigin::Chosen)),
+        CellChoice::Periodic => Err(refuse_choice(
+            source,
+            "the file states no cell lengths (no `# periodic Lx Ly Lz` or \
+             `##PERIODIC::` line): expected --cell Lx,Ly,Lz for a periodic \
+             packing"
+                .into(),
+        )),
+        CellChoice::Boundary(_) => Err(refuse_choice(
+            source,
+            "--boundary is for LAMMPS / LIGGGHTS data files and dumps, whose \
+             box it makes periodic along some axes; this text file states no \
+             box"
+            .into(),
+        )),
+        CellChoice::Cell(l) => {
+            let cell = PeriodicCell::new(l)?;
+            let ids = p.ids;
+            let mut p = Packing::new(p.positions, p.radii, Some(cell))?;
+            p.ids = ids;
+            Ok((p, CellOrigin::Chosen))
+        }
+    }
 }
 
 /// The file formats [`parse_packing`] understands.
@@ -633,9 +662,10 @@ const SPHERE_LINE_HINT: &str = "expected lines `x y z r` (one sphere per line; `
 
 /// The columns of a sphere line, fixed by a `#format` line (YADE `export.textExt`) or, without
 /// one, `x y z r` with an optional fifth column clumpId (YADE `SpherePack.save`).
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Default)]
 enum SphereColumns {
     /// No `#format` line: `x y z r` or `x y z r clumpId`.
+    #[default]
     Plain,
     /// `#format x_y_z_r`.
     Xyzr,
@@ -667,50 +697,12 @@ fn parse_integer(word: &str, what: &str, source: &str, line: usize) -> Result<i6
 /// states its cell (a `# periodic` / `##PERIODIC::` header, a `# free` line, or YADE
 /// SpherePack.save's clumpId column, written with the header whenever the pack is periodic).
 fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
-    let mut spheres = Spheres::default();
-    let mut cell: Option<(Vec3, usize)> = None;
-    let mut columns = SphereColumns::Plain;
-    let mut stated_free = false;
-    let mut free_line: Option<usize> = None;
-    let mut ids: Vec<u64> = Vec::new();
-    let mut id_lines: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+    let mut s = SphereText::default();
     for (k, raw) in text_lines(text).into_iter().enumerate() {
         let line = k + 1;
         let t = raw.trim();
-        if let Some(rest) = t.strip_prefix("##PERIODIC::") {
-            let words: Vec<&str> = rest.split_whitespace().collect();
-            let l = parse_cell_lengths(&words, source, line, "##PERIODIC::")?;
-            set_cell(&mut cell, l, source, line)?;
-            continue;
-        }
-        if let Some(comment) = t.strip_prefix('#') {
-            let words: Vec<&str> = comment.split_whitespace().collect();
-            if words
-                .first()
-                .is_some_and(|w| w.eq_ignore_ascii_case("periodic"))
-            {
-                let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
-                set_cell(&mut cell, l, source, line)?;
-            } else if words.len() == 1 && words[0].eq_ignore_ascii_case("free") {
-                free_line = Some(line);
-            } else if t.starts_with("#format") {
-                columns = match words.get(1).copied() {
-                    Some("x_y_z_r") => SphereColumns::Xyzr,
-                    Some("x_y_z_r_matId") => SphereColumns::XyzrMatId,
-                    Some("x_y_z_r_attrs") => SphereColumns::XyzrAttrs(None),
-                    Some("id_x_y_z_r_matId") => SphereColumns::IdXyzrMatId,
-                    other => {
-                        return Err(Error::parse(
-                            source,
-                            line,
-                            format!(
-                                "unsupported `#format {}`: expected {SPHERE_FORMATS}",
-                                other.unwrap_or("")
-                            ),
-                        ))
-                    }
-                };
-            }
+        if t.starts_with('#') {
+            s.comment(t, source, line)?;
             continue;
         }
         let body = t.split('#').next().unwrap_or("");
@@ -718,10 +710,83 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
         if words.is_empty() {
             continue;
         }
-        let n = words.len();
-        let expected = match columns {
+        s.check_count(words.len(), source, line)?;
+        let first = usize::from(s.columns == SphereColumns::IdXyzrMatId);
+        if first == 1 {
+            s.body_id(words[0], source, line)?;
+        }
+        let x = parse_number(words[first], "x", source, line)?;
+        let y = parse_number(words[first + 1], "y", source, line)?;
+        let z = parse_number(words[first + 2], "z", source, line)?;
+        let r = parse_number(words[first + 3], "radius r", source, line)?;
+        s.check_extra_columns(&words, source, line)?;
+        s.spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
+    }
+    s.finish(source)
+}
+
+/// What [`parse_sphere_text`] has read so far.
+#[derive(Default)]
+struct SphereText {
+    spheres: Spheres,
+    /// The periodic cell's lengths and header line.
+    cell: Option<(Vec3, usize)>,
+    columns: SphereColumns,
+    /// A SpherePack.save clumpId column was seen (it states a free pack without a header).
+    stated_free: bool,
+    /// The line of a `# free` comment.
+    free_line: Option<usize>,
+    /// Body ids (`#format id_x_y_z_r_matId`), and the line of each.
+    ids: Vec<u64>,
+    id_lines: std::collections::HashMap<u64, usize>,
+}
+
+impl SphereText {
+    /// A comment line: the cell headers `##PERIODIC::` and `# periodic`, `# free`, and
+    /// `#format` (the columns of the sphere lines); any other comment is ignored.
+    fn comment(&mut self, t: &str, source: &str, line: usize) -> Result<()> {
+        if let Some(rest) = t.strip_prefix("##PERIODIC::") {
+            let words: Vec<&str> = rest.split_whitespace().collect();
+            let l = parse_cell_lengths(&words, source, line, "##PERIODIC::")?;
+            return set_cell(&mut self.cell, l, source, line);
+        }
+        let words: Vec<&str> = t[1..].split_whitespace().collect();
+        if words
+            .first()
+            .is_some_and(|w| w.eq_ignore_ascii_case("periodic"))
+        {
+            let l = parse_cell_lengths(&words[1..], source, line, "# periodic")?;
+            set_cell(&mut self.cell, l, source, line)?;
+        } else if words.len() == 1 && words[0].eq_ignore_ascii_case("free") {
+            self.free_line = Some(line);
+        } else if t.starts_with("#format") {
+            self.columns = match words.get(1).copied() {
+                Some("x_y_z_r") => SphereColumns::Xyzr,
+                Some("x_y_z_r_matId") => SphereColumns::XyzrMatId,
+                Some("x_y_z_r_attrs") => SphereColumns::XyzrAttrs(None),
+                Some("id_x_y_z_r_matId") => SphereColumns::IdXyzrMatId,
+                other => {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "unsupported `#format {}`: expected {SPHERE_FORMATS}",
+                            other.unwrap_or("")
+                        ),
+                    ))
+                }
+            };
+        }
+        Ok(())
+    }
+
+    /// Check that a sphere line has the `n` columns its format asks for; the first line of
+    /// `x_y_z_r_attrs` fixes the count for the others, and a fifth plain column (clumpId)
+    /// states a free pack.
+    fn check_count(&mut self, n: usize, source: &str, line: usize) -> Result<()> {
+        let expected = match self.columns {
             SphereColumns::Plain if n == 4 || n == 5 => {
-                stated_free |= n == 5;
+                self.stated_free |= n == 5;
                 None
             }
             SphereColumns::Plain => {
@@ -739,7 +804,7 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
             SphereColumns::XyzrMatId if n == 5 => None,
             SphereColumns::XyzrMatId => Some("5 numbers `x y z r matId`".to_string()),
             SphereColumns::XyzrAttrs(None) if n >= 4 => {
-                columns = SphereColumns::XyzrAttrs(Some(n));
+                self.columns = SphereColumns::XyzrAttrs(Some(n));
                 None
             }
             SphereColumns::XyzrAttrs(None) => {
@@ -753,37 +818,42 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
             SphereColumns::IdXyzrMatId if n == 6 => None,
             SphereColumns::IdXyzrMatId => Some("6 numbers `id x y z r matId`".to_string()),
         };
-        if let Some(expected) = expected {
-            return Err(Error::parse(
+        match expected {
+            Some(expected) => Err(Error::parse(
                 source,
                 line,
                 format!("expected {expected}, found {n}"),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The body id of column 1 (`#format id_x_y_z_r_matId`): ≥ 0 and not given twice.
+    fn body_id(&mut self, word: &str, source: &str, line: usize) -> Result<()> {
+        let id = parse_integer(word, "body id (column 1)", source, line)?;
+        if id < 0 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("body id (column 1) must be ≥ 0, found {id}"),
             ));
         }
-        let first = usize::from(columns == SphereColumns::IdXyzrMatId);
-        if first == 1 {
-            let id = parse_integer(words[0], "body id (column 1)", source, line)?;
-            if id < 0 {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("body id (column 1) must be ≥ 0, found {id}"),
-                ));
-            }
-            if let Some(first) = id_lines.insert(id as u64, line) {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("body id {id} appears twice (also line {first})"),
-                ));
-            }
-            ids.push(id as u64);
+        if let Some(first) = self.id_lines.insert(id as u64, line) {
+            return Err(Error::parse(
+                source,
+                line,
+                format!("body id {id} appears twice (also line {first})"),
+            ));
         }
-        let x = parse_number(words[first], "x", source, line)?;
-        let y = parse_number(words[first + 1], "y", source, line)?;
-        let z = parse_number(words[first + 2], "z", source, line)?;
-        let r = parse_number(words[first + 3], "radius r", source, line)?;
-        match columns {
+        self.ids.push(id as u64);
+        Ok(())
+    }
+
+    /// Check the columns after the radius: a clumpId must be −1 (a clump member is part of
+    /// one rigid body, not a sphere to bond), a matId an integer, attributes numbers.
+    fn check_extra_columns(&self, words: &[&str], source: &str, line: usize) -> Result<()> {
+        let n = words.len();
+        match self.columns {
             SphereColumns::Plain if n == 5 => {
                 let clump = parse_integer(words[4], "clumpId (column 5)", source, line)?;
                 if clump != -1 {
@@ -810,33 +880,38 @@ fn parse_sphere_text(text: &str, source: &str) -> Result<(Packing, bool)> {
             }
             _ => {}
         }
-        spheres.push(Vec3::new(x, y, z), r, "r", source, line)?;
+        Ok(())
     }
-    if let (Some(free), Some((_, line))) = (free_line, cell) {
-        return Err(Error::parse(
-            source,
-            line.max(free),
-            format!(
-                "a periodic cell (line {line}) and `# free` (line {free}) in one file; \
-                 expected one of them"
-            ),
-        ));
+
+    /// The checked packing (see [`finish`]) with its body ids, and whether the text stated
+    /// its cell; a periodic cell and `# free` in one file are refused.
+    fn finish(self, source: &str) -> Result<(Packing, bool)> {
+        if let (Some(free), Some((_, line))) = (self.free_line, self.cell) {
+            return Err(Error::parse(
+                source,
+                line.max(free),
+                format!(
+                    "a periodic cell (line {line}) and `# free` (line {free}) in one file; \
+                     expected one of them"
+                ),
+            ));
+        }
+        let stated = self.stated_free || self.free_line.is_some() || self.cell.is_some();
+        let cell = self.cell.map(|(lengths, line)| CellSource {
+            lengths,
+            line,
+            periodic: [true; 3],
+        });
+        let packing = finish(source, self.spheres, cell, SPHERE_LINE_HINT)?;
+        let packing = if self.columns == SphereColumns::IdXyzrMatId {
+            packing
+                .with_ids(self.ids)
+                .map_err(|e| Error::parse(source, 0, e.to_string()))?
+        } else {
+            packing
+        };
+        Ok((packing, stated))
     }
-    let stated = stated_free || free_line.is_some() || cell.is_some();
-    let cell = cell.map(|(lengths, line)| CellSource {
-        lengths,
-        line,
-        periodic: [true; 3],
-    });
-    let packing = finish(source, spheres, cell, SPHERE_LINE_HINT)?;
-    let packing = if columns == SphereColumns::IdXyzrMatId {
-        packing
-            .with_ids(ids)
-            .map_err(|e| Error::parse(source, 0, e.to_string()))?
-    } else {
-        packing
-    };
-    Ok((packing, stated))
 }
 
 fn set_cell(cell: &mut Option<(Vec3, usize)>, l: Vec3, source: &str, line: usize) -> Result<()> {
@@ -1130,15 +1205,6 @@ pub fn parse_data_boundary(
     periodic: [bool; 3],
 ) -> Result<(Packing, Option<DataBonds>)> {
     let lines = text_lines(text);
-    let mut n_atoms: Option<(usize, usize)> = None;
-    let mut n_types: Option<(u64, usize)> = None;
-    let mut n_bonds: Option<(usize, usize)> = None;
-    let mut n_bond_types: Option<(u64, usize)> = None;
-    let mut bounds: [Option<(f64, f64, usize)>; 3] = [None; 3];
-    let mut atoms: Vec<Atom> = Vec::new();
-    let mut atoms_line: Option<usize> = None;
-    let mut bond_rows: Vec<BondLine> = Vec::new();
-    let mut bonds_line: Option<usize> = None;
     // The lines that are not blank after their comment: (line number, text, words). Line 1
     // is the title and always skipped (LAMMPS rule).
     let mut rows = lines
@@ -1148,16 +1214,82 @@ pub fn parse_data_boundary(
         .map(|(k, raw)| (k + 1, *raw, data_words(raw)))
         .filter(|(_, _, words)| !words.is_empty())
         .peekable();
-    let not_section = |row: &(usize, &str, Vec<&str>)| !LAMMPS_SECTIONS.contains(&row.2[0]);
-    // Header.
+    let header = data_header(&mut rows, source)?;
+    let mut sections = data_sections(&mut rows, source)?;
+    check_atoms(&header, &mut sections, source)?;
+    let atoms = &sections.atoms;
+    let data_bonds = data_bonds(
+        &sections.bond_rows,
+        sections.bonds_line,
+        header.n_bonds,
+        header.n_bond_types,
+        atoms,
+        source,
+    )?;
+    let cell = data_cell(&header.bounds, periodic, source)?;
+    if let Some(b) = &data_bonds {
+        check_bonds_in_box(b, atoms, &header.bounds, periodic, source)?;
+    }
+    let mut spheres = Spheres::default();
+    for a in atoms {
+        let mut p = a.position;
+        if let Some((lo, _)) = &cell {
+            p -= lo;
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(Error::parse(
+                    source,
+                    a.line,
+                    format!(
+                        "the position shifted by the box origin, ({:e}, {:e}, {:e}) − ({:e}, \
+                         {:e}, {:e}), overflows; expected atoms near the box",
+                        a.position.x, a.position.y, a.position.z, lo.x, lo.y, lo.z
+                    ),
+                ));
+            }
+        }
+        spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
+    }
+    let packing = finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
+        .with_ids(atoms.iter().map(|a| a.id).collect())
+        .map_err(|e| Error::parse(source, 0, e.to_string()))?;
+    Ok((packing, data_bonds))
+}
+
+/// A line of a data file that is not blank after its comment: (line number, text, words).
+type DataRow<'a> = (usize, &'a str, Vec<&'a str>);
+
+/// True for a row that does not start a section (a header line or a section's body line).
+fn not_section(row: &DataRow) -> bool {
+    !LAMMPS_SECTIONS.contains(&row.2[0])
+}
+
+/// The header of a data file, each count or bound with the line that gave it.
+#[derive(Default)]
+struct DataHeader {
+    n_atoms: Option<(usize, usize)>,
+    n_types: Option<(u64, usize)>,
+    n_bonds: Option<(usize, usize)>,
+    n_bond_types: Option<(u64, usize)>,
+    /// `lo hi xlo xhi` (and y, z): (lo, hi, line).
+    bounds: [Option<(f64, f64, usize)>; 3],
+}
+
+/// Read the header lines up to the first section name: the counts anisobond checks the
+/// sections against and the box (other header lines, e.g. `extra bond per atom`, are
+/// irrelevant and skipped).
+fn data_header<'a, I: Iterator<Item = DataRow<'a>>>(
+    rows: &mut std::iter::Peekable<I>,
+    source: &str,
+) -> Result<DataHeader> {
+    let mut h = DataHeader::default();
     while let Some((line, _, words)) = rows.next_if(not_section) {
         let n_words = words.len();
         if n_words == 2 && words[1] == "atoms" {
             let n: usize = parse_count(words[0], "an atom count in `N atoms`", source, line)?;
-            n_atoms = Some((n, line));
+            h.n_atoms = Some((n, line));
         } else if n_words == 2 && words[1] == "bonds" {
             let n: usize = parse_count(words[0], "a bond count in `N bonds`", source, line)?;
-            n_bonds = Some((n, line));
+            h.n_bonds = Some((n, line));
         } else if n_words == 3 && words[1..] == ["bond", "types"] {
             let t: u64 = parse_count(
                 words[0],
@@ -1165,44 +1297,10 @@ pub fn parse_data_boundary(
                 source,
                 line,
             )?;
-            n_bond_types = Some((t, line));
+            h.n_bond_types = Some((t, line));
         } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
-            let axis = match (words[2], words[3]) {
-                ("xlo", "xhi") => 0,
-                ("ylo", "yhi") => 1,
-                ("zlo", "zhi") => 2,
-                _ => {
-                    return Err(Error::parse(
-                        source,
-                        line,
-                        format!(
-                            "expected `lo hi xlo xhi` (or ylo yhi, zlo zhi), found `{} {}`",
-                            words[2], words[3]
-                        ),
-                    ))
-                }
-            };
-            let name = ["x", "y", "z"][axis];
-            let lo = parse_number(words[0], &format!("{name}lo"), source, line)?;
-            let hi = parse_number(words[1], &format!("{name}hi"), source, line)?;
-            if hi <= lo {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("box bound {name}hi = {hi} must exceed {name}lo = {lo}"),
-                ));
-            }
-            if !(hi - lo).is_finite() {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!(
-                        "box length {name}hi − {name}lo = {hi:e} − ({lo:e}) overflows; \
-                         expected bounds whose difference is finite"
-                    ),
-                ));
-            }
-            bounds[axis] = Some((lo, hi, line));
+            let (axis, lo, hi) = data_box_bounds(&words, source, line)?;
+            h.bounds[axis] = Some((lo, hi, line));
         } else if n_words == 6 && words[3..] == ["xy", "xz", "yz"] {
             for w in &words[..3] {
                 let t = parse_number(w, "tilt factor", source, line)?;
@@ -1221,11 +1319,70 @@ pub fn parse_data_boundary(
                 source,
                 line,
             )?;
-            n_types = Some((t, line));
+            h.n_types = Some((t, line));
         }
-        // Other header lines (extra bond per atom, angles, …) are irrelevant.
     }
-    // Sections.
+    Ok(h)
+}
+
+/// A header line `lo hi xlo xhi` (or y, z): the axis and its bounds, refused unless
+/// hi > lo by a finite length (the box length is the periodic cell's).
+fn data_box_bounds(words: &[&str], source: &str, line: usize) -> Result<(usize, f64, f64)> {
+    let axis = match (words[2], words[3]) {
+        ("xlo", "xhi") => 0,
+        ("ylo", "yhi") => 1,
+        ("zlo", "zhi") => 2,
+        _ => {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "expected `lo hi xlo xhi` (or ylo yhi, zlo zhi), found `{} {}`",
+                    words[2], words[3]
+                ),
+            ))
+        }
+    };
+    let name = ["x", "y", "z"][axis];
+    let lo = parse_number(words[0], &format!("{name}lo"), source, line)?;
+    let hi = parse_number(words[1], &format!("{name}hi"), source, line)?;
+    if hi <= lo {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("box bound {name}hi = {hi} must exceed {name}lo = {lo}"),
+        ));
+    }
+    if !(hi - lo).is_finite() {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "box length {name}hi − {name}lo = {hi:e} − ({lo:e}) overflows; \
+                 expected bounds whose difference is finite"
+            ),
+        ));
+    }
+    Ok((axis, lo, hi))
+}
+
+/// The `Atoms` and `Bonds` sections of a data file as read (other sections are skipped),
+/// with the line of each section name.
+#[derive(Default)]
+struct DataSections {
+    atoms: Vec<Atom>,
+    atoms_line: Option<usize>,
+    bond_rows: Vec<BondLine>,
+    bonds_line: Option<usize>,
+}
+
+/// Read the sections after the header: each must start with a LAMMPS section name; the
+/// `Atoms` and `Bonds` bodies are parsed line by line, each section at most once.
+fn data_sections<'a, I: Iterator<Item = DataRow<'a>>>(
+    rows: &mut std::iter::Peekable<I>,
+    source: &str,
+) -> Result<DataSections> {
+    let mut s = DataSections::default();
     let mut style = AtomStyle::Sphere;
     while let Some((line, raw, words)) = rows.next() {
         if !LAMMPS_SECTIONS.contains(&words[0]) {
@@ -1241,51 +1398,60 @@ pub fn parse_data_boundary(
         let is_atoms = words[0] == "Atoms";
         let is_bonds = words == ["Bonds"];
         if is_atoms {
-            if let Some(first) = atoms_line {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("second `Atoms` section (the first is on line {first})"),
-                ));
-            }
-            atoms_line = Some(line);
-            if let Some(s) = raw.split('#').nth(1).map(str::trim) {
-                style = match s {
-                    "" | "granular" | "sphere" => AtomStyle::Sphere,
-                    "bpm/sphere" => AtomStyle::BpmSphere,
-                    other => {
-                        return Err(Error::parse(
-                            source,
-                            line,
-                            format!(
-                                "expected `Atoms # granular`, `Atoms # sphere` or `Atoms # \
-                                 bpm/sphere`, found atom style `{other}`"
-                            ),
-                        ))
-                    }
-                };
+            first_section(&mut s.atoms_line, "Atoms", source, line)?;
+            if let Some(comment) = raw.split('#').nth(1).map(str::trim) {
+                style = atom_style(comment, source, line)?;
             }
         }
         if is_bonds {
-            if let Some(first) = bonds_line {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("second `Bonds` section (the first is on line {first})"),
-                ));
-            }
-            bonds_line = Some(line);
+            first_section(&mut s.bonds_line, "Bonds", source, line)?;
         }
         // Section body: lines up to the next section name.
         while let Some((line, _, words)) = rows.next_if(not_section) {
             if is_atoms {
-                atoms.push(parse_atom(&words, style, source, line)?);
+                s.atoms.push(parse_atom(&words, style, source, line)?);
             } else if is_bonds {
-                bond_rows.push(parse_bond_line(&words, source, line)?);
+                s.bond_rows.push(parse_bond_line(&words, source, line)?);
             }
         }
     }
-    let (n, n_line) = n_atoms.ok_or_else(|| {
+    Ok(s)
+}
+
+/// Note the line of section `name` in `slot`, refusing a second section of that name.
+fn first_section(slot: &mut Option<usize>, name: &str, source: &str, line: usize) -> Result<()> {
+    if let Some(first) = slot {
+        return Err(Error::parse(
+            source,
+            line,
+            format!("second `{name}` section (the first is on line {first})"),
+        ));
+    }
+    *slot = Some(line);
+    Ok(())
+}
+
+/// The atom style named by the comment of the `Atoms` line (`Atoms # bpm/sphere`).
+fn atom_style(comment: &str, source: &str, line: usize) -> Result<AtomStyle> {
+    match comment {
+        "" | "granular" | "sphere" => Ok(AtomStyle::Sphere),
+        "bpm/sphere" => Ok(AtomStyle::BpmSphere),
+        other => Err(Error::parse(
+            source,
+            line,
+            format!(
+                "expected `Atoms # granular`, `Atoms # sphere` or `Atoms # \
+                 bpm/sphere`, found atom style `{other}`"
+            ),
+        )),
+    }
+}
+
+/// Check the atoms against the header (an `N atoms` line, that many atom lines, types
+/// within `N atom types`) and sort them by id, refusing an id given twice.
+fn check_atoms(h: &DataHeader, s: &mut DataSections, source: &str) -> Result<()> {
+    let atoms = &mut s.atoms;
+    let (n, n_line) = h.n_atoms.ok_or_else(|| {
         Error::parse(
             source,
             0,
@@ -1299,7 +1465,7 @@ pub fn parse_data_boundary(
             format!("no particles: line {n_line} declares `0 atoms`; {ATOMS_HINT}"),
         ));
     }
-    let Some(atoms_first) = atoms_line else {
+    let Some(atoms_first) = s.atoms_line else {
         return Err(Error::parse(
             source,
             0,
@@ -1316,7 +1482,7 @@ pub fn parse_data_boundary(
             ),
         ));
     }
-    if let Some((t, t_line)) = n_types {
+    if let Some((t, t_line)) = h.n_types {
         if let Some(a) = atoms.iter().find(|a| a.atom_type > t) {
             return Err(Error::parse(
                 source,
@@ -1342,98 +1508,117 @@ pub fn parse_data_boundary(
             ));
         }
     }
-    let data_bonds = data_bonds(
-        &bond_rows,
-        bonds_line,
-        n_bonds,
-        n_bond_types,
-        &atoms,
-        source,
-    )?;
-    let cell = if periodic.iter().any(|&p| p) {
-        let mut lo = Vec3::zeros();
-        let mut len = Vec3::zeros();
-        let mut first_line = usize::MAX;
-        for axis in 0..3 {
-            let name = ["x", "y", "z"][axis];
-            let (l, h, line) = bounds[axis].ok_or_else(|| {
-                Error::parse(
-                    source,
-                    0,
-                    format!("data file: missing header line `{name}lo {name}hi`"),
-                )
-            })?;
-            lo[axis] = l;
-            len[axis] = h - l;
-            first_line = first_line.min(line);
-        }
-        check_cell_volume(&len, source, first_line)?;
-        Some((
-            lo,
-            CellSource {
-                lengths: len,
-                line: first_line,
-                periodic,
-            },
-        ))
-    } else {
-        None
-    };
-    if let Some(b) = &data_bonds {
-        // Along a non-periodic axis a bond must not reach across the box (the file's bonds
-        // across a periodic face would become bonds through the whole specimen).
-        for k in 0..b.len() {
-            let (ai, aj) = (&atoms[b.i[k] as usize], &atoms[b.j[k] as usize]);
-            let d = aj.position - ai.position;
-            for (axis, bound) in bounds.iter().enumerate() {
-                if periodic[axis] {
-                    continue;
-                }
-                let Some((lo, hi, _)) = bound else { continue };
-                if d[axis].abs() > 0.5 * (hi - lo) {
-                    let name = ["x", "y", "z"][axis];
-                    return Err(Error::parse(
-                        source,
-                        b.lines[k],
-                        format!(
-                            "bond {} between atoms {} and {} spans {:e} m along {name}, more \
-                             than half the box ({:e} m): it crosses a periodic face of the \
-                             box; expected the file read as periodic along {name} \
-                             (--periodic, or --boundary with p for {name})",
-                            b.ids[k],
-                            ai.id,
-                            aj.id,
-                            d[axis].abs(),
-                            hi - lo
-                        ),
-                    ));
-                }
-            }
-        }
+    Ok(())
+}
+
+/// The periodic cell of a data file read periodic along the flagged axes: the box's lower
+/// corner (positions are shifted by it into [0, L)) and its lengths; `None` when no axis
+/// is periodic. Every axis needs its bounds line.
+fn data_cell(
+    bounds: &[Option<(f64, f64, usize)>; 3],
+    periodic: [bool; 3],
+    source: &str,
+) -> Result<Option<(Vec3, CellSource)>> {
+    if !periodic.iter().any(|&p| p) {
+        return Ok(None);
     }
-    let mut spheres = Spheres::default();
-    for a in &atoms {
-        let mut p = a.position;
-        if let Some((lo, _)) = &cell {
-            p -= lo;
-            if p.iter().any(|c| !c.is_finite()) {
+    let mut lo = Vec3::zeros();
+    let mut len = Vec3::zeros();
+    let mut first_line = usize::MAX;
+    for axis in 0..3 {
+        let name = ["x", "y", "z"][axis];
+        let (l, h, line) = bounds[axis].ok_or_else(|| {
+            Error::parse(
+                source,
+                0,
+                format!("data file: missing header line `{name}lo {name}hi`"),
+            )
+        })?;
+        lo[axis] = l;
+        len[axis] = h - l;
+        first_line = first_line.min(line);
+    }
+    check_cell_volume(&len, source, first_line)?;
+    Ok(Some((
+        lo,
+        CellSource {
+            lengths: len,
+            line: first_line,
+            periodic,
+        },
+    )))
+}
+
+/// Along a non-periodic axis a bond must not reach across the box: the file's bonds
+/// across a periodic face would become bonds through the whole specimen.
+fn check_bonds_in_box(
+    b: &DataBonds,
+    atoms: &[Atom],
+    bounds: &[Option<(f64, f64, usize)>; 3],
+    periodic: [bool; 3],
+    source: &str,
+) -> Result<()> {
+    for k in 0..b.len() {
+        let (ai, aj) = (&atoms[b.i[k] as usize], &atoms[b.j[k] as usize]);
+        let d = aj.position - ai.position;
+        for (axis, bound) in bounds.iter().enumerate() {
+            if periodic[axis] {
+                continue;
+            }
+            let Some((lo, hi, _)) = bound else { continue };
+            if d[axis].abs() > 0.5 * (hi - lo) {
+                let name = ["x", "y", "z"][axis];
                 return Err(Error::parse(
                     source,
-                    a.line,
+                    b.lines[k],
                     format!(
-                        "the position shifted by the box origin, ({:e}, {:e}, {:e}) − ({:e}, \
-                         {:e}, {:e}), overflows; expected atoms near the box",
-                        a.position.x, a.position.y, a.position.z, lo.x, lo.y, lo.z
+                        "bond {} between atoms {} and {} spans {:e} m along {name}, more \
+                         than half the box ({:e} m): it crosses a periodic face of the \
+                         box; expected the file read as periodic along {name} \
+                         (--periodic, or --boundary with p for {name})",
+                        b.ids[k],
+                        ai.id,
+                        aj.id,
+                        d[axis].abs(),
+                        hi - lo
                     ),
                 ));
             }
         }
-        spheres.push(p, 0.5 * a.diameter, "diameter / 2", source, a.line)?;
     }
-    let packing = finish(source, spheres, cell.map(|c| c.1), ATOMS_HINT)?
-        .with_ids(atoms.iter().map(|a| a.id).collect())
-        .map_err(|e| Error::parse(source, 0, e.to_string()))?;
-    Ok((packing, data_bonds))
+    Ok(())
+}
+
+/// Check a Bonds section against the header's `N bonds`: each needs the other, with as
+/// many rows as declared. False when there are no bonds to read (neither, or `0 bonds`).
+fn bonds_declared(
+    section: Option<usize>,
+    n_bonds: Option<(usize, usize)>,
+    n_rows: usize,
+    source: &str,
+) -> Result<bool> {
+    match (section, n_bonds) {
+        (None, None) | (None, Some((0, _))) => Ok(false),
+        (None, Some((n, line))) => Err(Error::parse(
+            source,
+            line,
+            format!("the header declares {n} bonds but the file has no `Bonds` section"),
+        )),
+        (Some(s), None) => Err(Error::parse(
+            source,
+            s,
+            "a `Bonds` section without the header line `N bonds`",
+        )),
+        (Some(s), Some((n, line))) if n != n_rows => Err(Error::parse(
+            source,
+            s,
+            format!(
+                "the header (line {line}) declares {n} bonds but the Bonds section has {}",
+                n_rows
+            ),
+        )),
+        _ => Ok(true),
+    }
 }
 
 /// The checked bond network of a data file's Bonds section (see [`parse_data`]), atoms
@@ -1446,33 +1631,8 @@ fn data_bonds(
     atoms: &[Atom],
     source: &str,
 ) -> Result<Option<DataBonds>> {
-    match (section, n_bonds) {
-        (None, None) | (None, Some((0, _))) => return Ok(None),
-        (None, Some((n, line))) => {
-            return Err(Error::parse(
-                source,
-                line,
-                format!("the header declares {n} bonds but the file has no `Bonds` section"),
-            ))
-        }
-        (Some(s), None) => {
-            return Err(Error::parse(
-                source,
-                s,
-                "a `Bonds` section without the header line `N bonds`",
-            ))
-        }
-        (Some(s), Some((n, line))) if n != rows.len() => {
-            return Err(Error::parse(
-                source,
-                s,
-                format!(
-                    "the header (line {line}) declares {n} bonds but the Bonds section has {}",
-                    rows.len()
-                ),
-            ))
-        }
-        _ => {}
+    if !bonds_declared(section, n_bonds, rows.len(), source)? {
+        return Ok(None);
     }
     let index = |id: u64| atoms.binary_search_by_key(&id, |a| a.id).ok();
     let mut out = DataBonds {
@@ -1610,7 +1770,7 @@ pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
     let mut k = start;
     let mut n_atoms: Option<(usize, usize)> = None;
     let mut bounds: Option<DumpBox> = None;
-    let mut atoms: Vec<(u64, Vec3, f64, usize)> = Vec::new();
+    let mut atoms: Vec<DumpAtom> = Vec::new();
     let mut columns: Option<(DumpColumns, usize)> = None;
     while k < lines.len() {
         let line = k + 1;
@@ -1638,43 +1798,7 @@ pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
                 k += 1;
             }
             ["BOX", "BOUNDS", flags @ ..] => {
-                if flags.len() != 3 {
-                    return Err(Error::parse(
-                        source,
-                        line,
-                        format!(
-                            "`ITEM: BOX BOUNDS {}`: triclinic boxes are not supported; \
-                             expected three boundary flags (pp pp pp, ff ff ff, …)",
-                            flags.join(" ")
-                        ),
-                    ));
-                }
-                let mut b = [(0.0, 0.0); 3];
-                for (axis, slot) in b.iter_mut().enumerate() {
-                    let l = line + 1 + axis;
-                    let w: Vec<&str> = lines
-                        .get(k + axis)
-                        .map(|s| s.split_whitespace().collect())
-                        .unwrap_or_default();
-                    let name = ["x", "y", "z"][axis];
-                    if w.len() != 2 {
-                        return Err(Error::parse(
-                            source,
-                            l,
-                            format!("expected the box bounds `{name}lo {name}hi`"),
-                        ));
-                    }
-                    let lo = parse_number(w[0], &format!("{name}lo"), source, l)?;
-                    let hi = parse_number(w[1], &format!("{name}hi"), source, l)?;
-                    if !(hi > lo && (hi - lo).is_finite()) {
-                        return Err(Error::parse(
-                            source,
-                            l,
-                            format!("box bound {name}hi = {hi} must exceed {name}lo = {lo} by a finite length"),
-                        ));
-                    }
-                    *slot = (lo, hi);
-                }
+                let b = dump_box(flags, &lines[k..], line, source)?;
                 k += 3;
                 bounds = Some((b, [0, 1, 2].map(|a| flags[a].to_string()), line));
             }
@@ -1684,52 +1808,7 @@ pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
                     Error::parse(source, line, "expected `ITEM: NUMBER OF ATOMS` before `ITEM: ATOMS`")
                 })?;
                 let box_lengths = bounds.as_ref().map(|(b, _, _)| b.map(|(lo, hi)| (lo, hi - lo)));
-                for r in 0..n {
-                    let l = k + r + 1;
-                    let w: Vec<&str> = lines
-                        .get(k + r)
-                        .map(|s| s.split_whitespace().collect())
-                        .unwrap_or_default();
-                    if w.len() != c.count {
-                        return Err(Error::parse(
-                            source,
-                            l,
-                            format!(
-                                "expected {} values (the columns of line {line}), found {}; \
-                                 line {n_line} declares {n} atoms",
-                                c.count,
-                                w.len()
-                            ),
-                        ));
-                    }
-                    let mut x = Vec3::zeros();
-                    for a in 0..3 {
-                        let v = parse_number(w[c.position.0[a]], ["x", "y", "z"][a], source, l)?;
-                        x[a] = match (c.position.1, box_lengths) {
-                            (true, Some(bl)) => bl[a].0 + v * bl[a].1,
-                            (true, None) => {
-                                return Err(Error::parse(
-                                    source,
-                                    l,
-                                    "scaled positions need `ITEM: BOX BOUNDS` first",
-                                ))
-                            }
-                            (false, _) => v,
-                        };
-                    }
-                    let size = parse_number(w[c.radius.0], "radius", source, l)?;
-                    let id = match c.id {
-                        Some(i) => {
-                            let id: u64 = parse_count(w[i], "an atom id", source, l)?;
-                            if id == 0 {
-                                return Err(Error::parse(source, l, "atom id 0: LAMMPS ids start at 1"));
-                            }
-                            id
-                        }
-                        None => r as u64 + 1,
-                    };
-                    atoms.push((id, x, size * c.radius.1, l));
-                }
+                atoms.extend(dump_atoms(&lines[k..], &c, (n, n_line), line, box_lengths, source)?);
                 k += n;
                 columns = Some((c, line));
             }
@@ -1745,9 +1824,142 @@ pub fn parse_dump(text: &str, source: &str) -> Result<Packing> {
     let Some((columns, _)) = columns else {
         return Err(Error::parse(source, 0, "dump: no `ITEM: ATOMS` section"));
     };
-    let Some((b, flags, box_line)) = bounds else {
+    let Some(bounds) = bounds else {
         return Err(Error::parse(source, 0, "dump: no `ITEM: BOX BOUNDS`"));
     };
+    dump_packing(atoms, &columns, bounds, source)
+}
+
+/// The `n` atom rows after `ITEM: ATOMS` on `line` (`rest` starts with the first row),
+/// each with the columns `c` of that line (`n_line` declared the count).
+fn dump_atoms(
+    rest: &[&str],
+    c: &DumpColumns,
+    (n, n_line): (usize, usize),
+    line: usize,
+    box_lengths: Option<[(f64, f64); 3]>,
+    source: &str,
+) -> Result<Vec<DumpAtom>> {
+    let mut atoms = Vec::with_capacity(n.min(rest.len()));
+    for r in 0..n {
+        let l = line + 1 + r;
+        let w: Vec<&str> = rest
+            .get(r)
+            .map(|s| s.split_whitespace().collect())
+            .unwrap_or_default();
+        if w.len() != c.count {
+            return Err(Error::parse(
+                source,
+                l,
+                format!(
+                    "expected {} values (the columns of line {line}), found {}; \
+                     line {n_line} declares {n} atoms",
+                    c.count,
+                    w.len()
+                ),
+            ));
+        }
+        atoms.push(dump_atom(&w, c, box_lengths, r, l, source)?);
+    }
+    Ok(atoms)
+}
+
+/// One atom of a dump: (id, position, radius, line).
+type DumpAtom = (u64, Vec3, f64, usize);
+
+/// The three bounds lines after `ITEM: BOX BOUNDS <flags>` (on `line`; `rest` starts with
+/// the line after it): (lo, hi) per axis, refused unless hi > lo by a finite length;
+/// triclinic boxes (more than three flags) are refused by name.
+fn dump_box(flags: &[&str], rest: &[&str], line: usize, source: &str) -> Result<[(f64, f64); 3]> {
+    if flags.len() != 3 {
+        return Err(Error::parse(
+            source,
+            line,
+            format!(
+                "`ITEM: BOX BOUNDS {}`: triclinic boxes are not supported; \
+                 expected three boundary flags (pp pp pp, ff ff ff, …)",
+                flags.join(" ")
+            ),
+        ));
+    }
+    let mut b = [(0.0, 0.0); 3];
+    for (axis, slot) in b.iter_mut().enumerate() {
+        let l = line + 1 + axis;
+        let w: Vec<&str> = rest
+            .get(axis)
+            .map(|s| s.split_whitespace().collect())
+            .unwrap_or_default();
+        let name = ["x", "y", "z"][axis];
+        if w.len() != 2 {
+            return Err(Error::parse(
+                source,
+                l,
+                format!("expected the box bounds `{name}lo {name}hi`"),
+            ));
+        }
+        let lo = parse_number(w[0], &format!("{name}lo"), source, l)?;
+        let hi = parse_number(w[1], &format!("{name}hi"), source, l)?;
+        if !(hi > lo && (hi - lo).is_finite()) {
+            return Err(Error::parse(
+                source,
+                l,
+                format!("box bound {name}hi = {hi} must exceed {name}lo = {lo} by a finite length"),
+            ));
+        }
+        *slot = (lo, hi);
+    }
+    Ok(b)
+}
+
+/// The `r`-th atom row `w` (on line `l`) of an `ITEM: ATOMS` section with columns `c`:
+/// scaled positions are mapped through the box (lo, length) per axis, which must come
+/// first; without an `id` column atoms are numbered from 1 in the order given.
+fn dump_atom(
+    w: &[&str],
+    c: &DumpColumns,
+    box_lengths: Option<[(f64, f64); 3]>,
+    r: usize,
+    l: usize,
+    source: &str,
+) -> Result<DumpAtom> {
+    let mut x = Vec3::zeros();
+    for a in 0..3 {
+        let v = parse_number(w[c.position.0[a]], ["x", "y", "z"][a], source, l)?;
+        x[a] = match (c.position.1, box_lengths) {
+            (true, Some(bl)) => bl[a].0 + v * bl[a].1,
+            (true, None) => {
+                return Err(Error::parse(
+                    source,
+                    l,
+                    "scaled positions need `ITEM: BOX BOUNDS` first",
+                ))
+            }
+            (false, _) => v,
+        };
+    }
+    let size = parse_number(w[c.radius.0], "radius", source, l)?;
+    let id = match c.id {
+        Some(i) => {
+            let id: u64 = parse_count(w[i], "an atom id", source, l)?;
+            if id == 0 {
+                return Err(Error::parse(source, l, "atom id 0: LAMMPS ids start at 1"));
+            }
+            id
+        }
+        None => r as u64 + 1,
+    };
+    Ok((id, x, size * c.radius.1, l))
+}
+
+/// The packing of a dump's last snapshot: the cell from the boundary flags (periodic
+/// along the `pp` axes, positions then taken relative to the box's lower corner), atoms
+/// sorted by id (ranks write out of order), an id given twice refused.
+fn dump_packing(
+    mut atoms: Vec<DumpAtom>,
+    columns: &DumpColumns,
+    (b, flags, box_line): DumpBox,
+    source: &str,
+) -> Result<Packing> {
     let periodic = [0, 1, 2].map(|k| flags[k] == "pp");
     let cell = if periodic.iter().any(|&p| p) {
         let lengths = Vec3::new(b[0].1 - b[0].0, b[1].1 - b[1].0, b[2].1 - b[2].0);

@@ -464,45 +464,88 @@ fn element_tests(
     let history_run =
         o.export.bond_style == LammpsBondStyle::BpmRotational && o.export.types.is_none();
     let history = if history_run {
-        let h = o.export.history;
-        let integrator = timed(&mut timings, "integrator undamped history", || {
-            integrator_history(packing, bonds, k, o.export.density, export.time_step, &h)
-        })?;
-        let mut runs = Vec::new();
-        for &(np, _) in &lammps {
-            let path = dir.join(format!("lammps-undamped-history-np{np}.csv"));
-            runs.push((np, read_lammps_history(&path, export.time_step, h.strain)?));
-        }
-        let compare = |a: (&str, &[HistoryRow]), b: (&str, &[HistoryRow])| {
-            (0..6)
-                .map(|p| compare_history_rows(p, a, b))
-                .collect::<Result<Vec<_>>>()
-        };
-        let mut vs_integrator = Vec::new();
-        for (np, rows) in &runs {
-            vs_integrator.push((*np, compare(("LAMMPS", rows), ("integrator", &integrator))?));
-        }
-        let np2_vs_np1 = match runs.as_slice() {
-            [(_, one), (_, two)] => compare(("LAMMPS -np 1", one), ("LAMMPS -np 2", two))?,
-            _ => Vec::new(),
-        };
-        Some(UndampedComparison {
-            settings: h,
-            integrator,
-            lammps: runs,
-            vs_integrator,
-            np2_vs_np1,
-        })
+        Some(undamped_comparison(
+            p,
+            o,
+            export.time_step,
+            counts,
+            &mut timings,
+        )?)
     } else {
         None
     };
+    let checks = lammps_checks(&lammps, &relaxed, history.as_ref(), o);
+    Ok(Report {
+        n_particles: packing.len(),
+        n_bonds: bonds.len(),
+        time_step: export.time_step,
+        checks,
+        timings,
+        details: LammpsDetails {
+            relaxed,
+            lammps,
+            history,
+        },
+    })
+}
+
+/// The undamped histories the deck wrote (one per run on `counts` processes, time step
+/// `dt`) against the integrator with law `lammps-bpm` from the same state, and -np 2
+/// against -np 1, each of the six paths.
+fn undamped_comparison(
+    p: &Problem,
+    o: &LammpsValidateOptions,
+    dt: f64,
+    counts: &[usize],
+    timings: &mut Vec<Timing>,
+) -> Result<UndampedComparison> {
+    let h = o.export.history;
+    let integrator = timed(timings, "integrator undamped history", || {
+        integrator_history(p.packing, p.bonds, p.springs, o.export.density, dt, &h)
+    })?;
+    let mut runs = Vec::new();
+    for &np in counts {
+        let path = p.dir.join(format!("lammps-undamped-history-np{np}.csv"));
+        runs.push((np, read_lammps_history(&path, dt, h.strain)?));
+    }
+    let compare = |a: (&str, &[HistoryRow]), b: (&str, &[HistoryRow])| {
+        (0..6)
+            .map(|p| compare_history_rows(p, a, b))
+            .collect::<Result<Vec<_>>>()
+    };
+    let mut vs_integrator = Vec::new();
+    for (np, rows) in &runs {
+        vs_integrator.push((*np, compare(("LAMMPS", rows), ("integrator", &integrator))?));
+    }
+    let np2_vs_np1 = match runs.as_slice() {
+        [(_, one), (_, two)] => compare(("LAMMPS -np 1", one), ("LAMMPS -np 2", two))?,
+        _ => Vec::new(),
+    };
+    Ok(UndampedComparison {
+        settings: h,
+        integrator,
+        lammps: runs,
+        vs_integrator,
+        np2_vs_np1,
+    })
+}
+
+/// The checks: LAMMPS' tensor (1 process) against the relaxed one, -np 2 against -np 1,
+/// and with the undamped histories each run's worst path against the integrator and
+/// -np 2 against -np 1.
+fn lammps_checks(
+    lammps: &[(usize, Stiffness6)],
+    relaxed: &Stiffness6,
+    history: Option<&UndampedComparison>,
+    o: &LammpsValidateOptions,
+) -> Vec<Check> {
     let mut checks = vec![Check::new(
         "tensor-lammps-relaxed",
         "LAMMPS quasi-static tensor (1 process) vs the relaxed tensor with the midpoint lever arm",
-        relative_difference(&lammps[0].1, &relaxed),
+        relative_difference(&lammps[0].1, relaxed),
         o.tolerances.relaxed,
     )];
-    if let [(_, one), (_, two)] = lammps.as_slice() {
+    if let [(_, one), (_, two)] = lammps {
         checks.push(Check::new(
             "tensor-np2-np1",
             "LAMMPS on 2 MPI processes vs 1 (all six cases, shears included)",
@@ -510,7 +553,7 @@ fn element_tests(
             o.tolerances.processes,
         ));
     }
-    if let Some(h) = &history {
+    if let Some(h) = history {
         let worst = |v: &[HistoryComparison]| v.iter().map(|c| c.relative).fold(0.0, nan_max);
         for (np, paths) in &h.vs_integrator {
             checks.push(Check::new(
@@ -533,18 +576,7 @@ fn element_tests(
             ));
         }
     }
-    Ok(Report {
-        n_particles: packing.len(),
-        n_bonds: bonds.len(),
-        time_step: export.time_step,
-        checks,
-        timings,
-        details: LammpsDetails {
-            relaxed,
-            lammps,
-            history,
-        },
-    })
+    checks
 }
 
 /// The larger of two values, NaN if either is (a NaN difference must fail its check).

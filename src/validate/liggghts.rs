@@ -436,112 +436,51 @@ fn liggghts_runs(
     dt: f64,
     o: &ValidateOptions,
 ) -> Result<LiggghtsRuns> {
-    let mut timings = Vec::new();
-    let launch = |program: &Path, np: usize| Launch {
-        program: program.to_path_buf(),
-        mpi_processes: (np > 1).then_some(np),
-        vars: vec![],
+    let mut runs = LiggghtsSetup {
+        dir,
+        packing,
+        bonds,
+        k,
+        dt,
+        o,
+        motion: initial_motion(packing, dt, o),
+        timings: Vec::new(),
     };
-    let deck = |damping: f64, shear: bool| DeckOptions {
-        density: o.density,
-        strain: o.strain,
-        deform_steps: o.deform_steps,
-        relax_steps: o.relax_steps,
-        output_every: HISTORY_EVERY,
-        timestep: Some(dt),
-        damping,
-        affine: false,
-        shear,
-    };
-    let (velocities, spins) = initial_motion(packing, dt, o);
-    let mut undamped = |sub: &str, which: UndampedDeck, program: &Path, np: usize| {
-        let d = dir.join(sub);
-        let sum = export_liggghts(&d, packing, bonds, k, &deck(0.0, false))?;
-        let name = write_undamped_deck(&d, which, &velocities, &spins, dt, sum.max_bond_length, o)?;
-        timed(
-            &mut timings,
-            &format!("{sub} ({} steps)", o.history_steps),
-            || {
-                run_liggghts(&launch(program, np), &d, name)?;
-                read_stress_history(&d.join("undamped_history.txt"))
-            },
-        )
-    };
-    let driver_undamped = undamped(
+    let driver_undamped = runs.undamped(
         "undamped_driver_np1",
         UndampedDeck::Driver,
-        &programs.driver,
-        1,
+        &launch(&programs.driver, 1),
     )?;
     let driver_undamped_mpi = if o.processes > 1 {
         let sub = format!("undamped_driver_np{}", o.processes);
-        Some(undamped(
+        Some(runs.undamped(
             &sub,
             UndampedDeck::Driver,
-            &programs.driver,
-            o.processes,
+            &launch(&programs.driver, o.processes),
         )?)
     } else {
         None
     };
-    let harmonic_undamped = undamped(
+    let harmonic_undamped = runs.undamped(
         "undamped_harmonic",
         UndampedDeck::Harmonic,
-        &programs.liggghts,
-        1,
+        &launch(&programs.liggghts, 1),
     )?;
-
-    // A damped element test: its deck exported into dir/`sub`, `deck_file` run by `program`
-    // on `np` processes (timed, with the number of load cases), and the stress history.
-    let mut element = |sub: &str,
-                       cases: &str,
-                       deck_options: &DeckOptions,
-                       program: &Path,
-                       np: usize,
-                       deck_file: &str| {
-        let d = dir.join(sub);
-        let summary = export_liggghts(&d, packing, bonds, k, deck_options)?;
-        let stage = format!("{sub} ({cases} damped cases)");
-        let history = timed(&mut timings, &stage, || {
-            run_liggghts(&launch(program, np), &d, deck_file)?;
-            read_stress_history(&d.join("stress_history.txt"))
-        })?;
-        Ok::<_, Error>((summary, history))
-    };
-    let (sum, driver_element) = element(
+    let (sum, driver_element) = runs.element(
         "element_driver_np1",
         "six",
-        &deck(o.damping, true),
-        &programs.driver,
-        1,
+        &runs.deck(o.damping, true),
+        &launch(&programs.driver, 1),
         "anisobond.in",
     )?;
-    let (hsum, hh) = element(
-        "element_harmonic",
-        "three",
-        &DeckOptions {
-            relax_steps: o.harmonic_relax_steps,
-            ..deck(o.harmonic_damping, false)
-        },
-        &programs.liggghts,
-        1,
-        "harmonic.in",
-    )?;
-    let harmonic_columns = columns_from_cases(&hh, &hsum.case_end_steps[..3])?;
-    // The last fifth of each hold, twice: how fast the stock deck was still relaxing.
-    let window = (o.harmonic_relax_steps / 5 / HISTORY_EVERY).max(1) * HISTORY_EVERY;
-    let harmonic_settling = hsum.case_end_steps[..3]
-        .iter()
-        .map(|&end| hh.settling(end, window))
-        .collect();
+    let (harmonic_columns, harmonic_settling) = runs.harmonic_element(&programs.liggghts)?;
     let driver_mpi_columns = if o.processes > 1 {
         let np = o.processes;
-        let (s, h) = element(
+        let (s, h) = runs.element(
             &format!("element_driver_np{np}"),
             "three",
-            &deck(o.damping, false),
-            &programs.driver,
-            np,
+            &runs.deck(o.damping, false),
+            &launch(&programs.driver, np),
             "anisobond.in",
         )?;
         Some(columns_from_cases(&h, &s.case_end_steps)?)
@@ -557,8 +496,123 @@ fn liggghts_runs(
         harmonic_columns,
         harmonic_settling,
         driver_mpi_columns,
-        timings,
+        timings: runs.timings,
     })
+}
+
+/// The stock deck's damped columns 1–3 (Pa) and how each of its cases was settling.
+type HarmonicCases = (Vec<[f64; 6]>, Vec<Option<Settling>>);
+
+/// `program` on `np` processes (MPI when more than one).
+fn launch(program: &Path, np: usize) -> Launch {
+    Launch {
+        program: program.to_path_buf(),
+        mpi_processes: (np > 1).then_some(np),
+        vars: vec![],
+    }
+}
+
+/// What every LIGGGHTS run of one validation shares: the problem, the time step, the
+/// settings, the seeded initial motion of the undamped runs, and the wall times so far.
+struct LiggghtsSetup<'a> {
+    dir: &'a Path,
+    packing: &'a Packing,
+    bonds: &'a BondSet,
+    k: &'a BondStiffness,
+    dt: f64,
+    o: &'a ValidateOptions,
+    /// Initial velocities and spins ([`initial_motion`]).
+    motion: (Vec<Vec3>, Vec<Vec3>),
+    timings: Vec<Timing>,
+}
+
+impl LiggghtsSetup<'_> {
+    /// The exported decks' options with viscous damping γ·dt `damping`, shear cases or not.
+    fn deck(&self, damping: f64, shear: bool) -> DeckOptions {
+        let o = self.o;
+        DeckOptions {
+            density: o.density,
+            strain: o.strain,
+            deform_steps: o.deform_steps,
+            relax_steps: o.relax_steps,
+            output_every: HISTORY_EVERY,
+            timestep: Some(self.dt),
+            damping,
+            affine: false,
+            shear,
+        }
+    }
+
+    /// An undamped run in dir/`sub` (timed): the export, the undamped deck `which` from
+    /// the initial motion, and its stress history.
+    fn undamped(
+        &mut self,
+        sub: &str,
+        which: UndampedDeck,
+        launch: &Launch,
+    ) -> Result<StressHistory> {
+        let d = self.dir.join(sub);
+        let sum = export_liggghts(&d, self.packing, self.bonds, self.k, &self.deck(0.0, false))?;
+        let (velocities, spins) = &self.motion;
+        let name = write_undamped_deck(
+            &d,
+            which,
+            velocities,
+            spins,
+            self.dt,
+            sum.max_bond_length,
+            self.o,
+        )?;
+        let stage = format!("{sub} ({} steps)", self.o.history_steps);
+        timed(&mut self.timings, &stage, || {
+            run_liggghts(launch, &d, name)?;
+            read_stress_history(&d.join("undamped_history.txt"))
+        })
+    }
+
+    /// A damped element test: its deck exported into dir/`sub`, `deck_file` run (timed,
+    /// with the number of load cases), and the stress history.
+    fn element(
+        &mut self,
+        sub: &str,
+        cases: &str,
+        deck_options: &DeckOptions,
+        launch: &Launch,
+        deck_file: &str,
+    ) -> Result<(crate::export::liggghts::ExportSummary, StressHistory)> {
+        let d = self.dir.join(sub);
+        let summary = export_liggghts(&d, self.packing, self.bonds, self.k, deck_options)?;
+        let stage = format!("{sub} ({cases} damped cases)");
+        let history = timed(&mut self.timings, &stage, || {
+            run_liggghts(launch, &d, deck_file)?;
+            read_stress_history(&d.join("stress_history.txt"))
+        })?;
+        Ok((summary, history))
+    }
+
+    /// The stock harmonic deck's three damped normal cases: its columns 1–3, and how each
+    /// case was settling over the last fifth of its hold, twice (the stock deck relaxes
+    /// slowly: see [`harmonic_remaining`]).
+    fn harmonic_element(&mut self, liggghts: &Path) -> Result<HarmonicCases> {
+        let o = self.o;
+        let (hsum, hh) = self.element(
+            "element_harmonic",
+            "three",
+            &DeckOptions {
+                relax_steps: o.harmonic_relax_steps,
+                ..self.deck(o.harmonic_damping, false)
+            },
+            &launch(liggghts, 1),
+            "harmonic.in",
+        )?;
+        let harmonic_columns = columns_from_cases(&hh, &hsum.case_end_steps[..3])?;
+        let window = (o.harmonic_relax_steps / 5 / HISTORY_EVERY).max(1) * HISTORY_EVERY;
+        let harmonic_settling = hsum.case_end_steps[..3]
+            .iter()
+            .map(|&end| hh.settling(end, window))
+            .collect();
+        Ok((harmonic_columns, harmonic_settling))
+    }
 }
 
 /// What the Rust half measured.
@@ -572,6 +626,8 @@ struct RustRuns {
     timings: Vec<Timing>,
 }
 
+/// The Rust half: the relaxed tensors (full springs and normal springs only), the
+/// integrator's three undamped histories from the seeded motion, and its element tests.
 fn rust_runs(
     packing: &Packing,
     bonds: &BondSet,
@@ -627,6 +683,29 @@ fn rust_runs(
         build_law(LawKind::Yade, packing, bonds, &k0)?,
     )?;
     progress("integrator: six element tests (Cundall damping)");
+    let integrator = timed(&mut timings, "integrator element tests", || {
+        integrator_element_tests(packing, bonds, k, dt, o)
+    })?;
+    Ok(RustRuns {
+        incremental,
+        total,
+        normal_springs,
+        relaxed: relaxed.c,
+        relaxed_normal_springs: relaxed0.c,
+        integrator,
+        timings,
+    })
+}
+
+/// The integrator's quasi-static tensor (YADE's law, Cundall damping, strain in one step:
+/// Truszkowska 2018 Eq. 27) with the validation's time step and density.
+fn integrator_element_tests(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    dt: f64,
+    o: &ValidateOptions,
+) -> Result<Stiffness6> {
     let element_opts = ElementTestOptions {
         strain: o.strain,
         local_damping: o.local_damping,
@@ -647,18 +726,7 @@ fn rust_runs(
         build_law(LawKind::Yade, packing, bonds, k)?,
         &element_opts.dem,
     )?;
-    let integrator = timed(&mut timings, "integrator element tests", || {
-        dynamic_tensor(&initial, &element_opts, &|_| {})
-    })?;
-    Ok(RustRuns {
-        incremental,
-        total,
-        normal_springs,
-        relaxed: relaxed.c,
-        relaxed_normal_springs: relaxed0.c,
-        integrator: integrator.c,
-        timings,
-    })
+    Ok(dynamic_tensor(&initial, &element_opts, &|_| {})?.c)
 }
 
 /// The rows of `h` at `steps` (error naming the run when one is missing).
@@ -749,11 +817,67 @@ fn element_tests(
     o: &ValidateOptions,
     progress: Progress,
 ) -> Result<ValidationReport> {
-    let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
+    let (packing, bonds, k) = (p.packing, p.bonds, p.springs);
     let dt = match o.timestep {
         Some(dt) => dt,
         None => stable_timestep(packing, bonds, k, o.density)?,
     };
+    let steps = history_output_steps(o)?;
+    let (lig, rust) = both_halves(p, programs, dt, &steps, o, progress)?;
+    let mut checks = Vec::new();
+    let undamped = undamped_checks(&lig, &rust, &steps, o, &mut checks)?;
+    // (2) Damped quasi-static tensors, relative to the largest entry of the relaxed one.
+    let driver_tensor = tensor_from_cases(&lig.driver_element, &lig.driver_case_ends)?;
+    checks.extend(tensor_checks(&driver_tensor, &rust, o));
+    // (3) Stock harmonic deck, damped, against the relaxed normal-spring network.
+    checks.push(harmonic_check(&lig, &rust, o));
+    // (4) -np N damped normal load cases against the serial six-case run.
+    let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
+    if lig.driver_mpi_columns.is_some() {
+        checks.push(mpi_check(
+            "mpi-columns",
+            format!(
+                "damped normal load cases, columns 1–3: driver -np {} (orthogonal box) vs -np 1 (six cases, triclinic box)",
+                o.processes
+            ),
+            &columns_of(&driver_tensor, 3),
+            &driver_mpi_columns,
+            o,
+        ));
+    }
+    let mut timings = lig.timings;
+    timings.extend(rust.timings);
+    Ok(Report {
+        n_particles: packing.len(),
+        n_bonds: bonds.len(),
+        time_step: dt,
+        checks,
+        timings,
+        details: LiggghtsDetails {
+            history: UndampedHistories {
+                time: steps.iter().map(|&s| s as f64 * dt).collect(),
+                step: steps,
+                driver: undamped.driver,
+                driver_mpi: undamped.driver_mpi,
+                integrator_incremental: rust.incremental,
+                integrator_total: rust.total,
+                harmonic: undamped.harmonic,
+                integrator_normal_springs: rust.normal_springs,
+            },
+            driver_tensor,
+            integrator_tensor: rust.integrator,
+            relaxed_tensor: rust.relaxed,
+            harmonic_columns: lig.harmonic_columns,
+            relaxed_normal_springs: rust.relaxed_normal_springs,
+            driver_mpi_columns,
+            driver_element_history: lig.driver_element,
+        },
+    })
+}
+
+/// The output steps of the undamped histories: every `history_every` up to
+/// `history_steps` (at least one).
+fn history_output_steps(o: &ValidateOptions) -> Result<Vec<u64>> {
     let steps: Vec<u64> = (1..=o.history_steps / o.history_every)
         .map(|m| m * o.history_every)
         .collect();
@@ -763,6 +887,20 @@ fn element_tests(
             o.history_steps, o.history_every
         )));
     }
+    Ok(steps)
+}
+
+/// The LIGGGHTS runs in a second thread beside the Rust side (integrator and relaxed
+/// solver), both to the end; the first error of either.
+fn both_halves(
+    p: &Problem,
+    programs: &Programs,
+    dt: f64,
+    steps: &[u64],
+    o: &ValidateOptions,
+    progress: Progress,
+) -> Result<(LiggghtsRuns, RustRuns)> {
+    let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
     progress(&format!(
         "LIGGGHTS runs started in {} (undamped driver -np 1{}, undamped harmonic, damped element tests)",
         dir.display(),
@@ -774,7 +912,7 @@ fn element_tests(
     ));
     let (lig, rust) = std::thread::scope(|scope| {
         let lig = scope.spawn(|| liggghts_runs(dir, packing, bonds, k, programs, dt, o));
-        let rust = rust_runs(packing, bonds, k, dt, &steps, o, progress);
+        let rust = rust_runs(packing, bonds, k, dt, steps, o, progress);
         let lig = lig.join().unwrap_or_else(|_| {
             Err(Error::Invalid(
                 "validate liggghts: the thread running LIGGGHTS panicked".into(),
@@ -782,12 +920,30 @@ fn element_tests(
         });
         (lig, rust)
     });
-    let (lig, rust) = (lig?, rust?);
-    let mut checks = Vec::new();
+    Ok((lig?, rust?))
+}
 
-    // (1) Undamped histories.
-    let driver_rows = rows_at(&lig.driver_undamped, &steps, "driver -np 1 undamped")?;
-    let history = compare("history", &driver_rows, &rust.incremental);
+/// The LIGGGHTS runs' undamped histories at the output steps.
+struct UndampedRows {
+    driver: Vec<[f64; 6]>,
+    /// Empty without an MPI run.
+    driver_mpi: Vec<[f64; 6]>,
+    harmonic: Vec<[f64; 6]>,
+}
+
+/// (1) The undamped histories, into `checks`: the driver against the integrator with
+/// incremental moments (and, reported, its total form), the stock harmonic deck against
+/// the normal springs, the driver on -np N against -np 1. Refuses a driver run with zero
+/// stress throughout (nothing to compare).
+fn undamped_checks(
+    lig: &LiggghtsRuns,
+    rust: &RustRuns,
+    steps: &[u64],
+    o: &ValidateOptions,
+    checks: &mut Vec<Check>,
+) -> Result<UndampedRows> {
+    let driver = rows_at(&lig.driver_undamped, steps, "driver -np 1 undamped")?;
+    let history = compare("history", &driver, &rust.incremental);
     if history.max_stress == 0.0 {
         return Err(Error::Invalid(
             "validate liggghts: the undamped driver run has zero stress throughout (no bond loaded)".into(),
@@ -805,52 +961,69 @@ fn element_tests(
     checks.push(Check::info(
         "history-total-form",
         "undamped stress history: driver vs integrator's YADE law, moments in total form from orientations (convention difference, reported)",
-        compare("history-total-form", &driver_rows, &rust.total).relative,
+        compare("history-total-form", &driver, &rust.total).relative,
     ));
-    let harmonic_rows = rows_at(&lig.harmonic_undamped, &steps, "stock harmonic undamped")?;
+    let harmonic = rows_at(&lig.harmonic_undamped, steps, "stock harmonic undamped")?;
     checks.push(Check::new(
         "harmonic-history",
         format!(
             "undamped stress history, {} steps: stock harmonic deck vs integrator with k_s = k_r = k_tw = 0",
             o.history_steps
         ),
-        compare("harmonic-history", &harmonic_rows, &rust.normal_springs).relative,
+        compare("harmonic-history", &harmonic, &rust.normal_springs).relative,
         o.tolerances.history,
     ));
-    // A comparison of the driver on -np N processes with its serial run (same tolerance for
-    // the undamped histories and the damped columns).
-    let mpi_check = |id: &str, what: String, serial: &[[f64; 6]], parallel: &[[f64; 6]]| {
-        Check::new(
-            id,
-            what,
-            compare(id, serial, parallel).relative,
-            o.tolerances.processes,
-        )
-    };
-    let mut driver_mpi_rows = Vec::new();
+    let mut driver_mpi = Vec::new();
     if let Some(h2) = &lig.driver_undamped_mpi {
-        driver_mpi_rows = rows_at(h2, &steps, "driver -np N undamped")?;
+        driver_mpi = rows_at(h2, steps, "driver -np N undamped")?;
         checks.push(mpi_check(
             "mpi-history",
             format!(
                 "undamped stress history: driver -np 1 vs -np {}",
                 o.processes
             ),
-            &driver_rows,
-            &driver_mpi_rows,
+            &driver,
+            &driver_mpi,
+            o,
         ));
     }
+    Ok(UndampedRows {
+        driver,
+        driver_mpi,
+        harmonic,
+    })
+}
 
-    // (2) Damped quasi-static tensors, relative to the largest entry of the relaxed one.
-    let driver_tensor = tensor_from_cases(&lig.driver_element, &lig.driver_case_ends)?;
-    for (id, a, b) in [
-        ("tensor-driver-relaxed", &driver_tensor, &rust.relaxed),
+/// A comparison of the driver on -np N processes with its serial run (same tolerance for
+/// the undamped histories and the damped columns).
+fn mpi_check(
+    id: &str,
+    what: String,
+    serial: &[[f64; 6]],
+    parallel: &[[f64; 6]],
+    o: &ValidateOptions,
+) -> Check {
+    Check::new(
+        id,
+        what,
+        compare(id, serial, parallel).relative,
+        o.tolerances.processes,
+    )
+}
+
+/// (2) The damped quasi-static tensors pairwise (driver, integrator, relaxed), relative to
+/// the largest entry of the relaxed one; against the relaxed tensor with its own tolerance.
+fn tensor_checks(driver_tensor: &Stiffness6, rust: &RustRuns, o: &ValidateOptions) -> Vec<Check> {
+    [
+        ("tensor-driver-relaxed", driver_tensor, &rust.relaxed),
         ("tensor-integrator-relaxed", &rust.integrator, &rust.relaxed),
-        ("tensor-driver-integrator", &driver_tensor, &rust.integrator),
-    ] {
+        ("tensor-driver-integrator", driver_tensor, &rust.integrator),
+    ]
+    .into_iter()
+    .map(|(id, a, b)| {
         let mut names = id.trim_start_matches("tensor-").split('-');
         let (x, y) = (names.next().unwrap_or(""), names.next().unwrap_or(""));
-        checks.push(Check::new(
+        Check::new(
             id,
             format!("damped quasi-static 6×6 tensor: {x} vs {y} (max |ΔC| / max |C_relaxed|)"),
             relative_difference_to(a, b, &rust.relaxed),
@@ -859,20 +1032,23 @@ fn element_tests(
             } else {
                 o.tolerances.tensor
             },
-        ));
-    }
+        )
+    })
+    .collect()
+}
 
-    // (3) Stock harmonic deck, damped, against the relaxed normal-spring network.
+/// (3) The stock harmonic deck's damped columns 1–3 against the relaxed normal-spring
+/// network. A normal-spring network at Z ≈ 6 is near a mechanism and relaxes slowly: when
+/// the deck was still changing by more than the tolerance, the comparison is reported as
+/// not converged instead of judged (issue 20).
+fn harmonic_check(lig: &LiggghtsRuns, rust: &RustRuns, o: &ValidateOptions) -> Check {
     let relaxed0_cols = columns_of(&rust.relaxed_normal_springs, 3);
-    // A normal-spring network at Z ≈ 6 is near a mechanism and relaxes slowly: when the
-    // deck was still changing by more than the tolerance, the comparison is reported as not
-    // converged instead of judged (issue 20).
     let scale = relaxed0_cols
         .iter()
         .flatten()
         .fold(0.0_f64, |m, v| m.max(v.abs()));
     let (remaining, decaying) = harmonic_remaining(&lig.harmonic_settling, o.strain);
-    checks.push(Check::unless_unsettled(
+    Check::unless_unsettled(
         "harmonic-relaxed",
         format!(
             "stock harmonic deck (damped normal load cases) vs relaxed with k_s = k_r = k_tw = 0, columns 1–3 (max |ΔC| / max |C|){}",
@@ -881,51 +1057,7 @@ fn element_tests(
         compare("harmonic-relaxed", &relaxed0_cols, &lig.harmonic_columns).relative,
         o.tolerances.relaxed,
         if scale > 0.0 { remaining / scale } else { f64::NAN },
-    ));
-
-    // (4) -np N damped normal load cases against the serial six-case run.
-    let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
-    if lig.driver_mpi_columns.is_some() {
-        let serial_cols = columns_of(&driver_tensor, 3);
-        checks.push(mpi_check(
-            "mpi-columns",
-            format!(
-                "damped normal load cases, columns 1–3: driver -np {} (orthogonal box) vs -np 1 (six cases, triclinic box)",
-                o.processes
-            ),
-            &serial_cols,
-            &driver_mpi_columns,
-        ));
-    }
-
-    let mut timings = lig.timings;
-    timings.extend(rust.timings);
-    Ok(Report {
-        n_particles: packing.len(),
-        n_bonds: bonds.len(),
-        time_step: dt,
-        checks,
-        timings,
-        details: LiggghtsDetails {
-            history: UndampedHistories {
-                time: steps.iter().map(|&s| s as f64 * dt).collect(),
-                step: steps,
-                driver: driver_rows,
-                driver_mpi: driver_mpi_rows,
-                integrator_incremental: rust.incremental,
-                integrator_total: rust.total,
-                harmonic: harmonic_rows,
-                integrator_normal_springs: rust.normal_springs,
-            },
-            driver_tensor,
-            integrator_tensor: rust.integrator,
-            relaxed_tensor: rust.relaxed,
-            harmonic_columns: lig.harmonic_columns,
-            relaxed_normal_springs: rust.relaxed_normal_springs,
-            driver_mpi_columns,
-            driver_element_history: lig.driver_element,
-        },
-    })
+    )
 }
 
 /// A CSV cell `,value` (`{:e}`), or an empty cell where a series has no value (a run that

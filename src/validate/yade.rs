@@ -490,17 +490,7 @@ fn check_round_trip(
     b2: &BondSet,
     k2: &BondStiffness,
 ) -> Result<()> {
-    let same = p.positions == p2.positions
-        && p.radii == p2.radii
-        && p.cell.map(|c| c.lengths) == p2.cell.map(|c| c.lengths)
-        && b.i == b2.i
-        && b.j == b2.j
-        && b.image == b2.image
-        && k.kn == k2.kn
-        && k.ks == k2.ks
-        && k.kr == k2.kr
-        && k.ktw == k2.ktw;
-    if same {
+    if reads_back_same((p, b, k), (p2, b2, k2)) {
         Ok(())
     } else {
         Err(Error::Invalid(
@@ -509,6 +499,26 @@ fn check_round_trip(
                 .into(),
         ))
     }
+}
+
+/// True when the packing, bonds and springs read back from YADE's files (`read`) are bit
+/// for bit those written (`given`): positions, radii, cell lengths (or no cell), bond ends
+/// and images, every spring. Else the two codes would not run the same problem.
+pub(crate) fn reads_back_same(
+    given: (&Packing, &BondSet, &BondStiffness),
+    read: (&Packing, &BondSet, &BondStiffness),
+) -> bool {
+    let ((p, b, k), (p2, b2, k2)) = (given, read);
+    p.positions == p2.positions
+        && p.radii == p2.radii
+        && p.cell.map(|c| c.lengths) == p2.cell.map(|c| c.lengths)
+        && b.i == b2.i
+        && b.j == b2.j
+        && b.image == b2.image
+        && k.kn == k2.kn
+        && k.ks == k2.ks
+        && k.kr == k2.kr
+        && k.ktw == k2.ktw
 }
 
 /// YADE 2023.02a (`yade` on PATH) as a validation [`Engine`], with its settings.
@@ -570,6 +580,74 @@ fn element_tests(
     opts: &YadeValidationOptions,
     progress: Progress,
 ) -> Result<YadeValidation> {
+    let s = prepare(p, opts)?;
+    let (yade, ours) = std::thread::scope(|scope| {
+        let yade = scope.spawn(|| run_yade(&s.run_script, &s.yade_dir, opts, s.dt, progress));
+        let ours = our_runs(&s, opts, progress);
+        let yade = yade.join().unwrap_or_else(|_| {
+            Err(Error::Invalid(
+                "validate yade: the thread running YADE panicked".into(),
+            ))
+        });
+        (yade, ours)
+    });
+    let yade = yade?;
+    let ours = ours?;
+    let undamped = opts
+        .undamped_paths
+        .iter()
+        .map(|&p| compare_histories(p, &yade.undamped, &ours.undamped))
+        .collect::<Result<Vec<_>>>()?;
+    let c_yade = tensor_from_columns(&yade.damped, "YADE damped history")?;
+    let c_anisobond = tensor_from_columns(&ours.damped, "anisobond damped history")?;
+    let checks = yade_checks(&undamped, &c_yade, &c_anisobond, &ours.relaxed.c, opts);
+    let yade_version = yade.tensor.json["yade"]["version"]
+        .as_str()
+        .unwrap_or("unknown")
+        .to_string();
+    let timings = yade_timings(&yade, ours.seconds);
+    Ok(Report {
+        n_particles: s.packing.len(),
+        n_bonds: s.bonds.len(),
+        time_step: s.dt,
+        checks,
+        timings,
+        details: YadeDetails {
+            options: opts.clone(),
+            critical_time_step: s.critical_time_step,
+            yade_version,
+            undamped_yade: yade.undamped,
+            undamped_anisobond: ours.undamped,
+            undamped,
+            damped_yade: yade.damped,
+            damped_anisobond: ours.damped,
+            c_yade,
+            c_anisobond,
+            c_relaxed: ours.relaxed.c,
+            c_affine: ours.relaxed.c_affine,
+            yade_dir: s.yade_dir,
+        },
+    })
+}
+
+/// Both codes' common start: the packing, bonds and springs as YADE reads them back from
+/// the export (bit for bit those given), the time step (anisobond's, imposed on YADE) and
+/// the integrator's initial state.
+struct Prepared {
+    yade_dir: PathBuf,
+    run_script: PathBuf,
+    packing: Packing,
+    bonds: BondSet,
+    springs: BondStiffness,
+    dt: f64,
+    critical_time_step: f64,
+    initial: Simulation,
+}
+
+/// Export the problem to `dir/yade/` (refused unless exportable and `yade` is on PATH),
+/// read it back, check the round trip, and build the integrator's initial state from what
+/// YADE reads.
+fn prepare(p: &Problem, opts: &YadeValidationOptions) -> Result<Prepared> {
     let (dir, packing, bonds, springs) = (p.dir, p.packing, p.bonds, p.springs);
     export::check_exportable(packing, bonds, springs)?;
     if export::find_yade().is_none() {
@@ -595,75 +673,93 @@ fn element_tests(
     check_round_trip(packing, bonds, springs, &p2, &b2, &k2)?;
     let initial = simulation(&p2, &b2, &k2, opts, Some(dt))?;
     let critical_time_step = initial.stability().critical_time_step;
+    Ok(Prepared {
+        yade_dir,
+        run_script: exp.run_script,
+        packing: p2,
+        bonds: b2,
+        springs: k2,
+        dt,
+        critical_time_step,
+        initial,
+    })
+}
 
-    let (yade, ours) = std::thread::scope(|s| {
-        let yade = s.spawn(|| run_yade(&exp.run_script, &yade_dir, opts, dt, progress));
-        let ours = (|| -> Result<_> {
-            let t = Instant::now();
-            let mut undamped = Vec::new();
-            for &p in &opts.undamped_paths {
-                undamped.extend(run_path_like_yade(
-                    &initial,
-                    p,
-                    opts.strain,
-                    opts.undamped_steps,
-                    0.0,
-                )?);
-            }
-            let t_undamped = t.elapsed().as_secs_f64();
-            progress(&format!(
-                "anisobond: undamped runs done in {t_undamped:.1} s"
-            ));
-            let t = Instant::now();
-            let mut damped = Vec::new();
-            for p in 0..6 {
-                damped.extend(run_path_like_yade(
-                    &initial,
-                    p,
-                    opts.strain,
-                    opts.damped_steps,
-                    opts.damping,
-                )?);
-            }
-            let t_damped = t.elapsed().as_secs_f64();
-            progress(&format!(
-                "anisobond: damped element tests done in {t_damped:.1} s"
-            ));
-            let t = Instant::now();
-            let relaxed = relaxed_tensor(
-                &p2,
-                &b2,
-                &k2,
-                &RelaxedOptions {
-                    lever_arm: LeverArm::MidGap,
-                    tolerance: opts.cg_tolerance,
-                    ..Default::default()
-                },
-            )?;
-            let t_relaxed = t.elapsed().as_secs_f64();
-            progress(&format!(
-                "anisobond: relaxed solve done in {t_relaxed:.1} s ({} CG iterations)",
-                relaxed.iterations
-            ));
-            Ok((undamped, damped, relaxed, [t_undamped, t_damped, t_relaxed]))
-        })();
-        let yade = yade.join().unwrap_or_else(|_| {
-            Err(Error::Invalid(
-                "validate yade: the thread running YADE panicked".into(),
-            ))
-        });
-        (yade, ours)
-    });
-    let yade = yade?;
-    let (undamped_anisobond, damped_anisobond, relaxed, t) = ours?;
+/// What anisobond's side measured, with the wall times of its three parts.
+struct OurRuns {
+    undamped: Vec<HistoryRow>,
+    damped: Vec<HistoryRow>,
+    relaxed: crate::homogenize::relaxed::RelaxedResult,
+    /// Undamped, damped, relaxed (s).
+    seconds: [f64; 3],
+}
 
-    let undamped = opts
-        .undamped_paths
-        .iter()
-        .map(|&p| compare_histories(p, &yade.undamped, &undamped_anisobond))
-        .collect::<Result<Vec<_>>>()?;
-    let c_yade = tensor_from_columns(&yade.damped, "YADE damped history")?;
-    let c_anisobond = tensor_from_columns(&damped_anisobond, "anisobond damped history")?;
+/// anisobond's side: the undamped and the six damped paths as YADE runs them, and the
+/// relaxed solve with YADE's mid-gap contact point; a progress line after each.
+fn our_runs(s: &Prepared, opts: &YadeValidationOptions, progress: Progress) -> Result<OurRuns> {
+    let t = Instant::now();
+    let mut undamped = Vec::new();
+    for &p in &opts.undamped_paths {
+        undamped.extend(run_path_like_yade(
+            &s.initial,
+            p,
+            opts.strain,
+            opts.undamped_steps,
+            0.0,
+        )?);
+    }
+    let t_undamped = t.elapsed().as_secs_f64();
+    progress(&format!(
+        "anisobond: undamped runs done in {t_undamped:.1} s"
+    ));
+    let t = Instant::now();
+    let mut damped = Vec::new();
+    for p in 0..6 {
+        damped.extend(run_path_like_yade(
+            &s.initial,
+            p,
+            opts.strain,
+            opts.damped_steps,
+            opts.damping,
+        )?);
+    }
+    let t_damped = t.elapsed().as_secs_f64();
+    progress(&format!(
+        "anisobond: damped element tests done in {t_damped:.1} s"
+    ));
+    let t = Instant::now();
+    let relaxed = relaxed_tensor(
+        &s.packing,
+        &s.bonds,
+        &s.springs,
+        &RelaxedOptions {
+            lever_arm: LeverArm::MidGap,
+            tolerance: opts.cg_tolerance,
+            ..Default::default()
+        },
+    )?;
+    let t_relaxed = t.elapsed().as_secs_f64();
+    progress(&format!(
+        "anisobond: relaxed solve done in {t_relaxed:.1} s ({} CG iterations)",
+        relaxed.iterations
+    ));
+    Ok(OurRuns {
+        undamped,
+        damped,
+        relaxed,
+        seconds: [t_undamped, t_damped, t_relaxed],
+    })
+}
+
+/// The checks: each undamped path's history, then the damped tensors pairwise (YADE,
+/// the integrator, the relaxed solver).
+fn yade_checks(
+    undamped: &[HistoryComparison],
+    c_yade: &Stiffness6,
+    c_anisobond: &Stiffness6,
+    c_relaxed: &Stiffness6,
+    opts: &YadeValidationOptions,
+) -> Vec<Check> {
     let tol = opts.tolerances;
     let mut checks: Vec<Check> = undamped
         .iter()
@@ -682,61 +778,40 @@ fn element_tests(
     checks.push(Check::new(
         "tensor-yade-integrator",
         "damped tensor, YADE vs anisobond integrator",
-        relative_difference(&c_anisobond, &c_yade),
+        relative_difference(c_anisobond, c_yade),
         tol.tensor,
     ));
     checks.push(Check::new(
         "tensor-yade-relaxed",
         "damped tensor, YADE vs relaxed",
-        relative_difference(&c_yade, &relaxed.c),
+        relative_difference(c_yade, c_relaxed),
         tol.relaxed,
     ));
     checks.push(Check::new(
         "tensor-integrator-relaxed",
         "damped tensor, anisobond integrator vs relaxed",
-        relative_difference(&c_anisobond, &relaxed.c),
+        relative_difference(c_anisobond, c_relaxed),
         tol.relaxed,
     ));
-    let yade_version = yade.tensor.json["yade"]["version"]
-        .as_str()
-        .unwrap_or("unknown")
-        .to_string();
+    checks
+}
+
+/// The wall times: YADE's two processes and its own stepping time, anisobond's three parts.
+fn yade_timings(yade: &YadeRuns, ours: [f64; 3]) -> Vec<Timing> {
     let stepping: f64 = yade.tensor.path_seconds.iter().map(|p| p.2).sum();
-    let timings = [
+    [
         ("yade_undamped_process", yade.undamped_seconds),
         ("yade_damped_process", yade.damped_seconds),
         ("yade_damped_stepping", stepping),
-        ("anisobond_undamped", t[0]),
-        ("anisobond_damped", t[1]),
-        ("relaxed", t[2]),
+        ("anisobond_undamped", ours[0]),
+        ("anisobond_damped", ours[1]),
+        ("relaxed", ours[2]),
     ]
     .map(|(stage, seconds)| Timing {
         stage: stage.into(),
         seconds,
     })
-    .to_vec();
-    Ok(Report {
-        n_particles: p2.len(),
-        n_bonds: b2.len(),
-        time_step: dt,
-        checks,
-        timings,
-        details: YadeDetails {
-            options: opts.clone(),
-            critical_time_step,
-            yade_version,
-            undamped_yade: yade.undamped,
-            undamped_anisobond,
-            undamped,
-            damped_yade: yade.damped,
-            damped_anisobond,
-            c_yade,
-            c_anisobond,
-            c_relaxed: relaxed.c,
-            c_affine: relaxed.c_affine,
-            yade_dir,
-        },
-    })
+    .to_vec()
 }
 
 /// Write the side-by-side CSVs and the summary JSON into `dir` (atomically). Returns the

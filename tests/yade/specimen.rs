@@ -154,3 +154,71 @@ fn the_specimen_test_refuses_a_periodic_packing() {
     .unwrap_err();
     assert!(e.to_string().contains("strain"), "{e}");
 }
+
+/// `anisobond_yade.platen_test` refuses a `max_steps`, `tolerance` or `depth` no run can
+/// use with a `ValueError` naming the argument, in YADE on a scene it would otherwise run:
+/// two unbonded spheres (before, `max_steps=0` returned NaN forces, a negative depth
+/// divided by an empty layer and a zero force divided the settling estimate by zero).
+#[test]
+fn platen_test_refuses_bad_arguments_by_name() {
+    let test = "platen_test_refuses_bad_arguments_by_name";
+    if !yade_available(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("refuse.py");
+    let module = concat!(env!("CARGO_MANIFEST_DIR"), "/yade-scripts");
+    std::fs::write(
+        &script,
+        format!(
+            "import sys\nsys.path.insert(0, {module:?})\nimport anisobond_yade as ab\n\
+             from yade import O, utils\n\
+             O.bodies.append([utils.sphere((0, 0, 0), 1e-3), utils.sphere((0, 0, 3e-3), 1e-3)])\n\
+             O.dt = 1e-7\n\
+             cases = [('max_steps', dict(max_steps=0)), ('max_steps', dict(max_steps=2.5)),\n\
+             \x20        ('tolerance', dict(tolerance=0.0)), ('tolerance', dict(tolerance=float('nan'))),\n\
+             \x20        ('tolerance', dict(tolerance=1.5)), ('depth', dict(depth=-1e-3)),\n\
+             \x20        ('depth', dict(depth=float('inf')))]\n\
+             for name, kw in cases:\n\
+             \x20   try:\n\
+             \x20       ab.platen_test(check_every=10, **kw)\n\
+             \x20       print('ACCEPTED', name, kw)\n\
+             \x20   except ValueError as e:\n\
+             \x20       print('REFUSED', name, e)\n\
+             \x20   except Exception as e:\n\
+             \x20       print('CRASHED', name, type(e).__name__, e)\n"
+        ),
+    )
+    .unwrap();
+    let out = Command::new("yade")
+        .args(["-n", "-x"])
+        .arg(&script)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            ["REFUSED", "ACCEPTED", "CRASHED"]
+                .iter()
+                .any(|p| l.starts_with(p))
+        })
+        .collect();
+    assert_eq!(
+        lines.len(),
+        7,
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for line in lines {
+        let mut words = line.split_whitespace();
+        let (verdict, name) = (words.next().unwrap(), words.next().unwrap());
+        assert_eq!(verdict, "REFUSED", "{line}");
+        let message: Vec<&str> = words.collect();
+        assert_eq!(
+            message.first(),
+            Some(&name),
+            "the refusal names {name}: {line}"
+        );
+    }
+}

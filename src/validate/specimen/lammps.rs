@@ -11,7 +11,8 @@
 //! uses bpm/rotational's midpoint contact point ([`LeverArm::HalfLength`]).
 
 use super::{
-    atom_lines, box_lines, compare, free_assembly, num, predict, EngineMeasurement,
+    atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
+    remaining_change, run_done_line, specimen_mass, sphere_mass, DeckStart, EngineMeasurement,
     SpecimenDetails, SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
@@ -125,6 +126,24 @@ pub(super) fn atom_types(packing: &Packing, p: &SpecimenReport, axis: usize) -> 
     (types, block)
 }
 
+/// The deck's comment header: the test, how to run it, the atom types, how it loads and
+/// relaxes.
+fn deck_header(test: &SpecimenTest) -> String {
+    let ax = test.axis;
+    format!(
+        "# anisobond → LAMMPS (BPM package) specimen test, {} platens along {}.\n\
+         # Run:  lmp -in in.specimen   (or mpirun -np N lmp -in in.specimen)\n\
+         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
+         # The top layer is displaced by `delta` towards the bottom at once after the bonds'\n\
+         # reference state is stored (bpm/rotational: total form), then the bonds' own damping\n\
+         # relaxes the specimen in chunks of `chunk_steps` until the platen force's estimated\n\
+         # remaining relative change (geometric extrapolation of the last two changes) and\n\
+         # |F_top - F_bottom| / F_top are below `settle`, or `max_chunks`. Writes lammps-platen.json.\n",
+        platens_name(test.platens),
+        ["x", "y", "z"][ax]
+    )
+}
+
 /// The deck: read, group, store the reference state, displace, hold, relax in chunks.
 fn deck(
     test: &SpecimenTest,
@@ -152,21 +171,7 @@ fn deck(
     let mut support_far = ["NULL"; 3];
     support_far[far_block] = "0.0";
     let index = ax + 1;
-    let mut s = format!(
-        "# anisobond → LAMMPS (BPM package) specimen test, {} platens along {}.\n\
-         # Run:  lmp -in in.specimen   (or mpirun -np N lmp -in in.specimen)\n\
-         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
-         # The top layer is displaced by `delta` towards the bottom at once after the bonds'\n\
-         # reference state is stored (bpm/rotational: total form), then the bonds' own damping\n\
-         # relaxes the specimen in chunks of `chunk_steps` until the platen force's estimated\n\
-         # remaining relative change (geometric extrapolation of the last two changes) and\n\
-         # |F_top - F_bottom| / F_top are below `settle`, or `max_chunks`. Writes lammps-platen.json.\n",
-        match test.platens {
-            Platens::Frictionless => "frictionless",
-            Platens::Bonded => "bonded",
-        },
-        ["x", "y", "z"][ax]
-    );
+    let mut s = deck_header(test);
     let _ = write!(
         s,
         "variable dt index {}\nvariable delta index {}\nvariable settle index {}\n\
@@ -206,20 +211,11 @@ fn deck(
     let _ = writeln!(s, "fix damp {integrated} viscous ${{viscous}}");
     let _ = write!(
         s,
-        "variable ft equal f_ftop[{index}]\nvariable fb equal -f_fbottom[{index}]\n\
-         thermo_style custom step v_ft v_fb\nthermo ${{chunk_steps}}\n\
-         run ${{chunk_steps}}\nvariable f1 equal $(v_ft:%.17g)\n\
-         run ${{chunk_steps}}\nvariable f2 equal $(v_ft:%.17g)\n\
-         variable chunk loop ${{max_chunks}}\n\
-         label relax\n\
-         run ${{chunk_steps}}\n\
-         variable f3 equal $(v_ft:%.17g)\nvariable b3 equal $(v_fb:%.17g)\n\
-         variable done equal \"abs(v_f3-v_f2)*abs(v_f2-v_f1) <= v_settle*abs(v_f3)*(abs(v_f2-v_f1)-abs(v_f3-v_f2)) && abs(v_f3-v_b3) <= v_settle*abs(v_f3)\"\n\
-         if \"${{done}} == 1\" then \"jump SELF settled\"\n\
-         variable f1 equal ${{f2}}\nvariable f2 equal ${{f3}}\n\
-         next chunk\njump SELF relax\n\
-         label settled\n\
-         print \"\"\"{{\"force_top\": ${{f3}}, \"force_bottom\": ${{b3}}, \"f1\": ${{f1}}, \"f2\": ${{f2}}, \"steps\": $(step), \"dt\": ${{dt}}, \"delta\": ${{delta}}}}\"\"\" file lammps-platen.json\n"
+        "variable ft equal f_ftop[{index}]\nvariable fb equal -f_fbottom[{index}]\n"
+    );
+    relax_in_chunks(&mut s, "$(v_ft:%.17g)", "$(v_fb:%.17g)");
+    s.push_str(
+        "print \"\"\"{\"force_top\": ${f3}, \"force_bottom\": ${b3}, \"f1\": ${f1}, \"f2\": ${f2}, \"steps\": $(step), \"dt\": ${dt}, \"delta\": ${delta}}\"\"\" file lammps-platen.json\n",
     );
     s
 }
@@ -302,13 +298,7 @@ fn read_result(
         })
     };
     let (f1, f2, f3) = (num("f1")?, num("f2")?, num("force_top")?);
-    let (d1, d2) = (f2 - f1, f3 - f2);
-    let ratio = if d1 != 0.0 { (d2 / d1).abs() } else { 0.0 };
-    let remaining = if ratio < 1.0 {
-        d2.abs() / (1.0 - ratio) / f3.abs()
-    } else {
-        f64::INFINITY
-    };
+    let remaining = remaining_change(f1, f2, f3);
     let log =
         crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
     let version = log
@@ -349,32 +339,60 @@ pub fn run(
     test: &SpecimenTest,
     progress: Progress,
 ) -> Result<Report<SpecimenDetails>> {
-    let test = &test.resolved(STRAIN);
-    let asm = free_assembly(problem, "lammps")?;
-    if asm.bonds.is_empty() {
-        return Err(Error::Invalid(
-            "validate lammps --specimen: no bonds".into(),
-        ));
-    }
-    let density = opts.export.density;
-    let mut timings = Vec::new();
-    let predicted = predict(&asm, test, LeverArm::HalfLength, &mut timings)?;
-    progress(&format!(
-        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
-        predicted.platen_stiffness
-    ));
-    let layers = super::layers(&predicted);
-    let (types, far_block) = atom_types(&asm.packing, &predicted, test.axis);
-    let dir = problem.dir.join(DIR);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let max_len = write_inputs(
-        &dir,
-        &asm.packing,
-        &asm.bonds,
-        &asm.springs,
-        &types,
-        density,
+    let start = deck_start(
+        "lammps",
+        problem,
+        test,
+        STRAIN,
+        LeverArm::HalfLength,
+        DIR,
+        progress,
     )?;
+    write_deck_files(&start, opts)?;
+    let DeckStart {
+        test,
+        asm,
+        predicted,
+        layers,
+        dir,
+        mut timings,
+        ..
+    } = start;
+    let mut measured = Vec::new();
+    let runs: &[usize] = if opts.two_processes { &[1, 2] } else { &[1] };
+    for &np in runs {
+        let m = read_result(&dir, np, &layers, run_lmp(&dir, &opts.lmp, np)?)?;
+        timings.push(Timing {
+            stage: format!("lammps_np{np}"),
+            seconds: m.seconds,
+        });
+        progress(&run_done_line("LAMMPS", &m));
+        measured.push(m);
+    }
+    compare(
+        "lammps",
+        &test,
+        LeverArm::HalfLength,
+        &asm,
+        predicted,
+        measured,
+        timings,
+    )
+}
+
+/// Write the test's `data.lmp`, `bond_coeffs.lmp` and `in.specimen` into its directory:
+/// the time step, the viscous damping and the displacement δ from the solve.
+fn write_deck_files(start: &DeckStart, opts: &LammpsValidateOptions) -> Result<()> {
+    let DeckStart {
+        test,
+        asm,
+        predicted,
+        types: (types, far_block),
+        dir,
+        ..
+    } = start;
+    let density = opts.export.density;
+    let max_len = write_inputs(dir, &asm.packing, &asm.bonds, &asm.springs, types, density)?;
     // The time step of the element-test export: `safety` × the single-particle bound (the
     // whole network's critical step is not stable with the bonds' dashpots: it blew up).
     let dt = opts.export.safety
@@ -387,17 +405,11 @@ pub fn run(
     // Viscous damping of the free spheres' translations (fix viscous), chosen to damp the
     // specimen's slow modes: γ = m̄·√(K/M)/4 with K the solve's platen stiffness and M the
     // specimen's mass (it changes the way to rest, not the rest state).
-    let masses: Vec<f64> = asm
-        .packing
-        .radii
-        .iter()
-        .map(|r| density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
-        .collect();
-    let total: f64 = masses.iter().sum();
-    let viscous = total / masses.len() as f64 * (predicted.platen_stiffness / total).sqrt() / 4.0;
+    let total = specimen_mass(&asm.packing, density);
+    let n = asm.packing.len() as f64;
+    let viscous = total / n * (predicted.platen_stiffness / total).sqrt() / 4.0;
     // δ = strain × the gauge length (between the layers' mean centres), as the solve.
     let delta = test.strain() * predicted.length;
-    let max_chunks = test.max_steps.div_ceil(CHUNK_STEPS).max(3) - 2;
     crate::io::write_string_atomic(
         &dir.join("in.specimen"),
         &deck(
@@ -406,34 +418,8 @@ pub fn run(
             dt,
             viscous,
             1.6 * max_len,
-            far_block,
-            max_chunks,
+            *far_block,
+            test.relax_chunks(CHUNK_STEPS),
         ),
-    )?;
-    let mut measured = Vec::new();
-    let runs: &[usize] = if opts.two_processes { &[1, 2] } else { &[1] };
-    for &np in runs {
-        let seconds = run_lmp(&dir, &opts.lmp, np)?;
-        timings.push(Timing {
-            stage: format!("lammps_np{np}"),
-            seconds,
-        });
-        let m = read_result(&dir, np, &layers, seconds)?;
-        progress(&format!(
-            "LAMMPS on {np} process(es): done in {seconds:.1} s ({} steps): platen stiffness \
-             {:.7e} N/m",
-            m.steps,
-            m.stiffness()
-        ));
-        measured.push(m);
-    }
-    compare(
-        "lammps",
-        test,
-        LeverArm::HalfLength,
-        &asm,
-        predicted,
-        measured,
-        timings,
     )
 }

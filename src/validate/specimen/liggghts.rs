@@ -12,13 +12,14 @@
 //! mid-gap contact point ([`LeverArm::MidGap`]).
 
 use super::{
-    atom_lines, box_lines, compare, free_assembly, num, predict, EngineMeasurement,
-    SpecimenDetails, SpecimenTest,
+    atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
+    remaining_change, run_done_line, specimen_mass, DeckStart, EngineMeasurement, SpecimenDetails,
+    SpecimenTest,
 };
+use crate::assembly::Assembly;
 use crate::bonds::table;
 use crate::export::liggghts::{run_liggghts, stable_timestep, Launch};
 use crate::homogenize::network::LeverArm;
-use crate::packing::Packing;
 use crate::specimen::Platens;
 use crate::validate::engine::{Problem, Progress};
 use crate::validate::harness::{Report, Timing};
@@ -39,15 +40,10 @@ pub const RAMP_STEPS: u64 = 200;
 /// Steps between two readings of the platen force.
 pub const CHUNK_STEPS: u64 = 500;
 
-/// `specimen.data`: atoms `id type diameter density x y z` in a box a margin larger than
-/// the spheres.
-fn write_data(
-    path: &Path,
-    packing: &Packing,
-    types: &[u8],
-    density: f64,
-    margin: f64,
-) -> Result<()> {
+/// `specimen.data` in `dir`: atoms `id type diameter density x y z` in a box a margin
+/// larger than the spheres; and the driver's bond table `bonds.csv`.
+fn write_data(dir: &Path, asm: &Assembly, types: &[u8], density: f64, margin: f64) -> Result<()> {
+    let packing = &asm.packing;
     let mut s = format!(
         "LIGGGHTS data file written by anisobond {}: free specimen (atom_style granular)\n\n\
          {} atoms\n5 atom types\n\n",
@@ -57,7 +53,24 @@ fn write_data(
     s.push_str(&box_lines(packing, margin));
     s.push_str("\nAtoms\n\n");
     s.push_str(&atom_lines(packing, types, density, false));
-    crate::io::write_string_atomic(path, &s)
+    crate::io::write_string_atomic(&dir.join("specimen.data"), &s)?;
+    table::write_bond_table(&dir.join("bonds.csv"), &asm.bonds, &asm.springs)
+}
+
+/// The deck's comment header: the test, how to run it, the atom types, how it loads and
+/// relaxes.
+fn deck_header(test: &SpecimenTest) -> String {
+    let ax = test.axis;
+    format!(
+        "# anisobond → LIGGGHTS driver (pair_style anisobond) specimen test, {} platens along {}.\n\
+         # Run:  anisobond-liggghts -in specimen.in   (or mpirun -np N anisobond-liggghts -in specimen.in)\n\
+         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
+         # The top layer moves towards the bottom at `speed` for `ramp` steps, then is held; the\n\
+         # pair style's viscous damping relaxes the specimen in chunks until the platen force's\n\
+         # estimated remaining relative change and |F_top - F_bottom| / F_top are below `settle`.\n",
+        platens_name(test.platens),
+        ["x", "y", "z"][ax]
+    )
 }
 
 /// The deck.
@@ -89,19 +102,7 @@ fn deck(
         Platens::Bonded => "mobile",
         Platens::Frictionless => "all",
     };
-    let mut s = format!(
-        "# anisobond → LIGGGHTS driver (pair_style anisobond) specimen test, {} platens along {}.\n\
-         # Run:  anisobond-liggghts -in specimen.in   (or mpirun -np N anisobond-liggghts -in specimen.in)\n\
-         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved), 4 and 5 bottom supports.\n\
-         # The top layer moves towards the bottom at `speed` for `ramp` steps, then is held; the\n\
-         # pair style's viscous damping relaxes the specimen in chunks until the platen force's\n\
-         # estimated remaining relative change and |F_top - F_bottom| / F_top are below `settle`.\n",
-        match test.platens {
-            Platens::Frictionless => "frictionless",
-            Platens::Bonded => "bonded",
-        },
-        ["x", "y", "z"][ax]
-    );
+    let mut s = deck_header(test);
     let _ = write!(
         s,
         "variable dt index {}\nvariable damp index {}\nvariable speed index {}\n\
@@ -140,23 +141,12 @@ fn deck(
         s,
         "velocity top set {} units box\nrun ${{ramp}}\nvelocity top set {} units box\n\
          variable ft equal f_ftop[{index}]\nvariable fb equal -f_fbottom[{index}]\n\
-         variable st equal step\n\
-         thermo_style custom step v_ft v_fb\nthermo ${{chunk_steps}}\n\
-         run ${{chunk_steps}}\nvariable f1 equal ${{ft}}\n\
-         run ${{chunk_steps}}\nvariable f2 equal ${{ft}}\n\
-         variable chunk loop ${{max_chunks}}\n\
-         label relax\n\
-         run ${{chunk_steps}}\n\
-         variable f3 equal ${{ft}}\nvariable b3 equal ${{fb}}\n\
-         variable done equal \"abs(v_f3-v_f2)*abs(v_f2-v_f1) <= v_settle*abs(v_f3)*(abs(v_f2-v_f1)-abs(v_f3-v_f2)) && abs(v_f3-v_b3) <= v_settle*abs(v_f3)\"\n\
-         if \"${{done}} == 1\" then \"jump SELF settled\"\n\
-         variable f1 equal ${{f2}}\nvariable f2 equal ${{f3}}\n\
-         next chunk\njump SELF relax\n\
-         label settled\n\
-         print \"SPECIMEN ${{f3}} ${{b3}} ${{f1}} ${{f2}} ${{st}}\"\n",
+         variable st equal step\n",
         along(&num(-speed), "NULL"),
         along("0.0", "NULL")
     );
+    relax_in_chunks(&mut s, "${ft}", "${fb}");
+    s.push_str("print \"SPECIMEN ${f3} ${b3} ${f1} ${f2} ${st}\"\n");
     s
 }
 
@@ -169,49 +159,36 @@ pub fn run(
     test: &SpecimenTest,
     progress: Progress,
 ) -> Result<Report<SpecimenDetails>> {
-    let test = &test.resolved(STRAIN);
-    let asm = free_assembly(problem, "liggghts")?;
-    if asm.bonds.is_empty() {
-        return Err(Error::Invalid(
-            "validate liggghts --specimen: no bonds".into(),
-        ));
-    }
-    let mut timings = Vec::new();
-    let predicted = predict(&asm, test, LeverArm::MidGap, &mut timings)?;
-    progress(&format!(
-        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
-        predicted.platen_stiffness
-    ));
-    let layers = super::layers(&predicted);
-    let (types, far_block) = super::lammps::atom_types(&asm.packing, &predicted, test.axis);
-    let dir = problem.dir.join(DIR);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let DeckStart {
+        test,
+        asm,
+        predicted,
+        layers,
+        types: (types, far_block),
+        dir,
+        mut timings,
+    } = deck_start(
+        "liggghts",
+        problem,
+        test,
+        STRAIN,
+        LeverArm::MidGap,
+        DIR,
+        progress,
+    )?;
+    let test = &test;
     let density = opts.density;
     let max_len = asm.bonds.length.iter().copied().fold(0.0, f64::max);
-    write_data(
-        &dir.join("specimen.data"),
-        &asm.packing,
-        &types,
-        density,
-        2.0 * max_len,
-    )?;
-    table::write_bond_table(&dir.join("bonds.csv"), &asm.bonds, &asm.springs)?;
+    write_data(&dir, &asm, &types, density, 2.0 * max_len)?;
     let dt = match opts.timestep {
         Some(dt) => dt,
         None => stable_timestep(&asm.packing, &asm.bonds, &asm.springs, density)?,
     };
     // Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
     // stiffness, M its mass (as LAMMPS' test; it changes the way to rest, not the rest).
-    let mass: f64 = asm
-        .packing
-        .radii
-        .iter()
-        .map(|r| density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
-        .sum();
-    let damping = (predicted.platen_stiffness / mass).sqrt() / 4.0;
+    let damping = (predicted.platen_stiffness / specimen_mass(&asm.packing, density)).sqrt() / 4.0;
     let delta = test.strain() * predicted.length;
     let speed = delta / (RAMP_STEPS as f64 * dt);
-    let max_chunks = test.max_steps.div_ceil(CHUNK_STEPS).max(3) - 2;
     crate::io::write_string_atomic(
         &dir.join("specimen.in"),
         &deck(
@@ -221,7 +198,7 @@ pub fn run(
             damping,
             0.05 * max_len,
             far_block,
-            max_chunks,
+            test.relax_chunks(CHUNK_STEPS),
         ),
     )?;
     let mut measured = Vec::new();
@@ -230,29 +207,13 @@ pub fn run(
         runs.push(opts.processes);
     }
     for np in runs {
-        let launch = Launch {
-            program: programs.driver.clone(),
-            mpi_processes: (np > 1).then_some(np),
-            vars: Vec::new(),
-        };
-        let t0 = std::time::Instant::now();
-        let out = run_liggghts(&launch, &dir, "specimen.in")?;
-        let seconds = t0.elapsed().as_secs_f64();
-        let _ = std::fs::rename(
-            dir.join("log.liggghts"),
-            dir.join(format!("log-np{np}.liggghts")),
-        );
+        let (out, seconds) = run_driver(programs, &dir, np)?;
+        let m = read_result(&out, np, &layers, delta, dt, seconds, &dir)?;
         timings.push(Timing {
             stage: format!("liggghts_np{np}"),
             seconds,
         });
-        let m = read_result(&out, np, &layers, delta, dt, seconds, &dir)?;
-        progress(&format!(
-            "LIGGGHTS on {np} process(es): done in {seconds:.1} s ({} steps): platen stiffness \
-             {:.7e} N/m",
-            m.steps,
-            m.stiffness()
-        ));
+        progress(&run_done_line("LIGGGHTS", &m));
         measured.push(m);
     }
     compare(
@@ -264,6 +225,24 @@ pub fn run(
         measured,
         timings,
     )
+}
+
+/// Run `specimen.in` with the driver in `dir` on `np` processes, its log kept as
+/// `log-npN.liggghts`; returns its output and wall time (s).
+fn run_driver(programs: &Programs, dir: &Path, np: usize) -> Result<(String, f64)> {
+    let launch = Launch {
+        program: programs.driver.clone(),
+        mpi_processes: (np > 1).then_some(np),
+        vars: Vec::new(),
+    };
+    let t0 = std::time::Instant::now();
+    let out = run_liggghts(&launch, dir, "specimen.in")?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let _ = std::fs::rename(
+        dir.join("log.liggghts"),
+        dir.join(format!("log-np{np}.liggghts")),
+    );
+    Ok((out, seconds))
 }
 
 /// The `SPECIMEN F_top F_bottom F_1 F_2 STEP` line the deck prints (the last three force
@@ -291,13 +270,7 @@ fn read_result(
     let [f3, b3, f1, f2, steps] = words[..] else {
         return Err(bad(&format!("SPECIMEN line `{line}`: expected 5 numbers")));
     };
-    let (d1, d2) = (f2 - f1, f3 - f2);
-    let ratio = if d1 != 0.0 { (d2 / d1).abs() } else { 0.0 };
-    let remaining = if ratio < 1.0 {
-        d2.abs() / (1.0 - ratio) / f3.abs()
-    } else {
-        f64::INFINITY
-    };
+    let remaining = remaining_change(f1, f2, f3);
     let version = out
         .lines()
         .find_map(|l| l.trim().strip_prefix("LIGGGHTS ("))

@@ -231,10 +231,7 @@ impl EngineDetails for SpecimenDetails {
             m.version,
             r.n_particles,
             r.n_bonds,
-            match r.test.platens {
-                Platens::Frictionless => "frictionless",
-                Platens::Bonded => "bonded",
-            },
+            platens_name(r.test.platens),
             p.axis,
             r.test.end_layer,
             m.bottom.len(),
@@ -265,6 +262,14 @@ impl EngineDetails for SpecimenDetails {
         }
         s.push('\n');
         s
+    }
+}
+
+/// The name of `p` as the command line and the engines' scripts spell it.
+pub(super) fn platens_name(p: Platens) -> &'static str {
+    match p {
+        Platens::Frictionless => "frictionless",
+        Platens::Bonded => "bonded",
     }
 }
 
@@ -316,10 +321,150 @@ pub fn layers(p: &SpecimenReport) -> (Vec<usize>, Vec<usize>) {
     (of(1), of(2))
 }
 
+/// The specimen solve of `asm` for `test` (timed into `timings`) and its progress line:
+/// the platen stiffness every engine's is compared with.
+pub(super) fn predict_reported(
+    asm: &Assembly,
+    test: &SpecimenTest,
+    lever_arm: LeverArm,
+    timings: &mut Vec<Timing>,
+    progress: super::engine::Progress,
+) -> Result<SpecimenReport> {
+    let predicted = predict(asm, test, lever_arm, timings)?;
+    progress(&format!(
+        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
+        predicted.platen_stiffness
+    ));
+    Ok(predicted)
+}
+
+/// What the specimen test of an engine driven by a deck (LAMMPS, LIGGGHTS) starts from.
+pub(super) struct DeckStart {
+    /// The test with the engine's strain.
+    pub test: SpecimenTest,
+    /// The free bonded specimen.
+    pub asm: Assembly,
+    /// The specimen solve.
+    pub predicted: SpecimenReport,
+    /// Its end layers (bottom, top), which the engine must hold and move.
+    pub layers: (Vec<usize>, Vec<usize>),
+    /// Each atom's type and the held lateral axis of the far support ([`lammps::atom_types`]).
+    pub types: (Vec<u8>, usize),
+    /// The engine's directory (created).
+    pub dir: PathBuf,
+    /// Wall times so far (the solve).
+    pub timings: Vec<Timing>,
+}
+
+/// The common start of a deck-driven engine's specimen test: `test` with the engine's
+/// `strain`, the free assembly (refused without bonds), the solve with the engine's
+/// `lever_arm`, the layers' atom types, and the directory `sub` of the problem's.
+pub(super) fn deck_start(
+    engine: &str,
+    problem: &super::Problem,
+    test: &SpecimenTest,
+    strain: f64,
+    lever_arm: LeverArm,
+    sub: &str,
+    progress: super::engine::Progress,
+) -> Result<DeckStart> {
+    let test = test.resolved(strain);
+    let asm = free_assembly(problem, engine)?;
+    if asm.bonds.is_empty() {
+        return Err(Error::Invalid(format!(
+            "validate {engine} --specimen: no bonds"
+        )));
+    }
+    let mut timings = Vec::new();
+    let predicted = predict_reported(&asm, &test, lever_arm, &mut timings, progress)?;
+    let layers = layers(&predicted);
+    let types = lammps::atom_types(&asm.packing, &predicted, test.axis);
+    let dir = problem.dir.join(sub);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    Ok(DeckStart {
+        test,
+        asm,
+        predicted,
+        layers,
+        types,
+        dir,
+        timings,
+    })
+}
+
+/// Mass (kg) of a sphere of radius `r` (m) and `density` (kg/m³), as every engine takes it.
+pub(super) fn sphere_mass(density: f64, r: f64) -> f64 {
+    density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3)
+}
+
+/// Mass (kg) of the specimen's spheres at `density` (kg/m³): M of the slow modes' damping
+/// rate √(K/M)/4 of the LAMMPS and LIGGGHTS tests.
+pub(super) fn specimen_mass(packing: &crate::packing::Packing, density: f64) -> f64 {
+    packing.radii.iter().map(|&r| sphere_mass(density, r)).sum()
+}
+
+/// The estimated remaining relative change of a force read three times `f1`, `f2`, `f3`
+/// at equal intervals: the geometric extrapolation |d₂| / (1 − |d₂/d₁|) / |f₃| of the
+/// last two changes; infinite (no estimate) when they are not decaying. The decks stop on
+/// the same rule ([`relax_in_chunks`]).
+pub(super) fn remaining_change(f1: f64, f2: f64, f3: f64) -> f64 {
+    let (d1, d2) = (f2 - f1, f3 - f2);
+    let ratio = if d1 != 0.0 { (d2 / d1).abs() } else { 0.0 };
+    if ratio < 1.0 {
+        d2.abs() / (1.0 - ratio) / f3.abs()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The relaxation loop of the LAMMPS and LIGGGHTS decks, appended to `s`: two readings of
+/// the platen force `ft` a chunk apart, then chunks of `${chunk_steps}` (at most
+/// `${max_chunks}`) until the estimated remaining relative change ([`remaining_change`],
+/// multiplied out) and |F_top − F_bottom| / F_top are below `${settle}`; ends at `label
+/// settled` with the last readings in `f1 f2 f3 b3`. `ft` and `fb` are how the deck
+/// reads the top and (sign-corrected) bottom force now (LAMMPS `$(v_ft:%.17g)`, LIGGGHTS
+/// `${ft}`).
+pub(super) fn relax_in_chunks(s: &mut String, ft: &str, fb: &str) {
+    let _ = write!(
+        s,
+        "thermo_style custom step v_ft v_fb\nthermo ${{chunk_steps}}\n\
+         run ${{chunk_steps}}\nvariable f1 equal {ft}\n\
+         run ${{chunk_steps}}\nvariable f2 equal {ft}\n\
+         variable chunk loop ${{max_chunks}}\n\
+         label relax\n\
+         run ${{chunk_steps}}\n\
+         variable f3 equal {ft}\nvariable b3 equal {fb}\n\
+         variable done equal \"abs(v_f3-v_f2)*abs(v_f2-v_f1) <= v_settle*abs(v_f3)*(abs(v_f2-v_f1)-abs(v_f3-v_f2)) && abs(v_f3-v_b3) <= v_settle*abs(v_f3)\"\n\
+         if \"${{done}} == 1\" then \"jump SELF settled\"\n\
+         variable f1 equal ${{f2}}\nvariable f2 equal ${{f3}}\n\
+         next chunk\njump SELF relax\n\
+         label settled\n"
+    );
+}
+
+/// The progress line of a finished run of `engine` (its name as it prints it).
+pub(super) fn run_done_line(engine: &str, m: &EngineMeasurement) -> String {
+    format!(
+        "{engine} on {} process(es): done in {:.1} s ({} steps): platen stiffness {:.7e} N/m",
+        m.processes,
+        m.seconds,
+        m.steps,
+        m.stiffness()
+    )
+}
+
+impl SpecimenTest {
+    /// Chunks of `chunk_steps` the relaxation loop may run after its first two readings,
+    /// so that all of them stay within [`SpecimenTest::max_steps`] (at least one).
+    pub(super) fn relax_chunks(&self, chunk_steps: u64) -> u64 {
+        self.max_steps.div_ceil(chunk_steps).max(3) - 2
+    }
+}
+
 /// The report: each run's stiffness against the solve's (one check per run:
-/// `platen-stiffness`, `platen-stiffness-np2`, …), after making sure every run held and
-/// moved the solve's layers (else [`Error::EngineFailed`]: they did not load the same
-/// specimen).
+/// `platen-stiffness`, `platen-stiffness-np2`, …), after making sure there is a run and
+/// every run held and moved the solve's layers (else [`Error::EngineFailed`]: nothing was
+/// measured, or they did not load the same specimen).
 pub fn compare(
     engine: &'static str,
     test: &SpecimenTest,
@@ -329,6 +474,13 @@ pub fn compare(
     measured: Vec<EngineMeasurement>,
     timings: Vec<Timing>,
 ) -> Result<Report<SpecimenDetails>> {
+    if measured.is_empty() {
+        return Err(Error::engine(
+            engine,
+            "no run measured the platen force: the engine returned no measurement to compare \
+             with the specimen solve",
+        ));
+    }
     let (bottom, top) = layers(&predicted);
     let mut checks = Vec::new();
     for m in &measured {
@@ -548,6 +700,38 @@ mod tests {
         )
         .unwrap_err();
         assert!(matches!(e, Error::EngineFailed { .. }), "{e}");
+    }
+
+    #[test]
+    fn a_run_that_measured_nothing_is_an_engine_failure_not_a_pass() {
+        let asm = column();
+        let test = SpecimenTest::new(2, 0.5e-3, Platens::Bonded).resolved(1e-6);
+        let p = predict(&asm, &test, LeverArm::MidGap, &mut Vec::new()).unwrap();
+        let e = compare(
+            "lammps",
+            &test,
+            LeverArm::MidGap,
+            &asm,
+            p,
+            Vec::new(),
+            Vec::new(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(&e, Error::EngineFailed { engine, .. } if engine == "lammps"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("no run measured"), "{e}");
+    }
+
+    #[test]
+    fn the_remaining_change_is_the_geometric_extrapolation() {
+        // Changes 8, 4 (ratio 1/2): 4 + 2 + 1 + … = 4 / (1 − 1/2) = 8 remaining, of 112.
+        assert_eq!(remaining_change(100.0, 108.0, 112.0), 8.0 / 112.0);
+        // Not decaying (ratio ≥ 1): no estimate.
+        assert_eq!(remaining_change(100.0, 104.0, 112.0), f64::INFINITY);
+        // Constant: nothing remains.
+        assert_eq!(remaining_change(5.0, 5.0, 5.0), 0.0);
     }
 
     #[test]

@@ -5,15 +5,17 @@
 //! springs), Cundall damping [`DAMPING`], relaxed until the force settles. The solve uses
 //! YADE's mid-gap contact point ([`LeverArm::MidGap`]).
 
-use super::{compare, free_assembly, predict, EngineMeasurement, SpecimenDetails, SpecimenTest};
+use super::{
+    compare, free_assembly, platens_name, predict_reported, EngineMeasurement, SpecimenDetails,
+    SpecimenTest,
+};
 use crate::bonds::table;
 use crate::export::yade::{files, find_yade, run_yade_script, YADE_MODULE};
 use crate::homogenize::network::LeverArm;
 use crate::packing;
-use crate::specimen::Platens;
 use crate::validate::engine::{Problem, Progress};
 use crate::validate::harness::{Report, Timing};
-use crate::validate::yade::YadeValidationOptions;
+use crate::validate::yade::{reads_back_same, YadeValidationOptions};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -35,7 +37,7 @@ pub const RESULT: &str = "yade-platen.json";
 
 /// The `platen.py` text: `anisobond_yade.platen_main` with the directory's files and
 /// `args`; arguments given to `yade -n -x platen.py …` override them.
-fn script(args: &[String]) -> String {
+fn script(args: &[(&str, String)]) -> String {
     let mut s = format!(
         "# Written by anisobond {}: YADE platen test of a free bonded specimen.\n\
          # Run:  yade -n -x {SCRIPT}   (writes {RESULT} here; options after the script name\n\
@@ -52,8 +54,8 @@ fn script(args: &[String]) -> String {
         files::PACKING,
         files::BONDS
     );
-    for pair in args.chunks(2) {
-        s += &format!("    {:?}, {:?},\n", pair[0], pair[1]);
+    for (flag, value) in args {
+        s += &format!("    {flag:?}, {value:?},\n");
     }
     s += "]\n\nanisobond_yade.platen_main(DEFAULTS + sys.argv[1:])\n";
     s
@@ -82,57 +84,17 @@ pub fn run(
     // anisobond solves what YADE reads.
     let p2 = packing::io::read_packing(&dir.join(files::PACKING))?;
     let (b2, k2) = table::read_bond_table(&dir.join(files::BONDS))?;
-    if p2.positions != asm.packing.positions
-        || p2.radii != asm.packing.radii
-        || p2.cell.is_some()
-        || b2.i != asm.bonds.i
-        || b2.j != asm.bonds.j
-        || k2.kn != asm.springs.kn
-        || k2.ks != asm.springs.ks
-        || k2.kr != asm.springs.kr
-        || k2.ktw != asm.springs.ktw
-    {
+    if !reads_back_same((&asm.packing, &asm.bonds, &asm.springs), (&p2, &b2, &k2)) {
         return Err(Error::Invalid(
             "validate yade --specimen: the packing or bond table YADE reads does not read back \
              bit for bit; the two codes would not load the same specimen"
                 .into(),
         ));
     }
-    let mut args: Vec<String> = vec![
-        "--axis".into(),
-        test.axis.to_string(),
-        "--depth".into(),
-        format!("{:e}", test.end_layer),
-        "--platens".into(),
-        match test.platens {
-            Platens::Frictionless => "frictionless",
-            Platens::Bonded => "bonded",
-        }
-        .into(),
-        "--strain".into(),
-        format!("{:e}", test.strain()),
-        "--damping".into(),
-        DAMPING.to_string(),
-        "--density".into(),
-        format!("{:e}", opts.density),
-        "--safety".into(),
-        opts.safety.to_string(),
-        "--tolerance".into(),
-        format!("{:e}", test.settle),
-        "--max-steps".into(),
-        test.max_steps.to_string(),
-    ];
-    if let Some(dt) = opts.time_step {
-        args.extend(["--dt".into(), format!("{dt:e}")]);
-    }
     let script_path = dir.join(SCRIPT);
-    crate::io::write_string_atomic(&script_path, &script(&args))?;
+    crate::io::write_string_atomic(&script_path, &script(&platen_args(test, opts)))?;
     let mut timings = Vec::new();
-    let predicted = predict(&asm, test, LeverArm::MidGap, &mut timings)?;
-    progress(&format!(
-        "anisobond: specimen solve done: platen stiffness {:.7e} N/m",
-        predicted.platen_stiffness
-    ));
+    let predicted = predict_reported(&asm, test, LeverArm::MidGap, &mut timings, progress)?;
     let out = run_yade_script(&script_path, &[])?;
     timings.push(Timing {
         stage: "yade_process".into(),
@@ -155,6 +117,62 @@ pub fn run(
         vec![measured],
         timings,
     )
+}
+
+/// The options of `platen_main` for `test` (flag, value): the end layers, the platens, the
+/// strain, the damping, the density, the time step, the settling rule.
+fn platen_args(test: &SpecimenTest, opts: &YadeValidationOptions) -> Vec<(&'static str, String)> {
+    let mut args = vec![
+        ("--axis", test.axis.to_string()),
+        ("--depth", format!("{:e}", test.end_layer)),
+        ("--platens", platens_name(test.platens).into()),
+        ("--strain", format!("{:e}", test.strain())),
+        ("--damping", DAMPING.to_string()),
+        ("--density", format!("{:e}", opts.density)),
+        ("--safety", opts.safety.to_string()),
+        ("--tolerance", format!("{:e}", test.settle)),
+        ("--max-steps", test.max_steps.to_string()),
+    ];
+    if let Some(dt) = opts.time_step {
+        args.push(("--dt", format!("{dt:e}")));
+    }
+    args
+}
+
+/// The `remaining` of `platen_main`'s JSON `v` (read from `path`): the estimated remaining
+/// relative change of the force when the run stopped. `null` is YADE's "no estimate": the
+/// last changes were not decaying, so the run ended at `--max-steps` without settling
+/// ([`Error::NotConverged`]); a result without the key, or not a number, is
+/// [`Error::EngineFailed`]. Never a stand-in number that would then be judged.
+fn remaining(v: &serde_json::Value, path: &Path) -> Result<f64> {
+    match v.get("remaining") {
+        Some(serde_json::Value::Null) => Err(Error::NotConverged(format!(
+            "validate yade --specimen: YADE's platen test stopped after {} steps without \
+             settling: {} gives no estimate of the remaining change of the force (`remaining` \
+             is null: the force was not decaying); relax longer (--max-steps) or loosen \
+             --settle",
+            v["steps"].as_u64().map_or("?".into(), |n| n.to_string()),
+            path.display()
+        ))),
+        Some(r) => r.as_f64().filter(|r| r.is_finite()).ok_or_else(|| {
+            Error::engine(
+                "YADE",
+                format!(
+                    "{}: `remaining` is {r}, expected the estimated remaining relative change \
+                     (a number)",
+                    path.display()
+                ),
+            )
+        }),
+        None => Err(Error::engine(
+            "YADE",
+            format!(
+                "{}: no `remaining` in YADE's result (the estimated remaining relative change \
+                 of the force): the two cannot be compared without knowing the run settled",
+                path.display()
+            ),
+        )),
+    }
 }
 
 /// Read `platen_main`'s JSON; body ids are the packing's indices (`build_scene` appends
@@ -194,7 +212,7 @@ fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement>
         force_bottom: num("force_bottom")?,
         time_step: num("dt")?,
         steps: v["steps"].as_u64().ok_or_else(|| bad("steps"))?,
-        remaining: v["remaining"].as_f64().unwrap_or(f64::INFINITY),
+        remaining: remaining(&v, path)?,
         how: format!(
             "blockedDOFs on the end layers, the top layer moved at constant axial speed over \
              {} steps, Cundall damping {}, relaxed until the force settled",
@@ -204,4 +222,52 @@ fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement>
         seconds,
         dir: Default::default(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `platen_main` result of 4 spheres, with `remaining` as given (`None`: no key).
+    fn result(remaining: Option<&str>) -> String {
+        let mut s = String::from(
+            "{\"yade\": {\"version\": \"2023.02a\"}, \"bottom\": [0, 1], \"top\": [2, 3], \
+             \"displacement\": 1e-9, \"force_top\": 2e-3, \"force_bottom\": 2e-3, \"dt\": 1e-7, \
+             \"steps\": 5000, \"ramp_steps\": 200, \"damping\": 0.8",
+        );
+        if let Some(r) = remaining {
+            s += &format!(", \"remaining\": {r}");
+        }
+        s + "}"
+    }
+
+    fn read(remaining: Option<&str>) -> Result<EngineMeasurement> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(RESULT);
+        std::fs::write(&path, result(remaining)).unwrap();
+        read_result(&path, 4, 1.0)
+    }
+
+    #[test]
+    fn a_settled_result_keeps_its_remaining_change() {
+        let m = read(Some("3e-7")).unwrap();
+        assert_eq!(m.remaining, 3e-7);
+        assert_eq!((m.force_top / m.displacement, m.steps), (2e6, 5000));
+    }
+
+    #[test]
+    fn a_missing_remaining_change_is_an_engine_failure_not_a_number() {
+        for (r, named) in [(None, "no `remaining`"), (Some("\"x\""), "`remaining` is")] {
+            let e = read(r).unwrap_err();
+            assert!(matches!(e, Error::EngineFailed { .. }), "{e}");
+            assert!(e.to_string().contains(named), "{e}");
+        }
+    }
+
+    #[test]
+    fn no_estimate_from_yade_is_not_converged() {
+        let e = read(Some("null")).unwrap_err();
+        assert!(matches!(e, Error::NotConverged(_)), "{e}");
+        assert!(e.to_string().contains("5000 steps"), "{e}");
+    }
 }
