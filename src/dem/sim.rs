@@ -227,8 +227,8 @@ impl ParticleUpdate<'_> {
         let mut l = 0;
         while l + L <= s.x.len() {
             let ft: [(Vec3, Vec3); L] = std::array::from_fn(|m| self.resultants.at(base + l + m));
-            for m in 0..L {
-                (s.force[l + m], s.torque[l + m]) = ft[m];
+            for (m, &(f, t)) in ft.iter().enumerate() {
+                (s.force[l + m], s.torque[l + m]) = (f, t);
             }
             // SAFETY: AVX2 is available (the caller checked); every slice has L elements
             // from l on (l + L ≤ chunk length, all chunks alike).

@@ -226,7 +226,7 @@ pub(super) fn validate<'py>(
     if check {
         verdict.map_err(to_py)?;
     }
-    Ok(json_to_py(py, &json)?
+    json_to_py(py, &json)?
         .cast_into::<PyDict>()
-        .map_err(|e| InputError::new_err(format!("validation report: {e}")))?)
+        .map_err(|e| InputError::new_err(format!("validation report: {e}")))
 }
