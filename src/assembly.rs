@@ -242,13 +242,7 @@ impl Assembly {
         }
         let springs =
             bonds::assign_stiffness(&cut.packing, &bonds, scheme.as_ref(), &model.geometry)?;
-        let assembly = Assembly {
-            packing: cut.packing.clone(),
-            model,
-            bonds,
-            springs,
-            bond_types: None,
-        };
+        let assembly = Assembly::of_parts(cut.packing.clone(), model, bonds, springs);
         Ok((assembly, cut))
     }
 
@@ -268,13 +262,24 @@ impl Assembly {
     fn springs_of(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {
         let scheme = model.build_scheme(Some((&packing, &bonds)))?;
         let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
-        Ok(Assembly {
+        Ok(Assembly::of_parts(packing, model, bonds, springs))
+    }
+
+    /// The assembly of these parts as they are, without bond types (those come only from a
+    /// data file's `Bonds` section, [`Assembly::from_data_bonds`]).
+    fn of_parts(
+        packing: Packing,
+        model: Model,
+        bonds: BondSet,
+        springs: BondStiffness,
+    ) -> Assembly {
+        Assembly {
             packing,
             model,
             bonds,
             springs,
             bond_types: None,
-        })
+        }
     }
 
     /// An assembly of a data file's own bond network ([`packing::io::DataBonds`], the
@@ -310,13 +315,7 @@ impl Assembly {
     /// image is not the packing's ([`bonds::table::check_against_packing`]).
     pub fn from_table_file(packing: Packing, model: Model, table_path: &Path) -> Result<Assembly> {
         let (bonds, springs) = bonds::table::read_bond_table_of(table_path, &packing)?;
-        Ok(Assembly {
-            packing,
-            model,
-            bonds,
-            springs,
-            bond_types: None,
-        })
+        Ok(Assembly::of_parts(packing, model, bonds, springs))
     }
 
     /// Read the packing file (every format [`packing::io::read_packing`] knows) and bond it

@@ -229,6 +229,25 @@ fn canonical_target(path: &Path) -> std::path::PathBuf {
     }
 }
 
+/// The folder of [`OutputSet::dir_or_temporary`]: a staged output, or a temporary folder.
+#[derive(Debug)]
+pub enum WorkDir {
+    /// The staging folder of an output (moved into place by [`OutputSet::commit`]).
+    Staged(PathBuf),
+    /// A temporary folder, removed on drop.
+    Temporary(tempfile::TempDir),
+}
+
+impl WorkDir {
+    /// The folder.
+    pub fn path(&self) -> &Path {
+        match self {
+            WorkDir::Staged(p) => p,
+            WorkDir::Temporary(t) => t.path(),
+        }
+    }
+}
+
 impl OutputSet {
     /// An empty set for a command that reads `inputs` (files that do not exist are ignored:
     /// their readers report them).
@@ -336,6 +355,18 @@ impl OutputSet {
     /// Plan the folder `target` if given (an optional output of a command).
     pub fn optional_dir(&mut self, target: Option<&Path>) -> Result<Option<std::path::PathBuf>> {
         target.map(|t| self.dir(t)).transpose()
+    }
+
+    /// A folder to run in: `target` planned ([`OutputSet::dir`]), or without one a
+    /// temporary folder removed when the [`WorkDir`] is dropped (an engine's decks and logs
+    /// that are not asked for).
+    pub fn dir_or_temporary(&mut self, target: Option<&Path>) -> Result<WorkDir> {
+        match target {
+            Some(t) => self.dir(t).map(WorkDir::Staged),
+            None => tempfile::tempdir()
+                .map(WorkDir::Temporary)
+                .map_err(|e| Error::io(std::env::temp_dir(), e)),
+        }
     }
 
     /// Every file of a staged folder, relative to it.
@@ -598,5 +629,75 @@ pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
             .iter()
             .try_for_each(|(k, x)| check_json_numbers(x, &format!("{at}.{k}"))),
         _ => Ok(()),
+    }
+}
+
+/// [`check_json_numbers`] of a report whose `None`s serde also writes as `null`: the keys
+/// `absent` (dotted paths from `v`, e.g. `network.updated_geometry`) may be `null`, no other
+/// value may.
+pub fn check_json_numbers_except(v: &serde_json::Value, at: &str, absent: &[&str]) -> Result<()> {
+    let mut checked = v.clone();
+    for path in absent {
+        let mut keys: Vec<&str> = path.split('.').collect();
+        let last = keys.pop().unwrap_or_default();
+        let parent = keys.iter().try_fold(&mut checked, |v, k| v.get_mut(*k));
+        if let Some(serde_json::Value::Object(m)) = parent {
+            if m.get(last).is_some_and(serde_json::Value::is_null) {
+                m.remove(last);
+            }
+        }
+    }
+    check_json_numbers(&checked, at)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(serde::Serialize)]
+    struct Inner {
+        kept: Option<f64>,
+        value: f64,
+    }
+
+    #[derive(serde::Serialize)]
+    struct Row {
+        optional: Option<f64>,
+        inner: Inner,
+    }
+
+    #[test]
+    fn only_the_absent_keys_may_be_null() {
+        let row = |optional, kept, value| Row {
+            optional,
+            inner: Inner { kept, value },
+        };
+        let json = |r: &Row| serde_json::to_value(r).unwrap();
+        let absent = ["optional", "inner.kept"];
+        // The Nones named absent pass, finite values pass.
+        let ok = json(&row(None, None, 1.0));
+        check_json_numbers_except(&ok, "row", &absent).unwrap();
+        check_json_numbers_except(&json(&row(Some(2.0), Some(3.0), 1.0)), "row", &[]).unwrap();
+        // A NaN or an infinity becomes `null` as a None does: refused where not absent,
+        // naming the key.
+        for bad in [f64::NAN, f64::INFINITY] {
+            let e = check_json_numbers_except(&json(&row(None, None, bad)), "row", &absent)
+                .unwrap_err();
+            assert!(matches!(e, Error::Invalid(_)));
+            assert!(
+                e.to_string()
+                    .contains("`row.inner.value` is not a finite number"),
+                "{e}"
+            );
+            let e = check_json_numbers_except(
+                &json(&row(Some(bad), None, 1.0)),
+                "row",
+                &["inner.kept"],
+            )
+            .unwrap_err();
+            assert!(e.to_string().contains("`row.optional`"), "{e}");
+        }
+        // Without the list the plain check refuses the Nones too.
+        assert!(check_json_numbers(&ok, "row").is_err());
     }
 }

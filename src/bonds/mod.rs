@@ -101,51 +101,8 @@ impl BondSet {
                     )),
                 ));
             }
-            let d = packing.positions[c as usize] - packing.positions[a as usize];
-            let (branch, img) = match (&packing.cell, image) {
-                (Some(cell), Some(m)) => {
-                    if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && m[b][k] != 0) {
-                        return Err((
-                            Some(b),
-                            Error::Invalid(format!(
-                                "bond {b}: particles {a} and {c} with image {:?}, but the box is \
-                             not periodic along {} (boundary {}): expected image 0 there",
-                                m[b],
-                                ["x", "y", "z"][k],
-                                cell.boundary()
-                            )),
-                        ));
-                    }
-                    let img = packing.image_from_given(a as usize, c as usize, m[b]);
-                    let branch = d + cell.shift(img);
-                    let nearest = cell.minimum_image(d).0.norm();
-                    if branch.norm() > nearest * (1.0 + 1e-9) + 1e-12 * cell.lengths.max() {
-                        return Err((
-                            Some(b),
-                            Error::Invalid(format!(
-                                "bond {b}: particles {a} and {c} with image {:?} are {:e} m \
-                             apart, but their nearest images are {nearest:e} m apart: expected \
-                             the image of j seen from i among the positions as given (a \
-                             scene's own, e.g. YADE's cellDist with its body positions)",
-                                m[b],
-                                branch.norm()
-                            )),
-                        ));
-                    }
-                    (branch, img)
-                }
-                (Some(cell), None) => cell.minimum_image(d),
-                (None, Some(m)) if m[b] != [0, 0, 0] => {
-                    return Err((
-                        Some(b),
-                        Error::Invalid(format!(
-                            "bond {b}: periodic image {:?} in a packing without a cell",
-                            m[b]
-                        )),
-                    ))
-                }
-                (None, _) => (d, [0, 0, 0]),
-            };
+            let (branch, img) =
+                pair_branch(packing, b, (a, c), image.map(|m| m[b])).map_err(|e| (Some(b), e))?;
             let (lo, hi, branch, img) = if a < c {
                 (a, c, branch, img)
             } else {
@@ -209,5 +166,52 @@ impl BondSet {
     /// Gap of bond `b`: centre distance minus the sum of radii (m; negative = overlap).
     pub fn gap(&self, packing: &Packing, b: usize) -> f64 {
         self.length[b] - packing.radii[self.i[b] as usize] - packing.radii[self.j[b] as usize]
+    }
+}
+
+/// Branch vector and image of bond `b` between particles `a` and `c` (`pair.0`, `pair.1`),
+/// from i to the image of j: the `given` image, checked against the cell's periodic axes
+/// and refused if not the nearest image of j; the minimum image if none is given; the plain
+/// difference in a cluster (where only image 0 is accepted).
+fn pair_branch(
+    packing: &Packing,
+    b: usize,
+    pair: (u32, u32),
+    given: Option<[i32; 3]>,
+) -> Result<(Vec3, [i32; 3])> {
+    let (a, c) = pair;
+    let d = packing.positions[c as usize] - packing.positions[a as usize];
+    match (&packing.cell, given) {
+        (Some(cell), Some(m)) => {
+            if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && m[k] != 0) {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: particles {a} and {c} with image {:?}, but the box is \
+                     not periodic along {} (boundary {}): expected image 0 there",
+                    m,
+                    ["x", "y", "z"][k],
+                    cell.boundary()
+                )));
+            }
+            let img = packing.image_from_given(a as usize, c as usize, m);
+            let branch = d + cell.shift(img);
+            let nearest = cell.minimum_image(d).0.norm();
+            if branch.norm() > nearest * (1.0 + 1e-9) + 1e-12 * cell.lengths.max() {
+                return Err(Error::Invalid(format!(
+                    "bond {b}: particles {a} and {c} with image {:?} are {:e} m \
+                     apart, but their nearest images are {nearest:e} m apart: expected \
+                     the image of j seen from i among the positions as given (a \
+                     scene's own, e.g. YADE's cellDist with its body positions)",
+                    m,
+                    branch.norm()
+                )));
+            }
+            Ok((branch, img))
+        }
+        (Some(cell), None) => Ok(cell.minimum_image(d)),
+        (None, Some(m)) if m != [0, 0, 0] => Err(Error::Invalid(format!(
+            "bond {b}: periodic image {:?} in a packing without a cell",
+            m
+        ))),
+        (None, _) => Ok((d, [0, 0, 0])),
     }
 }

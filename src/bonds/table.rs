@@ -263,7 +263,6 @@ pub fn check_against_packing(
             "{name}: the bond table holds no bonds"
         )));
     }
-    let v = |x: Vec3| format!("({:e}, {:e}, {:e})", x.x, x.y, x.z);
     for (b, &line) in lines.iter().enumerate().take(bonds.len()) {
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         if j >= n {
@@ -276,74 +275,86 @@ pub fn check_against_packing(
                 ),
             ));
         }
-        let given = bonds.image[b];
+        let (img, branch) = branch_of_given_image(packing, b, (i, j), bonds.image[b])
+            .map_err(|m| Error::parse(name, line, m))?;
         let l = bonds.length[b];
-        let table_branch = bonds.normal[b] * l;
-        let d = packing.positions[j] - packing.positions[i];
-        let (img, branch) = match &packing.cell {
-            Some(cell) => {
-                if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && given[k] != 0) {
-                    return Err(Error::parse(
-                        name,
-                        line,
-                        format!(
-                            "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but the packing's \
-                             box is not periodic along {} (boundary {}): expected 0 there",
-                            ["x", "y", "z"][k],
-                            cell.boundary()
-                        ),
-                    ));
-                }
-                let img = packing.image_from_given(i, j, given);
-                (img, d + cell.shift(img))
-            }
-            None if given != [0, 0, 0] => {
-                return Err(Error::parse(
-                    name,
-                    line,
-                    format!(
-                        "bond {b} ({i}–{j}): image ix,iy,iz = {given:?} in a packing without a \
-                         periodic cell: expected 0,0,0"
-                    ),
-                ))
-            }
-            None => ([0; 3], d),
-        };
-        let off = (branch - table_branch).norm();
+        let off = (branch - bonds.normal[b] * l).norm();
         if off.is_nan() || off > BRANCH_TOLERANCE * l {
-            // Say what is wrong: the image alone, or the normal / length.
-            let nearest = match &packing.cell {
-                Some(cell) => cell.minimum_image(d),
-                None => (d, [0; 3]),
-            };
-            let right_image = (nearest.0 - table_branch).norm() <= BRANCH_TOLERANCE * l;
-            let message = if right_image {
-                format!(
-                    "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but n·length = {} m \
-                     reaches the image {:?} of particle {j} among the packing's positions as \
-                     given: expected ix,iy,iz = {:?}; the bond table is not of this packing \
-                     (or its images are of other positions)",
-                    v(table_branch),
-                    packing.image_to_given(i, j, nearest.1),
-                    packing.image_to_given(i, j, nearest.1)
-                )
-            } else {
-                let len = branch.norm();
-                format!(
-                    "bond {b} ({i}–{j}): nx,ny,nz = {} and length {l:e} m, but the packing \
-                     puts the image {given:?} of particle {j} at {} m from particle {i}: \
-                     expected nx,ny,nz = {} and length {len:e} m (within {BRANCH_TOLERANCE:e} \
-                     of the length): the bond table is not of this packing",
-                    v(bonds.normal[b]),
-                    v(branch),
-                    v(branch / len)
-                )
-            };
+            let message = mismatch_message(bonds, b, packing, branch);
             return Err(Error::parse(name, line, message));
         }
         bonds.image[b] = img;
     }
     Ok(())
+}
+
+/// The image (of the stored, wrapped positions) and branch vector from particle i to the
+/// image `given` of particle j (`pair` = (i, j)) among the packing's positions as given;
+/// refused, with the message, when `given` crosses a face that is not periodic.
+fn branch_of_given_image(
+    packing: &Packing,
+    b: usize,
+    pair: (usize, usize),
+    given: [i32; 3],
+) -> std::result::Result<([i32; 3], Vec3), String> {
+    let (i, j) = pair;
+    let d = packing.positions[j] - packing.positions[i];
+    match &packing.cell {
+        Some(cell) => {
+            if let Some(k) = (0..3).find(|&k| !cell.periodic[k] && given[k] != 0) {
+                return Err(format!(
+                    "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but the packing's \
+                     box is not periodic along {} (boundary {}): expected 0 there",
+                    ["x", "y", "z"][k],
+                    cell.boundary()
+                ));
+            }
+            let img = packing.image_from_given(i, j, given);
+            Ok((img, d + cell.shift(img)))
+        }
+        None if given != [0, 0, 0] => Err(format!(
+            "bond {b} ({i}–{j}): image ix,iy,iz = {given:?} in a packing without a \
+             periodic cell: expected 0,0,0"
+        )),
+        None => Ok(([0; 3], d)),
+    }
+}
+
+/// Why bond `b`'s n·length is not the packing's `branch` vector (of its given image): the
+/// image alone (n·length reaches another image of j, named), or the normal and length.
+fn mismatch_message(bonds: &BondSet, b: usize, packing: &Packing, branch: Vec3) -> String {
+    let v = |x: Vec3| format!("({:e}, {:e}, {:e})", x.x, x.y, x.z);
+    let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+    let (given, l) = (bonds.image[b], bonds.length[b]);
+    let table_branch = bonds.normal[b] * l;
+    let d = packing.positions[j] - packing.positions[i];
+    let nearest = match &packing.cell {
+        Some(cell) => cell.minimum_image(d),
+        None => (d, [0; 3]),
+    };
+    let right_image = (nearest.0 - table_branch).norm() <= BRANCH_TOLERANCE * l;
+    if right_image {
+        format!(
+            "bond {b} ({i}–{j}): image ix,iy,iz = {given:?}, but n·length = {} m \
+             reaches the image {:?} of particle {j} among the packing's positions as \
+             given: expected ix,iy,iz = {:?}; the bond table is not of this packing \
+             (or its images are of other positions)",
+            v(table_branch),
+            packing.image_to_given(i, j, nearest.1),
+            packing.image_to_given(i, j, nearest.1)
+        )
+    } else {
+        let len = branch.norm();
+        format!(
+            "bond {b} ({i}–{j}): nx,ny,nz = {} and length {l:e} m, but the packing \
+             puts the image {given:?} of particle {j} at {} m from particle {i}: \
+             expected nx,ny,nz = {} and length {len:e} m (within {BRANCH_TOLERANCE:e} \
+             of the length): the bond table is not of this packing",
+            v(bonds.normal[b]),
+            v(branch),
+            v(branch / len)
+        )
+    }
 }
 
 /// [`parse_bond_table`], with the line of every bond.
@@ -362,6 +373,37 @@ pub fn parse_bond_table_lines(
             format!("empty file: expected the header `{HEADER}`"),
         )
     })?;
+    let (n_cols, idx) = header_columns(header, name)?;
+    let mut bonds = BondSet::default();
+    let mut k = BondStiffness::default();
+    let mut rows = Vec::new();
+    for (ln, line) in lines {
+        let row = TableRow {
+            name,
+            line_no: ln + 1,
+            fields: line.split(',').map(str::trim).collect(),
+            idx: &idx,
+        };
+        if row.fields.len() != n_cols {
+            return Err(Error::parse(
+                name,
+                row.line_no,
+                format!(
+                    "expected {} comma-separated fields, found {}",
+                    n_cols,
+                    row.fields.len()
+                ),
+            ));
+        }
+        row.push_bond(&mut bonds, &mut k)?;
+        rows.push(row.line_no);
+    }
+    Ok((bonds, k, rows))
+}
+
+/// The number of columns of the bond table's `header` line and where each column of
+/// [`HEADER`] stands in it (any order); a missing column is a parse error on line 1.
+fn header_columns(header: &str, name: &str) -> Result<(usize, [usize; 14])> {
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let mut idx = [0usize; 14];
     for (k, want) in HEADER.split(',').enumerate() {
@@ -373,101 +415,98 @@ pub fn parse_bond_table_lines(
             )
         })?;
     }
-    let mut bonds = BondSet::default();
-    let mut k = BondStiffness::default();
-    let mut rows = Vec::new();
-    for (ln, line) in lines {
-        let line_no = ln + 1;
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != cols.len() {
-            return Err(Error::parse(
-                name,
-                line_no,
+    Ok((cols.len(), idx))
+}
+
+/// One data line of a bond table: its fields, and where each column of [`HEADER`] is.
+struct TableRow<'a> {
+    name: &'a str,
+    line_no: usize,
+    fields: Vec<&'a str>,
+    idx: &'a [usize; 14],
+}
+
+impl TableRow<'_> {
+    /// Name of column `c` of [`HEADER`].
+    fn column(c: usize) -> &'static str {
+        HEADER.split(',').nth(c).unwrap_or("?")
+    }
+
+    /// Column `c` as an integer.
+    fn int(&self, c: usize) -> Result<i64> {
+        let f = self.fields[self.idx[c]];
+        f.parse::<i64>().map_err(|_| {
+            Error::parse(
+                self.name,
+                self.line_no,
                 format!(
-                    "expected {} comma-separated fields, found {}",
-                    cols.len(),
-                    fields.len()
+                    "column `{}`: expected an integer, found `{f}`",
+                    Self::column(c)
                 ),
+            )
+        })
+    }
+
+    /// Column `c` as a finite number.
+    fn num(&self, c: usize) -> Result<f64> {
+        let f = self.fields[self.idx[c]];
+        let col = Self::column(c);
+        let v = f.parse::<f64>().map_err(|_| {
+            Error::parse(
+                self.name,
+                self.line_no,
+                format!("column `{col}`: expected a number, found `{f}`"),
+            )
+        })?;
+        if !v.is_finite() {
+            return Err(Error::parse(
+                self.name,
+                self.line_no,
+                format!("column `{col}`: {f} is not finite"),
             ));
         }
-        let int = |c: usize| -> Result<i64> {
-            let f = fields[idx[c]];
-            f.parse::<i64>().map_err(|_| {
-                Error::parse(
-                    name,
-                    line_no,
-                    format!(
-                        "column `{}`: expected an integer, found `{f}`",
-                        HEADER.split(',').nth(c).unwrap_or("?")
-                    ),
-                )
-            })
-        };
-        let num = |c: usize| -> Result<f64> {
-            let f = fields[idx[c]];
-            let col = HEADER.split(',').nth(c).unwrap_or("?");
-            let v = f.parse::<f64>().map_err(|_| {
-                Error::parse(
-                    name,
-                    line_no,
-                    format!("column `{col}`: expected a number, found `{f}`"),
-                )
-            })?;
-            if !v.is_finite() {
-                return Err(Error::parse(
-                    name,
-                    line_no,
-                    format!("column `{col}`: {f} is not finite"),
-                ));
-            }
-            Ok(v)
-        };
-        let (i, j) = (int(0)?, int(1)?);
+        Ok(v)
+    }
+
+    /// A parse error on this line.
+    fn error(&self, message: impl Into<String>) -> Error {
+        Error::parse(self.name, self.line_no, message)
+    }
+
+    /// Read the bond of this line (0 ≤ i < j, unit normal, length > 0, image) and its
+    /// springs (radius > 0, kn, ks, kr, ktw ≥ 0) onto `bonds` and `k`.
+    fn push_bond(&self, bonds: &mut BondSet, k: &mut BondStiffness) -> Result<()> {
+        let (i, j) = (self.int(0)?, self.int(1)?);
         if i < 0 || j < 0 || i >= j || j > u32::MAX as i64 {
-            return Err(Error::parse(
-                name,
-                line_no,
-                format!("expected particle indices 0 ≤ i < j, found i = {i}, j = {j}"),
-            ));
+            return Err(self.error(format!(
+                "expected particle indices 0 ≤ i < j, found i = {i}, j = {j}"
+            )));
         }
-        let n = Vec3::new(num(2)?, num(3)?, num(4)?);
-        let length = num(5)?;
+        let n = Vec3::new(self.num(2)?, self.num(3)?, self.num(4)?);
+        let length = self.num(5)?;
         if length <= 0.0 {
-            return Err(Error::parse(
-                name,
-                line_no,
-                format!("bond length must be > 0, found {length}"),
-            ));
+            return Err(self.error(format!("bond length must be > 0, found {length}")));
         }
         let nn = n.norm();
         if (nn - 1.0).abs() > 1e-6 {
-            return Err(Error::parse(
-                name,
-                line_no,
-                format!("normal must be a unit vector, |n| = {nn}"),
-            ));
+            return Err(self.error(format!("normal must be a unit vector, |n| = {nn}")));
         }
-        let image = [int(11)?, int(12)?, int(13)?].map(|v| v as i32);
+        let image = [self.int(11)?, self.int(12)?, self.int(13)?].map(|v| v as i32);
         bonds.i.push(i as u32);
         bonds.j.push(j as u32);
         bonds.normal.push(n);
         bonds.length.push(length);
         bonds.image.push(image);
-        let radius = num(6)?;
-        let springs = [num(7)?, num(8)?, num(9)?, num(10)?];
+        let radius = self.num(6)?;
+        let springs = [self.num(7)?, self.num(8)?, self.num(9)?, self.num(10)?];
         if radius <= 0.0 || springs.iter().any(|v| *v < 0.0) {
-            return Err(Error::parse(
-                name,
-                line_no,
-                "radius must be > 0 and kn, ks, kr, ktw ≥ 0",
-            ));
+            return Err(self.error("radius must be > 0 and kn, ks, kr, ktw ≥ 0"));
         }
         k.radius.push(radius);
         k.kn.push(springs[0]);
         k.ks.push(springs[1]);
         k.kr.push(springs[2]);
         k.ktw.push(springs[3]);
-        rows.push(line_no);
+        Ok(())
     }
-    Ok((bonds, k, rows))
 }

@@ -123,6 +123,52 @@ pub fn quantise_weighted(
     max_types: usize,
     weights: &[[f64; 4]],
 ) -> Result<BondTypes> {
+    check_quantise_inputs(bonds, k, max_types, weights)?;
+    let n = bonds.len();
+    let (distinct, of_distinct) = distinct_springs(k, n);
+    if distinct.len() <= max_types {
+        return Ok(BondTypes {
+            type_of: of_distinct,
+            distinct: distinct.len(),
+            springs: distinct,
+            exact: true,
+            iterations: 0,
+        });
+    }
+    let w = weights;
+    let s: Vec<[f64; 4]> = (0..n).map(|b| springs_of(k, b)).collect();
+    let mut centres = farthest_first_centres(&s, w, max_types);
+    let iterations = refine_centres(&s, w, &mut centres);
+    let type_of = assign(&s, w, &centres);
+
+    // Final springs: w-weighted means (w, not w²: the first-order sum Σ w·Δk over a type
+    // is 0); types left empty are dropped and the rest renumbered in order.
+    let members = members_of(&type_of, centres.len());
+    let mut renumber = vec![u32::MAX; centres.len()];
+    let mut springs = Vec::new();
+    for (t, m) in members.iter().enumerate() {
+        if !m.is_empty() {
+            renumber[t] = springs.len() as u32;
+            springs.push(centre(&s, w, m.iter().copied(), 1));
+        }
+    }
+    Ok(BondTypes {
+        type_of: type_of.iter().map(|&t| renumber[t as usize]).collect(),
+        springs,
+        distinct: distinct.len(),
+        exact: false,
+        iterations,
+    })
+}
+
+/// Refuse what [`quantise_weighted`] cannot type: no types, no bonds, counts of springs or
+/// weights that differ from the bonds', a spring or weight that is negative or not finite.
+fn check_quantise_inputs(
+    bonds: &BondSet,
+    k: &BondStiffness,
+    max_types: usize,
+    weights: &[[f64; 4]],
+) -> Result<()> {
     if max_types == 0 {
         return Err(Error::Invalid(
             "bond types: the number of types must be at least 1, got 0".into(),
@@ -150,8 +196,12 @@ pub fn quantise_weighted(
             )));
         }
     }
+    Ok(())
+}
 
-    // Distinct spring sets, in order of first appearance.
+/// The distinct spring sets of the `n` bonds in order of first appearance (−0 and +0 the
+/// same), and each bond's index among them.
+fn distinct_springs(k: &BondStiffness, n: usize) -> (Vec<[f64; 4]>, Vec<u32>) {
     let mut index: HashMap<[u64; 4], u32> = HashMap::new();
     let mut distinct: Vec<[f64; 4]> = Vec::new();
     let mut of_distinct = Vec::with_capacity(n);
@@ -164,21 +214,14 @@ pub fn quantise_weighted(
         });
         of_distinct.push(t);
     }
-    if distinct.len() <= max_types {
-        return Ok(BondTypes {
-            type_of: of_distinct,
-            distinct: distinct.len(),
-            springs: distinct,
-            exact: true,
-            iterations: 0,
-        });
-    }
+    (distinct, of_distinct)
+}
 
-    let w = weights;
-    let s: Vec<[f64; 4]> = (0..n).map(|b| springs_of(k, b)).collect();
-
-    // Farthest-first seeding from the bond nearest the overall centre.
-    let mut centres = vec![centre(&s, w, 0..n, 2)];
+/// Farthest-first seeding of at most `max_types` centres, from the bond nearest the
+/// overall centre: each next centre the bond farthest (in d_b) from all chosen so far.
+fn farthest_first_centres(s: &[[f64; 4]], w: &[[f64; 4]], max_types: usize) -> Vec<[f64; 4]> {
+    let n = s.len();
+    let mut centres = vec![centre(s, w, 0..n, 2)];
     let first = argmax(n, |b| -cost(&s[b], &w[b], &centres[0]));
     centres[0] = s[first];
     let mut near: Vec<f64> = (0..n).map(|b| cost(&s[b], &w[b], &centres[0])).collect();
@@ -193,19 +236,32 @@ pub fn quantise_weighted(
         }
         centres.push(c);
     }
+    centres
+}
 
+/// The bonds of each of `types` types, by `type_of`.
+fn members_of(type_of: &[u32], types: usize) -> Vec<Vec<usize>> {
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); types];
+    for (b, &t) in type_of.iter().enumerate() {
+        members[t as usize].push(b);
+    }
+    members
+}
+
+/// Lloyd iterations on `centres` (at most [`MAX_ITERATIONS`]): assign each bond to its
+/// nearest centre, move each centre to the minimiser of its bonds' cost (an empty one
+/// re-seeded at the bond farthest from its own centre), until nothing changes. Returns
+/// the iterations run.
+fn refine_centres(s: &[[f64; 4]], w: &[[f64; 4]], centres: &mut [[f64; 4]]) -> usize {
+    let n = s.len();
     let mut type_of = vec![u32::MAX; n];
     let mut iterations = 0;
     for it in 1..=MAX_ITERATIONS {
         iterations = it;
-        let next = assign(&s, w, &centres);
+        let next = assign(s, w, centres);
         let changed = next != type_of;
         type_of = next;
-        // Update: each centre the minimiser of its bonds' cost; an empty one re-seeded.
-        let mut members: Vec<Vec<usize>> = vec![Vec::new(); centres.len()];
-        for (b, &t) in type_of.iter().enumerate() {
-            members[t as usize].push(b);
-        }
+        let members = members_of(&type_of, centres.len());
         let mut reseeded = false;
         for (t, m) in members.iter().enumerate() {
             if m.is_empty() {
@@ -213,36 +269,14 @@ pub fn quantise_weighted(
                 centres[t] = s[far];
                 reseeded = true;
             } else {
-                centres[t] = centre(&s, w, m.iter().copied(), 2);
+                centres[t] = centre(s, w, m.iter().copied(), 2);
             }
         }
         if !changed && !reseeded {
             break;
         }
     }
-    let type_of = assign(&s, w, &centres);
-
-    // Final springs: w-weighted means (w, not w²: the first-order sum Σ w·Δk over a type
-    // is 0); types left empty are dropped and the rest renumbered in order.
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); centres.len()];
-    for (b, &t) in type_of.iter().enumerate() {
-        members[t as usize].push(b);
-    }
-    let mut renumber = vec![u32::MAX; centres.len()];
-    let mut springs = Vec::new();
-    for (t, m) in members.iter().enumerate() {
-        if !m.is_empty() {
-            renumber[t] = springs.len() as u32;
-            springs.push(centre(&s, w, m.iter().copied(), 1));
-        }
-    }
-    Ok(BondTypes {
-        type_of: type_of.iter().map(|&t| renumber[t as usize]).collect(),
-        springs,
-        distinct: distinct.len(),
-        exact: false,
-        iterations,
-    })
+    iterations
 }
 
 /// The index of the largest `f(b)`, ties to the lowest index.

@@ -4,7 +4,7 @@
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
 use anisobond::calibrate::cubic::{CubicCalibration, CubicOptions, Family, Level};
-use anisobond::calibrate::target::Target;
+use anisobond::calibrate::target::{CubicTarget, Target};
 use anisobond::calibrate::{calibrate, CalibrateOn, Calibration, CrossCalibration};
 use anisobond::homogenize::relaxed::RelaxedOptions;
 use anisobond::io::OutputSet;
@@ -177,25 +177,7 @@ fn print_cubic(cal: &CubicCalibration, secs: f64) {
 pub fn run(a: CalibrateArgs) -> Result<()> {
     let base = load_model(&a.model)?;
     let target = Target::parse(&a.target)?;
-    let (level, packing_path) = match a.on.as_slice() {
-        [l] => (l.as_str(), None),
-        [l, p] => (l.as_str(), Some(PathBuf::from(p))),
-        _ => ("mean-field", None),
-    };
-    let relaxed = match level {
-        "mean-field" => false,
-        "relaxed" => true,
-        other => {
-            return Err(Error::Invalid(format!(
-                "--on {other}: expected `mean-field` or `relaxed PACKING`"
-            )))
-        }
-    };
-    if relaxed && packing_path.is_none() {
-        return Err(Error::Invalid(
-            "--on relaxed needs the packing: --on relaxed PACKING".into(),
-        ));
-    }
+    let (relaxed, packing_path) = calibration_level(&a.on)?;
     let inputs = super::output::inputs(packing_path.as_deref(), &a.model);
     let mut out = OutputSet::new(&inputs);
     let staged = out.file(&a.output)?;
@@ -214,40 +196,9 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         (Some(b), false) => CalibrateOn::MeanFieldOf(b),
         (None, _) => CalibrateOn::MeanField(a.spheres.equal_spheres(&base.geometry)?),
     };
-    let opts = CubicOptions {
-        family: a.family.into(),
-        extended: a.extended,
-        model: match a.cubic_model {
-            CubicModelArg::Auto => None,
-            CubicModelArg::ZenerAbove1 => Some(CubicModel::ZenerAbove1),
-            CubicModelArg::ZenerBelow1 => Some(CubicModel::ZenerBelow1),
-        },
-        tolerance: a.tolerance,
-        max_iterations: a.max_iterations,
-        relaxed: RelaxedOptions {
-            lever_arm: a.lever_arm.into(),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let opts = cubic_options(&a);
     if let Target::Cubic(t) = &target {
-        println!(
-            "target: C12/C11 = {:.4}, C44/C11 = {:.4}, Zener {:.4}{}",
-            t.c12_over_c11,
-            t.c44_over_c11,
-            t.zener(),
-            t.c11
-                .map(|c| format!(", C11 = {:.4} GPa", c / 1e9))
-                .unwrap_or_default()
-        );
-        if let (Some(b), true) = (&bonded, relaxed) {
-            println!(
-                "packing: {} particles, {} bonds (coordination Z = {:.3})",
-                b.packing.len(),
-                b.bonds.len(),
-                b.bonds.coordination(b.packing.len())
-            );
-        }
+        print_cubic_target(t, bonded.as_ref().filter(|_| relaxed));
     }
     let start = Instant::now();
     let calibrated = calibrate(&base, &target, on, &opts)?;
@@ -272,6 +223,73 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     out.commit()?;
     println!("wrote {}", a.output.display());
     Ok(())
+}
+
+/// `--on`: `mean-field` (default) or `relaxed PACKING`; whether relaxed, and the packing
+/// (also allowed with `mean-field`: the mean field of that packing's bonds).
+fn calibration_level(on: &[String]) -> Result<(bool, Option<PathBuf>)> {
+    let (level, packing_path) = match on {
+        [l] => (l.as_str(), None),
+        [l, p] => (l.as_str(), Some(PathBuf::from(p))),
+        _ => ("mean-field", None),
+    };
+    let relaxed = match level {
+        "mean-field" => false,
+        "relaxed" => true,
+        other => {
+            return Err(Error::Invalid(format!(
+                "--on {other}: expected `mean-field` or `relaxed PACKING`"
+            )))
+        }
+    };
+    if relaxed && packing_path.is_none() {
+        return Err(Error::Invalid(
+            "--on relaxed needs the packing: --on relaxed PACKING".into(),
+        ));
+    }
+    Ok((relaxed, packing_path))
+}
+
+/// The cubic calibration's settings from the options.
+fn cubic_options(a: &CalibrateArgs) -> CubicOptions {
+    CubicOptions {
+        family: a.family.into(),
+        extended: a.extended,
+        model: match a.cubic_model {
+            CubicModelArg::Auto => None,
+            CubicModelArg::ZenerAbove1 => Some(CubicModel::ZenerAbove1),
+            CubicModelArg::ZenerBelow1 => Some(CubicModel::ZenerBelow1),
+        },
+        tolerance: a.tolerance,
+        max_iterations: a.max_iterations,
+        relaxed: RelaxedOptions {
+            lever_arm: a.lever_arm.into(),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// Print the cubic target (ratios, Zener ratio, C11 if given) and, for a relaxed
+/// calibration, the packing's size and coordination.
+fn print_cubic_target(t: &CubicTarget, relaxed_on: Option<&Assembly>) {
+    println!(
+        "target: C12/C11 = {:.4}, C44/C11 = {:.4}, Zener {:.4}{}",
+        t.c12_over_c11,
+        t.c44_over_c11,
+        t.zener(),
+        t.c11
+            .map(|c| format!(", C11 = {:.4} GPa", c / 1e9))
+            .unwrap_or_default()
+    );
+    if let Some(b) = relaxed_on {
+        println!(
+            "packing: {} particles, {} bonds (coordination Z = {:.3})",
+            b.packing.len(),
+            b.bonds.len(),
+            b.bonds.coordination(b.packing.len())
+        );
+    }
 }
 
 fn print_cross(cal: &CrossCalibration, secs: f64) {

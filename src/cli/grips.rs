@@ -3,7 +3,7 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::{check_positive, IntegratorArgs};
-use anisobond::dem::grips::GrippedOptions;
+use anisobond::dem::grips::{GrippedOptions, GrippedTensor};
 use anisobond::dem::measure::MeasureOptions;
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
@@ -66,55 +66,14 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     let staged = out.optional_file(a.output.as_deref())?;
     let asm = a.input.assembly()?;
     let i = &a.integrator;
-    let opts = GrippedOptions {
-        strain: i.strain,
-        grip_shell: a.grip_shell,
-        ramp_steps: a.ramp_steps,
-        local_damping: i.damping,
-        tolerance: i.tolerance,
-        unbalanced_tolerance: i.unbalanced_tolerance,
-        max_steps: i.max_steps,
-        dem: i.step.dem_options(i.damping),
-        measure: MeasureOptions {
-            count: a.spheres,
-            radius: a.sphere_radius,
-            seed: a.seed,
-        },
-        ..Default::default()
-    };
+    let opts = gripped_options(&a);
     let bar = super::output::progress_bar("gripped element tests");
     let result = asm.gripped_tests(i.law.into(), &opts, &|f: f64| {
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64)
     });
     bar.finish_and_clear();
     let t = result?;
-    println!(
-        "block: {} particles, {} bonds (boundary-crossing bonds dropped), {} grips; {} measurement \
-         spheres of {} R̄ ({:.0} particles each); time step {:.4e} s",
-        asm.packing.len(),
-        t.bonds,
-        t.grips,
-        a.spheres,
-        a.sphere_radius,
-        t.mean_members,
-        t.time_step
-    );
-    for p in &t.paths {
-        println!(
-            "path {}: {} steps (unbalanced force {:.2e}), mean sphere strain / imposed {:.4}, \
-             spread {:.2} %",
-            p.path + 1,
-            p.steps,
-            p.unbalance.force,
-            p.strain[p.path] / p.imposed_strain[p.path],
-            100.0 * p.spread
-        );
-    }
-    println!(
-        "strain heterogeneity (Truszkowska 2018 Table 3 metric): normal {:.2} %, shear {:.2} %",
-        100.0 * t.heterogeneity.normal,
-        100.0 * t.heterogeneity.shear
-    );
+    print_paths(&a, asm.packing.len(), &t);
     let report = TensorReport::new("gripped", t.c, Some((&asm.packing, &asm.bonds)))?;
     if let (Some(path), Some(shown)) = (&staged, &a.output) {
         // The SPEC tensor report plus the Table 3 heterogeneity and the block's set-up.
@@ -141,4 +100,57 @@ pub fn grips(a: GripsArgs) -> Result<()> {
     }
     super::output::print_report(&report);
     Ok(())
+}
+
+/// The gripped tests' settings from the options.
+fn gripped_options(a: &GripsArgs) -> GrippedOptions {
+    let i = &a.integrator;
+    GrippedOptions {
+        strain: i.strain,
+        grip_shell: a.grip_shell,
+        ramp_steps: a.ramp_steps,
+        local_damping: i.damping,
+        tolerance: i.tolerance,
+        unbalanced_tolerance: i.unbalanced_tolerance,
+        max_steps: i.max_steps,
+        dem: i.step.dem_options(i.damping),
+        measure: MeasureOptions {
+            count: a.spheres,
+            radius: a.sphere_radius,
+            seed: a.seed,
+        },
+        ..Default::default()
+    }
+}
+
+/// Print the block's set-up, each path's convergence and strain, and the strain
+/// heterogeneity (Truszkowska 2018 Table 3's metric).
+fn print_paths(a: &GripsArgs, particles: usize, t: &GrippedTensor) {
+    println!(
+        "block: {} particles, {} bonds (boundary-crossing bonds dropped), {} grips; {} measurement \
+         spheres of {} R̄ ({:.0} particles each); time step {:.4e} s",
+        particles,
+        t.bonds,
+        t.grips,
+        a.spheres,
+        a.sphere_radius,
+        t.mean_members,
+        t.time_step
+    );
+    for p in &t.paths {
+        println!(
+            "path {}: {} steps (unbalanced force {:.2e}), mean sphere strain / imposed {:.4}, \
+             spread {:.2} %",
+            p.path + 1,
+            p.steps,
+            p.unbalance.force,
+            p.strain[p.path] / p.imposed_strain[p.path],
+            100.0 * p.spread
+        );
+    }
+    println!(
+        "strain heterogeneity (Truszkowska 2018 Table 3 metric): normal {:.2} %, shear {:.2} %",
+        100.0 * t.heterogeneity.normal,
+        100.0 * t.heterogeneity.shear
+    );
 }

@@ -192,7 +192,7 @@ fn status_line(s: &RouteStatus) -> String {
     }
 }
 
-/// Run `pack`.
+/// Generate, write and describe the packing the options ask for.
 pub fn run(a: PackArgs) -> Result<()> {
     let r = resolve(&a)?;
     if a.jam_balance.is_some() && r.route != RouteArg::Jammed {
@@ -221,77 +221,17 @@ pub fn run(a: PackArgs) -> Result<()> {
         RouteArg::Jammed => "jammed",
     };
     bar.set_message(format!("{} × {route_name}", r.particles));
-    let progress = |f: f64| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
     let started = Instant::now();
     let (p, details): (Packing, String) = match r.route {
-        RouteArg::Random => {
-            let opts = GenerateOptions {
-                n_particles: r.particles,
-                solid_fraction: r.solid_fraction,
-                mean_radius: a.mean_radius,
-                polydispersity: polydispersity(r.half_width),
-                seed: a.seed,
-                ..Default::default()
-            };
-            let (p, rep) = generate_with_report(&opts, &progress)?;
-            (
-                p,
-                format!(
-                    "{} FIRE iterations, largest overlap {:.1e} R̄",
-                    rep.iterations, rep.max_overlap
-                ),
-            )
-        }
+        RouteArg::Random => pack_random(&a, &r, &bar)?,
         route => {
             let route = match route {
                 RouteArg::Unjammed => PreparationRoute::Unjammed,
                 RouteArg::WeaklyJammed => PreparationRoute::WeaklyJammed,
                 _ => PreparationRoute::Jammed,
             };
-            let opts = RouteOptions {
-                route,
-                n_particles: r.particles,
-                solid_fraction: r.solid_fraction,
-                mean_radius: a.mean_radius,
-                polydispersity: polydispersity(r.half_width),
-                seed: a.seed,
-                jamming_balance: a.jam_balance.unwrap_or(DEFAULT_JAMMING_BALANCE),
-                ..Default::default()
-            };
-            // The routes report what runs; their fraction can stand still for minutes in the
-            // last jamming stage, so the bar shows the live state instead of an ETA.
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "packing {prefix} [{bar:30}] {percent:>3}% {elapsed_precise} · {msg}",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
             bar.set_prefix(format!("{} × {route_name}", r.particles));
-            let (p, rep) = prepare_with_status(&opts, &|s: &RouteStatus| {
-                bar.set_position((s.fraction.clamp(0.0, 1.0) * 1000.0) as u64);
-                bar.set_message(status_line(s));
-            })?;
-            let mut d = format!(
-                "solid fraction before the affine step {:.4}",
-                rep.compressed_solid_fraction
-            );
-            if route == PreparationRoute::Jammed {
-                d += &format!(
-                    " (jammed: {:.3} contacts per particle, {} with < 4 contacts, pressure \
-                     {:.1e} Σ_N; net forces: mean {:.1e} × mean contact force, largest \
-                     {:.1e} × largest contact force)",
-                    rep.compressed_coordination,
-                    rep.rattlers,
-                    rep.pressure,
-                    rep.mean_unbalanced,
-                    rep.largest_unbalanced
-                );
-            }
-            d += &format!(
-                ", affine scale {:.5}; {} minimisations, {} FIRE iterations",
-                rep.affine_scale, rep.relaxations, rep.iterations
-            );
-            (p, d)
+            pack_by_route(&a, &r, route, &bar)?
         }
     };
     bar.finish_and_clear();
@@ -312,8 +252,86 @@ pub fn run(a: PackArgs) -> Result<()> {
         l.x / p.mean_radius()
     );
     println!("  {details}");
-    if a.preset == Some(Preset::TruszkowskaStandard) {
-        let bonds = build_bonds(&p, presets::TRUSZKOWSKA_STANDARD.bonding[0])?;
+    print_preset_bonding(a.preset, &p)
+}
+
+/// The random route (Truszkowska 2018 Sec. 4.1): the packing and a line on its energy
+/// minimisation.
+fn pack_random(a: &PackArgs, r: &Resolved, bar: &ProgressBar) -> Result<(Packing, String)> {
+    let opts = GenerateOptions {
+        n_particles: r.particles,
+        solid_fraction: r.solid_fraction,
+        mean_radius: a.mean_radius,
+        polydispersity: polydispersity(r.half_width),
+        seed: a.seed,
+        ..Default::default()
+    };
+    let progress = |f: f64| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
+    let (p, rep) = generate_with_report(&opts, &progress)?;
+    let details = format!(
+        "{} FIRE iterations, largest overlap {:.1e} R̄",
+        rep.iterations, rep.max_overlap
+    );
+    Ok((p, details))
+}
+
+/// One of Kumar 2016's routes (Sec. 3): the packing and a line on the compressed state and
+/// the work done. The routes report what runs; their fraction can stand still for minutes
+/// in the last jamming stage, so the bar shows the live state instead of an ETA.
+fn pack_by_route(
+    a: &PackArgs,
+    r: &Resolved,
+    route: PreparationRoute,
+    bar: &ProgressBar,
+) -> Result<(Packing, String)> {
+    let opts = RouteOptions {
+        route,
+        n_particles: r.particles,
+        solid_fraction: r.solid_fraction,
+        mean_radius: a.mean_radius,
+        polydispersity: polydispersity(r.half_width),
+        seed: a.seed,
+        jamming_balance: a.jam_balance.unwrap_or(DEFAULT_JAMMING_BALANCE),
+        ..Default::default()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "packing {prefix} [{bar:30}] {percent:>3}% {elapsed_precise} · {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let (p, rep) = prepare_with_status(&opts, &|s: &RouteStatus| {
+        bar.set_position((s.fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+        bar.set_message(status_line(s));
+    })?;
+    let mut d = format!(
+        "solid fraction before the affine step {:.4}",
+        rep.compressed_solid_fraction
+    );
+    if route == PreparationRoute::Jammed {
+        d += &format!(
+            " (jammed: {:.3} contacts per particle, {} with < 4 contacts, pressure \
+             {:.1e} Σ_N; net forces: mean {:.1e} × mean contact force, largest \
+             {:.1e} × largest contact force)",
+            rep.compressed_coordination,
+            rep.rattlers,
+            rep.pressure,
+            rep.mean_unbalanced,
+            rep.largest_unbalanced
+        );
+    }
+    d += &format!(
+        ", affine scale {:.5}; {} minimisations, {} FIRE iterations",
+        rep.affine_scale, rep.relaxations, rep.iterations
+    );
+    Ok((p, d))
+}
+
+/// For a preset, print the bonding its paper uses on the packing: Truszkowska 2018's gap
+/// cutoff (Eq. 4) and bond count, or Kumar 2016's coordination at each range κ (Eq. 10).
+fn print_preset_bonding(preset: Option<Preset>, p: &Packing) -> Result<()> {
+    if preset == Some(Preset::TruszkowskaStandard) {
+        let bonds = build_bonds(p, presets::TRUSZKOWSKA_STANDARD.bonding[0])?;
         println!(
             "  bonding with the paper's gap cutoff {TRUSZKOWSKA_STANDARD_GAP} R̄ (model file: \
              [bonding] rule = \"gap\", value = {TRUSZKOWSKA_STANDARD_GAP}) gives {} bonds, \
@@ -322,11 +340,11 @@ pub fn run(a: PackArgs) -> Result<()> {
             bonds.coordination(p.len())
         );
     }
-    if a.preset == Some(Preset::Kumar2016) {
+    if preset == Some(Preset::Kumar2016) {
         let z: Vec<String> = presets::KUMAR_2016_RANGES
             .iter()
             .map(|&k| {
-                build_bonds(&p, BondingRule::Factor(k))
+                build_bonds(p, BondingRule::Factor(k))
                     .map(|b| format!("{k:.3}: {:.3}", b.coordination(p.len())))
             })
             .collect::<Result<_>>()?;

@@ -7,7 +7,7 @@
 use super::run::{check_damping, check_max_steps, check_positive, LawArg, StepArgs};
 use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
 use anisobond::dem::servo::ServoOptions;
-use anisobond::dem::stress_tests::StressTestOptions;
+use anisobond::dem::stress_tests::{StressControlledResult, StressTestOptions};
 use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
@@ -79,7 +79,12 @@ fn validate(a: &StressTestArgs) -> Result<()> {
     a.step.validate()
 }
 
-/// `anisobond stress-test`.
+/// Axis names of the uniaxial tests.
+const AXES: [&str; 3] = ["x", "y", "z"];
+/// Shear components of the pure shears (Voigt 4, 5, 6).
+const SHEARS: [&str; 3] = ["yz", "xz", "xy"];
+
+/// Run the stress-controlled tests, print the moduli and write the report.
 pub fn run(a: StressTestArgs) -> Result<()> {
     validate(&a)?;
     let mut out = OutputSet::new(&a.input.paths());
@@ -109,7 +114,30 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         "time step {:.4e} s (critical estimate {:.4e} s)",
         r.time_step, r.critical_time_step
     );
-    const AXES: [&str; 3] = ["x", "y", "z"];
+    print_moduli(&a, &r);
+    let report = TensorReport::new(
+        "stress-controlled",
+        r.c_orthotropic,
+        Some((&asm.packing, &asm.bonds)),
+    )?;
+    println!("orthotropic stiffness (GPa; Voigt order 11 22 33 23 13 12):");
+    for row in &report.c {
+        let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
+        println!("  {}", cells.join(" "));
+    }
+    if let (Some(path), Some(shown)) = (&staged, &a.output) {
+        let engineering = engineering_json(a.strain, &r);
+        super::output::write_json_with(path, &report, vec![("engineering", engineering)])?;
+        out.commit()?;
+        println!("wrote {}", shown.display());
+    }
+    Ok(())
+}
+
+/// Print the engineering constants measured: Young's moduli and Poisson ratios of the
+/// uniaxial tests, the shear moduli, the reciprocity check and the transversely isotropic
+/// fit about z.
+fn print_moduli(a: &StressTestArgs, r: &StressControlledResult) {
     println!(
         "unconfined uniaxial tests (ε̂ = {:e}, lateral stress < {:.0e}·axial):",
         a.strain, a.stress_tolerance
@@ -130,7 +158,6 @@ pub fn run(a: StressTestArgs) -> Result<()> {
             u.outcome.unbalance.force
         );
     }
-    const SHEARS: [&str; 3] = ["yz", "xz", "xy"];
     println!("pure shears (strain-controlled):");
     for g in &r.shear {
         println!(
@@ -150,47 +177,35 @@ pub fn run(a: StressTestArgs) -> Result<()> {
         "transversely isotropic about z (MPa): C11 {c11:.3}, C33 {c33:.3}, C13 {c13:.3}, \
          C12 {c12:.3}, C44 {c44:.3}"
     );
-    let report = TensorReport::new(
-        "stress-controlled",
-        r.c_orthotropic,
-        Some((&asm.packing, &asm.bonds)),
-    )?;
-    println!("orthotropic stiffness (GPa; Voigt order 11 22 33 23 13 12):");
-    for row in &report.c {
-        let cells: Vec<String> = row.iter().map(|v| format!("{:10.4}", v / 1e9)).collect();
-        println!("  {}", cells.join(" "));
-    }
-    if let (Some(path), Some(shown)) = (&staged, &a.output) {
-        // The SPEC tensor report plus the measured engineering constants (Pa, dimensionless).
-        let mut young = serde_json::Map::new();
-        let mut poisson = serde_json::Map::new();
-        for u in &r.uniaxial {
-            young.insert(format!("E_{}", AXES[u.axis]), u.young.into());
-            for j in (0..3).filter(|&j| j != u.axis) {
-                poisson.insert(
-                    format!("nu_{}{}", AXES[u.axis], AXES[j]),
-                    u.poisson[j].into(),
-                );
-            }
+}
+
+/// The measured engineering constants (Pa, dimensionless) added to the SPEC tensor report
+/// as its `engineering` object.
+fn engineering_json(strain: f64, r: &StressControlledResult) -> serde_json::Value {
+    let mut young = serde_json::Map::new();
+    let mut poisson = serde_json::Map::new();
+    for u in &r.uniaxial {
+        young.insert(format!("E_{}", AXES[u.axis]), u.young.into());
+        for j in (0..3).filter(|&j| j != u.axis) {
+            poisson.insert(
+                format!("nu_{}{}", AXES[u.axis], AXES[j]),
+                u.poisson[j].into(),
+            );
         }
-        let shear: serde_json::Map<String, serde_json::Value> = r
-            .shear
-            .iter()
-            .map(|g| (format!("G_{}", SHEARS[g.component - 3]), g.modulus.into()))
-            .collect();
-        let engineering = serde_json::json!({
-            "units": "Pa (moduli); Poisson ratios dimensionless, nu_ij = −ε_j/ε_i under σ_i",
-            "strain": a.strain,
-            "young": young,
-            "poisson": poisson,
-            "shear": shear,
-            "reciprocity_mismatch": r.reciprocity_mismatch,
-            "transverse_isotropic_z": {"C11": r.cross_anisotropic[0], "C12": r.cross_anisotropic[1],
-                "C13": r.cross_anisotropic[2], "C33": r.cross_anisotropic[3], "C44": r.cross_anisotropic[4]},
-        });
-        super::output::write_json_with(path, &report, vec![("engineering", engineering)])?;
-        out.commit()?;
-        println!("wrote {}", shown.display());
     }
-    Ok(())
+    let shear: serde_json::Map<String, serde_json::Value> = r
+        .shear
+        .iter()
+        .map(|g| (format!("G_{}", SHEARS[g.component - 3]), g.modulus.into()))
+        .collect();
+    serde_json::json!({
+        "units": "Pa (moduli); Poisson ratios dimensionless, nu_ij = −ε_j/ε_i under σ_i",
+        "strain": strain,
+        "young": young,
+        "poisson": poisson,
+        "shear": shear,
+        "reciprocity_mismatch": r.reciprocity_mismatch,
+        "transverse_isotropic_z": {"C11": r.cross_anisotropic[0], "C12": r.cross_anisotropic[1],
+            "C13": r.cross_anisotropic[2], "C33": r.cross_anisotropic[3], "C44": r.cross_anisotropic[4]},
+    })
 }

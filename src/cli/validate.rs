@@ -8,11 +8,11 @@ use super::specimen::{AxisArg, PlatensArg};
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
 use anisobond::specimen::Platens;
-use anisobond::validate::harness::{failure_lines, summary, unsettled_lines, EngineDetails};
+use anisobond::validate::harness::{outcome, summary, unsettled_lines, EngineDetails};
 use anisobond::validate::specimen::{self, SpecimenTest};
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
 use anisobond::validate::{validate, validate_specimen, Engine, Problem, Tolerances};
-use anisobond::{Error, Result};
+use anisobond::Result;
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
 
@@ -220,8 +220,8 @@ struct RunDir {
     /// Where the report files go (`-o`), if anywhere.
     output: Option<PathBuf>,
     dir: PathBuf,
-    /// Keeps the temporary directory until the run is over.
-    _temp: Option<tempfile::TempDir>,
+    /// Keeps a temporary directory until the run is over.
+    _work: anisobond::io::WorkDir,
     asm: anisobond::assembly::Assembly,
     t0: std::time::Instant,
 }
@@ -231,20 +231,13 @@ impl RunDir {
     fn open<E: Engine>(engine: &E, input: &BondedInput, output: Option<&Path>) -> Result<RunDir> {
         engine.check()?;
         let mut set = OutputSet::new(&input.paths());
-        let staged = set.optional_dir(output)?;
+        let work = set.dir_or_temporary(output)?;
         let asm = input.assembly()?;
-        let (dir, temp) = match staged {
-            Some(d) => (d, None),
-            None => {
-                let t = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
-                (t.path().to_path_buf(), Some(t))
-            }
-        };
         Ok(RunDir {
             set,
             output: output.map(Path::to_path_buf),
-            dir,
-            _temp: temp,
+            dir: work.path().to_path_buf(),
+            _work: work,
             asm,
             t0: std::time::Instant::now(),
         })
@@ -273,34 +266,12 @@ impl RunDir {
 /// settled (its checks not judged: neither a pass nor a failure, so not a success either);
 /// else exit 0.
 fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Result<()> {
-    let unsettled = unsettled_lines(report);
-    for line in &unsettled {
+    for line in &unsettled_lines(report) {
         println!("not judged: {line}");
     }
-    let failures = failure_lines(report);
-    if failures.is_empty() && !unsettled.is_empty() {
-        return Err(Error::NotConverged(format!(
-            "validate {name}: {} of {} checks not judged, the compared run had not settled \
-             (relax longer: more steps or a looser settling tolerance):\n  {}",
-            unsettled.len(),
-            report.checks.len(),
-            unsettled.join("\n  ")
-        )));
-    }
-    if failures.is_empty() {
-        println!("PASSED: {name} and anisobond agree within every tolerance");
-        return Ok(());
-    }
-    Err(Error::OutOfTolerance {
-        failed: failures.len(),
-        checks: report.checks.len(),
-        message: format!(
-            "validate {name} FAILED ({} of {} checks outside tolerance):\n  {}",
-            failures.len(),
-            report.checks.len(),
-            failures.join("\n  ")
-        ),
-    })
+    outcome(name, report)?;
+    println!("PASSED: {name} and anisobond agree within every tolerance");
+    Ok(())
 }
 
 /// Every `validate ENGINE` in its [`RunDir`] (options checked, the bonded input read): the

@@ -3,7 +3,7 @@
 //! the relaxed solver (of the quantised network with `--types`), and on two MPI processes
 //! against one; a table, report.json and checks.csv, non-zero exit outside tolerance.
 
-use anisobond::validate::lammps::{resolve_program, Lammps, LammpsValidateOptions};
+use anisobond::validate::lammps::{find_lmp, Lammps, LammpsValidateOptions};
 use anisobond::Result;
 use std::path::PathBuf;
 
@@ -37,12 +37,7 @@ impl Args {
     /// absolute (run.sh runs in the deck's directory and takes `mpirun` from beside `lmp`).
     pub fn engine(&self) -> Result<Lammps> {
         let (bond_style, types) = self.bonds.options("validate lammps")?;
-        let lmp = self
-            .lmp
-            .clone()
-            .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
-            .unwrap_or_else(|| PathBuf::from("lmp"));
-        let mut opts = LammpsValidateOptions::new(resolve_program(&lmp)?);
+        let mut opts = LammpsValidateOptions::new(find_lmp(self.lmp.clone())?);
         opts.export.bond_style = bond_style;
         opts.export.types = types;
         opts.two_processes = self.np == 2;

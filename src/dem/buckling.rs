@@ -207,13 +207,8 @@ pub fn compress_clamped_bar(
     compress_clamped_bar_with_progress(bar, opts, &|_| {})
 }
 
-/// [`compress_clamped_bar`], reporting the fraction of the loading done (moved-end steps
-/// over `steps`) to `progress`.
-pub fn compress_clamped_bar_with_progress(
-    bar: &RoundBar,
-    opts: &CompressionOptions,
-    progress: &(dyn Fn(f64) + Sync),
-) -> Result<CompressionResult> {
+/// Refuse the compression settings [`compress_clamped_bar`] lists.
+fn check_compression_options(opts: &CompressionOptions) -> Result<()> {
     if !(opts.max_strain.is_finite() && opts.max_strain > 0.0 && opts.max_strain < 0.5) {
         return Err(Error::Invalid(format!(
             "compression: the final strain must be in (0, 0.5), got {}",
@@ -250,6 +245,148 @@ pub fn compress_clamped_bar_with_progress(
             )));
         }
     }
+    Ok(())
+}
+
+impl Run<'_> {
+    /// [`Loading::ConstantRate`]: `steps` steps of moving end, a point every `record_every`
+    /// and at the last; returns the steps run.
+    fn load_at_constant_rate(
+        &mut self,
+        opts: &CompressionOptions,
+        progress: &(dyn Fn(f64) + Sync),
+        history: &mut Vec<CompressionPoint>,
+    ) -> Result<usize> {
+        let every = (opts.steps / 100).max(1);
+        for s in 1..=opts.steps {
+            self.sim.step()?;
+            if s % opts.record_every == 0 || s == opts.steps {
+                history.push(self.point(s, s)?);
+            }
+            if s % every == 0 {
+                progress(s as f64 / opts.steps as f64);
+            }
+        }
+        Ok(opts.steps)
+    }
+
+    /// Hold the moved end still under Cundall damping `hold_damping` (`still`), or move it
+    /// again at the loading speed under `moving_damping`.
+    fn hold(&mut self, still: bool, hold_damping: f64, moving_damping: f64) -> Result<()> {
+        self.set_speed(if still { 0.0 } else { self.speed })?;
+        self.sim
+            .set_local_damping(if still { hold_damping } else { moving_damping })
+    }
+
+    /// [`Loading::KineticLimit`]: move the end while Ẽ_kin < `limit` (Kumar Eq. 16), hold it
+    /// still otherwise; returns the steps run and whether the step cap ended the run after
+    /// the stress maximum.
+    fn load_below_kinetic_limit(
+        &mut self,
+        opts: &CompressionOptions,
+        progress: &(dyn Fn(f64) + Sync),
+        history: &mut Vec<CompressionPoint>,
+    ) -> Result<(usize, bool)> {
+        let Loading::KineticLimit {
+            limit,
+            check_every,
+            max_steps,
+            hold_damping,
+        } = opts.loading
+        else {
+            unreachable!("called for the kinetic-limit loading only")
+        };
+        let moving_damping = opts.dem.local_damping;
+        // `moved`: steps with the end moving; `due`: of them since the last point.
+        let (mut moved, mut due, mut total, mut moving) = (0, 0, 0, true);
+        loop {
+            if total == max_steps {
+                self.refuse_before_peak(opts, history, moved, total)?;
+                return Ok((total, true));
+            }
+            self.sim.step()?;
+            total += 1;
+            if moving {
+                moved += 1;
+                due += 1;
+                if moved == opts.steps {
+                    self.hold(true, hold_damping, moving_damping)?;
+                    moving = false;
+                }
+            }
+            if total % check_every != 0 {
+                continue;
+            }
+            let mut p = self.point(moved, total)?;
+            if p.kinetic_ratio < limit {
+                if due >= opts.record_every || moved == opts.steps {
+                    history.push(p);
+                    due = 0;
+                }
+                if moved == opts.steps {
+                    break;
+                }
+                if !moving {
+                    self.hold(false, hold_damping, moving_damping)?;
+                    moving = true;
+                }
+            } else if moving {
+                self.hold(true, hold_damping, moving_damping)?;
+                moving = false;
+                if due >= opts.record_every {
+                    p.met_limit = false;
+                    history.push(p);
+                }
+            }
+            progress(moved as f64 / opts.steps as f64);
+        }
+        Ok((total, false))
+    }
+
+    /// At the step cap of [`Loading::KineticLimit`]: fine after the stress maximum (a later
+    /// quasi-static point lower), else [`Error::NotConverged`] with the state reached.
+    fn refuse_before_peak(
+        &self,
+        opts: &CompressionOptions,
+        history: &[CompressionPoint],
+        moved: usize,
+        total: usize,
+    ) -> Result<()> {
+        let Loading::KineticLimit {
+            limit, max_steps, ..
+        } = opts.loading
+        else {
+            unreachable!("called for the kinetic-limit loading only")
+        };
+        let k = peak(history);
+        let last = history.iter().rposition(|p| p.met_limit);
+        if matches!((k, last), (Some(k), Some(last)) if k < last) {
+            return Ok(());
+        }
+        let now = self.point(moved, total)?;
+        Err(Error::NotConverged(format!(
+            "compression: Ẽ_kin limit {limit:e} not met within {max_steps} steps \
+             before the stress maximum: strain {:.4e} of {:.4e} reached ({moved} \
+             loading steps of {}), Ẽ_kin now {:.3e}, stress {:.4e} Pa, largest \
+             quasi-static stress {:.4e} Pa",
+            now.strain,
+            opts.max_strain,
+            opts.steps,
+            now.kinetic_ratio,
+            now.stress,
+            k.map_or(0.0, |k| history[k].stress)
+        )))
+    }
+}
+
+/// [`compress_clamped_bar`], reporting the fraction of the loading done (moved-end steps
+/// over `steps`) to `progress`.
+pub fn compress_clamped_bar_with_progress(
+    bar: &RoundBar,
+    opts: &CompressionOptions,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<CompressionResult> {
+    check_compression_options(opts)?;
     let a = &bar.assembly;
     let cap = match opts.loading {
         Loading::ConstantRate => opts.steps,
@@ -267,97 +404,13 @@ pub fn compress_clamped_bar_with_progress(
     };
     run.set_speed(run.speed)?;
     let mut history = Vec::new();
-    let mut ran_out = false;
-    let total_steps = match opts.loading {
-        Loading::ConstantRate => {
-            let every = (opts.steps / 100).max(1);
-            for s in 1..=opts.steps {
-                run.sim.step()?;
-                if s % opts.record_every == 0 || s == opts.steps {
-                    history.push(run.point(s, s)?);
-                }
-                if s % every == 0 {
-                    progress(s as f64 / opts.steps as f64);
-                }
-            }
-            opts.steps
-        }
-        Loading::KineticLimit {
-            limit,
-            check_every,
-            max_steps,
-            hold_damping,
-        } => {
-            let hold = |run: &mut Run, still: bool| -> Result<()> {
-                run.set_speed(if still { 0.0 } else { run.speed })?;
-                run.sim.set_local_damping(if still {
-                    hold_damping
-                } else {
-                    opts.dem.local_damping
-                })
-            };
-            // `moved`: steps with the end moving; `due`: of them since the last point.
-            let (mut moved, mut due, mut total, mut moving) = (0, 0, 0, true);
-            loop {
-                if total == max_steps {
-                    let k = peak(&history);
-                    let last = history.iter().rposition(|p| p.met_limit);
-                    // After the maximum (a later quasi-static point lower): a result.
-                    if matches!((k, last), (Some(k), Some(last)) if k < last) {
-                        ran_out = true;
-                        break;
-                    }
-                    let now = run.point(moved, total)?;
-                    return Err(Error::NotConverged(format!(
-                        "compression: Ẽ_kin limit {limit:e} not met within {max_steps} steps \
-                         before the stress maximum: strain {:.4e} of {:.4e} reached ({moved} \
-                         loading steps of {}), Ẽ_kin now {:.3e}, stress {:.4e} Pa, largest \
-                         quasi-static stress {:.4e} Pa",
-                        now.strain,
-                        opts.max_strain,
-                        opts.steps,
-                        now.kinetic_ratio,
-                        now.stress,
-                        k.map_or(0.0, |k| history[k].stress)
-                    )));
-                }
-                run.sim.step()?;
-                total += 1;
-                if moving {
-                    moved += 1;
-                    due += 1;
-                    if moved == opts.steps {
-                        hold(&mut run, true)?;
-                        moving = false;
-                    }
-                }
-                if total % check_every != 0 {
-                    continue;
-                }
-                let mut p = run.point(moved, total)?;
-                if p.kinetic_ratio < limit {
-                    if due >= opts.record_every || moved == opts.steps {
-                        history.push(p);
-                        due = 0;
-                    }
-                    if moved == opts.steps {
-                        break;
-                    }
-                    if !moving {
-                        hold(&mut run, false)?;
-                        moving = true;
-                    }
-                } else if moving {
-                    hold(&mut run, true)?;
-                    moving = false;
-                    if due >= opts.record_every {
-                        p.met_limit = false;
-                        history.push(p);
-                    }
-                }
-                progress(moved as f64 / opts.steps as f64);
-            }
-            total
+    let (total_steps, ran_out) = match opts.loading {
+        Loading::ConstantRate => (
+            run.load_at_constant_rate(opts, progress, &mut history)?,
+            false,
+        ),
+        Loading::KineticLimit { .. } => {
+            run.load_below_kinetic_limit(opts, progress, &mut history)?
         }
     };
     let k = peak(&history).ok_or_else(|| Error::Invalid("compression: nothing recorded".into()))?;

@@ -205,6 +205,36 @@ pub fn relax_path(
     })
 }
 
+/// Refuse a strain magnitude per path outside (0, 0.1) (`what` names the tests): the
+/// element tests are linear, and a path of 10 % strain or more is not.
+pub(crate) fn check_path_strain(strain: f64, what: &str) -> Result<()> {
+    if !(strain.is_finite() && strain > 0.0 && strain < 0.1) {
+        return Err(Error::Invalid(format!(
+            "{what} strain must be in (0, 0.1), got {strain}"
+        )));
+    }
+    Ok(())
+}
+
+/// Run the six strain paths (Voigt 0–5) in order with `run(path, step_progress)`, reporting
+/// to `progress` the fraction done with the paths counted equally (a path's steps over
+/// `max_steps`), and 1 at the end.
+pub(crate) fn run_six_paths<P>(
+    max_steps: usize,
+    progress: &(dyn Fn(f64) + Sync),
+    mut run: impl FnMut(usize, &mut dyn FnMut(usize)) -> Result<P>,
+) -> Result<Vec<P>> {
+    let max = max_steps.max(1) as f64;
+    let mut paths = Vec::with_capacity(6);
+    for k in 0..6 {
+        paths.push(run(k, &mut |s| {
+            progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
+        })?);
+    }
+    progress(1.0);
+    Ok(paths)
+}
+
 /// Run the six paths from the same initial state and fit C (Truszkowska Eq. 27).
 /// `progress` receives the fraction done (paths counted equally).
 pub fn dynamic_tensor(
@@ -212,28 +242,17 @@ pub fn dynamic_tensor(
     opts: &ElementTestOptions,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<DynamicTensor> {
-    if !(opts.strain.is_finite() && opts.strain > 0.0 && opts.strain < 0.1) {
-        return Err(Error::Invalid(format!(
-            "element-test strain must be in (0, 0.1), got {}",
-            opts.strain
-        )));
-    }
+    check_path_strain(opts.strain, "element-test")?;
     if initial.cell.is_none() {
         return Err(Error::Invalid(
             "strain-controlled element tests need a periodic packing (a `# periodic Lx Ly Lz` header)".into(),
         ));
     }
-    let mut paths = Vec::with_capacity(6);
-    for k in 0..6 {
+    let paths = run_six_paths(opts.max_steps, progress, |k, path_progress| {
         let mut sim = initial.clone();
         let g = path_gradient(k, opts.strain);
-        let max = opts.max_steps.max(1) as f64;
-        let r = relax_path(&mut sim, k, &g, opts, &mut |s| {
-            progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
-        })?;
-        paths.push(r);
-    }
-    progress(1.0);
+        relax_path(&mut sim, k, &g, opts, path_progress)
+    })?;
     let strains: Vec<Voigt6> = paths.iter().map(|p| p.strain).collect();
     let stresses: Vec<Voigt6> = paths.iter().map(|p| p.stress).collect();
     let c = fit_symmetric_eq27(&strains, &stresses)?;

@@ -423,12 +423,7 @@ pub fn gripped_tensor(
     opts: &GrippedOptions,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<GrippedTensor> {
-    if !(opts.strain.is_finite() && opts.strain > 0.0 && opts.strain < 0.1) {
-        return Err(Error::Invalid(format!(
-            "gripped element-test strain must be in (0, 0.1), got {}",
-            opts.strain
-        )));
-    }
+    super::element::check_path_strain(opts.strain, "gripped element-test")?;
     check_budget(opts)?;
     let setup = gripped_setup(packing, bonds, springs, kind, opts)?;
     gripped_tensor_from(&setup, opts, progress)
@@ -440,18 +435,14 @@ pub fn gripped_tensor_from(
     opts: &GrippedOptions,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<GrippedTensor> {
-    let mut paths = Vec::with_capacity(6);
-    let max = opts.max_steps.max(1) as f64;
-    for k in 0..6 {
+    let paths = super::element::run_six_paths(opts.max_steps, progress, |k, path_progress| {
         let mut run = setup.clone();
         let g = path_gradient(k, opts.strain);
-        let (steps, unbalance) = relax_gripped(&mut run, k, &g, opts, &mut |s| {
-            progress((k as f64 + (s as f64 / max).min(1.0)) / 6.0)
-        })?;
+        let (steps, unbalance) = relax_gripped(&mut run, k, &g, opts, path_progress)?;
         let grads = run.spheres.displacement_gradient(&run.sim)?;
         let stresses = run.spheres.stress(&run.sim)?;
         let sphere_strains: Vec<Voigt6> = grads.iter().map(|g| to_voigt(g, true)).collect();
-        paths.push(GrippedPath {
+        Ok(GrippedPath {
             path: k,
             imposed_strain: to_voigt(&g, true),
             strain: to_voigt(&mean_tensor(&grads), true),
@@ -460,9 +451,8 @@ pub fn gripped_tensor_from(
             sphere_strains,
             steps,
             unbalance,
-        });
-    }
-    progress(1.0);
+        })
+    })?;
     let strains: Vec<Voigt6> = paths.iter().map(|p| p.strain).collect();
     let stresses: Vec<Voigt6> = paths.iter().map(|p| p.stress).collect();
     let c = fit_symmetric_eq27(&strains, &stresses)?;

@@ -101,6 +101,159 @@ fn update_particle(
     (energy, terms)
 }
 
+/// Where the resultant force and torque on a particle come from: its bond loads, in the
+/// fixed CSR order of the topology (so the sum has the same bits on any thread count), and
+/// the external forces if any.
+struct Resultants<'a> {
+    start: &'a [usize],
+    entries: &'a [u32],
+    loads: &'a [super::state::BondLoad],
+    external: Option<&'a ExternalForces>,
+}
+
+impl Resultants<'_> {
+    /// Resultant force and torque on particle `k`. Branch-free (the side of each bond is
+    /// unpredictable): f ± force_i as f + (±1)·force_i, which IEEE makes bit-identical to
+    /// f + x / f − x.
+    #[inline(always)]
+    fn at(&self, k: usize) -> (Vec3, Vec3) {
+        let mut f = match self.external {
+            Some(e) => e.force[k] * e.scale,
+            None => Vec3::zeros(),
+        };
+        let mut t = Vec3::zeros();
+        for &e in &self.entries[self.start[k]..self.start[k + 1]] {
+            let load = &self.loads[(e >> 1) as usize];
+            let j_side = e & 1 == 1;
+            let sign = if j_side { -1.0 } else { 1.0 };
+            let torque = if j_side {
+                &load.torque_j
+            } else {
+                &load.torque_i
+            };
+            f += load.force_i * sign;
+            t += torque;
+        }
+        (f, t)
+    }
+}
+
+/// One chunk's particle state, updated in place, and its resultants, written out.
+struct ChunkSlices<'c> {
+    x: &'c mut [Vec3],
+    v: &'c mut [Vec3],
+    w: &'c mut [Vec3],
+    q: &'c mut [Quat],
+    force: &'c mut [Vec3],
+    torque: &'c mut [Vec3],
+}
+
+/// Energy sums of one chunk in particle order: kinetic energy at the force time, and the
+/// Cundall damping terms (summed only when λ > 0).
+struct ChunkEnergy {
+    damped: bool,
+    kinetic: f64,
+    dissipated: f64,
+}
+
+impl ChunkEnergy {
+    /// Add one particle's kinetic energy and damping terms.
+    #[inline(always)]
+    fn add(&mut self, energy: f64, terms: &[f64; 6]) {
+        if self.damped {
+            for d in terms {
+                self.dissipated += d;
+            }
+        }
+        self.kinetic += energy;
+    }
+}
+
+/// One step's particle update, shared by every chunk: the constants, the resultants, the
+/// masses and whether the AVX2 lanes run.
+struct ParticleUpdate<'a> {
+    consts: &'a UpdateConsts,
+    resultants: Resultants<'a>,
+    mass: &'a [f64],
+    inertia: &'a [f64],
+    lanes: bool,
+}
+
+impl ParticleUpdate<'_> {
+    /// Update the chunk whose first particle is `base` (AVX2 lanes of four where they run,
+    /// then one by one); returns its [kinetic, dissipated] sums.
+    fn chunk(&self, base: usize, mut s: ChunkSlices) -> [f64; 2] {
+        let mut sum = ChunkEnergy {
+            damped: self.consts.lambda > 0.0,
+            kinetic: 0.0,
+            dissipated: 0.0,
+        };
+        #[cfg(target_arch = "x86_64")]
+        let mut l = if self.lanes {
+            self.chunk_lanes(base, &mut s, &mut sum)
+        } else {
+            0
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let mut l = 0;
+        while l < s.x.len() {
+            let k = base + l;
+            let (f, t) = self.resultants.at(k);
+            s.force[l] = f;
+            s.torque[l] = t;
+            let (energy, terms) = update_particle(
+                self.consts,
+                self.mass[k],
+                self.inertia[k],
+                f,
+                t,
+                &mut s.x[l],
+                &mut s.v[l],
+                &mut s.w[l],
+                &mut s.q[l],
+            );
+            sum.add(energy, &terms);
+            l += 1;
+        }
+        [sum.kinetic, sum.dissipated]
+    }
+
+    /// The AVX2 lanes of [`Self::chunk`]: four particles at a time from the chunk's start
+    /// while four remain (`particle_lanes::update4` repeats [`update_particle`] exactly);
+    /// returns how many it updated.
+    #[cfg(target_arch = "x86_64")]
+    fn chunk_lanes(&self, base: usize, s: &mut ChunkSlices, sum: &mut ChunkEnergy) -> usize {
+        const L: usize = super::laws::lanes::LANES;
+        let mut l = 0;
+        while l + L <= s.x.len() {
+            let ft: [(Vec3, Vec3); L] = std::array::from_fn(|m| self.resultants.at(base + l + m));
+            for (m, &(f, t)) in ft.iter().enumerate() {
+                (s.force[l + m], s.torque[l + m]) = (f, t);
+            }
+            // SAFETY: AVX2 is available (the caller checked); every slice has L elements
+            // from l on (l + L ≤ chunk length, all chunks alike).
+            let (energy, terms) = unsafe {
+                super::particle_lanes::update4(
+                    self.consts,
+                    std::array::from_fn(|m| self.mass[base + l + m]),
+                    std::array::from_fn(|m| self.inertia[base + l + m]),
+                    ft.map(|p| p.0),
+                    ft.map(|p| p.1),
+                    &mut s.x[l..l + L],
+                    &mut s.v[l..l + L],
+                    &mut s.w[l..l + L],
+                    &mut s.q[l..l + L],
+                )
+            };
+            for m in 0..L {
+                sum.add(energy[m], &terms[m]);
+            }
+            l += L;
+        }
+        l
+    }
+}
+
 /// Particles per parallel work item of the integrator (fixed, so that per-chunk energy sums
 /// are the same on any number of threads).
 const PARTICLE_CHUNK: usize = 512;
@@ -557,61 +710,28 @@ impl Simulation {
         Ok(())
     }
 
-    /// The leapfrog pass over all particles; returns the constants it used.
+    /// The leapfrog pass over all particles (YADE's NewtonIntegrator), in fixed chunks of
+    /// [`PARTICLE_CHUNK`] whose energy sums are added in chunk order; returns the constants
+    /// it used.
     fn integrate_particles(&mut self) -> UpdateConsts {
-        let dt = self.dt;
-        let lambda = self.local_damping;
-        let (periodic, prev_l, dl, dspin) = match &mut self.cell {
-            Some(c) => {
-                if let Some(next) = c.next_vel_grad.take() {
-                    c.vel_grad = next;
-                }
-                let dl = c.vel_grad - c.prev_vel_grad;
-                let r = (dl - dl.transpose()) * 0.5;
-                let dspin = Vec3::new(-r[(1, 2)], r[(0, 2)], -r[(0, 1)]);
-                (true, c.prev_vel_grad, dl, dspin)
-            }
-            None => (false, Mat3::zeros(), Mat3::zeros(), Vec3::zeros()),
-        };
-        let consts = UpdateConsts {
-            dt,
-            lambda,
-            periodic,
-            prev_l,
-            dl,
-            dspin,
-        };
-        let topo = &self.topology;
-        let (start, entries) = (&topo.start[..], &topo.entries[..]);
-        let loads = &self.loads.per_bond[..];
-        // Resultant force and torque on particle k, gathered in the fixed CSR order.
-        // Branch-free (the side of each bond is unpredictable): f ± force_i as
-        // f + (±1)·force_i, which IEEE makes bit-identical to f + x / f − x.
-        let external = self.external.as_ref();
-        let gather = |k: usize| {
-            let mut f = match external {
-                Some(e) => e.force[k] * e.scale,
-                None => Vec3::zeros(),
-            };
-            let mut t = Vec3::zeros();
-            for &e in &entries[start[k]..start[k + 1]] {
-                let load = &loads[(e >> 1) as usize];
-                let j_side = e & 1 == 1;
-                let sign = if j_side { -1.0 } else { 1.0 };
-                let torque = if j_side {
-                    &load.torque_j
-                } else {
-                    &load.torque_i
-                };
-                f += load.force_i * sign;
-                t += torque;
-            }
-            (f, t)
-        };
+        let consts = self.update_consts();
         #[cfg(target_arch = "x86_64")]
         let lanes = self.simd && std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
         let p = &mut self.particles;
-        let (mass, inertia) = (&p.mass[..], &p.inertia[..]);
+        let update = ParticleUpdate {
+            consts: &consts,
+            resultants: Resultants {
+                start: &self.topology.start[..],
+                entries: &self.topology.entries[..],
+                loads: &self.loads.per_bond[..],
+                external: self.external.as_ref(),
+            },
+            mass: &p.mass[..],
+            inertia: &p.inertia[..],
+            lanes,
+        };
         const PC: usize = PARTICLE_CHUNK;
         (
             p.position.par_chunks_mut(PC),
@@ -624,65 +744,53 @@ impl Simulation {
         )
             .into_par_iter()
             .enumerate()
-            .for_each(|(chunk, (xs, vs, ws, qs, fs, ts, partial))| {
-                let base = chunk * PC;
-                let (mut kinetic, mut dissipated) = (0.0, 0.0);
-                let mut add = |energy: f64, terms: &[f64; 6]| {
-                    if lambda > 0.0 {
-                        for d in terms {
-                            dissipated += d;
-                        }
-                    }
-                    kinetic += energy;
+            .for_each(|(chunk, (x, v, w, q, force, torque, partial))| {
+                let slices = ChunkSlices {
+                    x,
+                    v,
+                    w,
+                    q,
+                    force,
+                    torque,
                 };
-                let mut l = 0;
-                #[cfg(target_arch = "x86_64")]
-                if lanes {
-                    const L: usize = super::laws::lanes::LANES;
-                    while l + L <= xs.len() {
-                        let ft: [(Vec3, Vec3); L] = std::array::from_fn(|m| gather(base + l + m));
-                        for m in 0..L {
-                            (fs[l + m], ts[l + m]) = ft[m];
-                        }
-                        // SAFETY: AVX2 is available (checked above); every slice has L
-                        // elements from l on (l + L ≤ chunk length, all chunks alike).
-                        let (energy, terms) = unsafe {
-                            super::particle_lanes::update4(
-                                &consts,
-                                std::array::from_fn(|m| mass[base + l + m]),
-                                std::array::from_fn(|m| inertia[base + l + m]),
-                                ft.map(|p| p.0),
-                                ft.map(|p| p.1),
-                                &mut xs[l..l + L],
-                                &mut vs[l..l + L],
-                                &mut ws[l..l + L],
-                                &mut qs[l..l + L],
-                            )
-                        };
-                        for m in 0..L {
-                            add(energy[m], &terms[m]);
-                        }
-                        l += L;
-                    }
-                }
-                while l < xs.len() {
-                    let k = base + l;
-                    let (f, t) = gather(k);
-                    fs[l] = f;
-                    ts[l] = t;
-                    let (energy, terms) = update_particle(
-                        &consts, mass[k], inertia[k], f, t, &mut xs[l], &mut vs[l], &mut ws[l],
-                        &mut qs[l],
-                    );
-                    add(energy, &terms);
-                    l += 1;
-                }
-                *partial = [kinetic, dissipated];
+                *partial = update.chunk(chunk * PC, slices);
             });
         if let Some(c) = &mut self.cell {
             c.prev_vel_grad = c.vel_grad;
         }
-        // Chunk sums in chunk order: the same bits on any number of threads.
+        self.add_chunk_energies(consts.lambda);
+        consts
+    }
+
+    /// This step's update constants: the time step, λ and, in a periodic cell, the velocity
+    /// gradient taken from YADE's one-step-late `nextVelGrad`, its change since the last
+    /// step and the spin increment of that change's antisymmetric part.
+    fn update_consts(&mut self) -> UpdateConsts {
+        let (periodic, prev_l, dl, dspin) = match &mut self.cell {
+            Some(c) => {
+                if let Some(next) = c.next_vel_grad.take() {
+                    c.vel_grad = next;
+                }
+                let dl = c.vel_grad - c.prev_vel_grad;
+                let r = (dl - dl.transpose()) * 0.5;
+                let dspin = Vec3::new(-r[(1, 2)], r[(0, 2)], -r[(0, 1)]);
+                (true, c.prev_vel_grad, dl, dspin)
+            }
+            None => (false, Mat3::zeros(), Mat3::zeros(), Vec3::zeros()),
+        };
+        UpdateConsts {
+            dt: self.dt,
+            lambda: self.local_damping,
+            periodic,
+            prev_l,
+            dl,
+            dspin,
+        }
+    }
+
+    /// Kinetic energy and Cundall dissipation (counted only when λ = `lambda` > 0) from the
+    /// chunk sums, added in chunk order: the same bits on any number of threads.
+    fn add_chunk_energies(&mut self, lambda: f64) {
         let (mut kinetic, mut dissipated) = (0.0, 0.0);
         for [k, d] in &self.energy_scratch {
             kinetic += k;
@@ -692,7 +800,6 @@ impl Simulation {
         if lambda > 0.0 {
             self.local_dissipated += dissipated;
         }
-        consts
     }
 
     /// Energies at the last force evaluation.

@@ -142,25 +142,8 @@ fn check_options(opts: &GenerateOptions) -> Result<()> {
 /// Repulsive harmonic forces F_i = Σ_j max(0, R_i + R_j − |l|)·(−l/|l|) (unit stiffness),
 /// the largest overlap of each particle, and per particle (Σ overlap, Σ overlap·|l|,
 /// number of overlapping neighbours) for the force-balance test and the virial pressure.
-#[allow(clippy::too_many_arguments)]
-fn forces(
-    x: &[Vec3],
-    radii: &[f64],
-    side: f64,
-    walls: Option<Walls>,
-    list: &ScaledVerletList,
-    f: &mut [Vec3],
-    overlap: &mut [f64],
-    contact: &mut [ContactSums],
-) {
+fn forces(spheres: Spheres, f: &mut [Vec3], overlap: &mut [f64], contact: &mut [ContactSums]) {
     let lanes = lanes_available();
-    let spheres = Spheres {
-        list,
-        x,
-        radii,
-        side,
-        walls,
-    };
     f.par_iter_mut()
         .zip(overlap.par_iter_mut())
         .zip(contact.par_iter_mut())
@@ -479,16 +462,14 @@ struct FixedCell<'a> {
 impl FixedCell<'_> {
     /// Forces and the largest overlap at the current positions.
     fn force_pass(&mut self) {
-        forces(
-            self.x,
-            self.radii,
-            self.side,
-            self.walls,
-            &self.list,
-            &mut self.f,
-            &mut self.overlap,
-            &mut self.contact,
-        );
+        let spheres = Spheres {
+            list: &self.list,
+            x: self.x,
+            radii: self.radii,
+            side: self.side,
+            walls: self.walls,
+        };
+        forces(spheres, &mut self.f, &mut self.overlap, &mut self.contact);
         self.worst = max_of(&self.overlap);
     }
 
@@ -779,23 +760,8 @@ const PASS_CHUNK: usize = 512;
 
 /// Repulsive harmonic forces (as [`forces`]) in a cube of side `side`, fused with the sums
 /// FIRE needs (power, norms, largest force, contact force and virial sums) per chunk.
-fn forces_and_sums(
-    x: &[Vec3],
-    v: &[Vec3],
-    radii: &[f64],
-    side: f64,
-    walls: Option<Walls>,
-    list: &ScaledVerletList,
-    f: &mut [Vec3],
-) -> ChunkSums {
+fn forces_and_sums(spheres: Spheres, v: &[Vec3], f: &mut [Vec3]) -> ChunkSums {
     let lanes = lanes_available();
-    let spheres = Spheres {
-        list,
-        x,
-        radii,
-        side,
-        walls,
-    };
     let parts: Vec<ChunkSums> = f
         .par_chunks_mut(PASS_CHUNK)
         .enumerate()
@@ -877,7 +843,14 @@ fn fire_jam_in_pool(
     let list = ScaledVerletList::build(x, radii, domain.cell(*side)?.as_ref(), JAM_SKIN)?;
     // Reference positions in units of the cell side (displacements exclude the affine part).
     let u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
-    let sums = forces_and_sums(x, &v, radii, *side, domain.walls(*side), &list, &mut f);
+    let spheres = Spheres {
+        list: &list,
+        x,
+        radii,
+        side: *side,
+        walls: domain.walls(*side),
+    };
+    let sums = forces_and_sums(spheres, &v, &mut f);
     let mut system = VariableCell {
         domain,
         side_ref: *side,
@@ -1065,15 +1038,14 @@ impl FireSystem for VariableCell<'_> {
                 .zip(self.x.iter())
                 .for_each(|(u, p)| *u = p / s);
         }
-        self.sums = forces_and_sums(
-            self.x,
-            &self.v,
-            self.radii,
-            *self.side,
-            self.domain.walls(*self.side),
-            &self.list,
-            &mut self.f,
-        );
+        let spheres = Spheres {
+            list: &self.list,
+            x: self.x,
+            radii: self.radii,
+            side: *self.side,
+            walls: self.domain.walls(*self.side),
+        };
+        self.sums = forces_and_sums(spheres, &self.v, &mut self.f);
         Ok(())
     }
 }

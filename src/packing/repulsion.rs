@@ -44,6 +44,50 @@ fn image_component(entry: u32, axis: u32) -> i32 {
     ((entry << (4 - 2 * axis)) as i32) >> 30
 }
 
+/// The neighbours of sphere i (radius + `skin` + the other's radius in reach, minimum image
+/// in the cell of sides `side`) appended to `found`, each as its index with the image code
+/// (two bits per axis above [`INDEX_BITS`], read by [`image_component`]).
+#[inline]
+fn neighbours_of(
+    i: usize,
+    x: &[Vec3],
+    radii: &[f64],
+    skin: f64,
+    side: Vec3,
+    grid: &CellGrid,
+    found: &mut Vec<u32>,
+) {
+    let xi = x[i];
+    let reach = radii[i] + skin;
+    grid.for_each_neighbour_cell(i, |cell_index| {
+        for &j in grid.particles_in(cell_index) {
+            if j as usize == i {
+                continue;
+            }
+            // Minimum image: both ends lie in [0, L), so one shift at most.
+            let mut d = x[j as usize] - xi;
+            let mut code = 0u32;
+            for k in 0..3 {
+                let image = if d[k] > 0.5 * side[k] {
+                    -1i32
+                } else if d[k] < -0.5 * side[k] {
+                    1
+                } else {
+                    0
+                };
+                if image != 0 {
+                    d[k] += image as f64 * side[k];
+                }
+                code |= ((image as u32) & 0b11) << (INDEX_BITS + 2 * k as u32);
+            }
+            let limit = reach + radii[j as usize];
+            if d.norm_squared() <= limit * limit {
+                found.push(j | code);
+            }
+        }
+    });
+}
+
 impl ScaledVerletList {
     /// Every pair of `x` (radii `radii`, positions wrapped into the cube `cell`, or free
     /// with `cell` = `None`: then no entry has an image) with |l| ≤ R_i + R_j + `skin`,
@@ -87,35 +131,7 @@ impl ScaledVerletList {
                 let mut found: Vec<u32> = Vec::new();
                 for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
                     found.clear();
-                    let xi = x[i];
-                    let reach = radii[i] + skin;
-                    grid.for_each_neighbour_cell(i, |cell_index| {
-                        for &j in grid.particles_in(cell_index) {
-                            if j as usize == i {
-                                continue;
-                            }
-                            // Minimum image: both ends lie in [0, L), so one shift at most.
-                            let mut d = x[j as usize] - xi;
-                            let mut code = 0u32;
-                            for k in 0..3 {
-                                let image = if d[k] > 0.5 * side[k] {
-                                    -1i32
-                                } else if d[k] < -0.5 * side[k] {
-                                    1
-                                } else {
-                                    0
-                                };
-                                if image != 0 {
-                                    d[k] += image as f64 * side[k];
-                                }
-                                code |= ((image as u32) & 0b11) << (INDEX_BITS + 2 * k as u32);
-                            }
-                            let limit = reach + radii[j as usize];
-                            if d.norm_squared() <= limit * limit {
-                                found.push(j | code);
-                            }
-                        }
-                    });
+                    neighbours_of(i, x, radii, skin, side, &grid, &mut found);
                     found.sort_unstable_by_key(|e| e & INDEX_MASK);
                     let padded = found.len().next_multiple_of(LANES);
                     entries.extend_from_slice(&found);
@@ -128,6 +144,12 @@ impl ScaledVerletList {
                 (entries, counts)
             })
             .collect();
+        ScaledVerletList::joined(n, blocks)
+    }
+
+    /// The list of `n` spheres from its blocks' (entries, per-sphere counts) in order;
+    /// refuses more entries than 32-bit offsets reach.
+    fn joined(n: usize, blocks: Vec<(Vec<u32>, Vec<u32>)>) -> Result<ScaledVerletList> {
         let total: usize = blocks.iter().map(|(e, _)| e.len()).sum();
         if total >= u32::MAX as usize {
             return Err(Error::Invalid(format!(

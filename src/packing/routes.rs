@@ -273,6 +273,120 @@ fn check_options(o: &RouteOptions) -> Result<()> {
     Ok(())
 }
 
+/// The bucket grid of [`random_sequential_addition`]: cells at least 2·R_max wide over the
+/// (widened) domain, each listing the spheres placed in it, so that a draw is tested
+/// against the spheres of the 27 cells around it only.
+struct GasGrid {
+    /// Lower corner of the grid.
+    lo: Vec3,
+    /// Cells along each axis.
+    dims: nalgebra::Vector3<usize>,
+    /// Width of one cell along each axis.
+    width: Vec3,
+    /// Periodic grid (wraps at the faces) or free one.
+    periodic: bool,
+    /// Indices (into the placed spheres) of the spheres in each cell.
+    members: Vec<Vec<u32>>,
+}
+
+impl GasGrid {
+    /// A grid over [lo, hi] with cells no narrower than 2·`r_max`.
+    fn new(lo: Vec3, hi: Vec3, r_max: f64, periodic: bool) -> Self {
+        let extent = hi - lo;
+        let dims = extent.map(|e| ((e / (2.0 * r_max)).floor() as usize).max(1));
+        let width = extent.component_div(&dims.map(|d| d as f64));
+        GasGrid {
+            lo,
+            dims,
+            width,
+            periodic,
+            members: vec![Vec::new(); dims.product()],
+        }
+    }
+
+    /// Flat index of grid cell `c`.
+    fn index(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    /// The grid cell holding point `p`.
+    fn cell_of(&self, p: &Vec3) -> [usize; 3] {
+        let c = |k: usize| (((p[k] - self.lo[k]) / self.width[k]) as usize).min(self.dims[k] - 1);
+        [c(0), c(1), c(2)]
+    }
+
+    /// The grid cells next to cell `ck` on axis `k` (as many as the second of the pair says):
+    /// periodic, every cell of a grid narrower than 3 cells; free, those inside the grid.
+    fn near(&self, k: usize, ck: usize) -> ([usize; 3], usize) {
+        let d = self.dims[k];
+        match (self.periodic, d < 3) {
+            (true, true) => ([0, 1, 2], d),
+            (true, false) => ([(ck + d - 1) % d, ck, (ck + 1) % d], 3),
+            (false, _) => {
+                let first = ck.saturating_sub(1);
+                (
+                    [first, first + 1, first + 2],
+                    (ck + 1).min(d - 1) + 1 - first,
+                )
+            }
+        }
+    }
+
+    /// Whether a sphere of radius `rk` at `p` (in grid cell `c`) overlaps none of `placed`
+    /// (minimum image in a periodic `cell`).
+    fn is_free(
+        &self,
+        p: Vec3,
+        rk: f64,
+        c: [usize; 3],
+        placed: &[(Vec3, f64)],
+        cell: Option<&PeriodicCell>,
+    ) -> bool {
+        let (nz, ny, nx) = (self.near(2, c[2]), self.near(1, c[1]), self.near(0, c[0]));
+        for &cz in &nz.0[..nz.1] {
+            for &cy in &ny.0[..ny.1] {
+                for &cx in &nx.0[..nx.1] {
+                    for &j in &self.members[self.index([cx, cy, cz])] {
+                        let (xj, rj) = placed[j as usize];
+                        let d = match cell {
+                            Some(cell) => cell.minimum_image(xj - p).0,
+                            None => xj - p,
+                        };
+                        let reach = rj + rk;
+                        if d.norm_squared() < reach * reach {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+/// One draw of the container's addition: uniform in the container widened by `margin`
+/// (in the widened disc by rejection from its square, then along the widened axis), and
+/// whether it fell inside the container itself (else it is a ghost).
+fn draw_in_container(
+    rng: &mut ChaCha8Rng,
+    hi: Vec3,
+    margin: f64,
+    z_lo: f64,
+    z_extent: f64,
+) -> (Vec3, bool) {
+    let r = hi.x + margin;
+    let (px, py) = loop {
+        let px = (2.0 * rng.gen::<f64>() - 1.0) * r;
+        let py = (2.0 * rng.gen::<f64>() - 1.0) * r;
+        if px * px + py * py <= r * r {
+            break (px, py);
+        }
+    };
+    let p = Vec3::new(px, py, z_lo + rng.gen::<f64>() * z_extent);
+    let inside = px.hypot(py) <= hi.x && p.z >= 0.0 && p.z <= hi.z;
+    (p, inside)
+}
+
 /// Random sequential addition of spheres with radii `radii` (R̄ = 1) into `domain` of side
 /// `side`: each sphere is placed at a uniformly random position, redrawn while it would
 /// overlap a sphere already placed. Errors when a sphere needs more than `max_attempts`
@@ -298,31 +412,8 @@ fn random_sequential_addition(
     let (lo, hi) = domain.bounds(side);
     let margin = if cell.is_some() { 0.0 } else { 2.0 * r_max };
     let (grid_lo, grid_hi) = (lo.add_scalar(-margin), hi.add_scalar(margin));
-    let extent = grid_hi - grid_lo;
-    let dims = extent.map(|e| ((e / (2.0 * r_max)).floor() as usize).max(1));
-    let width = extent.component_div(&dims.map(|d| d as f64));
-    let mut members: Vec<Vec<u32>> = vec![Vec::new(); dims.product()];
-    let index = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
-    let cell_of = |p: &Vec3| {
-        let c = |k: usize| (((p[k] - grid_lo[k]) / width[k]) as usize).min(dims[k] - 1);
-        [c(0), c(1), c(2)]
-    };
-    // The grid cells next to cell `ck` on axis `k` (as many as the first of the pair says):
-    // periodic, every cell of a grid narrower than 3 cells; free, those inside the grid.
-    let near = |k: usize, ck: usize| -> ([usize; 3], usize) {
-        let d = dims[k];
-        match (&cell, d < 3) {
-            (Some(_), true) => ([0, 1, 2], d),
-            (Some(_), false) => ([(ck + d - 1) % d, ck, (ck + 1) % d], 3),
-            (None, _) => {
-                let first = ck.saturating_sub(1);
-                (
-                    [first, first + 1, first + 2],
-                    (ck + 1).min(d - 1) + 1 - first,
-                )
-            }
-        }
-    };
+    let mut grid = GasGrid::new(grid_lo, grid_hi, r_max, cell.is_some());
+    let z_extent = grid_hi.z - grid_lo.z;
     // Every sphere placed (ghosts too), and the spheres of the domain in order.
     let mut placed: Vec<(Vec3, f64)> = Vec::with_capacity(n);
     let mut x: Vec<Vec3> = Vec::with_capacity(n);
@@ -337,57 +428,22 @@ fn random_sequential_addition(
                  {max_attempts} draws (gas solid fraction too close to saturation)"
             )));
         }
-        let (p, rk, inside) = match &cell {
+        let (p, inside) = match &cell {
             Some(cell) => {
                 let p = Vec3::new(
                     rng.gen::<f64>() * side,
                     rng.gen::<f64>() * side,
                     rng.gen::<f64>() * side,
                 );
-                (cell.wrap(p).0, radii[k], true)
+                (cell.wrap(p).0, true)
             }
-            None => {
-                // Uniform in the widened disc by rejection from its square, then along the
-                // widened axis.
-                let r = hi.x + margin;
-                let (px, py) = loop {
-                    let px = (2.0 * rng.gen::<f64>() - 1.0) * r;
-                    let py = (2.0 * rng.gen::<f64>() - 1.0) * r;
-                    if px * px + py * py <= r * r {
-                        break (px, py);
-                    }
-                };
-                let p = Vec3::new(px, py, grid_lo.z + rng.gen::<f64>() * extent.z);
-                if px.hypot(py) <= hi.x && p.z >= 0.0 && p.z <= hi.z {
-                    (p, radii[k], true)
-                } else {
-                    (p, radii[ghosts % n], false)
-                }
-            }
+            None => draw_in_container(rng, hi, margin, grid_lo.z, z_extent),
         };
-        let c = cell_of(&p);
-        let (nz, ny, nx) = (near(2, c[2]), near(1, c[1]), near(0, c[0]));
-        let mut free = true;
-        'search: for &cz in &nz.0[..nz.1] {
-            for &cy in &ny.0[..ny.1] {
-                for &cx in &nx.0[..nx.1] {
-                    for &j in &members[index([cx, cy, cz])] {
-                        let (xj, rj) = placed[j as usize];
-                        let d = match &cell {
-                            Some(cell) => cell.minimum_image(xj - p).0,
-                            None => xj - p,
-                        };
-                        let reach = rj + rk;
-                        if d.norm_squared() < reach * reach {
-                            free = false;
-                            break 'search;
-                        }
-                    }
-                }
-            }
-        }
-        if free {
-            members[index(c)].push(placed.len() as u32);
+        let rk = if inside { radii[k] } else { radii[ghosts % n] };
+        let c = grid.cell_of(&p);
+        if grid.is_free(p, rk, c, &placed, cell.as_ref()) {
+            let slot = grid.index(c);
+            grid.members[slot].push(placed.len() as u32);
             placed.push((p, rk));
             if inside {
                 x.push(p);
@@ -460,6 +516,264 @@ pub fn prepare_with_status(
     prepare_in(Domain::Periodic, opts, status).map(|(packing, _, report)| (packing, report))
 }
 
+/// A preparation in progress (R̄ units): the spheres, the side of the cell or container,
+/// and the minimisations and FIRE iterations run so far.
+struct RouteRun<'a> {
+    domain: Domain,
+    opts: &'a RouteOptions,
+    status: &'a (dyn Fn(&RouteStatus) + Sync),
+    radii: Vec<f64>,
+    solid_volume: f64,
+    x: Vec<Vec3>,
+    side: f64,
+    relaxations: usize,
+    iterations: usize,
+}
+
+impl<'a> RouteRun<'a> {
+    /// Seeded radii and the random gas at the gas solid fraction (Kumar 2016 Sec. 3),
+    /// in spatial order; refuses a periodic cell too small for a unique minimum image.
+    fn gas(
+        domain: Domain,
+        opts: &'a RouteOptions,
+        status: &'a (dyn Fn(&RouteStatus) + Sync),
+    ) -> Result<Self> {
+        let n = opts.n_particles;
+        let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
+        let solid_volume = solid_volume_of(&radii);
+        let side_of = |phi: f64| (solid_volume / phi).cbrt();
+        let r_max = largest_radius(&radii);
+        // The final cell must stay wider than 4.1 R_max for a unique minimum image.
+        let smallest_side = side_of(opts.solid_fraction.max(0.66));
+        if domain == Domain::Periodic && 0.49 * smallest_side - 2.0 * r_max < 0.05 {
+            return Err(Error::Invalid(format!(
+                "packing preparation: {n} spheres give a periodic cell of side \
+                 {smallest_side:.3} R̄, too small for a unique minimum image; use more particles"
+            )));
+        }
+        let mut run = RouteRun {
+            domain,
+            opts,
+            status,
+            radii: Vec::new(),
+            solid_volume,
+            x: Vec::new(),
+            side: side_of(opts.gas_solid_fraction),
+            relaxations: 0,
+            iterations: 0,
+        };
+        run.report(0.0, RouteStage::Gas, 0, opts.gas_solid_fraction);
+        let gas = random_sequential_addition(&radii, domain, run.side, &mut rng, 1_000_000)?;
+        let (lo, hi) = domain.bounds(run.side);
+        (run.x, run.radii) = spatial_order(&gas, &radii, lo, hi);
+        run.report(0.02, RouteStage::Gas, 0, run.phi_of(run.side));
+        Ok(run)
+    }
+
+    /// Solid fraction of a cell or container of side `side`.
+    fn phi_of(&self, side: f64) -> f64 {
+        self.solid_volume / (side * side * side)
+    }
+
+    /// Side at which the spheres fill solid fraction `phi`.
+    fn side_of(&self, phi: f64) -> f64 {
+        (self.solid_volume / phi).cbrt()
+    }
+
+    /// Pass a progress report to the caller's `status`.
+    fn report(&self, fraction: f64, stage: RouteStage, iterations: usize, solid_fraction: f64) {
+        (self.status)(&RouteStatus {
+            fraction,
+            stage,
+            iterations,
+            solid_fraction,
+        })
+    }
+
+    /// Remove the overlaps at the current side by energy minimisation (residual overlaps
+    /// ≤ 10⁻⁶ R̄, ≪ any bonding window); not converging is an error.
+    fn relax_overlap_free(&mut self) -> Result<RelaxOutcome> {
+        let max_iterations = self.opts.max_iterations;
+        let target = RelaxTarget {
+            max_overlap: 1e-6,
+            force_balance: None,
+            max_iterations,
+        };
+        let (domain, side) = (self.domain, self.side);
+        let out = fire_relax(
+            &mut self.x,
+            &self.radii,
+            side,
+            domain,
+            &target,
+            &mut |_, _| {},
+        )?;
+        self.relaxations += 1;
+        self.iterations += out.iterations;
+        if !out.converged() {
+            return Err(Error::NotConverged(format!(
+                "packing preparation: energy minimisation at solid fraction {:.5} did not \
+                 converge in {max_iterations} iterations (largest overlap {:.2e} R̄)",
+                self.phi_of(side),
+                out.max_overlap
+            )));
+        }
+        Ok(out)
+    }
+
+    /// Quasi-static compression of the gas to solid fraction `stop`: affine steps of
+    /// `compression_step`, each followed by an overlap-free minimisation (the limit of
+    /// Kumar's pressure-controlled compression at P_c/Σ_N = 10⁻⁷).
+    fn compress_to(&mut self, stop: f64) -> Result<()> {
+        let phi_start = self.phi_of(self.side);
+        let mut phi = phi_start;
+        while phi < stop {
+            let next = (phi * (1.0 + self.opts.compression_step)).min(stop);
+            let new_side = self.side_of(next);
+            let s = new_side / self.side;
+            scale_affinely(&mut self.x, &mut self.side, s);
+            self.side = new_side;
+            self.relax_overlap_free()?;
+            phi = next;
+            let done = (phi / phi_start).ln() / (stop / phi_start).ln();
+            self.report(
+                0.02 + 0.5 * done.clamp(0.0, 1.0),
+                RouteStage::Compression {
+                    target_solid_fraction: stop,
+                },
+                self.iterations,
+                phi,
+            );
+        }
+        Ok(())
+    }
+
+    /// From the unjammed state at 0.55, minimise the enthalpy E + P_t·V with the cell as one
+    /// more degree of freedom (O'Hern et al. 2003; Kumar's pressure-controlled compression):
+    /// the cell shrinks until the spheres are force balanced at P ≈ P_t =
+    /// ½·`jamming_pressure`, just above the jamming point. Stages: jam fast at a high
+    /// pressure (the cell collapses in a few thousand iterations), then decompress by decades
+    /// to the target, loosely force balanced on the way; only the last stage is held to
+    /// `jamming_balance`. Creeping to the jamming point at the final small pressure directly
+    /// is ~10× slower. Returns the last stage's outcome.
+    fn jam(&mut self) -> Result<PressureOutcome> {
+        let final_pressure = 0.5 * self.opts.jamming_pressure;
+        let mut stages: Vec<(f64, ForceBalance)> = Vec::new();
+        let mut p_stage: f64 = JAMMING_FIRST_STAGE_PRESSURE;
+        while p_stage > 2.0 * final_pressure {
+            stages.push((p_stage, JAMMING_UPPER_STAGE_BALANCE));
+            p_stage *= 0.1;
+        }
+        stages.push((final_pressure, self.opts.jamming_balance));
+        let mut out = Default::default();
+        for (k, &(p_t, balance)) in stages.iter().enumerate() {
+            out = self.jam_stage(k, stages.len(), p_t, balance)?;
+        }
+        Ok(out)
+    }
+
+    /// Stage `k` of `n_stages` of [`Self::jam`]: FIRE on the enthalpy at pressure `p_t`
+    /// until |P − P_t| ≤ ½P_t and `balance` holds; not converging is an error.
+    fn jam_stage(
+        &mut self,
+        k: usize,
+        n_stages: usize,
+        p_t: f64,
+        balance: ForceBalance,
+    ) -> Result<PressureOutcome> {
+        let max_iterations = self.opts.max_iterations;
+        let target = PressureTarget {
+            pressure: p_t,
+            pressure_tolerance: 0.5,
+            force_balance: balance,
+            max_iterations,
+        };
+        let mut first = None;
+        let mut done = 0.0f64;
+        let before = self.iterations;
+        let (status, solid_volume) = (self.status, self.solid_volume);
+        let stage_out: PressureOutcome = fire_jam_at_pressure(
+            &mut self.x,
+            &self.radii,
+            &mut self.side,
+            self.domain,
+            &target,
+            &mut |c| {
+                // Fraction of the way (logarithmic) from the first residual to 1.
+                let r = c.residual;
+                let r0 = *first.get_or_insert(r.max(10.0));
+                if r.is_finite() && r0.is_finite() {
+                    let frac = ((r0 / r.max(1.0)).ln() / r0.ln()).clamp(0.0, 0.999);
+                    done = done.max(frac);
+                }
+                status(&RouteStatus {
+                    fraction: 0.52 + 0.47 * (k as f64 + done) / n_stages as f64,
+                    stage: RouteStage::Jamming {
+                        stage: k + 1,
+                        stages: n_stages,
+                        target_pressure: p_t,
+                        pressure: c.pressure,
+                        residual: r,
+                    },
+                    iterations: before + c.iterations,
+                    solid_fraction: solid_volume / (c.side * c.side * c.side),
+                });
+            },
+        )?;
+        self.relaxations += 1;
+        self.iterations += stage_out.iterations;
+        if !stage_out.converged {
+            return Err(Error::NotConverged(format!(
+                "packing preparation: no force-balanced jammed state at pressure {p_t:e} \
+                 found in {max_iterations} iterations (reached P = {:.3e} at solid \
+                 fraction {:.5})",
+                stage_out.pressure,
+                self.phi_of(self.side)
+            )));
+        }
+        Ok(stage_out)
+    }
+
+    /// The contact statistics of the compressed state, then the final affine step to the
+    /// requested solid fraction (Kumar Eq. 10's overlaps), scaled to metres: the packing,
+    /// its side (m) and the report (`jammed`: the jamming outcome, if any).
+    fn finish(mut self, jammed: PressureOutcome) -> Result<(Packing, f64, RouteReport)> {
+        let compressed = self.phi_of(self.side);
+        let (compressed_coordination, rattlers) =
+            contact_statistics(&self.x, &self.radii, self.domain, self.side)?;
+        let final_side = self.side_of(self.opts.solid_fraction);
+        let affine_scale = final_side / self.side;
+        scale_affinely(&mut self.x, &mut self.side, affine_scale);
+        let scale = self.opts.mean_radius;
+        let cell = self.domain.cell(final_side * scale)?;
+        let positions: Vec<Vec3> = self.x.iter().map(|p| *p * scale).collect();
+        let radii: Vec<f64> = self.radii.iter().map(|r| r * scale).collect();
+        let packing = Packing::new(positions, radii, cell)?;
+        self.report(
+            1.0,
+            RouteStage::Done,
+            self.iterations,
+            self.phi_of(self.side),
+        );
+        Ok((
+            packing,
+            final_side * scale,
+            RouteReport {
+                route: self.opts.route,
+                compressed_solid_fraction: compressed,
+                compressed_coordination,
+                rattlers,
+                pressure: jammed.pressure,
+                mean_unbalanced: jammed.mean_unbalanced,
+                largest_unbalanced: jammed.largest_unbalanced,
+                affine_scale,
+                relaxations: self.relaxations,
+                iterations: self.iterations,
+            },
+        ))
+    }
+}
+
 /// The routes in `domain`: the periodic packing (with its cell), or the free packing of
 /// a container ([`super::container`]), with the final side (m; the cube root of the cell's
 /// or container's volume) and the report.
@@ -469,193 +783,17 @@ pub(super) fn prepare_in(
     status: &(dyn Fn(&RouteStatus) + Sync),
 ) -> Result<(Packing, f64, RouteReport)> {
     check_options(opts)?;
-    let n = opts.n_particles;
-    let (radii, mut rng) = seeded_radii(n, opts.polydispersity, opts.seed);
-    let solid_volume = solid_volume_of(&radii);
-    let phi_of = |side: f64| solid_volume / (side * side * side);
-    let side_of = |phi: f64| (solid_volume / phi).cbrt();
-    let r_max = largest_radius(&radii);
-    // The final cell must stay wider than 4.1 R_max for a unique minimum image.
-    let smallest_side = side_of(opts.solid_fraction.max(0.66));
-    if domain == Domain::Periodic && 0.49 * smallest_side - 2.0 * r_max < 0.05 {
-        return Err(Error::Invalid(format!(
-            "packing preparation: {n} spheres give a periodic cell of side \
-             {smallest_side:.3} R̄, too small for a unique minimum image; use more particles"
-        )));
-    }
-
-    let report = |fraction: f64, stage: RouteStage, iterations: usize, solid_fraction: f64| {
-        status(&RouteStatus {
-            fraction,
-            stage,
-            iterations,
-            solid_fraction,
-        })
-    };
-    report(0.0, RouteStage::Gas, 0, opts.gas_solid_fraction);
-    let mut side = side_of(opts.gas_solid_fraction);
-    let gas = random_sequential_addition(&radii, domain, side, &mut rng, 1_000_000)?;
-    let (lo, hi) = domain.bounds(side);
-    let (mut x, radii) = spatial_order(&gas, &radii, lo, hi);
-    report(0.02, RouteStage::Gas, 0, phi_of(side));
-
-    let mut relaxations = 0usize;
-    let mut iterations = 0usize;
-    let mut pressure = 0.0;
-    let mut mean_unbalanced = 0.0;
-    let mut largest_unbalanced = 0.0;
-    let max_iterations = opts.max_iterations;
-    let relax = |x: &mut Vec<Vec3>,
-                 side: f64,
-                 target: RelaxTarget,
-                 relaxations: &mut usize,
-                 iterations: &mut usize|
-     -> Result<RelaxOutcome> {
-        let out = fire_relax(x, &radii, side, domain, &target, &mut |_, _| {})?;
-        *relaxations += 1;
-        *iterations += out.iterations;
-        if !out.converged() {
-            return Err(Error::NotConverged(format!(
-                "packing preparation: energy minimisation at solid fraction {:.5} did not \
-                 converge in {max_iterations} iterations (largest overlap {:.2e} R̄)",
-                solid_volume / (side * side * side),
-                out.max_overlap
-            )));
-        }
-        Ok(out)
-    };
-    // Overlap-free target of the compression steps (residual overlaps ≪ any bonding
-    // window).
-    let free_target = RelaxTarget {
-        max_overlap: 1e-6,
-        force_balance: None,
-        max_iterations,
-    };
-
-    if opts.route != PreparationRoute::Unjammed {
-        let stop = match opts.route {
-            PreparationRoute::WeaklyJammed => opts.weak_jamming_solid_fraction,
-            _ => 0.55,
-        };
-        // Quasi-static compression of the gas to `stop`.
-        let phi_start = phi_of(side);
-        let mut phi = phi_start;
-        while phi < stop {
-            let next = (phi * (1.0 + opts.compression_step)).min(stop);
-            let new_side = side_of(next);
-            let s = new_side / side;
-            scale_affinely(&mut x, &mut side, s);
-            side = new_side;
-            relax(&mut x, side, free_target, &mut relaxations, &mut iterations)?;
-            phi = next;
-            let done = (phi / phi_start).ln() / (stop / phi_start).ln();
-            report(
-                0.02 + 0.5 * done.clamp(0.0, 1.0),
-                RouteStage::Compression {
-                    target_solid_fraction: stop,
-                },
-                iterations,
-                phi,
-            );
-        }
-        if opts.route == PreparationRoute::Jammed {
-            // From the unjammed state at 0.55, minimise the enthalpy E + P_t·V with the cell
-            // as one more degree of freedom (O'Hern et al. 2003; Kumar's pressure-controlled
-            // compression): the cell shrinks until the spheres are force balanced at
-            // P ≈ P_t = ½·`jamming_pressure`, just above the jamming point.
-            // Stages: jam fast at a high pressure (the cell collapses in a few thousand
-            // iterations), then decompress by decades to the target, loosely force balanced
-            // on the way; only the last stage is held to `jamming_balance`. Creeping to the
-            // jamming point at the final small pressure directly is ~10× slower.
-            let final_pressure = 0.5 * opts.jamming_pressure;
-            let mut stages: Vec<(f64, ForceBalance)> = Vec::new();
-            let mut p_stage: f64 = JAMMING_FIRST_STAGE_PRESSURE;
-            while p_stage > 2.0 * final_pressure {
-                stages.push((p_stage, JAMMING_UPPER_STAGE_BALANCE));
-                p_stage *= 0.1;
-            }
-            stages.push((final_pressure, opts.jamming_balance));
-            let n_stages = stages.len();
-            let mut out = Default::default();
-            for (k, &(p_t, balance)) in stages.iter().enumerate() {
-                let target = PressureTarget {
-                    pressure: p_t,
-                    pressure_tolerance: 0.5,
-                    force_balance: balance,
-                    max_iterations,
-                };
-                let mut first = None;
-                let mut done = 0.0f64;
-                let before = iterations;
-                let stage_out: PressureOutcome =
-                    fire_jam_at_pressure(&mut x, &radii, &mut side, domain, &target, &mut |c| {
-                        // Fraction of the way (logarithmic) from the first residual to 1.
-                        let r = c.residual;
-                        let r0 = *first.get_or_insert(r.max(10.0));
-                        if r.is_finite() && r0.is_finite() {
-                            let frac = ((r0 / r.max(1.0)).ln() / r0.ln()).clamp(0.0, 0.999);
-                            done = done.max(frac);
-                        }
-                        report(
-                            0.52 + 0.47 * (k as f64 + done) / n_stages as f64,
-                            RouteStage::Jamming {
-                                stage: k + 1,
-                                stages: n_stages,
-                                target_pressure: p_t,
-                                pressure: c.pressure,
-                                residual: r,
-                            },
-                            before + c.iterations,
-                            phi_of(c.side),
-                        );
-                    })?;
-                relaxations += 1;
-                iterations += stage_out.iterations;
-                if !stage_out.converged {
-                    return Err(Error::NotConverged(format!(
-                        "packing preparation: no force-balanced jammed state at pressure {p_t:e} \
-                         found in {max_iterations} iterations (reached P = {:.3e} at solid \
-                         fraction {:.5})",
-                        stage_out.pressure,
-                        phi_of(side)
-                    )));
-                }
-                out = stage_out;
-            }
-            pressure = out.pressure;
-            mean_unbalanced = out.mean_unbalanced;
-            largest_unbalanced = out.largest_unbalanced;
+    let mut run = RouteRun::gas(domain, opts, status)?;
+    let mut jammed = PressureOutcome::default();
+    match opts.route {
+        PreparationRoute::Unjammed => {}
+        PreparationRoute::WeaklyJammed => run.compress_to(opts.weak_jamming_solid_fraction)?,
+        PreparationRoute::Jammed => {
+            run.compress_to(0.55)?;
+            jammed = run.jam()?;
         }
     }
-
-    let compressed = phi_of(side);
-    let (compressed_coordination, rattlers) = contact_statistics(&x, &radii, domain, side)?;
-    // Final affine step to the requested solid fraction.
-    let final_side = side_of(opts.solid_fraction);
-    let affine_scale = final_side / side;
-    scale_affinely(&mut x, &mut side, affine_scale);
-    let scale = opts.mean_radius;
-    let cell = domain.cell(final_side * scale)?;
-    let positions: Vec<Vec3> = x.iter().map(|p| *p * scale).collect();
-    let radii: Vec<f64> = radii.iter().map(|r| r * scale).collect();
-    let packing = Packing::new(positions, radii, cell)?;
-    report(1.0, RouteStage::Done, iterations, phi_of(side));
-    Ok((
-        packing,
-        final_side * scale,
-        RouteReport {
-            route: opts.route,
-            compressed_solid_fraction: compressed,
-            compressed_coordination,
-            rattlers,
-            pressure,
-            mean_unbalanced,
-            largest_unbalanced,
-            affine_scale,
-            relaxations,
-            iterations,
-        },
-    ))
+    run.finish(jammed)
 }
 
 /// The packing scaled affinely (positions and cell) to solid fraction `solid_fraction`:

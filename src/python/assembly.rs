@@ -4,7 +4,9 @@
 #![allow(missing_docs)]
 #![allow(clippy::useless_conversion)]
 
-use super::convert::{column, json_to_py, rows3, tensor_array, vec3_array, write_staged};
+use super::convert::{
+    column, json_to_py, report_to_py, rows3, tensor_array, vec3_array, write_staged,
+};
 use super::errors::{to_py, InputError};
 use super::method::MethodArgs;
 use super::model::PyModel;
@@ -254,7 +256,7 @@ impl PyAssembly {
         confining_pressure: Option<f64>,
         shape: &str,
         lateral: &str,
-    ) -> PyResult<Bound<'py, PyAny>> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         use crate::specimen::{solve, Lateral, Load, Platens, Selection, Shape, SpecimenOptions};
         let axis = choose("axis", axis, &[("x", 0), ("y", 1), ("z", 2)])?;
         let platens = choose(
@@ -300,9 +302,7 @@ impl PyAssembly {
             &[("free", Lateral::Free), ("periodic", Lateral::Periodic)],
         )?;
         let r = py.detach(|| solve(src, &opts)).map_err(to_py)?;
-        let text = serde_json::to_string(&r)
-            .map_err(|e| InputError::new_err(format!("specimen report: {e}")))?;
-        let d = json_to_py(py, &text)?;
+        let d = report_to_py(py, &r, "specimen", &[])?;
         d.set_item("displacement", vec3_array(py, &r.displacement_field)?)?;
         d.set_item(
             "layer",

@@ -135,6 +135,35 @@ pub(super) fn tensor_from(
     Ok(Stiffness6::from_fn(|i, j| flat[6 * i + j]))
 }
 
+/// A report as a Python dict, through the check every written report gets
+/// ([`crate::io::check_json_numbers`]): a non-finite number (which serde turns into `null`)
+/// anywhere in it is refused, naming its key under `at`, rather than handed on as `None`.
+/// `absent` lists the keys (dotted paths) whose value is a `None` of the report, the only
+/// `null`s allowed.
+pub(super) fn report_to_py<'py>(
+    py: Python<'py>,
+    report: &impl serde::Serialize,
+    at: &str,
+    absent: &[&str],
+) -> PyResult<Bound<'py, PyDict>> {
+    let value = serde_json::to_value(report)
+        .map_err(|e| InputError::new_err(format!("{at}: cannot serialise: {e}")))?;
+    crate::io::check_json_numbers_except(&value, at, absent).map_err(to_py)?;
+    Ok(json_to_py(py, &value.to_string())?.cast_into::<PyDict>()?)
+}
+
+/// The value of keyword option `key` as a `T`; a value of another type is an InputError
+/// naming the option and `what` it expects.
+pub(super) fn get<'py, T: pyo3::conversion::FromPyObjectOwned<'py>>(
+    key: &str,
+    value: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<T> {
+    value
+        .extract::<T>()
+        .map_err(|_| InputError::new_err(format!("option `{key}`: expected {what}, got {value}")))
+}
+
 /// A JSON text as Python objects (dicts, lists, floats).
 pub(super) fn json_to_py<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (text,))

@@ -1,5 +1,6 @@
 //! The method names and keyword options of `Assembly.tensor` / `tensor_report`.
 
+use super::convert::get;
 use super::errors::{to_py, InputError};
 use crate::assembly::{Method, MethodKind, MethodOptions};
 use crate::dem::element::ElementTestOptions;
@@ -101,15 +102,6 @@ impl MethodArgs {
         };
         for (key, value) in options.iter() {
             let key: String = key.extract()?;
-            fn get<'py, T: pyo3::conversion::FromPyObjectOwned<'py>>(
-                key: &str,
-                value: &Bound<'py, PyAny>,
-                what: &str,
-            ) -> PyResult<T> {
-                value.extract::<T>().map_err(|_| {
-                    InputError::new_err(format!("option `{key}`: expected {what}, got {value}"))
-                })
-            }
             match key.as_str() {
                 "shell" => a.shell = get(&key, &value, "an integer ≥ 1")?,
                 "energy" => a.energy = get(&key, &value, "True or False")?,

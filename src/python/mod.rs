@@ -17,6 +17,7 @@ mod model;
 mod packing;
 mod studies;
 mod tensor;
+mod validate;
 
 use errors::{
     AnisobondError, DegenerateError, EngineError, FileError, InputError, ModelError,
@@ -43,5 +44,6 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate::calibrate_model, m)?)?;
     m.add_function(wrap_pyfunction!(studies::buckle_bar, m)?)?;
     m.add_function(wrap_pyfunction!(tensor::engineering_constants, m)?)?;
+    m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     Ok(())
 }

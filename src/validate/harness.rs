@@ -639,6 +639,37 @@ pub fn checks_csv(checks: &[Check]) -> String {
     c
 }
 
+/// How a finished validation of engine `name` ends, for every client: the checks outside
+/// their tolerance are [`Error::OutOfTolerance`]; else a compared run that had not settled
+/// (its checks not judged: neither a pass nor a failure, so not a success either) is
+/// [`Error::NotConverged`]; else success.
+pub fn outcome<D>(name: &str, report: &Report<D>) -> Result<()> {
+    let failures = failure_lines(report);
+    if !failures.is_empty() {
+        return Err(Error::OutOfTolerance {
+            failed: failures.len(),
+            checks: report.checks.len(),
+            message: format!(
+                "validate {name} FAILED ({} of {} checks outside tolerance):\n  {}",
+                failures.len(),
+                report.checks.len(),
+                failures.join("\n  ")
+            ),
+        });
+    }
+    let unsettled = unsettled_lines(report);
+    if !unsettled.is_empty() {
+        return Err(Error::NotConverged(format!(
+            "validate {name}: {} of {} checks not judged, the compared run had not settled \
+             (relax longer: more steps or a looser settling tolerance):\n  {}",
+            unsettled.len(),
+            report.checks.len(),
+            unsettled.join("\n  ")
+        )));
+    }
+    Ok(())
+}
+
 /// The failing checks, one line each: `id: value > tolerance (description)`.
 pub fn failure_lines<D>(r: &Report<D>) -> Vec<String> {
     r.failures()

@@ -236,6 +236,15 @@ pub fn resolve_program(program: &Path) -> Result<PathBuf> {
     std::path::absolute(&found).map_err(|e| Error::io(&found, e))
 }
 
+/// The `lmp` a validation runs: `given`, else $ANISOBOND_LMP, else `lmp` on PATH, made
+/// absolute ([`resolve_program`]).
+pub fn find_lmp(given: Option<PathBuf>) -> Result<PathBuf> {
+    let lmp = given
+        .or_else(|| std::env::var_os("ANISOBOND_LMP").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("lmp"));
+    resolve_program(&lmp)
+}
+
 /// Run `run.sh np` in `dir` with `lmp` (an absolute path, [`resolve_program`]); return the
 /// tensor it wrote (Pa).
 fn run_deck(dir: &Path, lmp: &Path, np: usize) -> Result<Stiffness6> {

@@ -126,6 +126,56 @@ fn unit_or_zero(v: Vec3) -> Vec3 {
     }
 }
 
+/// m_q: the rotation taking ẑ onto the body-frame bond vector `rb` of length `r_mag`
+/// (Mora & Wang 2009), as LAMMPS `bond_bpm_rotational` builds it.
+#[inline(always)]
+fn bond_frame_rotation(rb: &Vec3, r_mag: f64, r_mag_inv: f64) -> Quat {
+    let h = std::f64::consts::SQRT_2 * 0.5;
+    let mq0 = h * ((r_mag + rb.z).max(0.0) * r_mag_inv).sqrt();
+    let rxy = (rb.x * rb.x + rb.y * rb.y).sqrt();
+    let (mq1, mq2) = if rxy != 0.0 {
+        let a = -h / rxy * ((r_mag - rb.z).max(0.0) * r_mag_inv).sqrt();
+        (a * rb.y, -a * rb.x)
+    } else {
+        (0.0, 0.0)
+    };
+    Quat {
+        w: mq0,
+        v: Vec3::new(mq1, mq2, 0.0),
+    }
+}
+
+/// Twist ψ, bend θ and the bend direction (cos φ, sin φ) of particle 1's rotation relative
+/// to 2 in the bond frame, q21 (Mora & Wang 2009; LAMMPS `bond_bpm_rotational`).
+#[inline(always)]
+fn twist_and_bend(q21: &Quat) -> (f64, f64, f64, f64) {
+    let (w, x, y, z) = (q21.w, q21.v.x, q21.v.y, q21.v.z);
+    let wz = (w * w + z * z).sqrt();
+    let mut psi = if wz != 0.0 {
+        2.0 * acos_limit(w / wz)
+    } else {
+        0.0
+    };
+    if z < 0.0 {
+        psi = -psi;
+    }
+    if z == 0.0 {
+        psi = 0.0;
+    }
+    let theta = acos_limit(w * w - x * x - y * y + z * z);
+    let out_plane = w * w + z * z;
+    let in_plane = x * x + y * y;
+    let (cos_phi, sin_phi) = if in_plane == 0.0 {
+        (0.0, 0.0)
+    } else if out_plane == 0.0 {
+        (y / in_plane.sqrt(), -x / in_plane.sqrt())
+    } else {
+        let d = (out_plane * in_plane).sqrt();
+        ((x * z + w * y) / d, (y * z - w * x) / d)
+    };
+    (psi, theta, cos_phi, sin_phi)
+}
+
 /// Elastic loads (Wang 2009; Mora & Wang 2009) of one bond: (force on 2, torque on 2,
 /// torque on 1, elastic energy). `r` = x₁ − x₂, `r0` = r₀·r̂₀, q₁, q₂ the orientations.
 #[allow(clippy::too_many_arguments)]
@@ -158,47 +208,11 @@ fn elastic_loads(
     let mut fs = s * (ks * r_mag * gamma);
     let t = unit_or_zero(r0.cross(&rb));
     let mut ts = t * (0.5 * r_mag * ks * r_mag * gamma);
-    // m_q: the rotation taking ẑ onto r_b (Mora & Wang 2009).
-    let h = std::f64::consts::SQRT_2 * 0.5;
-    let mq0 = h * ((r_mag + rb.z).max(0.0) * r_mag_inv).sqrt();
-    let rxy = (rb.x * rb.x + rb.y * rb.y).sqrt();
-    let (mq1, mq2) = if rxy != 0.0 {
-        let a = -h / rxy * ((r_mag - rb.z).max(0.0) * r_mag_inv).sqrt();
-        (a * rb.y, -a * rb.x)
-    } else {
-        (0.0, 0.0)
-    };
-    let mq = Quat {
-        w: mq0,
-        v: Vec3::new(mq1, mq2, 0.0),
-    };
+    let mq = bond_frame_rotation(&rb, r_mag, r_mag_inv);
     // q21 = m_q*·(q₂*·q₁)·m_q: particle 1's rotation relative to 2 in the bond frame.
     let qp21 = q2inv.mul(q1);
     let q21 = mq.conjugate().mul(&qp21).mul(&mq);
-    let (w, x, y, z) = (q21.w, q21.v.x, q21.v.y, q21.v.z);
-    let wz = (w * w + z * z).sqrt();
-    let mut psi = if wz != 0.0 {
-        2.0 * acos_limit(w / wz)
-    } else {
-        0.0
-    };
-    if z < 0.0 {
-        psi = -psi;
-    }
-    if z == 0.0 {
-        psi = 0.0;
-    }
-    let theta = acos_limit(w * w - x * x - y * y + z * z);
-    let out_plane = w * w + z * z;
-    let in_plane = x * x + y * y;
-    let (cos_phi, sin_phi) = if in_plane == 0.0 {
-        (0.0, 0.0)
-    } else if out_plane == 0.0 {
-        (y / in_plane.sqrt(), -x / in_plane.sqrt())
-    } else {
-        let d = (out_plane * in_plane).sqrt();
-        ((x * z + w * y) / d, (y * z - w * x) / d)
-    };
+    let (psi, theta, cos_phi, sin_phi) = twist_and_bend(&q21);
     let tbp = Vec3::new(-c.kb * theta * sin_phi, c.kb * theta * cos_phi, 0.0);
     let ttp = Vec3::new(0.0, 0.0, c.kt * psi);
     let fsp = Vec3::new(

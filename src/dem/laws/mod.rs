@@ -358,53 +358,12 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     st.normal_force = fn_;
     st.shear_force -= shear_inc * c.ks;
     // Moments.
-    let mut moment_elastic = 0.0;
-    if ORIENTATION {
-        if c.kr > 0.0 || c.ktw > 0.0 {
-            let (qi, qj) = (p.orientation[i], p.orientation[j]);
-            let delta = if REF {
-                let [qi0, qj0] = inp.ori_ref[b];
-                qi.mul(&qi0.conjugate()).mul(&qj0.mul(&qj.conjugate()))
-            } else {
-                qi.mul(&qj.conjugate())
-            };
-            // Rotation vector of q_i q_j* (YADE: normalise, AngleAxis; angle in [0, π]).
-            let rotation = rotation_vector_of(&delta);
-            let twist = rotation.dot(&n);
-            let bending = rotation - n * twist;
-            // ½k_r|θ_b|² + ½k_tw θ_t² (= ½|M_b|²/k_r + ½|M_t|²/k_tw, without the divisions).
-            if c.kr > 0.0 {
-                moment_elastic += 0.5 * c.kr * bending.norm_squared();
-            }
-            if c.ktw > 0.0 {
-                moment_elastic += 0.5 * c.ktw * (twist * twist);
-            }
-            mom.twist = if c.ktw > 0.0 {
-                n * (twist * c.ktw)
-            } else {
-                Vec3::zeros()
-            };
-            mom.bending = if c.kr > 0.0 {
-                bending * c.kr
-            } else {
-                Vec3::zeros()
-            };
-        }
+    let moment_elastic = if ORIENTATION {
+        orientation_moments::<REF>(inp, b, c, n, mom)
     } else {
-        let rel_ang = wj - wi;
-        if c.kr > 0.0 {
-            let bend = rel_ang - n * n.dot(&rel_ang);
-            mom.bending -= bend * c.kr * dt;
-        } else {
-            mom.bending = Vec3::zeros();
-        }
-        if c.ktw > 0.0 {
-            let tw = n * n.dot(&rel_ang);
-            mom.twist -= tw * dt * c.ktw;
-        } else {
-            mom.twist = Vec3::zeros();
-        }
-    }
+        incremental_moments(c, n, wj - wi, dt, mom);
+        0.0
+    };
     // Force on i (YADE applies −normalForce − shearForce to body 1).
     let mut force = -(n * fn_) - st.shear_force;
     let mut power = 0.0;
@@ -421,6 +380,73 @@ fn bond_kernel<const ORIENTATION: bool, const REF: bool, const VISCOUS: bool>(
     out.torque_i = c1x.cross(&force) - moment;
     out.torque_j = -c2x.cross(&force) + moment;
     [power, moment_elastic]
+}
+
+/// The orientation form's moments (YADE's `CohFrictPhys` with total moments): from the
+/// rotation vector of q_i q_j* (relative to the reference orientations if `REF`), split
+/// into twist about `n` and bending, M_t = k_tw θ_t n, M_b = k_r θ_b. Returns their elastic
+/// energy ½k_r|θ_b|² + ½k_tw θ_t² (= ½|M_b|²/k_r + ½|M_t|²/k_tw, without the divisions).
+#[inline(always)]
+fn orientation_moments<const REF: bool>(
+    inp: &KernelInputs,
+    b: usize,
+    c: &BondHot,
+    n: Vec3,
+    mom: &mut BondMoments,
+) -> f64 {
+    let mut moment_elastic = 0.0;
+    if c.kr > 0.0 || c.ktw > 0.0 {
+        let p = inp.particles;
+        let (i, j) = (c.i as usize, c.j as usize);
+        let (qi, qj) = (p.orientation[i], p.orientation[j]);
+        let delta = if REF {
+            let [qi0, qj0] = inp.ori_ref[b];
+            qi.mul(&qi0.conjugate()).mul(&qj0.mul(&qj.conjugate()))
+        } else {
+            qi.mul(&qj.conjugate())
+        };
+        // Rotation vector of q_i q_j* (YADE: normalise, AngleAxis; angle in [0, π]).
+        let rotation = rotation_vector_of(&delta);
+        let twist = rotation.dot(&n);
+        let bending = rotation - n * twist;
+        if c.kr > 0.0 {
+            moment_elastic += 0.5 * c.kr * bending.norm_squared();
+        }
+        if c.ktw > 0.0 {
+            moment_elastic += 0.5 * c.ktw * (twist * twist);
+        }
+        mom.twist = if c.ktw > 0.0 {
+            n * (twist * c.ktw)
+        } else {
+            Vec3::zeros()
+        };
+        mom.bending = if c.kr > 0.0 {
+            bending * c.kr
+        } else {
+            Vec3::zeros()
+        };
+    }
+    moment_elastic
+}
+
+/// The incremental form's moments (YADE's `Law2_ScGeom6D_CohFrictPhys_CohesionMoment`):
+/// the relative angular velocity `rel_ang` = ω_j − ω_i split into bending and twist about
+/// `n`, each integrated over `dt` with its stiffness (M −= k·Δθ); a zero stiffness zeroes
+/// its moment.
+#[inline(always)]
+fn incremental_moments(c: &BondHot, n: Vec3, rel_ang: Vec3, dt: f64, mom: &mut BondMoments) {
+    if c.kr > 0.0 {
+        let bend = rel_ang - n * n.dot(&rel_ang);
+        mom.bending -= bend * c.kr * dt;
+    } else {
+        mom.bending = Vec3::zeros();
+    }
+    if c.ktw > 0.0 {
+        let tw = n * n.dot(&rel_ang);
+        mom.twist -= tw * dt * c.ktw;
+    } else {
+        mom.twist = Vec3::zeros();
+    }
 }
 
 /// ½|M_b|²/k_r + ½|M_t|²/k_tw of one bond (J), YADE's `totalElastEnergy` moment terms.

@@ -40,6 +40,7 @@ from ._anisobond import (
     buckle_bar,
     calibrate_model as _calibrate_model,
     engineering_constants,
+    validate,
 )
 
 __all__ = [
@@ -58,6 +59,7 @@ __all__ = [
     "buckle_bar",
     "calibrate",
     "engineering_constants",
+    "validate",
 ]
 
 

@@ -205,3 +205,24 @@ def buckle_bar(
     shear_stiffness_n, network with EI, …) and the first mode. tolerance None: 1e-6."""
 def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
     """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""
+def validate(
+    engine: str,
+    assembly: Assembly,
+    directory: Optional[_Path] = None,
+    *,
+    check: bool = True,
+    density: Optional[float] = None,
+    time_step: Optional[float] = None,
+    strain: Optional[float] = None,
+    processes: Optional[int] = None,
+    program: Optional[_Path] = None,
+    driver: Optional[_Path] = None,
+    tolerances: Optional[Mapping[str, float]] = None,
+) -> Dict[str, Any]:
+    """The periodic element tests of ``assembly`` in ``engine`` ("yade", "liggghts" or
+    "lammps") and in anisobond, compared (``anisobond validate ENGINE``): the report.json
+    dict (passed, checks, …); the run's files kept in ``directory`` if given. Raises
+    EngineError (the program failed), ValidationError (a check outside its tolerance) and
+    NotConvergedError (a compared run not settled); ``check=False`` returns the report
+    instead of raising the last two. ``tolerances``: {"history", "tensor", "relaxed",
+    "processes": relative agreement} replacing the engine's defaults."""
