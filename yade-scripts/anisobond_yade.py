@@ -943,7 +943,7 @@ def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 
         O.switchToScene(_COPY_SCENE[0])
         for p in paths:
             O.loadTmp("anisobond-in-place")
-            histories[p] = run_path(p, strain, steps, damping)
+            histories[p] = run_path(p, strain, steps, damping, stress_volume)
         dt = O.dt
     finally:
         if O.thisScene != home:
@@ -1227,28 +1227,33 @@ class ElementResult(object):
         self.__dict__.update(kw)
 
 
-def run_path(path, strain, steps, damping):
+def run_path(path, strain, steps, damping, stress_volume=None):
     """One element-test path on the current scene (fresh from ``build_scene``): the
     strain in one step (see the velGrad trap above), then relaxation. Returns the
     history: a list of (step, time, strain6, stress6) after every step, step 0 first
-    being the unstrained state before any step."""
+    being the unstrained state before any step. With ``stress_volume`` (m^3), stresses are
+    per that volume instead of the cell's (a box of mixed periodicity, whose free axes
+    the export extended: YADE's Love stress times V_cell/stress_volume, V_cell unstrained)."""
     from yade import O
     from yade.minieigenHP import Matrix3
     from yade.wrapper import NewtonIntegrator
     newton = [e for e in O.engines if isinstance(e, NewtonIntegrator)][0]
     newton.damping = damping
-    hist = [(0, O.time, strain_voigt(), stress_voigt())]
+    scale = 1.0 if stress_volume is None else O.cell.volume / stress_volume
+    stress = lambda: [scale * s for s in stress_voigt()]
+    hist = [(0, O.time, strain_voigt(), stress())]
     O.cell.velGrad = velocity_gradient(path, strain, O.dt)
     for k in range(1, steps + 1):
         O.step()
         if k == 1:
             O.cell.velGrad = Matrix3.Zero
-        hist.append((k, O.time, strain_voigt(), stress_voigt()))
+        hist.append((k, O.time, strain_voigt(), stress()))
     return hist
 
 
 def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2600.0,
-                  dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False):
+                  dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False,
+                  stress_volume=None):
     """Six-path element test (three uniaxial strains, three pure shears, Voigt order).
 
     Every path starts from the same initial state: the scene is built (and verified) once
@@ -1257,7 +1262,8 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
     in one step, and the assembly relaxes for ``steps`` steps with Cundall damping
     ``damping`` (0 = undamped, for step-by-step comparison). C = S E^-1 with S, E the 6x6
     matrices of final stress and strain columns (all six paths needed; with fewer paths
-    ``C`` is None and ``columns`` holds stress/strain_a of each path run).
+    ``C`` is None and ``columns`` holds stress/strain_a of each path run). ``stress_volume``
+    (m^3): stresses per that volume, not the cell's (see ``run_path``).
     """
     from yade import O
     histories, timings, dt_used = {}, {}, None
@@ -1272,13 +1278,13 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
         else:
             O.loadTmp("anisobond-initial")
         t1 = time.time()
-        histories[p] = run_path(p, strain, steps, damping)
+        histories[p] = run_path(p, strain, steps, damping, stress_volume)
         t2 = time.time()
         timings[p] = {"build_s": t1 - t0, "run_s": t2 - t1}
     columns, c = tensor_of_paths(histories, paths)
     return ElementResult(c=c, histories=histories, columns=columns, timings=timings, dt=dt_used,
                          strain=strain, steps=steps, damping=damping, density=density,
-                         paths=list(paths), safety=safety)
+                         paths=list(paths), safety=safety, stress_volume=stress_volume)
 
 
 # --------------------------------------------------------------------------------------
@@ -1343,7 +1349,8 @@ def tensor_report(result, packing, bonds):
     n = len(packing)
     rep = {"method": "yade", "units": "Pa", "C": result.c, "n_particles": n,
            "n_bonds": len(bonds), "coordination": 2.0 * len(bonds) / n,
-           "volume": packing.volume()}
+           "volume": packing.volume() if getattr(result, "stress_volume", None) is None
+           else result.stress_volume}
     if result.c is not None:
         rep["cubic"] = cubic_projection(result.c)
         rep["transverse"] = transverse_projection(result.c)
@@ -1595,6 +1602,9 @@ def main(argv=None):
     ap.add_argument("--paths", default="11,22,33,23,13,12")
     ap.add_argument("--history", default="yade-history.csv")
     ap.add_argument("--tensor", default="yade-tensor.json")
+    ap.add_argument("--stress-volume", type=float, default=None,
+                    help="volume (m^3) the stresses are per, instead of the cell's (a box of "
+                         "mixed periodicity: the box as read)")
     ap.add_argument("--model", default=None,
                     help="model file: compute the springs with the anisobond Python package "
                          "instead of taking the table's")
@@ -1605,6 +1615,8 @@ def main(argv=None):
         ap.error("--paths: expected labels among %s" % ",".join(VOIGT_LABELS))
     if not a.strain > 0 or a.steps < 1 or not 0 <= a.damping < 1 or not a.density > 0:
         ap.error("need strain > 0, steps >= 1, 0 <= damping < 1, density > 0")
+    if a.stress_volume is not None and not 0 < a.stress_volume < float("inf"):
+        ap.error("--stress-volume: expected a positive volume in m^3, got %r" % a.stress_volume)
     packing = read_packing(a.packing)
     bonds = read_bond_table(a.bonds, len(packing))
     if a.model is not None:
@@ -1613,7 +1625,8 @@ def main(argv=None):
               % (len(bonds), package().__version__, a.model))
     t0 = time.time()
     res = element_tests(packing, bonds, strain=a.strain, steps=a.steps, damping=a.damping,
-                        density=a.density, dt=a.dt, safety=a.safety, paths=paths)
+                        density=a.density, dt=a.dt, safety=a.safety, paths=paths,
+                        stress_volume=a.stress_volume)
     wall = time.time() - t0
     write_history_csv(os.path.join(a.out, a.history), res)
     write_tensor_json(os.path.join(a.out, a.tensor), res, packing, bonds)

@@ -119,6 +119,7 @@ fn export_yade(a: YadeArgs) -> Result<()> {
         time_step: a.dt,
         safety: a.safety,
         paths: yade::parse_paths(&a.paths)?,
+        stress_volume: None,
     };
     let (set, staged) = a.to.stage()?;
     let written = export_yade_read(&a, &staged, &opts)?;

@@ -64,6 +64,9 @@ pub struct YadeRunOptions {
     pub safety: f64,
     /// The paths to run (Voigt indices 0–5); all six give the 6×6 tensor.
     pub paths: Vec<usize>,
+    /// Volume (m³) the stresses are per; `None`: YADE's cell. Set for a box of mixed
+    /// periodicity to the box as read, as the LIGGGHTS and LAMMPS decks report it.
+    pub stress_volume: Option<f64>,
 }
 
 impl Default for YadeRunOptions {
@@ -78,6 +81,7 @@ impl Default for YadeRunOptions {
             time_step: None,
             safety: 0.8,
             paths: (0..6).collect(),
+            stress_volume: None,
         }
     }
 }
@@ -118,6 +122,9 @@ impl YadeRunOptions {
                 self.paths
             ));
         }
+        if let Some(v) = self.stress_volume.filter(|v| !(v.is_finite() && *v > 0.0)) {
+            return bad(format!("stress volume must be finite and > 0 m³, got {v}"));
+        }
         Ok(())
     }
 
@@ -144,6 +151,10 @@ impl YadeRunOptions {
         if let Some(dt) = self.time_step {
             a.push("--dt".into());
             a.push(format!("{dt:e}"));
+        }
+        if let Some(v) = self.stress_volume {
+            a.push("--stress-volume".into());
+            a.push(format!("{v:e}"));
         }
         a
     }
@@ -351,7 +362,8 @@ pub fn write_yade_export(
 /// 2 × (largest diameter + longest bond), the spheres shifted along it (only if one reaches
 /// below 0) so that they lie inside: no bond has an image along a free axis and the scene
 /// holds only the bonds (no collider), so nothing crosses the extended faces, which stay free
-/// surfaces. The stresses YADE reports are per the extended cell's volume.
+/// surfaces. `run.py` reports stresses per the box as read (`--stress-volume`), not per
+/// the extended cell.
 pub struct MixedBox {
     /// The packing in the extended, fully periodic cell (ids and bonds' images unchanged).
     pub packing: Packing,
@@ -410,6 +422,7 @@ impl MixedBox {
         }
         Ok(YadeRunOptions {
             paths,
+            stress_volume: Some(self.read.volume()),
             ..opts.clone()
         })
     }
@@ -422,15 +435,15 @@ impl MixedBox {
             "# Box of mixed periodicity (boundary {} as read): YADE's cell is periodic along every axis, so\n\
              #   the free axes' edges are extended ({} x {} x {} m) beyond the spheres by 2 x (largest diameter +\n\
              #   longest bond): no bond crosses them, the scene has no collider, the free faces stay free surfaces.\n\
-             #   Only the paths of the periodic axes are run. Stresses and C are per YADE's cell volume {} m^3:\n\
-             #   multiply by {} for the box as read ({} m^3).\n",
+             #   Only the paths of the periodic axes are run. Stresses and C are per the box as read ({} m^3,\n\
+             #   --stress-volume), as LIGGGHTS and LAMMPS report them: YADE's Love stress (per its cell, {} m^3) x {}.\n",
             self.read.boundary(),
             super::liggghts::num(l.x),
             super::liggghts::num(l.y),
             super::liggghts::num(l.z),
+            super::liggghts::num(box_volume),
             super::liggghts::num(v),
             super::liggghts::num(v / box_volume),
-            super::liggghts::num(box_volume),
         )
     }
 }

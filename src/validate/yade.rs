@@ -135,6 +135,7 @@ impl YadeValidationOptions {
             time_step: self.time_step,
             safety: self.safety,
             paths: self.undamped_paths.clone(),
+            stress_volume: None,
         };
         run.validate()?;
         if self.undamped_steps < 2 || self.damped_steps < 2 {
@@ -417,6 +418,7 @@ fn run_options(o: &YadeValidationOptions, dt: f64, undamped: bool) -> YadeRunOpt
         } else {
             (0..6).collect()
         },
+        stress_volume: None,
     }
 }
 

@@ -209,7 +209,7 @@ fn a_p_p_f_dump_is_exported_to_liggghts_lammps_and_yade_and_runs_in_each() {
     assert!(rel(lammps_c11, c11) < 1e-4, "{lammps_c11} vs {c11}");
     assert!(rel(c(1, 1).unwrap(), c22) < 1e-4);
 
-    // YADE: the free axis extended, stresses per its cell (rescaled to the box here).
+    // YADE: the free axis extended; run.py's stresses per the box as read.
     let out = d.join("yade");
     succeeds(&mut cmd(
         "export yade {p} --model {m} -o {o}",
@@ -230,11 +230,13 @@ fn a_p_p_f_dump_is_exported_to_liggghts_lammps_and_yade_and_runs_in_each() {
         cell[2] > 0.006 + 2.0 * 0.0019,
         "the free axis extended: {cell:?}"
     );
-    let scale = cell.iter().product::<f64>() / v_box;
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("yade-tensor.json")).unwrap())
             .unwrap();
-    let col = |p: &str, k: usize| json["yade"]["columns"][p][k].as_f64().unwrap() * scale;
+    // run.py reports stresses per the box as read (--stress-volume), not per YADE's cell.
+    let volume = json["volume"].as_f64().unwrap();
+    assert!(rel(volume, v_box) < 1e-12, "{volume} vs {v_box}");
+    let col = |p: &str, k: usize| json["yade"]["columns"][p][k].as_f64().unwrap();
     assert_eq!(json["yade"]["paths"], serde_json::json!(["11", "22", "12"]));
     let (yade_c11, yade_c66) = (col("11", 0), col("12", 5));
     eprintln!("YADE C11 = {yade_c11:e}, C66 = {yade_c66:e} Pa (box volume)");

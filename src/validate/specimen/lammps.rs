@@ -12,8 +12,8 @@
 
 use super::{
     atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
-    remaining_change, run_done_line, specimen_mass, sphere_mass, DeckStart, EngineMeasurement,
-    SpecimenDetails, SpecimenTest,
+    remaining_change, run_done_line, specimen_mass, DeckStart, EngineMeasurement, SpecimenDetails,
+    SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
