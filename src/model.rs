@@ -107,6 +107,10 @@ struct RawModel {
     scheme: RawScheme,
     #[serde(default)]
     geometry: Option<Geometry>,
+    /// `[strength]` (src/strength, docs/strength.md): checked here, read by
+    /// [`Model::strength_from_str_for`]; not carried by [`Model`] yet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    strength: Option<crate::strength::spec::StrengthTable>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -441,7 +445,28 @@ impl Model {
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
+    /// The `[strength]` table of a model file's text (format by `path`'s extension, `path`
+    /// named in refusals), checked; `None` when it has none (docs/strength.md).
+    pub fn strength_from_str_for(
+        text: &str,
+        path: &Path,
+    ) -> Result<Option<crate::strength::StrengthSpec>> {
+        let name = path.display().to_string();
+        let text = normalized(text);
+        let raw: RawModel = if is_json(path) {
+            serde_json::from_str(&text).map_err(|e| json_error(&name, &e))?
+        } else {
+            toml::from_str(&text).map_err(|e| toml_error(&text, &name, &e))?
+        };
+        let table = raw.strength.as_ref();
+        let spec = table.map(crate::strength::StrengthSpec::from_table);
+        spec.transpose().map_err(|e| prefix(&name, e))
+    }
+
     fn from_raw(raw: RawModel) -> Result<Model> {
+        if let Some(t) = &raw.strength {
+            crate::strength::StrengthSpec::from_table(t)?;
+        }
         let bonding = match raw.bonding {
             None => BondingRule::default(),
             Some(b) => {
@@ -708,6 +733,7 @@ impl Model {
             }),
             scheme: s,
             geometry: Some(self.geometry),
+            strength: None,
         }
     }
 
