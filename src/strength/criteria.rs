@@ -14,8 +14,10 @@
 //!   (`rollingAdhesion = ¼·C_n·r³`, `twistingAdhesion = ½·C_s·r³` in `Ip2_…::setCohesion`).
 //! - LAMMPS src/BPM/bond_bpm_rotational.cpp, `BondBPMRotational::elastic_forces` and
 //!   `compute` (the breaking sum and its `>= 1.0` test), doc/src/bond_bpm_rotational.rst.
-//! - Potyondy & Cundall (2004), Int. J. Rock Mech. Min. Sci. 41, 1329–1364, Eqs. 9–12 (the
-//!   parallel bond's maximum stresses).
+//! - Potyondy & Cundall (2004), Int. J. Rock Mech. Min. Sci. 41, 1329–1364: the parallel
+//!   bond's maximum tensile and shear stresses on its periphery (as the brief of issue 32
+//!   states them; the paper is not in /work/shared/papers, so its equation numbers are not
+//!   cited here).
 //! - Park & Min (2015), IJRMMS 76, 243–255 (the smooth joint): Mohr–Coulomb with a tension
 //!   cut-off on the joint plane.
 
@@ -278,11 +280,19 @@ pub fn lammps_bpm(lim: &BpmLimits, l: &LocalLoads) -> Failure {
     }
 }
 
+/// LAMMPS bpm/rotational's smoothing factor w = 1 − B⁴ (`smooth yes`, its default): the
+/// bond's forces and torques are multiplied by w, so they fade to zero as B → 1
+/// (doc/src/bond_bpm_rotational.rst; `BondBPMRotational::compute`).
+pub fn bpm_smoothing(breaking: f64) -> f64 {
+    let b2 = breaking * breaking;
+    1.0 - b2 * b2
+}
+
 // ---------------------------------------------------------------------------------------
 // Parallel bond (Potyondy & Cundall 2004)
 // ---------------------------------------------------------------------------------------
 
-/// A parallel bond's section and strengths (Potyondy & Cundall 2004, Eqs. 9–12).
+/// A parallel bond's section and strengths (Potyondy & Cundall 2004).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParallelBondSection {
     /// Bond radius R̄ (m).

@@ -164,6 +164,16 @@ impl BondStrengths {
         }
     }
 
+    /// One value per bond from its index and strength, in parallel (the order of the
+    /// result is the bonds'): a law's limits for its bond loop, e.g.
+    /// `strengths.map(|b, s| BpmLimits::of(&s, radius[b], pi_hat))`.
+    pub fn map<T: Send>(&self, f: impl Fn(usize, Strength) -> T + Sync) -> Vec<T> {
+        (0..self.len())
+            .into_par_iter()
+            .map(|b| f(b, self.get(b)))
+            .collect()
+    }
+
     fn push(&mut self, s: Strength, joint: u16) {
         self.tensile.push(s.tensile);
         self.cohesion.push(s.cohesion);

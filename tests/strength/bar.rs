@@ -170,8 +170,10 @@ fn the_peak_is_the_bond_tensile_limit_times_bonds_per_area_for_every_law() {
         peak(&bonds, &packing, &t, &yade),
         AXIAL_TENSILE * R * R / (D * D),
     );
-    // LAMMPS bpm/rotational: f_rc = σ_t·πR².
-    let bpm = |b: usize, l: &LocalLoads, _: &Vec3| lammps_bpm(&BpmLimits::of(&st.get(b), R, PI), l);
+    // LAMMPS bpm/rotational: f_rc = σ_t·πR² (the limits made once per bond, as a bond loop
+    // would).
+    let limits = st.map(|_, s| BpmLimits::of(&s, R, PI));
+    let bpm = |b: usize, l: &LocalLoads, _: &Vec3| lammps_bpm(&limits[b], l);
     close(
         peak(&bonds, &packing, &t, &bpm),
         AXIAL_TENSILE * PI * R * R / (D * D),

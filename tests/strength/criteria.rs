@@ -2,8 +2,8 @@
 //! limits, and the per-law conversions from stresses against their formulas worked by hand.
 
 use anisobond::strength::criteria::{
-    joint, lammps_bpm, parallel_bond, resolve_on_plane, yade_cohfrict, BpmLimits, JointLimits,
-    LocalLoads, Mode, ParallelBondSection, YadeAdhesion, YadeMoments,
+    bpm_smoothing, joint, lammps_bpm, parallel_bond, resolve_on_plane, yade_cohfrict, BpmLimits,
+    JointLimits, LocalLoads, Mode, ParallelBondSection, YadeAdhesion, YadeMoments,
 };
 use anisobond::strength::Strength;
 use anisobond::Vec3;
@@ -137,6 +137,11 @@ fn lammps_limits_and_its_sum_with_signed_normal_term() {
     assert!(!f.broken && f.index == 0.0, "{f:?}");
     // Clamped at 0 under pure compression.
     assert_eq!(lammps_bpm(&lim, &loads(1e3, 0.0, 0.0, 0.0)).index, 0.0);
+    // The smoothing w = 1 − B⁴: 1 unloaded, 15/16 at B = ½, 0 at breaking.
+    assert_eq!(
+        (bpm_smoothing(0.0), bpm_smoothing(0.5), bpm_smoothing(1.0)),
+        (1.0, 0.9375, 0.0)
+    );
     // The mode is the largest term.
     assert_eq!(
         lammps_bpm(&lim, &loads(0.0, 1.0, 0.9, 0.0)).mode,
