@@ -61,16 +61,41 @@ fn bar() -> (Packing, BondSet) {
     (packing, bonds)
 }
 
-/// Each bond's local loads and its force on i along t (tension positive for bonds crossing
-/// a cut with i below) at an affine axial strain ε along `t`.
-fn affine_loads(bonds: &BondSet, t: &Vec3, eps: f64) -> Vec<(LocalLoads, Vec3)> {
+/// An affine load: displacement gradient ε·`gradient` and the traction component `dir` on
+/// the cut normal to the bar's axis t that is reported as the stress.
+struct Load {
+    gradient: Mat3,
+    dir: Vec3,
+}
+
+impl Load {
+    /// Direct tension along t: gradient t⊗t, stress σ_tt.
+    fn tension(t: &Vec3) -> Load {
+        Load {
+            gradient: t * t.transpose(),
+            dir: *t,
+        }
+    }
+
+    /// Pure shear in the (t, s) plane: gradient ½(s⊗t + t⊗s) (no rotation, so the particles'
+    /// torques balance without turning), stress σ_ts.
+    fn shear(t: &Vec3, s: &Vec3) -> Load {
+        Load {
+            gradient: (s * t.transpose() + t * s.transpose()) * 0.5,
+            dir: *s,
+        }
+    }
+}
+
+/// Each bond's local loads and its force on j at the affine displacement gradient ε·G:
+/// the relative displacement of j is ε·G·l, split along and across the bond normal.
+fn affine_loads(bonds: &BondSet, load: &Load, eps: f64) -> Vec<(LocalLoads, Vec3)> {
     (0..bonds.len())
         .map(|b| {
             let n = bonds.normal[b];
-            let l = bonds.length[b];
-            let c = n.dot(t);
-            let dn = eps * l * c * c;
-            let ds = (t - n * c) * (eps * l * c);
+            let delta = load.gradient * (n * bonds.length[b]) * eps;
+            let dn = n.dot(&delta);
+            let ds = delta - n * dn;
             let force_on_j = -(n * (KN * dn)) - ds * KS;
             let loads = LocalLoads {
                 normal: -KN * dn,
@@ -82,18 +107,18 @@ fn affine_loads(bonds: &BondSet, t: &Vec3, eps: f64) -> Vec<(LocalLoads, Vec3)> 
         .collect()
 }
 
-/// σ_tt across the cut between layers 2 and 3: the bonds' forces on their lower ends over
-/// the bar's section NX·NY·d².
-fn stress(bonds: &BondSet, packing: &Packing, t: &Vec3, eps: f64) -> f64 {
+/// The traction along `load.dir` across the cut between layers 2 and 3 (normal to t): the
+/// bonds' forces on their lower ends over the bar's section NX·NY·d².
+fn stress(bonds: &BondSet, packing: &Packing, t: &Vec3, load: &Load, eps: f64) -> f64 {
     let cut = 2.5 * D;
-    let loads = affine_loads(bonds, t, eps);
+    let loads = affine_loads(bonds, load, eps);
     let mut sum = 0.0;
     for (b, (_, force_on_j)) in loads.iter().enumerate() {
         let zi = packing.positions[bonds.i[b] as usize].dot(t);
         let zj = zi + bonds.length[b] * bonds.normal[b].dot(t);
         if (zi - cut) * (zj - cut) < 0.0 {
             let on_lower = -force_on_j * if zi < zj { 1.0 } else { -1.0 };
-            sum += on_lower.dot(t);
+            sum += on_lower.dot(&load.dir);
         }
     }
     sum / (NX * NY) as f64 / (D * D)
@@ -104,10 +129,11 @@ fn peak(
     bonds: &BondSet,
     packing: &Packing,
     t: &Vec3,
+    load: &Load,
     judge: &dyn Fn(usize, &LocalLoads, &Vec3) -> Failure,
 ) -> f64 {
     let any_broken = |eps: f64| {
-        affine_loads(bonds, t, eps)
+        affine_loads(bonds, load, eps)
             .iter()
             .enumerate()
             .any(|(b, (l, f))| judge(b, l, f).broken)
@@ -129,7 +155,7 @@ fn peak(
             lo = mid;
         }
     }
-    stress(bonds, packing, t, lo)
+    stress(bonds, packing, t, load, lo)
 }
 
 fn close(got: f64, want: f64) {
@@ -162,12 +188,13 @@ fn the_peak_is_the_bond_tensile_limit_times_bonds_per_area_for_every_law() {
     let (packing, bonds) = bar();
     let t = rotation() * Vec3::z();
     let st: BondStrengths = assign_strength(&packing, &bonds, &spec(Vec::new())).unwrap();
+    let tension = Load::tension(&t);
     // YADE: a_n = σ_t·R² (its r², no π).
     let yade = |b: usize, l: &LocalLoads, _: &Vec3| {
         yade_cohfrict(&YadeAdhesion::of(&st.get(b), R, R, false), l)
     };
     close(
-        peak(&bonds, &packing, &t, &yade),
+        peak(&bonds, &packing, &t, &tension, &yade),
         AXIAL_TENSILE * R * R / (D * D),
     );
     // LAMMPS bpm/rotational: f_rc = σ_t·πR² (the limits made once per bond, as a bond loop
@@ -175,7 +202,7 @@ fn the_peak_is_the_bond_tensile_limit_times_bonds_per_area_for_every_law() {
     let limits = st.map(|_, s| BpmLimits::of(&s, R, PI));
     let bpm = |b: usize, l: &LocalLoads, _: &Vec3| lammps_bpm(&limits[b], l);
     close(
-        peak(&bonds, &packing, &t, &bpm),
+        peak(&bonds, &packing, &t, &tension, &bpm),
         AXIAL_TENSILE * PI * R * R / (D * D),
     );
     // Parallel bond: σ = −F_n/A reaches σ_c.
@@ -183,7 +210,7 @@ fn the_peak_is_the_bond_tensile_limit_times_bonds_per_area_for_every_law() {
         parallel_bond(&ParallelBondSection::of(&st.get(b), R, PI), l)
     };
     close(
-        peak(&bonds, &packing, &t, &pb),
+        peak(&bonds, &packing, &t, &tension, &pb),
         AXIAL_TENSILE * PI * R * R / (D * D),
     );
 }
@@ -230,8 +257,36 @@ fn a_weak_plane_across_the_bar_sets_the_peak_by_its_joint_strength() {
             None => parallel_bond(&ParallelBondSection::of(&st.get(b), R, PI), l),
         };
         close(
-            peak(&bonds, &packing, &t, &judge),
+            peak(&bonds, &packing, &t, &Load::tension(&t), &judge),
             expected * PI * R * R / (D * D),
         );
     }
+}
+
+/// The cohesion of the bonds along s = Q·x, at 30° from the axis (sin²θ = ¼):
+/// 0.25·9 + 0.75·3 = 4.5 MPa, below the 7.5 MPa of the axial bonds (0.75·9 + 0.25·3) that
+/// carry the same shear force: they set the peak (by hand).
+const TRANSVERSE_COHESION: f64 = 4.5e6;
+
+#[test]
+fn pure_shear_peaks_at_the_weakest_loaded_bonds_shear_limit_times_bonds_per_area() {
+    let (packing, bonds) = bar();
+    let q = rotation();
+    let (t, s) = (q * Vec3::z(), q * Vec3::x());
+    let shear = Load::shear(&t, &s);
+    let st = assign_strength(&packing, &bonds, &spec(Vec::new())).unwrap();
+    // No normal force in pure shear: YADE's limit is a_s = c·R² (its friction term is 0).
+    let yade = |b: usize, l: &LocalLoads, _: &Vec3| {
+        yade_cohfrict(&YadeAdhesion::of(&st.get(b), R, R, false), l)
+    };
+    let want = TRANSVERSE_COHESION * R * R / (D * D);
+    close(peak(&bonds, &packing, &t, &shear, &yade), want);
+    let limits = st.map(|_, s| BpmLimits::of(&s, R, PI));
+    let bpm = |b: usize, l: &LocalLoads, _: &Vec3| lammps_bpm(&limits[b], l);
+    let want = TRANSVERSE_COHESION * PI * R * R / (D * D);
+    close(peak(&bonds, &packing, &t, &shear, &bpm), want);
+    let pb = |b: usize, l: &LocalLoads, _: &Vec3| {
+        parallel_bond(&ParallelBondSection::of(&st.get(b), R, PI), l)
+    };
+    close(peak(&bonds, &packing, &t, &shear, &pb), want);
 }
