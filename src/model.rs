@@ -445,6 +445,11 @@ impl Model {
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
+    /// The `[strength]` table of the model file at `path`, checked; `None` when it has none.
+    pub fn strength_from_path(path: &Path) -> Result<Option<crate::strength::StrengthSpec>> {
+        Model::strength_from_str_for(&crate::io::read_to_string(path)?, path)
+    }
+
     /// The `[strength]` table of a model file's text (format by `path`'s extension, `path`
     /// named in refusals), checked; `None` when it has none (docs/strength.md).
     pub fn strength_from_str_for(

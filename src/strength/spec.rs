@@ -3,11 +3,12 @@
 //!
 //! ```toml
 //! [strength]
-//! tensile = 5.0e6      # Pa (across the axis when [strength.along] is given)
-//! cohesion = 1.0e7     # Pa
-//! friction = 0.5       # tan φ, optional (0)
 //! strike_deg = 30.0    # cross-anisotropic axis (or axis = [x, y, z]); z when omitted
 //! dip_deg = 60.0
+//! [strength.bond]      # the bonds' strength (across the axis when [strength.along] is given)
+//! tensile = 5.0e6      # Pa
+//! cohesion = 1.0e7     # Pa
+//! friction = 0.5       # tan φ, optional (0); bending, twisting optional (tensile, cohesion)
 //! [strength.along]     # cross-anisotropic: the strengths of a bond along the axis
 //! tensile = 2.0e6
 //! cohesion = 6.0e6
@@ -30,7 +31,6 @@ use crate::schemes::cross_anisotropic::axis_from_strike_dip;
 use crate::schemes::cubic::{self, CubicModel};
 use crate::{Error, Mat3, Result, Vec3};
 use serde::{Deserialize, Serialize};
-use std::path::Path;
 
 /// A model's strength: the scheme by orientation, the planes of weakness (the first family
 /// a bond crosses gives its joint strength) and the optional scatter.
@@ -54,16 +54,9 @@ impl StrengthSpec {
         })
     }
 
-    /// The `[strength]` table of the model file at `path` (TOML, or JSON by extension),
-    /// checked; `None` when the file has no such table. Refusals name the file (and the
-    /// line for a key or value the parser refuses).
-    pub fn from_model_path(path: &Path) -> Result<Option<StrengthSpec>> {
-        crate::model::Model::strength_from_str_for(&crate::io::read_to_string(path)?, path)
-    }
-
     /// The spec of a `[strength]` table, checked (see the module docs for the layout).
     pub fn from_table(t: &StrengthTable) -> Result<StrengthSpec> {
-        let base = t.values().checked("[strength]")?;
+        let base = t.bond.values().checked("[strength.bond]")?;
         let axis = axis_of(t.axis, t.strike_deg, t.dip_deg, "[strength]")?;
         let scheme = match (&t.along, &t.cubic) {
             (Some(_), Some(_)) => {
@@ -145,7 +138,7 @@ fn axis_of(
     }
 }
 
-/// Strength values of a table: tensile and cohesion required, friction (0), bending
+/// Strength values of a table (`[strength.bond]`, `[strength.along]`): tensile and cohesion required, friction (0), bending
 /// (= tensile) and twisting (= cohesion) optional.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -166,30 +159,15 @@ pub struct StrengthValues {
 }
 
 impl StrengthValues {
+    /// The strength, with friction 0, bending σ_t and twisting c when omitted.
     fn values(&self) -> Strength {
-        strength_of(
-            self.tensile,
-            self.cohesion,
-            self.friction,
-            self.bending,
-            self.twisting,
-        )
-    }
-}
-
-fn strength_of(
-    tensile: f64,
-    cohesion: f64,
-    friction: Option<f64>,
-    bending: Option<f64>,
-    twisting: Option<f64>,
-) -> Strength {
-    Strength {
-        tensile,
-        cohesion,
-        friction: friction.unwrap_or(0.0),
-        bending: bending.unwrap_or(tensile),
-        twisting: twisting.unwrap_or(cohesion),
+        Strength {
+            tensile: self.tensile,
+            cohesion: self.cohesion,
+            friction: self.friction.unwrap_or(0.0),
+            bending: self.bending.unwrap_or(self.tensile),
+            twisting: self.twisting.unwrap_or(self.cohesion),
+        }
     }
 }
 
@@ -197,19 +175,6 @@ fn strength_of(
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct StrengthTable {
-    /// σ_t (Pa); across the axis when `along` is given.
-    pub tensile: f64,
-    /// c (Pa).
-    pub cohesion: f64,
-    /// μ = tan φ (0 when omitted).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub friction: Option<f64>,
-    /// σ_b (Pa; σ_t when omitted).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bending: Option<f64>,
-    /// τ_t (Pa; c when omitted).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub twisting: Option<f64>,
     /// Cross-anisotropic axis as a vector.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
@@ -219,7 +184,9 @@ pub struct StrengthTable {
     /// Cross-anisotropic axis: dip (degrees).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dip_deg: Option<f64>,
-    /// Strengths along the axis (makes the scheme cross-anisotropic).
+    /// `[strength.bond]`: the bonds' strength (across the axis when `along` is given).
+    pub bond: StrengthValues,
+    /// `[strength.along]`: strengths along the axis (makes the scheme cross-anisotropic).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub along: Option<StrengthValues>,
     /// Cubic scaling (makes the scheme cubic).
@@ -231,18 +198,6 @@ pub struct StrengthTable {
     /// Scatter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scatter: Option<ScatterTable>,
-}
-
-impl StrengthTable {
-    fn values(&self) -> Strength {
-        strength_of(
-            self.tensile,
-            self.cohesion,
-            self.friction,
-            self.bending,
-            self.twisting,
-        )
-    }
 }
 
 /// `[strength.cubic]`.

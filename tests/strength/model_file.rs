@@ -22,7 +22,8 @@ fn read(strength: &str) -> anisobond::Result<Option<StrengthSpec>> {
 #[test]
 fn a_cross_anisotropic_table_with_planes_and_scatter_reads_as_written() {
     let spec = read(
-        "[strength]\ntensile = 5e6\ncohesion = 1e7\nfriction = 0.5\nstrike_deg = 90.0\ndip_deg = 30.0\n\
+        "[strength]\nstrike_deg = 90.0\ndip_deg = 30.0\n\
+         [strength.bond]\ntensile = 5e6\ncohesion = 1e7\nfriction = 0.5\n\
          [strength.along]\ntensile = 2e6\ncohesion = 6e6\n\
          [[strength.planes]]\nnormal = [0, 0, 2]\nspacing = 2e-3\noffset = 1e-4\ntensile = 5e5\ncohesion = 1e6\nfriction = 0.6\n\
          [strength.scatter]\ndistribution = \"weibull\"\nmodulus = 5.0\nseed = 9\n",
@@ -58,6 +59,19 @@ fn a_cross_anisotropic_table_with_planes_and_scatter_reads_as_written() {
             seed: 9
         })
     );
+    // Read from a file as from its text.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rock.toml");
+    std::fs::write(
+        &path,
+        format!("{ELASTIC}[strength.bond]\ntensile = 1e6\ncohesion = 2e6\n"),
+    )
+    .unwrap();
+    let from_file = Model::strength_from_path(&path).unwrap().unwrap();
+    assert_eq!(
+        from_file.scheme,
+        StrengthScheme::Isotropic(Strength::new(1e6, 2e6))
+    );
     // No table: None, and the model reads as before.
     assert_eq!(read("").unwrap(), None);
 }
@@ -65,12 +79,12 @@ fn a_cross_anisotropic_table_with_planes_and_scatter_reads_as_written() {
 #[test]
 fn cubic_and_isotropic_tables() {
     let spec = read(
-        "[strength]\ntensile = 5e6\ncohesion = 1e7\n[strength.cubic]\nmodel = \"zener-below-1\"\na_tensile = 2.0\na_shear = 0.5\neuler_zyz_deg = [10, 20, 30]\n",
+        "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.cubic]\nmodel = \"zener-below-1\"\na_tensile = 2.0\na_shear = 0.5\neuler_zyz_deg = [10, 20, 30]\n",
     )
     .unwrap()
     .unwrap();
     assert!(matches!(spec.scheme, StrengthScheme::Cubic(_)));
-    let spec = read("[strength]\ntensile = 5e6\ncohesion = 1e7\n")
+    let spec = read("[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n")
         .unwrap()
         .unwrap();
     assert_eq!(
@@ -81,25 +95,26 @@ fn cubic_and_isotropic_tables() {
 
 #[test]
 fn bad_tables_are_refused_naming_key_and_line() {
-    let cases: [(&str, &[&str]); 8] = [
-        ("[strength]\ntensile = 5e6\ncohesoin = 1e7\n", &["cohesoin", "rock.toml:"]),
-        ("[strength]\ntensile = 5e6\n", &["cohesion"]),
-        ("[strength]\ntensile = -5e6\ncohesion = 1e7\n", &["tensile", "rock.toml"]),
-        ("[strength]\ntensile = 5e6\ncohesion = 1e7\naxis = [0, 0, 1]\n", &["along"]),
+    let cases: [(&str, &[&str]); 9] = [
+        ("[strength.bond]\ntensile = 5e6\ncohesoin = 1e7\n", &["cohesoin", "rock.toml:"]),
+        ("[strength.bond]\ntensile = 5e6\n", &["cohesion"]),
+        ("[strength]\naxis = [0, 0, 1]\n", &["bond"]),
+        ("[strength.bond]\ntensile = -5e6\ncohesion = 1e7\n", &["tensile", "rock.toml", "[strength.bond]"]),
+        ("[strength]\naxis = [0, 0, 1]\n[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n", &["along"]),
         (
-            "[strength]\ntensile = 5e6\ncohesion = 1e7\n[strength.along]\ntensile = 1\ncohesion = 1\n[strength.cubic]\nmodel = \"zener-above-1\"\na_tensile = 1\na_shear = 1\n",
+            "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.along]\ntensile = 1\ncohesion = 1\n[strength.cubic]\nmodel = \"zener-above-1\"\na_tensile = 1\na_shear = 1\n",
             &["not both"],
         ),
         (
-            "[strength]\ntensile = 5e6\ncohesion = 1e7\n[[strength.planes]]\nspacing = 1e-3\ntensile = 1\ncohesion = 1\n",
+            "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[[strength.planes]]\nspacing = 1e-3\ntensile = 1\ncohesion = 1\n",
             &["planes]] #1", "normal"],
         ),
         (
-            "[strength]\ntensile = 5e6\ncohesion = 1e7\n[strength.scatter]\ndistribution = \"weibull\"\ncv = 0.1\nseed = 1\n",
+            "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.scatter]\ndistribution = \"weibull\"\ncv = 0.1\nseed = 1\n",
             &["modulus"],
         ),
         (
-            "[strength]\ntensile = 5e6\ncohesion = 1e7\n[strength.scatter]\ndistribution = \"gauss\"\ncv = 0.1\nseed = 1\n",
+            "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.scatter]\ndistribution = \"gauss\"\ncv = 0.1\nseed = 1\n",
             &["gauss", "weibull or normal"],
         ),
     ];
@@ -110,7 +125,7 @@ fn bad_tables_are_refused_naming_key_and_line() {
         }
     }
     // The unknown key is reported at its own line (line 12 of the file).
-    let e = read("[strength]\ntensile = 5e6\ncohesoin = 1e7\n")
+    let e = read("[strength.bond]\ntensile = 5e6\ncohesoin = 1e7\n")
         .unwrap_err()
         .to_string();
     assert!(e.contains("rock.toml:12"), "{e}");
