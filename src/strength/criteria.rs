@@ -37,6 +37,19 @@ pub struct LocalLoads {
     pub twisting: f64,
 }
 
+impl LocalLoads {
+    /// The loads from a bond law's vectors: normal force (N, compression positive), shear
+    /// force, bending and twisting moments (their magnitudes are taken).
+    pub fn from_vectors(normal: f64, shear: &Vec3, bending: &Vec3, twisting: &Vec3) -> Self {
+        LocalLoads {
+            normal,
+            shear: shear.norm(),
+            bending: bending.norm(),
+            twisting: twisting.norm(),
+        }
+    }
+}
+
 /// How a bond fails (or, while intact, which term is nearest its limit).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Mode {

@@ -22,6 +22,17 @@ const UP: f64 = 1.0 + 1e-12;
 const DOWN: f64 = 1.0 - 1e-12;
 
 #[test]
+fn loads_from_a_laws_vectors_are_their_magnitudes() {
+    let l = LocalLoads::from_vectors(
+        -2.0,
+        &Vec3::new(3.0, 4.0, 0.0),
+        &Vec3::new(0.0, 0.0, -5.0),
+        &Vec3::new(1.0, 2.0, 2.0),
+    );
+    assert_eq!(l, loads(-2.0, 5.0, 5.0, 3.0));
+}
+
+#[test]
 fn yade_adhesions_are_stress_times_min_radius_squared() {
     let s = Strength {
         friction: 0.5,

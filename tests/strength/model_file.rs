@@ -77,6 +77,29 @@ fn a_cross_anisotropic_table_with_planes_and_scatter_reads_as_written() {
 }
 
 #[test]
+fn a_json_model_carries_the_same_table() {
+    let text = r#"{"bonding": {"rule": "gap", "value": 0.01},
+        "scheme": {"kind": "isotropic", "normal": 2e6, "shear": 7e5},
+        "geometry": {"convention": "spring"},
+        "strength": {"bond": {"tensile": 1e6, "cohesion": 2e6, "friction": 0.3},
+                     "scatter": {"distribution": "normal", "cv": 0.1, "seed": 4}}}"#;
+    let path = Path::new("rock.json");
+    Model::from_str_for(text, path).unwrap();
+    let spec = Model::strength_from_str_for(text, path).unwrap().unwrap();
+    let want = Strength {
+        friction: 0.3,
+        ..Strength::new(1e6, 2e6)
+    };
+    assert_eq!(spec.scheme, StrengthScheme::Isotropic(want));
+    assert_eq!(spec.scatter, Some(Scatter::Normal { cv: 0.1, seed: 4 }));
+    let bad = text.replace("\"seed\": 4", "\"seed\": 4, \"modulus\": 2");
+    let e = Model::strength_from_str_for(&bad, path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("rock.json") && e.contains("modulus"), "{e}");
+}
+
+#[test]
 fn cubic_and_isotropic_tables() {
     let spec = read(
         "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.cubic]\nmodel = \"zener-below-1\"\na_tensile = 2.0\na_shear = 0.5\neuler_zyz_deg = [10, 20, 30]\n",
