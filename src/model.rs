@@ -107,9 +107,13 @@ struct RawModel {
     scheme: RawScheme,
     #[serde(default)]
     geometry: Option<Geometry>,
-    /// `[strength]` (src/strength, docs/strength.md): checked here, read by
+    /// `[strength]` (src/strength, docs/strength.md): checked as it is read, returned by
     /// [`Model::strength_from_str_for`]; not carried by [`Model`] yet.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "crate::strength::spec::checked_table",
+        skip_serializing_if = "Option::is_none"
+    )]
     strength: Option<crate::strength::spec::StrengthTable>,
 }
 
@@ -469,9 +473,6 @@ impl Model {
     }
 
     fn from_raw(raw: RawModel) -> Result<Model> {
-        if let Some(t) = &raw.strength {
-            crate::strength::StrengthSpec::from_table(t)?;
-        }
         let bonding = match raw.bonding {
             None => BondingRule::default(),
             Some(b) => {

@@ -106,6 +106,20 @@ impl StrengthSpec {
     }
 }
 
+/// Reads a `[strength]` table and checks it ([`StrengthSpec::from_table`]) as it is read,
+/// so that a model file's refusal names the table's line (the model reader's
+/// `deserialize_with` for its `strength` key).
+pub fn checked_table<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<StrengthTable>, D::Error> {
+    let table = StrengthTable::deserialize(d)?;
+    match StrengthSpec::from_table(&table) {
+        Ok(_) => Ok(Some(table)),
+        Err(Error::Model(m)) => Err(serde::de::Error::custom(m)),
+        Err(other) => Err(serde::de::Error::custom(other)),
+    }
+}
+
 /// A unit axis from `axis` or from both `strike_deg` and `dip_deg`, or `None` when none is
 /// given; refuses a mixture, a zero or non-finite axis and non-finite angles.
 fn axis_of(

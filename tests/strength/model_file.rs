@@ -122,7 +122,7 @@ fn bad_tables_are_refused_naming_key_and_line() {
         ("[strength.bond]\ntensile = 5e6\ncohesoin = 1e7\n", &["cohesoin", "rock.toml:"]),
         ("[strength.bond]\ntensile = 5e6\n", &["cohesion"]),
         ("[strength]\naxis = [0, 0, 1]\n", &["bond"]),
-        ("[strength.bond]\ntensile = -5e6\ncohesion = 1e7\n", &["tensile", "rock.toml", "[strength.bond]"]),
+        ("[strength.bond]\ntensile = -5e6\ncohesion = 1e7\n", &["tensile", "rock.toml:1", "[strength.bond]"]),
         ("[strength]\naxis = [0, 0, 1]\n[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n", &["along"]),
         (
             "[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n[strength.along]\ntensile = 1\ncohesion = 1\n[strength.cubic]\nmodel = \"zener-above-1\"\na_tensile = 1\na_shear = 1\n",
