@@ -53,6 +53,7 @@ pub mod plot;
 pub mod python;
 pub mod schemes;
 pub mod specimen;
+pub mod strength;
 pub mod study;
 pub mod tensor;
 #[cfg(feature = "engines")]

@@ -107,6 +107,14 @@ struct RawModel {
     scheme: RawScheme,
     #[serde(default)]
     geometry: Option<Geometry>,
+    /// `[strength]` (src/strength, docs/strength.md): checked as it is read, returned by
+    /// [`Model::strength_from_str_for`]; not carried by [`Model`] yet.
+    #[serde(
+        default,
+        deserialize_with = "crate::strength::spec::checked_table",
+        skip_serializing_if = "Option::is_none"
+    )]
+    strength: Option<crate::strength::spec::StrengthTable>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -441,6 +449,29 @@ impl Model {
         Model::from_raw(raw).map_err(|e| prefix(name, e))
     }
 
+    /// The `[strength]` table of the model file at `path`, checked; `None` when it has none.
+    pub fn strength_from_path(path: &Path) -> Result<Option<crate::strength::StrengthSpec>> {
+        Model::strength_from_str_for(&crate::io::read_to_string(path)?, path)
+    }
+
+    /// The `[strength]` table of a model file's text (format by `path`'s extension, `path`
+    /// named in refusals), checked; `None` when it has none (docs/strength.md).
+    pub fn strength_from_str_for(
+        text: &str,
+        path: &Path,
+    ) -> Result<Option<crate::strength::StrengthSpec>> {
+        let name = path.display().to_string();
+        let text = normalized(text);
+        let raw: RawModel = if is_json(path) {
+            serde_json::from_str(&text).map_err(|e| json_error(&name, &e))?
+        } else {
+            toml::from_str(&text).map_err(|e| toml_error(&text, &name, &e))?
+        };
+        let table = raw.strength.as_ref();
+        let spec = table.map(crate::strength::StrengthSpec::from_table);
+        spec.transpose().map_err(|e| prefix(&name, e))
+    }
+
     fn from_raw(raw: RawModel) -> Result<Model> {
         let bonding = match raw.bonding {
             None => BondingRule::default(),
@@ -708,6 +739,7 @@ impl Model {
             }),
             scheme: s,
             geometry: Some(self.geometry),
+            strength: None,
         }
     }
 

@@ -1,0 +1,12 @@
+//! Bond strength and failure criteria (issue 32, docs/strength.md): strength schemes by
+//! orientation, planes of weakness, seeded scatter, the per-law criteria, Jaeger's single
+//! plane of weakness and a bonded simple-cubic bar in direct tension and pure shear.
+//! One module per file; see tests/README.md.
+
+mod bar;
+mod criteria;
+mod jaeger;
+mod model_file;
+mod planes;
+mod scatter;
+mod schemes;
