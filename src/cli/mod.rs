@@ -22,6 +22,7 @@ mod stress_test;
 mod validate;
 mod validate_lammps;
 mod validate_liggghts;
+mod validate_specimen;
 
 use anisobond::assembly::{Assembly, Detail, EqualSpheres, MethodKind, MethodOptions};
 use anisobond::homogenize::network::LeverArm;

@@ -5,67 +5,11 @@
 //! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
 
 use super::harness::{EngineDetails, Report};
+pub use super::harness::{Problem, Progress, TestKind};
 use super::specimen::{SpecimenDetails, SpecimenTest};
-use crate::assembly::Assembly;
-use crate::bonds::{BondSet, BondStiffness};
-use crate::model::Model;
-use crate::packing::Packing;
 use crate::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-
-/// One line per finished stage of a run; called from the engine's threads (hence `Sync`).
-pub type Progress<'a> = &'a (dyn Fn(&str) + Sync);
-
-/// The test an engine runs on the problem.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum TestKind {
-    /// Element tests of a periodic bonded cell: undamped stress histories step by step
-    /// against the reference integrator, and damped quasi-static 6×6 tensors against the
-    /// integrator and the relaxed solver (every engine today).
-    #[default]
-    PeriodicElement,
-}
-
-impl TestKind {
-    /// Name in messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            TestKind::PeriodicElement => "periodic element",
-        }
-    }
-}
-
-/// What every engine is given: where to run, the bonded packing, its model, the test kind.
-#[derive(Clone, Copy, Debug)]
-pub struct Problem<'a> {
-    /// Directory the engine writes its decks into and runs in (must exist).
-    pub dir: &'a Path,
-    /// The spheres and their cell.
-    pub packing: &'a Packing,
-    /// The bonds.
-    pub bonds: &'a BondSet,
-    /// Each bond's springs.
-    pub springs: &'a BondStiffness,
-    /// The model the springs came from (written beside an export that records it).
-    pub model: Option<&'a Model>,
-    /// The test to run.
-    pub kind: TestKind,
-}
-
-impl<'a> Problem<'a> {
-    /// The periodic element tests of `a` in `dir`.
-    pub fn of(dir: &'a Path, a: &'a Assembly) -> Problem<'a> {
-        Problem {
-            dir,
-            packing: &a.packing,
-            bonds: &a.bonds,
-            springs: &a.springs,
-            model: Some(&a.model),
-            kind: TestKind::PeriodicElement,
-        }
-    }
-}
 
 /// Agreement required by the comparisons every engine makes (relative differences); an
 /// engine that makes no comparison of a kind ignores its tolerance.
