@@ -49,7 +49,7 @@ pub enum Method {
     Relaxed(RelaxedOptions),
     /// The relaxed tangent of the assembly under an isotropic preload of its central springs
     /// (compressive `pressure`, Pa): what an element test started from that confined state
-    /// measures ([`crate::homogenize::prestress`]; symmetric part).
+    /// measures ([`crate::homogenize::prestressed_tensor`]; symmetric part).
     Prestressed {
         /// Relaxed solver settings.
         options: RelaxedOptions,
@@ -373,7 +373,7 @@ impl Assembly {
     }
 
     /// The stiffness tensor by `method`, checked (finite, positive definite: see
-    /// [`crate::homogenize::report::check_result_tensor`]).
+    /// `crate::homogenize::report::check_result_tensor`).
     pub fn tensor(&self, method: &Method) -> Result<TensorResult> {
         self.tensor_with_progress(method, &|_| {})
     }
@@ -548,7 +548,7 @@ impl Assembly {
 
 /// The smallest ratio max|C_relaxed| / max|C_Voigt| taken as a result. The relaxed tensor
 /// lies below the Voigt (affine) one of the same bonds; orders of magnitude below it, the
-/// network carries no load across the cell ([`check_relaxed_scale`]).
+/// network carries no load across the cell (`check_relaxed_scale`).
 pub const RELAXED_TO_VOIGT_MIN: f64 = 1e-6;
 
 /// Refuse ([`Error::Degenerate`]) a relaxed tensor `c` whose largest entry is below

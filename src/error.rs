@@ -98,8 +98,9 @@ fn line_prefix(line: usize) -> String {
     }
 }
 
-/// Result with the library's [`Error`].
-pub type Result<T> = std::result::Result<T, Error>;
+/// Result with the library's [`Error`]; the error type can be given (`Result<T, E>`), so that
+/// `use anisobond::prelude::*` does not break a program's own two-parameter `Result`s.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
     /// A parse error at `line` (1-based) of `path`.

@@ -3,9 +3,9 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::{check_positive, IntegratorArgs};
-use anisobond::dem::grips::GrippedOptions;
-use anisobond::dem::measure::MeasureOptions;
-use anisobond::homogenize::report::TensorReport;
+use anisobond::dem::GrippedOptions;
+use anisobond::dem::MeasureOptions;
+use anisobond::homogenize::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use std::path::PathBuf;

@@ -7,9 +7,9 @@ use super::cell::BondedInput;
 use super::validate_specimen::SpecimenFlags;
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
-use anisobond::validate::harness::{failure_lines, summary, unsettled_lines, EngineDetails};
 use anisobond::validate::specimen;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
+use anisobond::validate::{failure_lines, summary, unsettled_lines, EngineDetails};
 use anisobond::validate::{validate, validate_specimen, Engine, Problem, Tolerances};
 use anisobond::{Error, Result};
 use clap::Subcommand;
@@ -182,7 +182,7 @@ fn run_specimen<E: Engine>(
 /// naming the failed checks; else [`Error::NotConverged`] when a compared run had not
 /// settled (its checks not judged: neither a pass nor a failure, so not a success either);
 /// else exit 0.
-fn finish<D>(name: &str, report: &anisobond::validate::harness::Report<D>) -> Result<()> {
+fn finish<D>(name: &str, report: &anisobond::validate::Report<D>) -> Result<()> {
     let unsettled = unsettled_lines(report);
     for line in &unsettled {
         println!("not judged: {line}");

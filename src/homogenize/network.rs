@@ -315,10 +315,10 @@ pub struct Network {
 impl Network {
     /// Prune the packing's bonds to the load-carrying network and build the elements; with
     /// every bond's axial preload N (N, tension positive; one per bond) each element gains its
-    /// [`geometric_element`] (the network linearised about a loaded state). A free assembly
-    /// (e.g. a bar cut by [`crate::packing::cut`]) is accepted: its boundary conditions are
+    /// `geometric_element` (the network linearised about a loaded state). A free assembly
+    /// (e.g. a bar cut by [`crate::packing::cut()`]) is accepted: its boundary conditions are
     /// the caller's and `volume` is then the spheres' bounding box; the periodic methods
-    /// check the cell first ([`require_cell`]).
+    /// check the cell first (`require_cell`).
     pub fn build(
         packing: &Packing,
         bonds: &BondSet,

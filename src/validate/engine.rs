@@ -98,11 +98,11 @@ pub fn validate_specimen<E: Engine>(
 /// # fn main() -> anisobond::Result<()> {
 /// use anisobond::assembly::Assembly;
 /// use anisobond::model::Model;
-/// use anisobond::validate::engine::{validate, Problem};
-/// use anisobond::validate::harness::write_report_json;
+/// use anisobond::validate::{validate, Problem};
+/// use anisobond::validate::write_report_json;
 /// use anisobond::validate::yade::{Yade, YadeValidationOptions};
 /// use std::path::Path;
-/// let packing = anisobond::packing::io::read_packing(Path::new("packing.txt"))?;
+/// let packing = anisobond::packing::read_packing(Path::new("packing.txt"))?;
 /// let assembly = Assembly::new(packing, Model::from_path(Path::new("model.toml"))?)?;
 /// let dir = Path::new("yade-run");
 /// std::fs::create_dir_all(dir).map_err(|e| anisobond::Error::io(dir, e))?;
