@@ -23,6 +23,23 @@ use crate::{Error, Result};
 use std::path::Path;
 
 /// A bonded packing: the spheres, the model, the bonds its rule draws and every bond's springs.
+///
+/// A generated periodic packing bonded by Truszkowska 2018's MRV model, its tensor by two
+/// methods: the relaxed (static) solve lets the particles move off the affine field, so its
+/// C11 never exceeds the Voigt (affine) bound of the same springs.
+/// ```
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::packing::{generate, GenerateOptions};
+/// use anisobond::prelude::*;
+/// let packing = generate(&GenerateOptions { n_particles: 300, ..Default::default() }, &|_| {})?;
+/// let assembly = Assembly::new(packing, Model::truszkowska_mrv())?;
+/// println!("{} bonds", assembly.bonds.len());
+/// let voigt = assembly.tensor(&Method::Voigt)?.report.cubic.c11;
+/// let relaxed = assembly.tensor(&Method::relaxed())?.report.cubic.c11;
+/// assert!(0.0 < relaxed && relaxed <= voigt);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Clone, Debug)]
 pub struct Assembly {
     /// The spheres and their cell.

@@ -43,6 +43,34 @@ pub fn check_tolerances(
 }
 
 /// A validation engine: runs a [`Problem`] in another code and in anisobond, and compares.
+///
+/// The three runners, each built from its programs and options (they run only where YADE,
+/// LIGGGHTS with the `anisobond-liggghts` driver, or LAMMPS are installed):
+/// ```no_run
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::prelude::*;
+/// use anisobond::validate::lammps::LammpsValidateOptions;
+/// use anisobond::validate::liggghts::{Programs, ValidateOptions};
+/// use anisobond::validate::yade::YadeValidationOptions;
+/// use std::path::{Path, PathBuf};
+/// let assembly = Assembly::new(read_packing(Path::new("packing.txt"))?, Model::truszkowska_mrv())?;
+/// let problem = Problem::of(Path::new("run"), &assembly);
+/// let progress = |stage: &str| eprintln!("{stage}");
+/// let yade = validate(&Yade(YadeValidationOptions::default()), &problem, &progress)?;
+/// let lammps = Lammps(LammpsValidateOptions::new(PathBuf::from("lmp")));
+/// let lammps = validate(&lammps, &problem, &progress)?;
+/// let liggghts = Liggghts {
+///     programs: Programs {
+///         driver: PathBuf::from("cpp/build/anisobond-liggghts"),
+///         liggghts: PathBuf::from("liggghts"),
+///     },
+///     options: ValidateOptions::default(),
+/// };
+/// let liggghts = validate(&liggghts, &problem, &progress)?;
+/// println!("{} {} {}", yade.passed(), lammps.passed(), liggghts.passed());
+/// # Ok(())
+/// # }
+/// ```
 pub trait Engine: Sync {
     /// The engine's own results inside the [`Report`].
     type Details: EngineDetails;
@@ -79,6 +107,24 @@ pub trait Engine: Sync {
 
 /// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's
 /// options checked, then [`Engine::specimen`].
+///
+/// The platen stiffness of a free packing's specimen in YADE against the specimen solve
+/// (z axis, end layers of one mean radius, frictionless platens):
+/// ```no_run
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::prelude::*;
+/// use anisobond::specimen::Platens;
+/// use anisobond::validate::specimen::SpecimenTest;
+/// use anisobond::validate::yade::YadeValidationOptions;
+/// use std::path::Path;
+/// let assembly = Assembly::new(read_packing(Path::new("free.txt"))?, Model::truszkowska_mrv())?;
+/// let test = SpecimenTest::new(2, 1e-3, Platens::Frictionless);
+/// let engine = Yade(YadeValidationOptions::default());
+/// let report = validate_specimen(&engine, &Problem::of(Path::new("run"), &assembly), &test, &|s| eprintln!("{s}"))?;
+/// println!("passed: {}", report.passed());
+/// # Ok(())
+/// # }
+/// ```
 pub fn validate_specimen<E: Engine>(
     engine: &E,
     problem: &Problem,
