@@ -51,6 +51,7 @@ pub mod packing;
 #[cfg(feature = "plot")]
 pub mod plot;
 #[cfg(feature = "python")]
+#[allow(unnameable_types)] // its pyo3 classes are named from Python, not from Rust
 pub mod python;
 pub mod schemes;
 pub mod specimen;
