@@ -66,15 +66,11 @@ pub use error::{Error, Result};
 pub mod prelude {
     //! The names a program starts from: `use anisobond::prelude::*;`.
     //!
-    //! A packing ([`Packing`](crate::packing::Packing),
-    //! [`read_packing`](crate::packing::read_packing)) and a [`Model`](crate::model::Model)
-    //! make an [`Assembly`] (its [`BondSet`](crate::bonds::BondSet) and springs); a
-    //! [`Method`] (by name: [`MethodKind`](crate::assembly::MethodKind), with
-    //! [`MethodOptions`](crate::assembly::MethodOptions)) gives its tensor; the studies
-    //! ([`buckling`](crate::study::buckling), [`cavity`](crate::study::cavity),
-    //! [`demo`](crate::study::demo), [`domain`](crate::study::domain)) run with their options
-    //! into their reports; with the `engines` feature, an engine runner (`Yade`, `Lammps`,
-    //! `Liggghts`) checks a problem through `validate`.
+    //! A packing ([`Packing`], [`read_packing`]) and a [`Model`] make an [`Assembly`] (its
+    //! [`BondSet`] and springs); a [`Method`] (by name: [`MethodKind`], with
+    //! [`MethodOptions`]) gives its tensor; the studies ([`buckling`], [`cavity`], [`demo`],
+    //! [`domain`]) run with their options into their reports; with the `engines` feature,
+    //! an engine runner (`Yade`, `Lammps`, `Liggghts`) checks a problem through `validate`.
 
     pub use crate::assembly::{
         Assembly, Detail, EqualSpheres, Method, MethodKind, MethodOptions, TensorResult,
