@@ -8,8 +8,10 @@
 //! the bonding workload (≈ 7–8 bonds per particle at gap 0.17 R̄) is that of a dense
 //! random packing without spending minutes generating one.
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, table, BondingRule};
-use anisobond::homogenize::relaxed::{
+use anisobond::bonds::{
+    assign_stiffness, build_bonds, write_bond_table, write_bond_table_to, BondingRule,
+};
+use anisobond::homogenize::{
     relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedSolver,
     DEFAULT_PARTICLES_PER_AGGREGATE,
 };
@@ -84,7 +86,7 @@ fn main() {
     let t_assign = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut buf = Vec::with_capacity(bonds.len() * 170);
-    table::write_bond_table_to(&mut buf, &bonds, &k).expect("format");
+    write_bond_table_to(&mut buf, &bonds, &k).expect("format");
     let t_format = t.elapsed().as_secs_f64();
     println!(
         "  formatting the CSV in memory: {t_format:.3} s ({:.1} MB)",
@@ -94,7 +96,7 @@ fn main() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("bonds.csv");
     let t = Instant::now();
-    table::write_bond_table(&path, &bonds, &k).expect("write");
+    write_bond_table(&path, &bonds, &k).expect("write");
     let t_write = t.elapsed().as_secs_f64();
     let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
     println!(

@@ -7,9 +7,9 @@
 //! Besides wall time it prints the CPU time of all threads (from /proc), which is less
 //! sensitive to other processes on a loaded machine.
 
-use anisobond::bonds::{rules::build_bonds, BondStiffness, BondingRule};
+use anisobond::bonds::{build_bonds, BondStiffness, BondingRule};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::packing::{generate, GenerateOptions};
 use anisobond::{Mat3, Vec3};
 use std::time::Instant;
 

@@ -9,10 +9,10 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::bonds::BondStiffness;
-use anisobond::homogenize::prestress::{prestressed_tensor, Prestress};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::{prestressed_tensor, Prestress};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
-use anisobond::packing::generate;
+use anisobond::packing::{generate, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH};
 use anisobond::schemes::Moments;
 use anisobond::tensor::{CubicProjection, Stiffness6};
 use anisobond::Result;
@@ -68,17 +68,17 @@ fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().map_or(8000, |s| s.parse().expect("PARTICLES"));
     let seed: u64 = args.next().map_or(1, |s| s.parse().expect("SEED"));
-    let opts = generate::GenerateOptions {
+    let opts = GenerateOptions {
         n_particles: n,
         solid_fraction: 0.60,
         mean_radius: 1e-3,
-        polydispersity: generate::Polydispersity::Uniform {
-            half_width: generate::TRUSZKOWSKA_2018_HALF_WIDTH,
+        polydispersity: Polydispersity::Uniform {
+            half_width: TRUSZKOWSKA_2018_HALF_WIDTH,
         },
         seed,
         ..Default::default()
     };
-    let packing = generate::generate(&opts, &|_| {})?;
+    let packing = generate(&opts, &|_| {})?;
     let a = Assembly::new(packing, Model::truszkowska_mrv())?;
     let (p, b) = (&a.packing, &a.bonds);
     let ro = RelaxedOptions::default();

@@ -4,10 +4,10 @@
 //!
 //! `cargo run --release --example kumar_coordination -- packing.txt [more.txt …]`
 
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::BondingRule;
-use anisobond::packing::io::read_packing;
-use anisobond::packing::routes::{scale_to_solid_fraction, KUMAR_2016_SOLID_FRACTION};
+use anisobond::packing::read_packing;
+use anisobond::packing::{scale_to_solid_fraction, KUMAR_2016_SOLID_FRACTION};
 use std::path::Path;
 
 fn main() -> anisobond::Result<()> {

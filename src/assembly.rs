@@ -23,6 +23,23 @@ use crate::{Error, Result};
 use std::path::Path;
 
 /// A bonded packing: the spheres, the model, the bonds its rule draws and every bond's springs.
+///
+/// A generated periodic packing bonded by Truszkowska 2018's MRV model, its tensor by two
+/// methods: the relaxed (static) solve lets the particles move off the affine field, so its
+/// C11 never exceeds the Voigt (affine) bound of the same springs.
+/// ```
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::packing::{generate, GenerateOptions};
+/// use anisobond::prelude::*;
+/// let packing = generate(&GenerateOptions { n_particles: 300, ..Default::default() }, &|_| {})?;
+/// let assembly = Assembly::new(packing, Model::truszkowska_mrv())?;
+/// println!("{} bonds", assembly.bonds.len());
+/// let voigt = assembly.tensor(&Method::Voigt)?.report.cubic.c11;
+/// let relaxed = assembly.tensor(&Method::relaxed())?.report.cubic.c11;
+/// assert!(0.0 < relaxed && relaxed <= voigt);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Clone, Debug)]
 pub struct Assembly {
     /// The spheres and their cell.
@@ -49,7 +66,7 @@ pub enum Method {
     Relaxed(RelaxedOptions),
     /// The relaxed tangent of the assembly under an isotropic preload of its central springs
     /// (compressive `pressure`, Pa): what an element test started from that confined state
-    /// measures ([`crate::homogenize::prestress`]; symmetric part).
+    /// measures ([`crate::homogenize::prestressed_tensor`]; symmetric part).
     Prestressed {
         /// Relaxed solver settings.
         options: RelaxedOptions,
@@ -397,7 +414,7 @@ impl Assembly {
     }
 
     /// The stiffness tensor by `method`, checked (finite, positive definite: see
-    /// [`crate::homogenize::report::check_result_tensor`]).
+    /// `crate::homogenize::report::check_result_tensor`).
     pub fn tensor(&self, method: &Method) -> Result<TensorResult> {
         self.tensor_with_progress(method, &|_| {})
     }
@@ -577,7 +594,7 @@ impl Assembly {
 
 /// The smallest ratio max|C_relaxed| / max|C_Voigt| taken as a result. The relaxed tensor
 /// lies below the Voigt (affine) one of the same bonds; orders of magnitude below it, the
-/// network carries no load across the cell ([`check_relaxed_scale`]).
+/// network carries no load across the cell (`check_relaxed_scale`).
 pub const RELAXED_TO_VOIGT_MIN: f64 = 1e-6;
 
 /// Refuse ([`Error::Degenerate`]) a relaxed tensor `c` whose largest entry is below

@@ -98,8 +98,9 @@ fn line_prefix(line: usize) -> String {
     }
 }
 
-/// Result with the library's [`Error`].
-pub type Result<T> = std::result::Result<T, Error>;
+/// Result with the library's [`Error`]; the error type can be given (`Result<T, E>`), so that
+/// `use anisobond::prelude::*` does not break a program's own two-parameter `Result`s.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
     /// A parse error at `line` (1-based) of `path`.
@@ -116,46 +117,6 @@ impl Error {
         Error::Io {
             path: path.as_ref().display().to_string(),
             source,
-        }
-    }
-
-    /// The same error naming the user's output paths where it names a hidden staging path of
-    /// [`crate::io`] (a write into `.anisobondXXXX.csv` failed: the user wrote `-o bonds.csv`).
-    pub fn with_user_paths(self) -> Self {
-        let path_of =
-            |p: String| crate::io::user_path(Path::new(&p)).map_or(p, |u| u.display().to_string());
-        let text = |m: String| crate::io::user_paths_in(&m);
-        match self {
-            Error::Io { path, source } => Error::Io {
-                path: path_of(path),
-                source,
-            },
-            Error::Parse {
-                path,
-                line,
-                message,
-            } => Error::Parse {
-                path: path_of(path),
-                line,
-                message: text(message),
-            },
-            Error::Model(m) => Error::Model(text(m)),
-            Error::Invalid(m) => Error::Invalid(text(m)),
-            Error::Degenerate(m) => Error::Degenerate(text(m)),
-            Error::NotConverged(m) => Error::NotConverged(text(m)),
-            Error::EngineFailed { engine, message } => Error::EngineFailed {
-                engine,
-                message: text(message),
-            },
-            Error::OutOfTolerance {
-                failed,
-                checks,
-                message,
-            } => Error::OutOfTolerance {
-                failed,
-                checks,
-                message: text(message),
-            },
         }
     }
 

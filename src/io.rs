@@ -88,6 +88,49 @@ pub(crate) fn user_paths_in(text: &str) -> String {
     out
 }
 
+// The error names the user's paths, not the staging paths: kept here, beside the staging
+// registry it reads, so that `error.rs` stays below this module.
+impl Error {
+    /// The same error naming the user's output paths where it names a hidden staging path of
+    /// this module (a write into `.anisobondXXXX.csv` failed: the user wrote `-o bonds.csv`).
+    pub fn with_user_paths(self) -> Self {
+        let path_of = |p: String| user_path(Path::new(&p)).map_or(p, |u| u.display().to_string());
+        let text = |m: String| user_paths_in(&m);
+        match self {
+            Error::Io { path, source } => Error::Io {
+                path: path_of(path),
+                source,
+            },
+            Error::Parse {
+                path,
+                line,
+                message,
+            } => Error::Parse {
+                path: path_of(path),
+                line,
+                message: text(message),
+            },
+            Error::Model(m) => Error::Model(text(m)),
+            Error::Invalid(m) => Error::Invalid(text(m)),
+            Error::Degenerate(m) => Error::Degenerate(text(m)),
+            Error::NotConverged(m) => Error::NotConverged(text(m)),
+            Error::EngineFailed { engine, message } => Error::EngineFailed {
+                engine,
+                message: text(message),
+            },
+            Error::OutOfTolerance {
+                failed,
+                checks,
+                message,
+            } => Error::OutOfTolerance {
+                failed,
+                checks,
+                message: text(message),
+            },
+        }
+    }
+}
+
 /// True when `path` exists and is neither a regular file nor a folder (a character or block
 /// device, a FIFO, a socket), links followed: such a target is written into, not replaced.
 fn is_special(path: &Path) -> bool {

@@ -1,4 +1,5 @@
 #![warn(missing_docs)]
+#![warn(unnameable_types)]
 //! # anisobond
 //!
 //! Bonded-particle DEM models of *anisotropic* elastic solids.
@@ -19,8 +20,8 @@
 //! # fn main() -> anisobond::Result<()> {
 //! # let dir = tempfile::tempdir().unwrap();
 //! # let path = dir.path().join("packing.txt");
-//! # let opts = anisobond::packing::generate::GenerateOptions { n_particles: 300, ..Default::default() };
-//! # anisobond::packing::io::write_packing(&path, &anisobond::packing::generate::generate(&opts, &|_| {})?)?;
+//! # let opts = anisobond::packing::GenerateOptions { n_particles: 300, ..Default::default() };
+//! # anisobond::packing::write_packing(&path, &anisobond::packing::generate(&opts, &|_| {})?)?;
 //! use anisobond::prelude::*;
 //! let packing = read_packing(&path)?;
 //! let assembly = Assembly::new(packing, Model::truszkowska_mrv())?;
@@ -50,6 +51,7 @@ pub mod packing;
 #[cfg(feature = "plot")]
 pub mod plot;
 #[cfg(feature = "python")]
+#[allow(unnameable_types)] // its pyo3 classes are named from Python, not from Rust
 pub mod python;
 pub mod schemes;
 pub mod specimen;
@@ -62,16 +64,37 @@ pub mod validate;
 pub use assembly::{Assembly, Method};
 pub use error::{Error, Result};
 
-/// The names most programs need: `use anisobond::prelude::*;`.
 pub mod prelude {
-    pub use crate::assembly::{Assembly, Detail, Method, TensorResult};
-    pub use crate::homogenize::relaxed::RelaxedOptions;
-    pub use crate::homogenize::report::TensorReport;
-    pub use crate::model::Model;
-    pub use crate::packing::io::{read_packing, write_packing};
-    pub use crate::packing::Packing;
+    //! The names a program starts from: `use anisobond::prelude::*;`.
+    //!
+    //! A packing ([`Packing`], [`read_packing`]) and a [`Model`] make an [`Assembly`] (its
+    //! [`BondSet`] and springs); a [`Method`] (by name: [`MethodKind`], with
+    //! [`MethodOptions`]) gives its tensor; the studies ([`buckling`], [`cavity`], [`demo`],
+    //! [`domain`]) run with their options into their reports; with the `engines` feature,
+    //! an engine runner (`Yade`, `Lammps`, `Liggghts`) checks a problem through `validate`.
+
+    pub use crate::assembly::{
+        Assembly, Detail, EqualSpheres, Method, MethodKind, MethodOptions, TensorResult,
+    };
+    pub use crate::bonds::{BondSet, BondStiffness, BondingRule};
+    pub use crate::calibrate::DomainOptions;
+    pub use crate::homogenize::{RelaxedOptions, TensorReport};
+    pub use crate::model::{Model, SchemeSpec};
+    pub use crate::names::Named;
+    pub use crate::packing::{read_packing, write_packing, Packing, PeriodicCell};
+    pub use crate::schemes::SchemeKind;
+    pub use crate::study::buckling::{self, BucklingReport, BucklingStudyOptions};
+    pub use crate::study::cavity::{self, CavityReport, CavityStudyOptions};
+    pub use crate::study::demo::{self, DemoOptions, DemoReport};
+    pub use crate::study::domain::{self, DomainOn, DomainReport};
+    pub use crate::study::OptionNames;
     pub use crate::tensor::{Stiffness6, Voigt6};
-    pub use crate::{Error, Mat3, Vec3};
+    #[cfg(feature = "engines")]
+    pub use crate::validate::{
+        lammps::Lammps, liggghts::Liggghts, validate, validate_specimen, yade::Yade, Engine,
+        Problem, TestKind, Tolerances,
+    };
+    pub use crate::{Error, Mat3, Result, Vec3};
 }
 
 /// 3-vector of `f64` (positions in m, unit normals, …).

@@ -1,20 +1,29 @@
 //! Bonds: which pairs of spheres are glued, with the branch vector of each.
 //!
 //! A bond joins spheres `i < j` (0-based, packing order); its normal points from `i` to the
-//! periodic image of `j` (SPEC). [`rules`] decides which pairs are bonded (gap, factor,
-//! target coordination); [`stiffness`] assigns each bond its springs from a scheme;
-//! [`table`] reads and writes the SPEC bond table CSV.
+//! periodic image of `j` (SPEC). `rules.rs` decides which pairs are bonded (gap, factor,
+//! target coordination); `stiffness.rs` assigns each bond its springs from a scheme;
+//! `table.rs` reads and writes the SPEC bond table CSV.
 
-pub mod rules;
-pub mod stiffness;
-pub mod table;
-pub mod types;
+pub(crate) mod rules;
+pub(crate) mod stiffness;
+pub(crate) mod table;
+pub(crate) mod types;
 
 use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
 
 pub use rules::BondingRule;
+pub use rules::{build_bonds, coordination_gap, COORDINATION_MAX_GAP};
 pub use stiffness::{assign_stiffness, lattice_scaling, BondStiffness};
+pub use table::{
+    check_against_packing, parse_bond_table, parse_bond_table_lines, read_bond_table,
+    read_bond_table_atom_ids, read_bond_table_of, write_bond_table, write_bond_table_columns_to,
+    write_bond_table_ids_to, write_bond_table_to, write_bond_table_with_columns,
+    write_bond_table_with_ids, TableWithIds,
+};
+pub use types::sensitivity_weights;
+pub use types::{affine_weights, quantise, quantise_weighted, spring_errors, BondTypes};
 
 /// The bonds of a packing, structure of arrays (one entry per bond in every vector).
 #[derive(Clone, Debug, Default, PartialEq)]

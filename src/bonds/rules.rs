@@ -46,7 +46,7 @@ pub const COORDINATION_MAX_GAP: f64 = 1.0;
 ///   the discrete counts allow (see [`coordination_gap`]).
 ///
 /// Errors on a value that is not finite and > 0, on coincident spheres (a bond needs a
-/// non-zero branch vector) and on near-coincident ones (see [`NEAR_COINCIDENT_FRACTION`]).
+/// non-zero branch vector) and on near-coincident ones (see `NEAR_COINCIDENT_FRACTION`).
 pub fn build_bonds(packing: &Packing, rule: BondingRule) -> Result<BondSet> {
     let pairs = match rule {
         BondingRule::Gap(g) => {

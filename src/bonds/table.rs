@@ -248,7 +248,7 @@ pub const BRANCH_TOLERANCE: f64 = 1e-6;
 /// Check every row (on `lines` of the table `name`) against `packing`: the particle
 /// indices exist, and the branch vector n·length equals the one from i to the image
 /// (ix,iy,iz) of j among the packing's positions as given ([`Packing::given_positions`])
-/// within [`BRANCH_TOLERANCE`]·length, so that normals (direction and sign), lengths and
+/// within `BRANCH_TOLERANCE`·length, so that normals (direction and sign), lengths and
 /// images are those of this packing. The images are then converted to the stored
 /// (wrapped) positions. Refusals name the file, the line and what was expected.
 pub fn check_against_packing(

@@ -771,10 +771,10 @@ fn check_magnitude(name: &str, v: f64) -> Result<()> {
 
 /// Mean-field calibration (no packing).
 ///
-/// `prefactor` = N_c⟨l²·g⟩/V of the assembly ([`packing_prefactor`], or
+/// `prefactor` = N_c⟨l²·g⟩/V of the assembly (`packing_prefactor`, or
 /// [`crate::homogenize::mean_field::equal_sphere_prefactor`] × g); `default_normal` is the
 /// normal magnitude used when the target gives ratios only. The achieved tensor is
-/// recomputed with the general mean-field integral ([`mean_field`]) as a check.
+/// recomputed with the general mean-field integral ([`crate::homogenize::mean_field()`]) as a check.
 pub fn calibrate_cubic_mean_field(
     target: &CubicTarget,
     prefactor: f64,

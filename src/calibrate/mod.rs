@@ -1,30 +1,36 @@
 //! Calibration: the scheme parameters that reproduce a target stiffness tensor.
 //!
-//! - [`target`]: the `--target` text (`C11=…,C12=…,C44=…`, `C12/C11=0.30,C44/C11=0.43`, or
+//! - `target.rs`: the `--target` text (`C11=…,C12=…,C44=…`, `C12/C11=0.30,C44/C11=0.43`, or
 //!   the cross-anisotropic `C11=…,C33=…,C13=…,C12=…`).
 //! - `broyden` (private): the damped Broyden iteration both relaxed calibrations use (Broyden 1965).
-//! - [`kernel`]: the mean-field cubic constants of the spheroid scheme as fast 1-D orientation
+//! - `kernel.rs`: the mean-field cubic constants of the spheroid scheme as fast 1-D orientation
 //!   integrals (Truszkowska 2018 App. A, reduced by the cubic symmetry).
-//! - [`cubic`]: cubic calibration, at the mean-field level and on a packing with the relaxed
+//! - `cubic.rs`: cubic calibration, at the mean-field level and on a packing with the relaxed
 //!   solver; the parameter set nearest a_n = a_s = 1 (Truszkowska 2018 Sec. 6.3).
-//! - [`cross`]: cross-anisotropic calibration on a packing: the target written into the model
+//! - `cross.rs`: cross-anisotropic calibration on a packing: the target written into the model
 //!   is corrected until the *relaxed* tensor matches (Šmilauer's Voigt inversion is soft).
-//! - [`warm`]: the relaxed solver with a warm start, reused across calibration iterations.
-//! - [`domain`]: sampling of the accessible domain (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a).
+//! - `warm.rs`: the relaxed solver with a warm start, reused across calibration iterations.
+//! - `domain.rs`: sampling of the accessible domain (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a).
 
 mod broyden;
-pub mod cross;
-pub mod cubic;
-pub mod domain;
-pub mod kernel;
-pub mod target;
-pub mod warm;
+pub(crate) mod cross;
+pub(crate) mod cubic;
+pub(crate) mod domain;
+pub(crate) mod kernel;
+pub(crate) mod target;
+pub(crate) mod warm;
 
+pub use cross::CrossOptions;
 pub use cross::{calibrate_cross_relaxed, CrossCalibration};
+pub use cubic::IterationRecord;
+pub use cubic::Level;
 pub use cubic::{
     calibrate_cubic_mean_field, calibrate_cubic_relaxed, CubicCalibration, CubicOptions,
     CubicParameters, Family,
 };
+pub use domain::{log_normalised, sample_mean_field, DomainOptions, DomainSample};
+pub use kernel::Cubic3;
+pub use kernel::CubicKernel;
 pub use target::{CubicTarget, Target};
 
 /// Refuse iteration settings of a relaxed calibration that would make "calibrated" meaningless:

@@ -18,12 +18,17 @@
 //! p·2πa·L_z in magnitude (a sphere's resultant is shorter than the sum of its tiles' by the
 //! spread of their directions).
 //!
-//! [`statics`] solves the linear equilibrium on the relaxed solver's block-sparse stiffness;
+//! `statics.rs` solves the linear equilibrium on the relaxed solver's block-sparse stiffness;
 //! [`lame_wall_displacement`] is the continuum reference.
 
-pub mod continuum;
-pub mod dynamics;
-pub mod statics;
+pub(crate) mod continuum;
+pub(crate) mod dynamics;
+pub(crate) mod statics;
+
+pub use continuum::ContinuumCavity;
+pub use continuum::{solve_annulus, AnnulusMesh};
+pub use dynamics::{WaveOptions, WaveRun};
+pub use statics::{StaticCavity, StaticComparison, WallBin};
 
 use crate::assembly::Assembly;
 use crate::bonds::{rules::build_bonds, BondSet, BondStiffness};

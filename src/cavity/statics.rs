@@ -36,7 +36,7 @@ pub struct StaticCavity {
 impl Cavity {
     /// Solve the linear static problem for pressure `pressure` (Pa, > 0 pushes the wall
     /// outward). Errors when the free network has a global mechanism (factorisation fails)
-    /// or the residual exceeds [`RESIDUAL_LIMIT`].
+    /// or the residual exceeds `RESIDUAL_LIMIT`.
     pub fn solve_static(&self, pressure: f64) -> Result<StaticCavity> {
         if !(pressure.is_finite() && pressure != 0.0) {
             return Err(Error::Invalid(format!(
@@ -177,7 +177,7 @@ pub struct WallBin {
 }
 
 /// The static solution beside its continuum references: Lamé with the tensor's isotropic
-/// projection, and the anisotropic continuum of the full tensor ([`super::continuum`]).
+/// projection, and the anisotropic continuum of the full tensor (`continuum.rs`).
 #[derive(Clone, Debug)]
 pub struct StaticComparison {
     /// The bonded slab's solution.

@@ -4,7 +4,7 @@
 
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing::routes::PreparationRoute;
+use anisobond::packing::PreparationRoute;
 use anisobond::study::buckling::{
     run as run_study, BarPreparation, BarRow, BucklingProgress, BucklingStudyOptions,
     DEFAULT_ROUTES, DEFAULT_SLENDERNESS,

@@ -3,13 +3,12 @@
 
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
-use anisobond::calibrate::cubic::{CubicCalibration, CubicOptions, Family, Level};
-use anisobond::calibrate::target::{CubicTarget, Target};
 use anisobond::calibrate::{calibrate, CalibrateOn, Calibration, CrossCalibration};
-use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::calibrate::{CubicCalibration, CubicOptions, CubicTarget, Family, Level, Target};
+use anisobond::homogenize::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::schemes::cubic::CubicModel;
+use anisobond::schemes::CubicModel;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};

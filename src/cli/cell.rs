@@ -4,9 +4,7 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::packing::io::{
-    read_packing_as, CellChoice, CellOptionNames, DataBonds, PackingRead,
-};
+use anisobond::packing::{read_packing_as, CellChoice, CellOptionNames, DataBonds, PackingRead};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::{Error, Result, Vec3};
 use std::path::{Path, PathBuf};

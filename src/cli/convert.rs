@@ -4,7 +4,7 @@
 
 use super::cell;
 use anisobond::io::OutputSet;
-use anisobond::packing::io::{write_liggghts_data_with_ids, write_packing, write_yade_spherepack};
+use anisobond::packing::{write_liggghts_data_with_ids, write_packing, write_yade_spherepack};
 use anisobond::{Error, Result};
 use clap::ValueEnum;
 use std::path::PathBuf;

@@ -4,8 +4,8 @@
 //! calls and prints.
 
 use anisobond::assembly::Assembly;
-use anisobond::calibrate::domain::DomainOptions;
-use anisobond::calibrate::target::Target;
+use anisobond::calibrate::DomainOptions;
+use anisobond::calibrate::Target;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::study::domain::{run as run_study, DomainOn, DomainReport};

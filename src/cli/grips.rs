@@ -3,9 +3,8 @@
 //! Eq. 27 tensor and the Table 3 strain-heterogeneity metric.
 
 use super::run::{check_positive, IntegratorArgs};
-use anisobond::dem::grips::{GrippedOptions, GrippedTensor};
-use anisobond::dem::measure::MeasureOptions;
-use anisobond::homogenize::report::TensorReport;
+use anisobond::dem::{GrippedOptions, GrippedTensor, MeasureOptions};
+use anisobond::homogenize::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use std::path::PathBuf;

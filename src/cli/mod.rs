@@ -22,13 +22,14 @@ mod stress_test;
 mod validate;
 mod validate_lammps;
 mod validate_liggghts;
+mod validate_specimen;
 
 use anisobond::assembly::{Assembly, Detail, EqualSpheres, MethodKind, MethodOptions};
-use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{
+use anisobond::homogenize::LeverArm;
+use anisobond::homogenize::TensorReport;
+use anisobond::homogenize::{
     CgPreconditioner, RelaxedOptions, RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
 };
-use anisobond::homogenize::report::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::names::Named;

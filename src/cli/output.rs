@@ -1,6 +1,6 @@
 //! Printing and file helpers of the CLI: tables in GPa, JSON files, progress bars.
 
-use anisobond::homogenize::report::{CubicSummary, TensorReport};
+use anisobond::homogenize::{CubicSummary, TensorReport};
 use anisobond::tensor::CubicUncertainty;
 use anisobond::Result;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -2,16 +2,16 @@
 //! generation or by one of Kumar 2016's three preparation routes, with presets for both
 //! papers' standard assemblies.
 
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::BondingRule;
 use anisobond::io::OutputSet;
-use anisobond::packing::generate::{generate_with_report, GenerateOptions, Polydispersity};
 use anisobond::packing::presets::{self, Route, TRUSZKOWSKA_STANDARD_GAP};
-use anisobond::packing::routes::{
+use anisobond::packing::{self, Packing};
+use anisobond::packing::{generate_with_report, GenerateOptions, Polydispersity};
+use anisobond::packing::{
     prepare_with_status, ForceBalance, PreparationRoute, RouteOptions, RouteStage, RouteStatus,
     DEFAULT_JAMMING_BALANCE,
 };
-use anisobond::packing::{self, Packing};
 use anisobond::{Error, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -236,7 +236,7 @@ pub fn run(a: PackArgs) -> Result<()> {
     };
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    packing::io::write_packing(&staged, &p)?;
+    packing::write_packing(&staged, &p)?;
     out.commit()?;
     let l = p.cell.map(|c| c.lengths).unwrap_or_default();
     println!(

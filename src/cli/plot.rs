@@ -3,7 +3,7 @@
 
 use anisobond::assembly::Assembly;
 use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
-use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::homogenize::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
 use anisobond::plot::{plot_stiffness_sections, Section};

@@ -3,9 +3,9 @@
 //! behind `anisobond tensor --method dynamic`.
 
 use anisobond::assembly::Assembly;
-use anisobond::dem::element::{self, ElementTestOptions};
 use anisobond::dem::{DemOptions, LawKind, MassOptions};
-use anisobond::homogenize::report::TensorReport;
+use anisobond::dem::{DynamicTensor, ElementTestOptions};
+use anisobond::homogenize::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use clap::ValueEnum;
@@ -225,7 +225,7 @@ pub fn element_options(a: &IntegratorArgs, history: bool) -> ElementTestOptions 
 /// PNG of the loaded stress component against step for every element-test path.
 pub fn plot_element_tests(
     path: &std::path::Path,
-    result: &element::DynamicTensor,
+    result: &DynamicTensor,
     a: &IntegratorArgs,
 ) -> Result<()> {
     anisobond::plot::plot_element_tests(path, result, a.strain, a.damping)
@@ -236,7 +236,7 @@ pub fn run_element_tests(
     asm: &Assembly,
     a: &IntegratorArgs,
     history: bool,
-) -> Result<element::DynamicTensor> {
+) -> Result<DynamicTensor> {
     a.validate()?;
     let opts = element_options(a, history);
     let bar = super::output::progress_bar("element tests");
@@ -250,7 +250,7 @@ pub fn run_element_tests(
 }
 
 /// The time step used and the weakly bonded particles of an element-test run (stderr).
-pub fn print_stability(result: &element::DynamicTensor) {
+pub fn print_stability(result: &DynamicTensor) {
     let st = &result.stability;
     if !st.one_bond_particles.is_empty() || !st.two_bond_particles.is_empty() {
         eprintln!(

@@ -5,10 +5,10 @@
 //! orthotropic tensor as a SPEC JSON report.
 
 use super::run::{check_damping, check_max_steps, check_positive, LawArg, StepArgs};
-use anisobond::dem::equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
-use anisobond::dem::servo::ServoOptions;
-use anisobond::dem::stress_tests::{StressControlledResult, StressTestOptions};
-use anisobond::homogenize::report::TensorReport;
+use anisobond::dem::{
+    ServoOptions, StressControlledResult, StressTestOptions, DEFAULT_UNBALANCED_TOLERANCE,
+};
+use anisobond::homogenize::TensorReport;
 use anisobond::io::OutputSet;
 use anisobond::{Error, Result};
 use std::path::PathBuf;

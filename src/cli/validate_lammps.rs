@@ -29,7 +29,7 @@ pub struct Args {
     pub bonds: super::export_lammps::BondArgs,
     /// The specimen test instead of the element tests.
     #[command(flatten)]
-    pub specimen: super::validate::SpecimenFlags,
+    pub specimen: super::validate_specimen::SpecimenFlags,
 }
 
 impl Args {

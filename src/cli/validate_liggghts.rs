@@ -50,7 +50,7 @@ pub struct Args {
     pub tensor_tolerance: f64,
     /// The specimen test instead of the element tests.
     #[command(flatten)]
-    pub specimen: super::validate::SpecimenFlags,
+    pub specimen: super::validate_specimen::SpecimenFlags,
 }
 
 fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {

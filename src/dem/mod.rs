@@ -2,34 +2,54 @@
 //! gradient (or free), four bond laws, Cundall local and viscous bond damping, the Love
 //! stress, energies, and the element tests that measure the 6×6 stiffness dynamically.
 //!
-//! - [`state`]: structure-of-arrays particles, the deforming cell, bond topology + CSR.
-//! - [`laws`]: the [`laws::BondLaw`] trait and laws (a) YADE cohesive, (b) parallel bond,
+//! - `state.rs`: structure-of-arrays particles, the deforming cell, bond topology + CSR.
+//! - [`laws`]: the [`BondLaw`] trait and laws (a) YADE cohesive, (b) parallel bond,
 //!   (c) Kumar 2016, (d) LAMMPS bpm/rotational.
-//! - [`sim`]: [`sim::Simulation`], YADE's NewtonIntegrator step by step.
-//! - [`element`]: six strain paths → Truszkowska 2018 Eq. 27 → C.
-//! - [`equilibrium`]: the stop rule of every damped relaxation (unbalanced force/torque).
-//! - [`buckling`]: quasi-static compression of a clamped bar (Kumar 2016 Sec. 5).
+//! - `sim.rs`: [`Simulation`], YADE's NewtonIntegrator step by step.
+//! - `element.rs`: six strain paths → Truszkowska 2018 Eq. 27 → C.
+//! - `equilibrium.rs`: the stop rule of every damped relaxation (unbalanced force/torque).
+//! - `buckling.rs`: quasi-static compression of a clamped bar (Kumar 2016 Sec. 5).
 //!
 //! Every parallel loop writes per-item results and every reduction sums fixed chunks in
 //! order, so a history is bit-for-bit the same on any number of threads.
 
-pub mod buckling;
-pub mod element;
-pub mod equilibrium;
-pub mod grips;
+pub(crate) mod buckling;
+pub(crate) mod element;
+pub(crate) mod equilibrium;
+pub(crate) mod grips;
 pub mod laws;
-pub mod measure;
+pub(crate) mod measure;
 #[cfg(target_arch = "x86_64")]
 mod particle_lanes;
-pub mod quat;
-pub mod servo;
-pub mod sim;
-pub mod state;
-pub mod stress_tests;
+pub(crate) mod quat;
+pub(crate) mod servo;
+pub(crate) mod sim;
+pub(crate) mod state;
+pub(crate) mod stress_tests;
 
+pub use buckling::{compress_clamped_bar, CompressionOptions, Loading};
+pub use buckling::{CompressionPoint, CompressionResult};
+pub use element::{dynamic_tensor, path_gradient, relax_path, to_voigt, ElementTestOptions};
+pub use element::{DynamicTensor, ElementRecord, PathResult};
+pub use equilibrium::Unbalance;
+pub use equilibrium::DEFAULT_UNBALANCED_TOLERANCE;
+pub use grips::{grip_motion, gripped_setup, gripped_tensor, GrippedOptions, GrippedTensor};
+pub use grips::{GrippedBlock, GrippedPath, GrippedSetup, Heterogeneity};
 pub use laws::BondLaw;
+pub use measure::{MeasureOptions, StrainIntegrator};
+pub use measure::{MeasurementSphere, MeasurementSpheres};
+pub use quat::Quat;
+pub use servo::ServoOutcome;
+pub use servo::{servo_until_converged, ComponentControl, ServoOptions, StressServo};
+pub use sim::PrescribedMotion;
 pub use sim::{DemOptions, Energies, ExternalForces, Simulation, StabilityReport};
+pub use state::{BondLoad, BondLoads, BondTopology, DeformingCell};
 pub use state::{MassOptions, Particles};
+pub use stress_tests::{
+    expected_test_constants, stiffness_from_tests, stress_controlled_tensor,
+    transversely_isotropic, StressTestOptions,
+};
+pub use stress_tests::{ShearTest, StressControlledResult, UniaxialTest};
 
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;

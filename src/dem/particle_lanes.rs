@@ -6,7 +6,7 @@ use super::laws::lanes::{
     abs, add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
 };
 use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
-use super::sim::UpdateConsts;
+use super::state::UpdateConsts;
 use crate::{Mat3, Vec3};
 
 /// M·x for a matrix shared by all lanes, in nalgebra's order ((m₀·x + m₁·y) + m₂·z).

@@ -121,7 +121,7 @@ pub struct StressServo {
 
 impl StressServo {
     /// A servo for `sim` (periodic) with the given controls; the gain matrix is the affine
-    /// stiffness of `sim`'s bonds now ([`affine_stiffness`]). Errors on a free assembly, a
+    /// stiffness of `sim`'s bonds now (`affine_stiffness`). Errors on a free assembly, a
     /// non-finite control, a gain outside (0, 1], a non-positive increment limit, or an
     /// assembly whose affine stiffness is singular on the controlled components.
     pub fn new(

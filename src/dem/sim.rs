@@ -6,28 +6,13 @@ use super::laws::{BondContext, BondLaw};
 use super::quat::{spin_factors, Quat};
 use super::state::{
     deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions,
-    Particles,
+    Particles, UpdateConsts,
 };
 use crate::bonds::BondSet;
 use crate::homogenize::network::{self, LeverArm};
 use crate::packing::Packing;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
-
-/// Per-step constants of the particle update.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct UpdateConsts {
-    pub(crate) dt: f64,
-    /// Cundall local damping λ.
-    pub(crate) lambda: f64,
-    pub(crate) periodic: bool,
-    /// The cell's previous velocity gradient (YADE `prevVelGrad`).
-    pub(crate) prev_l: Mat3,
-    /// Change of the velocity gradient since the last step.
-    pub(crate) dl: Mat3,
-    /// Spin increment from the antisymmetric part of `dl`.
-    pub(crate) dspin: Vec3,
-}
 
 /// One particle of YADE's NewtonIntegrator: Cundall damping on the fluctuating velocity,
 /// leapfrog of translation and rotation, the periodic cell's affine terms, the spin

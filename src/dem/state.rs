@@ -305,3 +305,18 @@ pub fn deterministic_sum_mat3<F: Fn(usize) -> Mat3 + Sync>(n: usize, f: F) -> Ma
         .collect();
     parts.into_iter().fold(Mat3::zeros(), |a, b| a + b)
 }
+
+/// Per-step constants of the particle update.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct UpdateConsts {
+    pub(crate) dt: f64,
+    /// Cundall local damping λ.
+    pub(crate) lambda: f64,
+    pub(crate) periodic: bool,
+    /// The cell's previous velocity gradient (YADE `prevVelGrad`).
+    pub(crate) prev_l: Mat3,
+    /// Change of the velocity gradient since the last step.
+    pub(crate) dl: Mat3,
+    /// Spin increment from the antisymmetric part of `dl`.
+    pub(crate) dspin: Vec3,
+}

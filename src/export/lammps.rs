@@ -16,7 +16,7 @@
 //! the bridge; same element tests, same quasi-static tensor.
 //!
 //! With [`LammpsOptions::types`] = Some(K) the springs are instead quantised into at most K
-//! bond types ([`crate::bonds::types`]) and the export reports what that costs
+//! bond types ([`crate::bonds::quantise`]) and the export reports what that costs
 //! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
 //! quantised network against the exact one, and each spring's largest relative error.
 
@@ -69,7 +69,7 @@ pub struct LammpsOptions {
     /// Time step as a fraction of the single-particle stable step.
     pub safety: f64,
     /// None: one bond type per bond, every bond's springs exact (route a). Some(K): the
-    /// springs quantised into at most K types ([`crate::bonds::types`]), the tensor error
+    /// springs quantised into at most K types ([`crate::bonds::quantise`]), the tensor error
     /// reported ([`TypesReport`]).
     pub types: Option<usize>,
     /// The deck's bond style.
@@ -303,7 +303,7 @@ impl TypesReport {
 }
 
 /// Quantise the springs of `bonds` into at most `max_types` bond types
-/// ([`crate::bonds::types`]) and measure the cost: the relaxed tensors (midpoint lever arm,
+/// ([`crate::bonds::quantise`]) and measure the cost: the relaxed tensors (midpoint lever arm,
 /// CG to 1e-10) of the quantised and the exact network, their Voigt sums and the springs'
 /// relative errors. Unless that is exact, the clustering is run with the affine weights
 /// ([`crate::bonds::types::quantise`]) and with the relaxed deformations of the exact network

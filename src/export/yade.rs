@@ -740,6 +740,10 @@ mod tests {
                 ..Default::default()
             },
             YadeRunOptions {
+                stress_volume: Some(0.0),
+                ..Default::default()
+            },
+            YadeRunOptions {
                 paths: vec![6],
                 ..Default::default()
             },
@@ -759,6 +763,7 @@ mod tests {
             time_step: Some(3e-8),
             safety: 0.5,
             paths: vec![3, 0],
+            stress_volume: Some(2.5e-7),
         };
         let s = run_script(&o, 10, 20);
         for want in [
@@ -769,6 +774,7 @@ mod tests {
             "\"--dt\", \"3e-8\"",
             "\"--safety\", \"0.5\"",
             "\"--paths\", \"23,11\"",
+            "\"--stress-volume\", \"2.5e-7\"",
             "anisobond_yade.main(DEFAULTS + sys.argv[1:])",
         ] {
             assert!(s.contains(want), "run.py lacks {want}:\n{s}");

@@ -119,7 +119,7 @@ pub const MAX_TOLERANCE: f64 = 1e-4;
 pub const MIN_TOLERANCE: f64 = 1e-12;
 
 impl BucklingOptions {
-    /// Refuse a tolerance outside [[`MIN_TOLERANCE`], [`MAX_TOLERANCE`]] (or not a number)
+    /// Refuse a tolerance outside `[MIN_TOLERANCE, MAX_TOLERANCE]` (or not a number)
     /// and a zero iteration limit, naming the range and why.
     pub fn check(&self) -> Result<()> {
         if !(MIN_TOLERANCE..=MAX_TOLERANCE).contains(&self.tolerance) {
@@ -198,7 +198,7 @@ pub struct BucklingResult {
     pub transverse_stiffness: f64,
     /// Share of the axial Love stress Σ(f·a)(l·a) carried by the bonds' normal forces,
     /// Σ N(n·a)(l·a) over it: the part of the pre-stress the geometric stiffness sees (the
-    /// rest, carried by shear forces, is neglected, [`super::geometric`]).
+    /// rest, carried by shear forces, is neglected, `geometric.rs`).
     pub normal_force_share: f64,
     /// Bonds in compression in the pre-buckling state.
     pub compressed_bonds: usize,

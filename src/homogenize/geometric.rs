@@ -14,18 +14,10 @@
 //! forces of the random network have no mean along the load, so the leading, stress-resultant
 //! part of the initial-stress stiffness is the axial one (the continuum's σ₀:∇δu·∇δu term).
 
-use super::network::{Block6, Network};
+use super::network::{bond_geometric_stiffness, Block6, Network};
 use super::sparse::BlockSparse;
 use crate::bonds::BondSet;
-use crate::{Error, Mat3, Result, Vec3};
-
-/// G = (N/|l|)(I − n⊗n): the geometric stiffness (N/m) of one bond on the relative
-/// translation u_j − u_i, for the bond force `force` (its axial part N = force·n counts; N > 0
-/// is tension) and unit normal `normal` at centre distance `length` (m).
-pub fn bond_geometric_stiffness(force: &Vec3, normal: &Vec3, length: f64) -> Mat3 {
-    let axial = force.dot(normal);
-    (Mat3::identity() - normal * normal.transpose()) * (axial / length)
-}
+use crate::{Error, Result, Vec3};
 
 /// The geometric stiffness matrix K_g of a network (same nodes and block layout as
 /// [`BlockSparse::assemble`] of it) under the bond forces `forces`, one per bond of `bonds`

@@ -358,10 +358,10 @@ pub const MEAN_FIELD_TOLERANCE: f64 = 1e-10;
 /// Highest quadrature order [`mean_field_converged`] tries.
 pub const MAX_ORDER: usize = 576;
 
-/// [`mean_field`] to [`MEAN_FIELD_TOLERANCE`]: from [`DEFAULT_ORDER`] the order is doubled
+/// [`mean_field`] to `MEAN_FIELD_TOLERANCE`: from [`DEFAULT_ORDER`] the order is doubled
 /// until two successive orders agree (sharp spheroids, a_n or a_s far from 1, need more than
 /// the default: a_s = 0.03 breaks cubic symmetry by 3e-4 at order 18). Refuses, with the
-/// accuracy reached, when [`MAX_ORDER`] is not enough.
+/// accuracy reached, when `MAX_ORDER` is not enough.
 pub fn mean_field_converged(scheme: &dyn StiffnessScheme, prefactor: f64) -> Result<Stiffness6> {
     let mut order = DEFAULT_ORDER;
     let mut c = mean_field(scheme, prefactor, order);

@@ -1,29 +1,58 @@
 //! From per-bond springs to the assembly's 6×6 stiffness tensor.
 //!
-//! - [`mean_field`]: the continuous orientation integral (Truszkowska 2018 App. A;
+//! - `mean_field.rs`: the continuous orientation integral (Truszkowska 2018 App. A;
 //!   Šmilauer's microplane integral), no packing needed.
-//! - [`voigt`]: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
-//! - [`relaxed`]: the exact quasi-static tensor from one sparse equilibrium solve.
-//! - [`laf`]: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
-//! - [`cholesky`], [`two_level`]: the relaxed solve's direct solver and CG preconditioner.
-//! - [`network`]: the linearised bond network the last two share.
-//! - [`geometric`]: the initial-stress stiffness of a pre-loaded network;
-//!   [`buckling`]: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
-//! - [`prestress`]: the tangent of an assembly deformed from a loaded state (geometric terms).
-//! - [`report`]: the SPEC tensor report (JSON).
+//! - `voigt.rs`: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
+//! - `relaxed.rs`: the exact quasi-static tensor from one sparse equilibrium solve.
+//! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
+//! - `cholesky.rs`, `two_level.rs`: the relaxed solve's direct solver and CG preconditioner.
+//! - `network.rs`: the linearised bond network the last two share.
+//! - `geometric.rs`: the initial-stress stiffness of a pre-loaded network;
+//!   `buckling.rs`: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
+//! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
+//! - `report.rs`: the SPEC tensor report (JSON).
 
-pub mod buckling;
-pub mod cholesky;
-pub mod geometric;
-pub mod laf;
-pub mod mean_field;
-pub mod network;
-pub mod prestress;
-pub mod relaxed;
-pub mod report;
-pub mod sparse;
-pub mod two_level;
-pub mod voigt;
+pub(crate) mod buckling;
+pub(crate) mod cholesky;
+pub(crate) mod geometric;
+pub(crate) mod laf;
+pub(crate) mod mean_field;
+pub(crate) mod network;
+pub(crate) mod prestress;
+pub(crate) mod relaxed;
+pub(crate) mod report;
+pub(crate) mod sparse;
+pub(crate) mod two_level;
+pub(crate) mod voigt;
+
+pub use buckling::UpdatedGeometryResult;
+pub use buckling::{
+    clamped_bar_buckling, euler_stress, extensible_stress, mazzilli_stress, BucklingOptions,
+    BucklingResult, ClampedBar, PreBuckling, RoundBar,
+};
+pub use cholesky::BlockCholesky;
+pub use geometric::geometric_stiffness;
+pub use laf::laf_tensor;
+pub use laf::LafResult;
+pub use mean_field::mean_field;
+pub use mean_field::{
+    equal_sphere_prefactor, mean_field_converged, orientation_average, SphereQuadrature,
+    DEFAULT_ORDER,
+};
+pub use network::bond_geometric_stiffness;
+pub use network::{Element, NullSpaceReport};
+pub use network::{LeverArm, Network};
+pub use prestress::PrestressedTensor;
+pub use prestress::{prestressed_tensor, stress_measure_correction, Prestress};
+pub use relaxed::{
+    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedResult, RelaxedSolver,
+    DEFAULT_PARTICLES_PER_AGGREGATE,
+};
+pub use report::Uncertainty;
+pub use report::{CubicSummary, TensorReport};
+pub use sparse::BlockSparse;
+pub use two_level::TwoLevel;
+pub use voigt::voigt_tensor;
 
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
 use crate::Vec3;

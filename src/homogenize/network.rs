@@ -183,13 +183,21 @@ pub fn element(law: &BondLaw, rotations: bool) -> Element {
     }
 }
 
+/// G = (N/|l|)(I − n⊗n): the geometric stiffness (N/m) of one bond on the relative
+/// translation u_j − u_i, for the bond force `force` (its axial part N = force·n counts; N > 0
+/// is tension) and unit normal `normal` at centre distance `length` (m).
+pub fn bond_geometric_stiffness(force: &Vec3, normal: &Vec3, length: f64) -> Mat3 {
+    let axial = force.dot(normal);
+    (Mat3::identity() - normal * normal.transpose()) * (axial / length)
+}
+
 /// The initial-stress (geometric) element of a bond carrying the axial force N (tension
 /// positive, N): the second-order energy ½(N/l)|Δ_⊥|² of a preloaded central bond whose
 /// centre-line relative displacement Δ = u_j − u_i + ε·l turns it (Δ_⊥ = (I − nn)Δ), so
 /// S_g = (N/l)(I − nn) with no rotation coupling (the force acts along the centre line).
 /// Geometric terms of preloaded shear forces and moments are not included.
 pub fn geometric_element(normal: &Vec3, length: f64, axial_force: f64) -> Element {
-    let s = super::geometric::bond_geometric_stiffness(&(normal * axial_force), normal, length);
+    let s = bond_geometric_stiffness(&(normal * axial_force), normal, length);
     let mut bj = Matrix3x6::zeros();
     bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
     let bi = -bj;
@@ -307,10 +315,10 @@ pub struct Network {
 impl Network {
     /// Prune the packing's bonds to the load-carrying network and build the elements; with
     /// every bond's axial preload N (N, tension positive; one per bond) each element gains its
-    /// [`geometric_element`] (the network linearised about a loaded state). A free assembly
-    /// (e.g. a bar cut by [`crate::packing::cut`]) is accepted: its boundary conditions are
+    /// `geometric_element` (the network linearised about a loaded state). A free assembly
+    /// (e.g. a bar cut by [`crate::packing::cut()`]) is accepted: its boundary conditions are
     /// the caller's and `volume` is then the spheres' bounding box; the periodic methods
-    /// check the cell first ([`require_cell`]).
+    /// check the cell first (`require_cell`).
     pub fn build(
         packing: &Packing,
         bonds: &BondSet,

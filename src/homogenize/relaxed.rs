@@ -30,7 +30,7 @@ pub enum CgPreconditioner {
     #[default]
     BlockJacobi,
     /// Block-Jacobi plus an exact coarse solve on the rigid motions of spatial clusters of
-    /// about `particles_per_aggregate` particles ([`super::two_level`]): iterations nearly
+    /// about `particles_per_aggregate` particles (`two_level.rs`): iterations nearly
     /// independent of N.
     TwoLevel {
         /// Target cluster size.
@@ -47,7 +47,7 @@ pub enum RelaxedSolver {
         preconditioner: CgPreconditioner,
     },
     /// faer's supernodal sparse Cholesky (AMD ordering) of K restricted to its range
-    /// ([`super::cholesky`]): exact up to rounding, memory grows faster than linearly.
+    /// (`cholesky.rs`): exact up to rounding, memory grows faster than linearly.
     Cholesky,
 }
 
@@ -89,7 +89,7 @@ pub struct RelaxedOptions {
 pub const TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-2);
 
 impl RelaxedOptions {
-    /// Refuse a tolerance outside [`TOLERANCE_RANGE`] (or NaN) and a zero iteration limit.
+    /// Refuse a tolerance outside `TOLERANCE_RANGE` (or NaN) and a zero iteration limit.
     pub fn validate(&self) -> Result<()> {
         let (lo, hi) = TOLERANCE_RANGE;
         if !(self.tolerance >= lo && self.tolerance <= hi) {

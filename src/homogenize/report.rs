@@ -93,7 +93,7 @@ pub fn check_result_tensor(c: &Stiffness6, method: &str) -> Result<()> {
 
 impl TensorReport {
     /// Build the report of tensor `c` computed by `method`, with the packing's counts; a
-    /// tensor that is not a result (see [`check_result_tensor`]) is refused.
+    /// tensor that is not a result (see `check_result_tensor`) is refused.
     pub fn new(method: &str, c: Stiffness6, bonded: Option<(&Packing, &BondSet)>) -> Result<Self> {
         check_result_tensor(&c, method)?;
         let cp = CubicProjection::from_stiffness(&c);

@@ -331,7 +331,7 @@ pub enum PackingFormat {
     /// LIGGGHTS / LAMMPS data file, `atom_style granular`.
     LiggghtsData,
     /// LIGGGHTS / LAMMPS `dump custom` (or `dump atom`) snapshot: `ITEM: BOX BOUNDS` with the
-    /// boundary flags per axis, `ITEM: ATOMS` with named columns ([`parse_dump`]).
+    /// boundary flags per axis, `ITEM: ATOMS` with named columns (`parse_dump`).
     Dump,
 }
 

@@ -1,22 +1,45 @@
 //! Spheres and their container: positions (m), radii (m) and an optional periodic cell.
 //!
-//! Submodules: [`io`] reads and writes the SPEC text format, YADE SpherePack text and
-//! LIGGGHTS `atom_style granular` data files; [`neighbours`] finds all pairs within a
-//! cutoff by cell lists in O(N); [`generate`] makes seeded periodic random packings;
-//! [`routes`] prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
-//! [`cut`] cuts free assemblies (a bar, a block) out of them, with boundary particle sets;
-//! [`container`] prepares a bar's spheres by the same routes inside a rigid cylinder and two
+//! Submodules: `io.rs` reads and writes the SPEC text format, YADE SpherePack text and
+//! LIGGGHTS `atom_style granular` data files; `neighbours.rs` finds all pairs within a
+//! cutoff by cell lists in O(N); `generate.rs` makes seeded periodic random packings;
+//! `routes.rs` prepares them by Kumar 2016's unjammed, weakly jammed and jammed routes.
+//! `cut.rs` cuts free assemblies (a bar, a block) out of them, with boundary particle sets;
+//! `container.rs` prepares a bar's spheres by the same routes inside a rigid cylinder and two
 //! planes (Kumar 2016 Sec. 5).
 
-pub mod container;
-pub mod cut;
+pub(crate) mod container;
+pub(crate) mod cut;
 mod fire;
-pub mod generate;
-pub mod io;
-pub mod neighbours;
+pub(crate) mod generate;
+pub(crate) mod io;
+pub(crate) mod neighbours;
 pub mod presets;
 mod repulsion;
-pub mod routes;
+pub(crate) mod routes;
+
+pub use container::{container_particles, prepare_in_container, Container, ContainerPacking};
+pub use cut::cut;
+pub use cut::{cut_holed_slab, HoledSlab, Region};
+pub use cut::{BoundarySets, Cut, SlabCut};
+pub use generate::generate;
+pub use generate::GenerationReport;
+pub use generate::{
+    generate_with_report, ForceBalance, GenerateOptions, Polydispersity,
+    TRUSZKOWSKA_2018_HALF_WIDTH,
+};
+pub use io::read_liggghts_data;
+pub use io::{
+    detect_format, format_packing, parse_data, parse_data_boundary, parse_liggghts_data,
+    parse_packing, parse_packing_as, read_packing, read_packing_as, write_liggghts_data,
+    write_liggghts_data_with_ids, write_packing, write_yade_spherepack, CellChoice,
+    CellOptionNames, CellOrigin, DataBonds, PackingFormat, PackingRead,
+};
+pub use neighbours::{pairs_within, pairs_within_centre_distance, Pair};
+pub use routes::{
+    prepare, prepare_with_status, scale_to_solid_fraction, PreparationRoute, RouteOptions,
+    RouteReport, RouteStage, RouteStatus, DEFAULT_JAMMING_BALANCE, KUMAR_2016_SOLID_FRACTION,
+};
 
 use crate::{Error, Result, Vec3};
 

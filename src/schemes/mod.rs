@@ -5,17 +5,27 @@
 //! unit normal; [`Geometry`] turns a magnitude into a spring constant for a bond of given
 //! radii and length (the `[geometry]` table of the model file).
 //!
-//! - [`cubic`]: overlapping spheroids with cubic symmetry (Truszkowska et al. 2018, Eqs. 6–16,
+//! - `cubic.rs`: overlapping spheroids with cubic symmetry (Truszkowska et al. 2018, Eqs. 6–16,
 //!   Sec. 6.1 extension).
-//! - [`cross_anisotropic`]: Šmilauer's elliptic microplane scheme (Woo DEM).
-//! - [`isotropic`]: constant magnitudes (Kumar 2016's Σ_N, Σ_T and the plain baseline).
+//! - `cross_anisotropic.rs`: Šmilauer's elliptic microplane scheme (Woo DEM).
+//! - `isotropic.rs`: constant magnitudes (Kumar 2016's Σ_N, Σ_T and the plain baseline).
 
-pub mod cross_anisotropic;
-pub mod cubic;
-pub mod geometry;
-pub mod isotropic;
+pub(crate) mod cross_anisotropic;
+pub(crate) mod cubic;
+pub(crate) mod geometry;
+pub(crate) mod isotropic;
 
+pub use cross_anisotropic::{
+    axis_from_strike_dip, dependent_c44, inverse_block, microplane_matrix, CrossAnisotropic,
+};
+pub use cubic::AxisFamily;
+pub use cubic::{
+    envelope_100, envelope_110, envelope_111, orthonormalize_rotation, rotation_from_euler_zyz_deg,
+    spheroid_radius, CubicModel, CubicSpheroid, AXES_100, AXES_110, AXES_111,
+};
+pub use geometry::Springs;
 pub use geometry::{BondLength, BondRadius, Convention, Geometry, Moments};
+pub use isotropic::Isotropic;
 
 use crate::Vec3;
 
@@ -23,12 +33,12 @@ crate::names::named! {
     /// The schemes by their `kind` in the model file (`[scheme] kind = "cubic"`): the one
     /// list the model reader, its messages and the reports use.
     pub enum SchemeKind ("[scheme] kind") {
-        /// [`cubic`]: Truszkowska 2018's overlapping spheroids.
+        /// `cubic.rs`: Truszkowska 2018's overlapping spheroids.
         Cubic = "cubic", "overlapping spheroids with cubic symmetry (Truszkowska 2018)";
-        /// [`cross_anisotropic`]: Šmilauer's elliptic scheme, given by its target tensor.
+        /// `cross_anisotropic.rs`: Šmilauer's elliptic scheme, given by its target tensor.
         CrossAnisotropic = "cross-anisotropic",
             "Šmilauer's elliptic scheme for a transversely isotropic target tensor";
-        /// [`isotropic`]: constant magnitudes.
+        /// `isotropic.rs`: constant magnitudes.
         Isotropic = "isotropic", "constant normal and shear magnitudes";
     }
 }

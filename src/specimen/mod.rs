@@ -9,7 +9,7 @@
 //! control: a rigid platen, δ is the answer). `Frictionless` platens prescribe only that axial
 //! displacement of the groups' particles (every other degree of freedom free, as YADE's
 //! `blockedDOFs = 'z'`); `Bonded` platens prescribe all six degrees of freedom. An optional
-//! lateral confining pressure loads the outermost particles ([`surface`]). The equilibrium
+//! lateral confining pressure loads the outermost particles (`surface.rs`). The equilibrium
 //! K u = f (Kruyt 2014 Eqs. 10–14, six DOFs per sphere) is solved for the free DOFs with the
 //! prescribed DOFs eliminated symmetrically: faer's sparse Cholesky, or conjugate gradients
 //! (two-level preconditioner) for large or semi-definite specimens.
@@ -34,7 +34,7 @@
 mod measure;
 mod network;
 mod select;
-pub mod surface;
+pub(crate) mod surface;
 mod system;
 
 pub use select::{parse_ids, Selection};

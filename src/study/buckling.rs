@@ -5,11 +5,23 @@
 //! `anisobond buckle` writes (buckling.json, buckling.csv, buckling.png, history_*.csv);
 //! [`BarRow`] is also what `anisobond.buckle_bar` returns for one bar.
 //!
-//! ```no_run
+//! One small bar (l/r = 10, r = 4 R̄, cut from a 500-sphere cell): σ_Euler is Kumar's Eq. 14
+//! with k = 0.5 for a round bar, π²E/(l/r)², with the bar's own E.
+//! ```
+//! use anisobond::packing::PreparationRoute;
 //! use anisobond::study::buckling::{run, BucklingStudyOptions};
-//! let opts = BucklingStudyOptions { slenderness: vec![20.0], ..Default::default() };
+//! let opts = BucklingStudyOptions {
+//!     slenderness: vec![10.0],
+//!     routes: vec![PreparationRoute::Unjammed],
+//!     radius_particles: 4.0,
+//!     cell_particles: 500,
+//!     ..Default::default()
+//! };
 //! let report = run(&opts, &|_| {}).unwrap();
-//! println!("{}", report.rows[0].network_over_euler);
+//! let bar = &report.rows[0];
+//! let euler = std::f64::consts::PI.powi(2) * bar.modulus_pa / 100.0;
+//! assert!((bar.sigma_euler_pa - euler).abs() <= 1e-9 * euler);
+//! println!("σ_network / σ_Euler = {:.3}", bar.network_over_euler);
 //! ```
 
 use super::{finite, require_finite, OptionNames};

@@ -5,12 +5,21 @@
 //! cavity in time. [`run`] makes the [`CavityReport`] that is cavity.json of
 //! `anisobond cavity` and the dict of `Assembly.cavity`.
 //!
-//! ```no_run
+//! A hole of 3 R̄ clamped at 6 R̄ in a 1,000-sphere packing (R̄ = 1 mm):
+//! ```
+//! use anisobond::packing::{generate, GenerateOptions};
 //! use anisobond::prelude::*;
 //! use anisobond::study::{cavity, OptionNames};
-//! let a = Assembly::new(read_packing("packing.txt".as_ref()).unwrap(), Model::truszkowska_mrv()).unwrap();
-//! let r = cavity::run(&a, &cavity::CavityStudyOptions::default(), OptionNames::Keywords).unwrap();
-//! println!("DEM / Lamé = {}", r.dem_over_lame);
+//! let packing = generate(&GenerateOptions { n_particles: 1000, ..Default::default() }, &|_| {}).unwrap();
+//! let a = Assembly::new(packing, Model::truszkowska_mrv()).unwrap();
+//! let opts = cavity::CavityStudyOptions {
+//!     hole_radius: Some(3e-3),
+//!     outer_radius: Some(6e-3),
+//!     ..Default::default()
+//! };
+//! let r = cavity::run(&a, &opts, OptionNames::Keywords).unwrap();
+//! assert!(r.dem_over_lame > 0.0);
+//! println!("DEM / Lamé = {:.3}", r.dem_over_lame);
 //! ```
 
 use super::OptionNames;

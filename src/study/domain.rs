@@ -3,7 +3,7 @@
 //! on the relaxed tensor of a packing: `anisobond domain` (domain.csv, domain.png).
 //!
 //! ```
-//! use anisobond::calibrate::domain::DomainOptions;
+//! use anisobond::calibrate::DomainOptions;
 //! use anisobond::study::domain::{run, DomainOn};
 //! let opts = DomainOptions { samples: 20, ..Default::default() };
 //! let r = run(DomainOn::MeanField, &opts).unwrap();

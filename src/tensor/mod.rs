@@ -35,13 +35,13 @@ pub fn strain_tensor(e: &Voigt6) -> crate::Mat3 {
     m
 }
 
-pub mod compare;
-pub mod elastic;
-pub mod fit;
-pub mod fourth;
-pub mod rotate;
-pub mod symmetry;
-pub mod waves;
+pub(crate) mod compare;
+pub(crate) mod elastic;
+pub(crate) mod fit;
+pub(crate) mod fourth;
+pub(crate) mod rotate;
+pub(crate) mod symmetry;
+pub(crate) mod waves;
 
 pub use compare::relative_difference;
 pub use elastic::{

@@ -24,7 +24,7 @@ pub struct WaveMode {
 pub struct PhaseVelocities {
     /// Unit propagation direction.
     pub direction: Vec3,
-    /// Modes by increasing speed: modes[2] is the quasi-longitudinal wave when C is not
+    /// Modes by increasing speed: `modes[2]` is the quasi-longitudinal wave when C is not
     /// pathological.
     pub modes: [WaveMode; 3],
 }

@@ -5,67 +5,11 @@
 //! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
 
 use super::harness::{EngineDetails, Report};
+pub use super::harness::{Problem, Progress, TestKind};
 use super::specimen::{SpecimenDetails, SpecimenTest};
-use crate::assembly::Assembly;
-use crate::bonds::{BondSet, BondStiffness};
-use crate::model::Model;
-use crate::packing::Packing;
 use crate::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-
-/// One line per finished stage of a run; called from the engine's threads (hence `Sync`).
-pub type Progress<'a> = &'a (dyn Fn(&str) + Sync);
-
-/// The test an engine runs on the problem.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum TestKind {
-    /// Element tests of a periodic bonded cell: undamped stress histories step by step
-    /// against the reference integrator, and damped quasi-static 6×6 tensors against the
-    /// integrator and the relaxed solver (every engine today).
-    #[default]
-    PeriodicElement,
-}
-
-impl TestKind {
-    /// Name in messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            TestKind::PeriodicElement => "periodic element",
-        }
-    }
-}
-
-/// What every engine is given: where to run, the bonded packing, its model, the test kind.
-#[derive(Clone, Copy, Debug)]
-pub struct Problem<'a> {
-    /// Directory the engine writes its decks into and runs in (must exist).
-    pub dir: &'a Path,
-    /// The spheres and their cell.
-    pub packing: &'a Packing,
-    /// The bonds.
-    pub bonds: &'a BondSet,
-    /// Each bond's springs.
-    pub springs: &'a BondStiffness,
-    /// The model the springs came from (written beside an export that records it).
-    pub model: Option<&'a Model>,
-    /// The test to run.
-    pub kind: TestKind,
-}
-
-impl<'a> Problem<'a> {
-    /// The periodic element tests of `a` in `dir`.
-    pub fn of(dir: &'a Path, a: &'a Assembly) -> Problem<'a> {
-        Problem {
-            dir,
-            packing: &a.packing,
-            bonds: &a.bonds,
-            springs: &a.springs,
-            model: Some(&a.model),
-            kind: TestKind::PeriodicElement,
-        }
-    }
-}
 
 /// Agreement required by the comparisons every engine makes (relative differences); an
 /// engine that makes no comparison of a kind ignores its tolerance.
@@ -99,6 +43,34 @@ pub fn check_tolerances(
 }
 
 /// A validation engine: runs a [`Problem`] in another code and in anisobond, and compares.
+///
+/// The three runners, each built from its programs and options (they run only where YADE,
+/// LIGGGHTS with the `anisobond-liggghts` driver, or LAMMPS are installed):
+/// ```no_run
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::prelude::*;
+/// use anisobond::validate::lammps::LammpsValidateOptions;
+/// use anisobond::validate::liggghts::{Programs, ValidateOptions};
+/// use anisobond::validate::yade::YadeValidationOptions;
+/// use std::path::{Path, PathBuf};
+/// let assembly = Assembly::new(read_packing(Path::new("packing.txt"))?, Model::truszkowska_mrv())?;
+/// let problem = Problem::of(Path::new("run"), &assembly);
+/// let progress = |stage: &str| eprintln!("{stage}");
+/// let yade = validate(&Yade(YadeValidationOptions::default()), &problem, &progress)?;
+/// let lammps = Lammps(LammpsValidateOptions::new(PathBuf::from("lmp")));
+/// let lammps = validate(&lammps, &problem, &progress)?;
+/// let liggghts = Liggghts {
+///     programs: Programs {
+///         driver: PathBuf::from("cpp/build/anisobond-liggghts"),
+///         liggghts: PathBuf::from("liggghts"),
+///     },
+///     options: ValidateOptions::default(),
+/// };
+/// let liggghts = validate(&liggghts, &problem, &progress)?;
+/// println!("{} {} {}", yade.passed(), lammps.passed(), liggghts.passed());
+/// # Ok(())
+/// # }
+/// ```
 pub trait Engine: Sync {
     /// The engine's own results inside the [`Report`].
     type Details: EngineDetails;
@@ -135,6 +107,24 @@ pub trait Engine: Sync {
 
 /// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's
 /// options checked, then [`Engine::specimen`].
+///
+/// The platen stiffness of a free packing's specimen in YADE against the specimen solve
+/// (z axis, end layers of one mean radius, frictionless platens):
+/// ```no_run
+/// # fn main() -> anisobond::Result<()> {
+/// use anisobond::prelude::*;
+/// use anisobond::specimen::Platens;
+/// use anisobond::validate::specimen::SpecimenTest;
+/// use anisobond::validate::yade::YadeValidationOptions;
+/// use std::path::Path;
+/// let assembly = Assembly::new(read_packing(Path::new("free.txt"))?, Model::truszkowska_mrv())?;
+/// let test = SpecimenTest::new(2, 1e-3, Platens::Frictionless);
+/// let engine = Yade(YadeValidationOptions::default());
+/// let report = validate_specimen(&engine, &Problem::of(Path::new("run"), &assembly), &test, &|s| eprintln!("{s}"))?;
+/// println!("passed: {}", report.passed());
+/// # Ok(())
+/// # }
+/// ```
 pub fn validate_specimen<E: Engine>(
     engine: &E,
     problem: &Problem,
@@ -154,11 +144,11 @@ pub fn validate_specimen<E: Engine>(
 /// # fn main() -> anisobond::Result<()> {
 /// use anisobond::assembly::Assembly;
 /// use anisobond::model::Model;
-/// use anisobond::validate::engine::{validate, Problem};
-/// use anisobond::validate::harness::write_report_json;
+/// use anisobond::validate::{validate, Problem};
+/// use anisobond::validate::write_report_json;
 /// use anisobond::validate::yade::{Yade, YadeValidationOptions};
 /// use std::path::Path;
-/// let packing = anisobond::packing::io::read_packing(Path::new("packing.txt"))?;
+/// let packing = anisobond::packing::read_packing(Path::new("packing.txt"))?;
 /// let assembly = Assembly::new(packing, Model::from_path(Path::new("model.toml"))?)?;
 /// let dir = Path::new("yade-run");
 /// std::fs::create_dir_all(dir).map_err(|e| anisobond::Error::io(dir, e))?;

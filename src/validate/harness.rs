@@ -3,10 +3,12 @@
 //! checks as a text table or CSV. An engine (YADE, LIGGGHTS, …) adds only a runner that
 //! runs its code, parses its outputs and fills a [`Report`] with its [`EngineDetails`].
 
-use crate::bonds::BondSet;
+use crate::assembly::Assembly;
+use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::quat::Quat;
 use crate::dem::state::deterministic_sum_mat3;
 use crate::dem::{BondLaw, DemOptions, MassOptions, Simulation};
+use crate::model::Model;
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;
 use crate::{Error, Mat3, Result, Vec3};
@@ -14,6 +16,62 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+// What every engine is given (the problem, the progress callback, the test kind): below the
+// engines and the specimen test, which both take it (`engine.rs` re-exports it).
+
+/// One line per finished stage of a run; called from the engine's threads (hence `Sync`).
+pub type Progress<'a> = &'a (dyn Fn(&str) + Sync);
+
+/// The test an engine runs on the problem.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TestKind {
+    /// Element tests of a periodic bonded cell: undamped stress histories step by step
+    /// against the reference integrator, and damped quasi-static 6×6 tensors against the
+    /// integrator and the relaxed solver (every engine today).
+    #[default]
+    PeriodicElement,
+}
+
+impl TestKind {
+    /// Name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            TestKind::PeriodicElement => "periodic element",
+        }
+    }
+}
+
+/// What every engine is given: where to run, the bonded packing, its model, the test kind.
+#[derive(Clone, Copy, Debug)]
+pub struct Problem<'a> {
+    /// Directory the engine writes its decks into and runs in (must exist).
+    pub dir: &'a Path,
+    /// The spheres and their cell.
+    pub packing: &'a Packing,
+    /// The bonds.
+    pub bonds: &'a BondSet,
+    /// Each bond's springs.
+    pub springs: &'a BondStiffness,
+    /// The model the springs came from (written beside an export that records it).
+    pub model: Option<&'a Model>,
+    /// The test to run.
+    pub kind: TestKind,
+}
+
+impl<'a> Problem<'a> {
+    /// The periodic element tests of `a` in `dir`.
+    pub fn of(dir: &'a Path, a: &'a Assembly) -> Problem<'a> {
+        Problem {
+            dir,
+            packing: &a.packing,
+            bonds: &a.bonds,
+            springs: &a.springs,
+            model: Some(&a.model),
+            kind: TestKind::PeriodicElement,
+        }
+    }
+}
 
 /// One comparison: the measured relative difference and, for a pass/fail check, the
 /// tolerance.

@@ -373,9 +373,9 @@ pub fn box_change(path: usize, strain: f64) -> Mat3 {
 
 /// The integrator's repetition of in.history: law (d) `lammps-bpm` with the springs `k`,
 /// masses from `density`, time step `dt`, the reference state stored at the packing, each
-/// case's box change applied at once ([`HistoryStart::Strained`]), then the steps with no
+/// case's box change applied at once (`HistoryStart::Strained`), then the steps with no
 /// damping; LAMMPS's virial stress every `h.every` steps from step 0
-/// ([`harness::integrator_history`]).
+/// (`harness::integrator_history`).
 pub fn integrator_history(
     packing: &Packing,
     bonds: &BondSet,

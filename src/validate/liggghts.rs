@@ -1,7 +1,7 @@
 //! `anisobond validate liggghts`: the same bonded periodic packing run in LIGGGHTS (the
 //! driver `anisobond-liggghts` with `pair_style anisobond`, and the stock `liggghts` with
 //! `bond_style harmonic`), in the reference integrator ([`crate::dem`]) and by the exact
-//! relaxed solver ([`crate::homogenize::relaxed`]), compared against stated tolerances.
+//! relaxed solver ([`crate::homogenize::relaxed_tensor`]), compared against stated tolerances.
 //!
 //! Checks (ids as in the report):
 //! 1. `history`: undamped stress histories over the first `history_steps` steps, same time
@@ -356,7 +356,7 @@ pub fn write_undamped_deck(
 }
 
 /// The integrator's undamped history at the LIGGGHTS output steps `steps` (≥ 1), from the
-/// packing with initial velocities and spins ([`HistoryStart::Moving`]).
+/// packing with initial velocities and spins (`HistoryStart::Moving`).
 ///
 /// Initial state, matched to LIGGGHTS: the bonds are made stress-free at the packing's
 /// positions x₀, and the particles start with velocities v₀ and spins ω₀. LIGGGHTS' first

@@ -2,14 +2,14 @@
 //! per-bond springs, time step, masses, damping, strain path) run in the other code and in
 //! anisobond's own solvers, with the differences checked against tolerances.
 //!
-//! - [`engine`]: the [`Engine`] trait every engine implements — what it is given (a
+//! - `engine.rs`: the [`Engine`] trait every engine implements — what it is given (a
 //!   [`Problem`]: packing, bonds, springs, model, [`TestKind`]), what it returns, how it
 //!   reports progress — and [`validate`], the one entry every client calls.
-//! - [`harness`]: what every engine shares — checks, history comparisons, the reference
+//! - `harness.rs`: what every engine shares — checks, history comparisons, the reference
 //!   integrator's run of an engine's history, timings, the report and its JSON, the checks
 //!   table, the summary and CSV; an engine adds only a runner.
 //! - [`yade`]: YADE 2023.02a against the reference integrator ([`crate::dem`]) and the
-//!   relaxed solver ([`crate::homogenize::relaxed`]) — `anisobond validate yade`.
+//!   relaxed solver ([`crate::homogenize::relaxed_tensor`]) — `anisobond validate yade`.
 //! - [`liggghts`]: the LIGGGHTS driver (`pair_style anisobond`) and stock LIGGGHTS
 //!   (`bond_style harmonic`) against the same — `anisobond validate liggghts`.
 //! - [`specimen`]: the specimen test every engine runs — a free bonded specimen loaded
@@ -18,11 +18,15 @@
 //! - [`lammps`]: the exported LAMMPS (BPM) element tests against the relaxed solver, one and
 //!   two MPI processes — `anisobond validate lammps`.
 
-pub mod engine;
-pub mod harness;
+pub(crate) mod engine;
+pub(crate) mod harness;
 pub mod lammps;
 pub mod liggghts;
 pub mod specimen;
 pub mod yade;
 
 pub use engine::{validate, validate_specimen, Engine, Problem, Progress, TestKind, Tolerances};
+pub use harness::{
+    failure_lines, outcome, summary, unsettled_lines, write_report_json, EngineDetails, Report,
+};
+pub use harness::{Check, HistoryComparison, Timing};

@@ -3,8 +3,8 @@
 //! against the bar cut from a periodic packing of the same route.
 
 use crate::euler::kumar_model;
-use anisobond::homogenize::buckling::{euler_stress, BucklingOptions, RoundBar};
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
+use anisobond::homogenize::{euler_stress, BucklingOptions, RoundBar};
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
 
 /// Jammed route, r = 5 R̄, l/r = 20, seed 1: the container bar has as many spheres as the
 /// cut bar within 5 % (the same per unit length), its clamped sets are the spheres touching

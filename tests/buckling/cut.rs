@@ -1,8 +1,8 @@
 //! Cutting free bars out of periodic packings: against the source positions, the region's
 //! own inequalities and the packing's density.
 
-use anisobond::packing::cut::{cut, Region};
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
+use anisobond::packing::{cut, Region};
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
 use anisobond::Vec3;
 use std::f64::consts::PI;
 
@@ -173,7 +173,7 @@ fn cut_bar_keeps_the_materials_springs() {
 /// imperfect bar); amplitude 0 changes nothing; bad modes and amplitudes are refused.
 #[test]
 fn imperfect_bar_moves_centres_along_the_mode() {
-    use anisobond::homogenize::buckling::RoundBar;
+    use anisobond::homogenize::RoundBar;
     let p = periodic(600);
     let rbar = p.mean_radius();
     let model = anisobond::model::Model::from_toml_str(

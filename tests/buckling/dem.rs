@@ -1,9 +1,9 @@
 //! Quasi-static compression of a clamped bar with the integrator.
 
-use anisobond::dem::buckling::{compress_clamped_bar, CompressionOptions, Loading};
-use anisobond::homogenize::buckling::{BucklingOptions, BucklingResult, RoundBar};
+use anisobond::dem::{compress_clamped_bar, CompressionOptions, Loading};
+use anisobond::homogenize::{BucklingOptions, BucklingResult, RoundBar};
 use anisobond::model::Model;
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
 
 fn kumar_model(kappa: f64, alpha: f64) -> Model {
     let text = format!(

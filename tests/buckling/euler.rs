@@ -3,14 +3,14 @@
 //! invariants (degenerate bending pair, thread-count independence).
 
 use anisobond::assembly::Assembly;
-use anisobond::homogenize::buckling::{
+use anisobond::homogenize::{
     clamped_bar_buckling, euler_stress, extensible_stress, mazzilli_stress, BucklingOptions,
     ClampedBar, PreBuckling,
 };
 use anisobond::model::Model;
-use anisobond::packing::cut::{cut, Region};
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
 use anisobond::packing::Packing;
+use anisobond::packing::{cut, Region};
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
 use anisobond::Vec3;
 use std::f64::consts::PI;
 
@@ -186,14 +186,9 @@ fn jammed_bars_follow_engesser_with_their_own_stiffness() {
     let p = prepare(&o, &|_| {}).unwrap().0;
     let rbar = p.mean_radius();
     for s in [40.0, 80.0] {
-        let bar = anisobond::homogenize::buckling::RoundBar::cut(
-            &p,
-            kumar_model(1.0, 0.2),
-            5.0 * rbar,
-            s,
-            rbar,
-        )
-        .unwrap();
+        let bar =
+            anisobond::homogenize::RoundBar::cut(&p, kumar_model(1.0, 0.2), 5.0 * rbar, s, rbar)
+                .unwrap();
         let r = bar.buckling(&BucklingOptions::default()).unwrap();
         let l = bar.length;
         let engesser = r.critical_force / r.engesser_force_own(l);

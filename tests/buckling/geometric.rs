@@ -3,8 +3,8 @@
 
 use anisobond::bonds::BondSet;
 use anisobond::bonds::BondStiffness;
-use anisobond::homogenize::geometric::{bond_geometric_stiffness, geometric_stiffness};
-use anisobond::homogenize::network::{LeverArm, Network};
+use anisobond::homogenize::{bond_geometric_stiffness, geometric_stiffness};
+use anisobond::homogenize::{LeverArm, Network};
 use anisobond::packing::Packing;
 use anisobond::Vec3;
 

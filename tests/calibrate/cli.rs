@@ -2,7 +2,7 @@
 
 use crate::common::{bin, CUBIC_MODEL as MODEL};
 use anisobond::model::{Model, SchemeSpec};
-use anisobond::schemes::cubic::CubicModel;
+use anisobond::schemes::CubicModel;
 
 #[test]
 fn calibrate_writes_a_model_that_reads_back_and_refuses_nickel() {

@@ -4,12 +4,12 @@
 //! Truszkowska 2018's statements on the domain (Zener ≈ 0.6–1.5, C12 ≤ C44 under uniform
 //! strain, App. D).
 
-use anisobond::calibrate::cubic::{calibrate_cubic_mean_field, CubicOptions, Family};
-use anisobond::calibrate::domain::{log_normalised, sample_mean_field, DomainOptions};
-use anisobond::calibrate::kernel::CubicKernel;
-use anisobond::calibrate::target::CubicTarget;
-use anisobond::homogenize::mean_field::{mean_field, DEFAULT_ORDER};
-use anisobond::schemes::cubic::{CubicModel, CubicSpheroid};
+use anisobond::calibrate::CubicKernel;
+use anisobond::calibrate::CubicTarget;
+use anisobond::calibrate::{calibrate_cubic_mean_field, CubicOptions, Family};
+use anisobond::calibrate::{log_normalised, sample_mean_field, DomainOptions};
+use anisobond::homogenize::{mean_field, DEFAULT_ORDER};
+use anisobond::schemes::{CubicModel, CubicSpheroid};
 use anisobond::tensor::CubicProjection;
 use anisobond::Mat3;
 
@@ -234,7 +234,7 @@ fn plain_mean_field_domain_spans_zener_06_to_15_below_the_cauchy_line() {
     };
     let (all, none_skipped) = sample_mean_field(&free).unwrap();
     assert_eq!(none_skipped, 0);
-    let zr = |ext: bool, v: &[anisobond::calibrate::domain::DomainSample]| {
+    let zr = |ext: bool, v: &[anisobond::calibrate::DomainSample]| {
         v.iter()
             .filter(|s| s.extended == ext)
             .map(|s| s.zener)

@@ -4,10 +4,10 @@
 
 use crate::common::bonded::gap_bonded;
 use anisobond::bonds::{assign_stiffness, BondSet};
-use anisobond::calibrate::cross::{calibrate_cross_relaxed, CrossOptions};
-use anisobond::calibrate::cubic::{calibrate_cubic_relaxed, CubicOptions};
-use anisobond::calibrate::target::CubicTarget;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::calibrate::CubicTarget;
+use anisobond::calibrate::{calibrate_cross_relaxed, CrossOptions};
+use anisobond::calibrate::{calibrate_cubic_relaxed, CubicOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::{CrossTarget, Model, SchemeSpec};
 use anisobond::packing::Packing;
 use anisobond::schemes::Convention;

@@ -2,8 +2,8 @@
 //! against Lamé's thick cylinder: isotropic, and transversely isotropic about the hole's axis
 //! (in-plane isotropic with λ = C12, μ = C66); mesh convergence; refusals.
 
-use anisobond::cavity::continuum::{solve_annulus, AnnulusMesh};
 use anisobond::cavity::lame_wall_displacement;
+use anisobond::cavity::{solve_annulus, AnnulusMesh};
 use anisobond::tensor::Stiffness6;
 
 /// Isotropic Voigt stiffness from λ, μ (Pa).

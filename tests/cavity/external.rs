@@ -3,8 +3,8 @@
 
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::cut::{cut_holed_slab, HoledSlab};
 use anisobond::packing::Packing;
+use anisobond::packing::{cut_holed_slab, HoledSlab};
 use anisobond::Vec3;
 
 #[test]

@@ -2,7 +2,7 @@
 //! packing's relaxed tensor.
 
 use crate::lame::{geometry, isotropic_model, source};
-use anisobond::cavity::dynamics::WaveOptions;
+use anisobond::cavity::WaveOptions;
 use anisobond::cavity::{bulk_density, Cavity};
 use anisobond::dem::LawKind;
 use anisobond::model::Model;
@@ -18,7 +18,7 @@ pub fn front_run(
     pressure: f64,
     travel: f64,
     along: Vec3,
-) -> (anisobond::cavity::dynamics::WaveRun, Vec<f64>) {
+) -> (anisobond::cavity::WaveRun, Vec<f64>) {
     let src = source(1000, 7, model);
     let c = src.tensor(&Method::relaxed()).unwrap().report.tensor();
     let r = src.packing.mean_radius();

@@ -71,12 +71,12 @@ fn wall_displacement_matches_lame() {
     // measured: 0.9885 (5069 spheres, 4073 free, 389 on the wall)
     assert!((ratio - 1.0).abs() < 0.04, "DEM/Lamé = {ratio}");
     // the continuum with the full relaxed tensor (not its isotropic projection)
-    let fe = anisobond::cavity::continuum::solve_annulus(
+    let fe = anisobond::cavity::solve_annulus(
         &c,
         a * r,
         b * r,
         p,
-        &anisobond::cavity::continuum::AnnulusMesh::default(),
+        &anisobond::cavity::AnnulusMesh::default(),
     )
     .unwrap();
     // measured: continuum/Lamé 1.0016 (the tensor's small anisotropy), DEM/continuum 0.9869
@@ -141,7 +141,7 @@ fn static_and_wave_results_do_not_depend_on_the_thread_count() {
     let src = source(300, 5, isotropic_model());
     let r = src.packing.mean_radius();
     let cav = Cavity::new(&src, geometry(&src, 4.0, 10.0)).unwrap();
-    let opts = anisobond::cavity::dynamics::WaveOptions {
+    let opts = anisobond::cavity::WaveOptions {
         pressure: 1e6,
         ramp_time: 2e-6,
         duration: 6e-6,

@@ -5,7 +5,7 @@
 
 use crate::common::{bin, entries, fails, packing, tmp, write};
 use crate::lame::{geometry, isotropic_model, source};
-use anisobond::cavity::dynamics::WaveOptions;
+use anisobond::cavity::WaveOptions;
 use anisobond::cavity::{Cavity, CavityGeometry};
 use anisobond::dem::LawKind;
 use std::time::{Duration, Instant};

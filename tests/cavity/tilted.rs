@@ -9,7 +9,7 @@ use anisobond::bonds::BondingRule;
 use anisobond::cavity::Cavity;
 use anisobond::model::{CrossTarget, Model, SchemeSpec};
 use anisobond::prelude::*;
-use anisobond::schemes::cross_anisotropic::axis_from_strike_dip;
+use anisobond::schemes::axis_from_strike_dip;
 use anisobond::schemes::{Convention, Geometry};
 
 /// A lab vector in the slab's frame: Šmilauer's cavity runs along the lab's horizontal y

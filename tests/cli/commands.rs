@@ -48,9 +48,9 @@ fn bonds_and_tensor_outputs_follow_the_spec() {
         "i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz"
     );
     // Every row: i < j, unit normal, k = magnitude·π·min(R)²·factor ≥ the smallest factor.
-    let (bonds, k) = anisobond::bonds::table::read_bond_table(&csv).unwrap();
+    let (bonds, k) = anisobond::bonds::read_bond_table(&csv).unwrap();
     assert!(bonds.len() > 300);
-    let pk = anisobond::packing::io::read_packing(&p).unwrap();
+    let pk = anisobond::packing::read_packing(&p).unwrap();
     for b in 0..bonds.len() {
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         assert!(i < j);

@@ -1,6 +1,6 @@
 //! `anisobond pack` with --route, --preset and --void-fraction, end to end.
 
-use anisobond::packing::io::read_packing;
+use anisobond::packing::read_packing;
 use std::f64::consts::PI;
 use std::path::Path;
 use std::process::Command;

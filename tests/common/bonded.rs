@@ -2,11 +2,11 @@
 //! modules set up the same way (the integrator's element tests, grips, stop rule, lanes,
 //! calibration, VTK export).
 
-use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
+use anisobond::bonds::{build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
-use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use anisobond::packing::Packing;
+use anisobond::packing::{generate, GenerateOptions};
 
 /// A generated periodic packing of `n` particles (`seed`, default generation options).
 pub fn generated(n: usize, seed: u64) -> Packing {

@@ -4,8 +4,8 @@
 
 use anisobond::bonds::{self, BondSet, BondStiffness};
 use anisobond::model::Model;
-use anisobond::packing::generate::{generate, GenerateOptions};
 use anisobond::packing::Packing;
+use anisobond::packing::{generate, GenerateOptions};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -54,7 +54,7 @@ pub fn bonded(n: usize, seed: u64, model_toml: &str) -> Bonded {
     };
     let packing = generate(&opts, &|_| {}).expect("packing");
     let model = Model::from_toml_str(model_toml, "<test model>").expect("model");
-    let bonds = bonds::rules::build_bonds(&packing, model.bonding).expect("bonds");
+    let bonds = bonds::build_bonds(&packing, model.bonding).expect("bonds");
     let scheme = model
         .build_scheme(Some((&packing, &bonds)))
         .expect("scheme");

@@ -3,7 +3,7 @@
 //! bonded packing the dynamic 6×6 tensor must match within 0.1 %.
 
 use crate::common::bonded::{directional_springs, gap_bonded, relaxed_exact, yade_sim};
-use anisobond::dem::element::{dynamic_tensor, ElementTestOptions};
+use anisobond::dem::{dynamic_tensor, ElementTestOptions};
 use anisobond::tensor::relative_difference;
 
 fn compare(moments: bool) {

@@ -5,10 +5,10 @@
 
 use crate::common::bonded::gap_bonded;
 use anisobond::bonds::{BondSet, BondStiffness};
-use anisobond::dem::grips::{gripped_tensor, GrippedOptions, GrippedTensor};
-use anisobond::dem::measure::MeasureOptions;
 use anisobond::dem::LawKind;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::dem::MeasureOptions;
+use anisobond::dem::{gripped_tensor, GrippedOptions, GrippedTensor};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::packing::Packing;
 use anisobond::tensor::relative_difference;
 

@@ -4,10 +4,10 @@
 //! closed form of docs/references.md (SC, bond length 2R: C11 = k_n/(2R), C12 = 0,
 //! C44 = k_t/(4R)); the Table 3 heterogeneity metric must vanish.
 
-use anisobond::bonds::{rules::build_bonds, BondStiffness, BondingRule};
-use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
-use anisobond::dem::measure::MeasureOptions;
+use anisobond::bonds::{build_bonds, BondStiffness, BondingRule};
 use anisobond::dem::LawKind;
+use anisobond::dem::MeasureOptions;
+use anisobond::dem::{gripped_tensor, GrippedOptions};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::tensor::Stiffness6;
 use anisobond::Vec3;

@@ -2,12 +2,12 @@
 //! measurement-sphere strain (Truszkowska 2018 Sec. 4.2).
 
 use crate::common::bonded::gap_bonded;
-use anisobond::bonds::{rules::build_bonds, BondSet, BondStiffness, BondingRule};
-use anisobond::dem::element::path_gradient;
-use anisobond::dem::grips::{grip_motion, gripped_setup, GrippedOptions};
-use anisobond::dem::measure::{MeasureOptions, StrainIntegrator};
-use anisobond::dem::sim::PrescribedMotion;
+use anisobond::bonds::{build_bonds, BondSet, BondStiffness, BondingRule};
+use anisobond::dem::path_gradient;
+use anisobond::dem::PrescribedMotion;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
+use anisobond::dem::{grip_motion, gripped_setup, GrippedOptions};
+use anisobond::dem::{MeasureOptions, StrainIntegrator};
 use anisobond::packing::Packing;
 use anisobond::Vec3;
 

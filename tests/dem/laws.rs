@@ -4,9 +4,9 @@
 
 use crate::common::bonded::gap_bonded;
 use anisobond::bonds::{BondSet, BondStiffness};
-use anisobond::dem::element::{path_gradient, relax_path, ElementTestOptions};
-use anisobond::dem::quat::Quat;
+use anisobond::dem::Quat;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
+use anisobond::dem::{path_gradient, relax_path, ElementTestOptions};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
 

@@ -4,10 +4,10 @@
 //! run measures.
 
 use crate::common::lattice::*;
-use anisobond::dem::element::{path_gradient, relax_path, to_voigt, ElementTestOptions};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::homogenize::prestress::{prestressed_tensor, Prestress};
-use anisobond::homogenize::relaxed::RelaxedOptions;
+use anisobond::dem::{path_gradient, relax_path, to_voigt, ElementTestOptions};
+use anisobond::homogenize::RelaxedOptions;
+use anisobond::homogenize::{prestressed_tensor, Prestress};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::tensor::Stiffness6;
 use anisobond::Mat3;

@@ -6,17 +6,17 @@
 
 use crate::common::bonded::{relaxed_exact, yade_sim};
 use anisobond::bonds::lattice_scaling;
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondStiffness, BondingRule};
-use anisobond::dem::servo::{servo_until_converged, ComponentControl, ServoOptions, StressServo};
-use anisobond::dem::stress_tests::{
+use anisobond::bonds::{assign_stiffness, build_bonds, BondStiffness, BondingRule};
+use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
+use anisobond::dem::{
     expected_test_constants, stiffness_from_tests, stress_controlled_tensor,
     transversely_isotropic, StressTestOptions,
 };
-use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::generate::{generate, GenerateOptions, Polydispersity};
+use anisobond::dem::{servo_until_converged, ComponentControl, ServoOptions, StressServo};
 use anisobond::packing::Packing;
-use anisobond::schemes::cross_anisotropic::CrossAnisotropic;
-use anisobond::schemes::isotropic::Isotropic;
+use anisobond::packing::{generate, GenerateOptions, Polydispersity};
+use anisobond::schemes::CrossAnisotropic;
+use anisobond::schemes::Isotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::relative_difference;
 use anisobond::Vec3;

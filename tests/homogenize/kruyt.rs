@@ -8,11 +8,11 @@
 
 use crate::common::bonded::generated;
 use crate::common::lattice::{max_abs, min_eigenvalue, uniform_springs};
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::{BondSet, BondingRule};
-use anisobond::homogenize::laf::laf_tensor;
-use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
+use anisobond::homogenize::laf_tensor;
+use anisobond::homogenize::LeverArm;
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
 use anisobond::packing::Packing;
 use anisobond::tensor::Stiffness6;
 use anisobond::{Mat3, Vec3};

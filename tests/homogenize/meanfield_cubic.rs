@@ -2,7 +2,7 @@
 //! of Truszkowska 2018 Eqs. 9–15 for the test only), against docs/references.md values, closed
 //! forms and symmetries.
 
-use anisobond::homogenize::mean_field::{
+use anisobond::homogenize::{
     equal_sphere_prefactor, mean_field, orientation_average, SphereQuadrature, DEFAULT_ORDER,
 };
 use anisobond::schemes::{Magnitudes, StiffnessScheme};
@@ -392,8 +392,8 @@ fn result_does_not_depend_on_thread_count() {
 /// C11 and agrees with the same quadrature at order 400.
 #[test]
 fn sharp_spheroids_are_integrated_to_the_stated_accuracy() {
-    use anisobond::homogenize::mean_field::mean_field_converged;
-    use anisobond::schemes::cubic::{CubicModel, CubicSpheroid};
+    use anisobond::homogenize::mean_field_converged;
+    use anisobond::schemes::{CubicModel, CubicSpheroid};
     let scheme = CubicSpheroid {
         model: CubicModel::ZenerBelow1,
         extended: false,

@@ -2,8 +2,8 @@
 //! form of a preloaded FCC lattice and the stress-measure identities.
 
 use crate::common::lattice::*;
-use anisobond::homogenize::prestress::{prestressed_tensor, stress_measure_correction, Prestress};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::{prestressed_tensor, stress_measure_correction, Prestress};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::tensor::Voigt6;
 
 /// FCC, touching spheres of radius R (a = 2√2R, l = 2R), springs k_n, k_t, every bond
@@ -90,23 +90,21 @@ fn prestress_of_a_disordered_network_is_consistent() {
 fn isotropic_preload_follows_the_closed_form_and_raises_c12_above_c44() {
     use anisobond::assembly::Assembly;
     use anisobond::model::Model;
-    use anisobond::packing::generate;
+    use anisobond::packing::{
+        generate, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
+    };
     use anisobond::tensor::CubicProjection;
-    let opts = generate::GenerateOptions {
+    let opts = GenerateOptions {
         n_particles: 2000,
         solid_fraction: 0.60,
         mean_radius: 1e-3,
-        polydispersity: generate::Polydispersity::Uniform {
-            half_width: generate::TRUSZKOWSKA_2018_HALF_WIDTH,
+        polydispersity: Polydispersity::Uniform {
+            half_width: TRUSZKOWSKA_2018_HALF_WIDTH,
         },
         seed: 3,
         ..Default::default()
     };
-    let a = Assembly::new(
-        generate::generate(&opts, &|_| {}).unwrap(),
-        Model::truszkowska_mrv(),
-    )
-    .unwrap();
+    let a = Assembly::new(generate(&opts, &|_| {}).unwrap(), Model::truszkowska_mrv()).unwrap();
     let ro = RelaxedOptions::default();
     let free = relaxed_tensor(&a.packing, &a.bonds, &a.springs, &ro).unwrap();
     let c11 = CubicProjection::from_stiffness(&free.c).c11;

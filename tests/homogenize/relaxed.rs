@@ -3,10 +3,10 @@
 //! LAF estimates between them.
 
 use crate::common::lattice::*;
-use anisobond::homogenize::laf::laf_tensor;
-use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::laf_tensor;
+use anisobond::homogenize::voigt_tensor;
+use anisobond::homogenize::LeverArm;
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::tensor::Stiffness6;
 
 #[test]

@@ -4,7 +4,7 @@
 
 use crate::common::lattice::*;
 use anisobond::bonds::{BondSet, BondStiffness};
-use anisobond::homogenize::relaxed::{
+use anisobond::homogenize::{
     relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedResult, RelaxedSolver,
 };
 use anisobond::packing::Packing;

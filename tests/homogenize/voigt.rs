@@ -2,7 +2,7 @@
 //! lattices and "Isotropic closed forms"; Kruyt 2014 Eq. 29; Kumar 2016 appendix).
 
 use anisobond::bonds::{BondSet, BondStiffness};
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::voigt_tensor;
 use anisobond::Vec3;
 use rand::{Rng, SeedableRng};
 

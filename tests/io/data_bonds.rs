@@ -3,7 +3,7 @@
 //! inconsistency of the section refused naming its line. (A file LAMMPS wrote itself is
 //! read in tests/lammps/user_data.rs.)
 
-use anisobond::packing::io::{parse_data, parse_data_boundary, parse_packing_as, CellChoice};
+use anisobond::packing::{parse_data, parse_data_boundary, parse_packing_as, CellChoice};
 use anisobond::Error;
 
 /// Four atoms (ids 10, 17, 24, 31 listed out of order) on a line along x in a 4 m periodic

@@ -9,9 +9,9 @@
 //!
 //! Deterministic (fixed seed, no failure files) and bounded: see `CASES`.
 
-use anisobond::calibrate::target::Target;
+use anisobond::calibrate::Target;
 use anisobond::model::SchemeSpec;
-use anisobond::packing::io::{parse_liggghts_data, parse_packing};
+use anisobond::packing::{parse_liggghts_data, parse_packing};
 use anisobond::prelude::*;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};

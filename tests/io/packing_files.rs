@@ -1,6 +1,6 @@
 //! Packing files: parsing, errors with line numbers, bit-exact round trips.
 
-use anisobond::packing::io::{
+use anisobond::packing::{
     detect_format, parse_liggghts_data, parse_packing, read_packing, write_liggghts_data,
     write_packing, write_yade_spherepack, PackingFormat,
 };
@@ -471,7 +471,7 @@ fn positions_must_give_a_finite_box() {
 
 #[test]
 fn cell_stated_chosen_or_assumed() {
-    use anisobond::packing::io::{parse_packing_as, CellChoice, CellOrigin};
+    use anisobond::packing::{parse_packing_as, CellChoice, CellOrigin};
     let read = |text: &str, c: CellChoice| parse_packing_as(text, "in.txt", c);
     // Stated: a cell header, `# free`, or SpherePack.save's clumpId column.
     let r = read("# periodic 4 4 4\n1 1 1 0.5\n", CellChoice::AsStated).unwrap();
@@ -519,7 +519,7 @@ fn cell_stated_chosen_or_assumed() {
     // anisobond writes `# free` for a free packing: read back as stated.
     let p = parse_packing("0 0 0 1\n3 0 0 1\n", "x").unwrap();
     let r = read(
-        &anisobond::packing::io::format_packing(&p),
+        &anisobond::packing::format_packing(&p),
         CellChoice::AsStated,
     )
     .unwrap();

@@ -1,7 +1,7 @@
 //! The PNGs are looked at, not only written: decode them, check their size and that they are
 //! not blank (many distinct colours, the expected curve colours present).
 
-use anisobond::calibrate::domain::{sample_mean_field, DomainOptions};
+use anisobond::calibrate::{sample_mean_field, DomainOptions};
 use anisobond::model::Model;
 use anisobond::plot::{plot_domain, plot_stiffness_sections, plot_stress_strain, History, Section};
 use anisobond::Mat3;

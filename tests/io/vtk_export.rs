@@ -5,7 +5,7 @@
 use crate::common::bonded::gap_bonded;
 use anisobond::bonds::assign_stiffness;
 use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
 use anisobond::tensor::Voigt6;
 use anisobond::Vec3;

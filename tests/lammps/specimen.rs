@@ -10,9 +10,9 @@
 
 use super::export::{lmp, one_lammps_at_a_time};
 use anisobond::assembly::Assembly;
-use anisobond::homogenize::network::LeverArm;
+use anisobond::homogenize::LeverArm;
 use anisobond::model::Model;
-use anisobond::schemes::geometry::Moments;
+use anisobond::schemes::Moments;
 use anisobond::specimen::{self, Platens};
 use anisobond::validate::lammps::{Lammps, LammpsValidateOptions};
 use anisobond::validate::specimen::SpecimenTest;

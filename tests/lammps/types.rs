@@ -274,8 +274,8 @@ fn quantised_deck_gives_the_relaxed_tensor_of_the_quantised_network() {
 fn relaxed_weights_sum_to_the_trace_of_the_relaxed_tensor() {
     // At equilibrium the energy under unit strain a is ½ V C_aa = ½ Σ_b Σ_c k_b,c δ_b,c,a²,
     // so Σ_b Σ_c k_b,c w_b,c = V · trace(C): here against the `tensor` command's C.
-    use anisobond::homogenize::network::LeverArm;
-    use anisobond::homogenize::relaxed::RelaxedOptions;
+    use anisobond::homogenize::LeverArm;
+    use anisobond::homogenize::RelaxedOptions;
     let dir = tmp();
     let pk = packing(dir.path(), 1000);
     for (name, text) in [("cubic", ROTATED_CUBIC), ("cross", CROSS)] {
@@ -288,13 +288,9 @@ fn relaxed_weights_sum_to_the_trace_of_the_relaxed_tensor() {
             tolerance: 1e-10,
             ..Default::default()
         };
-        let (w, _) = anisobond::bonds::types::sensitivity_weights(
-            &asm.packing,
-            &asm.bonds,
-            &asm.springs,
-            &opts,
-        )
-        .unwrap();
+        let (w, _) =
+            anisobond::bonds::sensitivity_weights(&asm.packing, &asm.bonds, &asm.springs, &opts)
+                .unwrap();
         let k = &asm.springs;
         let energy: f64 = (0..w.len())
             .map(|b| w[b][0] * k.kn[b] + w[b][1] * k.ks[b] + w[b][2] * k.kr[b] + w[b][3] * k.ktw[b])

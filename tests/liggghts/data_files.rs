@@ -7,8 +7,8 @@
 
 use crate::common::liggghts::*;
 use crate::common::{cmd, fails, tmp, write, CUBIC_MODEL};
-use anisobond::packing::io::{read_packing_as, CellChoice, CellOrigin};
 use anisobond::packing::Packing;
+use anisobond::packing::{read_packing_as, CellChoice, CellOrigin};
 use std::path::Path;
 use std::process::Command;
 
@@ -218,7 +218,7 @@ fn convert_to_liggghts_loads_back_in_read_data() {
         .unwrap()
         .with_ids(vec![0])
         .unwrap();
-    let e = anisobond::packing::io::write_liggghts_data_with_ids(&d.join("x.data"), &p, 1.0);
+    let e = anisobond::packing::write_liggghts_data_with_ids(&d.join("x.data"), &p, 1.0);
     assert!(e.unwrap_err().to_string().contains("atom ids must be ≥ 1"));
 }
 

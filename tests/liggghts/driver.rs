@@ -7,7 +7,7 @@ use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, tensor_from_cases,
     DeckOptions, Launch,
 };
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 
 const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
 
@@ -304,10 +304,10 @@ fn affine_normal_strains_give_the_voigt_normal_block() {
     .unwrap();
     let h = read_stress_history(&dir.join("stress_history.txt")).unwrap();
     let cols = columns_from_cases(&h, &sum.case_end_steps).unwrap();
-    let v = anisobond::homogenize::voigt::voigt_tensor(&b.bonds, &b.k, b.packing.volume());
+    let v = anisobond::homogenize::voigt_tensor(&b.bonds, &b.k, b.packing.volume());
     let mut k0 = b.k.clone();
     k0.ks.iter_mut().for_each(|x| *x = 0.0);
-    let v0 = anisobond::homogenize::voigt::voigt_tensor(&b.bonds, &k0, b.packing.volume());
+    let v0 = anisobond::homogenize::voigt_tensor(&b.bonds, &k0, b.packing.volume());
     let scale = v.abs().max();
     let (mut d, mut d0) = (0.0f64, 0.0f64);
     for (a, col) in cols.iter().enumerate() {
@@ -402,7 +402,7 @@ fn bonds_computed_through_the_bridge_equal_the_bond_table() {
         export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
         if via_model {
             std::fs::write(dir.join("model.toml"), ISO_MODEL).unwrap();
-            anisobond::packing::io::write_packing(&dir.join("packing.txt"), &b.packing).unwrap();
+            anisobond::packing::write_packing(&dir.join("packing.txt"), &b.packing).unwrap();
             let deck = std::fs::read_to_string(dir.join("anisobond.in")).unwrap();
             let deck = deck.replace("table bonds.csv", "model model.toml packing.txt");
             assert!(deck.contains("pair_style anisobond model"));

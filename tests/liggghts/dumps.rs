@@ -7,7 +7,7 @@
 
 use crate::common::liggghts::*;
 use crate::common::{cmd, fails, missing, succeeds, tmp, write, CUBIC_MODEL};
-use anisobond::packing::io::{read_packing, read_packing_as, CellChoice};
+use anisobond::packing::{read_packing, read_packing_as, CellChoice};
 
 #[test]
 fn liggghts_dump_custom_reads_as_its_data_file() {
@@ -89,7 +89,7 @@ fn liggghts_dump_custom_reads_as_its_data_file() {
         let lines: Vec<&str> = text.lines().collect();
         for cut in 0..lines.len() {
             let part = lines[..cut].join("\n");
-            let _ = anisobond::packing::io::parse_packing(&part, "cut.dump");
+            let _ = anisobond::packing::parse_packing(&part, "cut.dump");
         }
     }
 }

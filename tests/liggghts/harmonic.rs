@@ -7,7 +7,7 @@ use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
 };
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::voigt_tensor;
 
 #[test]
 fn stock_harmonic_deck_gives_the_normal_spring_voigt_tensor() {

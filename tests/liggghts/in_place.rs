@@ -18,7 +18,7 @@ use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
 };
 use anisobond::model::Model;
-use anisobond::packing::io::{read_packing_as, CellChoice};
+use anisobond::packing::{read_packing_as, CellChoice};
 use anisobond::tensor::Stiffness6;
 use std::path::{Path, PathBuf};
 

@@ -11,7 +11,7 @@
 use crate::common::liggghts::*;
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::schemes::geometry::Moments;
+use anisobond::schemes::Moments;
 use anisobond::specimen::Platens;
 use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
 use anisobond::validate::specimen::SpecimenTest;

@@ -1,8 +1,8 @@
 //! Bonding rules: brute force, lattices with known coordination, coordination targets.
 
-use anisobond::bonds::rules::{build_bonds, coordination_gap, COORDINATION_MAX_GAP};
+use anisobond::bonds::{build_bonds, coordination_gap, COORDINATION_MAX_GAP};
 use anisobond::bonds::{BondSet, BondingRule};
-use anisobond::packing::generate::{generate, GenerateOptions};
+use anisobond::packing::{generate, GenerateOptions};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::{Error, Vec3};
 use rand::{Rng, SeedableRng};

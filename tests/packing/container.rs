@@ -4,12 +4,10 @@
 //! force balance with the walls' contacts), determinism on one and two threads.
 
 use crate::common::on_threads;
-use anisobond::packing::container::{
-    container_particles, prepare_in_container, Container, ContainerPacking,
-};
-use anisobond::packing::neighbours::pairs_within;
-use anisobond::packing::routes::{PreparationRoute, RouteOptions, RouteReport};
+use anisobond::packing::pairs_within;
 use anisobond::packing::Packing;
+use anisobond::packing::{container_particles, prepare_in_container, Container, ContainerPacking};
+use anisobond::packing::{PreparationRoute, RouteOptions, RouteReport};
 use anisobond::Vec3;
 
 const RBAR: f64 = 1.0e-3;

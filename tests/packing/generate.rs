@@ -1,12 +1,12 @@
 //! Random packing generation: determinism, solid fraction, overlaps, isotropy.
 
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::BondingRule;
-use anisobond::packing::generate::{
+use anisobond::packing::pairs_within;
+use anisobond::packing::Packing;
+use anisobond::packing::{
     generate, generate_with_report, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
 };
-use anisobond::packing::neighbours::pairs_within;
-use anisobond::packing::Packing;
 use anisobond::Mat3;
 use std::f64::consts::PI;
 

@@ -1,6 +1,6 @@
 //! Cell-list neighbour search against an O(N²) brute force, and thread-count independence.
 
-use anisobond::packing::neighbours::{pairs_within, pairs_within_centre_distance, Pair};
+use anisobond::packing::{pairs_within, pairs_within_centre_distance, Pair};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
 use rand::{Rng, SeedableRng};

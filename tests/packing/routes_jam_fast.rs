@@ -3,12 +3,12 @@
 //! and force balance recomputed from the packing), determinism on 1 and 2 threads, and an
 //! ignored timing study for 3·10⁴ – 10⁵ spheres.
 
-use anisobond::packing::neighbours::pairs_within;
-use anisobond::packing::routes::{
+use anisobond::packing::pairs_within;
+use anisobond::packing::Packing;
+use anisobond::packing::{
     prepare, prepare_with_status, scale_to_solid_fraction, ForceBalance, PreparationRoute,
     RouteOptions, RouteReport, RouteStage, RouteStatus,
 };
-use anisobond::packing::Packing;
 use anisobond::Vec3;
 use std::time::Instant;
 

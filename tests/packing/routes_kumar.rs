@@ -1,14 +1,14 @@
 //! Kumar 2016's preparation routes (Sec. 3): coordination per route and interaction range
 //! against Table 1, the jamming point, affine scaling, determinism.
 
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::BondingRule;
-use anisobond::packing::generate::Polydispersity;
-use anisobond::packing::neighbours::pairs_within;
-use anisobond::packing::routes::{
+use anisobond::packing::pairs_within;
+use anisobond::packing::Packing;
+use anisobond::packing::Polydispersity;
+use anisobond::packing::{
     prepare, scale_to_solid_fraction, ForceBalance, PreparationRoute, RouteOptions, RouteReport,
 };
-use anisobond::packing::Packing;
 use std::f64::consts::PI;
 
 const ROUTES: [PreparationRoute; 3] = [

@@ -7,14 +7,12 @@ use std::f64::consts::PI;
 
 use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::BondSet;
-use anisobond::homogenize::mean_field::{
-    mean_field, orientation_average, SphereQuadrature, DEFAULT_ORDER,
-};
+use anisobond::homogenize::{mean_field, orientation_average, SphereQuadrature, DEFAULT_ORDER};
 use anisobond::packing::{Packing, PeriodicCell};
-use anisobond::schemes::cross_anisotropic::{
+use anisobond::schemes::StiffnessScheme;
+use anisobond::schemes::{
     axis_from_strike_dip, dependent_c44, inverse_block, microplane_matrix, CrossAnisotropic,
 };
-use anisobond::schemes::StiffnessScheme;
 use anisobond::tensor::{Stiffness6, VOIGT_PAIRS};
 use anisobond::{Mat3, Vec3};
 

@@ -1,11 +1,11 @@
 //! Cubic spheroid scheme (Truszkowska 2018) against independent values: closed forms, the
 //! O_h symmetry, and the tables of docs/references.md.
 
-use anisobond::schemes::cubic::{
+use anisobond::schemes::StiffnessScheme;
+use anisobond::schemes::{
     envelope_100, envelope_110, envelope_111, orthonormalize_rotation, rotation_from_euler_zyz_deg,
     spheroid_radius, CubicModel, CubicSpheroid, AXES_100, AXES_110, AXES_111,
 };
-use anisobond::schemes::StiffnessScheme;
 use anisobond::{Mat3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

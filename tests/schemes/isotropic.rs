@@ -1,8 +1,8 @@
 //! Isotropic scheme through the geometry conventions, against Kumar 2016 Eqs. 1–3, 7–8 and
 //! the parallel-bond / modulus closed forms.
 
-use anisobond::schemes::geometry::Springs;
-use anisobond::schemes::isotropic::Isotropic;
+use anisobond::schemes::Isotropic;
+use anisobond::schemes::Springs;
 use anisobond::schemes::{BondLength, BondRadius, Convention, Geometry, Moments, StiffnessScheme};
 use anisobond::Vec3;
 use std::f64::consts::PI;

@@ -6,7 +6,7 @@
 //! tensor of the same packing, computed by the homogenization code (a different solve).
 
 use anisobond::assembly::Assembly;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
 use anisobond::model::Model;
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::specimen::{solve, Lateral, Platens, SpecimenOptions};

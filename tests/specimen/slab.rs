@@ -6,9 +6,9 @@
 
 use crate::common::{cmd, missing, succeeds, tmp, write, CUBIC_MODEL};
 use anisobond::assembly::Assembly;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
 use anisobond::model::Model;
-use anisobond::packing::io::{read_packing, read_packing_as, CellChoice};
+use anisobond::packing::{read_packing, read_packing_as, CellChoice};
 use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::specimen::{slab_axis, solve, Lateral, Platens, SpecimenOptions, SpecimenReport};
 use anisobond::{Error, Vec3};

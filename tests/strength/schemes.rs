@@ -2,7 +2,7 @@
 //! hand), cubic (Truszkowska's envelopes at the symmetry directions, in closed form, O_h
 //! symmetry, a = 1 isotropic) and their refusals.
 
-use anisobond::schemes::cubic::CubicModel;
+use anisobond::schemes::CubicModel;
 use anisobond::strength::schemes::{CrossStrength, CubicStrength, StrengthScheme};
 use anisobond::strength::Strength;
 use anisobond::{Mat3, Vec3};

@@ -5,13 +5,13 @@
 //! Size from GRIPS_N (default 20,000), spheres from GRIPS_SPHERES (default 2,000); relaxation
 //! tolerance GRIPS_TOL (1e-6), damping GRIPS_DAMPING (0.6), grip shell GRIPS_SHELL (0.5 R̄).
 
-use anisobond::bonds::{assign_stiffness, rules::build_bonds};
-use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
-use anisobond::dem::measure::MeasureOptions;
+use anisobond::bonds::{assign_stiffness, build_bonds};
 use anisobond::dem::LawKind;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::dem::MeasureOptions;
+use anisobond::dem::{gripped_tensor, GrippedOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
-use anisobond::schemes::geometry::Moments;
+use anisobond::schemes::Moments;
 use anisobond::tensor::{relative_difference, CubicProjection};
 
 fn env(name: &str, default: usize) -> usize {

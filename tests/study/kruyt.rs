@@ -13,13 +13,13 @@
 //! the table of BENCHMARKS.md (benches/regenerate.py --only kruyt).
 
 use crate::common::lattice::uniform_springs;
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::{BondSet, BondingRule};
-use anisobond::homogenize::laf::laf_tensor;
-use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
+use anisobond::homogenize::laf_tensor;
+use anisobond::homogenize::LeverArm;
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use anisobond::packing::Packing;
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
 use anisobond::tensor::Stiffness6;
 use std::time::Instant;
 

@@ -4,18 +4,16 @@
 //! `cargo test --release --test study -- --ignored --nocapture papers::<name>`.
 //! The one always run asserts Kumar's trend on a small packing.
 
-use anisobond::bonds::rules::build_bonds;
+use anisobond::bonds::build_bonds;
 use anisobond::bonds::{assign_stiffness, BondSet, BondStiffness, BondingRule};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::voigt_tensor;
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedResult};
 use anisobond::model::Model;
-use anisobond::packing::generate::{
-    generate, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH,
-};
-use anisobond::packing::routes::{prepare, PreparationRoute, RouteOptions};
 use anisobond::packing::Packing;
-use anisobond::tensor::rotate::rotate;
-use anisobond::tensor::symmetry::CubicProjection;
+use anisobond::packing::{generate, GenerateOptions, Polydispersity, TRUSZKOWSKA_2018_HALF_WIDTH};
+use anisobond::packing::{prepare, PreparationRoute, RouteOptions};
+use anisobond::tensor::rotate;
+use anisobond::tensor::CubicProjection;
 use anisobond::tensor::{voigt_average, Stiffness6};
 use anisobond::Mat3;
 use std::f64::consts::PI;
@@ -298,7 +296,7 @@ fn eq31() -> Mat3 {
     let r = Mat3::new(
         -0.3062, -0.9186, 0.2500, 0.8839, -0.1768, 0.4330, -0.3536, 0.3536, 0.8660,
     );
-    anisobond::schemes::cubic::orthonormalize_rotation(r).unwrap()
+    anisobond::schemes::orthonormalize_rotation(r).unwrap()
 }
 
 /// Truszkowska 2018 Sec. 5.3–5.5: the standard assembly (30,700 particles, three seeds)
@@ -313,7 +311,7 @@ fn truszkowska_seeds_and_rotation() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(30_700);
     let r = eq31();
-    let euler = anisobond::schemes::cubic::rotation_from_euler_zyz_deg(60.0, 30.0, 45.0);
+    let euler = anisobond::schemes::rotation_from_euler_zyz_deg(60.0, 30.0, 45.0);
     println!(
         "Eq. 31 (orthonormalised) vs euler_zyz_deg [60,30,45]: max |Δ| = {:.2e}",
         (r - euler).abs().max()

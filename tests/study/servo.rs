@@ -7,13 +7,13 @@
 //! 122, 52.8, 26.7, 37.9, 30.8 MPa.
 
 use anisobond::bonds::lattice_scaling;
-use anisobond::bonds::{assign_stiffness, rules::build_bonds, BondingRule};
-use anisobond::dem::servo::ServoOptions;
-use anisobond::dem::stress_tests::{stress_controlled_tensor, StressTestOptions};
+use anisobond::bonds::{assign_stiffness, build_bonds, BondingRule};
+use anisobond::dem::ServoOptions;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use anisobond::packing::generate::{generate, GenerateOptions, Polydispersity};
-use anisobond::schemes::cross_anisotropic::CrossAnisotropic;
+use anisobond::dem::{stress_controlled_tensor, StressTestOptions};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
+use anisobond::packing::{generate, GenerateOptions, Polydispersity};
+use anisobond::schemes::CrossAnisotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
 use anisobond::tensor::Stiffness6;
 use anisobond::Vec3;

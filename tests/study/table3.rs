@@ -16,12 +16,12 @@
 //! table3` (the same numbers through the command line); docs/truszkowska-table3.md explains it.
 
 use anisobond::bonds::assign_stiffness;
-use anisobond::bonds::rules::build_bonds;
-use anisobond::dem::grips::{gripped_tensor, GrippedOptions};
-use anisobond::dem::measure::MeasureOptions;
+use anisobond::bonds::build_bonds;
 use anisobond::dem::LawKind;
-use anisobond::homogenize::mean_field::{mean_field, DEFAULT_ORDER};
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use anisobond::dem::MeasureOptions;
+use anisobond::dem::{gripped_tensor, GrippedOptions};
+use anisobond::homogenize::{mean_field, DEFAULT_ORDER};
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
 use anisobond::packing::Packing;
 use anisobond::tensor::{CubicProjection, Stiffness6};

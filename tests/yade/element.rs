@@ -3,15 +3,15 @@
 //! (`relaxed_tensor`, contact point mid-gap = YADE's ScGeom) within 0.1 %.
 
 use crate::common::yade::{max_relative, yade_available};
-use anisobond::bonds::{self, rules::build_bonds, BondingRule};
+use anisobond::bonds::{self, build_bonds, BondingRule};
 use anisobond::export::yade::{
     read_yade_history, read_yade_tensor, run_yade_script, write_yade_export, YadeRunOptions,
 };
-use anisobond::homogenize::network::LeverArm;
-use anisobond::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::voigt_tensor;
+use anisobond::homogenize::LeverArm;
+use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 use anisobond::model::Model;
-use anisobond::schemes::geometry::Moments;
+use anisobond::schemes::Moments;
 use anisobond::tensor::Stiffness6;
 
 fn run_case(test: &str, n: usize, seed: u64, moments: Moments) {

@@ -10,9 +10,9 @@
 
 use crate::common::yade::yade_available;
 use crate::common::{cmd, fails, succeeds, tmp, write, CUBIC_MODEL};
-use anisobond::bonds::table::read_bond_table_of;
+use anisobond::bonds::read_bond_table_of;
 use anisobond::export::yade::run_yade_script;
-use anisobond::packing::io::read_packing;
+use anisobond::packing::read_packing;
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::Path;

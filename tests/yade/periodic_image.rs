@@ -5,7 +5,7 @@
 //! anisobond computes, x_j + image∘L − x_i, bond by bond.
 
 use crate::common::yade::yade_available;
-use anisobond::bonds::{self, rules::build_bonds};
+use anisobond::bonds::{self, build_bonds};
 use anisobond::export::yade::{run_yade_script, write_yade_export, YadeRunOptions};
 use anisobond::model::Model;
 use anisobond::Vec3;

@@ -13,8 +13,8 @@
 use crate::common::yade::yade_available;
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::packing::io::write_packing;
-use anisobond::schemes::geometry::Moments;
+use anisobond::packing::write_packing;
+use anisobond::schemes::Moments;
 use anisobond::specimen::Platens;
 use anisobond::validate::specimen::SpecimenTest;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};

@@ -9,12 +9,12 @@
 //! variable CI set, a missing `yade` fails.
 
 use crate::common::yade::yade_available;
-use anisobond::bonds::{self, rules::build_bonds, BondSet, BondStiffness};
+use anisobond::bonds::{self, build_bonds, BondSet, BondStiffness};
 use anisobond::dem::{build_law, DemOptions, LawKind, MassOptions, Simulation};
-use anisobond::homogenize::voigt::voigt_tensor;
+use anisobond::homogenize::voigt_tensor;
 use anisobond::model::Model;
-use anisobond::packing::{io::write_packing, Packing};
-use anisobond::tensor::compare::relative_difference;
+use anisobond::packing::{write_packing, Packing};
+use anisobond::tensor::relative_difference;
 use anisobond::validate::yade::{
     compare_histories, outputs, run_path_like_yade, validate_yade, write_validation_files,
     YadeValidationOptions,

@@ -8,7 +8,7 @@
 use crate::common::yade::yade_available;
 use crate::common::{cmd, fails, succeeds, tmp, write, CUBIC_MODEL};
 use anisobond::export::yade::run_yade_script;
-use anisobond::packing::io::read_packing;
+use anisobond::packing::read_packing;
 use anisobond::packing::Packing;
 use serde_json::Value;
 use std::path::Path;

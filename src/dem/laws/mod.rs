@@ -17,12 +17,17 @@
 //! velocity at the contact point including the periodic image's velocity L·H_prev·c);
 //! they differ in the springs and in how moments accumulate.
 
-pub mod kumar;
-pub mod lammps_bpm;
+pub(crate) mod kumar;
+pub(crate) mod lammps_bpm;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod lanes;
-pub mod parallel_bond;
-pub mod yade;
+pub(crate) mod parallel_bond;
+pub(crate) mod yade;
+
+pub use kumar::{kumar_law, KUMAR_DAMPING};
+pub use lammps_bpm::{lammps_bpm_law, BpmCoefficients, BpmNormalize, LammpsBpmLaw};
+pub use parallel_bond::parallel_bond_law;
+pub use yade::yade_cohesive_law;
 
 use super::quat::{rotation_vector_of, Quat};
 use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
