@@ -449,7 +449,7 @@ impl ClampedParts {
         let m = self.net.n_active;
         let (c1, c2) = end_centroids(bar);
         let mut u = vec![Block6::zeros(); m];
-        for q in 0..m {
+        for (q, uq) in u.iter_mut().enumerate() {
             let x = self.position(bar, q);
             let (centre, axial, half_turn, shift) = match self.node_role[q] {
                 1 => (c1, Vec3::zeros(), -0.5, Vec3::zeros()),
@@ -457,11 +457,11 @@ impl ClampedParts {
                 _ => continue,
             };
             let phi = e1 * half_turn;
-            u[q].fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
-            u[q].fixed_view_mut::<3, 1>(0, 1)
+            uq.fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
+            uq.fixed_view_mut::<3, 1>(0, 1)
                 .copy_from(&phi.cross(&(x - centre)));
-            u[q].fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
-            u[q].fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
+            uq.fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
+            uq.fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
         }
         let mut ku = vec![Block6::zeros(); m];
         k.apply(&u, &mut ku);
@@ -493,7 +493,7 @@ impl ClampedParts {
         let mut ku = vec![Block6::zeros(); u.len()];
         k.apply(u, &mut ku);
         let mut react = [[Vec3::zeros(); 4]; 3];
-        for q in 0..self.net.n_active {
+        for (q, kq) in ku.iter().enumerate() {
             let (slot, centre) = match self.node_role[q] {
                 1 => (0, c1),
                 2 => (2, c2),
@@ -501,8 +501,8 @@ impl ClampedParts {
             };
             let x = self.position(bar, q);
             for (c, r) in react.iter_mut().enumerate() {
-                let f: Vec3 = ku[q].fixed_view::<3, 1>(0, c).into_owned();
-                let mq: Vec3 = ku[q].fixed_view::<3, 1>(3, c).into_owned();
+                let f: Vec3 = kq.fixed_view::<3, 1>(0, c).into_owned();
+                let mq: Vec3 = kq.fixed_view::<3, 1>(3, c).into_owned();
                 r[slot] += f;
                 r[slot + 1] += (x - centre).cross(&f) + mq;
             }
