@@ -847,10 +847,9 @@ pub fn calibrate_cubic_relaxed(
     let kernel = CubicKernel::default();
     let model = opts.model.unwrap_or(model_for_zener(target.zener()));
     let map = MeanFieldMap::new(&kernel, model, opts.extended, opts)?;
-    let start = match map.solve(target, opts.family) {
-        Some(p) => p,
-        None => map.nearest_reachable(target).0,
-    };
+    let start = map
+        .solve(target, opts.family)
+        .unwrap_or_else(|| map.nearest_reachable(target).0);
     let vars = CubicVariables {
         map: &map,
         equi: opts.family == Family::Equi,
@@ -864,22 +863,19 @@ pub fn calibrate_cubic_relaxed(
         history: Vec::new(),
     };
     let goal = DVector::from_vec(vec![target.c12_over_c11, target.c44_over_c11]);
-    let residual = |proj: &CubicProjection| -> DVector<f64> {
-        DVector::from_vec(vec![proj.c12 / proj.c11, proj.c44 / proj.c11]) - &goal
-    };
     let u0 = vars.start(&start);
     let p0 = vars.point(&u0);
     let (_, proj0) = eval.admissible(&p0, default_normal)?;
     let result = broyden::solve(
         Point {
-            f: residual(&proj0),
+            f: ratio_residual(&proj0, &goal),
             x: u0,
             data: proj0,
         },
         vars.jacobian(&p0),
         |u| {
             Ok(match eval.evaluate(&vars.point(u), default_normal)? {
-                Some((_, proj)) => Evaluation::Admissible(residual(&proj), proj),
+                Some((_, proj)) => Evaluation::Admissible(ratio_residual(&proj, &goal), proj),
                 None => Evaluation::Inadmissible,
             })
         },
@@ -892,9 +888,7 @@ pub fn calibrate_cubic_relaxed(
     if !matches!(result.end, End::Converged) {
         let nearest = nearest_record(&eval.history, &goal);
         return Err(relaxed_not_converged(
-            (&kernel, &map),
-            target,
-            opts,
+            (&map, target, opts),
             &result,
             nearest,
         ));
@@ -917,6 +911,12 @@ pub fn calibrate_cubic_relaxed(
         mean_field_start: Some(CubicParameters::at(model, opts.extended, &start)),
         history: eval.history,
     })
+}
+
+/// The residual of the relaxed calibration: the projection's (C12/C11, C44/C11) minus the
+/// target's `goal`.
+fn ratio_residual(proj: &CubicProjection, goal: &DVector<f64>) -> DVector<f64> {
+    DVector::from_vec(vec![proj.c12 / proj.c11, proj.c44 / proj.c11]) - goal
 }
 
 /// Broyden's options of the relaxed calibration: the ratios' errors scaled by the target
@@ -1101,9 +1101,7 @@ fn nearest_record(history: &[IterationRecord], goal: &DVector<f64>) -> Option<It
 /// nearest point reached on this packing and, for a target outside the mean-field domain,
 /// why it is not reachable there.
 fn relaxed_not_converged<T>(
-    (kernel, map): (&CubicKernel, &MeanFieldMap),
-    target: &CubicTarget,
-    opts: &CubicOptions,
+    (map, target, opts): (&MeanFieldMap, &CubicTarget, &CubicOptions),
     result: &broyden::BroydenResult<T>,
     nearest: Option<IterationRecord>,
 ) -> Error {
@@ -1126,7 +1124,7 @@ fn relaxed_not_converged<T>(
     if map.solve(target, opts.family).is_none() {
         msg.push('\n');
         msg.push_str(
-            &unreachable_error(kernel, map, target, opts, "mean-field")
+            &unreachable_error(map.kernel, map, target, opts, "mean-field")
                 .to_string()
                 .replace('\n', "\n  "),
         );
