@@ -215,6 +215,156 @@ struct RawIsotropic {
     shear: f64,
 }
 
+impl RawBonding {
+    /// The bonding rule; refuses a value that is not finite and > 0 and an unknown rule.
+    fn rule(&self) -> Result<BondingRule> {
+        if !self.value.is_finite() || self.value <= 0.0 {
+            return Err(Error::Model(format!(
+                "[bonding] value must be a finite number > 0, got {}",
+                self.value
+            )));
+        }
+        match self.rule.as_str() {
+            "gap" => Ok(BondingRule::Gap(self.value)),
+            "factor" => Ok(BondingRule::Factor(self.value)),
+            "coordination" => Ok(BondingRule::Coordination(self.value)),
+            other => Err(Error::Model(format!(
+                "[bonding] rule = \"{other}\": expected gap, factor or coordination"
+            ))),
+        }
+    }
+}
+
+impl RawCubic {
+    /// The cubic scheme (Truszkowska 2018), its parameters finite.
+    fn scheme(&self) -> Result<SchemeSpec> {
+        let rotation = self.rotation()?;
+        Ok(SchemeSpec::Cubic(CubicSpheroid {
+            model: self.model,
+            extended: self.extended,
+            a_n: finite(self.a_n, "a_n")?,
+            a_s: finite(self.a_s, "a_s")?,
+            normal: finite(self.normal, "normal")?,
+            shear: finite(self.shear, "shear")?,
+            rotation,
+        }))
+    }
+
+    /// The crystal rotation, from `rotation` or `euler_zyz_deg` (not both; neither: none).
+    fn rotation(&self) -> Result<Mat3> {
+        match (self.rotation, self.euler_zyz_deg) {
+            (Some(_), Some(_)) => Err(Error::Model(
+                "[scheme] give either `rotation` or `euler_zyz_deg`, not both".into(),
+            )),
+            (Some(r), None) => {
+                let m = Mat3::from_fn(|i, j| r[i][j]);
+                // A rotation to rounding (as written by to_toml_string) is kept bit for
+                // bit, so a written model reads back identically; a matrix printed to a
+                // few decimals is re-orthonormalised.
+                let exact = m.iter().all(|x| x.is_finite())
+                    && (m.transpose() * m - Mat3::identity()).amax() <= 1e-12
+                    && m.determinant() > 0.0;
+                if exact {
+                    Ok(m)
+                } else {
+                    cubic::orthonormalize_rotation(m)
+                }
+            }
+            (None, Some(e)) => {
+                for v in e {
+                    finite(v, "euler_zyz_deg")?;
+                }
+                Ok(cubic::rotation_from_euler_zyz_deg(e[0], e[1], e[2]))
+            }
+            (None, None) => Ok(Mat3::identity()),
+        }
+    }
+}
+
+impl RawCross {
+    /// The cross-anisotropic target (Šmilauer), checked positive definite with non-negative
+    /// lattice moduli: that does not depend on the lattice scaling μ > 0 (E′ = A⁻¹C/μ,
+    /// Šmilauer Eq. 22), so it is checked here with μ = 1, before any packing is read.
+    fn target(&self) -> Result<CrossTarget> {
+        let axis = self.axis()?;
+        let target = CrossTarget {
+            c11: finite(self.c11, "C11")?,
+            c33: finite(self.c33, "C33")?,
+            c13: finite(self.c13, "C13")?,
+            c12: finite(self.c12, "C12")?,
+            axis,
+        };
+        target.scheme(1.0)?;
+        Ok(target)
+    }
+
+    /// The symmetry axis, from `axis` or from both `strike_deg` and `dip_deg` (neither: z).
+    fn axis(&self) -> Result<Vec3> {
+        match (self.axis, self.strike_deg, self.dip_deg) {
+            (Some(a), None, None) => {
+                let v = Vec3::new(a[0], a[1], a[2]);
+                let n = v.norm();
+                if !n.is_finite() || n == 0.0 {
+                    return Err(Error::Model(
+                        "[scheme] axis must be a non-zero finite vector".into(),
+                    ));
+                }
+                // A unit vector to rounding (as written) is kept bit for bit, so a
+                // written model reads back identically.
+                if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
+                    Ok(v)
+                } else {
+                    Ok(v / n)
+                }
+            }
+            (None, Some(st), Some(dp)) => Ok(cross_anisotropic::axis_from_strike_dip(
+                finite(st, "strike_deg")?,
+                finite(dp, "dip_deg")?,
+            )),
+            (None, None, None) => Ok(Vec3::z()),
+            _ => Err(Error::Model(
+                "[scheme] give the axis either as `axis = [x, y, z]` or as both `strike_deg` and `dip_deg`".into(),
+            )),
+        }
+    }
+}
+
+/// The model's geometry: the file's `[geometry]`, or by default moduli (k = E'·A/l) for the
+/// cross-anisotropic scheme and the PFC parallel-bond `area` convention for the others;
+/// a cross-anisotropic `pi_hat` overrides π̂. Refuses an invalid geometry and a
+/// cross-anisotropic scheme without the modulus convention.
+fn model_geometry(
+    raw: Option<Geometry>,
+    scheme: &SchemeSpec,
+    pi_hat: Option<f64>,
+) -> Result<Geometry> {
+    let mut geometry = match (&raw, scheme) {
+        (Some(g), _) => *g,
+        (None, SchemeSpec::CrossAnisotropic(_)) => Geometry {
+            convention: Convention::Modulus,
+            ..Geometry::default()
+        },
+        (None, _) => Geometry::default(),
+    };
+    if let Some(p) = pi_hat {
+        if !p.is_finite() || p <= 0.0 {
+            return Err(Error::Model(format!(
+                "[scheme] pi_hat must be finite and > 0, got {p}"
+            )));
+        }
+        geometry.pi_hat = p;
+    }
+    geometry.validate()?;
+    if let SchemeSpec::CrossAnisotropic(_) = scheme {
+        if geometry.convention != Convention::Modulus {
+            return Err(Error::Model(
+                "cross-anisotropic scheme needs [geometry] convention = \"modulus\" (k = E'·π̂r²/(2r'), Šmilauer)".into(),
+            ));
+        }
+    }
+    Ok(geometry)
+}
+
 /// `[scheme] kind = "other": expected cubic, …` (the kinds of [`SchemeKind`]).
 fn unknown_kind<E: serde::de::Error>(other: impl std::fmt::Display) -> E {
     E::custom(format!(
@@ -472,109 +622,18 @@ impl Model {
         spec.transpose().map_err(|e| prefix(&name, e))
     }
 
+    /// The checked model of a parsed file: bonding rule, scheme and geometry, each refused
+    /// with the key at fault; scheme parameters checked where that needs no packing.
     fn from_raw(raw: RawModel) -> Result<Model> {
         let bonding = match raw.bonding {
             None => BondingRule::default(),
-            Some(b) => {
-                if !b.value.is_finite() || b.value <= 0.0 {
-                    return Err(Error::Model(format!(
-                        "[bonding] value must be a finite number > 0, got {}",
-                        b.value
-                    )));
-                }
-                match b.rule.as_str() {
-                    "gap" => BondingRule::Gap(b.value),
-                    "factor" => BondingRule::Factor(b.value),
-                    "coordination" => BondingRule::Coordination(b.value),
-                    other => {
-                        return Err(Error::Model(format!(
-                            "[bonding] rule = \"{other}\": expected gap, factor or coordination"
-                        )))
-                    }
-                }
-            }
+            Some(b) => b.rule()?,
         };
         let mut scheme_pi_hat = None;
         let scheme = match raw.scheme {
-            RawScheme::Cubic(s) => {
-                let rotation = match (s.rotation, s.euler_zyz_deg) {
-                    (Some(_), Some(_)) => {
-                        return Err(Error::Model(
-                            "[scheme] give either `rotation` or `euler_zyz_deg`, not both".into(),
-                        ))
-                    }
-                    (Some(r), None) => {
-                        let m = Mat3::from_fn(|i, j| r[i][j]);
-                        // A rotation to rounding (as written by to_toml_string) is kept bit for
-                        // bit, so a written model reads back identically; a matrix printed to a
-                        // few decimals is re-orthonormalised.
-                        let exact = m.iter().all(|x| x.is_finite())
-                            && (m.transpose() * m - Mat3::identity()).amax() <= 1e-12
-                            && m.determinant() > 0.0;
-                        if exact {
-                            m
-                        } else {
-                            cubic::orthonormalize_rotation(m)?
-                        }
-                    }
-                    (None, Some(e)) => {
-                        for v in e {
-                            finite(v, "euler_zyz_deg")?;
-                        }
-                        cubic::rotation_from_euler_zyz_deg(e[0], e[1], e[2])
-                    }
-                    (None, None) => Mat3::identity(),
-                };
-                SchemeSpec::Cubic(CubicSpheroid {
-                    model: s.model,
-                    extended: s.extended,
-                    a_n: finite(s.a_n, "a_n")?,
-                    a_s: finite(s.a_s, "a_s")?,
-                    normal: finite(s.normal, "normal")?,
-                    shear: finite(s.shear, "shear")?,
-                    rotation,
-                })
-            }
+            RawScheme::Cubic(s) => s.scheme()?,
             RawScheme::CrossAnisotropic(s) => {
-                let axis = match (s.axis, s.strike_deg, s.dip_deg) {
-                    (Some(a), None, None) => {
-                        let v = Vec3::new(a[0], a[1], a[2]);
-                        let n = v.norm();
-                        if !n.is_finite() || n == 0.0 {
-                            return Err(Error::Model(
-                                "[scheme] axis must be a non-zero finite vector".into(),
-                            ));
-                        }
-                        // A unit vector to rounding (as written) is kept bit for bit, so a
-                        // written model reads back identically.
-                        if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
-                            v
-                        } else {
-                            v / n
-                        }
-                    }
-                    (None, Some(st), Some(dp)) => cross_anisotropic::axis_from_strike_dip(
-                        finite(st, "strike_deg")?,
-                        finite(dp, "dip_deg")?,
-                    ),
-                    (None, None, None) => Vec3::z(),
-                    _ => {
-                        return Err(Error::Model(
-                            "[scheme] give the axis either as `axis = [x, y, z]` or as both `strike_deg` and `dip_deg`".into(),
-                        ))
-                    }
-                };
-                let target = CrossTarget {
-                    c11: finite(s.c11, "C11")?,
-                    c33: finite(s.c33, "C33")?,
-                    c13: finite(s.c13, "C13")?,
-                    c12: finite(s.c12, "C12")?,
-                    axis,
-                };
-                // Positive definiteness and non-negative lattice moduli do not depend on the
-                // lattice scaling μ > 0 (E′ = A⁻¹C/μ), so they are checked here with μ = 1,
-                // before any packing is read.
-                target.scheme(1.0)?;
+                let target = s.target()?;
                 scheme_pi_hat = s.pi_hat;
                 SchemeSpec::CrossAnisotropic(target)
             }
@@ -583,32 +642,7 @@ impl Model {
                 shear: finite(s.shear, "shear")?,
             },
         };
-        // Geometry: the cross-anisotropic scheme is defined with moduli (k = E'·A/l), the
-        // others default to the PFC parallel-bond `area` convention.
-        let mut geometry = match (&raw.geometry, &scheme) {
-            (Some(g), _) => *g,
-            (None, SchemeSpec::CrossAnisotropic(_)) => Geometry {
-                convention: Convention::Modulus,
-                ..Geometry::default()
-            },
-            (None, _) => Geometry::default(),
-        };
-        if let Some(p) = scheme_pi_hat {
-            if !p.is_finite() || p <= 0.0 {
-                return Err(Error::Model(format!(
-                    "[scheme] pi_hat must be finite and > 0, got {p}"
-                )));
-            }
-            geometry.pi_hat = p;
-        }
-        geometry.validate()?;
-        if let SchemeSpec::CrossAnisotropic(_) = scheme {
-            if geometry.convention != Convention::Modulus {
-                return Err(Error::Model(
-                    "cross-anisotropic scheme needs [geometry] convention = \"modulus\" (k = E'·π̂r²/(2r'), Šmilauer)".into(),
-                ));
-            }
-        }
+        let geometry = model_geometry(raw.geometry, &scheme, scheme_pi_hat)?;
         let model = Model {
             bonding,
             scheme,

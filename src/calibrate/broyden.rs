@@ -82,43 +82,88 @@ pub(crate) fn solve<T: Clone>(
     restart: impl Fn(&DVector<f64>) -> DMatrix<f64>,
     opts: &BroydenOptions,
 ) -> Result<BroydenResult<T>> {
-    let error_of = |f: &DVector<f64>| f.component_div(&opts.scale).amax();
-    let mut jac = jacobian;
-    let mut current = start;
-    let mut error = error_of(&current.f);
-    let mut best_error = error;
-    let mut evaluations = 1usize;
-    let done = |error: f64, evaluations: usize| {
-        if error <= opts.tolerance {
-            Some(End::Converged)
-        } else if evaluations >= opts.max_evaluations {
-            Some(End::Budget)
-        } else {
-            None
-        }
-    };
-    let finish = |point, best_error, evaluations, end| {
-        Ok(BroydenResult {
-            point,
-            best_error,
-            evaluations,
-            end,
-        })
+    let error = scaled_error(&start.f, opts);
+    let mut it = Iteration {
+        jac: jacobian,
+        current: start,
+        error,
+        best_error: error,
+        evaluations: 1,
     };
     loop {
-        if let Some(end) = done(error, evaluations) {
-            return finish(current, best_error, evaluations, end);
+        if let Some(end) = error_end(it.error, it.evaluations, opts) {
+            return Ok(it.finish(end));
         }
-        let mut step = newton_step(&jac, &current.f)?;
+        let mut step = newton_step(&it.jac, &it.current.f)?;
         let biggest = step.amax();
         if biggest > opts.max_step {
             step *= opts.max_step / biggest;
         }
-        let mut accepted = false;
+        match it.search(step, &mut residual, &project, opts)? {
+            Search::Accepted => {}
+            Search::Rejected => it.jac = restart(&it.current.x),
+            Search::Inadmissible(last_trial) => {
+                return Ok(it.finish(End::Inadmissible(last_trial)));
+            }
+        }
+    }
+}
+
+/// max_i |f_i|/scale_i.
+fn scaled_error(f: &DVector<f64>, opts: &BroydenOptions) -> f64 {
+    f.component_div(&opts.scale).amax()
+}
+
+/// Converged at this error, or out of evaluations; `None` to go on.
+fn error_end(error: f64, evaluations: usize, opts: &BroydenOptions) -> Option<End> {
+    if error <= opts.tolerance {
+        Some(End::Converged)
+    } else if evaluations >= opts.max_evaluations {
+        Some(End::Budget)
+    } else {
+        None
+    }
+}
+
+/// The state of [`solve`] between iterations.
+struct Iteration<T> {
+    /// The Jacobian estimate.
+    jac: DMatrix<f64>,
+    /// The last accepted point.
+    current: Point<T>,
+    /// Its scaled error.
+    error: f64,
+    /// The smallest scaled error of all admissible evaluations.
+    best_error: f64,
+    /// Admissible evaluations made.
+    evaluations: usize,
+}
+
+/// How the trials of one iteration ended.
+enum Search {
+    /// A trial decreased |f| (or met the tolerance) and is the new point.
+    Accepted,
+    /// Admissible trials, none accepted.
+    Rejected,
+    /// Every trial inadmissible; the last one.
+    Inadmissible(DVector<f64>),
+}
+
+impl<T: Clone> Iteration<T> {
+    /// The trials of one iteration: the full `step`, then halved ones, each admissible
+    /// evaluation updating the Jacobian by Broyden's rank-one formula; the first trial that
+    /// decreases |f| (or meets the tolerance) is accepted.
+    fn search(
+        &mut self,
+        mut step: DVector<f64>,
+        residual: &mut impl FnMut(&DVector<f64>) -> Result<Evaluation<T>>,
+        project: &impl Fn(&mut DVector<f64>),
+        opts: &BroydenOptions,
+    ) -> Result<Search> {
         let mut admissible = false;
-        let mut last_trial = current.x.clone();
+        let mut last_trial = self.current.x.clone();
         for _ in 0..opts.max_trials {
-            let mut trial = &current.x + &step;
+            let mut trial = &self.current.x + &step;
             project(&mut trial);
             last_trial.clone_from(&trial);
             let (f_new, data) = match residual(&trial)? {
@@ -129,42 +174,46 @@ pub(crate) fn solve<T: Clone>(
                 }
             };
             admissible = true;
-            evaluations += 1;
-            let actual = &trial - &current.x;
+            self.evaluations += 1;
+            let actual = &trial - &self.current.x;
             let denominator = actual.norm_squared();
             if denominator > 0.0 {
                 // Broyden's update: J ← J + (Δf − JΔx)Δxᵀ/|Δx|².
-                let correction =
-                    (&f_new - &current.f - &jac * &actual) * actual.transpose() / denominator;
-                jac += correction;
+                let correction = (&f_new - &self.current.f - &self.jac * &actual)
+                    * actual.transpose()
+                    / denominator;
+                self.jac += correction;
             }
-            let new_error = error_of(&f_new);
-            best_error = best_error.min(new_error);
-            if f_new.norm() < current.f.norm() || new_error <= opts.tolerance {
-                current = Point {
+            let new_error = scaled_error(&f_new, opts);
+            self.best_error = self.best_error.min(new_error);
+            if f_new.norm() < self.current.f.norm() || new_error <= opts.tolerance {
+                self.current = Point {
                     x: trial,
                     f: f_new,
                     data,
                 };
-                error = new_error;
-                accepted = true;
-                break;
+                self.error = new_error;
+                return Ok(Search::Accepted);
             }
-            if evaluations >= opts.max_evaluations {
+            if self.evaluations >= opts.max_evaluations {
                 break;
             }
             step *= 0.5;
         }
-        if !admissible {
-            return finish(
-                current,
-                best_error,
-                evaluations,
-                End::Inadmissible(last_trial),
-            );
-        }
-        if !accepted {
-            jac = restart(&current.x);
+        Ok(if admissible {
+            Search::Rejected
+        } else {
+            Search::Inadmissible(last_trial)
+        })
+    }
+
+    /// The result, ended by `end`.
+    fn finish(self, end: End) -> BroydenResult<T> {
+        BroydenResult {
+            point: self.current,
+            best_error: self.best_error,
+            evaluations: self.evaluations,
+            end,
         }
     }
 }

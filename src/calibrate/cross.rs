@@ -13,7 +13,7 @@
 
 use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::warm::WarmRelaxed;
-use crate::bonds::{assign_stiffness, lattice_scaling, BondSet};
+use crate::bonds::{lattice_scaling, BondSet};
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{CrossTarget, Model, SchemeSpec};
 use crate::packing::Packing;
@@ -105,39 +105,18 @@ pub fn calibrate_cross_relaxed(
     let mu = lattice_scaling(packing, bonds, base.geometry.pi_hat)?;
     let goal = DVector::from_column_slice(&target);
     let scale = goal.amax().max(f64::MIN_POSITIVE);
-    let mut solver = WarmRelaxed::new(packing, bonds, opts.relaxed);
-    let mut history = Vec::new();
-    type Solved = (Stiffness6, TransverseProjection, [f64; 4]);
-    // One relaxed solve with the constants w written into the model; Err(why) when the
-    // elliptic scheme cannot reproduce w (the admissible domain, no solve made).
-    let mut evaluate = |w: &DVector<f64>,
-                        history: &mut Vec<([f64; 4], usize)>|
-     -> Result<std::result::Result<Solved, String>> {
-        let e = match target_lattice_moduli(w[0], w[1], w[2], w[3], mu) {
-            Ok(e) => e,
-            Err(why) => return Ok(Err(why)),
-        };
-        let scheme = CrossAnisotropic::from_moduli(e, axis)?;
-        let k = assign_stiffness(packing, bonds, &scheme, &base.geometry)?;
-        let sol = solver.solve(&k)?;
-        let (proj, _) = TransverseProjection::about_axis(&sol.c, &axis)?;
-        history.push(([proj.c11, proj.c33, proj.c13, proj.c12], sol.iterations));
-        Ok(Ok((sol.c, proj, scheme.e_prime)))
+    let mut eval = CrossEvaluator {
+        base,
+        axis,
+        mu,
+        solver: WarmRelaxed::new(packing, bonds, opts.relaxed),
+        history: Vec::new(),
     };
     let w0 = DVector::from_column_slice(&target);
-    let first = evaluate(&w0, &mut history)?.map_err(Error::Model)?;
+    let first = eval.evaluate(&w0)?.map_err(Error::Model)?;
     let proj = &first.1;
     let plain_inversion = [proj.c11, proj.c33, proj.c13, proj.c12];
-    // Initial Jacobian: the component-wise softening of the first solve (relaxed/written),
-    // refined by Broyden's rank-one updates.
-    let jac = DMatrix::<f64>::from_diagonal(&DVector::from_fn(4, |i, _| {
-        let r = constants(proj)[i] / w0[i];
-        if r.is_finite() {
-            r.clamp(0.2, 5.0)
-        } else {
-            1.0
-        }
-    }));
+    let jac = softening_jacobian(proj, &w0);
     let start = Point {
         f: constants(proj) - &goal,
         x: w0,
@@ -150,16 +129,10 @@ pub fn calibrate_cross_relaxed(
         max_step: f64::INFINITY,
         max_trials: 9,
     };
-    let out_of_reach = |w: &DVector<f64>, e: &dyn std::fmt::Display| {
-        Error::Invalid(format!(
-            "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}; the target is out of reach of the elliptic scheme on this packing",
-            w[0], w[1], w[2], w[3]
-        ))
-    };
     let result = broyden::solve(
         start,
         jac.clone(),
-        |w| match evaluate(w, &mut history) {
+        |w| match eval.evaluate(w) {
             Ok(Ok(solved)) => Ok(Evaluation::Admissible(constants(&solved.1) - &goal, solved)),
             Ok(Err(_)) => Ok(Evaluation::Inadmissible),
             Err(e) => Err(out_of_reach(w, &e)),
@@ -168,23 +141,11 @@ pub fn calibrate_cross_relaxed(
         |_| jac.clone(),
         &broyden_opts,
     )?;
+    if let Some(e) = not_reached(&result, &result.point.data.1, &target, mu) {
+        return Err(e);
+    }
     let w = &result.point.x;
     let (c, proj, e_prime) = result.point.data;
-    match result.end {
-        End::Converged => {}
-        End::Budget => {
-            return Err(Error::NotConverged(format!(
-                "cross-anisotropic calibration: no convergence in {} relaxed solves; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
-                result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
-            )));
-        }
-        End::Inadmissible(w_try) => {
-            let why = target_lattice_moduli(w_try[0], w_try[1], w_try[2], w_try[3], mu)
-                .err()
-                .unwrap_or_default();
-            return Err(out_of_reach(&w_try, &why));
-        }
-    }
     Ok(CrossCalibration {
         target,
         written: [w[0], w[1], w[2], w[3]],
@@ -194,6 +155,85 @@ pub fn calibrate_cross_relaxed(
         achieved: c,
         achieved_transverse: proj,
         plain_inversion,
-        history,
+        history: eval.history,
     })
+}
+
+/// A relaxed solve: tensor, transverse projection and lattice moduli E′.
+type Solved = (Stiffness6, TransverseProjection, [f64; 4]);
+
+/// Relaxed solves of the packing with constants W written into the model (warm-started),
+/// each recorded in the calibration's history.
+struct CrossEvaluator<'a> {
+    /// The model whose geometry the springs follow.
+    base: &'a Model,
+    /// The symmetry axis.
+    axis: Vec3,
+    /// Lattice scaling μ of the packing (Šmilauer Eq. 22).
+    mu: f64,
+    /// The warm-started relaxed solver.
+    solver: WarmRelaxed<'a>,
+    /// Relaxed (C11, C33, C13, C12) and CG iterations of every solve.
+    history: Vec<([f64; 4], usize)>,
+}
+
+impl CrossEvaluator<'_> {
+    /// One relaxed solve with the constants w written into the model; Err(why) when the
+    /// elliptic scheme cannot reproduce w (the admissible domain, no solve made).
+    fn evaluate(&mut self, w: &DVector<f64>) -> Result<std::result::Result<Solved, String>> {
+        let e = match target_lattice_moduli(w[0], w[1], w[2], w[3], self.mu) {
+            Ok(e) => e,
+            Err(why) => return Ok(Err(why)),
+        };
+        let scheme = CrossAnisotropic::from_moduli(e, self.axis)?;
+        let sol = self.solver.solve_scheme(&scheme, &self.base.geometry)?;
+        let (proj, _) = TransverseProjection::about_axis(&sol.c, &self.axis)?;
+        self.history
+            .push(([proj.c11, proj.c33, proj.c13, proj.c12], sol.iterations));
+        Ok(Ok((sol.c, proj, scheme.e_prime)))
+    }
+}
+
+/// Initial Jacobian: the component-wise softening of the first solve (relaxed/written,
+/// clamped to [0.2, 5]), refined by Broyden's rank-one updates.
+fn softening_jacobian(proj: &TransverseProjection, w0: &DVector<f64>) -> DMatrix<f64> {
+    DMatrix::<f64>::from_diagonal(&DVector::from_fn(4, |i, _| {
+        let r = constants(proj)[i] / w0[i];
+        if r.is_finite() {
+            r.clamp(0.2, 5.0)
+        } else {
+            1.0
+        }
+    }))
+}
+
+/// The error of corrected constants `w` the elliptic scheme cannot reproduce.
+fn out_of_reach(w: &DVector<f64>, e: &dyn std::fmt::Display) -> Error {
+    Error::Invalid(format!(
+        "cross-anisotropic calibration: the corrected constants ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa are not admissible: {e}; the target is out of reach of the elliptic scheme on this packing",
+        w[0], w[1], w[2], w[3]
+    ))
+}
+
+/// The error of an iteration that did not converge (out of solves, or every trial
+/// inadmissible); `None` when it converged. `proj` is the last accepted point's projection.
+fn not_reached<T>(
+    result: &broyden::BroydenResult<T>,
+    proj: &TransverseProjection,
+    target: &[f64; 4],
+    mu: f64,
+) -> Option<Error> {
+    match &result.end {
+        End::Converged => None,
+        End::Budget => Some(Error::NotConverged(format!(
+            "cross-anisotropic calibration: no convergence in {} relaxed solves; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
+            result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
+        ))),
+        End::Inadmissible(w_try) => {
+            let why = target_lattice_moduli(w_try[0], w_try[1], w_try[2], w_try[3], mu)
+                .err()
+                .unwrap_or_default();
+            Some(out_of_reach(w_try, &why))
+        }
+    }
 }

@@ -23,7 +23,7 @@ use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::kernel::{Cubic3, CubicKernel};
 use super::target::CubicTarget;
 use super::warm::WarmRelaxed;
-use crate::bonds::{assign_stiffness, BondSet};
+use crate::bonds::BondSet;
 use crate::homogenize::mean_field::mean_field_converged;
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::model::{Model, SchemeSpec};
@@ -517,43 +517,59 @@ impl<'k> MeanFieldMap<'k> {
                     .collect()
             })
             .collect();
+        if family == Family::Equi {
+            return self.solve_equi(t, &d);
+        }
         let mut candidates: Vec<MapPoint> = Vec::new();
-        let mut consider = |x: f64, y: f64| {
+        for (x, y) in self.edge_guesses(t, &d, family) {
             if let Some(p) = self.project(t, x, y) {
                 if self.admissible(&p) && family.allows_x(p.x) {
                     candidates.push(p);
                 }
             }
-        };
-        if family == Family::Equi {
-            for i in 0..n - 1 {
-                let (d0, d1) = (d[i][i], d[i + 1][i + 1]);
-                if d0 * d1 <= 0.0 {
-                    // Bisection on the diagonal.
-                    let (mut lo, mut hi, mut dlo) = (self.grid[i], self.grid[i + 1], d0);
-                    for _ in 0..60 {
-                        let mid = 0.5 * (lo + hi);
-                        let (dm, _) = self.curve(t, mid, mid);
-                        if dm * dlo <= 0.0 {
-                            hi = mid;
-                        } else {
-                            lo = mid;
-                            dlo = dm;
-                        }
-                    }
-                    let x = 0.5 * (lo + hi);
-                    let (_, rho) = self.curve(t, x, x);
-                    let p = MapPoint { x, y: x, rho };
-                    if self.admissible(&p) {
-                        candidates.push(p);
+        }
+        candidates
+            .into_iter()
+            .map(|p| self.slide_to_nearest(t, p, family))
+            .min_by(|a, b| (a.x * a.x + a.y * a.y).total_cmp(&(b.x * b.x + b.y * b.y)))
+    }
+
+    /// [`Self::solve`] on the equi-anisotropy plane x = y: bisection on the grid's diagonal
+    /// wherever the determinant `d` changes sign, the admissible root nearest x = 0.
+    fn solve_equi(&self, t: &CubicTarget, d: &[Vec<f64>]) -> Option<MapPoint> {
+        let mut candidates: Vec<MapPoint> = Vec::new();
+        for i in 0..self.grid.len() - 1 {
+            let (d0, d1) = (d[i][i], d[i + 1][i + 1]);
+            if d0 * d1 <= 0.0 {
+                let (mut lo, mut hi, mut dlo) = (self.grid[i], self.grid[i + 1], d0);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    let (dm, _) = self.curve(t, mid, mid);
+                    if dm * dlo <= 0.0 {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                        dlo = dm;
                     }
                 }
+                let x = 0.5 * (lo + hi);
+                let (_, rho) = self.curve(t, x, x);
+                let p = MapPoint { x, y: x, rho };
+                if self.admissible(&p) {
+                    candidates.push(p);
+                }
             }
-            return candidates
-                .into_iter()
-                .min_by(|a, b| a.x.abs().total_cmp(&b.x.abs()));
         }
-        // Sign changes along grid edges: first guesses on the curve, best first.
+        candidates
+            .into_iter()
+            .min_by(|a, b| a.x.abs().total_cmp(&b.x.abs()))
+    }
+
+    /// First guesses on the solution curve: where the determinant `d` changes sign along a
+    /// grid edge (linear interpolation), with an admissible interpolated ρ in the family;
+    /// the four nearest the origin, nearest first.
+    fn edge_guesses(&self, t: &CubicTarget, d: &[Vec<f64>], family: Family) -> Vec<(f64, f64)> {
+        let n = self.grid.len();
         let mut guesses: Vec<(f64, f64, f64)> = Vec::new();
         for i in 0..n {
             for j in 0..n {
@@ -568,7 +584,6 @@ impl<'k> MeanFieldMap<'k> {
                     let s = d0 / (d0 - d1);
                     let x = self.grid[i] + s * (self.grid[i2] - self.grid[i]);
                     let y = self.grid[j] + s * (self.grid[j2] - self.grid[j]);
-                    // Interpolated ρ must be admissible for the guess to be worth refining.
                     let (n0, s0) = (self.normal[i], self.shear[j]);
                     let nn = n0.plus_scaled(s, &self.normal[i2].minus(&n0));
                     let ss = s0.plus_scaled(s, &self.shear[j2].minus(&s0));
@@ -582,13 +597,7 @@ impl<'k> MeanFieldMap<'k> {
             }
         }
         guesses.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for &(_, x, y) in guesses.iter().take(4) {
-            consider(x, y);
-        }
-        candidates
-            .into_iter()
-            .map(|p| self.slide_to_nearest(t, p, family))
-            .min_by(|a, b| (a.x * a.x + a.y * a.y).total_cmp(&(b.x * b.x + b.y * b.y)))
+        guesses.iter().take(4).map(|&(_, x, y)| (x, y)).collect()
     }
 
     /// The admissible point whose ratios come nearest the target's (Euclidean distance in
@@ -838,17 +847,115 @@ pub fn calibrate_cubic_relaxed(
     let kernel = CubicKernel::default();
     let model = opts.model.unwrap_or(model_for_zener(target.zener()));
     let map = MeanFieldMap::new(&kernel, model, opts.extended, opts)?;
-    let start = match map.solve(target, opts.family) {
-        Some(p) => p,
-        None => map.nearest_reachable(target).0,
+    let start = map
+        .solve(target, opts.family)
+        .unwrap_or_else(|| map.nearest_reachable(target).0);
+    let vars = CubicVariables {
+        map: &map,
+        equi: opts.family == Family::Equi,
     };
-    let rotation = base_rotation(base);
-    let mut solver = WarmRelaxed::new(packing, bonds, opts.relaxed);
-    let equi = opts.family == Family::Equi;
-    // Free variables: (x, y, ln ρ), or (x, ln ρ) with y = x on the equi plane.
-    let dims = if equi { 2 } else { 3 };
-    let to_point = |u: &DVector<f64>| -> MapPoint {
-        if equi {
+    let mut eval = RelaxedCubicEvaluator {
+        base,
+        model,
+        extended: opts.extended,
+        rotation: base_rotation(base),
+        solver: WarmRelaxed::new(packing, bonds, opts.relaxed),
+        history: Vec::new(),
+    };
+    let goal = DVector::from_vec(vec![target.c12_over_c11, target.c44_over_c11]);
+    let u0 = vars.start(&start);
+    let p0 = vars.point(&u0);
+    let (_, proj0) = eval.admissible(&p0, default_normal)?;
+    let result = broyden::solve(
+        Point {
+            f: ratio_residual(&proj0, &goal),
+            x: u0,
+            data: proj0,
+        },
+        vars.jacobian(&p0),
+        |u| {
+            Ok(match eval.evaluate(&vars.point(u), default_normal)? {
+                Some((_, proj)) => Evaluation::Admissible(ratio_residual(&proj, &goal), proj),
+                None => Evaluation::Inadmissible,
+            })
+        },
+        |u| vars.clamp(u),
+        |u| vars.jacobian(&vars.point(u)),
+        &relaxed_broyden_options(target, opts),
+    )?;
+    let p = vars.point(&result.point.x);
+    let proj = result.point.data;
+    if !matches!(result.end, End::Converged) {
+        let nearest = nearest_record(&eval.history, &goal);
+        return Err(relaxed_not_converged(
+            (&map, target, opts),
+            &result,
+            nearest,
+        ));
+    }
+    // The relaxed tensor is homogeneous of degree 1 in the springs: scale to the target C11,
+    // then confirm with one more (warm, hence nearly free) solve.
+    let normal = target
+        .c11
+        .map_or(default_normal, |c11| default_normal * c11 / proj.c11);
+    let (achieved, achieved_cubic) = eval.admissible(&p, normal)?;
+    eval.history.pop();
+    Ok(CubicCalibration {
+        parameters: CubicParameters::at(model, opts.extended, &p),
+        normal,
+        shear: normal * p.rho,
+        level: Level::Relaxed,
+        target: *target,
+        achieved,
+        achieved_cubic,
+        mean_field_start: Some(CubicParameters::at(model, opts.extended, &start)),
+        history: eval.history,
+    })
+}
+
+/// The residual of the relaxed calibration: the projection's (C12/C11, C44/C11) minus the
+/// target's `goal`.
+fn ratio_residual(proj: &CubicProjection, goal: &DVector<f64>) -> DVector<f64> {
+    DVector::from_vec(vec![proj.c12 / proj.c11, proj.c44 / proj.c11]) - goal
+}
+
+/// Broyden's options of the relaxed calibration: the ratios' errors scaled by the target
+/// ratios (at least 0.02), log-space steps of at most a factor e^0.7 ≈ 2 in a_n, a_s or ρ.
+fn relaxed_broyden_options(target: &CubicTarget, opts: &CubicOptions) -> BroydenOptions {
+    BroydenOptions {
+        tolerance: opts.tolerance,
+        scale: DVector::from_vec(vec![
+            target.c12_over_c11.abs().max(0.02),
+            target.c44_over_c11.abs().max(0.02),
+        ]),
+        max_evaluations: opts.max_iterations,
+        max_step: 0.7,
+        max_trials: 4,
+    }
+}
+
+/// The free variables of the relaxed cubic calibration: (x, y, ln ρ), or (x, ln ρ) with
+/// y = x on the equi-anisotropy plane, kept inside the mean-field map's box.
+struct CubicVariables<'m> {
+    /// The mean-field map (its box, its Jacobian).
+    map: &'m MeanFieldMap<'m>,
+    /// On the equi-anisotropy plane a_n = a_s.
+    equi: bool,
+}
+
+impl CubicVariables<'_> {
+    /// The variables of a map point.
+    fn start(&self, p: &MapPoint) -> DVector<f64> {
+        if self.equi {
+            DVector::from_vec(vec![p.x, p.rho.ln()])
+        } else {
+            DVector::from_vec(vec![p.x, p.y, p.rho.ln()])
+        }
+    }
+
+    /// The map point of the variables `u`.
+    fn point(&self, u: &DVector<f64>) -> MapPoint {
+        if self.equi {
             MapPoint {
                 x: u[0],
                 y: u[0],
@@ -861,20 +968,26 @@ pub fn calibrate_cubic_relaxed(
                 rho: u[2].exp(),
             }
         }
-    };
-    let clamp = |u: &mut DVector<f64>| {
+    }
+
+    /// Clamp `u` into the map's box.
+    fn clamp(&self, u: &mut DVector<f64>) {
+        let map = self.map;
         u[0] = u[0].clamp(map.x_range.0, map.x_range.1);
-        if equi {
+        if self.equi {
             u[0] = u[0].clamp(map.y_range.0, map.y_range.1);
         } else {
             u[1] = u[1].clamp(map.y_range.0, map.y_range.1);
         }
-        let last = dims - 1;
+        let last = if self.equi { 1 } else { 2 };
         u[last] = u[last].clamp(map.ln_rho.0, map.ln_rho.1);
-    };
-    let mf_jacobian = |p: &MapPoint| -> DMatrix<f64> {
-        let j = map.jacobian(p);
-        if equi {
+    }
+
+    /// The mean-field Jacobian of the two ratios in the variables (the Broyden start and
+    /// restart).
+    fn jacobian(&self, p: &MapPoint) -> DMatrix<f64> {
+        let j = self.map.jacobian(p);
+        if self.equi {
             DMatrix::from_row_slice(
                 2,
                 2,
@@ -887,167 +1000,134 @@ pub fn calibrate_cubic_relaxed(
                 &[j[0][0], j[0][1], j[0][2], j[1][0], j[1][1], j[1][2]],
             )
         }
-    };
-    let goal = DVector::from_vec(vec![target.c12_over_c11, target.c44_over_c11]);
-    let scale = DVector::from_vec(vec![
-        target.c12_over_c11.abs().max(0.02),
-        target.c44_over_c11.abs().max(0.02),
-    ]);
-    let mut history = Vec::new();
-    // The scheme at a point with normal magnitude `normal`, or why it is not admissible
-    // (negative normal or shear stiffness along some direction: extended models).
-    let scheme_at = |p: &MapPoint, normal: f64| -> Result<Option<CubicSpheroid>> {
+    }
+}
+
+/// The relaxed tensor of the packing at points of the cubic map (warm-started solves), each
+/// recorded in the calibration's history.
+struct RelaxedCubicEvaluator<'a> {
+    /// The model whose geometry convention the springs follow.
+    base: &'a Model,
+    /// The cubic model calibrated.
+    model: CubicModel,
+    /// Extended <110> models.
+    extended: bool,
+    /// The crystal rotation of `base`.
+    rotation: Mat3,
+    /// The warm-started relaxed solver.
+    solver: WarmRelaxed<'a>,
+    /// Every evaluation so far.
+    history: Vec<IterationRecord>,
+}
+
+impl RelaxedCubicEvaluator<'_> {
+    /// The scheme at a point with normal magnitude `normal`, or `None` when it is not
+    /// admissible (negative normal or shear stiffness along some direction: extended models).
+    fn scheme_at(&self, p: &MapPoint, normal: f64) -> Result<Option<CubicSpheroid>> {
         let (a_n, a_s, shear) = (p.x.exp(), p.y.exp(), normal * p.rho);
         let scheme = CubicSpheroid {
-            model,
-            extended: opts.extended,
+            model: self.model,
+            extended: self.extended,
             a_n,
             a_s,
             normal,
             shear,
-            rotation,
+            rotation: self.rotation,
         }
         .parameters_checked()?;
         let negative = (normal > 0.0 && scheme.min_normal_factor().0 < 0.0)
             || (shear > 0.0 && scheme.min_shear_factor().0 < 0.0);
         Ok((!negative).then_some(scheme))
-    };
-    // The error of an inadmissible point (as `CubicSpheroid::new` words it).
-    let refusal = |p: &MapPoint, normal: f64| -> Error {
+    }
+
+    /// The error of an inadmissible point (as `CubicSpheroid::new` words it).
+    fn refusal(&self, p: &MapPoint, normal: f64) -> Error {
         CubicSpheroid::new(
-            model,
-            opts.extended,
+            self.model,
+            self.extended,
             p.x.exp(),
             p.y.exp(),
             normal,
             normal * p.rho,
-            rotation,
+            self.rotation,
         )
         .err()
         .unwrap_or_else(|| Error::Model("cubic scheme: inadmissible parameters".into()))
-    };
-    // Relaxed tensor and cubic projection at a point; None outside the admissible domain.
-    let mut evaluate = |p: &MapPoint,
-                        normal: f64,
-                        history: &mut Vec<IterationRecord>|
-     -> Result<Option<(Stiffness6, CubicProjection)>> {
-        let Some(scheme) = scheme_at(p, normal)? else {
+    }
+
+    /// Relaxed tensor (crystal frame) and cubic projection at a point; `None` outside the
+    /// admissible domain.
+    fn evaluate(
+        &mut self,
+        p: &MapPoint,
+        normal: f64,
+    ) -> Result<Option<(Stiffness6, CubicProjection)>> {
+        let Some(scheme) = self.scheme_at(p, normal)? else {
             return Ok(None);
         };
-        let k = assign_stiffness(packing, bonds, &scheme, &base.geometry)?;
-        let sol = solver.solve(&k)?;
+        let sol = self.solver.solve_scheme(&scheme, &self.base.geometry)?;
         // Lab → crystal: C_crystal = rotate(C_lab, R).
-        let c = rotate(&sol.c, &rotation);
+        let c = rotate(&sol.c, &self.rotation);
         let proj = CubicProjection::from_stiffness(&c);
-        history.push(IterationRecord {
-            parameters: CubicParameters::at(model, opts.extended, p),
+        self.history.push(IterationRecord {
+            parameters: CubicParameters::at(self.model, self.extended, p),
             c12_over_c11: proj.c12 / proj.c11,
             c44_over_c11: proj.c44 / proj.c11,
             cg_iterations: sol.iterations,
         });
         Ok(Some((c, proj)))
-    };
-    let residual = |proj: &CubicProjection| -> DVector<f64> {
-        DVector::from_vec(vec![proj.c12 / proj.c11, proj.c44 / proj.c11]) - &goal
-    };
-    let u0 = if equi {
-        DVector::from_vec(vec![start.x, start.rho.ln()])
-    } else {
-        DVector::from_vec(vec![start.x, start.y, start.rho.ln()])
-    };
-    let p0 = to_point(&u0);
-    let (_, proj0) =
-        evaluate(&p0, default_normal, &mut history)?.ok_or_else(|| refusal(&p0, default_normal))?;
-    let broyden_opts = BroydenOptions {
-        tolerance: opts.tolerance,
-        scale,
-        max_evaluations: opts.max_iterations,
-        // Log-space steps of at most a factor e^0.7 ≈ 2 in a_n, a_s or ρ.
-        max_step: 0.7,
-        max_trials: 4,
-    };
-    let result = broyden::solve(
-        Point {
-            f: residual(&proj0),
-            x: u0,
-            data: proj0,
-        },
-        mf_jacobian(&p0),
-        |u| {
-            Ok(
-                match evaluate(&to_point(u), default_normal, &mut history)? {
-                    Some((_, proj)) => Evaluation::Admissible(residual(&proj), proj),
-                    None => Evaluation::Inadmissible,
-                },
-            )
-        },
-        clamp,
-        |u| mf_jacobian(&to_point(u)),
-        &broyden_opts,
-    )?;
-    let p = to_point(&result.point.x);
-    let proj = result.point.data;
-    let converged = matches!(result.end, End::Converged);
-    if !converged {
-        let rec = history
-            .iter()
-            .min_by(|a, b| {
-                let ea = (a.c12_over_c11 - goal[0]).hypot(a.c44_over_c11 - goal[1]);
-                let eb = (b.c12_over_c11 - goal[0]).hypot(b.c44_over_c11 - goal[1]);
-                ea.total_cmp(&eb)
-            })
-            .copied();
-        let mut msg = format!(
-            "relaxed calibration did not reach the target {} within {} relaxed solves (relative ratio error {:.2e} > tolerance {:.1e}).",
-            describe_ratios(target.c12_over_c11, target.c44_over_c11, target.c11),
-            result.evaluations,
-            result.best_error,
-            opts.tolerance
-        );
-        if let Some(r) = rec {
-            msg.push_str(&format!(
-                "\n  nearest reached on this packing: {} with a_n = {:.4}, a_s = {:.4}, shear/normal = {:.4}",
-                describe_ratios(r.c12_over_c11, r.c44_over_c11, target.c11),
-                r.parameters.a_n,
-                r.parameters.a_s,
-                r.parameters.shear_over_normal
-            ));
-        }
-        if map.solve(target, opts.family).is_none() {
-            msg.push('\n');
-            msg.push_str(
-                &unreachable_error(&kernel, &map, target, opts, "mean-field")
-                    .to_string()
-                    .replace('\n', "\n  "),
-            );
-        }
-        return Err(Error::NotConverged(msg));
     }
-    // The relaxed tensor is homogeneous of degree 1 in the springs: scale to the target C11,
-    // then confirm with one more (warm, hence nearly free) solve.
-    let c11_ref = proj.c11;
-    let normal = match target.c11 {
-        Some(c11) => default_normal * c11 / c11_ref,
-        None => default_normal,
-    };
-    let (achieved, achieved_cubic) =
-        evaluate(&p, normal, &mut history)?.ok_or_else(|| refusal(&p, normal))?;
-    history.pop();
-    Ok(CubicCalibration {
-        parameters: CubicParameters::at(model, opts.extended, &p),
-        normal,
-        shear: normal * p.rho,
-        level: Level::Relaxed,
-        target: *target,
-        achieved,
-        achieved_cubic,
-        mean_field_start: Some(CubicParameters {
-            model,
-            extended: opts.extended,
-            a_n: start.x.exp(),
-            a_s: start.y.exp(),
-            shear_over_normal: start.rho,
-        }),
-        history,
-    })
+
+    /// [`Self::evaluate`] at a point that must be admissible (refused otherwise).
+    fn admissible(&mut self, p: &MapPoint, normal: f64) -> Result<(Stiffness6, CubicProjection)> {
+        self.evaluate(p, normal)?
+            .ok_or_else(|| self.refusal(p, normal))
+    }
+}
+
+/// The evaluation of `history` nearest the goal ratios (Euclidean in the two ratios).
+fn nearest_record(history: &[IterationRecord], goal: &DVector<f64>) -> Option<IterationRecord> {
+    history
+        .iter()
+        .min_by(|a, b| {
+            let ea = (a.c12_over_c11 - goal[0]).hypot(a.c44_over_c11 - goal[1]);
+            let eb = (b.c12_over_c11 - goal[0]).hypot(b.c44_over_c11 - goal[1]);
+            ea.total_cmp(&eb)
+        })
+        .copied()
+}
+
+/// The error of a relaxed calibration that did not reach the target: the best error, the
+/// nearest point reached on this packing and, for a target outside the mean-field domain,
+/// why it is not reachable there.
+fn relaxed_not_converged<T>(
+    (map, target, opts): (&MeanFieldMap, &CubicTarget, &CubicOptions),
+    result: &broyden::BroydenResult<T>,
+    nearest: Option<IterationRecord>,
+) -> Error {
+    let mut msg = format!(
+        "relaxed calibration did not reach the target {} within {} relaxed solves (relative ratio error {:.2e} > tolerance {:.1e}).",
+        describe_ratios(target.c12_over_c11, target.c44_over_c11, target.c11),
+        result.evaluations,
+        result.best_error,
+        opts.tolerance
+    );
+    if let Some(r) = nearest {
+        msg.push_str(&format!(
+            "\n  nearest reached on this packing: {} with a_n = {:.4}, a_s = {:.4}, shear/normal = {:.4}",
+            describe_ratios(r.c12_over_c11, r.c44_over_c11, target.c11),
+            r.parameters.a_n,
+            r.parameters.a_s,
+            r.parameters.shear_over_normal
+        ));
+    }
+    if map.solve(target, opts.family).is_none() {
+        msg.push('\n');
+        msg.push_str(
+            &unreachable_error(map.kernel, map, target, opts, "mean-field")
+                .to_string()
+                .replace('\n', "\n  "),
+        );
+    }
+    Error::NotConverged(msg)
 }

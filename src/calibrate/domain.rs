@@ -10,7 +10,7 @@
 use super::cubic::extended_interval;
 use super::kernel::CubicKernel;
 use super::warm::WarmRelaxed;
-use crate::bonds::{assign_stiffness, BondSet};
+use crate::bonds::BondSet;
 use crate::homogenize::relaxed::RelaxedOptions;
 use crate::packing::Packing;
 use crate::schemes::cubic::{CubicModel, CubicSpheroid};
@@ -225,8 +225,7 @@ pub fn sample_relaxed(
         let mut solver = WarmRelaxed::new(packing, bonds, *relaxed);
         for (a_n, a_s, rho) in triples {
             let scheme = CubicSpheroid::new(model, extended, a_n, a_s, 1.0, rho, Mat3::identity())?;
-            let k = assign_stiffness(packing, bonds, &scheme, geometry)?;
-            let sol = solver.solve(&k)?;
+            let sol = solver.solve_scheme(&scheme, geometry)?;
             let p = CubicProjection::from_stiffness(&sol.c);
             out.push(DomainSample::new(
                 model,

@@ -7,10 +7,11 @@
 //! of all springs, so the previous Q is an excellent start. The pruned network (which
 //! particles carry load) depends only on the bonds, so Q keeps its layout across iterations.
 
-use crate::bonds::{BondSet, BondStiffness};
+use crate::bonds::{assign_stiffness, BondSet, BondStiffness};
 use crate::homogenize::network::Block6;
 use crate::homogenize::relaxed::{relaxed_solve, RelaxedOptions, RelaxedResult};
 use crate::packing::Packing;
+use crate::schemes::{Geometry, StiffnessScheme};
 use crate::Result;
 
 /// Relaxed solver that remembers its last solution and starts the next solve from it.
@@ -52,5 +53,15 @@ impl<'a> WarmRelaxed<'a> {
         self.total_iterations += sol.result.iterations;
         self.solves += 1;
         Ok(sol.result)
+    }
+
+    /// [`Self::solve`] with the springs `scheme` assigns to the bonds under `geometry`.
+    pub fn solve_scheme(
+        &mut self,
+        scheme: &dyn StiffnessScheme,
+        geometry: &Geometry,
+    ) -> Result<RelaxedResult> {
+        let k = assign_stiffness(self.packing, self.bonds, scheme, geometry)?;
+        self.solve(&k)
     }
 }

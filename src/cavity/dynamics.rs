@@ -164,11 +164,30 @@ impl Cavity {
     /// snapshots, the k-th (k = 1…) after step ⌊k·steps/snapshots⌋.
     pub fn run_waves(&self, opts: &WaveOptions) -> Result<WaveRun> {
         let (_, steps) = self.check_waves(opts)?;
-        let packing = &self.cut.packing;
-        let n = packing.len();
         let mut sim = self.simulation(opts.pressure, opts.material_density, opts.law, 0.0)?;
-        let r_mean = packing.mean_radius();
-        // Probes.
+        let probes = self.probes(opts)?;
+        let dt = sim.time_step();
+        let (times, signal, snapshots) = record_waves(&mut sim, &probes, opts, steps)?;
+        let (arrival, front_speed) = fronts(&signal, &times, opts)?;
+        Ok(WaveRun {
+            time_step: dt,
+            times,
+            signal,
+            probe_sizes: probes
+                .iter()
+                .map(|a| a.iter().map(|m| m.len()).collect())
+                .collect(),
+            arrival,
+            front_speed,
+            snapshots,
+        })
+    }
+
+    /// The probes, `[direction][radius]`: the free spheres within R̄ of the radius and within
+    /// ±`probe_half_angle` of the direction (module doc); refuses an empty probe.
+    fn probes(&self, opts: &WaveOptions) -> Result<Vec<Vec<Vec<usize>>>> {
+        let n = self.cut.packing.len();
+        let r_mean = self.cut.packing.mean_radius();
         let mut probes: Vec<Vec<Vec<usize>>> = Vec::new();
         for &phi in &opts.directions {
             let dir = Vec3::new(phi.cos(), phi.sin(), 0.0);
@@ -195,97 +214,112 @@ impl Cavity {
             }
             probes.push(along);
         }
-        let dt = sim.time_step();
-        // Step after which snapshot k (0-based) is taken: ⌊(k+1)·steps/snapshots⌋, strictly
-        // increasing as snapshots ≤ steps, the last the final step.
-        let snapshot_after =
-            |k: usize| ((k as u128 + 1) * steps as u128 / opts.snapshots as u128) as usize;
-        let mut next_snapshot = 0;
-        let start = sim.particles.position.clone();
-        let mut times = Vec::with_capacity(steps);
-        let mut signal =
-            vec![vec![Vec::with_capacity(steps); opts.probe_radii.len()]; opts.directions.len()];
-        let mut snapshots = Vec::new();
-        for s in 0..steps {
-            let t = sim.time();
-            let scale = if t < opts.ramp_time {
-                0.5 * (1.0 - (std::f64::consts::PI * t / opts.ramp_time).cos())
-            } else {
-                1.0
-            };
-            sim.set_external_force_scale(scale)?;
-            sim.step()?;
-            times.push(sim.time());
-            for (d, &phi) in opts.directions.iter().enumerate() {
-                let dir = Vec3::new(phi.cos(), phi.sin(), 0.0);
-                for (k, members) in probes[d].iter().enumerate() {
-                    let v: f64 = members
-                        .iter()
-                        .map(|&p| sim.particles.velocity[p].dot(&dir))
-                        .sum::<f64>()
-                        / members.len() as f64;
-                    signal[d][k].push(v);
-                }
-            }
-            if next_snapshot < opts.snapshots && s + 1 == snapshot_after(next_snapshot) {
-                next_snapshot += 1;
-                let u: Vec<Vec3> = (0..n)
-                    .map(|p| sim.particles.position[p] - start[p])
-                    .collect();
-                snapshots.push((sim.time(), u));
-            }
-        }
-        if sim
-            .particles
-            .position
-            .iter()
-            .any(|x| x.iter().any(|c| !c.is_finite()))
-        {
-            return Err(Error::Degenerate(
-                "wave run: positions became non-finite (unstable time step?)".into(),
-            ));
-        }
-        let mut arrival = Vec::new();
-        let mut front_speed = Vec::new();
-        for (d, &phi) in opts.directions.iter().enumerate() {
-            let mut at = Vec::new();
-            for (k, sig) in signal[d].iter().enumerate() {
-                at.push(peak_time(sig, &times).ok_or_else(|| {
-                    Error::NotConverged(format!(
-                        "wave run: at {:.1}°, radius {:e} m the signal peaks at the end of the \
-                         run: the front did not pass it; run longer",
-                        phi.to_degrees(),
-                        opts.probe_radii[k]
-                    ))
-                })?);
-            }
-            let (r1, r2) = (
-                opts.probe_radii[0],
-                opts.probe_radii[opts.probe_radii.len() - 1],
-            );
-            let dt_front = at[at.len() - 1] - at[0];
-            if dt_front.is_nan() || dt_front <= 0.0 {
-                return Err(Error::Degenerate(format!(
-                    "wave run: at {:.1}° the front reaches {r2:e} m no later than {r1:e} m",
-                    phi.to_degrees()
-                )));
-            }
-            front_speed.push((r2 - r1) / dt_front);
-            arrival.push(at);
-        }
-        Ok(WaveRun {
-            time_step: dt,
-            times,
-            signal,
-            probe_sizes: probes
-                .iter()
-                .map(|a| a.iter().map(|m| m.len()).collect())
-                .collect(),
-            arrival,
-            front_speed,
-            snapshots,
-        })
+        Ok(probes)
     }
+}
+
+/// Sample times, probe signals and displacement snapshots of a wave run.
+type Recording = (Vec<f64>, Vec<Vec<Vec<f64>>>, Vec<(f64, Vec<Vec3>)>);
+
+/// Step `sim` `steps` times under the ramp p(t) = p·(1 − cos πt/t_r)/2 (module doc),
+/// recording every probe's mean velocity along its direction after each step and the
+/// snapshots; refuses positions that became non-finite.
+fn record_waves(
+    sim: &mut Simulation,
+    probes: &[Vec<Vec<usize>>],
+    opts: &WaveOptions,
+    steps: usize,
+) -> Result<Recording> {
+    let n = sim.particles.position.len();
+    // Step after which snapshot k (0-based) is taken: ⌊(k+1)·steps/snapshots⌋, strictly
+    // increasing as snapshots ≤ steps, the last the final step.
+    let snapshot_after =
+        |k: usize| ((k as u128 + 1) * steps as u128 / opts.snapshots as u128) as usize;
+    let mut next_snapshot = 0;
+    let start = sim.particles.position.clone();
+    let mut times = Vec::with_capacity(steps);
+    let mut signal =
+        vec![vec![Vec::with_capacity(steps); opts.probe_radii.len()]; opts.directions.len()];
+    let mut snapshots = Vec::new();
+    for s in 0..steps {
+        let t = sim.time();
+        let scale = if t < opts.ramp_time {
+            0.5 * (1.0 - (std::f64::consts::PI * t / opts.ramp_time).cos())
+        } else {
+            1.0
+        };
+        sim.set_external_force_scale(scale)?;
+        sim.step()?;
+        times.push(sim.time());
+        for (d, &phi) in opts.directions.iter().enumerate() {
+            let dir = Vec3::new(phi.cos(), phi.sin(), 0.0);
+            for (k, members) in probes[d].iter().enumerate() {
+                let v: f64 = members
+                    .iter()
+                    .map(|&p| sim.particles.velocity[p].dot(&dir))
+                    .sum::<f64>()
+                    / members.len() as f64;
+                signal[d][k].push(v);
+            }
+        }
+        if next_snapshot < opts.snapshots && s + 1 == snapshot_after(next_snapshot) {
+            next_snapshot += 1;
+            let u: Vec<Vec3> = (0..n)
+                .map(|p| sim.particles.position[p] - start[p])
+                .collect();
+            snapshots.push((sim.time(), u));
+        }
+    }
+    if sim
+        .particles
+        .position
+        .iter()
+        .any(|x| x.iter().any(|c| !c.is_finite()))
+    {
+        return Err(Error::Degenerate(
+            "wave run: positions became non-finite (unstable time step?)".into(),
+        ));
+    }
+    Ok((times, signal, snapshots))
+}
+
+/// The front's arrival at every probe (the signal's peak) and its speed along every
+/// direction, (r₂ − r₁)/(t₂ − t₁) between the first and the last probe; refuses a signal
+/// peaking at the end of the run and a front that does not reach the outer probe later.
+fn fronts(
+    signal: &[Vec<Vec<f64>>],
+    times: &[f64],
+    opts: &WaveOptions,
+) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
+    let mut arrival = Vec::new();
+    let mut front_speed = Vec::new();
+    for (d, &phi) in opts.directions.iter().enumerate() {
+        let mut at = Vec::new();
+        for (k, sig) in signal[d].iter().enumerate() {
+            at.push(peak_time(sig, times).ok_or_else(|| {
+                Error::NotConverged(format!(
+                    "wave run: at {:.1}°, radius {:e} m the signal peaks at the end of the \
+                     run: the front did not pass it; run longer",
+                    phi.to_degrees(),
+                    opts.probe_radii[k]
+                ))
+            })?);
+        }
+        let (r1, r2) = (
+            opts.probe_radii[0],
+            opts.probe_radii[opts.probe_radii.len() - 1],
+        );
+        let dt_front = at[at.len() - 1] - at[0];
+        if dt_front.is_nan() || dt_front <= 0.0 {
+            return Err(Error::Degenerate(format!(
+                "wave run: at {:.1}° the front reaches {r2:e} m no later than {r1:e} m",
+                phi.to_degrees()
+            )));
+        }
+        front_speed.push((r2 - r1) / dt_front);
+        arrival.push(at);
+    }
+    Ok((arrival, front_speed))
 }
 
 /// Time of the largest sample of `sig`, refined by the parabola through it and its two

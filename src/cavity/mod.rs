@@ -121,30 +121,7 @@ impl CavityGeometry {
         })?;
         let r_mean = source.packing.mean_radius();
         let longest = source.bonds.length.iter().copied().fold(0.0, f64::max);
-        if !(g.inner_radius.is_finite() && g.inner_radius > 0.0) {
-            return Err(Error::Invalid(format!(
-                "cavity: hole radius {:e} m must be finite and > 0",
-                g.inner_radius
-            )));
-        }
-        if !(g.outer_radius.is_finite() && g.outer_radius > g.inner_radius) {
-            return Err(Error::Invalid(format!(
-                "cavity: need hole radius < clamped radius, got {:e} m and {:e} m",
-                g.inner_radius, g.outer_radius
-            )));
-        }
-        if !(g.clamp_width.is_finite() && g.clamp_width >= longest) {
-            return Err(Error::Invalid(format!(
-                "cavity: clamp width {:e} m must be at least the longest bond, {longest:e} m",
-                g.clamp_width
-            )));
-        }
-        if !(g.ray_spacing.is_finite() && g.ray_spacing > 0.0 && g.ray_spacing <= r_mean) {
-            return Err(Error::Invalid(format!(
-                "cavity: ray spacing {:e} m must be in (0, R̄ = {r_mean:e} m]",
-                g.ray_spacing
-            )));
-        }
+        g.check_lengths(r_mean, longest)?;
         let (a, b, w) = (g.inner_radius, g.outer_radius, g.clamp_width);
         let lz = cell.lengths.z;
         let density = source.packing.len() as f64 / source.packing.volume();
@@ -193,6 +170,37 @@ impl CavityGeometry {
             rays,
             ray_tests,
         })
+    }
+
+    /// Refuse a hole radius that is not finite and > 0, a clamped radius not above it, a
+    /// clamp width below the longest bond `longest` and a ray spacing outside (0, R̄].
+    fn check_lengths(&self, r_mean: f64, longest: f64) -> Result<()> {
+        let g = self;
+        if !(g.inner_radius.is_finite() && g.inner_radius > 0.0) {
+            return Err(Error::Invalid(format!(
+                "cavity: hole radius {:e} m must be finite and > 0",
+                g.inner_radius
+            )));
+        }
+        if !(g.outer_radius.is_finite() && g.outer_radius > g.inner_radius) {
+            return Err(Error::Invalid(format!(
+                "cavity: need hole radius < clamped radius, got {:e} m and {:e} m",
+                g.inner_radius, g.outer_radius
+            )));
+        }
+        if !(g.clamp_width.is_finite() && g.clamp_width >= longest) {
+            return Err(Error::Invalid(format!(
+                "cavity: clamp width {:e} m must be at least the longest bond, {longest:e} m",
+                g.clamp_width
+            )));
+        }
+        if !(g.ray_spacing.is_finite() && g.ray_spacing > 0.0 && g.ray_spacing <= r_mean) {
+            return Err(Error::Invalid(format!(
+                "cavity: ray spacing {:e} m must be in (0, R̄ = {r_mean:e} m]",
+                g.ray_spacing
+            )));
+        }
+        Ok(())
     }
 }
 

@@ -44,27 +44,8 @@ impl Cavity {
             )));
         }
         let net = &self.network;
-        let k = BlockSparse::assemble(net);
-        // Free active spheres and their new numbering.
-        let m = net.n_active;
-        let mut free_index = vec![u32::MAX; m];
-        let mut free: Vec<usize> = Vec::new();
-        for (a, slot) in free_index.iter_mut().enumerate() {
-            if !self.clamped[net.original[a] as usize] {
-                *slot = free.len() as u32;
-                free.push(a);
-            }
-        }
-        let rows: Vec<Vec<(u32, Block6)>> = free
-            .iter()
-            .map(|&a| {
-                k.row(a)
-                    .filter(|(c, _)| free_index[*c] != u32::MAX)
-                    .map(|(c, b)| (free_index[c], *b))
-                    .collect()
-            })
-            .collect();
-        let kf = BlockSparse::from_rows(rows);
+        let (free_index, free) = self.free_nodes();
+        let kf = BlockSparse::assemble(net).restrict(&free_index, 1.0);
         let chol = BlockCholesky::factor_definite(&kf)?;
         let rhs: Vec<Block6> = free
             .iter()
@@ -78,20 +59,7 @@ impl Cavity {
             })
             .collect();
         let x = chol.solve(&rhs)?;
-        let mut kx = vec![Block6::zeros(); x.len()];
-        kf.apply(&x, &mut kx);
-        let (mut rr, mut bb) = (0.0, 0.0);
-        for (r, b) in kx.iter().zip(&rhs) {
-            rr += (r.column(0) - b.column(0)).norm_squared();
-            bb += b.column(0).norm_squared();
-        }
-        let relative_residual = (rr / bb).sqrt();
-        if relative_residual.is_nan() || relative_residual > RESIDUAL_LIMIT {
-            return Err(Error::NotConverged(format!(
-                "cavity: static solve residual {relative_residual:.3e} > {RESIDUAL_LIMIT:e}: the \
-                 free network is too ill-conditioned or has a mechanism"
-            )));
-        }
+        let relative_residual = load_residual(&kf, &x, &rhs)?;
         let n = self.cut.packing.len();
         let mut displacement = vec![Vec3::zeros(); n];
         let mut rotation = vec![Vec3::zeros(); n];
@@ -117,6 +85,41 @@ impl Cavity {
             unknowns: chol.unknowns(),
         })
     }
+
+    /// The free (not clamped) nodes of the network: every node's index among them
+    /// (`u32::MAX` when clamped) and the free nodes in increasing order.
+    fn free_nodes(&self) -> (Vec<u32>, Vec<usize>) {
+        let net = &self.network;
+        let mut free_index = vec![u32::MAX; net.n_active];
+        let mut free: Vec<usize> = Vec::new();
+        for (a, slot) in free_index.iter_mut().enumerate() {
+            if !self.clamped[net.original[a] as usize] {
+                *slot = free.len() as u32;
+                free.push(a);
+            }
+        }
+        (free_index, free)
+    }
+}
+
+/// Relative residual ‖K x − b‖/‖b‖ of the load case (column 0); refused above
+/// [`RESIDUAL_LIMIT`] (an ill-conditioned free network or a mechanism).
+fn load_residual(kf: &BlockSparse, x: &[Block6], rhs: &[Block6]) -> Result<f64> {
+    let mut kx = vec![Block6::zeros(); x.len()];
+    kf.apply(x, &mut kx);
+    let (mut rr, mut bb) = (0.0, 0.0);
+    for (r, b) in kx.iter().zip(rhs) {
+        rr += (r.column(0) - b.column(0)).norm_squared();
+        bb += b.column(0).norm_squared();
+    }
+    let relative_residual = (rr / bb).sqrt();
+    if relative_residual.is_nan() || relative_residual > RESIDUAL_LIMIT {
+        return Err(Error::NotConverged(format!(
+            "cavity: static solve residual {relative_residual:.3e} > {RESIDUAL_LIMIT:e}: the \
+             free network is too ill-conditioned or has a mechanism"
+        )));
+    }
+    Ok(relative_residual)
 }
 
 impl StaticCavity {

@@ -153,7 +153,7 @@ impl Default for BucklingOptions {
 }
 
 /// The pre-buckling state and the critical load.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BucklingResult {
     /// Axial force per unit axial strain, P/ε (N): the bar's axial stiffness times l.
     #[serde(rename = "axial_force_per_strain_n")]
@@ -230,20 +230,6 @@ fn gram(a: &[Block6], b: &[Block6]) -> Matrix6<f64> {
     s
 }
 
-/// Rows of `k` for the nodes with `map[p] != u32::MAX`, renumbered by `map`, scaled by `sign`.
-fn restrict(k: &BlockSparse, map: &[u32], sign: f64) -> BlockSparse {
-    let rows = (0..k.rows())
-        .filter(|&p| map[p] != u32::MAX)
-        .map(|p| {
-            k.row(p)
-                .filter(|(c, _)| map[*c] != u32::MAX)
-                .map(|(c, b)| (map[c], b * sign))
-                .collect()
-        })
-        .collect();
-    BlockSparse::from_rows(rows)
-}
-
 /// Linearised buckling load of a clamped bar (see the module docs). Refuses options that
 /// [`BucklingOptions::check`] refuses, an axis that is not a unit vector, a length or area that is not finite and > 0, empty or overlapping end
 /// sets and ends with no load-carrying particle; errors ([`Error::Degenerate`]) when the bar
@@ -252,6 +238,67 @@ fn restrict(k: &BlockSparse, map: &[u32], sign: f64) -> BlockSparse {
 pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<BucklingResult> {
     let a = bar.assembly;
     let n = a.packing.len();
+    let role = end_roles(bar, opts)?;
+    let net = Network::build(&a.packing, &a.bonds, &a.springs, opts.lever_arm, true, None)?;
+    let parts = ClampedParts::new(net, &role)?;
+    let net = &parts.net;
+    let frame = transverse(&bar.axis);
+    let k = BlockSparse::assemble(net);
+    let kff = k.restrict(&parts.free_map, 1.0);
+    let chol = BlockCholesky::factor_definite(&kff)?;
+    let (mut u, static_residual) = parts.solve_load_cases(bar, &k, &kff, &chol, frame)?;
+    let ends = parts.end_figures(bar, &k, &u, frame)?;
+    // Keep only the axial case for the bond forces.
+    for uq in u.iter_mut() {
+        let axial: Vector6<f64> = uq.column(0).into_owned();
+        *uq = Block6::zeros();
+        uq.set_column(0, &axial);
+    }
+    let pre = bond_forces(bar, net, &u, opts.lever_arm);
+    let kg = geometric_stiffness(net, &a.bonds, &pre.forces)?;
+    let aff = kg.restrict(&parts.free_map, -1.0);
+    let x = parts.start_vectors(bar, frame, opts.seed);
+    let nf = parts.free_nodes.len();
+    let linear = lowest_load_factors(&kff, &chol, &aff, x, opts)?;
+    let lambda = linear.lambda;
+    let updated_geometry = match opts.pre_buckling {
+        PreBuckling::Linear => None,
+        PreBuckling::UpdatedGeometry => Some(
+            parts
+                .updated_geometry(bar, &u, &pre.forces, &linear, opts)?
+                .with_force(ends.force, ends.modulus),
+        ),
+    };
+    let mode = parts.first_mode(n, &linear.vectors);
+    let critical_strain = lambda[0];
+    Ok(BucklingResult {
+        axial_force_per_strain: ends.force,
+        modulus: ends.modulus,
+        load_factors: [lambda[0], lambda[1]],
+        critical_strain,
+        critical_stress: critical_strain * ends.modulus,
+        critical_force: critical_strain * ends.force,
+        iterations: linear.iterations,
+        residuals: linear.residuals,
+        static_residual,
+        reaction_imbalance: ends.reaction_imbalance,
+        updated_geometry,
+        free_particles: nf,
+        clamped_particles: parts.clamped,
+        unloaded_particles: n - nf - parts.clamped,
+        bonds: net.ends.len(),
+        bending_stiffness: ends.bending_stiffness,
+        transverse_stiffness: ends.transverse_stiffness,
+        compressed_bonds: pre.compressed,
+        normal_force_share: pre.love_normal / pre.love_total,
+        mode,
+    })
+}
+
+/// The role of every particle (0 free, 1 first end, 2 second end) after refusing the bar's
+/// axis, length, area, the options and end sets that are empty, out of range or overlap.
+fn end_roles(bar: &ClampedBar, opts: &BucklingOptions) -> Result<Vec<u8>> {
+    let n = bar.assembly.packing.len();
     if (bar.axis.norm() - 1.0).abs() > 1e-9 {
         return Err(Error::Invalid(format!(
             "buckling: the bar axis must be a unit vector, |axis| = {}",
@@ -266,7 +313,6 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         }
     }
     opts.check()?;
-    // Role of every original particle: 0 free, 1 first end, 2 second end.
     let mut role = vec![0u8; n];
     for (ends, r) in [(bar.first_end, 1u8), (bar.second_end, 2u8)] {
         if ends.is_empty() {
@@ -287,89 +333,318 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
             role[p] = r;
         }
     }
-    let net = Network::build(&a.packing, &a.bonds, &a.springs, opts.lever_arm, true, None)?;
-    let m = net.n_active;
-    let node_role: Vec<u8> = net.original.iter().map(|&p| role[p as usize]).collect();
-    for r in [1u8, 2] {
-        if !node_role.contains(&r) {
-            return Err(Error::Degenerate(format!(
-                "buckling: no particle of the {} end carries load (all have fewer than two bonds)",
-                if r == 1 { "first" } else { "second" }
-            )));
-        }
-    }
-    // The part connected to the clamps (a floating cluster would be a mechanism).
-    let (start, adj) = net.adjacency();
-    let mut reached = vec![false; m];
-    let mut stack: Vec<usize> = (0..m).filter(|&q| node_role[q] != 0).collect();
-    for &q in &stack {
-        reached[q] = true;
-    }
-    while let Some(q) = stack.pop() {
-        for &o in &adj[start[q]..start[q + 1]] {
-            if !reached[o as usize] {
-                reached[o as usize] = true;
-                stack.push(o as usize);
+    Ok(role)
+}
+
+/// The bar's network split into clamped nodes and the free nodes connected to them.
+struct ClampedParts {
+    /// The relaxed solver's network of the bar.
+    net: Network,
+    /// Per network node: 0 free, 1 first end, 2 second end.
+    node_role: Vec<u8>,
+    /// Per network node its index among the free nodes, `u32::MAX` for the others.
+    free_map: Vec<u32>,
+    /// The free nodes connected to the clamps, in node order.
+    free_nodes: Vec<usize>,
+    /// Clamped nodes.
+    clamped: usize,
+}
+
+/// The pre-buckling figures read from the clamps' reactions.
+struct EndFigures {
+    /// Axial force per unit strain P (N).
+    force: f64,
+    /// E = P/A (Pa).
+    modulus: f64,
+    /// |R₁ + R₂|/|R₂| of the axial case.
+    reaction_imbalance: f64,
+    /// EI (N·m²) of the pure-bending case.
+    bending_stiffness: f64,
+    /// Transverse stiffness (N/m) of the clamped–guided case.
+    transverse_stiffness: f64,
+}
+
+/// The bonds' forces in the pre-buckling state per unit strain, and the figures of them.
+struct BondForces {
+    /// Force on every original bond (N; N > 0 in tension).
+    forces: Vec<Vec3>,
+    /// Bonds in compression.
+    compressed: usize,
+    /// Axial Love stress Σ(f·a)(l·a) (times the volume).
+    love_total: f64,
+    /// Its part carried by the normal forces, Σ N(n·a)(l·a).
+    love_normal: f64,
+}
+
+impl ClampedParts {
+    /// Roles on the network's nodes, and the part connected to the clamps (a floating
+    /// cluster would be a mechanism); refuses an end with no node and a bar with no free one.
+    fn new(net: Network, role: &[u8]) -> Result<ClampedParts> {
+        let m = net.n_active;
+        let node_role: Vec<u8> = net.original.iter().map(|&p| role[p as usize]).collect();
+        for r in [1u8, 2] {
+            if !node_role.contains(&r) {
+                return Err(Error::Degenerate(format!(
+                    "buckling: no particle of the {} end carries load (all have fewer than two bonds)",
+                    if r == 1 { "first" } else { "second" }
+                )));
             }
         }
-    }
-    let mut free_map = vec![u32::MAX; m];
-    let mut free_nodes = Vec::new();
-    for q in 0..m {
-        if node_role[q] == 0 && reached[q] {
-            free_map[q] = free_nodes.len() as u32;
-            free_nodes.push(q);
+        let (start, adj) = net.adjacency();
+        let mut reached = vec![false; m];
+        let mut stack: Vec<usize> = (0..m).filter(|&q| node_role[q] != 0).collect();
+        for &q in &stack {
+            reached[q] = true;
         }
+        while let Some(q) = stack.pop() {
+            for &o in &adj[start[q]..start[q + 1]] {
+                if !reached[o as usize] {
+                    reached[o as usize] = true;
+                    stack.push(o as usize);
+                }
+            }
+        }
+        let mut free_map = vec![u32::MAX; m];
+        let mut free_nodes = Vec::new();
+        for q in 0..m {
+            if node_role[q] == 0 && reached[q] {
+                free_map[q] = free_nodes.len() as u32;
+                free_nodes.push(q);
+            }
+        }
+        if free_nodes.is_empty() {
+            return Err(Error::Degenerate(
+                "buckling: no free particle between the clamped ends".into(),
+            ));
+        }
+        let clamped = (0..m).filter(|&q| node_role[q] != 0).count();
+        Ok(ClampedParts {
+            net,
+            node_role,
+            free_map,
+            free_nodes,
+            clamped,
+        })
     }
-    if free_nodes.is_empty() {
-        return Err(Error::Degenerate(
-            "buckling: no free particle between the clamped ends".into(),
-        ));
-    }
-    let clamped = (0..m).filter(|&q| node_role[q] != 0).count();
 
-    // Three load cases in one solve (columns of the 6-column blocks), ends moved rigidly
-    // (translation + rotation about the end set's centroid c):
-    // 0: unit axial strain, the second end moved by −l·axis (the pre-buckling state);
-    // 1: pure bending, the ends rotated by ∓½ rad about e₁ (constant moment, no shear);
-    // 2: the second end moved by 1 m along e₂ without rotation (clamped–guided shear).
-    let (e1, e2) = transverse(&bar.axis);
+    /// Position of network node `q`.
+    fn position(&self, bar: &ClampedBar, q: usize) -> Vec3 {
+        bar.assembly.packing.positions[self.net.original[q] as usize]
+    }
+
+    /// Three load cases in one solve (columns of the 6-column blocks), ends moved rigidly
+    /// (translation + rotation about the end set's centroid c):
+    /// 0: unit axial strain, the second end moved by −l·axis (the pre-buckling state);
+    /// 1: pure bending, the ends rotated by ∓½ rad about e₁ (constant moment, no shear);
+    /// 2: the second end moved by 1 m along e₂ without rotation (clamped–guided shear).
+    /// Returns every node's displacement and the solve's relative residual (refused ≥ 1e-8).
+    fn solve_load_cases(
+        &self,
+        bar: &ClampedBar,
+        k: &BlockSparse,
+        kff: &BlockSparse,
+        chol: &BlockCholesky,
+        (e1, e2): (Vec3, Vec3),
+    ) -> Result<(Vec<Block6>, f64)> {
+        let m = self.net.n_active;
+        let (c1, c2) = end_centroids(bar);
+        let mut u = vec![Block6::zeros(); m];
+        for (q, uq) in u.iter_mut().enumerate() {
+            let x = self.position(bar, q);
+            let (centre, axial, half_turn, shift) = match self.node_role[q] {
+                1 => (c1, Vec3::zeros(), -0.5, Vec3::zeros()),
+                2 => (c2, -bar.axis * bar.length, 0.5, e2),
+                _ => continue,
+            };
+            let phi = e1 * half_turn;
+            uq.fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
+            uq.fixed_view_mut::<3, 1>(0, 1)
+                .copy_from(&phi.cross(&(x - centre)));
+            uq.fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
+            uq.fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
+        }
+        let mut ku = vec![Block6::zeros(); m];
+        k.apply(&u, &mut ku);
+        let rhs: Vec<Block6> = self.free_nodes.iter().map(|&q| -ku[q]).collect();
+        let sol = chol.solve(&rhs)?;
+        let static_residual = column_residual(kff, &sol, &rhs);
+        if static_residual.is_nan() || static_residual >= 1e-8 {
+            return Err(Error::NotConverged(format!(
+                "buckling: the pre-buckling solve has relative residual {static_residual:e} (> 1e-8)"
+            )));
+        }
+        for (f, &q) in self.free_nodes.iter().enumerate() {
+            u[q] = sol[f];
+        }
+        Ok((u, static_residual))
+    }
+
+    /// The clamps' reactions (force, and moment about the end's centroid) of the three load
+    /// cases: P and E from the axial case, EI = M·l/θ (θ = 1 rad) from pure bending, the
+    /// transverse stiffness V/(1 m) from the clamped–guided case; refuses P ≤ 0, EI or k_t ≤ 0.
+    fn end_figures(
+        &self,
+        bar: &ClampedBar,
+        k: &BlockSparse,
+        u: &[Block6],
+        (e1, e2): (Vec3, Vec3),
+    ) -> Result<EndFigures> {
+        let (c1, c2) = end_centroids(bar);
+        let mut ku = vec![Block6::zeros(); u.len()];
+        k.apply(u, &mut ku);
+        let mut react = [[Vec3::zeros(); 4]; 3];
+        for (q, kq) in ku.iter().enumerate() {
+            let (slot, centre) = match self.node_role[q] {
+                1 => (0, c1),
+                2 => (2, c2),
+                _ => continue,
+            };
+            let x = self.position(bar, q);
+            for (c, r) in react.iter_mut().enumerate() {
+                let f: Vec3 = kq.fixed_view::<3, 1>(0, c).into_owned();
+                let mq: Vec3 = kq.fixed_view::<3, 1>(3, c).into_owned();
+                r[slot] += f;
+                r[slot + 1] += (x - centre).cross(&f) + mq;
+            }
+        }
+        let (r1, r2) = (react[0][0], react[0][2]);
+        let force = -r2.dot(&bar.axis);
+        if !(force.is_finite() && force > 0.0) {
+            return Err(Error::Degenerate(format!(
+                "buckling: the bar carries no compressive axial force under shortening (P = \
+                 {force:e} N): the ends are not connected by the bond network"
+            )));
+        }
+        // Pure bending: M = EI·θ/l with θ = 1 rad between the ends.
+        let bending_stiffness = react[1][3].dot(&e1) * bar.length;
+        // Clamped–guided: V = k_t·1 m.
+        let transverse_stiffness = react[2][2].dot(&e2);
+        if !(bending_stiffness > 0.0 && transverse_stiffness > 0.0) {
+            return Err(Error::Degenerate(format!(
+                "buckling: bending stiffness {bending_stiffness:e} N·m², transverse stiffness \
+                 {transverse_stiffness:e} N/m: expected both > 0"
+            )));
+        }
+        Ok(EndFigures {
+            force,
+            modulus: force / bar.area,
+            reaction_imbalance: (r1 + r2).norm() / r2.norm(),
+            bending_stiffness,
+            transverse_stiffness,
+        })
+    }
+
+    /// Start vectors: clamped–clamped bending shapes along two transverse directions plus a
+    /// seeded 1 % perturbation of every component.
+    fn start_vectors(&self, bar: &ClampedBar, (e1, e2): (Vec3, Vec3), seed: u64) -> Vec<Block6> {
+        let origin = end_centroids(bar).0;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let tau = 2.0 * std::f64::consts::PI;
+        self.free_nodes
+            .iter()
+            .map(|&q| {
+                let t = (self.position(bar, q) - origin).dot(&bar.axis) / bar.length;
+                let shapes = [
+                    1.0 - (tau * t).cos(),
+                    (tau * t).sin(),
+                    1.0 - (2.0 * tau * t).cos(),
+                ];
+                let mut blk = Block6::zeros();
+                for (s, shape) in shapes.iter().enumerate() {
+                    for (c, e) in [(2 * s, e1), (2 * s + 1, e2)] {
+                        blk.fixed_view_mut::<3, 1>(0, c).copy_from(&(e * *shape));
+                    }
+                }
+                for v in blk.iter_mut() {
+                    *v += 0.01 * (rng.gen::<f64>() - 0.5);
+                }
+                blk
+            })
+            .collect()
+    }
+
+    /// [`PreBuckling::UpdatedGeometry`]: the fixed point ε = λ(ε) of the eigenproblem on the
+    /// bar deformed by ε·u₁ (positions, bond normals and lengths moved, axial forces ε·N₁
+    /// along the deformed bonds; Mazzilli's extensible rod, Kumar 2016 Eq. 15).
+    fn updated_geometry(
+        &self,
+        bar: &ClampedBar,
+        u: &[Block6],
+        forces: &[Vec3],
+        linear: &LoadFactors,
+        opts: &BucklingOptions,
+    ) -> Result<UpdatedGeometryResult> {
+        let (a, net) = (bar.assembly, &self.net);
+        let bonds = &a.bonds;
+        // Axial force N₁ of every bond per unit strain, and the translations u₁.
+        let axial: Vec<f64> = (0..bonds.len())
+            .map(|b| forces[b].dot(&bonds.normal[b]))
+            .collect();
+        let shift: Vec<Vec3> = u
+            .iter()
+            .map(|uq| uq.fixed_view::<3, 1>(0, 0).into_owned())
+            .collect();
+        let deformed = |strain: f64, start: Vec<Block6>| -> Result<LoadFactors> {
+            let mut moved = bonds.clone();
+            for (e, &(pi, pj)) in net.ends.iter().enumerate() {
+                let b = net.bond[e];
+                let branch = bonds.normal[b] * bonds.length[b]
+                    + (shift[pj as usize] - shift[pi as usize]) * strain;
+                moved.length[b] = branch.norm();
+                moved.normal[b] = branch / moved.length[b];
+            }
+            let net_d = Network::build(&a.packing, &moved, &a.springs, opts.lever_arm, true, None)?;
+            let kff_d = BlockSparse::assemble(&net_d).restrict(&self.free_map, 1.0);
+            let chol_d = BlockCholesky::factor_definite(&kff_d)?;
+            let unit: Vec<Vec3> = (0..bonds.len())
+                .map(|b| moved.normal[b] * axial[b])
+                .collect();
+            let kg_d = geometric_stiffness(&net_d, &moved, &unit)?;
+            let aff_d = kg_d.restrict(&self.free_map, -1.0);
+            lowest_load_factors(&kff_d, &chol_d, &aff_d, start, opts)
+        };
+        updated_fixed_point(linear.lambda[0], linear.vectors.clone(), deformed, opts)
+    }
+
+    /// Translation of every particle in the first mode (column 0 of `x` on the free nodes),
+    /// scaled to a unit largest norm; zero for clamped and unloaded particles.
+    fn first_mode(&self, n: usize, x: &[Block6]) -> Vec<Vec3> {
+        let mut mode = vec![Vec3::zeros(); n];
+        let mut peak: f64 = 0.0;
+        for (f, &q) in self.free_nodes.iter().enumerate() {
+            let v = Vec3::new(x[f][(0, 0)], x[f][(1, 0)], x[f][(2, 0)]);
+            peak = peak.max(v.norm());
+            mode[self.net.original[q] as usize] = v;
+        }
+        if peak > 0.0 {
+            for v in &mut mode {
+                *v /= peak;
+            }
+        }
+        mode
+    }
+}
+
+/// Centroids of the first and the second end set: the centres the ends rotate about.
+fn end_centroids(bar: &ClampedBar) -> (Vec3, Vec3) {
     let centroid = |set: &[u32]| {
         set.iter()
-            .map(|&p| a.packing.positions[p as usize])
+            .map(|&p| bar.assembly.packing.positions[p as usize])
             .sum::<Vec3>()
             / set.len() as f64
     };
-    let (c1, c2) = (centroid(bar.first_end), centroid(bar.second_end));
-    let k = BlockSparse::assemble(&net);
-    let mut u = vec![Block6::zeros(); m];
-    for q in 0..m {
-        let x = a.packing.positions[net.original[q] as usize];
-        let (centre, axial, half_turn, shift) = match node_role[q] {
-            1 => (c1, Vec3::zeros(), -0.5, Vec3::zeros()),
-            2 => (c2, -bar.axis * bar.length, 0.5, e2),
-            _ => continue,
-        };
-        let phi = e1 * half_turn;
-        u[q].fixed_view_mut::<3, 1>(0, 0).copy_from(&axial);
-        u[q].fixed_view_mut::<3, 1>(0, 1)
-            .copy_from(&phi.cross(&(x - centre)));
-        u[q].fixed_view_mut::<3, 1>(3, 1).copy_from(&phi);
-        u[q].fixed_view_mut::<3, 1>(0, 2).copy_from(&shift);
-    }
-    let mut ku = vec![Block6::zeros(); m];
-    k.apply(&u, &mut ku);
-    let rhs: Vec<Block6> = free_nodes.iter().map(|&q| -ku[q]).collect();
-    let kff = restrict(&k, &free_map, 1.0);
-    let chol = BlockCholesky::factor_definite(&kff)?;
-    let sol = chol.solve(&rhs)?;
-    let mut check = vec![Block6::zeros(); free_nodes.len()];
-    kff.apply(&sol, &mut check);
-    let mut static_residual: f64 = 0.0;
+    (centroid(bar.first_end), centroid(bar.second_end))
+}
+
+/// Largest relative residual ‖K x − b‖/‖b‖ over the three load-case columns.
+fn column_residual(kff: &BlockSparse, sol: &[Block6], rhs: &[Block6]) -> f64 {
+    let mut check = vec![Block6::zeros(); sol.len()];
+    kff.apply(sol, &mut check);
+    let mut residual: f64 = 0.0;
     for c in 0..3 {
         let rnorm: f64 = check
             .iter()
-            .zip(&rhs)
+            .zip(rhs)
             .map(|(x, b)| (x - b).column(c).norm_squared())
             .sum::<f64>()
             .sqrt();
@@ -378,72 +653,27 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
             .map(|b| b.column(c).norm_squared())
             .sum::<f64>()
             .sqrt();
-        static_residual = static_residual.max(rnorm / bnorm.max(f64::MIN_POSITIVE));
+        residual = residual.max(rnorm / bnorm.max(f64::MIN_POSITIVE));
     }
-    if static_residual.is_nan() || static_residual >= 1e-8 {
-        return Err(Error::NotConverged(format!(
-            "buckling: the pre-buckling solve has relative residual {static_residual:e} (> 1e-8)"
-        )));
-    }
-    for (f, &q) in free_nodes.iter().enumerate() {
-        u[q] = sol[f];
-    }
-    k.apply(&u, &mut ku);
-    // Reactions (force the clamps apply, moment about the end's centroid) per load case.
-    let mut react = [[Vec3::zeros(); 4]; 3];
-    for q in 0..m {
-        let (slot, centre) = match node_role[q] {
-            1 => (0, c1),
-            2 => (2, c2),
-            _ => continue,
-        };
-        let x = a.packing.positions[net.original[q] as usize];
-        for (c, r) in react.iter_mut().enumerate() {
-            let f: Vec3 = ku[q].fixed_view::<3, 1>(0, c).into_owned();
-            let mq: Vec3 = ku[q].fixed_view::<3, 1>(3, c).into_owned();
-            r[slot] += f;
-            r[slot + 1] += (x - centre).cross(&f) + mq;
-        }
-    }
-    let (r1, r2) = (react[0][0], react[0][2]);
-    let force = -r2.dot(&bar.axis);
-    if !(force.is_finite() && force > 0.0) {
-        return Err(Error::Degenerate(format!(
-            "buckling: the bar carries no compressive axial force under shortening (P = \
-             {force:e} N): the ends are not connected by the bond network"
-        )));
-    }
-    let reaction_imbalance = (r1 + r2).norm() / r2.norm();
-    let modulus = force / bar.area;
-    // Pure bending: M = EI·θ/l with θ = 1 rad between the ends.
-    let bending_stiffness = react[1][3].dot(&e1) * bar.length;
-    // Clamped–guided: V = k_t·1 m.
-    let transverse_stiffness = react[2][2].dot(&e2);
-    if !(bending_stiffness > 0.0 && transverse_stiffness > 0.0) {
-        return Err(Error::Degenerate(format!(
-            "buckling: bending stiffness {bending_stiffness:e} N·m², transverse stiffness \
-             {transverse_stiffness:e} N/m: expected both > 0"
-        )));
-    }
-    // Keep only the axial case for the bond forces.
-    for uq in u.iter_mut() {
-        let axial: Vector6<f64> = uq.column(0).into_owned();
-        *uq = Block6::zeros();
-        uq.set_column(0, &axial);
-    }
+    residual
+}
 
-    // Bond forces f = S Δ (N > 0 in tension), per original bond.
+/// Bond forces f = S Δ (N > 0 in tension) of the axial case (column 0 of `u`), per original
+/// bond, with the count in compression and the axial Love stress and its normal part.
+fn bond_forces(bar: &ClampedBar, net: &Network, u: &[Block6], lever_arm: LeverArm) -> BondForces {
+    let a = bar.assembly;
     let bonds = &a.bonds;
-    let mut forces = vec![Vec3::zeros(); bonds.len()];
-    let mut compressed_bonds = 0;
-    let (mut love_total, mut love_normal) = (0.0, 0.0);
+    let mut out = BondForces {
+        forces: vec![Vec3::zeros(); bonds.len()],
+        compressed: 0,
+        love_total: 0.0,
+        love_normal: 0.0,
+    };
     for (e, &(pi, pj)) in net.ends.iter().enumerate() {
         let b = net.bond[e];
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         let nrm = bonds.normal[b];
-        let (ri, rj) = opts
-            .lever_arm
-            .arms(a.packing.radii[i], a.packing.radii[j], bonds.length[b]);
+        let (ri, rj) = lever_arm.arms(a.packing.radii[i], a.packing.radii[j], bonds.length[b]);
         let ui: Vector6<f64> = u[pi as usize].column(0).into_owned();
         let uj: Vector6<f64> = u[pj as usize].column(0).into_owned();
         let wi = Vec3::new(ui[3], ui[4], ui[5]);
@@ -454,125 +684,14 @@ pub fn clamped_bar_buckling(bar: &ClampedBar, opts: &BucklingOptions) -> Result<
         let (kn, ks) = (a.springs.kn[b], a.springs.ks[b]);
         let f = delta * ks + nrm * ((kn - ks) * nrm.dot(&delta));
         if f.dot(&nrm) < 0.0 {
-            compressed_bonds += 1;
+            out.compressed += 1;
         }
         let la = bonds.length[b] * nrm.dot(&bar.axis);
-        love_total += f.dot(&bar.axis) * la;
-        love_normal += f.dot(&nrm) * nrm.dot(&bar.axis) * la;
-        forces[b] = f;
+        out.love_total += f.dot(&bar.axis) * la;
+        out.love_normal += f.dot(&nrm) * nrm.dot(&bar.axis) * la;
+        out.forces[b] = f;
     }
-    let kg = geometric_stiffness(&net, bonds, &forces)?;
-    let aff = restrict(&kg, &free_map, -1.0);
-
-    // Start vectors: clamped–clamped bending shapes along two transverse directions plus a
-    // seeded 1 % perturbation of every component.
-    let origin = bar
-        .first_end
-        .iter()
-        .map(|&p| a.packing.positions[p as usize])
-        .sum::<Vec3>()
-        / bar.first_end.len() as f64;
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let tau = 2.0 * std::f64::consts::PI;
-    let x: Vec<Block6> = free_nodes
-        .iter()
-        .map(|&q| {
-            let pos = a.packing.positions[net.original[q] as usize];
-            let t = (pos - origin).dot(&bar.axis) / bar.length;
-            let shapes = [
-                1.0 - (tau * t).cos(),
-                (tau * t).sin(),
-                1.0 - (2.0 * tau * t).cos(),
-            ];
-            let mut blk = Block6::zeros();
-            for (s, shape) in shapes.iter().enumerate() {
-                for (c, e) in [(2 * s, e1), (2 * s + 1, e2)] {
-                    blk.fixed_view_mut::<3, 1>(0, c).copy_from(&(e * *shape));
-                }
-            }
-            for v in blk.iter_mut() {
-                *v += 0.01 * (rng.gen::<f64>() - 0.5);
-            }
-            blk
-        })
-        .collect();
-
-    let nf = free_nodes.len();
-    let linear = lowest_load_factors(&kff, &chol, &aff, x, opts)?;
-    let lambda = linear.lambda;
-    let updated_geometry = match opts.pre_buckling {
-        PreBuckling::Linear => None,
-        PreBuckling::UpdatedGeometry => {
-            // Axial force N₁ of every bond per unit strain, and the translations u₁.
-            let axial: Vec<f64> = (0..bonds.len())
-                .map(|b| forces[b].dot(&bonds.normal[b]))
-                .collect();
-            let shift: Vec<Vec3> = u
-                .iter()
-                .map(|uq| uq.fixed_view::<3, 1>(0, 0).into_owned())
-                .collect();
-            let deformed = |strain: f64, start: Vec<Block6>| -> Result<LoadFactors> {
-                let mut moved = bonds.clone();
-                for (e, &(pi, pj)) in net.ends.iter().enumerate() {
-                    let b = net.bond[e];
-                    let branch = bonds.normal[b] * bonds.length[b]
-                        + (shift[pj as usize] - shift[pi as usize]) * strain;
-                    moved.length[b] = branch.norm();
-                    moved.normal[b] = branch / moved.length[b];
-                }
-                let net_d =
-                    Network::build(&a.packing, &moved, &a.springs, opts.lever_arm, true, None)?;
-                let kff_d = restrict(&BlockSparse::assemble(&net_d), &free_map, 1.0);
-                let chol_d = BlockCholesky::factor_definite(&kff_d)?;
-                let unit: Vec<Vec3> = (0..bonds.len())
-                    .map(|b| moved.normal[b] * axial[b])
-                    .collect();
-                let kg_d = geometric_stiffness(&net_d, &moved, &unit)?;
-                let aff_d = restrict(&kg_d, &free_map, -1.0);
-                lowest_load_factors(&kff_d, &chol_d, &aff_d, start, opts)
-            };
-            Some(
-                updated_fixed_point(lambda[0], linear.vectors.clone(), deformed, opts)?
-                    .with_force(force, modulus),
-            )
-        }
-    };
-    let (x, residuals, iterations) = (linear.vectors, linear.residuals, linear.iterations);
-    let mut mode = vec![Vec3::zeros(); n];
-    let mut peak: f64 = 0.0;
-    for (f, &q) in free_nodes.iter().enumerate() {
-        let v = Vec3::new(x[f][(0, 0)], x[f][(1, 0)], x[f][(2, 0)]);
-        peak = peak.max(v.norm());
-        mode[net.original[q] as usize] = v;
-    }
-    if peak > 0.0 {
-        for v in &mut mode {
-            *v /= peak;
-        }
-    }
-    let critical_strain = lambda[0];
-    Ok(BucklingResult {
-        axial_force_per_strain: force,
-        modulus,
-        load_factors: [lambda[0], lambda[1]],
-        critical_strain,
-        critical_stress: critical_strain * modulus,
-        critical_force: critical_strain * force,
-        iterations,
-        residuals,
-        static_residual,
-        reaction_imbalance,
-        updated_geometry,
-        free_particles: nf,
-        clamped_particles: clamped,
-        unloaded_particles: n - nf - clamped,
-        bonds: net.ends.len(),
-        bending_stiffness,
-        transverse_stiffness,
-        compressed_bonds,
-        normal_force_share: love_normal / love_total,
-        mode,
-    })
+    out
 }
 
 /// The two lowest load factors of K φ = λ(−K_g)φ, their Ritz vectors and residuals.
@@ -680,14 +799,7 @@ fn lowest_load_factors(
     for it in 0..=opts.max_iterations {
         aff.apply(&x, &mut ax);
         if it > 0 {
-            for (c, res) in residuals.iter_mut().enumerate() {
-                let (mut num, mut den) = (0.0, 0.0);
-                for (kp, ap) in kx.iter().zip(&ax) {
-                    num += (kp.column(c) - ap.column(c) * lambda[c]).norm_squared();
-                    den += kp.column(c).norm_squared();
-                }
-                *res = (num / den.max(f64::MIN_POSITIVE)).sqrt();
-            }
+            residuals = ritz_residuals(&kx, &ax, &lambda);
             iterations = it;
             // Converged: the reported pairs' residuals below the tolerance, and their load
             // factors settled (changed by less than the tolerance over the last step).
@@ -708,36 +820,8 @@ fn lowest_load_factors(
                 break;
             }
         }
-        let y = chol.solve(&ax)?;
-        let kr = gram(&y, &ax);
-        let kr = (kr + kr.transpose()) * 0.5;
-        aff.apply(&y, &mut ay);
-        let ar = gram(&y, &ay);
-        let ar = (ar + ar.transpose()) * 0.5;
-        let l = kr.cholesky().ok_or_else(|| {
-            Error::Degenerate(
-                "buckling: the iterated subspace collapsed (−K_g maps the start vectors to \
-                 zero: no bond carries force in the free part)"
-                    .into(),
-            )
-        })?;
-        let linv = l
-            .l()
-            .try_inverse()
-            .ok_or_else(|| Error::Degenerate("buckling: singular Ritz basis".into()))?;
-        let c = linv * ar * linv.transpose();
-        let eig = nalgebra::SymmetricEigen::new((c + c.transpose()) * 0.5);
         previous = [lambda[0], lambda[1]];
-        let mut order: Vec<usize> = (0..6).collect();
-        order.sort_by(|&p, &q| eig.eigenvalues[q].total_cmp(&eig.eigenvalues[p]));
-        let mut z = Matrix6::zeros();
-        for (col, &o) in order.iter().enumerate() {
-            z.set_column(col, &(linv.transpose() * eig.eigenvectors.column(o)));
-            let mu = eig.eigenvalues[o];
-            lambda[col] = if mu > 0.0 { 1.0 / mu } else { f64::INFINITY };
-        }
-        x = y.iter().map(|yp| yp * z).collect();
-        kx = ax.iter().map(|ap| ap * z).collect();
+        (x, kx) = ritz_step(chol, aff, &ax, &mut ay, &mut lambda)?;
     }
     if !lambda[0].is_finite() {
         return Err(Error::Degenerate(
@@ -747,25 +831,94 @@ fn lowest_load_factors(
         ));
     }
     if !converged {
-        return Err(Error::NotConverged(match hidden {
-            Some(h) => format!(
-                "buckling: subspace iteration did not converge in {} iterations: its λ₁ = {:e} \
-                 has residual {:e}, but K + σK_g is not positive definite at σ = {h:e}, so a \
-                 lower load factor exists that the iteration has not found",
-                opts.max_iterations, lambda[0], residuals[0]
-            ),
-            None => format!(
-                "buckling: subspace iteration did not converge in {} iterations (residuals \
-                 {:e}, {:e} > {:e}; λ₁ = {:e})",
-                opts.max_iterations, residuals[0], residuals[1], opts.tolerance, lambda[0]
-            ),
-        }));
+        return Err(not_converged(opts, &lambda, &residuals, hidden));
     }
     Ok(LoadFactors {
         lambda,
         residuals,
         iterations,
         vectors: x,
+    })
+}
+
+/// Relative residuals ‖Kφ − λ(−K_g)φ‖/‖Kφ‖ of the two lowest Ritz pairs (`kx` = Kφ,
+/// `ax` = −K_g φ per node).
+fn ritz_residuals(kx: &[Block6], ax: &[Block6], lambda: &[f64; 6]) -> [f64; 2] {
+    let mut residuals = [0.0; 2];
+    for (c, res) in residuals.iter_mut().enumerate() {
+        let (mut num, mut den) = (0.0, 0.0);
+        for (kp, ap) in kx.iter().zip(ax) {
+            num += (kp.column(c) - ap.column(c) * lambda[c]).norm_squared();
+            den += kp.column(c).norm_squared();
+        }
+        *res = (num / den.max(f64::MIN_POSITIVE)).sqrt();
+    }
+    residuals
+}
+
+/// One subspace step: Y = K⁻¹ A X (`ax` = A X), then Rayleigh–Ritz on span(Y) with the
+/// 6×6 projections Yᵀ A X and Yᵀ A Y. Writes the load factors 1/μ (∞ for μ ≤ 0) into
+/// `lambda` in increasing order and returns the Ritz vectors and K times them (= A X · Z).
+fn ritz_step(
+    chol: &BlockCholesky,
+    aff: &BlockSparse,
+    ax: &[Block6],
+    ay: &mut [Block6],
+    lambda: &mut [f64; 6],
+) -> Result<(Vec<Block6>, Vec<Block6>)> {
+    let y = chol.solve(ax)?;
+    let kr = gram(&y, ax);
+    let kr = (kr + kr.transpose()) * 0.5;
+    aff.apply(&y, ay);
+    let ar = gram(&y, ay);
+    let ar = (ar + ar.transpose()) * 0.5;
+    let l = kr.cholesky().ok_or_else(|| {
+        Error::Degenerate(
+            "buckling: the iterated subspace collapsed (−K_g maps the start vectors to \
+             zero: no bond carries force in the free part)"
+                .into(),
+        )
+    })?;
+    let linv = l
+        .l()
+        .try_inverse()
+        .ok_or_else(|| Error::Degenerate("buckling: singular Ritz basis".into()))?;
+    let c = linv * ar * linv.transpose();
+    let eig = nalgebra::SymmetricEigen::new((c + c.transpose()) * 0.5);
+    let mut order: Vec<usize> = (0..6).collect();
+    order.sort_by(|&p, &q| eig.eigenvalues[q].total_cmp(&eig.eigenvalues[p]));
+    let mut z = Matrix6::zeros();
+    for (col, &o) in order.iter().enumerate() {
+        z.set_column(col, &(linv.transpose() * eig.eigenvectors.column(o)));
+        let mu = eig.eigenvalues[o];
+        lambda[col] = if mu > 0.0 { 1.0 / mu } else { f64::INFINITY };
+    }
+    Ok((
+        y.iter().map(|yp| yp * z).collect(),
+        ax.iter().map(|ap| ap * z).collect(),
+    ))
+}
+
+/// The error of an iteration that ran out of steps: with a load factor known to lie below
+/// its λ₁ (the inertia test's σ), or with its residuals above the tolerance.
+fn not_converged(
+    opts: &BucklingOptions,
+    lambda: &[f64; 6],
+    residuals: &[f64; 2],
+    hidden: Option<f64>,
+) -> Error {
+    Error::NotConverged(match hidden {
+        Some(h) => format!(
+            "buckling: subspace iteration did not converge in {} iterations: its λ₁ = {:e} \
+             has residual {:e}, but K + σK_g is not positive definite at σ = {h:e}, so a \
+             lower load factor exists that the iteration has not found",
+            opts.max_iterations, lambda[0], residuals[0]
+        ),
+        None => format!(
+            "buckling: subspace iteration did not converge in {} iterations (residuals \
+             {:e}, {:e} > {:e}; λ₁ = {:e})",
+            opts.max_iterations, residuals[0], residuals[1], opts.tolerance, lambda[0]
+        ),
     })
 }
 

@@ -82,6 +82,129 @@ fn faer_par() -> Par {
     }
 }
 
+/// Per node the basis of its kept unknowns (the range of its diagonal block,
+/// [`range_basis`]); with `pin`, the first node whose range holds the three translations
+/// keeps only its rotations (the rigid translation removed). Returns the bases and the
+/// pinned node (`usize::MAX` without `pin`); refuses a `pin` with no such node.
+fn reduced_bases(k: &BlockSparse, pin: bool) -> Result<(Vec<(Block6, usize)>, usize)> {
+    let m = k.rows();
+    let mut basis: Vec<(Block6, usize)> = (0..m)
+        .into_par_iter()
+        .map(|p| range_basis(&k.diagonal(p)))
+        .collect();
+    if !pin {
+        return Ok((basis, usize::MAX));
+    }
+    let (pinned, pb) = (0..m)
+        .find_map(|p| pinned_basis(&basis[p]).map(|b| (p, b)))
+        .ok_or_else(|| {
+            Error::Invalid(
+                "Cholesky: no particle is held in all three translations, so the rigid \
+                 translation cannot be removed; use the CG solver"
+                    .into(),
+            )
+        })?;
+    basis[pinned] = pb;
+    Ok((basis, pinned))
+}
+
+/// The upper triangle of the reduced matrix TᵀKT in compressed columns (column pointers,
+/// row indices, values): column (q, c) holds rows (p, a) with p < q, or p = q and a ≤ c;
+/// K_pq = K_qpᵀ is read from row q of the symmetric block storage.
+fn reduced_upper(
+    k: &BlockSparse,
+    basis: &[(Block6, usize)],
+    offset: &[usize],
+) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    let columns: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..k.rows())
+        .into_par_iter()
+        .map(|q| {
+            let (tq, rq) = &basis[q];
+            let blocks: Vec<(usize, Block6)> = k
+                .row(q)
+                .filter(|(p, _)| *p <= q)
+                .map(|(p, kqp)| {
+                    let (tp, _) = &basis[p];
+                    (p, tp.transpose() * kqp.transpose() * tq)
+                })
+                .collect();
+            let mut lens = Vec::with_capacity(*rq);
+            let mut rows = Vec::new();
+            let mut vals = Vec::new();
+            for c in 0..*rq {
+                let before = rows.len();
+                for (p, b) in &blocks {
+                    let rp = if *p == q { c + 1 } else { basis[*p].1 };
+                    for a in 0..rp {
+                        rows.push(offset[*p] + a);
+                        vals.push(b[(a, c)]);
+                    }
+                }
+                lens.push(rows.len() - before);
+            }
+            (lens, rows, vals)
+        })
+        .collect();
+    let total: usize = columns.iter().map(|c| c.1.len()).sum();
+    let mut col_ptr = Vec::with_capacity(offset[offset.len() - 1] + 1);
+    col_ptr.push(0usize);
+    let mut row_idx = Vec::with_capacity(total);
+    let mut values = Vec::with_capacity(total);
+    for (lens, rows, vals) in columns {
+        row_idx.extend_from_slice(&rows);
+        values.extend_from_slice(&vals);
+        for len in lens {
+            let last = col_ptr[col_ptr.len() - 1];
+            col_ptr.push(last + len);
+        }
+    }
+    (col_ptr, row_idx, values)
+}
+
+/// The numeric LLᵀ factor of `a` (upper triangle) on its symbolic analysis; refuses what
+/// cannot be allocated and a matrix that is not positive definite (a global mechanism; `pin`
+/// only words which null space was removed).
+fn numeric_llt(
+    symbolic: &SymbolicCholesky<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+    pin: bool,
+) -> Result<Vec<f64>> {
+    let mut factor = Vec::new();
+    factor.try_reserve_exact(symbolic.len_val()).map_err(|_| {
+        Error::Invalid(format!(
+            "Cholesky: cannot allocate the factor ({} entries)",
+            symbolic.len_val()
+        ))
+    })?;
+    factor.resize(symbolic.len_val(), 0.0);
+    let par = faer_par();
+    let mut mem =
+        MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
+            .map_err(|_| Error::Invalid("Cholesky: cannot allocate workspace".into()))?;
+    symbolic
+        .factorize_numeric_llt(
+            &mut factor,
+            a,
+            Side::Upper,
+            Default::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .map_err(|e| {
+            let removed = if pin {
+                "rigid translation and local mechanisms removed"
+            } else {
+                "held nodes and local mechanisms removed"
+            };
+            Error::Invalid(format!(
+                "Cholesky: the stiffness matrix ({removed}) is not positive definite \
+                 ({e:?}): the bond network contains a global mechanism"
+            ))
+        })?;
+    Ok(factor)
+}
+
 /// LLᵀ factor of a block-sparse PSD matrix restricted to its range, with one node's
 /// translations pinned; solves for six right-hand sides at once.
 pub struct BlockCholesky {
@@ -114,30 +237,15 @@ impl BlockCholesky {
         BlockCholesky::factor_with(k, false)
     }
 
+    /// Reduce every node to the range of its diagonal block (and, with `pin`, fix one
+    /// node's translations), order (AMD) and factor; see [`Self::factor`] and
+    /// [`Self::factor_definite`].
     fn factor_with(k: &BlockSparse, pin: bool) -> Result<BlockCholesky> {
         let m = k.rows();
         if m == 0 {
             return Err(Error::Invalid("Cholesky: empty stiffness matrix".into()));
         }
-        let mut basis: Vec<(Block6, usize)> = (0..m)
-            .into_par_iter()
-            .map(|p| range_basis(&k.diagonal(p)))
-            .collect();
-        let pinned = if pin {
-            let (pinned, pb) = (0..m)
-                .find_map(|p| pinned_basis(&basis[p]).map(|b| (p, b)))
-                .ok_or_else(|| {
-                    Error::Invalid(
-                        "Cholesky: no particle is held in all three translations, so the rigid \
-                         translation cannot be removed; use the CG solver"
-                            .into(),
-                    )
-                })?;
-            basis[pinned] = pb;
-            pinned
-        } else {
-            usize::MAX
-        };
+        let (basis, pinned) = reduced_bases(k, pin)?;
         let mut offset = vec![0usize; m + 1];
         for p in 0..m {
             offset[p + 1] = offset[p] + basis[p].1;
@@ -146,50 +254,7 @@ impl BlockCholesky {
         if n == 0 {
             return Err(Error::Invalid("Cholesky: no unknowns left".into()));
         }
-        // Upper triangle by columns: column (q, c) holds rows (p, a) with p < q, or p = q
-        // and a ≤ c; K_pq = K_qpᵀ is read from row q of the symmetric block storage.
-        let columns: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..m)
-            .into_par_iter()
-            .map(|q| {
-                let (tq, rq) = &basis[q];
-                let blocks: Vec<(usize, Block6)> = k
-                    .row(q)
-                    .filter(|(p, _)| *p <= q)
-                    .map(|(p, kqp)| {
-                        let (tp, _) = &basis[p];
-                        (p, tp.transpose() * kqp.transpose() * tq)
-                    })
-                    .collect();
-                let mut lens = Vec::with_capacity(*rq);
-                let mut rows = Vec::new();
-                let mut vals = Vec::new();
-                for c in 0..*rq {
-                    let before = rows.len();
-                    for (p, b) in &blocks {
-                        let rp = if *p == q { c + 1 } else { basis[*p].1 };
-                        for a in 0..rp {
-                            rows.push(offset[*p] + a);
-                            vals.push(b[(a, c)]);
-                        }
-                    }
-                    lens.push(rows.len() - before);
-                }
-                (lens, rows, vals)
-            })
-            .collect();
-        let total: usize = columns.iter().map(|c| c.1.len()).sum();
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        col_ptr.push(0usize);
-        let mut row_idx = Vec::with_capacity(total);
-        let mut values = Vec::with_capacity(total);
-        for (lens, rows, vals) in columns {
-            row_idx.extend_from_slice(&rows);
-            values.extend_from_slice(&vals);
-            for len in lens {
-                let last = col_ptr[col_ptr.len() - 1];
-                col_ptr.push(last + len);
-            }
-        }
+        let (col_ptr, row_idx, values) = reduced_upper(k, &basis, &offset);
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_cholesky(
             sym,
@@ -198,41 +263,7 @@ impl BlockCholesky {
             Default::default(),
         )
         .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
-        let mut factor = Vec::new();
-        factor.try_reserve_exact(symbolic.len_val()).map_err(|_| {
-            Error::Invalid(format!(
-                "Cholesky: cannot allocate the factor ({} entries)",
-                symbolic.len_val()
-            ))
-        })?;
-        factor.resize(symbolic.len_val(), 0.0);
-        let par = faer_par();
-        let mut mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|_| Error::Invalid("Cholesky: cannot allocate workspace".into()))?;
-        let a = SparseColMatRef::new(sym, &values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut factor,
-                a,
-                Side::Upper,
-                Default::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| {
-                let removed = if pin {
-                    "rigid translation and local mechanisms removed"
-                } else {
-                    "held nodes and local mechanisms removed"
-                };
-                Error::Invalid(format!(
-                    "Cholesky: the stiffness matrix ({removed}) is not positive definite \
-                     ({e:?}): the bond network contains a global mechanism"
-                ))
-            })?;
+        let factor = numeric_llt(&symbolic, SparseColMatRef::new(sym, &values), pin)?;
         Ok(BlockCholesky {
             basis,
             offset,

@@ -107,6 +107,56 @@ fn check_shell_size(m: usize, shell: usize, start: &[usize], nb: &[u32]) -> Resu
     crate::io::check_memory(&format!("LAF with --shell {shell}"), bytes)
 }
 
+/// The LAF fluctuation of active particle `c` (Kruyt 2014 Sec. 4): the equilibrium of the
+/// free particles `inner` of its shell (`mark[p] == c`, local numbers `local`) under the
+/// loads G with the shell's boundary held, K_shell Q = G, shifted by 1e-12 × the largest
+/// diagonal entry; returns Q's block of `c` (the first of `inner`). `adjacency` gives every
+/// particle's incident elements (CSR).
+fn shell_solve(
+    net: &Network,
+    (start, inc): (&[usize], &[u32]),
+    (inner, c): (&[usize], usize),
+    (mark, local): (&[u32], &[usize]),
+    shell: usize,
+) -> Result<Block6> {
+    let n = 6 * inner.len();
+    let mut kk = DMatrix::<f64>::zeros(n, n);
+    let mut rhs = DMatrix::<f64>::zeros(n, 6);
+    for (li, &p) in inner.iter().enumerate() {
+        rhs.view_mut((6 * li, 0), (6, 6)).copy_from(&net.g[p]);
+        for &ei in &inc[start[p]..start[p + 1]] {
+            let e = &net.elements[ei as usize];
+            let (a, b) = net.ends[ei as usize];
+            let (diag, off, other) = if a as usize == p {
+                (e.kii, e.kij, b as usize)
+            } else {
+                (e.kjj, e.kij.transpose(), a as usize)
+            };
+            let mut d = kk.view_mut((6 * li, 6 * li), (6, 6));
+            d += diag;
+            if mark[other] == c as u32 {
+                let lo = local[other];
+                let mut o = kk.view_mut((6 * li, 6 * lo), (6, 6));
+                o += off;
+            }
+        }
+    }
+    let shift = 1e-12 * (0..n).map(|i| kk[(i, i)]).fold(0.0, f64::max);
+    for i in 0..n {
+        kk[(i, i)] += shift;
+    }
+    let Some(factor) = kk.cholesky() else {
+        return Err(Error::Degenerate(format!(
+            "LAF shell of order {shell} around active particle {c} ({} free \
+             particles) is not positive definite even shifted by 1e-12 × its \
+             largest diagonal entry; use --method relaxed",
+            inner.len()
+        )));
+    };
+    let q = factor.solve(&rhs);
+    Ok(Block6::from_fn(|r, col| q[(r, col)]))
+}
+
 /// LAF estimates with shells of order `shell` (1 ≤ m ≤ 6).
 pub fn laf_tensor(
     packing: &Packing,
@@ -141,42 +191,13 @@ pub fn laf_tensor(
                 for (li, &p) in inner.iter().enumerate() {
                     local[p] = li;
                 }
-                let n = 6 * inner.len();
-                let mut kk = DMatrix::<f64>::zeros(n, n);
-                let mut rhs = DMatrix::<f64>::zeros(n, 6);
-                for (li, &p) in inner.iter().enumerate() {
-                    rhs.view_mut((6 * li, 0), (6, 6)).copy_from(&net.g[p]);
-                    for &ei in &inc[start[p]..start[p + 1]] {
-                        let e = &net.elements[ei as usize];
-                        let (a, b) = net.ends[ei as usize];
-                        let (diag, off, other) = if a as usize == p {
-                            (e.kii, e.kij, b as usize)
-                        } else {
-                            (e.kjj, e.kij.transpose(), a as usize)
-                        };
-                        let mut d = kk.view_mut((6 * li, 6 * li), (6, 6));
-                        d += diag;
-                        if mark[other] == c as u32 {
-                            let lo = local[other];
-                            let mut o = kk.view_mut((6 * li, 6 * lo), (6, 6));
-                            o += off;
-                        }
-                    }
-                }
-                let shift = 1e-12 * (0..n).map(|i| kk[(i, i)]).fold(0.0, f64::max);
-                for i in 0..n {
-                    kk[(i, i)] += shift;
-                }
-                let Some(factor) = kk.cholesky() else {
-                    return Err(Error::Degenerate(format!(
-                        "LAF shell of order {shell} around active particle {c} ({} free \
-                         particles) is not positive definite even shifted by 1e-12 × its \
-                         largest diagonal entry; use --method relaxed",
-                        inner.len()
-                    )));
-                };
-                let q = factor.solve(&rhs);
-                out.push(Block6::from_fn(|r, col| q[(r, col)]));
+                out.push(shell_solve(
+                    &net,
+                    (&start, &inc),
+                    (&inner, c),
+                    (&mark, &local),
+                    shell,
+                )?);
                 for &p in &inner {
                     local[p] = usize::MAX;
                 }

@@ -312,6 +312,33 @@ pub struct Network {
     pub null_space: NullSpaceReport,
 }
 
+/// Every particle's index among the active ones (those with at least two bonds after
+/// pruning; `u32::MAX` for the others) and the original index of every active particle.
+fn active_numbering(degree: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut index = vec![u32::MAX; degree.len()];
+    let mut original = Vec::new();
+    for (p, &d) in degree.iter().enumerate() {
+        if d >= 2 {
+            index[p] = original.len() as u32;
+            original.push(p as u32);
+        }
+    }
+    (index, original)
+}
+
+/// The affine stiffness H = Σ LᵀSL and the load G of the `m` active particles, summed over
+/// the elements in order (Kruyt 2014 Eqs. 10–14).
+fn affine_sums(elements: &[Element], ends: &[(u32, u32)], m: usize) -> (Block6, Vec<Block6>) {
+    let mut h = Block6::zeros();
+    let mut g = vec![Block6::zeros(); m];
+    for (e, &(pi, pj)) in elements.iter().zip(ends) {
+        h += e.h;
+        g[pi as usize] += e.gi;
+        g[pj as usize] += e.gj;
+    }
+    (h, g)
+}
+
 impl Network {
     /// Prune the packing's bonds to the load-carrying network and build the elements; with
     /// every bond's axial preload N (N, tension positive; one per bond) each element gains its
@@ -345,14 +372,7 @@ impl Network {
         }
         let n = packing.len();
         let (bond_active, degree_all) = prune(n, bonds);
-        let mut index = vec![u32::MAX; n];
-        let mut original = Vec::new();
-        for p in 0..n {
-            if degree_all[p] >= 2 {
-                index[p] = original.len() as u32;
-                original.push(p as u32);
-            }
-        }
+        let (index, original) = active_numbering(&degree_all);
         let m = original.len();
         let bond: Vec<usize> = (0..bonds.len()).filter(|&b| bond_active[b]).collect();
         let ends: Vec<(u32, u32)> = bond
@@ -370,13 +390,7 @@ impl Network {
                 e
             })
             .collect();
-        let mut h = Block6::zeros();
-        let mut g = vec![Block6::zeros(); m];
-        for (e, &(pi, pj)) in elements.iter().zip(&ends) {
-            h += e.h;
-            g[pi as usize] += e.gi;
-            g[pj as usize] += e.gj;
-        }
+        let (h, g) = affine_sums(&elements, &ends, m);
         let degree: Vec<u32> = original.iter().map(|&p| degree_all[p as usize]).collect();
         let null_space = NullSpaceReport {
             removed_particles: n - m,

@@ -253,71 +253,11 @@ pub(crate) fn relaxed_solve_preloaded(
             pre[p].1 < full
         })
         .count();
-    // Scale of each load case before the cancellation of bond contributions at a particle:
-    // a right-hand side below 1e-10 of it is zero up to rounding (e.g. a perfect lattice).
-    let mut scale = [0.0f64; 6];
-    for e in &net.elements {
-        for (c, sc) in scale.iter_mut().enumerate() {
-            *sc += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
-        }
-    }
-    let scale = scale.map(f64::sqrt);
+    let scale = load_scales(&net);
     let (q, iterations, residual) = match opts.solver {
-        RelaxedSolver::Cholesky => {
-            let chol = BlockCholesky::factor(&kmat)?;
-            let (live, bnorm) = live_columns(&net.g, &scale);
-            let mut q = chol.solve(&net.g)?;
-            for qp in q.iter_mut() {
-                for (c, &alive) in live.iter().enumerate() {
-                    if !alive {
-                        qp.column_mut(c).fill(0.0);
-                    }
-                }
-            }
-            let mut kq = vec![Block6::zeros(); m];
-            kmat.apply(&q, &mut kq);
-            kq.par_iter_mut()
-                .zip(net.g.par_iter())
-                .for_each(|(r, g)| *r = g - *r);
-            let residual = worst_residual(&kq, &live, &bnorm);
-            if residual > opts.tolerance {
-                return Err(Error::Invalid(format!(
-                    "relaxed solver (Cholesky): relative residual {residual:.3e} > tolerance \
-                     {:.1e}; the stiffness matrix is too ill-conditioned or the bond network \
-                     contains a mechanism",
-                    opts.tolerance
-                )));
-            }
-            (q, 0, residual)
-        }
+        RelaxedSolver::Cholesky => cholesky_fluctuations(&kmat, &net.g, &scale, opts.tolerance)?,
         RelaxedSolver::Cg { preconditioner } => {
-            let two_level = match preconditioner {
-                CgPreconditioner::BlockJacobi => None,
-                CgPreconditioner::TwoLevel {
-                    particles_per_aggregate,
-                } => {
-                    let lengths = packing
-                        .cell
-                        .map(|c| c.lengths)
-                        .ok_or_else(|| Error::Invalid("relaxed solver: no periodic cell".into()))?;
-                    let positions: Vec<crate::Vec3> = net
-                        .original
-                        .iter()
-                        .map(|&p| packing.positions[p as usize])
-                        .collect();
-                    // A coarse space that cannot be factored (e.g. a single aggregate, whose
-                    // translations are all null) only weakens the preconditioner: fall back
-                    // to block-Jacobi; the solution and its accuracy are unchanged.
-                    TwoLevel::new(
-                        &kmat,
-                        &positions,
-                        lengths,
-                        opts.rotations,
-                        particles_per_aggregate,
-                    )
-                    .ok()
-                }
-            };
+            let two_level = coarse_space(packing, &net, &kmat, preconditioner, opts.rotations)?;
             let start = initial.filter(|x| x.len() == m);
             pcg(&kmat, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?
         }
@@ -338,6 +278,89 @@ pub(crate) fn relaxed_solve_preloaded(
         q,
         active: net.original,
     })
+}
+
+/// Scale of each load case before the cancellation of bond contributions at a particle
+/// (√Σ over the bonds of ‖G_i‖² + ‖G_j‖²): a right-hand side below 1e-10 of it is zero up
+/// to rounding (e.g. a perfect lattice).
+fn load_scales(net: &Network) -> [f64; 6] {
+    let mut scale = [0.0f64; 6];
+    for e in &net.elements {
+        for (c, sc) in scale.iter_mut().enumerate() {
+            *sc += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
+        }
+    }
+    scale.map(f64::sqrt)
+}
+
+/// Q with K Q = G by the sparse Cholesky of K (dead load cases zero), with its relative
+/// residual; refuses a residual above `tolerance` (ill-conditioned K or a mechanism).
+fn cholesky_fluctuations(
+    kmat: &BlockSparse,
+    g: &[Block6],
+    scale: &[f64; 6],
+    tolerance: f64,
+) -> Result<(Vec<Block6>, usize, f64)> {
+    let chol = BlockCholesky::factor(kmat)?;
+    let (live, bnorm) = live_columns(g, scale);
+    let mut q = chol.solve(g)?;
+    for qp in q.iter_mut() {
+        for (c, &alive) in live.iter().enumerate() {
+            if !alive {
+                qp.column_mut(c).fill(0.0);
+            }
+        }
+    }
+    let mut kq = vec![Block6::zeros(); g.len()];
+    kmat.apply(&q, &mut kq);
+    kq.par_iter_mut()
+        .zip(g.par_iter())
+        .for_each(|(r, g)| *r = g - *r);
+    let residual = worst_residual(&kq, &live, &bnorm);
+    if residual > tolerance {
+        return Err(Error::Invalid(format!(
+            "relaxed solver (Cholesky): relative residual {residual:.3e} > tolerance \
+             {tolerance:.1e}; the stiffness matrix is too ill-conditioned or the bond network \
+             contains a mechanism"
+        )));
+    }
+    Ok((q, 0, residual))
+}
+
+/// The two-level coarse space of the CG ([`super::two_level`], aggregates on a grid over
+/// the periodic cell), or `None` for block-Jacobi. A coarse space that cannot be factored
+/// (e.g. a single aggregate, whose translations are all null) only weakens the
+/// preconditioner: `None` then too; the solution and its accuracy are unchanged.
+fn coarse_space(
+    packing: &Packing,
+    net: &Network,
+    kmat: &BlockSparse,
+    preconditioner: CgPreconditioner,
+    rotations: bool,
+) -> Result<Option<TwoLevel>> {
+    let CgPreconditioner::TwoLevel {
+        particles_per_aggregate,
+    } = preconditioner
+    else {
+        return Ok(None);
+    };
+    let lengths = packing
+        .cell
+        .map(|c| c.lengths)
+        .ok_or_else(|| Error::Invalid("relaxed solver: no periodic cell".into()))?;
+    let positions: Vec<crate::Vec3> = net
+        .original
+        .iter()
+        .map(|&p| packing.positions[p as usize])
+        .collect();
+    Ok(TwoLevel::new(
+        kmat,
+        &positions,
+        lengths,
+        rotations,
+        particles_per_aggregate,
+    )
+    .ok())
 }
 
 /// X with K X = B by block-Jacobi preconditioned CG to the relative residual `tolerance` on
@@ -436,74 +459,10 @@ fn pcg(
     let (live, bnorm) = live_columns(b, scale);
     // Load cases past the last live one are zero throughout: not computed.
     let cols = live.iter().rposition(|&l| l).map_or(1, |c| c + 1);
-    let jacobi = |r: &[Block6], z: &mut [Block6]| {
-        z.par_iter_mut()
-            .zip(r.par_iter())
-            .zip(pre.par_iter())
-            .for_each(|((z, r), (p, _))| *z = mul6_cols(p, r, cols));
-    };
-    let (mut w, mut t) = match two_level {
-        Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
-        None => (Vec::new(), Vec::new()),
-    };
-    // With r ⟂ range(P) (arranged below by the coarse start), the balancing preconditioner
-    // reduces to z = (I − QK) M r, and every later residual stays ⟂ range(P) since
-    // Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this start).
-    let mut precondition = |r: &[Block6], z: &mut [Block6]| -> Result<()> {
-        let Some(tl) = two_level else {
-            jacobi(r, z);
-            return Ok(());
-        };
-        jacobi(r, &mut w); // w = M r
-        tl.coarse_of_k_cols(&w, &mut t, cols)?; // t = Q K w
-        z.par_iter_mut()
-            .zip(w.par_iter().zip(t.par_iter()))
-            .for_each(|(z, (w, t))| *z = w - t);
-        Ok(())
-    };
-    let mut x = match start {
-        Some(s) => {
-            let mut x = s.to_vec();
-            for xp in x.iter_mut() {
-                for (c, &alive) in live.iter().enumerate() {
-                    if !alive {
-                        xp.column_mut(c).fill(0.0);
-                    }
-                }
-            }
-            x
-        }
-        None => vec![Block6::zeros(); m],
-    };
-    let mut r = b.to_vec();
-    if start.is_some() {
-        let mut kx = vec![Block6::zeros(); m];
-        k.apply(&x, &mut kx);
-        r.par_iter_mut()
-            .zip(kx.par_iter())
-            .for_each(|(r, kx)| *r -= kx);
-    }
-    if let Some(tl) = two_level {
-        // Coarse start: x += Q r, r −= K Q r, so that Pᵀ r = 0 (live load cases only).
-        let mut q = vec![Block6::zeros(); m];
-        let mut kq = vec![Block6::zeros(); m];
-        tl.coarse_correction(&r, &mut q, &mut kq)?;
-        x.par_iter_mut()
-            .zip(r.par_iter_mut())
-            .zip(q.par_iter().zip(kq.par_iter()))
-            .for_each(|((x, r), (q, kq))| {
-                for (c, &alive) in live.iter().enumerate() {
-                    if alive {
-                        for i in 0..6 {
-                            x[(i, c)] += q[(i, c)];
-                            r[(i, c)] -= kq[(i, c)];
-                        }
-                    }
-                }
-            });
-    }
+    let mut precondition = Preconditioner::new(pre, two_level, cols, m);
+    let (mut x, mut r) = cg_start(k, b, start, &live, two_level)?;
     let mut z = vec![Block6::zeros(); m];
-    precondition(&r, &mut z)?;
+    precondition.apply(&r, &mut z)?;
     let mut p = z.clone();
     let mut ap = vec![Block6::zeros(); m];
     let mut rz = column_dots(&r, &z);
@@ -534,18 +493,8 @@ fn pcg(
                 0.0
             }
         });
-        x.par_iter_mut()
-            .zip(r.par_iter_mut())
-            .zip(p.par_iter().zip(ap.par_iter()))
-            .for_each(|((x, r), (p, ap))| {
-                for (c, &a) in alpha.iter().enumerate() {
-                    for i in 0..6 {
-                        x[(i, c)] += p[(i, c)] * a;
-                        r[(i, c)] -= ap[(i, c)] * a;
-                    }
-                }
-            });
-        precondition(&r, &mut z)?;
+        cg_step(&mut x, &mut r, &p, &ap, &alpha);
+        precondition.apply(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
         let beta: [f64; 6] =
             std::array::from_fn(|c| if rz[c] > 0.0 { rz_new[c] / rz[c] } else { 0.0 });
@@ -562,4 +511,134 @@ fn pcg(
         "relaxed solver: no convergence in {} iterations (relative residual {worst:.3e} > tolerance {:.1e}); the bond network may contain a mechanism",
         opts.max_iterations, opts.tolerance
     )))
+}
+
+/// The preconditioner of [`pcg`] on its first `cols` load cases: block-Jacobi M, or with
+/// the two-level coarse space (I − QK) M, with its work vectors.
+struct Preconditioner<'a> {
+    /// Pseudo-inverses of the diagonal blocks.
+    pre: &'a [(Block6, usize)],
+    /// The coarse space, when used.
+    two_level: Option<&'a TwoLevel>,
+    /// Load cases computed.
+    cols: usize,
+    /// M r (two-level only).
+    w: Vec<Block6>,
+    /// Q K M r (two-level only).
+    t: Vec<Block6>,
+}
+
+impl<'a> Preconditioner<'a> {
+    /// The preconditioner of `m` nodes.
+    fn new(
+        pre: &'a [(Block6, usize)],
+        two_level: Option<&'a TwoLevel>,
+        cols: usize,
+        m: usize,
+    ) -> Self {
+        let (w, t) = match two_level {
+            Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
+            None => (Vec::new(), Vec::new()),
+        };
+        Preconditioner {
+            pre,
+            two_level,
+            cols,
+            w,
+            t,
+        }
+    }
+
+    /// z = M r, the block-Jacobi step.
+    fn jacobi(pre: &[(Block6, usize)], cols: usize, r: &[Block6], z: &mut [Block6]) {
+        z.par_iter_mut()
+            .zip(r.par_iter())
+            .zip(pre.par_iter())
+            .for_each(|((z, r), (p, _))| *z = mul6_cols(p, r, cols));
+    }
+
+    /// z = M r, or with the coarse space z = (I − QK) M r: with r ⟂ range(P) (arranged by
+    /// [`cg_start`]), the balancing preconditioner reduces to this, and every later residual
+    /// stays ⟂ range(P) since Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this
+    /// start).
+    fn apply(&mut self, r: &[Block6], z: &mut [Block6]) -> Result<()> {
+        let Some(tl) = self.two_level else {
+            Self::jacobi(self.pre, self.cols, r, z);
+            return Ok(());
+        };
+        Self::jacobi(self.pre, self.cols, r, &mut self.w); // w = M r
+        tl.coarse_of_k_cols(&self.w, &mut self.t, self.cols)?; // t = Q K w
+        z.par_iter_mut()
+            .zip(self.w.par_iter().zip(self.t.par_iter()))
+            .for_each(|(z, (w, t))| *z = w - t);
+        Ok(())
+    }
+}
+
+/// The start of [`pcg`]: X₀ = `start` (its dead load cases zeroed) or 0, R₀ = B − K X₀,
+/// then with the coarse space x += Q r, r −= K Q r on the live load cases, so that Pᵀ r = 0.
+fn cg_start(
+    k: &BlockSparse,
+    b: &[Block6],
+    start: Option<&[Block6]>,
+    live: &[bool; 6],
+    two_level: Option<&TwoLevel>,
+) -> Result<(Vec<Block6>, Vec<Block6>)> {
+    let m = b.len();
+    let mut x = match start {
+        Some(s) => {
+            let mut x = s.to_vec();
+            for xp in x.iter_mut() {
+                for (c, &alive) in live.iter().enumerate() {
+                    if !alive {
+                        xp.column_mut(c).fill(0.0);
+                    }
+                }
+            }
+            x
+        }
+        None => vec![Block6::zeros(); m],
+    };
+    let mut r = b.to_vec();
+    if start.is_some() {
+        let mut kx = vec![Block6::zeros(); m];
+        k.apply(&x, &mut kx);
+        r.par_iter_mut()
+            .zip(kx.par_iter())
+            .for_each(|(r, kx)| *r -= kx);
+    }
+    if let Some(tl) = two_level {
+        let mut q = vec![Block6::zeros(); m];
+        let mut kq = vec![Block6::zeros(); m];
+        tl.coarse_correction(&r, &mut q, &mut kq)?;
+        x.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(q.par_iter().zip(kq.par_iter()))
+            .for_each(|((x, r), (q, kq))| {
+                for (c, &alive) in live.iter().enumerate() {
+                    if alive {
+                        for i in 0..6 {
+                            x[(i, c)] += q[(i, c)];
+                            r[(i, c)] -= kq[(i, c)];
+                        }
+                    }
+                }
+            });
+    }
+    Ok((x, r))
+}
+
+/// The CG update x += α p, r −= α K p, per load case.
+fn cg_step(x: &mut [Block6], r: &mut [Block6], p: &[Block6], ap: &[Block6], alpha: &[f64; 6]) {
+    x.par_iter_mut()
+        .zip(r.par_iter_mut())
+        .zip(p.par_iter().zip(ap.par_iter()))
+        .for_each(|((x, r), (p, ap))| {
+            for (c, &a) in alpha.iter().enumerate() {
+                for i in 0..6 {
+                    x[(i, c)] += p[(i, c)] * a;
+                    r[(i, c)] -= ap[(i, c)] * a;
+                }
+            }
+        });
 }

@@ -141,6 +141,22 @@ impl BlockSparse {
         }
     }
 
+    /// The rows and columns of the nodes with `map[p] != u32::MAX`, renumbered by `map`
+    /// (increasing with p), scaled by `sign`: K restricted to the free nodes of a held
+    /// structure.
+    pub fn restrict(&self, map: &[u32], sign: f64) -> BlockSparse {
+        let rows = (0..self.rows())
+            .filter(|&p| map[p] != u32::MAX)
+            .map(|p| {
+                self.row(p)
+                    .filter(|(c, _)| map[*c] != u32::MAX)
+                    .map(|(c, b)| (map[c], b * sign))
+                    .collect()
+            })
+            .collect();
+        BlockSparse::from_rows(rows)
+    }
+
     /// Memory held by the matrix (bytes).
     pub fn bytes(&self) -> usize {
         self.block.len() * std::mem::size_of::<Block6>()
@@ -153,20 +169,7 @@ impl BlockSparse {
 /// of fixed 6×6 matrices goes through its gemm path and is several times slower here).
 #[inline(always)]
 pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
-    let (a, b) = (a.as_slice(), b.as_slice());
-    let c = acc.as_mut_slice();
-    for j in 0..6 {
-        let mut col = [0.0f64; 6];
-        col.copy_from_slice(&c[6 * j..6 * j + 6]);
-        for k in 0..6 {
-            let s = b[k + 6 * j];
-            let ak = &a[6 * k..6 * k + 6];
-            for i in 0..6 {
-                col[i] += ak[i] * s;
-            }
-        }
-        c[6 * j..6 * j + 6].copy_from_slice(&col);
-    }
+    mul_add_columns(acc, a, b, 6);
 }
 
 /// [`mul_add6`] on the first `cols` columns of b (and of acc); all six when `cols` ≥ 6, by
@@ -176,6 +179,13 @@ pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usiz
     if cols >= 6 {
         return mul_add6(acc, a, b);
     }
+    mul_add_columns(acc, a, b, cols);
+}
+
+/// The kernel of [`mul_add6`] and [`mul_add6_cols`]: acc[:, j] += a·b[:, j] for j < `cols`,
+/// column by column. Always inlined, so a constant `cols` (6 in [`mul_add6`]) unrolls.
+#[inline(always)]
+fn mul_add_columns(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
     let (a, b) = (a.as_slice(), b.as_slice());
     let c = acc.as_mut_slice();
     for j in 0..cols {

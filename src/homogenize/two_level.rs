@@ -20,6 +20,129 @@ fn skew(a: &Vec3) -> Mat3 {
     Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
+/// Grid cell of every position and its arm from the cell's centre (wrapped into the box like
+/// the index): cells of about `per_aggregate` positions each, at most one per position along
+/// an axis (a far-away particle in a free cluster, a bounding box of 1e12 × 1 × 1, must not
+/// ask for a dense grid of cells).
+fn grid_cells(
+    positions: &[Vec3],
+    box_lengths: Vec3,
+    per_aggregate: usize,
+) -> Vec<([usize; 3], Vec3)> {
+    let m = positions.len();
+    let volume = box_lengths.x * box_lengths.y * box_lengths.z;
+    let h = (volume * per_aggregate as f64 / m as f64).cbrt();
+    let cells: [usize; 3] =
+        std::array::from_fn(|a| ((box_lengths[a] / h).round().min(m as f64) as usize).max(1));
+    let size = Vec3::from_fn(|a, _| box_lengths[a] / cells[a] as f64);
+    let cell_of = |x: &Vec3| -> ([usize; 3], Vec3) {
+        let mut idx = [0usize; 3];
+        let mut centre = Vec3::zeros();
+        for a in 0..3 {
+            let w = x[a].rem_euclid(box_lengths[a]);
+            let i = ((w / size[a]) as usize).min(cells[a] - 1);
+            idx[a] = i;
+            centre[a] = (i as f64 + 0.5) * size[a];
+            // Arm from the centre, with the position wrapped like the cell index.
+            centre[a] = w - centre[a];
+        }
+        (idx, centre)
+    };
+    positions.par_iter().map(cell_of).collect()
+}
+
+/// Rigid-mode prolongation of a node at arm `d` from its aggregate's centre: u = t + θ × d,
+/// and ω = θ when the nodes rotate.
+fn rigid_modes(d: &Vec3, rotations: bool) -> Block6 {
+    let mut p = Block6::zeros();
+    p.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+    p.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(d)));
+    if rotations {
+        p.fixed_view_mut::<3, 3>(3, 3).copy_from(&Mat3::identity());
+    }
+    p
+}
+
+/// Counting sort of `(group, row, value)` items into CSR by group (`n_groups` groups),
+/// keeping the items' order within a group: every group's start and its (row, value)s.
+fn group_by<T: Copy>(
+    n_groups: usize,
+    items: impl Iterator<Item = (u32, u32, T)> + Clone,
+    zero: T,
+) -> (Vec<usize>, Vec<(u32, T)>) {
+    let mut start = vec![0usize; n_groups + 1];
+    for (g, _, _) in items.clone() {
+        start[g as usize + 1] += 1;
+    }
+    for a in 0..n_groups {
+        start[a + 1] += start[a];
+    }
+    let mut fill = start.clone();
+    let mut out = vec![(0u32, zero); start[n_groups]];
+    for (g, row, v) in items {
+        out[fill[g as usize]] = (row, v);
+        fill[g as usize] += 1;
+    }
+    (start, out)
+}
+
+/// K P, one short row per fine node (CSR: start, (aggregate, Σ_q∈aggregate K_pq P_q)), in
+/// a fixed order: the row's columns in order, aggregates sorted.
+fn k_times_p(
+    k: &BlockSparse,
+    aggregate: &[u32],
+    prolongation: &[Block6],
+) -> (Vec<usize>, Vec<(u32, Block6)>) {
+    let kp_rows: Vec<Vec<(u32, Block6)>> = (0..k.rows())
+        .into_par_iter()
+        .map(|p| {
+            let mut acc: Vec<(u32, Block6)> = Vec::new();
+            for (q, kpq) in k.row(p) {
+                let b = aggregate[q];
+                let v = kpq * prolongation[q];
+                match acc.iter_mut().find(|(a, _)| *a == b) {
+                    Some((_, s)) => *s += v,
+                    None => acc.push((b, v)),
+                }
+            }
+            acc.sort_by_key(|(a, _)| *a);
+            acc
+        })
+        .collect();
+    let mut kp_start = Vec::with_capacity(k.rows() + 1);
+    kp_start.push(0);
+    let mut kp = Vec::new();
+    for row in kp_rows {
+        kp.extend(row);
+        kp_start.push(kp.len());
+    }
+    (kp_start, kp)
+}
+
+/// Coarse matrix PᵀKP, one block row per aggregate (`members`: CSR of its nodes), from the
+/// rows of K P (`kp`: CSR by fine node), in a fixed summation order.
+fn coarse_matrix(
+    prolongation: &[Block6],
+    (start, nodes): (&[usize], &[u32]),
+    (kp_start, kp): (&[usize], &[(u32, Block6)]),
+) -> BlockSparse {
+    let rows: Vec<Vec<(u32, Block6)>> = (0..start.len() - 1)
+        .into_par_iter()
+        .map(|a| {
+            let mut acc: BTreeMap<u32, Block6> = BTreeMap::new();
+            for &p in &nodes[start[a]..start[a + 1]] {
+                let p = p as usize;
+                let ppt = prolongation[p].transpose();
+                for (b, kpb) in &kp[kp_start[p]..kp_start[p + 1]] {
+                    *acc.entry(*b).or_insert_with(Block6::zeros) += ppt * kpb;
+                }
+            }
+            acc.into_iter().collect()
+        })
+        .collect();
+    BlockSparse::from_rows(rows)
+}
+
 /// The coarse space and its factored coarse matrix.
 pub struct TwoLevel {
     /// Aggregate of every node.
@@ -62,27 +185,7 @@ impl TwoLevel {
                 "two-level preconditioner: particles per aggregate must be positive".into(),
             ));
         }
-        let volume = box_lengths.x * box_lengths.y * box_lengths.z;
-        let h = (volume * per_aggregate as f64 / m as f64).cbrt();
-        // At most one cell per particle along an axis: a far-away particle in a free
-        // cluster (a bounding box of 1e12 × 1 × 1) must not ask for a dense grid of cells.
-        let cells: [usize; 3] =
-            std::array::from_fn(|a| ((box_lengths[a] / h).round().min(m as f64) as usize).max(1));
-        let size = Vec3::from_fn(|a, _| box_lengths[a] / cells[a] as f64);
-        let cell_of = |x: &Vec3| -> ([usize; 3], Vec3) {
-            let mut idx = [0usize; 3];
-            let mut centre = Vec3::zeros();
-            for a in 0..3 {
-                let w = x[a].rem_euclid(box_lengths[a]);
-                let i = ((w / size[a]) as usize).min(cells[a] - 1);
-                idx[a] = i;
-                centre[a] = (i as f64 + 0.5) * size[a];
-                // Arm from the centre, with the position wrapped like the cell index.
-                centre[a] = w - centre[a];
-            }
-            (idx, centre)
-        };
-        let raw: Vec<([usize; 3], Vec3)> = positions.par_iter().map(cell_of).collect();
+        let raw = grid_cells(positions, box_lengths, per_aggregate);
         // Number the non-empty cells in increasing (x, y, z) order; sorting the occupied
         // cells costs O(m log m) whatever the grid's size.
         let mut occupied: Vec<[usize; 3]> = raw.iter().map(|(c, _)| *c).collect();
@@ -95,84 +198,23 @@ impl TwoLevel {
             .collect();
         let prolongation: Vec<Block6> = raw
             .par_iter()
-            .map(|(_, d)| {
-                let mut p = Block6::zeros();
-                p.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
-                p.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(d)));
-                if rotations {
-                    p.fixed_view_mut::<3, 3>(3, 3).copy_from(&Mat3::identity());
-                }
-                p
-            })
+            .map(|(_, d)| rigid_modes(d, rotations))
             .collect();
-        let mut start = vec![0usize; n_agg + 1];
-        for &a in &aggregate {
-            start[a as usize + 1] += 1;
-        }
-        for a in 0..n_agg {
-            start[a + 1] += start[a];
-        }
-        let mut fill = start.clone();
-        let mut nodes = vec![0u32; m];
-        for (p, &a) in aggregate.iter().enumerate() {
-            nodes[fill[a as usize]] = p as u32;
-            fill[a as usize] += 1;
-        }
-        // K P, one short row per fine node (fixed order: the row's columns in order).
-        let kp_rows: Vec<Vec<(u32, Block6)>> = (0..m)
-            .into_par_iter()
-            .map(|p| {
-                let mut acc: Vec<(u32, Block6)> = Vec::new();
-                for (q, kpq) in k.row(p) {
-                    let b = aggregate[q];
-                    let v = kpq * prolongation[q];
-                    match acc.iter_mut().find(|(a, _)| *a == b) {
-                        Some((_, s)) => *s += v,
-                        None => acc.push((b, v)),
-                    }
-                }
-                acc.sort_by_key(|(a, _)| *a);
-                acc
-            })
-            .collect();
-        let mut kp_start = Vec::with_capacity(m + 1);
-        kp_start.push(0);
-        let mut kp = Vec::new();
-        for row in kp_rows {
-            kp.extend(row);
-            kp_start.push(kp.len());
-        }
-        let mut kpt_start = vec![0usize; n_agg + 1];
-        for (b, _) in &kp {
-            kpt_start[*b as usize + 1] += 1;
-        }
-        for a in 0..n_agg {
-            kpt_start[a + 1] += kpt_start[a];
-        }
-        let mut fill = kpt_start.clone();
-        let mut kpt = vec![(0u32, Block6::zeros()); kp.len()];
-        for p in 0..m {
-            for (b, blk) in &kp[kp_start[p]..kp_start[p + 1]] {
-                kpt[fill[*b as usize]] = (p as u32, blk.transpose());
-                fill[*b as usize] += 1;
-            }
-        }
-        // Coarse matrix PᵀKP, one block row per aggregate, fixed summation order.
-        let rows: Vec<Vec<(u32, Block6)>> = (0..n_agg)
-            .into_par_iter()
-            .map(|a| {
-                let mut acc: BTreeMap<u32, Block6> = BTreeMap::new();
-                for &p in &nodes[start[a]..start[a + 1]] {
-                    let p = p as usize;
-                    let ppt = prolongation[p].transpose();
-                    for (b, kpb) in &kp[kp_start[p]..kp_start[p + 1]] {
-                        *acc.entry(*b).or_insert_with(Block6::zeros) += ppt * kpb;
-                    }
-                }
-                acc.into_iter().collect()
-            })
-            .collect();
-        let coarse_matrix = BlockSparse::from_rows(rows);
+        let members = aggregate
+            .iter()
+            .enumerate()
+            .map(|(p, &a)| (a, p as u32, ()));
+        let (start, nodes) = group_by(n_agg, members, ());
+        let nodes: Vec<u32> = nodes.into_iter().map(|(p, ())| p).collect();
+        let (kp_start, kp) = k_times_p(k, &aggregate, &prolongation);
+        // (KP)ᵀ by aggregate: the blocks of every aggregate's column, by fine row.
+        let columns = (0..m).flat_map(|p| {
+            kp[kp_start[p]..kp_start[p + 1]]
+                .iter()
+                .map(move |(b, blk)| (*b, p as u32, blk.transpose()))
+        });
+        let (kpt_start, kpt) = group_by(n_agg, columns, Block6::zeros());
+        let coarse_matrix = coarse_matrix(&prolongation, (&start, &nodes), (&kp_start, &kp));
         let coarse = BlockCholesky::factor(&coarse_matrix)?;
         Ok(TwoLevel {
             aggregate,

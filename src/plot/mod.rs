@@ -104,31 +104,14 @@ pub fn plot_domain(
     if samples.is_empty() {
         return Err(Error::Invalid("domain plot: no samples".into()));
     }
-    let finite = samples
-        .iter()
-        .filter(|p| p.c12_over_c11.is_finite() && p.c44_over_c11.is_finite());
-    let (mut x0, mut x1, mut y0, mut y1) = (0.0f64, 0.5f64, 0.2f64, 0.6f64);
-    for p in finite {
-        x0 = x0.min(p.c12_over_c11);
-        x1 = x1.max(p.c12_over_c11);
-        y0 = y0.min(p.c44_over_c11);
-        y1 = y1.max(p.c44_over_c11);
-    }
-    if let Some((tx, ty)) = target {
-        x0 = x0.min(tx);
-        x1 = x1.max(tx);
-        y0 = y0.min(ty);
-        y1 = y1.max(ty);
-    }
-    let (dx, dy) = (0.05 * (x1 - x0), 0.05 * (y1 - y0));
-    let (x0, x1, y0, y1) = (x0 - dx, x1 + dx, (y0 - dy).max(0.0), y1 + dy);
+    let w = DomainWindow::new(samples, target);
     render(path, (1000, 850), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 24))
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, y0..y1)
+            .build_cartesian_2d(w.x0..w.x1, w.y0..w.y1)
             .map_err(s)?;
         chart
             .configure_mesh()
@@ -139,52 +122,11 @@ pub fn plot_domain(
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
             .map_err(s)?;
-        // Lines of constant Poisson ratio ν100 = C12/(C11 + C12): vertical.
-        let poisson = RGBColor(120, 170, 220);
-        for nu in [0.0, 0.1, 0.2, 0.3, 0.4] {
-            let x = nu / (1.0 - nu);
-            if x > x0 && x < x1 {
-                chart
-                    .draw_series(LineSeries::new([(x, y0), (x, y1)], poisson.stroke_width(1)))
-                    .map_err(s)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        format!("ν={nu:.1}"),
-                        (x, y1 - 0.02 * (y1 - y0)),
-                        ("sans-serif", 14).into_font().color(&poisson),
-                    )))
-                    .map_err(s)?;
-            }
-        }
-        // Lines of constant Zener ratio: C44/C11 = Z(1 − C12/C11)/2.
-        let grey = RGBColor(130, 130, 130);
-        for z in [0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0] {
-            let line: Vec<(f64, f64)> = (0..=50)
-                .map(|k| {
-                    let x = x0 + (x1 - x0) * k as f64 / 50.0;
-                    (x, z * (1.0 - x) / 2.0)
-                })
-                .filter(|&(_, y)| y >= y0 && y <= y1)
-                .collect();
-            if line.len() < 2 {
-                continue;
-            }
-            let width = if z == 1.0 { 2 } else { 1 };
-            let label_at = line[line.len() / 5];
-            chart
-                .draw_series(LineSeries::new(line, grey.stroke_width(width)))
-                .map_err(s)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    format!("Z={z}"),
-                    label_at,
-                    ("sans-serif", 14).into_font().color(&grey),
-                )))
-                .map_err(s)?;
-        }
+        draw_poisson_lines(&mut chart, &w)?;
+        draw_zener_lines(&mut chart, &w)?;
         // Cauchy line C12 = C44.
-        let lo = x0.max(y0);
-        let hi = x1.min(y1);
+        let lo = w.x0.max(w.y0);
+        let hi = w.x1.min(w.y1);
         if hi > lo {
             chart
                 .draw_series(LineSeries::new([(lo, lo), (hi, hi)], RED.stroke_width(2)))
@@ -192,34 +134,7 @@ pub fn plot_domain(
                 .label("Cauchy C12 = C44")
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
         }
-        for model in [CubicModel::ZenerAbove1, CubicModel::ZenerBelow1] {
-            for extended in [false, true] {
-                let colour = variant_colour(model, extended);
-                let pts: Vec<(f64, f64)> = samples
-                    .iter()
-                    .filter(|p| p.model == model && p.extended == extended)
-                    .map(|p| (p.c12_over_c11, p.c44_over_c11))
-                    .filter(|(x, y)| x.is_finite() && y.is_finite())
-                    .collect();
-                if pts.is_empty() {
-                    continue;
-                }
-                let label = format!(
-                    "{}{} ({} samples)",
-                    model.as_str(),
-                    if extended { " extended" } else { "" },
-                    pts.len()
-                );
-                chart
-                    .draw_series(
-                        pts.into_iter()
-                            .map(|c| Circle::new(c, 2, colour.mix(0.6).filled())),
-                    )
-                    .map_err(s)?
-                    .label(label)
-                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
-            }
-        }
+        draw_domain_samples(&mut chart, samples)?;
         if let Some((tx, ty)) = target {
             chart
                 .draw_series(std::iter::once(Cross::new(
@@ -234,6 +149,147 @@ pub fn plot_domain(
         draw_legend(&mut chart, 16, SeriesLabelPosition::LowerRight)?;
         Ok(())
     })
+}
+
+/// The axes' ranges of the domain map.
+struct DomainWindow {
+    /// Lowest C12/C11.
+    x0: f64,
+    /// Highest C12/C11.
+    x1: f64,
+    /// Lowest C44/C11.
+    y0: f64,
+    /// Highest C44/C11.
+    y1: f64,
+}
+
+impl DomainWindow {
+    /// At least [0, 0.5] × [0.2, 0.6], grown to hold every finite sample and the target,
+    /// with a 5 % margin (C44/C11 not below 0).
+    fn new(samples: &[DomainSample], target: Option<(f64, f64)>) -> DomainWindow {
+        let finite = samples
+            .iter()
+            .filter(|p| p.c12_over_c11.is_finite() && p.c44_over_c11.is_finite());
+        let (mut x0, mut x1, mut y0, mut y1) = (0.0f64, 0.5f64, 0.2f64, 0.6f64);
+        for p in finite {
+            x0 = x0.min(p.c12_over_c11);
+            x1 = x1.max(p.c12_over_c11);
+            y0 = y0.min(p.c44_over_c11);
+            y1 = y1.max(p.c44_over_c11);
+        }
+        if let Some((tx, ty)) = target {
+            x0 = x0.min(tx);
+            x1 = x1.max(tx);
+            y0 = y0.min(ty);
+            y1 = y1.max(ty);
+        }
+        let (dx, dy) = (0.05 * (x1 - x0), 0.05 * (y1 - y0));
+        DomainWindow {
+            x0: x0 - dx,
+            x1: x1 + dx,
+            y0: (y0 - dy).max(0.0),
+            y1: y1 + dy,
+        }
+    }
+}
+
+/// Lines of constant Poisson ratio ν100 = C12/(C11 + C12) on the domain map: vertical at
+/// C12/C11 = ν/(1 − ν), labelled.
+fn draw_poisson_lines<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    w: &DomainWindow,
+) -> std::result::Result<(), String> {
+    let poisson = RGBColor(120, 170, 220);
+    for nu in [0.0, 0.1, 0.2, 0.3, 0.4] {
+        let x = nu / (1.0 - nu);
+        if x > w.x0 && x < w.x1 {
+            chart
+                .draw_series(LineSeries::new(
+                    [(x, w.y0), (x, w.y1)],
+                    poisson.stroke_width(1),
+                ))
+                .map_err(s)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("ν={nu:.1}"),
+                    (x, w.y1 - 0.02 * (w.y1 - w.y0)),
+                    ("sans-serif", 14).into_font().color(&poisson),
+                )))
+                .map_err(s)?;
+        }
+    }
+    Ok(())
+}
+
+/// Lines of constant Zener ratio on the domain map, C44/C11 = Z(1 − C12/C11)/2, labelled;
+/// Z = 1 (isotropy) thicker.
+fn draw_zener_lines<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    w: &DomainWindow,
+) -> std::result::Result<(), String> {
+    let grey = RGBColor(130, 130, 130);
+    for z in [0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0] {
+        let line: Vec<(f64, f64)> = (0..=50)
+            .map(|k| {
+                let x = w.x0 + (w.x1 - w.x0) * k as f64 / 50.0;
+                (x, z * (1.0 - x) / 2.0)
+            })
+            .filter(|&(_, y)| y >= w.y0 && y <= w.y1)
+            .collect();
+        if line.len() < 2 {
+            continue;
+        }
+        let width = if z == 1.0 { 2 } else { 1 };
+        let label_at = line[line.len() / 5];
+        chart
+            .draw_series(LineSeries::new(line, grey.stroke_width(width)))
+            .map_err(s)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("Z={z}"),
+                label_at,
+                ("sans-serif", 14).into_font().color(&grey),
+            )))
+            .map_err(s)?;
+    }
+    Ok(())
+}
+
+/// The samples of every model variant as dots in its colour, with a legend entry counting
+/// them (non-finite samples left out).
+fn draw_domain_samples<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    samples: &[DomainSample],
+) -> std::result::Result<(), String> {
+    for model in [CubicModel::ZenerAbove1, CubicModel::ZenerBelow1] {
+        for extended in [false, true] {
+            let colour = variant_colour(model, extended);
+            let pts: Vec<(f64, f64)> = samples
+                .iter()
+                .filter(|p| p.model == model && p.extended == extended)
+                .map(|p| (p.c12_over_c11, p.c44_over_c11))
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let label = format!(
+                "{}{} ({} samples)",
+                model.as_str(),
+                if extended { " extended" } else { "" },
+                pts.len()
+            );
+            chart
+                .draw_series(
+                    pts.into_iter()
+                        .map(|c| Circle::new(c, 2, colour.mix(0.6).filled())),
+                )
+                .map_err(s)?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+        }
+    }
+    Ok(())
 }
 
 /// A plane section for [`plot_stiffness_sections`]: directions n(t) = cos t·u + sin t·v.
@@ -308,23 +364,9 @@ pub fn plot_stiffness_sections(
     if sections.is_empty() {
         return Err(Error::Invalid("stiffness plot: no sections".into()));
     }
-    const STEPS: usize = 720;
-    type Curve = Vec<(f64, f64)>;
     let curves: Vec<(Curve, Curve)> = sections
         .iter()
-        .map(|sec| {
-            let mut normal = Vec::with_capacity(STEPS + 1);
-            let mut shear = Vec::with_capacity(STEPS + 1);
-            for k in 0..=STEPS {
-                let t = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
-                let (st, ct) = t.sin_cos();
-                let n = (sec.u * ct + sec.v * st).normalize();
-                let m = scheme.magnitudes(&n);
-                normal.push((m.normal.max(0.0) * ct, m.normal.max(0.0) * st));
-                shear.push((m.shear.max(0.0) * ct, m.shear.max(0.0) * st));
-            }
-            (normal, shear)
-        })
+        .map(|sec| polar_curves(scheme, sec))
         .collect();
     let rmax = curves
         .iter()
@@ -361,19 +403,7 @@ pub fn plot_stiffness_sections(
                 .light_line_style(RGBColor(240, 240, 240))
                 .draw()
                 .map_err(s)?;
-            // Reference circles at quarter radii.
-            for frac in [0.25, 0.5, 0.75, 1.0] {
-                let rr = frac * rmax;
-                chart
-                    .draw_series(LineSeries::new(
-                        (0..=180).map(|k| {
-                            let t = 2.0 * std::f64::consts::PI * k as f64 / 180.0;
-                            (rr * t.cos(), rr * t.sin())
-                        }),
-                        RGBColor(210, 210, 210),
-                    ))
-                    .map_err(s)?;
-            }
+            draw_reference_circles(&mut chart, rmax)?;
             let blue = RGBColor(31, 119, 180);
             let gold = RGBColor(214, 160, 20);
             for (curve, colour, name) in [(normal, blue, "k_n"), (shear, gold, "k_s")] {
@@ -389,6 +419,46 @@ pub fn plot_stiffness_sections(
         }
         Ok(())
     })
+}
+
+/// A polar curve: points (x, y) of a magnitude along the directions of a section.
+type Curve = Vec<(f64, f64)>;
+
+/// The polar curves of k_n(n) and k_s(n) (negative magnitudes as 0) over the directions
+/// n(t) = cos t·u + sin t·v of `sec`, 720 steps around.
+fn polar_curves(scheme: &dyn StiffnessScheme, sec: &Section) -> (Curve, Curve) {
+    const STEPS: usize = 720;
+    let mut normal = Vec::with_capacity(STEPS + 1);
+    let mut shear = Vec::with_capacity(STEPS + 1);
+    for k in 0..=STEPS {
+        let t = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
+        let (st, ct) = t.sin_cos();
+        let n = (sec.u * ct + sec.v * st).normalize();
+        let m = scheme.magnitudes(&n);
+        normal.push((m.normal.max(0.0) * ct, m.normal.max(0.0) * st));
+        shear.push((m.shear.max(0.0) * ct, m.shear.max(0.0) * st));
+    }
+    (normal, shear)
+}
+
+/// Grey reference circles at quarter radii of `rmax`.
+fn draw_reference_circles<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    rmax: f64,
+) -> std::result::Result<(), String> {
+    for frac in [0.25, 0.5, 0.75, 1.0] {
+        let rr = frac * rmax;
+        chart
+            .draw_series(LineSeries::new(
+                (0..=180).map(|k| {
+                    let t = 2.0 * std::f64::consts::PI * k as f64 / 180.0;
+                    (rr * t.cos(), rr * t.sin())
+                }),
+                RGBColor(210, 210, 210),
+            ))
+            .map_err(s)?;
+    }
+    Ok(())
 }
 
 /// A loading history (the shared [`crate::history::StressHistory`]): `time`, `strain` and
@@ -637,35 +707,11 @@ pub fn plot_particle_map(
             "particle map: non-finite point or value".into(),
         ));
     }
-    let (mut x0, mut x1, mut y0, mut y1) = points.iter().fold(
-        (
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ),
-        |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
-    );
-    // equal scales: the larger extent on both axes
-    let half = 0.5 * (x1 - x0).max(y1 - y0).max(f64::MIN_POSITIVE) * 1.02;
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    (x0, x1, y0, y1) = (cx - half, cx + half, cy - half, cy + half);
+    let (x0, x1, y0, y1) = square_window(points);
     let mut mags: Vec<f64> = values.iter().map(|v| v.abs()).collect();
     mags.sort_by(f64::total_cmp);
     let vmax = mags[((mags.len() - 1) as f64 * 0.99) as usize];
-    let colour = |v: f64| -> RGBColor {
-        let t = if vmax > 0.0 {
-            (v / vmax).clamp(-1.0, 1.0)
-        } else {
-            0.0
-        };
-        let f = |a: f64| (255.0 * (1.0 - a)).round() as u8;
-        if t >= 0.0 {
-            RGBColor(255, f(t), f(t))
-        } else {
-            RGBColor(f(-t), f(-t), 255)
-        }
-    };
+    let colour = |v: f64| diverging_colour(v, vmax);
     render(path, (800, 800), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
@@ -694,6 +740,39 @@ pub fn plot_particle_map(
             .map_err(s)?;
         Ok(())
     })
+}
+
+/// The square window (x0, x1, y0, y1) centred on the points' bounding box with 2 % margin:
+/// equal scales, the larger extent on both axes.
+fn square_window(points: &[(f64, f64)]) -> (f64, f64, f64, f64) {
+    let (x0, x1, y0, y1) = points.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
+    );
+    let half = 0.5 * (x1 - x0).max(y1 - y0).max(f64::MIN_POSITIVE) * 1.02;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (cx - half, cx + half, cy - half, cy + half)
+}
+
+/// Blue–white–red colour of `v` on a scale symmetric about zero, saturated at ±`vmax`
+/// (white for `vmax` ≤ 0).
+fn diverging_colour(v: f64, vmax: f64) -> RGBColor {
+    let t = if vmax > 0.0 {
+        (v / vmax).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let f = |a: f64| (255.0 * (1.0 - a)).round() as u8;
+    if t >= 0.0 {
+        RGBColor(255, f(t), f(t))
+    } else {
+        RGBColor(f(-t), f(-t), 255)
+    }
 }
 
 /// PNG of the loaded stress component (MPa) against step for every element-test path, the

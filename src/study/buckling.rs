@@ -322,7 +322,7 @@ impl BucklingStudyOptions {
 /// One bar of the study: the one schema of buckling.json's rows and of
 /// `anisobond.buckle_bar`'s dict. Stresses in Pa, lengths in m, forces in N (the unit in
 /// the key); ratios are 1. `None` (null) where a value has no finite value or was not run.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BarRow {
     /// Preparation route (the study; `None` for a bar of a given packing).
     pub route: Option<&'static str>,
@@ -428,13 +428,9 @@ impl BarRow {
             normal_force_share: r.normal_force_share,
             iterations: r.iterations,
             residual: r.residuals[0].max(r.residuals[1]),
-            dem_max_stress_pa: None,
-            dem_strain_at_max: None,
-            dem_max_kinetic_ratio: None,
-            dem_peak_at_end: None,
-            dem_total_steps: None,
-            dem_ran_out: None,
             network: r.clone(),
+            // The DEM columns: filled by a compression ([`BarRow::set_compression`]).
+            ..BarRow::default()
         })
     }
 
@@ -731,8 +727,14 @@ fn compress(
 }
 
 impl BucklingReport {
-    /// buckling.json: the report as pretty JSON.
+    /// buckling.json: the report as pretty JSON; refuses a non-finite number in any field
+    /// (JSON would write it as `null`, which here means "no finite value by definition").
     pub fn to_json(&self) -> Result<String> {
+        crate::io::check_json_numbers(&self.units, "buckling.json units")?;
+        crate::io::check_json_numbers(&self.parameters, "buckling.json parameters")?;
+        for (i, row) in self.rows.iter().enumerate() {
+            super::refuse_non_finite(row, &format!("buckling.json rows[{i}]"))?;
+        }
         serde_json::to_string_pretty(self)
             .map_err(|e| Error::Invalid(format!("buckling.json: {e}")))
     }
@@ -871,4 +873,81 @@ fn closed_form_curves(rows: &[BarRow]) -> [Series; 2] {
             colour: Some(5),
         },
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A report of one bar of hand-set values: `None` where the study has no value (a linear
+    /// bar, no compression) and finite numbers elsewhere.
+    fn report() -> BucklingReport {
+        let network = BucklingResult {
+            load_factors: [0.0126, 0.0147],
+            critical_stress: 86_900.0,
+            residuals: [3e-8, 6e-7],
+            static_residual: 4e-14,
+            ..BucklingResult::default()
+        };
+        let row = BarRow {
+            route: Some("unjammed"),
+            slenderness: 20.0,
+            sigma_mazzilli_pa: Some(173_000.0),
+            sigma_network_pa: 86_900.0,
+            residual: 6e-7,
+            network,
+            ..BarRow::default()
+        };
+        BucklingReport {
+            units: serde_json::json!({"*_pa": "Pa"}),
+            parameters: parameters(&BucklingStudyOptions::default()),
+            rows: vec![row],
+            histories: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn buckling_json_keeps_null_for_none_but_refuses_a_non_finite_number() {
+        // `None` is written as null and accepted.
+        let text = report().to_json().unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert!(v["rows"][0]["sigma_deformed_pa"].is_null());
+        assert_eq!(v["rows"][0]["sigma_network_pa"], 86_900.0);
+        // A non-finite number in a plain field, an optional field, the nested network
+        // result, an array and the parameters: each refused, naming the field.
+        type Spoil = fn(&mut BucklingReport);
+        let cases: [(Spoil, &str); 5] = [
+            (|r| r.rows[0].residual = f64::NAN, "rows[0].residual"),
+            (
+                |r| r.rows[0].sigma_deformed_pa = Some(f64::INFINITY),
+                "rows[0].sigma_deformed_pa",
+            ),
+            (
+                |r| r.rows[0].network.static_residual = f64::NAN,
+                "rows[0].network.static_residual",
+            ),
+            (
+                |r| r.rows[0].network.load_factors[1] = f64::NEG_INFINITY,
+                "rows[0].network.load_factors[1]",
+            ),
+            (
+                |r| {
+                    r.parameters = parameters(&BucklingStudyOptions {
+                        alpha: f64::NAN,
+                        ..BucklingStudyOptions::default()
+                    })
+                },
+                "parameters.alpha",
+            ),
+        ];
+        for (spoil, field) in cases {
+            let mut r = report();
+            spoil(&mut r);
+            let e = r.to_json().unwrap_err().to_string();
+            assert!(
+                e.contains(field) && e.contains("not a finite number"),
+                "{field}: {e}"
+            );
+        }
+    }
 }
