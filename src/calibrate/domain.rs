@@ -20,7 +20,6 @@ use crate::{Error, Mat3, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use std::path::Path;
 
 /// One sampled model and its normalised constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -242,7 +241,8 @@ pub fn sample_relaxed(
 
 /// Write the samples as CSV (atomic): model,extended,a_n,a_s,shear_over_normal,
 /// C12/C11,C44/C11,zener,nu_100.
-pub fn write_csv(path: &Path, samples: &[DomainSample]) -> Result<()> {
+#[cfg(feature = "plot")]
+pub fn write_csv(path: &std::path::Path, samples: &[DomainSample]) -> Result<()> {
     crate::io::write_atomic(path, |w| {
         let io = |e| Error::io(path, e);
         writeln!(

@@ -3,6 +3,7 @@
 //! prints (standard error) when it assumed the cell or when the packing is a free cluster.
 
 use anisobond::assembly::Assembly;
+use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::packing::{read_packing_as, CellChoice, CellOptionNames, DataBonds, PackingRead};
 use anisobond::packing::{Packing, PeriodicCell};
@@ -175,4 +176,24 @@ pub fn assembly_with_table(packing_path: &Path, model: Model, table: &Path) -> R
         );
     }
     Assembly::from_table_file(r.packing, model, table)
+}
+
+/// What every engine export reads and where it writes.
+#[derive(clap::Args, Debug)]
+pub struct ExportPaths {
+    #[command(flatten)]
+    pub input: BondedInput,
+    /// Output directory (created if missing; must not exist as a file).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+impl ExportPaths {
+    /// The output set of these inputs and the staged directory the export writes into
+    /// (committed to `output` once everything is written).
+    pub fn stage(&self) -> Result<(OutputSet, PathBuf)> {
+        let mut set = OutputSet::new(&self.input.paths());
+        let staged = set.dir(&self.output)?;
+        Ok((set, staged))
+    }
 }

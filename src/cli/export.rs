@@ -1,10 +1,8 @@
 //! `anisobond export yade PACKING --model MODEL -o DIR`: a directory YADE runs as it is.
 
 use anisobond::export::yade::{self, YadeRunOptions};
-use anisobond::io::OutputSet;
 use anisobond::Result;
 use clap::Subcommand;
-use std::path::PathBuf;
 
 /// Export a packing + model to another DEM code, ready to run.
 #[derive(clap::Args)]
@@ -33,31 +31,11 @@ pub enum ExportTarget {
     Vtk(super::plot::ExportVtkArgs),
 }
 
-/// What every engine export reads and where it writes.
-#[derive(clap::Args, Debug)]
-pub struct ExportPaths {
-    #[command(flatten)]
-    pub input: super::cell::BondedInput,
-    /// Output directory (created if missing; must not exist as a file).
-    #[arg(short, long)]
-    pub output: PathBuf,
-}
-
-impl ExportPaths {
-    /// The output set of these inputs and the staged directory the export writes into
-    /// (committed to `output` once everything is written).
-    pub fn stage(&self) -> Result<(OutputSet, PathBuf)> {
-        let mut set = OutputSet::new(&self.input.paths());
-        let staged = set.dir(&self.output)?;
-        Ok((set, staged))
-    }
-}
-
 /// Arguments of `export yade`.
 #[derive(clap::Args)]
 pub struct YadeArgs {
     #[command(flatten)]
-    pub to: ExportPaths,
+    pub to: super::cell::ExportPaths,
     /// Strain of each path, applied in one step (engineering strain).
     #[arg(long, default_value_t = 1e-5)]
     pub strain: f64,

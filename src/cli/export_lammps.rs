@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub to: super::export::ExportPaths,
+    pub to: super::cell::ExportPaths,
     /// Particle density (kg/m³).
     #[arg(long, default_value_t = 2600.0)]
     pub density: f64,

@@ -9,7 +9,7 @@ use anisobond::Result;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub to: super::export::ExportPaths,
+    pub to: super::cell::ExportPaths,
     /// Particle density (kg/m³).
     #[arg(long, default_value_t = 2500.0)]
     pub density: f64,

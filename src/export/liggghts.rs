@@ -638,6 +638,7 @@ const HARMONIC_LIMITS: &str = "\
 /// The set-up of a stock `bond_style harmonic` deck reading `data_file`: granular +
 /// molecular atoms, periodic box, and a ghost cut-off of 1.1 × the longest bond (m) so that
 /// every bond's partner is present on each process.
+#[cfg(feature = "engines")]
 pub(crate) fn harmonic_setup(s: &mut String, data_file: &str, max_bond_length: f64) {
     harmonic_setup_with_boundary(s, data_file, max_bond_length, "p p p");
 }

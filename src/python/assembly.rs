@@ -390,6 +390,7 @@ impl PyAssembly {
             time_step,
             safety,
             paths: parse_paths(paths).map_err(to_py)?,
+            stress_volume: None,
         };
         opts.validate().map_err(to_py)?;
         let a = &self.inner;

@@ -337,6 +337,26 @@ pub fn write_report_and_checks<D: EngineDetails>(
     Ok(vec![json, csv])
 }
 
+/// True when the packing, bonds and springs read back from an engine's files (`read`) are bit
+/// for bit those written (`given`): positions, radii, cell lengths (or no cell), bond ends
+/// and images, every spring. Else the two codes would not run the same problem.
+pub(crate) fn reads_back_same(
+    given: (&Packing, &BondSet, &BondStiffness),
+    read: (&Packing, &BondSet, &BondStiffness),
+) -> bool {
+    let ((p, b, k), (p2, b2, k2)) = (given, read);
+    p.positions == p2.positions
+        && p.radii == p2.radii
+        && p.cell.map(|c| c.lengths) == p2.cell.map(|c| c.lengths)
+        && b.i == b2.i
+        && b.j == b2.j
+        && b.image == b2.image
+        && k.kn == k2.kn
+        && k.ks == k2.ks
+        && k.kr == k2.kr
+        && k.ktw == k2.ktw
+}
+
 pub use crate::tensor::compare::{matrix_rows, rows};
 
 use crate::history::HistoryRow;

@@ -431,7 +431,15 @@ impl Engine for Lammps {
         test: &super::specimen::SpecimenTest,
         progress: Progress,
     ) -> Result<Report<super::specimen::SpecimenDetails>> {
-        super::specimen::lammps::run(&self.0, p, test, progress)
+        let o = &self.0;
+        let launch = super::specimen::DeckLaunch {
+            program: o.lmp.clone(),
+            processes: if o.two_processes { vec![1, 2] } else { vec![1] },
+            density: o.export.density,
+            time_step: None,
+            safety: o.export.safety,
+        };
+        super::specimen::lammps::run(&launch, p, test, progress)
     }
 }
 

@@ -776,7 +776,20 @@ impl Engine for Liggghts {
         test: &super::specimen::SpecimenTest,
         progress: Progress,
     ) -> Result<Report<super::specimen::SpecimenDetails>> {
-        super::specimen::liggghts::run(&self.programs, &self.options, p, test, progress)
+        let o = &self.options;
+        let launch = super::specimen::DeckLaunch {
+            program: self.programs.driver.clone(),
+            processes: if o.processes > 1 {
+                vec![1, o.processes]
+            } else {
+                vec![1]
+            },
+            density: o.density,
+            time_step: o.timestep,
+            // The deck's step is LIGGGHTS' stable step itself, as the element tests take it.
+            safety: 1.0,
+        };
+        super::specimen::liggghts::run(&launch, p, test, progress)
     }
 }
 

@@ -38,8 +38,8 @@ use crate::tensor::compare::relative_difference;
 use crate::tensor::{Stiffness6, VOIGT_PAIRS};
 use crate::validate::engine::{self, check_tolerances, Engine, Problem, Progress, TestKind};
 use crate::validate::harness::{
-    history_series, matrix_rows, named, reference_simulation, side_by_side_csv, write_report_json,
-    Check, EngineDetails, HistoryComparison, Report, Timing,
+    history_series, matrix_rows, named, reads_back_same, reference_simulation, side_by_side_csv,
+    write_report_json, Check, EngineDetails, HistoryComparison, Report, Timing,
 };
 use crate::{Error, Mat3, Result};
 use serde::Serialize;
@@ -503,26 +503,6 @@ fn check_round_trip(
     }
 }
 
-/// True when the packing, bonds and springs read back from YADE's files (`read`) are bit
-/// for bit those written (`given`): positions, radii, cell lengths (or no cell), bond ends
-/// and images, every spring. Else the two codes would not run the same problem.
-pub(crate) fn reads_back_same(
-    given: (&Packing, &BondSet, &BondStiffness),
-    read: (&Packing, &BondSet, &BondStiffness),
-) -> bool {
-    let ((p, b, k), (p2, b2, k2)) = (given, read);
-    p.positions == p2.positions
-        && p.radii == p2.radii
-        && p.cell.map(|c| c.lengths) == p2.cell.map(|c| c.lengths)
-        && b.i == b2.i
-        && b.j == b2.j
-        && b.image == b2.image
-        && k.kn == k2.kn
-        && k.ks == k2.ks
-        && k.kr == k2.kr
-        && k.ktw == k2.ktw
-}
-
 /// YADE 2023.02a (`yade` on PATH) as a validation [`Engine`], with its settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Yade(pub YadeValidationOptions);
@@ -546,7 +526,14 @@ impl Engine for Yade {
         test: &super::specimen::SpecimenTest,
         progress: Progress,
     ) -> Result<Report<super::specimen::SpecimenDetails>> {
-        super::specimen::yade::run(&self.0, p, test, progress)
+        let launch = super::specimen::DeckLaunch {
+            program: "yade".into(),
+            processes: vec![1],
+            density: self.0.density,
+            time_step: self.0.time_step,
+            safety: self.0.safety,
+        };
+        super::specimen::yade::run(&launch, p, test, progress)
     }
 }
 

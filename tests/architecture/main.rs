@@ -642,48 +642,11 @@ fn no_file_of_src_imports_a_file_that_imports_it_back() {
             .is_some_and(|s| s.contains(&network)),
         "the scan lost the use of homogenize/network.rs by homogenize/relaxed.rs"
     );
-    // Not yet broken (issue 30 item 5): each engine's validation and its specimen deck share
-    // the engine's options type, defined in the engine's file, which calls the deck. Listed so
-    // that any other cycle fails now, and a broken one fails until it is taken off the list.
-    let known: BTreeSet<BTreeSet<&str>> = [
-        ["src/validate/lammps.rs", "src/validate/specimen/lammps.rs"],
-        [
-            "src/validate/liggghts.rs",
-            "src/validate/specimen/liggghts.rs",
-        ],
-        ["src/validate/yade.rs", "src/validate/specimen/yade.rs"],
-    ]
-    .into_iter()
-    .map(BTreeSet::from)
-    .collect();
     let found = cycles(&edges);
-    let files_of =
-        |c: &Vec<Module>| -> BTreeSet<String> { c.iter().map(|m| m.file_name(&files)).collect() };
-    let new: Vec<Vec<Module>> = found
-        .iter()
-        .filter(|c| {
-            !known
-                .iter()
-                .any(|k| k.iter().map(|s| s.to_string()).collect::<BTreeSet<_>>() == files_of(c))
-        })
-        .cloned()
-        .collect();
     assert!(
-        new.is_empty(),
+        found.is_empty(),
         "import cycles between files of src/:\n{}",
-        describe(&new, &files)
-    );
-    let gone: Vec<&BTreeSet<&str>> = known
-        .iter()
-        .filter(|k| {
-            !found
-                .iter()
-                .any(|c| k.iter().map(|s| s.to_string()).collect::<BTreeSet<_>>() == files_of(c))
-        })
-        .collect();
-    assert!(
-        gone.is_empty(),
-        "no longer a cycle, take it off the list: {gone:?}"
+        describe(&found, &files)
     );
 }
 

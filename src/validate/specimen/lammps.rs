@@ -12,16 +12,15 @@
 
 use super::{
     atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
-    remaining_change, run_done_line, specimen_mass, DeckStart, EngineMeasurement, SpecimenDetails,
-    SpecimenTest,
+    remaining_change, run_done_line, specimen_mass, DeckLaunch, DeckStart, EngineMeasurement,
+    SpecimenDetails, SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::packing::Packing;
 use crate::specimen::{Platens, SpecimenReport};
-use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{Problem, Progress};
 use crate::validate::harness::{Report, Timing};
-use crate::validate::lammps::LammpsValidateOptions;
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -334,7 +333,7 @@ fn read_result(
 /// Run LAMMPS' specimen test of `problem`'s free specimen (on one process, and on two with
 /// `two_processes`) and compare with the solve.
 pub fn run(
-    opts: &LammpsValidateOptions,
+    opts: &DeckLaunch,
     problem: &Problem,
     test: &SpecimenTest,
     progress: Progress,
@@ -359,9 +358,8 @@ pub fn run(
         ..
     } = start;
     let mut measured = Vec::new();
-    let runs: &[usize] = if opts.two_processes { &[1, 2] } else { &[1] };
-    for &np in runs {
-        let m = read_result(&dir, np, &layers, run_lmp(&dir, &opts.lmp, np)?)?;
+    for &np in &opts.processes {
+        let m = read_result(&dir, np, &layers, run_lmp(&dir, &opts.program, np)?)?;
         timings.push(Timing {
             stage: format!("lammps_np{np}"),
             seconds: m.seconds,
@@ -382,7 +380,7 @@ pub fn run(
 
 /// Write the test's `data.lmp`, `bond_coeffs.lmp` and `in.specimen` into its directory:
 /// the time step, the viscous damping and the displacement δ from the solve.
-fn write_deck_files(start: &DeckStart, opts: &LammpsValidateOptions) -> Result<()> {
+fn write_deck_files(start: &DeckStart, opts: &DeckLaunch) -> Result<()> {
     let DeckStart {
         test,
         asm,
@@ -391,17 +389,22 @@ fn write_deck_files(start: &DeckStart, opts: &LammpsValidateOptions) -> Result<(
         dir,
         ..
     } = start;
-    let density = opts.export.density;
+    let density = opts.density;
     let max_len = write_inputs(dir, &asm.packing, &asm.bonds, &asm.springs, types, density)?;
     // The time step of the element-test export: `safety` × the single-particle bound (the
     // whole network's critical step is not stable with the bonds' dashpots: it blew up).
-    let dt = opts.export.safety
-        * crate::export::liggghts::stable_timestep(
-            &asm.packing,
-            &asm.bonds,
-            &asm.springs,
-            density,
-        )?;
+    let dt = match opts.time_step {
+        Some(dt) => dt,
+        None => {
+            let stable = crate::export::liggghts::stable_timestep(
+                &asm.packing,
+                &asm.bonds,
+                &asm.springs,
+                density,
+            )?;
+            opts.safety * stable
+        }
+    };
     // Viscous damping of the free spheres' translations (fix viscous), chosen to damp the
     // specimen's slow modes: γ = m̄·√(K/M)/4 with K the solve's platen stiffness and M the
     // specimen's mass (it changes the way to rest, not the rest state).

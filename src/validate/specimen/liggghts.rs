@@ -13,17 +13,16 @@
 
 use super::{
     atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
-    remaining_change, run_done_line, specimen_mass, DeckStart, EngineMeasurement, SpecimenDetails,
-    SpecimenTest,
+    remaining_change, run_done_line, specimen_mass, DeckLaunch, DeckStart, EngineMeasurement,
+    SpecimenDetails, SpecimenTest,
 };
 use crate::assembly::Assembly;
 use crate::bonds::table;
 use crate::export::liggghts::{run_liggghts, stable_timestep, Launch};
 use crate::homogenize::network::LeverArm;
 use crate::specimen::Platens;
-use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{Problem, Progress};
 use crate::validate::harness::{Report, Timing};
-use crate::validate::liggghts::{Programs, ValidateOptions};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -153,8 +152,7 @@ fn deck(
 /// Run the driver's specimen test of `problem`'s free specimen (one process, and `processes`
 /// when more) and compare with the solve.
 pub fn run(
-    programs: &Programs,
-    opts: &ValidateOptions,
+    opts: &DeckLaunch,
     problem: &Problem,
     test: &SpecimenTest,
     progress: Progress,
@@ -180,9 +178,9 @@ pub fn run(
     let density = opts.density;
     let max_len = asm.bonds.length.iter().copied().fold(0.0, f64::max);
     write_data(&dir, &asm, &types, density, 2.0 * max_len)?;
-    let dt = match opts.timestep {
+    let dt = match opts.time_step {
         Some(dt) => dt,
-        None => stable_timestep(&asm.packing, &asm.bonds, &asm.springs, density)?,
+        None => opts.safety * stable_timestep(&asm.packing, &asm.bonds, &asm.springs, density)?,
     };
     // Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
     // stiffness, M its mass (as LAMMPS' test; it changes the way to rest, not the rest).
@@ -202,12 +200,8 @@ pub fn run(
         ),
     )?;
     let mut measured = Vec::new();
-    let mut runs = vec![1];
-    if opts.processes > 1 {
-        runs.push(opts.processes);
-    }
-    for np in runs {
-        let (out, seconds) = run_driver(programs, &dir, np)?;
+    for &np in &opts.processes {
+        let (out, seconds) = run_driver(&opts.program, &dir, np)?;
         let m = read_result(&out, np, &layers, delta, dt, seconds, &dir)?;
         timings.push(Timing {
             stage: format!("liggghts_np{np}"),
@@ -229,9 +223,9 @@ pub fn run(
 
 /// Run `specimen.in` with the driver in `dir` on `np` processes, its log kept as
 /// `log-npN.liggghts`; returns its output and wall time (s).
-fn run_driver(programs: &Programs, dir: &Path, np: usize) -> Result<(String, f64)> {
+fn run_driver(driver: &Path, dir: &Path, np: usize) -> Result<(String, f64)> {
     let launch = Launch {
-        program: programs.driver.clone(),
+        program: driver.to_path_buf(),
         mpi_processes: (np > 1).then_some(np),
         vars: Vec::new(),
     };

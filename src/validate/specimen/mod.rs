@@ -29,6 +29,22 @@ pub mod outputs {
     pub const CHECKS_CSV: &str = "checks.csv";
 }
 
+/// How an engine runs its specimen deck: the settings of `validate ENGINE` the deck takes,
+/// given by the engine's [`super::Engine::specimen`] (so a deck depends on no engine file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeckLaunch {
+    /// The program run (`lmp`, the LIGGGHTS driver; YADE is found on PATH).
+    pub program: PathBuf,
+    /// The process counts of the runs compared (1, then more with `-np`).
+    pub processes: Vec<usize>,
+    /// Particle density (kg/m³).
+    pub density: f64,
+    /// Time step (s); `None`: `safety` × the engine's stable step.
+    pub time_step: Option<f64>,
+    /// Fraction of the stable step taken when `time_step` is `None`.
+    pub safety: f64,
+}
+
 /// What the specimen test is asked for (the load test of `anisobond specimen`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SpecimenTest {

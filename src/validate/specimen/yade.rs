@@ -6,16 +6,15 @@
 //! YADE's mid-gap contact point ([`LeverArm::MidGap`]).
 
 use super::{
-    compare, free_assembly, platens_name, predict_reported, EngineMeasurement, SpecimenDetails,
-    SpecimenTest,
+    compare, free_assembly, platens_name, predict_reported, DeckLaunch, EngineMeasurement,
+    SpecimenDetails, SpecimenTest,
 };
 use crate::bonds::table;
 use crate::export::yade::{files, find_yade, run_yade_script, YADE_MODULE};
 use crate::homogenize::network::LeverArm;
 use crate::packing;
-use crate::validate::engine::{Problem, Progress};
+use crate::validate::harness::{reads_back_same, Problem, Progress};
 use crate::validate::harness::{Report, Timing};
-use crate::validate::yade::{reads_back_same, YadeValidationOptions};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -63,7 +62,7 @@ fn script(args: &[(&str, String)]) -> String {
 
 /// Run YADE's platen test of `problem`'s free specimen and compare with the solve.
 pub fn run(
-    opts: &YadeValidationOptions,
+    opts: &DeckLaunch,
     problem: &Problem,
     test: &SpecimenTest,
     progress: Progress,
@@ -121,7 +120,7 @@ pub fn run(
 
 /// The options of `platen_main` for `test` (flag, value): the end layers, the platens, the
 /// strain, the damping, the density, the time step, the settling rule.
-fn platen_args(test: &SpecimenTest, opts: &YadeValidationOptions) -> Vec<(&'static str, String)> {
+fn platen_args(test: &SpecimenTest, opts: &DeckLaunch) -> Vec<(&'static str, String)> {
     let mut args = vec![
         ("--axis", test.axis.to_string()),
         ("--depth", format!("{:e}", test.end_layer)),
