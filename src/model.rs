@@ -97,6 +97,9 @@ pub struct Model {
     pub scheme: SchemeSpec,
     /// Magnitude → spring constant.
     pub geometry: Geometry,
+    /// The `[strength]` table as read (checked; docs/strength.md), written back unchanged
+    /// with the model ([`Model::to_toml_string`]); `None` when the file has none.
+    pub strength: Option<crate::strength::spec::StrengthTable>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -107,8 +110,8 @@ struct RawModel {
     scheme: RawScheme,
     #[serde(default)]
     geometry: Option<Geometry>,
-    /// `[strength]` (src/strength, docs/strength.md): checked as it is read, returned by
-    /// [`Model::strength_from_str_for`]; not carried by [`Model`] yet.
+    /// `[strength]` (src/strength, docs/strength.md): checked as it is read, carried by
+    /// [`Model::strength`] and returned as a spec by [`Model::strength_from_str_for`].
     #[serde(
         default,
         deserialize_with = "crate::strength::spec::checked_table",
@@ -541,6 +544,7 @@ impl Model {
                 rotation: Mat3::identity(),
             }),
             geometry: Geometry::default(),
+            strength: None,
         }
     }
 
@@ -647,6 +651,7 @@ impl Model {
             bonding,
             scheme,
             geometry,
+            strength: raw.strength,
         };
         // Validate the scheme parameters now (negative stiffness, a ≤ 0, …) where that
         // needs no packing.
@@ -773,7 +778,7 @@ impl Model {
             }),
             scheme: s,
             geometry: Some(self.geometry),
-            strength: None,
+            strength: self.strength.clone(),
         }
     }
 

@@ -160,6 +160,7 @@ pub fn kumar_model(alpha: f64, kappa: f64, sigma_n: f64) -> Model {
             moments: Moments::Kumar,
             ..Geometry::default()
         },
+        strength: None,
     }
 }
 

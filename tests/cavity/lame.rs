@@ -16,6 +16,7 @@ pub fn isotropic_model() -> Model {
             shear: 0.4e13,
         },
         geometry: Geometry::default(),
+        strength: None,
     }
 }
 

@@ -32,6 +32,7 @@ pub fn smilauer_model() -> Model {
             convention: Convention::Modulus,
             ..Geometry::default()
         },
+        strength: None,
     }
 }
 

@@ -153,3 +153,36 @@ fn bad_tables_are_refused_naming_key_and_line() {
         .to_string();
     assert!(e.contains("rock.toml:12"), "{e}");
 }
+
+/// A model written back (calibrated models, exports' `model.toml`, `Model.save`) keeps its
+/// `[strength]` table: the written text reads back into the same spec, in TOML and JSON.
+#[test]
+fn a_model_written_back_keeps_its_strength_table() {
+    let strength = "[strength]\nstrike_deg = 90.0\ndip_deg = 30.0\n\
+         [strength.bond]\ntensile = 5e6\ncohesion = 1e7\nfriction = 0.5\n\
+         [strength.along]\ntensile = 2e6\ncohesion = 6e6\n\
+         [[strength.planes]]\nnormal = [0, 0, 2]\nspacing = 2e-3\noffset = 1e-4\ntensile = 5e5\ncohesion = 1e6\nfriction = 0.6\n\
+         [strength.scatter]\ndistribution = \"weibull\"\nmodulus = 5.0\nseed = 9\n";
+    let text = format!("{ELASTIC}{strength}");
+    let path = Path::new("rock.toml");
+    let model = Model::from_str_for(&text, path).unwrap();
+    assert!(model.strength.is_some());
+    let want = Model::strength_from_str_for(&text, path).unwrap();
+    let toml = model.to_toml_string();
+    assert_eq!(
+        Model::strength_from_str_for(&toml, path).unwrap(),
+        want,
+        "{toml}"
+    );
+    assert_eq!(Model::from_str_for(&toml, path).unwrap(), model);
+    let json = model.to_json_string();
+    let json_path = Path::new("rock.json");
+    assert_eq!(
+        Model::strength_from_str_for(&json, json_path).unwrap(),
+        want,
+        "{json}"
+    );
+    // And a model without one writes none.
+    let plain = Model::from_str_for(ELASTIC, path).unwrap();
+    assert!(!plain.to_toml_string().contains("strength"));
+}
