@@ -153,13 +153,8 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         )?,
         None => a.input.assembly()?,
     };
-    let mean_radius = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
-    let cell = asm.packing.cell;
-    let axis = match a.axis {
-        Some(axis) => axis as usize,
-        None => anisobond::specimen::slab_axis(cell.as_ref()).unwrap_or(2),
-    };
-    let mut opts = SpecimenOptions::new(axis, a.end_layer.unwrap_or(mean_radius));
+    let axis = a.axis.map(|axis| axis as usize);
+    let mut opts = SpecimenOptions::defaults_for(&asm.packing, axis, a.end_layer);
     opts.platens = match a.platens {
         PlatensArg::Frictionless => Platens::Frictionless,
         PlatensArg::Bonded => Platens::Bonded,
@@ -180,8 +175,7 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
     opts.lateral = match a.lateral {
         Some(LateralArg::Free) => Lateral::Free,
         Some(LateralArg::Periodic) => Lateral::Periodic,
-        None if cell.is_some_and(|c| c.is_mixed()) => Lateral::Periodic,
-        None => Lateral::Free,
+        None => opts.lateral,
     };
     opts.solver = match a.solver {
         SolverArg::Auto => SolverChoice::Auto,

@@ -237,15 +237,17 @@ impl PyAssembly {
     /// moved). The options are the command's: `held`/`moved` as `box:…`, `cylinder:…`,
     /// `ids:…` or `file:PATH`; at most one of `strain`, `displacement` (m), `force` (N);
     /// `confining_pressure` (Pa), `shape` "prism" | "cylinder", `lateral` "free" |
-    /// "periodic". GIL released.
-    #[pyo3(signature = (axis = "z", *, end_layer = None, platens = "frictionless", strain = None,
+    /// "periodic". `axis` and `lateral` default as the command's: a box of mixed periodicity
+    /// (a slab as read) along its free axis, laterally periodic; otherwise z, free. GIL
+    /// released.
+    #[pyo3(signature = (axis = None, *, end_layer = None, platens = "frictionless", strain = None,
         displacement = None, force = None, held = None, moved = None, confining_pressure = None,
-        shape = "prism", lateral = "free"))]
+        shape = "prism", lateral = None))]
     #[allow(clippy::too_many_arguments)]
     fn specimen<'py>(
         &self,
         py: Python<'py>,
-        axis: &str,
+        axis: Option<&str>,
         end_layer: Option<f64>,
         platens: &str,
         strain: Option<f64>,
@@ -255,10 +257,12 @@ impl PyAssembly {
         moved: Option<&str>,
         confining_pressure: Option<f64>,
         shape: &str,
-        lateral: &str,
+        lateral: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
         use crate::specimen::{solve, Lateral, Load, Platens, Selection, Shape, SpecimenOptions};
-        let axis = choose("axis", axis, &[("x", 0), ("y", 1), ("z", 2)])?;
+        let axis = axis
+            .map(|a| choose("axis", a, &[("x", 0), ("y", 1), ("z", 2)]))
+            .transpose()?;
         let platens = choose(
             "platens",
             platens,
@@ -284,8 +288,7 @@ impl PyAssembly {
                 .map_err(to_py)
         };
         let src = &self.inner;
-        let mean_radius = src.packing.radii.iter().sum::<f64>() / src.packing.len() as f64;
-        let mut opts = SpecimenOptions::new(axis, end_layer.unwrap_or(mean_radius));
+        let mut opts = SpecimenOptions::defaults_for(&src.packing, axis, end_layer);
         opts.platens = platens;
         opts.load = load;
         opts.held = group(held, "held")?;
@@ -296,11 +299,13 @@ impl PyAssembly {
             shape,
             &[("prism", Shape::Prism), ("cylinder", Shape::Cylinder)],
         )?;
-        opts.lateral = choose(
-            "lateral",
-            lateral,
-            &[("free", Lateral::Free), ("periodic", Lateral::Periodic)],
-        )?;
+        if let Some(lateral) = lateral {
+            opts.lateral = choose(
+                "lateral",
+                lateral,
+                &[("free", Lateral::Free), ("periodic", Lateral::Periodic)],
+            )?;
+        }
         let r = py.detach(|| solve(src, &opts)).map_err(to_py)?;
         let d = report_to_py(py, &r, "specimen", &[])?;
         d.set_item("displacement", vec3_array(py, &r.displacement_field)?)?;

@@ -183,6 +183,25 @@ impl SpecimenOptions {
         }
     }
 
+    /// The defaults of `anisobond specimen` (and Python's `Assembly.specimen`) for `packing`:
+    /// along `axis` if given, else the free axis of a slab as read ([`slab_axis`]), else z;
+    /// end layers `end_layer` deep if given, else one mean radius; laterally periodic for a
+    /// box of mixed periodicity (the slab as read), else free; the rest as [`Self::new`].
+    pub fn defaults_for(
+        packing: &crate::packing::Packing,
+        axis: Option<usize>,
+        end_layer: Option<f64>,
+    ) -> SpecimenOptions {
+        let cell = packing.cell.as_ref();
+        let axis = axis.unwrap_or_else(|| slab_axis(cell).unwrap_or(2));
+        let mean_radius = packing.radii.iter().sum::<f64>() / packing.len().max(1) as f64;
+        let mut opts = SpecimenOptions::new(axis, end_layer.unwrap_or(mean_radius));
+        if cell.is_some_and(|c| c.is_mixed()) {
+            opts.lateral = Lateral::Periodic;
+        }
+        opts
+    }
+
     fn check(&self) -> Result<()> {
         if self.axis > 2 {
             return Err(Error::Invalid(format!(

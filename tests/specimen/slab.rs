@@ -367,3 +367,33 @@ fn liggghts_p_p_f_slab_is_solved_as_read() {
         assert!((v - nu).abs() < 1e-6 * nu.abs(), "nu {kk}: {v} vs {nu}");
     }
 }
+
+/// The command's and Python's defaults, held once in the library: a `p f p` slab is loaded
+/// along its free axis y, laterally periodic, end layers one mean radius deep; a fully
+/// periodic cell along z, laterally free; an axis or a depth given is kept.
+#[test]
+fn defaults_follow_the_box_as_read() {
+    let r = 1e-3;
+    let mut centres = Vec::new();
+    for i in 0..3 {
+        for j in 0..5 {
+            for k in 0..3 {
+                centres.push(Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * 2.0 * r);
+            }
+        }
+    }
+    let l = Vec3::new(3.0, 5.0, 3.0) * 2.0 * r;
+    let slab_y = bonded(centres.clone(), r, l, [true, false, true]);
+    let o = SpecimenOptions::defaults_for(&slab_y.packing, None, None);
+    assert_eq!((o.axis, o.lateral), (1, Lateral::Periodic));
+    assert!(rel(o.end_layer, r) < 1e-12, "{}", o.end_layer);
+    // Solved with the defaults: the closed form of the simple-cubic column along y,
+    // n_x n_z k_n / (n_y − 1) with k_n = 2e6 N/m.
+    let k = solve(&slab_y, &o).unwrap().platen_stiffness;
+    assert!(rel(k, 9.0 * 2e6 / 4.0) < 1e-12, "{k}");
+    let cube = bonded(centres, r, l, [true; 3]);
+    let o = SpecimenOptions::defaults_for(&cube.packing, None, None);
+    assert_eq!((o.axis, o.lateral), (2, Lateral::Free));
+    let o = SpecimenOptions::defaults_for(&cube.packing, Some(0), Some(0.25 * r));
+    assert_eq!((o.axis, o.end_layer), (0, 0.25 * r));
+}

@@ -156,7 +156,7 @@ class Assembly:
         """particles.vtu, bonds.vtu; strain: 6 Voigt components (|e| <= 0.1), periodic only."""
     def specimen(
         self,
-        axis: str = "z",
+        axis: Optional[str] = None,
         *,
         end_layer: Optional[float] = None,
         platens: str = "frictionless",
@@ -167,9 +167,11 @@ class Assembly:
         moved: Optional[str] = None,
         confining_pressure: Optional[float] = None,
         shape: str = "prism",
-        lateral: str = "free",
+        lateral: Optional[str] = None,
     ) -> Dict[str, Any]:
-        """The assembly as a finite specimen between platens (docs/specimens.md): the keys
+        """The assembly as a finite specimen between platens (docs/specimens.md; axis and
+        lateral default as the command's: a slab as read along its free axis, laterally
+        periodic; otherwise "z", "free"): the keys
         of specimen.json (platen_stiffness N/m, young Pa, poisson, …), "displacement" (N, 3)
         m and "layer" (N,) 0 none / 1 held / 2 moved."""
     def cavity(
