@@ -943,7 +943,7 @@ def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 
         O.switchToScene(_COPY_SCENE[0])
         for p in paths:
             O.loadTmp("anisobond-in-place")
-            histories[p] = run_path(p, strain, steps, damping, stress_volume)
+            histories[p] = run_path(p, strain, steps, damping)
         dt = O.dt
     finally:
         if O.thisScene != home:
