@@ -96,3 +96,24 @@ pub fn run_stock_deck(dir: &Path, deck: &str, vars: &[(&str, &str)]) -> String {
     assert!(out.status.success() && !log.contains("ERROR"), "{log}");
     log
 }
+
+/// The end of a deck that writes a LIGGGHTS snapshot of its spheres as they are: diameter
+/// 1.9 mm, density 2500 kg/m³, a Hertz granular pair style, one step, then `NAME.dump`
+/// (`dump custom`: id type x y z radius, full precision) and `NAME.data` (`write_data`).
+pub fn snapshot_tail(name: &str) -> String {
+    format!(
+        "set group all diameter 0.0019 density 2500\n\
+         pair_style gran model hertz tangential history\n\
+         pair_coeff * *\n\
+         fix m1 all property/global youngsModulus peratomtype 1e7\n\
+         fix m2 all property/global poissonsRatio peratomtype 0.3\n\
+         fix m3 all property/global coefficientRestitution peratomtypepair 1 0.5\n\
+         fix m4 all property/global coefficientFriction peratomtypepair 1 0.5\n\
+         fix integr all nve/sphere\n\
+         timestep 1e-6\n\
+         dump d all custom 1 {name}.dump id type x y z radius\n\
+         dump_modify d format \"%d %d %.17g %.17g %.17g %.17g\"\n\
+         run 1\n\
+         write_data {name}.data\n"
+    )
+}

@@ -98,31 +98,24 @@ fn liggghts_dump_custom_reads_as_its_data_file() {
 /// (diameter 1.9 mm, spacing 2 mm) filling a box of 10 × 10 × 6 mm: across the x and y faces
 /// the rows continue; across the z faces (walls) the bottom and top layers would be
 /// neighbours too if z were periodic. LIGGGHTS writes a `dump custom` and a data file.
-pub(super) const BED: &str = "units si\n\
-atom_style granular\n\
-atom_modify map array\n\
-boundary p p f\n\
-newton off\n\
-communicate single vel yes\n\
-region box block 0 0.01 0 0.01 0 0.006 units box\n\
-create_box 1 box\n\
-lattice sc 0.002\n\
-region fill block 0 0.0099 0 0.0099 0 0.0059 units box\n\
-create_atoms 1 region fill\n\
-set group all diameter 0.0019 density 2500\n\
-displace_atoms all move 0.0005 0.0005 0.001 units box\n\
-pair_style gran model hertz tangential history\n\
-pair_coeff * *\n\
-fix m1 all property/global youngsModulus peratomtype 1e7\n\
-fix m2 all property/global poissonsRatio peratomtype 0.3\n\
-fix m3 all property/global coefficientRestitution peratomtypepair 1 0.5\n\
-fix m4 all property/global coefficientFriction peratomtypepair 1 0.5\n\
-fix integr all nve/sphere\n\
-timestep 1e-6\n\
-dump d all custom 1 bed.dump id type x y z radius\n\
-dump_modify d format \"%d %d %.17g %.17g %.17g %.17g\"\n\
-run 1\n\
-write_data bed.data\n";
+pub(super) fn bed() -> String {
+    format!(
+        "units si\n\
+         atom_style granular\n\
+         atom_modify map array\n\
+         boundary p p f\n\
+         newton off\n\
+         communicate single vel yes\n\
+         region box block 0 0.01 0 0.01 0 0.006 units box\n\
+         create_box 1 box\n\
+         lattice sc 0.002\n\
+         region fill block 0 0.0099 0 0.0099 0 0.0059 units box\n\
+         create_atoms 1 region fill\n\
+         displace_atoms all move 0.0005 0.0005 0.001 units box\n\
+         {}",
+        crate::common::liggghts::snapshot_tail("bed")
+    )
+}
 
 /// The bonds of a bond table by atom ids (smaller first), with their images.
 fn bonds_by_id(path: &std::path::Path) -> std::collections::BTreeSet<(u64, u64, [i32; 3])> {
@@ -161,7 +154,7 @@ fn liggghts_dump_of_a_p_p_f_bed_bonds_across_the_periodic_faces_only() {
     }
     let t = tmp();
     let d = t.path();
-    write(d, "bed.in", BED);
+    write(d, "bed.in", &bed());
     let out = std::process::Command::new("liggghts")
         .args(["-in", "bed.in"])
         .current_dir(d)

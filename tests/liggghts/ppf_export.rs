@@ -1,5 +1,5 @@
 //! Issue 31, mixed periodicity exported: LIGGGHTS' own `dump custom` of a `boundary p p f`
-//! bed (written here by LIGGGHTS, [`super::dumps::BED`]: a 5 × 5 × 3 simple-cubic block,
+//! bed (written here by LIGGGHTS, [`super::dumps::bed`]: a 5 × 5 × 3 simple-cubic block,
 //! periodic along x and y, walls along z) is read, bonded by the model's rule, springs
 //! assigned, and exported to LIGGGHTS (stock harmonic deck and the driver deck), LAMMPS
 //! (route a) and YADE; each deck runs unedited in its engine. The engines' own bond counts
@@ -10,7 +10,7 @@
 //! equally, so the affine state is the equilibrium), and the engines agree with each other
 //! on the in-plane shear C66, where the particles do relax.
 
-use super::dumps::BED;
+use super::dumps::bed;
 use crate::common::{cmd, missing, root, succeeds, tmp, write, CUBIC_MODEL};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -132,7 +132,7 @@ fn a_p_p_f_dump_is_exported_to_liggghts_lammps_and_yade_and_runs_in_each() {
     let lmp = lmp.unwrap();
     let t = tmp();
     let d = t.path();
-    write(d, "bed.in", BED);
+    write(d, "bed.in", &bed());
     run(d, Path::new("liggghts"), &["-in", "bed.in"], &[]);
     let dump = d.join("bed.dump");
     let model = write(d, "model.toml", CUBIC_MODEL);

@@ -12,6 +12,8 @@ use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::specimen::{solve, Lateral, Platens, SpecimenOptions};
 use anisobond::{Error, Vec3};
 
+type Matrix6 = nalgebra::Matrix6<f64>;
+
 /// `copies` copies of `p` stacked along z, in the box (Lx, Ly, copies·Lz) periodic along the
 /// axes flagged in `periodic` (`[true; 3]`: the periodic cell; `[true, true, false]`: a slab,
 /// `p p f`, whose z faces no bond crosses); particle q of copy c is c·n + q.
@@ -32,6 +34,26 @@ pub(crate) fn stacked_in(p: &Packing, copies: usize, periodic: [bool; 3]) -> Pac
 
 /// Middle-copy modulus σ/ε and the lateral Poisson's ratios −ε_lat/ε of a prism of `copies`
 /// copies of `cube`, periodic across z.
+/// The prism tests' periodic cube (400 generated spheres, Truszkowska's MRV model) and the
+/// relaxed tensor C (direct solve, 1e-10) with its compliance S = C⁻¹.
+pub(crate) fn cube_and_compliance() -> (Packing, Model, Matrix6, Matrix6) {
+    let cube = crate::common::bonded::generated(400, 5);
+    let model = Model::truszkowska_mrv();
+    let one = Assembly::new(cube.clone(), model.clone()).unwrap();
+    let relaxed = relaxed_tensor(
+        &one.packing,
+        &one.bonds,
+        &one.springs,
+        &RelaxedOptions {
+            solver: RelaxedSolver::Cholesky,
+            tolerance: 1e-10,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    (cube, model, relaxed.c, relaxed.c.try_inverse().unwrap())
+}
+
 fn prism(cube: &Packing, model: &Model, copies: usize, platens: Platens) -> (f64, [f64; 2]) {
     prism_in(cube, model, copies, platens, [true; 3])
 }
@@ -79,21 +101,7 @@ pub(crate) fn prism_in(
 /// uniaxial strain, C₃₃, up to the platens' decaying disturbance.
 #[test]
 fn long_periodic_prism_reproduces_one_over_s33_of_the_relaxed_tensor() {
-    let cube = crate::common::bonded::generated(400, 5);
-    let model = Model::truszkowska_mrv();
-    let one = Assembly::new(cube.clone(), model.clone()).unwrap();
-    let relaxed = relaxed_tensor(
-        &one.packing,
-        &one.bonds,
-        &one.springs,
-        &RelaxedOptions {
-            solver: RelaxedSolver::Cholesky,
-            tolerance: 1e-10,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let s = relaxed.c.try_inverse().unwrap();
+    let (cube, model, c, s) = cube_and_compliance();
     let e33 = 1.0 / s[(2, 2)];
     let nu = [-s[(0, 2)] / s[(2, 2)], -s[(1, 2)] / s[(2, 2)]];
     let (k1, k2) = (4usize, 8usize);
@@ -123,7 +131,7 @@ fn long_periodic_prism_reproduces_one_over_s33_of_the_relaxed_tensor() {
     }
     let (c_mid, lat) = prism(&cube, &model, 5, Platens::Bonded);
     assert_eq!(lat, [0.0, 0.0]);
-    let c33 = relaxed.c[(2, 2)];
+    let c33 = c[(2, 2)];
     assert!(rel(c_mid, c33) < 1e-4, "{c_mid} vs C33 {c33}");
 }
 

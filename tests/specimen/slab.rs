@@ -6,7 +6,6 @@
 
 use crate::common::{cmd, missing, succeeds, tmp, write, CUBIC_MODEL};
 use anisobond::assembly::Assembly;
-use anisobond::homogenize::{relaxed_tensor, RelaxedOptions, RelaxedSolver};
 use anisobond::model::Model;
 use anisobond::packing::{read_packing, read_packing_as, CellChoice};
 use anisobond::packing::{Packing, PeriodicCell};
@@ -156,21 +155,7 @@ fn fcc_slab_has_the_closed_form_e_and_nu() {
 #[test]
 fn long_random_slab_reproduces_one_over_s33_of_the_relaxed_tensor() {
     use crate::periodic::prism_in;
-    let cube = crate::common::bonded::generated(400, 5);
-    let model = Model::truszkowska_mrv();
-    let one = Assembly::new(cube.clone(), model.clone()).unwrap();
-    let relaxed = relaxed_tensor(
-        &one.packing,
-        &one.bonds,
-        &one.springs,
-        &RelaxedOptions {
-            solver: RelaxedSolver::Cholesky,
-            tolerance: 1e-10,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let s = relaxed.c.try_inverse().unwrap();
+    let (cube, model, c, s) = crate::periodic::cube_and_compliance();
     let e33 = 1.0 / s[(2, 2)];
     let ppf = [true, true, false];
     let (k1, k2) = (4usize, 8usize);
@@ -189,7 +174,7 @@ fn long_random_slab_reproduces_one_over_s33_of_the_relaxed_tensor() {
     );
     let (c_mid, lat) = prism_in(&cube, &model, 5, Platens::Bonded, ppf);
     assert_eq!(lat, [0.0, 0.0]);
-    assert!(rel(c_mid, relaxed.c[(2, 2)]) < 1e-4, "{c_mid} vs C33");
+    assert!(rel(c_mid, c[(2, 2)]) < 1e-4, "{c_mid} vs C33");
 }
 
 /// What a mixed box cannot be solved as is refused by name: laterally periodic along z of a
@@ -257,20 +242,8 @@ fn slab_deck() -> String {
          communicate single vel yes\n\
          region box block 0 0.008 0 0.006 0 0.012 units box\n\
          create_box 1 box\n\
-         {atoms}\
-         set group all diameter 0.0019 density 2500\n\
-         pair_style gran model hertz tangential history\n\
-         pair_coeff * *\n\
-         fix m1 all property/global youngsModulus peratomtype 1e7\n\
-         fix m2 all property/global poissonsRatio peratomtype 0.3\n\
-         fix m3 all property/global coefficientRestitution peratomtypepair 1 0.5\n\
-         fix m4 all property/global coefficientFriction peratomtypepair 1 0.5\n\
-         fix integr all nve/sphere\n\
-         timestep 1e-6\n\
-         dump d all custom 1 slab.dump id type x y z radius\n\
-         dump_modify d format \"%d %d %.17g %.17g %.17g %.17g\"\n\
-         run 1\n\
-         write_data slab.data\n"
+         {atoms}{}",
+        crate::common::liggghts::snapshot_tail("slab")
     )
 }
 
