@@ -117,3 +117,22 @@ pub fn snapshot_tail(name: &str) -> String {
          write_data {name}.data\n"
     )
 }
+
+/// Write `deck` as `dir/NAME.in` and run the stock `liggghts` on it in `dir`; asserts it
+/// succeeded without an ERROR line. Returns the snapshot's `(NAME.dump, NAME.data)` (a deck
+/// ending in [`snapshot_tail`]).
+pub fn write_snapshot(dir: &Path, name: &str, deck: &str) -> (PathBuf, PathBuf) {
+    std::fs::write(dir.join(format!("{name}.in")), deck).unwrap();
+    let out = Command::new("liggghts")
+        .arg("-in")
+        .arg(format!("{name}.in"))
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
+    (
+        dir.join(format!("{name}.dump")),
+        dir.join(format!("{name}.data")),
+    )
+}

@@ -154,15 +154,7 @@ fn liggghts_dump_of_a_p_p_f_bed_bonds_across_the_periodic_faces_only() {
     }
     let t = tmp();
     let d = t.path();
-    write(d, "bed.in", &bed());
-    let out = std::process::Command::new("liggghts")
-        .args(["-in", "bed.in"])
-        .current_dir(d)
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
-    let (dump, data) = (d.join("bed.dump"), d.join("bed.data"));
+    let (dump, data) = crate::common::liggghts::write_snapshot(d, "bed", &bed());
     let text = std::fs::read_to_string(&dump).unwrap();
     assert!(text.contains("ITEM: BOX BOUNDS pp pp ff"), "{text}");
     // The last snapshot's atoms, read here: id → (x, y, z, r).

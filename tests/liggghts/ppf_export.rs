@@ -132,9 +132,7 @@ fn a_p_p_f_dump_is_exported_to_liggghts_lammps_and_yade_and_runs_in_each() {
     let lmp = lmp.unwrap();
     let t = tmp();
     let d = t.path();
-    write(d, "bed.in", &bed());
-    run(d, Path::new("liggghts"), &["-in", "bed.in"], &[]);
-    let dump = d.join("bed.dump");
+    let (dump, _) = crate::common::liggghts::write_snapshot(d, "bed", &bed());
     let model = write(d, "model.toml", CUBIC_MODEL);
     let v_box = dump_box_volume(&dump);
     assert!(rel(v_box, 0.01 * 0.01 * 0.006) < 1e-12, "{v_box}");

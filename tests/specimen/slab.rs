@@ -262,15 +262,7 @@ fn liggghts_p_p_f_slab_is_solved_as_read() {
     }
     let t = tmp();
     let d = t.path();
-    write(d, "slab.in", &slab_deck());
-    let out = std::process::Command::new("liggghts")
-        .args(["-in", "slab.in"])
-        .current_dir(d)
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success() && !log.contains("ERROR"), "{log}");
-    let (dump, data) = (d.join("slab.dump"), d.join("slab.data"));
+    let (dump, data) = crate::common::liggghts::write_snapshot(d, "slab", &slab_deck());
     assert!(std::fs::read_to_string(&dump)
         .unwrap()
         .contains("ITEM: BOX BOUNDS pp pp ff"));
