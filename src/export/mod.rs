@@ -24,7 +24,7 @@ const VOIGT_AXES: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2),
 /// `cell`: all six on a fully periodic cell; on a box of mixed periodicity those whose
 /// strain moves periodic axes only. A free axis has no box strain the particles feel (its
 /// faces are free surfaces), and LAMMPS refuses a tilt whose second axis is not periodic.
-pub(crate) fn load_cases(cell: &PeriodicCell) -> Vec<usize> {
+pub fn load_cases(cell: &PeriodicCell) -> Vec<usize> {
     (0..6)
         .filter(|&c| {
             let (a, b) = VOIGT_AXES[c];
