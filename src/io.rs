@@ -675,22 +675,18 @@ pub fn check_json_numbers(v: &serde_json::Value, at: &str) -> Result<()> {
     }
 }
 
-/// [`check_json_numbers`] of a report whose `None`s serde also writes as `null`: the keys
-/// `absent` (dotted paths from `v`, e.g. `network.updated_geometry`) may be `null`, no other
-/// value may.
-pub fn check_json_numbers_except(v: &serde_json::Value, at: &str, absent: &[&str]) -> Result<()> {
-    let mut checked = v.clone();
-    for path in absent {
-        let mut keys: Vec<&str> = path.split('.').collect();
-        let last = keys.pop().unwrap_or_default();
-        let parent = keys.iter().try_fold(&mut checked, |v, k| v.get_mut(*k));
-        if let Some(serde_json::Value::Object(m)) = parent {
-            if m.get(last).is_some_and(serde_json::Value::is_null) {
-                m.remove(last);
-            }
-        }
-    }
-    check_json_numbers(&checked, at)
+/// Refuse `value` when any number in it is not finite, naming the first by its path below
+/// `at` ([`check_json_numbers`]). JSON writes NaN and ±∞ as `null`, the same as a
+/// `None`, so a report with optional fields cannot be checked after conversion; TOML has no
+/// null (a `None` field is left out) and keeps a NaN a float, so its form turned into JSON
+/// holds a `null` exactly where a number is not finite.
+pub fn refuse_non_finite<T: serde::Serialize>(value: &T, at: &str) -> crate::Result<()> {
+    let unchecked = |e: &dyn std::fmt::Display| {
+        crate::Error::Invalid(format!("{at}: cannot be checked for finite numbers: {e}"))
+    };
+    let toml = toml::Value::try_from(value).map_err(|e| unchecked(&e))?;
+    let json = serde_json::to_value(&toml).map_err(|e| unchecked(&e))?;
+    check_json_numbers(&json, at)
 }
 
 #[cfg(test)]
@@ -710,37 +706,28 @@ mod tests {
     }
 
     #[test]
-    fn only_the_absent_keys_may_be_null() {
+    fn a_none_may_be_null_a_non_finite_number_may_not() {
         let row = |optional, kept, value| Row {
             optional,
             inner: Inner { kept, value },
         };
-        let json = |r: &Row| serde_json::to_value(r).unwrap();
-        let absent = ["optional", "inner.kept"];
-        // The Nones named absent pass, finite values pass.
-        let ok = json(&row(None, None, 1.0));
-        check_json_numbers_except(&ok, "row", &absent).unwrap();
-        check_json_numbers_except(&json(&row(Some(2.0), Some(3.0), 1.0)), "row", &[]).unwrap();
-        // A NaN or an infinity becomes `null` as a None does: refused where not absent,
-        // naming the key.
+        // The Nones pass, finite values pass.
+        let ok = row(None, None, 1.0);
+        refuse_non_finite(&ok, "row").unwrap();
+        refuse_non_finite(&row(Some(2.0), Some(3.0), 1.0), "row").unwrap();
+        // A NaN or an infinity becomes `null` in JSON as a None does: refused, naming the key.
         for bad in [f64::NAN, f64::INFINITY] {
-            let e = check_json_numbers_except(&json(&row(None, None, bad)), "row", &absent)
-                .unwrap_err();
+            let e = refuse_non_finite(&row(None, None, bad), "row").unwrap_err();
             assert!(matches!(e, Error::Invalid(_)));
             assert!(
                 e.to_string()
                     .contains("`row.inner.value` is not a finite number"),
                 "{e}"
             );
-            let e = check_json_numbers_except(
-                &json(&row(Some(bad), None, 1.0)),
-                "row",
-                &["inner.kept"],
-            )
-            .unwrap_err();
+            let e = refuse_non_finite(&row(Some(bad), None, 1.0), "row").unwrap_err();
             assert!(e.to_string().contains("`row.optional`"), "{e}");
         }
-        // Without the list the plain check refuses the Nones too.
-        assert!(check_json_numbers(&ok, "row").is_err());
+        // The plain check of the JSON form refuses the Nones too.
+        assert!(check_json_numbers(&serde_json::to_value(&ok).unwrap(), "row").is_err());
     }
 }

@@ -307,7 +307,7 @@ impl PyAssembly {
             )?;
         }
         let r = py.detach(|| solve(src, &opts)).map_err(to_py)?;
-        let d = report_to_py(py, &r, "specimen", &[])?;
+        let d = report_to_py(py, &r, "specimen")?;
         d.set_item("displacement", vec3_array(py, &r.displacement_field)?)?;
         d.set_item(
             "layer",

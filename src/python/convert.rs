@@ -136,19 +136,16 @@ pub(super) fn tensor_from(
 }
 
 /// A report as a Python dict, through the check every written report gets
-/// ([`crate::io::check_json_numbers`]): a non-finite number (which serde turns into `null`)
-/// anywhere in it is refused, naming its key under `at`, rather than handed on as `None`.
-/// `absent` lists the keys (dotted paths) whose value is a `None` of the report, the only
-/// `null`s allowed.
+/// ([`crate::io::refuse_non_finite`]): a non-finite number anywhere in it is refused, naming
+/// its key under `at`, rather than handed on as `None`; the report's own `None`s stay `None`.
 pub(super) fn report_to_py<'py>(
     py: Python<'py>,
     report: &impl serde::Serialize,
     at: &str,
-    absent: &[&str],
 ) -> PyResult<Bound<'py, PyDict>> {
+    crate::io::refuse_non_finite(report, at).map_err(to_py)?;
     let value = serde_json::to_value(report)
         .map_err(|e| InputError::new_err(format!("{at}: cannot serialise: {e}")))?;
-    crate::io::check_json_numbers_except(&value, at, absent).map_err(to_py)?;
     Ok(json_to_py(py, &value.to_string())?.cast_into::<PyDict>()?)
 }
 

@@ -58,41 +58,7 @@ pub(super) fn buckle_bar<'py>(
             Ok::<_, Error>((row, r.mode))
         })
         .map_err(to_py)?;
-    let d = report_to_py(py, &row, "buckle_bar", &absent_keys(&row))?;
+    let d = report_to_py(py, &row, "buckle_bar")?;
     d.set_item("mode", vec3_array(py, &mode)?)?;
     Ok(d)
-}
-
-/// The keys of `row` that are `None` (null in its dict by the schema: a value with no
-/// finite value, or a part not run); a `null` anywhere else is a non-finite number.
-fn absent_keys(row: &BarRow) -> Vec<&'static str> {
-    [
-        ("route", row.route.is_none()),
-        ("modulus_cell_pa", row.modulus_cell_pa.is_none()),
-        ("sigma_mazzilli_pa", row.sigma_mazzilli_pa.is_none()),
-        ("network_over_mazzilli", row.network_over_mazzilli.is_none()),
-        ("sigma_deformed_pa", row.sigma_deformed_pa.is_none()),
-        (
-            "deformed_over_extensible_own",
-            row.deformed_over_extensible_own.is_none(),
-        ),
-        (
-            "network_over_engesser_own",
-            row.network_over_engesser_own.is_none(),
-        ),
-        ("shear_stiffness_n", row.shear_stiffness_n.is_none()),
-        ("dem_max_stress_pa", row.dem_max_stress_pa.is_none()),
-        ("dem_strain_at_max", row.dem_strain_at_max.is_none()),
-        ("dem_max_kinetic_ratio", row.dem_max_kinetic_ratio.is_none()),
-        ("dem_peak_at_end", row.dem_peak_at_end.is_none()),
-        ("dem_total_steps", row.dem_total_steps.is_none()),
-        ("dem_ran_out", row.dem_ran_out.is_none()),
-        (
-            "network.updated_geometry",
-            row.network.updated_geometry.is_none(),
-        ),
-    ]
-    .into_iter()
-    .filter_map(|(key, absent)| absent.then_some(key))
-    .collect()
 }

@@ -734,7 +734,7 @@ impl BucklingReport {
         crate::io::check_json_numbers(&self.units, "buckling.json units")?;
         crate::io::check_json_numbers(&self.parameters, "buckling.json parameters")?;
         for (i, row) in self.rows.iter().enumerate() {
-            super::refuse_non_finite(row, &format!("buckling.json rows[{i}]"))?;
+            crate::io::refuse_non_finite(row, &format!("buckling.json rows[{i}]"))?;
         }
         serde_json::to_string_pretty(self)
             .map_err(|e| Error::Invalid(format!("buckling.json: {e}")))

@@ -50,17 +50,3 @@ pub fn require_finite(x: f64, what: &str) -> crate::Result<f64> {
         )))
     }
 }
-
-/// Refuse `value` when any number in it is not finite, naming the first by its path below
-/// `at` ([`crate::io::check_json_numbers`]). JSON writes NaN and ±∞ as `null`, the same as a
-/// `None`, so a report with optional fields cannot be checked after conversion; TOML has no
-/// null (a `None` field is left out) and keeps a NaN a float, so its form turned into JSON
-/// holds a `null` exactly where a number is not finite.
-pub fn refuse_non_finite<T: serde::Serialize>(value: &T, at: &str) -> crate::Result<()> {
-    let unchecked = |e: &dyn std::fmt::Display| {
-        crate::Error::Invalid(format!("{at}: cannot be checked for finite numbers: {e}"))
-    };
-    let toml = toml::Value::try_from(value).map_err(|e| unchecked(&e))?;
-    let json = serde_json::to_value(&toml).map_err(|e| unchecked(&e))?;
-    crate::io::check_json_numbers(&json, at)
-}
