@@ -501,26 +501,26 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
     // Exact: K ≥ the distinct rows (lcm of 5, 3, 7 and 4 cycles over 40 bonds: all distinct).
     let (t, fl) = quantise_joint(&bonds, &k, &limits, n, &w).unwrap();
     assert!(t.exact);
-    for b in 0..n {
+    for (b, f) in limits.iter().enumerate() {
         let ty = t.type_of[b] as usize;
-        assert_eq!(fl[ty], limits[b]);
+        assert_eq!(fl[ty], *f);
         assert_eq!(t.springs[ty], [k.kn[b], k.ks[b], k.kr[b], k.ktw[b]]);
     }
 
     // Quantised into 3: per type, Σ l² k_n, Σ l² k_s and Σ f_c unchanged.
     let (t, fl) = quantise_joint(&bonds, &k, &limits, 3, &w).unwrap();
     assert!(!t.exact && t.springs.len() <= 3);
-    for ty in 0..t.springs.len() {
+    for (ty, (springs, type_limits)) in t.springs.iter().zip(&fl).enumerate() {
         let members: Vec<usize> = (0..n).filter(|&b| t.type_of[b] as usize == ty).collect();
         let l2 = |b: usize| bonds.length[b].powi(2);
         let sum = |f: &dyn Fn(usize) -> f64| members.iter().map(|&b| f(b)).sum::<f64>();
         let kn = sum(&|b| l2(b) * k.kn[b]);
-        assert!((kn - sum(&|b| l2(b)) * t.springs[ty][0]).abs() < 1e-12 * kn);
+        assert!((kn - sum(&|b| l2(b)) * springs[0]).abs() < 1e-12 * kn);
         let ks = sum(&|b| l2(b) * k.ks[b]);
-        assert!((ks - sum(&|b| l2(b)) * t.springs[ty][1]).abs() < 1e-12 * ks);
+        assert!((ks - sum(&|b| l2(b)) * springs[1]).abs() < 1e-12 * ks);
         for c in 0..4 {
             let f = sum(&|b| limits[b][c]);
-            assert!((f - members.len() as f64 * fl[ty][c]).abs() < 1e-12 * f);
+            assert!((f - members.len() as f64 * type_limits[c]).abs() < 1e-12 * f);
         }
     }
 
