@@ -554,3 +554,70 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
     assert!(e.to_string().contains("bond 7"), "{e}");
 }
+
+/// The plugin's `break` keyword refused where it would mislead: `break yes` without a
+/// strength table, a strength table with `break no`, and `break yes` beside a pair style
+/// that would never act on a broken pair (it stays in the special list); `--smooth` writes
+/// bpm/rotational's `smooth yes`.
+#[test]
+fn plugin_break_misuse_is_refused_with_the_reason() {
+    let Some(Lammps { lmp, so }) = lammps("plugin_break_misuse") else {
+        return;
+    };
+    let dir = tmp();
+    let d = dir.path();
+    let data = bar(d, true);
+    let model = write(d, "model.toml", &format!("{ELASTIC}{STRENGTH}"));
+    let out = d.join("deck");
+    succeeds(export_plugin(&data, &model, &so, &out).args(["--boundary", "f f p"]));
+    let breakage = std::fs::read_to_string(out.join("breakage.lmp")).unwrap();
+    let style =
+        "bond_style anisobond ${springs} damping ${damping} break yes strengths bond-strengths.csv";
+    let pair = "pair_style zero ${cut}\npair_coeff * *";
+    assert!(
+        breakage.contains(style) && breakage.contains(pair),
+        "{breakage}"
+    );
+    let granular = "pair_style granular\npair_coeff * * hooke 1e6 0 tangential linear_history 1e5 1 0.5 damping velocity";
+    for (name, text, expected) in [
+        (
+            "no-table",
+            breakage.replace(style, "bond_style anisobond ${springs} break yes"),
+            "needs `strengths",
+        ),
+        (
+            "no-break",
+            breakage.replace(
+                style,
+                "bond_style anisobond ${springs} break no strengths bond-strengths.csv",
+            ),
+            "is for `break yes`",
+        ),
+        (
+            "pair",
+            breakage.replace(pair, granular),
+            "stays in the special list",
+        ),
+    ] {
+        std::fs::write(out.join("breakage.lmp"), &text).unwrap();
+        let (deck, _) = tension_decks(true, "m m p", 1e-6, 1, None);
+        let input = format!("{name}.lmp");
+        std::fs::write(out.join(&input), deck).unwrap();
+        let run = run_lmp(&lmp, &out, &input, 1);
+        let said = String::from_utf8_lossy(&run.stdout).to_string()
+            + &String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{name}: expected a refusal\n{said}");
+        assert!(said.contains(expected), "{name}: {said}");
+    }
+
+    let smooth = d.join("smooth");
+    let said = succeeds(&mut export_cmd(
+        &data,
+        &model,
+        &["--boundary", "f f p", "--smooth"],
+        &smooth,
+    ));
+    assert!(said.contains("break yes, smooth yes"), "{said}");
+    let params = std::fs::read_to_string(smooth.join("params.lmp")).unwrap();
+    assert!(params.contains("variable smooth index yes"), "{params}");
+}
