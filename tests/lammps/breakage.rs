@@ -248,6 +248,58 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
         ));
     }
     assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
+
+    // After the break: held (the crack open, the halves relax: no tension across a broken
+    // pair), then pushed back past the original length and held: the broken pairs touch
+    // again (pair_style granular, k_c = the bonds' k_n) and the section carries the
+    // compression of 8 springs k_n in series per column, 9·k_n·d·e at box strain −e.
+    let (deck, _) = tension_decks(false, "m m p", de, 500, None);
+    let contact = deck.replace(
+        "run 500\n",
+        "run 500\nunfix pull\nrun 3000\nprint \"anisobond-open $(v_fz:%.17g) $(bonds)\"\n\
+         variable vc equal -${vz}*1.5\nfix push all deform 1 z vel ${vc} remap x\nrun 500\n\
+         unfix push\nrun 3000\nprint \"anisobond-closed $(v_fz:%.17g) $(lz:%.17g) $(bonds)\"\n",
+    );
+    assert_ne!(contact, deck);
+    std::fs::write(out.join("contact.lmp"), contact).unwrap();
+    let _ = std::fs::remove_file(out.join("tension.txt"));
+    let run = run_lmp(&lmp, &out, "contact.lmp", 1);
+    let text = String::from_utf8_lossy(&run.stdout).to_string();
+    assert!(run.status.success(), "{text}");
+    let line = |key: &str| -> Vec<f64> {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap_or_else(|| panic!("no {key}:\n{text}"))
+            .split_whitespace()
+            .map(|w| w.parse().unwrap())
+            .collect()
+    };
+    let open = line("anisobond-open ");
+    let closed = line("anisobond-closed ");
+    let lz0 = NZ as f64 * 2.0 * R;
+    let e = 1.0 - closed[1] / lz0;
+    let expected = -((NX * NY) as f64) * KN * 2.0 * R * e;
+    eprintln!(
+        "after the break: held open {:.3e} N ({:.1e} of the peak); pushed to strain -{e:.3e}: {:.9e} N vs closed form {expected:.9e} N ({:.1e})",
+        open[0],
+        open[0].abs() / peaks[0],
+        closed[0],
+        (closed[0] - expected).abs() / expected.abs()
+    );
+    assert!(
+        e > 0.0,
+        "the box was not pushed past its length: {closed:?}"
+    );
+    assert!(
+        open[0].abs() < 1e-2 * peaks[0],
+        "tension across the crack: {open:?}"
+    );
+    assert!(
+        (closed[0] - expected).abs() < 1e-6 * expected.abs(),
+        "{closed:?} vs {expected}"
+    );
+    let intact = (3 * NX * NY * NZ - (NX + NY) * NZ - NX * NY) as f64;
+    assert_eq!((open[1], closed[2]), (intact, intact));
 }
 
 #[test]
