@@ -19,6 +19,13 @@
 //! bond types ([`crate::bonds::quantise`]) and the export reports what that costs
 //! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
 //! quantised network against the exact one, and each spring's largest relative error.
+//!
+//! With [`LammpsOptions::breakage`] (a model with a `[strength]` table, issue 32) the bonds
+//! break: `breakage.lmp` holds bpm/rotational `break yes` with each type's critical loads
+//! ([`bond_limits`]; with `types`, springs and limits quantised jointly) and the broken
+//! bonds' contact (`pair_style granular`), or the plugin's `break yes strengths
+//! bond-strengths.csv`; without it the decks are byte-identical to before (docs/strength.md,
+//! "LAMMPS").
 
 use crate::bonds::types::{
     affine_weights, quantise, quantise_joint, quantise_weighted, sensitivity_weights,
