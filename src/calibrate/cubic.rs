@@ -778,6 +778,22 @@ fn check_magnitude(name: &str, v: f64) -> Result<()> {
     Ok(())
 }
 
+/// The model both calibrations solve in (`opts.model`, else the one for the target's Zener
+/// ratio) and its mean-field map, after checking `default_normal`.
+fn target_map<'k>(
+    kernel: &'k CubicKernel,
+    target: &CubicTarget,
+    default_normal: f64,
+    opts: &CubicOptions,
+) -> Result<(CubicModel, MeanFieldMap<'k>)> {
+    check_magnitude("the default normal magnitude", default_normal)?;
+    let model = opts.model.unwrap_or(model_for_zener(target.zener()));
+    Ok((
+        model,
+        MeanFieldMap::new(kernel, model, opts.extended, opts)?,
+    ))
+}
+
 /// Mean-field calibration (no packing).
 ///
 /// `prefactor` = N_c⟨l²·g⟩/V of the assembly (`packing_prefactor`, or
@@ -791,10 +807,8 @@ pub fn calibrate_cubic_mean_field(
     opts: &CubicOptions,
 ) -> Result<CubicCalibration> {
     check_magnitude("the mean-field prefactor", prefactor)?;
-    check_magnitude("the default normal magnitude", default_normal)?;
     let kernel = CubicKernel::default();
-    let model = opts.model.unwrap_or(model_for_zener(target.zener()));
-    let map = MeanFieldMap::new(&kernel, model, opts.extended, opts)?;
+    let (model, map) = target_map(&kernel, target, default_normal, opts)?;
     let p = map
         .solve(target, opts.family)
         .ok_or_else(|| unreachable_error(&kernel, &map, target, opts, "mean-field"))?;
@@ -843,10 +857,8 @@ pub fn calibrate_cubic_relaxed(
     opts: &CubicOptions,
 ) -> Result<CubicCalibration> {
     super::check_iteration_options(opts.tolerance, opts.max_iterations)?;
-    check_magnitude("the default normal magnitude", default_normal)?;
     let kernel = CubicKernel::default();
-    let model = opts.model.unwrap_or(model_for_zener(target.zener()));
-    let map = MeanFieldMap::new(&kernel, model, opts.extended, opts)?;
+    let (model, map) = target_map(&kernel, target, default_normal, opts)?;
     let start = map
         .solve(target, opts.family)
         .unwrap_or_else(|| map.nearest_reachable(target).0);

@@ -367,70 +367,61 @@ pub(crate) fn fire_relax(
     target: &RelaxTarget,
     on_check: &mut (dyn FnMut(usize, f64) + Send),
 ) -> Result<RelaxOutcome> {
-    rayon::scope(|_| fire_relax_in_pool(x, radii, side, domain, target, on_check))
-}
-
-fn fire_relax_in_pool(
-    x: &mut [Vec3],
-    radii: &[f64],
-    side: f64,
-    domain: Domain,
-    target: &RelaxTarget,
-    on_check: &mut (dyn FnMut(usize, f64) + Send),
-) -> Result<RelaxOutcome> {
-    let n = x.len();
-    let r_max = largest_radius(radii);
-    // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
-    let skin = match domain {
-        Domain::Periodic => 0.3f64.min(0.49 * side - 2.0 * r_max),
-        Domain::Container { .. } => 0.3,
-    };
-    if skin < 0.05 {
-        return Err(Error::Invalid(format!(
-            "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
+    rayon::scope(|_| {
+        let n = x.len();
+        let r_max = largest_radius(radii);
+        // Verlet skin: 0.3 R̄, less if the cell is small (cutoff must stay below L/2).
+        let skin = match domain {
+            Domain::Periodic => 0.3f64.min(0.49 * side - 2.0 * r_max),
+            Domain::Container { .. } => 0.3,
+        };
+        if skin < 0.05 {
+            return Err(Error::Invalid(format!(
+                "packing generation: {n} spheres give a periodic cell of side {side:.3} R̄, too \
              small for a unique minimum image (need more than 4.1·R_max); use more particles"
-        )));
-    }
-    let cell = domain.cell(side)?;
-    domain.wrap(x, side)?;
+            )));
+        }
+        let cell = domain.cell(side)?;
+        domain.wrap(x, side)?;
 
-    let list = ScaledVerletList::build(x, radii, cell.as_ref(), skin)?;
-    let x_ref = x.to_vec();
-    let mut system = FixedCell {
-        x,
-        radii,
-        side,
-        cell,
-        walls: domain.walls(side),
-        skin,
-        target,
-        on_check,
-        v: vec![Vec3::zeros(); n],
-        f: vec![Vec3::zeros(); n],
-        overlap: vec![0.0; n],
-        contact: vec![ContactSums::default(); n],
-        list,
-        rebuilds: 1,
-        x_ref,
-        worst: 0.0,
-        force_balanced: false,
-    };
-    system.force_pass();
-    let run = fire::minimise(&FIRE_FIXED_CELL, &mut system, target.max_iterations)?;
-    let FixedCell {
-        x,
-        rebuilds,
-        worst,
-        force_balanced,
-        ..
-    } = system;
-    domain.wrap(x, side)?;
-    Ok(RelaxOutcome {
-        iterations: run.iterations,
-        rebuilds,
-        max_overlap: worst,
-        overlap_free: worst < target.max_overlap,
-        force_balanced,
+        let list = ScaledVerletList::build(x, radii, cell.as_ref(), skin)?;
+        let x_ref = x.to_vec();
+        let mut system = FixedCell {
+            x,
+            radii,
+            side,
+            cell,
+            walls: domain.walls(side),
+            skin,
+            target,
+            on_check,
+            v: vec![Vec3::zeros(); n],
+            f: vec![Vec3::zeros(); n],
+            overlap: vec![0.0; n],
+            contact: vec![ContactSums::default(); n],
+            list,
+            rebuilds: 1,
+            x_ref,
+            worst: 0.0,
+            force_balanced: false,
+        };
+        system.force_pass();
+        let run = fire::minimise(&FIRE_FIXED_CELL, &mut system, target.max_iterations)?;
+        let FixedCell {
+            x,
+            rebuilds,
+            worst,
+            force_balanced,
+            ..
+        } = system;
+        domain.wrap(x, side)?;
+        Ok(RelaxOutcome {
+            iterations: run.iterations,
+            rebuilds,
+            max_overlap: worst,
+            overlap_free: worst < target.max_overlap,
+            force_balanced,
+        })
     })
 }
 
@@ -817,78 +808,69 @@ pub(crate) fn fire_jam_at_pressure(
     target: &PressureTarget,
     on_check: &mut (dyn FnMut(&JamCheck) + Send),
 ) -> Result<PressureOutcome> {
-    rayon::scope(|_| fire_jam_in_pool(x, radii, side, domain, target, on_check))
-}
+    rayon::scope(|_| {
+        let n = x.len();
+        let r_max = largest_radius(radii);
+        let cutoff = 2.0 * r_max + JAM_SKIN;
+        if domain == Domain::Periodic && cutoff >= 0.49 * *side {
+            return Err(cell_too_small(n, *side));
+        }
+        domain.wrap(x, *side)?;
 
-fn fire_jam_in_pool(
-    x: &mut [Vec3],
-    radii: &[f64],
-    side: &mut f64,
-    domain: Domain,
-    target: &PressureTarget,
-    on_check: &mut (dyn FnMut(&JamCheck) + Send),
-) -> Result<PressureOutcome> {
-    let n = x.len();
-    let r_max = largest_radius(radii);
-    let cutoff = 2.0 * r_max + JAM_SKIN;
-    if domain == Domain::Periodic && cutoff >= 0.49 * *side {
-        return Err(cell_too_small(n, *side));
-    }
-    domain.wrap(x, *side)?;
-
-    // Mass of the mass-weighted cell coordinate η = √M·ε.
-    let mass = 2.0 * n as f64;
-    let v = vec![Vec3::zeros(); n];
-    let mut f = vec![Vec3::zeros(); n];
-    let list = ScaledVerletList::build(x, radii, domain.cell(*side)?.as_ref(), JAM_SKIN)?;
-    // Reference positions in units of the cell side (displacements exclude the affine part).
-    let u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
-    let spheres = Spheres {
-        list: &list,
-        x,
-        radii,
-        side: *side,
-        walls: domain.walls(*side),
-    };
-    let sums = forces_and_sums(spheres, &v, &mut f);
-    let mut system = VariableCell {
-        domain,
-        side_ref: *side,
-        x,
-        radii,
-        side,
-        target,
-        on_check,
-        cutoff,
-        sqrt_mass: mass.sqrt(),
-        v,
-        v_eta: 0.0,
-        f,
-        list,
-        u_ref,
-        sums,
-        moved: vec![0.0f64; n.div_ceil(PASS_CHUNK)],
-        f_eta: 0.0,
-        pressure: 0.0,
-        mean_unbalanced: 0.0,
-        largest_unbalanced: 0.0,
-    };
-    let run = fire::minimise(&FIRE_VARIABLE_CELL, &mut system, target.max_iterations)?;
-    let VariableCell {
-        x,
-        side,
-        pressure,
-        mean_unbalanced,
-        largest_unbalanced,
-        ..
-    } = system;
-    domain.wrap(x, *side)?;
-    Ok(PressureOutcome {
-        iterations: run.iterations,
-        pressure,
-        mean_unbalanced,
-        largest_unbalanced,
-        converged: run.converged,
+        // Mass of the mass-weighted cell coordinate η = √M·ε.
+        let mass = 2.0 * n as f64;
+        let v = vec![Vec3::zeros(); n];
+        let mut f = vec![Vec3::zeros(); n];
+        let list = ScaledVerletList::build(x, radii, domain.cell(*side)?.as_ref(), JAM_SKIN)?;
+        // Reference positions in units of the cell side (displacements exclude the affine part).
+        let u_ref: Vec<Vec3> = x.iter().map(|p| p / *side).collect();
+        let spheres = Spheres {
+            list: &list,
+            x,
+            radii,
+            side: *side,
+            walls: domain.walls(*side),
+        };
+        let sums = forces_and_sums(spheres, &v, &mut f);
+        let mut system = VariableCell {
+            domain,
+            side_ref: *side,
+            x,
+            radii,
+            side,
+            target,
+            on_check,
+            cutoff,
+            sqrt_mass: mass.sqrt(),
+            v,
+            v_eta: 0.0,
+            f,
+            list,
+            u_ref,
+            sums,
+            moved: vec![0.0f64; n.div_ceil(PASS_CHUNK)],
+            f_eta: 0.0,
+            pressure: 0.0,
+            mean_unbalanced: 0.0,
+            largest_unbalanced: 0.0,
+        };
+        let run = fire::minimise(&FIRE_VARIABLE_CELL, &mut system, target.max_iterations)?;
+        let VariableCell {
+            x,
+            side,
+            pressure,
+            mean_unbalanced,
+            largest_unbalanced,
+            ..
+        } = system;
+        domain.wrap(x, *side)?;
+        Ok(PressureOutcome {
+            iterations: run.iterations,
+            pressure,
+            mean_unbalanced,
+            largest_unbalanced,
+            converged: run.converged,
+        })
     })
 }
 

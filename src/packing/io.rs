@@ -425,6 +425,22 @@ fn parse_count<T: std::str::FromStr>(
         .map_err(|_| Error::parse(source, line, format!("expected {what}, found `{word}`")))
 }
 
+/// Refuse the `words` of `line` unless there are as many as one of `counts`; `expected`
+/// words the refusal from the number found.
+fn check_word_count(
+    words: &[&str],
+    counts: &[usize],
+    source: &str,
+    line: usize,
+    expected: impl FnOnce(usize) -> String,
+) -> Result<()> {
+    if counts.contains(&words.len()) {
+        Ok(())
+    } else {
+        Err(Error::parse(source, line, expected(words.len())))
+    }
+}
+
 /// [`parse_number`], refused unless > 0 (`shown` names the value in that refusal).
 fn parse_positive(word: &str, what: &str, shown: &str, source: &str, line: usize) -> Result<f64> {
     let v = parse_number(word, what, source, line)?;
@@ -458,16 +474,9 @@ fn check_cell_volume(l: &Vec3, source: &str, line: usize) -> Result<()> {
 }
 
 fn parse_cell_lengths(words: &[&str], source: &str, line: usize, header: &str) -> Result<Vec3> {
-    if words.len() != 3 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!(
-                "expected `{header} Lx Ly Lz` with 3 cell lengths, found {} value(s)",
-                words.len()
-            ),
-        ));
-    }
+    check_word_count(words, &[3], source, line, |found| {
+        format!("expected `{header} Lx Ly Lz` with 3 cell lengths, found {found} value(s)")
+    })?;
     let mut l = Vec3::zeros();
     for (k, w) in words.iter().enumerate() {
         let name = ["Lx", "Ly", "Lz"][k];
@@ -1057,17 +1066,12 @@ struct Atom {
 /// flags).
 fn parse_atom(words: &[&str], style: AtomStyle, source: &str, line: usize) -> Result<Atom> {
     let c = style.columns();
-    if words.len() != c && words.len() != c + 3 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!(
-                "expected {c} values `{}` (optionally followed by 3 image flags), found {}",
-                style.names(),
-                words.len()
-            ),
-        ));
-    }
+    check_word_count(words, &[c, c + 3], source, line, |found| {
+        format!(
+            "expected {c} values `{}` (optionally followed by 3 image flags), found {found}",
+            style.names()
+        )
+    })?;
     let id: u64 = parse_count(words[0], "a positive integer atom id", source, line)?;
     // LAMMPS/LIGGGHTS atom ids and types start at 1 (read_data refuses 0).
     if id == 0 {
@@ -1135,16 +1139,9 @@ fn parse_atom(words: &[&str], style: AtomStyle, source: &str, line: usize) -> Re
 type BondLine = (u64, u64, u64, u64, usize);
 
 fn parse_bond_line(words: &[&str], source: &str, line: usize) -> Result<BondLine> {
-    if words.len() != 4 {
-        return Err(Error::parse(
-            source,
-            line,
-            format!(
-                "expected 4 values `id type atom1 atom2` in the Bonds section, found {}",
-                words.len()
-            ),
-        ));
-    }
+    check_word_count(words, &[4], source, line, |found| {
+        format!("expected 4 values `id type atom1 atom2` in the Bonds section, found {found}")
+    })?;
     let names = [
         "bond id (column 1)",
         "bond type (column 2)",
@@ -1285,19 +1282,14 @@ fn data_header<'a, I: Iterator<Item = DataRow<'a>>>(
     while let Some((line, _, words)) = rows.next_if(not_section) {
         let n_words = words.len();
         if n_words == 2 && words[1] == "atoms" {
-            let n: usize = parse_count(words[0], "an atom count in `N atoms`", source, line)?;
-            h.n_atoms = Some((n, line));
+            h.n_atoms = Some((header_count(&words, "an atom count", source, line)?, line));
         } else if n_words == 2 && words[1] == "bonds" {
-            let n: usize = parse_count(words[0], "a bond count in `N bonds`", source, line)?;
-            h.n_bonds = Some((n, line));
+            h.n_bonds = Some((header_count(&words, "a bond count", source, line)?, line));
         } else if n_words == 3 && words[1..] == ["bond", "types"] {
-            let t: u64 = parse_count(
-                words[0],
-                "a bond type count in `N bond types`",
-                source,
+            h.n_bond_types = Some((
+                header_count(&words, "a bond type count", source, line)?,
                 line,
-            )?;
-            h.n_bond_types = Some((t, line));
+            ));
         } else if n_words == 4 && words[2].ends_with("lo") && words[3].ends_with("hi") {
             let (axis, lo, hi) = data_box_bounds(&words, source, line)?;
             h.bounds[axis] = Some((lo, hi, line));
@@ -1313,16 +1305,25 @@ fn data_header<'a, I: Iterator<Item = DataRow<'a>>>(
                 }
             }
         } else if n_words == 3 && words[1..] == ["atom", "types"] {
-            let t: u64 = parse_count(
-                words[0],
-                "an atom type count in `N atom types`",
-                source,
+            h.n_types = Some((
+                header_count(&words, "an atom type count", source, line)?,
                 line,
-            )?;
-            h.n_types = Some((t, line));
+            ));
         }
     }
     Ok(h)
+}
+
+/// The count N of a header line `N atoms`, `N bond types`, …, refused as "expected {what}
+/// in `N …`" (the line's own words).
+fn header_count<T: std::str::FromStr>(
+    words: &[&str],
+    what: &str,
+    source: &str,
+    line: usize,
+) -> Result<T> {
+    let expected = format!("{what} in `N {}`", words[1..].join(" "));
+    parse_count(words[0], &expected, source, line)
 }
 
 /// A header line `lo hi xlo xhi` (or y, z): the axis and its bounds, refused unless

@@ -144,15 +144,9 @@ impl PeriodicCell {
     /// Wrap a position into the cell; returns the wrapped position and the integer shift
     /// that was removed (`p = wrapped + shift ∘ L`).
     pub fn wrap(&self, p: Vec3) -> (Vec3, [i32; 3]) {
-        let mut out = p;
-        let mut shift = [0i32; 3];
-        for k in 0..3 {
-            if !self.periodic[k] {
-                continue;
-            }
-            let l = self.lengths[k];
-            let s = (p[k] / l).floor();
-            let mut w = p[k] - s * l;
+        self.along_periodic_axes(p, |x, l| {
+            let s = (x / l).floor();
+            let mut w = x - s * l;
             let mut s = s as i32;
             // Guard against w == l from rounding.
             if w >= l {
@@ -162,26 +156,27 @@ impl PeriodicCell {
             if w < 0.0 {
                 w = 0.0;
             }
-            out[k] = w;
-            shift[k] = s;
-        }
-        (out, shift)
+            (w, s)
+        })
     }
 
     /// Minimum-image branch vector for a raw difference `d = x_j − x_i` of wrapped
     /// positions: returns `(d + image ∘ L, image)` with every component in [−L/2, L/2]
     /// (along the periodic axes; a non-periodic one keeps `d`, image 0).
     pub fn minimum_image(&self, d: Vec3) -> (Vec3, [i32; 3]) {
-        let mut out = d;
+        self.along_periodic_axes(d, |x, l| {
+            let s = -(x / l).round();
+            (x + s * l, s as i32)
+        })
+    }
+
+    /// `v` with `f(v_k, L_k)` = (new component, image) applied along every periodic axis k;
+    /// a non-periodic axis keeps its component, image 0.
+    fn along_periodic_axes(&self, v: Vec3, f: impl Fn(f64, f64) -> (f64, i32)) -> (Vec3, [i32; 3]) {
+        let mut out = v;
         let mut image = [0i32; 3];
-        for k in 0..3 {
-            if !self.periodic[k] {
-                continue;
-            }
-            let l = self.lengths[k];
-            let s = -(d[k] / l).round();
-            out[k] = d[k] + s * l;
-            image[k] = s as i32;
+        for k in (0..3).filter(|&k| self.periodic[k]) {
+            (out[k], image[k]) = f(v[k], self.lengths[k]);
         }
         (out, image)
     }

@@ -6,7 +6,7 @@
 
 use super::harness::{EngineDetails, Report};
 pub use super::harness::{Problem, Progress, TestKind};
-use super::specimen::{SpecimenDetails, SpecimenTest};
+use super::specimen::{SpecimenDeck, SpecimenDetails, SpecimenTest};
 use crate::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -87,26 +87,18 @@ pub trait Engine: Sync {
     fn run(&self, problem: &Problem, progress: Progress) -> Result<Report<Self::Details>>;
     /// Write the report files into `dir` (atomically each); returns the paths written.
     fn write_files(&self, dir: &Path, report: &Report<Self::Details>) -> Result<Vec<PathBuf>>;
-    /// The specimen test ([`super::specimen`]) of the free packing of `problem`: the engine
-    /// builds the bonded specimen, loads it between platens by its own means, and its
+    /// The specimen deck ([`super::specimen`]) and its settings: the engine builds the
+    /// bonded specimen of a free packing, loads it between platens by its own means, and its
     /// platen stiffness is compared with the specimen solve's. Its report is the same for
-    /// every engine, so it is a method of its own rather than a [`TestKind`]. Default:
-    /// refused.
-    fn specimen(
-        &self,
-        _problem: &Problem,
-        _test: &SpecimenTest,
-        _progress: Progress,
-    ) -> Result<Report<SpecimenDetails>> {
-        Err(Error::Invalid(format!(
-            "validate {}: the engine does not run the specimen test",
-            Self::Details::ENGINE
-        )))
+    /// every engine, so it is a deck of its own rather than a [`TestKind`]. Default: none
+    /// (the test is refused).
+    fn specimen_deck(&self) -> Option<SpecimenDeck> {
+        None
     }
 }
 
 /// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's
-/// options checked, then [`Engine::specimen`].
+/// options checked, then the engine's [`Engine::specimen_deck`] run.
 ///
 /// The platen stiffness of a free packing's specimen in YADE against the specimen solve
 /// (z axis, end layers of one mean radius, frictionless platens):
@@ -133,7 +125,13 @@ pub fn validate_specimen<E: Engine>(
 ) -> Result<Report<SpecimenDetails>> {
     engine.check()?;
     test.check(E::Details::ENGINE)?;
-    engine.specimen(problem, test, progress)
+    let deck = engine.specimen_deck().ok_or_else(|| {
+        Error::Invalid(format!(
+            "validate {}: the engine does not run the specimen test",
+            E::Details::ENGINE
+        ))
+    })?;
+    (deck.run)(&deck.launch, problem, test, progress)
 }
 
 /// Run `engine` on `problem`: its options checked, the test kind refused unless the engine

@@ -19,6 +19,7 @@ use super::harness::{
     self, compare_history_rows, history_series, matrix_rows, reference_simulation,
     side_by_side_csv, timed, Check, EngineDetails, HistoryComparison, HistoryStart, Report, Timing,
 };
+use super::specimen::{self, DeckLaunch, SpecimenDeck};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::{build_law, LawKind};
 use crate::export::lammps::{
@@ -425,21 +426,21 @@ impl Engine for Lammps {
     fn write_files(&self, dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
-    fn specimen(
-        &self,
-        p: &Problem,
-        test: &super::specimen::SpecimenTest,
-        progress: Progress,
-    ) -> Result<Report<super::specimen::SpecimenDetails>> {
+    fn specimen_deck(&self) -> Option<SpecimenDeck> {
         let o = &self.0;
-        let launch = super::specimen::DeckLaunch {
+        let launch = DeckLaunch {
             program: o.lmp.clone(),
             processes: if o.two_processes { vec![1, 2] } else { vec![1] },
             density: o.export.density,
+            // The element-test export's step: `safety` × the single-particle bound (the whole
+            // network's critical step is not stable with the bonds' dashpots: it blew up).
             time_step: None,
             safety: o.export.safety,
         };
-        super::specimen::lammps::run(&launch, p, test, progress)
+        Some(SpecimenDeck {
+            launch,
+            run: |launch, p, test, progress| specimen::lammps::DECK.run(launch, p, test, progress),
+        })
     }
 }
 

@@ -33,6 +33,7 @@
 //! virial keeps one triangle (σ_12 = Σ l_x F_y / V, σ_13 = Σ l_x F_z / V,
 //! σ_23 = Σ l_y F_z / V), and the integrator's Love stress is compared in the same triangle.
 
+use super::specimen::{self, DeckLaunch, SpecimenDeck};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::element::{dynamic_tensor, ElementTestOptions};
 use crate::dem::laws::{LinearBondKernel, MomentForm};
@@ -770,14 +771,9 @@ impl Engine for Liggghts {
     fn write_files(&self, dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
-    fn specimen(
-        &self,
-        p: &Problem,
-        test: &super::specimen::SpecimenTest,
-        progress: Progress,
-    ) -> Result<Report<super::specimen::SpecimenDetails>> {
+    fn specimen_deck(&self) -> Option<SpecimenDeck> {
         let o = &self.options;
-        let launch = super::specimen::DeckLaunch {
+        let launch = DeckLaunch {
             program: self.programs.driver.clone(),
             processes: if o.processes > 1 {
                 vec![1, o.processes]
@@ -789,7 +785,12 @@ impl Engine for Liggghts {
             // The deck's step is LIGGGHTS' stable step itself, as the element tests take it.
             safety: 1.0,
         };
-        super::specimen::liggghts::run(&launch, p, test, progress)
+        Some(SpecimenDeck {
+            launch,
+            run: |launch, p, test, progress| {
+                specimen::liggghts::DECK.run(launch, p, test, progress)
+            },
+        })
     }
 }
 

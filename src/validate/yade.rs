@@ -23,6 +23,7 @@
 //!
 //! Tensor differences are max_ab |A − B| / max_ab |B| ([`relative_difference`]).
 
+use super::specimen::{self, DeckLaunch, SpecimenDeck};
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::dem::element::to_voigt;
 use crate::dem::{build_law, LawKind, Simulation};
@@ -520,20 +521,18 @@ impl Engine for Yade {
     fn write_files(&self, dir: &Path, r: &YadeValidation) -> Result<Vec<PathBuf>> {
         write_validation_files(dir, r)
     }
-    fn specimen(
-        &self,
-        p: &Problem,
-        test: &super::specimen::SpecimenTest,
-        progress: Progress,
-    ) -> Result<Report<super::specimen::SpecimenDetails>> {
-        let launch = super::specimen::DeckLaunch {
+    fn specimen_deck(&self) -> Option<SpecimenDeck> {
+        let launch = DeckLaunch {
             program: "yade".into(),
             processes: vec![1],
             density: self.0.density,
             time_step: self.0.time_step,
             safety: self.0.safety,
         };
-        super::specimen::yade::run(&launch, p, test, progress)
+        Some(SpecimenDeck {
+            launch,
+            run: specimen::yade::run,
+        })
     }
 }
 

@@ -11,16 +11,13 @@
 //! uses bpm/rotational's midpoint contact point ([`LeverArm::HalfLength`]).
 
 use super::{
-    atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
-    remaining_change, run_done_line, specimen_mass, DeckLaunch, DeckStart, EngineMeasurement,
-    SpecimenDetails, SpecimenTest,
+    atom_lines, box_lines, num, platens_name, relax_in_chunks, remaining_change, specimen_mass,
+    DeckLaunch, DeckPlan, DeckStart, EngineMeasurement, ScriptDeck, SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::packing::Packing;
 use crate::specimen::{Platens, SpecimenReport};
-use crate::validate::harness::{Problem, Progress};
-use crate::validate::harness::{Report, Timing};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -330,99 +327,46 @@ fn read_result(
     })
 }
 
-/// Run LAMMPS' specimen test of `problem`'s free specimen (on one process, and on two with
-/// `two_processes`) and compare with the solve.
-pub fn run(
-    opts: &DeckLaunch,
-    problem: &Problem,
-    test: &SpecimenTest,
-    progress: Progress,
-) -> Result<Report<SpecimenDetails>> {
-    let start = deck_start(
-        "lammps",
-        problem,
-        test,
-        STRAIN,
-        LeverArm::HalfLength,
-        DIR,
-        progress,
-    )?;
-    write_deck_files(&start, opts)?;
-    let DeckStart {
-        test,
-        asm,
-        predicted,
-        layers,
-        dir,
-        mut timings,
-        ..
-    } = start;
-    let mut measured = Vec::new();
-    for &np in &opts.processes {
-        let m = read_result(&dir, np, &layers, run_lmp(&dir, &opts.program, np)?)?;
-        timings.push(Timing {
-            stage: format!("lammps_np{np}"),
-            seconds: m.seconds,
-        });
-        progress(&run_done_line("LAMMPS", &m));
-        measured.push(m);
-    }
-    compare(
-        "lammps",
-        &test,
-        LeverArm::HalfLength,
-        &asm,
-        predicted,
-        measured,
-        timings,
-    )
-}
+/// LAMMPS' specimen test (on one process, and on two with `two_processes`): the deck
+/// `write_deck_files` writes, run by `run_lmp` and read by `read_result`.
+pub(in crate::validate) const DECK: ScriptDeck = ScriptDeck {
+    engine: "lammps",
+    shown: "LAMMPS",
+    strain: STRAIN,
+    lever_arm: LeverArm::HalfLength,
+    dir: DIR,
+    deck_file: "in.specimen",
+    write: write_deck_files,
+    run_once: |start, launch, _, np| {
+        let seconds = run_lmp(&start.dir, &launch.program, np)?;
+        read_result(&start.dir, np, &start.layers, seconds)
+    },
+};
 
-/// Write the test's `data.lmp`, `bond_coeffs.lmp` and `in.specimen` into its directory:
-/// the time step, the viscous damping and the displacement δ from the solve.
-fn write_deck_files(start: &DeckStart, opts: &DeckLaunch) -> Result<()> {
-    let DeckStart {
-        test,
-        asm,
-        predicted,
-        types: (types, far_block),
-        dir,
-        ..
-    } = start;
-    let density = opts.density;
-    let max_len = write_inputs(dir, &asm.packing, &asm.bonds, &asm.springs, types, density)?;
-    // The time step of the element-test export: `safety` × the single-particle bound (the
-    // whole network's critical step is not stable with the bonds' dashpots: it blew up).
-    let dt = match opts.time_step {
-        Some(dt) => dt,
-        None => {
-            let stable = crate::export::liggghts::stable_timestep(
-                &asm.packing,
-                &asm.bonds,
-                &asm.springs,
-                density,
-            )?;
-            opts.safety * stable
-        }
-    };
+/// Write the test's `data.lmp` and `bond_coeffs.lmp` into its directory; returns the deck
+/// `in.specimen` with the plan's time step and δ and the viscous damping.
+fn write_deck_files(start: &DeckStart, launch: &DeckLaunch, plan: &DeckPlan) -> Result<String> {
+    let DeckStart { test, asm, .. } = start;
+    let (types, far_block) = &start.types;
+    let packing = &asm.packing;
+    let max_len = write_inputs(
+        &start.dir,
+        packing,
+        &asm.bonds,
+        &asm.springs,
+        types,
+        launch.density,
+    )?;
     // Viscous damping of the free spheres' translations (fix viscous), chosen to damp the
-    // specimen's slow modes: γ = m̄·√(K/M)/4 with K the solve's platen stiffness and M the
-    // specimen's mass (it changes the way to rest, not the rest state).
-    let total = specimen_mass(&asm.packing, density);
-    let n = asm.packing.len() as f64;
-    let viscous = total / n * (predicted.platen_stiffness / total).sqrt() / 4.0;
-    // δ = strain × the gauge length (between the layers' mean centres), as the solve.
-    let delta = test.strain() * predicted.length;
-    crate::io::write_string_atomic(
-        &dir.join("in.specimen"),
-        &deck(
-            test,
-            delta,
-            dt,
-            viscous,
-            1.6 * max_len,
-            *far_block,
-            test.relax_chunks(CHUNK_STEPS),
-        ),
-    )
+    // specimen's slow modes: γ = m̄ × the plan's damping rate.
+    let viscous = specimen_mass(packing, launch.density) / packing.len() as f64 * plan.damping_rate;
+    Ok(deck(
+        test,
+        plan.delta,
+        plan.dt,
+        viscous,
+        1.6 * max_len,
+        *far_block,
+        test.relax_chunks(CHUNK_STEPS),
+    ))
 }

@@ -12,17 +12,14 @@
 //! mid-gap contact point ([`LeverArm::MidGap`]).
 
 use super::{
-    atom_lines, box_lines, compare, deck_start, num, platens_name, relax_in_chunks,
-    remaining_change, run_done_line, specimen_mass, DeckLaunch, DeckStart, EngineMeasurement,
-    SpecimenDetails, SpecimenTest,
+    atom_lines, box_lines, num, platens_name, relax_in_chunks, remaining_change, DeckLaunch,
+    DeckPlan, DeckStart, EngineMeasurement, ScriptDeck, SpecimenTest,
 };
 use crate::assembly::Assembly;
 use crate::bonds::table;
-use crate::export::liggghts::{run_liggghts, stable_timestep, Launch};
+use crate::export::liggghts::{run_liggghts, Launch};
 use crate::homogenize::network::LeverArm;
 use crate::specimen::Platens;
-use crate::validate::harness::{Problem, Progress};
-use crate::validate::harness::{Report, Timing};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -149,76 +146,40 @@ fn deck(
     s
 }
 
-/// Run the driver's specimen test of `problem`'s free specimen (one process, and `processes`
-/// when more) and compare with the solve.
-pub fn run(
-    opts: &DeckLaunch,
-    problem: &Problem,
-    test: &SpecimenTest,
-    progress: Progress,
-) -> Result<Report<SpecimenDetails>> {
-    let DeckStart {
-        test,
-        asm,
-        predicted,
-        layers,
-        types: (types, far_block),
-        dir,
-        mut timings,
-    } = deck_start(
-        "liggghts",
-        problem,
-        test,
-        STRAIN,
-        LeverArm::MidGap,
-        DIR,
-        progress,
-    )?;
-    let test = &test;
-    let density = opts.density;
+/// The driver's specimen test (one process, and `processes` when more): the deck
+/// `write_deck` writes, run by `run_driver` and read by `read_result`.
+pub(in crate::validate) const DECK: ScriptDeck = ScriptDeck {
+    engine: "liggghts",
+    shown: "LIGGGHTS",
+    strain: STRAIN,
+    lever_arm: LeverArm::MidGap,
+    dir: DIR,
+    deck_file: "specimen.in",
+    write: write_deck,
+    run_once: |start, launch, plan, np| {
+        let (out, seconds) = run_driver(&launch.program, &start.dir, np)?;
+        let (delta, dt) = (plan.delta, plan.dt);
+        read_result(&out, np, &start.layers, delta, dt, seconds, &start.dir)
+    },
+};
+
+/// Write the test's `specimen.data` into its directory; returns the deck `specimen.in`
+/// with the plan's time step and damping rate and the top layer's speed.
+fn write_deck(start: &DeckStart, launch: &DeckLaunch, plan: &DeckPlan) -> Result<String> {
+    let DeckStart { test, asm, .. } = start;
+    let (types, far_block) = &start.types;
     let max_len = asm.bonds.length.iter().copied().fold(0.0, f64::max);
-    write_data(&dir, &asm, &types, density, 2.0 * max_len)?;
-    let dt = match opts.time_step {
-        Some(dt) => dt,
-        None => opts.safety * stable_timestep(&asm.packing, &asm.bonds, &asm.springs, density)?,
-    };
-    // Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
-    // stiffness, M its mass (as LAMMPS' test; it changes the way to rest, not the rest).
-    let damping = (predicted.platen_stiffness / specimen_mass(&asm.packing, density)).sqrt() / 4.0;
-    let delta = test.strain() * predicted.length;
-    let speed = delta / (RAMP_STEPS as f64 * dt);
-    crate::io::write_string_atomic(
-        &dir.join("specimen.in"),
-        &deck(
-            test,
-            speed,
-            dt,
-            damping,
-            0.05 * max_len,
-            far_block,
-            test.relax_chunks(CHUNK_STEPS),
-        ),
-    )?;
-    let mut measured = Vec::new();
-    for &np in &opts.processes {
-        let (out, seconds) = run_driver(&opts.program, &dir, np)?;
-        let m = read_result(&out, np, &layers, delta, dt, seconds, &dir)?;
-        timings.push(Timing {
-            stage: format!("liggghts_np{np}"),
-            seconds,
-        });
-        progress(&run_done_line("LIGGGHTS", &m));
-        measured.push(m);
-    }
-    compare(
-        "liggghts",
+    write_data(&start.dir, asm, types, launch.density, 2.0 * max_len)?;
+    let speed = plan.delta / (RAMP_STEPS as f64 * plan.dt);
+    Ok(deck(
         test,
-        LeverArm::MidGap,
-        &asm,
-        predicted,
-        measured,
-        timings,
-    )
+        speed,
+        plan.dt,
+        plan.damping_rate,
+        0.05 * max_len,
+        *far_block,
+        test.relax_chunks(CHUNK_STEPS),
+    ))
 }
 
 /// Run `specimen.in` with the driver in `dir` on `np` processes, its log kept as

@@ -4,8 +4,8 @@
 //! quasi-statically to equilibrium; the engine's platen stiffness F/δ against the specimen
 //! solve's ([`crate::specimen::solve`]) with the engine's contact-point convention.
 //!
-//! An engine implements [`super::Engine::specimen`]: it runs its code and returns an
-//! [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
+//! An engine gives its deck in [`super::Engine::specimen_deck`]: the deck runs its code and
+//! returns an [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
 //! `platen-stiffness` (|k_engine − k_solve| / k_solve, default tolerance 1e-3).
 
 use super::harness::{checks_csv, write_report_json, Check, EngineDetails, Report, Timing};
@@ -30,7 +30,8 @@ pub mod outputs {
 }
 
 /// How an engine runs its specimen deck: the settings of `validate ENGINE` the deck takes,
-/// given by the engine's [`super::Engine::specimen`] (so a deck depends on no engine file).
+/// given by the engine's [`super::Engine::specimen_deck`] (so a deck depends on no engine
+/// file).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeckLaunch {
     /// The program run (`lmp`, the LIGGGHTS driver; YADE is found on PATH).
@@ -43,6 +44,134 @@ pub struct DeckLaunch {
     pub time_step: Option<f64>,
     /// Fraction of the stable step taken when `time_step` is `None`.
     pub safety: f64,
+}
+
+impl DeckLaunch {
+    /// The deck's time step (s): `time_step`, else `safety` × the stable step of `asm` at
+    /// `density` ([`crate::export::liggghts::stable_timestep`]).
+    pub(super) fn step(&self, asm: &Assembly) -> Result<f64> {
+        match self.time_step {
+            Some(dt) => Ok(dt),
+            None => Ok(self.safety
+                * crate::export::liggghts::stable_timestep(
+                    &asm.packing,
+                    &asm.bonds,
+                    &asm.springs,
+                    self.density,
+                )?),
+        }
+    }
+}
+
+/// Runs an engine's specimen deck with its [`DeckLaunch`]: writes, runs and reads the deck,
+/// and compares with the solve ([`compare`]).
+pub type DeckRunner = fn(
+    &DeckLaunch,
+    &super::Problem,
+    &SpecimenTest,
+    super::engine::Progress,
+) -> Result<Report<SpecimenDetails>>;
+
+/// An engine's specimen deck as [`super::Engine::specimen_deck`] gives it: the settings of
+/// `validate ENGINE` it takes and its runner.
+pub struct SpecimenDeck {
+    /// The settings.
+    pub launch: DeckLaunch,
+    /// The runner.
+    pub run: DeckRunner,
+}
+
+/// The numbers every deck-driven engine's deck takes from the solve.
+pub(super) struct DeckPlan {
+    /// Shortening δ = strain × the gauge length (between the layers' mean centres), as the
+    /// solve (m).
+    pub delta: f64,
+    /// Time step (s), [`DeckLaunch::step`].
+    pub dt: f64,
+    /// Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
+    /// stiffness, M the specimen's mass ([`specimen_mass`]); it changes the way to rest,
+    /// not the rest state.
+    pub damping_rate: f64,
+}
+
+/// A specimen test driven by an input deck (LAMMPS, LIGGGHTS): the engine's names, strain,
+/// contact point, directory and deck file, how it writes the deck and how it runs the deck
+/// once. [`ScriptDeck::run`] does the rest the same way for both.
+pub(super) struct ScriptDeck {
+    /// The engine's name in reports, stage names and errors (`lammps`).
+    pub engine: &'static str,
+    /// Its name in progress lines (`LAMMPS`).
+    pub shown: &'static str,
+    /// The default strain of its test.
+    pub strain: f64,
+    /// The contact point of its bonds, which the solve takes.
+    pub lever_arm: LeverArm,
+    /// Sub-directory of the validation directory the engine runs in.
+    pub dir: &'static str,
+    /// The deck's file name in that directory.
+    pub deck_file: &'static str,
+    /// Write the deck's data files into the start's directory; returns the deck.
+    pub write: fn(&DeckStart, &DeckLaunch, &DeckPlan) -> Result<String>,
+    /// Run the written deck once on `np` processes and read what it measured.
+    pub run_once: fn(&DeckStart, &DeckLaunch, &DeckPlan, usize) -> Result<EngineMeasurement>,
+}
+
+impl ScriptDeck {
+    /// The test of `problem`'s free specimen: [`deck_start`], the deck written with its
+    /// [`DeckPlan`], one run per process count of `launch` (each timed as `ENGINE_npN` and
+    /// reported in `progress`), compared with the solve.
+    pub(super) fn run(
+        &self,
+        launch: &DeckLaunch,
+        problem: &super::Problem,
+        test: &SpecimenTest,
+        progress: super::engine::Progress,
+    ) -> Result<Report<SpecimenDetails>> {
+        let mut start = deck_start(
+            self.engine,
+            problem,
+            test,
+            self.strain,
+            self.lever_arm,
+            self.dir,
+            progress,
+        )?;
+        let (asm, predicted) = (&start.asm, &start.predicted);
+        let mass = specimen_mass(&asm.packing, launch.density);
+        let plan = DeckPlan {
+            delta: start.test.strain() * predicted.length,
+            dt: launch.step(asm)?,
+            damping_rate: (predicted.platen_stiffness / mass).sqrt() / 4.0,
+        };
+        let deck = (self.write)(&start, launch, &plan)?;
+        crate::io::write_string_atomic(&start.dir.join(self.deck_file), &deck)?;
+        let mut measured = Vec::new();
+        for &np in &launch.processes {
+            let m = (self.run_once)(&start, launch, &plan, np)?;
+            start.timings.push(Timing {
+                stage: format!("{}_np{np}", self.engine),
+                seconds: m.seconds,
+            });
+            progress(&run_done_line(self.shown, &m));
+            measured.push(m);
+        }
+        let DeckStart {
+            test,
+            asm,
+            predicted,
+            timings,
+            ..
+        } = start;
+        compare(
+            self.engine,
+            &test,
+            self.lever_arm,
+            &asm,
+            predicted,
+            measured,
+            timings,
+        )
+    }
 }
 
 /// What the specimen test is asked for (the load test of `anisobond specimen`).
