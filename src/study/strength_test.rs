@@ -34,6 +34,38 @@
 //!   50 % of the peak ([`FIT_RANGE`]); the lateral strain is the mean least-squares slope of
 //!   the lateral displacement over the lateral coordinate (x, y) of the particles in the
 //!   middle third of the height. Not defined for the Brazilian disc (`null`).
+//!
+//! A 3 × 3 × 6 simple-cubic block of touching 1 mm spheres (springs k_n = 2e6 N/m) in
+//! compression: E from the initial slope is the static solve's, k_n/(2R) = 1e9 Pa.
+//! ```
+//! use anisobond::{model::Model, packing::Packing, Vec3};
+//! use anisobond::study::strength_test::{run, StrengthTestOptions};
+//! let r = 1e-3;
+//! let centres: Vec<Vec3> = (0..54)
+//!     .map(|k| Vec3::new((k % 3) as f64, (k / 3 % 3) as f64, (k / 9) as f64) * 2.0 * r)
+//!     .collect();
+//! let packing = Packing::new(centres, vec![r; 54], None)?;
+//! let model = Model::from_toml_str(
+//!     "[bonding]\nrule = \"gap\"\nvalue = 0.01\n[scheme]\nkind = \"isotropic\"\n\
+//!      normal = 2e6\nshear = 7e5\n[geometry]\nconvention = \"spring\"\n",
+//!     "springs.toml",
+//! )?;
+//! let opts = StrengthTestOptions {
+//!     packing: Some(packing),
+//!     model: Some(model),
+//!     width_particles: 6.0, // holds the three columns of centres
+//!     aspect: Some(2.0),
+//!     end_layer: 0.5,
+//!     loading_rate: 1e-5,
+//!     max_strain: 1e-3,
+//!     ..StrengthTestOptions::default()
+//! };
+//! let report = run(&opts, &|_| {})?;
+//! let e = report.modulus_pa.unwrap();
+//! assert!((report.static_modulus_pa.unwrap() / 1e9 - 1.0).abs() < 1e-9);
+//! assert!((e / 1e9 - 1.0).abs() < 0.01, "{e}");
+//! # Ok::<(), anisobond::Error>(())
+//! ```
 
 use super::{finite, require_finite, OptionNames};
 use crate::assembly::Assembly;
