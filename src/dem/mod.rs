@@ -6,6 +6,8 @@
 //! - [`laws`]: the [`BondLaw`] trait and laws (a) YADE cohesive, (b) parallel bond,
 //!   (c) Kumar 2016, (d) LAMMPS bpm/rotational.
 //! - `sim.rs`: [`Simulation`], YADE's NewtonIntegrator step by step.
+//! - `breakage.rs`: [`BondCriteria`], one failure criterion per bond by law; bonds break
+//!   after a force evaluation ([`Simulation::set_breakage`], [`BreakEvent`]).
 //! - `element.rs`: six strain paths → Truszkowska 2018 Eq. 27 → C.
 //! - `equilibrium.rs`: the stop rule of every damped relaxation (unbalanced force/torque).
 //! - `buckling.rs`: quasi-static compression of a clamped bar (Kumar 2016 Sec. 5).
@@ -13,6 +15,7 @@
 //! Every parallel loop writes per-item results and every reduction sums fixed chunks in
 //! order, so a history is bit-for-bit the same on any number of threads.
 
+pub(crate) mod breakage;
 pub(crate) mod buckling;
 pub(crate) mod element;
 pub(crate) mod equilibrium;
@@ -27,6 +30,7 @@ pub(crate) mod sim;
 pub(crate) mod state;
 pub(crate) mod stress_tests;
 
+pub use breakage::{BondCriteria, BondCriterion, BreakEvent};
 pub use buckling::{compress_clamped_bar, CompressionOptions, Loading};
 pub use buckling::{CompressionPoint, CompressionResult};
 pub use element::{dynamic_tensor, path_gradient, relax_path, to_voigt, ElementTestOptions};
