@@ -14,6 +14,7 @@
 //! order, so a history is bit-for-bit the same on any number of threads.
 
 pub(crate) mod buckling;
+pub(crate) mod contacts;
 pub(crate) mod element;
 pub(crate) mod equilibrium;
 pub(crate) mod grips;
@@ -29,6 +30,7 @@ pub(crate) mod stress_tests;
 
 pub use buckling::{compress_clamped_bar, CompressionOptions, Loading};
 pub use buckling::{CompressionPoint, CompressionResult};
+pub use contacts::{Contact, ContactLaw, Contacts, PairSet};
 pub use element::{dynamic_tensor, path_gradient, relax_path, to_voigt, ElementTestOptions};
 pub use element::{DynamicTensor, ElementRecord, PathResult};
 pub use equilibrium::Unbalance;
