@@ -30,7 +30,7 @@
 //! `CohFrictPhys` keeps the bond's springs after cohesion breaks, call
 //! [`Contacts::set_pair_stiffness`] with the bond's k_n, k_s.
 
-use super::state::{DeformingCell, Particles};
+use super::state::{deterministic_sum_mat3, DeformingCell, Particles};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -306,7 +306,8 @@ impl Contacts {
     /// `particles`: positions at t, velocities at t − dt/2 (as the bond laws see them);
     /// `cell`: the periodic cell after its integration for this step (None: free assembly);
     /// `excluded(i, j)` (i < j): true for the pairs that must have no contact (intact bonds),
-    /// asked for every listed pair at every call; an excluded pair loses its contact state.
+    /// asked at every call for each listed pair in touch; an excluded pair loses its contact
+    /// state.
     ///
     /// The Verlet list is rebuilt first when needed: on the first call, when the assembly
     /// changed between free and periodic, or when 2·max_p |u_p| + ‖F − I‖·(2R_max + skin) ≥
@@ -332,16 +333,7 @@ impl Contacts {
                 torque.len()
             )));
         }
-        if !(dt.is_finite() && dt >= 0.0) {
-            return Err(Error::Invalid(format!(
-                "contacts: the time step must be finite and ≥ 0, got {dt}"
-            )));
-        }
-        if self.needs_rebuild(particles, cell)? {
-            self.rebuild(particles, cell)?;
-        }
-        self.evaluate(particles, cell, dt, excluded);
-        self.gather(n);
+        self.update(particles, cell, dt, excluded)?;
         force
             .par_iter_mut()
             .zip(torque.par_iter_mut())
@@ -351,6 +343,47 @@ impl Contacts {
                 *t += ct;
             });
         Ok(())
+    }
+
+    /// [`Contacts::compute`] without adding: the per-particle contact loads are left in
+    /// [`Contacts::force`] and [`Contacts::torque`] (for an integrator that gathers them
+    /// itself). Same arguments and errors.
+    pub fn update(
+        &mut self,
+        particles: &Particles,
+        cell: Option<&DeformingCell>,
+        dt: f64,
+        excluded: &(dyn Fn(usize, usize) -> bool + Sync),
+    ) -> Result<()> {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "contacts: the time step must be finite and ≥ 0, got {dt}"
+            )));
+        }
+        if self.needs_rebuild(particles, cell)? {
+            self.rebuild(particles, cell)?;
+        }
+        self.evaluate(particles, cell, dt, excluded);
+        self.gather(particles.len());
+        Ok(())
+    }
+
+    /// Σ f_i ⊗ l over the contacts in touch at the last evaluation (N·m), with f_i the force
+    /// on i and l = x_j + H·c − x_i the branch vector at `particles`' positions: the contacts'
+    /// part of the Love stress σ = (1/V) Σ f_i ⊗ l (tension positive; Kumar 2016 Eq. 9),
+    /// as `Simulation::stress` sums the bonds'. Summed in fixed chunks in order.
+    pub fn stress_sum(&self, particles: &Particles, cell: Option<&DeformingCell>) -> Mat3 {
+        let h = cell.map_or(Mat3::zeros(), |c| c.h);
+        let x = &particles.position;
+        deterministic_sum_mat3(self.list.len(), |k| {
+            if !self.state[k].active {
+                return Mat3::zeros();
+            }
+            let c = &self.list[k];
+            let cd = Vec3::new(c.image[0] as f64, c.image[1] as f64, c.image[2] as f64);
+            let l = x[c.j as usize] + h * cd - x[c.i as usize];
+            self.loads[k].force_i * l.transpose()
+        })
     }
 
     /// Contact force on each particle at the last [`Contacts::compute`] (N).
