@@ -17,6 +17,7 @@
 
 pub(crate) mod breakage;
 pub(crate) mod buckling;
+pub(crate) mod contacts;
 pub(crate) mod element;
 pub(crate) mod equilibrium;
 pub(crate) mod grips;
@@ -33,6 +34,7 @@ pub(crate) mod stress_tests;
 pub use breakage::{BondCriteria, BondCriterion, BreakEvent};
 pub use buckling::{compress_clamped_bar, CompressionOptions, Loading};
 pub use buckling::{CompressionPoint, CompressionResult};
+pub use contacts::{Contact, ContactLaw, Contacts, PairSet};
 pub use element::{dynamic_tensor, path_gradient, relax_path, to_voigt, ElementTestOptions};
 pub use element::{DynamicTensor, ElementRecord, PathResult};
 pub use equilibrium::Unbalance;
