@@ -70,7 +70,7 @@ pub mod prelude {
     //! A packing ([`Packing`], [`read_packing`]) and a [`Model`] make an [`Assembly`] (its
     //! [`BondSet`] and springs); a [`Method`] (by name: [`MethodKind`], with
     //! [`MethodOptions`]) gives its tensor; the studies ([`buckling`], [`cavity`], [`demo`],
-    //! [`domain`]) run with their options into their reports; with the `engines` feature,
+    //! [`domain`], [`strength_test`]) run with their options into their reports; with the `engines` feature,
     //! an engine runner (`Yade`, `Lammps`, `Liggghts`) checks a problem through `validate`.
 
     pub use crate::assembly::{
@@ -87,6 +87,7 @@ pub mod prelude {
     pub use crate::study::cavity::{self, CavityReport, CavityStudyOptions};
     pub use crate::study::demo::{self, DemoOptions, DemoReport};
     pub use crate::study::domain::{self, DomainOn, DomainReport};
+    pub use crate::study::strength_test::{self, StrengthTestOptions, StrengthTestReport};
     pub use crate::study::OptionNames;
     pub use crate::tensor::{Stiffness6, Voigt6};
     #[cfg(feature = "engines")]

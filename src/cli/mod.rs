@@ -18,6 +18,7 @@ mod pack;
 mod plot;
 pub mod run;
 mod specimen;
+mod strength_test;
 mod stress_test;
 mod validate;
 mod validate_lammps;
@@ -94,6 +95,10 @@ enum Command {
     /// routes at several l/r; the bonded network's linearised critical stress beside Euler
     /// (Eq. 14) and Mazzilli (Eq. 15), E from the bar's own axial modulus (CSV, JSON, PNG).
     Buckle(buckle::BuckleArgs),
+    /// The virtual laboratory: UCS, direct tension or the Brazilian disc on a specimen cut
+    /// from a packing at a bedding angle, run to failure with the integrator; peak stress
+    /// (Pa), E and ν from the initial slope, crack counts by mode (JSON, CSV, PNG, VTK).
+    StrengthTest(strength_test::StrengthTestArgs),
     /// Pictures of a model (PNG).
     #[command(subcommand)]
     Plot(plot::PlotCommand),
@@ -288,6 +293,7 @@ pub fn run() -> Result<()> {
         Command::Domain(a) => domain::run(a),
         Command::Specimen(a) => specimen::run(a),
         Command::Buckle(a) => buckle::run(a),
+        Command::StrengthTest(a) => strength_test::run(a),
         Command::Cavity(a) => cavity::run(a),
         Command::Plot(c) => plot::run(c),
         Command::Validate(a) => validate::run(a),

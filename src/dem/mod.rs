@@ -6,6 +6,8 @@
 //! - [`laws`]: the [`BondLaw`] trait and laws (a) YADE cohesive, (b) parallel bond,
 //!   (c) Kumar 2016, (d) LAMMPS bpm/rotational.
 //! - `sim.rs`: [`Simulation`], YADE's NewtonIntegrator step by step.
+//! - `breakage.rs`: [`BondCriteria`], one failure criterion per bond by law; bonds break
+//!   after a force evaluation ([`Simulation::set_breakage`], [`BreakEvent`]).
 //! - `element.rs`: six strain paths → Truszkowska 2018 Eq. 27 → C.
 //! - `equilibrium.rs`: the stop rule of every damped relaxation (unbalanced force/torque).
 //! - `buckling.rs`: quasi-static compression of a clamped bar (Kumar 2016 Sec. 5).
@@ -13,7 +15,9 @@
 //! Every parallel loop writes per-item results and every reduction sums fixed chunks in
 //! order, so a history is bit-for-bit the same on any number of threads.
 
+pub(crate) mod breakage;
 pub(crate) mod buckling;
+pub(crate) mod contacts;
 pub(crate) mod element;
 pub(crate) mod equilibrium;
 pub(crate) mod grips;
@@ -27,8 +31,10 @@ pub(crate) mod sim;
 pub(crate) mod state;
 pub(crate) mod stress_tests;
 
+pub use breakage::{BondCriteria, BondCriterion, BreakEvent};
 pub use buckling::{compress_clamped_bar, CompressionOptions, Loading};
 pub use buckling::{CompressionPoint, CompressionResult};
+pub use contacts::{Contact, ContactLaw, Contacts, PairSet};
 pub use element::{dynamic_tensor, path_gradient, relax_path, to_voigt, ElementTestOptions};
 pub use element::{DynamicTensor, ElementRecord, PathResult};
 pub use equilibrium::Unbalance;

@@ -2,7 +2,8 @@
 //! fluctuating velocity, the periodic cell's affine field with the one-step-late
 //! `nextVelGrad`), the Love stress, energies, the critical time step and blow-up detection.
 
-use super::laws::{BondContext, BondLaw};
+use super::breakage::{self, BondCriteria, BreakEvent};
+use super::laws::{BondContext, BondLaw, BOND_CHUNK};
 use super::quat::{spin_factors, Quat};
 use super::state::{
     deterministic_sum, deterministic_sum_mat3, BondLoads, BondTopology, DeformingCell, MassOptions,
@@ -288,12 +289,33 @@ pub struct Energies {
     pub local_damping: f64,
     /// Energy removed by viscous bond damping so far.
     pub viscous_damping: f64,
+    /// Elastic energy the bonds held when they broke, summed so far (released by breaking;
+    /// [`BreakEvent::energy`]).
+    pub broken_bonds: f64,
+    /// Elastic energy stored in the frictional contacts at t (0 until contacts are on).
+    pub contact_elastic: f64,
+    /// Energy dissipated by contact friction so far (0 until contacts are on).
+    pub friction: f64,
 }
 
 impl Energies {
     /// Kinetic + elastic.
     pub fn mechanical(&self) -> f64 {
         self.kinetic + self.elastic
+    }
+
+    /// Where the work done on the assembly went: kinetic + bond and contact elastic +
+    /// local and viscous damping + broken bonds + friction. Equals the initial kinetic and
+    /// elastic energy plus the work of the held particles and external forces (the energy
+    /// check of a run).
+    pub fn accounted(&self) -> f64 {
+        self.kinetic
+            + self.elastic
+            + self.contact_elastic
+            + self.local_damping
+            + self.viscous_damping
+            + self.broken_bonds
+            + self.friction
     }
 }
 
@@ -346,6 +368,14 @@ pub struct Simulation {
     free_volume: f64,
     prescribed: Option<HeldParticles>,
     external: Option<ExternalForces>,
+    /// Failure criteria judged after every force evaluation (None: bonds never break).
+    criteria: Option<BondCriteria>,
+    /// Per bond: not broken.
+    intact: Vec<bool>,
+    /// Bonds broken so far, in breaking order.
+    break_events: Vec<BreakEvent>,
+    /// Σ of the broken bonds' elastic energies (J).
+    broken_energy: f64,
 }
 
 /// Per-particle external forces (N), e.g. a pressure on exposed surface particles: each
@@ -405,6 +435,10 @@ impl Clone for Simulation {
             free_volume: self.free_volume,
             prescribed: self.prescribed.clone(),
             external: self.external.clone(),
+            criteria: self.criteria.clone(),
+            intact: self.intact.clone(),
+            break_events: self.break_events.clone(),
+            broken_energy: self.broken_energy,
         }
     }
 }
@@ -457,6 +491,10 @@ impl Simulation {
             free_volume: packing.volume(),
             prescribed: None,
             external: None,
+            criteria: None,
+            intact: vec![true; bonds.len()],
+            break_events: Vec::new(),
+            broken_energy: 0.0,
         };
         let mut law = law;
         law.initialize(
@@ -639,6 +677,97 @@ impl Simulation {
         self.prescribed.as_ref().map(|h| &h.motion)
     }
 
+    /// Let bonds break by `criteria` from the next step on (None: no more breaking; bonds
+    /// broken so far stay broken). Refuses criteria for another number of bonds or for
+    /// another bond law than this simulation's.
+    pub fn set_breakage(&mut self, criteria: Option<BondCriteria>) -> Result<()> {
+        if let Some(c) = &criteria {
+            if c.len() != self.topology.len() {
+                return Err(Error::Invalid(format!(
+                    "breakage: criteria for {} bonds, but the assembly has {}",
+                    c.len(),
+                    self.topology.len()
+                )));
+            }
+            let want = breakage::law_name(c.law());
+            if want != self.law.name() {
+                return Err(Error::Invalid(format!(
+                    "breakage: criteria made for bond law `{want}`, but the simulation runs `{}`",
+                    self.law.name()
+                )));
+            }
+        }
+        self.criteria = criteria;
+        Ok(())
+    }
+
+    /// The failure criteria in force, if any.
+    pub fn breakage(&self) -> Option<&BondCriteria> {
+        self.criteria.as_ref()
+    }
+
+    /// The bonds broken so far, in breaking order (by step, then bond index).
+    pub fn break_events(&self) -> &[BreakEvent] {
+        &self.break_events
+    }
+
+    /// Whether bond `b` is not broken (panics if `b` is out of range).
+    pub fn is_intact(&self, b: usize) -> bool {
+        self.intact[b]
+    }
+
+    /// Number of bonds not broken.
+    pub fn intact_count(&self) -> usize {
+        self.intact.len() - self.break_events.len()
+    }
+
+    /// Judge every intact bond on the loads just computed, in parallel over fixed chunks of
+    /// bonds (the verdicts do not depend on the thread count), then break the failed ones in
+    /// bond order: [`BondLaw::break_bond`], their loads zeroed for this step's update, an
+    /// event each.
+    ///
+    /// Timing as LAMMPS's `bpm/rotational`: a bond whose loads meet its criterion at this
+    /// evaluation applies nothing in this step (LAMMPS skips it in `compute` and drops it
+    /// from the bond list). YADE differs (`Law2_ScGeom6D_CohFrictPhys_CohesionMoment`): a
+    /// bond broken in tension stops at once too, but one broken in shear keeps its
+    /// compression and its shear force capped at the Coulomb limit in that step, as a
+    /// frictional contact. Without contacts both give nothing here.
+    fn break_failed_bonds(&mut self) {
+        let Some(criteria) = &self.criteria else {
+            return;
+        };
+        let n = self.topology.len();
+        let law = self.law.as_ref();
+        let particles = &self.particles;
+        let intact = &self.intact;
+        let failed: Vec<Vec<(usize, crate::strength::Failure)>> = (0..n.div_ceil(BOND_CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                (c * BOND_CHUNK..((c + 1) * BOND_CHUNK).min(n))
+                    .filter(|&b| intact[b])
+                    .filter_map(|b| {
+                        let f = criteria.get(b).judge(law, particles, b);
+                        f.broken.then_some((b, f))
+                    })
+                    .collect()
+            })
+            .collect();
+        for (b, f) in failed.into_iter().flatten() {
+            let energy = self.law.break_bond(&self.particles, b);
+            self.loads.per_bond[b] = Default::default();
+            self.intact[b] = false;
+            self.broken_energy += energy;
+            self.break_events.push(BreakEvent {
+                bond: b,
+                step: self.iteration,
+                time: self.time,
+                mode: f.mode,
+                index: f.index,
+                energy,
+            });
+        }
+    }
+
     /// One step: cell update, bond forces, gather, leapfrog (YADE's step order).
     pub fn step(&mut self) -> Result<()> {
         let dt = self.dt;
@@ -651,6 +780,9 @@ impl Simulation {
             self.law
                 .compute(&ctx.as_context(&self.particles, &self.topology), &mut loads);
             self.loads = loads;
+        }
+        if self.criteria.is_some() {
+            self.break_failed_bonds();
         }
         let consts = self.integrate_particles();
         if let Some(held) = &mut self.prescribed {
@@ -794,6 +926,9 @@ impl Simulation {
             elastic: self.law.elastic_energy(),
             local_damping: self.local_dissipated,
             viscous_damping: self.law.viscous_dissipation(),
+            broken_bonds: self.broken_energy,
+            contact_elastic: 0.0,
+            friction: 0.0,
         }
     }
 
@@ -1115,6 +1250,15 @@ impl BondLaw for NoLaw {
     }
     fn bond_forces(&self, _: usize) -> (f64, Vec3) {
         (0.0, Vec3::zeros())
+    }
+    fn bond_normal(&self, _: usize) -> Vec3 {
+        Vec3::zeros()
+    }
+    fn local_loads(&self, _: &Particles, _: usize) -> crate::strength::LocalLoads {
+        Default::default()
+    }
+    fn break_bond(&mut self, _: &Particles, _: usize) -> f64 {
+        0.0
     }
     fn box_clone(&self) -> Box<dyn BondLaw> {
         Box::new(NoLaw)

@@ -324,3 +324,42 @@ pub fn write_bonds_vtu(
     };
     write_grid(path, &grid)
 }
+
+/// Write bonds as line cells between `positions` (m; bond k joins `i[k]` and `j[k]`) with
+/// one-component cell fields (name, one value per bond): e.g. a strength test's broken
+/// bonds with their state, time and mode of breaking.
+pub fn write_bond_fields_vtu(
+    path: &Path,
+    positions: &[Vec3],
+    i: &[u32],
+    j: &[u32],
+    fields: &[(&str, Vec<f64>)],
+) -> Result<()> {
+    let nb = i.len();
+    check_len("bond ends j", j.len(), nb)?;
+    for (name, v) in fields {
+        check_len(name, v.len(), nb)?;
+    }
+    if let Some(p) = i.iter().chain(j).find(|&&p| p as usize >= positions.len()) {
+        return Err(Error::Invalid(format!(
+            "VTK export: bond end {p} is not one of the {} particles",
+            positions.len()
+        )));
+    }
+    let grid = Grid {
+        points: positions.to_vec(),
+        connectivity: i
+            .iter()
+            .zip(j)
+            .flat_map(|(&a, &b)| [a as usize, b as usize])
+            .collect(),
+        offsets: (1..=nb).map(|k| 2 * k).collect(),
+        types: vec![3; nb], // VTK_LINE
+        point_data: Vec::new(),
+        cell_data: fields
+            .iter()
+            .map(|(n, v)| (n.to_string(), 1, join(v)))
+            .collect(),
+    };
+    write_grid(path, &grid)
+}

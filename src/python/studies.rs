@@ -1,5 +1,6 @@
 //! The studies (the library's [`crate::study`]) as Python functions: Kumar's buckled bars
-//! (`Assembly.cavity` is a method, in `assembly.rs`). Their dicts are the studies' reports,
+//! and the virtual laboratory's strength tests (`Assembly.cavity` is a method, in
+//! `assembly.rs`). Their dicts are the studies' reports,
 //! the keys of the command's JSON, plus numpy arrays.
 
 // pyo3's macros expand to code that clippy and missing_docs judge as if it were ours.
@@ -13,6 +14,7 @@ use super::packing::PyPacking;
 use crate::homogenize::buckling::{BucklingOptions, PreBuckling, RoundBar};
 use crate::study::buckling::BarRow;
 use crate::Error;
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -61,4 +63,102 @@ pub(super) fn buckle_bar<'py>(
     let d = report_to_py(py, &row, "buckle_bar")?;
     d.set_item("mode", vec3_array(py, &mode)?)?;
     Ok(d)
+}
+
+/// The virtual laboratory (docs/strength-test.md), as `anisobond strength-test`: `test`
+/// "ucs", "tension" or "brazilian" on a specimen cut from `packing` (None: a generated
+/// periodic packing of `cell_particles`, `seed`) bonded by `model` (None: the command's
+/// default model), the model turned by `bedding_deg` about y; the keywords are the
+/// command's flags (defaults the same). Returns strength_test.json's dict plus the curve
+/// as numpy arrays: `strain`, `stress_pa`, `lateral_strain` (NaN where not measured),
+/// `broken`. GIL released.
+#[pyfunction]
+#[pyo3(signature = (test = "ucs", *, packing = None, model = None, law = "yade",
+    shape = "prism", bedding_deg = None, width_particles = None, aspect = None,
+    end_layer = None, loading_rate = None, max_strain = None, stop_fraction = None,
+    local_damping = None, cell_particles = None, seed = None, points = None))]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn strength_test<'py>(
+    py: Python<'py>,
+    test: &str,
+    packing: Option<&PyPacking>,
+    model: Option<&PyModel>,
+    law: &str,
+    shape: &str,
+    bedding_deg: Option<f64>,
+    width_particles: Option<f64>,
+    aspect: Option<f64>,
+    end_layer: Option<f64>,
+    loading_rate: Option<f64>,
+    max_strain: Option<f64>,
+    stop_fraction: Option<f64>,
+    local_damping: Option<f64>,
+    cell_particles: Option<usize>,
+    seed: Option<u64>,
+    points: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crate::study::strength_test::{run, SpecimenShape, StrengthTestOptions, TestKind};
+    use crate::study::OptionNames;
+    let d = StrengthTestOptions::default();
+    let test = TestKind::from_name(test).ok_or_else(|| {
+        to_py(Error::Invalid(format!(
+            "test {test:?}: expected \"ucs\", \"tension\" or \"brazilian\""
+        )))
+    })?;
+    let shape = match shape {
+        "prism" => SpecimenShape::Prism,
+        "cylinder" => SpecimenShape::Cylinder,
+        other => {
+            return Err(to_py(Error::Invalid(format!(
+                "shape {other:?}: expected \"prism\" or \"cylinder\""
+            ))))
+        }
+    };
+    let law = super::method::LAWS
+        .iter()
+        .find(|(name, _)| *name == law)
+        .map(|(_, k)| *k)
+        .ok_or_else(|| {
+            to_py(Error::Invalid(format!(
+                "law {law:?}: expected \"yade\", \"parallel-bond\", \"kumar\" or \"lammps-bpm\""
+            )))
+        })?;
+    let opts = StrengthTestOptions {
+        test,
+        shape,
+        packing: packing.map(|p| p.inner.clone()),
+        model: model.map(|m| m.inner.clone()),
+        law,
+        bedding_deg: bedding_deg.unwrap_or(d.bedding_deg),
+        width_particles: width_particles.unwrap_or(d.width_particles),
+        aspect,
+        end_layer: end_layer.unwrap_or(d.end_layer),
+        loading_rate: loading_rate.unwrap_or(d.loading_rate),
+        max_strain: max_strain.unwrap_or(d.max_strain),
+        stop_fraction: stop_fraction.unwrap_or(d.stop_fraction),
+        local_damping: local_damping.unwrap_or(d.local_damping),
+        cell_particles: cell_particles.unwrap_or(d.cell_particles),
+        seed: seed.unwrap_or(d.seed),
+        points: points.unwrap_or(d.points),
+    };
+    opts.check(OptionNames::Keywords).map_err(to_py)?;
+    let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
+    let dict = report_to_py(py, &report, "strength_test")?;
+    let column = |f: &dyn Fn(&crate::study::strength_test::CurvePoint) -> f64| -> Vec<f64> {
+        report.curve.iter().map(f).collect()
+    };
+    dict.set_item("strain", PyArray1::from_vec(py, column(&|c| c.strain)))?;
+    dict.set_item(
+        "stress_pa",
+        PyArray1::from_vec(py, column(&|c| c.stress_pa)),
+    )?;
+    dict.set_item(
+        "lateral_strain",
+        PyArray1::from_vec(py, column(&|c| c.lateral_strain.unwrap_or(f64::NAN))),
+    )?;
+    dict.set_item(
+        "broken",
+        PyArray1::from_vec(py, column(&|c| c.broken as f64)),
+    )?;
+    Ok(dict)
 }

@@ -132,6 +132,9 @@ pub struct BondStrengths {
     /// crosses, or [`NO_JOINT`]: a joint bond is judged by [`criteria::joint`] on that
     /// family's plane.
     pub joint: Vec<u16>,
+    /// Unit normals of the plane families by index (`joint[b]` indexes it): the plane a
+    /// joint bond's force is resolved on ([`criteria::resolve_on_plane`]).
+    pub plane_normals: Vec<Vec3>,
 }
 
 impl BondStrengths {
@@ -233,7 +236,10 @@ pub fn strengths_along(
             (base.scaled(factor), tag)
         })
         .collect();
-    let mut out = BondStrengths::default();
+    let mut out = BondStrengths {
+        plane_normals: spec.planes.iter().map(|p| p.normal).collect(),
+        ..Default::default()
+    };
     for (s, tag) in per_bond {
         out.push(s, tag);
     }

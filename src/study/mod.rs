@@ -7,11 +7,14 @@
 //! - [`cavity`]: Šmilauer's pressurised cavity (`anisobond cavity`, `Assembly.cavity`).
 //! - [`demo`]: Truszkowska 2018's assembly by every method (`anisobond demo`).
 //! - [`domain`]: the accessible cubic domain (`anisobond domain`).
+//! - [`strength_test`]: the virtual laboratory — UCS, direct tension and the Brazilian disc
+//!   to failure at a bedding angle (`anisobond strength-test`, `anisobond.strength_test`).
 
 pub mod buckling;
 pub mod cavity;
 pub mod demo;
 pub mod domain;
+pub mod strength_test;
 
 /// How a study's checks name its options: as the command line's flags (`--dem-steps`) or as
 /// the keyword arguments of Python (`dem_steps`).

@@ -4,6 +4,7 @@
 //! One module per file; see tests/README.md.
 
 mod bar;
+mod breakage;
 mod criteria;
 mod jaeger;
 mod model_file;

@@ -30,7 +30,8 @@
 use super::{BondContext, BondLaw, BOND_CHUNK};
 use crate::bonds::BondStiffness;
 use crate::dem::quat::Quat;
-use crate::dem::state::BondLoads;
+use crate::dem::state::{BondLoads, Particles};
+use crate::strength::LocalLoads;
 use crate::{Error, Result, Vec3};
 use rayon::prelude::*;
 
@@ -83,11 +84,30 @@ struct BpmBond {
     flipped: bool,
 }
 
-/// Per-bond results of the last evaluation: force on the topology's j end and its normal.
+/// Per-bond results of the last evaluation: force on the topology's j end and its normal,
+/// and the elastic parts the breaking criterion reads (LAMMPS judges the elastic loads,
+/// before damping).
 #[derive(Clone, Copy, Debug, Default)]
 struct BpmResult {
     force_j: Vec3,
     normal: Vec3,
+    elastic: ElasticParts,
+}
+
+/// One bond's elastic loads, as squares where the energy needs them anyway (no square root
+/// per bond and step unless breakage asks).
+#[derive(Clone, Copy, Debug, Default)]
+struct ElasticParts {
+    /// F_r = k_r(|r| − r₀) (N, tension positive).
+    fr: f64,
+    /// |F_s|² (N²), the whole shear force (bond direction and bending rotation).
+    fs2: f64,
+    /// |τ_b|² (N²·m²).
+    tb2: f64,
+    /// |τ_t|² (N²·m²).
+    tt2: f64,
+    /// Elastic energy (J).
+    energy: f64,
 }
 
 /// LAMMPS `bpm/rotational` as a [`BondLaw`].
@@ -177,7 +197,7 @@ fn twist_and_bend(q21: &Quat) -> (f64, f64, f64, f64) {
 }
 
 /// Elastic loads (Wang 2009; Mora & Wang 2009) of one bond: (force on 2, torque on 2,
-/// torque on 1, elastic energy). `r` = x₁ − x₂, `r0` = r₀·r̂₀, q₁, q₂ the orientations.
+/// torque on 1, the elastic parts and energy). `r` = x₁ − x₂, `r0` = r₀·r̂₀, q₁, q₂ the orientations.
 #[allow(clippy::too_many_arguments)]
 fn elastic_loads(
     c: &BpmCoefficients,
@@ -189,7 +209,7 @@ fn elastic_loads(
     r0: &Vec3,
     q1: &Quat,
     q2: &Quat,
-) -> (Vec3, Vec3, Vec3, f64) {
+) -> (Vec3, Vec3, Vec3, ElasticParts) {
     let r0_mag_inv = 1.0 / r0_mag;
     let (mut kr, mut ks) = (c.kr, c.ks);
     if normalize == BpmNormalize::PerRestLength {
@@ -233,18 +253,21 @@ fn elastic_loads(
     let force1on2 = rotate(q2, &f_rot);
     let torque1on2 = rotate(q2, &(ts + tt + tb));
     let torque2on1 = rotate(q2, &(ts - tt - tb));
+    let (fs2, tb2, tt2) = (fs.norm_squared(), tb.norm_squared(), tt.norm_squared());
     let mut energy = 0.0;
-    for (load2, k) in [
-        (fr * fr, kr),
-        (fs.norm_squared(), ks),
-        (tb.norm_squared(), c.kb),
-        (tt.norm_squared(), c.kt),
-    ] {
+    for (load2, k) in [(fr * fr, kr), (fs2, ks), (tb2, c.kb), (tt2, c.kt)] {
         if k > 0.0 {
             energy += 0.5 * load2 / k;
         }
     }
-    (force1on2, torque1on2, torque2on1, energy)
+    let parts = ElasticParts {
+        fr,
+        fs2,
+        tb2,
+        tt2,
+        energy,
+    };
+    (force1on2, torque1on2, torque2on1, parts)
 }
 
 /// Damping loads (Wang, Alonso-Marroquin & Guo 2015) added to (force on 2, torque on 2,
@@ -423,7 +446,7 @@ impl BondLaw for LammpsBpmLaw {
                     let rhat = r * r_mag_inv;
                     let r0 = bd.r0_hat * bd.r0_mag;
                     let (q1, q2) = (&p.orientation[a], &p.orientation[b]);
-                    let (mut f12, mut t12, mut t21, energy) =
+                    let (mut f12, mut t12, mut t21, elastic) =
                         elastic_loads(c, normalize, r_mag, bd.r0_mag, r_mag_inv, &r, &r0, q1, q2);
                     let damped =
                         c.gamma_n > 0.0 || c.gamma_s > 0.0 || c.gamma_r > 0.0 || c.gamma_t > 0.0;
@@ -442,7 +465,7 @@ impl BondLaw for LammpsBpmLaw {
                         // Power removed: −(loads on 1 and 2 · their velocities).
                         sums[0] -= (-df).dot(&v1) + df.dot(&v2) + dt21.dot(&w1) + dt12.dot(&w2);
                     }
-                    sums[1] += energy;
+                    sums[1] += elastic.energy;
                     let o = &mut out[k];
                     if bd.flipped {
                         // Topology i = particle 2.
@@ -452,6 +475,7 @@ impl BondLaw for LammpsBpmLaw {
                         results[k] = BpmResult {
                             force_j: -f12,
                             normal: rhat,
+                            elastic,
                         };
                     } else {
                         o.force_i = -f12;
@@ -460,6 +484,7 @@ impl BondLaw for LammpsBpmLaw {
                         results[k] = BpmResult {
                             force_j: f12,
                             normal: -rhat,
+                            elastic,
                         };
                     }
                 }
@@ -501,6 +526,37 @@ impl BondLaw for LammpsBpmLaw {
         let r = &self.results[b];
         let fn_ = r.force_j.dot(&r.normal);
         (fn_, r.force_j - r.normal * fn_)
+    }
+
+    fn bond_normal(&self, b: usize) -> Vec3 {
+        self.results[b].normal
+    }
+
+    /// The elastic loads LAMMPS's criterion judges (`elastic_forces`, before damping):
+    /// F_n = −F_r, |F_s|, |τ_b|, |τ_t|.
+    fn local_loads(&self, _: &Particles, b: usize) -> LocalLoads {
+        let e = &self.results[b].elastic;
+        LocalLoads {
+            normal: -e.fr,
+            shear: e.fs2.sqrt(),
+            bending: e.tb2.sqrt(),
+            twisting: e.tt2.sqrt(),
+        }
+    }
+
+    /// Zero coefficients (springs and damping): the bond gives zero loads from then on, as
+    /// LAMMPS drops a broken bond from its bond list.
+    fn break_bond(&mut self, _: &Particles, b: usize) -> f64 {
+        let energy = self.results[b].elastic.energy;
+        if let Some(sum) = self.chunk_sums.get_mut(b / BOND_CHUNK) {
+            sum[1] -= energy;
+        }
+        self.coeffs[b] = BpmCoefficients::default();
+        self.results[b] = BpmResult {
+            normal: self.results[b].normal,
+            ..Default::default()
+        };
+        energy
     }
 
     fn box_clone(&self) -> Box<dyn BondLaw> {

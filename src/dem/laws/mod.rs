@@ -31,6 +31,7 @@ pub use yade::yade_cohesive_law;
 
 use super::quat::{rotation_vector_of, Quat};
 use super::state::{deterministic_sum, BondLoad, BondLoads, BondTopology, Particles};
+use crate::strength::LocalLoads;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
@@ -70,6 +71,20 @@ pub trait BondLaw: Send + Sync {
     /// Normal force of bond `b` (N, compression positive as YADE) and its shear force
     /// vector (N, YADE's `shearForce`, acting on j).
     fn bond_forces(&self, b: usize) -> (f64, Vec3);
+    /// Unit normal of bond `b` at the last evaluation, from i towards (the image of) j:
+    /// with [`BondLaw::bond_forces`], the force on j is n·F_n + F_s (joints resolve it on
+    /// their plane).
+    fn bond_normal(&self, b: usize) -> Vec3;
+    /// Bond `b`'s loads of the last evaluation in its own frame, as the failure criteria take
+    /// them ([`LocalLoads`]: F_n compression positive, |F_s|, |M_b|, |M_t|). `particles` is
+    /// the state that evaluation saw (laws whose moments are not stored recompute them from
+    /// the orientations).
+    fn local_loads(&self, particles: &Particles, b: usize) -> LocalLoads;
+    /// Break bond `b`: from now on it carries nothing (zero springs, state and damping, so
+    /// every kernel, the AVX2 lanes included, gives it zero loads) and
+    /// [`BondLaw::elastic_energy`] no longer counts it. Returns the elastic energy it held at
+    /// the last evaluation (J); `particles` as for [`BondLaw::local_loads`].
+    fn break_bond(&mut self, particles: &Particles, b: usize) -> f64;
     /// Boxed clone (element tests restart each path from the same initial law state).
     fn box_clone(&self) -> Box<dyn BondLaw>;
 }
@@ -434,6 +449,41 @@ fn orientation_moments<const REF: bool>(
     moment_elastic
 }
 
+/// The orientation form's moment vectors (M_b, M_t) of bond `b` at the orientations of
+/// `p` and the normal `n`: the operations of [`orientation_moments`] (which the AVX2 lanes
+/// repeat), for a bond whose moments are not kept; also their elastic energy.
+fn orientation_moment_vectors(
+    p: &Particles,
+    ori_ref: &[[Quat; 2]],
+    b: usize,
+    c: &BondHot,
+    n: Vec3,
+) -> (BondMoments, f64) {
+    let mut mom = BondMoments::default();
+    if !(c.kr > 0.0 || c.ktw > 0.0) {
+        return (mom, 0.0);
+    }
+    let (i, j) = (c.i as usize, c.j as usize);
+    let (qi, qj) = (p.orientation[i], p.orientation[j]);
+    let delta = match ori_ref.get(b) {
+        Some([qi0, qj0]) => qi.mul(&qi0.conjugate()).mul(&qj0.mul(&qj.conjugate())),
+        None => qi.mul(&qj.conjugate()),
+    };
+    let rotation = rotation_vector_of(&delta);
+    let twist = rotation.dot(&n);
+    let bending = rotation - n * twist;
+    let mut energy = 0.0;
+    if c.kr > 0.0 {
+        energy += 0.5 * c.kr * bending.norm_squared();
+        mom.bending = bending * c.kr;
+    }
+    if c.ktw > 0.0 {
+        energy += 0.5 * c.ktw * (twist * twist);
+        mom.twist = n * (twist * c.ktw);
+    }
+    (mom, energy)
+}
+
 /// The incremental form's moments (YADE's `Law2_ScGeom6D_CohFrictPhys_CohesionMoment`):
 /// the relative angular velocity `rel_ang` = ω_j − ω_i split into bending and twist about
 /// `n`, each integrated over `dt` with its stiffness (M −= k·Δθ); a zero stiffness zeroes
@@ -686,6 +736,57 @@ impl BondLaw for LinearBondKernel {
             self.dyn_state[b].normal_force,
             self.dyn_state[b].shear_force,
         )
+    }
+
+    fn bond_normal(&self, b: usize) -> Vec3 {
+        self.dyn_state[b].normal
+    }
+
+    fn local_loads(&self, particles: &Particles, b: usize) -> LocalLoads {
+        let s = &self.dyn_state[b];
+        let mom = match self.moment_state.get(b) {
+            Some(m) => *m,
+            None => {
+                orientation_moment_vectors(particles, &self.ori_ref, b, &self.hot[b], s.normal).0
+            }
+        };
+        LocalLoads::from_vectors(s.normal_force, &s.shear_force, &mom.bending, &mom.twist)
+    }
+
+    fn break_bond(&mut self, particles: &Particles, b: usize) -> f64 {
+        let c = self.hot[b];
+        let s = self.dyn_state[b];
+        let mut energy = 0.0;
+        if c.kn > 0.0 {
+            energy += 0.5 * s.normal_force * s.normal_force / c.kn;
+        }
+        if c.ks > 0.0 {
+            energy += 0.5 * s.shear_force.norm_squared() / c.ks;
+        }
+        match self.moment_state.get_mut(b) {
+            Some(m) => {
+                energy += moment_energy(&c, m);
+                *m = BondMoments::default();
+            }
+            None => {
+                // Orientation form: the bond loop summed this bond's moment energy into its
+                // chunk; take it out so that elastic_energy no longer counts it.
+                let (_, e) = orientation_moment_vectors(particles, &self.ori_ref, b, &c, s.normal);
+                energy += e;
+                if let Some(sum) = self.chunk_sums.get_mut(b / BOND_CHUNK) {
+                    sum[1] -= e;
+                }
+            }
+        }
+        let h = &mut self.hot[b];
+        (h.kn, h.ks, h.kr, h.ktw) = (0.0, 0.0, 0.0, 0.0);
+        let st = &mut self.dyn_state[b];
+        st.normal_force = 0.0;
+        st.shear_force = Vec3::zeros();
+        if let Some(e) = self.eta.get_mut(b) {
+            *e = [0.0, 0.0];
+        }
+        energy
     }
 
     fn box_clone(&self) -> Box<dyn BondLaw> {

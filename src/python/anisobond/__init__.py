@@ -40,6 +40,7 @@ from ._anisobond import (
     buckle_bar,
     calibrate_model as _calibrate_model,
     engineering_constants,
+    strength_test,
     validate,
 )
 
@@ -59,6 +60,7 @@ __all__ = [
     "buckle_bar",
     "calibrate",
     "engineering_constants",
+    "strength_test",
     "validate",
 ]
 

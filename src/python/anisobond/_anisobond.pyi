@@ -213,6 +213,31 @@ def buckle_bar(
     """Kumar 2016's clamped round bar (docs/buckling.md): a row of buckling.json
     (modulus_pa, sigma_network_pa, sigma_euler_pa, sigma_mazzilli_pa, sigma_deformed_pa,
     shear_stiffness_n, network with EI, …) and the first mode. tolerance None: 1e-6."""
+def strength_test(
+    test: str = "ucs",
+    *,
+    packing: Optional[Packing] = None,
+    model: Optional[Model] = None,
+    law: str = "yade",
+    shape: str = "prism",
+    bedding_deg: Optional[float] = None,
+    width_particles: Optional[float] = None,
+    aspect: Optional[float] = None,
+    end_layer: Optional[float] = None,
+    loading_rate: Optional[float] = None,
+    max_strain: Optional[float] = None,
+    stop_fraction: Optional[float] = None,
+    local_damping: Optional[float] = None,
+    cell_particles: Optional[int] = None,
+    seed: Optional[int] = None,
+    points: Optional[int] = None,
+) -> Dict[str, Any]:
+    """The virtual laboratory (docs/strength-test.md), as ``anisobond strength-test``:
+    "ucs", "tension" or "brazilian" on a specimen cut from ``packing`` (None: generated)
+    bonded by ``model`` (None: the command's default), turned by ``bedding_deg`` about y.
+    strength_test.json's dict (peak_stress_pa, strain_at_peak, modulus_pa, poisson,
+    cracks, broken_fraction, …) plus the curve as arrays: strain, stress_pa,
+    lateral_strain (NaN where not measured), broken."""
 def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
     """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""
 def validate(

@@ -1,0 +1,254 @@
+//! `anisobond strength-test`: the virtual laboratory ([`anisobond::study::strength_test`]):
+//! UCS, direct tension or the Brazilian disc on a specimen cut from a packing at a bedding
+//! angle, run to failure with the integrator; peak stress, E and ν from the initial slope,
+//! crack counts (JSON, CSV, PNG, VTK).
+
+use super::run::LawArg;
+use anisobond::dem::LawKind;
+use anisobond::io::OutputSet;
+use anisobond::model::Model;
+use anisobond::packing::read_packing;
+use anisobond::study::strength_test::{
+    run as run_study, SpecimenShape, StrengthTestOptions, StrengthTestProgress, StrengthTestReport,
+    TestKind,
+};
+use anisobond::study::OptionNames;
+use anisobond::Result;
+use indicatif::ProgressBar;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// Which test.
+#[derive(Clone, Copy, clap::ValueEnum, PartialEq, Eq, Debug)]
+pub enum TestArg {
+    /// Uniaxial compression between glued platens.
+    Ucs,
+    /// Direct tension between glued platens.
+    Tension,
+    /// The Brazilian disc between two flat rigid platens (spheres stick on contact):
+    /// σ_t = 2P/(πDt).
+    Brazilian,
+}
+
+/// Cross-section of a UCS or tension specimen.
+#[derive(Clone, Copy, clap::ValueEnum, PartialEq, Eq, Debug)]
+pub enum ShapeArg {
+    /// A square prism.
+    Prism,
+    /// A circular cylinder.
+    Cylinder,
+}
+
+impl From<TestKind> for TestArg {
+    fn from(t: TestKind) -> Self {
+        match t {
+            TestKind::Ucs => TestArg::Ucs,
+            TestKind::Tension => TestArg::Tension,
+            TestKind::Brazilian => TestArg::Brazilian,
+        }
+    }
+}
+
+impl From<SpecimenShape> for ShapeArg {
+    fn from(s: SpecimenShape) -> Self {
+        match s {
+            SpecimenShape::Prism => ShapeArg::Prism,
+            SpecimenShape::Cylinder => ShapeArg::Cylinder,
+        }
+    }
+}
+
+/// The flag's value of a bond law.
+fn law_arg(l: LawKind) -> LawArg {
+    match l {
+        LawKind::Yade => LawArg::Yade,
+        LawKind::ParallelBond => LawArg::ParallelBond,
+        LawKind::Kumar => LawArg::Kumar,
+        LawKind::LammpsBpm => LawArg::LammpsBpm,
+    }
+}
+
+/// The study's defaults (the library's, once).
+fn d() -> StrengthTestOptions {
+    StrengthTestOptions::default()
+}
+
+/// Options of `anisobond strength-test`.
+#[derive(clap::Args)]
+pub struct StrengthTestArgs {
+    /// The test.
+    #[arg(long, value_enum, default_value_t = TestArg::from(d().test))]
+    test: TestArg,
+    /// Cross-section of a UCS or tension specimen (the Brazilian specimen is a disc).
+    #[arg(long, value_enum, default_value_t = ShapeArg::from(d().shape))]
+    shape: ShapeArg,
+    /// Packing file the specimen is cut from (centred on its cell or bounding box); default:
+    /// a generated periodic packing of --cell-particles spheres (R̄ = 1 mm).
+    #[arg(long)]
+    packing: Option<PathBuf>,
+    /// Model file (docs/formats.md; its [strength] table gives the bond strengths,
+    /// docs/strength.md); default: isotropic bonds (gap 0.17 R̄, moduli 1e10 Pa and 3e9 Pa)
+    /// with σ_t = 5 MPa, c = 10 MPa.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Bond law of the integrator.
+    #[arg(long, value_enum, default_value_t = law_arg(d().law))]
+    law: LawArg,
+    /// Bedding angle β (degrees): the model (its cross-anisotropic axis, crystal rotation,
+    /// strength axis and planes of weakness) is turned by β about y; for a model whose axis
+    /// is z, β is its angle to the loading axis z.
+    #[arg(long, default_value_t = d().bedding_deg, allow_negative_numbers = true)]
+    bedding_deg: f64,
+    /// Width of the prism, diameter of the cylinder or disc, in mean radii R̄.
+    #[arg(long, default_value_t = d().width_particles)]
+    width_particles: f64,
+    /// Length over width (UCS, tension; default 2) or thickness over diameter (Brazilian;
+    /// default 0.5).
+    #[arg(long)]
+    aspect: Option<f64>,
+    /// Depth of the glued end layers in R̄ (UCS, tension).
+    #[arg(long, default_value_t = d().end_layer)]
+    end_layer: f64,
+    /// Axial strain added per wave transit time (at most 0.01; smaller is more
+    /// quasi-static, and slower).
+    #[arg(long, default_value_t = d().loading_rate)]
+    loading_rate: f64,
+    /// The run ends at this axial strain if the stress has not dropped before.
+    #[arg(long, default_value_t = d().max_strain)]
+    max_strain: f64,
+    /// The run ends once bonds have broken and the stress is below this fraction of its peak.
+    #[arg(long, default_value_t = d().stop_fraction)]
+    stop_fraction: f64,
+    /// Cundall local damping λ in [0, 1).
+    #[arg(long, default_value_t = d().local_damping)]
+    local_damping: f64,
+    /// Spheres of the generated packing (without --packing).
+    #[arg(long, default_value_t = d().cell_particles, conflicts_with = "packing")]
+    cell_particles: usize,
+    /// Seed of the generated packing.
+    #[arg(long, default_value_t = d().seed, conflicts_with = "packing")]
+    seed: u64,
+    /// Recorded points of the curve up to --max-strain.
+    #[arg(long, default_value_t = d().points)]
+    points: usize,
+    /// Output folder: strength_test.json, strength_test.csv (the curve), strength_test.png,
+    /// strength_test_bonds.vtu (every bond's state, time and mode of breaking).
+    #[arg(short, long, default_value = "anisobond-strength-test")]
+    output: PathBuf,
+}
+
+impl StrengthTestArgs {
+    /// The study's options (the packing and model files read).
+    fn options(&self) -> Result<StrengthTestOptions> {
+        Ok(StrengthTestOptions {
+            test: match self.test {
+                TestArg::Ucs => TestKind::Ucs,
+                TestArg::Tension => TestKind::Tension,
+                TestArg::Brazilian => TestKind::Brazilian,
+            },
+            shape: match self.shape {
+                ShapeArg::Prism => SpecimenShape::Prism,
+                ShapeArg::Cylinder => SpecimenShape::Cylinder,
+            },
+            packing: self.packing.as_deref().map(read_packing).transpose()?,
+            model: self.model.as_deref().map(Model::from_path).transpose()?,
+            law: LawKind::from(self.law),
+            bedding_deg: self.bedding_deg,
+            width_particles: self.width_particles,
+            aspect: self.aspect,
+            end_layer: self.end_layer,
+            loading_rate: self.loading_rate,
+            max_strain: self.max_strain,
+            stop_fraction: self.stop_fraction,
+            local_damping: self.local_damping,
+            cell_particles: self.cell_particles,
+            seed: self.seed,
+            points: self.points,
+        })
+    }
+}
+
+/// The summary printed after the run.
+fn print_summary(r: &StrengthTestReport) {
+    let opt = |v: Option<f64>, f: &dyn Fn(f64) -> String| v.map_or("-".to_string(), f);
+    println!(
+        "{} test ({}), β = {}°: {} particles, {} bonds, {} steps of {:.3e} s (ended: {})",
+        r.test, r.shape, r.bedding_deg, r.particles, r.bonds, r.steps, r.time_step_s, r.stop
+    );
+    println!(
+        "  peak stress {:.4e} Pa at strain {:.4e}; kinetic/elastic energy at the peak {:.2e}",
+        r.peak_stress_pa, r.strain_at_peak, r.kinetic_over_elastic_at_peak
+    );
+    println!(
+        "  E = {} Pa, ν = {} (fit on {} points, 10–50 % of the peak); static solve: E = {} Pa, ν = {}",
+        opt(r.modulus_pa, &|x| format!("{x:.4e}")),
+        opt(r.poisson, &|x| format!("{x:.4}")),
+        r.fit_points,
+        opt(r.static_modulus_pa, &|x| format!("{x:.4e}")),
+        opt(r.static_poisson, &|x| format!("{x:.4}")),
+    );
+    let c = &r.cracks;
+    println!(
+        "  cracks: {} (tension {}, shear {}, bending {}, twisting {}); broken fraction {:.4}",
+        c.total, c.tension, c.shear, c.bending, c.twisting, r.broken_fraction
+    );
+    for n in &r.notes {
+        println!("  note: {n}");
+    }
+}
+
+/// Run `anisobond strength-test`: the library's study with a progress bar, then its files.
+pub fn run(a: StrengthTestArgs) -> Result<()> {
+    let opts = a.options()?;
+    opts.check(OptionNames::Flags)?;
+    let inputs: Vec<&std::path::Path> = [a.packing.as_deref(), a.model.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    let mut out = OutputSet::new(&inputs);
+    let dir = out.dir(&a.output)?;
+    let bar: Mutex<Option<ProgressBar>> = Mutex::new(None);
+    let report = run_study(&opts, &|p| match p {
+        StrengthTestProgress::Specimen {
+            particles,
+            bonds,
+            time_step,
+            max_steps,
+        } => {
+            println!(
+                "specimen: {particles} particles, {bonds} bonds; time step {time_step:.3e} s, \
+                 at most {max_steps} steps"
+            );
+            *bar.lock().unwrap_or_else(|e| e.into_inner()) =
+                Some(super::output::progress_bar(a.test.name()));
+        }
+        StrengthTestProgress::Loading { fraction, .. } => {
+            if let Some(b) = bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+                b.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+            }
+        }
+    });
+    if let Some(b) = bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        b.finish_and_clear();
+    }
+    let report = report?;
+    report.write(&dir)?;
+    out.commit()?;
+    print_summary(&report);
+    println!(
+        "wrote {}/strength_test.json, strength_test.csv, strength_test.png, strength_test_bonds.vtu",
+        a.output.display()
+    );
+    Ok(())
+}
+
+impl TestArg {
+    /// The progress bar's label.
+    fn name(self) -> &'static str {
+        match self {
+            TestArg::Ucs => "UCS",
+            TestArg::Tension => "tension",
+            TestArg::Brazilian => "Brazilian disc",
+        }
+    }
+}

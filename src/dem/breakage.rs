@@ -1,0 +1,221 @@
+//! Bonds that break in the integrator (issue 32; docs/strength.md, "Breaking in the
+//! integrator"): one failure criterion per bond, chosen by the bond law as the engines define
+//! it, judged after every force evaluation of [`super::Simulation::step`].
+//!
+//! - Law (a), YADE CohFrict: [`YadeAdhesion::of`] (a_n = σ_t·r², a_s = c·r², r = min(R_i,
+//!   R_j); moments never break, as YADE 2023.02a), [`yade_cohfrict`].
+//! - Law (d), LAMMPS bpm/rotational: [`BpmLimits::of`] (f_rc = σ_t·π̂R_b², …), [`lammps_bpm`]
+//!   (B ≥ 1).
+//! - Laws (b) parallel bond and (c) Kumar: [`ParallelBondSection::of`] (Potyondy & Cundall
+//!   2004), [`parallel_bond`].
+//! - Bonds crossing a plane of weakness ([`BondStrengths::joint_of`]): [`JointLimits::of`],
+//!   the bond's force on j resolved on the plane ([`resolve_on_plane`]), [`joint`].
+//!
+//! R_b and π̂ are the model's `[geometry]` ([`Geometry::bond_radius`], `pi_hat`).
+
+use super::laws::BondLaw;
+use super::state::Particles;
+use super::LawKind;
+use crate::bonds::BondSet;
+use crate::packing::Packing;
+use crate::schemes::Geometry;
+use crate::strength::criteria::{
+    joint, lammps_bpm, parallel_bond, resolve_on_plane, yade_cohfrict, BpmLimits, JointLimits,
+    ParallelBondSection, YadeAdhesion, YadeMoments,
+};
+use crate::strength::{BondStrengths, Failure, LocalLoads, Mode};
+use crate::{Error, Result, Vec3};
+
+/// One bond breaking in the integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BreakEvent {
+    /// The bond (index into the [`BondSet`]).
+    pub bond: usize,
+    /// The step it broke in: [`super::Simulation::iteration`] at that step's force
+    /// evaluation (0 for the first step; after the step `iteration()` is `step + 1`).
+    pub step: u64,
+    /// Simulated time of that force evaluation (s).
+    pub time: f64,
+    /// How it broke.
+    pub mode: Mode,
+    /// The criterion's failure index at breaking (≥ 1 at the limit; see [`Failure::index`]).
+    pub index: f64,
+    /// Elastic energy the bond held when it broke (J), moved to
+    /// [`super::Energies::broken_bonds`].
+    pub energy: f64,
+}
+
+/// One bond's failure criterion, with its limits in the law's own units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BondCriterion {
+    /// YADE CohFrict adhesions (law a).
+    Yade(YadeAdhesion),
+    /// LAMMPS bpm/rotational critical loads (law d).
+    Bpm(BpmLimits),
+    /// Potyondy & Cundall's parallel-bond section (laws b, c).
+    ParallelBond(ParallelBondSection),
+    /// A joint bond: Mohr–Coulomb with a tension cut-off on the plane of unit normal `plane`.
+    Joint {
+        /// The joint's limits.
+        limits: JointLimits,
+        /// Unit normal of the plane of weakness the bond crosses.
+        plane: Vec3,
+    },
+}
+
+impl BondCriterion {
+    /// Judge bond `b` on the loads `law` computed at its last evaluation (`particles`: the
+    /// state that evaluation saw).
+    pub fn judge(&self, law: &dyn BondLaw, particles: &Particles, b: usize) -> Failure {
+        match self {
+            BondCriterion::Yade(a) if a.moments == YadeMoments::Elastic => {
+                // Moments are not judged: the forces suffice.
+                let (normal, shear) = law.bond_forces(b);
+                let loads = LocalLoads {
+                    normal,
+                    shear: shear.norm(),
+                    ..Default::default()
+                };
+                yade_cohfrict(a, &loads)
+            }
+            BondCriterion::Yade(a) => yade_cohfrict(a, &law.local_loads(particles, b)),
+            BondCriterion::Bpm(l) => lammps_bpm(l, &law.local_loads(particles, b)),
+            BondCriterion::ParallelBond(s) => parallel_bond(s, &law.local_loads(particles, b)),
+            BondCriterion::Joint { limits, plane } => {
+                let (normal, shear) = law.bond_forces(b);
+                let n = law.bond_normal(b);
+                let force_on_j = n * normal + shear;
+                let (normal, shear) = resolve_on_plane(&force_on_j, &n, plane);
+                let loads = LocalLoads {
+                    normal,
+                    shear,
+                    ..Default::default()
+                };
+                joint(limits, &loads)
+            }
+        }
+    }
+}
+
+/// The bond law's name ([`BondLaw::name`]) of a [`LawKind`].
+pub(crate) fn law_name(kind: LawKind) -> &'static str {
+    match kind {
+        LawKind::Yade => "yade",
+        LawKind::ParallelBond => "parallel-bond",
+        LawKind::Kumar => "kumar",
+        LawKind::LammpsBpm => "lammps-bpm",
+    }
+}
+
+/// Every bond's failure criterion, aligned with the [`BondSet`], for one bond law.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BondCriteria {
+    law: LawKind,
+    per_bond: Vec<BondCriterion>,
+}
+
+impl BondCriteria {
+    /// The criteria of law `law` from each bond's strength: YADE's adhesions with
+    /// r = min(R_i, R_j) (law a; moments elastic as YADE 2023.02a), LAMMPS's limits (law d)
+    /// or the parallel-bond section (laws b, c) with R_b and π̂ of `geometry`; a joint bond
+    /// (`strengths.joint_of(b)`) takes the joint criterion on its family's plane
+    /// (`strengths.plane_normals`). Refuses strengths or bonds that do not match the packing,
+    /// a joint without its plane normal, and a LAMMPS limit that is not > 0 (its criterion
+    /// divides by each).
+    pub fn for_law(
+        law: LawKind,
+        strengths: &BondStrengths,
+        packing: &Packing,
+        bonds: &BondSet,
+        geometry: &Geometry,
+    ) -> Result<BondCriteria> {
+        geometry.validate()?;
+        if strengths.len() != bonds.len() || strengths.joint.len() != bonds.len() {
+            return Err(Error::Invalid(format!(
+                "breakage: {} bond strengths ({} joint tags) for {} bonds (one per bond)",
+                strengths.len(),
+                strengths.joint.len(),
+                bonds.len()
+            )));
+        }
+        let n = packing.len();
+        let mut per_bond = Vec::with_capacity(bonds.len());
+        for b in 0..bonds.len() {
+            let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+            if i >= n || j >= n {
+                return Err(Error::Invalid(format!(
+                    "breakage: bond {b} joins particles {i} and {j}, but the packing has {n}"
+                )));
+            }
+            let (ri, rj) = (packing.radii[i], packing.radii[j]);
+            let rb = geometry.bond_radius(ri, rj);
+            let pi_hat = geometry.pi_hat;
+            let s = strengths.get(b);
+            let criterion = match strengths.joint_of(b) {
+                Some(k) => {
+                    let plane = *strengths.plane_normals.get(k).ok_or_else(|| {
+                        Error::Invalid(format!(
+                            "breakage: bond {b} crosses plane family {k}, but the strengths carry \
+                             {} plane normals (BondStrengths::plane_normals)",
+                            strengths.plane_normals.len()
+                        ))
+                    })?;
+                    BondCriterion::Joint {
+                        limits: JointLimits::of(&s, rb, pi_hat),
+                        plane,
+                    }
+                }
+                None => match law {
+                    LawKind::Yade => BondCriterion::Yade(YadeAdhesion::of(&s, ri, rj, false)),
+                    LawKind::LammpsBpm => {
+                        let l = BpmLimits::of(&s, rb, pi_hat);
+                        for (name, v) in [
+                            ("f_rc", l.f_rc),
+                            ("f_sc", l.f_sc),
+                            ("tau_bc", l.t_bc),
+                            ("tau_tc", l.t_tc),
+                        ] {
+                            if !(v.is_finite() && v > 0.0) {
+                                return Err(Error::Model(format!(
+                                    "breakage (lammps-bpm): bond {b} has {name} = {v}; LAMMPS's \
+                                     criterion needs every limit > 0 (a strength of 0 Pa?)"
+                                )));
+                            }
+                        }
+                        BondCriterion::Bpm(l)
+                    }
+                    LawKind::ParallelBond | LawKind::Kumar => {
+                        BondCriterion::ParallelBond(ParallelBondSection::of(&s, rb, pi_hat))
+                    }
+                },
+            };
+            per_bond.push(criterion);
+        }
+        Ok(BondCriteria { law, per_bond })
+    }
+
+    /// Criteria given bond by bond (for a law's criterion with limits made elsewhere).
+    pub fn from_criteria(law: LawKind, per_bond: Vec<BondCriterion>) -> BondCriteria {
+        BondCriteria { law, per_bond }
+    }
+
+    /// The bond law these criteria are for.
+    pub fn law(&self) -> LawKind {
+        self.law
+    }
+
+    /// Number of bonds.
+    pub fn len(&self) -> usize {
+        self.per_bond.len()
+    }
+
+    /// True when there are no bonds.
+    pub fn is_empty(&self) -> bool {
+        self.per_bond.is_empty()
+    }
+
+    /// The criterion of bond `b`.
+    pub fn get(&self, b: usize) -> &BondCriterion {
+        &self.per_bond[b]
+    }
+}
