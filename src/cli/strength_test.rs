@@ -25,7 +25,8 @@ pub enum TestArg {
     Ucs,
     /// Direct tension between glued platens.
     Tension,
-    /// The Brazilian disc between two flat rigid platens: σ_t = 2P/(πDt).
+    /// The Brazilian disc between two flat rigid platens (spheres stick on contact):
+    /// σ_t = 2P/(πDt).
     Brazilian,
 }
 

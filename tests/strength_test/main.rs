@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod breakage;
 mod cli;
 mod elastic;
 
