@@ -148,10 +148,10 @@ fn print_summary(c: &StrengthCalibration) {
         "  {:<16} {:>8} {:>14} {:>14} {:>9}",
         "", "β (°)", "target Pa", "measured Pa", "error"
     );
-    for k in 0..c.targets.len() {
+    for (k, name) in c.targets.iter().enumerate() {
         println!(
             "  {:<16} {:>8.2} {:>14.6e} {:>14.6e} {:>+8.3} %",
-            c.targets[k],
+            name,
             c.bedding_deg[k],
             c.target_pa[k],
             c.measured_peak_pa[k],
