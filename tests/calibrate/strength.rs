@@ -217,7 +217,10 @@ fn a_random_packing_calibrated_by_the_command_is_met_by_a_new_lab_run_of_the_wri
     let written = Model::from_path(&out).unwrap();
     let fitted = written.strength.as_ref().unwrap().bond.tensile;
     let scale = json["fitted_scale"][0].as_f64().unwrap();
-    assert!((fitted / (5e6 * scale) - 1.0).abs() < 1e-12, "{fitted} vs scale {scale}");
+    assert!(
+        (fitted / (5e6 * scale) - 1.0).abs() < 1e-12,
+        "{fitted} vs scale {scale}"
+    );
     let again = run(
         &StrengthTestOptions {
             test: TestKind::Tension,
@@ -260,19 +263,28 @@ fn unreachable_targets_and_bad_inputs_are_refused_by_name() {
         "{e}"
     );
     let e = go(&lattice_model(""), StrengthTarget::Tension(1e6), &opts);
-    assert!(matches!(&e, Error::Model(m) if m.contains("[strength]")), "{e}");
+    assert!(
+        matches!(&e, Error::Model(m) if m.contains("[strength]")),
+        "{e}"
+    );
     let two = StrengthTarget::TensionAlongAcross {
         along: 1e6,
         across: 1e6,
     };
     let e = go(&iso, two, &opts);
-    assert!(matches!(&e, Error::Model(m) if m.contains("[strength.along]")), "{e}");
+    assert!(
+        matches!(&e, Error::Model(m) if m.contains("[strength.along]")),
+        "{e}"
+    );
     let tilted = lattice_model(
         "[strength]\naxis = [0.0, 1.0, 1.0]\n[strength.bond]\ntensile = 1e6\ncohesion = 1e9\n\
          [strength.along]\ntensile = 1e6\ncohesion = 1e9\n",
     );
     let e = go(&tilted, two, &opts);
-    assert!(matches!(&e, Error::Invalid(m) if m.contains("x-z plane")), "{e}");
+    assert!(
+        matches!(&e, Error::Invalid(m) if m.contains("x-z plane")),
+        "{e}"
+    );
     let once = StrengthCalibrationOptions {
         max_iterations: 1,
         ..opts.clone()
@@ -287,7 +299,10 @@ fn unreachable_targets_and_bad_inputs_are_refused_by_name() {
         ..opts.clone()
     };
     let e = go(&iso, StrengthTarget::Tension(1e6), &loose);
-    assert!(matches!(&e, Error::Invalid(m) if m.contains("--tolerance")), "{e}");
+    assert!(
+        matches!(&e, Error::Invalid(m) if m.contains("--tolerance")),
+        "{e}"
+    );
     let e = go(&iso, StrengthTarget::Ucs(-1.0), &opts);
     assert!(matches!(&e, Error::Invalid(m) if m.contains("ucs")), "{e}");
 }
@@ -315,15 +330,32 @@ fn the_command_refuses_with_its_exit_status_and_writes_nothing() {
             .arg("--packing")
             .arg(&packing)
             .args(["--target", target, "--max-iterations", iterations])
-            .args(["--width-particles", "6", "--aspect", "2.6667", "--end-layer", "0.5"])
-            .args(["--loading-rate", "1e-6", "--max-strain", "2e-3", "--points", "4000"])
+            .args([
+                "--width-particles",
+                "6",
+                "--aspect",
+                "2.6667",
+                "--end-layer",
+                "0.5",
+            ])
+            .args([
+                "--loading-rate",
+                "1e-6",
+                "--max-strain",
+                "2e-3",
+                "--points",
+                "4000",
+            ])
             .arg("-o")
             .arg(&out);
         c
     };
     let e = fails(&mut base("tension=5MPa", "8"));
     assert!(e.contains("--max-strain"), "{e}");
-    assert_eq!(base("tension=5MPa", "8").output().unwrap().status.code(), Some(1));
+    assert_eq!(
+        base("tension=5MPa", "8").output().unwrap().status.code(),
+        Some(1)
+    );
     let o = base("tension=1MPa", "1").output().unwrap();
     assert_eq!(o.status.code(), Some(5), "{}", crate::common::stderr(&o));
     assert!(crate::common::stderr(&o).contains("--max-iterations"));
