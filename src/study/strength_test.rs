@@ -201,7 +201,7 @@ impl Default for StrengthTestOptions {
             width_particles: 16.0,
             aspect: None,
             end_layer: 1.0,
-            loading_rate: 1e-5,
+            loading_rate: 1e-6,
             max_strain: 0.005,
             stop_fraction: 0.5,
             local_damping: 0.1,
