@@ -10,6 +10,8 @@
 //! - `cross.rs`: cross-anisotropic calibration on a packing: the target written into the model
 //!   is corrected until the *relaxed* tensor matches (Šmilauer's Voigt inversion is soft).
 //! - `warm.rs`: the relaxed solver with a warm start, reused across calibration iterations.
+//! - `strength.rs`: the `[strength]` table's scale(s) that make the virtual laboratory reach a
+//!   target tensile strength (one or two directions) or UCS on the packing (issue 32 item 6).
 //! - `domain.rs`: sampling of the accessible domain (Truszkowska 2018 Eq. 16, Fig. 8, Fig. C.1a).
 
 mod broyden;
@@ -17,6 +19,7 @@ pub(crate) mod cross;
 pub(crate) mod cubic;
 pub(crate) mod domain;
 pub(crate) mod kernel;
+pub mod strength;
 pub(crate) mod target;
 pub(crate) mod warm;
 
@@ -31,6 +34,10 @@ pub use cubic::{
 pub use domain::{log_normalised, sample_mean_field, DomainOptions, DomainSample};
 pub use kernel::Cubic3;
 pub use kernel::CubicKernel;
+pub use strength::{
+    calibrate_strength, StrengthCalibration, StrengthCalibrationOptions,
+    StrengthCalibrationProgress, StrengthTarget,
+};
 pub use target::{CubicTarget, Target};
 
 /// Refuse iteration settings of a relaxed calibration that would make "calibrated" meaningless:

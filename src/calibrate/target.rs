@@ -159,7 +159,7 @@ pub fn check_transverse_target(c11: f64, c33: f64, c13: f64, c12: f64) -> Result
 
 /// Split a `--target` into `KEY=VALUE` items: separated by commas, semicolons or spaces,
 /// with spaces allowed around `=` and before a unit (`C11 = 80 GPa`).
-fn target_items(text: &str) -> Vec<String> {
+pub(crate) fn target_items(text: &str) -> Vec<String> {
     let is_unit = |t: &str| ["Pa", "kPa", "MPa", "GPa"].contains(&t);
     let mut items = Vec::new();
     for chunk in text.split([',', ';']) {
@@ -187,7 +187,7 @@ fn target_items(text: &str) -> Vec<String> {
 }
 
 /// A number with an optional unit suffix Pa, kPa, MPa, GPa (case-sensitive SI prefixes).
-fn parse_value(text: &str, key: &str, allow_unit: bool) -> Result<f64> {
+pub(crate) fn parse_value(text: &str, key: &str, allow_unit: bool) -> Result<f64> {
     let t = text.trim();
     let (number, scale) = if allow_unit {
         [("GPa", 1e9), ("MPa", 1e6), ("kPa", 1e3), ("Pa", 1.0)]

@@ -3,6 +3,7 @@
 
 mod buckle;
 mod calibrate;
+mod calibrate_strength;
 mod cavity;
 mod cell;
 mod convert;
@@ -81,6 +82,10 @@ enum Command {
     /// Scheme parameters that reproduce a target tensor, at the mean-field level or on a
     /// packing with the exact relaxed solver; writes the calibrated model file.
     Calibrate(calibrate::CalibrateArgs),
+    /// The [strength] table's scale(s) that make the virtual laboratory reach a target
+    /// tensile strength (one or two directions) or UCS on the packing, iterated on the lab's
+    /// peaks and verified by a final run; writes the calibrated model file.
+    CalibrateStrength(calibrate_strength::CalibrateStrengthArgs),
     /// A pressurised circular hole in a slab cut from a periodic packing (periodic along
     /// the hole, outer ring clamped): wall displacement (m) beside Lamé, in-plane Christoffel
     /// wave speeds (m/s) of the relaxed tensor; JSON, CSV and VTK.
@@ -290,6 +295,7 @@ pub fn run() -> Result<()> {
         Command::Grips(a) => grips::grips(a),
         Command::StressTest(a) => stress_test::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::CalibrateStrength(a) => calibrate_strength::run(a),
         Command::Domain(a) => domain::run(a),
         Command::Specimen(a) => specimen::run(a),
         Command::Buckle(a) => buckle::run(a),

@@ -15,6 +15,7 @@ mod errors;
 mod method;
 mod model;
 mod packing;
+mod strength;
 mod studies;
 mod tensor;
 mod validate;
@@ -44,6 +45,7 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate::calibrate_model, m)?)?;
     m.add_function(wrap_pyfunction!(studies::buckle_bar, m)?)?;
     m.add_function(wrap_pyfunction!(studies::strength_test, m)?)?;
+    m.add_function(wrap_pyfunction!(strength::calibrate_strength_model, m)?)?;
     m.add_function(wrap_pyfunction!(tensor::engineering_constants, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     Ok(())

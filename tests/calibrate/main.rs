@@ -7,3 +7,4 @@ mod common;
 mod cli;
 mod meanfield;
 mod relaxed;
+mod strength;

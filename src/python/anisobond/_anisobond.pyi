@@ -238,6 +238,34 @@ def strength_test(
     strength_test.json's dict (peak_stress_pa, strain_at_peak, modulus_pa, poisson,
     cracks, broken_fraction, …) plus the curve as arrays: strain, stress_pa,
     lateral_strain (NaN where not measured), broken."""
+def calibrate_strength_model(
+    model: Model,
+    target: str,
+    *,
+    packing: Optional[Packing] = None,
+    law: str = "yade",
+    shape: str = "prism",
+    bedding_deg: Optional[float] = None,
+    width_particles: Optional[float] = None,
+    aspect: Optional[float] = None,
+    end_layer: Optional[float] = None,
+    loading_rate: Optional[float] = None,
+    max_strain: Optional[float] = None,
+    stop_fraction: Optional[float] = None,
+    local_damping: Optional[float] = None,
+    cell_particles: Optional[int] = None,
+    seed: Optional[int] = None,
+    points: Optional[int] = None,
+    tolerance: Optional[float] = None,
+    max_iterations: Optional[int] = None,
+) -> Tuple[Model, Dict[str, Any]]:
+    """Strength calibration (docs/calibrate-strength.md), as ``anisobond
+    calibrate-strength`` (re-exported as ``anisobond.calibrate_strength``): the
+    [strength] table's scale(s) that make the virtual laboratory reach ``target``
+    ("tension=2MPa", "ucs=50MPa", "tension-along=1MPa,tension-across=3MPa") on
+    specimens cut from ``packing``. Returns the calibrated Model and the report
+    (fitted_scale, fitted_strength; measured_peak_pa from the verification run of the
+    calibrated model; iterations, runs, history)."""
 def engineering_constants(stiffness: _Floats) -> Dict[str, float]:
     """E1, E2, E3, G23, G13, G12 (Pa) and nu_ij of a (6, 6) tensor in Pa."""
 def validate(
