@@ -522,3 +522,111 @@ fn criteria_for_another_law_or_bond_count_are_refused() {
     ));
     assert_eq!(sim.intact_count(), bonds.len());
 }
+
+/// The largest overlap R_i + R_j − |x_i − x_j| over all pairs (brute force, m).
+fn largest_overlap(sim: &Simulation) -> f64 {
+    let x = &sim.particles.position;
+    let r = &sim.particles.radius;
+    let mut worst = f64::MIN;
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            worst = worst.max(r[i] + r[j] - (x[i] - x[j]).norm());
+        }
+    }
+    worst
+}
+
+/// A 3 × 3 × 6 stack whose bonds all break at the first step (criteria with a negative
+/// adhesion), compressed by its held ends by U = 0.1·d over 4,000 steps: with frictional
+/// contacts (the broken bonds' springs k_n, k_s, μ = 0.5) every column is 5 contacts in
+/// series, so the contacts overlap by U/5 and the end reaction is 9·k_n·U/5 (quasi-static
+/// closed form, 2 % for the start from rest); without contacts the end layer passes into the
+/// next by U. Energy: the work of the moving end equals the gain of kinetic + contact
+/// elastic + damping + friction to 1 %.
+#[test]
+fn a_broken_specimen_compressed_with_contacts_does_not_interpenetrate() {
+    use anisobond::dem::{BondCriterion, ContactLaw, Contacts};
+    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    let (nx, ny, nz) = (3, 3, 6);
+    let (packing, bonds, _) = bar(nx, ny, nz);
+    let u_total = 0.1 * D;
+    let run = |contacts: bool| {
+        let k = springs(&bonds, false);
+        let opts = DemOptions {
+            check_interval: 0,
+            local_damping: 0.2,
+            ..Default::default()
+        };
+        let mut sim = Simulation::new(
+            &packing,
+            &bonds,
+            build_law(LawKind::Yade, &packing, &bonds, &k).unwrap(),
+            &opts,
+        )
+        .unwrap();
+        let broken_at_once = BondCriterion::Yade(YadeAdhesion {
+            normal: -1.0,
+            shear: 0.0,
+            tan_friction: 0.0,
+            cohesion_disables_friction: false,
+            moments: YadeMoments::Elastic,
+        });
+        sim.set_breakage(Some(BondCriteria::from_criteria(
+            LawKind::Yade,
+            vec![broken_at_once; bonds.len()],
+        )))
+        .unwrap();
+        if contacts {
+            let law = ContactLaw {
+                normal_stiffness: 0.5 * KN,
+                shear_stiffness: 0.5 * KS,
+                friction: 0.5,
+            };
+            sim.set_contacts(Some(Contacts::new(law, 0.2 * R).unwrap()))
+                .unwrap();
+        }
+        let steps = 4000;
+        let v = -u_total / (steps as f64 * sim.time_step());
+        let top = pull(&mut sim, &packing, nz, v);
+        // The free spheres start at rest (so that, without contacts, nothing moves them).
+        let top_z = (nz - 1) as f64 * D;
+        for (p, x) in packing.positions.iter().enumerate() {
+            if x.z > 0.5 * D && x.z < top_z - 0.5 * D {
+                sim.particles.velocity[p] = Vec3::zeros();
+            }
+        }
+        let dt = sim.time_step();
+        let power = |sim: &Simulation| -top.iter().map(|&p| sim.force[p].z * v).sum::<f64>();
+        sim.step().unwrap();
+        let e0 = sim.energies().accounted();
+        let mut p_prev = power(&sim);
+        let mut work = 0.0;
+        for _ in 1..steps {
+            sim.step().unwrap();
+            let p = power(&sim);
+            work += 0.5 * (p_prev + p) * dt;
+            p_prev = p;
+        }
+        assert_eq!(sim.break_events().len(), bonds.len());
+        assert!(sim.break_events().iter().all(|e| e.step == 0));
+        assert_eq!(sim.intact_count(), 0);
+        let reaction = top.iter().map(|&p| sim.force[p].z).sum::<f64>();
+        let e = sim.energies();
+        (largest_overlap(&sim), reaction, work, e.accounted() - e0, e)
+    };
+    let (overlap, reaction, work, gained, e) = run(true);
+    let per_contact = u_total / (nz - 1) as f64;
+    let expected = (nx * ny) as f64 * KN * per_contact;
+    println!(
+        "contacts: largest overlap {overlap:.4e} m (U/5 = {per_contact:.4e} m), reaction \
+         {reaction:.6e} N (closed form {expected:.6e} N), work {work:.6e} J, gained {gained:.6e} J \
+         (contact elastic {:.3e}, friction {:.3e}, damping {:.3e}, kinetic {:.3e})",
+        e.contact_elastic, e.friction, e.local_damping, e.kinetic
+    );
+    assert!((overlap / per_contact - 1.0).abs() < 0.02);
+    assert!((reaction / expected - 1.0).abs() < 0.02);
+    assert!((gained - work).abs() < 0.01 * work);
+    let (overlap, ..) = run(false);
+    println!("no contacts: largest overlap {overlap:.4e} m (U = {u_total:.4e} m)");
+    assert!(overlap > 0.9 * u_total);
+}
