@@ -630,3 +630,72 @@ fn a_broken_specimen_compressed_with_contacts_does_not_interpenetrate() {
     println!("no contacts: largest overlap {overlap:.4e} m (U = {u_total:.4e} m)");
     assert!(overlap > 0.9 * u_total);
 }
+
+/// A plane of weakness across the 3 × 3 × 8 bar, its normal at θ = 30° to the bar's axis in
+/// the x–z plane: each of the 9 columns crosses it once, and an axial bond force F resolves
+/// on the plane into σ_n = −F cos θ/A (tension) and τ = F sin θ/A, A = πR². Mohr–Coulomb
+/// with the joint's c_w = 0.2 MPa, μ_w = 0.5 breaks at F = c_w A/(sin θ + μ_w cos θ) (the
+/// tension cut-off σ_t = 0.3 MPa would need σ_t A/cos θ, more): the end reaction peaks at
+/// 9 × that (closed form), the 9 crossing axial bonds break together, in shear, and no
+/// other bond — for law (a), whose intact limit σ_t r² is higher.
+#[test]
+fn a_bar_across_a_plane_of_weakness_breaks_on_the_joint_by_mohr_coulomb() {
+    use anisobond::strength::PlaneFamily;
+    let (nx, ny, nz) = (3, 3, 8);
+    let (packing, bonds, tags) = bar(nx, ny, nz);
+    let theta = 30f64.to_radians();
+    let normal = Vec3::new(theta.sin(), 0.0, theta.cos());
+    let centre = Vec3::new(1.0, 1.0, 3.5) * D;
+    let joint = Strength {
+        tensile: 0.3e6,
+        cohesion: 0.2e6,
+        friction: 0.5,
+        bending: 0.3e6,
+        twisting: 0.2e6,
+    };
+    let plane =
+        PlaneFamily::new(normal, 1000.0 * D, normal.dot(&centre) + 0.01 * D, joint).unwrap();
+    let spec = StrengthSpec {
+        planes: vec![plane],
+        ..isotropic(1.0e6, 3.0e6)
+    };
+    let strengths = assign_strength(&packing, &bonds, &spec).unwrap();
+    let crossing: Vec<usize> = (0..bonds.len())
+        .filter(|&b| strengths.joint_of(b).is_some())
+        .collect();
+    let axial_crossing: Vec<usize> = crossing
+        .iter()
+        .copied()
+        .filter(|&b| tags[b].0 == 2)
+        .collect();
+    assert_eq!(axial_crossing.len(), nx * ny);
+    let opts = DemOptions {
+        check_interval: 0,
+        ..Default::default()
+    };
+    let mut sim = simulation_with(LawKind::Yade, &packing, &bonds, &strengths, false, &opts);
+    let area = PI * R * R;
+    let f_break = joint.cohesion * area / (theta.sin() + joint.friction * theta.cos());
+    assert!(f_break < joint.tensile * area / theta.cos() && f_break < 1.0e6 * R * R);
+    let v = (nz - 1) as f64 * (f_break / KN) / (4000.37 * sim.time_step());
+    let top = pull(&mut sim, &packing, nz, v);
+    let mut reactions = Vec::new();
+    while sim.break_events().is_empty() {
+        sim.step().unwrap();
+        reactions.push(-top.iter().map(|&p| sim.force[p].z).sum::<f64>());
+        assert!(reactions.len() < 10_000, "nothing broke");
+    }
+    let step = sim.break_events()[0].step as usize;
+    let peak = reactions[step - 1];
+    let expected = (nx * ny) as f64 * f_break;
+    let error = (expected - peak) / expected;
+    println!(
+        "joint: peak {peak:.9e} N, closed form {expected:.9e} N, shortfall {error:.3e}, {} broke",
+        sim.break_events().len()
+    );
+    assert!((-1e-9..=1e-3).contains(&error));
+    let mut broken: Vec<usize> = sim.break_events().iter().map(|e| e.bond).collect();
+    broken.sort_unstable();
+    assert_eq!(broken, axial_crossing);
+    assert!(sim.break_events().iter().all(|e| e.mode == Mode::Shear));
+}
