@@ -3,6 +3,7 @@
 //   plugin load /path/to/anisobond_lammps.so
 //   bond_style anisobond model MODEL.toml [damping ZETA] [lattice_scaling MU]
 //   bond_style anisobond table BONDS.csv  [damping ZETA] [length_tolerance TOL]
+//   ... [break yes strengths STRENGTHS.csv]   (or break no, the default)
 //   bond_coeff *
 //
 // Requires atom_style bpm/sphere (or sphere: radius, rmass, omega, torque), `newton on on`
@@ -31,6 +32,8 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <sstream>
 
 using namespace LAMMPS_NS;
 
@@ -52,7 +55,7 @@ inline std::uint64_t pair_key(tagint a, tagint b) {
 }  // namespace
 
 BondAnisobond::BondAnisobond(LAMMPS *lmp)
-    : Bond(lmp), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
+    : Bond(lmp), break_(false), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
       need_init_(false) {
   partial_flag = 0;
   writedata = 0;
@@ -78,6 +81,9 @@ void BondAnisobond::settings(int narg, char **arg) {
   source_ = arg[0];
   model_.reset();
   table_.clear();
+  limits_.clear();
+  break_ = false;
+  std::string strengths;
   zeta_ = 0.0;
   length_tol_ = 1e-6;
   mu_ = 0.0;
@@ -117,6 +123,12 @@ void BondAnisobond::settings(int narg, char **arg) {
         error->all(FLERR, "bond_style anisobond: lattice_scaling {}: {}", mu_, e.what());
       }
       iarg += 2;
+    } else if (key == "break" && iarg + 1 < narg) {
+      break_ = utils::logical(FLERR, arg[iarg + 1], false, lmp) == 1;
+      iarg += 2;
+    } else if (key == "strengths" && iarg + 1 < narg) {
+      strengths = arg[iarg + 1];
+      iarg += 2;
     } else if (key == "length_tolerance" && iarg + 1 < narg) {
       length_tol_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (!(length_tol_ > 0.0))
@@ -124,9 +136,51 @@ void BondAnisobond::settings(int narg, char **arg) {
       iarg += 2;
     } else {
       error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
-                        "`length_tolerance TOL` or `lattice_scaling MU`",
+                        "`length_tolerance TOL`, `lattice_scaling MU`, `break yes|no` or "
+                        "`strengths STRENGTHS.csv`",
                  key);
     }
+  }
+  if (break_ && strengths.empty())
+    error->all(FLERR, "bond_style anisobond: `break yes` needs `strengths STRENGTHS.csv` (each "
+                      "bond's critical loads; `anisobond export lammps` writes "
+                      "bond-strengths.csv for a model with a [strength] table)");
+  if (!break_ && !strengths.empty())
+    error->all(FLERR, "bond_style anisobond: `strengths {}` is for `break yes`", strengths);
+  if (break_) read_strengths(strengths);
+}
+
+// The strength table: a header line, then `id_i,id_j,f_rc,f_sc,tau_bc,tau_tc` per bond (atom
+// ids; N, N, N·m, N·m), each load finite and > 0 (the criterion divides by it).
+void BondAnisobond::read_strengths(const std::string &path) {
+  std::ifstream in(path);
+  if (!in) error->all(FLERR, "bond_style anisobond: cannot open the strength table {}", path);
+  std::string line;
+  long lineno = 0;
+  while (std::getline(in, line)) {
+    lineno++;
+    if (line.empty() || line[0] == '#' || line.rfind("id_i", 0) == 0) continue;
+    std::stringstream ss(line);
+    std::string field;
+    std::vector<std::string> f;
+    while (std::getline(ss, field, ',')) f.push_back(field);
+    double v[6];
+    bool ok = f.size() == 6;
+    for (int k = 0; ok && k < 6; k++) {
+      char *end = nullptr;
+      v[k] = std::strtod(f[k].c_str(), &end);
+      ok = end != f[k].c_str() && *end == '\0' && std::isfinite(v[k]);
+    }
+    ok = ok && v[0] >= 1 && v[1] >= 1 && v[0] != v[1] && v[2] > 0 && v[3] > 0 && v[4] > 0 &&
+         v[5] > 0;
+    if (!ok)
+      error->all(FLERR, "bond_style anisobond: strength table {} line {}: `{}`: expected "
+                        "id_i,id_j,f_rc,f_sc,tau_bc,tau_tc (two atom ids, four loads > 0)",
+                 path, lineno, line);
+    const std::uint64_t key = pair_key(static_cast<tagint>(v[0]), static_cast<tagint>(v[1]));
+    if (!limits_.emplace(key, Limits{v[2], v[3], v[4], v[5]}).second)
+      error->all(FLERR, "bond_style anisobond: strength table {} line {}: bond {}-{} given twice",
+                 path, lineno, static_cast<tagint>(v[0]), static_cast<tagint>(v[1]));
   }
 }
 
@@ -156,10 +210,22 @@ void BondAnisobond::init_style() {
   if (atom->bond_per_atom < 1) error->all(FLERR, "bond_style anisobond: the system has no bonds");
   // A table bond missing from the system would be silently dropped: the counts must agree
   // (a system bond missing from the table is an error at its first force call).
-  if (source_ == "table" && static_cast<bigint>(table_.size()) != atom->nbonds)
+  // With breakage the system may hold fewer (broken bonds are gone after a restart).
+  const bigint held = atom->nbonds;
+  if (source_ == "table" && (break_ ? static_cast<bigint>(table_.size()) < held
+                                    : static_cast<bigint>(table_.size()) != held))
     error->all(FLERR, "bond_style anisobond: the bond table {} has {} bonds, the system {} "
                       "(another packing or bonding rule?)",
                args_[1], table_.size(), atom->nbonds);
+  if (break_ && static_cast<bigint>(limits_.size()) < held)
+    error->all(FLERR, "bond_style anisobond: the strength table has {} bonds, the system {}",
+               limits_.size(), held);
+  if (break_ && force->pair && !force->pair_match("zero", 1))
+    error->all(FLERR, "bond_style anisobond break yes: a broken pair stays in the special list, "
+                      "so pair_style {} would never act on it; use pair_style zero, or "
+                      "bpm/rotational (export lammps without --bond-style anisobond), whose "
+                      "broken bonds become contacts",
+               force->pair_style);
 
   // The per-bond state: created on first use, found again on later runs, restored from
   // the restart file when the fix of the same ID and style was in it (Modify::add_fix).
@@ -273,6 +339,32 @@ void BondAnisobond::springs_of(int i, int j, const double *l, double d, double *
   r0_max_ = std::max(r0_max_, d);
 }
 
+// The critical loads of bond i-j from the strength table, into its state.
+void BondAnisobond::limits_of(int i, int j, double *s) {
+  const auto it = limits_.find(pair_key(atom->tag[i], atom->tag[j]));
+  if (it == limits_.end())
+    error->one(FLERR, "bond_style anisobond: bond {}-{} is not in the strength table",
+               atom->tag[i], atom->tag[j]);
+  s[S_FRC] = it->second.frc;
+  s[S_FSC] = it->second.fsc;
+  s[S_TBC] = it->second.tbc;
+  s[S_TTC] = it->second.ttc;
+}
+
+// Remove bond m of owned atom i (newton_bond on: it is stored only there): the last bond and
+// its state slot take its place.
+void BondAnisobond::remove_bond(int i, int m) {
+  const int last = atom->num_bond[i] - 1;
+  double *st = atom->darray[index_][i];
+  if (m != last) {
+    atom->bond_atom[i][m] = atom->bond_atom[i][last];
+    atom->bond_type[i][m] = atom->bond_type[i][last];
+    std::memcpy(st + m * NSLOT, st + last * NSLOT, NSLOT * sizeof(double));
+  }
+  for (int q = 0; q < NSLOT; q++) st[last * NSLOT + q] = 0.0;
+  atom->num_bond[i] = last;
+}
+
 void BondAnisobond::compute(int eflag, int vflag) {
   ev_init(eflag, vflag);
   if (need_init_) initialise_bonds();
@@ -289,10 +381,12 @@ void BondAnisobond::compute(int eflag, int vflag) {
   const int nbondlist = neighbor->nbondlist;
   // The setup force call of a run must not advance the history (rotations by ω·dt).
   const double dt = update->setupflag ? 0.0 : update->dt;
+  bigint broken = 0;  // bonds broken by this process in this call
 
   for (int nb = 0; nb < nbondlist; nb++) {
     // newton_bond on: bondlist[.][0] is the owned atom whose bond_atom list holds the bond
-    // and [1] the closest image of its partner.
+    // and [1] the closest image of its partner. Type 0: broken since the list was built.
+    if (bondlist[nb][2] <= 0) continue;
     const int i = bondlist[nb][0], j = bondlist[nb][1];
     const tagint tj = tag[j];
     const int nbi = num_bond[i];
@@ -307,6 +401,7 @@ void BondAnisobond::compute(int eflag, int vflag) {
     double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
     const double d = std::sqrt(dot(l, l));
     if (s[S_R0] == 0.0) springs_of(i, j, l, d, s);
+    if (break_ && s[S_FRC] == 0.0) limits_of(i, j, s);
     const double inv_d = 1.0 / d;
     const double n[3] = {l[0] * inv_d, l[1] * inv_d, l[2] * inv_d};
     const double a = 0.5 * s[S_R0];  // lever arm: the bond's midpoint
@@ -353,8 +448,22 @@ void BondAnisobond::compute(int eflag, int vflag) {
     lp[1] = l[1];
     lp[2] = l[2];
 
-    // Forces and torques: springs plus the bond's own damping.
     const double stretch = d - s[S_R0];
+    if (break_) {
+      // bpm/rotational's criterion on the springs' loads (damping excluded, as there).
+      const double mn = dot(mom, n);
+      const double mb[3] = {mom[0] - mn * n[0], mom[1] - mn * n[1], mom[2] - mn * n[2]};
+      const double b = s[S_KN] * stretch / s[S_FRC] + std::sqrt(dot(fs, fs)) / s[S_FSC] +
+                       std::sqrt(dot(mb, mb)) / s[S_TBC] + std::fabs(mn) / s[S_TTC];
+      if (b >= 1.0) {
+        bondlist[nb][2] = 0;
+        remove_bond(i, m);
+        broken++;
+        continue;
+      }
+    }
+
+    // Forces and torques: springs plus the bond's own damping.
     const double dvn = dot(dv, n);
     const double gn = s[S_GN], gs = s[S_GS], gr = s[S_GR], gt = s[S_GT];
     const double fn = s[S_KN] * stretch + (gn - gs) * dvn;
@@ -391,6 +500,12 @@ void BondAnisobond::compute(int eflag, int vflag) {
       // LAMMPS' convention: force on i, del = x_i − x_j = −l.
       ev_tally_xyz(i, j, nlocal, newton_bond, e, F[0], F[1], F[2], -l[0], -l[1], -l[2]);
     }
+  }
+  if (break_) {
+    // The system's bond count (thermo `bonds`, restart files) follows the broken bonds.
+    bigint all = 0;
+    MPI_Allreduce(&broken, &all, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+    atom->nbonds -= all;
   }
 }
 

@@ -34,6 +34,16 @@
 // mass m* or reduced inertia I* (rolling against k_r + k_s r0²/4, twisting against k_tw, or
 // the rolling stiffness when k_tw = 0).
 //
+// Breakage (`break yes strengths BONDS.csv`, issue 32): each bond's critical loads f_rc, f_sc,
+// τ_bc, τ_tc (read by atom ids from the strength table the export writes, stored in the bond's
+// state beside its springs at its first force call) and bpm/rotational's criterion
+//   B = max(0, F_r/f_rc + |F_s|/f_sc + |M_b|/τ_bc + |M_t|/τ_tc),  F_r = k_n (d − r0) (tension +)
+// on the springs' loads (|F_s| the shear spring force, M_b and M_t the bending and twisting
+// parts of the moment); B ≥ 1 breaks the bond before its forces are applied: it is removed
+// from its atom's bond list with its state slot (as BondBPM::process_broken). Broken pairs
+// stay in the special list (no contact force from a pair style afterwards; `break yes`
+// refuses a pair style other than zero).
+//
 // Per-bond state lives in a per-atom array (`fix property/atom d2_anisobond_state N ghost no`,
 // created by the style): slot m of atom i belongs to its bond with atom->bond_atom[i][m],
 // so the state migrates with the atom, is written to restart files, and is restored when
@@ -74,21 +84,31 @@ class BondAnisobond : public Bond {
     S_FS,             // shear force (3)
     S_M = S_FS + 3,   // bending + twisting moment (3)
     S_LP = S_M + 3,   // branch vector at the previous force call (3)
-    NSLOT = S_LP + 3
+    S_FRC = S_LP + 3, // critical loads f_rc, f_sc (N), τ_bc, τ_tc (N·m); 0 = not read yet
+    S_FSC, S_TBC, S_TTC,
+    NSLOT
   };
 
  private:
   struct Springs {
     double kn, ks, kr, ktw, length;
   };
+  struct Limits {
+    double frc, fsc, tbc, ttc;
+  };
   void allocate();
   void initialise_bonds();
   void springs_of(int i, int j, const double *l, double d, double *s);
+  void limits_of(int i, int j, double *s);
+  void read_strengths(const std::string &path);
+  void remove_bond(int i, int m);
 
   std::vector<std::string> args_;  // bond_style arguments (kept for restart files)
   std::string source_;             // "model" or "table"
   std::unique_ptr<rust::Box<anisobond::ModelHandle>> model_;
   std::unordered_map<std::uint64_t, Springs> table_;  // key: tag_lo << 32 | tag_hi
+  std::unordered_map<std::uint64_t, Limits> limits_;  // `strengths` table, same key
+  bool break_;                     // `break yes`: bonds break at B >= 1
   double zeta_;                    // damping ratio (0: undamped)
   double length_tol_;              // table lengths vs. the box (relative)
   double mu_;                      // cross-anisotropic lattice scaling (0: not yet known)

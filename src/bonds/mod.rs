@@ -23,7 +23,9 @@ pub use table::{
     write_bond_table_with_ids, TableWithIds,
 };
 pub use types::sensitivity_weights;
-pub use types::{affine_weights, quantise, quantise_weighted, spring_errors, BondTypes};
+pub use types::{
+    affine_weights, quantise, quantise_joint, quantise_weighted, spring_errors, BondTypes,
+};
 
 /// The bonds of a packing, structure of arrays (one entry per bond in every vector).
 #[derive(Clone, Debug, Default, PartialEq)]

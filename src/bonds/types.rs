@@ -94,8 +94,8 @@ fn springs_of(k: &BondStiffness, b: usize) -> [f64; 4] {
 }
 
 /// d_b(q)² = Σ_c w_c² (k_c − q_c)² of the module doc.
-fn cost(s: &[f64; 4], w: &[f64; 4], q: &[f64; 4]) -> f64 {
-    (0..4).map(|c| (w[c] * (s[c] - q[c])).powi(2)).sum()
+fn cost<const N: usize>(s: &[f64; N], w: &[f64; N], q: &[f64; N]) -> f64 {
+    (0..N).map(|c| (w[c] * (s[c] - q[c])).powi(2)).sum()
 }
 
 /// The affine weights of the module doc: `[l², l², 1, 1]` per bond.
@@ -124,41 +124,154 @@ pub fn quantise_weighted(
     weights: &[[f64; 4]],
 ) -> Result<BondTypes> {
     check_quantise_inputs(bonds, k, max_types, weights)?;
-    let n = bonds.len();
-    let (distinct, of_distinct) = distinct_springs(k, n);
+    let rows: Vec<[f64; 4]> = (0..bonds.len()).map(|b| springs_of(k, b)).collect();
+    let t = quantise_rows(&rows, weights, max_types);
+    Ok(BondTypes {
+        type_of: t.type_of,
+        springs: t.centres,
+        distinct: t.distinct,
+        exact: t.exact,
+        iterations: t.iterations,
+    })
+}
+
+/// Rows of N values per bond quantised into types: the clustering of [`quantise_weighted`]
+/// for any number of columns (the springs, or springs and strengths jointly,
+/// [`quantise_joint`]).
+struct RowTypes<const N: usize> {
+    type_of: Vec<u32>,
+    centres: Vec<[f64; N]>,
+    distinct: usize,
+    exact: bool,
+    iterations: usize,
+}
+
+/// The clustering of the module doc on `rows` (one per bond, checked by the caller) with
+/// the weights `w`: exact when at most `max_types` distinct rows, else Lloyd's k-means, the
+/// final centres the w-weighted means, empty types dropped and the rest renumbered.
+fn quantise_rows<const N: usize>(
+    rows: &[[f64; N]],
+    w: &[[f64; N]],
+    max_types: usize,
+) -> RowTypes<N> {
+    let (distinct, of_distinct) = distinct_rows(rows);
     if distinct.len() <= max_types {
-        return Ok(BondTypes {
+        return RowTypes {
             type_of: of_distinct,
             distinct: distinct.len(),
-            springs: distinct,
+            centres: distinct,
             exact: true,
             iterations: 0,
-        });
+        };
     }
-    let w = weights;
-    let s: Vec<[f64; 4]> = (0..n).map(|b| springs_of(k, b)).collect();
-    let mut centres = farthest_first_centres(&s, w, max_types);
-    let iterations = refine_centres(&s, w, &mut centres);
-    let type_of = assign(&s, w, &centres);
+    let s = rows;
+    let mut centres = farthest_first_centres(s, w, max_types);
+    let iterations = refine_centres(s, w, &mut centres);
+    let type_of = assign(s, w, &centres);
 
     // Final springs: w-weighted means (w, not w²: the first-order sum Σ w·Δk over a type
     // is 0); types left empty are dropped and the rest renumbered in order.
     let members = members_of(&type_of, centres.len());
     let mut renumber = vec![u32::MAX; centres.len()];
-    let mut springs = Vec::new();
+    let mut finals = Vec::new();
     for (t, m) in members.iter().enumerate() {
         if !m.is_empty() {
-            renumber[t] = springs.len() as u32;
-            springs.push(centre(&s, w, m.iter().copied(), 1));
+            renumber[t] = finals.len() as u32;
+            finals.push(centre(s, w, m.iter().copied(), 1));
         }
     }
-    Ok(BondTypes {
+    RowTypes {
         type_of: type_of.iter().map(|&t| renumber[t as usize]).collect(),
-        springs,
+        centres: finals,
         distinct: distinct.len(),
         exact: false,
         iterations,
-    })
+    }
+}
+
+/// Springs and breaking limits quantised jointly into at most `max_types` types (LAMMPS
+/// `bond_coeff` carries both per type): each bond's row is its four springs and its four
+/// limits `limits[b]` (any unit, each > 0), with the cost
+///
+/// ```text
+/// d_b(q)² = Σ_springs (w_b,c Δk_c)² / S + Σ_limits (Δf_c / f̄_c)²
+/// ```
+///
+/// S = the mean over the bonds of Σ_c (w_b,c k_b,c)² (the springs' energy scale, with the
+/// spring weights `spring_weights`, e.g. [`affine_weights`]) and f̄_c the mean of limit c:
+/// both parts are relative errors, a spring's as in [`quantise_weighted`] and a limit's
+/// against its mean. A type's springs are its bonds' w-weighted means (as
+/// [`quantise_weighted`]), its limits their plain means. Returns the types (springs per
+/// type) and each type's limits. Exact when the bonds have at most `max_types` distinct rows.
+pub fn quantise_joint(
+    bonds: &BondSet,
+    k: &BondStiffness,
+    limits: &[[f64; 4]],
+    max_types: usize,
+    spring_weights: &[[f64; 4]],
+) -> Result<(BondTypes, Vec<[f64; 4]>)> {
+    check_quantise_inputs(bonds, k, max_types, spring_weights)?;
+    let n = bonds.len();
+    if limits.len() != n {
+        return Err(Error::Invalid(format!(
+            "bond types: {n} bonds with {} sets of breaking limits",
+            limits.len()
+        )));
+    }
+    for (b, f) in limits.iter().enumerate() {
+        if f.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(Error::Invalid(format!(
+                "bond types: bond {b} has breaking limits {f:?}; each must be finite and > 0"
+            )));
+        }
+    }
+    let scale = (0..n)
+        .map(|b| {
+            let s = springs_of(k, b);
+            (0..4)
+                .map(|c| (spring_weights[b][c] * s[c]).powi(2))
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / n as f64;
+    let spring_norm = if scale > 0.0 && scale.is_finite() {
+        1.0 / scale.sqrt()
+    } else {
+        0.0
+    };
+    let mean: [f64; 4] =
+        std::array::from_fn(|c| limits.iter().map(|f| f[c]).sum::<f64>() / n as f64);
+    let rows: Vec<[f64; 8]> = (0..n)
+        .map(|b| {
+            let s = springs_of(k, b);
+            std::array::from_fn(|c| if c < 4 { s[c] } else { limits[b][c - 4] })
+        })
+        .collect();
+    let w: Vec<[f64; 8]> = spring_weights
+        .iter()
+        .map(|sw| {
+            std::array::from_fn(|c| {
+                if c < 4 {
+                    sw[c] * spring_norm
+                } else {
+                    1.0 / mean[c - 4]
+                }
+            })
+        })
+        .collect();
+    let t = quantise_rows(&rows, &w, max_types);
+    let springs = t.centres.iter().map(|r| [r[0], r[1], r[2], r[3]]).collect();
+    let type_limits = t.centres.iter().map(|r| [r[4], r[5], r[6], r[7]]).collect();
+    Ok((
+        BondTypes {
+            type_of: t.type_of,
+            springs,
+            distinct: t.distinct,
+            exact: t.exact,
+            iterations: t.iterations,
+        },
+        type_limits,
+    ))
 }
 
 /// Refuse what [`quantise_weighted`] cannot type: no types, no bonds, counts of springs or
@@ -199,17 +312,16 @@ fn check_quantise_inputs(
     Ok(())
 }
 
-/// The distinct spring sets of the `n` bonds in order of first appearance (−0 and +0 the
-/// same), and each bond's index among them.
-fn distinct_springs(k: &BondStiffness, n: usize) -> (Vec<[f64; 4]>, Vec<u32>) {
-    let mut index: HashMap<[u64; 4], u32> = HashMap::new();
-    let mut distinct: Vec<[f64; 4]> = Vec::new();
-    let mut of_distinct = Vec::with_capacity(n);
-    for b in 0..n {
-        let s = springs_of(k, b);
+/// The distinct rows in order of first appearance (−0 and +0 the same, otherwise bit for
+/// bit), and each bond's index among them.
+fn distinct_rows<const N: usize>(rows: &[[f64; N]]) -> (Vec<[f64; N]>, Vec<u32>) {
+    let mut index: HashMap<[u64; N], u32> = HashMap::new();
+    let mut distinct: Vec<[f64; N]> = Vec::new();
+    let mut of_distinct = Vec::with_capacity(rows.len());
+    for s in rows {
         let key = s.map(|v| (v + 0.0).to_bits());
         let t = *index.entry(key).or_insert_with(|| {
-            distinct.push(s);
+            distinct.push(*s);
             (distinct.len() - 1) as u32
         });
         of_distinct.push(t);
@@ -219,7 +331,11 @@ fn distinct_springs(k: &BondStiffness, n: usize) -> (Vec<[f64; 4]>, Vec<u32>) {
 
 /// Farthest-first seeding of at most `max_types` centres, from the bond nearest the
 /// overall centre: each next centre the bond farthest (in d_b) from all chosen so far.
-fn farthest_first_centres(s: &[[f64; 4]], w: &[[f64; 4]], max_types: usize) -> Vec<[f64; 4]> {
+fn farthest_first_centres<const N: usize>(
+    s: &[[f64; N]],
+    w: &[[f64; N]],
+    max_types: usize,
+) -> Vec<[f64; N]> {
     let n = s.len();
     let mut centres = vec![centre(s, w, 0..n, 2)];
     let first = argmax(n, |b| -cost(&s[b], &w[b], &centres[0]));
@@ -252,7 +368,11 @@ fn members_of(type_of: &[u32], types: usize) -> Vec<Vec<usize>> {
 /// nearest centre, move each centre to the minimiser of its bonds' cost (an empty one
 /// re-seeded at the bond farthest from its own centre), until nothing changes. Returns
 /// the iterations run.
-fn refine_centres(s: &[[f64; 4]], w: &[[f64; 4]], centres: &mut [[f64; 4]]) -> usize {
+fn refine_centres<const N: usize>(
+    s: &[[f64; N]],
+    w: &[[f64; N]],
+    centres: &mut [[f64; N]],
+) -> usize {
     let n = s.len();
     let mut type_of = vec![u32::MAX; n];
     let mut iterations = 0;
@@ -295,18 +415,18 @@ fn argmax(n: usize, f: impl Fn(usize) -> f64) -> usize {
 
 /// The means of the springs over `members` weighted by w^`power` (power 2: the minimiser of
 /// Σ d_b(q)²; power 1: the final springs), a plain mean where the weights are all 0.
-fn centre(
-    s: &[[f64; 4]],
-    w: &[[f64; 4]],
+fn centre<const N: usize>(
+    s: &[[f64; N]],
+    w: &[[f64; N]],
     members: impl Iterator<Item = usize>,
     power: i32,
-) -> [f64; 4] {
-    let mut num = [0.0f64; 4];
-    let mut den = [0.0f64; 4];
-    let mut plain = [0.0f64; 4];
+) -> [f64; N] {
+    let mut num = [0.0f64; N];
+    let mut den = [0.0f64; N];
+    let mut plain = [0.0f64; N];
     let mut count = 0.0;
     for b in members {
-        for c in 0..4 {
+        for c in 0..N {
             let wc = w[b][c].powi(power);
             num[c] += wc * s[b][c];
             den[c] += wc;
@@ -324,7 +444,7 @@ fn centre(
 }
 
 /// Each bond's nearest centre (ties to the lower index), in parallel chunks.
-fn assign(s: &[[f64; 4]], w: &[[f64; 4]], centres: &[[f64; 4]]) -> Vec<u32> {
+fn assign<const N: usize>(s: &[[f64; N]], w: &[[f64; N]], centres: &[[f64; N]]) -> Vec<u32> {
     let mut out = vec![0u32; s.len()];
     out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
         for (i, t) in o.iter_mut().enumerate() {

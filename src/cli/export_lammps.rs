@@ -34,6 +34,14 @@ pub struct Args {
     pub safety: f64,
     #[command(flatten)]
     pub bonds: BondArgs,
+    /// With a `[strength]` table in the model: bpm/rotational's `smooth yes` (forces times
+    /// 1 − B⁴ as a bond nears breaking) instead of the default `smooth no`, the law of the
+    /// integrator's lammps-bpm bond.
+    #[arg(long)]
+    pub smooth: bool,
+    /// Write `break no` decks even when the model has a `[strength]` table.
+    #[arg(long)]
+    pub no_break: bool,
 }
 
 /// How the deck's bonds are written: `--bond-style`, `--plugin`, `--types` (shared by
@@ -206,6 +214,7 @@ pub fn run(a: Args) -> Result<()> {
         types,
         bond_style,
         history: Default::default(),
+        breakage: breakage(&a, &asm)?,
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;
@@ -233,5 +242,53 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(t) = &e.types {
         println!("{}", t.summary());
     }
+    if let Some(b) = &opts.breakage {
+        println!(
+            "bonds break (the model's [strength]): break yes, smooth {}, per-bond critical loads {} \
+             (breakage.lmp; contacts of broken bonds: {})",
+            if b.smooth { "yes" } else { "no" },
+            match &opts.bond_style {
+                LammpsBondStyle::BpmRotational if e.types.is_some() => "of the quantised types in bond_coeffs.lmp",
+                LammpsBondStyle::BpmRotational => "exact, one type per bond, in bond_coeffs.lmp",
+                LammpsBondStyle::Anisobond { .. } => "exact, in bond-strengths.csv",
+            },
+            match &opts.bond_style {
+                LammpsBondStyle::BpmRotational => "pair_style granular, Hooke with Coulomb friction",
+                LammpsBondStyle::Anisobond { .. } => "none (pair_style zero)",
+            }
+        );
+    }
     Ok(())
+}
+
+/// The model's `[strength]` as every bond's strength for the deck, unless `--no-break`
+/// (None without a `[strength]` table: `break no` decks as before).
+fn breakage(
+    a: &Args,
+    asm: &anisobond::assembly::Assembly,
+) -> Result<Option<anisobond::export::lammps::LammpsBreakage>> {
+    if a.no_break {
+        if a.smooth {
+            return Err(Error::Invalid(
+                "export lammps: --smooth is for decks whose bonds break; --no-break writes none"
+                    .into(),
+            ));
+        }
+        return Ok(None);
+    }
+    let Some(spec) = anisobond::model::Model::strength_from_path(&a.to.input.model)? else {
+        if a.smooth {
+            return Err(Error::Invalid(format!(
+                "export lammps --smooth: the model {} has no [strength] table, so no bond breaks",
+                a.to.input.model.display()
+            )));
+        }
+        return Ok(None);
+    };
+    let strengths = anisobond::strength::assign_strength(&asm.packing, &asm.bonds, &spec)?;
+    Ok(Some(anisobond::export::lammps::LammpsBreakage {
+        strengths,
+        pi_hat: asm.model.geometry.pi_hat,
+        smooth: a.smooth,
+    }))
 }

@@ -20,12 +20,17 @@
 //! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
 //! quantised network against the exact one, and each spring's largest relative error.
 
-use crate::bonds::types::{quantise, quantise_weighted, sensitivity_weights, spring_errors};
+use crate::bonds::types::{
+    affine_weights, quantise, quantise_joint, quantise_weighted, sensitivity_weights,
+    spring_errors, BondTypes,
+};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::homogenize::voigt::voigt_tensor;
 use crate::packing::{Packing, PeriodicCell};
+use crate::strength::criteria::BpmLimits;
+use crate::strength::BondStrengths;
 use crate::tensor::compare::relative_difference;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
@@ -76,6 +81,64 @@ pub struct LammpsOptions {
     pub bond_style: LammpsBondStyle,
     /// The undamped history (`in.history`, stock bpm/rotational only).
     pub history: UndampedHistory,
+    /// Bonds that break (the model's `[strength]`): None writes `break no` decks, as before.
+    pub breakage: Option<LammpsBreakage>,
+}
+
+/// Breaking bonds in the exported decks (issue 32; docs/strength.md, "LAMMPS"): every bond's
+/// critical loads f_rc, f_sc, τ_bc, τ_tc ([`BpmLimits::of`] of its strength with its bond
+/// radius R_b and the model's π̂), bpm/rotational's criterion B ≥ 1 (`break yes`), and the
+/// contact of a broken bond (`pair_style granular`, compression only with Coulomb friction).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LammpsBreakage {
+    /// Every bond's strength ([`crate::strength::assign_strength`]), aligned with the bonds.
+    pub strengths: BondStrengths,
+    /// π̂ of A = π̂R_b² (the model's `[geometry]`).
+    pub pi_hat: f64,
+    /// bpm/rotational's `smooth`: false (default) writes `smooth no`, the law the integrator's
+    /// `lammps-bpm` bond follows (full forces until B ≥ 1); true writes `smooth yes` (forces
+    /// times 1 − B⁴, [`crate::strength::criteria::bpm_smoothing`]), LAMMPS' own default.
+    pub smooth: bool,
+}
+
+/// One bond's critical loads `[f_rc, f_sc, τ_bc, τ_tc]` (N, N, N·m, N·m).
+pub type Limits = [f64; 4];
+
+/// Every bond's critical loads of `breakage` ([`BpmLimits::of`] with the bond radius
+/// `k.radius[b]` and π̂), refused (the model's [`Error::Model`], naming the bond) when one is
+/// not finite and > 0: bpm/rotational divides by each of them.
+pub fn bond_limits(k: &BondStiffness, breakage: &LammpsBreakage) -> Result<Vec<Limits>> {
+    let s = &breakage.strengths;
+    if s.len() != k.len() {
+        return Err(Error::Invalid(format!(
+            "LAMMPS export: {} bond strengths for {} bonds",
+            s.len(),
+            k.len()
+        )));
+    }
+    let limits = s.map(|b, st| {
+        let l = BpmLimits::of(&st, k.radius[b], breakage.pi_hat);
+        [l.f_rc, l.f_sc, l.t_bc, l.t_tc]
+    });
+    const NAMES: [&str; 4] = ["f_rc", "f_sc", "tau_bc", "tau_tc"];
+    for (b, l) in limits.iter().enumerate() {
+        if let Some(c) = (0..4).find(|&c| !(l[c].is_finite() && l[c] > 0.0)) {
+            return Err(Error::Model(format!(
+                "LAMMPS export: bond {b} gets {} = {:e} from its strength (tensile {:e}, \
+                 cohesion {:e}, bending {:e}, twisting {:e} Pa) and bond radius {:e} m; \
+                 bpm/rotational divides by each critical load, so each must be finite and > 0 \
+                 (a zero strength in [strength]?)",
+                NAMES[c],
+                l[c],
+                s.tensile[b],
+                s.cohesion[b],
+                s.bending[b],
+                s.twisting[b],
+                k.radius[b]
+            )));
+        }
+    }
+    Ok(limits)
 }
 
 /// The undamped history `in.history` (bpm/rotational decks): each of the six load cases
@@ -116,6 +179,7 @@ impl Default for LammpsOptions {
             types: None,
             bond_style: LammpsBondStyle::BpmRotational,
             history: UndampedHistory::default(),
+            breakage: None,
         }
     }
 }
@@ -198,6 +262,10 @@ pub struct TypesReport {
     /// Largest relative error of each spring over the bonds
     /// ([`crate::bonds::types::spring_errors`]).
     pub spring_max_relative_error: SpringErrors,
+    /// With breakage: the largest relative error of each critical load over the bonds
+    /// (types quantised jointly over springs and limits, [`quantise_joint`]); absent without.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limit_max_relative_error: Option<LimitErrors>,
     /// Relaxed tensor (midpoint lever arm, Pa) of the exact network; None when exact.
     #[serde(rename = "relaxed_exact_Pa", serialize_with = "optional_rows")]
     pub relaxed_exact: Option<Stiffness6>,
@@ -217,6 +285,47 @@ pub struct SpringErrors {
     pub kr: f64,
     /// k_tw (k_t).
     pub ktw: f64,
+}
+
+/// Per-limit largest relative errors of a [`TypesReport`] (bpm/rotational's critical loads).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LimitErrors {
+    /// f_rc (critical tensile force).
+    pub f_rc: f64,
+    /// f_sc (critical shear force).
+    pub f_sc: f64,
+    /// τ_bc (critical bending torque).
+    pub tau_bc: f64,
+    /// τ_tc (critical twisting torque).
+    pub tau_tc: f64,
+}
+
+impl LimitErrors {
+    /// max_b |q_b − f_b| / f_b of each limit (every f_b > 0, [`bond_limits`]).
+    pub fn of(exact: &[Limits], quantised: &[Limits]) -> LimitErrors {
+        let mut e = [0.0f64; 4];
+        for (f, q) in exact.iter().zip(quantised) {
+            for c in 0..4 {
+                e[c] = e[c].max((q[c] - f[c]).abs() / f[c]);
+            }
+        }
+        LimitErrors {
+            f_rc: e[0],
+            f_sc: e[1],
+            tau_bc: e[2],
+            tau_tc: e[3],
+        }
+    }
+
+    fn text(&self) -> String {
+        format!(
+            "f_rc {}, f_sc {}, tau_bc {}, tau_tc {}",
+            num(self.f_rc),
+            num(self.f_sc),
+            num(self.tau_bc),
+            num(self.tau_tc)
+        )
+    }
 }
 
 /// The path (`a.b[2][3]`) of the first `null` in `v` where a number belongs: every field
@@ -275,8 +384,21 @@ impl TypesReport {
         Ok(())
     }
 
-    /// One line for a summary: the types, and the error or that there is none.
+    /// One line for a summary: the types, and the error or that there is none (with
+    /// breakage, the critical loads' errors too).
     pub fn summary(&self) -> String {
+        let line = self.springs_summary();
+        match &self.limit_max_relative_error {
+            Some(l) if !self.exact => format!(
+                "{line}; types quantised jointly with the breaking limits: largest relative error {}",
+                l.text()
+            ),
+            Some(_) => format!("{line} (springs and breaking limits)"),
+            None => line,
+        }
+    }
+
+    fn springs_summary(&self) -> String {
         if self.exact {
             format!(
                 "{} bond types for {} distinct spring sets (--types {}): every bond's springs exact, no tensor error",
@@ -317,11 +439,46 @@ pub fn bond_types(
     k: &BondStiffness,
     max_types: usize,
 ) -> Result<(Vec<u32>, BondStiffness, TypesReport)> {
+    let (type_of, kq, _, report) = bond_types_with_limits(packing, bonds, k, None, max_types)?;
+    Ok((type_of, kq, report))
+}
+
+/// The types of a bond's springs and, given `limits` (one per bond, [`bond_limits`]), its
+/// breaking limits jointly ([`quantise_joint`]): as [`bond_types`], and the limits every bond
+/// gets (its type's, the plain means of its bonds') with their largest relative errors in the
+/// report.
+pub fn bond_types_with_limits(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    limits: Option<&[Limits]>,
+    max_types: usize,
+) -> Result<(Vec<u32>, BondStiffness, Option<Vec<Limits>>, TypesReport)> {
     if max_types == 0 {
         return Err(Error::Invalid(
             "LAMMPS export: the number of bond types (--types) must be at least 1, got 0".into(),
         ));
     }
+    // The clustering: springs alone, or springs and limits jointly (the limits of each type).
+    let cluster = |w: Option<&[[f64; 4]]>| -> Result<(BondTypes, Option<Vec<Limits>>)> {
+        match (limits, w) {
+            (None, None) => Ok((quantise(bonds, k, max_types)?, None)),
+            (None, Some(w)) => Ok((quantise_weighted(bonds, k, max_types, w)?, None)),
+            (Some(f), w) => {
+                let aff;
+                let w = match w {
+                    Some(w) => w,
+                    None => {
+                        aff = affine_weights(bonds);
+                        &aff
+                    }
+                };
+                let (t, fl) = quantise_joint(bonds, k, f, max_types, w)?;
+                let per_bond = t.type_of.iter().map(|&ty| fl[ty as usize]).collect();
+                Ok((t, Some(per_bond)))
+            }
+        }
+    };
     let opts = RelaxedOptions {
         lever_arm: LeverArm::HalfLength,
         tolerance: 1e-10,
@@ -330,24 +487,24 @@ pub fn bond_types(
     // Exact when the springs have at most K distinct sets. Otherwise clustered twice, with
     // the affine weights and with those of the exact network's relaxed solution; the one
     // whose relaxed tensor is nearer the exact one is kept (affine on a tie).
-    let first = quantise(bonds, k, max_types)?;
+    let first = cluster(None)?;
     let mut weights = "none (exact)";
-    let (t, kq, tensor_error, exact_c, quantised_c) = if first.exact {
-        let kq = first.stiffness(k);
+    let (t, kq, tensor_error, exact_c, quantised_c) = if first.0.exact {
+        let kq = first.0.stiffness(k);
         (first, kq, 0.0, None, None)
     } else {
         let (w, c) = sensitivity_weights(packing, bonds, k, &opts)?;
-        let second = quantise_weighted(bonds, k, max_types, &w)?;
+        let second = cluster(Some(&w))?;
         let mut best = None;
         for (name, t) in [("affine", first), ("relaxed", second)] {
-            let kq = t.stiffness(k);
+            let kq = t.0.stiffness(k);
             let cq = relaxed_tensor(packing, bonds, &kq, &opts)?.c;
             let err = relative_difference(&cq, &c);
             if !err.is_finite() {
                 return Err(Error::Degenerate(format!(
                     "LAMMPS export: the tensor error of {} bond types ({name} weights) is not \
                      finite ({err})",
-                    t.len()
+                    t.0.len()
                 )));
             }
             if best.as_ref().map_or(true, |(_, _, _, e, _)| err < *e) {
@@ -358,6 +515,7 @@ pub fn bond_types(
         weights = name;
         (t, kq, err, Some(c), Some(cq))
     };
+    let (t, limits_q) = t;
     let e = spring_errors(k, &kq);
     let voigt_error = if t.exact {
         0.0
@@ -372,6 +530,10 @@ pub fn bond_types(
             t.len()
         )));
     }
+    let limit_errors = match (limits, &limits_q) {
+        (Some(f), Some(q)) => Some(LimitErrors::of(f, q)),
+        _ => None,
+    };
     let report = TypesReport {
         requested: max_types,
         types: t.len(),
@@ -387,11 +549,12 @@ pub fn bond_types(
             kr: e[2],
             ktw: e[3],
         },
+        limit_max_relative_error: limit_errors,
         relaxed_exact: exact_c,
         relaxed_quantised: quantised_c,
     };
     report.check_finite()?;
-    Ok((t.type_of, kq, report))
+    Ok((t.type_of, kq, limits_q, report))
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
@@ -597,6 +760,8 @@ struct Typing<'a> {
     springs: Cow<'a, BondStiffness>,
     n_types: usize,
     report: Option<TypesReport>,
+    /// With breakage: the critical loads every bond gets (its own, or its type's).
+    limits: Option<Vec<Limits>>,
 }
 
 /// One type per bond (exact, route a), the quantised springs of at most K types, or one
@@ -605,6 +770,7 @@ fn typing<'a>(
     packing: &Packing,
     bonds: &BondSet,
     k: &'a BondStiffness,
+    limits: Option<Vec<Limits>>,
     o: &LammpsOptions,
 ) -> Result<Typing<'a>> {
     let n = bonds.len();
@@ -614,20 +780,24 @@ fn typing<'a>(
             springs: Cow::Borrowed(k),
             n_types: 1,
             report: None,
+            limits,
         },
         None => Typing {
             type_of: (0..n as u32).collect(),
             springs: Cow::Borrowed(k),
             n_types: n,
             report: None,
+            limits,
         },
         Some(max) => {
-            let (type_of, kq, report) = bond_types(packing, bonds, k, max)?;
+            let (type_of, kq, limits_q, report) =
+                bond_types_with_limits(packing, bonds, k, limits.as_deref(), max)?;
             Typing {
                 type_of,
                 springs: Cow::Owned(kq),
                 n_types: report.types,
                 report: Some(report),
+                limits: limits_q,
             }
         }
     })
@@ -638,9 +808,17 @@ fn types_description(t: &Typing, plugin: bool) -> String {
     match &t.report {
         None if plugin => "bond_style anisobond: one bond type".to_string(),
         None => "one bond type per bond".to_string(),
+        Some(r) if r.exact && t.limits.is_some() => format!(
+            "{} bond types: the {} distinct sets of springs and breaking limits, exact",
+            r.types, r.distinct_springs
+        ),
         Some(r) if r.exact => format!(
             "{} bond types: the {} distinct spring sets, exact",
             r.types, r.distinct_springs
+        ),
+        Some(r) if t.limits.is_some() => format!(
+            "{} bond types quantised jointly from {} distinct sets of springs and breaking limits; relaxed tensor error {:.3e}, see bond-types.json",
+            r.types, r.distinct_springs, r.tensor_error
         ),
         Some(r) => format!(
             "{} bond types quantised from {} distinct spring sets; relaxed tensor error {:.3e}, see bond-types.json",
@@ -682,8 +860,10 @@ pub fn export_lammps(
 ) -> Result<LammpsExport> {
     let cell = check_inputs(packing, bonds, o)?;
     let plugin = plugin_of(o);
+    let limits = o.breakage.as_ref().map(|b| bond_limits(k, b)).transpose()?;
     let relaxed = deck_tensor(packing, bonds, k, &cell)?;
-    let t = typing(packing, bonds, k, o)?;
+    let exact_k = k;
+    let t = typing(packing, bonds, k, limits, o)?;
     check_lammps_counts(packing.len(), t.n_types)?;
     let ids = atom_ids(packing)?;
     let what = types_description(&t, plugin.is_some());
@@ -691,6 +871,7 @@ pub fn export_lammps(
     let dt = o.safety * super::liggghts::stable_timestep(packing, bonds, k, o.density)?;
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
     let comment = types_comment(&what, t.report.as_ref());
+    let breakage = o.breakage.as_ref().zip(t.limits.as_deref());
     let mut files = vec![write_data_file(
         dir, packing, bonds, &t, &ids, &cell, &what, o.density,
     )?];
@@ -702,18 +883,32 @@ pub fn export_lammps(
             let own = super::engine_ids(packing);
             crate::bonds::table::write_bond_table_with_ids(&table, bonds, k, own)?;
             files.push(table);
+            if let Some((_, limits)) = breakage {
+                files.push(write_strength_table(dir, bonds, &ids, limits)?);
+            }
         }
         None => files.extend(write_bond_coeffs(dir, packing, bonds, &t, &what, o)?),
     }
+    let contact = breakage.map(|(b, _)| Contact::of(packing, bonds, exact_k, b, o));
     let params = dir.join("params.lmp");
-    crate::io::write_string_atomic(&params, &params_text(&comment, dt, max_len, o))?;
+    let mut params_body = params_text(&comment, dt, max_len, o);
+    if let Some(c) = &contact {
+        params_body.push_str(&c.params(o));
+    }
+    crate::io::write_string_atomic(&params, &params_body)?;
     files.push(params);
+    if let Some(c) = &contact {
+        let path = dir.join("breakage.lmp");
+        crate::io::write_string_atomic(&path, &breakage_text(c, plugin.is_some()))?;
+        files.push(path);
+    }
     files.extend(write_decks(
         dir,
         packing.len(),
         bonds.len(),
         &comment,
         plugin.is_some(),
+        contact.is_some(),
         &cell,
     )?);
     if let Some(r) = &t.report {
@@ -817,7 +1012,13 @@ fn write_bond_coeffs(
     );
     let _ = writeln!(
         c,
-        "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);"
+        "{}",
+        match &t.limits {
+            None => "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); limits 1e30 (no breaking);",
+            Some(_) => "# (SI) k_r = anisobond k_n, k_s = k_s (N/m); k_t = k_tw, k_b = k_r (N·m/rad); critical loads of the\n\
+                 # model's [strength]: f_rc = σ_t·π̂R_b², f_sc = c·π̂R_b² (N), tau_tc = τ_t·π̂R_b³/2, tau_bc = σ_b·π̂R_b³/4\n\
+                 # (N·m), R_b the bond radius (`break yes`, breakage.lmp; a type's: the mean over its bonds);",
+        }
     );
     let _ = writeln!(
         c,
@@ -843,10 +1044,27 @@ fn write_bond_coeffs(
         undamped,
         "# The springs of bond_coeffs.lmp without damping (in.history); {what}"
     );
+    if t.limits.is_some() {
+        let _ = writeln!(
+            undamped,
+            "# in.history keeps `break no`: limits 1e30 (the undamped elastic history)"
+        );
+    }
     for (ty, (&b, g)) in first.iter().zip(&gamma).enumerate() {
         let springs = bond_coeff_springs(ty + 1, k, b, num);
         let g = g.map(num);
-        let _ = writeln!(c, "{springs} {} {} {} {}", g[0], g[1], g[2], g[3]);
+        let coeffs = match &t.limits {
+            None => springs.clone(),
+            Some(f) => {
+                // bpm/rotational's order: f_rc f_sc tau_tc tau_bc.
+                let f = f[b].map(num);
+                let head = springs
+                    .strip_suffix(" 1e30 1e30 1e30 1e30")
+                    .expect("bond_coeff_springs ends with its four limits");
+                format!("{head} {} {} {} {}", f[0], f[1], f[3], f[2])
+            }
+        };
+        let _ = writeln!(c, "{coeffs} {} {} {} {}", g[0], g[1], g[2], g[3]);
         let _ = writeln!(undamped, "{springs} 0 0 0 0");
     }
     let coeffs = dir.join("bond_coeffs.lmp");
@@ -854,6 +1072,165 @@ fn write_bond_coeffs(
     let path = dir.join("bond_coeffs_undamped.lmp");
     crate::io::write_string_atomic(&path, &undamped)?;
     Ok(vec![coeffs, path])
+}
+
+/// The contact of a broken bond's pair (and of any pair that comes into contact) in decks
+/// with breakage: LAMMPS `pair_style granular`, Hooke normal spring with velocity damping,
+/// tangential linear spring with history capped by Coulomb friction (compression only: no
+/// force without overlap). One set for all pairs (a pair style's coefficients are per atom
+/// type): the medians of the bonds' k_n and k_s, the damping ratio of the options on the
+/// median reduced mass, the mean friction coefficient μ of the bonds' strengths.
+struct Contact {
+    kn: f64,
+    kt: f64,
+    damping: f64,
+    friction: f64,
+    smooth: bool,
+}
+
+impl Contact {
+    fn of(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        b: &LammpsBreakage,
+        o: &LammpsOptions,
+    ) -> Contact {
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let mass = |p: usize| {
+            let r = packing.radii[p];
+            o.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        };
+        let reduced = (0..bonds.len())
+            .map(|e| {
+                let (mi, mj) = (mass(bonds.i[e] as usize), mass(bonds.j[e] as usize));
+                mi * mj / (mi + mj)
+            })
+            .collect();
+        let kn = median(k.kn.clone());
+        let n = b.strengths.len().max(1) as f64;
+        Contact {
+            kn,
+            kt: median(k.ks.clone()),
+            damping: 2.0 * o.damping_ratio * (kn * median(reduced)).sqrt(),
+            friction: b.strengths.friction.iter().sum::<f64>() / n,
+            smooth: b.smooth,
+        }
+    }
+
+    /// The lines of params.lmp that set breakage.lmp's variables.
+    fn params(&self, o: &LammpsOptions) -> String {
+        format!(
+            "# Breakage (breakage.lmp): bpm/rotational's `smooth` (no: full forces until B >= 1, as the\n\
+             # integrator's lammps-bpm bond; yes: forces times 1 - B^4); the contact of broken bonds\n\
+             # (pair_style granular hooke): normal and tangential stiffness (N/m; the bonds' median k_n, k_s),\n\
+             # normal damping (N·s/m; ratio {} on the median reduced mass), friction coefficient (the bonds' mean)\n\
+             variable smooth index {}\nvariable contact_kn index {}\nvariable contact_kt index {}\n\
+             variable contact_damping index {}\nvariable contact_friction index {}\n",
+            num(o.damping_ratio),
+            if self.smooth { "yes" } else { "no" },
+            num(self.kn),
+            num(self.kt),
+            num(self.damping),
+            num(self.friction)
+        )
+    }
+}
+
+/// `breakage.lmp`: the bond style that breaks (bpm/rotational `break yes`, or the plugin's
+/// `break yes` with its strength table) and the pair style that takes the broken bonds.
+fn breakage_text(_c: &Contact, plugin: bool) -> String {
+    let head = "# Bond breakage (the model's [strength]; docs/strength.md, section LAMMPS): a bond breaks when\n\
+         #   B = F_r/f_rc + |F_s|/f_sc + |tau_b|/tau_bc + |tau_t|/tau_tc >= 1 (F_r = k_r (r - r0), tension\n\
+         #   positive), bpm/rotational's criterion; f_rc = σ_t·π̂R_b², f_sc = c·π̂R_b², tau_bc = σ_b·π̂R_b³/4,\n\
+         #   tau_tc = τ_t·π̂R_b³/2 of each bond's strength and bond radius R_b.\n";
+    if plugin {
+        format!(
+            "{head}\
+             # bond_style anisobond: each bond's limits from bond-strengths.csv (atom ids); a broken bond is\n\
+             #   removed from its atom's bond list with its state (restart files keep the rest). No contact\n\
+             #   after breaking: the plugin does not hand broken pairs to a pair style (pair_style zero).\n\
+             bond_style anisobond ${{springs}} damping ${{damping}} break yes strengths bond-strengths.csv\n\
+             bond_coeff *\n\
+             pair_style zero ${{cut}}\n\
+             pair_coeff * *\n"
+        )
+    } else {
+        format!(
+            "{head}\
+             # bpm/rotational `break yes` (the limits per type in bond_coeffs.lmp), `smooth` of params.lmp; it\n\
+             #   needs newton_bond off and special_bonds lj 0 1 1 coul 1 1 1, and takes a broken pair out of\n\
+             #   the special list (fix update/special/bonds), so that the pair style below acts on it.\n\
+             # Contact (a broken bond's pair, and any pair that comes into contact): pair_style granular,\n\
+             #   F_n = contact_kn·δ − contact_damping·v_n for the overlap δ = R_i + R_j − r > 0 (compression\n\
+             #   only, per-particle radii), tangential linear spring contact_kt with history and the same\n\
+             #   damping, capped at contact_friction·F_n (Coulomb); no rolling or twisting resistance.\n\
+             bond_style bpm/rotational break yes smooth ${{smooth}}\n\
+             include bond_coeffs.lmp\n\
+             pair_style granular\n\
+             pair_coeff * * hooke ${{contact_kn}} ${{contact_damping}} tangential linear_history ${{contact_kt}} 1 ${{contact_friction}} damping velocity\n"
+        )
+    }
+}
+
+/// in.elastic with its bonds and pair style from breakage.lmp (the element tests' text
+/// otherwise unchanged).
+fn with_breakage(deck: &str, plugin: bool) -> String {
+    let bonds = if plugin {
+        "bond_style anisobond ${springs} damping ${damping}\nbond_coeff *\n"
+    } else {
+        "bond_style bpm/rotational break no smooth no\ninclude bond_coeffs.lmp\n"
+    };
+    let pair = "pair_style zero ${cut}\npair_coeff * *\n";
+    debug_assert!(deck.contains(bonds) && deck.contains(pair));
+    deck.replacen(bonds, "include breakage.lmp\n", 1)
+        .replacen(pair, "", 1)
+        .replacen(
+            "# Bond law: bpm/rotational (no breaking, no smoothing, normalize no)",
+            "# Bond law: bpm/rotational (bonds break: breakage.lmp; normalize no)",
+            1,
+        )
+        .replacen(
+            "(pair_style zero: only the ghost atoms that bonds need)",
+            "(the ghost atoms that bonds need; contacts: breakage.lmp)",
+            1,
+        )
+        .replacen(
+            "# Bond law: bond_style anisobond",
+            "# Bonds break: breakage.lmp.\n# Bond law: bond_style anisobond",
+            1,
+        )
+}
+
+/// `bond-strengths.csv` for the plugin's `break yes strengths FILE`: each bond's atom ids and
+/// critical loads (N, N, N·m, N·m).
+fn write_strength_table(
+    dir: &Path,
+    bonds: &BondSet,
+    ids: &[u64],
+    limits: &[Limits],
+) -> Result<PathBuf> {
+    let mut s = String::with_capacity(bonds.len() * 100);
+    s.push_str("id_i,id_j,f_rc_N,f_sc_N,tau_bc_Nm,tau_tc_Nm\n");
+    for (b, f) in limits.iter().enumerate() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{}",
+            ids[i],
+            ids[j],
+            num(f[0]),
+            num(f[1]),
+            num(f[2]),
+            num(f[3])
+        );
+    }
+    let path = dir.join("bond-strengths.csv");
+    crate::io::write_string_atomic(&path, &s)?;
+    Ok(path)
 }
 
 /// `params.lmp`: the decks' settings, each overridable with `-var NAME VALUE`.
@@ -900,10 +1277,15 @@ fn write_decks(
     nb: usize,
     comment: &str,
     plugin: bool,
+    breakage: bool,
     cell: &PeriodicCell,
 ) -> Result<Vec<PathBuf>> {
     let cases = DeckCases::of(cell);
-    let mut decks = vec![("in.elastic", elastic_deck(n, nb, comment, plugin, &cases))];
+    let mut elastic = elastic_deck(n, nb, comment, plugin, &cases);
+    if breakage {
+        elastic = with_breakage(&elastic, plugin);
+    }
+    let mut decks = vec![("in.elastic", elastic)];
     if !plugin {
         decks.push(("in.history", history_deck(n, nb, comment, &cases)));
     }
@@ -969,7 +1351,15 @@ fn types_comment(what: &str, types: Option<&TypesReport>) -> String {
                 num(e.ks),
                 num(e.kr),
                 num(e.ktw)
-            )
+            ) + &r
+                .limit_max_relative_error
+                .map(|l| {
+                    format!(
+                        "\n#   Breaking limits quantised jointly: largest relative error {}.",
+                        l.text()
+                    )
+                })
+                .unwrap_or_default()
         }
         _ => format!("{what}."),
     }
@@ -1311,6 +1701,7 @@ mod tests {
                 kr: 0.0,
                 ktw: 0.0,
             },
+            limit_max_relative_error: None,
             relaxed_exact: Some(Stiffness6::identity()),
             relaxed_quantised: Some(Stiffness6::identity()),
         }

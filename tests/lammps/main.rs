@@ -7,6 +7,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod breakage;
 mod exit_codes;
 mod export;
 mod plugin;

@@ -199,7 +199,7 @@ fn plugin_cross_anisotropic_from_the_table_and_from_the_model_on_two_processes()
 }
 
 /// Run `lmp -in in.lmp` (on `np` processes through the venv's mpirun) in `dir`.
-fn run_lmp(lmp: &Path, dir: &Path, input: &str, np: usize) -> Output {
+pub fn run_lmp(lmp: &Path, dir: &Path, input: &str, np: usize) -> Output {
     let bin = lmp.parent().unwrap();
     let lib = bin.parent().unwrap().join("lib");
     let mut cmd = if np > 1 {
