@@ -102,6 +102,11 @@ BOND_COLUMNS = ("i", "j", "nx", "ny", "nz", "length", "radius", "kn", "ks", "kr"
 ID_COLUMNS = ("id_i", "id_j")
 INT_COLUMNS = ("i", "j", "ix", "iy", "iz", "id_i", "id_j")
 HUGE_ADHESION = 1e300
+# Optional trailing columns of a bond table (``anisobond export yade`` of a model with a
+# [strength] table): each bond's CohFrictPhys normalAdhesion, shearAdhesion (N) and
+# tangensOfFrictionAngle. With them the bonds are fragile and YADE breaks them by its own
+# criterion (docs/strength.md, "YADE"); without them they never break.
+ADHESION_COLUMNS = ("normal_adhesion", "shear_adhesion", "tan_friction")
 
 
 class InputError(ValueError):
@@ -269,6 +274,13 @@ def read_bond_table(path, n_particles=None):
                              % (path, c, ",".join(BOND_COLUMNS)))
         index[c] = header.index(c)
     cols = dict((c, []) for c in BOND_COLUMNS)
+    present = [c for c in ADHESION_COLUMNS if c in header]
+    if present and len(present) != len(ADHESION_COLUMNS):
+        raise InputError("%s:1: header has %s but not %s: the adhesion columns come together"
+                         % (path, ", ".join(present),
+                            ", ".join(c for c in ADHESION_COLUMNS if c not in present)))
+    adhesion = bool(present)
+    adhesions = dict((c, []) for c in ADHESION_COLUMNS)
     for n, line in rows[1:]:
         fields = [w.strip() for w in line.split(",")]
         if len(fields) != len(header):
@@ -293,7 +305,17 @@ def read_bond_table(path, n_particles=None):
         for c in ("kn", "ks", "kr", "ktw"):
             if cols[c][-1] < 0:
                 raise InputError("%s:%d: %s must be >= 0" % (path, n, c))
-    return BondTable(cols)
+        if adhesion:
+            for c in ADHESION_COLUMNS:
+                v = _number(fields[header.index(c)], "column `%s`" % c, path, n)
+                if not (math.isfinite(v) and v >= 0):
+                    raise InputError("%s:%d: column `%s`: expected a finite value >= 0, found "
+                                     "`%s`" % (path, n, c, fields[header.index(c)]))
+                adhesions[c].append(v)
+    table = BondTable(cols)
+    for c in ADHESION_COLUMNS:
+        setattr(table, c, adhesions[c] if adhesion else None)
+    return table
 
 
 def _write_atomic(path, text):
@@ -363,6 +385,59 @@ def assign_springs(model, packing, bonds):
     for name in ("kn", "ks", "kr", "ktw", "radius"):
         setattr(bonds, name, k[name].tolist())
     return bonds
+
+
+def has_adhesions(bonds):
+    """True when the table carries YADE adhesions (``ADHESION_COLUMNS``)."""
+    return getattr(bonds, "normal_adhesion", None) is not None
+
+
+def assign_adhesions(model, packing, bonds):
+    """Set the table's ``normal_adhesion``, ``shear_adhesion``, ``tan_friction`` (and
+    ``joint``: the plane family a bond crosses, -1 for none) to YADE's CohFrict limits of
+    ``model``'s [strength] table, computed by the anisobond package
+    (``Model.yade_adhesions``: a_n = sigma_t*r^2, a_s = c*r^2, r = min(R_i, R_j), from each
+    bond's start ``packing.positions[i]`` and branch vector length*n); all None when the
+    model has no [strength] table (the bonds then never break). Returns the table."""
+    import numpy as np
+    m = _model(model)
+    if not m.has_strength:
+        for c in ADHESION_COLUMNS + ("joint",):
+            setattr(bonds, c, None)
+        return bonds
+    radii = np.asarray(packing.radii, dtype=float)
+    pos = np.asarray(packing.positions, dtype=float)
+    i, j = np.asarray(bonds.i), np.asarray(bonds.j)
+    branches = np.column_stack([bonds.nx, bonds.ny, bonds.nz]) * np.asarray(
+        bonds.length, dtype=float)[:, None]
+    a = m.yade_adhesions(pos[i], branches, radii[i], radii[j])
+    for c in ADHESION_COLUMNS + ("joint",):
+        setattr(bonds, c, a[c].tolist())
+    return bonds
+
+
+def set_bond_limits(ph, bonds, b, keep_friction=False):
+    """Bond b's cohesion in YADE's CohFrictPhys ``ph``: with adhesions in the table, fragile
+    with its normalAdhesion, shearAdhesion and tangensOfFrictionAngle (YADE breaks it by its
+    own criterion: tension when -F_n > a_n, shear when |F_s| > a_s + F_n tan(phi)); without,
+    never-breaking (adhesions 1e300, not fragile; friction 0, or as it was with
+    ``keep_friction``, as ``assign`` always left it). Either way no rolling or
+    twisting plasticity: YADE 2023.02a's moments are elastic (docs/strength.md, "YADE")."""
+    ph.cohesionBroken = False
+    ph.initCohesion = False
+    if has_adhesions(bonds):
+        ph.fragile = True
+        ph.normalAdhesion = bonds.normal_adhesion[b]
+        ph.shearAdhesion = bonds.shear_adhesion[b]
+        ph.tangensOfFrictionAngle = bonds.tan_friction[b]
+    else:
+        ph.fragile = False
+        ph.normalAdhesion = HUGE_ADHESION
+        ph.shearAdhesion = HUGE_ADHESION
+        if not keep_friction:
+            ph.tangensOfFrictionAngle = 0.0
+    ph.maxRollPl = -1.0
+    ph.maxTwistPl = -1.0
 
 
 class ClumpError(InputError):
@@ -563,7 +638,7 @@ def assign(model, interactions=None, renew=False):
     (``penetration_depth``: right on a scene read by ``O.load``, whose stored
     ``penetrationDepth`` is NaN until a step; a non-finite one raises ``BondMismatch``),
     forces and moments zero,
-    ``cohesionBroken = False``, never-breaking adhesion, the moment law on, and
+    ``cohesionBroken = False``, the moment law on, and
     ``avoidGranularRatcheting = False`` on the scene's Ig2_Sphere_Sphere_ScGeom6D functors
     (otherwise YADE scales the shear spring by (R1+R2)/d). Engines are otherwise left as the
     user set them. Only sphere-sphere interactions are bonds: cohesive contacts with walls,
@@ -580,7 +655,15 @@ def assign(model, interactions=None, renew=False):
     ``renew=True`` every bond is first made anew (``renew_interactions``: the current
     orientations become the reference, so the moments start from zero in the total form too;
     handles to the old interaction objects die).
-    Returns the bond table (see ``scene_bonds``) of what was assigned."""
+    Strength: when the model has a [strength] table, every bond also gets YADE's CohFrict
+    limits (``assign_adhesions``: normalAdhesion = sigma_t*r^2, shearAdhesion = c*r^2,
+    r = min(R_i, R_j), tangensOfFrictionAngle = mu, ``fragile = True``; moments elastic, as
+    YADE 2023.02a has no moment adhesions), so YADE breaks it by its own criterion; without
+    one, never-breaking adhesion (1e300, not fragile) and the friction left as it was.
+
+    Returns the bond table (see ``scene_bonds``) of what was assigned, with the limits
+    (``normal_adhesion``, ``shear_adhesion``, ``tan_friction``, ``joint``; None without
+    [strength])."""
     from yade import O
     from yade.minieigenHP import Vector3
     from yade.wrapper import Ig2_Sphere_Sphere_ScGeom6D, InteractionLoop
@@ -606,7 +689,8 @@ def assign(model, interactions=None, renew=False):
                            "%r): non-finite positions or radii" % (len(bad), len(inters),
                                                                    bad[0][0].id1, bad[0][0].id2,
                                                                    bad[0][1]))
-    _, table = scene_bonds(model, inters)
+    packing, table = scene_bonds(model, inters)
+    assign_adhesions(model, packing, table)
     table.skipped_interactions = n_skipped
     table.rotations = bond_rotations(inters)
     for b, I in enumerate(inters):
@@ -618,13 +702,7 @@ def assign(model, interactions=None, renew=False):
         ph.shearForce = Vector3.Zero
         ph.moment_twist = Vector3.Zero
         ph.moment_bending = Vector3.Zero
-        ph.cohesionBroken = False
-        ph.initCohesion = False
-        ph.fragile = False
-        ph.normalAdhesion = HUGE_ADHESION
-        ph.shearAdhesion = HUGE_ADHESION
-        ph.maxRollPl = -1.0
-        ph.maxTwistPl = -1.0
+        set_bond_limits(ph, table, b, keep_friction=True)
         ph.momentRotationLaw = True
     incremental = any(getattr(f, "useIncrementalForm", False)
                       for e in O.engines if isinstance(e, InteractionLoop)
@@ -1098,15 +1176,8 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
             # The table's image is that of j seen from i; YADE shifts body id2.
             I.cellDist = image if I.id1 == i else -image
         ph = I.phys
-        ph.cohesionBroken = False
-        ph.initCohesion = False
-        ph.fragile = False
-        ph.normalAdhesion = HUGE_ADHESION
-        ph.shearAdhesion = HUGE_ADHESION
+        set_bond_limits(ph, bonds, b)
         ph.unpMax = -1.0
-        ph.maxRollPl = -1.0
-        ph.maxTwistPl = -1.0
-        ph.tangensOfFrictionAngle = 0.0
         ph.momentRotationLaw = True
         interactions.append(I)
     # One step with dt = 0: the geometry is recomputed with the corrected images; nothing

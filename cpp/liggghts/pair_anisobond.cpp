@@ -1,6 +1,7 @@
 // pair_style anisobond — see pair_anisobond.h for the bond law and the design.
 //
 //   pair_style anisobond table BONDS.csv [damping GT GR] [length_tolerance TOL]
+//     (BONDS.csv with normal_adhesion,shear_adhesion,tan_friction columns: breakable bonds)
 //   pair_style anisobond model MODEL.toml PACKING [damping GT GR] [length_tolerance TOL]
 //   pair_style anisobond model MODEL.toml [write_bonds FILE] [damping GT GR] [length_tolerance TOL]
 //   pair_coeff * *
@@ -55,14 +56,25 @@ using anisobond_vec::cross;
 using anisobond_vec::dot;
 using anisobond_vec::rotate_by;
 
+// Remove bond slot b of an atom's row (the last slot moves into its place), nb the count.
+void remove_slot(double *row, int b, int &nb) {
+  const int head = PairAnisobond::HEAD, ns = PairAnisobond::NSLOT;
+  double *s = &row[head + b * ns], *last = &row[head + (nb - 1) * ns];
+  if (s != last)
+    for (int k = 0; k < ns; k++) s[k] = last[k];
+  for (int k = 0; k < ns; k++) last[k] = 0.0;
+  nb--;
+  row[PairAnisobond::H_COUNT] = nb;
+}
+
 }  // namespace
 
 Pair *PairAnisobond::creator(LAMMPS *lmp) { return new PairAnisobond(lmp); }
 
 PairAnisobond::PairAnisobond(LAMMPS *lmp)
     : Pair(lmp), max_bonds_(0), max_length_(0.0), damp_t_(0.0), damp_r_(0.0),
-      length_tol_(1e-6), in_place_(false), bonded_(false), fix_id_("anisobond_bonds"),
-      fix_(NULL) {
+      length_tol_(1e-6), in_place_(false), bonded_(false), breakable_(false),
+      fix_id_("anisobond_bonds"), fix_(NULL) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;  // the virial is tallied per bond
   restartinfo = 0;
@@ -98,6 +110,8 @@ void PairAnisobond::settings(int narg, char **arg) {
     error->all(FLERR, "Illegal pair_style anisobond command: expected `table BONDS.csv`, "
                       "`model MODEL.toml PACKING` or `model MODEL.toml` (bond in place)");
   rust::Vec<anisobond::BondRow> rows;
+  rust::Vec<anisobond::YadeLimits> limits;
+  std::string limits_of;
   int iarg = 0;
   in_place_ = false;
   bonded_ = false;
@@ -105,6 +119,8 @@ void PairAnisobond::settings(int narg, char **arg) {
   try {
     if (strcmp(arg[0], "table") == 0) {
       rows = anisobond::load_bond_table(arg[1]);
+      limits = anisobond::load_yade_limits(arg[1]);
+      limits_of = std::string("bond table ") + arg[1];
       iarg = 2;
     } else if (strcmp(arg[0], "model") == 0) {
       // A word after MODEL that is not a keyword is the packing file; without it the atoms
@@ -113,6 +129,8 @@ void PairAnisobond::settings(int narg, char **arg) {
       if (narg >= 3 && !is_keyword(arg[2])) {
         if (model->needs_packing()) model->bind_packing(arg[2]);
         rows = anisobond::build_bond_table(arg[2], *model);
+        if (model->has_strength()) limits = anisobond::packing_yade_limits(arg[2], *model);
+        limits_of = std::string("model ") + arg[1] + " on " + arg[2];
         iarg = 3;
       } else {
         in_place_ = true;
@@ -162,8 +180,25 @@ void PairAnisobond::settings(int narg, char **arg) {
   bonds.reserve(rows.size());
   for (const anisobond::BondRow &r : rows)
     bonds.push_back(Bond{static_cast<int>(r.i) + 1, static_cast<int>(r.j) + 1, r.kn, r.ks, r.kr,
-                         r.ktw, r.length});
+                         r.ktw, r.length, -1.0, 0.0, 0.0});
+  add_limits(bonds, limits, limits_of);
   set_bonds(std::move(bonds));
+}
+
+void PairAnisobond::add_limits(std::vector<Bond> &bonds,
+                               const rust::Vec<anisobond::YadeLimits> &lim,
+                               const std::string &what) {
+  if (lim.empty()) return;
+  if (lim.size() != bonds.size()) {
+    std::string msg = "pair_style anisobond: " + what + ": " + std::to_string(lim.size()) +
+                      " bond limits for " + std::to_string(bonds.size()) + " bonds";
+    error->all(FLERR, msg.c_str());
+  }
+  for (size_t b = 0; b < bonds.size(); b++) {
+    bonds[b].an = lim[b].normal;
+    bonds[b].as = lim[b].shear;
+    bonds[b].tf = lim[b].tan_friction;
+  }
 }
 
 // write_bonds of the in-place form, once the bonds are known to be used (rank 0: the same
@@ -206,6 +241,8 @@ void PairAnisobond::set_bonds(std::vector<Bond> bonds) {
     first_bond_[t + 1] += first_bond_[t];
   }
   for (const Bond &b : bonds_) max_length_ = std::max(max_length_, b.length);
+  breakable_ = false;
+  for (const Bond &b : bonds_) breakable_ = breakable_ || b.an >= 0.0;
   if (max_bonds_ == 0) max_bonds_ = 1;
   bonded_ = true;
 }
@@ -283,7 +320,20 @@ void PairAnisobond::bond_in_place() {
       bonds.reserve(ab.rows.size());
       for (const anisobond::BondRow &r : ab.rows)
         bonds.push_back(Bond{static_cast<int>(ab.ids[r.i]), static_cast<int>(ab.ids[r.j]), r.kn,
-                             r.ks, r.kr, r.ktw, r.length});
+                             r.ks, r.kr, r.ktw, r.length, -1.0, 0.0, 0.0});
+      if (model->has_strength()) {
+        rust::Vec<anisobond::YadeLimits> lim = anisobond::atoms_yade_limits(
+            *model, rust::Slice<const double>(xs.data(), xs.size()),
+            rust::Slice<const double>(rs.data(), rs.size()),
+            rust::Slice<const uint64_t>(ids.data(), ids.size()), box);
+        if (lim.size() != bonds.size())
+          throw std::runtime_error("the bond limits do not match the bonds");
+        for (size_t b = 0; b < bonds.size(); b++) {
+          bonds[b].an = lim[b].normal;
+          bonds[b].as = lim[b].shear;
+          bonds[b].tf = lim[b].tan_friction;
+        }
+      }
     } catch (const std::exception &e) {
       failure = std::string("pair_style anisobond model ") + model_path_ +
                 " (in place, bonding the " + std::to_string(n) + " atoms of the first run): " +
@@ -355,14 +405,14 @@ void PairAnisobond::init_style() {
   const double need = 1.05 * max_length_ + neighbor->skin;
   if (comm->cutghostuser < need) comm->cutghostuser = need;
 
-  const int nvalues = 1 + max_bonds_ * NSLOT;
+  const int nvalues = HEAD + max_bonds_ * NSLOT;
   fix_ = static_cast<FixPropertyAtom *>(modify->find_fix_id(fix_id_.c_str()));
   if (fix_ == NULL) {
     // fix ID all property/atom NAME vector restart commGhost commGhostRev defaults...
     std::vector<std::string> words = {fix_id_, "all", "property/atom", fix_id_, "vector",
                                       "yes", "no", "no"};
-    words.push_back("-1");  // slot 0: number of bonds, −1 = not filled yet
-    for (int k = 1; k < nvalues; k++) words.push_back("0");
+    words.push_back("-1");  // H_COUNT: number of bonds, −1 = not filled yet
+    for (int k = 1; k < nvalues; k++) words.push_back("0");  // H_BROKEN, then the slots
     std::vector<char *> argv;
     for (std::string &w : words) argv.push_back(&w[0]);
     modify->add_fix(static_cast<int>(argv.size()), argv.data());
@@ -396,12 +446,12 @@ void PairAnisobond::fill_bonds() {
   const int *tag = atom->tag;
   const int ntag = static_cast<int>(first_bond_.size()) - 2;
   for (int i = 0; i < nlocal; i++) {
-    if (a[i][0] >= 0.0) continue;
+    if (a[i][H_COUNT] >= 0.0) continue;
     int nb = 0;
     const int t = tag[i];
     if (t >= 1 && t <= ntag) {
       for (int b = first_bond_[t]; b < first_bond_[t + 1]; b++, nb++) {
-        double *s = &a[i][1 + nb * NSLOT];
+        double *s = &a[i][HEAD + nb * NSLOT];
         for (int k = 0; k < NSLOT; k++) s[k] = 0.0;
         s[S_TAG] = bonds_[b].tag_j;
         s[S_KN] = bonds_[b].kn;
@@ -409,9 +459,14 @@ void PairAnisobond::fill_bonds() {
         s[S_KR] = bonds_[b].kr;
         s[S_KTW] = bonds_[b].ktw;
         s[S_R0] = -bonds_[b].length;
+        s[S_AN] = bonds_[b].an;
+        s[S_AS] = bonds_[b].as;
+        s[S_TF] = bonds_[b].tf;
+        s[S_COH] = 1.0;
       }
     }
-    a[i][0] = nb;
+    a[i][H_COUNT] = nb;
+    a[i][H_BROKEN] = 0.0;
   }
 }
 
@@ -432,9 +487,9 @@ void PairAnisobond::compute(int eflag, int vflag) {
   const double dt = update->setupflag ? 0.0 : update->dt;
 
   for (int i = 0; i < nlocal; i++) {
-    const int nb = static_cast<int>(a[i][0]);
+    int nb = static_cast<int>(a[i][H_COUNT]);
     for (int b = 0; b < nb; b++) {
-      double *s = &a[i][1 + b * NSLOT];
+      double *s = &a[i][HEAD + b * NSLOT];
       const int tag_j = static_cast<int>(s[S_TAG]);
       const int j = atom->map(tag_j);
       if (j < 0) {
@@ -513,7 +568,38 @@ void PairAnisobond::compute(int eflag, int vflag) {
       lp[1] = l[1];
       lp[2] = l[2];
 
-      const double fnm = kn * (d - s[S_R0]);
+      const double fnm = kn * (d - s[S_R0]);  // tension positive
+      if (s[S_AN] >= 0.0 && !update->setupflag) {
+        // Breakage by YADE's CohFrict criterion, the library's own (the normal force
+        // compression positive); dt = 0 setup calls do not judge.
+        if (s[S_COH] > 0.0) {
+          const anisobond::YadeLimits lim{s[S_AN], s[S_AS], s[S_TF]};
+          const anisobond::BondVerdict v =
+              anisobond::yade_cohfrict_check(lim, -fnm, std::sqrt(dot(fs, fs)));
+          if (v.broken) {
+            a[i][H_BROKEN] += 1.0;
+            if (v.mode == 0) {
+              remove_slot(a[i], b, nb);
+              b--;
+              continue;
+            }
+            s[S_COH] = 0.0;  // broken in shear: a frictional contact from now on
+          }
+        }
+        if (s[S_COH] <= 0.0) {
+          // Frictional contact (YADE after cohesion broke): lost in tension; else
+          // |F_s| ≤ F_n tan φ and no moments.
+          if (fnm > 0.0) {
+            remove_slot(a[i], b, nb);
+            b--;
+            continue;
+          }
+          const double cap = -fnm * s[S_TF], mag = std::sqrt(dot(fs, fs));
+          if (mag > cap)
+            for (int k = 0; k < 3; k++) fs[k] *= mag > 0.0 ? cap / mag : 0.0;
+          for (int k = 0; k < 3; k++) mb[k] = mt[k] = 0.0;
+        }
+      }
       double F[3], M[3];
       for (int k = 0; k < 3; k++) {
         F[k] = fnm * n[k] + fs[k];

@@ -27,9 +27,22 @@
 // the bond state the in-place form is refused (it would bond the atoms again where they are
 // then); write_bonds is written only once the bonds are known to be used.
 //
-// State lives in a `fix property/atom` created in init_style(): per owned atom the bonds to
-// partners of higher tag (newton on: each bond once), so LIGGGHTS' exchange carries the
-// history when atoms migrate and the restart file keeps it.
+// Strength and breakage (issue 32; docs/strength.md, "LIGGGHTS"): when the model has a
+// `[strength]` table (forms `model MODEL PACKING` and `model MODEL`) or the bond table has
+// the columns normal_adhesion, shear_adhesion, tan_friction (`table`, as `anisobond export
+// yade` writes them), every bond carries YADE's CohFrict limits a_n, a_s, tan φ — the same
+// law as the bond law above and as the integrator's law a — and is judged every step by the
+// library's own criterion through the bridge (anisobond::yade_cohfrict_check =
+// strength::criteria::yade_cohfrict, fragile, moments elastic as YADE 2023.02a): tension
+// (−F_n > a_n, compression positive) removes the bond; shear (|F_s| > a_s + F_n tan φ) turns
+// it into a frictional contact (compression only, |F_s| ≤ F_n tan φ, no moments) that is
+// removed once it is in tension, as YADE does. No new contacts are detected.
+//
+// State lives in a `fix property/atom` created in init_style(): per owned atom the number of
+// bonds, the number of its bonds that broke, then the bonds to partners of higher tag
+// (newton on: each bond once), so LIGGGHTS' exchange carries the history when atoms migrate
+// and the restart file keeps it. `compute reduce sum f_anisobond_bonds[1]` counts the bonds
+// left, `…[2]` those broken.
 #ifndef ANISOBOND_PAIR_ANISOBOND_H
 #define ANISOBOND_PAIR_ANISOBOND_H
 
@@ -56,6 +69,9 @@ class PairAnisobond : public Pair {
   // For Force::pair_map.
   static Pair *creator(class LAMMPS *lmp);
 
+  // Values per atom before the bond slots: number of bonds, number broken.
+  enum { H_COUNT = 0, H_BROKEN = 1, HEAD = 2 };
+
   // Slots of one bond in the per-atom array.
   enum Slot {
     S_TAG = 0,     // partner tag (as double); 0 = empty
@@ -65,14 +81,24 @@ class PairAnisobond : public Pair {
     S_MB = S_FS + 3,  // bending moment (3)
     S_MT = S_MB + 3,  // twisting moment (3)
     S_LP = S_MT + 3,  // previous branch vector (3)
-    NSLOT = S_LP + 3
+    S_AN = S_LP + 3,  // normalAdhesion a_n (N); < 0: unbreakable
+    S_AS,             // shearAdhesion a_s (N)
+    S_TF,             // tan φ
+    S_COH,            // 1 cohesive, 0 cohesion broken in shear (frictional contact)
+    NSLOT
   };
 
  private:
   struct Bond {
     int tag_i, tag_j;
     double kn, ks, kr, ktw, length;
+    double an, as, tf;  // YADE CohFrict limits; an < 0: unbreakable
   };
+  // Give each bond its limits (lim aligned with bonds, or empty: unbreakable); a length
+  // mismatch is refused naming `what`.
+  void add_limits(std::vector<Bond> &bonds, const rust::Vec<anisobond::YadeLimits> &lim,
+                  const std::string &what);
+  bool breakable_;                  // some bond has limits
   void allocate();
   void fill_bonds();
   void set_bonds(std::vector<Bond> bonds);

@@ -9,11 +9,19 @@
 //! strain after every step) and `yade-tensor.json` (SPEC tensor report, method "yade").
 //! The YADE traps the module handles are listed in its docstring and in
 //! `yade-scripts/README.md`.
+//!
+//! A model with a `[strength]` table (docs/strength.md, "YADE") adds three columns to
+//! `bonds.csv`, [`ADHESION_COLUMNS`]: each bond's CohFrictPhys `normalAdhesion`,
+//! `shearAdhesion` (N) and `tangensOfFrictionAngle` from [`yade_adhesions`]; the module then
+//! builds its bonds `fragile`, so YADE breaks them by its own criterion. Without the table
+//! `bonds.csv` is the plain SPEC table and the bonds never break, as before.
 
 use crate::assembly::Assembly;
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::model::Model;
 use crate::packing::{self, Packing};
+use crate::strength::criteria::YadeAdhesion;
+use crate::strength::{assign_strength, StrengthSpec};
 use crate::tensor::{Stiffness6, Voigt6};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -41,6 +49,136 @@ pub mod files {
     pub const HISTORY: &str = "yade-history.csv";
     /// Tensor report written by the run.
     pub const TENSOR: &str = "yade-tensor.json";
+}
+
+/// Columns appended to the export's `bonds.csv` when the model has a `[strength]` table:
+/// YADE's `normalAdhesion` a_n, `shearAdhesion` a_s (N) and `tangensOfFrictionAngle` tan φ
+/// of each bond (`anisobond_yade.read_bond_table` reads them; readers that find columns by
+/// name ignore them).
+pub const ADHESION_COLUMNS: [&str; 3] = ["normal_adhesion", "shear_adhesion", "tan_friction"];
+
+/// Every bond's YADE CohFrict limits by `model`'s `[strength]` table, `None` when it has
+/// none: the bond's strength ([`assign_strength`]: scheme, planes of weakness, scatter) as
+/// `Ip2_CohFrictMat_CohFrictMat_CohFrictPhys` turns cohesions into adhesions,
+/// a_n = σ_t·r², a_s = c·r², r = min(R_i, R_j) ([`YadeAdhesion::of`]; YADE 2023.02a's moments
+/// are elastic). A joint bond takes its joint's σ_t, c_w, μ_w, judged by YADE's own law along
+/// the bond (YADE has no plane criterion; docs/strength.md, "YADE").
+pub fn yade_adhesions(
+    packing: &Packing,
+    bonds: &BondSet,
+    model: &Model,
+) -> Result<Option<Vec<YadeAdhesion>>> {
+    let Some(table) = &model.strength else {
+        return Ok(None);
+    };
+    let spec = StrengthSpec::from_table(table)?;
+    let s = assign_strength(packing, bonds, &spec)?;
+    let r = &packing.radii;
+    Ok(Some(s.map(|b, st| {
+        YadeAdhesion::of(&st, r[bonds.i[b] as usize], r[bonds.j[b] as usize], false)
+    })))
+}
+
+/// The [`ADHESION_COLUMNS`] of a bond table file, one record per row (empty when the header
+/// has none of them; all three or none): what `write_yade_export` wrote, read back for the
+/// engines' plugins. A bad value is refused with the file and line.
+pub fn read_adhesion_columns(path: &Path) -> Result<Vec<YadeAdhesion>> {
+    let text = crate::io::read_to_string(path)?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        return Err(Error::parse(
+            path,
+            1,
+            "empty file: expected a bond table header",
+        ));
+    };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let idx: Vec<Option<usize>> = ADHESION_COLUMNS
+        .iter()
+        .map(|c| cols.iter().position(|h| h == c))
+        .collect();
+    if idx.iter().all(Option::is_none) {
+        return Ok(Vec::new());
+    }
+    if idx.iter().any(Option::is_none) {
+        return Err(Error::parse(
+            path,
+            1,
+            format!(
+                "the header has some of the adhesion columns `{}` but not all",
+                ADHESION_COLUMNS.join(",")
+            ),
+        ));
+    }
+    let idx: Vec<usize> = idx.into_iter().flatten().collect();
+    let mut out = Vec::new();
+    for (n, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != cols.len() {
+            return Err(Error::parse(
+                path,
+                n + 1,
+                format!("expected {} fields, found {}", cols.len(), fields.len()),
+            ));
+        }
+        let mut v = [0.0; 3];
+        for (k, &c) in idx.iter().enumerate() {
+            v[k] = fields[c]
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| {
+                    Error::parse(
+                        path,
+                        n + 1,
+                        format!(
+                            "column `{}`: expected a finite number >= 0, found `{}`",
+                            ADHESION_COLUMNS[k], fields[c]
+                        ),
+                    )
+                })?;
+        }
+        out.push(YadeAdhesion {
+            normal: v[0],
+            shear: v[1],
+            tan_friction: v[2],
+            cohesion_disables_friction: false,
+            moments: crate::strength::criteria::YadeMoments::Elastic,
+        });
+    }
+    Ok(out)
+}
+
+/// The bond table text with the [`ADHESION_COLUMNS`] appended to every row (`adhesions`
+/// aligned with the bonds), written atomically to `path`.
+fn write_bond_table_with_adhesions(
+    path: &Path,
+    bonds: &BondSet,
+    springs: &BondStiffness,
+    ids: Option<&[u64]>,
+    adhesions: &[YadeAdhesion],
+) -> Result<()> {
+    let mut plain = Vec::new();
+    table::write_bond_table_ids_to(&mut plain, bonds, springs, ids)
+        .map_err(|e| Error::io(path, e))?;
+    let plain = String::from_utf8(plain).expect("the bond table writer writes ASCII");
+    let mut out = String::with_capacity(plain.len() + 64 * adhesions.len() + 64);
+    let mut lines = plain.lines();
+    let header = lines.next().unwrap_or_default();
+    let _ = writeln!(out, "{header},{}", ADHESION_COLUMNS.join(","));
+    let mut buf = ryu::Buffer::new();
+    for (row, a) in lines.zip(adhesions) {
+        out.push_str(row);
+        for v in [a.normal, a.shear, a.tan_friction] {
+            out.push(',');
+            out.push_str(buf.format(v));
+        }
+        out.push('\n');
+    }
+    crate::io::write_string_atomic(path, &out)
 }
 
 /// Voigt labels of the six strain paths, in order (11, 22, 33, 23, 13, 12).
@@ -320,6 +458,11 @@ pub fn write_yade_export(
     model: Option<&Model>,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
+    // Strengths by the positions as given (planes of weakness), before a mixed box shifts them.
+    let adhesions = match model {
+        Some(m) => yade_adhesions(packing, bonds, m)?,
+        None => None,
+    };
     let mixed = mixed_box(packing, bonds)?;
     let (packing, opts) = match &mixed {
         Some(m) => (&m.packing, &m.opts(opts)?),
@@ -334,17 +477,35 @@ pub fn write_yade_export(
     packing::io::write_packing(&dir.join(files::PACKING), packing)?;
     // YADE's bodies are the packing's spheres in order; the user's own particle ids (a data
     // file's, a dump's) are kept as the table's `id_i,id_j`, to map results back.
-    table::write_bond_table_with_ids(
-        &dir.join(files::BONDS),
-        bonds,
-        springs,
-        packing.ids.as_deref(),
-    )?;
+    match &adhesions {
+        Some(a) => write_bond_table_with_adhesions(
+            &dir.join(files::BONDS),
+            bonds,
+            springs,
+            packing.ids.as_deref(),
+            a,
+        )?,
+        None => table::write_bond_table_with_ids(
+            &dir.join(files::BONDS),
+            bonds,
+            springs,
+            packing.ids.as_deref(),
+        )?,
+    }
     if let Some(m) = model {
         crate::io::write_string_atomic(&dir.join(files::MODEL), &m.to_toml_string())?;
     }
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
     let mut script = run_script(opts, packing.len(), bonds.len());
+    if adhesions.is_some() {
+        let first = script.find('\n').map_or(0, |n| n + 1);
+        script.insert_str(
+            first,
+            "# The model has a [strength] table: bonds.csv gives each bond YADE's normalAdhesion,\n\
+             #   shearAdhesion (N) and tangensOfFrictionAngle; the bonds are fragile and break by\n\
+             #   YADE's CohFrict criterion (docs/strength.md, \"YADE\").\n",
+        );
+    }
     if let Some(m) = &mixed {
         let first = script.find('\n').map_or(0, |n| n + 1);
         script.insert_str(first, &m.note());

@@ -107,6 +107,29 @@ pub mod bridge {
         pub ids: Vec<u64>,
     }
 
+    /// One bond's limits in YADE's CohFrict law (`strength::criteria::YadeAdhesion`, YADE
+    /// 2023.02a: moments elastic): normalAdhesion a_n, shearAdhesion a_s (N), tan φ.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct YadeLimits {
+        /// normalAdhesion a_n = σ_t·r² (N), r = min(R_i, R_j).
+        pub normal: f64,
+        /// shearAdhesion a_s = c·r² (N).
+        pub shear: f64,
+        /// tangensOfFrictionAngle μ.
+        pub tan_friction: f64,
+    }
+
+    /// The verdict of a failure criterion on one bond (`strength::Failure`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct BondVerdict {
+        /// The bond breaks at these loads.
+        pub broken: bool,
+        /// 0 tension, 1 shear, 2 bending, 3 twisting (while intact: the largest term).
+        pub mode: u8,
+        /// Failure index, 1 at the limit.
+        pub index: f64,
+    }
+
     /// A 6×6 Voigt stiffness tensor (Pa), row-major: c[6·a + b] = C[a][b].
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Tensor6 {
@@ -180,10 +203,37 @@ pub mod bridge {
             -> Result<Tensor6>;
         /// The library's version.
         fn library_version() -> String;
+
+        /// True when the model has a `[strength]` table (docs/strength.md).
+        fn has_strength(self: &ModelHandle) -> bool;
+        /// Every bond's YADE CohFrict limits by the model's `[strength]` table, aligned with
+        /// the rows of `build_bond_table(packing_path, model)`; empty without the table.
+        fn packing_yade_limits(packing_path: &str, model: &ModelHandle) -> Result<Vec<YadeLimits>>;
+        /// Every bond's YADE CohFrict limits, aligned with the rows of `bond_atoms` of the
+        /// same atoms; empty when the model has no `[strength]` table.
+        fn atoms_yade_limits(
+            model: &ModelHandle,
+            x: &[f64],
+            radius: &[f64],
+            ids: &[u64],
+            domain: &AtomsBox,
+        ) -> Result<Vec<YadeLimits>>;
+        /// The columns `normal_adhesion,shear_adhesion,tan_friction` of a bond table (as
+        /// `anisobond export yade` writes them for a model with `[strength]`), aligned with
+        /// `load_bond_table`'s rows; empty when the table has none.
+        fn load_yade_limits(path: &str) -> Result<Vec<YadeLimits>>;
+        /// YADE's CohFrict criterion (`strength::criteria::yade_cohfrict`, fragile, moments
+        /// elastic) on one bond: normal force `normal` (N, compression positive) and shear
+        /// magnitude `shear` (N). Allocation-free: for a per-bond, per-step call.
+        fn yade_cohfrict_check(limits: &YadeLimits, normal: f64, shear: f64) -> BondVerdict;
     }
 }
 
-use bridge::{AtomBonds, AtomsBox, BondRow, BondSprings, Magnitudes, Tensor6};
+use crate::strength::criteria::{yade_cohfrict, LocalLoads, YadeAdhesion, YadeMoments};
+use crate::strength::Mode;
+use bridge::{
+    AtomBonds, AtomsBox, BondRow, BondSprings, BondVerdict, Magnitudes, Tensor6, YadeLimits,
+};
 
 /// Opaque model for C++: the model, and the scheme once built.
 pub struct ModelHandle {
@@ -229,6 +279,10 @@ impl ModelHandle {
             self.scheme = Some(self.model.scheme_for(Some(mu))?);
         }
         Ok(())
+    }
+
+    fn has_strength(&self) -> bool {
+        self.model.strength.is_some()
     }
 
     fn pi_hat(&self) -> f64 {
@@ -525,4 +579,71 @@ fn compute_tensor(packing_path: &str, model: &ModelHandle, method: &str) -> Resu
 
 fn library_version() -> String {
     env!("CARGO_PKG_VERSION").to_string()
+}
+
+/// The bridge's record of a library limit.
+fn limits_of(a: &YadeAdhesion) -> YadeLimits {
+    YadeLimits {
+        normal: a.normal,
+        shear: a.shear,
+        tan_friction: a.tan_friction,
+    }
+}
+
+/// The YADE limits of an assembly's bonds (empty without `[strength]`).
+fn assembly_limits(asm: &Assembly) -> Result<Vec<YadeLimits>> {
+    Ok(
+        crate::export::yade::yade_adhesions(&asm.packing, &asm.bonds, &asm.model)?
+            .map(|a| a.iter().map(limits_of).collect())
+            .unwrap_or_default(),
+    )
+}
+
+fn packing_yade_limits(packing_path: &str, model: &ModelHandle) -> Result<Vec<YadeLimits>> {
+    assembly_limits(&assembly(packing_path, model)?)
+}
+
+fn atoms_yade_limits(
+    model: &ModelHandle,
+    x: &[f64],
+    radius: &[f64],
+    ids: &[u64],
+    domain: &AtomsBox,
+) -> Result<Vec<YadeLimits>> {
+    let packing = atoms_packing(x, radius, ids, domain)?;
+    assembly_limits(&Assembly::new(packing, model.model.clone())?)
+}
+
+fn load_yade_limits(path: &str) -> Result<Vec<YadeLimits>> {
+    let cols = crate::export::yade::read_adhesion_columns(Path::new(path))?;
+    Ok(cols.iter().map(limits_of).collect())
+}
+
+fn yade_cohfrict_check(limits: &YadeLimits, normal: f64, shear: f64) -> BondVerdict {
+    let a = YadeAdhesion {
+        normal: limits.normal,
+        shear: limits.shear,
+        tan_friction: limits.tan_friction,
+        cohesion_disables_friction: false,
+        moments: YadeMoments::Elastic,
+    };
+    let f = yade_cohfrict(
+        &a,
+        &LocalLoads {
+            normal,
+            shear,
+            bending: 0.0,
+            twisting: 0.0,
+        },
+    );
+    BondVerdict {
+        broken: f.broken,
+        mode: match f.mode {
+            Mode::Tension => 0,
+            Mode::Shear => 1,
+            Mode::Bending => 2,
+            Mode::Twisting => 3,
+        },
+        index: f.index,
+    }
 }

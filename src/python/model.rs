@@ -147,6 +147,64 @@ impl PyModel {
         Ok(d)
     }
 
+    /// True when the model has a `[strength]` table (docs/strength.md).
+    #[getter]
+    fn has_strength(&self) -> bool {
+        self.inner.strength.is_some()
+    }
+
+    /// YADE CohFrict limits of arbitrary bonds by the model's `[strength]` table, as
+    /// `anisobond_yade.assign` sets them (docs/strength.md, "YADE"): each bond's strength
+    /// (`strength::strengths_along`: scheme, planes of weakness, scatter by bond index) made
+    /// into YADE's adhesions by `YadeAdhesion::of` (a_n = σ_t·r², a_s = c·r², r = min(r_i, r_j)).
+    ///
+    /// starts: (N, 3) first sphere centres (m); branches: (N, 3) vectors to the (image of the)
+    /// second (m); r_i, r_j: (N,) radii (m). Returns a dict of (N,) arrays normal_adhesion,
+    /// shear_adhesion (N), tan_friction, joint (the plane family crossed, or -1); None when
+    /// the model has no `[strength]` table.
+    fn yade_adhesions<'py>(
+        &self,
+        py: Python<'py>,
+        starts: &Bound<'py, PyAny>,
+        branches: &Bound<'py, PyAny>,
+        r_i: &Bound<'py, PyAny>,
+        r_j: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        use crate::strength::criteria::YadeAdhesion;
+        let Some(table) = &self.inner.strength else {
+            return Ok(None);
+        };
+        let x = rows3(py, starts, "starts")?;
+        let l = rows3(py, branches, "branches")?;
+        let ri = column(py, r_i, "r_i", Some(l.len()))?;
+        let rj = column(py, r_j, "r_j", Some(l.len()))?;
+        let s = py
+            .detach(|| {
+                let spec = crate::strength::StrengthSpec::from_table(table)?;
+                crate::strength::strengths_along(&spec, &x, &l)
+            })
+            .map_err(to_py)?;
+        let a = s.map(|b, st| YadeAdhesion::of(&st, ri[b], rj[b], false));
+        let joint: Vec<i64> = (0..s.len())
+            .map(|b| s.joint_of(b).map_or(-1, |k| k as i64))
+            .collect();
+        let d = PyDict::new(py);
+        d.set_item(
+            "normal_adhesion",
+            PyArray1::from_vec(py, a.iter().map(|a| a.normal).collect()),
+        )?;
+        d.set_item(
+            "shear_adhesion",
+            PyArray1::from_vec(py, a.iter().map(|a| a.shear).collect()),
+        )?;
+        d.set_item(
+            "tan_friction",
+            PyArray1::from_vec(py, a.iter().map(|a| a.tan_friction).collect()),
+        )?;
+        d.set_item("joint", PyArray1::from_vec(py, joint))?;
+        Ok(Some(d))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "anisobond.Model.from_toml('''\n{}''')",

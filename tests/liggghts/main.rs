@@ -12,5 +12,6 @@ mod harmonic;
 mod in_place;
 mod ppf_export;
 mod specimen;
+mod strength_tension;
 mod validate;
 mod walled_specimen;

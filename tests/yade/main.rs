@@ -10,6 +10,7 @@ mod export_cli;
 mod in_place_scene;
 mod periodic_image;
 mod specimen;
+mod strength_tension;
 mod two_sphere;
 mod validate;
 mod yade_files;

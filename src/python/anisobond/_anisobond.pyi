@@ -63,6 +63,14 @@ class Model:
         lattice_scaling: Optional[float] = None,
     ) -> Dict[str, np.ndarray]:
         """normals (N, 3) unit; r_i, r_j, lengths (N,) in m -> kn, ks (N/m), kr, ktw (N·m/rad), radius (m)."""
+    @property
+    def has_strength(self) -> bool:
+        """True when the model has a [strength] table (docs/strength.md)."""
+    def yade_adhesions(
+        self, starts: _Floats, branches: _Floats, r_i: _Floats, r_j: _Floats
+    ) -> Optional[Dict[str, np.ndarray]]:
+        """starts, branches (N, 3) in m; r_i, r_j (N,) in m -> normal_adhesion, shear_adhesion (N),
+        tan_friction, joint (plane family or -1): YADE CohFrictPhys limits; None without [strength]."""
 
 class Packing:
     """Spheres in a periodic cell (cell=(Lx, Ly, Lz) in m) or a free cluster (cell=None)."""
