@@ -449,7 +449,7 @@ impl Engine for Lammps {
         progress: Progress,
     ) -> Result<Report<super::strength::StrengthDetails>> {
         let o = &self.0;
-        let launch = super::strength::lammps::Launch {
+        let launch = super::strength::Launch {
             program: resolve_program(&o.lmp)?,
             processes: if o.two_processes { vec![1, 2] } else { vec![1] },
             density: o.export.density,

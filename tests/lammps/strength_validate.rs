@@ -7,41 +7,13 @@
 //! the same, in the same order (LAMMPS' own record of broken bonds, `store/local`).
 
 use super::export::{lmp, one_lammps_at_a_time};
-use anisobond::assembly::Assembly;
-use anisobond::model::Model;
-use anisobond::packing::Packing;
+use crate::common::strength_bar::{cubic_bar, R};
 use anisobond::validate::lammps::{Lammps, LammpsValidateOptions};
 use anisobond::validate::strength::StrengthTest;
 use anisobond::validate::{validate_strength, Problem};
-use anisobond::Vec3;
-
-const R: f64 = 1e-3;
-
-const MODEL: &str = "[bonding]\nrule = \"gap\"\nvalue = 0.01\n\
-    [scheme]\nkind = \"isotropic\"\nnormal = 2e6\nshear = 7e5\n\
-    [geometry]\nconvention = \"spring\"\n\
-    [strength]\n[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n\
-    [strength.scatter]\ndistribution = \"weibull\"\nmodulus = 5.0\nseed = 7\n";
-
-/// An n × n × n simple-cubic bar of touching spheres of radius R, free (no cell).
-pub(crate) fn cubic_bar(n: usize) -> Assembly {
-    let mut pos = Vec::new();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                pos.push(Vec3::new(i as f64, j as f64, k as f64) * 2.0 * R);
-            }
-        }
-    }
-    let count = pos.len();
-    let packing = Packing::new(pos, vec![R; count], None).unwrap();
-    let model = Model::from_toml_str(MODEL, "<strength test>").unwrap();
-    Assembly::new(packing, model).unwrap()
-}
 
 #[test]
-fn lammps_route_a_tension_peak_and_first_breaks_match_the_integrator_on_one_and_two_processes()
-{
+fn lammps_route_a_tension_peak_and_first_breaks_match_the_integrator_on_one_and_two_processes() {
     let test = "lammps_strength_validate";
     let Some(lmp) = lmp(test) else {
         return;
@@ -52,7 +24,7 @@ fn lammps_route_a_tension_peak_and_first_breaks_match_the_integrator_on_one_and_
     opts.two_processes = true;
     let engine = Lammps(opts);
     let dir = tempfile::tempdir().unwrap();
-    let t = StrengthTest::new(2, 0.5 * R, 2.5e-7, 12_000);
+    let t = StrengthTest::new(2, 0.5 * R, 5e-7, 6_000);
     let r = validate_strength(&engine, &Problem::of(dir.path(), &asm), &t, &|m: &str| {
         eprintln!("{test}: {m}")
     })

@@ -10,7 +10,7 @@
 //! limits.
 
 use super::{
-    compare, order_breaks, reference, Loading, StrengthDetails, StrengthRun, StrengthTest,
+    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
 };
 use crate::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
 use crate::dem::{BondCriteria, LawKind};
@@ -27,19 +27,6 @@ pub const DIR: &str = "lammps-strength";
 
 /// Steps between two dumps of the broken bonds (bpm/rotational's `store/local` period).
 const DUMP_EVERY: u64 = 100;
-
-/// How LAMMPS runs: its program, the process counts, the density and time step.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Launch {
-    /// `lmp`.
-    pub program: PathBuf,
-    /// Process counts of the runs compared (1, then more with `-np`).
-    pub processes: Vec<usize>,
-    /// Particle density (kg/m³).
-    pub density: f64,
-    /// Fraction of the single-particle stable step taken as the time step.
-    pub safety: f64,
-}
 
 /// Run LAMMPS' strength test of `problem`'s free bar on each process count and the
 /// integrator's with law (d), and compare.
@@ -79,8 +66,7 @@ pub fn run(
         smooth: false,
     };
     let limits = bond_limits(k, &breakage)?;
-    let dt = launch.safety
-        * crate::export::liggghts::stable_timestep(packing, bonds, k, launch.density)?;
+    let dt = super::time_step(problem, launch)?;
     let loading = Loading::of(packing, test, dt, "lammps")?;
     let damping: Vec<[f64; 4]> = (0..bonds.len())
         .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
@@ -122,6 +108,7 @@ pub fn run(
         law,
         criteria,
         launch.density,
+        0.0,
         &loading,
         &test,
     )?;

@@ -22,6 +22,34 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 pub mod lammps;
+pub mod yade;
+
+/// How an engine runs its strength test: its program, the process counts, the density and
+/// the time step (given by the engine's [`super::Engine::strength`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Launch {
+    /// The program (`lmp`; YADE is found on PATH).
+    pub program: PathBuf,
+    /// Process counts of the runs compared (1, then more with `-np`).
+    pub processes: Vec<usize>,
+    /// Particle density (kg/m³).
+    pub density: f64,
+    /// Fraction of the single-particle stable step taken as the time step (the same in the
+    /// engine and the integrator).
+    pub safety: f64,
+}
+
+/// The time step of a strength test: `safety` × the single-particle stable step of the
+/// exports ([`crate::export::liggghts::stable_timestep`]).
+pub fn time_step(problem: &super::Problem, launch: &Launch) -> Result<f64> {
+    Ok(launch.safety
+        * crate::export::liggghts::stable_timestep(
+            problem.packing,
+            problem.bonds,
+            problem.springs,
+            launch.density,
+        )?)
+}
 
 /// Files a strength validation writes into its directory.
 pub mod outputs {
@@ -361,15 +389,18 @@ pub fn order_breaks(
 }
 
 /// The integrator's run of the test: `law` (the engine's, with its damping) and `criteria`
-/// (the same limits), the masses of `density`, the bottom layer held, the top moved at the
+/// (the same limits), the masses of `density`, Cundall `local_damping` (YADE's; 0 for
+/// LAMMPS), the bottom layer held, the top moved at the
 /// loading's velocity, the free spheres started in the linear velocity field; the top
 /// layer's tensile reaction read every step.
+#[allow(clippy::too_many_arguments)]
 pub fn reference(
     packing: &Packing,
     bonds: &BondSet,
     law: Box<dyn BondLaw>,
     criteria: BondCriteria,
     density: f64,
+    local_damping: f64,
     loading: &Loading,
     test: &StrengthTest,
 ) -> Result<StrengthRun> {
@@ -382,6 +413,7 @@ pub fn reference(
             scaling: 1.0,
         },
         check_interval: 0,
+        local_damping,
         ..Default::default()
     };
     let mut sim = Simulation::new(packing, bonds, law, &opts)?;
