@@ -34,3 +34,54 @@ fn yade_tension_peak_and_first_breaks_match_the_integrator() {
     );
     assert!(r.passed(), "{:?}", r.failures());
 }
+
+/// The command: `validate yade FREE --model M --strength` passes and writes its report; asking
+/// for more broken bonds in order than the run breaks fails with exit 7 (out of tolerance),
+/// naming `first-breaks`.
+#[test]
+fn validate_yade_strength_command_passes_and_can_fail() {
+    let test = "validate_yade_strength_command_passes_and_can_fail";
+    if !yade_available(test) {
+        return;
+    }
+    let asm = cubic_bar(6);
+    let dir = tempfile::tempdir().unwrap();
+    let packing = dir.path().join("free.txt");
+    anisobond::packing::write_packing(&packing, &asm.packing).unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, asm.model.to_toml_string()).unwrap();
+    let run = |extra: &[&str], out: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_anisobond"))
+            .args(["validate", "yade"])
+            .arg(&packing)
+            .arg("--model")
+            .arg(&model)
+            .args(["--strength", "--steps", "3000", "-o"])
+            .arg(dir.path().join(out))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let ok = run(&[], "ok");
+    let text = String::from_utf8_lossy(&ok.stdout);
+    eprintln!("{text}");
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("ok/strength-validation.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        (json["engine"].as_str(), json["passed"].as_bool()),
+        (Some("yade"), Some(true))
+    );
+    let broken = json["reference"]["breaks"].as_array().unwrap().len();
+    assert!(broken >= 10, "{broken} bonds broke");
+    let more = (broken + 1).to_string();
+    let tight = run(&["--compared", &more], "tight");
+    assert_eq!(tight.status.code(), Some(7), "{tight:?}");
+    assert!(String::from_utf8_lossy(&tight.stderr).contains("first-breaks"));
+}

@@ -424,22 +424,17 @@ pub fn reference(
         u[ax] = v;
         u
     };
-    let is_top: Vec<bool> = {
-        let mut t = vec![false; packing.len()];
-        for &p in &loading.top {
-            t[p] = true;
-        }
-        t
-    };
+    // Free spheres in the linear velocity field; the layers at their own velocity, held.
+    for (v, x) in sim.particles.velocity.iter_mut().zip(&packing.positions) {
+        *v = along(loading.velocity * (x[ax] - loading.lowest) / loading.gauge);
+    }
     let mut held = Vec::new();
     let mut velocity = Vec::new();
-    for p in 0..packing.len() {
-        let s = (packing.positions[p][ax] - loading.lowest) / loading.gauge;
-        sim.particles.velocity[p] = along(loading.velocity * s);
-        if is_top[p] || loading.bottom.contains(&p) {
+    for (layer, v) in [(&loading.bottom, 0.0), (&loading.top, loading.velocity)] {
+        for &p in layer {
             held.push(p);
-            velocity.push(along(if is_top[p] { loading.velocity } else { 0.0 }));
-            sim.particles.velocity[p] = *velocity.last().unwrap_or(&Vec3::zeros());
+            velocity.push(along(v));
+            sim.particles.velocity[p] = along(v);
         }
     }
     sim.set_prescribed_motion(Some(PrescribedMotion {
