@@ -510,6 +510,73 @@ fn a_contact_across_the_periodic_boundary_sees_the_images_velocity() {
     assert_eq!(images, vec![[0, 0, 0], [0, 0, 1]]);
 }
 
+/// Eight spheres of radius `r` on a 2×2×2 lattice 0.99·2r apart (overlapping by 2 % of r),
+/// jittered, with random velocities (≤ 0.05 m/s) and spins (≤ 1000 rad/s).
+fn spinning_cluster(r: f64) -> Particles {
+    let mut rng = ChaCha8Rng::seed_from_u64(2023);
+    let spacing = 1.98 * r;
+    let mut position = Vec::new();
+    for k in 0..8 {
+        let g = Vec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
+        let jitter =
+            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 2e-3 * r);
+        position.push(g * spacing + jitter);
+    }
+    let mut p = particles(position, vec![r; 8]);
+    for k in 0..8 {
+        p.velocity[k] =
+            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 0.05);
+        p.angular_velocity[k] =
+            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 1000.0);
+    }
+    p
+}
+
+#[test]
+fn energy_closes_in_a_frictional_cluster() {
+    // No damping: kinetic (translation and rotation) + contact elastic + friction dissipation
+    // stays the initial kinetic energy, to the leapfrog's error, while the contacts slip.
+    let r = 1.0e-3;
+    let mut p = spinning_cluster(r);
+    let (kn, dt) = (1.0e5, 1.0e-7);
+    let mut c = Contacts::new(law(kn, 0.3 * kn, 0.1), 0.1 * r).unwrap();
+    let kinetic = |v: &[Vec3], w: &[Vec3], p: &Particles| -> f64 {
+        (0..8)
+            .map(|k| {
+                0.5 * p.mass[k] * v[k].norm_squared() + 0.5 * p.inertia[k] * w[k].norm_squared()
+            })
+            .sum()
+    };
+    let mut e0 = None;
+    let mut worst = 0.0f64;
+    for _ in 0..20000 {
+        let (f, t) = loads(&mut c, &p, None, dt);
+        let (v_old, w_old) = (p.velocity.clone(), p.angular_velocity.clone());
+        for k in 0..8 {
+            p.velocity[k] += f[k] / p.mass[k] * dt;
+            p.position[k] += p.velocity[k] * dt;
+            p.angular_velocity[k] += t[k] / p.inertia[k] * dt;
+        }
+        // Velocities at the force time: the mean of the two half steps.
+        let v: Vec<Vec3> = (0..8).map(|k| 0.5 * (v_old[k] + p.velocity[k])).collect();
+        let w: Vec<Vec3> = (0..8)
+            .map(|k| 0.5 * (w_old[k] + p.angular_velocity[k]))
+            .collect();
+        let total = kinetic(&v, &w, &p) + c.elastic_energy() + c.friction_dissipation();
+        let e0 = *e0.get_or_insert(total);
+        worst = worst.max((total - e0).abs() / e0);
+    }
+    let share = c.friction_dissipation() / e0.unwrap();
+    eprintln!("energy: worst closure error {worst:e}, friction took {share:.3} of the energy");
+    // Most of the energy is the initial overlaps' (the cluster flies apart); friction must take
+    // a share well above the closure error, or a lost or doubled dissipation would go unseen.
+    assert!(
+        share > 0.01 && worst < 0.1 * share,
+        "friction share {share}, closure error {worst}"
+    );
+    assert!(worst < 1e-2, "energy closure error {worst}");
+}
+
 /// A cluster of eight spheres, overlapping and spinning, free, no damping, run in
 /// `yade -n -x` with `Law2_ScGeom_FrictPhys_CundallStrack(traceEnergy=True)` and here with
 /// the same leapfrog: forces, torques, elastic energy and the slip dissipation
@@ -522,23 +589,8 @@ fn matches_yade_cundall_strack_step_by_step() {
     if !crate::common::yade::yade_available("contacts::matches_yade_cundall_strack_step_by_step") {
         return;
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(2023);
     let r = 1.0e-3;
-    let spacing = 1.98e-3;
-    let mut position = Vec::new();
-    for k in 0..8 {
-        let g = Vec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
-        let jitter =
-            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 2e-6);
-        position.push(g * spacing + jitter);
-    }
-    let mut p = particles(position, vec![r; 8]);
-    for k in 0..8 {
-        p.velocity[k] =
-            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 0.05);
-        p.angular_velocity[k] =
-            Vec3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| (2.0 * u - 1.0) * 1000.0);
-    }
+    let mut p = spinning_cluster(r);
     let (dt, steps) = (1.0e-7, 3000usize);
     let e = |x: f64| format!("{x:e}");
     let v3 = |v: &Vec3| format!("Vector3({},{},{})", e(v.x), e(v.y), e(v.z));
