@@ -771,9 +771,9 @@ impl Simulation {
     /// bond broken in tension stops at once too, but one broken in shear keeps its
     /// compression and its shear force capped at the Coulomb limit in that step, as a
     /// frictional contact. Without contacts both give nothing here.
-    fn break_failed_bonds(&mut self) {
+    fn break_failed_bonds(&mut self) -> Result<()> {
         let Some(criteria) = &self.criteria else {
-            return;
+            return Ok(());
         };
         let n = self.topology.len();
         let law = self.law.as_ref();
@@ -784,10 +784,7 @@ impl Simulation {
             .map(|c| {
                 (c * BOND_CHUNK..((c + 1) * BOND_CHUNK).min(n))
                     .filter(|&b| intact[b])
-                    .filter_map(|b| {
-                        let f = criteria.get(b).judge(law, particles, b);
-                        f.broken.then_some((b, f))
-                    })
+                    .filter_map(|b| criteria.get(b).breaks(law, particles, b).map(|f| (b, f)))
                     .collect()
             })
             .collect();
@@ -811,8 +808,7 @@ impl Simulation {
                 if !held_elsewhere {
                     self.bonded.remove(i, j);
                 }
-                // Springs are finite and ≥ 0 (checked when the law was built).
-                let _ = c.set_pair_stiffness(i, j, kn, ks);
+                c.set_pair_stiffness(i, j, kn, ks)?;
             }
             let energy = self.law.break_bond(&self.particles, b);
             self.loads.per_bond[b] = Default::default();
@@ -827,6 +823,7 @@ impl Simulation {
                 energy,
             });
         }
+        Ok(())
     }
 
     /// One step: cell update, bond forces, gather, leapfrog (YADE's step order).
@@ -843,7 +840,7 @@ impl Simulation {
             self.loads = loads;
         }
         if self.criteria.is_some() {
-            self.break_failed_bonds();
+            self.break_failed_bonds()?;
         }
         if let Some(c) = &mut self.contacts {
             let bonded = &self.bonded;
