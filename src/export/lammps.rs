@@ -19,6 +19,13 @@
 //! bond types ([`crate::bonds::quantise`]) and the export reports what that costs
 //! ([`TypesReport`], `bond-types.json`): the relaxed tensor (midpoint lever arm) of the
 //! quantised network against the exact one, and each spring's largest relative error.
+//!
+//! With [`LammpsOptions::breakage`] (a model with a `[strength]` table, issue 32) the bonds
+//! break: `breakage.lmp` holds bpm/rotational `break yes` with each type's critical loads
+//! ([`bond_limits`]; with `types`, springs and limits quantised jointly) and the broken
+//! bonds' contact (`pair_style granular`), or the plugin's `break yes strengths
+//! bond-strengths.csv`; without it the decks are byte-identical to before (docs/strength.md,
+//! "LAMMPS").
 
 use crate::bonds::types::{
     affine_weights, quantise, quantise_joint, quantise_weighted, sensitivity_weights,
@@ -439,8 +446,22 @@ pub fn bond_types(
     k: &BondStiffness,
     max_types: usize,
 ) -> Result<(Vec<u32>, BondStiffness, TypesReport)> {
-    let (type_of, kq, _, report) = bond_types_with_limits(packing, bonds, k, None, max_types)?;
-    Ok((type_of, kq, report))
+    let q = bond_types_with_limits(packing, bonds, k, None, max_types)?;
+    Ok((q.type_of, q.springs, q.report))
+}
+
+/// What [`bond_types_with_limits`] gives: every bond's type, the springs and (with limits)
+/// the breaking limits every bond gets, and the report.
+#[derive(Clone, Debug)]
+pub struct QuantisedTypes {
+    /// The type (0-based) of each bond.
+    pub type_of: Vec<u32>,
+    /// The springs every bond gets (its type's).
+    pub springs: BondStiffness,
+    /// The limits every bond gets (its type's), when limits were given.
+    pub limits: Option<Vec<Limits>>,
+    /// What the quantisation cost.
+    pub report: TypesReport,
 }
 
 /// The types of a bond's springs and, given `limits` (one per bond, [`bond_limits`]), its
@@ -453,7 +474,7 @@ pub fn bond_types_with_limits(
     k: &BondStiffness,
     limits: Option<&[Limits]>,
     max_types: usize,
-) -> Result<(Vec<u32>, BondStiffness, Option<Vec<Limits>>, TypesReport)> {
+) -> Result<QuantisedTypes> {
     if max_types == 0 {
         return Err(Error::Invalid(
             "LAMMPS export: the number of bond types (--types) must be at least 1, got 0".into(),
@@ -554,7 +575,12 @@ pub fn bond_types_with_limits(
         relaxed_quantised: quantised_c,
     };
     report.check_finite()?;
-    Ok((t.type_of, kq, limits_q, report))
+    Ok(QuantisedTypes {
+        type_of: t.type_of,
+        springs: kq,
+        limits: limits_q,
+        report,
+    })
 }
 
 /// Shortest round-trip text of a number (reads back bit-identical).
@@ -790,14 +816,13 @@ fn typing<'a>(
             limits,
         },
         Some(max) => {
-            let (type_of, kq, limits_q, report) =
-                bond_types_with_limits(packing, bonds, k, limits.as_deref(), max)?;
+            let q = bond_types_with_limits(packing, bonds, k, limits.as_deref(), max)?;
             Typing {
-                type_of,
-                springs: Cow::Owned(kq),
-                n_types: report.types,
-                report: Some(report),
-                limits: limits_q,
+                type_of: q.type_of,
+                springs: Cow::Owned(q.springs),
+                n_types: q.report.types,
+                report: Some(q.report),
+                limits: q.limits,
             }
         }
     })

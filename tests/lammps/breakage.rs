@@ -248,6 +248,58 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
         ));
     }
     assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
+
+    // After the break: held (the crack open, the halves relax: no tension across a broken
+    // pair), then pushed back past the original length and held: the broken pairs touch
+    // again (pair_style granular, k_c = the bonds' k_n) and the section carries the
+    // compression of 8 springs k_n in series per column, 9·k_n·d·e at box strain −e.
+    let (deck, _) = tension_decks(false, "m m p", de, 500, None);
+    let contact = deck.replace(
+        "run 500\n",
+        "run 500\nunfix pull\nrun 3000\nprint \"anisobond-open $(v_fz:%.17g) $(bonds)\"\n\
+         variable vc equal -${vz}*1.5\nfix push all deform 1 z vel ${vc} remap x\nrun 500\n\
+         unfix push\nrun 3000\nprint \"anisobond-closed $(v_fz:%.17g) $(lz:%.17g) $(bonds)\"\n",
+    );
+    assert_ne!(contact, deck);
+    std::fs::write(out.join("contact.lmp"), contact).unwrap();
+    let _ = std::fs::remove_file(out.join("tension.txt"));
+    let run = run_lmp(&lmp, &out, "contact.lmp", 1);
+    let text = String::from_utf8_lossy(&run.stdout).to_string();
+    assert!(run.status.success(), "{text}");
+    let line = |key: &str| -> Vec<f64> {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap_or_else(|| panic!("no {key}:\n{text}"))
+            .split_whitespace()
+            .map(|w| w.parse().unwrap())
+            .collect()
+    };
+    let open = line("anisobond-open ");
+    let closed = line("anisobond-closed ");
+    let lz0 = NZ as f64 * 2.0 * R;
+    let e = 1.0 - closed[1] / lz0;
+    let expected = -((NX * NY) as f64) * KN * 2.0 * R * e;
+    eprintln!(
+        "after the break: held open {:.3e} N ({:.1e} of the peak); pushed to strain -{e:.3e}: {:.9e} N vs closed form {expected:.9e} N ({:.1e})",
+        open[0],
+        open[0].abs() / peaks[0],
+        closed[0],
+        (closed[0] - expected).abs() / expected.abs()
+    );
+    assert!(
+        e > 0.0,
+        "the box was not pushed past its length: {closed:?}"
+    );
+    assert!(
+        open[0].abs() < 1e-2 * peaks[0],
+        "tension across the crack: {open:?}"
+    );
+    assert!(
+        (closed[0] - expected).abs() < 1e-6 * expected.abs(),
+        "{closed:?} vs {expected}"
+    );
+    let intact = (3 * NX * NY * NZ - (NX + NY) * NZ - NX * NY) as f64;
+    assert_eq!((open[1], closed[2]), (intact, intact));
 }
 
 #[test]
@@ -501,26 +553,26 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
     // Exact: K ≥ the distinct rows (lcm of 5, 3, 7 and 4 cycles over 40 bonds: all distinct).
     let (t, fl) = quantise_joint(&bonds, &k, &limits, n, &w).unwrap();
     assert!(t.exact);
-    for b in 0..n {
+    for (b, f) in limits.iter().enumerate() {
         let ty = t.type_of[b] as usize;
-        assert_eq!(fl[ty], limits[b]);
+        assert_eq!(fl[ty], *f);
         assert_eq!(t.springs[ty], [k.kn[b], k.ks[b], k.kr[b], k.ktw[b]]);
     }
 
     // Quantised into 3: per type, Σ l² k_n, Σ l² k_s and Σ f_c unchanged.
     let (t, fl) = quantise_joint(&bonds, &k, &limits, 3, &w).unwrap();
     assert!(!t.exact && t.springs.len() <= 3);
-    for ty in 0..t.springs.len() {
+    for (ty, (springs, type_limits)) in t.springs.iter().zip(&fl).enumerate() {
         let members: Vec<usize> = (0..n).filter(|&b| t.type_of[b] as usize == ty).collect();
         let l2 = |b: usize| bonds.length[b].powi(2);
         let sum = |f: &dyn Fn(usize) -> f64| members.iter().map(|&b| f(b)).sum::<f64>();
         let kn = sum(&|b| l2(b) * k.kn[b]);
-        assert!((kn - sum(&|b| l2(b)) * t.springs[ty][0]).abs() < 1e-12 * kn);
+        assert!((kn - sum(&|b| l2(b)) * springs[0]).abs() < 1e-12 * kn);
         let ks = sum(&|b| l2(b) * k.ks[b]);
-        assert!((ks - sum(&|b| l2(b)) * t.springs[ty][1]).abs() < 1e-12 * ks);
+        assert!((ks - sum(&|b| l2(b)) * springs[1]).abs() < 1e-12 * ks);
         for c in 0..4 {
             let f = sum(&|b| limits[b][c]);
-            assert!((f - members.len() as f64 * fl[ty][c]).abs() < 1e-12 * f);
+            assert!((f - members.len() as f64 * type_limits[c]).abs() < 1e-12 * f);
         }
     }
 
@@ -553,4 +605,71 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
     let e = quantise_joint(&bonds, &k, &bad, 3, &w).unwrap_err();
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
     assert!(e.to_string().contains("bond 7"), "{e}");
+}
+
+/// The plugin's `break` keyword refused where it would mislead: `break yes` without a
+/// strength table, a strength table with `break no`, and `break yes` beside a pair style
+/// that would never act on a broken pair (it stays in the special list); `--smooth` writes
+/// bpm/rotational's `smooth yes`.
+#[test]
+fn plugin_break_misuse_is_refused_with_the_reason() {
+    let Some(Lammps { lmp, so }) = lammps("plugin_break_misuse") else {
+        return;
+    };
+    let dir = tmp();
+    let d = dir.path();
+    let data = bar(d, true);
+    let model = write(d, "model.toml", &format!("{ELASTIC}{STRENGTH}"));
+    let out = d.join("deck");
+    succeeds(export_plugin(&data, &model, &so, &out).args(["--boundary", "f f p"]));
+    let breakage = std::fs::read_to_string(out.join("breakage.lmp")).unwrap();
+    let style =
+        "bond_style anisobond ${springs} damping ${damping} break yes strengths bond-strengths.csv";
+    let pair = "pair_style zero ${cut}\npair_coeff * *";
+    assert!(
+        breakage.contains(style) && breakage.contains(pair),
+        "{breakage}"
+    );
+    let granular = "pair_style granular\npair_coeff * * hooke 1e6 0 tangential linear_history 1e5 1 0.5 damping velocity";
+    for (name, text, expected) in [
+        (
+            "no-table",
+            breakage.replace(style, "bond_style anisobond ${springs} break yes"),
+            "needs `strengths",
+        ),
+        (
+            "no-break",
+            breakage.replace(
+                style,
+                "bond_style anisobond ${springs} break no strengths bond-strengths.csv",
+            ),
+            "is for `break yes`",
+        ),
+        (
+            "pair",
+            breakage.replace(pair, granular),
+            "stays in the special list",
+        ),
+    ] {
+        std::fs::write(out.join("breakage.lmp"), &text).unwrap();
+        let (deck, _) = tension_decks(true, "m m p", 1e-6, 1, None);
+        let input = format!("{name}.lmp");
+        std::fs::write(out.join(&input), deck).unwrap();
+        let run = run_lmp(&lmp, &out, &input, 1);
+        let said = String::from_utf8_lossy(&run.stdout).to_string()
+            + &String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{name}: expected a refusal\n{said}");
+        assert!(said.contains(expected), "{name}: {said}");
+    }
+
+    let smooth = d.join("smooth");
+    let said = succeeds(&mut export_cmd(
+        &data,
+        &model,
+        &["--boundary", "f f p", "--smooth"],
+        &smooth,
+    ));
+    assert!(said.contains("break yes, smooth yes"), "{said}");
+    let params = std::fs::read_to_string(smooth.join("params.lmp")).unwrap();
+    assert!(params.contains("variable smooth index yes"), "{params}");
 }
