@@ -65,6 +65,9 @@ YADE traps handled here (all measured on the Debian package of YADE 2023.02a):
   adhesion (``normalAdhesion = shearAdhesion = 1e300``, ``fragile = False``), no
   rolling/twisting plasticity (``maxRollPl = maxTwistPl = -1``), friction 0, and
   ``initCohesion = False`` so the Ip2 functor never overwrites them.
+* With adhesion columns in the bond table (a model with a [strength] table), each bond
+  instead gets its own ``normalAdhesion``, ``shearAdhesion``, ``tangensOfFrictionAngle`` and
+  ``fragile = True``: YADE breaks it by its own criterion (docs/strength.md, "YADE").
 * ``momentRotationLaw = True`` on every bond (kr, ktw act; total-rotation form,
   ``useIncrementalForm = False``).
 * No collider: the scene holds only bonds, so ``InteractionLoop`` runs without
