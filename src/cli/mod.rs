@@ -25,6 +25,7 @@ mod validate;
 mod validate_lammps;
 mod validate_liggghts;
 mod validate_specimen;
+mod validate_strength;
 
 use anisobond::assembly::{Assembly, Detail, EqualSpheres, MethodKind, MethodOptions};
 use anisobond::homogenize::LeverArm;

@@ -5,12 +5,16 @@
 
 use super::cell::BondedInput;
 use super::validate_specimen::SpecimenFlags;
+use super::validate_strength::StrengthFlags;
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
 use anisobond::validate::specimen;
+use anisobond::validate::strength;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
 use anisobond::validate::{outcome, summary, unsettled_lines, EngineDetails};
-use anisobond::validate::{validate, validate_specimen, Engine, Problem, Tolerances};
+use anisobond::validate::{
+    validate, validate_specimen, validate_strength, Engine, Problem, Tolerances,
+};
 use anisobond::Result;
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
@@ -85,6 +89,9 @@ pub struct YadeValidateArgs {
     /// The specimen test instead of the element tests.
     #[command(flatten)]
     pub specimen: SpecimenFlags,
+    /// The strength test instead of the element tests.
+    #[command(flatten)]
+    pub strength: StrengthFlags,
 }
 
 impl YadeValidateArgs {
@@ -113,13 +120,27 @@ impl YadeValidateArgs {
 /// Run `validate`.
 pub fn run(a: ValidateArgs) -> Result<()> {
     match a.target {
-        ValidateTarget::Yade(y) => {
-            dispatch(&y.engine()?, &y.input, y.output.as_deref(), &y.specimen)
-        }
-        ValidateTarget::Liggghts(a) => {
-            dispatch(&a.engine()?, &a.input, Some(&a.output), &a.specimen)
-        }
-        ValidateTarget::Lammps(a) => dispatch(&a.engine()?, &a.input, Some(&a.output), &a.specimen),
+        ValidateTarget::Yade(y) => dispatch(
+            &y.engine()?,
+            &y.input,
+            y.output.as_deref(),
+            &y.specimen,
+            &y.strength,
+        ),
+        ValidateTarget::Liggghts(a) => dispatch(
+            &a.engine()?,
+            &a.input,
+            Some(&a.output),
+            &a.specimen,
+            &a.strength,
+        ),
+        ValidateTarget::Lammps(a) => dispatch(
+            &a.engine()?,
+            &a.input,
+            Some(&a.output),
+            &a.specimen,
+            &a.strength,
+        ),
     }
 }
 
@@ -130,9 +151,12 @@ fn dispatch<E: Engine>(
     input: &BondedInput,
     output: Option<&Path>,
     specimen: &SpecimenFlags,
+    strength: &StrengthFlags,
 ) -> Result<()> {
     let run = RunDir::open(engine, input, output)?;
-    if specimen.specimen {
+    if strength.strength {
+        run_strength(engine, run, specimen, strength)
+    } else if specimen.specimen {
         run_specimen(engine, run, specimen)
     } else {
         run_engine(engine, run)
@@ -154,6 +178,29 @@ fn run_specimen<E: Engine>(engine: &E, run: RunDir, flags: &SpecimenFlags) -> Re
     let report = validate_specimen(engine, &problem, &test, &|m| run.progress(m))?;
     print!("{}", specimen::summary(&report));
     run.keep(|dir| specimen::write_files(dir, &report))?;
+    finish(name, &report)
+}
+
+/// `validate ENGINE --strength`: as [`run_specimen`], with the strength test.
+fn run_strength<E: Engine>(
+    engine: &E,
+    run: RunDir,
+    specimen: &SpecimenFlags,
+    flags: &StrengthFlags,
+) -> Result<()> {
+    let name = E::Details::ENGINE;
+    let test = flags.test(specimen, &run.asm);
+    test.check(name)?;
+    println!(
+        "validate {name} --strength: {} particles, {} bonds; runs in {}",
+        run.asm.packing.len(),
+        run.asm.bonds.len(),
+        run.dir.display()
+    );
+    let problem = Problem::of(&run.dir, &run.asm);
+    let report = validate_strength(engine, &problem, &test, &|m| run.progress(m))?;
+    print!("{}", strength::summary(&report));
+    run.keep(|dir| strength::write_files(dir, &report))?;
     finish(name, &report)
 }
 

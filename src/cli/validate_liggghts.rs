@@ -51,6 +51,9 @@ pub struct Args {
     /// The specimen test instead of the element tests.
     #[command(flatten)]
     pub specimen: super::validate_specimen::SpecimenFlags,
+    /// The strength test instead of the element tests.
+    #[command(flatten)]
+    pub strength: super::validate_strength::StrengthFlags,
 }
 
 fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {

@@ -97,6 +97,33 @@ impl BondCriterion {
     }
 }
 
+impl BondCriterion {
+    /// [`BondCriterion::judge`] when bond `b` breaks, None when it holds: the integrator's
+    /// per-step test. For YADE's criterion without moments, a bond clearly inside both limits
+    /// (−F_n ≤ a_n and |F_s|² below max F_s² by a relative 1e-9, far above the rounding of
+    /// |F_s|) holds without the square root and the index's divisions; any other is judged
+    /// in full, so the verdict is the criterion's.
+    #[inline]
+    pub(crate) fn breaks(
+        &self,
+        law: &dyn BondLaw,
+        particles: &Particles,
+        b: usize,
+    ) -> Option<Failure> {
+        if let BondCriterion::Yade(a) = self {
+            if a.moments == YadeMoments::Elastic {
+                let (normal, shear) = law.bond_forces(b);
+                let max_fs = a.max_shear(normal);
+                if -normal <= a.normal && shear.norm_squared() < max_fs * max_fs * (1.0 - 1e-9) {
+                    return None;
+                }
+            }
+        }
+        let f = self.judge(law, particles, b);
+        f.broken.then_some(f)
+    }
+}
+
 /// The bond law's name ([`BondLaw::name`]) of a [`LawKind`].
 pub(crate) fn law_name(kind: LawKind) -> &'static str {
     match kind {

@@ -684,7 +684,7 @@ fn pair_kernel(
     let d = l.norm();
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let pd = ri + rj - d;
-    if pd < 0.0 || !(d > 0.0) || (inp.excluded)(i, j) {
+    if pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
         // Apart (YADE erases the interaction) or held by a bond: no contact, no memory.
         *st = PairState::default();
         *out = PairLoad::default();
@@ -820,10 +820,10 @@ impl Grid {
                     Error::Degenerate("contacts: the periodic cell matrix H is singular".into())
                 })?;
                 let vol = h.determinant().abs();
-                for k in 0..3 {
+                for (k, dim) in dims.iter_mut().enumerate() {
                     let (a, b) = (h.column((k + 1) % 3), h.column((k + 2) % 3));
                     let height = vol / a.cross(&b).norm();
-                    if !(cutoff < 0.5 * height) {
+                    if height.is_nan() || cutoff >= 0.5 * height {
                         return Err(Error::Invalid(format!(
                             "contacts: the neighbour cutoff 2·R_max + skin = {cutoff:e} m is not \
                              below half the periodic cell's height {height:e} m across its \
@@ -831,7 +831,7 @@ impl Grid {
                              smaller skin"
                         )));
                     }
-                    dims[k] = ((height / width).floor() as i64).max(1);
+                    *dim = ((height / width).floor() as i64).max(1);
                 }
                 shift.reserve(n);
                 for p in x {
@@ -849,8 +849,8 @@ impl Grid {
                     hi = hi.sup(p);
                 }
                 let extent = hi - lo;
-                for k in 0..3 {
-                    dims[k] = ((extent[k] / width).floor().min(1e6) as i64).max(1);
+                for (dim, e) in dims.iter_mut().zip(extent.iter()) {
+                    *dim = ((e / width).floor().min(1e6) as i64).max(1);
                 }
                 coords.extend(x.iter().map(|p| {
                     Vec3::from_fn(|k, _| {

@@ -3,6 +3,7 @@
 //! `nextVelGrad`), the Love stress, energies, the critical time step and blow-up detection.
 
 use super::breakage::{self, BondCriteria, BreakEvent};
+use super::contacts::{Contacts, PairSet};
 use super::laws::{BondContext, BondLaw, BOND_CHUNK};
 use super::quat::{spin_factors, Quat};
 use super::state::{
@@ -95,6 +96,8 @@ struct Resultants<'a> {
     entries: &'a [u32],
     loads: &'a [super::state::BondLoad],
     external: Option<&'a ExternalForces>,
+    /// Contact forces and torques per particle, if contacts are on.
+    contact: Option<(&'a [Vec3], &'a [Vec3])>,
 }
 
 impl Resultants<'_> {
@@ -119,6 +122,10 @@ impl Resultants<'_> {
             };
             f += load.force_i * sign;
             t += torque;
+        }
+        if let Some((cf, ct)) = self.contact {
+            f += cf[k];
+            t += ct[k];
         }
         (f, t)
     }
@@ -376,6 +383,10 @@ pub struct Simulation {
     break_events: Vec<BreakEvent>,
     /// Σ of the broken bonds' elastic energies (J).
     broken_energy: f64,
+    /// Frictional contacts between spheres not held by an intact bond (None: off).
+    contacts: Option<Contacts>,
+    /// The pairs of intact bonds (excluded from the contacts).
+    bonded: PairSet,
 }
 
 /// Per-particle external forces (N), e.g. a pressure on exposed surface particles: each
@@ -439,6 +450,8 @@ impl Clone for Simulation {
             intact: self.intact.clone(),
             break_events: self.break_events.clone(),
             broken_energy: self.broken_energy,
+            contacts: self.contacts.clone(),
+            bonded: self.bonded.clone(),
         }
     }
 }
@@ -495,6 +508,8 @@ impl Simulation {
             intact: vec![true; bonds.len()],
             break_events: Vec::new(),
             broken_energy: 0.0,
+            contacts: None,
+            bonded: PairSet::default(),
         };
         let mut law = law;
         law.initialize(
@@ -701,6 +716,30 @@ impl Simulation {
         Ok(())
     }
 
+    /// Turn frictional contacts on (None: off) between the spheres that no intact bond
+    /// holds: broken bonds' pairs (with the bond's k_n, k_s from the moment it breaks, as
+    /// YADE keeps a broken cohesive bond's springs; bonds broken before this call take the
+    /// contact law's) and any spheres that come into touch. Their forces are added to the
+    /// resultants from the next step on; [`Energies::contact_elastic`] and
+    /// [`Energies::friction`] count them, [`Simulation::stress`] includes them. The critical
+    /// time step is not re-estimated: contact springs stiffer than the bonds need a smaller
+    /// [`Simulation::set_time_step`].
+    pub fn set_contacts(&mut self, contacts: Option<Contacts>) -> Result<()> {
+        let t = &self.topology;
+        self.bonded = PairSet::new(
+            (0..t.len())
+                .filter(|&b| self.intact[b])
+                .map(|b| (t.i[b] as usize, t.j[b] as usize)),
+        );
+        self.contacts = contacts;
+        Ok(())
+    }
+
+    /// The contacts, if on.
+    pub fn contacts(&self) -> Option<&Contacts> {
+        self.contacts.as_ref()
+    }
+
     /// The failure criteria in force, if any.
     pub fn breakage(&self) -> Option<&BondCriteria> {
         self.criteria.as_ref()
@@ -732,9 +771,9 @@ impl Simulation {
     /// bond broken in tension stops at once too, but one broken in shear keeps its
     /// compression and its shear force capped at the Coulomb limit in that step, as a
     /// frictional contact. Without contacts both give nothing here.
-    fn break_failed_bonds(&mut self) {
+    fn break_failed_bonds(&mut self) -> Result<()> {
         let Some(criteria) = &self.criteria else {
-            return;
+            return Ok(());
         };
         let n = self.topology.len();
         let law = self.law.as_ref();
@@ -745,14 +784,32 @@ impl Simulation {
             .map(|c| {
                 (c * BOND_CHUNK..((c + 1) * BOND_CHUNK).min(n))
                     .filter(|&b| intact[b])
-                    .filter_map(|b| {
-                        let f = criteria.get(b).judge(law, particles, b);
-                        f.broken.then_some((b, f))
-                    })
+                    .filter_map(|b| criteria.get(b).breaks(law, particles, b).map(|f| (b, f)))
                     .collect()
             })
             .collect();
         for (b, f) in failed.into_iter().flatten() {
+            if let Some(c) = &mut self.contacts {
+                // The pair becomes a frictional contact with the bond's springs (YADE's
+                // CohFrictPhys keeps them after cohesion breaks), unless another intact
+                // bond (another periodic image) still holds it.
+                let (i, j) = (self.topology.i[b] as usize, self.topology.j[b] as usize);
+                let (kn, ks, _, _) = self.law.springs(b);
+                let held_elsewhere = (self.topology.start[i]..self.topology.start[i + 1])
+                    .map(|e| (self.topology.entries[e] >> 1) as usize)
+                    .any(|o| {
+                        o != b
+                            && self.intact[o]
+                            && (self.topology.i[o] as usize).max(self.topology.j[o] as usize)
+                                == i.max(j)
+                            && (self.topology.i[o] as usize).min(self.topology.j[o] as usize)
+                                == i.min(j)
+                    });
+                if !held_elsewhere {
+                    self.bonded.remove(i, j);
+                }
+                c.set_pair_stiffness(i, j, kn, ks)?;
+            }
             let energy = self.law.break_bond(&self.particles, b);
             self.loads.per_bond[b] = Default::default();
             self.intact[b] = false;
@@ -766,6 +823,7 @@ impl Simulation {
                 energy,
             });
         }
+        Ok(())
     }
 
     /// One step: cell update, bond forces, gather, leapfrog (YADE's step order).
@@ -782,7 +840,13 @@ impl Simulation {
             self.loads = loads;
         }
         if self.criteria.is_some() {
-            self.break_failed_bonds();
+            self.break_failed_bonds()?;
+        }
+        if let Some(c) = &mut self.contacts {
+            let bonded = &self.bonded;
+            c.update(&self.particles, self.cell.as_ref(), dt, &|i, j| {
+                bonded.contains(i, j)
+            })?;
         }
         let consts = self.integrate_particles();
         if let Some(held) = &mut self.prescribed {
@@ -844,6 +908,7 @@ impl Simulation {
                 entries: &self.topology.entries[..],
                 loads: &self.loads.per_bond[..],
                 external: self.external.as_ref(),
+                contact: self.contacts.as_ref().map(|c| (c.force(), c.torque())),
             },
             mass: &p.mass[..],
             inertia: &p.inertia[..],
@@ -927,8 +992,11 @@ impl Simulation {
             local_damping: self.local_dissipated,
             viscous_damping: self.law.viscous_dissipation(),
             broken_bonds: self.broken_energy,
-            contact_elastic: 0.0,
-            friction: 0.0,
+            contact_elastic: self.contacts.as_ref().map_or(0.0, |c| c.elastic_energy()),
+            friction: self
+                .contacts
+                .as_ref()
+                .map_or(0.0, |c| c.friction_dissipation()),
         }
     }
 
@@ -950,13 +1018,17 @@ impl Simulation {
         self.particles.position[j] + shift - self.particles.position[i]
     }
 
-    /// Love stress σ = (1/V) Σ f_i ⊗ l (Pa, tension positive; Kumar 2016 Eq. 9), with the
+    /// Love stress σ = (1/V) Σ f_i ⊗ l (Pa, tension positive; Kumar 2016 Eq. 9) over the bonds
+    /// and, when on, the contacts ([`Contacts::stress_sum`]), with the
     /// bond forces of the last evaluation and the current branch vectors — what YADE's
     /// `utils.getStress()` returns after `O.step()`. Not symmetrised.
     pub fn stress(&self) -> Mat3 {
-        let s = deterministic_sum_mat3(self.topology.len(), |b| {
+        let mut s = deterministic_sum_mat3(self.topology.len(), |b| {
             self.loads.force_i(b) * self.branch(b).transpose()
         });
+        if let Some(c) = &self.contacts {
+            s += c.stress_sum(&self.particles, self.cell.as_ref());
+        }
         s / self.volume()
     }
 

@@ -154,7 +154,7 @@ pub fn read_adhesion_columns(path: &Path) -> Result<Vec<YadeAdhesion>> {
 
 /// The bond table text with the [`ADHESION_COLUMNS`] appended to every row (`adhesions`
 /// aligned with the bonds), written atomically to `path`.
-fn write_bond_table_with_adhesions(
+pub(crate) fn write_bond_table_with_adhesions(
     path: &Path,
     bonds: &BondSet,
     springs: &BondStiffness,

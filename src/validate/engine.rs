@@ -7,6 +7,7 @@
 use super::harness::{EngineDetails, Report};
 pub use super::harness::{Problem, Progress, TestKind};
 use super::specimen::{SpecimenDeck, SpecimenDetails, SpecimenTest};
+use super::strength::{StrengthDetails, StrengthTest};
 use crate::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -95,6 +96,34 @@ pub trait Engine: Sync {
     fn specimen_deck(&self) -> Option<SpecimenDeck> {
         None
     }
+    /// The strength test ([`super::strength`]) of the free bar of `problem`: direct tension
+    /// to failure in the engine and in the integrator with the same bond law and limits;
+    /// peak stress and the first broken bonds compared. One report for every engine, as
+    /// [`Engine::specimen_deck`]. Default: refused.
+    fn strength(
+        &self,
+        _problem: &Problem,
+        _test: &StrengthTest,
+        _progress: Progress,
+    ) -> Result<Report<StrengthDetails>> {
+        Err(Error::Invalid(format!(
+            "validate {}: the engine does not run the strength test",
+            Self::Details::ENGINE
+        )))
+    }
+}
+
+/// Run the strength test `test` of `engine` on `problem`: the engine's and the test's
+/// options checked, then [`Engine::strength`].
+pub fn validate_strength<E: Engine>(
+    engine: &E,
+    problem: &Problem,
+    test: &StrengthTest,
+    progress: Progress,
+) -> Result<Report<StrengthDetails>> {
+    engine.check()?;
+    test.check(E::Details::ENGINE)?;
+    engine.strength(problem, test, progress)
 }
 
 /// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's

@@ -442,6 +442,22 @@ impl Engine for Lammps {
             run: |launch, p, test, progress| specimen::lammps::DECK.run(launch, p, test, progress),
         })
     }
+
+    fn strength(
+        &self,
+        p: &Problem,
+        test: &super::strength::StrengthTest,
+        progress: Progress,
+    ) -> Result<Report<super::strength::StrengthDetails>> {
+        let o = &self.0;
+        let launch = super::strength::Launch {
+            program: resolve_program(&o.lmp)?,
+            processes: if o.two_processes { vec![1, 2] } else { vec![1] },
+            density: o.export.density,
+            safety: o.export.safety,
+        };
+        super::strength::lammps::run(&launch, p, test, progress)
+    }
 }
 
 /// Export the element tests into the problem's directory, run them with LAMMPS, compare.

@@ -15,6 +15,9 @@
 //! - [`specimen`]: the specimen test every engine runs — a free bonded specimen loaded
 //!   between platens by the engine, its platen stiffness against the specimen solve
 //!   ([`crate::specimen`]) — `anisobond validate ENGINE --specimen`.
+//! - [`strength`]: the strength test every engine runs — direct tension of a free bar to
+//!   failure, peak stress and first broken bonds against the integrator with the same law —
+//!   `anisobond validate ENGINE --strength`.
 //! - [`lammps`]: the exported LAMMPS (BPM) element tests against the relaxed solver, one and
 //!   two MPI processes — `anisobond validate lammps`.
 
@@ -23,9 +26,12 @@ pub(crate) mod harness;
 pub mod lammps;
 pub mod liggghts;
 pub mod specimen;
+pub mod strength;
 pub mod yade;
 
-pub use engine::{validate, validate_specimen, Engine, Problem, Progress, TestKind, Tolerances};
+pub use engine::{
+    validate, validate_specimen, validate_strength, Engine, Problem, Progress, TestKind, Tolerances,
+};
 pub use harness::{
     failure_lines, outcome, summary, unsettled_lines, write_report_json, EngineDetails, Report,
 };

@@ -534,6 +534,21 @@ impl Engine for Yade {
             run: specimen::yade::run,
         })
     }
+
+    fn strength(
+        &self,
+        p: &Problem,
+        test: &super::strength::StrengthTest,
+        progress: Progress,
+    ) -> Result<Report<super::strength::StrengthDetails>> {
+        let launch = super::strength::Launch {
+            program: "yade".into(),
+            processes: vec![1],
+            density: self.0.density,
+            safety: self.0.safety,
+        };
+        super::strength::yade::run(&launch, p, test, progress)
+    }
 }
 
 /// [`engine::validate`] with [`Yade`]: the periodic element tests of the packing `bonds`

@@ -5,6 +5,7 @@
 pub mod bonded;
 pub mod lattice;
 pub mod liggghts;
+pub mod strength_bar;
 pub mod yade;
 
 use anisobond::tensor::Stiffness6;

@@ -13,5 +13,6 @@ mod export;
 mod plugin;
 mod ppf_data;
 mod specimen;
+mod strength_validate;
 mod types;
 mod user_data;

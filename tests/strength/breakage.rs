@@ -522,3 +522,284 @@ fn criteria_for_another_law_or_bond_count_are_refused() {
     ));
     assert_eq!(sim.intact_count(), bonds.len());
 }
+
+/// The largest overlap R_i + R_j − |x_i − x_j| over all pairs (brute force, m).
+fn largest_overlap(sim: &Simulation) -> f64 {
+    let x = &sim.particles.position;
+    let r = &sim.particles.radius;
+    let mut worst = f64::MIN;
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            worst = worst.max(r[i] + r[j] - (x[i] - x[j]).norm());
+        }
+    }
+    worst
+}
+
+/// A 3 × 3 × 6 stack whose bonds all break at the first step (criteria with a negative
+/// adhesion), compressed by its held ends by U = 0.1·d over 4,000 steps: with frictional
+/// contacts (the broken bonds' springs k_n, k_s, μ = 0.5) every column is 5 contacts in
+/// series, so the contacts overlap by U/5 and the end reaction is 9·k_n·U/5 (quasi-static
+/// closed form, 2 % for the start from rest); without contacts the end layer passes into the
+/// next by U. Energy: the work of the moving end equals the gain of kinetic + contact
+/// elastic + damping + friction to 1 %.
+#[test]
+fn a_broken_specimen_compressed_with_contacts_does_not_interpenetrate() {
+    use anisobond::dem::{BondCriterion, ContactLaw, Contacts};
+    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    let (nx, ny, nz) = (3, 3, 6);
+    let (packing, bonds, _) = bar(nx, ny, nz);
+    let u_total = 0.1 * D;
+    let run = |contacts: bool| {
+        let k = springs(&bonds, false);
+        let opts = DemOptions {
+            check_interval: 0,
+            local_damping: 0.2,
+            ..Default::default()
+        };
+        let mut sim = Simulation::new(
+            &packing,
+            &bonds,
+            build_law(LawKind::Yade, &packing, &bonds, &k).unwrap(),
+            &opts,
+        )
+        .unwrap();
+        let broken_at_once = BondCriterion::Yade(YadeAdhesion {
+            normal: -1.0,
+            shear: 0.0,
+            tan_friction: 0.0,
+            cohesion_disables_friction: false,
+            moments: YadeMoments::Elastic,
+        });
+        sim.set_breakage(Some(BondCriteria::from_criteria(
+            LawKind::Yade,
+            vec![broken_at_once; bonds.len()],
+        )))
+        .unwrap();
+        if contacts {
+            let law = ContactLaw {
+                normal_stiffness: 0.5 * KN,
+                shear_stiffness: 0.5 * KS,
+                friction: 0.5,
+            };
+            sim.set_contacts(Some(Contacts::new(law, 0.2 * R).unwrap()))
+                .unwrap();
+        }
+        let steps = 4000;
+        let v = -u_total / (steps as f64 * sim.time_step());
+        let top = pull(&mut sim, &packing, nz, v);
+        // The free spheres start at rest (so that, without contacts, nothing moves them).
+        let top_z = (nz - 1) as f64 * D;
+        for (p, x) in packing.positions.iter().enumerate() {
+            if x.z > 0.5 * D && x.z < top_z - 0.5 * D {
+                sim.particles.velocity[p] = Vec3::zeros();
+            }
+        }
+        let dt = sim.time_step();
+        let power = |sim: &Simulation| -top.iter().map(|&p| sim.force[p].z * v).sum::<f64>();
+        sim.step().unwrap();
+        let e0 = sim.energies().accounted();
+        let mut p_prev = power(&sim);
+        let mut work = 0.0;
+        for _ in 1..steps {
+            sim.step().unwrap();
+            let p = power(&sim);
+            work += 0.5 * (p_prev + p) * dt;
+            p_prev = p;
+        }
+        assert_eq!(sim.break_events().len(), bonds.len());
+        assert!(sim.break_events().iter().all(|e| e.step == 0));
+        assert_eq!(sim.intact_count(), 0);
+        let reaction = top.iter().map(|&p| sim.force[p].z).sum::<f64>();
+        let e = sim.energies();
+        (largest_overlap(&sim), reaction, work, e.accounted() - e0, e)
+    };
+    let (overlap, reaction, work, gained, e) = run(true);
+    let per_contact = u_total / (nz - 1) as f64;
+    let expected = (nx * ny) as f64 * KN * per_contact;
+    println!(
+        "contacts: largest overlap {overlap:.4e} m (U/5 = {per_contact:.4e} m), reaction \
+         {reaction:.6e} N (closed form {expected:.6e} N), work {work:.6e} J, gained {gained:.6e} J \
+         (contact elastic {:.3e}, friction {:.3e}, damping {:.3e}, kinetic {:.3e})",
+        e.contact_elastic, e.friction, e.local_damping, e.kinetic
+    );
+    assert!((overlap / per_contact - 1.0).abs() < 0.02);
+    assert!((reaction / expected - 1.0).abs() < 0.02);
+    assert!((gained - work).abs() < 0.01 * work);
+    let (overlap, ..) = run(false);
+    println!("no contacts: largest overlap {overlap:.4e} m (U = {u_total:.4e} m)");
+    assert!(overlap > 0.9 * u_total);
+}
+
+/// A plane of weakness across the 3 × 3 × 8 bar, its normal at θ = 30° to the bar's axis in
+/// the x–z plane: each of the 9 columns crosses it once, and an axial bond force F resolves
+/// on the plane into σ_n = −F cos θ/A (tension) and τ = F sin θ/A, A = πR². Mohr–Coulomb
+/// with the joint's c_w = 0.2 MPa, μ_w = 0.5 breaks at F = c_w A/(sin θ + μ_w cos θ) (the
+/// tension cut-off σ_t = 0.3 MPa would need σ_t A/cos θ, more): the end reaction peaks at
+/// 9 × that (closed form), the 9 crossing axial bonds break together, in shear, and no
+/// other bond — for law (a), whose intact limit σ_t r² is higher.
+#[test]
+fn a_bar_across_a_plane_of_weakness_breaks_on_the_joint_by_mohr_coulomb() {
+    use anisobond::strength::PlaneFamily;
+    let (nx, ny, nz) = (3, 3, 8);
+    let (packing, bonds, tags) = bar(nx, ny, nz);
+    let theta = 30f64.to_radians();
+    let normal = Vec3::new(theta.sin(), 0.0, theta.cos());
+    let centre = Vec3::new(1.0, 1.0, 3.5) * D;
+    let joint = Strength {
+        tensile: 0.3e6,
+        cohesion: 0.2e6,
+        friction: 0.5,
+        bending: 0.3e6,
+        twisting: 0.2e6,
+    };
+    let plane =
+        PlaneFamily::new(normal, 1000.0 * D, normal.dot(&centre) + 0.01 * D, joint).unwrap();
+    let spec = StrengthSpec {
+        planes: vec![plane],
+        ..isotropic(1.0e6, 3.0e6)
+    };
+    let strengths = assign_strength(&packing, &bonds, &spec).unwrap();
+    let crossing: Vec<usize> = (0..bonds.len())
+        .filter(|&b| strengths.joint_of(b).is_some())
+        .collect();
+    let axial_crossing: Vec<usize> = crossing
+        .iter()
+        .copied()
+        .filter(|&b| tags[b].0 == 2)
+        .collect();
+    assert_eq!(axial_crossing.len(), nx * ny);
+    let opts = DemOptions {
+        check_interval: 0,
+        ..Default::default()
+    };
+    let mut sim = simulation_with(LawKind::Yade, &packing, &bonds, &strengths, false, &opts);
+    let area = PI * R * R;
+    let f_break = joint.cohesion * area / (theta.sin() + joint.friction * theta.cos());
+    assert!(f_break < joint.tensile * area / theta.cos() && f_break < 1.0e6 * R * R);
+    let v = (nz - 1) as f64 * (f_break / KN) / (4000.37 * sim.time_step());
+    let top = pull(&mut sim, &packing, nz, v);
+    let mut reactions = Vec::new();
+    while sim.break_events().is_empty() {
+        sim.step().unwrap();
+        reactions.push(-top.iter().map(|&p| sim.force[p].z).sum::<f64>());
+        assert!(reactions.len() < 10_000, "nothing broke");
+    }
+    let step = sim.break_events()[0].step as usize;
+    let peak = reactions[step - 1];
+    let expected = (nx * ny) as f64 * f_break;
+    let error = (expected - peak) / expected;
+    println!(
+        "joint: peak {peak:.9e} N, closed form {expected:.9e} N, shortfall {error:.3e}, {} broke",
+        sim.break_events().len()
+    );
+    assert!((-1e-9..=1e-3).contains(&error));
+    let mut broken: Vec<usize> = sim.break_events().iter().map(|e| e.bond).collect();
+    broken.sort_unstable();
+    assert_eq!(broken, axial_crossing);
+    assert!(sim.break_events().iter().all(|e| e.mode == Mode::Shear));
+}
+
+/// A bond broken at the first step whose spheres are then pressed together and slid across
+/// each other (both held; the upper one moves by (3, 0, −1)·v per unit time): the contact
+/// takes the bond's springs, F_n = k_n·u_n on the overlap u_n = 2R − |x_1 − x_0| (closed
+/// form), the shear force sits at the Coulomb cap μ·F_n from the
+/// start (k_s·3 > μ·k_n), and the work of the moving sphere equals the contact's elastic
+/// energy plus its friction dissipation (both held: their kinetic energy is constant, no
+/// damping) to 2e-3 (measured 2e-4); the dissipation is μk_n·u_n² (slip 2u_n at the cap)
+/// to 2 % (measured 1.1 %: the step and the normal's rotation).
+#[test]
+fn a_broken_pair_pressed_and_slid_keeps_coulomb_and_closes_its_energy() {
+    use anisobond::dem::{BondCriterion, ContactLaw, Contacts};
+    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    let packing = Packing::new(
+        vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
+        vec![R; 2],
+        None,
+    )
+    .unwrap();
+    let mut bonds = BondSet::default();
+    bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
+    let k = springs(&bonds, false);
+    let opts = DemOptions {
+        check_interval: 0,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(
+        &packing,
+        &bonds,
+        build_law(LawKind::Yade, &packing, &bonds, &k).unwrap(),
+        &opts,
+    )
+    .unwrap();
+    let at_once = BondCriterion::Yade(YadeAdhesion {
+        normal: -1.0,
+        shear: 0.0,
+        tan_friction: 0.0,
+        cohesion_disables_friction: false,
+        moments: YadeMoments::Elastic,
+    });
+    sim.set_breakage(Some(BondCriteria::from_criteria(
+        LawKind::Yade,
+        vec![at_once],
+    )))
+    .unwrap();
+    let mu = 0.5;
+    let law = ContactLaw {
+        normal_stiffness: 0.1 * KN,
+        shear_stiffness: 0.1 * KS,
+        friction: mu,
+    };
+    sim.set_contacts(Some(Contacts::new(law, 0.2 * R).unwrap()))
+        .unwrap();
+    let dt = sim.time_step();
+    let steps = 2000;
+    let v = 1e-3 * D / (steps as f64 * dt);
+    let vel = Vec3::new(3.0 * v, 0.0, -v);
+    sim.set_prescribed_motion(Some(PrescribedMotion {
+        particles: vec![0, 1],
+        velocity: vec![Vec3::zeros(), vel],
+    }))
+    .unwrap();
+    let mut work = 0.0;
+    let mut p_prev = 0.0;
+    for s in 0..steps {
+        sim.step().unwrap();
+        let p = -sim.force[1].dot(&vel);
+        if s > 0 {
+            work += 0.5 * (p_prev + p) * dt;
+        }
+        p_prev = p;
+    }
+    assert_eq!(sim.intact_count(), 0);
+    let c = sim.contacts().unwrap().contacts();
+    assert_eq!(c.len(), 1);
+    // The overlap at the last evaluation (after steps − 1 moves): 2R − |x_1 − x_0|.
+    let x1 = Vec3::new(0.0, 0.0, D) + vel * ((steps - 1) as f64 * dt);
+    let u_n = D - x1.norm();
+    let (fn_, fs) = (c[0].normal_force, c[0].shear_force.norm());
+    println!(
+        "contact: F_n {fn_:.6e} N (k_n u_n {:.6e} N), |F_s| {fs:.6e} N (μF_n {:.6e}), work \
+         {work:.6e} J, elastic + friction {:.6e} J",
+        KN * u_n,
+        mu * fn_,
+        sim.energies().contact_elastic + sim.energies().friction
+    );
+    assert!((fn_ / (KN * u_n) - 1.0).abs() < 1e-4);
+    assert!((fs / (mu * fn_) - 1.0).abs() < 1e-9);
+    let e = sim.energies();
+    // The held spheres' kinetic energy is constant (½m|v|² of the moving one).
+    println!(
+        "contact: elastic {:.6e} J, friction {:.6e} J",
+        e.contact_elastic, e.friction
+    );
+    assert!(e.local_damping == 0.0 && e.elastic == 0.0);
+    // Slip = tangential displacement 3u less the elastic μk_n u/k_s = u: ∫μk_n u d(2u).
+    let slip_work = mu * KN * u_n * u_n;
+    assert!(
+        (e.friction / slip_work - 1.0).abs() < 0.02,
+        "{} vs {slip_work}",
+        e.friction
+    );
+    assert!((e.contact_elastic + e.friction - work).abs() < 2e-3 * work);
+}

@@ -11,6 +11,7 @@ mod in_place_scene;
 mod periodic_image;
 mod specimen;
 mod strength_tension;
+mod strength_validate;
 mod two_sphere;
 mod validate;
 mod yade_files;

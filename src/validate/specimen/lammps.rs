@@ -219,6 +219,18 @@ fn deck(
 /// Run `lmp -in in.specimen` in `dir` on `np` processes (the `mpirun` beside `lmp`, else on
 /// PATH); returns the wall time (s).
 fn run_lmp(dir: &Path, lmp: &Path, np: usize) -> Result<f64> {
+    run_lmp_input(dir, lmp, np, "in.specimen", "specimen")
+}
+
+/// Run `lmp -in INPUT` in `dir` on `np` processes (log `log-npN.lammps`); a failure is
+/// [`Error::EngineFailed`] naming `test` and LAMMPS' ERROR lines. Returns the wall time (s).
+pub(crate) fn run_lmp_input(
+    dir: &Path,
+    lmp: &Path,
+    np: usize,
+    input: &str,
+    test: &str,
+) -> Result<f64> {
     let bin = lmp.parent().unwrap_or(Path::new("."));
     let mut cmd = if np > 1 {
         let beside = bin.join("mpirun");
@@ -245,7 +257,7 @@ fn run_lmp(dir: &Path, lmp: &Path, np: usize) -> Result<f64> {
     let log = format!("log-np{np}.lammps");
     let t0 = std::time::Instant::now();
     let out = cmd
-        .args(["-in", "in.specimen", "-log", &log, "-screen", "none"])
+        .args(["-in", input, "-log", &log, "-screen", "none"])
         .env("LD_LIBRARY_PATH", ld)
         .current_dir(dir)
         .output()
@@ -262,7 +274,7 @@ fn run_lmp(dir: &Path, lmp: &Path, np: usize) -> Result<f64> {
         return Err(Error::engine(
             "LAMMPS",
             format!(
-                "the specimen test on {np} process(es) failed ({}): {}",
+                "the {test} test on {np} process(es) failed ({}): {}",
                 out.status,
                 if said.is_empty() {
                     "no ERROR line (see the log)".to_string()

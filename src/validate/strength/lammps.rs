@@ -1,0 +1,355 @@
+//! LAMMPS' strength test, route (a) (BPM package): `in.strength` reads the free bar
+//! (`boundary f f f`, `atom_style bpm/sphere`, `bond_style bpm/rotational break yes smooth
+//! no` with one bond type per bond: its springs, its critical loads f_rc f_sc τ_tc τ_bc from
+//! the model's `[strength]` as `export lammps` writes them, and its damping), holds the
+//! bottom layer (`fix move linear 0 0 0`), moves the top one (`fix move linear`), starts the
+//! free spheres in the linear velocity field and integrates them (`nve/bpm/sphere`). The top
+//! layer's force is printed every step; bpm/rotational records each broken bond
+//! (`store/local … id1 id2 time`, written by `dump local`) in the same run. The integrator
+//! runs law (d), [`crate::dem::laws::LammpsBpmLaw`], with the same springs, damping and
+//! limits.
+
+use super::{
+    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
+};
+use crate::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
+use crate::dem::{BondCriteria, LawKind};
+use crate::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
+use crate::strength::{assign_strength, StrengthSpec};
+use crate::validate::harness::{Problem, Progress, Report, Timing};
+use crate::validate::specimen::{atom_lines, box_lines, num};
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Sub-directory of the validation directory LAMMPS runs in.
+pub const DIR: &str = "lammps-strength";
+
+/// Steps between two dumps of the broken bonds (bpm/rotational's `store/local` period).
+const DUMP_EVERY: u64 = 100;
+
+/// Run LAMMPS' strength test of `problem`'s free bar on each process count and the
+/// integrator's with law (d), and compare.
+pub fn run(
+    launch: &Launch,
+    problem: &Problem,
+    test: &StrengthTest,
+    progress: Progress,
+) -> Result<Report<StrengthDetails>> {
+    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
+    let model = problem.model.ok_or_else(|| {
+        Error::Invalid("validate lammps --strength: the problem has no model".into())
+    })?;
+    let table = model.strength.as_ref().ok_or_else(|| {
+        Error::Invalid(
+            "validate lammps --strength: the model has no [strength] table (the bonds' \
+             strengths; docs/strength.md)"
+                .into(),
+        )
+    })?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid(
+            "validate lammps --strength: no bonds".into(),
+        ));
+    }
+    let strengths = assign_strength(packing, bonds, &StrengthSpec::from_table(table)?)?;
+    let criteria = BondCriteria::for_law(
+        LawKind::LammpsBpm,
+        &strengths,
+        packing,
+        bonds,
+        &model.geometry,
+    )?;
+    let breakage = LammpsBreakage {
+        strengths,
+        pi_hat: model.geometry.pi_hat,
+        smooth: false,
+    };
+    let limits = bond_limits(k, &breakage)?;
+    let dt = super::time_step(problem, launch)?;
+    let loading = Loading::of(packing, test, dt, "lammps")?;
+    let damping: Vec<[f64; 4]> = (0..bonds.len())
+        .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
+        .collect();
+    let dir = problem.dir.join(DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut types = vec![1u8; packing.len()];
+    for &p in &loading.bottom {
+        types[p] = 2;
+    }
+    for &p in &loading.top {
+        types[p] = 3;
+    }
+    write_inputs(&dir, problem, &types, launch.density, &limits, &damping)?;
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let steps = test.steps.div_ceil(DUMP_EVERY) * DUMP_EVERY;
+    let test = StrengthTest { steps, ..*test };
+    crate::io::write_string_atomic(
+        &dir.join("in.strength"),
+        &deck(&test, &loading, 1.6 * max_len),
+    )?;
+    let mut timings = Vec::new();
+    let coeffs = (0..bonds.len())
+        .map(|b| BpmCoefficients {
+            kr: k.kn[b],
+            ks: k.ks[b],
+            kt: k.ktw[b],
+            kb: k.kr[b],
+            gamma_n: damping[b][0],
+            gamma_s: damping[b][1],
+            gamma_r: damping[b][2],
+            gamma_t: damping[b][3],
+        })
+        .collect();
+    let law = Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute)?);
+    let reference = reference(
+        packing,
+        bonds,
+        law,
+        criteria,
+        launch.density,
+        0.0,
+        &loading,
+        &test,
+    )?;
+    timings.push(Timing {
+        stage: "integrator".into(),
+        seconds: reference.seconds,
+    });
+    progress(&format!(
+        "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
+        reference.seconds,
+        reference.peak_force,
+        reference.breaks.len()
+    ));
+    let mut measured = Vec::new();
+    for &np in &launch.processes {
+        for f in ["force.txt", "broken.txt"] {
+            let _ = std::fs::remove_file(dir.join(f));
+        }
+        let seconds = crate::validate::specimen::lammps::run_lmp_input(
+            &dir,
+            &launch.program,
+            np,
+            "in.strength",
+            "strength",
+        )?;
+        let m = read_run(&dir, problem, np, test.axis, seconds)?;
+        timings.push(Timing {
+            stage: format!("lammps_np{np}"),
+            seconds,
+        });
+        progress(&format!(
+            "LAMMPS on {np} process(es): done in {seconds:.1} s: peak {:.7e} N, {} bonds broken",
+            m.peak_force,
+            m.breaks.len()
+        ));
+        measured.push(m);
+    }
+    compare(
+        "lammps",
+        "lammps-bpm",
+        &test,
+        packing,
+        bonds.len(),
+        reference,
+        measured,
+        dt,
+        timings,
+    )
+}
+
+/// `data.lmp` (atoms `id mol type diameter density x y z`, bond b of type b + 1) and
+/// `bond_coeffs.lmp` (`k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r
+/// gamma_t` of each bond).
+fn write_inputs(
+    dir: &Path,
+    problem: &Problem,
+    types: &[u8],
+    density: f64,
+    limits: &[[f64; 4]],
+    damping: &[[f64; 4]],
+) -> Result<()> {
+    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
+    let (n, nb) = (packing.len(), bonds.len());
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let mut s = format!(
+        "LAMMPS data file written by anisobond {}: strength test, {n} particles, {nb} bonds \
+         (one bond type per bond)\n\n{n} atoms\n3 atom types\n{nb} bonds\n{nb} bond types\n\n",
+        env!("CARGO_PKG_VERSION"),
+    );
+    s.push_str(&box_lines(packing, 2.0 * max_len));
+    s.push_str("\nAtoms # bpm/sphere\n\n");
+    s.push_str(&atom_lines(packing, types, density, true));
+    s.push_str("\nBonds\n\n");
+    for b in 0..nb {
+        let _ = writeln!(
+            s,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        );
+    }
+    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    let mut c = String::from(
+        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t\n",
+    );
+    for b in 0..nb {
+        let (l, g) = (limits[b], damping[b]);
+        let _ = writeln!(
+            c,
+            "bond_coeff {} {} {} {} {} {} {} {} {} {} {} {} {}",
+            b + 1,
+            num(k.kn[b]),
+            num(k.ks[b]),
+            num(k.ktw[b]),
+            num(k.kr[b]),
+            num(l[0]),
+            num(l[1]),
+            num(l[3]),
+            num(l[2]),
+            num(g[0]),
+            num(g[1]),
+            num(g[2]),
+            num(g[3])
+        );
+    }
+    crate::io::write_string_atomic(&dir.join("bond_coeffs.lmp"), &c)
+}
+
+/// The deck: read, hold and move the layers, start the velocity field, run, printing the
+/// top layer's tensile force every step and the broken bonds every [`DUMP_EVERY`] steps.
+fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
+    let ax = test.axis;
+    let name = ["x", "y", "z"][ax];
+    let along = |v: &str, other: &str| {
+        let mut c = [other; 3];
+        c[ax] = v;
+        c.join(" ")
+    };
+    let v = num(loading.velocity);
+    format!(
+        "# anisobond → LAMMPS (BPM package) strength test: direct tension along {name}.\n\
+         # Run:  lmp -in in.strength   (or mpirun -np N lmp -in in.strength)\n\
+         # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved at v).\n\
+         # Writes force.txt (step, top layer's tensile force) and broken.txt (dump local:\n\
+         # id1 id2 timestep of each broken bond).\n\
+         units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\nnewton on off\n\
+         comm_modify vel yes cutoff {cut}\nread_data data.lmp\n\
+         bond_style bpm/rotational break yes smooth no store/local brk {DUMP_EVERY} id1 id2 time\n\
+         include bond_coeffs.lmp\n\
+         pair_style zero {cut}\npair_coeff * *\nneighbor {skin} bin\n\
+         neigh_modify every 1 delay 0 check yes\n\
+         group bottom type 2\ngroup top type 3\ngroup mobile type 1\n\
+         timestep {dt}\n\
+         variable vfield atom {v}*({name}-({lo}))/{gauge}\n\
+         velocity mobile set {field} units box\n\
+         velocity top set {vtop} units box\n\
+         fix integrate mobile nve/bpm/sphere\n\
+         fix pull top move linear {vtop}\n\
+         fix hold bottom move linear 0 0 0\n\
+         compute ftop top reduce sum f{name}\n\
+         variable F equal -c_ftop\n\
+         thermo_style custom step v_F bonds\nthermo 1000\n\
+         fix out all print 1 \"$(step) $(v_F:%.17g)\" file force.txt screen no\n\
+         dump brk all local {DUMP_EVERY} broken.txt f_brk[1] f_brk[2] f_brk[3]\n\
+         run {steps}\n",
+        cut = num(cut),
+        skin = num(0.1 * cut),
+        dt = num(loading.time_step),
+        lo = num(loading.lowest),
+        gauge = num(loading.gauge),
+        field = along("v_vfield", "0"),
+        vtop = along(&v, "0"),
+        steps = test.steps,
+    )
+}
+
+/// Read `force.txt` and `broken.txt` of a run on `np` processes (kept as `*-npN.txt`).
+fn read_run(
+    dir: &Path,
+    problem: &Problem,
+    np: usize,
+    _axis: usize,
+    seconds: f64,
+) -> Result<StrengthRun> {
+    let fail = |m: String| Error::engine("LAMMPS", m);
+    let keep = |f: &str| -> Result<(PathBuf, String)> {
+        let path = dir.join(f);
+        let text = crate::io::read_to_string(&path)?;
+        let kept = dir.join(f.replace(".txt", &format!("-np{np}.txt")));
+        std::fs::rename(&path, &kept).map_err(|e| Error::io(&kept, e))?;
+        Ok((kept, text))
+    };
+    let (fpath, force) = keep("force.txt")?;
+    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0);
+    for (n, line) in force.lines().enumerate() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        if w.is_empty() || w[0].starts_with('#') {
+            continue;
+        }
+        let parsed = (w.len() == 2)
+            .then(|| Some((w[0].parse::<u64>().ok()?, w[1].parse::<f64>().ok()?)))
+            .flatten();
+        let (step, f) = parsed.ok_or_else(|| {
+            fail(format!(
+                "{} line {}: expected `step force`, got `{line}`",
+                fpath.display(),
+                n + 1
+            ))
+        })?;
+        if f > peak {
+            (peak, peak_step) = (f, step);
+        }
+    }
+    if !peak.is_finite() {
+        return Err(fail(format!("{}: no force read", fpath.display())));
+    }
+    let (bpath, broken) = keep("broken.txt")?;
+    let mut raw = Vec::new();
+    let mut in_entries = false;
+    for (n, line) in broken.lines().enumerate() {
+        if line.starts_with("ITEM:") {
+            in_entries = line.starts_with("ITEM: ENTRIES");
+            continue;
+        }
+        if !in_entries {
+            continue;
+        }
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        let n_atoms = problem.packing.len() as f64;
+        let id = |x: f64| (x >= 1.0 && x <= n_atoms && x.fract() == 0.0).then(|| x as usize - 1);
+        let row = (v.len() == 3)
+            .then(|| Some((id(v[0])?, id(v[1])?, v[2] as u64)))
+            .flatten();
+        raw.push(row.ok_or_else(|| {
+            fail(format!(
+                "{} line {}: expected `id1 id2 timestep` of a broken bond, got `{line}`",
+                bpath.display(),
+                n + 1
+            ))
+        })?);
+    }
+    let log =
+        crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
+    let version = log
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("LAMMPS ("))
+        .and_then(|l| l.split(')').next())
+        .unwrap_or("unknown");
+    Ok(StrengthRun {
+        program: format!("LAMMPS ({version})"),
+        processes: np,
+        peak_force: peak,
+        peak_step,
+        breaks: order_breaks("LAMMPS", problem.bonds, &raw)?,
+        seconds,
+    })
+}

@@ -1,0 +1,611 @@
+//! The strength test every engine runs (issue 32 item 5): quasi-static direct tension of a
+//! free bonded bar between held end layers — the bottom layer held still, the top one moved
+//! along the axis at a constant velocity, the free spheres started in the steady linear
+//! velocity field (no wave at the start) —, the bonds breaking by the engine's own
+//! criterion; the same motion in the reference integrator ([`crate::dem`]) with the same
+//! bond law and the same per-bond limits.
+//!
+//! An engine implements [`super::Engine::strength`]: it runs its code and returns a
+//! [`StrengthRun`] per process count; [`reference`] runs the integrator; [`compare`] makes
+//! the [`Report`] with, per run, `peak-stress` (|σ_engine − σ_integrator| / σ_integrator,
+//! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
+//! breaking order, differ; 0 passes).
+
+use super::harness::{checks_csv, write_report_json, Check, EngineDetails, Report, Timing};
+use crate::bonds::BondSet;
+use crate::dem::{BondCriteria, BondLaw, DemOptions, PrescribedMotion, Simulation};
+use crate::packing::Packing;
+use crate::{Error, Result, Vec3};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+pub mod lammps;
+pub mod yade;
+
+/// How an engine runs its strength test: its program, the process counts, the density and
+/// the time step (given by the engine's [`super::Engine::strength`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Launch {
+    /// The program (`lmp`; YADE is found on PATH).
+    pub program: PathBuf,
+    /// Process counts of the runs compared (1, then more with `-np`).
+    pub processes: Vec<usize>,
+    /// Particle density (kg/m³).
+    pub density: f64,
+    /// Fraction of the single-particle stable step taken as the time step (the same in the
+    /// engine and the integrator).
+    pub safety: f64,
+}
+
+/// The time step of a strength test: `safety` × the single-particle stable step of the
+/// exports ([`crate::export::liggghts::stable_timestep`]).
+pub fn time_step(problem: &super::Problem, launch: &Launch) -> Result<f64> {
+    Ok(launch.safety
+        * crate::export::liggghts::stable_timestep(
+            problem.packing,
+            problem.bonds,
+            problem.springs,
+            launch.density,
+        )?)
+}
+
+/// Files a strength validation writes into its directory.
+pub mod outputs {
+    /// The report: test, both runs' peaks and first breaks, checks, timings.
+    pub const REPORT_JSON: &str = "strength-validation.json";
+    /// The checks as CSV.
+    pub const CHECKS_CSV: &str = "checks.csv";
+}
+
+/// What the strength test is asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StrengthTest {
+    /// Loading axis: 0 = x, 1 = y, 2 = z.
+    pub axis: usize,
+    /// Depth of each end layer (m): centres within it of the lowest / highest centre.
+    pub end_layer: f64,
+    /// Axial strain added per time step (the top layer's velocity is this × the gauge
+    /// length / the time step): small, so the loading is quasi-static.
+    pub strain_per_step: f64,
+    /// Time steps run (the same in the engine and the integrator).
+    pub steps: u64,
+    /// Damping ratio of every bond's own dashpots (the law's damping, the same in both).
+    pub damping_ratio: f64,
+    /// Broken bonds compared in order.
+    pub compared: usize,
+    /// Largest admissible relative difference of the peak stress.
+    pub tolerance: f64,
+}
+
+impl StrengthTest {
+    /// Along `axis`, end layers `end_layer` (m) deep, `strain_per_step` for `steps` steps;
+    /// bonds' damping ratio 0.3, the first ten breaks compared, peak stress within 2 %.
+    pub fn new(axis: usize, end_layer: f64, strain_per_step: f64, steps: u64) -> StrengthTest {
+        StrengthTest {
+            axis,
+            end_layer,
+            strain_per_step,
+            steps,
+            damping_ratio: 0.3,
+            compared: 10,
+            tolerance: 0.02,
+        }
+    }
+
+    /// Refuse values no run can satisfy, naming the option.
+    pub fn check(&self, engine: &str) -> Result<()> {
+        let bad = |m: String| Err(Error::Invalid(format!("validate {engine} --strength: {m}")));
+        if self.axis > 2 {
+            return bad(format!("axis {} is not x, y or z", self.axis));
+        }
+        if !(self.end_layer.is_finite() && self.end_layer >= 0.0) {
+            return bad(format!(
+                "the end layer must be a finite depth ≥ 0 m, got {}",
+                self.end_layer
+            ));
+        }
+        if !(self.strain_per_step.is_finite()
+            && self.strain_per_step > 0.0
+            && self.strain_per_step < 1e-3)
+        {
+            return bad(format!(
+                "the strain per step must be in (0, 1e-3) (quasi-static), got {}",
+                self.strain_per_step
+            ));
+        }
+        if self.steps == 0 {
+            return bad("at least one step is needed".into());
+        }
+        if !(self.damping_ratio.is_finite() && self.damping_ratio >= 0.0) {
+            return bad(format!(
+                "the damping ratio must be finite and ≥ 0, got {}",
+                self.damping_ratio
+            ));
+        }
+        if self.compared == 0 {
+            return bad("at least one broken bond must be compared".into());
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return bad(format!(
+                "the tolerance must be in (0, 1), got {}",
+                self.tolerance
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A broken bond: its two particles (indices into the packing, i < j) and the step it broke.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Broken {
+    /// Particles, ascending.
+    pub pair: (usize, usize),
+    /// The step it broke (the integrator's iteration, LAMMPS' timestep: the same count of
+    /// loading steps).
+    pub step: u64,
+}
+
+/// One run's result: the engine's (per process count) or the integrator's.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StrengthRun {
+    /// Who ran it (`anisobond` or the engine with its version).
+    pub program: String,
+    /// MPI processes (1 for the integrator and YADE).
+    pub processes: usize,
+    /// Largest axial tensile force on the moved layer (N).
+    #[serde(rename = "peak_force_N")]
+    pub peak_force: f64,
+    /// The step of the peak.
+    pub peak_step: u64,
+    /// Bonds broken, in breaking order (step, then bond index).
+    pub breaks: Vec<Broken>,
+    /// Wall time (s).
+    #[serde(rename = "wall_s")]
+    pub seconds: f64,
+}
+
+/// The strength validation's own results inside the [`Report`].
+#[derive(Clone, Debug)]
+pub struct StrengthDetails {
+    /// The engine (`yade`, `lammps`, `liggghts`).
+    pub engine: &'static str,
+    /// The bond law both ran (`lammps-bpm`, `yade`).
+    pub law: &'static str,
+    /// The test run.
+    pub test: StrengthTest,
+    /// Cross-section the stresses are taken on (m²): the bar's lateral bounding box.
+    pub area: f64,
+    /// The integrator's run.
+    pub reference: StrengthRun,
+    /// The engine's runs, the first on one process.
+    pub measured: Vec<StrengthRun>,
+}
+
+/// The strength part of the report JSON.
+#[derive(Serialize)]
+pub struct StrengthJson<'a> {
+    engine: &'static str,
+    law: &'static str,
+    test: &'a StrengthTest,
+    #[serde(rename = "area_m2")]
+    area: f64,
+    #[serde(rename = "peak_stress_integrator_Pa")]
+    reference_peak: f64,
+    #[serde(rename = "peak_stress_engine_Pa")]
+    engine_peak: Vec<f64>,
+    reference: &'a StrengthRun,
+    measured: &'a [StrengthRun],
+}
+
+impl EngineDetails for StrengthDetails {
+    type Json<'a> = StrengthJson<'a>;
+    const ENGINE: &'static str = "strength";
+    fn json(&self) -> StrengthJson<'_> {
+        StrengthJson {
+            engine: self.engine,
+            law: self.law,
+            test: &self.test,
+            area: self.area,
+            reference_peak: self.reference.peak_force / self.area,
+            engine_peak: self
+                .measured
+                .iter()
+                .map(|m| m.peak_force / self.area)
+                .collect(),
+            reference: &self.reference,
+            measured: &self.measured,
+        }
+    }
+    fn tensors(&self) -> Vec<(String, crate::tensor::Stiffness6)> {
+        Vec::new()
+    }
+    fn summary(r: &Report<Self>) -> String {
+        let t = &r.test;
+        let mut s = format!(
+            "{} vs the integrator, bond law {}: direct tension along {} of {} particles, {} \
+             bonds; end layers {:e} m deep; strain {:e} per step for {} steps; bonds' damping \
+             ratio {}; section {:.6e} m²\n",
+            r.engine,
+            r.law,
+            ["x", "y", "z"][t.axis],
+            r.n_particles,
+            r.n_bonds,
+            t.end_layer,
+            t.strain_per_step,
+            t.steps,
+            t.damping_ratio,
+            r.area
+        );
+        for run in std::iter::once(&r.reference).chain(&r.measured) {
+            let first: Vec<String> = run
+                .breaks
+                .iter()
+                .take(t.compared)
+                .map(|b| format!("{}-{}@{}", b.pair.0, b.pair.1, b.step))
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {} on {} process(es): peak {:.7e} Pa at step {}, {} bonds broken ({:.1} s); \
+                 first: {}",
+                run.program,
+                run.processes,
+                run.peak_force / r.area,
+                run.peak_step,
+                run.breaks.len(),
+                run.seconds,
+                first.join(" ")
+            );
+        }
+        s.push('\n');
+        s
+    }
+}
+
+/// The end layers of `packing` along `axis`: centres within `depth` of the lowest and of
+/// the highest centre (bottom, top; ascending indices), and the gauge length between the
+/// layers' mean centres.
+pub fn layers(packing: &Packing, axis: usize, depth: f64) -> (Vec<usize>, Vec<usize>, f64) {
+    let c = |p: usize| packing.positions[p][axis];
+    let n = packing.len();
+    let lo = (0..n).map(c).fold(f64::INFINITY, f64::min);
+    let hi = (0..n).map(c).fold(f64::NEG_INFINITY, f64::max);
+    let bottom: Vec<usize> = (0..n).filter(|&p| c(p) <= lo + depth).collect();
+    let top: Vec<usize> = (0..n).filter(|&p| c(p) >= hi - depth).collect();
+    let mean = |v: &[usize]| v.iter().map(|&p| c(p)).sum::<f64>() / v.len().max(1) as f64;
+    let gauge = mean(&top) - mean(&bottom);
+    (bottom, top, gauge)
+}
+
+/// The bar's cross-section normal to `axis`: its lateral bounding box, spheres included (m²).
+pub fn section_area(packing: &Packing, axis: usize) -> f64 {
+    let mut area = 1.0;
+    for a in [(axis + 1) % 3, (axis + 2) % 3] {
+        let lo = (0..packing.len())
+            .map(|p| packing.positions[p][a] - packing.radii[p])
+            .fold(f64::INFINITY, f64::min);
+        let hi = (0..packing.len())
+            .map(|p| packing.positions[p][a] + packing.radii[p])
+            .fold(f64::NEG_INFINITY, f64::max);
+        area *= hi - lo;
+    }
+    area
+}
+
+/// What the engine and the integrator share: the free bar, its layers, the top's velocity.
+#[derive(Clone, Debug)]
+pub struct Loading {
+    /// Held bottom layer and moved top layer (ascending indices).
+    pub bottom: Vec<usize>,
+    /// See `bottom`.
+    pub top: Vec<usize>,
+    /// Lowest centre along the axis (m): the free spheres' initial velocity is
+    /// v·(x − lowest)/gauge.
+    pub lowest: f64,
+    /// Gauge length between the layers' mean centres (m).
+    pub gauge: f64,
+    /// Top layer's velocity along the axis (m/s).
+    pub velocity: f64,
+    /// Time step (s).
+    pub time_step: f64,
+}
+
+impl Loading {
+    /// The loading of `packing` for `test` with time step `dt`; refused when the layers are
+    /// empty or overlap (the bar is not longer than two end layers).
+    pub fn of(packing: &Packing, test: &StrengthTest, dt: f64, engine: &str) -> Result<Loading> {
+        if packing.cell.is_some() {
+            return Err(Error::Invalid(format!(
+                "validate {engine} --strength: the packing is periodic; the strength test pulls a \
+                 free bar (read it with --free, or a file with a `# free` line)"
+            )));
+        }
+        let (bottom, top, gauge) = layers(packing, test.axis, test.end_layer);
+        if bottom.is_empty() || top.is_empty() || bottom.iter().any(|p| top.contains(p)) {
+            return Err(Error::Invalid(format!(
+                "validate {engine} --strength: end layers {:e} m deep leave no bar between them",
+                test.end_layer
+            )));
+        }
+        let lowest = (0..packing.len())
+            .map(|p| packing.positions[p][test.axis])
+            .fold(f64::INFINITY, f64::min);
+        Ok(Loading {
+            bottom,
+            top,
+            lowest,
+            gauge,
+            velocity: test.strain_per_step * gauge / dt,
+            time_step: dt,
+        })
+    }
+}
+
+/// The pair of bond `b`, ascending.
+fn pair(bonds: &BondSet, b: usize) -> (usize, usize) {
+    let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+    (i.min(j), i.max(j))
+}
+
+/// The bond index of every pair (ascending), for reading an engine's broken pairs.
+pub fn pair_index(bonds: &BondSet) -> HashMap<(usize, usize), usize> {
+    (0..bonds.len()).map(|b| (pair(bonds, b), b)).collect()
+}
+
+/// An engine's broken pairs `(i, j, step)` (particle indices, any order, a bond possibly
+/// reported by two processes) as [`Broken`]s in breaking order: by step, then bond index;
+/// each bond once (its first report). Refused ([`Error::EngineFailed`]) for a pair that is
+/// no bond.
+pub fn order_breaks(
+    engine: &str,
+    bonds: &BondSet,
+    raw: &[(usize, usize, u64)],
+) -> Result<Vec<Broken>> {
+    let index = pair_index(bonds);
+    let mut seen: HashMap<usize, u64> = HashMap::new();
+    for &(i, j, step) in raw {
+        let p = (i.min(j), i.max(j));
+        let b = *index.get(&p).ok_or_else(|| {
+            Error::engine(
+                engine,
+                format!(
+                    "reported a broken bond between particles {} and {}, which no bond joins",
+                    p.0, p.1
+                ),
+            )
+        })?;
+        let e = seen.entry(b).or_insert(step);
+        *e = (*e).min(step);
+    }
+    let mut v: Vec<(u64, usize)> = seen.into_iter().map(|(b, s)| (s, b)).collect();
+    v.sort_unstable();
+    Ok(v.into_iter()
+        .map(|(step, b)| Broken {
+            pair: pair(bonds, b),
+            step,
+        })
+        .collect())
+}
+
+/// The integrator's run of the test: `law` (the engine's, with its damping) and `criteria`
+/// (the same limits), the masses of `density`, Cundall `local_damping` (YADE's; 0 for
+/// LAMMPS), the bottom layer held, the top moved at the
+/// loading's velocity, the free spheres started in the linear velocity field; the top
+/// layer's tensile reaction read every step.
+#[allow(clippy::too_many_arguments)]
+pub fn reference(
+    packing: &Packing,
+    bonds: &BondSet,
+    law: Box<dyn BondLaw>,
+    criteria: BondCriteria,
+    density: f64,
+    local_damping: f64,
+    loading: &Loading,
+    test: &StrengthTest,
+) -> Result<StrengthRun> {
+    crate::dem::check_run_size("validate --strength", packing.len(), test.steps as f64)?;
+    let t0 = std::time::Instant::now();
+    let opts = DemOptions {
+        time_step: Some(loading.time_step),
+        mass: crate::dem::MassOptions {
+            density,
+            scaling: 1.0,
+        },
+        check_interval: 0,
+        local_damping,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(packing, bonds, law, &opts)?;
+    sim.set_breakage(Some(criteria))?;
+    let ax = test.axis;
+    let along = |v: f64| {
+        let mut u = Vec3::zeros();
+        u[ax] = v;
+        u
+    };
+    // Free spheres in the linear velocity field; the layers at their own velocity, held.
+    for (v, x) in sim.particles.velocity.iter_mut().zip(&packing.positions) {
+        *v = along(loading.velocity * (x[ax] - loading.lowest) / loading.gauge);
+    }
+    let mut held = Vec::new();
+    let mut velocity = Vec::new();
+    for (layer, v) in [(&loading.bottom, 0.0), (&loading.top, loading.velocity)] {
+        for &p in layer {
+            held.push(p);
+            velocity.push(along(v));
+            sim.particles.velocity[p] = along(v);
+        }
+    }
+    sim.set_prescribed_motion(Some(PrescribedMotion {
+        particles: held,
+        velocity,
+    }))?;
+    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0);
+    for _ in 0..=test.steps {
+        let step = sim.iteration();
+        sim.step()?;
+        let f = -loading.top.iter().map(|&p| sim.force[p][ax]).sum::<f64>();
+        if f > peak {
+            (peak, peak_step) = (f, step);
+        }
+    }
+    let mut events: Vec<(u64, usize)> = sim
+        .break_events()
+        .iter()
+        .map(|e| (e.step, e.bond))
+        .collect();
+    events.sort_unstable();
+    Ok(StrengthRun {
+        program: format!("anisobond {}", env!("CARGO_PKG_VERSION")),
+        processes: 1,
+        peak_force: peak,
+        peak_step,
+        breaks: events
+            .into_iter()
+            .map(|(step, b)| Broken {
+                pair: pair(bonds, b),
+                step,
+            })
+            .collect(),
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// How many of the first `n` broken bonds of `a` and `b` differ, position by position (a
+/// missing one differs).
+pub fn differing(a: &[Broken], b: &[Broken], n: usize) -> usize {
+    (0..n)
+        .filter(|&k| a.get(k).map(|x| x.pair) != b.get(k).map(|x| x.pair) || a.get(k).is_none())
+        .count()
+}
+
+/// The report: per engine run, its peak stress against the integrator's
+/// (`peak-stress[-npN]`) and its first `test.compared` broken bonds against the
+/// integrator's, in order (`first-breaks[-npN]`: the count that differ, 0 passes).
+#[allow(clippy::too_many_arguments)]
+pub fn compare(
+    engine: &'static str,
+    law: &'static str,
+    test: &StrengthTest,
+    packing: &Packing,
+    n_bonds: usize,
+    reference: StrengthRun,
+    measured: Vec<StrengthRun>,
+    time_step: f64,
+    timings: Vec<Timing>,
+) -> Result<Report<StrengthDetails>> {
+    if measured.is_empty() {
+        return Err(Error::engine(
+            engine,
+            "no run measured a peak: the engine returned nothing to compare with the integrator",
+        ));
+    }
+    let area = section_area(packing, test.axis);
+    let mut checks = Vec::new();
+    for m in &measured {
+        let suffix = if m.processes == 1 {
+            String::new()
+        } else {
+            format!("-np{}", m.processes)
+        };
+        let rel = ((m.peak_force - reference.peak_force) / reference.peak_force).abs();
+        checks.push(Check::new(
+            format!("peak-stress{suffix}"),
+            format!(
+                "peak tensile stress, {engine} on {} process(es) vs the integrator (law {law})",
+                m.processes
+            ),
+            if rel.is_finite() { rel } else { f64::NAN },
+            test.tolerance,
+        ));
+        checks.push(Check::new(
+            format!("first-breaks{suffix}"),
+            format!(
+                "of the first {} broken bonds (in order), how many differ from the integrator's",
+                test.compared
+            ),
+            differing(&reference.breaks, &m.breaks, test.compared) as f64,
+            0.0,
+        ));
+    }
+    Ok(Report {
+        n_particles: packing.len(),
+        n_bonds,
+        time_step,
+        checks,
+        timings,
+        details: StrengthDetails {
+            engine,
+            law,
+            test: *test,
+            area,
+            reference,
+            measured,
+        },
+    })
+}
+
+/// The report as text: the runs' lines, the checks table, wall times.
+pub fn summary(r: &Report<StrengthDetails>) -> String {
+    let mut s = StrengthDetails::summary(r);
+    let _ = writeln!(s, "checks:");
+    s += &super::harness::checks_table(r);
+    let _ = writeln!(s, "\nwall time:");
+    for t in &r.timings {
+        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    s
+}
+
+/// Write the report JSON and the checks CSV into `dir` (atomically each).
+pub fn write_files(dir: &Path, r: &Report<StrengthDetails>) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let json = dir.join(outputs::REPORT_JSON);
+    write_report_json(&json, r)?;
+    let csv = dir.join(outputs::CHECKS_CSV);
+    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
+    Ok(vec![json, csv])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn broken(pairs: &[(usize, usize)]) -> Vec<Broken> {
+        pairs
+            .iter()
+            .enumerate()
+            .map(|(k, &pair)| Broken {
+                pair,
+                step: k as u64,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn breaks_are_ordered_by_step_then_bond_and_counted_once() {
+        let bonds = BondSet {
+            i: vec![0, 1, 2],
+            j: vec![1, 2, 3],
+            ..Default::default()
+        };
+        // Bond 2 (2-3) and bond 0 (1-0, reversed) at step 5, bond 0 reported again by the
+        // other process; bond 1 at step 4.
+        let raw = [(3, 2, 5), (1, 0, 5), (0, 1, 5), (1, 2, 4)];
+        let v = order_breaks("lammps", &bonds, &raw).unwrap();
+        let pairs: Vec<_> = v.iter().map(|b| (b.pair, b.step)).collect();
+        assert_eq!(pairs, [((1, 2), 4), ((0, 1), 5), ((2, 3), 5)]);
+        let e = order_breaks("lammps", &bonds, &[(0, 3, 1)]).unwrap_err();
+        assert!(matches!(e, Error::EngineFailed { .. }), "{e}");
+    }
+
+    #[test]
+    fn differing_counts_positions_and_missing_breaks() {
+        let a = broken(&[(0, 1), (1, 2), (2, 3)]);
+        assert_eq!(differing(&a, &a, 3), 0);
+        assert_eq!(differing(&a, &broken(&[(1, 2), (0, 1), (2, 3)]), 3), 2);
+        assert_eq!(differing(&a, &a[..2], 3), 1);
+        assert_eq!(differing(&a[..2], &a[..2], 3), 1);
+    }
+}

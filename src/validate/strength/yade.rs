@@ -1,0 +1,237 @@
+//! YADE's strength test, law (a): `export yade`'s files (packing, `bonds.csv` with each
+//! bond's `normal_adhesion, shear_adhesion, tan_friction` from the model's `[strength]`,
+//! the `anisobond_yade` module) and `strength.py`, which builds the scene (`build_scene`:
+//! CohFrictMat, fragile CohFrictPhys with the table's adhesions, Cundall damping
+//! [`DAMPING`]), holds the bottom layer and moves the top one (`blockedDOFs`, constant
+//! velocity), starts the free spheres in the linear velocity field and steps, reading the
+//! top layer's force every step. A broken bond is found when YADE's count of real
+//! interactions drops (a bond broken in tension is erased at once) or, every
+//! [`SCAN_EVERY`] steps, by `cohesionBroken` (a bond broken in shear stays a frictional
+//! contact: its step is then known to [`SCAN_EVERY`] steps only). The integrator runs law
+//! (a) with the same springs, adhesions and local damping.
+
+use super::{
+    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
+};
+use crate::dem::{build_law, BondCriteria, LawKind};
+use crate::export::yade::{
+    files, find_yade, run_yade_script, write_bond_table_with_adhesions, yade_adhesions, YADE_MODULE,
+};
+use crate::validate::harness::{Problem, Progress, Report, Timing};
+use crate::{Error, Result};
+use std::path::Path;
+
+/// Sub-directory of the validation directory YADE runs in.
+pub const DIR: &str = "yade-strength";
+
+/// Cundall local damping (YADE's `NewtonIntegrator.damping`, the integrator's
+/// `local_damping`).
+pub const DAMPING: f64 = 0.4;
+
+/// Steps between full scans of the bonds' `cohesionBroken`.
+pub const SCAN_EVERY: u64 = 50;
+
+/// The script YADE runs (in [`DIR`]).
+pub const SCRIPT: &str = "strength.py";
+
+/// YADE's result (in [`DIR`]).
+pub const RESULT: &str = "yade-strength.json";
+
+/// `strength.py`: build, hold, move, step `steps` times, record force and broken bonds.
+fn script(test: &StrengthTest, loading: &Loading, density: f64) -> String {
+    let bottom: Vec<String> = loading.bottom.iter().map(|p| p.to_string()).collect();
+    let top: Vec<String> = loading.top.iter().map(|p| p.to_string()).collect();
+    format!(
+        "# Written by anisobond {ver}: YADE strength test (direct tension along axis {ax}).\n\
+         # Run:  yade -n -x {SCRIPT}   (writes {RESULT} here)\n\
+         import json, os, sys, time\n\
+         sys.dont_write_bytecode = True\n\
+         HERE = os.path.dirname(os.path.abspath(sys.argv[0]))\n\
+         sys.path.insert(0, HERE)\n\
+         import anisobond_yade as ay  # noqa: E402\n\
+         from yade import O  # noqa: E402\n\
+         import yade  # noqa: E402\n\
+         packing = ay.read_packing(os.path.join(HERE, 'packing.txt'))\n\
+         bonds = ay.read_bond_table(os.path.join(HERE, 'bonds.csv'), len(packing))\n\
+         if not ay.has_adhesions(bonds):\n    raise SystemExit('bonds.csv has no adhesion columns')\n\
+         scene = ay.build_scene(packing, bonds, density={density:e}, damping={DAMPING}, dt={dt:e})\n\
+         AX, V, LO, GAUGE = {ax}, {v:e}, {lo:e}, {gauge:e}\n\
+         bottom = [{bottom}]\n\
+         top = [{top}]\n\
+         held = set(bottom) | set(top)\n\
+         for k in range(len(packing)):\n\
+         \x20   s = O.bodies[k].state\n\
+         \x20   vel = [0.0, 0.0, 0.0]\n\
+         \x20   vel[AX] = V if k in top else (0.0 if k in held else V * (packing.positions[k][AX] - LO) / GAUGE)\n\
+         \x20   s.vel = tuple(vel)\n\
+         \x20   s.angVel = (0, 0, 0)\n\
+         \x20   if k in held:\n\
+         \x20       s.blockedDOFs = 'xyzXYZ'\n\
+         intact = set(range(len(bonds)))\n\
+         broken = []\n\
+         def scan(step):\n\
+         \x20   for b in sorted(intact):\n\
+         \x20       I = O.interactions[bonds.i[b], bonds.j[b]]\n\
+         \x20       if I is None or not I.isReal or I.phys.cohesionBroken:\n\
+         \x20           intact.discard(b)\n\
+         \x20           broken.append([bonds.i[b], bonds.j[b], step])\n\
+         peak, peak_step = -1e300, 0\n\
+         real = O.interactions.countReal()\n\
+         t0 = time.time()\n\
+         for n in range({steps}):\n\
+         \x20   step = O.iter\n\
+         \x20   O.step()\n\
+         \x20   f = -sum(O.forces.f(k)[AX] for k in top)\n\
+         \x20   if f > peak:\n\
+         \x20       peak, peak_step = f, step\n\
+         \x20   now = O.interactions.countReal()\n\
+         \x20   if now != real or (n + 1) % {SCAN_EVERY} == 0:\n\
+         \x20       scan(step)\n\
+         \x20       real = now\n\
+         with open(os.path.join(HERE, '{RESULT}'), 'w') as out:\n\
+         \x20   json.dump({{'version': yade.config.version if hasattr(yade, 'config') else 'unknown',\n\
+         \x20              'peak': peak, 'peak_step': peak_step, 'broken': broken,\n\
+         \x20              'dt': O.dt, 'seconds': time.time() - t0}}, out)\n",
+        ver = env!("CARGO_PKG_VERSION"),
+        ax = test.axis,
+        dt = loading.time_step,
+        v = loading.velocity,
+        lo = loading.lowest,
+        gauge = loading.gauge,
+        bottom = bottom.join(", "),
+        top = top.join(", "),
+        steps = test.steps,
+    )
+}
+
+/// Run YADE's strength test of `problem`'s free bar and the integrator's with law (a), and
+/// compare.
+pub fn run(
+    launch: &Launch,
+    problem: &Problem,
+    test: &StrengthTest,
+    progress: Progress,
+) -> Result<Report<StrengthDetails>> {
+    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
+    let model = problem.model.ok_or_else(|| {
+        Error::Invalid("validate yade --strength: the problem has no model".into())
+    })?;
+    let table = model.strength.as_ref().ok_or_else(|| {
+        Error::Invalid(
+            "validate yade --strength: the model has no [strength] table (the bonds' \
+             strengths; docs/strength.md)"
+                .into(),
+        )
+    })?;
+    if bonds.is_empty() {
+        return Err(Error::Invalid("validate yade --strength: no bonds".into()));
+    }
+    if find_yade().is_none() {
+        return Err(Error::Invalid(
+            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
+                .into(),
+        ));
+    }
+    let dt = super::time_step(problem, launch)?;
+    let loading = Loading::of(packing, test, dt, "yade")?;
+    let strengths = crate::strength::assign_strength(
+        packing,
+        bonds,
+        &crate::strength::StrengthSpec::from_table(table)?,
+    )?;
+    let criteria =
+        BondCriteria::for_law(LawKind::Yade, &strengths, packing, bonds, &model.geometry)?;
+    let dir = problem.dir.join(DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    // The free bar's files as `export yade` writes them (it exports periodic packings only):
+    // the packing, the bond table with each bond's adhesions, the module.
+    let adhesions = yade_adhesions(packing, bonds, model)?
+        .ok_or_else(|| Error::Invalid("validate yade --strength: no [strength] table".into()))?;
+    crate::packing::io::write_packing(&dir.join(files::PACKING), packing)?;
+    write_bond_table_with_adhesions(&dir.join(files::BONDS), bonds, k, None, &adhesions)?;
+    crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
+    let script_path = dir.join(SCRIPT);
+    crate::io::write_string_atomic(&script_path, &script(test, &loading, launch.density))?;
+    let mut timings = Vec::new();
+    let law = build_law(LawKind::Yade, packing, bonds, k)?;
+    let reference = reference(
+        packing,
+        bonds,
+        law,
+        criteria,
+        launch.density,
+        DAMPING,
+        &loading,
+        test,
+    )?;
+    timings.push(Timing {
+        stage: "integrator".into(),
+        seconds: reference.seconds,
+    });
+    progress(&format!(
+        "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
+        reference.seconds,
+        reference.peak_force,
+        reference.breaks.len()
+    ));
+    let out = run_yade_script(&script_path, &[])?;
+    timings.push(Timing {
+        stage: "yade_process".into(),
+        seconds: out.wall_seconds,
+    });
+    let m = read_result(&dir.join(RESULT), problem, out.wall_seconds)?;
+    progress(&format!(
+        "YADE: done in {:.1} s: peak {:.7e} N, {} bonds broken",
+        out.wall_seconds,
+        m.peak_force,
+        m.breaks.len()
+    ));
+    compare(
+        "yade",
+        "yade",
+        test,
+        packing,
+        bonds.len(),
+        reference,
+        vec![m],
+        dt,
+        timings,
+    )
+}
+
+/// Read `strength.py`'s JSON (body ids are the packing's indices).
+fn read_result(path: &Path, problem: &Problem, seconds: f64) -> Result<StrengthRun> {
+    let text = crate::io::read_to_string(path)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
+    let bad = |what: &str| {
+        Error::engine(
+            "YADE",
+            format!("{}: no valid `{what}` in YADE's result", path.display()),
+        )
+    };
+    let n = problem.packing.len() as u64;
+    let raw = v["broken"]
+        .as_array()
+        .ok_or_else(|| bad("broken"))?
+        .iter()
+        .map(|row| {
+            let r = row.as_array()?;
+            let (i, j, s) = (
+                r.first()?.as_u64()?,
+                r.get(1)?.as_u64()?,
+                r.get(2)?.as_u64()?,
+            );
+            (i < n && j < n).then_some((i as usize, j as usize, s))
+        })
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| bad("broken"))?;
+    Ok(StrengthRun {
+        program: format!("YADE ({})", v["version"].as_str().unwrap_or("unknown")),
+        processes: 1,
+        peak_force: v["peak"].as_f64().ok_or_else(|| bad("peak"))?,
+        peak_step: v["peak_step"].as_u64().ok_or_else(|| bad("peak_step"))?,
+        breaks: order_breaks("YADE", problem.bonds, &raw)?,
+        seconds,
+    })
+}
