@@ -1040,8 +1040,9 @@ impl Simulation {
     }
 
     /// YADE's unbalanced force (`utils.unbalancedForce()`): mean resultant force on the
-    /// bonded, free particles over the mean bond force magnitude (0 when there is no bond
-    /// force). Held particles ([`PrescribedMotion`]) are left out, as YADE leaves out bodies
+    /// bonded, free particles over the mean force magnitude of the intact bonds (0 when
+    /// there is no bond force; broken bonds carry none and are not counted; contacts are
+    /// not in either mean yet). Held particles ([`PrescribedMotion`]) are left out, as YADE leaves out bodies
     /// that are not dynamic: their resultant is the grip reaction, not an imbalance. The
     /// measure of static equilibrium the damped relaxations stop on.
     pub fn unbalanced_force(&self) -> f64 {
@@ -1052,7 +1053,7 @@ impl Simulation {
         if bsum == 0.0 {
             0.0
         } else {
-            (fsum / free.len().max(1) as f64) / (bsum / topo.len().max(1) as f64)
+            (fsum / free.len().max(1) as f64) / (bsum / self.intact_count().max(1) as f64)
         }
     }
 
@@ -1071,7 +1072,7 @@ impl Simulation {
         if bsum == 0.0 {
             0.0
         } else {
-            (tsum / free.len().max(1) as f64) / (bsum / topo.len().max(1) as f64)
+            (tsum / free.len().max(1) as f64) / (bsum / self.intact_count().max(1) as f64)
         }
     }
 

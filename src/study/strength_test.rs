@@ -72,7 +72,8 @@
 use super::{finite, require_finite, OptionNames};
 use crate::assembly::Assembly;
 use crate::dem::{
-    build_law, check_run_size, BondCriteria, DemOptions, LawKind, PrescribedMotion, Simulation,
+    build_law, check_run_size, BondCriteria, ContactLaw, Contacts, DemOptions, LawKind,
+    PrescribedMotion, Simulation,
 };
 use crate::model::{Model, SchemeSpec};
 use crate::packing::cut::Region;
@@ -820,6 +821,27 @@ impl Run<'_> {
     }
 }
 
+/// Verlet skin of the contacts after breaking, in mean radii: the list is rebuilt when a
+/// sphere may have moved a tenth of a radius, a few hundred steps of a quasi-static run.
+const CONTACT_SKIN: f64 = 0.2;
+
+/// The frictional contacts that broken bonds and newly touching spheres become
+/// (`dem::Contacts`, YADE's Cundall–Strack law): springs the median bond k_n and k_s (a broken
+/// bond's own pair keeps its own springs), friction the mean of the bonds' μ.
+fn contact_law(springs: &crate::bonds::BondStiffness, strengths: &BondStrengths) -> ContactLaw {
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    let n = strengths.friction.len().max(1) as f64;
+    ContactLaw {
+        normal_stiffness: median(&springs.kn),
+        shear_stiffness: median(&springs.ks),
+        friction: strengths.friction.iter().sum::<f64>() / n,
+    }
+}
+
 /// Run the study (see the module doc). Refuses what [`StrengthTestOptions::check`] refuses
 /// (named as flags) before any work.
 pub fn run(
@@ -832,15 +854,8 @@ pub fn run(
     let specimen = make_specimen(opts, &model, &q)?;
     let a = &specimen.assembly;
     let mut notes = Vec::new();
-    match (&specimen.strengths, opts.test) {
-        (None, _) => notes.push("the model has no [strength] table: no bond breaks".into()),
-        (Some(_), TestKind::Ucs | TestKind::Brazilian) => notes.push(
-            "a broken bond carries nothing and the integrator has no contacts yet: broken \
-             spheres pass through each other, so the curve after the first breaks in \
-             compression is softer than a real crushed specimen's"
-                .into(),
-        ),
-        (Some(_), TestKind::Tension) => {}
+    if specimen.strengths.is_none() {
+        notes.push("the model has no [strength] table: no bond breaks".into());
     }
     // The static solve of the same specimen and platens: area, gauge length, E, ν.
     let static_report = match opts.test {
@@ -865,6 +880,10 @@ pub fn run(
         let criteria =
             BondCriteria::for_law(opts.law, strengths, &a.packing, &a.bonds, &model.geometry)?;
         sim.set_breakage(Some(criteria))?;
+        sim.set_contacts(Some(Contacts::new(
+            contact_law(&a.springs, strengths),
+            CONTACT_SKIN * a.packing.mean_radius(),
+        )?))?;
     }
     let critical = sim.stability().critical_time_step;
     let p = &a.packing;

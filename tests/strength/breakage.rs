@@ -803,3 +803,56 @@ fn a_broken_pair_pressed_and_slid_keeps_coulomb_and_closes_its_energy() {
     );
     assert!((e.contact_elastic + e.friction - work).abs() < 2e-3 * work);
 }
+
+/// After bonds break, the unbalanced force is the mean resultant on the free bonded spheres
+/// over the mean force of the intact bonds (the broken ones carry none and are not counted):
+/// a brute-force recomputation on a bar with scattered strengths at its first break.
+#[test]
+fn the_unbalanced_force_averages_over_the_intact_bonds() {
+    let (nx, ny, nz) = (3, 3, 8);
+    let (packing, bonds, _) = bar(nx, ny, nz);
+    let opts = DemOptions {
+        check_interval: 0,
+        ..Default::default()
+    };
+    let mut sim = simulation(
+        LawKind::Yade,
+        &packing,
+        &bonds,
+        &StrengthSpec {
+            // Scattered strengths: one bond breaks first while the others still carry load.
+            scatter: Some(Scatter::Weibull {
+                modulus: 3.0,
+                seed: 5,
+            }),
+            ..isotropic(1e6, 2e7)
+        },
+        false,
+        &opts,
+    );
+    let v = (nz - 1) as f64 * (1e6 * R * R / KN) / (500.37 * sim.time_step());
+    pull(&mut sim, &packing, nz, v);
+    // The step where the first section breaks: the intact bonds still carry the load.
+    while sim.break_events().is_empty() {
+        sim.step().unwrap();
+    }
+    let intact: Vec<usize> = (0..bonds.len()).filter(|&b| sim.is_intact(b)).collect();
+    assert!(intact.len() < bonds.len() && !intact.is_empty());
+    let top_z = (nz - 1) as f64 * D;
+    let free: Vec<usize> = (0..packing.len())
+        .filter(|&p| {
+            let z = packing.positions[p].z;
+            z > 0.5 * D && z < top_z - 0.5 * D
+        })
+        .collect();
+    let mean_free = free.iter().map(|&p| sim.force[p].norm()).sum::<f64>() / free.len() as f64;
+    let mean_bond = intact
+        .iter()
+        .map(|&b| sim.loads.per_bond[b].force_i.norm())
+        .sum::<f64>()
+        / intact.len() as f64;
+    assert!(mean_bond > 0.0, "the intact bonds carry no force");
+    let want = mean_free / mean_bond;
+    let got = sim.unbalanced_force();
+    assert!((got / want - 1.0).abs() < 1e-12, "{got} vs {want}");
+}

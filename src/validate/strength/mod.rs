@@ -6,7 +6,7 @@
 //! bond law and the same per-bond limits.
 //!
 //! An engine implements [`super::Engine::strength`]: it runs its code and returns a
-//! [`StrengthRun`] per process count; [`reference`] runs the integrator; [`compare`] makes
+//! [`StrengthRun`] per process count; [`reference()`] runs the integrator; [`compare`] makes
 //! the [`Report`] with, per run, `peak-stress` (|σ_engine − σ_integrator| / σ_integrator,
 //! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
 //! breaking order, differ; 0 passes).
