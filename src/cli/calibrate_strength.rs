@@ -2,16 +2,13 @@
 //! laboratory reach a target tensile strength (one or two directions) or UCS on the packing
 //! ([`anisobond::calibrate::calibrate_strength`]); writes the calibrated model file.
 
-use super::run::LawArg;
-use super::strength_test::ShapeArg;
+use super::strength_test::LabArgs;
 use anisobond::calibrate::{
     calibrate_strength, StrengthCalibration, StrengthCalibrationOptions,
     StrengthCalibrationProgress, StrengthTarget,
 };
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
-use anisobond::packing::read_packing;
-use anisobond::study::strength_test::{SpecimenShape, StrengthTestOptions};
 use anisobond::study::OptionNames;
 use anisobond::{Error, Result};
 use std::path::PathBuf;
@@ -46,75 +43,17 @@ pub struct CalibrateStrengthArgs {
     /// Iterations allowed (one lab run per target value each), before the verification run.
     #[arg(long, default_value_t = d().max_iterations)]
     max_iterations: usize,
-    /// Packing file the specimens are cut from; default: a generated periodic packing of
-    /// --cell-particles spheres.
-    #[arg(long)]
-    packing: Option<PathBuf>,
-    /// Bond law of the integrator.
-    #[arg(long, value_enum, default_value_t = LawArg::Yade)]
-    law: LawArg,
-    /// Cross-section of the specimens.
-    #[arg(long, value_enum, default_value_t = ShapeArg::Prism)]
-    shape: ShapeArg,
-    /// Bedding angle β (degrees) of a tension or ucs target (set from the axis for
+    /// The specimens, their loading and the generated packing (as `strength-test`'s; the
+    /// bedding angle applies to a tension or ucs target, and is set from the axis for
     /// tension-along/tension-across).
-    #[arg(long, default_value_t = d().lab.bedding_deg, allow_negative_numbers = true)]
-    bedding_deg: f64,
-    /// Width of the specimen in mean radii R̄.
-    #[arg(long, default_value_t = d().lab.width_particles)]
-    width_particles: f64,
-    /// Length over width (default 2).
-    #[arg(long)]
-    aspect: Option<f64>,
-    /// Depth of the glued end layers in R̄.
-    #[arg(long, default_value_t = d().lab.end_layer)]
-    end_layer: f64,
-    /// Axial strain per wave transit time.
-    #[arg(long, default_value_t = d().lab.loading_rate)]
-    loading_rate: f64,
-    /// A run ends at this axial strain if the stress has not dropped before.
-    #[arg(long, default_value_t = d().lab.max_strain)]
-    max_strain: f64,
-    /// A run ends once the stress is below this fraction of its peak.
-    #[arg(long, default_value_t = d().lab.stop_fraction)]
-    stop_fraction: f64,
-    /// Cundall local damping λ in [0, 1).
-    #[arg(long, default_value_t = d().lab.local_damping)]
-    local_damping: f64,
-    /// Spheres of the generated packing (without --packing).
-    #[arg(long, default_value_t = d().lab.cell_particles, conflicts_with = "packing")]
-    cell_particles: usize,
-    /// Seed of the generated packing.
-    #[arg(long, default_value_t = d().lab.seed, conflicts_with = "packing")]
-    seed: u64,
-    /// Recorded points of each run's curve.
-    #[arg(long, default_value_t = d().lab.points)]
-    points: usize,
+    #[command(flatten)]
+    lab: LabArgs,
 }
 
 impl CalibrateStrengthArgs {
     fn options(&self) -> Result<StrengthCalibrationOptions> {
         Ok(StrengthCalibrationOptions {
-            lab: StrengthTestOptions {
-                shape: match self.shape {
-                    ShapeArg::Prism => SpecimenShape::Prism,
-                    ShapeArg::Cylinder => SpecimenShape::Cylinder,
-                },
-                packing: self.packing.as_deref().map(read_packing).transpose()?,
-                law: self.law.into(),
-                bedding_deg: self.bedding_deg,
-                width_particles: self.width_particles,
-                aspect: self.aspect,
-                end_layer: self.end_layer,
-                loading_rate: self.loading_rate,
-                max_strain: self.max_strain,
-                stop_fraction: self.stop_fraction,
-                local_damping: self.local_damping,
-                cell_particles: self.cell_particles,
-                seed: self.seed,
-                points: self.points,
-                ..StrengthTestOptions::default()
-            },
+            lab: self.lab.options(d().lab.test, None)?,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
         })
@@ -166,7 +105,7 @@ pub fn run(a: CalibrateStrengthArgs) -> Result<()> {
     let base = Model::from_path(&a.model)?;
     let target = StrengthTarget::parse(&a.target)?;
     let opts = a.options()?;
-    let inputs: Vec<&std::path::Path> = [a.packing.as_deref(), Some(a.model.as_path())]
+    let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), Some(a.model.as_path())]
         .into_iter()
         .flatten()
         .collect();

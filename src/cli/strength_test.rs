@@ -73,85 +73,70 @@ fn d() -> StrengthTestOptions {
     StrengthTestOptions::default()
 }
 
-/// Options of `anisobond strength-test`.
+/// The virtual laboratory's specimen, loading and packing flags, shared by
+/// `strength-test` and `calibrate-strength`.
 #[derive(clap::Args)]
-pub struct StrengthTestArgs {
-    /// The test.
-    #[arg(long, value_enum, default_value_t = TestArg::from(d().test))]
-    test: TestArg,
+pub struct LabArgs {
     /// Cross-section of a UCS or tension specimen (the Brazilian specimen is a disc).
     #[arg(long, value_enum, default_value_t = ShapeArg::from(d().shape))]
-    shape: ShapeArg,
+    pub(super) shape: ShapeArg,
     /// Packing file the specimen is cut from (centred on its cell or bounding box); default:
     /// a generated periodic packing of --cell-particles spheres (R̄ = 1 mm).
     #[arg(long)]
-    packing: Option<PathBuf>,
-    /// Model file (docs/formats.md; its [strength] table gives the bond strengths,
-    /// docs/strength.md); default: isotropic bonds (gap 0.17 R̄, moduli 1e10 Pa and 3e9 Pa)
-    /// with σ_t = 5 MPa, c = 10 MPa.
-    #[arg(long)]
-    model: Option<PathBuf>,
+    pub(super) packing: Option<PathBuf>,
     /// Bond law of the integrator.
     #[arg(long, value_enum, default_value_t = law_arg(d().law))]
-    law: LawArg,
+    pub(super) law: LawArg,
     /// Bedding angle β (degrees): the model (its cross-anisotropic axis, crystal rotation,
     /// strength axis and planes of weakness) is turned by β about y; for a model whose axis
     /// is z, β is its angle to the loading axis z.
     #[arg(long, default_value_t = d().bedding_deg, allow_negative_numbers = true)]
-    bedding_deg: f64,
+    pub(super) bedding_deg: f64,
     /// Width of the prism, diameter of the cylinder or disc, in mean radii R̄.
     #[arg(long, default_value_t = d().width_particles)]
-    width_particles: f64,
+    pub(super) width_particles: f64,
     /// Length over width (UCS, tension; default 2) or thickness over diameter (Brazilian;
     /// default 0.5).
     #[arg(long)]
-    aspect: Option<f64>,
+    pub(super) aspect: Option<f64>,
     /// Depth of the glued end layers in R̄ (UCS, tension).
     #[arg(long, default_value_t = d().end_layer)]
-    end_layer: f64,
+    pub(super) end_layer: f64,
     /// Axial strain added per wave transit time (at most 0.01; smaller is more
     /// quasi-static, and slower).
     #[arg(long, default_value_t = d().loading_rate)]
-    loading_rate: f64,
+    pub(super) loading_rate: f64,
     /// The run ends at this axial strain if the stress has not dropped before.
     #[arg(long, default_value_t = d().max_strain)]
-    max_strain: f64,
+    pub(super) max_strain: f64,
     /// The run ends once bonds have broken and the stress is below this fraction of its peak.
     #[arg(long, default_value_t = d().stop_fraction)]
-    stop_fraction: f64,
+    pub(super) stop_fraction: f64,
     /// Cundall local damping λ in [0, 1).
     #[arg(long, default_value_t = d().local_damping)]
-    local_damping: f64,
+    pub(super) local_damping: f64,
     /// Spheres of the generated packing (without --packing).
     #[arg(long, default_value_t = d().cell_particles, conflicts_with = "packing")]
-    cell_particles: usize,
+    pub(super) cell_particles: usize,
     /// Seed of the generated packing.
     #[arg(long, default_value_t = d().seed, conflicts_with = "packing")]
-    seed: u64,
+    pub(super) seed: u64,
     /// Recorded points of the curve up to --max-strain.
     #[arg(long, default_value_t = d().points)]
-    points: usize,
-    /// Output folder: strength_test.json, strength_test.csv (the curve), strength_test.png,
-    /// strength_test_bonds.vtu (every bond's state, time and mode of breaking).
-    #[arg(short, long, default_value = "anisobond-strength-test")]
-    output: PathBuf,
+    pub(super) points: usize,
 }
 
-impl StrengthTestArgs {
-    /// The study's options (the packing and model files read).
-    fn options(&self) -> Result<StrengthTestOptions> {
+impl LabArgs {
+    /// The lab's options for `test` with `model` (the packing file read).
+    pub fn options(&self, test: TestKind, model: Option<Model>) -> Result<StrengthTestOptions> {
         Ok(StrengthTestOptions {
-            test: match self.test {
-                TestArg::Ucs => TestKind::Ucs,
-                TestArg::Tension => TestKind::Tension,
-                TestArg::Brazilian => TestKind::Brazilian,
-            },
+            test,
             shape: match self.shape {
                 ShapeArg::Prism => SpecimenShape::Prism,
                 ShapeArg::Cylinder => SpecimenShape::Cylinder,
             },
             packing: self.packing.as_deref().map(read_packing).transpose()?,
-            model: self.model.as_deref().map(Model::from_path).transpose()?,
+            model,
             law: LawKind::from(self.law),
             bedding_deg: self.bedding_deg,
             width_particles: self.width_particles,
@@ -165,6 +150,39 @@ impl StrengthTestArgs {
             seed: self.seed,
             points: self.points,
         })
+    }
+}
+
+/// Options of `anisobond strength-test`.
+#[derive(clap::Args)]
+pub struct StrengthTestArgs {
+    /// The test.
+    #[arg(long, value_enum, default_value_t = TestArg::from(d().test))]
+    test: TestArg,
+    /// Model file (docs/formats.md; its [strength] table gives the bond strengths,
+    /// docs/strength.md); default: isotropic bonds (gap 0.17 R̄, moduli 1e10 Pa and 3e9 Pa)
+    /// with σ_t = 5 MPa, c = 10 MPa.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// The specimen, its loading and the generated packing.
+    #[command(flatten)]
+    lab: LabArgs,
+    /// Output folder: strength_test.json, strength_test.csv (the curve), strength_test.png,
+    /// strength_test_bonds.vtu (every bond's state, time and mode of breaking).
+    #[arg(short, long, default_value = "anisobond-strength-test")]
+    output: PathBuf,
+}
+
+impl StrengthTestArgs {
+    /// The study's options (the packing and model files read).
+    fn options(&self) -> Result<StrengthTestOptions> {
+        let test = match self.test {
+            TestArg::Ucs => TestKind::Ucs,
+            TestArg::Tension => TestKind::Tension,
+            TestArg::Brazilian => TestKind::Brazilian,
+        };
+        let model = self.model.as_deref().map(Model::from_path).transpose()?;
+        self.lab.options(test, model)
     }
 }
 
@@ -201,7 +219,7 @@ fn print_summary(r: &StrengthTestReport) {
 pub fn run(a: StrengthTestArgs) -> Result<()> {
     let opts = a.options()?;
     opts.check(OptionNames::Flags)?;
-    let inputs: Vec<&std::path::Path> = [a.packing.as_deref(), a.model.as_deref()]
+    let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), a.model.as_deref()]
         .into_iter()
         .flatten()
         .collect();

@@ -11,9 +11,8 @@ use super::errors::to_py;
 use super::model::PyModel;
 use super::packing::PyPacking;
 use crate::calibrate::{calibrate_strength, StrengthCalibrationOptions, StrengthTarget};
-use crate::study::strength_test::{SpecimenShape, StrengthTestOptions};
+use crate::study::strength_test::StrengthTestOptions;
 use crate::study::OptionNames;
-use crate::Error;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -53,24 +52,8 @@ pub(super) fn calibrate_strength_model<'py>(
     let target = StrengthTarget::parse(target).map_err(to_py)?;
     let d = StrengthCalibrationOptions::default();
     let lab = &d.lab;
-    let shape = match shape {
-        "prism" => SpecimenShape::Prism,
-        "cylinder" => SpecimenShape::Cylinder,
-        other => {
-            return Err(to_py(Error::Invalid(format!(
-                "shape {other:?}: expected \"prism\" or \"cylinder\""
-            ))))
-        }
-    };
-    let law = super::method::LAWS
-        .iter()
-        .find(|(name, _)| *name == law)
-        .map(|(_, k)| *k)
-        .ok_or_else(|| {
-            to_py(Error::Invalid(format!(
-                "law {law:?}: expected \"yade\", \"parallel-bond\", \"kumar\" or \"lammps-bpm\""
-            )))
-        })?;
+    let shape = super::studies::lab_shape(shape)?;
+    let law = super::studies::law_kind(law)?;
     let opts = StrengthCalibrationOptions {
         lab: StrengthTestOptions {
             shape,

@@ -97,7 +97,7 @@ pub(super) fn strength_test<'py>(
     seed: Option<u64>,
     points: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use crate::study::strength_test::{run, SpecimenShape, StrengthTestOptions, TestKind};
+    use crate::study::strength_test::{run, StrengthTestOptions, TestKind};
     use crate::study::OptionNames;
     let d = StrengthTestOptions::default();
     let test = TestKind::from_name(test).ok_or_else(|| {
@@ -105,24 +105,8 @@ pub(super) fn strength_test<'py>(
             "test {test:?}: expected \"ucs\", \"tension\" or \"brazilian\""
         )))
     })?;
-    let shape = match shape {
-        "prism" => SpecimenShape::Prism,
-        "cylinder" => SpecimenShape::Cylinder,
-        other => {
-            return Err(to_py(Error::Invalid(format!(
-                "shape {other:?}: expected \"prism\" or \"cylinder\""
-            ))))
-        }
-    };
-    let law = super::method::LAWS
-        .iter()
-        .find(|(name, _)| *name == law)
-        .map(|(_, k)| *k)
-        .ok_or_else(|| {
-            to_py(Error::Invalid(format!(
-                "law {law:?}: expected \"yade\", \"parallel-bond\", \"kumar\" or \"lammps-bpm\""
-            )))
-        })?;
+    let shape = super::studies::lab_shape(shape)?;
+    let law = super::studies::law_kind(law)?;
     let opts = StrengthTestOptions {
         test,
         shape,
@@ -161,4 +145,29 @@ pub(super) fn strength_test<'py>(
         PyArray1::from_vec(py, column(&|c| c.broken as f64)),
     )?;
     Ok(dict)
+}
+
+/// The lab's specimen shape by its keyword (`"prism"` or `"cylinder"`), refused by name.
+pub(super) fn lab_shape(shape: &str) -> PyResult<crate::study::strength_test::SpecimenShape> {
+    use crate::study::strength_test::SpecimenShape;
+    match shape {
+        "prism" => Ok(SpecimenShape::Prism),
+        "cylinder" => Ok(SpecimenShape::Cylinder),
+        other => Err(to_py(Error::Invalid(format!(
+            "shape {other:?}: expected \"prism\" or \"cylinder\""
+        )))),
+    }
+}
+
+/// The integrator's bond law by its keyword (`method::LAWS`), refused by name.
+pub(super) fn law_kind(law: &str) -> PyResult<crate::dem::LawKind> {
+    super::method::LAWS
+        .iter()
+        .find(|(name, _)| *name == law)
+        .map(|(_, k)| *k)
+        .ok_or_else(|| {
+            to_py(Error::Invalid(format!(
+                "law {law:?}: expected \"yade\", \"parallel-bond\", \"kumar\" or \"lammps-bpm\""
+            )))
+        })
 }

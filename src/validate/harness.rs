@@ -684,6 +684,35 @@ pub fn summary<D: EngineDetails>(r: &Report<D>) -> String {
     s
 }
 
+/// The report of a test with one report for every engine (the specimen, the strength test)
+/// as text: the details' own lines, `heading` over the checks table, the wall times.
+pub fn checks_summary<D: EngineDetails>(r: &Report<D>, heading: &str) -> String {
+    let mut s = D::summary(r);
+    let _ = writeln!(s, "{heading}");
+    s += &checks_table(r);
+    let _ = writeln!(s, "\nwall time:");
+    for t in &r.timings {
+        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
+    }
+    s
+}
+
+/// Write the report JSON as `json_name` and the checks CSV as `csv_name` into `dir`
+/// (atomically each); returns the paths written.
+pub fn write_report_files<D: EngineDetails>(
+    dir: &Path,
+    r: &Report<D>,
+    json_name: &str,
+    csv_name: &str,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let json = dir.join(json_name);
+    write_report_json(&json, r)?;
+    let csv = dir.join(csv_name);
+    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
+    Ok(vec![json, csv])
+}
+
 /// The checks reported as not converged, one line each: `id: remaining … (description)`.
 pub fn unsettled_lines<D>(r: &Report<D>) -> Vec<String> {
     r.checks

@@ -337,8 +337,16 @@ fn the_top_level_help_lists_what_the_parsers_accept() {
     let line = |cmd: &str| {
         top.lines()
             .skip_while(|l| !l.starts_with("Commands:"))
-            .skip_while(|l| !l.trim_start().starts_with(cmd))
-            .take_while(|l| l.trim_start().starts_with(cmd) || l.starts_with("               "))
+            // The command's own line: indented by exactly two spaces, its first word the name (a
+            // wrapped description line of another command may start with the same word).
+            .skip_while(|l| {
+                !(l.starts_with("  ")
+                    && !l.starts_with("   ")
+                    && l.split_whitespace().next() == Some(cmd))
+            })
+            .enumerate()
+            .take_while(|(k, l)| *k == 0 || l.starts_with("               "))
+            .map(|(_, l)| l)
             .collect::<Vec<_>>()
             .join(" ")
     };

@@ -8,7 +8,7 @@
 //! returns an [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
 //! `platen-stiffness` (|k_engine − k_solve| / k_solve, default tolerance 1e-3).
 
-use super::harness::{checks_csv, write_report_json, Check, EngineDetails, Report, Timing};
+use super::harness::{Check, EngineDetails, Report, Timing};
 use crate::assembly::Assembly;
 use crate::homogenize::network::LeverArm;
 use crate::specimen::{self, Platens, SpecimenOptions, SpecimenReport};
@@ -685,24 +685,12 @@ pub fn compare(
 
 /// The report as text: the engine's and the solve's lines, the checks table, wall times.
 pub fn summary(r: &Report<SpecimenDetails>) -> String {
-    let mut s = SpecimenDetails::summary(r);
-    let _ = writeln!(s, "relative differences (dimensionless):");
-    s += &super::harness::checks_table(r);
-    let _ = writeln!(s, "\nwall time:");
-    for t in &r.timings {
-        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
-    }
-    s
+    super::harness::checks_summary(r, "relative differences (dimensionless):")
 }
 
 /// Write the report JSON and the checks CSV into `dir` (atomically each).
 pub fn write_files(dir: &Path, r: &Report<SpecimenDetails>) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let json = dir.join(outputs::REPORT_JSON);
-    write_report_json(&json, r)?;
-    let csv = dir.join(outputs::CHECKS_CSV);
-    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
-    Ok(vec![json, csv])
+    super::harness::write_report_files(dir, r, outputs::REPORT_JSON, outputs::CHECKS_CSV)
 }
 
 /// A number as the LAMMPS and LIGGGHTS specimen decks write it (shortest round-trip, `e`).

@@ -11,7 +11,7 @@
 //! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
 //! breaking order, differ; 0 passes).
 
-use super::harness::{checks_csv, write_report_json, Check, EngineDetails, Report, Timing};
+use super::harness::{Check, EngineDetails, Report, Timing};
 use crate::bonds::BondSet;
 use crate::dem::{BondCriteria, BondLaw, DemOptions, PrescribedMotion, Simulation};
 use crate::packing::Packing;
@@ -548,24 +548,12 @@ pub fn compare(
 
 /// The report as text: the runs' lines, the checks table, wall times.
 pub fn summary(r: &Report<StrengthDetails>) -> String {
-    let mut s = StrengthDetails::summary(r);
-    let _ = writeln!(s, "checks:");
-    s += &super::harness::checks_table(r);
-    let _ = writeln!(s, "\nwall time:");
-    for t in &r.timings {
-        let _ = writeln!(s, "  {:<40} {:8.2} s", t.stage, t.seconds);
-    }
-    s
+    super::harness::checks_summary(r, "checks:")
 }
 
 /// Write the report JSON and the checks CSV into `dir` (atomically each).
 pub fn write_files(dir: &Path, r: &Report<StrengthDetails>) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let json = dir.join(outputs::REPORT_JSON);
-    write_report_json(&json, r)?;
-    let csv = dir.join(outputs::CHECKS_CSV);
-    crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
-    Ok(vec![json, csv])
+    super::harness::write_report_files(dir, r, outputs::REPORT_JSON, outputs::CHECKS_CSV)
 }
 
 #[cfg(test)]
