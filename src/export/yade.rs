@@ -72,11 +72,23 @@ pub fn yade_adhesions(
         return Ok(None);
     };
     let spec = StrengthSpec::from_table(table)?;
-    let s = assign_strength(packing, bonds, &spec)?;
+    Ok(Some(adhesions_of(
+        packing,
+        bonds,
+        &assign_strength(packing, bonds, &spec)?,
+    )))
+}
+
+/// Every bond's YADE 2023.02a adhesions (`YadeAdhesion::of`, r = the smaller radius, moments
+/// elastic) from its strength.
+pub fn adhesions_of(
+    packing: &Packing,
+    bonds: &BondSet,
+    strengths: &crate::strength::BondStrengths,
+) -> Vec<YadeAdhesion> {
     let r = &packing.radii;
-    Ok(Some(s.map(|b, st| {
-        YadeAdhesion::of(&st, r[bonds.i[b] as usize], r[bonds.j[b] as usize], false)
-    })))
+    strengths
+        .map(|b, st| YadeAdhesion::of(&st, r[bonds.i[b] as usize], r[bonds.j[b] as usize], false))
 }
 
 /// The [`ADHESION_COLUMNS`] of a bond table file, one record per row (empty when the header

@@ -13,9 +13,8 @@ use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
 };
 use crate::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
-use crate::dem::{BondCriteria, LawKind};
+use crate::dem::LawKind;
 use crate::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
-use crate::strength::{assign_strength, StrengthSpec};
 use crate::validate::harness::{Problem, Progress, Report, Timing};
 use crate::validate::specimen::{atom_lines, box_lines, num};
 use crate::{Error, Result};
@@ -37,29 +36,8 @@ pub fn run(
     progress: Progress,
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let model = problem.model.ok_or_else(|| {
-        Error::Invalid("validate lammps --strength: the problem has no model".into())
-    })?;
-    let table = model.strength.as_ref().ok_or_else(|| {
-        Error::Invalid(
-            "validate lammps --strength: the model has no [strength] table (the bonds' \
-             strengths; docs/strength.md)"
-                .into(),
-        )
-    })?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid(
-            "validate lammps --strength: no bonds".into(),
-        ));
-    }
-    let strengths = assign_strength(packing, bonds, &StrengthSpec::from_table(table)?)?;
-    let criteria = BondCriteria::for_law(
-        LawKind::LammpsBpm,
-        &strengths,
-        packing,
-        bonds,
-        &model.geometry,
-    )?;
+    let (model, strengths, criteria) =
+        super::strength_setup("lammps", problem, LawKind::LammpsBpm)?;
     let breakage = LammpsBreakage {
         strengths,
         pi_hat: model.geometry.pi_hat,

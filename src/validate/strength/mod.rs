@@ -15,6 +15,7 @@ use super::harness::{Check, EngineDetails, Report, Timing};
 use crate::bonds::BondSet;
 use crate::dem::{BondCriteria, BondLaw, DemOptions, PrescribedMotion, Simulation};
 use crate::packing::Packing;
+use crate::strength::BondStrengths;
 use crate::{Error, Result, Vec3};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -37,6 +38,46 @@ pub struct Launch {
     /// Fraction of the single-particle stable step taken as the time step (the same in the
     /// engine and the integrator).
     pub safety: f64,
+}
+
+/// What every engine's strength test starts from: `problem`'s model, its bonds' strengths
+/// (`[strength]`, docs/strength.md) and the integrator's criteria for `law`. Refuses a problem
+/// without a model, a model without a `[strength]` table and a bar without bonds, naming
+/// `validate ENGINE --strength`.
+pub fn strength_setup<'a>(
+    engine: &str,
+    problem: &super::Problem<'a>,
+    law: crate::dem::LawKind,
+) -> Result<(&'a crate::model::Model, BondStrengths, BondCriteria)> {
+    let model = problem.model.ok_or_else(|| {
+        Error::Invalid(format!(
+            "validate {engine} --strength: the problem has no model"
+        ))
+    })?;
+    let table = model.strength.as_ref().ok_or_else(|| {
+        Error::Invalid(format!(
+            "validate {engine} --strength: the model has no [strength] table (the bonds' \
+             strengths; docs/strength.md)"
+        ))
+    })?;
+    if problem.bonds.is_empty() {
+        return Err(Error::Invalid(format!(
+            "validate {engine} --strength: no bonds"
+        )));
+    }
+    let strengths = crate::strength::assign_strength(
+        problem.packing,
+        problem.bonds,
+        &crate::strength::StrengthSpec::from_table(table)?,
+    )?;
+    let criteria = BondCriteria::for_law(
+        law,
+        &strengths,
+        problem.packing,
+        problem.bonds,
+        &model.geometry,
+    )?;
+    Ok((model, strengths, criteria))
 }
 
 /// The time step of a strength test: `safety` × the single-particle stable step of the

@@ -13,9 +13,9 @@
 use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
 };
-use crate::dem::{build_law, BondCriteria, LawKind};
+use crate::dem::{build_law, LawKind};
 use crate::export::yade::{
-    files, find_yade, run_yade_script, write_bond_table_with_adhesions, yade_adhesions, YADE_MODULE,
+    adhesions_of, files, find_yade, run_yade_script, write_bond_table_with_adhesions, YADE_MODULE,
 };
 use crate::validate::harness::{Problem, Progress, Report, Timing};
 use crate::{Error, Result};
@@ -113,19 +113,7 @@ pub fn run(
     progress: Progress,
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let model = problem.model.ok_or_else(|| {
-        Error::Invalid("validate yade --strength: the problem has no model".into())
-    })?;
-    let table = model.strength.as_ref().ok_or_else(|| {
-        Error::Invalid(
-            "validate yade --strength: the model has no [strength] table (the bonds' \
-             strengths; docs/strength.md)"
-                .into(),
-        )
-    })?;
-    if bonds.is_empty() {
-        return Err(Error::Invalid("validate yade --strength: no bonds".into()));
-    }
+    let (_, strengths, criteria) = super::strength_setup("yade", problem, LawKind::Yade)?;
     if find_yade().is_none() {
         return Err(Error::Invalid(
             "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
@@ -134,19 +122,11 @@ pub fn run(
     }
     let dt = super::time_step(problem, launch)?;
     let loading = Loading::of(packing, test, dt, "yade")?;
-    let strengths = crate::strength::assign_strength(
-        packing,
-        bonds,
-        &crate::strength::StrengthSpec::from_table(table)?,
-    )?;
-    let criteria =
-        BondCriteria::for_law(LawKind::Yade, &strengths, packing, bonds, &model.geometry)?;
     let dir = problem.dir.join(DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     // The free bar's files as `export yade` writes them (it exports periodic packings only):
     // the packing, the bond table with each bond's adhesions, the module.
-    let adhesions = yade_adhesions(packing, bonds, model)?
-        .ok_or_else(|| Error::Invalid("validate yade --strength: no [strength] table".into()))?;
+    let adhesions = adhesions_of(packing, bonds, &strengths);
     crate::packing::io::write_packing(&dir.join(files::PACKING), packing)?;
     write_bond_table_with_adhesions(&dir.join(files::BONDS), bonds, k, None, &adhesions)?;
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
