@@ -8,6 +8,13 @@
 //! (`store/local … id1 id2 time`, written by `dump local`) in the same run. The integrator
 //! runs law (d), [`crate::dem::laws::LammpsBpmLaw`], with the same springs, damping and
 //! limits.
+//!
+//! In compression a broken bond's pair (and any pair that comes into touch) becomes a
+//! frictional contact, as in `export lammps`' decks with breakage: `pair_style granular`,
+//! `hooke` k_n with no damping, `linear_history` k_t capped at μ·F_n
+//! ([`super::contact_law`]); the integrator runs its [`crate::dem::Contacts`] with the same
+//! law (a broken bond's pair with the bond's own springs: the same for equal springs). In
+//! tension there are no contacts (`pair_style zero`), as before.
 
 use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
@@ -45,7 +52,10 @@ pub fn run(
     };
     let limits = bond_limits(k, &breakage)?;
     let dt = super::time_step(problem, launch)?;
-    let loading = Loading::of(packing, test, dt, "lammps")?;
+    let mut loading = Loading::of(packing, test, dt, "lammps")?;
+    if test.loading == super::StrengthLoading::Compression {
+        loading.contacts = Some(super::contact_law(k, &breakage.strengths)?);
+    }
     let damping: Vec<[f64; 4]> = (0..bonds.len())
         .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
         .collect();
@@ -112,7 +122,7 @@ pub fn run(
             "in.strength",
             "strength",
         )?;
-        let m = read_run(&dir, problem, np, test.axis, seconds)?;
+        let m = read_run(&dir, problem, np, &test, seconds)?;
         timings.push(Timing {
             stage: format!("lammps_np{np}"),
             seconds,
@@ -198,7 +208,9 @@ fn write_inputs(
 }
 
 /// The deck: read, hold and move the layers, start the velocity field, run, printing the
-/// top layer's tensile force every step and the broken bonds every [`DUMP_EVERY`] steps.
+/// top layer's load (tensile or compressive: the test's sense) every step and the broken
+/// bonds every [`DUMP_EVERY`] steps; `pair_style granular` for the loading's contacts,
+/// else `pair_style zero`.
 fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
     let ax = test.axis;
     let name = ["x", "y", "z"][ax];
@@ -208,18 +220,30 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
         c.join(" ")
     };
     let v = num(loading.velocity);
+    let pair = match &loading.contacts {
+        Some(c) => format!(
+            "# Broken bonds' pairs (and pairs that touch) are frictional contacts: Hooke normal spring,\n\
+             # no damping, linear tangential spring with history capped at mu*F_n.\n\
+             pair_style granular\n\
+             pair_coeff * * hooke {} 0 tangential linear_history {} 0 {} damping velocity\n",
+            num(c.normal_stiffness),
+            num(c.shear_stiffness),
+            num(c.friction)
+        ),
+        None => format!("pair_style zero {}\npair_coeff * *\n", num(cut)),
+    };
     format!(
-        "# anisobond → LAMMPS (BPM package) strength test: direct tension along {name}.\n\
+        "# anisobond → LAMMPS (BPM package) strength test: {test_name} along {name}.\n\
          # Run:  lmp -in in.strength   (or mpirun -np N lmp -in in.strength)\n\
          # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved at v).\n\
-         # Writes force.txt (step, top layer's tensile force) and broken.txt (dump local:\n\
+         # Writes force.txt (step, top layer's {sense} force) and broken.txt (dump local:\n\
          # id1 id2 timestep of each broken bond).\n\
          units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
          special_bonds lj 0 1 1 coul 1 1 1\nnewton on off\n\
          comm_modify vel yes cutoff {cut}\nread_data data.lmp\n\
          bond_style bpm/rotational break yes smooth no store/local brk {DUMP_EVERY} id1 id2 time\n\
          include bond_coeffs.lmp\n\
-         pair_style zero {cut}\npair_coeff * *\nneighbor {skin} bin\n\
+         {pair}neighbor {skin} bin\n\
          neigh_modify every 1 delay 0 check yes\n\
          group bottom type 2\ngroup top type 3\ngroup mobile type 1\n\
          timestep {dt}\n\
@@ -230,7 +254,7 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
          fix pull top move linear {vtop}\n\
          fix hold bottom move linear 0 0 0\n\
          compute ftop top reduce sum f{name}\n\
-         variable F equal -c_ftop\n\
+         variable F equal {minus}c_ftop\n\
          thermo_style custom step v_F bonds\nthermo 1000\n\
          fix out all print 1 \"$(step) $(v_F:%.17g)\" file force.txt screen no\n\
          dump brk all local {DUMP_EVERY} broken.txt f_brk[1] f_brk[2] f_brk[3]\n\
@@ -243,6 +267,12 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
         field = along("v_vfield", "0"),
         vtop = along(&v, "0"),
         steps = test.steps,
+        test_name = test.loading.describe(),
+        sense = match test.loading {
+            super::StrengthLoading::Tension => "tensile",
+            super::StrengthLoading::Compression => "compressive",
+        },
+        minus = if loading.sign > 0.0 { "-" } else { "" },
     )
 }
 
@@ -251,7 +281,7 @@ fn read_run(
     dir: &Path,
     problem: &Problem,
     np: usize,
-    _axis: usize,
+    test: &StrengthTest,
     seconds: f64,
 ) -> Result<StrengthRun> {
     let fail = |m: String| Error::engine("LAMMPS", m);
@@ -263,7 +293,7 @@ fn read_run(
         Ok((kept, text))
     };
     let (fpath, force) = keep("force.txt")?;
-    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0);
+    let mut curve = Vec::new();
     for (n, line) in force.lines().enumerate() {
         let w: Vec<&str> = line.split_whitespace().collect();
         if w.is_empty() || w[0].starts_with('#') {
@@ -279,11 +309,9 @@ fn read_run(
                 n + 1
             ))
         })?;
-        if f > peak {
-            (peak, peak_step) = (f, step);
-        }
+        curve.push((step, f));
     }
-    if !peak.is_finite() {
+    if curve.is_empty() {
         return Err(fail(format!("{}: no force read", fpath.display())));
     }
     let (bpath, broken) = keep("broken.txt")?;
@@ -322,12 +350,21 @@ fn read_run(
         .and_then(|l| l.strip_prefix("LAMMPS ("))
         .and_then(|l| l.split(')').next())
         .unwrap_or("unknown");
+    let breaks = order_breaks("LAMMPS", problem.bonds, &raw)?;
+    let (peak_force, peak_step) = super::peak_of(test, &curve, &breaks)
+        .ok_or_else(|| fail(format!("{}: no force read", fpath.display())))?;
+    if !peak_force.is_finite() {
+        return Err(fail(format!(
+            "{}: the peak force is not finite",
+            fpath.display()
+        )));
+    }
     Ok(StrengthRun {
         program: format!("LAMMPS ({version})"),
         processes: np,
-        peak_force: peak,
+        peak_force,
         peak_step,
-        breaks: order_breaks("LAMMPS", problem.bonds, &raw)?,
+        breaks,
         seconds,
     })
 }
