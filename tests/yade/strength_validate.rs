@@ -137,3 +137,42 @@ fn validate_yade_strength_command_passes_and_can_fail() {
     assert_eq!(tight.status.code(), Some(7), "{tight:?}");
     assert!(String::from_utf8_lossy(&tight.stderr).contains("first-breaks"));
 }
+
+/// `--load compression` with a `--peak-drop` outside (0, 1) is refused before any run (exit 1,
+/// naming the peak drop; no output folder left); an unknown `--load` is refused by the
+/// parser (exit 2, listing tension and compression). Needs no YADE: the options are checked
+/// first.
+#[test]
+fn validate_strength_refuses_a_bad_load_or_peak_drop() {
+    let asm = cubic_bar(3);
+    let dir = tempfile::tempdir().unwrap();
+    let packing = dir.path().join("free.txt");
+    anisobond::packing::write_packing(&packing, &asm.packing).unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, asm.model.to_toml_string()).unwrap();
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_anisobond"))
+            .args(["validate", "yade"])
+            .arg(&packing)
+            .arg("--model")
+            .arg(&model)
+            .args(["--strength", "-o"])
+            .arg(dir.path().join("out"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let drop = run(&["--load", "compression", "--peak-drop", "1.5"]);
+    let err = String::from_utf8_lossy(&drop.stderr);
+    assert_eq!(drop.status.code(), Some(1), "{err}");
+    assert!(err.contains("peak drop") && err.contains("1.5"), "{err}");
+    assert!(!dir.path().join("out").exists());
+    let load = run(&["--load", "sideways"]);
+    let err = String::from_utf8_lossy(&load.stderr);
+    assert_eq!(load.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("tension") && err.contains("compression"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out").exists());
+}
