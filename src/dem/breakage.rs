@@ -40,8 +40,12 @@ pub struct BreakEvent {
     pub mode: Mode,
     /// The criterion's failure index at breaking (≥ 1 at the limit; see [`Failure::index`]).
     pub index: f64,
-    /// Elastic energy the bond held when it broke (J), moved to
-    /// [`super::Energies::broken_bonds`].
+    /// Energy the break released (J), added to [`super::Energies::broken_bonds`]: the
+    /// elastic energy the bond held at that evaluation, U(x(t)), plus ½·dt·P, P = Σ(F·v +
+    /// T·ω) its loads' power at the half-step velocities v(t − dt/2) (the leapfrog passes a
+    /// force's work on as F(t)·(x(t+dt) − x(t−dt))/2, so a force dropped at t leaves this
+    /// half unpaid), less the same two terms of a contact its pair made in that step (which
+    /// carries a compression on). Without these terms the ledger erred by O(dt) per break.
     pub energy: f64,
 }
 

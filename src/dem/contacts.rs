@@ -402,6 +402,47 @@ impl Contacts {
         self.chunk_sums.iter().map(|s| s[0]).sum()
     }
 
+    /// What the contacts of the pair {i, j} (every image in touch) took on at the last
+    /// evaluation, in the integrator's ledger (J): their elastic energy plus half the work
+    /// their loads do over the last step, ½·dt·Σ(f·v + t·ω) with the half-step velocities
+    /// of `particles` (the leapfrog's discrete work, as for a breaking bond, docs/strength.md
+    /// "Breaking in the integrator"). For a contact made by a bond breaking in that step.
+    pub(crate) fn pair_ledger(
+        &self,
+        i: usize,
+        j: usize,
+        particles: &Particles,
+        cell: Option<&DeformingCell>,
+        dt: f64,
+    ) -> f64 {
+        let k = key(i, j);
+        let sv = cell.map_or(Mat3::zeros(), |c| c.vel_grad_times_prev_h);
+        let lo = self.list.partition_point(|c| (c.i, c.j) < k);
+        let mut sum = 0.0;
+        for (n, c) in self.list[lo..].iter().enumerate() {
+            if (c.i, c.j) != k {
+                break;
+            }
+            let (s, l) = (&self.state[lo + n], &self.loads[lo + n]);
+            if !s.active {
+                continue;
+            }
+            let (a, b) = (c.i as usize, c.j as usize);
+            let cd = Vec3::new(c.image[0] as f64, c.image[1] as f64, c.image[2] as f64);
+            let vi = particles.velocity[a];
+            let vj = particles.velocity[b] + sv * cd;
+            let power = l.force_i.dot(&(vi - vj))
+                + l.torque_i.dot(&particles.angular_velocity[a])
+                + l.torque_j.dot(&particles.angular_velocity[b]);
+            let mut elastic = 0.5 * s.normal_force * s.normal_force / c.kn;
+            if c.ks > 0.0 {
+                elastic += 0.5 * s.shear_force.norm_squared() / c.ks;
+            }
+            sum += elastic + 0.5 * dt * power;
+        }
+        sum
+    }
+
     /// Energy dissipated by frictional slip since the start (J), YADE's
     /// `plasticDissipation`: Σ over slipping steps ((F_trial − F_s)/k_s)·F_s.
     pub fn friction_dissipation(&self) -> f64 {

@@ -3,7 +3,7 @@
 //! branches), so both give the same bits; checked by `tests/dem/lanes.rs`.
 
 use super::laws::lanes::{
-    abs, add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
+    add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
 };
 use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
 use super::state::UpdateConsts;
@@ -39,13 +39,18 @@ fn sign(s: F) -> F {
 }
 
 /// Cundall damping of one component (as the scalar loop): returns the damped acceleration
-/// and the dissipation term (mass·λ)·|s|·dt.
+/// and the dissipation term mass·λ·sign(s)·a·(v + ½dt·a_damped)·dt (−dt·F_d·v̄).
 #[inline]
 #[target_feature(enable = "avx2")]
 fn damp(a: F, vel: F, mass: F, c: &UpdateConsts) -> (F, F) {
     let s = mul(a, add(vel, mul(splat(0.5 * c.dt), a)));
-    let term = mul(mul(mul(mass, splat(c.lambda)), abs(s)), splat(c.dt));
-    let damped = mul(a, sub(splat(1.0), mul(splat(c.lambda), sign(s))));
+    let sg = sign(s);
+    let damped = mul(a, sub(splat(1.0), mul(splat(c.lambda), sg)));
+    let mean = add(vel, mul(splat(0.5 * c.dt), damped));
+    let term = mul(
+        mul(mul(mul(mul(mass, splat(c.lambda)), sg), a), mean),
+        splat(c.dt),
+    );
     (damped, term)
 }
 
