@@ -8,8 +8,8 @@
 //!   (B ≥ 1).
 //! - Laws (b) parallel bond and (c) Kumar: [`ParallelBondSection::of`] (Potyondy & Cundall
 //!   2004), [`parallel_bond`].
-//! - Bonds crossing a plane of weakness ([`BondStrengths::joint_of`]): [`JointLimits::of`],
-//!   the bond's force on j resolved on the plane ([`resolve_on_plane`]), [`joint`].
+//! - Bonds crossing a plane of weakness ([`BondStrengths::joint_of`]):
+//!   [`JointLimits::on_section`] (the family's joint section), the bond's force on j resolved on the plane ([`resolve_on_plane`]), [`joint`].
 //!
 //! R_b and π̂ are the model's `[geometry]` ([`Geometry::bond_radius`], `pi_hat`).
 
@@ -187,8 +187,22 @@ impl BondCriteria {
                             strengths.plane_normals.len()
                         ))
                     })?;
+                    let section = *strengths.plane_sections.get(k).ok_or_else(|| {
+                        Error::Invalid(format!(
+                            "breakage: bond {b} crosses plane family {k}, but the strengths carry \
+                             {} joint sections (BondStrengths::plane_sections)",
+                            strengths.plane_sections.len()
+                        ))
+                    })?;
                     BondCriterion::Joint {
-                        limits: JointLimits::of(&s, rb, pi_hat),
+                        limits: JointLimits::on_section(
+                            &s,
+                            rb,
+                            pi_hat,
+                            section,
+                            &bonds.normal[b],
+                            &plane,
+                        ),
                         plane,
                     }
                 }
