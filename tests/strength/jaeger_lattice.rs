@@ -420,3 +420,74 @@ fn the_cut_section_is_the_oblique_ellipse() {
         );
     }
 }
+
+/// `anisobond export lammps` and the YADE export refuse a model with a cut family (a model
+/// error, exit code 1, naming the family; no output left), and export the same model with the
+/// bond section.
+#[test]
+fn the_exports_refuse_a_cut_family_and_leave_nothing() {
+    use anisobond::export::yade::{write_yade_export, YadeRunOptions};
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let bin = || Command::new(env!("CARGO_BIN_EXE_anisobond"));
+    let packing = dir.path().join("packing.txt");
+    let out = bin()
+        .args(["pack", "--quiet", "--seed", "4", "--particles", "40", "-o"])
+        .arg(&packing)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let model = |section: &str| {
+        format!(
+            "{}[strength.bond]\ntensile = 5e6\ncohesion = 1e7\n\
+             [[strength.planes]]\nnormal = [0, 0, 1]\nspacing = 0.7\ntensile = 5e5\n\
+             cohesion = 1e6\nfriction = 0.6\n{section}",
+            ELASTIC.replace("0.01", "0.17")
+        )
+    };
+    let cut = dir.path().join("cut.toml");
+    std::fs::write(&cut, model("section = \"cut\"\n")).unwrap();
+    let bond = dir.path().join("bond.toml");
+    std::fs::write(&bond, model("section = \"bond\"\n")).unwrap();
+    let export = |m: &Path, out: &Path| {
+        bin()
+            .args(["export", "lammps"])
+            .arg(&packing)
+            .arg("--model")
+            .arg(m)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let refused = dir.path().join("refused");
+    let r = export(&cut, &refused);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("export lammps") && err.contains("#1") && err.contains("cut"),
+        "{err}"
+    );
+    assert!(!refused.exists());
+    let exported = dir.path().join("exported");
+    let r = export(&bond, &exported);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(exported.join("breakage.lmp").exists());
+    // YADE: the library's export, from the bar of the lattice tests.
+    let (p, b, _) = bar();
+    let n = b.len();
+    let k = BondStiffness {
+        radius: vec![R; n],
+        kn: vec![KN; n],
+        ks: vec![KS; n],
+        kr: vec![0.0; n],
+        ktw: vec![0.0; n],
+    };
+    let m = Model::from_str_for(&model("section = \"cut\"\n"), Path::new("cut.toml")).unwrap();
+    let yade_dir = dir.path().join("yade");
+    let e =
+        write_yade_export(&yade_dir, &p, &b, &k, Some(&m), &YadeRunOptions::default()).unwrap_err();
+    assert!(matches!(e, anisobond::Error::Model(_)), "{e:?}");
+    assert!(e.to_string().contains("YADE export"), "{e}");
+    assert!(!yade_dir.exists());
+}
