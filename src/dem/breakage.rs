@@ -146,8 +146,9 @@ impl BondCriteria {
     /// r = min(R_i, R_j) (law a; moments elastic as YADE 2023.02a), LAMMPS's limits (law d)
     /// or the parallel-bond section (laws b, c) with R_b and π̂ of `geometry`; a joint bond
     /// (`strengths.joint_of(b)`) takes the joint criterion on its family's plane
-    /// (`strengths.plane_normals`). Refuses strengths or bonds that do not match the packing,
-    /// a joint without its plane normal, and a LAMMPS limit that is not > 0 (its criterion
+    /// (`strengths.plane_normals`) with its joint section (`strengths.plane_sections`, the
+    /// cut one taken with the bond's initial normal). Refuses strengths or bonds that do not
+    /// match the packing, a joint without its plane normal or section, and a LAMMPS limit that is not > 0 (its criterion
     /// divides by each).
     pub fn for_law(
         law: LawKind,
