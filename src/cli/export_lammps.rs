@@ -285,6 +285,7 @@ fn breakage(
         }
         return Ok(None);
     };
+    spec.refuse_cut_sections("export lammps")?;
     let strengths = anisobond::strength::assign_strength(&asm.packing, &asm.bonds, &spec)?;
     Ok(Some(anisobond::export::lammps::LammpsBreakage {
         strengths,

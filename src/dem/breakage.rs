@@ -8,8 +8,8 @@
 //!   (B ≥ 1).
 //! - Laws (b) parallel bond and (c) Kumar: [`ParallelBondSection::of`] (Potyondy & Cundall
 //!   2004), [`parallel_bond`].
-//! - Bonds crossing a plane of weakness ([`BondStrengths::joint_of`]): [`JointLimits::of`],
-//!   the bond's force on j resolved on the plane ([`resolve_on_plane`]), [`joint`].
+//! - Bonds crossing a plane of weakness ([`BondStrengths::joint_of`]):
+//!   [`JointLimits::on_section`] (the family's joint section), the bond's force on j resolved on the plane ([`resolve_on_plane`]), [`joint`].
 //!
 //! R_b and π̂ are the model's `[geometry]` ([`Geometry::bond_radius`], `pi_hat`).
 
@@ -150,8 +150,9 @@ impl BondCriteria {
     /// r = min(R_i, R_j) (law a; moments elastic as YADE 2023.02a), LAMMPS's limits (law d)
     /// or the parallel-bond section (laws b, c) with R_b and π̂ of `geometry`; a joint bond
     /// (`strengths.joint_of(b)`) takes the joint criterion on its family's plane
-    /// (`strengths.plane_normals`). Refuses strengths or bonds that do not match the packing,
-    /// a joint without its plane normal, and a LAMMPS limit that is not > 0 (its criterion
+    /// (`strengths.plane_normals`) with its joint section (`strengths.plane_sections`, the
+    /// cut one taken with the bond's initial normal). Refuses strengths or bonds that do not
+    /// match the packing, a joint without its plane normal or section, and a LAMMPS limit that is not > 0 (its criterion
     /// divides by each).
     pub fn for_law(
         law: LawKind,
@@ -191,8 +192,22 @@ impl BondCriteria {
                             strengths.plane_normals.len()
                         ))
                     })?;
+                    let section = *strengths.plane_sections.get(k).ok_or_else(|| {
+                        Error::Invalid(format!(
+                            "breakage: bond {b} crosses plane family {k}, but the strengths carry \
+                             {} joint sections (BondStrengths::plane_sections)",
+                            strengths.plane_sections.len()
+                        ))
+                    })?;
                     BondCriterion::Joint {
-                        limits: JointLimits::of(&s, rb, pi_hat),
+                        limits: JointLimits::on_section(
+                            &s,
+                            rb,
+                            pi_hat,
+                            section,
+                            &bonds.normal[b],
+                            &plane,
+                        ),
                         plane,
                     }
                 }

@@ -72,6 +72,7 @@ pub fn yade_adhesions(
         return Ok(None);
     };
     let spec = StrengthSpec::from_table(table)?;
+    spec.refuse_cut_sections("YADE export")?;
     Ok(Some(adhesions_of(
         packing,
         bonds,

@@ -181,6 +181,7 @@ impl PyModel {
         let s = py
             .detach(|| {
                 let spec = crate::strength::StrengthSpec::from_table(table)?;
+                spec.refuse_cut_sections("Model.yade_adhesions")?;
                 crate::strength::strengths_along(&spec, &x, &l)
             })
             .map_err(to_py)?;

@@ -404,6 +404,24 @@ impl JointLimits {
             friction: s.friction,
         }
     }
+
+    /// The limits of a joint bond of radius R_b and unit normal `bond_normal` across a plane
+    /// of unit normal `plane_normal`, its stresses taken on `section`: A = π̂R_b² (Bond, as
+    /// [`JointLimits::of`]) or the bond's section cut by the plane, π̂R_b²/|n·p| (Cut).
+    pub fn on_section(
+        s: &Strength,
+        rb: f64,
+        pi_hat: f64,
+        section: super::planes::JointSection,
+        bond_normal: &Vec3,
+        plane_normal: &Vec3,
+    ) -> JointLimits {
+        let lim = JointLimits::of(s, rb, pi_hat);
+        JointLimits {
+            area: section.area(lim.area, bond_normal, plane_normal),
+            ..lim
+        }
+    }
 }
 
 /// The bond force on j resolved on a joint plane: (normal force, compression positive;
@@ -423,7 +441,8 @@ pub fn resolve_on_plane(force_on_j: &Vec3, bond_normal: &Vec3, plane_normal: &Ve
 }
 
 /// Mohr–Coulomb with a tension cut-off on the joint plane: σ_n = F_n/A (compression
-/// positive), τ = |F_s|/A; tension failure when −σ_n ≥ σ_t, shear failure when
+/// positive), τ = |F_s|/A with A the joint's area (the bond's section, or that section cut
+/// by the plane, [`JointLimits::on_section`]); tension failure when −σ_n ≥ σ_t, shear failure when
 /// τ ≥ max(0, c_w + μ_w·σ_n) (tension lowers the shear limit until the cut-off). `l.normal`
 /// and `l.shear` are the loads resolved on the plane ([`resolve_on_plane`]); moments are not
 /// judged. Index max(−σ_n/σ_t, τ/τ_max); tension wins a tie.

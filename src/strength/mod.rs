@@ -24,7 +24,7 @@ pub mod schemes;
 pub mod spec;
 
 pub use criteria::{Failure, LocalLoads, Mode};
-pub use planes::PlaneFamily;
+pub use planes::{JointSection, PlaneFamily};
 pub use scatter::Scatter;
 pub use schemes::StrengthScheme;
 pub use spec::StrengthSpec;
@@ -135,6 +135,9 @@ pub struct BondStrengths {
     /// Unit normals of the plane families by index (`joint[b]` indexes it): the plane a
     /// joint bond's force is resolved on ([`criteria::resolve_on_plane`]).
     pub plane_normals: Vec<Vec3>,
+    /// The joint section of the plane families by index, aligned with `plane_normals`: the
+    /// area a joint bond's stresses are taken on ([`JointSection`]).
+    pub plane_sections: Vec<JointSection>,
 }
 
 impl BondStrengths {
@@ -238,6 +241,7 @@ pub fn strengths_along(
         .collect();
     let mut out = BondStrengths {
         plane_normals: spec.planes.iter().map(|p| p.normal).collect(),
+        plane_sections: spec.planes.iter().map(|p| p.section).collect(),
         ..Default::default()
     };
     for (s, tag) in per_bond {

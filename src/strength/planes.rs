@@ -2,11 +2,58 @@
 //! a bond whose segment crosses one of them is a joint bond and takes the joint's strength
 //! (the smooth-joint idea of PFC, Park & Min, IJRMMS 76 (2015) 243–255: bonds across a
 //! bedding or foliation plane obey the joint's tensile strength, cohesion c_w and friction
-//! μ_w, resolved on the plane, [`super::criteria::joint`]).
+//! μ_w, resolved on the plane, [`super::criteria::joint`]). The joint's stresses are its
+//! bond's forces over an area chosen per family ([`JointSection`]): the bond's section, or
+//! that section cut by the plane (with which a lattice follows Jaeger's single plane of
+//! weakness exactly, docs/strength.md, "Jaeger's single plane of weakness in a lattice").
 
 use super::Strength;
 use crate::schemes::cross_anisotropic::axis_from_strike_dip;
 use crate::{Error, Result, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// The area a joint bond's forces are divided by to give the stresses on its plane
+/// (`section = "bond" | "cut"` of a `[[strength.planes]]` family).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointSection {
+    /// The bond's own section A = π̂R_b² (the default): σ_n = F_n/A, τ = |F_s|/A.
+    #[default]
+    Bond,
+    /// The bond's section cut by the plane: a cylinder of section A cut by a plane whose
+    /// normal p makes |n·p| with the bond's unit normal n has an ellipse of area A/|n·p|, so
+    /// σ_n = F_n|n·p|/A, τ = |F_s||n·p|/A. The plane's bonded area per crossing bond then
+    /// does not depend on the bond's inclination, and an aligned lattice follows Jaeger's
+    /// formula with cohesion c_w·A/d² (docs/strength.md).
+    Cut,
+}
+
+impl JointSection {
+    /// The name written in a model file (`bond`, `cut`).
+    pub fn name(self) -> &'static str {
+        match self {
+            JointSection::Bond => "bond",
+            JointSection::Cut => "cut",
+        }
+    }
+
+    /// The joint's area for a bond of section `bond_area` (m²) and unit normal `bond_normal`
+    /// across a plane of unit normal `plane_normal`: `bond_area` (Bond) or
+    /// `bond_area`/|n·p| (Cut; +∞ for a bond parallel to the plane, which crosses none).
+    pub fn area(self, bond_area: f64, bond_normal: &Vec3, plane_normal: &Vec3) -> f64 {
+        match self {
+            JointSection::Bond => bond_area,
+            JointSection::Cut => {
+                let c = bond_normal.dot(plane_normal).abs();
+                if c > 0.0 {
+                    bond_area / c
+                } else {
+                    f64::INFINITY
+                }
+            }
+        }
+    }
+}
 
 /// A family of parallel planes of weakness and its joint strength.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,6 +67,9 @@ pub struct PlaneFamily {
     /// The joint's strength: tensile, cohesion c_w and friction μ_w = tan φ_w (bending and
     /// twisting are not used by the joint criterion).
     pub joint: Strength,
+    /// The area the joint's stresses are taken on ([`JointSection::Bond`] unless set by
+    /// [`PlaneFamily::with_section`]).
+    pub section: JointSection,
 }
 
 impl PlaneFamily {
@@ -49,7 +99,13 @@ impl PlaneFamily {
             spacing,
             offset,
             joint: joint.checked("plane of weakness joint strength")?,
+            section: JointSection::Bond,
         })
+    }
+
+    /// The family with its joint stresses taken on `section`.
+    pub fn with_section(self, section: JointSection) -> Self {
+        PlaneFamily { section, ..self }
     }
 
     /// The plane normal from strike and dip (degrees), in the convention of the

@@ -19,6 +19,7 @@
 //! tensile = 0.5e6
 //! cohesion = 1.0e6
 //! friction = 0.6
+//! section = "cut"      # joint stresses on the bond's section cut by the plane (or "bond")
 //! [strength.scatter]
 //! distribution = "weibull"  # weibull (modulus) | normal (cv)
 //! modulus = 5.0
@@ -26,7 +27,7 @@
 //! ```
 
 use super::schemes::{CrossStrength, CubicStrength, StrengthScheme};
-use super::{PlaneFamily, Scatter, Strength};
+use super::{JointSection, PlaneFamily, Scatter, Strength};
 use crate::schemes::cross_anisotropic::axis_from_strike_dip;
 use crate::schemes::cubic::{self, CubicModel};
 use crate::{Error, Mat3, Result, Vec3};
@@ -103,6 +104,29 @@ impl StrengthSpec {
             planes,
             scatter,
         })
+    }
+}
+
+impl StrengthSpec {
+    /// Refuses, naming `what` (e.g. `export lammps`), a plane family whose joint stresses are
+    /// taken on the cut section ([`JointSection::Cut`]): the engines have no plane criterion
+    /// and judge a joint bond by their own law along the bond on its section π̂R_b², so the
+    /// cut would be dropped without a word (docs/strength.md, "Planes of weakness").
+    pub fn refuse_cut_sections(&self, what: &str) -> Result<()> {
+        match self
+            .planes
+            .iter()
+            .position(|p| p.section == JointSection::Cut)
+        {
+            Some(k) => Err(Error::Model(format!(
+                "{what}: [[strength.planes]] #{} has section = \"cut\" (joint stresses on the \
+                 bond's section cut by the plane); the engine has no plane criterion and would \
+                 judge the joint bonds along the bond on their own section, so it cannot carry \
+                 the cut: use section = \"bond\" or the integrator",
+                k + 1
+            ))),
+            None => Ok(()),
+        }
     }
 }
 
@@ -276,6 +300,10 @@ pub struct PlaneTable {
     /// Joint friction μ_w = tan φ_w (0 when omitted).
     #[serde(default)]
     pub friction: f64,
+    /// The area the joint's stresses are taken on: `bond` (the bond's section, when
+    /// omitted) or `cut` (that section cut by the plane).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub section: Option<JointSection>,
 }
 
 impl PlaneTable {
@@ -291,10 +319,12 @@ impl PlaneTable {
             friction: self.friction,
             ..Strength::new(self.tensile, self.cohesion)
         };
-        PlaneFamily::new(normal, self.spacing, self.offset, joint).map_err(|e| match e {
-            Error::Model(m) => Error::Model(format!("{table}: {m}")),
-            other => other,
-        })
+        PlaneFamily::new(normal, self.spacing, self.offset, joint)
+            .map(|f| f.with_section(self.section.unwrap_or_default()))
+            .map_err(|e| match e {
+                Error::Model(m) => Error::Model(format!("{table}: {m}")),
+                other => other,
+            })
     }
 }
 

@@ -7,6 +7,7 @@ mod bar;
 mod breakage;
 mod criteria;
 mod jaeger;
+mod jaeger_lattice;
 mod model_file;
 mod planes;
 mod scatter;

@@ -74,11 +74,9 @@ pub fn strength_setup<'a>(
             "validate {engine} --strength: no bonds"
         )));
     }
-    let strengths = crate::strength::assign_strength(
-        problem.packing,
-        problem.bonds,
-        &crate::strength::StrengthSpec::from_table(table)?,
-    )?;
+    let spec = crate::strength::StrengthSpec::from_table(table)?;
+    spec.refuse_cut_sections(&format!("validate {engine} --strength"))?;
+    let strengths = crate::strength::assign_strength(problem.packing, problem.bonds, &spec)?;
     let criteria = BondCriteria::for_law(
         law,
         &strengths,
