@@ -170,7 +170,8 @@ fn cubic_matrix(c11: f64, c12: f64, c44: f64) -> Stiffness6 {
 /// Refuse a matrix that is not a proper rotation (|RᵀR − I| > 1e-9 or det ≤ 0).
 fn check_rotation(r: &Mat3) -> Result<()> {
     let dev = (r.transpose() * r - Mat3::identity()).abs().max();
-    if !(dev <= ROTATION_TOLERANCE) || !(r.determinant() > 0.0) {
+    let proper = dev <= ROTATION_TOLERANCE && r.determinant() > 0.0; // false for NaN too
+    if !proper {
         return Err(Error::Model(format!(
             "many-body tensor: the cubic rotation is not a proper rotation (max |RᵀR − I| = \
              {dev:e}, det = {}); expected an orthogonal matrix with det +1 (re-orthonormalise a \

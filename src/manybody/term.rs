@@ -113,11 +113,11 @@ impl ManyBody {
         let mut fill = inc_start.clone();
         let mut inc_bond = vec![0u32; inc_start[n]];
         let mut bond_inc = vec![[0u32; 2]; bonds.len()];
-        for b in 0..bonds.len() {
+        for (b, slots) in bond_inc.iter_mut().enumerate() {
             for (end, p) in [bonds.i[b], bonds.j[b]].into_iter().enumerate() {
                 let k = fill[p as usize];
                 inc_bond[k] = b as u32;
-                bond_inc[b][end] = k as u32;
+                slots[end] = k as u32;
                 fill[p as usize] += 1;
             }
         }

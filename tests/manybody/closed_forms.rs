@@ -80,7 +80,7 @@ fn packings() -> Vec<(&'static str, Packing, BondSet)> {
 /// those with fewer than three bonds or bonds in one plane.
 fn expected_fraction(p: &Packing, b: &BondSet, mb: &ManyBody) -> f64 {
     let deg = b.degrees(p.len());
-    for q in 0..p.len() {
+    for (q, &dq) in deg.iter().enumerate() {
         let mut a = Mat3::zeros();
         for e in 0..b.len() {
             if b.i[e] as usize == q || b.j[e] as usize == q {
@@ -89,7 +89,7 @@ fn expected_fraction(p: &Packing, b: &BondSet, mb: &ManyBody) -> f64 {
             }
         }
         let eig = nalgebra::SymmetricEigen::new(a).eigenvalues;
-        let bad = deg[q] < 3 || eig.min() < 1e-6 * eig.max();
+        let bad = dq < 3 || eig.min() < 1e-6 * eig.max();
         assert_eq!(mb.excluded().contains(&(q as u32)), bad, "particle {q}");
     }
     let r3 = |q: usize| p.radii[q].powi(3);
