@@ -420,6 +420,54 @@ impl ManyBody {
         Ok(BlockSparse::from_rows(rows))
     }
 
+    /// The load G_r = ∂²U/∂x_r∂e (N per unit engineering strain; 6×6 blocks of the relaxed
+    /// solver: translation rows, strain columns, rotation rows zero) at branch vectors
+    /// `branch`, for a uniform strain increment δl_b = δε·L_b: with the Hessian and
+    /// [`affine_tensor`](Self::affine_tensor) it is the term's share of the relaxed solve's
+    /// [[K, G], [Gᵀ, H]] (Kruyt 2014 Eqs. 10–14). Zero on a centro-symmetric lattice.
+    pub fn load(&self, branch: &[Vec3]) -> Result<Vec<Block6>> {
+        self.check_branch(branch)?;
+        let n = self.len();
+        let states: Vec<(Mat3, Mat3)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let f = self.gradient_of(p, branch);
+                (f, self.particle_state(&f).2)
+            })
+            .collect();
+        Ok((0..n)
+            .into_par_iter()
+            .map(|r| {
+                let mut owners: Vec<u32> = vec![r as u32];
+                for k in self.inc_start[r]..self.inc_start[r + 1] {
+                    let b = self.inc_bond[k] as usize;
+                    owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
+                }
+                owners.sort_unstable();
+                owners.dedup();
+                let mut g = nalgebra::Matrix3x6::<f64>::zeros();
+                for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
+                    let p = p as usize;
+                    let span = self.sten_start[p]..self.sten_start[p + 1];
+                    let Some(kr) = span.clone().find(|&k| self.sten_node[k] as usize == r) else {
+                        continue;
+                    };
+                    let (f, s) = &states[p];
+                    let cr = self.sten_coef[kr];
+                    for k in self.inc_start[p]..self.inc_start[p + 1] {
+                        let mb = affine_map(&self.reference[self.inc_bond[k] as usize]);
+                        g += self.pair_block(&cr, &self.inc_coef[k], f, s)
+                            * mb
+                            * self.particle_volume[p];
+                    }
+                }
+                let mut blk = Block6::zeros();
+                blk.fixed_view_mut::<3, 6>(0, 0).copy_from(&g);
+                blk
+            })
+            .collect())
+    }
+
     /// The term's tensor (Pa) under a uniform strain increment δl_b = δε·L_b from the state
     /// `branch`, summed from the Hessian blocks in bond space, (1/V)·Σ_p Σ_{b,c ∈ p}
     /// M_bᵀ K^p_bc M_c with M_b the affine map of L_b: the Voigt-level (affine) part the

@@ -220,3 +220,74 @@ fn same_bits_on_one_and_two_threads() {
         assert!(on_threads(1, run) == on_threads(2, run), "{measure:?}");
     }
 }
+
+/// The load G_r = ∂²U/∂x_r∂e against central differences of the forces in a uniform
+/// strain increment δl_b = δe·M(L_b); its rows sum to zero; zero on FCC.
+#[test]
+fn load_is_the_forces_strain_derivative() {
+    for measure in [StrainMeasure::GreenLagrange, StrainMeasure::Small] {
+        let (p, mb, x, h) = state(measure);
+        let l = mb.branch_vectors(&x, &h).unwrap();
+        let g = mb.load(&l).unwrap();
+        let gmax = g.iter().fold(0.0_f64, |m, b| m.max(b.abs().max()));
+        let step = 1e-7;
+        let mut worst = 0.0_f64;
+        for a in 0..6 {
+            let forces = |sign: f64| {
+                let mut e = nalgebra::Vector6::zeros();
+                e[a] = sign * step;
+                let l2: Vec<Vec3> = l
+                    .iter()
+                    .zip(mb.reference_branches())
+                    .map(|(lb, rb)| lb + affine_map_of(rb) * e)
+                    .collect();
+                mb.evaluate(&l2).unwrap().forces
+            };
+            let (up, down) = (forces(1.0), forces(-1.0));
+            for r in 0..p.len() {
+                for c in 0..3 {
+                    let fd = -(up[r][c] - down[r][c]) / (2.0 * step);
+                    worst = worst.max((fd - g[r][(c, a)]).abs() / gmax);
+                }
+                for c in 3..6 {
+                    assert_eq!(g[r][(c, a)], 0.0);
+                }
+            }
+        }
+        println!("{measure:?}: load vs finite differences {worst:.1e}");
+        assert!(worst < 1e-6, "{measure:?}: {worst:e}");
+        let total = g
+            .iter()
+            .fold(nalgebra::Matrix6::<f64>::zeros(), |acc, b| acc + b);
+        assert!(total.abs().max() < 1e-10 * gmax);
+    }
+    let (p, b) = fcc_bonded(1e-3);
+    let mb = term(&p, &b, &cubic_d(), StrainMeasure::GreenLagrange);
+    let g = mb.load(mb.reference_branches()).unwrap();
+    let scale = mb.tensor().abs().max() * p.mean_radius().powi(3);
+    assert!(g.iter().all(|blk| blk.abs().max() < 1e-10 * scale));
+}
+
+/// The affine map ε·L as a 3×6 matrix of the engineering Voigt strain, written out.
+fn affine_map_of(l: &Vec3) -> nalgebra::Matrix3x6<f64> {
+    nalgebra::Matrix3x6::new(
+        l.x,
+        0.0,
+        0.0,
+        0.0,
+        0.5 * l.z,
+        0.5 * l.y, //
+        0.0,
+        l.y,
+        0.0,
+        0.5 * l.z,
+        0.0,
+        0.5 * l.x, //
+        0.0,
+        0.0,
+        l.z,
+        0.5 * l.y,
+        0.5 * l.x,
+        0.0,
+    )
+}
