@@ -45,6 +45,7 @@ pub mod history;
 pub mod homogenize;
 pub mod io;
 pub(crate) mod keys;
+pub mod manybody;
 pub mod model;
 pub mod names;
 pub mod packing;

@@ -1,0 +1,651 @@
+//! The many-body term's reference data (each particle's bonds and fit matrix A_p⁻¹), its
+//! energy, forces, nominal stress and Hessian (docs/manybody.md).
+//!
+//! Notation: bond b joins i_b → j_b with reference branch vector L_b and current l_b; particle
+//! p's fit coefficient of bond b is a_b = A_p⁻¹ L_b, so F_p = Σ_b l_b ⊗ a_b and
+//! ∂F_p/∂l_b = I ⊗ a_b. With P_p = ∂W/∂F (W the energy density) the energy's gradient with
+//! respect to a branch vector is g_b = Σ_{p ∈ {i_b, j_b}} V_p P_p a_b, a pair of opposite
+//! forces on the bond's ends: every force is an exact derivative of one energy.
+
+use super::{DegenerateParticles, LocalTensor, ManyBodyOptions, StrainMeasure};
+use crate::bonds::BondSet;
+use crate::homogenize::network::{affine_map, Block6};
+use crate::homogenize::BlockSparse;
+use crate::packing::{Packing, PeriodicCell};
+use crate::tensor::{to_fourth_order, Stiffness6, Tensor4, Voigt6};
+use crate::{Error, Mat3, Result, Vec3};
+use rayon::prelude::*;
+
+/// The many-body term of one bonded packing (structure of arrays; see the module docs).
+#[derive(Clone, Debug)]
+pub struct ManyBody {
+    d6: Stiffness6,
+    d4: Tensor4,
+    measure: StrainMeasure,
+    cell: Option<PeriodicCell>,
+    volume: f64,
+    bond_i: Vec<u32>,
+    bond_j: Vec<u32>,
+    image: Vec<[i32; 3]>,
+    reference: Vec<Vec3>,
+    /// Incidence index of bond b at its i end and at its j end.
+    bond_inc: Vec<[u32; 2]>,
+    particle_volume: Vec<f64>,
+    included: Vec<bool>,
+    /// Per particle (CSR, n + 1 offsets): its bonds in bond order and a_b = A_p⁻¹ L_b
+    /// (zero for an excluded particle).
+    inc_start: Vec<usize>,
+    inc_bond: Vec<u32>,
+    inc_coef: Vec<Vec3>,
+    /// Per included particle (CSR): the particles its F_p depends on and their
+    /// coefficients, ∂F_p/∂x_n = I ⊗ c_n (p itself first; Σ_n c_n = 0).
+    sten_start: Vec<usize>,
+    sten_node: Vec<u32>,
+    sten_coef: Vec<Vec3>,
+    excluded: Vec<u32>,
+}
+
+/// The term at one state: energy, forces and nominal stress.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// U = Σ_p ½ V_p E_p : D : E_p (J).
+    pub energy: f64,
+    /// −∂U/∂x_p for every particle (N).
+    pub forces: Vec<Vec3>,
+    /// Nominal stress (1/V)·∂U/∂H = (1/V)·Σ_b g_b ⊗ L_b (Pa): the derivative of the energy with
+    /// respect to the cell's deformation gradient H (l_b = x_j − x_i + H·shift_b), particles
+    /// moving with it. Under a uniform small strain ε it is (Σ_p V_p / V)·D:ε.
+    pub stress: Mat3,
+}
+
+impl ManyBody {
+    /// The term of `bonds` on `packing` (the reference state: strain zero) loading `tensor`.
+    /// Refuses ([`Error::Degenerate`], naming the particle) a particle with fewer than three
+    /// bonds or bonds (nearly) in one plane unless `options.degenerate` excludes them;
+    /// ([`Error::Invalid`]) volumes of the wrong count or not finite ≥ 0, bonds naming
+    /// particles not in the packing, default volumes without a fully periodic cell.
+    pub fn new(
+        packing: &Packing,
+        bonds: &BondSet,
+        tensor: &LocalTensor,
+        options: &ManyBodyOptions,
+    ) -> Result<ManyBody> {
+        let d6 = tensor.voigt()?;
+        let n = packing.len();
+        if let Some(b) =
+            (0..bonds.len()).find(|&b| bonds.i[b] as usize >= n || bonds.j[b] as usize >= n)
+        {
+            return Err(Error::Invalid(format!(
+                "many-body term: bond {b} joins particles {} and {}, but the packing has {n}",
+                bonds.i[b], bonds.j[b]
+            )));
+        }
+        if let Some(b) = (0..bonds.len()).find(|&b| {
+            bonds.image[b]
+                .iter()
+                .enumerate()
+                .any(|(k, &m)| m != 0 && !packing.cell.is_some_and(|c| c.periodic[k]))
+        }) {
+            return Err(Error::Invalid(format!(
+                "many-body term: bond {b} has periodic image {:?} along an axis the packing's box \
+                 is not periodic on",
+                bonds.image[b]
+            )));
+        }
+        if !(options.conditioning >= 0.0 && options.conditioning < 1.0) {
+            return Err(Error::Invalid(format!(
+                "many-body term: conditioning {} must lie in [0, 1) (λ_min/λ_max of A_p)",
+                options.conditioning
+            )));
+        }
+        let particle_volume = particle_volumes(packing, options.volumes.as_deref())?;
+        let reference: Vec<Vec3> = (0..bonds.len()).map(|b| bonds.branch(b)).collect();
+
+        // Incidence lists, in bond order.
+        let mut inc_start = vec![0usize; n + 1];
+        for (&i, &j) in bonds.i.iter().zip(&bonds.j) {
+            inc_start[i as usize + 1] += 1;
+            inc_start[j as usize + 1] += 1;
+        }
+        for p in 0..n {
+            inc_start[p + 1] += inc_start[p];
+        }
+        let mut fill = inc_start.clone();
+        let mut inc_bond = vec![0u32; inc_start[n]];
+        let mut bond_inc = vec![[0u32; 2]; bonds.len()];
+        for (b, slots) in bond_inc.iter_mut().enumerate() {
+            for (end, p) in [bonds.i[b], bonds.j[b]].into_iter().enumerate() {
+                let k = fill[p as usize];
+                inc_bond[k] = b as u32;
+                slots[end] = k as u32;
+                fill[p as usize] += 1;
+            }
+        }
+
+        // A_p⁻¹ of every particle, or why it has none.
+        let fits: Vec<std::result::Result<Mat3, String>> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let own = &inc_bond[inc_start[p]..inc_start[p + 1]];
+                fit_inverse(
+                    own.iter().map(|&b| reference[b as usize]),
+                    options.conditioning,
+                )
+            })
+            .collect();
+        let mut included = vec![true; n];
+        let mut excluded = Vec::new();
+        for (p, fit) in fits.iter().enumerate() {
+            if let Err(why) = fit {
+                if options.degenerate == DegenerateParticles::Refuse {
+                    return Err(Error::Degenerate(format!(
+                        "many-body term: particle {p} {why}; its local strain needs at least \
+                         three bonds not in one plane (exclude such particles with \
+                         DegenerateParticles::Exclude, or bond the packing more densely)"
+                    )));
+                }
+                included[p] = false;
+                excluded.push(p as u32);
+            }
+        }
+        let mut particle_volume = particle_volume;
+        for &p in &excluded {
+            particle_volume[p as usize] = 0.0;
+        }
+        let mut inc_coef = vec![Vec3::zeros(); inc_bond.len()];
+        for p in 0..n {
+            if let Ok(ainv) = &fits[p] {
+                for k in inc_start[p]..inc_start[p + 1] {
+                    inc_coef[k] = ainv * reference[inc_bond[k] as usize];
+                }
+            }
+        }
+
+        // Node stencils: coefficient −a_b at i_b, +a_b at j_b, merged per node.
+        let mut sten_start = vec![0usize];
+        let mut sten_node = Vec::new();
+        let mut sten_coef = Vec::new();
+        for p in 0..n {
+            if included[p] {
+                let mut nodes: Vec<(u32, Vec3)> = vec![(p as u32, Vec3::zeros())];
+                for k in inc_start[p]..inc_start[p + 1] {
+                    let b = inc_bond[k] as usize;
+                    let a = inc_coef[k];
+                    for (q, c) in [(bonds.i[b], -a), (bonds.j[b], a)] {
+                        match nodes.iter_mut().find(|(m, _)| *m == q) {
+                            Some(entry) => entry.1 += c,
+                            None => nodes.push((q, c)),
+                        }
+                    }
+                }
+                for (q, c) in nodes {
+                    sten_node.push(q);
+                    sten_coef.push(c);
+                }
+            }
+            sten_start.push(sten_node.len());
+        }
+
+        Ok(ManyBody {
+            d4: to_fourth_order(&d6),
+            d6,
+            measure: options.measure,
+            cell: packing.cell,
+            volume: packing.volume(),
+            bond_i: bonds.i.clone(),
+            bond_j: bonds.j.clone(),
+            image: bonds.image.clone(),
+            reference,
+            bond_inc,
+            particle_volume,
+            included,
+            inc_start,
+            inc_bond,
+            inc_coef,
+            sten_start,
+            sten_node,
+            sten_coef,
+            excluded,
+        })
+    }
+
+    /// The lab-frame Voigt matrix of D (Pa).
+    pub fn tensor(&self) -> &Stiffness6 {
+        &self.d6
+    }
+
+    /// The strain measure.
+    pub fn measure(&self) -> StrainMeasure {
+        self.measure
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.included.len()
+    }
+
+    /// True for a term of no particles.
+    pub fn is_empty(&self) -> bool {
+        self.included.is_empty()
+    }
+
+    /// V_p of every particle (m³; 0 for an excluded one).
+    pub fn particle_volumes(&self) -> &[f64] {
+        &self.particle_volume
+    }
+
+    /// The particles left out of the term ([`DegenerateParticles::Exclude`]), ascending.
+    pub fn excluded(&self) -> &[u32] {
+        &self.excluded
+    }
+
+    /// Σ_p V_p / V: the share of D the term adds under a uniform strain.
+    pub fn volume_fraction(&self) -> f64 {
+        self.particle_volume.iter().sum::<f64>() / self.volume
+    }
+
+    /// The closed form of the term's Voigt-level tensor, (Σ_p V_p / V)·D (Pa): the uniform
+    /// strain gives F_p = F for every particle.
+    pub fn closed_form_tensor(&self) -> Stiffness6 {
+        self.d6 * self.volume_fraction()
+    }
+
+    /// Current branch vectors l_b = x_j − x_i + H·(image ∘ L) of positions `positions` (not
+    /// re-wrapped since the reference) in the cell deformed by the gradient `cell_gradient` H
+    /// (identity: the reference cell).
+    pub fn branch_vectors(&self, positions: &[Vec3], cell_gradient: &Mat3) -> Result<Vec<Vec3>> {
+        if positions.len() != self.len() {
+            return Err(Error::Invalid(format!(
+                "many-body term: {} positions for {} particles",
+                positions.len(),
+                self.len()
+            )));
+        }
+        Ok((0..self.reference.len())
+            .map(|b| {
+                let d = positions[self.bond_j[b] as usize] - positions[self.bond_i[b] as usize];
+                match &self.cell {
+                    Some(cell) => d + cell_gradient * cell.shift(self.image[b]),
+                    None => d,
+                }
+            })
+            .collect())
+    }
+
+    /// The reference branch vectors L_b (m).
+    pub fn reference_branches(&self) -> &[Vec3] {
+        &self.reference
+    }
+
+    /// The fitted F_p of every particle at branch vectors `branch` (identity for an excluded
+    /// particle).
+    pub fn deformation_gradients(&self, branch: &[Vec3]) -> Result<Vec<Mat3>> {
+        self.check_branch(branch)?;
+        Ok((0..self.len())
+            .into_par_iter()
+            .map(|p| self.gradient_of(p, branch))
+            .collect())
+    }
+
+    /// Energy U (J) at branch vectors `branch`.
+    pub fn energy(&self, branch: &[Vec3]) -> Result<f64> {
+        self.check_branch(branch)?;
+        let w: Vec<f64> = (0..self.len())
+            .into_par_iter()
+            .map(|p| {
+                if self.included[p] {
+                    self.particle_state(&self.gradient_of(p, branch)).0 * self.particle_volume[p]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        Ok(w.iter().sum())
+    }
+
+    /// Energy, forces and nominal stress at branch vectors `branch` (one per bond, in the
+    /// bond order of the reference). Summed in a fixed order: the same bits on any number of
+    /// threads.
+    pub fn evaluate(&self, branch: &[Vec3]) -> Result<Evaluation> {
+        self.check_branch(branch)?;
+        let n = self.len();
+        // Pass 1: V_p·W_p and V_p·P_p.
+        let per_particle: Vec<(f64, Mat3)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                if !self.included[p] {
+                    return (0.0, Mat3::zeros());
+                }
+                let f = self.gradient_of(p, branch);
+                let (w, pk, _) = self.particle_state(&f);
+                let v = self.particle_volume[p];
+                (v * w, pk * v)
+            })
+            .collect();
+        // Pass 2: g_b = ∂U/∂l_b.
+        let g: Vec<Vec3> = (0..self.reference.len())
+            .into_par_iter()
+            .map(|b| {
+                let mut acc = Vec3::zeros();
+                for (end, p) in [self.bond_i[b], self.bond_j[b]].into_iter().enumerate() {
+                    acc +=
+                        per_particle[p as usize].1 * self.inc_coef[self.bond_inc[b][end] as usize];
+                }
+                acc
+            })
+            .collect();
+        // Pass 3: f_p = −∂U/∂x_p = Σ_b (+g_b at i_b, −g_b at j_b).
+        let forces: Vec<Vec3> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let mut f = Vec3::zeros();
+                for k in self.inc_start[p]..self.inc_start[p + 1] {
+                    let b = self.inc_bond[k] as usize;
+                    if self.bond_i[b] as usize == p {
+                        f += g[b];
+                    } else {
+                        f -= g[b];
+                    }
+                }
+                f
+            })
+            .collect();
+        let energy = per_particle.iter().map(|e| e.0).sum();
+        let mut stress = Mat3::zeros();
+        for (gb, lb) in g.iter().zip(&self.reference) {
+            stress += gb * lb.transpose();
+        }
+        Ok(Evaluation {
+            energy,
+            forces,
+            stress: stress / self.volume,
+        })
+    }
+
+    /// The Hessian ∂²U/∂x∂x (N/m) at branch vectors `branch`, over every particle, in 6×6
+    /// blocks of the relaxed solver's DOFs (translation first; the rotation rows are zero):
+    /// particles sharing a bonded neighbour are coupled. Each block row is summed in a fixed
+    /// order (the same bits on any number of threads).
+    pub fn hessian(&self, branch: &[Vec3]) -> Result<BlockSparse> {
+        self.check_branch(branch)?;
+        let n = self.len();
+        let states: Vec<(Mat3, Mat3)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                if !self.included[p] {
+                    return (Mat3::identity(), Mat3::zeros());
+                }
+                let f = self.gradient_of(p, branch);
+                (f, self.particle_state(&f).2)
+            })
+            .collect();
+        let rows: Vec<Vec<(u32, Block6)>> = (0..n)
+            .into_par_iter()
+            .map(|r| {
+                // The particles whose stencil holds r: r itself and its bonded neighbours.
+                let mut owners: Vec<u32> = vec![r as u32];
+                for k in self.inc_start[r]..self.inc_start[r + 1] {
+                    let b = self.inc_bond[k] as usize;
+                    owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
+                }
+                owners.sort_unstable();
+                owners.dedup();
+                let mut entries: Vec<(u32, Mat3)> = Vec::new();
+                for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
+                    let p = p as usize;
+                    let span = self.sten_start[p]..self.sten_start[p + 1];
+                    let Some(kr) = span.clone().find(|&k| self.sten_node[k] as usize == r) else {
+                        continue;
+                    };
+                    let (f, s) = &states[p];
+                    let cr = self.sten_coef[kr];
+                    for k in span {
+                        let blk = self.pair_block(&cr, &self.sten_coef[k], f, s)
+                            * self.particle_volume[p];
+                        entries.push((self.sten_node[k], blk));
+                    }
+                }
+                entries.sort_by_key(|e| e.0); // stable: sums in a fixed order
+                let mut row: Vec<(u32, Block6)> = Vec::new();
+                for (c, blk) in entries {
+                    if row.last().map(|e| e.0) != Some(c) {
+                        row.push((c, Block6::zeros()));
+                    }
+                    let mut v = row.last_mut().unwrap().1.fixed_view_mut::<3, 3>(0, 0);
+                    v += blk;
+                }
+                row
+            })
+            .collect();
+        Ok(BlockSparse::from_rows(rows))
+    }
+
+    /// The load G_r = ∂²U/∂x_r∂e (N per unit engineering strain; 6×6 blocks of the relaxed
+    /// solver: translation rows, strain columns, rotation rows zero) at branch vectors
+    /// `branch`, for a uniform strain increment δl_b = δε·L_b: with the Hessian and
+    /// [`affine_tensor`](Self::affine_tensor) it is the term's share of the relaxed solve's
+    /// [[K, G], [Gᵀ, H]] (Kruyt 2014 Eqs. 10–14). Zero on a centro-symmetric lattice.
+    pub fn load(&self, branch: &[Vec3]) -> Result<Vec<Block6>> {
+        self.check_branch(branch)?;
+        let n = self.len();
+        let states: Vec<(Mat3, Mat3)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let f = self.gradient_of(p, branch);
+                (f, self.particle_state(&f).2)
+            })
+            .collect();
+        Ok((0..n)
+            .into_par_iter()
+            .map(|r| {
+                let mut owners: Vec<u32> = vec![r as u32];
+                for k in self.inc_start[r]..self.inc_start[r + 1] {
+                    let b = self.inc_bond[k] as usize;
+                    owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
+                }
+                owners.sort_unstable();
+                owners.dedup();
+                let mut g = nalgebra::Matrix3x6::<f64>::zeros();
+                for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
+                    let p = p as usize;
+                    let span = self.sten_start[p]..self.sten_start[p + 1];
+                    let Some(kr) = span.clone().find(|&k| self.sten_node[k] as usize == r) else {
+                        continue;
+                    };
+                    let (f, s) = &states[p];
+                    let cr = self.sten_coef[kr];
+                    for k in self.inc_start[p]..self.inc_start[p + 1] {
+                        let mb = affine_map(&self.reference[self.inc_bond[k] as usize]);
+                        g += self.pair_block(&cr, &self.inc_coef[k], f, s)
+                            * mb
+                            * self.particle_volume[p];
+                    }
+                }
+                let mut blk = Block6::zeros();
+                blk.fixed_view_mut::<3, 6>(0, 0).copy_from(&g);
+                blk
+            })
+            .collect())
+    }
+
+    /// The term's tensor (Pa) under a uniform strain increment δl_b = δε·L_b from the state
+    /// `branch`, summed from the Hessian blocks in bond space, (1/V)·Σ_p Σ_{b,c ∈ p}
+    /// M_bᵀ K^p_bc M_c with M_b the affine map of L_b: the Voigt-level (affine) part the
+    /// relaxed tensor starts from. At the reference state it equals
+    /// [`closed_form_tensor`](Self::closed_form_tensor) by the fit's construction.
+    pub fn affine_tensor(&self, branch: &[Vec3]) -> Result<Stiffness6> {
+        self.check_branch(branch)?;
+        let parts: Vec<Stiffness6> = (0..self.len())
+            .into_par_iter()
+            .map(|p| {
+                let mut acc = Stiffness6::zeros();
+                if !self.included[p] {
+                    return acc;
+                }
+                let f = self.gradient_of(p, branch);
+                let s = self.particle_state(&f).2;
+                let span = self.inc_start[p]..self.inc_start[p + 1];
+                for kb in span.clone() {
+                    let mb = affine_map(&self.reference[self.inc_bond[kb] as usize]);
+                    for kc in span.clone() {
+                        let mc = affine_map(&self.reference[self.inc_bond[kc] as usize]);
+                        let blk = self.pair_block(&self.inc_coef[kb], &self.inc_coef[kc], &f, &s);
+                        acc += mb.transpose() * blk * mc;
+                    }
+                }
+                acc * self.particle_volume[p]
+            })
+            .collect();
+        Ok(parts.iter().fold(Stiffness6::zeros(), |a, b| a + b) / self.volume)
+    }
+
+    /// ∂²W/∂F∂F contracted with coefficient vectors u (row) and v (column), per unit
+    /// volume: (u·S v) I + F B(u, v) Fᵀ for Green–Lagrange, B(u, v) for small strain, with
+    /// B(u, v)_ac = Σ_jl u_j D_ajcl v_l.
+    fn pair_block(&self, u: &Vec3, v: &Vec3, f: &Mat3, s: &Mat3) -> Mat3 {
+        let mut bm = Mat3::zeros();
+        for a in 0..3 {
+            for c in 0..3 {
+                let mut acc = 0.0;
+                for j in 0..3 {
+                    for l in 0..3 {
+                        acc += u[j] * self.d4[a][j][c][l] * v[l];
+                    }
+                }
+                bm[(a, c)] = acc;
+            }
+        }
+        match self.measure {
+            StrainMeasure::Small => bm,
+            StrainMeasure::GreenLagrange => {
+                Mat3::identity() * u.dot(&(s * v)) + f * bm * f.transpose()
+            }
+        }
+    }
+
+    /// F_p = Σ_b l_b ⊗ a_b (identity for an excluded particle).
+    fn gradient_of(&self, p: usize, branch: &[Vec3]) -> Mat3 {
+        if !self.included[p] {
+            return Mat3::identity();
+        }
+        let mut f = Mat3::zeros();
+        for k in self.inc_start[p]..self.inc_start[p + 1] {
+            f += branch[self.inc_bond[k] as usize] * self.inc_coef[k].transpose();
+        }
+        f
+    }
+
+    /// Energy density W, first Piola stress P = ∂W/∂F and the stress S = D:E conjugate to
+    /// the measure's strain E, at gradient F.
+    fn particle_state(&self, f: &Mat3) -> (f64, Mat3, Mat3) {
+        let e = match self.measure {
+            StrainMeasure::Small => (f + f.transpose()) * 0.5 - Mat3::identity(),
+            StrainMeasure::GreenLagrange => (f.transpose() * f - Mat3::identity()) * 0.5,
+        };
+        let ev = Voigt6::new(
+            e[(0, 0)],
+            e[(1, 1)],
+            e[(2, 2)],
+            2.0 * e[(1, 2)],
+            2.0 * e[(0, 2)],
+            2.0 * e[(0, 1)],
+        );
+        let sv = self.d6 * ev;
+        let s = Mat3::new(
+            sv[0], sv[5], sv[4], sv[5], sv[1], sv[3], sv[4], sv[3], sv[2],
+        );
+        let w = 0.5 * ev.dot(&sv);
+        let pk = match self.measure {
+            StrainMeasure::Small => s,
+            StrainMeasure::GreenLagrange => f * s,
+        };
+        (w, pk, s)
+    }
+
+    /// Refuse branch vectors of the wrong count or not finite.
+    fn check_branch(&self, branch: &[Vec3]) -> Result<()> {
+        if branch.len() != self.reference.len() {
+            return Err(Error::Invalid(format!(
+                "many-body term: {} branch vectors for {} bonds",
+                branch.len(),
+                self.reference.len()
+            )));
+        }
+        if let Some(b) = branch.iter().position(|l| !l.iter().all(|v| v.is_finite())) {
+            return Err(Error::Invalid(format!(
+                "many-body term: branch vector of bond {b} is not finite"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A_p⁻¹ of the branch vectors `ls` of one particle, or why it has none: fewer than three
+/// bonds, or λ_min/λ_max of A_p = Σ L ⊗ L below `conditioning` (bonds (nearly) in one plane).
+fn fit_inverse(
+    ls: impl Iterator<Item = Vec3>,
+    conditioning: f64,
+) -> std::result::Result<Mat3, String> {
+    let mut a = Mat3::zeros();
+    let mut count = 0;
+    for l in ls {
+        a += l * l.transpose();
+        count += 1;
+    }
+    if count < 3 {
+        return Err(format!(
+            "has {count} bond{}",
+            if count == 1 { "" } else { "s" }
+        ));
+    }
+    let eig = nalgebra::SymmetricEigen::new(a).eigenvalues;
+    let ratio = eig.min() / eig.max();
+    if !(ratio >= conditioning && ratio > 0.0) {
+        return Err(format!(
+            "has {count} bonds (nearly) in one plane: λ_min/λ_max of Σ L⊗L is {ratio:e}, below \
+             the accepted {conditioning:e}"
+        ));
+    }
+    a.try_inverse()
+        .ok_or_else(|| format!("has {count} bonds whose Σ L⊗L cannot be inverted"))
+}
+
+/// V_p: given (count and values checked), or the fully periodic cell's volume shared in
+/// proportion to r³.
+fn particle_volumes(packing: &Packing, given: Option<&[f64]>) -> Result<Vec<f64>> {
+    let n = packing.len();
+    match given {
+        Some(v) => {
+            if v.len() != n {
+                return Err(Error::Invalid(format!(
+                    "many-body term: {} particle volumes for {n} particles",
+                    v.len()
+                )));
+            }
+            if let Some(p) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(Error::Invalid(format!(
+                    "many-body term: volume of particle {p} is {}, expected a finite number ≥ 0 (m³)",
+                    v[p]
+                )));
+            }
+            Ok(v.to_vec())
+        }
+        None => {
+            match &packing.cell {
+                Some(c) if !c.is_mixed() => {}
+                _ => {
+                    return Err(Error::Invalid(
+                        "many-body term: the particle volumes default to shares of a fully \
+                         periodic cell, but this packing has none (a free cluster or a mixed \
+                         box); give ManyBodyOptions::volumes"
+                            .into(),
+                    ))
+                }
+            }
+            let r3: Vec<f64> = packing.radii.iter().map(|r| r * r * r).collect();
+            let total: f64 = r3.iter().sum();
+            let v = packing.volume();
+            Ok(r3.iter().map(|x| v * x / total).collect())
+        }
+    }
+}
