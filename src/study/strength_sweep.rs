@@ -51,7 +51,7 @@ pub fn parse_angles(text: &str, what: &str) -> Result<Vec<f64>> {
             return Err(bad("expected START:STEP:STOP, e.g. 0:15:90"));
         };
         let (a, s, b) = (num(a)?, num(s)?, num(b)?);
-        if !(s > 0.0) || b < a {
+        if s <= 0.0 || b < a {
             return Err(bad("expected STEP > 0 and STOP ≥ START"));
         }
         let n = ((b - a) / s + 1e-9).floor() as usize;

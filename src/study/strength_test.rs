@@ -1304,7 +1304,7 @@ mod tests {
             }
         );
         // A 2 % dip (4.9 against 5) is not a drop at 5 %, but is at 1 %.
-        assert_eq!(first_peak(&curve[..5], 0.05).unwrap().dropped, false);
+        assert!(!first_peak(&curve[..5], 0.05).unwrap().dropped);
         assert_eq!(first_peak(&curve[..5], 0.01).unwrap().first, 3);
         // A fall before any bond broke (dynamics, not failure) is not a drop.
         let elastic_dip = [(0.0, 0), (3.0, 0), (1.0, 0), (5.0, 1), (2.0, 8)];
