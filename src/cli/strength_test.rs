@@ -8,6 +8,9 @@ use anisobond::dem::LawKind;
 use anisobond::io::OutputSet;
 use anisobond::model::Model;
 use anisobond::packing::read_packing;
+use anisobond::study::strength_sweep::{
+    parse_angles, run as run_sweep_study, StrengthSweepOptions,
+};
 use anisobond::study::strength_test::{
     run as run_study, SpecimenShape, StrengthTestOptions, StrengthTestProgress, StrengthTestReport,
     TestKind,
@@ -112,6 +115,11 @@ pub struct LabArgs {
     /// The run ends once bonds have broken and the stress is below this fraction of its peak.
     #[arg(long, default_value_t = d().stop_fraction)]
     pub(super) stop_fraction: f64,
+    /// The reported peak is the first one: the largest stress before the stress first falls
+    /// below (1 − this) × its running maximum after bonds broke (at most 1 − --stop-fraction);
+    /// the whole curve's largest stress is reported apart (max_stress_pa).
+    #[arg(long, default_value_t = d().peak_drop)]
+    pub(super) peak_drop: f64,
     /// Cundall local damping λ in [0, 1).
     #[arg(long, default_value_t = d().local_damping)]
     pub(super) local_damping: f64,
@@ -145,6 +153,7 @@ impl LabArgs {
             loading_rate: self.loading_rate,
             max_strain: self.max_strain,
             stop_fraction: self.stop_fraction,
+            peak_drop: self.peak_drop,
             local_damping: self.local_damping,
             cell_particles: self.cell_particles,
             seed: self.seed,
@@ -167,6 +176,12 @@ pub struct StrengthTestArgs {
     /// The specimen, its loading and the generated packing.
     #[command(flatten)]
     lab: LabArgs,
+    /// Run the bedding sweep instead of one test: UCS and Brazilian disc at each angle β of
+    /// START:STEP:STOP (inclusive, e.g. 0:15:90) or a comma list (0,45,90); writes
+    /// strength_sweep.json, strength_sweep.csv and strength_sweep.png (strengths over the
+    /// first angle's).
+    #[arg(long, conflicts_with_all = ["test", "bedding_deg"])]
+    bedding_sweep: Option<String>,
     /// Output folder: strength_test.json, strength_test.csv (the curve), strength_test.png,
     /// strength_test_bonds.vtu (every bond's state, time and mode of breaking).
     #[arg(short, long, default_value = "anisobond-strength-test")]
@@ -194,9 +209,25 @@ fn print_summary(r: &StrengthTestReport) {
         r.test, r.shape, r.bedding_deg, r.particles, r.bonds, r.steps, r.time_step_s, r.stop
     );
     println!(
-        "  peak stress {:.4e} Pa at strain {:.4e}; kinetic/elastic energy at the peak {:.2e}",
-        r.peak_stress_pa, r.strain_at_peak, r.kinetic_over_elastic_at_peak
+        "  peak stress {:.4e} Pa at strain {:.4e} ({}); kinetic/elastic energy at the peak {:.2e}",
+        r.peak_stress_pa,
+        r.strain_at_peak,
+        if r.peak_dropped {
+            format!(
+                "first peak: the stress then fell by {} %",
+                100.0 * r.peak_drop
+            )
+        } else {
+            "the largest stress; it never fell after".to_string()
+        },
+        r.kinetic_over_elastic_at_peak
     );
+    if r.max_stress_pa > r.peak_stress_pa {
+        println!(
+            "  largest stress of the whole curve {:.4e} Pa at strain {:.4e} (after the first peak)",
+            r.max_stress_pa, r.strain_at_max
+        );
+    }
     println!(
         "  E = {} Pa, ν = {} (fit on {} points, 10–50 % of the peak); static solve: E = {} Pa, ν = {}",
         opt(r.modulus_pa, &|x| format!("{x:.4e}")),
@@ -215,8 +246,62 @@ fn print_summary(r: &StrengthTestReport) {
     }
 }
 
+/// `anisobond strength-test --bedding-sweep`: the sweep study, a line per lab run, its files.
+fn run_sweep(a: &StrengthTestArgs, angles: &str) -> Result<()> {
+    let angles_deg = parse_angles(angles, "--bedding-sweep")?;
+    let opts = StrengthSweepOptions {
+        lab: a.options()?,
+        angles_deg,
+    };
+    opts.check(OptionNames::Flags)?;
+    let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), a.model.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    let mut out = OutputSet::new(&inputs);
+    let dir = out.dir(&a.output)?;
+    let report = run_sweep_study(&opts, &|p| {
+        println!(
+            "[{}/{}] {} at β = {}°: peak {:.4e} Pa",
+            p.run, p.runs, p.test, p.bedding_deg, p.peak_pa
+        );
+    })?;
+    report.write(&dir)?;
+    out.commit()?;
+    println!(
+        "UCS specimen {} particles, {} bonds; disc {} particles, {} bonds",
+        report.ucs_particles, report.ucs_bonds, report.brazilian_particles, report.brazilian_bonds
+    );
+    println!("  β (°)   UCS (Pa)     /ref    E (Pa)      ν       Brazilian (Pa) /ref   cracks UCS (t/s)  disc (t/s)");
+    let opt = |v: Option<f64>, f: &dyn Fn(f64) -> String| v.map_or("-".to_string(), f);
+    for r in &report.rows {
+        println!(
+            "  {:>5}   {:.4e}  {:.3}  {:>10}  {:>6}  {:.4e}     {:.3}  {}/{}  {}/{}",
+            r.bedding_deg,
+            r.ucs_pa,
+            r.ucs_ratio,
+            opt(r.modulus_pa, &|x| format!("{x:.3e}")),
+            opt(r.poisson, &|x| format!("{x:.3}")),
+            r.brazilian_pa,
+            r.brazilian_ratio,
+            r.ucs_cracks.tension,
+            r.ucs_cracks.shear,
+            r.brazilian_cracks.tension,
+            r.brazilian_cracks.shear
+        );
+    }
+    println!(
+        "wrote {}/strength_sweep.json, strength_sweep.csv, strength_sweep.png",
+        a.output.display()
+    );
+    Ok(())
+}
+
 /// Run `anisobond strength-test`: the library's study with a progress bar, then its files.
 pub fn run(a: StrengthTestArgs) -> Result<()> {
+    if let Some(angles) = a.bedding_sweep.clone() {
+        return run_sweep(&a, &angles);
+    }
     let opts = a.options()?;
     opts.check(OptionNames::Flags)?;
     let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), a.model.as_deref()]

@@ -24,7 +24,7 @@ use pyo3::types::PyDict;
 #[pyfunction]
 #[pyo3(signature = (model, target, *, packing = None, law = "yade", shape = "prism",
     bedding_deg = None, width_particles = None, aspect = None, end_layer = None,
-    loading_rate = None, max_strain = None, stop_fraction = None, local_damping = None,
+    loading_rate = None, max_strain = None, stop_fraction = None, peak_drop = None, local_damping = None,
     cell_particles = None, seed = None, points = None, tolerance = None,
     max_iterations = None))]
 #[allow(clippy::too_many_arguments)]
@@ -42,6 +42,7 @@ pub(super) fn calibrate_strength_model<'py>(
     loading_rate: Option<f64>,
     max_strain: Option<f64>,
     stop_fraction: Option<f64>,
+    peak_drop: Option<f64>,
     local_damping: Option<f64>,
     cell_particles: Option<usize>,
     seed: Option<u64>,
@@ -66,6 +67,7 @@ pub(super) fn calibrate_strength_model<'py>(
             loading_rate: loading_rate.unwrap_or(lab.loading_rate),
             max_strain: max_strain.unwrap_or(lab.max_strain),
             stop_fraction: stop_fraction.unwrap_or(lab.stop_fraction),
+            peak_drop: peak_drop.unwrap_or(lab.peak_drop),
             local_damping: local_damping.unwrap_or(lab.local_damping),
             cell_particles: cell_particles.unwrap_or(lab.cell_particles),
             seed: seed.unwrap_or(lab.seed),

@@ -76,7 +76,7 @@ pub(super) fn buckle_bar<'py>(
 #[pyo3(signature = (test = "ucs", *, packing = None, model = None, law = "yade",
     shape = "prism", bedding_deg = None, width_particles = None, aspect = None,
     end_layer = None, loading_rate = None, max_strain = None, stop_fraction = None,
-    local_damping = None, cell_particles = None, seed = None, points = None))]
+    peak_drop = None, local_damping = None, cell_particles = None, seed = None, points = None))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn strength_test<'py>(
     py: Python<'py>,
@@ -92,6 +92,7 @@ pub(super) fn strength_test<'py>(
     loading_rate: Option<f64>,
     max_strain: Option<f64>,
     stop_fraction: Option<f64>,
+    peak_drop: Option<f64>,
     local_damping: Option<f64>,
     cell_particles: Option<usize>,
     seed: Option<u64>,
@@ -120,6 +121,7 @@ pub(super) fn strength_test<'py>(
         loading_rate: loading_rate.unwrap_or(d.loading_rate),
         max_strain: max_strain.unwrap_or(d.max_strain),
         stop_fraction: stop_fraction.unwrap_or(d.stop_fraction),
+        peak_drop: peak_drop.unwrap_or(d.peak_drop),
         local_damping: local_damping.unwrap_or(d.local_damping),
         cell_particles: cell_particles.unwrap_or(d.cell_particles),
         seed: seed.unwrap_or(d.seed),
@@ -145,6 +147,66 @@ pub(super) fn strength_test<'py>(
         PyArray1::from_vec(py, column(&|c| c.broken as f64)),
     )?;
     Ok(dict)
+}
+
+/// The bedding sweep (docs/strength-test.md), as `anisobond strength-test --bedding-sweep`:
+/// UCS and Brazilian disc at each angle of `angles_deg` (None: 0, 15, …, 90) on one packing
+/// with one model; the keywords are the lab's. Returns strength_sweep.json's dict (`rows`:
+/// per angle ucs_pa, modulus_pa, poisson, brazilian_pa, cracks, ratios). GIL released.
+#[pyfunction]
+#[pyo3(signature = (angles_deg = None, *, packing = None, model = None, law = "yade",
+    shape = "prism", width_particles = None, aspect = None, end_layer = None,
+    loading_rate = None, max_strain = None, stop_fraction = None, peak_drop = None,
+    local_damping = None, cell_particles = None, seed = None, points = None))]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn strength_sweep<'py>(
+    py: Python<'py>,
+    angles_deg: Option<Vec<f64>>,
+    packing: Option<&PyPacking>,
+    model: Option<&PyModel>,
+    law: &str,
+    shape: &str,
+    width_particles: Option<f64>,
+    aspect: Option<f64>,
+    end_layer: Option<f64>,
+    loading_rate: Option<f64>,
+    max_strain: Option<f64>,
+    stop_fraction: Option<f64>,
+    peak_drop: Option<f64>,
+    local_damping: Option<f64>,
+    cell_particles: Option<usize>,
+    seed: Option<u64>,
+    points: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crate::study::strength_sweep::{run, StrengthSweepOptions};
+    use crate::study::strength_test::StrengthTestOptions;
+    use crate::study::OptionNames;
+    let sd = StrengthSweepOptions::default();
+    let d = sd.lab;
+    let opts = StrengthSweepOptions {
+        lab: StrengthTestOptions {
+            shape: super::studies::lab_shape(shape)?,
+            packing: packing.map(|p| p.inner.clone()),
+            model: model.map(|m| m.inner.clone()),
+            law: super::studies::law_kind(law)?,
+            width_particles: width_particles.unwrap_or(d.width_particles),
+            aspect,
+            end_layer: end_layer.unwrap_or(d.end_layer),
+            loading_rate: loading_rate.unwrap_or(d.loading_rate),
+            max_strain: max_strain.unwrap_or(d.max_strain),
+            stop_fraction: stop_fraction.unwrap_or(d.stop_fraction),
+            peak_drop: peak_drop.unwrap_or(d.peak_drop),
+            local_damping: local_damping.unwrap_or(d.local_damping),
+            cell_particles: cell_particles.unwrap_or(d.cell_particles),
+            seed: seed.unwrap_or(d.seed),
+            points: points.unwrap_or(d.points),
+            ..StrengthTestOptions::default()
+        },
+        angles_deg: angles_deg.unwrap_or(sd.angles_deg),
+    };
+    opts.check(OptionNames::Keywords).map_err(to_py)?;
+    let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
+    report_to_py(py, &report, "strength_sweep")
 }
 
 /// The lab's specimen shape by its keyword (`"prism"` or `"cylinder"`), refused by name.

@@ -9,11 +9,14 @@
 //! - [`domain`]: the accessible cubic domain (`anisobond domain`).
 //! - [`strength_test`]: the virtual laboratory — UCS, direct tension and the Brazilian disc
 //!   to failure at a bedding angle (`anisobond strength-test`, `anisobond.strength_test`).
+//! - [`strength_sweep`]: UCS and Brazilian disc over a list of bedding angles
+//!   (`anisobond strength-test --bedding-sweep`, `anisobond.strength_sweep`).
 
 pub mod buckling;
 pub mod cavity;
 pub mod demo;
 pub mod domain;
+pub mod strength_sweep;
 pub mod strength_test;
 
 /// How a study's checks name its options: as the command line's flags (`--dem-steps`) or as

@@ -31,9 +31,14 @@
 //!   (so a smaller value is more quasi-static). The velocity ramps up linearly over the
 //!   first 10 transit times. The ratio of kinetic to bond elastic energy at the peak is
 //!   reported.
+//! - **Peak**: the first peak ([`first_peak`]): the largest stress before the stress first
+//!   falls below (1 − `peak_drop`) × its running maximum after bonds have broken. Broken
+//!   pairs become frictional contacts that can lock up and carry a higher stress later
+//!   (re-hardening); that global maximum is reported apart (`max_stress_pa`).
 //! - **E and ν**: least-squares slopes of stress and of the lateral strain (extension
-//!   positive; its negative in tension) against the axial strain (in the test's sense) over the recorded points before the peak whose stress lies between 10 % and
-//!   50 % of the peak ([`FIT_RANGE`]); the lateral strain is the mean least-squares slope of
+//!   positive; its negative in tension) against the axial strain (in the test's sense) over
+//!   the recorded points before the first peak whose stress lies between 10 % and 50 % of
+//!   it ([`FIT_RANGE`]); the lateral strain is the mean least-squares slope of
 //!   the lateral displacement over the lateral coordinate (x, y) of the particles in the
 //!   middle third of the height. Not defined for the Brazilian disc (`null`).
 //!
@@ -149,6 +154,41 @@ pub const FIT_RANGE: (f64, f64) = (0.1, 0.5);
 /// Transit times over which the platen velocity ramps up.
 pub const RAMP_TRANSITS: f64 = 10.0;
 
+/// Where the peak lies on a recorded curve ([`first_peak`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PeakPick {
+    /// Index of the first peak: the largest stress before the first drop (the global
+    /// maximum when the curve never dropped).
+    pub first: usize,
+    /// Index of the global maximum (the first of equal maxima).
+    pub max: usize,
+    /// Whether the stress fell below (1 − drop) × its running maximum after bonds broke;
+    /// false: `first` is the global maximum of a curve that never dropped.
+    pub dropped: bool,
+}
+
+/// The first peak of a curve of (stress, broken bonds) points: the largest stress before
+/// the first point where bonds have broken and the stress is below (1 − `drop`) × the
+/// running maximum. Re-hardening after that drop (broken pairs locking up as frictional
+/// contacts) raises the global maximum but not the first peak. `None` for an empty curve.
+pub fn first_peak(series: &[(f64, usize)], drop: f64) -> Option<PeakPick> {
+    let mut max = 0usize;
+    let mut first = None;
+    for (k, &(stress, broken)) in series.iter().enumerate() {
+        if first.is_none() && broken > 0 && stress < (1.0 - drop) * series[max].0 {
+            first = Some(max);
+        }
+        if stress > series[max].0 {
+            max = k;
+        }
+    }
+    (!series.is_empty()).then(|| PeakPick {
+        first: first.unwrap_or(max),
+        max,
+        dropped: first.is_some(),
+    })
+}
+
 /// The options of the study; [`Default`] holds the defaults of `anisobond strength-test`.
 /// Lengths in mean particle radii R̄ where so named.
 #[derive(Clone, Debug)]
@@ -180,6 +220,9 @@ pub struct StrengthTestOptions {
     /// The run ends once bonds have broken and the stress has dropped below this fraction
     /// of its peak.
     pub stop_fraction: f64,
+    /// The peak reported is the first one: the largest stress before the stress first falls
+    /// below (1 − `peak_drop`) × its running maximum after bonds broke ([`first_peak`]).
+    pub peak_drop: f64,
     /// Cundall local damping λ.
     pub local_damping: f64,
     /// Spheres of the generated packing (when `packing` is `None`).
@@ -205,6 +248,7 @@ impl Default for StrengthTestOptions {
             loading_rate: 1e-6,
             max_strain: 0.005,
             stop_fraction: 0.5,
+            peak_drop: 0.05,
             local_damping: 0.1,
             cell_particles: 1000,
             seed: 1,
@@ -278,6 +322,19 @@ impl StrengthTestOptions {
                 "{} {}: expected a fraction of the peak in (0, 1)",
                 n("stop_fraction"),
                 self.stop_fraction
+            )));
+        }
+        if !(self.peak_drop.is_finite()
+            && self.peak_drop > 0.0
+            && self.peak_drop <= 1.0 - self.stop_fraction)
+        {
+            return Err(Error::Invalid(format!(
+                "{} {}: expected a fraction in (0, 1 − {} = {}] (a run that stops on its \
+                 drop must have found the first peak)",
+                n("peak_drop"),
+                self.peak_drop,
+                n("stop_fraction"),
+                1.0 - self.stop_fraction
             )));
         }
         if !(self.local_damping.is_finite() && (0.0..1.0).contains(&self.local_damping)) {
@@ -456,10 +513,21 @@ pub struct StrengthTestReport {
     pub steps: u64,
     /// Why the run ended: `drop` (below `stop_fraction` of the peak) or `max-strain`.
     pub stop: &'static str,
-    /// Peak stress (Pa): the UCS, the tensile strength or σ_t of the Brazilian disc.
+    /// Peak stress (Pa): the UCS, the tensile strength or σ_t of the Brazilian disc — the
+    /// first peak ([`first_peak`] with `peak_drop`).
     pub peak_stress_pa: f64,
-    /// Axial strain at the peak.
+    /// Axial strain at the (first) peak.
     pub strain_at_peak: f64,
+    /// Whether the stress fell by `peak_drop` after the peak (false: the peak is the
+    /// largest stress of a curve that never dropped, e.g. one stopped at `max_strain`).
+    pub peak_dropped: bool,
+    /// The `peak_drop` fraction that defined the first peak.
+    pub peak_drop: f64,
+    /// The largest stress of the whole curve (Pa), re-hardening after the first drop
+    /// included; equal to `peak_stress_pa` when nothing re-hardened.
+    pub max_stress_pa: f64,
+    /// Axial strain at `max_stress_pa`.
+    pub strain_at_max: f64,
     /// Kinetic over bond elastic energy at the peak (quasi-static: ≪ 1).
     pub kinetic_over_elastic_at_peak: f64,
     /// Young's modulus fitted on the initial slope (Pa; UCS, tension).
@@ -505,9 +573,12 @@ pub struct BondStates {
 const HOW: &str = "stress = mean of the two platens' reactions along z over area_m2 (UCS, \
     tension; area and gauge length from the exact static solve of the same specimen) or \
     sigma_t = 2P/(pi D t) (Brazilian, P the mean platen force); strain = the platens' \
-    relative displacement over length_m; modulus_pa and poisson = least-squares slopes of \
-    stress and of the lateral strain (times -1 in tension) over strain on the recorded points before the peak with \
-    stress between 10 % and 50 % of the peak; lateral strain = mean least-squares slope of \
+    relative displacement over length_m; peak_stress_pa = the first peak: the largest \
+    stress before the stress first falls below (1 - peak_drop) x its running maximum after \
+    bonds broke (max_stress_pa: the whole curve's largest); modulus_pa and poisson = \
+    least-squares slopes of stress and of the lateral strain (times -1 in tension) over \
+    strain on the recorded points before the first peak with stress between 10 % and 50 % \
+    of it; lateral strain = mean least-squares slope of \
     the lateral displacement over x and over y on the particles of the middle third of the \
     height";
 
@@ -950,7 +1021,8 @@ pub fn run(
         is_stuck: vec![false; p.len()],
     };
     let mut curve = vec![run.point(0)?];
-    let (mut peak, mut stop) = (0usize, "max-strain");
+    // The running maximum (the stop rule's); the first peak is picked after the run.
+    let (mut running_max, mut stop) = (0usize, "max-strain");
     while run.displacement < opts.max_strain * length {
         run.step()?;
         if run.sim.iteration() % record_every != 0 {
@@ -959,15 +1031,15 @@ pub fn run(
         let broken = run.sim.break_events().len();
         let pt = run.point(broken)?;
         curve.push(pt);
-        if pt.stress_pa > curve[peak].stress_pa {
-            peak = curve.len() - 1;
+        if pt.stress_pa > curve[running_max].stress_pa {
+            running_max = curve.len() - 1;
         }
         progress(StrengthTestProgress::Loading {
             fraction: pt.strain / opts.max_strain,
             stress_pa: pt.stress_pa,
             broken,
         });
-        if broken > 0 && pt.stress_pa < opts.stop_fraction * curve[peak].stress_pa {
+        if broken > 0 && pt.stress_pa < opts.stop_fraction * curve[running_max].stress_pa {
             stop = "drop";
             break;
         }
@@ -975,11 +1047,11 @@ pub fn run(
     let last = run.point(run.sim.break_events().len())?;
     if curve.last().map_or(true, |p| p.step != last.step) {
         curve.push(last);
-        if last.stress_pa > curve[peak].stress_pa {
-            peak = curve.len() - 1;
-        }
     }
-    let pk = curve[peak];
+    let series: Vec<(f64, usize)> = curve.iter().map(|c| (c.stress_pa, c.broken)).collect();
+    let pick = first_peak(&series, opts.peak_drop).expect("the curve has its first point");
+    let peak = pick.first;
+    let (pk, mx) = (curve[peak], curve[pick.max]);
     if pk.stress_pa <= 0.0 {
         return Err(Error::Degenerate(format!(
             "strength test: the stress never rose above zero (largest {:e} Pa by strain {:e})",
@@ -1074,6 +1146,10 @@ pub fn run(
         stop,
         peak_stress_pa: pk.stress_pa,
         strain_at_peak: pk.strain,
+        peak_dropped: pick.dropped,
+        peak_drop: opts.peak_drop,
+        max_stress_pa: mx.stress_pa,
+        strain_at_max: mx.strain,
         kinetic_over_elastic_at_peak: require_finite(kinetic_ratio, "kinetic/elastic at the peak")?,
         modulus_pa: modulus,
         poisson,
@@ -1202,6 +1278,52 @@ mod tests {
         assert!((a.z - 30f64.to_radians().cos()).abs() < 1e-15);
         assert!((a.x - 30f64.to_radians().sin()).abs() < 1e-15);
         assert!((q.determinant() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn first_peak_is_before_the_first_drop_not_the_global_maximum() {
+        // Rises to 5, breaks bonds and falls 10 % (below 0.95 × 5), then re-hardens to 6.
+        let curve = [
+            (0.0, 0),
+            (2.0, 0),
+            (4.0, 0),
+            (5.0, 3),
+            (4.9, 5),
+            (4.4, 9),
+            (5.5, 12),
+            (6.0, 15),
+            (3.0, 40),
+        ];
+        let p = first_peak(&curve, 0.05).unwrap();
+        assert_eq!(
+            p,
+            PeakPick {
+                first: 3,
+                max: 7,
+                dropped: true
+            }
+        );
+        // A 2 % dip (4.9 against 5) is not a drop at 5 %, but is at 1 %.
+        assert!(!first_peak(&curve[..5], 0.05).unwrap().dropped);
+        assert_eq!(first_peak(&curve[..5], 0.01).unwrap().first, 3);
+        // A fall before any bond broke (dynamics, not failure) is not a drop.
+        let elastic_dip = [(0.0, 0), (3.0, 0), (1.0, 0), (5.0, 1), (2.0, 8)];
+        assert_eq!(first_peak(&elastic_dip, 0.05).unwrap().first, 3);
+    }
+
+    #[test]
+    fn first_peak_of_a_curve_without_a_drop_is_its_maximum_flagged() {
+        let curve = [(0.0, 0), (1.0, 0), (3.0, 2), (2.9, 4), (3.5, 6), (3.4, 7)];
+        let p = first_peak(&curve, 0.05).unwrap();
+        assert_eq!(
+            p,
+            PeakPick {
+                first: 4,
+                max: 4,
+                dropped: false
+            }
+        );
+        assert!(first_peak(&[], 0.05).is_none());
     }
 
     #[test]

@@ -362,3 +362,86 @@ fn the_command_refuses_with_its_exit_status_and_writes_nothing() {
     assert!(!out.exists());
     crate::common::holds_exactly(d, &["bar.toml", "bar.txt"]);
 }
+
+/// A UCS target (docs/calibrate-strength.md): a prism cut from a random periodic packing is
+/// calibrated to 1.3 × the UCS of the starting table (measured here first), with the
+/// first-peak definition of the lab (`peak_drop` 0.05); the calibrated model is written to a
+/// file, read back from disk and run again by the lab: that independent run fails (its stress
+/// drops after the peak) and its first peak is within the calibration's tolerance of the
+/// target, and the fitted table is the start's scaled by the reported scale.
+#[test]
+fn a_ucs_target_is_met_by_a_new_lab_run_of_the_written_model_file() {
+    let dir = crate::common::tmp();
+    let d = dir.path();
+    let packing = anisobond::packing::read_packing(&crate::common::packing(d, 400)).unwrap();
+    let base = Model::from_toml_str(RANDOM_MODEL, "rock.toml").unwrap();
+    let lab = StrengthTestOptions {
+        test: TestKind::Ucs,
+        packing: Some(packing),
+        width_particles: 6.0,
+        loading_rate: 1e-5,
+        max_strain: 0.01,
+        ..StrengthTestOptions::default()
+    };
+    let start = run(
+        &StrengthTestOptions {
+            model: Some(base.clone()),
+            ..lab.clone()
+        },
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(start.stop, "drop");
+    let target = 1.3 * start.peak_stress_pa;
+    let opts = StrengthCalibrationOptions {
+        lab: lab.clone(),
+        tolerance: 0.01,
+        max_iterations: 10,
+    };
+    let cal = calibrate_strength(
+        &base,
+        &StrengthTarget::Ucs(target),
+        &opts,
+        OptionNames::Flags,
+        &|_| {},
+    )
+    .unwrap();
+    println!(
+        "start UCS {:.6e} Pa, target {target:.6e} Pa; fitted scale {:?}, {} iterations, \
+         measured {:?}",
+        start.peak_stress_pa, cal.fitted_scale, cal.iterations, cal.measured_peak_pa
+    );
+    assert_eq!(cal.kind, "ucs");
+    let s = cal.fitted_scale[0];
+    let t = &cal.fitted_strength.bond;
+    assert!((t.tensile / (5e6 * s) - 1.0).abs() < 1e-12);
+    assert!((t.cohesion / (1e7 * s) - 1.0).abs() < 1e-12);
+    // The written file, read back and run by the lab on its own.
+    let file = d.join("calibrated-ucs.toml");
+    std::fs::write(&file, cal.model.to_string_for(&file)).unwrap();
+    let written = Model::from_path(&file).unwrap();
+    let again = run(
+        &StrengthTestOptions {
+            model: Some(written),
+            ..lab
+        },
+        &|_| {},
+    )
+    .unwrap();
+    println!(
+        "independent run: first peak {:.6e} Pa at strain {:.3e} (largest {:.6e} Pa), {} \
+         broken, stop {}",
+        again.peak_stress_pa,
+        again.strain_at_peak,
+        again.max_stress_pa,
+        again.cracks.total,
+        again.stop
+    );
+    assert_eq!(again.stop, "drop");
+    assert!(again.peak_dropped);
+    assert!(
+        (again.peak_stress_pa / target - 1.0).abs() <= opts.tolerance,
+        "{} vs {target}",
+        again.peak_stress_pa
+    );
+}

@@ -87,3 +87,62 @@ fn bedding_angle_turns_the_strength_with_the_model() {
     assert!((p0 / 1e6 - 1.0).abs() < 5e-3, "{p0}");
     assert!((p90 / 2e6 - 1.0).abs() < 5e-3, "{p90}");
 }
+
+/// A bedded model whose UCS re-hardens after its first drop (broken pairs locking up as
+/// frictional contacts): the reported peak is the first one, below the curve's global
+/// maximum, both recomputed here from the recorded curve; E is fitted under the first peak.
+#[test]
+fn ucs_that_re_hardens_reports_the_first_peak_below_the_global_maximum() {
+    let model = anisobond::model::Model::from_toml_str(
+        "[bonding]\nrule = \"gap\"\nvalue = 0.17\n[scheme]\nkind = \"cross-anisotropic\"\n\
+         C11 = 13.0e9\nC33 = 5.5e9\nC13 = 2.8e9\nC12 = 4.0e9\naxis = [0.0, 0.0, 1.0]\n\
+         [geometry]\nconvention = \"modulus\"\n[strength]\naxis = [0.0, 0.0, 1.0]\n\
+         [strength.bond]\ntensile = 6.0e6\ncohesion = 12.0e6\nfriction = 0.5\n\
+         [strength.along]\ntensile = 3.0e6\ncohesion = 8.0e6\nfriction = 0.5\n\
+         [[strength.planes]]\nnormal = [0.0, 0.0, 1.0]\nspacing = 4.0e-3\noffset = 0.0\n\
+         tensile = 1.0e6\ncohesion = 1.5e6\nfriction = 0.5\n",
+        "bedded.toml",
+    )
+    .unwrap();
+    let opts = StrengthTestOptions {
+        model: Some(model),
+        cell_particles: 600,
+        width_particles: 8.0,
+        loading_rate: 1e-4,
+        ..StrengthTestOptions::default()
+    };
+    let r = run(&opts, &|_| {}).unwrap();
+    println!(
+        "first peak {:.6e} Pa at strain {:.4e}; largest {:.6e} Pa at {:.4e}; stop {}, \
+         {} broken of {}",
+        r.peak_stress_pa,
+        r.strain_at_peak,
+        r.max_stress_pa,
+        r.strain_at_max,
+        r.stop,
+        r.cracks.total,
+        r.bonds
+    );
+    assert!(r.peak_dropped);
+    assert!(r.peak_stress_pa < r.max_stress_pa);
+    assert!(r.strain_at_peak < r.strain_at_max);
+    // Brute force on the curve: the first row with broken bonds below 0.95 × the largest
+    // stress up to it; the first peak is the largest stress before that row.
+    let c = &r.curve;
+    let largest = |k: usize| c[..=k].iter().map(|p| p.stress_pa).fold(f64::MIN, f64::max);
+    let drop = (0..c.len())
+        .find(|&k| c[k].broken > 0 && c[k].stress_pa < 0.95 * largest(k))
+        .unwrap();
+    assert_eq!(r.peak_stress_pa, largest(drop - 1));
+    assert_eq!(r.max_stress_pa, largest(c.len() - 1));
+    // E's window is 10–50 % of the first peak, before it.
+    let at = c
+        .iter()
+        .position(|p| p.stress_pa == r.peak_stress_pa)
+        .unwrap();
+    let window = c[..=at]
+        .iter()
+        .filter(|p| p.stress_pa >= 0.1 * r.peak_stress_pa && p.stress_pa <= 0.5 * r.peak_stress_pa)
+        .count();
+    assert_eq!(r.fit_points, window);
+}

@@ -48,14 +48,28 @@ fn strength_test_writes_json_csv_png_and_vtk() {
     let csv = std::fs::read_to_string(out.join("strength_test.csv")).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(header.contains("stress [Pa]") && header.contains("strain"));
-    // The peak of the JSON is the largest stress of the CSV's curve.
-    let col = header.split(',').position(|h| h == "stress [Pa]").unwrap();
-    let max = csv
+    // max_stress_pa is the largest stress of the CSV's curve; peak_stress_pa its first
+    // peak, recomputed here by brute force: the largest stress before the first row with
+    // broken bonds whose stress is below 0.95 × the largest stress of the rows up to it.
+    let cols: Vec<&str> = header.split(',').collect();
+    let at = |name: &str| cols.iter().position(|h| *h == name).unwrap();
+    let (sc, bc) = (at("stress [Pa]"), at("broken_bonds"));
+    let rows: Vec<(f64, usize)> = csv
         .lines()
         .skip(1)
-        .map(|l| l.split(',').nth(col).unwrap().parse::<f64>().unwrap())
-        .fold(f64::NEG_INFINITY, f64::max);
-    assert_eq!(json["peak_stress_pa"].as_f64().unwrap(), max);
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (v[sc].parse().unwrap(), v[bc].parse().unwrap())
+        })
+        .collect();
+    let largest = |r: &[(f64, usize)]| r.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max);
+    let drop_row =
+        (0..rows.len()).find(|&k| rows[k].1 > 0 && rows[k].0 < 0.95 * largest(&rows[..=k]));
+    let first = largest(&rows[..drop_row.unwrap_or(rows.len())]);
+    assert_eq!(json["max_stress_pa"].as_f64().unwrap(), largest(&rows));
+    assert_eq!(json["peak_stress_pa"].as_f64().unwrap(), first);
+    assert_eq!(json["peak_dropped"].as_bool().unwrap(), drop_row.is_some());
+    assert_eq!(json["peak_drop"].as_f64().unwrap(), 0.05);
     let vtu = std::fs::read_to_string(out.join("strength_test_bonds.vtu")).unwrap();
     for field in ["\"state\"", "\"break_time\"", "\"mode\""] {
         assert!(vtu.contains(field), "{field}");
@@ -105,6 +119,8 @@ fn bad_options_are_refused_naming_the_flag_and_leave_nothing() {
         (&["--max-strain", "0.7"][..], "--max-strain"),
         (&["--width-particles", "nan"][..], "--width-particles"),
         (&["--local-damping", "1"][..], "--local-damping"),
+        (&["--peak-drop", "0.6"][..], "--peak-drop"),
+        (&["--peak-drop", "0"][..], "--peak-drop"),
         (&["--end-layer", "30"][..], "--end-layer"),
         (&["--points", "3"][..], "--points"),
     ] {

@@ -9,6 +9,7 @@ mod common;
 mod breakage;
 mod cli;
 mod elastic;
+mod sweep;
 
 use anisobond::model::Model;
 use anisobond::packing::Packing;

@@ -41,6 +41,7 @@ from ._anisobond import (
     calibrate_model as _calibrate_model,
     calibrate_strength_model as calibrate_strength,
     engineering_constants,
+    strength_sweep,
     strength_test,
     validate,
 )
@@ -62,6 +63,7 @@ __all__ = [
     "calibrate",
     "calibrate_strength",
     "engineering_constants",
+    "strength_sweep",
     "strength_test",
     "validate",
 ]

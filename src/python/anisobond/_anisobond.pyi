@@ -227,6 +227,7 @@ def strength_test(
     loading_rate: Optional[float] = None,
     max_strain: Optional[float] = None,
     stop_fraction: Optional[float] = None,
+    peak_drop: Optional[float] = None,
     local_damping: Optional[float] = None,
     cell_particles: Optional[int] = None,
     seed: Optional[int] = None,
@@ -235,9 +236,34 @@ def strength_test(
     """The virtual laboratory (docs/strength-test.md), as ``anisobond strength-test``:
     "ucs", "tension" or "brazilian" on a specimen cut from ``packing`` (None: generated)
     bonded by ``model`` (None: the command's default), turned by ``bedding_deg`` about y.
-    strength_test.json's dict (peak_stress_pa, strain_at_peak, modulus_pa, poisson,
+    strength_test.json's dict (peak_stress_pa: the first peak, strain_at_peak,
+    peak_dropped, max_stress_pa: the whole curve's largest, modulus_pa, poisson,
     cracks, broken_fraction, …) plus the curve as arrays: strain, stress_pa,
     lateral_strain (NaN where not measured), broken."""
+def strength_sweep(
+    angles_deg: Optional[Sequence[float]] = None,
+    *,
+    packing: Optional[Packing] = None,
+    model: Optional[Model] = None,
+    law: str = "yade",
+    shape: str = "prism",
+    width_particles: Optional[float] = None,
+    aspect: Optional[float] = None,
+    end_layer: Optional[float] = None,
+    loading_rate: Optional[float] = None,
+    max_strain: Optional[float] = None,
+    stop_fraction: Optional[float] = None,
+    peak_drop: Optional[float] = None,
+    local_damping: Optional[float] = None,
+    cell_particles: Optional[int] = None,
+    seed: Optional[int] = None,
+    points: Optional[int] = None,
+) -> Dict[str, Any]:
+    """The bedding sweep (docs/strength-test.md), as ``anisobond strength-test
+    --bedding-sweep``: UCS and Brazilian disc at each angle (None: 0, 15, ..., 90).
+    strength_sweep.json's dict: reference_deg, specimen sizes, rows (bedding_deg, ucs_pa,
+    modulus_pa, poisson, brazilian_pa, ucs_cracks, brazilian_cracks, ucs_ratio,
+    brazilian_ratio, ...)."""
 def calibrate_strength_model(
     model: Model,
     target: str,
@@ -252,6 +278,7 @@ def calibrate_strength_model(
     loading_rate: Optional[float] = None,
     max_strain: Optional[float] = None,
     stop_fraction: Optional[float] = None,
+    peak_drop: Optional[float] = None,
     local_damping: Optional[float] = None,
     cell_particles: Optional[int] = None,
     seed: Optional[int] = None,
