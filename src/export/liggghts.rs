@@ -17,8 +17,8 @@
 //! result is the affine (Voigt) tensor.
 
 use crate::bonds::{table, BondSet, BondStiffness};
-use crate::strength::criteria::YadeAdhesion;
 use crate::packing::{Packing, PeriodicCell};
+use crate::strength::criteria::YadeAdhesion;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -365,7 +365,14 @@ pub fn export_liggghts_with_limits(
     let plan = plan(packing, bonds, k, o)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
-    files.push(write_driver_deck(dir, packing, bonds, o, &plan, limits.is_some())?);
+    files.push(write_driver_deck(
+        dir,
+        packing,
+        bonds,
+        o,
+        &plan,
+        limits.is_some(),
+    )?);
     files.extend(write_harmonic_deck(dir, packing, bonds, k, o, &plan)?);
     let run = dir.join("run.sh");
     let shear = plan.cases.iter().any(|&c| c >= 3);
@@ -458,7 +465,10 @@ fn write_driver_deck(
     if breakable {
         let _ = writeln!(s, "# Breakage: bonds.csv gives each bond YADE's normal_adhesion, shear_adhesion, tan_friction (the model's");
         let _ = writeln!(s, "#   [strength]); the pair style breaks bonds by YADE's CohFrict criterion and writes each break");
-        let _ = writeln!(s, "#   (step id_i id_j tension|shear) to breaks.txt (docs/strength.md, \"LIGGGHTS\").");
+        let _ = writeln!(
+            s,
+            "#   (step id_i id_j tension|shear) to breaks.txt (docs/strength.md, \"LIGGGHTS\")."
+        );
     }
     let _ = writeln!(
         s,
