@@ -5,6 +5,8 @@
 //   pair_style anisobond model MODEL.toml PACKING [damping GT GR] [length_tolerance TOL]
 //   pair_style anisobond model MODEL.toml [write_bonds FILE] [damping GT GR] [length_tolerance TOL]
 //   pair_coeff * *
+//   any form also takes `breaks FILE`: rank 0 writes one line `step id_i id_j tension|shear`
+//   per broken bond (id_i < id_j, sorted by ids within a step; the same on any -np)
 //
 // BONDS.csv is the SPEC bond table (i, j 0-based in packing order = atom ids i+1, j+1);
 // with `model MODEL PACKING` the bonds and springs are computed through the anisobond
@@ -38,6 +40,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -74,13 +77,14 @@ Pair *PairAnisobond::creator(LAMMPS *lmp) { return new PairAnisobond(lmp); }
 PairAnisobond::PairAnisobond(LAMMPS *lmp)
     : Pair(lmp), max_bonds_(0), max_length_(0.0), damp_t_(0.0), damp_r_(0.0),
       length_tol_(1e-6), in_place_(false), bonded_(false), breakable_(false),
-      fix_id_("anisobond_bonds"), fix_(NULL) {
+      breaks_fp_(NULL), fix_id_("anisobond_bonds"), fix_(NULL) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;  // the virial is tallied per bond
   restartinfo = 0;
 }
 
 PairAnisobond::~PairAnisobond() {
+  if (breaks_fp_ != NULL) fclose(breaks_fp_);
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -100,7 +104,7 @@ namespace {
 
 bool is_keyword(const char *w) {
   return strcmp(w, "damping") == 0 || strcmp(w, "length_tolerance") == 0 ||
-         strcmp(w, "write_bonds") == 0;
+         strcmp(w, "write_bonds") == 0 || strcmp(w, "breaks") == 0;
 }
 
 }  // namespace
@@ -116,6 +120,11 @@ void PairAnisobond::settings(int narg, char **arg) {
   in_place_ = false;
   bonded_ = false;
   write_bonds_.clear();
+  breaks_file_.clear();
+  if (breaks_fp_ != NULL) {
+    fclose(breaks_fp_);
+    breaks_fp_ = NULL;
+  }
   try {
     if (strcmp(arg[0], "table") == 0) {
       rows = anisobond::load_bond_table(arg[1]);
@@ -162,9 +171,28 @@ void PairAnisobond::settings(int narg, char **arg) {
                           "bond table is already known: `anisobond bonds` writes it)");
       write_bonds_ = arg[iarg + 1];
       iarg += 2;
+    } else if (strcmp(arg[iarg], "breaks") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: breaks needs a FILE");
+      breaks_file_ = arg[iarg + 1];
+      iarg += 2;
     } else {
       std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] +
-                        "` (expected damping GT GR, length_tolerance TOL or write_bonds FILE)";
+                        "` (expected damping GT GR, length_tolerance TOL, write_bonds FILE or breaks FILE)";
+      error->all(FLERR, msg.c_str());
+    }
+  }
+  if (!breaks_file_.empty()) {
+    int ok = 1;
+    if (comm->me == 0) {
+      breaks_fp_ = fopen(breaks_file_.c_str(), "w");
+      if (breaks_fp_ == NULL)
+        ok = 0;
+      else
+        fprintf(breaks_fp_, "# step id_i id_j mode (pair_style anisobond: bonds broken)\n");
+    }
+    MPI_Bcast(&ok, 1, MPI_INT, 0, world);
+    if (!ok) {
+      std::string msg = "pair_style anisobond: breaks " + breaks_file_ + ": cannot open for writing";
       error->all(FLERR, msg.c_str());
     }
   }
@@ -578,6 +606,11 @@ void PairAnisobond::compute(int eflag, int vflag) {
               anisobond::yade_cohfrict_check(lim, -fnm, std::sqrt(dot(fs, fs)));
           if (v.broken) {
             a[i][H_BROKEN] += 1.0;
+            if (!breaks_file_.empty()) {
+              step_breaks_.push_back(std::min(tag[i], tag_j));
+              step_breaks_.push_back(std::max(tag[i], tag_j));
+              step_breaks_.push_back(v.mode == 0 ? 0 : 1);
+            }
             if (v.mode == 0) {
               remove_slot(a[i], b, nb);
               b--;
@@ -629,6 +662,8 @@ void PairAnisobond::compute(int eflag, int vflag) {
     }
   }
 
+  if (!breaks_file_.empty() && !update->setupflag) write_breaks();
+
   if (damp_t_ > 0.0 || damp_r_ > 0.0) {
     for (int i = 0; i < nlocal; i++) {
       const double m = rmass[i];
@@ -639,4 +674,27 @@ void PairAnisobond::compute(int eflag, int vflag) {
       }
     }
   }
+}
+
+// `breaks FILE`: gather this step's breaks of every rank on rank 0, sort them by ids and
+// write them (a collective: every rank calls it on every force call of a run).
+void PairAnisobond::write_breaks() {
+  int mine = static_cast<int>(step_breaks_.size()), total = 0;
+  MPI_Allreduce(&mine, &total, 1, MPI_INT, MPI_SUM, world);
+  if (total == 0) return;
+  const int np = comm->nprocs;
+  std::vector<int> counts(np, 0), offsets(np, 0), all(comm->me == 0 ? total : 0);
+  MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, world);
+  for (int r = 1; r < np; r++) offsets[r] = offsets[r - 1] + counts[r - 1];
+  MPI_Gatherv(step_breaks_.data(), mine, MPI_INT, all.data(), counts.data(), offsets.data(),
+              MPI_INT, 0, world);
+  step_breaks_.clear();
+  if (comm->me != 0 || breaks_fp_ == NULL) return;
+  std::vector<std::array<int, 3>> rows(total / 3);
+  for (size_t k = 0; k < rows.size(); k++) rows[k] = {all[3 * k], all[3 * k + 1], all[3 * k + 2]};
+  std::sort(rows.begin(), rows.end());
+  for (const std::array<int, 3> &r : rows)
+    fprintf(breaks_fp_, BIGINT_FORMAT " %d %d %s\n", update->ntimestep, r[0], r[1],
+            r[2] == 0 ? "tension" : "shear");
+  fflush(breaks_fp_);
 }

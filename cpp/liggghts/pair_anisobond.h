@@ -43,6 +43,12 @@
 // (newton on: each bond once), so LIGGGHTS' exchange carries the history when atoms migrate
 // and the restart file keeps it. `compute reduce sum f_anisobond_bonds[1]` counts the bonds
 // left, `…[2]` those broken.
+//
+// `breaks FILE` (issue 32): which bond broke when. Every step that broke a bond, each rank's
+// breaks (lower tag, higher tag, mode) are gathered on rank 0, sorted by (id_i, id_j), and
+// written as lines `step id_i id_j tension|shear` (a bond's cohesion broken; a frictional
+// contact lost later in tension is no new break), so the file is the same on any number
+// of processes. The step is update->ntimestep of the force call that judged the bond.
 #ifndef ANISOBOND_PAIR_ANISOBOND_H
 #define ANISOBOND_PAIR_ANISOBOND_H
 
@@ -99,6 +105,12 @@ class PairAnisobond : public Pair {
   void add_limits(std::vector<Bond> &bonds, const rust::Vec<anisobond::YadeLimits> &lim,
                   const std::string &what);
   bool breakable_;                  // some bond has limits
+  // `breaks FILE`: rank 0's open file (NULL elsewhere and without the keyword), the name,
+  // and this step's local breaks as (tag_i, tag_j, mode 0 tension / 1 shear) triples.
+  std::string breaks_file_;
+  FILE *breaks_fp_;
+  std::vector<int> step_breaks_;
+  void write_breaks();
   void allocate();
   void fill_bonds();
   void set_bonds(std::vector<Bond> bonds);

@@ -2,7 +2,7 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::export::liggghts::{export_liggghts, DeckOptions};
+use anisobond::export::liggghts::{export_liggghts_with_limits, DeckOptions};
 use anisobond::Result;
 
 /// Write LIGGGHTS input decks for a packing + model.
@@ -55,7 +55,9 @@ pub fn run(a: Args) -> Result<()> {
         affine: a.affine,
         shear: !a.no_shear,
     };
-    let s = export_liggghts(&staged, packing, bonds, k, &opts)?;
+    // A model with [strength]: breakable bonds, the limits in bonds.csv.
+    let limits = anisobond::export::yade::yade_adhesions(packing, bonds, &asm.model)?;
+    let s = export_liggghts_with_limits(&staged, packing, bonds, k, &opts, limits.as_deref())?;
     set.commit()?;
     println!(
         "wrote LIGGGHTS decks for {} particles, {} bonds (longest {:.4e} m) into {}:",
@@ -65,6 +67,11 @@ pub fn run(a: Args) -> Result<()> {
         a.to.output.display()
     );
     super::output::print_written("  ", &s.files, &staged, &a.to.output);
+    if limits.is_some() {
+        println!(
+            "breakable bonds: the model's [strength] as YADE's CohFrict limits in bonds.csv; the driver writes breaks.txt"
+        );
+    }
     println!(
         "time step {:.4e} s, damping rate {:.4e} 1/s; load cases end at steps {:?}",
         s.timestep, s.damping_rate, s.case_end_steps

@@ -18,6 +18,7 @@
 
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::packing::{Packing, PeriodicCell};
+use crate::strength::criteria::YadeAdhesion;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -335,10 +336,43 @@ pub fn export_liggghts(
     k: &BondStiffness,
     o: &DeckOptions,
 ) -> Result<ExportSummary> {
+    export_liggghts_with_limits(dir, packing, bonds, k, o, None)
+}
+
+/// [`export_liggghts`] with each bond's YADE CohFrict limits (`limits`, one per bond, as
+/// [`super::yade::yade_adhesions`] gives them for a model with `[strength]`): `bonds.csv`
+/// then carries the [`super::yade::ADHESION_COLUMNS`], which `pair_style anisobond table`
+/// reads, so the driver deck's bonds break by YADE's criterion (docs/strength.md,
+/// "LIGGGHTS"). The stock harmonic deck stays unbreakable. A count other than one per bond
+/// is refused.
+pub fn export_liggghts_with_limits(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    limits: Option<&[YadeAdhesion]>,
+) -> Result<ExportSummary> {
+    if let Some(l) = limits {
+        if l.len() != bonds.len() {
+            return Err(Error::Invalid(format!(
+                "export liggghts: {} bond limits for {} bonds",
+                l.len(),
+                bonds.len()
+            )));
+        }
+    }
     let plan = plan(packing, bonds, k, o)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut files = write_data_and_table(dir, packing, bonds, k, o.density)?;
-    files.push(write_driver_deck(dir, packing, bonds, o, &plan)?);
+    let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
+    files.push(write_driver_deck(
+        dir,
+        packing,
+        bonds,
+        o,
+        &plan,
+        limits.is_some(),
+    )?);
     files.extend(write_harmonic_deck(dir, packing, bonds, k, o, &plan)?);
     let run = dir.join("run.sh");
     let shear = plan.cases.iter().any(|&c| c >= 3);
@@ -366,6 +400,7 @@ fn write_data_and_table(
     bonds: &BondSet,
     k: &BondStiffness,
     density: f64,
+    limits: Option<&[YadeAdhesion]>,
 ) -> Result<Vec<PathBuf>> {
     let data = dir.join("packing.data");
     let ids = super::engine_ids(packing);
@@ -374,7 +409,10 @@ fn write_data_and_table(
         None => crate::packing::io::write_liggghts_data(&data, packing, density)?,
     }
     let table_path = dir.join("bonds.csv");
-    table::write_bond_table_with_ids(&table_path, bonds, k, ids)?;
+    match limits {
+        Some(l) => super::yade::write_bond_table_with_adhesions(&table_path, bonds, k, ids, l)?,
+        None => table::write_bond_table_with_ids(&table_path, bonds, k, ids)?,
+    }
     Ok(vec![data, table_path])
 }
 
@@ -402,6 +440,7 @@ fn write_driver_deck(
     bonds: &BondSet,
     o: &DeckOptions,
     plan: &Plan,
+    breakable: bool,
 ) -> Result<PathBuf> {
     let period = plan.period;
     let mut s = String::new();
@@ -423,6 +462,14 @@ fn write_driver_deck(
     s.push_str(&mixed_box_comment(plan));
     let _ = writeln!(s, "# case k ends at step k*{period}. Output: stress_history.txt (stress σ = −p, Pa, tension positive).");
     let _ = writeln!(s, "# Bond law: YADE cohesive law in incremental form with mid-gap contact points (cpp/liggghts/pair_anisobond.h).");
+    if breakable {
+        let _ = writeln!(s, "# Breakage: bonds.csv gives each bond YADE's normal_adhesion, shear_adhesion, tan_friction (the model's");
+        let _ = writeln!(s, "#   [strength]); the pair style breaks bonds by YADE's CohFrict criterion and writes each break");
+        let _ = writeln!(
+            s,
+            "#   (step id_i id_j tension|shear) to breaks.txt (docs/strength.md, \"LIGGGHTS\")."
+        );
+    }
     let _ = writeln!(
         s,
         "# {}",
@@ -445,7 +492,8 @@ fn write_driver_deck(
     let _ = write!(s, "read_data packing.data\n{box_line}");
     let _ = writeln!(
         s,
-        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}\npair_coeff * *"
+        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}{}\npair_coeff * *",
+        if breakable { " breaks breaks.txt" } else { "" }
     );
     integration_lines(&mut s, plan.max_len);
     element_test(&mut s, plan.lengths, o, &plan.cases);

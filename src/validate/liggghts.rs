@@ -792,6 +792,26 @@ impl Engine for Liggghts {
             },
         })
     }
+    fn strength(
+        &self,
+        p: &Problem,
+        test: &super::strength::StrengthTest,
+        progress: Progress,
+    ) -> Result<Report<super::strength::StrengthDetails>> {
+        let o = &self.options;
+        let launch = super::strength::Launch {
+            program: self.programs.driver.clone(),
+            processes: if o.processes > 1 {
+                vec![1, o.processes]
+            } else {
+                vec![1]
+            },
+            density: o.density,
+            // LIGGGHTS' stable step itself, as the element and specimen tests take it.
+            safety: 1.0,
+        };
+        super::strength::liggghts::run(&launch, p, test, progress)
+    }
 }
 
 /// [`engine::validate`] with [`Liggghts`]: the periodic element tests of `packing` with

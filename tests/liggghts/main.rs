@@ -12,6 +12,8 @@ mod harmonic;
 mod in_place;
 mod ppf_export;
 mod specimen;
+mod strength_export;
 mod strength_tension;
+mod strength_validate;
 mod validate;
 mod walled_specimen;

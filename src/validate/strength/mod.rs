@@ -32,6 +32,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 pub mod lammps;
+pub mod liggghts;
 pub mod yade;
 
 /// How an engine runs its strength test: its program, the process counts, the density and
