@@ -1,10 +1,21 @@
 //! `--strength` and its options, the same for every engine of `anisobond validate`: direct
-//! tension of the free bar to failure in the engine and in the integrator with the same
-//! law (issue 32). The axis and the end layers are `--axis` and `--end-layer` of
+//! tension or uniaxial compression (`--load`) of the free bar to failure in the engine and
+//! in the integrator with the same law (issue 32). The axis and the end layers are `--axis` and `--end-layer` of
 //! [`super::validate_specimen::SpecimenFlags`].
 
 use super::validate_specimen::SpecimenFlags;
-use anisobond::validate::strength::StrengthTest;
+use anisobond::validate::strength::{StrengthLoading, StrengthTest};
+
+/// `--load`: how the bar is loaded.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LoadArg {
+    /// Direct tension: the top layer moves up.
+    #[default]
+    Tension,
+    /// Uniaxial compression (UCS): the top layer moves down; broken bonds become frictional
+    /// contacts where the engine makes them so; the peak is the first peak.
+    Compression,
+}
 
 /// `--strength` and its options, shared by every engine.
 #[derive(clap::Args, Clone, Debug)]
@@ -15,6 +26,13 @@ pub struct StrengthFlags {
     /// [strength]); peak stress and the first broken bonds compared (needs --free).
     #[arg(long, conflicts_with = "specimen")]
     pub strength: bool,
+    /// The strength test's loading: tension (direct tension) or compression (UCS).
+    #[arg(long, value_enum, default_value_t = LoadArg::Tension)]
+    pub load: LoadArg,
+    /// Compression: the first peak ends where the force falls by this fraction of its
+    /// running maximum after bonds broke.
+    #[arg(long, default_value_t = 0.05)]
+    pub peak_drop: f64,
     /// Axial strain added per time step (the top layer's speed).
     #[arg(long, default_value_t = 5e-7)]
     pub strain_per_step: f64,
@@ -51,6 +69,11 @@ impl StrengthFlags {
         t.damping_ratio = self.bond_damping;
         t.compared = self.compared;
         t.tolerance = self.strength_tolerance;
+        t.peak_drop = self.peak_drop;
+        t.loading = match self.load {
+            LoadArg::Tension => StrengthLoading::Tension,
+            LoadArg::Compression => StrengthLoading::Compression,
+        };
         t
     }
 }

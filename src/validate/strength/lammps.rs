@@ -17,6 +17,13 @@
 //! with bpm/rotational's dashpots and criterion (bond_anisobond.h): to first order in the
 //! rotations it is law (d), which the integrator runs with the same springs, damping and
 //! limits as for route (a).
+//!
+//! In compression a broken bond's pair (and any pair that comes into touch) becomes a
+//! frictional contact, as in `export lammps`' decks with breakage: `pair_style granular`,
+//! `hooke` k_n with no damping, `linear_history` k_t capped at μ·F_n
+//! ([`super::contact_law`]); the integrator runs its [`crate::dem::Contacts`] with the same
+//! law (a broken bond's pair with the bond's own springs: the same for equal springs). In
+//! tension there are no contacts (`pair_style zero`), as before.
 
 use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
@@ -64,7 +71,10 @@ pub fn run(
     };
     let limits = bond_limits(k, &breakage)?;
     let dt = super::time_step(problem, launch)?;
-    let loading = Loading::of(packing, test, dt, "lammps")?;
+    let mut loading = Loading::of(packing, test, dt, "lammps")?;
+    if test.loading == super::StrengthLoading::Compression {
+        loading.contacts = Some(super::contact_law(k, &breakage.strengths)?);
+    }
     let damping: Vec<[f64; 4]> = (0..bonds.len())
         .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
         .collect();
@@ -136,7 +146,7 @@ pub fn run(
             "in.strength",
             "strength",
         )?;
-        let m = read_run(&dir, problem, np, plugin.is_some(), seconds)?;
+        let m = read_run(&dir, problem, np, &test, plugin.is_some(), seconds)?;
         timings.push(Timing {
             stage: format!("lammps_np{np}"),
             seconds,
@@ -262,9 +272,11 @@ fn write_plugin_inputs(
 }
 
 /// The deck: read, hold and move the layers, start the velocity field, run, printing the
-/// top layer's tensile force every step and the broken bonds every [`DUMP_EVERY`] steps.
-/// With `plugin`: `bond_style anisobond` loaded from it (`newton on on`, its own record of the
-/// broken bonds) instead of bpm/rotational.
+/// top layer's load (tensile or compressive: the test's sense) every step and the broken
+/// bonds every [`DUMP_EVERY`] steps; `pair_style granular` for the loading's contacts,
+/// else `pair_style zero`. With `plugin`: `bond_style anisobond` loaded from it (`newton on
+/// on`, its own record of the broken bonds, broken pairs handed to the pair style) instead of
+/// bpm/rotational.
 fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>) -> Result<String> {
     let ax = test.axis;
     let name = ["x", "y", "z"][ax];
@@ -274,6 +286,18 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>)
         c.join(" ")
     };
     let v = num(loading.velocity);
+    let pair = match &loading.contacts {
+        Some(c) => format!(
+            "# Broken bonds' pairs (and pairs that touch) are frictional contacts: Hooke normal spring,\n\
+             # no damping, linear tangential spring with history capped at mu*F_n.\n\
+             pair_style granular\n\
+             pair_coeff * * hooke {} 0 tangential linear_history {} 0 {} damping velocity\n",
+            num(c.normal_stiffness),
+            num(c.shear_stiffness),
+            num(c.friction)
+        ),
+        None => format!("pair_style zero {}\npair_coeff * *\n", num(cut)),
+    };
     let (engine, load, newton, bond_style, dump) = match plugin {
         None => (
             "LAMMPS (BPM package)",
@@ -315,16 +339,16 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>)
         }
     };
     Ok(format!(
-        "# anisobond → {engine} strength test: direct tension along {name}.\n\
+        "# anisobond → {engine} strength test: {test_name} along {name}.\n\
          # Run:  lmp -in in.strength   (or mpirun -np N lmp -in in.strength)\n\
          # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved at v).\n\
-         # Writes force.txt (step, top layer's tensile force) and broken.txt (id1 id2\n\
+         # Writes force.txt (step, top layer's {sense} force) and broken.txt (id1 id2\n\
          # timestep of each broken bond).\n\
          {load}units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
          special_bonds lj 0 1 1 coul 1 1 1\nnewton {newton}\n\
          comm_modify vel yes cutoff {cut}\nread_data data.lmp\n\
          {bond_style}\
-         pair_style zero {cut}\npair_coeff * *\nneighbor {skin} bin\n\
+         {pair}neighbor {skin} bin\n\
          neigh_modify every 1 delay 0 check yes\n\
          group bottom type 2\ngroup top type 3\ngroup mobile type 1\n\
          timestep {dt}\n\
@@ -335,7 +359,7 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>)
          fix pull top move linear {vtop}\n\
          fix hold bottom move linear 0 0 0\n\
          compute ftop top reduce sum f{name}\n\
-         variable F equal -c_ftop\n\
+         variable F equal {minus}c_ftop\n\
          thermo_style custom step v_F bonds\nthermo 1000\n\
          fix out all print 1 \"$(step) $(v_F:%.17g)\" file force.txt screen no\n\
          {dump}\
@@ -348,6 +372,12 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>)
         field = along("v_vfield", "0"),
         vtop = along(&v, "0"),
         steps = test.steps,
+        test_name = test.loading.describe(),
+        sense = match test.loading {
+            super::StrengthLoading::Tension => "tensile",
+            super::StrengthLoading::Compression => "compressive",
+        },
+        minus = if loading.sign > 0.0 { "-" } else { "" },
     ))
 }
 
@@ -358,6 +388,7 @@ fn read_run(
     dir: &Path,
     problem: &Problem,
     np: usize,
+    test: &StrengthTest,
     plugin: bool,
     seconds: f64,
 ) -> Result<StrengthRun> {
@@ -370,7 +401,7 @@ fn read_run(
         Ok((kept, text))
     };
     let (fpath, force) = keep("force.txt")?;
-    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0);
+    let mut curve = Vec::new();
     for (n, line) in force.lines().enumerate() {
         let w: Vec<&str> = line.split_whitespace().collect();
         if w.is_empty() || w[0].starts_with('#') {
@@ -386,11 +417,9 @@ fn read_run(
                 n + 1
             ))
         })?;
-        if f > peak {
-            (peak, peak_step) = (f, step);
-        }
+        curve.push((step, f));
     }
-    if !peak.is_finite() {
+    if curve.is_empty() {
         return Err(fail(format!("{}: no force read", fpath.display())));
     }
     let (bpath, broken) = keep("broken.txt")?;
@@ -432,6 +461,15 @@ fn read_run(
         .and_then(|l| l.strip_prefix("LAMMPS ("))
         .and_then(|l| l.split(')').next())
         .unwrap_or("unknown");
+    let breaks = order_breaks("LAMMPS", problem.bonds, &raw)?;
+    let (peak_force, peak_step) = super::peak_of(test, &curve, &breaks)
+        .ok_or_else(|| fail(format!("{}: no force read", fpath.display())))?;
+    if !peak_force.is_finite() {
+        return Err(fail(format!(
+            "{}: the peak force is not finite",
+            fpath.display()
+        )));
+    }
     Ok(StrengthRun {
         program: if plugin {
             format!("LAMMPS ({version}) + bond_style anisobond")
@@ -439,9 +477,9 @@ fn read_run(
             format!("LAMMPS ({version})")
         },
         processes: np,
-        peak_force: peak,
+        peak_force,
         peak_step,
-        breaks: order_breaks("LAMMPS", problem.bonds, &raw)?,
+        breaks,
         seconds,
     })
 }

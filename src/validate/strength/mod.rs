@@ -1,9 +1,16 @@
-//! The strength test every engine runs (issue 32 item 5): quasi-static direct tension of a
-//! free bonded bar between held end layers — the bottom layer held still, the top one moved
-//! along the axis at a constant velocity, the free spheres started in the steady linear
+//! The strength test every engine runs (issue 32 item 5): quasi-static direct tension or
+//! uniaxial compression ([`StrengthLoading`]) of a free bonded bar between held end layers —
+//! the bottom layer held still, the top one moved along the axis at a constant velocity
+//! (up in tension, down in compression), the free spheres started in the steady linear
 //! velocity field (no wave at the start) —, the bonds breaking by the engine's own
 //! criterion; the same motion in the reference integrator ([`crate::dem`]) with the same
-//! bond law and the same per-bond limits.
+//! bond law and the same per-bond limits. When the engine turns a broken bond into a
+//! frictional contact, the integrator does too ([`Loading::contacts`]).
+//!
+//! The peak: in tension the largest tensile force of the run; in compression the first peak
+//! ([`first_peak`]: the largest compressive force before the force first falls by
+//! [`StrengthTest::peak_drop`] after bonds broke), so that broken pairs locking up as
+//! contacts after the failure (re-hardening) do not count.
 //!
 //! An engine implements [`super::Engine::strength`]: it runs its code and returns a
 //! [`StrengthRun`] per process count; [`reference()`] runs the integrator; [`compare`] makes
@@ -13,7 +20,9 @@
 
 use super::harness::{Check, EngineDetails, Report, Timing};
 use crate::bonds::BondSet;
-use crate::dem::{BondCriteria, BondLaw, DemOptions, PrescribedMotion, Simulation};
+use crate::dem::{
+    BondCriteria, BondLaw, ContactLaw, Contacts, DemOptions, PrescribedMotion, Simulation,
+};
 use crate::packing::Packing;
 use crate::strength::BondStrengths;
 use crate::{Error, Result, Vec3};
@@ -100,9 +109,60 @@ pub mod outputs {
     pub const CHECKS_CSV: &str = "checks.csv";
 }
 
+/// How the bar is loaded: pulled apart (direct tension) or pushed together (uniaxial
+/// compression, the UCS test).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StrengthLoading {
+    /// Direct tension: the top layer moves up (+axis); the tensile force is measured.
+    #[default]
+    Tension,
+    /// Uniaxial compression: the top layer moves down (−axis); the compressive force is
+    /// measured.
+    Compression,
+}
+
+impl StrengthLoading {
+    /// `tension` or `compression`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StrengthLoading::Tension => "tension",
+            StrengthLoading::Compression => "compression",
+        }
+    }
+
+    /// The loading named `tension` or `compression`.
+    pub fn from_name(name: &str) -> Option<StrengthLoading> {
+        match name {
+            "tension" => Some(StrengthLoading::Tension),
+            "compression" => Some(StrengthLoading::Compression),
+            _ => None,
+        }
+    }
+
+    /// +1 in tension, −1 in compression: the sign of the top layer's velocity along the
+    /// axis, and the factor that turns the tensile reaction −ΣF_top into the measured load.
+    pub fn sign(self) -> f64 {
+        match self {
+            StrengthLoading::Tension => 1.0,
+            StrengthLoading::Compression => -1.0,
+        }
+    }
+
+    /// The test's name in reports (`direct tension`, `uniaxial compression`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            StrengthLoading::Tension => "direct tension",
+            StrengthLoading::Compression => "uniaxial compression",
+        }
+    }
+}
+
 /// What the strength test is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct StrengthTest {
+    /// Tension or compression.
+    pub loading: StrengthLoading,
     /// Loading axis: 0 = x, 1 = y, 2 = z.
     pub axis: usize,
     /// Depth of each end layer (m): centres within it of the lowest / highest centre.
@@ -118,13 +178,19 @@ pub struct StrengthTest {
     pub compared: usize,
     /// Largest admissible relative difference of the peak stress.
     pub tolerance: f64,
+    /// Compression: the first peak ends where the force falls below (1 − `peak_drop`) × its
+    /// running maximum after bonds broke ([`first_peak`]); unused in tension (the largest
+    /// force of the run).
+    pub peak_drop: f64,
 }
 
 impl StrengthTest {
-    /// Along `axis`, end layers `end_layer` (m) deep, `strain_per_step` for `steps` steps;
-    /// bonds' damping ratio 0.3, the first ten breaks compared, peak stress within 2 %.
+    /// Direct tension along `axis`, end layers `end_layer` (m) deep, `strain_per_step` for
+    /// `steps` steps; bonds' damping ratio 0.3, the first ten breaks compared, peak stress
+    /// within 2 % (set `loading` for compression; first-peak drop 5 %).
     pub fn new(axis: usize, end_layer: f64, strain_per_step: f64, steps: u64) -> StrengthTest {
         StrengthTest {
+            loading: StrengthLoading::Tension,
             axis,
             end_layer,
             strain_per_step,
@@ -132,6 +198,15 @@ impl StrengthTest {
             damping_ratio: 0.3,
             compared: 10,
             tolerance: 0.02,
+            peak_drop: 0.05,
+        }
+    }
+
+    /// The same test in compression.
+    pub fn compression(self) -> StrengthTest {
+        StrengthTest {
+            loading: StrengthLoading::Compression,
+            ..self
         }
     }
 
@@ -174,8 +249,70 @@ impl StrengthTest {
                 self.tolerance
             ));
         }
+        if !(self.peak_drop.is_finite() && self.peak_drop > 0.0 && self.peak_drop < 1.0) {
+            return bad(format!(
+                "the peak drop must be in (0, 1), got {}",
+                self.peak_drop
+            ));
+        }
         Ok(())
     }
+}
+
+/// The first peak of a load curve `(step, load)` (the load in the test's sense) whose
+/// bonds first broke at `first_break`: the largest load before the first step at or after
+/// `first_break` where the load is below (1 − `drop`) × its running maximum; the global
+/// maximum if it never drops. Re-hardening after the drop (broken pairs locking up as
+/// frictional contacts) does not count. The same rule as the virtual laboratory's
+/// (`study::strength_test`), on steps. `(load, step)`; None for an empty curve.
+pub fn first_peak(curve: &[(u64, f64)], first_break: Option<u64>, drop: f64) -> Option<(f64, u64)> {
+    let mut max: Option<(f64, u64)> = None;
+    for &(step, load) in curve {
+        if let (Some((m, _)), Some(b)) = (max, first_break) {
+            if step >= b && load < (1.0 - drop) * m {
+                return max;
+            }
+        }
+        if max.map_or(true, |(m, _)| load > m) {
+            max = Some((load, step));
+        }
+    }
+    max
+}
+
+/// The peak of a run's load curve for `test` (largest load in tension, [`first_peak`] in
+/// compression) with its breaks in order.
+pub fn peak_of(test: &StrengthTest, curve: &[(u64, f64)], breaks: &[Broken]) -> Option<(f64, u64)> {
+    match test.loading {
+        StrengthLoading::Tension => first_peak(curve, None, test.peak_drop),
+        StrengthLoading::Compression => {
+            first_peak(curve, breaks.first().map(|b| b.step), test.peak_drop)
+        }
+    }
+}
+
+/// The frictional contact a broken bond becomes in an engine with contacts after breaking
+/// (LAMMPS route (a)'s `pair_style granular`, YADE's shear-broken CohFrictPhys): the median
+/// k_n and k_s of the bonds, the mean friction coefficient of their strengths (as
+/// `export lammps` writes it). The integrator gives a broken bond's pair the bond's own
+/// springs ([`Contacts::set_pair_stiffness`]); these are the springs of new contacts.
+pub fn contact_law(
+    springs: &crate::bonds::BondStiffness,
+    strengths: &BondStrengths,
+) -> Result<ContactLaw> {
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let n = strengths.friction.len().max(1) as f64;
+    let law = ContactLaw {
+        normal_stiffness: median(&springs.kn),
+        shear_stiffness: median(&springs.ks),
+        friction: strengths.friction.iter().sum::<f64>() / n,
+    };
+    law.check()?;
+    Ok(law)
 }
 
 /// A broken bond: its two particles (indices into the packing, i < j) and the step it broke.
@@ -195,7 +332,8 @@ pub struct StrengthRun {
     pub program: String,
     /// MPI processes (1 for the integrator and YADE).
     pub processes: usize,
-    /// Largest axial tensile force on the moved layer (N).
+    /// Peak axial load on the moved layer (N; tensile in tension, compressive in
+    /// compression; [`peak_of`]).
     #[serde(rename = "peak_force_N")]
     pub peak_force: f64,
     /// The step of the peak.
@@ -265,11 +403,12 @@ impl EngineDetails for StrengthDetails {
     fn summary(r: &Report<Self>) -> String {
         let t = &r.test;
         let mut s = format!(
-            "{} vs the integrator, bond law {}: direct tension along {} of {} particles, {} \
+            "{} vs the integrator, bond law {}: {} along {} of {} particles, {} \
              bonds; end layers {:e} m deep; strain {:e} per step for {} steps; bonds' damping \
              ratio {}; section {:.6e} m²\n",
             r.engine,
             r.law,
+            t.loading.describe(),
             ["x", "y", "z"][t.axis],
             r.n_particles,
             r.n_bonds,
@@ -346,10 +485,19 @@ pub struct Loading {
     pub lowest: f64,
     /// Gauge length between the layers' mean centres (m).
     pub gauge: f64,
-    /// Top layer's velocity along the axis (m/s).
+    /// Top layer's velocity along the axis (m/s): positive in tension, negative in
+    /// compression.
     pub velocity: f64,
     /// Time step (s).
     pub time_step: f64,
+    /// +1 in tension, −1 in compression ([`StrengthLoading::sign`]): the load read is
+    /// `sign` × (−ΣF_top along the axis).
+    pub sign: f64,
+    /// The frictional contacts broken bonds become (and spheres that come into touch), when
+    /// the engine has them after breaking: the integrator then runs [`Contacts`] with this
+    /// law for new pairs and each broken bond's springs for its pair. None (as [`Loading::of`]
+    /// sets): no contacts, in the engine and in the integrator.
+    pub contacts: Option<ContactLaw>,
 }
 
 impl Loading {
@@ -377,8 +525,10 @@ impl Loading {
             top,
             lowest,
             gauge,
-            velocity: test.strain_per_step * gauge / dt,
+            velocity: test.loading.sign() * test.strain_per_step * gauge / dt,
             time_step: dt,
+            sign: test.loading.sign(),
+            contacts: None,
         })
     }
 }
@@ -431,9 +581,10 @@ pub fn order_breaks(
 
 /// The integrator's run of the test: `law` (the engine's, with its damping) and `criteria`
 /// (the same limits), the masses of `density`, Cundall `local_damping` (YADE's; 0 for
-/// LAMMPS), the bottom layer held, the top moved at the
-/// loading's velocity, the free spheres started in the linear velocity field; the top
-/// layer's tensile reaction read every step.
+/// LAMMPS), the bottom layer held, the top moved at the loading's velocity, the free
+/// spheres started in the linear velocity field, frictional contacts after breaking when
+/// [`Loading::contacts`] says so (Verlet skin a fifth of the mean radius); the top layer's
+/// load read every step, its peak by [`peak_of`].
 #[allow(clippy::too_many_arguments)]
 pub fn reference(
     packing: &Packing,
@@ -459,6 +610,10 @@ pub fn reference(
     };
     let mut sim = Simulation::new(packing, bonds, law, &opts)?;
     sim.set_breakage(Some(criteria))?;
+    if let Some(law) = loading.contacts {
+        let mean = packing.radii.iter().sum::<f64>() / packing.len().max(1) as f64;
+        sim.set_contacts(Some(Contacts::new(law, 0.2 * mean)?))?;
+    }
     let ax = test.axis;
     let along = |v: f64| {
         let mut u = Vec3::zeros();
@@ -482,14 +637,12 @@ pub fn reference(
         particles: held,
         velocity,
     }))?;
-    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0);
+    let mut curve = Vec::with_capacity(test.steps as usize + 1);
     for _ in 0..=test.steps {
         let step = sim.iteration();
         sim.step()?;
         let f = -loading.top.iter().map(|&p| sim.force[p][ax]).sum::<f64>();
-        if f > peak {
-            (peak, peak_step) = (f, step);
-        }
+        curve.push((step, loading.sign * f));
     }
     let mut events: Vec<(u64, usize)> = sim
         .break_events()
@@ -497,18 +650,20 @@ pub fn reference(
         .map(|e| (e.step, e.bond))
         .collect();
     events.sort_unstable();
+    let breaks: Vec<Broken> = events
+        .into_iter()
+        .map(|(step, b)| Broken {
+            pair: pair(bonds, b),
+            step,
+        })
+        .collect();
+    let (peak_force, peak_step) = peak_of(test, &curve, &breaks).unwrap_or((f64::NAN, 0));
     Ok(StrengthRun {
         program: format!("anisobond {}", env!("CARGO_PKG_VERSION")),
         processes: 1,
-        peak_force: peak,
+        peak_force,
         peak_step,
-        breaks: events
-            .into_iter()
-            .map(|(step, b)| Broken {
-                pair: pair(bonds, b),
-                step,
-            })
-            .collect(),
+        breaks,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -554,7 +709,11 @@ pub fn compare(
         checks.push(Check::new(
             format!("peak-stress{suffix}"),
             format!(
-                "peak tensile stress, {engine} on {} process(es) vs the integrator (law {law})",
+                "peak {} stress, {engine} on {} process(es) vs the integrator (law {law})",
+                match test.loading {
+                    StrengthLoading::Tension => "tensile",
+                    StrengthLoading::Compression => "compressive (first peak)",
+                },
                 m.processes
             ),
             if rel.is_finite() { rel } else { f64::NAN },
@@ -627,6 +786,33 @@ mod tests {
         assert_eq!(pairs, [((1, 2), 4), ((0, 1), 5), ((2, 3), 5)]);
         let e = order_breaks("lammps", &bonds, &[(0, 3, 1)]).unwrap_err();
         assert!(matches!(e, Error::EngineFailed { .. }), "{e}");
+    }
+
+    #[test]
+    fn first_peak_ignores_re_hardening_after_the_drop_and_noise_before_the_first_break() {
+        // Rises to 10 at step 2, dips 40 % before any bond broke (not a failure), peaks at
+        // 12 (step 5), falls to 11 (−8 %) after the first break at step 5, re-hardens to 20.
+        let c: Vec<(u64, f64)> = [0.0, 5.0, 10.0, 6.0, 11.0, 12.0, 11.0, 15.0, 20.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| (k as u64, f))
+            .collect();
+        assert_eq!(first_peak(&c, Some(5), 0.05), Some((12.0, 5)));
+        // A 10 % drop is not reached at 11/12: the global maximum.
+        assert_eq!(first_peak(&c, Some(5), 0.1), Some((20.0, 8)));
+        // No break: never a failure, the global maximum (the tension rule).
+        assert_eq!(first_peak(&c, None, 0.05), Some((20.0, 8)));
+        assert_eq!(first_peak(&[], Some(0), 0.05), None);
+        let mut t = StrengthTest::new(2, 0.0, 1e-6, 10).compression();
+        let b = [Broken {
+            pair: (0, 1),
+            step: 5,
+        }];
+        assert_eq!(peak_of(&t, &c, &b), Some((12.0, 5)));
+        t.loading = StrengthLoading::Tension;
+        assert_eq!(peak_of(&t, &c, &b), Some((20.0, 8)));
+        t.peak_drop = 1.0;
+        assert!(matches!(t.check("yade"), Err(Error::Invalid(_))));
     }
 
     #[test]

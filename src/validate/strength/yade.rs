@@ -5,10 +5,17 @@
 //! [`DAMPING`]), holds the bottom layer and moves the top one (`blockedDOFs`, constant
 //! velocity), starts the free spheres in the linear velocity field and steps, reading the
 //! top layer's force every step. A broken bond is found when YADE's count of real
-//! interactions drops (a bond broken in tension is erased at once) or, every
-//! [`SCAN_EVERY`] steps, by `cohesionBroken` (a bond broken in shear stays a frictional
-//! contact: its step is then known to [`SCAN_EVERY`] steps only). The integrator runs law
-//! (a) with the same springs, adhesions and local damping.
+//! interactions drops (a bond broken in tension is erased at once: a full scan) or by its
+//! `cohesionBroken` flag, read every step on the bonds' own CohFrictPhys (a bond broken in
+//! shear stays a frictional contact); every [`SCAN_EVERY`] steps a full scan besides. The
+//! integrator runs law (a) with the same springs, adhesions and local damping.
+//!
+//! In compression the integrator turns frictional contacts on ([`crate::dem::Contacts`],
+//! [`super::contact_law`]), since YADE keeps a bond broken in shear as a frictional contact
+//! with the bond's springs and friction. Differences that remain (docs/strength.md, "The
+//! same test in the engines"): YADE's shear-broken bond keeps its shear force capped at
+//! μ·F_n where the integrator's new contact starts from zero shear force; YADE's scene has
+//! no collider, so spheres that were not bonded never touch in YADE (the integrator's do).
 
 use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
@@ -39,10 +46,11 @@ pub const RESULT: &str = "yade-strength.json";
 
 /// `strength.py`: build, hold, move, step `steps` times, record force and broken bonds.
 fn script(test: &StrengthTest, loading: &Loading, density: f64) -> String {
+    let minus = if loading.sign > 0.0 { "-" } else { "" };
     let bottom: Vec<String> = loading.bottom.iter().map(|p| p.to_string()).collect();
     let top: Vec<String> = loading.top.iter().map(|p| p.to_string()).collect();
     format!(
-        "# Written by anisobond {ver}: YADE strength test (direct tension along axis {ax}).\n\
+        "# Written by anisobond {ver}: YADE strength test ({name} along axis {ax}).\n\
          # Run:  yade -n -x {SCRIPT}   (writes {RESULT} here)\n\
          import json, os, sys, time\n\
          sys.dont_write_bytecode = True\n\
@@ -69,31 +77,35 @@ fn script(test: &StrengthTest, loading: &Loading, density: f64) -> String {
          \x20       s.blockedDOFs = 'xyzXYZ'\n\
          intact = set(range(len(bonds)))\n\
          broken = []\n\
+         phys = [I.phys for I in scene.interactions]\n\
          def scan(step):\n\
          \x20   for b in sorted(intact):\n\
          \x20       I = O.interactions[bonds.i[b], bonds.j[b]]\n\
          \x20       if I is None or not I.isReal or I.phys.cohesionBroken:\n\
          \x20           intact.discard(b)\n\
          \x20           broken.append([bonds.i[b], bonds.j[b], step])\n\
-         peak, peak_step = -1e300, 0\n\
+         force = []\n\
          real = O.interactions.countReal()\n\
          t0 = time.time()\n\
          for n in range({steps}):\n\
          \x20   step = O.iter\n\
          \x20   O.step()\n\
-         \x20   f = -sum(O.forces.f(k)[AX] for k in top)\n\
-         \x20   if f > peak:\n\
-         \x20       peak, peak_step = f, step\n\
+         \x20   force.append([step, {minus}sum(O.forces.f(k)[AX] for k in top)])\n\
          \x20   now = O.interactions.countReal()\n\
          \x20   if now != real or (n + 1) % {SCAN_EVERY} == 0:\n\
          \x20       scan(step)\n\
          \x20       real = now\n\
+         \x20   else:\n\
+         \x20       for b in [b for b in intact if phys[b].cohesionBroken]:\n\
+         \x20           intact.discard(b)\n\
+         \x20           broken.append([bonds.i[b], bonds.j[b], step])\n\
          with open(os.path.join(HERE, '{RESULT}'), 'w') as out:\n\
          \x20   json.dump({{'version': yade.config.version if hasattr(yade, 'config') else 'unknown',\n\
-         \x20              'peak': peak, 'peak_step': peak_step, 'broken': broken,\n\
+         \x20              'force': force, 'broken': broken,\n\
          \x20              'dt': O.dt, 'seconds': time.time() - t0}}, out)\n",
         ver = env!("CARGO_PKG_VERSION"),
         ax = test.axis,
+        name = test.loading.describe(),
         dt = loading.time_step,
         v = loading.velocity,
         lo = loading.lowest,
@@ -121,7 +133,10 @@ pub fn run(
         ));
     }
     let dt = super::time_step(problem, launch)?;
-    let loading = Loading::of(packing, test, dt, "yade")?;
+    let mut loading = Loading::of(packing, test, dt, "yade")?;
+    if test.loading == super::StrengthLoading::Compression {
+        loading.contacts = Some(super::contact_law(k, &strengths)?);
+    }
     let dir = problem.dir.join(DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     // The free bar's files as `export yade` writes them (it exports periodic packings only):
@@ -159,7 +174,7 @@ pub fn run(
         stage: "yade_process".into(),
         seconds: out.wall_seconds,
     });
-    let m = read_result(&dir.join(RESULT), problem, out.wall_seconds)?;
+    let m = read_result(&dir.join(RESULT), problem, test, out.wall_seconds)?;
     progress(&format!(
         "YADE: done in {:.1} s: peak {:.7e} N, {} bonds broken",
         out.wall_seconds,
@@ -180,7 +195,12 @@ pub fn run(
 }
 
 /// Read `strength.py`'s JSON (body ids are the packing's indices).
-fn read_result(path: &Path, problem: &Problem, seconds: f64) -> Result<StrengthRun> {
+fn read_result(
+    path: &Path,
+    problem: &Problem,
+    test: &StrengthTest,
+    seconds: f64,
+) -> Result<StrengthRun> {
     let text = crate::io::read_to_string(path)?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
@@ -206,12 +226,26 @@ fn read_result(path: &Path, problem: &Problem, seconds: f64) -> Result<StrengthR
         })
         .collect::<Option<Vec<_>>>()
         .ok_or_else(|| bad("broken"))?;
+    let curve = v["force"]
+        .as_array()
+        .ok_or_else(|| bad("force"))?
+        .iter()
+        .map(|row| {
+            let r = row.as_array()?;
+            let f = r.get(1)?.as_f64()?;
+            f.is_finite().then_some((r.first()?.as_u64()?, f))
+        })
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| bad("force"))?;
+    let breaks = order_breaks("YADE", problem.bonds, &raw)?;
+    let (peak_force, peak_step) =
+        super::peak_of(test, &curve, &breaks).ok_or_else(|| bad("force"))?;
     Ok(StrengthRun {
         program: format!("YADE ({})", v["version"].as_str().unwrap_or("unknown")),
         processes: 1,
-        peak_force: v["peak"].as_f64().ok_or_else(|| bad("peak"))?,
-        peak_step: v["peak_step"].as_u64().ok_or_else(|| bad("peak_step"))?,
-        breaks: order_breaks("YADE", problem.bonds, &raw)?,
+        peak_force,
+        peak_step,
+        breaks,
         seconds,
     })
 }
