@@ -24,7 +24,7 @@
 //! break: `breakage.lmp` holds bpm/rotational `break yes` with each type's critical loads
 //! ([`bond_limits`]; with `types`, springs and limits quantised jointly) and the broken
 //! bonds' contact (`pair_style granular`), or the plugin's `break yes strengths
-//! bond-strengths.csv`; without it the decks are byte-identical to before (docs/strength.md,
+//! bond-strengths.csv` with the same contact; without it the decks are byte-identical to before (docs/strength.md,
 //! "LAMMPS").
 
 use crate::bonds::types::{

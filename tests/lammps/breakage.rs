@@ -620,8 +620,9 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
 }
 
 /// The plugin's `break` keyword refused where it would mislead: `break yes` without a
-/// strength table, a strength table with `break no`, and `break yes` beside a pair style
-/// that would never act on a broken pair (it stays in the special list); `--smooth` writes
+/// strength table, a strength table or `record` with `break no`, and `break yes` beside a
+/// pair style under special bonds that drop bonded pairs from the neighbour lists (a broken
+/// pair would meet the pair style only at the next rebuild); `--smooth` writes
 /// bpm/rotational's `smooth yes`.
 #[test]
 fn plugin_break_misuse_is_refused_with_the_reason() {
