@@ -3,7 +3,7 @@
 //   plugin load /path/to/anisobond_lammps.so
 //   bond_style anisobond model MODEL.toml [damping ZETA] [lattice_scaling MU]
 //   bond_style anisobond table BONDS.csv  [damping ZETA] [length_tolerance TOL]
-//   ... [break yes strengths STRENGTHS.csv]   (or break no, the default)
+//   ... [break yes strengths STRENGTHS.csv [record BROKEN.txt]]   (or break no, the default)
 //   bond_coeff *
 //
 // Requires atom_style bpm/sphere (or sphere: radius, rmass, omega, torque), `newton on on`
@@ -20,6 +20,7 @@
 #include "force.h"
 #include "memory.h"
 #include "modify.h"
+#include "neigh_list.h"
 #include "neighbor.h"
 #include "update.h"
 #include "utils.h"
@@ -34,6 +35,7 @@
 #include <exception>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 using namespace LAMMPS_NS;
 
@@ -55,7 +57,7 @@ inline std::uint64_t pair_key(tagint a, tagint b) {
 }  // namespace
 
 BondAnisobond::BondAnisobond(LAMMPS *lmp)
-    : Bond(lmp), break_(false), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
+    : Bond(lmp), break_(false), record_fp_(nullptr), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
       need_init_(false) {
   partial_flag = 0;
   writedata = 0;
@@ -64,6 +66,7 @@ BondAnisobond::BondAnisobond(LAMMPS *lmp)
 
 BondAnisobond::~BondAnisobond() {
   if (allocated) memory->destroy(setflag);
+  if (record_fp_) fclose(record_fp_);
 }
 
 void BondAnisobond::allocate() {
@@ -83,6 +86,7 @@ void BondAnisobond::settings(int narg, char **arg) {
   table_.clear();
   limits_.clear();
   break_ = false;
+  record_.clear();
   std::string strengths;
   zeta_ = 0.0;
   length_tol_ = 1e-6;
@@ -126,6 +130,9 @@ void BondAnisobond::settings(int narg, char **arg) {
     } else if (key == "break" && iarg + 1 < narg) {
       break_ = utils::logical(FLERR, arg[iarg + 1], false, lmp) == 1;
       iarg += 2;
+    } else if (key == "record" && iarg + 1 < narg) {
+      record_ = arg[iarg + 1];
+      iarg += 2;
     } else if (key == "strengths" && iarg + 1 < narg) {
       strengths = arg[iarg + 1];
       iarg += 2;
@@ -136,8 +143,8 @@ void BondAnisobond::settings(int narg, char **arg) {
       iarg += 2;
     } else {
       error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
-                        "`length_tolerance TOL`, `lattice_scaling MU`, `break yes|no` or "
-                        "`strengths STRENGTHS.csv`",
+                        "`length_tolerance TOL`, `lattice_scaling MU`, `break yes|no`, "
+                        "`strengths STRENGTHS.csv` or `record BROKEN.txt`",
                  key);
     }
   }
@@ -147,6 +154,10 @@ void BondAnisobond::settings(int narg, char **arg) {
                       "bond-strengths.csv for a model with a [strength] table)");
   if (!break_ && !strengths.empty())
     error->all(FLERR, "bond_style anisobond: `strengths {}` is for `break yes`", strengths);
+  if (!break_ && !record_.empty())
+    error->all(FLERR, "bond_style anisobond: `record {}` is for `break yes` (it lists the broken "
+                      "bonds)",
+               record_);
   if (break_) read_strengths(strengths);
 }
 
@@ -220,12 +231,24 @@ void BondAnisobond::init_style() {
   if (break_ && static_cast<bigint>(limits_.size()) < held)
     error->all(FLERR, "bond_style anisobond: the strength table has {} bonds, the system {}",
                limits_.size(), held);
-  if (break_ && force->pair && !force->pair_match("zero", 1))
-    error->all(FLERR, "bond_style anisobond break yes: a broken pair stays in the special list, "
-                      "so pair_style {} would never act on it; use pair_style zero, or "
-                      "bpm/rotational (export lammps without --bond-style anisobond), whose "
-                      "broken bonds become contacts",
+  // A broken pair leaves the special list (share_breaks) and meets the pair style: intact
+  // bonds must be censored (1-2 weight 0) but kept in the neighbour lists with their special
+  // bits (a coul weight ≠ 0), as for bpm/rotational.
+  if (break_ && force->pair && !force->pair_match("zero", 1) &&
+      !(force->special_lj[1] == 0.0 && force->special_coul[1] != 0.0))
+    error->all(FLERR, "bond_style anisobond break yes with pair_style {} needs `special_bonds "
+                      "lj 0 1 1 coul 1 1 1` (bonded pairs censored but kept in the neighbour "
+                      "lists, so that a broken pair becomes a contact at once)",
                force->pair_style);
+
+  if (!record_.empty() && comm->me == 0 && !record_fp_) {
+    record_fp_ = fopen(record_.c_str(), "w");
+    if (!record_fp_)
+      error->one(FLERR, "bond_style anisobond: cannot open the record of broken bonds {}: {}",
+                 record_, utils::getsyserror());
+    fputs("# bonds broken by bond_style anisobond: id_lo id_hi timestep\n", record_fp_);
+    fflush(record_fp_);
+  }
 
   // The per-bond state: created on first use, found again on later runs, restored from
   // the restart file when the fix of the same ID and style was in it (Modify::add_fix).
@@ -456,6 +479,8 @@ void BondAnisobond::compute(int eflag, int vflag) {
       const double b = s[S_KN] * stretch / s[S_FRC] + std::sqrt(dot(fs, fs)) / s[S_FSC] +
                        std::sqrt(dot(mb, mb)) / s[S_TBC] + std::fabs(mn) / s[S_TTC];
       if (b >= 1.0) {
+        broken_now_.push_back(std::min(tag[i], tj));
+        broken_now_.push_back(std::max(tag[i], tj));
         bondlist[nb][2] = 0;
         remove_bond(i, m);
         broken++;
@@ -506,6 +531,76 @@ void BondAnisobond::compute(int eflag, int vflag) {
     bigint all = 0;
     MPI_Allreduce(&broken, &all, 1, MPI_LMP_BIGINT, MPI_SUM, world);
     atom->nbonds -= all;
+    if (all > 0) share_breaks(all);
+    broken_now_.clear();
+  }
+}
+
+// The bonds broken in this call (`broken_now_` of every process, `nbroken` in all), gathered
+// on every process: process 0 appends them to the record sorted by ids (the same lines on any
+// process count); every process takes each broken pair out of its owned atoms' 1-2 special
+// lists and out of the special bits of its pair neighbour lists, so the pair style acts on
+// the pair from the next force call on (what BPM's fix update/special/bonds does for
+// bpm/rotational; here the partner may be owned by another process, hence the gather).
+void BondAnisobond::share_breaks(bigint nbroken) {
+  const int mine = static_cast<int>(broken_now_.size());
+  std::vector<int> counts(comm->nprocs), offsets(comm->nprocs);
+  MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  int total = 0;
+  for (int p = 0; p < comm->nprocs; p++) {
+    offsets[p] = total;
+    total += counts[p];
+  }
+  if (total != 2 * nbroken)
+    error->all(FLERR, "bond_style anisobond: {} broken bonds gathered, {} counted", total / 2,
+               nbroken);
+  std::vector<tagint> all(total);
+  MPI_Allgatherv(broken_now_.data(), mine, MPI_LMP_TAGINT, all.data(), counts.data(),
+                 offsets.data(), MPI_LMP_TAGINT, world);
+  std::vector<std::pair<tagint, tagint>> pairs;
+  for (int k = 0; k + 1 < total; k += 2) pairs.emplace_back(all[k], all[k + 1]);
+  std::sort(pairs.begin(), pairs.end());
+  if (record_fp_) {
+    for (const auto &p : pairs)
+      fprintf(record_fp_, TAGINT_FORMAT " " TAGINT_FORMAT " " BIGINT_FORMAT "\n", p.first,
+              p.second, update->ntimestep);
+    fflush(record_fp_);
+  }
+
+  // The owned atoms' special lists: 1-2 entries first, then 1-3, 1-4 (cumulative counts).
+  const int nlocal = atom->nlocal;
+  for (const auto &p : pairs) {
+    for (int side = 0; side < 2; side++) {
+      const tagint me = side ? p.second : p.first, other = side ? p.first : p.second;
+      const int i = atom->map(me);
+      if (i < 0 || i >= nlocal) continue;
+      tagint *sl = atom->special[i];
+      int *ns = atom->nspecial[i];
+      int m = 0;
+      while (m < ns[0] && sl[m] != other) m++;
+      if (m == ns[0]) continue;  // not a 1-2 partner (already removed)
+      for (; m < ns[2] - 1; m++) sl[m] = sl[m + 1];
+      ns[0]--;
+      ns[1]--;
+      ns[2]--;
+    }
+  }
+  // The pair neighbour lists built before the break still mark the pair as special.
+  std::unordered_map<std::uint64_t, bool> gone;
+  for (const auto &p : pairs) gone[pair_key(p.first, p.second)] = true;
+  const tagint *tag = atom->tag;
+  for (int q = 0; q < neighbor->nlist; q++) {
+    NeighList *list = neighbor->lists[q];
+    if (!list || list->requestor_type != NeighList::PAIR || !list->firstneigh) continue;
+    for (int ii = 0; ii < list->inum; ii++) {
+      const int i = list->ilist[ii];
+      int *jlist = list->firstneigh[i];
+      for (int jj = 0; jj < list->numneigh[i]; jj++) {
+        const int j = jlist[jj];
+        if ((j >> SBBITS & 3) == 0) continue;
+        if (gone.count(pair_key(tag[i], tag[j & NEIGHMASK]))) jlist[jj] = j & NEIGHMASK;
+      }
+    }
   }
 }
 

@@ -41,8 +41,15 @@
 // on the springs' loads (|F_s| the shear spring force, M_b and M_t the bending and twisting
 // parts of the moment); B ≥ 1 breaks the bond before its forces are applied: it is removed
 // from its atom's bond list with its state slot (as BondBPM::process_broken). Broken pairs
-// stay in the special list (no contact force from a pair style afterwards; `break yes`
-// refuses a pair style other than zero).
+// leave the special lists (1-2 entries of the owned atoms, on every process: the broken
+// pairs are gathered on all of them) and lose their special bits in the pair neighbour
+// lists at once, as BPM's fix update/special/bonds does for bpm/rotational: a pair style
+// (e.g. granular, with `special_bonds lj 0 1 1 coul 1 1 1`) acts on them from the next step.
+// `record FILE` (with `break yes`): every broken bond is written to FILE as `id_lo id_hi step`
+// (atom ids ascending, the timestep it broke), gathered and written by process 0, sorted by
+// step and ids, so the file is the same on any number of processes (validate lammps --strength reads
+// it); opened (truncated) at the style's first init, so a run restarted from a restart file
+// starts a new record.
 //
 // Per-bond state lives in a per-atom array (`fix property/atom d2_anisobond_state N ghost no`,
 // created by the style): slot m of atom i belongs to its bond with atom->bond_atom[i][m],
@@ -102,6 +109,7 @@ class BondAnisobond : public Bond {
   void limits_of(int i, int j, double *s);
   void read_strengths(const std::string &path);
   void remove_bond(int i, int m);
+  void share_breaks(bigint nbroken);
 
   std::vector<std::string> args_;  // bond_style arguments (kept for restart files)
   std::string source_;             // "model" or "table"
@@ -109,6 +117,9 @@ class BondAnisobond : public Bond {
   std::unordered_map<std::uint64_t, Springs> table_;  // key: tag_lo << 32 | tag_hi
   std::unordered_map<std::uint64_t, Limits> limits_;  // `strengths` table, same key
   bool break_;                     // `break yes`: bonds break at B >= 1
+  std::string record_;             // `record FILE`: broken bonds written there ("" = none)
+  FILE *record_fp_;                // process 0's open record file
+  std::vector<tagint> broken_now_;  // (id_lo, id_hi) of the bonds this process broke this call
   double zeta_;                    // damping ratio (0: undamped)
   double length_tol_;              // table lengths vs. the box (relative)
   double mu_;                      // cross-anisotropic lattice scaling (0: not yet known)

@@ -24,7 +24,7 @@
 //! break: `breakage.lmp` holds bpm/rotational `break yes` with each type's critical loads
 //! ([`bond_limits`]; with `types`, springs and limits quantised jointly) and the broken
 //! bonds' contact (`pair_style granular`), or the plugin's `break yes strengths
-//! bond-strengths.csv`; without it the decks are byte-identical to before (docs/strength.md,
+//! bond-strengths.csv` with the same contact; without it the decks are byte-identical to before (docs/strength.md,
 //! "LAMMPS").
 
 use crate::bonds::types::{
@@ -1176,12 +1176,17 @@ fn breakage_text(_c: &Contact, plugin: bool) -> String {
         format!(
             "{head}\
              # bond_style anisobond: each bond's limits from bond-strengths.csv (atom ids); a broken bond is\n\
-             #   removed from its atom's bond list with its state (restart files keep the rest). No contact\n\
-             #   after breaking: the plugin does not hand broken pairs to a pair style (pair_style zero).\n\
+             #   removed from its atom's bond list with its state (restart files keep the rest) and its pair\n\
+             #   taken out of the special list on every process, so that the pair style below acts on it\n\
+             #   (needs special_bonds lj 0 1 1 coul 1 1 1, as in.elastic has).\n\
+             # Contact (a broken bond's pair, and any pair that comes into contact): pair_style granular,\n\
+             #   F_n = contact_kn·δ − contact_damping·v_n for the overlap δ = R_i + R_j − r > 0 (compression\n\
+             #   only, per-particle radii), tangential linear spring contact_kt with history and the same\n\
+             #   damping, capped at contact_friction·F_n (Coulomb); no rolling or twisting resistance.\n\
              bond_style anisobond ${{springs}} damping ${{damping}} break yes strengths bond-strengths.csv\n\
              bond_coeff *\n\
-             pair_style zero ${{cut}}\n\
-             pair_coeff * *\n"
+             pair_style granular\n\
+             pair_coeff * * hooke ${{contact_kn}} ${{contact_damping}} tangential linear_history ${{contact_kt}} 1 ${{contact_friction}} damping velocity\n"
         )
     } else {
         format!(
@@ -1232,7 +1237,7 @@ fn with_breakage(deck: &str, plugin: bool) -> String {
 
 /// `bond-strengths.csv` for the plugin's `break yes strengths FILE`: each bond's atom ids and
 /// critical loads (N, N, N·m, N·m).
-fn write_strength_table(
+pub fn write_strength_table(
     dir: &Path,
     bonds: &BondSet,
     ids: &[u64],

@@ -456,7 +456,7 @@ impl Engine for Lammps {
             density: o.export.density,
             safety: o.export.safety,
         };
-        super::strength::lammps::run(&launch, p, test, progress)
+        super::strength::lammps::run(&launch, p, test, &o.export.bond_style, progress)
     }
 }
 

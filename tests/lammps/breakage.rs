@@ -249,11 +249,17 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
     }
     assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
 
-    // After the break: held (the crack open, the halves relax: no tension across a broken
-    // pair), then pushed back past the original length and held: the broken pairs touch
-    // again (pair_style granular, k_c = the bonds' k_n) and the section carries the
-    // compression of 8 springs k_n in series per column, 9·k_n·d·e at box strain −e.
-    let (deck, _) = tension_decks(false, "m m p", de, 500, None);
+    check_contact_after_break(&lmp, &out, false, 1, de, peaks[0]);
+}
+
+/// After the break: held (the crack open, the halves relax: no tension across a broken
+/// pair), then pushed back past the original length and held: the broken pairs touch again
+/// (pair_style granular, k_c = the bonds' k_n) and the section carries the compression of 8
+/// springs k_n in series per column, 9·k_n·d·e at box strain −e. `peak` is the tension run's;
+/// run on `np` processes.
+fn check_contact_after_break(lmp: &Path, out: &Path, plugin: bool, np: usize, de: f64, peak: f64) {
+    let what = format!("{}, -np {np}", if plugin { "plugin" } else { "route (a)" });
+    let (deck, _) = tension_decks(plugin, "m m p", de, 500, None);
     let contact = deck.replace(
         "run 500\n",
         "run 500\nunfix pull\nrun 3000\nprint \"anisobond-open $(v_fz:%.17g) $(bonds)\"\n\
@@ -263,7 +269,7 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
     assert_ne!(contact, deck);
     std::fs::write(out.join("contact.lmp"), contact).unwrap();
     let _ = std::fs::remove_file(out.join("tension.txt"));
-    let run = run_lmp(&lmp, &out, "contact.lmp", 1);
+    let run = run_lmp(lmp, out, "contact.lmp", np);
     let text = String::from_utf8_lossy(&run.stdout).to_string();
     assert!(run.status.success(), "{text}");
     let line = |key: &str| -> Vec<f64> {
@@ -280,9 +286,9 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
     let e = 1.0 - closed[1] / lz0;
     let expected = -((NX * NY) as f64) * KN * 2.0 * R * e;
     eprintln!(
-        "after the break: held open {:.3e} N ({:.1e} of the peak); pushed to strain -{e:.3e}: {:.9e} N vs closed form {expected:.9e} N ({:.1e})",
+        "{what}: after the break: held open {:.3e} N ({:.1e} of the peak); pushed to strain -{e:.3e}: {:.9e} N vs closed form {expected:.9e} N ({:.1e})",
         open[0],
-        open[0].abs() / peaks[0],
+        open[0].abs() / peak,
         closed[0],
         (closed[0] - expected).abs() / expected.abs()
     );
@@ -291,7 +297,7 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
         "the box was not pushed past its length: {closed:?}"
     );
     assert!(
-        open[0].abs() < 1e-2 * peaks[0],
+        open[0].abs() < 1e-2 * peak,
         "tension across the crack: {open:?}"
     );
     assert!(
@@ -317,7 +323,8 @@ fn plugin_bar_in_tension_breaks_the_same_and_keeps_its_strengths_across_a_restar
     assert_eq!(table.lines().count(), 1 + 3 * NX * NY * NZ - (NX + NY) * NZ);
     let breakage = std::fs::read_to_string(out.join("breakage.lmp")).unwrap();
     assert!(
-        breakage.contains("break yes strengths bond-strengths.csv"),
+        breakage.contains("break yes strengths bond-strengths.csv")
+            && breakage.contains("pair_style granular"),
         "{breakage}"
     );
 
@@ -337,6 +344,11 @@ fn plugin_bar_in_tension_breaks_the_same_and_keeps_its_strengths_across_a_restar
         ));
     }
     assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
+    // The broken pairs become granular contacts, also when the partner is on the other
+    // process (the plugin sends the broken pairs to every process).
+    for np in [1, 2] {
+        check_contact_after_break(&lmp, &out, true, np, de, peaks[0]);
+    }
 
     // Halfway on one process, a restart file, the rest on two: the same peak and the same
     // 9 bonds broken (each bond's limits come back with its state); a restart written after
@@ -608,8 +620,9 @@ fn joint_quantisation_keeps_each_types_sums_and_splits_separated_limits() {
 }
 
 /// The plugin's `break` keyword refused where it would mislead: `break yes` without a
-/// strength table, a strength table with `break no`, and `break yes` beside a pair style
-/// that would never act on a broken pair (it stays in the special list); `--smooth` writes
+/// strength table, a strength table or `record` with `break no`, and `break yes` beside a
+/// pair style under special bonds that drop bonded pairs from the neighbour lists (a broken
+/// pair would meet the pair style only at the next rebuild); `--smooth` writes
 /// bpm/rotational's `smooth yes`.
 #[test]
 fn plugin_break_misuse_is_refused_with_the_reason() {
@@ -625,17 +638,16 @@ fn plugin_break_misuse_is_refused_with_the_reason() {
     let breakage = std::fs::read_to_string(out.join("breakage.lmp")).unwrap();
     let style =
         "bond_style anisobond ${springs} damping ${damping} break yes strengths bond-strengths.csv";
-    let pair = "pair_style zero ${cut}\npair_coeff * *";
     assert!(
-        breakage.contains(style) && breakage.contains(pair),
+        breakage.contains(style) && breakage.contains("pair_style granular"),
         "{breakage}"
     );
-    let granular = "pair_style granular\npair_coeff * * hooke 1e6 0 tangential linear_history 1e5 1 0.5 damping velocity";
-    for (name, text, expected) in [
+    for (name, text, expected, special) in [
         (
             "no-table",
             breakage.replace(style, "bond_style anisobond ${springs} break yes"),
             "needs `strengths",
+            false,
         ),
         (
             "no-break",
@@ -644,15 +656,34 @@ fn plugin_break_misuse_is_refused_with_the_reason() {
                 "bond_style anisobond ${springs} break no strengths bond-strengths.csv",
             ),
             "is for `break yes`",
+            false,
         ),
         (
-            "pair",
-            breakage.replace(pair, granular),
-            "stays in the special list",
+            "record",
+            breakage.replace(
+                style,
+                "bond_style anisobond ${springs} damping ${damping} record broken.txt",
+            ),
+            "is for `break yes` (it lists the broken bonds)",
+            false,
+        ),
+        // Bonded pairs dropped from the neighbour lists (coul 0): a broken pair would meet
+        // the pair style only at the next rebuild.
+        (
+            "special",
+            breakage.clone(),
+            "needs `special_bonds lj 0 1 1 coul 1 1 1`",
+            true,
         ),
     ] {
         std::fs::write(out.join("breakage.lmp"), &text).unwrap();
-        let (deck, _) = tension_decks(true, "m m p", 1e-6, 1, None);
+        let (mut deck, _) = tension_decks(true, "m m p", 1e-6, 1, None);
+        if special {
+            deck = deck.replace(
+                "special_bonds lj 0 1 1 coul 1 1 1",
+                "special_bonds lj 0 1 1",
+            );
+        }
         let input = format!("{name}.lmp");
         std::fs::write(out.join(&input), deck).unwrap();
         let run = run_lmp(&lmp, &out, &input, 1);

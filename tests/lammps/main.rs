@@ -11,6 +11,7 @@ mod breakage;
 mod exit_codes;
 mod export;
 mod plugin;
+mod plugin_strength_validate;
 mod ppf_data;
 mod specimen;
 mod strength_validate;

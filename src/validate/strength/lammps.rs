@@ -9,6 +9,15 @@
 //! runs law (d), [`crate::dem::laws::LammpsBpmLaw`], with the same springs, damping and
 //! limits.
 //!
+//! The plugin (`--bond-style anisobond`, cpp/lammps/): the same bar, springs and limits per
+//! bond from `bonds.csv` and `bond-strengths.csv` (`bond_style anisobond table bonds.csv
+//! damping ζ break yes strengths bond-strengths.csv record broken.txt`, one bond type,
+//! `newton on on`), its broken bonds from its own `record` (sorted on process 0, the same on
+//! any process count). The plugin's bond is YADE's incremental cohesive bond at the midpoint
+//! with bpm/rotational's dashpots and criterion (bond_anisobond.h): to first order in the
+//! rotations it is law (d), which the integrator runs with the same springs, damping and
+//! limits as for route (a).
+//!
 //! In compression a broken bond's pair (and any pair that comes into touch) becomes a
 //! frictional contact, as in `export lammps`' decks with breakage: `pair_style granular`,
 //! `hooke` k_n with no damping, `linear_history` k_t capped at μ·F_n
@@ -21,27 +30,37 @@ use super::{
 };
 use crate::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
 use crate::dem::LawKind;
-use crate::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
+use crate::export::lammps::{
+    bond_damping, bond_limits, write_strength_table, LammpsBondStyle, LammpsBreakage,
+};
 use crate::validate::harness::{Problem, Progress, Report, Timing};
 use crate::validate::specimen::{atom_lines, box_lines, num};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Sub-directory of the validation directory LAMMPS runs in.
+/// Sub-directory of the validation directory LAMMPS runs in (route (a)).
 pub const DIR: &str = "lammps-strength";
+
+/// Sub-directory of the plugin's run (`--bond-style anisobond`).
+pub const PLUGIN_DIR: &str = "lammps-plugin-strength";
 
 /// Steps between two dumps of the broken bonds (bpm/rotational's `store/local` period).
 const DUMP_EVERY: u64 = 100;
 
-/// Run LAMMPS' strength test of `problem`'s free bar on each process count and the
-/// integrator's with law (d), and compare.
+/// Run LAMMPS' strength test of `problem`'s free bar with `style` (route (a) or the plugin)
+/// on each process count and the integrator's with law (d), and compare.
 pub fn run(
     launch: &Launch,
     problem: &Problem,
     test: &StrengthTest,
+    style: &LammpsBondStyle,
     progress: Progress,
 ) -> Result<Report<StrengthDetails>> {
+    let plugin = match style {
+        LammpsBondStyle::BpmRotational => None,
+        LammpsBondStyle::Anisobond { plugin } => Some(plugin.as_path()),
+    };
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
     let (model, strengths, criteria) =
         super::strength_setup("lammps", problem, LawKind::LammpsBpm)?;
@@ -59,7 +78,9 @@ pub fn run(
     let damping: Vec<[f64; 4]> = (0..bonds.len())
         .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
         .collect();
-    let dir = problem.dir.join(DIR);
+    let dir = problem
+        .dir
+        .join(if plugin.is_some() { PLUGIN_DIR } else { DIR });
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let mut types = vec![1u8; packing.len()];
     for &p in &loading.bottom {
@@ -68,13 +89,16 @@ pub fn run(
     for &p in &loading.top {
         types[p] = 3;
     }
-    write_inputs(&dir, problem, &types, launch.density, &limits, &damping)?;
+    match plugin {
+        None => write_inputs(&dir, problem, &types, launch.density, &limits, &damping)?,
+        Some(_) => write_plugin_inputs(&dir, problem, &types, launch.density, &limits)?,
+    }
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
     let steps = test.steps.div_ceil(DUMP_EVERY) * DUMP_EVERY;
     let test = StrengthTest { steps, ..*test };
     crate::io::write_string_atomic(
         &dir.join("in.strength"),
-        &deck(&test, &loading, 1.6 * max_len),
+        &deck(&test, &loading, 1.6 * max_len, plugin)?,
     )?;
     let mut timings = Vec::new();
     let coeffs = (0..bonds.len())
@@ -122,20 +146,29 @@ pub fn run(
             "in.strength",
             "strength",
         )?;
-        let m = read_run(&dir, problem, np, &test, seconds)?;
+        let m = read_run(&dir, problem, np, &test, plugin.is_some(), seconds)?;
         timings.push(Timing {
             stage: format!("lammps_np{np}"),
             seconds,
         });
         progress(&format!(
-            "LAMMPS on {np} process(es): done in {seconds:.1} s: peak {:.7e} N, {} bonds broken",
+            "LAMMPS{} on {np} process(es): done in {seconds:.1} s: peak {:.7e} N, {} bonds broken",
+            if plugin.is_some() {
+                " (bond_style anisobond)"
+            } else {
+                ""
+            },
             m.peak_force,
             m.breaks.len()
         ));
         measured.push(m);
     }
     compare(
-        "lammps",
+        if plugin.is_some() {
+            "lammps-plugin"
+        } else {
+            "lammps"
+        },
         "lammps-bpm",
         &test,
         packing,
@@ -207,11 +240,44 @@ fn write_inputs(
     crate::io::write_string_atomic(&dir.join("bond_coeffs.lmp"), &c)
 }
 
+/// The plugin's inputs: `data.lmp` (as [`write_inputs`]'s, every bond of type 1), `bonds.csv`
+/// (each bond's springs, atom id = index + 1) and `bond-strengths.csv` (its limits).
+fn write_plugin_inputs(
+    dir: &Path,
+    problem: &Problem,
+    types: &[u8],
+    density: f64,
+    limits: &[[f64; 4]],
+) -> Result<()> {
+    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
+    let (n, nb) = (packing.len(), bonds.len());
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let mut s = format!(
+        "LAMMPS data file written by anisobond {}: strength test (bond_style anisobond), {n} \
+         particles, {nb} bonds\n\n{n} atoms\n3 atom types\n{nb} bonds\n1 bond types\n\n",
+        env!("CARGO_PKG_VERSION"),
+    );
+    s.push_str(&box_lines(packing, 2.0 * max_len));
+    s.push_str("\nAtoms # bpm/sphere\n\n");
+    s.push_str(&atom_lines(packing, types, density, true));
+    s.push_str("\nBonds\n\n");
+    for b in 0..nb {
+        let _ = writeln!(s, "{} 1 {} {}", b + 1, bonds.i[b] + 1, bonds.j[b] + 1);
+    }
+    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    crate::bonds::table::write_bond_table_with_ids(&dir.join("bonds.csv"), bonds, k, None)?;
+    let ids: Vec<u64> = (1..=n as u64).collect();
+    write_strength_table(dir, bonds, &ids, limits)?;
+    Ok(())
+}
+
 /// The deck: read, hold and move the layers, start the velocity field, run, printing the
 /// top layer's load (tensile or compressive: the test's sense) every step and the broken
 /// bonds every [`DUMP_EVERY`] steps; `pair_style granular` for the loading's contacts,
-/// else `pair_style zero`.
-fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
+/// else `pair_style zero`. With `plugin`: `bond_style anisobond` loaded from it (`newton on
+/// on`, its own record of the broken bonds, broken pairs handed to the pair style) instead of
+/// bpm/rotational.
+fn deck(test: &StrengthTest, loading: &Loading, cut: f64, plugin: Option<&Path>) -> Result<String> {
     let ax = test.axis;
     let name = ["x", "y", "z"][ax];
     let along = |v: &str, other: &str| {
@@ -232,17 +298,56 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
         ),
         None => format!("pair_style zero {}\npair_coeff * *\n", num(cut)),
     };
-    format!(
-        "# anisobond → LAMMPS (BPM package) strength test: {test_name} along {name}.\n\
+    let (engine, load, newton, bond_style, dump) = match plugin {
+        None => (
+            "LAMMPS (BPM package)",
+            String::new(),
+            "on off",
+            format!(
+                "bond_style bpm/rotational break yes smooth no store/local brk {DUMP_EVERY} id1 \
+                 id2 time\ninclude bond_coeffs.lmp\n"
+            ),
+            format!("dump brk all local {DUMP_EVERY} broken.txt f_brk[1] f_brk[2] f_brk[3]\n"),
+        ),
+        Some(so) => {
+            let so = so.to_str().ok_or_else(|| {
+                Error::Invalid(format!(
+                    "validate lammps --strength: the plugin path {} is not UTF-8",
+                    so.display()
+                ))
+            })?;
+            if so
+                .chars()
+                .any(|c| c.is_whitespace() || c == '"' || c == '#')
+            {
+                return Err(Error::Invalid(format!(
+                    "validate lammps --strength: the plugin path `{so}` has a space, quote or \
+                     #, which a LAMMPS input line cannot carry"
+                )));
+            }
+            (
+                "LAMMPS (anisobond's plugin)",
+                format!("plugin load {so}\n"),
+                "on on",
+                format!(
+                    "bond_style anisobond table bonds.csv damping {} break yes strengths \
+                     bond-strengths.csv record broken.txt\nbond_coeff *\n",
+                    num(test.damping_ratio)
+                ),
+                String::new(),
+            )
+        }
+    };
+    Ok(format!(
+        "# anisobond → {engine} strength test: {test_name} along {name}.\n\
          # Run:  lmp -in in.strength   (or mpirun -np N lmp -in in.strength)\n\
          # Atom types: 1 free, 2 bottom layer (held), 3 top layer (moved at v).\n\
-         # Writes force.txt (step, top layer's {sense} force) and broken.txt (dump local:\n\
-         # id1 id2 timestep of each broken bond).\n\
-         units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
-         special_bonds lj 0 1 1 coul 1 1 1\nnewton on off\n\
+         # Writes force.txt (step, top layer's {sense} force) and broken.txt (id1 id2\n\
+         # timestep of each broken bond).\n\
+         {load}units si\ndimension 3\nboundary f f f\natom_style bpm/sphere\n\
+         special_bonds lj 0 1 1 coul 1 1 1\nnewton {newton}\n\
          comm_modify vel yes cutoff {cut}\nread_data data.lmp\n\
-         bond_style bpm/rotational break yes smooth no store/local brk {DUMP_EVERY} id1 id2 time\n\
-         include bond_coeffs.lmp\n\
+         {bond_style}\
          {pair}neighbor {skin} bin\n\
          neigh_modify every 1 delay 0 check yes\n\
          group bottom type 2\ngroup top type 3\ngroup mobile type 1\n\
@@ -257,7 +362,7 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
          variable F equal {minus}c_ftop\n\
          thermo_style custom step v_F bonds\nthermo 1000\n\
          fix out all print 1 \"$(step) $(v_F:%.17g)\" file force.txt screen no\n\
-         dump brk all local {DUMP_EVERY} broken.txt f_brk[1] f_brk[2] f_brk[3]\n\
+         {dump}\
          run {steps}\n",
         cut = num(cut),
         skin = num(0.1 * cut),
@@ -273,15 +378,18 @@ fn deck(test: &StrengthTest, loading: &Loading, cut: f64) -> String {
             super::StrengthLoading::Compression => "compressive",
         },
         minus = if loading.sign > 0.0 { "-" } else { "" },
-    )
+    ))
 }
 
-/// Read `force.txt` and `broken.txt` of a run on `np` processes (kept as `*-npN.txt`).
+/// Read `force.txt` and `broken.txt` of a run on `np` processes (kept as `*-npN.txt`):
+/// `dump local`'s entries (route (a)) or, for the `plugin`, its record (`id_lo id_hi step`
+/// lines after a `#` header).
 fn read_run(
     dir: &Path,
     problem: &Problem,
     np: usize,
     test: &StrengthTest,
+    plugin: bool,
     seconds: f64,
 ) -> Result<StrengthRun> {
     let fail = |m: String| Error::engine("LAMMPS", m);
@@ -316,9 +424,12 @@ fn read_run(
     }
     let (bpath, broken) = keep("broken.txt")?;
     let mut raw = Vec::new();
-    let mut in_entries = false;
+    let mut in_entries = plugin;
     for (n, line) in broken.lines().enumerate() {
-        if line.starts_with("ITEM:") {
+        if plugin && (line.starts_with('#') || line.trim().is_empty()) {
+            continue;
+        }
+        if !plugin && line.starts_with("ITEM:") {
             in_entries = line.starts_with("ITEM: ENTRIES");
             continue;
         }
@@ -360,7 +471,11 @@ fn read_run(
         )));
     }
     Ok(StrengthRun {
-        program: format!("LAMMPS ({version})"),
+        program: if plugin {
+            format!("LAMMPS ({version}) + bond_style anisobond")
+        } else {
+            format!("LAMMPS ({version})")
+        },
         processes: np,
         peak_force,
         peak_step,
