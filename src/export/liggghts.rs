@@ -16,6 +16,7 @@
 //! With `affine` the particles are not integrated: they follow the box (remap x), so the
 //! result is the affine (Voigt) tensor.
 
+pub(crate) use super::num;
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::packing::{Packing, PeriodicCell};
 use crate::strength::criteria::YadeAdhesion;
@@ -122,12 +123,6 @@ pub fn stable_timestep(
         ));
     }
     Ok(dt)
-}
-
-/// Shortest round-trip text of a number (reads back bit-identical).
-pub(crate) fn num(v: f64) -> String {
-    let mut b = ryu::Buffer::new();
-    b.format(v).to_string()
 }
 
 fn check_options(o: &DeckOptions) -> Result<()> {

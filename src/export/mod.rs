@@ -128,6 +128,12 @@ pub fn check_time_step(
     Ok(())
 }
 
+/// Shortest round-trip text of a number (reads back bit-identical).
+pub(crate) fn num(v: f64) -> String {
+    let mut b = ryu::Buffer::new();
+    b.format(v).to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

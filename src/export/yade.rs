@@ -612,12 +612,12 @@ impl MixedBox {
              #   Only the paths of the periodic axes are run. Stresses and C are per the box as read ({} m^3,\n\
              #   --stress-volume), as LIGGGHTS and LAMMPS report them: YADE's Love stress (per its cell, {} m^3) x {}.\n",
             self.read.boundary(),
-            super::liggghts::num(l.x),
-            super::liggghts::num(l.y),
-            super::liggghts::num(l.z),
-            super::liggghts::num(box_volume),
-            super::liggghts::num(v),
-            super::liggghts::num(v / box_volume),
+            super::num(l.x),
+            super::num(l.y),
+            super::num(l.z),
+            super::num(box_volume),
+            super::num(v),
+            super::num(v / box_volume),
         )
     }
 }
