@@ -72,3 +72,22 @@ def test_strength_test_refusals_name_the_keyword():
         ab.strength_test("ucs", shape="sphere")
     with pytest.raises(ab.InputError, match="test"):
         ab.strength_test("triaxial")
+
+
+def test_strength_sweep_equals_the_command(files, tmp_path):
+    # The bedding sweep from Python and from `strength-test --bedding-sweep`: the same rows
+    # (one schema), and each row's UCS equal to a single lab run at that angle.
+    packing = ab.Packing.load(files / "packing.txt")
+    model = ab.Model.load(files / "cross.toml")
+    r = ab.strength_sweep([0.0, 90.0], packing=packing, model=model, **SMALL)
+    out = tmp_path / "sweep"
+    cli(
+        "strength-test", "--bedding-sweep", "0,90", "--packing", files / "packing.txt",
+        "--model", files / "cross.toml", *flags(SMALL), "-o", out,
+    )
+    js = json.loads((out / "strength_sweep.json").read_text())
+    assert r == js
+    one = ab.strength_test("ucs", packing=packing, model=model, bedding_deg=90.0, **SMALL)
+    assert [row["bedding_deg"] for row in js["rows"]] == [0.0, 90.0]
+    assert js["rows"][-1]["ucs_pa"] == one["peak_stress_pa"]
+    assert js["rows"][-1]["ucs_ratio"] == one["peak_stress_pa"] / js["rows"][0]["ucs_pa"]
