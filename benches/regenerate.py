@@ -13,6 +13,9 @@ as a ratio of two figures measured in the same run.
     python3 benches/regenerate.py --only kruyt  # just "Kruyt 2014: ..." (tests/study/kruyt.rs, a few minutes)
     python3 benches/regenerate.py --only specimen  # just "Specimen solve" (100,000 spheres: the
                                              # specimen solve against the relaxed tensor, a few minutes)
+    python3 benches/regenerate.py --only breakage  # just "Breakage and contacts: ..." (about 20,000
+                                             # spheres compressed with breakage and contacts in the
+                                             # integrator and LAMMPS route (a), 1 and 2 cores; a few minutes)
 
 "Papers' applications" (Truszkowska 2018 Eq. 30 on an 8,000-sphere standard assembly, Kumar
 2016's buckling, Šmilauer's cavity with its wave run) takes about 1 minute on 2 cores; its wave
@@ -51,7 +54,8 @@ for _i, _a in enumerate(sys.argv):
         ONLY = _a.split("=", 1)[1]
 ONLY_SECTIONS = {"applications": "Papers' applications", "table3": "Truszkowska 2018 Table 3",
                  "kruyt": "Kruyt 2014: local adjustment field against the exact moduli",
-                 "specimen": "Specimen solve"}
+                 "specimen": "Specimen solve",
+                 "breakage": "Breakage and contacts: the integrator against LAMMPS bpm/rotational"}
 NO_SCALE = "--no-scale" in sys.argv or os.environ.get("ANISOBOND_BENCH_NO_SCALE", "") not in ("", "0")
 BIN = os.path.join(ROOT, "target", "release", "anisobond")
 WORK = tempfile.mkdtemp(prefix="anisobond-bench-")
@@ -493,13 +497,71 @@ def specimen(threads):
             ["what", "command", "particles", "threads", "wall", "peak memory", "result"], rows)
 
 
+def breakage(threads):
+    """Breakage and contacts on one specimen: the integrator (law (d) with its criterion and
+    contacts) against LAMMPS route (a) (bpm/rotational break yes + pair granular), per core,
+    by benches/lammps_breakage.py."""
+    title = "Breakage and contacts: the integrator against LAMMPS bpm/rotational"
+    header = ["cores (threads / MPI ranks)", "integrator wall", "integrator CPU", "LAMMPS wall",
+              "LAMMPS CPU", "LAMMPS / integrator, wall", "LAMMPS / integrator, CPU (per core)",
+              "bonds broken: integrator / LAMMPS"]
+    if not os.path.isfile(os.path.join(ROOT, "target", "lammps-venv", "bin", "lmp")):
+        section(title, "Not run: LAMMPS not installed here (target/lammps-venv).", header, [])
+        return
+    n_gen, steps = (8000, 1000) if QUICK else (40000, 2000)
+    cmd = [sys.executable, os.path.join(ROOT, "benches", "lammps_breakage.py"), "--json",
+           "--particles", str(n_gen), "--steps", str(steps)]
+    try:
+        wall, rss, text = sh(cmd, cwd=ROOT)
+    except RuntimeError as e:
+        section(title, "Failed: %s" % str(e).splitlines()[0], header, [])
+        return
+    res = json.loads([l for l in text.splitlines() if l.startswith("{")][-1])
+    rows = []
+    for r in res["results"]:
+        rows.append([r["cores"], "%.0f ns" % r["integrator_wall_ns"], "%.0f ns" % r["integrator_cpu_ns"],
+                     "%.0f ns" % r["lammps_wall_ns"], "%.0f ns" % r["lammps_cpu_ns"],
+                     "%.2f×" % r["ratio_wall"], "%.2f×" % r["ratio_cpu"],
+                     "%d / %d" % (r["integrator_broken"], r["lammps_broken"])])
+    loaded = max(res["load_before"][0], res["load_after"][0]) > res["cores"]
+    intro = (
+        "One specimen in both codes, the same run: a free bonded prism of %d spheres (cut from a "
+        "%d-sphere packing, R̄ = 1 mm, gap 0.17 R̄), %d bonds (isotropic springs, Weibull tensile "
+        "strengths, mean 5 MPa, modulus 5), compressed along its axis between a held bottom layer "
+        "and a top layer moved at %.1e axial strain per step for %d steps of %.3e s (the free "
+        "spheres started in the linear velocity field). The integrator: law (d) `lammps-bpm` with "
+        "LAMMPS' damping (ratio 0.3), its breakage criterion and frictional contacts after breaking "
+        "(Verlet skin 0.2 R̄). LAMMPS 22 Jul 2025 route (a): `bond_style bpm/rotational break yes "
+        "smooth no`, one bond type per bond with the same springs, limits and damping, and the "
+        "route (a) export's contact, `pair_style granular` (Hooke k_n, `linear_history` k_s, "
+        "Coulomb μ; damping 0 here, like the integrator's Cundall–Strack contacts; "
+        "`special_bonds lj 0 1 1` lets a broken pair interact). Not the BPM docs' `pair_style "
+        "bpm/spring`: its contact distance is one number per atom-type pair, wrong for a "
+        "polydisperse packing (docs/strength.md). Times per particle-step of the stepping loop "
+        "(fastest of %d, engines interleaved); CPU = the CPU time of all threads (integrator, "
+        "/proc) or of all processes (LAMMPS, loop × %%CPU × ranks), so the CPU ratio is per core "
+        "and discounts other programs. %s Command: `python3 benches/lammps_breakage.py "
+        "--particles %d --steps %d` (%.0f s in all). Measured by `python3 benches/regenerate.py%s` "
+        "on %s." % (
+            res["particles"], res["generated"], res["bonds"], res["strain_per_step"], res["steps"],
+            res["time_step"], res["repeat"],
+            ("The machine was loaded (load average %.1f before, %.1f after, on %d cores): wall "
+             "times are upper bounds, the CPU ratios the comparable figures." % (
+                 res["load_before"][0], res["load_after"][0], res["cores"])) if loaded else
+            ("Load average %.1f before, %.1f after, on %d cores." % (
+                res["load_before"][0], res["load_after"][0], res["cores"])),
+            n_gen, steps, wall, " --quick" if QUICK else (" --only breakage" if ONLY else ""),
+            measured_at()))
+    section(title, intro, header, rows)
+
+
 def main():
     if ONLY is not None:
         if ONLY not in ONLY_SECTIONS:
             sys.exit("--only: one of %s" % ", ".join(sorted(ONLY_SECTIONS)))
         subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
         {"applications": applications, "table3": table3, "kruyt": kruyt,
-         "specimen": specimen}[ONLY](os.cpu_count())
+         "specimen": specimen, "breakage": breakage}[ONLY](os.cpu_count())
         splice_sections(os.path.join(ROOT, "BENCHMARKS.md"))
         shutil.rmtree(WORK, ignore_errors=True)
         print("rewrote %s in BENCHMARKS.md" % ", ".join(repr(s[0]) for s in sections))
@@ -703,6 +765,9 @@ def main():
     section("LAMMPS: the plugin bond_style anisobond against bpm/rotational", intro,
             ["bond style", "command", "particles", "MPI ranks", "Bond time per bond-step",
              "Bond CPU time per bond-step", "loop time per bond-step"], rows)
+
+    # --- Breakage and contacts: the integrator against LAMMPS route (a) -----------------
+    breakage(threads)
 
     # --- LAMMPS at scale -------------------------------------------------------------------
     title = "LAMMPS at scale"
