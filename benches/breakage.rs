@@ -13,7 +13,8 @@
 //! written there), BREAKAGE_BENCH_PARTICLES (packing generated before the cut, 40,000; the
 //! prism keeps the spheres with x, y in the first 0.7 of the cell, about half),
 //! BREAKAGE_BENCH_STEPS (3,000), BREAKAGE_BENCH_STRAIN (axial strain per step, 1e-5),
-//! BREAKAGE_BENCH_THREADS (comma-separated thread counts, "1,2").
+//! BREAKAGE_BENCH_THREADS (comma-separated thread counts, "1,2"), BREAKAGE_BENCH_LAW=yade
+//! (law (a) instead of (d), for its cost only: another law breaks other bonds).
 //!
 //! The LAMMPS deck `in.breakage` runs the same bar, layers, velocities, time step and number
 //! of steps: `bond_style bpm/rotational break yes smooth no` (one bond type per bond: springs,
@@ -25,8 +26,8 @@
 use anisobond::assembly::Assembly;
 use anisobond::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
 use anisobond::dem::{
-    BondCriteria, ContactLaw, Contacts, DemOptions, LawKind, MassOptions, PrescribedMotion,
-    Simulation,
+    build_law, BondCriteria, ContactLaw, Contacts, DemOptions, LawKind, MassOptions,
+    PrescribedMotion, Simulation,
 };
 use anisobond::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
 use anisobond::model::Model;
@@ -60,6 +61,13 @@ fn main() {
     let n_gen = env("BREAKAGE_BENCH_PARTICLES", 40_000.0) as usize;
     let steps = env("BREAKAGE_BENCH_STEPS", 3000.0) as u64;
     let strain = env("BREAKAGE_BENCH_STRAIN", 1e-5);
+    // Law (d) is the comparison; BREAKAGE_BENCH_LAW=yade runs law (a) (YADE's cohesive law,
+    // its adhesions from the same strengths, no bond damping) on the same specimen instead:
+    // another law, so other breaks, for its cost only.
+    let kind = match std::env::var("BREAKAGE_BENCH_LAW").as_deref() {
+        Ok("yade") => LawKind::Yade,
+        _ => LawKind::LammpsBpm,
+    };
     let threads: Vec<usize> = std::env::var("BREAKAGE_BENCH_THREADS")
         .unwrap_or_else(|_| "1,2".into())
         .split(',')
@@ -125,7 +133,9 @@ fn main() {
         strain,
         t0.elapsed().as_secs_f64()
     );
-    write_lammps(&dir, p, &asm, &limits, &damping, &loading, &contact, steps, r_mean);
+    write_lammps(
+        &dir, p, &asm, &limits, &damping, &loading, &contact, steps, r_mean,
+    );
 
     let mut runs = Vec::new();
     for &t in &threads {
@@ -146,15 +156,13 @@ fn main() {
                     gamma_t: damping[e][3],
                 })
                 .collect();
-            let law = Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute).expect("law"));
-            let criteria = BondCriteria::for_law(
-                LawKind::LammpsBpm,
-                &strengths,
-                p,
-                b,
-                &asm.model.geometry,
-            )
-            .expect("criteria");
+            let law: Box<dyn anisobond::dem::BondLaw> = if kind == LawKind::LammpsBpm {
+                Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute).expect("law"))
+            } else {
+                build_law(kind, p, b, k).expect("law")
+            };
+            let criteria = BondCriteria::for_law(kind, &strengths, p, b, &asm.model.geometry)
+                .expect("criteria");
             let opts = DemOptions {
                 time_step: Some(dt),
                 mass: MassOptions {
@@ -223,7 +231,7 @@ fn main() {
         runs.push(run);
     }
     let json = format!(
-        "{{\"particles\": {n}, \"bonds\": {nb}, \"steps\": {steps}, \"time_step\": {dt}, \
+        "{{\"law\": \"{kind:?}\", \"particles\": {n}, \"bonds\": {nb}, \"steps\": {steps}, \"time_step\": {dt}, \
          \"strain_per_step\": {strain}, \"generated\": {n_gen}, \"runs\": [{}]}}\n",
         runs.join(", ")
     );
@@ -262,13 +270,12 @@ fn write_lammps(
     let mut kind = vec![1u8; n];
     loading.bottom.iter().for_each(|&q| kind[q] = 2);
     loading.top.iter().for_each(|&q| kind[q] = 3);
-    for q in 0..n {
-        let x = p.positions[q];
+    for (q, (x, t)) in p.positions.iter().zip(&kind).enumerate() {
         let _ = writeln!(
             s,
             "{} 0 {} {} {} {} {} {}",
             q + 1,
-            kind[q],
+            t,
             num(2.0 * p.radii[q]),
             num(DENSITY),
             num(x.x),
