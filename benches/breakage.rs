@@ -14,7 +14,8 @@
 //! prism keeps the spheres with x, y in the first 0.7 of the cell, about half),
 //! BREAKAGE_BENCH_STEPS (3,000), BREAKAGE_BENCH_STRAIN (axial strain per step, 1e-5),
 //! BREAKAGE_BENCH_THREADS (comma-separated thread counts, "1,2"), BREAKAGE_BENCH_LAW=yade
-//! (law (a) instead of (d), for its cost only: another law breaks other bonds).
+//! (law (a), YADE's cohesive law and the integrator's default, instead of (d): another bond
+//! law than LAMMPS', the same specimen, strengths and loading, so other breaks).
 //!
 //! The LAMMPS deck `in.breakage` runs the same bar, layers, velocities, time step and number
 //! of steps: `bond_style bpm/rotational break yes smooth no` (one bond type per bond: springs,
@@ -61,9 +62,9 @@ fn main() {
     let n_gen = env("BREAKAGE_BENCH_PARTICLES", 40_000.0) as usize;
     let steps = env("BREAKAGE_BENCH_STEPS", 3000.0) as u64;
     let strain = env("BREAKAGE_BENCH_STRAIN", 1e-5);
-    // Law (d) is the comparison; BREAKAGE_BENCH_LAW=yade runs law (a) (YADE's cohesive law,
-    // its adhesions from the same strengths, no bond damping) on the same specimen instead:
-    // another law, so other breaks, for its cost only.
+    // Law (d) is the like-for-like comparison; BREAKAGE_BENCH_LAW=yade runs law (a) (YADE's
+    // cohesive law, its adhesions from the same strengths, no bond damping) on the same
+    // specimen instead: another law, so other breaks.
     let kind = match std::env::var("BREAKAGE_BENCH_LAW").as_deref() {
         Ok("yade") => LawKind::Yade,
         _ => LawKind::LammpsBpm,

@@ -2,8 +2,9 @@
 """The integrator with breakage and contacts against LAMMPS route (a) on ONE specimen
 (issue 32, "Speed"): a free bonded prism cut from a generated packing, compressed along z
 between a held bottom layer and a moved top layer for STEPS steps (many bonds break, the
-broken pairs and the fragments touch), in the integrator (law (d) `lammps-bpm` with its
-breakage criterion and frictional contacts, 1 and 2 threads) and in LAMMPS (`bond_style
+broken pairs and the fragments touch), in the integrator (with its breakage criterion and
+frictional contacts, 1 and 2 threads, twice: law (a), YADE's cohesive law, the integrator's
+default, and law (d) `lammps-bpm`, LAMMPS' own bond law like for like) and in LAMMPS (`bond_style
 bpm/rotational break yes smooth no`, one bond type per bond, contacts by `pair_style granular`
 as `export lammps` route (a) writes it, -np 1 and -np 2), the same particles, bonds, springs,
 limits, damping, layers, velocities, time step and steps (benches/breakage.rs writes both).
@@ -20,7 +21,9 @@ processes), each divided by particles × steps; the fastest of R repeats, the en
 interleaved so that they share the machine's load alike. The ratios LAMMPS / integrator are
 of the same run (> 1: the integrator is faster); CPU time counts all threads or processes, so
 the CPU ratio is per core and discounts other programs sharing the cores. Broken bonds: the integrator's break events
-and LAMMPS' bond count at the end (data file − `bonds`).
+and LAMMPS' bond count at the end (data file − `bonds`). Law (a) is another bond law than
+bpm/rotational (YADE's adhesions a_n = σ_t·r², a_s = c·r² from the same strengths, no bond
+damping): the same specimen, strengths and loading, other breaks.
 """
 import argparse
 import json
@@ -31,6 +34,8 @@ import subprocess
 import sys
 import tempfile
 
+# The integrator's bond laws benched: label -> BREAKAGE_BENCH_LAW (benches/breakage.rs).
+LAWS = {"a": "yade", "d": "lammps-bpm"}
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 VENV = os.path.join(ROOT, "target", "lammps-venv")
 
@@ -80,17 +85,20 @@ def main():
     load_before = os.getloadavg()
     for r in range(a.repeat):
         for t in [1, 2]:
-            # The integrator on t threads (it also writes the LAMMPS inputs; the same every time).
-            benv = dict(os.environ, BREAKAGE_BENCH_DIR=work, BREAKAGE_BENCH_PARTICLES=str(a.particles),
-                        BREAKAGE_BENCH_STEPS=str(a.steps), BREAKAGE_BENCH_STRAIN=repr(a.strain),
-                        BREAKAGE_BENCH_THREADS=str(t))
-            run(["cargo", "bench", "--quiet", "--bench", "breakage"], cwd=ROOT, env=benv)
-            res = json.load(open(os.path.join(work, "integrator.json")))
-            one = res["runs"][0]
-            if t not in best_int or one["cpu_s"] < best_int[t]["cpu_s"]:
-                best_int[t] = one
-            best_int[t]["wall_min_s"] = min(one["wall_s"], best_int[t].get("wall_min_s", one["wall_s"]))
-            integ = res
+            # The integrator on t threads, law (a) then law (d) (it also writes the LAMMPS
+            # inputs; the same every time).
+            for law in LAWS:
+                benv = dict(os.environ, BREAKAGE_BENCH_DIR=work, BREAKAGE_BENCH_PARTICLES=str(a.particles),
+                            BREAKAGE_BENCH_STEPS=str(a.steps), BREAKAGE_BENCH_STRAIN=repr(a.strain),
+                            BREAKAGE_BENCH_THREADS=str(t), BREAKAGE_BENCH_LAW=LAWS[law])
+                run(["cargo", "bench", "--quiet", "--bench", "breakage"], cwd=ROOT, env=benv)
+                res = json.load(open(os.path.join(work, "integrator.json")))
+                one = res["runs"][0]
+                key = (law, t)
+                if key not in best_int or one["cpu_s"] < best_int[key]["cpu_s"]:
+                    best_int[key] = one
+                best_int[key]["wall_min_s"] = min(one["wall_s"], best_int[key].get("wall_min_s", one["wall_s"]))
+                integ = res
             # LAMMPS on t processes.
             log = os.path.join(work, "log.np%d.%d" % (t, r))
             cmd = [lmp, "-in", "in.breakage", "-log", log, "-screen", "none"]
@@ -106,9 +114,9 @@ def main():
     out = {"particles": n, "bonds": integ["bonds"], "generated": integ["generated"], "steps": steps,
            "time_step": integ["time_step"], "strain_per_step": integ["strain_per_step"],
            "repeat": a.repeat, "cores": os.cpu_count(), "load_before": load_before, "results": []}
-    for t in [1, 2]:
-        i, l = best_int[t], best_lmp[t]
-        row = {"cores": t,
+    for law, t in [(law, t) for law in LAWS for t in [1, 2]]:
+        i, l = best_int[(law, t)], best_lmp[t]
+        row = {"law": law, "cores": t,
                "integrator_wall_ns": i["wall_min_s"] * per, "integrator_cpu_ns": i["cpu_s"] * per,
                "lammps_wall_ns": l["loop_min_s"] * per, "lammps_cpu_ns": l["cpu_s"] * per,
                "integrator_broken": i["broken"], "lammps_broken": l["broken"],
@@ -125,12 +133,12 @@ def main():
         return
     print("%d particles (cut from %d), %d bonds, %d steps of %.4e s, axial strain %.2e per step, fastest of %d"
           % (n, out["generated"], out["bonds"], steps, out["time_step"], out["strain_per_step"], a.repeat))
-    print("%5s %14s %14s %14s %14s %8s %8s %10s %10s" % (
-        "cores", "integ wall ns", "integ CPU ns", "LAMMPS wall ns", "LAMMPS CPU ns", "wall ×", "CPU ×",
+    print("%5s %5s %14s %14s %14s %14s %8s %8s %10s %10s" % (
+        "law", "cores", "integ wall ns", "integ CPU ns", "LAMMPS wall ns", "LAMMPS CPU ns", "wall ×", "CPU ×",
         "broken int", "broken lmp"))
     for r in out["results"]:
-        print("%5d %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f %10d %10d" % (
-            r["cores"], r["integrator_wall_ns"], r["integrator_cpu_ns"], r["lammps_wall_ns"], r["lammps_cpu_ns"],
+        print("%5s %5d %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f %10d %10d" % (
+            r["law"], r["cores"], r["integrator_wall_ns"], r["integrator_cpu_ns"], r["lammps_wall_ns"], r["lammps_cpu_ns"],
             r["ratio_wall"], r["ratio_cpu"], r["integrator_broken"], r["lammps_broken"]))
     print("load average before / after: %s / %s" % (
         " ".join("%.1f" % x for x in out["load_before"]), " ".join("%.1f" % x for x in out["load_after"])))
