@@ -230,7 +230,7 @@ impl BondCriteria {
     }
 
     /// Bonds `first..first + normal.len()` that break on the loads F_n = `normal[k]`,
-    /// |F_s|² = `shear_sq[k]` the law just computed, skipping those not `intact`, pushed to
+    /// |F_s|² = `shear_sq[k]` (the pair of slices) the law just computed, skipping those not `intact`, pushed to
     /// `out` in bond order: [`BondCriterion::judge`] bond by bond. For YADE's criterion without
     /// moments, a bond clearly inside both limits (−F_n ≤ a_n and |F_s|² below max F_s² by a
     /// relative 1e-9, far above the rounding of |F_s|) holds without the square root and the
@@ -241,8 +241,7 @@ impl BondCriteria {
         law: &dyn BondLaw,
         particles: &Particles,
         first: usize,
-        normal: &[f64],
-        shear_sq: &[f64],
+        (normal, shear_sq): (&[f64], &[f64]),
         intact: &[bool],
         out: &mut Vec<(usize, Failure)>,
     ) {

@@ -751,9 +751,12 @@ fn pair_kernel(
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let pd = ri + rj - d;
     if pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
-        // Apart (YADE erases the interaction) or held by a bond: no contact, no memory.
-        *st = PairState::default();
-        *out = PairLoad::default();
+        // Apart (YADE erases the interaction) or held by a bond: no contact, no memory. A
+        // pair not active already has both zero (only an active one's are ever set).
+        if st.active {
+            *st = PairState::default();
+            *out = PairLoad::default();
+        }
         return [0.0; 3];
     }
     let n = l * (1.0 / d);

@@ -790,8 +790,7 @@ impl Simulation {
                     law,
                     particles,
                     first,
-                    &normal[..len],
-                    &shear_sq[..len],
+                    (&normal[..len], &shear_sq[..len]),
                     intact,
                     &mut out,
                 );
