@@ -26,7 +26,10 @@
 //! with the cell (after its integration), the time step and a predicate that excludes the
 //! pairs held by an intact bond (e.g. a [`PairSet`] of intact bonded pairs); add
 //! [`Contacts::force`]/[`Contacts::torque`] (or the slices `compute` adds to) to each
-//! particle's resultant. When a bond breaks, stop excluding its pair and, as YADE's
+//! particle's resultant. The integrator instead gives its intact bonds' pairs once to
+//! [`Contacts::set_excluded`] (a flag per listed pair, no predicate per pair and step; the
+//! same bits) and [`Contacts::include_pair`]s a pair when its bond breaks. When a bond
+//! breaks, stop excluding its pair and, as YADE's
 //! `CohFrictPhys` keeps the bond's springs after cohesion breaks, call
 //! [`Contacts::set_pair_stiffness`] with the bond's k_n, k_s.
 
