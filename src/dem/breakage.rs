@@ -101,33 +101,6 @@ impl BondCriterion {
     }
 }
 
-impl BondCriterion {
-    /// [`BondCriterion::judge`] when bond `b` breaks, None when it holds: the integrator's
-    /// per-step test. For YADE's criterion without moments, a bond clearly inside both limits
-    /// (−F_n ≤ a_n and |F_s|² below max F_s² by a relative 1e-9, far above the rounding of
-    /// |F_s|) holds without the square root and the index's divisions; any other is judged
-    /// in full, so the verdict is the criterion's.
-    #[inline]
-    pub(crate) fn breaks(
-        &self,
-        law: &dyn BondLaw,
-        particles: &Particles,
-        b: usize,
-    ) -> Option<Failure> {
-        if let BondCriterion::Yade(a) = self {
-            if a.moments == YadeMoments::Elastic {
-                let (normal, shear) = law.bond_forces(b);
-                let max_fs = a.max_shear(normal);
-                if -normal <= a.normal && shear.norm_squared() < max_fs * max_fs * (1.0 - 1e-9) {
-                    return None;
-                }
-            }
-        }
-        let f = self.judge(law, particles, b);
-        f.broken.then_some(f)
-    }
-}
-
 /// The bond law's name ([`BondLaw::name`]) of a [`LawKind`].
 pub(crate) fn law_name(kind: LawKind) -> &'static str {
     match kind {
@@ -143,6 +116,11 @@ pub(crate) fn law_name(kind: LawKind) -> &'static str {
 pub struct BondCriteria {
     law: LawKind,
     per_bond: Vec<BondCriterion>,
+    /// Per bond, the limits of [`BondCriteria::broken_in`]'s quick test for YADE's criterion
+    /// without moments, as arrays: a_n (NaN for any other criterion, which never passes), a_s, tan φ.
+    screen_normal: Vec<f64>,
+    screen_shear: Vec<f64>,
+    screen_tan: Vec<f64>,
 }
 
 impl BondCriteria {
@@ -237,12 +215,74 @@ impl BondCriteria {
             };
             per_bond.push(criterion);
         }
-        Ok(BondCriteria { law, per_bond })
+        Ok(BondCriteria::from_criteria(law, per_bond))
     }
 
     /// Criteria given bond by bond (for a law's criterion with limits made elsewhere).
     pub fn from_criteria(law: LawKind, per_bond: Vec<BondCriterion>) -> BondCriteria {
-        BondCriteria { law, per_bond }
+        let n = per_bond.len();
+        let (mut screen_normal, mut screen_shear, mut screen_tan) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        for c in &per_bond {
+            let (a_n, a_s, tan) = match c {
+                BondCriterion::Yade(a)
+                    if a.moments == YadeMoments::Elastic && !a.cohesion_disables_friction =>
+                {
+                    (a.normal, a.shear, a.tan_friction)
+                }
+                _ => (f64::NAN, f64::NAN, f64::NAN),
+            };
+            screen_normal.push(a_n);
+            screen_shear.push(a_s);
+            screen_tan.push(tan);
+        }
+        BondCriteria {
+            law,
+            per_bond,
+            screen_normal,
+            screen_shear,
+            screen_tan,
+        }
+    }
+
+    /// Bonds `first..first + normal.len()` that break on the loads F_n = `normal[k]`,
+    /// |F_s|² = `shear_sq[k]` (the pair of slices) the law just computed, skipping those not `intact`, pushed to
+    /// `out` in bond order: [`BondCriterion::judge`] bond by bond. For YADE's criterion without
+    /// moments, a bond clearly inside both limits (−F_n ≤ a_n and |F_s|² below max F_s² by a
+    /// relative 1e-9, far above the rounding of |F_s|) holds without the square root and the
+    /// index's divisions, its limits read from arrays; any other is judged in full, so the
+    /// verdict is the criterion's.
+    pub(crate) fn broken_in(
+        &self,
+        law: &dyn BondLaw,
+        particles: &Particles,
+        first: usize,
+        (normal, shear_sq): (&[f64], &[f64]),
+        intact: &[bool],
+        out: &mut Vec<(usize, Failure)>,
+    ) {
+        let end = first + normal.len();
+        let an = &self.screen_normal[first..end];
+        let as_ = &self.screen_shear[first..end];
+        let tan = &self.screen_tan[first..end];
+        for k in 0..normal.len() {
+            let b = first + k;
+            if !intact[b] {
+                continue;
+            }
+            // YadeAdhesion::max_shear without cohesionDisablesFriction.
+            let max_fs = (as_[k] + normal[k] * tan[k]).max(0.0);
+            if -normal[k] <= an[k] && shear_sq[k] < max_fs * max_fs * (1.0 - 1e-9) {
+                continue;
+            }
+            let f = self.per_bond[b].judge(law, particles, b);
+            if f.broken {
+                out.push((b, f));
+            }
+        }
     }
 
     /// The bond law these criteria are for.

@@ -26,7 +26,10 @@
 //! with the cell (after its integration), the time step and a predicate that excludes the
 //! pairs held by an intact bond (e.g. a [`PairSet`] of intact bonded pairs); add
 //! [`Contacts::force`]/[`Contacts::torque`] (or the slices `compute` adds to) to each
-//! particle's resultant. When a bond breaks, stop excluding its pair and, as YADE's
+//! particle's resultant. The integrator instead gives its intact bonds' pairs once to
+//! [`Contacts::set_excluded`] (a flag per listed pair, no predicate per pair and step; the
+//! same bits) and [`Contacts::include_pair`]s a pair when its bond breaks. When a bond
+//! breaks, stop excluding its pair and, as YADE's
 //! `CohFrictPhys` keeps the bond's springs after cohesion breaks, call
 //! [`Contacts::set_pair_stiffness`] with the bond's k_n, k_s.
 
@@ -210,6 +213,11 @@ pub struct Contacts {
     /// Springs of pairs that differ from the law (broken bonds), keyed (min, max).
     stiffness: BTreeMap<(u32, u32), (f64, f64)>,
     list: Vec<Candidate>,
+    /// Per listed pair: in `excluded` (held by an intact bond), so skipped by the pair loop
+    /// and the gather (its state and loads stay zero).
+    held: Vec<bool>,
+    /// Pairs that have no contact ([`Contacts::set_excluded`]).
+    excluded: PairSet,
     state: Vec<PairState>,
     loads: Vec<PairLoad>,
     /// Particle → pair CSR: offsets and entries `2·pair + side` in list order.
@@ -249,6 +257,8 @@ impl Contacts {
             skin,
             stiffness: BTreeMap::new(),
             list: Vec::new(),
+            held: Vec::new(),
+            excluded: PairSet::default(),
             state: Vec::new(),
             loads: Vec::new(),
             start: Vec::new(),
@@ -290,6 +300,35 @@ impl Contacts {
             c.ks = ks;
         }
         Ok(())
+    }
+
+    /// The pairs that have no contact whatever their overlap (the integrator's intact bonds),
+    /// judged by a flag per listed pair instead of a predicate asked every step; their
+    /// contact state is dropped. [`Contacts::update`]'s predicate still applies on top.
+    pub fn set_excluded(&mut self, pairs: PairSet) {
+        self.excluded = pairs;
+        for k in 0..self.list.len() {
+            let c = &self.list[k];
+            self.held[k] = self.excluded.contains(c.i as usize, c.j as usize);
+            if self.held[k] {
+                self.state[k] = PairState::default();
+                self.loads[k] = PairLoad::default();
+            }
+        }
+    }
+
+    /// Let the pair {i, j} touch again (its bond broke): removed from the excluded pairs.
+    pub fn include_pair(&mut self, i: usize, j: usize) {
+        let k = key(i, j);
+        if self.excluded.remove(i, j) {
+            let lo = self.list.partition_point(|c| (c.i, c.j) < k);
+            for (c, h) in self.list[lo..].iter().zip(&mut self.held[lo..]) {
+                if (c.i, c.j) != k {
+                    break;
+                }
+                *h = false;
+            }
+        }
     }
 
     /// Springs (k_n, k_s) of the pair {i, j}: its own if set, else the law's.
@@ -514,12 +553,22 @@ impl Contacts {
             _ => return Ok(true),
         };
         let strain = (f - Mat3::identity()).norm();
-        let u_max = p
-            .position
-            .par_iter()
-            .zip(r.position.par_iter())
-            .map(|(x, x0)| (x - f * x0).norm())
-            .reduce(|| 0.0, nan_max);
+        let u_max = if r.h_inv.is_none() {
+            // F = I: x − I·x⁰ is x − x⁰ to the bit (x⁰ finite), and the largest |u| is the
+            // root of the largest |u|² (the root is monotonic), so the same bound.
+            p.position
+                .par_iter()
+                .zip(r.position.par_iter())
+                .map(|(x, x0)| (x - x0).norm_squared())
+                .reduce(|| 0.0, nan_max)
+                .sqrt()
+        } else {
+            p.position
+                .par_iter()
+                .zip(r.position.par_iter())
+                .map(|(x, x0)| (x - f * x0).norm())
+                .reduce(|| 0.0, nan_max)
+        };
         if !u_max.is_finite() {
             return Err(non_finite(p));
         }
@@ -547,6 +596,7 @@ impl Contacts {
         let found = candidate_pairs(&p.position, &p.radius, h, cutoff, self.skin)?;
         // New list: carried state for pairs already listed (both lists are sorted).
         let mut list = Vec::with_capacity(found.len());
+        let mut held = Vec::with_capacity(found.len());
         let mut state = Vec::with_capacity(found.len());
         let mut old = 0;
         for (i, j, image) in found {
@@ -562,11 +612,15 @@ impl Contacts {
                 kn,
                 ks,
             });
-            state.push(if old < self.list.len() && self.list[old].key() == k {
-                self.state[old]
-            } else {
-                PairState::default()
-            });
+            let h = self.excluded.contains(i as usize, j as usize);
+            held.push(h);
+            state.push(
+                if !h && old < self.list.len() && self.list[old].key() == k {
+                    self.state[old]
+                } else {
+                    PairState::default()
+                },
+            );
         }
         // Pairs dropped from the list are beyond the skin: not in touch, nothing to keep.
         let mut start = vec![0usize; n + 1];
@@ -594,6 +648,7 @@ impl Contacts {
         self.loads = vec![PairLoad::default(); list.len()];
         self.chunk_sums = vec![[0.0; 3]; list.len().div_ceil(PAIR_CHUNK)];
         self.list = list;
+        self.held = held;
         self.state = state;
         self.start = start;
         self.entries = entries;
@@ -636,11 +691,21 @@ impl Contacts {
             self.state.par_chunks_mut(PAIR_CHUNK),
             self.loads.par_chunks_mut(PAIR_CHUNK),
             self.chunk_sums.par_iter_mut(),
+            self.held.par_chunks(PAIR_CHUNK),
         )
             .into_par_iter()
-            .for_each(|(list, state, loads, slot)| {
+            .for_each(|(list, state, loads, slot, held)| {
                 let mut sum = [0.0; 3];
-                for ((c, s), l) in list.iter().zip(state.iter_mut()).zip(loads.iter_mut()) {
+                for (((c, s), l), &h) in list
+                    .iter()
+                    .zip(state.iter_mut())
+                    .zip(loads.iter_mut())
+                    .zip(held)
+                {
+                    if h {
+                        // Held by a bond: state and loads stay zero (set_excluded, rebuild).
+                        continue;
+                    }
                     let [e, d, a] = pair_kernel(&inp, c, s, l);
                     sum[0] += e;
                     sum[1] += d;
@@ -655,7 +720,7 @@ impl Contacts {
     fn gather(&mut self, n: usize) {
         self.force.resize(n, Vec3::zeros());
         self.torque.resize(n, Vec3::zeros());
-        let (start, entries, loads) = (&self.start, &self.entries, &self.loads);
+        let (start, entries, loads, held) = (&self.start, &self.entries, &self.loads, &self.held);
         self.force
             .par_chunks_mut(PARTICLE_BLOCK)
             .zip(self.torque.par_chunks_mut(PARTICLE_BLOCK))
@@ -665,6 +730,10 @@ impl Contacts {
                     let k = b * PARTICLE_BLOCK + l;
                     let (mut fk, mut tk) = (Vec3::zeros(), Vec3::zeros());
                     for &e in &entries[start[k]..start[k + 1]] {
+                        // A held pair's loads are zero: adding them changes no bit.
+                        if held[(e >> 1) as usize] {
+                            continue;
+                        }
                         let load = &loads[(e >> 1) as usize];
                         if e & 1 == 0 {
                             fk += load.force_i;
@@ -726,9 +795,12 @@ fn pair_kernel(
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let pd = ri + rj - d;
     if pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
-        // Apart (YADE erases the interaction) or held by a bond: no contact, no memory.
-        *st = PairState::default();
-        *out = PairLoad::default();
+        // Apart (YADE erases the interaction) or held by a bond: no contact, no memory. A
+        // pair not active already has both zero (only an active one's are ever set).
+        if st.active {
+            *st = PairState::default();
+            *out = PairLoad::default();
+        }
         return [0.0; 3];
     }
     let n = l * (1.0 / d);

@@ -209,7 +209,9 @@ impl Quat {
         ax * a
     }
 
-    /// Rotate a vector.
+    /// Rotate a vector. Inlined: law (d) rotates eight vectors per bond and step, and the
+    /// call (with the unused scalar part of the second product) cost a quarter of its time.
+    #[inline]
     pub fn rotate(&self, x: &Vec3) -> Vec3 {
         let p = Quat { w: 0.0, v: *x };
         self.mul(&p).mul(&self.conjugate()).v

@@ -396,8 +396,6 @@ pub struct Simulation {
     broken_energy: f64,
     /// Frictional contacts between spheres not held by an intact bond (None: off).
     contacts: Option<Contacts>,
-    /// The pairs of intact bonds (excluded from the contacts).
-    bonded: PairSet,
 }
 
 /// Per-particle external forces (N), e.g. a pressure on exposed surface particles: each
@@ -462,7 +460,6 @@ impl Clone for Simulation {
             break_events: self.break_events.clone(),
             broken_energy: self.broken_energy,
             contacts: self.contacts.clone(),
-            bonded: self.bonded.clone(),
         }
     }
 }
@@ -520,7 +517,6 @@ impl Simulation {
             break_events: Vec::new(),
             broken_energy: 0.0,
             contacts: None,
-            bonded: PairSet::default(),
         };
         let mut law = law;
         law.initialize(
@@ -735,13 +731,16 @@ impl Simulation {
     /// [`Energies::friction`] count them, [`Simulation::stress`] includes them. The critical
     /// time step is not re-estimated: contact springs stiffer than the bonds need a smaller
     /// [`Simulation::set_time_step`].
-    pub fn set_contacts(&mut self, contacts: Option<Contacts>) -> Result<()> {
+    pub fn set_contacts(&mut self, mut contacts: Option<Contacts>) -> Result<()> {
         let t = &self.topology;
-        self.bonded = PairSet::new(
-            (0..t.len())
-                .filter(|&b| self.intact[b])
-                .map(|b| (t.i[b] as usize, t.j[b] as usize)),
-        );
+        if let Some(c) = &mut contacts {
+            // The pairs of intact bonds, excluded by a flag per listed pair.
+            c.set_excluded(PairSet::new(
+                (0..t.len())
+                    .filter(|&b| self.intact[b])
+                    .map(|b| (t.i[b] as usize, t.j[b] as usize)),
+            ));
+        }
         self.contacts = contacts;
         Ok(())
     }
@@ -793,10 +792,20 @@ impl Simulation {
         let failed: Vec<Vec<(usize, crate::strength::Failure)>> = (0..n.div_ceil(BOND_CHUNK))
             .into_par_iter()
             .map(|c| {
-                (c * BOND_CHUNK..((c + 1) * BOND_CHUNK).min(n))
-                    .filter(|&b| intact[b])
-                    .filter_map(|b| criteria.get(b).breaks(law, particles, b).map(|f| (b, f)))
-                    .collect()
+                let first = c * BOND_CHUNK;
+                let len = BOND_CHUNK.min(n - first);
+                let (mut normal, mut shear_sq) = ([0.0; BOND_CHUNK], [0.0; BOND_CHUNK]);
+                law.bond_force_norms(first, &mut normal[..len], &mut shear_sq[..len]);
+                let mut out = Vec::new();
+                criteria.broken_in(
+                    law,
+                    particles,
+                    first,
+                    (&normal[..len], &shear_sq[..len]),
+                    intact,
+                    &mut out,
+                );
+                out
             })
             .collect();
         for (b, f) in failed.into_iter().flatten() {
@@ -817,7 +826,7 @@ impl Simulation {
                                 == i.min(j)
                     });
                 if !held_elsewhere {
-                    self.bonded.remove(i, j);
+                    c.include_pair(i, j);
                 }
                 c.set_pair_stiffness(i, j, kn, ks)?;
             }
@@ -871,10 +880,8 @@ impl Simulation {
             self.break_failed_bonds()?;
         }
         if let Some(c) = &mut self.contacts {
-            let bonded = &self.bonded;
-            c.update(&self.particles, self.cell.as_ref(), dt, &|i, j| {
-                bonded.contains(i, j)
-            })?;
+            // Intact bonds' pairs are excluded by flags (Contacts::set_excluded).
+            c.update(&self.particles, self.cell.as_ref(), dt, &|_, _| false)?;
             // A pair whose bond broke in this step and that touches carries on part of the
             // bond's energy as a contact (its compression, with the bond's k_n): the break
             // released only the rest.

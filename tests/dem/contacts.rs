@@ -413,8 +413,11 @@ fn too_small_a_periodic_cell_is_refused() {
 }
 
 /// A dense random assembly in motion (velocities, spins, a shearing cell, friction slipping)
-/// run for a few steps; returns the bits of every force, torque and energy.
-fn moving_assembly_bits() -> Vec<u64> {
+/// run for a few steps, every third pair of its first Verlet list excluded and a third of
+/// those let touch after step 10; returns the bits of every force, torque and energy.
+/// `flags`: the excluded pairs given by [`Contacts::set_excluded`] and
+/// [`Contacts::include_pair`] instead of the predicate; `exclude`: false excludes nothing.
+fn moving_assembly_bits_by(flags: bool, exclude: bool) -> Vec<u64> {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let side = 24.0;
     let mut p = random_spheres(&mut rng, 3000, side);
@@ -424,24 +427,41 @@ fn moving_assembly_bits() -> Vec<u64> {
     }
     let mut cell = DeformingCell::new(Vec3::repeat(side));
     cell.set_velocity_gradient(Mat3::new(0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.02));
-    let intact = PairSet::new((0..3000).step_by(3).map(|i| (i, (i * 7 + 1) % 3000)));
+    let mut first = Contacts::new(law(1.0e3, 4.0e2, 0.3), 0.2).unwrap();
+    first.update(&p, Some(&cell), 0.0, &|_, _| false).unwrap();
+    let pairs: Vec<(usize, usize)> = if exclude {
+        first
+            .candidates()
+            .into_iter()
+            .step_by(3)
+            .map(|(i, j, _)| (i, j))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut intact = PairSet::new(pairs.iter().copied());
     let mut c = Contacts::new(law(1.0e3, 4.0e2, 0.3), 0.2).unwrap();
+    if flags {
+        c.set_excluded(intact.clone());
+    }
     let dt = 0.01;
     let mut bits = Vec::new();
-    for _ in 0..20 {
+    for step in 0..20 {
+        if step == 10 {
+            for &(i, j) in pairs.iter().step_by(3) {
+                intact.remove(i, j);
+                if flags {
+                    c.include_pair(i, j);
+                }
+            }
+        }
+        let by_predicate = |i: usize, j: usize| !flags && intact.contains(i, j);
         cell.vel_grad = cell.next_vel_grad.unwrap_or(cell.vel_grad);
         cell.integrate(dt);
         let mut f = vec![Vec3::zeros(); p.len()];
         let mut t = vec![Vec3::zeros(); p.len()];
-        c.compute(
-            &p,
-            Some(&cell),
-            dt,
-            &|i, j| intact.contains(i, j),
-            &mut f,
-            &mut t,
-        )
-        .unwrap();
+        c.compute(&p, Some(&cell), dt, &by_predicate, &mut f, &mut t)
+            .unwrap();
         for k in 0..p.len() {
             let x = p.position[k];
             p.position[k] += (p.velocity[k] + cell.vel_grad * x) * dt;
@@ -461,6 +481,28 @@ fn moving_assembly_bits() -> Vec<u64> {
     );
     assert!(c.friction_dissipation() > 0.0 && c.len() > 1000);
     bits
+}
+
+fn moving_assembly_bits() -> Vec<u64> {
+    moving_assembly_bits_by(false, true)
+}
+
+/// Excluding pairs by flags (the integrator's way) gives the same bits as asking the
+/// predicate every step, also after pairs are let touch (bonds broken).
+#[test]
+fn excluded_pairs_by_flags_equal_the_predicate() {
+    let by_predicate = moving_assembly_bits_by(false, true);
+    let by_flags = moving_assembly_bits_by(true, true);
+    let none = moving_assembly_bits_by(true, false);
+    assert!(by_predicate.len() == by_flags.len());
+    assert!(
+        none != by_flags,
+        "the excluded pairs changed nothing: the test is void"
+    );
+    assert!(
+        by_predicate == by_flags,
+        "contact loads differ between the exclusion by flags and by the predicate"
+    );
 }
 
 #[test]

@@ -71,6 +71,15 @@ pub trait BondLaw: Send + Sync {
     /// Normal force of bond `b` (N, compression positive as YADE) and its shear force
     /// vector (N, YADE's `shearForce`, acting on j).
     fn bond_forces(&self, b: usize) -> (f64, Vec3);
+    /// [`BondLaw::bond_forces`] of bonds `first..first + normal.len()` as F_n into `normal`
+    /// and |F_s|² into `shear_sq` (one dynamic call per chunk for the breakage test).
+    fn bond_force_norms(&self, first: usize, normal: &mut [f64], shear_sq: &mut [f64]) {
+        for (k, (n, s)) in normal.iter_mut().zip(shear_sq.iter_mut()).enumerate() {
+            let (f_n, f_s) = self.bond_forces(first + k);
+            *n = f_n;
+            *s = f_s.norm_squared();
+        }
+    }
     /// Unit normal of bond `b` at the last evaluation, from i towards (the image of) j:
     /// with [`BondLaw::bond_forces`], the force on j is n·F_n + F_s (joints resolve it on
     /// their plane).
@@ -736,6 +745,14 @@ impl BondLaw for LinearBondKernel {
             self.dyn_state[b].normal_force,
             self.dyn_state[b].shear_force,
         )
+    }
+
+    fn bond_force_norms(&self, first: usize, normal: &mut [f64], shear_sq: &mut [f64]) {
+        let states = &self.dyn_state[first..first + normal.len()];
+        for ((n, s), d) in normal.iter_mut().zip(shear_sq.iter_mut()).zip(states) {
+            *n = d.normal_force;
+            *s = d.shear_force.norm_squared();
+        }
     }
 
     fn bond_normal(&self, b: usize) -> Vec3 {
