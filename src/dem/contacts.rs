@@ -158,6 +158,9 @@ pub struct Contact {
     pub stiffness: (f64, f64),
 }
 
+/// A pair's key in the Verlet list's order: (i, j, image of j), i < j.
+type PairKey = (u32, u32, [i32; 3]);
+
 /// A candidate pair of the Verlet list.
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
@@ -228,7 +231,7 @@ pub struct Contacts {
     torque: Vec<Vec3>,
     /// Shear forces handed on by bonds broken in this step, keyed (i, j, image) canonical,
     /// set into the pairs' state at the next [`Contacts::update`].
-    handed_on: Vec<((u32, u32, [i32; 3]), Vec3)>,
+    handed_on: Vec<(PairKey, Vec3)>,
 }
 
 /// What the pair loop needs besides the per-pair records.
