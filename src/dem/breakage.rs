@@ -101,6 +101,25 @@ impl BondCriterion {
     }
 }
 
+impl BondCriterion {
+    /// The shear force (N, acting on j, YADE's `shearForce`) that bond `b`, broken in `mode`
+    /// at `law`'s last evaluation, hands on to its pair's frictional contact; None when that
+    /// contact starts afresh with zero shear. YADE's fragile
+    /// `Law2_ScGeom6D_CohFrictPhys_CohesionMoment` breaks a bond in shear without erasing the
+    /// interaction: it keeps the trial shear force, caps it at max(0, F_n·tan φ) in the same
+    /// step and carries on incrementally (a tension break erases it; the later YADE's moment
+    /// breaks keep it as a shear break does). LAMMPS bpm/rotational, the parallel bond and
+    /// joints drop the bond, so their pair's contact starts afresh.
+    pub fn handed_on_shear(&self, law: &dyn BondLaw, b: usize, mode: Mode) -> Option<Vec3> {
+        match (self, mode) {
+            (BondCriterion::Yade(_), Mode::Shear | Mode::Bending | Mode::Twisting) => {
+                Some(law.bond_forces(b).1)
+            }
+            _ => None,
+        }
+    }
+}
+
 /// The bond law's name ([`BondLaw::name`]) of a [`LawKind`].
 pub(crate) fn law_name(kind: LawKind) -> &'static str {
     match kind {

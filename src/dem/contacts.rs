@@ -31,7 +31,8 @@
 //! same bits) and [`Contacts::include_pair`]s a pair when its bond breaks. When a bond
 //! breaks, stop excluding its pair and, as YADE's
 //! `CohFrictPhys` keeps the bond's springs after cohesion breaks, call
-//! [`Contacts::set_pair_stiffness`] with the bond's k_n, k_s.
+//! [`Contacts::set_pair_stiffness`] with the bond's k_n, k_s; a bond whose law keeps its
+//! shear force (YADE's shear break) hands it on with [`Contacts::carry_shear`].
 
 use super::state::{deterministic_sum_mat3, DeformingCell, Particles};
 use crate::{Error, Mat3, Result, Vec3};
@@ -160,6 +161,9 @@ pub struct Contact {
     pub stiffness: (f64, f64),
 }
 
+/// A pair's key in the Verlet list's order: (i, j, image of j), i < j.
+type PairKey = (u32, u32, [i32; 3]);
+
 /// A candidate pair of the Verlet list.
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
@@ -186,6 +190,9 @@ struct PairState {
     overlap: f64,
     /// In touch at the last evaluation.
     active: bool,
+    /// `shear_force` is a broken bond's, handed on in this step ([`Contacts::carry_shear`]):
+    /// cap it, do not rotate or increment it.
+    carried: bool,
 }
 
 /// Loads of one pair: the force on i (j receives its opposite) and the torques.
@@ -230,6 +237,9 @@ pub struct Contacts {
     rebuilds: u64,
     force: Vec<Vec3>,
     torque: Vec<Vec3>,
+    /// Shear forces handed on by bonds broken in this step, keyed (i, j, image) canonical,
+    /// set into the pairs' state at the next [`Contacts::update`].
+    handed_on: Vec<(PairKey, Vec3)>,
 }
 
 /// What the pair loop needs besides the per-pair records.
@@ -269,6 +279,7 @@ impl Contacts {
             rebuilds: 0,
             force: Vec::new(),
             torque: Vec::new(),
+            handed_on: Vec::new(),
         })
     }
 
@@ -327,6 +338,49 @@ impl Contacts {
                     break;
                 }
                 *h = false;
+            }
+        }
+    }
+
+    /// Make the pair {i, j} with j's periodic image `image` (cells, as [`Contact::image`])
+    /// continue from the shear force `shear` (N, acting on j) at the next
+    /// [`Contacts::update`]: a bond broken in shear in this step hands on the trial shear force
+    /// its law computed (YADE's fragile CohFrict keeps the interaction, docs/strength.md
+    /// "Compression (UCS)"). That evaluation caps it at μ·F_n with the contact's own
+    /// F_n — the excess is released by the break, not friction's slip — and neither rotates
+    /// nor increments it (the bond law did, this step); later ones carry it on incrementally.
+    /// A pair not in touch then starts afresh as usual (YADE erases it in tension).
+    pub fn carry_shear(&mut self, i: usize, j: usize, image: [i32; 3], shear: Vec3) -> Result<()> {
+        if i == j || i.max(j) >= u32::MAX as usize {
+            return Err(Error::Invalid(format!(
+                "contacts: pair ({i}, {j}) must join two different particles"
+            )));
+        }
+        if !(shear.x.is_finite() && shear.y.is_finite() && shear.z.is_finite()) {
+            return Err(Error::Invalid(format!(
+                "contacts: pair ({i}, {j}): the shear force handed on must be finite, got {shear:?}"
+            )));
+        }
+        // Canonical order i < j: seen from the other end, the image and the force on j flip.
+        let (a, b, image, shear) = if i < j {
+            (i, j, image, shear)
+        } else {
+            (j, i, image.map(|c| -c), -shear)
+        };
+        self.handed_on.push(((a as u32, b as u32, image), shear));
+        Ok(())
+    }
+
+    /// Put the handed-on shear forces into their pairs' state (a pair not listed is beyond
+    /// the skin: not in touch, nothing to carry).
+    fn apply_handed_on(&mut self) {
+        for (k, shear) in std::mem::take(&mut self.handed_on) {
+            if let Ok(n) = self.list.binary_search_by(|c| c.key().cmp(&k)) {
+                self.state[n] = PairState {
+                    shear_force: shear,
+                    carried: true,
+                    ..Default::default()
+                };
             }
         }
     }
@@ -401,6 +455,9 @@ impl Contacts {
         }
         if self.needs_rebuild(particles, cell)? {
             self.rebuild(particles, cell)?;
+        }
+        if !self.handed_on.is_empty() {
+            self.apply_handed_on();
         }
         self.evaluate(particles, cell, dt, excluded);
         self.gather(particles.len());
@@ -796,8 +853,8 @@ fn pair_kernel(
     let pd = ri + rj - d;
     if pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
         // Apart (YADE erases the interaction) or held by a bond: no contact, no memory. A
-        // pair not active already has both zero (only an active one's are ever set).
-        if st.active {
+        // pair neither active nor carrying a broken bond's shear already has both zero.
+        if st.active || st.carried {
             *st = PairState::default();
             *out = PairLoad::default();
         }
@@ -818,10 +875,12 @@ fn pair_kernel(
     }
     let shear_inc = (rel_vel - n * n.dot(&rel_vel)) * inp.dt;
     let mut fs = st.shear_force;
-    fs -= fs.cross(&orthonormal_axis);
-    fs -= fs.cross(&twist_axis);
     let fn_ = c.kn * pd;
-    fs -= shear_inc * c.ks;
+    if !st.carried {
+        fs -= fs.cross(&orthonormal_axis);
+        fs -= fs.cross(&twist_axis);
+        fs -= shear_inc * c.ks;
+    }
     // Coulomb: |F_s| ≤ μ F_n; the excess is slip.
     let max_fs2 = (fn_ * fn_) * (inp.friction * inp.friction);
     let mut dissipated = 0.0;
@@ -829,7 +888,7 @@ fn pair_kernel(
         let ratio = max_fs2.sqrt() / fs.norm();
         let trial = fs;
         fs *= ratio;
-        if c.ks > 0.0 {
+        if c.ks > 0.0 && !st.carried {
             dissipated = ((trial - fs) / c.ks).dot(&fs);
         }
     }
@@ -839,6 +898,7 @@ fn pair_kernel(
         normal_force: fn_,
         overlap: pd,
         active: true,
+        carried: false,
     };
     // Force on i (YADE applies −normalForce − shearForce to body 1), at the contact point.
     let force = -(n * fn_) - fs;

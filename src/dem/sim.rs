@@ -829,6 +829,16 @@ impl Simulation {
                     c.include_pair(i, j);
                 }
                 c.set_pair_stiffness(i, j, kn, ks)?;
+                // YADE keeps a bond broken in shear as a contact with its shear force, capped
+                // at μ·F_n in this step (`BondCriterion::handed_on_shear`).
+                let handed = criteria
+                    .get(b)
+                    .handed_on_shear(self.law.as_ref(), b, f.mode);
+                if let (Some(shear), false) = (handed, held_elsewhere) {
+                    let d = self.topology.cell_dist[b];
+                    let image = [d.x, d.y, d.z].map(|v| v.round() as i32);
+                    c.carry_shear(i, j, image, shear)?;
+                }
             }
             let elastic = self.law.break_bond(&self.particles, b);
             let energy = elastic + 0.5 * self.dt * self.bond_load_power(b);

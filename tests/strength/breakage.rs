@@ -523,7 +523,11 @@ fn sheared_to_failure(factor: f64) -> (f64, usize, f64, f64, u64) {
 /// friction (`sheared_to_failure`: 94 of the bar's bonds break, about 40 contacts remain,
 /// friction takes 4 % of the work): the gap (gained − work)/work at 0.8, 0.4, 0.2, 0.1 ×
 /// the critical time step, measured 9.9e-4, −9.3e-5, −1.3e-4, −9.9e-5 — second order or
-/// better from 0.8 to 0.4 (÷10.7), then a floor near 1e-4 that does not fall with dt. Before
+/// better from 0.8 to 0.4 (÷10.7), then a floor near 1e-4 that does not fall with dt. Since
+/// a YADE bond broken in shear hands its capped shear force on to its contact
+/// (`BondCriterion::handed_on_shear`) the default step is at that floor too: 1.5e-4,
+/// −1.3e-4, −1.5e-4, −8.2e-5, so all four are held below 3e-4 (a first-order ledger error
+/// at 0.8 would exceed it; it was 9.9e-4 with the fresh contacts). Before
 /// (a breaking bond's energy booked at x(t) and again, in compression, as the new contact's;
 /// the Cundall damping as mλ|a·(v + a·dt/2)|·dt): 5.5 %, 3.6 %, 3.1 %, 2.9 %. The positions
 /// at the end are the same bits as before the ledger changed (hashes in the output).
@@ -543,13 +547,7 @@ fn energy_closes_at_the_default_time_step_in_a_run_to_failure_with_contacts() {
         "{:.3e} at the default time step",
         gaps[0]
     );
-    assert!(
-        gaps[1].abs() <= gaps[0].abs() / 4.0,
-        "{:.3e} at 0.4 vs {:.3e} at 0.8: not second order",
-        gaps[1],
-        gaps[0]
-    );
-    assert!(gaps[1..].iter().all(|g| g.abs() < 3e-4), "{gaps:?}");
+    assert!(gaps.iter().all(|g| g.abs() < 3e-4), "{gaps:?}");
 }
 
 /// A 8 × 8 × 17 bar (1,088 spheres, > 2 bond and particle chunks) with Weibull-scattered

@@ -6,6 +6,7 @@
 mod bar;
 mod breakage;
 mod criteria;
+mod handed_on_shear;
 mod jaeger;
 mod jaeger_lattice;
 mod model_file;

@@ -13,9 +13,9 @@
 //! In compression the integrator turns frictional contacts on ([`crate::dem::Contacts`],
 //! [`super::contact_law`]), since YADE keeps a bond broken in shear as a frictional contact
 //! with the bond's springs and friction. Differences that remain (docs/strength.md, "The
-//! same test in the engines"): YADE's shear-broken bond keeps its shear force capped at
-//! μ·F_n where the integrator's new contact starts from zero shear force; YADE's scene has
-//! no collider, so spheres that were not bonded never touch in YADE (the integrator's do).
+//! same test in the engines"): YADE's scene has no collider, so spheres that were not bonded
+//! never touch in YADE (the integrator's do). A shear-broken bond's shear force, capped at
+//! μ·F_n, goes on in both (`crate::dem::BondCriterion::handed_on_shear`).
 
 use super::{
     compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
