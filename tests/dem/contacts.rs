@@ -752,3 +752,45 @@ fn matches_yade_cundall_strack_step_by_step() {
     assert!(worst_f <= 1e-8 * f_scale && worst_t <= 1e-8 * t_scale);
     assert!(worst_e <= 1e-8 * e_scale, "{worst_e:e} of {e_scale:e} J");
 }
+
+/// A broken bond's shear handed on to a pair that is apart at that step is dropped (YADE
+/// erases the interaction in tension): when the spheres later touch, the contact starts
+/// afresh — the same bits as a pair that was never handed anything. (Found in a merge: a
+/// pair skipped while inactive kept the handed-on shear and brought it back on touching.)
+#[test]
+fn handed_on_shear_of_a_pair_apart_is_dropped() {
+    let kn = 2.0e6;
+    let r = 1.0e-3;
+    let n = Vec3::new(0.2, 0.1, 0.97).normalize();
+    let side = Vec3::new(1.0, 0.0, 0.0) - n * n.x;
+    let run = |hand_on: bool| -> Vec<u64> {
+        let mut p = particles(vec![Vec3::zeros(), n * (2.0 * r + 1e-6)], vec![r, r]);
+        p.velocity[1] = side.normalize() * 0.01;
+        let mut c = Contacts::new(law(kn, 0.5 * kn, 0.5), 0.2e-3).unwrap();
+        if hand_on {
+            c.carry_shear(0, 1, [0; 3], side.normalize() * 0.3).unwrap();
+        }
+        let mut bits = Vec::new();
+        for step in 0..4 {
+            // Apart for two steps, then pressed into an overlap of 1e-6 m and sliding.
+            if step == 2 {
+                p.position[1] = n * (2.0 * r - 1e-6);
+            }
+            let (f, t) = loads(&mut c, &p, None, 1e-6);
+            p.position[1] += p.velocity[1] * 1e-6;
+            bits.extend(
+                [f[1], t[1]]
+                    .iter()
+                    .flat_map(|v| v.iter().map(|x| x.to_bits())),
+            );
+        }
+        assert_eq!(c.len(), 1);
+        bits
+    };
+    let fresh = run(false);
+    assert!(
+        fresh.iter().any(|&b| b != 0),
+        "the pair must touch at the end"
+    );
+    assert_eq!(run(true), fresh);
+}
