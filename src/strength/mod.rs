@@ -18,6 +18,7 @@
 
 pub mod criteria;
 pub mod jaeger;
+pub mod peak;
 pub mod planes;
 pub mod scatter;
 pub mod schemes;

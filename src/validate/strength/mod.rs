@@ -265,18 +265,12 @@ impl StrengthTest {
 /// frictional contacts) does not count. The same rule as the virtual laboratory's
 /// (`study::strength_test`), on steps. `(load, step)`; None for an empty curve.
 pub fn first_peak(curve: &[(u64, f64)], first_break: Option<u64>, drop: f64) -> Option<(f64, u64)> {
-    let mut max: Option<(f64, u64)> = None;
-    for &(step, load) in curve {
-        if let (Some((m, _)), Some(b)) = (max, first_break) {
-            if step >= b && load < (1.0 - drop) * m {
-                return max;
-            }
-        }
-        if max.map_or(true, |(m, _)| load > m) {
-            max = Some((load, step));
-        }
-    }
-    max
+    // The lab's rule (`strength::peak::first_peak`) on (load, bonds broken yet) points.
+    let series: Vec<(f64, usize)> = curve
+        .iter()
+        .map(|&(step, load)| (load, usize::from(first_break.is_some_and(|b| step >= b))))
+        .collect();
+    crate::strength::peak::first_peak(&series, drop).map(|p| (curve[p.first].1, curve[p.first].0))
 }
 
 /// The peak of a run's load curve for `test` (largest load in tension, [`first_peak`] in
