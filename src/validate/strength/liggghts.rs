@@ -89,16 +89,7 @@ pub fn run(
         &loading,
         test,
     )?;
-    timings.push(Timing {
-        stage: "integrator".into(),
-        seconds: reference.seconds,
-    });
-    progress(&format!(
-        "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
-        reference.seconds,
-        reference.peak_force,
-        reference.breaks.len()
-    ));
+    reference.record(&mut timings, progress);
     let mut measured = Vec::new();
     for &np in &launch.processes {
         for f in [force_file(np), breaks_file(np)] {

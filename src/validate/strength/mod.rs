@@ -18,7 +18,7 @@
 //! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
 //! breaking order, differ; 0 passes).
 
-use super::harness::{Check, EngineDetails, Report, Timing};
+use super::harness::{Check, EngineDetails, Progress, Report, Timing};
 use crate::bonds::BondSet;
 use crate::dem::{
     BondCriteria, BondLaw, ContactLaw, Contacts, DemOptions, PrescribedMotion, Simulation,
@@ -570,6 +570,24 @@ pub fn order_breaks(
             step,
         })
         .collect())
+}
+
+impl StrengthRun {
+    /// Record the integrator's run as the `integrator` stage of `timings` and say what it
+    /// found (peak force, bonds broken) on `progress`: what every engine's test does with
+    /// [`reference()`]'s result.
+    pub fn record(&self, timings: &mut Vec<Timing>, progress: Progress) {
+        timings.push(Timing {
+            stage: "integrator".into(),
+            seconds: self.seconds,
+        });
+        progress(&format!(
+            "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
+            self.seconds,
+            self.peak_force,
+            self.breaks.len()
+        ));
+    }
 }
 
 /// The integrator's run of the test: `law` (the engine's, with its damping) and `criteria`

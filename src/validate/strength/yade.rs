@@ -159,16 +159,7 @@ pub fn run(
         &loading,
         test,
     )?;
-    timings.push(Timing {
-        stage: "integrator".into(),
-        seconds: reference.seconds,
-    });
-    progress(&format!(
-        "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
-        reference.seconds,
-        reference.peak_force,
-        reference.breaks.len()
-    ));
+    reference.record(&mut timings, progress);
     let out = run_yade_script(&script_path, &[])?;
     timings.push(Timing {
         stage: "yade_process".into(),
