@@ -53,6 +53,39 @@ fn bar(nx: usize, ny: usize, nz: usize) -> (Packing, BondSet, Vec<(usize, usize)
     (packing, bonds, tags)
 }
 
+/// Law (a) on `bonds` (no moment springs), Cundall damping `local_damping`, every bond
+/// broken at the first step (YADE adhesions a_n = −1 N, a_s = 0: any load exceeds them).
+fn yade_bonds_broken_at_once(packing: &Packing, bonds: &BondSet, local_damping: f64) -> Simulation {
+    use anisobond::dem::BondCriterion;
+    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    let k = springs(bonds, false);
+    let opts = DemOptions {
+        check_interval: 0,
+        local_damping,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(
+        packing,
+        bonds,
+        build_law(LawKind::Yade, packing, bonds, &k).unwrap(),
+        &opts,
+    )
+    .unwrap();
+    let at_once = BondCriterion::Yade(YadeAdhesion {
+        normal: -1.0,
+        shear: 0.0,
+        tan_friction: 0.0,
+        cohesion_disables_friction: false,
+        moments: YadeMoments::Elastic,
+    });
+    sim.set_breakage(Some(BondCriteria::from_criteria(
+        LawKind::Yade,
+        vec![at_once; bonds.len()],
+    )))
+    .unwrap();
+    sim
+}
+
 /// Uniform springs k_n, k_s; moment springs of the parallel-bond form when `moments`.
 fn springs(bonds: &BondSet, moments: bool) -> BondStiffness {
     let n = bonds.len();
@@ -672,37 +705,12 @@ fn largest_overlap(sim: &Simulation) -> f64 {
 /// elastic + damping + friction to 1 %.
 #[test]
 fn a_broken_specimen_compressed_with_contacts_does_not_interpenetrate() {
-    use anisobond::dem::{BondCriterion, ContactLaw, Contacts};
-    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    use anisobond::dem::{ContactLaw, Contacts};
     let (nx, ny, nz) = (3, 3, 6);
     let (packing, bonds, _) = bar(nx, ny, nz);
     let u_total = 0.1 * D;
     let run = |contacts: bool| {
-        let k = springs(&bonds, false);
-        let opts = DemOptions {
-            check_interval: 0,
-            local_damping: 0.2,
-            ..Default::default()
-        };
-        let mut sim = Simulation::new(
-            &packing,
-            &bonds,
-            build_law(LawKind::Yade, &packing, &bonds, &k).unwrap(),
-            &opts,
-        )
-        .unwrap();
-        let broken_at_once = BondCriterion::Yade(YadeAdhesion {
-            normal: -1.0,
-            shear: 0.0,
-            tan_friction: 0.0,
-            cohesion_disables_friction: false,
-            moments: YadeMoments::Elastic,
-        });
-        sim.set_breakage(Some(BondCriteria::from_criteria(
-            LawKind::Yade,
-            vec![broken_at_once; bonds.len()],
-        )))
-        .unwrap();
+        let mut sim = yade_bonds_broken_at_once(&packing, &bonds, 0.2);
         if contacts {
             let law = ContactLaw {
                 normal_stiffness: 0.5 * KN,
@@ -837,8 +845,7 @@ fn a_bar_across_a_plane_of_weakness_breaks_on_the_joint_by_mohr_coulomb() {
 /// to 2 % (measured 1.1 %: the step and the normal's rotation).
 #[test]
 fn a_broken_pair_pressed_and_slid_keeps_coulomb_and_closes_its_energy() {
-    use anisobond::dem::{BondCriterion, ContactLaw, Contacts};
-    use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
+    use anisobond::dem::{ContactLaw, Contacts};
     let packing = Packing::new(
         vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
         vec![R; 2],
@@ -847,30 +854,7 @@ fn a_broken_pair_pressed_and_slid_keeps_coulomb_and_closes_its_energy() {
     .unwrap();
     let mut bonds = BondSet::default();
     bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
-    let k = springs(&bonds, false);
-    let opts = DemOptions {
-        check_interval: 0,
-        ..Default::default()
-    };
-    let mut sim = Simulation::new(
-        &packing,
-        &bonds,
-        build_law(LawKind::Yade, &packing, &bonds, &k).unwrap(),
-        &opts,
-    )
-    .unwrap();
-    let at_once = BondCriterion::Yade(YadeAdhesion {
-        normal: -1.0,
-        shear: 0.0,
-        tan_friction: 0.0,
-        cohesion_disables_friction: false,
-        moments: YadeMoments::Elastic,
-    });
-    sim.set_breakage(Some(BondCriteria::from_criteria(
-        LawKind::Yade,
-        vec![at_once],
-    )))
-    .unwrap();
+    let mut sim = yade_bonds_broken_at_once(&packing, &bonds, 0.0);
     let mu = 0.5;
     let law = ContactLaw {
         normal_stiffness: 0.1 * KN,
