@@ -100,6 +100,9 @@ pub struct Model {
     /// The `[strength]` table as read (checked; docs/strength.md), written back unchanged
     /// with the model ([`Model::to_toml_string`]); `None` when the file has none.
     pub strength: Option<crate::strength::spec::StrengthTable>,
+    /// The `[manybody]` term (docs/manybody.md), its rotation or axis resolved against the
+    /// scheme's; `None` when the file has none (pairwise bonds only).
+    pub manybody: Option<crate::manybody::ManyBodySpec>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -118,6 +121,9 @@ struct RawModel {
         skip_serializing_if = "Option::is_none"
     )]
     strength: Option<crate::strength::spec::StrengthTable>,
+    /// `[manybody]` (src/manybody/spec.rs, docs/manybody.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    manybody: Option<crate::manybody::spec::RawManyBody>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -545,6 +551,7 @@ impl Model {
             }),
             geometry: Geometry::default(),
             strength: None,
+            manybody: None,
         }
     }
 
@@ -647,11 +654,23 @@ impl Model {
             },
         };
         let geometry = model_geometry(raw.geometry, &scheme, scheme_pi_hat)?;
+        let manybody = match &raw.manybody {
+            None => None,
+            Some(m) => {
+                let (rotation, axis) = match &scheme {
+                    SchemeSpec::Cubic(c) => (c.rotation, Vec3::z()),
+                    SchemeSpec::CrossAnisotropic(t) => (Mat3::identity(), t.axis),
+                    SchemeSpec::Isotropic { .. } => (Mat3::identity(), Vec3::z()),
+                };
+                Some(crate::manybody::ManyBodySpec::from_raw(m, rotation, axis)?)
+            }
+        };
         let model = Model {
             bonding,
             scheme,
             geometry,
             strength: raw.strength,
+            manybody,
         };
         // Validate the scheme parameters now (negative stiffness, a ≤ 0, …) where that
         // needs no packing.
@@ -779,6 +798,7 @@ impl Model {
             scheme: s,
             geometry: Some(self.geometry),
             strength: self.strength.clone(),
+            manybody: self.manybody.as_ref().map(|m| m.to_raw()),
         }
     }
 

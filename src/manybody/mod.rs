@@ -12,8 +12,10 @@
 //! so the term adds exactly (Σ_p V_p / V)·D to the Voigt-level tensor. docs/manybody.md
 //! gives the derivation; `term.rs` the reference data, energy, forces and Hessian.
 
+pub(crate) mod spec;
 pub(crate) mod term;
 
+pub use spec::ManyBodySpec;
 pub use term::{Evaluation, ManyBody};
 
 use crate::tensor::{rotate, rotation_to_z, Stiffness6};

@@ -161,6 +161,7 @@ pub fn kumar_model(alpha: f64, kappa: f64, sigma_n: f64) -> Model {
             ..Geometry::default()
         },
         strength: None,
+        manybody: None,
     }
 }
 

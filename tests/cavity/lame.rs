@@ -17,6 +17,7 @@ pub fn isotropic_model() -> Model {
         },
         geometry: Geometry::default(),
         strength: None,
+        manybody: None,
     }
 }
 

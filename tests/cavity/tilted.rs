@@ -33,6 +33,7 @@ pub fn smilauer_model() -> Model {
             ..Geometry::default()
         },
         strength: None,
+        manybody: None,
     }
 }
 

@@ -8,5 +8,6 @@ mod common;
 
 mod closed_forms;
 mod derivatives;
+mod model_file;
 mod refusals;
 mod setup;
