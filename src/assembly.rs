@@ -505,7 +505,27 @@ impl Assembly {
     pub fn simulation(&self, law: LawKind, dem: &DemOptions) -> Result<Simulation> {
         PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the integrator")?;
         let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
-        Simulation::new(&self.packing, &self.bonds, law, dem)
+        // The model's [manybody] term, built on the same bonds (docs/manybody.md "Integrator").
+        let term = match &self.model.manybody {
+            Some(spec) => Some(spec.build(&self.packing, &self.bonds)?),
+            None => None,
+        };
+        Simulation::with_manybody(&self.packing, &self.bonds, law, term, dem)
+    }
+
+    /// Refuse ([`Error::Model`]) a model with `[manybody]` in `what`, an integrator run on a
+    /// free specimen that does not apply the term: its default volume shares need a periodic
+    /// cell, and a free specimen's per-particle volumes are not given yet (docs/manybody.md
+    /// "Integrator"). Without the table: Ok.
+    pub fn refuse_manybody(&self, what: &str) -> Result<()> {
+        if self.model.manybody.is_some() {
+            return Err(Error::Model(format!(
+                "the model has a [manybody] term, which {what} does not apply yet (a free \
+                 specimen needs per-particle volumes for it); the periodic element and stress \
+                 tests (`run`, `stress-test`) apply it; or remove [manybody] from the model"
+            )));
+        }
+        Ok(())
     }
 
     /// The six strain-controlled element tests of the reference integrator (Truszkowska 2018
@@ -540,6 +560,7 @@ impl Assembly {
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<GrippedTensor> {
         PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the gripped tests")?;
+        self.refuse_manybody("the gripped tests (a free block)")?;
         gripped_tensor(
             &self.packing,
             &self.bonds,

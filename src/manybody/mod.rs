@@ -17,7 +17,7 @@ pub(crate) mod term;
 mod time_step;
 
 pub use spec::ManyBodySpec;
-pub use term::{Evaluation, ManyBody};
+pub use term::{Evaluation, ManyBody, Workspace};
 
 use crate::tensor::{rotate, rotation_to_z, Stiffness6};
 use crate::{Error, Mat3, Result, Vec3};
