@@ -689,6 +689,30 @@ pub fn write_assembly_export(
     )
 }
 
+/// What every YADE validation needs before it writes anything: `yade` on PATH and a model
+/// without a `[manybody]` term (YADE's bond laws are pairwise; its route for the term,
+/// `anisobond_yade.add_manybody`, needs the anisobond Python package inside YADE, which
+/// `validate yade` does not assume).
+pub fn check_yade_runnable(model: Option<&Model>) -> Result<()> {
+    if model.is_some_and(|m| m.manybody.is_some()) {
+        return Err(Error::Invalid(
+            "validate yade: the model has a [manybody] term, which YADE's bond laws cannot \
+             carry; YADE runs it only as anisobond_yade.add_manybody (a PyRunner engine \
+             computed by the anisobond Python package, see docs/manybody.md, \"YADE\"; `export \
+             yade` writes a run.py that adds it). Validate the term with `validate lammps` \
+             (plugin route) or `validate liggghts`"
+                .into(),
+        ));
+    }
+    if find_yade().is_none() {
+        return Err(Error::Invalid(
+            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(feature = "engines")]
 /// The `yade` executable on PATH, if any.
 pub fn find_yade() -> Option<PathBuf> {

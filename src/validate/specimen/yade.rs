@@ -69,7 +69,7 @@ pub fn run(
 ) -> Result<Report<SpecimenDetails>> {
     let test = &test.resolved(STRAIN);
     let asm = free_assembly(problem, "yade")?;
-    crate::validate::yade::check_runnable(problem)?;
+    crate::export::yade::check_yade_runnable(problem.model)?;
     let dir = problem.dir.join(DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     packing::io::write_packing(&dir.join(files::PACKING), &asm.packing)?;

@@ -126,7 +126,7 @@ pub fn run(
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
     let (_, strengths, criteria) = super::strength_setup("yade", problem, LawKind::Yade)?;
-    crate::validate::yade::check_runnable(problem)?;
+    crate::export::yade::check_yade_runnable(problem.model)?;
     let dt = super::time_step(problem, launch)?;
     let mut loading = Loading::of(packing, test, dt, "yade")?;
     if test.loading == super::StrengthLoading::Compression {
