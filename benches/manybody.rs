@@ -13,6 +13,7 @@
 use anisobond::bonds::{assign_stiffness, build_bonds, BondingRule};
 use anisobond::homogenize::{
     relaxed_tensor, relaxed_tensor_with_term, BlockSparse, LeverArm, Network, RelaxedOptions,
+    TwoLevel, DEFAULT_PARTICLES_PER_AGGREGATE,
 };
 use anisobond::manybody::{DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions};
 use anisobond::model::Model;
@@ -94,6 +95,30 @@ fn main() {
     let ks = BlockSparse::assemble(&net);
     println!(
         "term parts: set-up {t_new:.3} s, Hessian {t_hess:.3} s, load {t_load:.3} s, affine tensor {t_aff:.3} s"
+    );
+    // The set-up the solve repeats with the term: K merged, the two-level coarse space of it.
+    let cell = p.cell.expect("periodic");
+    let (t_add, merged) = timed(|| ks.add(&kt).expect("same rows"));
+    let (t_tl_pair, _) = timed(|| {
+        TwoLevel::new(
+            &ks,
+            &p.positions,
+            cell.lengths,
+            true,
+            DEFAULT_PARTICLES_PER_AGGREGATE,
+        )
+    });
+    let (t_tl_term, _) = timed(|| {
+        TwoLevel::new(
+            &merged,
+            &p.positions,
+            cell.lengths,
+            true,
+            DEFAULT_PARTICLES_PER_AGGREGATE,
+        )
+    });
+    println!(
+        "set-up: merging K {t_add:.3} s; two-level coarse space of K: springs {t_tl_pair:.3} s, springs + term {t_tl_term:.3} s"
     );
     println!(
         "K blocks: springs {}, term {}, per particle {:.1} vs {:.1} (second neighbours)",

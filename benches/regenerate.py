@@ -613,7 +613,8 @@ def manybody_relaxed(threads):
                      "%s CG iterations" % ip])
         rows.append(["relaxed, springs + term (set-up included)", "(same run)", n, t, "%s s" % tt, "",
                      "%s CG iterations, term volume fraction %s; %.2f× the springs alone" % (it, frac, ratios[t])])
-        parts = "%s; stored 6×6 blocks of K: %s" % (grab(r"term parts: (.*)", out), grab(r"K blocks: (.*)", out))
+        parts = "%s; %s; stored 6×6 blocks of K: %s" % (grab(r"term parts: (.*)", out), grab(r"set-up: (.*)", out),
+                                                     grab(r"K blocks: (.*)", out))
     worst = max(ratios.values())
     verdict = ("within the issue's 2×" if worst <= 2.0 else
                "OVER the issue's 2× (%.2f×)" % worst)
