@@ -14,6 +14,7 @@
 
 pub(crate) mod spec;
 pub(crate) mod term;
+mod time_step;
 
 pub use spec::ManyBodySpec;
 pub use term::{Evaluation, ManyBody, Workspace};
