@@ -16,16 +16,17 @@ pub(crate) struct ManyBodyForces {
 }
 
 /// Branch vector of bond `b`, x_j + H·c − x_i, as [`super::Simulation::branch`] (the same
-/// operations, so the term sees the bits the bond laws see).
+/// operations, so the term sees the bits the bond laws see; H·c is skipped for the bonds
+/// inside the cell, c = 0, where adding it changes no bit but a zero's sign).
 #[inline(always)]
 fn branch(p: &[Vec3], t: &BondTopology, h: &Mat3, periodic: bool, b: usize) -> Vec3 {
     let (i, j) = (t.i[b] as usize, t.j[b] as usize);
-    let shift = if periodic {
-        h * t.cell_dist[b]
+    let c = t.cell_dist[b];
+    if periodic && (c.x != 0.0 || c.y != 0.0 || c.z != 0.0) {
+        p[j] + h * c - p[i]
     } else {
-        Vec3::zeros()
-    };
-    p[j] + shift - p[i]
+        p[j] - p[i]
+    }
 }
 
 impl ManyBodyForces {

@@ -53,6 +53,8 @@ pub struct Workspace {
     pub energy: Vec<f64>,
     /// V_p·P_p, P_p = ∂W/∂F the first Piola stress of particle p (N·m).
     pub piola: Vec<Mat3>,
+    /// g_b = ∂U/∂l_b per bond (N): the force on its i end.
+    pub gradient: Vec<Vec3>,
     /// −∂U/∂x_p (N).
     pub force: Vec<Vec3>,
 }
@@ -329,24 +331,26 @@ impl ManyBody {
         Workspace {
             energy: vec![0.0; n],
             piola: vec![Mat3::zeros(); n],
+            gradient: vec![Vec3::zeros(); self.reference.len()],
             force: vec![Vec3::zeros(); n],
         }
     }
 
     /// [`evaluate`](Self::evaluate) into the caller's buffers, allocating nothing: per
-    /// particle V_p·W_p and V_p·P_p, then the forces with each g_b computed where it is
-    /// used (the same operations in the same order as `evaluate`, so the same bits; the
-    /// energy and stress follow from the workspace by [`Workspace::energy`] and
+    /// particle V_p·W_p and V_p·P_p, per bond g_b, per particle the forces (the same
+    /// operations in the same order as `evaluate`, so the same bits; the energy and stress
+    /// follow from the workspace by [`Workspace::energy`] and
     /// [`bond_gradient`](Self::bond_gradient)). `branch(b)` gives the current branch vector
     /// of bond b (the caller's bookkeeping of images and cell); it is not checked here.
-    /// Two parallel passes over fixed chunks of particles, each particle written by one
-    /// item: the same bits on any number of threads.
+    /// Three parallel passes over fixed chunks, each entry written by one item: the same
+    /// bits on any number of threads.
     pub fn evaluate_into(&self, branch: impl Fn(usize) -> Vec3 + Sync, ws: &mut Workspace) {
         const CHUNK: usize = 256;
         let n = self.len();
         ws.energy.resize(n, 0.0);
         ws.piola.resize(n, Mat3::zeros());
         ws.force.resize(n, Vec3::zeros());
+        ws.gradient.resize(self.reference.len(), Vec3::zeros());
         ws.energy
             .par_chunks_mut(CHUNK)
             .zip(ws.piola.par_chunks_mut(CHUNK))
@@ -368,6 +372,15 @@ impl ManyBody {
                 }
             });
         let piola = &ws.piola;
+        ws.gradient
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (l, g) in out.iter_mut().enumerate() {
+                    *g = self.gradient_in(c * CHUNK + l, piola);
+                }
+            });
+        let gradient = &ws.gradient;
         ws.force
             .par_chunks_mut(CHUNK)
             .enumerate()
@@ -377,11 +390,10 @@ impl ManyBody {
                     let mut f = Vec3::zeros();
                     for k in self.inc_start[p]..self.inc_start[p + 1] {
                         let b = self.inc_bond[k] as usize;
-                        let g = self.gradient_in(b, piola);
                         if self.bond_i[b] as usize == p {
-                            f += g;
+                            f += gradient[b];
                         } else {
-                            f -= g;
+                            f -= gradient[b];
                         }
                     }
                     *fo = f;
@@ -393,7 +405,7 @@ impl ManyBody {
     /// [`evaluate_into`](Self::evaluate_into): the force on the bond's i end (−g_b on its j
     /// end), as `evaluate` computes it.
     pub fn bond_gradient(&self, b: usize, ws: &Workspace) -> Vec3 {
-        self.gradient_in(b, &ws.piola)
+        ws.gradient[b]
     }
 
     #[inline(always)]
