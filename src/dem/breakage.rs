@@ -13,7 +13,7 @@
 //!
 //! R_b and π̂ are the model's `[geometry]` ([`Geometry::bond_radius`], `pi_hat`).
 
-use super::laws::BondLaw;
+use super::laws::{BondLaw, BOND_CHUNK};
 use super::state::Particles;
 use super::LawKind;
 use crate::bonds::BondSet;
@@ -140,6 +140,10 @@ pub struct BondCriteria {
     screen_normal: Vec<f64>,
     screen_shear: Vec<f64>,
     screen_tan: Vec<f64>,
+    /// Some bond has the quick test (else [`BondCriteria::broken_in`] needs no force norms).
+    screens: bool,
+    /// Some bond has LAMMPS's criterion (judged on the law's local loads of a whole chunk).
+    bpm: bool,
 }
 
 impl BondCriteria {
@@ -260,6 +264,8 @@ impl BondCriteria {
         }
         BondCriteria {
             law,
+            screens: screen_normal.iter().any(|a| !a.is_nan()),
+            bpm: per_bond.iter().any(|c| matches!(c, BondCriterion::Bpm(_))),
             per_bond,
             screen_normal,
             screen_shear,
@@ -273,7 +279,8 @@ impl BondCriteria {
     /// moments, a bond clearly inside both limits (−F_n ≤ a_n and |F_s|² below max F_s² by a
     /// relative 1e-9, far above the rounding of |F_s|) holds without the square root and the
     /// index's divisions, its limits read from arrays; any other is judged in full, so the
-    /// verdict is the criterion's.
+    /// verdict is the criterion's (LAMMPS's on the chunk's [`BondLaw::local_loads_chunk`],
+    /// the loads [`BondCriterion::judge`] would take one call at a time).
     pub(crate) fn broken_in(
         &self,
         law: &dyn BondLaw,
@@ -284,6 +291,12 @@ impl BondCriteria {
         out: &mut Vec<(usize, Failure)>,
     ) {
         let end = first + normal.len();
+        let mut local = [LocalLoads::default(); BOND_CHUNK];
+        let local = &mut local[..normal.len().min(BOND_CHUNK)];
+        let chunk_loads = self.bpm && local.len() == normal.len();
+        if chunk_loads {
+            law.local_loads_chunk(particles, first, local);
+        }
         let an = &self.screen_normal[first..end];
         let as_ = &self.screen_shear[first..end];
         let tan = &self.screen_tan[first..end];
@@ -297,11 +310,20 @@ impl BondCriteria {
             if -normal[k] <= an[k] && shear_sq[k] < max_fs * max_fs * (1.0 - 1e-9) {
                 continue;
             }
-            let f = self.per_bond[b].judge(law, particles, b);
+            let f = match &self.per_bond[b] {
+                BondCriterion::Bpm(l) if chunk_loads => lammps_bpm(l, &local[k]),
+                c => c.judge(law, particles, b),
+            };
             if f.broken {
                 out.push((b, f));
             }
         }
+    }
+
+    /// Whether [`BondCriteria::broken_in`] reads the force norms (some bond has the quick
+    /// test; without it every intact bond is judged in full and they go unread).
+    pub(crate) fn reads_force_norms(&self) -> bool {
+        self.screens
     }
 
     /// The bond law these criteria are for.

@@ -846,7 +846,9 @@ impl Simulation {
                 let first = c * BOND_CHUNK;
                 let len = BOND_CHUNK.min(n - first);
                 let (mut normal, mut shear_sq) = ([0.0; BOND_CHUNK], [0.0; BOND_CHUNK]);
-                law.bond_force_norms(first, &mut normal[..len], &mut shear_sq[..len]);
+                if criteria.reads_force_norms() {
+                    law.bond_force_norms(first, &mut normal[..len], &mut shear_sq[..len]);
+                }
                 let mut out = Vec::new();
                 criteria.broken_in(
                     law,

@@ -82,6 +82,9 @@ struct BpmBond {
     r0_hat: Vec3,
     /// The topology's i end is particle 2.
     flipped: bool,
+    /// Broken ([`BondLaw::break_bond`]): its coefficients are zero, so its loads are zero and
+    /// [`BondLaw::compute`] only keeps its normal current.
+    broken: bool,
 }
 
 /// Per-bond results of the last evaluation: force on the topology's j end and its normal,
@@ -406,6 +409,7 @@ impl BondLaw for LammpsBpmLaw {
                 r0_mag,
                 r0_hat: r * inv,
                 flipped,
+                broken: self.bonds[b].broken,
             };
         }
         self.results
@@ -444,6 +448,16 @@ impl BondLaw for LammpsBpmLaw {
                     let r_mag = r.norm_squared().sqrt();
                     let r_mag_inv = 1.0 / r_mag;
                     let rhat = r * r_mag_inv;
+                    if bd.broken {
+                        // Zero coefficients give zero loads and energy: skip the kernel (the
+                        // break left zero loads, as LAMMPS drops the bond), keep the normal.
+                        out[k] = Default::default();
+                        results[k] = BpmResult {
+                            normal: if bd.flipped { rhat } else { -rhat },
+                            ..Default::default()
+                        };
+                        continue;
+                    }
                     let r0 = bd.r0_hat * bd.r0_mag;
                     let (q1, q2) = (&p.orientation[a], &p.orientation[b]);
                     let (mut f12, mut t12, mut t21, elastic) =
@@ -552,6 +566,7 @@ impl BondLaw for LammpsBpmLaw {
             sum[1] -= energy;
         }
         self.coeffs[b] = BpmCoefficients::default();
+        self.bonds[b].broken = true;
         self.results[b] = BpmResult {
             normal: self.results[b].normal,
             ..Default::default()

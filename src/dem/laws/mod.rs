@@ -89,6 +89,13 @@ pub trait BondLaw: Send + Sync {
     /// the state that evaluation saw (laws whose moments are not stored recompute them from
     /// the orientations).
     fn local_loads(&self, particles: &Particles, b: usize) -> LocalLoads;
+    /// [`BondLaw::local_loads`] of bonds `first..first + out.len()` (one dynamic call per
+    /// chunk for the breakage test).
+    fn local_loads_chunk(&self, particles: &Particles, first: usize, out: &mut [LocalLoads]) {
+        for (k, l) in out.iter_mut().enumerate() {
+            *l = self.local_loads(particles, first + k);
+        }
+    }
     /// Break bond `b`: from now on it carries nothing (zero springs, state and damping, so
     /// every kernel, the AVX2 lanes included, gives it zero loads) and
     /// [`BondLaw::elastic_energy`] no longer counts it. Returns the elastic energy it held at
