@@ -25,17 +25,17 @@
 //! so that a pair leaves the exclusion list when its bond breaks.
 
 use anisobond::assembly::Assembly;
-use anisobond::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
+use anisobond::dem::laws::{BpmNormalize, LammpsBpmLaw};
 use anisobond::dem::{
-    build_law, BondCriteria, ContactLaw, Contacts, DemOptions, LawKind, MassOptions,
-    PrescribedMotion, Simulation,
+    build_law, BondCriteria, ContactLaw, Contacts, DemOptions, LawKind, MassOptions, Simulation,
 };
 use anisobond::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
 use anisobond::model::Model;
 use anisobond::packing::{generate, GenerateOptions, Packing};
 use anisobond::strength::{assign_strength, StrengthSpec};
+use anisobond::validate::specimen::bond_lines_one_type_each;
+use anisobond::validate::strength::lammps::{bond_coeff_lines, bpm_coefficients};
 use anisobond::validate::strength::{Loading, StrengthTest};
-use anisobond::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -145,18 +145,7 @@ fn main() {
             .build()
             .expect("pool");
         let run = pool.install(|| {
-            let coeffs = (0..nb)
-                .map(|e| BpmCoefficients {
-                    kr: k.kn[e],
-                    ks: k.ks[e],
-                    kt: k.ktw[e],
-                    kb: k.kr[e],
-                    gamma_n: damping[e][0],
-                    gamma_s: damping[e][1],
-                    gamma_r: damping[e][2],
-                    gamma_t: damping[e][3],
-                })
-                .collect();
+            let coeffs = bpm_coefficients(k, &damping);
             let law: Box<dyn anisobond::dem::BondLaw> = if kind == LawKind::LammpsBpm {
                 Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute).expect("law"))
             } else {
@@ -180,23 +169,7 @@ fn main() {
                 Contacts::new(contact, SKIN * r_mean).expect("contacts"),
             ))
             .expect("contacts on");
-            let along = |v: f64| Vec3::new(0.0, 0.0, v);
-            for (v, x) in sim.particles.velocity.iter_mut().zip(&p.positions) {
-                *v = along(loading.velocity * (x.z - loading.lowest) / loading.gauge);
-            }
-            let (mut held, mut velocity) = (Vec::new(), Vec::new());
-            for (layer, v) in [(&loading.bottom, 0.0), (&loading.top, loading.velocity)] {
-                for &q in layer {
-                    held.push(q);
-                    velocity.push(along(v));
-                    sim.particles.velocity[q] = along(v);
-                }
-            }
-            sim.set_prescribed_motion(Some(PrescribedMotion {
-                particles: held,
-                velocity,
-            }))
-            .expect("layers");
+            loading.start(&mut sim, &p.positions, 2).expect("layers");
             let cpu0 = cpu_seconds();
             let clock = Instant::now();
             let mut peak = f64::NEG_INFINITY;
@@ -285,34 +258,13 @@ fn write_lammps(
         );
     }
     s.push_str("\nBonds\n\n");
-    for e in 0..nb {
-        let _ = writeln!(s, "{} {} {} {}", e + 1, e + 1, b.i[e] + 1, b.j[e] + 1);
-    }
+    s.push_str(&bond_lines_one_type_each(b));
     std::fs::write(dir.join("data.lmp"), s).expect("data.lmp");
-    let mut c = String::from(
-        "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t\n",
-    );
-    for e in 0..nb {
-        let (l, g) = (limits[e], damping[e]);
-        let _ = writeln!(
-            c,
-            "bond_coeff {} {} {} {} {} {} {} {} {} {} {} {} {}",
-            e + 1,
-            num(k.kn[e]),
-            num(k.ks[e]),
-            num(k.ktw[e]),
-            num(k.kr[e]),
-            num(l[0]),
-            num(l[1]),
-            num(l[3]),
-            num(l[2]),
-            num(g[0]),
-            num(g[1]),
-            num(g[2]),
-            num(g[3])
-        );
-    }
-    std::fs::write(dir.join("bond_coeffs.lmp"), c).expect("bond_coeffs.lmp");
+    std::fs::write(
+        dir.join("bond_coeffs.lmp"),
+        bond_coeff_lines(k, limits, damping),
+    )
+    .expect("bond_coeffs.lmp");
     let v = num(loading.velocity);
     let deck = format!(
         "# benches/breakage.rs: uniaxial compression along z with breakage and contacts.\n\

@@ -13,10 +13,66 @@ use super::model::PyModel;
 use super::packing::PyPacking;
 use crate::homogenize::buckling::{BucklingOptions, PreBuckling, RoundBar};
 use crate::study::buckling::BarRow;
+use crate::study::strength_test::StrengthTestOptions;
 use crate::Error;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+
+/// A `#[pyfunction]` with the given arguments and signature followed by the virtual
+/// laboratory's keywords (`width_particles` … `points`, the `strength-test` flags of the same
+/// names, keyword-only, default None). The body gets them as the function named by `lab`:
+/// `lab(base)` is `base` with each keyword given set (one not given keeps `base`'s value,
+/// except `aspect`, whose None is the test's own aspect ratio).
+macro_rules! lab_pyfunction {
+    (
+        $(#[$meta:meta])*
+        fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty;
+        signature = ($($sig:tt)*);
+        lab = $lab:ident;
+        $body:block
+    ) => {
+        $(#[$meta])*
+        #[pyfunction]
+        #[pyo3(signature = ($($sig)*, width_particles = None, aspect = None, end_layer = None,
+            loading_rate = None, max_strain = None, stop_fraction = None, peak_drop = None,
+            local_damping = None, cell_particles = None, seed = None, points = None))]
+        #[allow(clippy::too_many_arguments)]
+        pub(super) fn $name<$lt>(
+            $($arg: $ty,)*
+            width_particles: Option<f64>,
+            aspect: Option<f64>,
+            end_layer: Option<f64>,
+            loading_rate: Option<f64>,
+            max_strain: Option<f64>,
+            stop_fraction: Option<f64>,
+            peak_drop: Option<f64>,
+            local_damping: Option<f64>,
+            cell_particles: Option<usize>,
+            seed: Option<u64>,
+            points: Option<usize>,
+        ) -> $ret {
+            let $lab = move |base: $crate::study::strength_test::StrengthTestOptions| {
+                $crate::study::strength_test::StrengthTestOptions {
+                    width_particles: width_particles.unwrap_or(base.width_particles),
+                    aspect,
+                    end_layer: end_layer.unwrap_or(base.end_layer),
+                    loading_rate: loading_rate.unwrap_or(base.loading_rate),
+                    max_strain: max_strain.unwrap_or(base.max_strain),
+                    stop_fraction: stop_fraction.unwrap_or(base.stop_fraction),
+                    peak_drop: peak_drop.unwrap_or(base.peak_drop),
+                    local_damping: local_damping.unwrap_or(base.local_damping),
+                    cell_particles: cell_particles.unwrap_or(base.cell_particles),
+                    seed: seed.unwrap_or(base.seed),
+                    points: points.unwrap_or(base.points),
+                    ..base
+                }
+            };
+            $body
+        }
+    };
+}
+pub(super) use lab_pyfunction;
 
 /// Kumar 2016 Sec. 5 (docs/buckling.md), as one row of `anisobond buckle`: the round bar of
 /// radius `radius` (m) and slenderness l/r = `slenderness` cut along z from `packing`,
@@ -65,148 +121,100 @@ pub(super) fn buckle_bar<'py>(
     Ok(d)
 }
 
-/// The virtual laboratory (docs/strength-test.md), as `anisobond strength-test`: `test`
-/// "ucs", "tension" or "brazilian" on a specimen cut from `packing` (None: a generated
-/// periodic packing of `cell_particles`, `seed`) bonded by `model` (None: the command's
-/// default model), the model turned by `bedding_deg` about y; the keywords are the
-/// command's flags (defaults the same). Returns strength_test.json's dict plus the curve
-/// as numpy arrays: `strain`, `stress_pa`, `lateral_strain` (NaN where not measured),
-/// `broken`. GIL released.
-#[pyfunction]
-#[pyo3(signature = (test = "ucs", *, packing = None, model = None, law = "yade",
-    shape = "prism", bedding_deg = None, width_particles = None, aspect = None,
-    end_layer = None, loading_rate = None, max_strain = None, stop_fraction = None,
-    peak_drop = None, local_damping = None, cell_particles = None, seed = None, points = None))]
-#[allow(clippy::too_many_arguments)]
-pub(super) fn strength_test<'py>(
-    py: Python<'py>,
-    test: &str,
-    packing: Option<&PyPacking>,
-    model: Option<&PyModel>,
-    law: &str,
-    shape: &str,
-    bedding_deg: Option<f64>,
-    width_particles: Option<f64>,
-    aspect: Option<f64>,
-    end_layer: Option<f64>,
-    loading_rate: Option<f64>,
-    max_strain: Option<f64>,
-    stop_fraction: Option<f64>,
-    peak_drop: Option<f64>,
-    local_damping: Option<f64>,
-    cell_particles: Option<usize>,
-    seed: Option<u64>,
-    points: Option<usize>,
-) -> PyResult<Bound<'py, PyDict>> {
-    use crate::study::strength_test::{run, StrengthTestOptions, TestKind};
-    use crate::study::OptionNames;
-    let d = StrengthTestOptions::default();
-    let test = TestKind::from_name(test).ok_or_else(|| {
-        to_py(Error::Invalid(format!(
-            "test {test:?}: expected \"ucs\", \"tension\" or \"brazilian\""
-        )))
-    })?;
-    let shape = super::studies::lab_shape(shape)?;
-    let law = super::studies::law_kind(law)?;
-    let opts = StrengthTestOptions {
-        test,
-        shape,
-        packing: packing.map(|p| p.inner.clone()),
-        model: model.map(|m| m.inner.clone()),
-        law,
-        bedding_deg: bedding_deg.unwrap_or(d.bedding_deg),
-        width_particles: width_particles.unwrap_or(d.width_particles),
-        aspect,
-        end_layer: end_layer.unwrap_or(d.end_layer),
-        loading_rate: loading_rate.unwrap_or(d.loading_rate),
-        max_strain: max_strain.unwrap_or(d.max_strain),
-        stop_fraction: stop_fraction.unwrap_or(d.stop_fraction),
-        peak_drop: peak_drop.unwrap_or(d.peak_drop),
-        local_damping: local_damping.unwrap_or(d.local_damping),
-        cell_particles: cell_particles.unwrap_or(d.cell_particles),
-        seed: seed.unwrap_or(d.seed),
-        points: points.unwrap_or(d.points),
-    };
-    opts.check(OptionNames::Keywords).map_err(to_py)?;
-    let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
-    let dict = report_to_py(py, &report, "strength_test")?;
-    let column = |f: &dyn Fn(&crate::study::strength_test::CurvePoint) -> f64| -> Vec<f64> {
-        report.curve.iter().map(f).collect()
-    };
-    dict.set_item("strain", PyArray1::from_vec(py, column(&|c| c.strain)))?;
-    dict.set_item(
-        "stress_pa",
-        PyArray1::from_vec(py, column(&|c| c.stress_pa)),
-    )?;
-    dict.set_item(
-        "lateral_strain",
-        PyArray1::from_vec(py, column(&|c| c.lateral_strain.unwrap_or(f64::NAN))),
-    )?;
-    dict.set_item(
-        "broken",
-        PyArray1::from_vec(py, column(&|c| c.broken as f64)),
-    )?;
-    Ok(dict)
-}
-
-/// The bedding sweep (docs/strength-test.md), as `anisobond strength-test --bedding-sweep`:
-/// UCS and Brazilian disc at each angle of `angles_deg` (None: 0, 15, …, 90) on one packing
-/// with one model; the keywords are the lab's. Returns strength_sweep.json's dict (`rows`:
-/// per angle ucs_pa, modulus_pa, poisson, brazilian_pa, cracks, ratios). GIL released.
-#[pyfunction]
-#[pyo3(signature = (angles_deg = None, *, packing = None, model = None, law = "yade",
-    shape = "prism", width_particles = None, aspect = None, end_layer = None,
-    loading_rate = None, max_strain = None, stop_fraction = None, peak_drop = None,
-    local_damping = None, cell_particles = None, seed = None, points = None))]
-#[allow(clippy::too_many_arguments)]
-pub(super) fn strength_sweep<'py>(
-    py: Python<'py>,
-    angles_deg: Option<Vec<f64>>,
-    packing: Option<&PyPacking>,
-    model: Option<&PyModel>,
-    law: &str,
-    shape: &str,
-    width_particles: Option<f64>,
-    aspect: Option<f64>,
-    end_layer: Option<f64>,
-    loading_rate: Option<f64>,
-    max_strain: Option<f64>,
-    stop_fraction: Option<f64>,
-    peak_drop: Option<f64>,
-    local_damping: Option<f64>,
-    cell_particles: Option<usize>,
-    seed: Option<u64>,
-    points: Option<usize>,
-) -> PyResult<Bound<'py, PyDict>> {
-    use crate::study::strength_sweep::{run, StrengthSweepOptions};
-    use crate::study::strength_test::StrengthTestOptions;
-    use crate::study::OptionNames;
-    let sd = StrengthSweepOptions::default();
-    let d = sd.lab;
-    let opts = StrengthSweepOptions {
-        lab: StrengthTestOptions {
-            shape: super::studies::lab_shape(shape)?,
+lab_pyfunction! {
+    /// The virtual laboratory (docs/strength-test.md), as `anisobond strength-test`: `test`
+    /// "ucs", "tension" or "brazilian" on a specimen cut from `packing` (None: a generated
+    /// periodic packing of `cell_particles`, `seed`) bonded by `model` (None: the command's
+    /// default model), the model turned by `bedding_deg` about y; the keywords are the
+    /// command's flags (defaults the same). Returns strength_test.json's dict plus the curve
+    /// as numpy arrays: `strain`, `stress_pa`, `lateral_strain` (NaN where not measured),
+    /// `broken`. GIL released.
+    fn strength_test<'py>(
+        py: Python<'py>,
+        test: &str,
+        packing: Option<&PyPacking>,
+        model: Option<&PyModel>,
+        law: &str,
+        shape: &str,
+        bedding_deg: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>>;
+    signature = (test = "ucs", *, packing = None, model = None, law = "yade",
+        shape = "prism", bedding_deg = None);
+    lab = lab;
+    {
+        use crate::study::strength_test::{run, TestKind};
+        use crate::study::OptionNames;
+        let test = TestKind::from_name(test).ok_or_else(|| {
+            to_py(Error::Invalid(format!(
+                "test {test:?}: expected \"ucs\", \"tension\" or \"brazilian\""
+            )))
+        })?;
+        let d = StrengthTestOptions::default();
+        let opts = lab(StrengthTestOptions {
+            test,
+            shape: lab_shape(shape)?,
             packing: packing.map(|p| p.inner.clone()),
             model: model.map(|m| m.inner.clone()),
-            law: super::studies::law_kind(law)?,
-            width_particles: width_particles.unwrap_or(d.width_particles),
-            aspect,
-            end_layer: end_layer.unwrap_or(d.end_layer),
-            loading_rate: loading_rate.unwrap_or(d.loading_rate),
-            max_strain: max_strain.unwrap_or(d.max_strain),
-            stop_fraction: stop_fraction.unwrap_or(d.stop_fraction),
-            peak_drop: peak_drop.unwrap_or(d.peak_drop),
-            local_damping: local_damping.unwrap_or(d.local_damping),
-            cell_particles: cell_particles.unwrap_or(d.cell_particles),
-            seed: seed.unwrap_or(d.seed),
-            points: points.unwrap_or(d.points),
-            ..StrengthTestOptions::default()
-        },
-        angles_deg: angles_deg.unwrap_or(sd.angles_deg),
-    };
-    opts.check(OptionNames::Keywords).map_err(to_py)?;
-    let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
-    report_to_py(py, &report, "strength_sweep")
+            law: law_kind(law)?,
+            bedding_deg: bedding_deg.unwrap_or(d.bedding_deg),
+            ..d
+        });
+        opts.check(OptionNames::Keywords).map_err(to_py)?;
+        let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
+        let dict = report_to_py(py, &report, "strength_test")?;
+        let column = |f: &dyn Fn(&crate::study::strength_test::CurvePoint) -> f64| -> Vec<f64> {
+            report.curve.iter().map(f).collect()
+        };
+        dict.set_item("strain", PyArray1::from_vec(py, column(&|c| c.strain)))?;
+        dict.set_item(
+            "stress_pa",
+            PyArray1::from_vec(py, column(&|c| c.stress_pa)),
+        )?;
+        dict.set_item(
+            "lateral_strain",
+            PyArray1::from_vec(py, column(&|c| c.lateral_strain.unwrap_or(f64::NAN))),
+        )?;
+        dict.set_item(
+            "broken",
+            PyArray1::from_vec(py, column(&|c| c.broken as f64)),
+        )?;
+        Ok(dict)
+    }
+}
+
+lab_pyfunction! {
+    /// The bedding sweep (docs/strength-test.md), as `anisobond strength-test --bedding-sweep`:
+    /// UCS and Brazilian disc at each angle of `angles_deg` (None: 0, 15, …, 90) on one packing
+    /// with one model; the keywords are the lab's. Returns strength_sweep.json's dict (`rows`:
+    /// per angle ucs_pa, modulus_pa, poisson, brazilian_pa, cracks, ratios). GIL released.
+    fn strength_sweep<'py>(
+        py: Python<'py>,
+        angles_deg: Option<Vec<f64>>,
+        packing: Option<&PyPacking>,
+        model: Option<&PyModel>,
+        law: &str,
+        shape: &str,
+    ) -> PyResult<Bound<'py, PyDict>>;
+    signature = (angles_deg = None, *, packing = None, model = None, law = "yade",
+        shape = "prism");
+    lab = lab;
+    {
+        use crate::study::strength_sweep::{run, StrengthSweepOptions};
+        use crate::study::OptionNames;
+        let opts = StrengthSweepOptions {
+            lab: lab(StrengthTestOptions {
+                shape: lab_shape(shape)?,
+                packing: packing.map(|p| p.inner.clone()),
+                model: model.map(|m| m.inner.clone()),
+                law: law_kind(law)?,
+                ..StrengthTestOptions::default()
+            }),
+            angles_deg: angles_deg.unwrap_or_else(|| StrengthSweepOptions::default().angles_deg),
+        };
+        opts.check(OptionNames::Keywords).map_err(to_py)?;
+        let report = py.detach(|| run(&opts, &|_| {})).map_err(to_py)?;
+        report_to_py(py, &report, "strength_sweep")
+    }
 }
 
 /// The lab's specimen shape by its keyword (`"prism"` or `"cylinder"`), refused by name.

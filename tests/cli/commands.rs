@@ -1,7 +1,7 @@
 //! The `anisobond` command end to end: outputs in the SPEC forms, and every bad input a
 //! clear error (file, line, what was expected), a non-zero exit, and no output file.
 
-use crate::common::{bin, packing, tmp, write, CUBIC_MODEL as MODEL};
+use crate::common::{bin, on_model, packing, tmp, write, CUBIC_MODEL as MODEL};
 use std::path::Path;
 use std::process::Command;
 
@@ -28,11 +28,7 @@ fn bonds_and_tensor_outputs_follow_the_spec() {
     let p = packing(d.path(), 300);
     let m = write(d.path(), "model.toml", MODEL);
     let csv = d.path().join("bonds.csv");
-    let out = bin()
-        .arg("bonds")
-        .arg(&p)
-        .arg("--model")
-        .arg(&m)
+    let out = on_model("bonds", &p, &m)
         .arg("-o")
         .arg(&csv)
         .output()
@@ -67,11 +63,7 @@ fn bonds_and_tensor_outputs_follow_the_spec() {
     }
     // JSON report with the SPEC keys.
     let json = d.path().join("t.json");
-    let out = bin()
-        .arg("tensor")
-        .arg(&p)
-        .args(["--model"])
-        .arg(&m)
+    let out = on_model("tensor", &p, &m)
         .args(["--method", "voigt", "--json", "-o"])
         .arg(&json)
         .output()
@@ -141,16 +133,7 @@ fn bad_packings_are_clear_errors_without_output() {
     ];
     for (name, text, needle) in cases {
         let p = write(d.path(), name, text);
-        let err = fails(
-            bin()
-                .arg("bonds")
-                .arg(&p)
-                .arg("--model")
-                .arg(&m)
-                .arg("-o")
-                .arg(&csv),
-            &csv,
-        );
+        let err = fails(on_model("bonds", &p, &m).arg("-o").arg(&csv), &csv);
         assert!(err.contains(needle), "{name}: {err}");
     }
     // a missing file names the file
@@ -183,11 +166,7 @@ fn bad_models_are_clear_errors_without_output() {
     for (text, needle) in cases {
         let m = write(d.path(), "model.toml", &text);
         let err = fails(
-            bin()
-                .arg("tensor")
-                .arg(&p)
-                .arg("--model")
-                .arg(&m)
+            on_model("tensor", &p, &m)
                 .args(["--method", "voigt", "-o"])
                 .arg(&out_json),
             &out_json,
@@ -281,23 +260,13 @@ fn stress_test_agrees_with_the_relaxed_tensor() {
     let missing = d.path().join("none.txt");
     let out = d.path().join("never.json");
     let err = fails(
-        bin()
-            .arg("stress-test")
-            .arg(&missing)
-            .arg("--model")
-            .arg(&m)
-            .arg("-o")
-            .arg(&out),
+        on_model("stress-test", &missing, &m).arg("-o").arg(&out),
         &out,
     );
     assert!(err.contains("none.txt"), "{err}");
     // A tolerance that can never be met is refused up front, not after the step limit.
     let err = fails(
-        bin()
-            .arg("stress-test")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("stress-test", &p, &m)
             .arg("--stress-tolerance=-1")
             .arg("-o")
             .arg(&out),
@@ -372,24 +341,11 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
         "[bonding]\nrule = \"gap\"\nvalue = -1\n",
     );
     let out = d.path().join("never.json");
-    let err = fails(
-        bin()
-            .arg("grips")
-            .arg(&p)
-            .arg("--model")
-            .arg(&bad)
-            .arg("-o")
-            .arg(&out),
-        &out,
-    );
+    let err = fails(on_model("grips", &p, &bad).arg("-o").arg(&out), &out);
     assert!(err.contains("bad.toml"), "{err}");
     // A grip shell that swallows the whole block is a clear error.
     let err = fails(
-        bin()
-            .arg("grips")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("grips", &p, &m)
             .arg("--grip-shell=100")
             .arg("-o")
             .arg(&out),
@@ -449,11 +405,7 @@ fn missing_output_directory_is_refused_up_front() {
         "pack: {err}"
     );
     let err = fails(
-        bin()
-            .arg("bonds")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("bonds", &p, &m)
             .arg("-o")
             .arg(missing.join("b.csv")),
         &missing,

@@ -5,6 +5,7 @@
 pub mod bonded;
 pub mod lattice;
 pub mod liggghts;
+pub mod specimen;
 pub mod strength_bar;
 pub mod yade;
 
@@ -15,6 +16,13 @@ use std::process::{Command, Output};
 /// The `anisobond` binary built with the tests.
 pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_anisobond"))
+}
+
+/// `anisobond COMMAND PACKING --model MODEL`, to be given its other arguments.
+pub fn on_model(command: &str, packing: &Path, model: &Path) -> Command {
+    let mut c = bin();
+    c.arg(command).arg(packing).arg("--model").arg(model);
+    c
 }
 
 /// A fresh temporary folder, removed when dropped.
@@ -35,6 +43,40 @@ a_s = 10.0
 normal = 1.0e13
 shear = 3.55e12
 "#;
+
+/// An assembly written for the command: its packing and model files.
+pub struct AssemblyFiles {
+    /// `free.txt`: the packing.
+    pub packing: PathBuf,
+    /// `model.toml`: the model.
+    pub model: PathBuf,
+}
+
+impl AssemblyFiles {
+    /// `asm`'s packing and model written into `dir`.
+    pub fn write(dir: &Path, asm: &anisobond::assembly::Assembly) -> AssemblyFiles {
+        let packing = dir.join("free.txt");
+        anisobond::packing::write_packing(&packing, &asm.packing).unwrap();
+        let model = dir.join("model.toml");
+        std::fs::write(&model, asm.model.to_toml_string()).unwrap();
+        AssemblyFiles { packing, model }
+    }
+
+    /// `anisobond validate ENGINE PACKING --model MODEL ARGS… -o OUT EXTRA…`, run to its end.
+    pub fn validate(&self, engine: &str, args: &[&str], out: &Path, extra: &[&str]) -> Output {
+        bin()
+            .args(["validate", engine])
+            .arg(&self.packing)
+            .arg("--model")
+            .arg(&self.model)
+            .args(args)
+            .arg("-o")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap()
+    }
+}
 
 /// Write `text` to `dir/name`.
 pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {

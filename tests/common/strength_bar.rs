@@ -6,6 +6,8 @@
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
 use anisobond::packing::Packing;
+use anisobond::validate::strength::{StrengthDetails, StrengthRun, StrengthTest};
+use anisobond::validate::{validate_strength, Problem, Report};
 use anisobond::Vec3;
 
 /// Sphere radius (m).
@@ -107,4 +109,45 @@ pub fn ucs_prism() -> Assembly {
     let packing = Packing::new(pos, vec![R; count], None).unwrap();
     let model = Model::from_toml_str(UCS_MODEL, "<UCS test>").unwrap();
     Assembly::new(packing, model).unwrap()
+}
+
+/// `validate_strength` of `asm` by `engine` in `dir`, its progress and summary printed
+/// under `test`.
+pub fn run_strength<E: anisobond::validate::Engine>(
+    test: &str,
+    engine: &E,
+    dir: &std::path::Path,
+    asm: &Assembly,
+    t: &StrengthTest,
+) -> Report<StrengthDetails> {
+    let r = validate_strength(engine, &Problem::of(dir, asm), t, &|m: &str| {
+        eprintln!("{test}: {m}")
+    })
+    .expect("the strength test ran");
+    eprintln!("{}", anisobond::validate::strength::summary(&r));
+    r
+}
+
+/// A UCS run that failed: at least ten bonds broke before its first peak's end, the first
+/// peak is compressive and lies well before the run's end (the load fell by the peak drop).
+pub fn check_ucs_run(run: &StrengthRun, t: &StrengthTest) {
+    assert!(
+        run.breaks.len() >= 10,
+        "{}: only {} bonds broke",
+        run.program,
+        run.breaks.len()
+    );
+    assert!(
+        run.peak_force > 0.0,
+        "{}: peak {}",
+        run.program,
+        run.peak_force
+    );
+    assert!(
+        run.peak_step < t.steps * 9 / 10,
+        "{}: the first peak at step {} of {}: the prism did not fail",
+        run.program,
+        run.peak_step,
+        t.steps
+    );
 }

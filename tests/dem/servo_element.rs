@@ -6,7 +6,7 @@
 
 use crate::common::bonded::{relaxed_exact, yade_sim};
 use anisobond::bonds::lattice_scaling;
-use anisobond::bonds::{assign_stiffness, build_bonds, BondStiffness, BondingRule};
+use anisobond::bonds::{assign_stiffness, build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::dem::{
     expected_test_constants, stiffness_from_tests, stress_controlled_tensor,
@@ -18,7 +18,7 @@ use anisobond::packing::{generate, GenerateOptions, Polydispersity};
 use anisobond::schemes::CrossAnisotropic;
 use anisobond::schemes::Isotropic;
 use anisobond::schemes::{Convention, Geometry, StiffnessScheme};
-use anisobond::tensor::relative_difference;
+use anisobond::tensor::{relative_difference, Stiffness6};
 use anisobond::Vec3;
 
 fn packing(n: usize, solid_fraction: f64, radius: f64, seed: u64) -> Packing {
@@ -36,14 +36,9 @@ fn packing(n: usize, solid_fraction: f64, radius: f64, seed: u64) -> Packing {
     .unwrap()
 }
 
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / b.abs()
-}
-
-/// (a) Isotropic springs on a few hundred spheres: E, ν and G of the servo tests against
-/// the relaxed tensor's, lateral stresses below t_r·axial.
-#[test]
-fn uniaxial_servo_tests_match_the_relaxed_tensor_isotropic() {
+/// 400 spheres (solid fraction 0.6, R̄ = 1 mm, seed 11) bonded within a gap of 0.3 R̄ by
+/// isotropic springs k_n = 1e6, k_s = 0.4e6 N/m, and their exact relaxed tensor.
+fn isotropic_block() -> (Packing, BondSet, BondStiffness, Stiffness6) {
     let p = packing(400, 0.6, 1e-3, 11);
     let b = build_bonds(&p, BondingRule::Gap(0.3)).unwrap();
     let geometry = Geometry {
@@ -52,6 +47,18 @@ fn uniaxial_servo_tests_match_the_relaxed_tensor_isotropic() {
     };
     let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
     let c = relaxed_exact(&p, &b, &k).c;
+    (p, b, k, c)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// (a) Isotropic springs on a few hundred spheres: E, ν and G of the servo tests against
+/// the relaxed tensor's, lateral stresses below t_r·axial.
+#[test]
+fn uniaxial_servo_tests_match_the_relaxed_tensor_isotropic() {
+    let (p, b, k, c) = isotropic_block();
     let (young, poisson, shear) = expected_test_constants(&c).unwrap();
     let s = yade_sim(&p, &b, &k, None);
     let t_r = 1e-4;
@@ -238,14 +245,7 @@ fn servo_is_bit_identical_on_one_and_two_threads() {
 /// S·σ* with the relaxed compliance S = C⁻¹ (a closed form of the relaxed tensor).
 #[test]
 fn full_stress_control_reaches_the_compliance_strain() {
-    let p = packing(400, 0.6, 1e-3, 11);
-    let b = build_bonds(&p, BondingRule::Gap(0.3)).unwrap();
-    let geometry = Geometry {
-        convention: Convention::Spring,
-        ..Default::default()
-    };
-    let k = assign_stiffness(&p, &b, &Isotropic::new(1e6, 0.4e6).unwrap(), &geometry).unwrap();
-    let c = relaxed_exact(&p, &b, &k).c;
+    let (p, b, k, c) = isotropic_block();
     let target = anisobond::tensor::Voigt6::new(-1000.0, -2000.0, -500.0, 300.0, -200.0, 100.0);
     let want = c.try_inverse().unwrap() * target;
     for gain in [0.5, 1.0, 0.2] {

@@ -6,7 +6,7 @@
 //! integrator options and writes no output when a run does not converge.
 
 use crate::common::bonded::{directional_springs, gap_bonded, relaxed_exact, yade_sim};
-use crate::common::{bin, fails, CUBIC_MODEL as MODEL};
+use crate::common::{bin, fails, on_model, CUBIC_MODEL as MODEL};
 use anisobond::bonds::lattice_scaling;
 use anisobond::bonds::{assign_stiffness, build_bonds, BondingRule};
 use anisobond::dem::MeasureOptions;
@@ -247,11 +247,7 @@ fn cli_run_with_a_tiny_time_step_fails_and_writes_nothing() {
     let (p, m) = setup(d.path());
     let (json, csv) = (d.path().join("t.json"), d.path().join("h.csv"));
     let err = fails(
-        bin()
-            .arg("run")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("run", &p, &m)
             .args(["--dt", "1e-12", "-o"])
             .arg(&json)
             .arg("--history")
@@ -262,11 +258,7 @@ fn cli_run_with_a_tiny_time_step_fails_and_writes_nothing() {
     assert!(!json.exists() && !csv.exists());
     // tensor --method dynamic and stress-test likewise.
     let err = fails(
-        bin()
-            .arg("tensor")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("tensor", &p, &m)
             .args([
                 "--method",
                 "dynamic",
@@ -280,24 +272,14 @@ fn cli_run_with_a_tiny_time_step_fails_and_writes_nothing() {
     );
     assert!(err.contains("unbalanced force"), "{err}");
     let err = fails(
-        bin()
-            .arg("stress-test")
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
+        on_model("stress-test", &p, &m)
             .args(["--dt", "1e-12", "--max-steps", "2000", "-o"])
             .arg(&json),
     );
     assert!(err.contains("unbalanced force"), "{err}");
     assert!(!json.exists());
     // The default run reports the unbalanced force reached.
-    let out = bin()
-        .arg("run")
-        .arg(&p)
-        .arg("--model")
-        .arg(&m)
-        .output()
-        .unwrap();
+    let out = on_model("run", &p, &m).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success());
     assert!(
@@ -313,11 +295,7 @@ fn cli_refuses_bad_integrator_options_naming_them() {
     let out = d.path().join("t.json");
     // Spheres that fit the 300-particle block, so that only the ramp can stop the run; a
     // run that goes on past 20 s is killed and the test fails.
-    let mut child = bin()
-        .arg("grips")
-        .arg(&p)
-        .arg("--model")
-        .arg(&m)
+    let mut child = on_model("grips", &p, &m)
         .args(["--max-steps", "2000", "--ramp-steps", "100000000"])
         .args(["--sphere-radius", "2", "--spheres", "20", "-o"])
         .arg(&out)

@@ -9,22 +9,12 @@
 //! solve than to YADE's mid-gap one (which differs by ~1.5e-4 on this packing).
 
 use super::export::{lmp, one_lammps_at_a_time};
-use anisobond::assembly::Assembly;
+use crate::common::specimen::{check_platen_stiffness, free_cubic_specimen};
 use anisobond::homogenize::LeverArm;
-use anisobond::model::Model;
-use anisobond::schemes::Moments;
 use anisobond::specimen::{self, Platens};
 use anisobond::validate::lammps::{Lammps, LammpsValidateOptions};
 use anisobond::validate::specimen::SpecimenTest;
 use anisobond::validate::{validate_specimen, Problem};
-
-fn free_specimen() -> Assembly {
-    let mut packing = crate::common::bonded::generated(1000, 3);
-    packing.cell = None;
-    let mut model = Model::truszkowska_mrv();
-    model.geometry.moments = Moments::ParallelBond;
-    Assembly::new(packing, model).expect("bonded")
-}
 
 #[test]
 fn lammps_platen_stiffness_matches_the_specimen_solve_on_one_and_two_processes() {
@@ -33,7 +23,7 @@ fn lammps_platen_stiffness_matches_the_specimen_solve_on_one_and_two_processes()
         return;
     };
     let _one = one_lammps_at_a_time();
-    let asm = free_specimen();
+    let asm = free_cubic_specimen();
     let mut opts = LammpsValidateOptions::new(std::path::absolute(&lmp).unwrap());
     opts.two_processes = true;
     let engine = Lammps(opts);
@@ -45,25 +35,7 @@ fn lammps_platen_stiffness_matches_the_specimen_solve_on_one_and_two_processes()
         })
         .expect("the specimen test ran");
         assert_eq!(r.measured.len(), 2);
-        for (c, m) in r
-            .checks
-            .iter()
-            .filter(|c| c.id.starts_with("platen-stiffness"))
-            .zip(&r.measured)
-        {
-            eprintln!(
-                "{test}: {platens:?} platens, np {}: LAMMPS {:.7e} N/m, solve {:.7e} N/m, \
-                 relative difference {:.3e}, {} steps, {:.1} s",
-                m.processes,
-                m.stiffness(),
-                r.predicted.platen_stiffness,
-                c.value,
-                m.steps,
-                m.seconds
-            );
-            assert!(c.not_converged.is_none(), "LAMMPS did not settle: {c:?}");
-            assert!(c.value <= 1e-3, "{c:?}");
-        }
+        check_platen_stiffness(test, "LAMMPS", platens, &r);
         assert!(r.passed(), "{:?}", r.failures());
         // The contact point is resolved: the mid-gap solve is several times farther off.
         let mut o = t.resolved(1e-5).solve_options(LeverArm::MidGap);

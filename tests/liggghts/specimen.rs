@@ -9,9 +9,7 @@
 //! frictionless measurement is out of tolerance against the bonded solve.
 
 use crate::common::liggghts::*;
-use anisobond::assembly::Assembly;
-use anisobond::model::Model;
-use anisobond::schemes::Moments;
+use crate::common::specimen::{check_platen_stiffness, free_cubic_specimen};
 use anisobond::specimen::Platens;
 use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
 use anisobond::validate::specimen::SpecimenTest;
@@ -26,11 +24,7 @@ fn liggghts_platen_stiffness_matches_the_specimen_solve_on_one_and_two_processes
         eprintln!("skipping {test}: {r}");
         return;
     }
-    let mut packing = crate::common::bonded::generated(1000, 3);
-    packing.cell = None;
-    let mut model = Model::truszkowska_mrv();
-    model.geometry.moments = Moments::ParallelBond;
-    let asm = Assembly::new(packing, model).expect("bonded");
+    let asm = free_cubic_specimen();
     let engine = Liggghts {
         programs: Programs {
             driver: driver(),
@@ -50,25 +44,7 @@ fn liggghts_platen_stiffness_matches_the_specimen_solve_on_one_and_two_processes
         })
         .expect("the specimen test ran");
         assert_eq!(r.measured.len(), 2);
-        for (c, m) in r
-            .checks
-            .iter()
-            .filter(|c| c.id.starts_with("platen-stiffness"))
-            .zip(&r.measured)
-        {
-            eprintln!(
-                "{test}: {platens:?} platens, np {}: LIGGGHTS {:.7e} N/m, solve {:.7e} N/m, \
-                 relative difference {:.3e}, {} steps, {:.1} s",
-                m.processes,
-                m.stiffness(),
-                r.predicted.platen_stiffness,
-                c.value,
-                m.steps,
-                m.seconds
-            );
-            assert!(c.not_converged.is_none(), "LIGGGHTS did not settle: {c:?}");
-            assert!(c.value <= 1e-3, "{c:?}");
-        }
+        check_platen_stiffness(test, "LIGGGHTS", platens, &r);
         assert!(r.passed(), "{:?}", r.failures());
         measured.push((r.measured[0].stiffness(), r.predicted.platen_stiffness));
     }

@@ -8,7 +8,7 @@
 //! pair style's own record of which bond broke when).
 
 use crate::common::liggghts::*;
-use crate::common::strength_bar::{cubic_bar, R};
+use crate::common::strength_bar::{cubic_bar, run_strength, R};
 use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
 use anisobond::validate::strength::StrengthTest;
 use anisobond::validate::{validate_strength, Problem};
@@ -34,11 +34,7 @@ fn liggghts_tension_peak_and_first_breaks_match_the_integrator_on_one_and_two_pr
     let asm = cubic_bar(10);
     let dir = fresh_dir("strength_validate");
     let t = StrengthTest::new(2, 0.5 * R, 5e-7, 4_000);
-    let r = validate_strength(&engine(), &Problem::of(&dir, &asm), &t, &|m: &str| {
-        eprintln!("liggghts_strength: {m}")
-    })
-    .expect("the strength test ran");
-    eprintln!("{}", anisobond::validate::strength::summary(&r));
+    let r = run_strength("liggghts_strength", &engine(), &dir, &asm, &t);
     assert!(
         r.reference.breaks.len() >= 10,
         "the integrator broke only {} bonds",

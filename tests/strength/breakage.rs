@@ -5,6 +5,7 @@
 //! closed form of B along the load path reaches 1; energy closing against the grips' work;
 //! the same breaks and positions on 1 and 2 threads and with or without the AVX2 lanes.
 
+use super::sc_bar::{self, bonded_pair};
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::{
     build_law, BondCriteria, BreakEvent, DemOptions, LawKind, PrescribedMotion, Simulation,
@@ -20,37 +21,9 @@ const D: f64 = 2.0 * R;
 const KN: f64 = 1.0e6;
 const KS: f64 = 0.5e6;
 
-/// A simple-cubic bar of nx × ny × nz spheres (axis z), bonds between nearest neighbours;
-/// returns it with each bond's (axis 0/1/2, layer k of its lower end).
+/// The simple-cubic bar of spheres of radius R ([`sc_bar::bar`]).
 fn bar(nx: usize, ny: usize, nz: usize) -> (Packing, BondSet, Vec<(usize, usize)>) {
-    let index = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
-    let mut positions = vec![Vec3::zeros(); nx * ny * nz];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                positions[index(i, j, k)] = Vec3::new(i as f64, j as f64, k as f64) * D;
-            }
-        }
-    }
-    let packing = Packing::new(positions.clone(), vec![R; positions.len()], None).unwrap();
-    let mut bonds = BondSet::default();
-    let mut tags = Vec::new();
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let a = index(i, j, k);
-                for (axis, (di, dj, dk)) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)].iter().enumerate() {
-                    let (i2, j2, k2) = (i + di, j + dj, k + dk);
-                    if i2 < nx && j2 < ny && k2 < nz {
-                        let b = index(i2, j2, k2);
-                        bonds.push(a as u32, b as u32, positions[b] - positions[a], [0; 3]);
-                        tags.push((axis, k));
-                    }
-                }
-            }
-        }
-    }
-    (packing, bonds, tags)
+    sc_bar::bar(nx, ny, nz, R)
 }
 
 /// Law (a) on `bonds` (no moment springs), Cundall damping `local_damping`, every bond
@@ -144,16 +117,21 @@ fn simulation_with(
 /// particles already in the steady linear velocity field (no wave at the start). Returns
 /// the top layer's particles.
 fn pull(sim: &mut Simulation, packing: &Packing, nz: usize, v: f64) -> Vec<usize> {
+    move_top(sim, packing, nz, Vec3::new(0.0, 0.0, v))
+}
+
+/// Hold the bottom layer still and move the top layer at `v_top`, the free particles in
+/// the steady linear velocity field (height over the bar's top × `v_top`). Returns the top
+/// layer's particles.
+fn move_top(sim: &mut Simulation, packing: &Packing, nz: usize, v_top: Vec3) -> Vec<usize> {
     let top_z = (nz - 1) as f64 * D;
-    let mut held = Vec::new();
-    let mut velocity = Vec::new();
-    let mut top = Vec::new();
+    let (mut held, mut velocity, mut top) = (Vec::new(), Vec::new(), Vec::new());
     for (p, x) in packing.positions.iter().enumerate() {
         let s = x.z / top_z;
-        sim.particles.velocity[p] = Vec3::new(0.0, 0.0, v * s);
+        sim.particles.velocity[p] = v_top * s;
         if !(1e-9..=1.0 - 1e-9).contains(&s) {
             held.push(p);
-            velocity.push(sim.particles.velocity[p]);
+            velocity.push(v_top * s);
             if s > 0.5 {
                 top.push(p);
             }
@@ -165,6 +143,23 @@ fn pull(sim: &mut Simulation, packing: &Packing, nz: usize, v: f64) -> Vec<usize
     }))
     .unwrap();
     top
+}
+
+/// Run `steps` steps of `sim`: the accounted energy after the first, and the work of the
+/// grips' `power` (W) from there on by the trapezoidal rule, step to step.
+fn work_of(sim: &mut Simulation, steps: usize, power: impl Fn(&Simulation) -> f64) -> (f64, f64) {
+    let dt = sim.time_step();
+    sim.step().unwrap();
+    let e0 = sim.energies().accounted();
+    let mut p_prev = power(sim);
+    let mut work = 0.0;
+    for _ in 1..steps {
+        sim.step().unwrap();
+        let p = power(sim);
+        work += 0.5 * (p_prev + p) * dt;
+        p_prev = p;
+    }
+    (e0, work)
 }
 
 fn isotropic(tensile: f64, cohesion: f64) -> StrengthSpec {
@@ -254,14 +249,7 @@ fn a_bar_in_direct_tension_peaks_at_the_bonds_per_section_times_the_bond_limit()
 /// a_s to the load step (and the rotation of the bond, (u/D)² ≈ 3e-7).
 #[test]
 fn a_sheared_bond_breaks_at_the_cohesion_limit() {
-    let packing = Packing::new(
-        vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
-        vec![R; 2],
-        None,
-    )
-    .unwrap();
-    let mut bonds = BondSet::default();
-    bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
+    let (packing, bonds) = bonded_pair(R);
     let cohesion = 1.0e6;
     let spec = isotropic(50.0 * cohesion, cohesion);
     let opts = DemOptions {
@@ -309,14 +297,7 @@ fn a_sheared_bond_breaks_at_the_cohesion_limit() {
 /// is the closed form's B.
 #[test]
 fn a_lammps_bond_under_tension_and_shear_breaks_where_b_reaches_one() {
-    let packing = Packing::new(
-        vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
-        vec![R; 2],
-        None,
-    )
-    .unwrap();
-    let mut bonds = BondSet::default();
-    bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
+    let (packing, bonds) = bonded_pair(R);
     let (sigma_t, cohesion) = (1.0e6, 1.5e6);
     let spec = isotropic(sigma_t, cohesion);
     let opts = DemOptions {
@@ -488,36 +469,9 @@ fn sheared_to_failure(factor: f64) -> (f64, usize, f64, f64, u64) {
     let duration = 4000.0 * sim.time_step() * 0.8 / factor;
     let steps = (duration / sim.time_step()).round() as usize;
     let v_top = Vec3::new(0.02 * D, 0.0, -0.004 * D) / duration;
-    let top_z = (nz - 1) as f64 * D;
-    let (mut held, mut velocity, mut top) = (Vec::new(), Vec::new(), Vec::new());
-    for (p, x) in packing.positions.iter().enumerate() {
-        let s = x.z / top_z;
-        sim.particles.velocity[p] = v_top * s;
-        if !(1e-9..=1.0 - 1e-9).contains(&s) {
-            held.push(p);
-            velocity.push(v_top * s);
-            if s > 0.5 {
-                top.push(p);
-            }
-        }
-    }
-    sim.set_prescribed_motion(Some(PrescribedMotion {
-        particles: held,
-        velocity,
-    }))
-    .unwrap();
-    let dt = sim.time_step();
+    let top = move_top(&mut sim, &packing, nz, v_top);
     let power = |sim: &Simulation| -top.iter().map(|&p| sim.force[p].dot(&v_top)).sum::<f64>();
-    sim.step().unwrap();
-    let e0 = sim.energies().accounted();
-    let mut p_prev = power(&sim);
-    let mut work = 0.0;
-    for _ in 1..steps {
-        sim.step().unwrap();
-        let p = power(&sim);
-        work += 0.5 * (p_prev + p) * dt;
-        p_prev = p;
-    }
+    let (e0, work) = work_of(&mut sim, steps, power);
     let e = sim.energies();
     let gained = e.accounted() - e0;
     let hash = sim
@@ -730,18 +684,8 @@ fn a_broken_specimen_compressed_with_contacts_does_not_interpenetrate() {
                 sim.particles.velocity[p] = Vec3::zeros();
             }
         }
-        let dt = sim.time_step();
         let power = |sim: &Simulation| -top.iter().map(|&p| sim.force[p].z * v).sum::<f64>();
-        sim.step().unwrap();
-        let e0 = sim.energies().accounted();
-        let mut p_prev = power(&sim);
-        let mut work = 0.0;
-        for _ in 1..steps {
-            sim.step().unwrap();
-            let p = power(&sim);
-            work += 0.5 * (p_prev + p) * dt;
-            p_prev = p;
-        }
+        let (e0, work) = work_of(&mut sim, steps, power);
         assert_eq!(sim.break_events().len(), bonds.len());
         assert!(sim.break_events().iter().all(|e| e.step == 0));
         assert_eq!(sim.intact_count(), 0);
@@ -846,14 +790,7 @@ fn a_bar_across_a_plane_of_weakness_breaks_on_the_joint_by_mohr_coulomb() {
 #[test]
 fn a_broken_pair_pressed_and_slid_keeps_coulomb_and_closes_its_energy() {
     use anisobond::dem::{ContactLaw, Contacts};
-    let packing = Packing::new(
-        vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
-        vec![R; 2],
-        None,
-    )
-    .unwrap();
-    let mut bonds = BondSet::default();
-    bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
+    let (packing, bonds) = bonded_pair(R);
     let mut sim = yade_bonds_broken_at_once(&packing, &bonds, 0.0);
     let mu = 0.5;
     let law = ContactLaw {

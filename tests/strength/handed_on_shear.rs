@@ -3,12 +3,12 @@
 //! at the break step the contact's shear force is the bond's trial one capped at μ·F_n, and
 //! it carries on from there (docs/strength.md, "Compression (UCS)").
 
-use anisobond::bonds::{BondSet, BondStiffness};
+use super::sc_bar::bonded_pair;
+use anisobond::bonds::BondStiffness;
 use anisobond::dem::{
     build_law, BondCriteria, BondCriterion, ContactLaw, Contacts, DemOptions, LawKind,
     PrescribedMotion, Simulation,
 };
-use anisobond::packing::Packing;
 use anisobond::strength::criteria::{YadeAdhesion, YadeMoments};
 use anisobond::strength::Mode;
 use anisobond::Vec3;
@@ -25,14 +25,7 @@ const KS: f64 = 0.5e6;
 /// energy closes against the held spheres' work.
 #[test]
 fn a_yade_bond_broken_in_shear_under_compression_continues_at_the_coulomb_cap() {
-    let packing = Packing::new(
-        vec![Vec3::zeros(), Vec3::new(0.0, 0.0, D)],
-        vec![R; 2],
-        None,
-    )
-    .unwrap();
-    let mut bonds = BondSet::default();
-    bonds.push(0, 1, Vec3::new(0.0, 0.0, D), [0; 3]);
+    let (packing, bonds) = bonded_pair(R);
     let k = BondStiffness {
         radius: vec![R],
         kn: vec![KN],

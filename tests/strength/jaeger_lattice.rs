@@ -40,34 +40,12 @@ const CAP: f64 = 4.0e6;
 
 /// The 3 × 3 × 12 bar (axis z), nearest-neighbour bonds, each bond's axis (0, 1, 2).
 fn bar() -> (Packing, BondSet, Vec<usize>) {
-    let index = |i: usize, j: usize, k: usize| (k * NY + j) * NX + i;
-    let mut positions = vec![Vec3::zeros(); NX * NY * NZ];
-    for k in 0..NZ {
-        for j in 0..NY {
-            for i in 0..NX {
-                positions[index(i, j, k)] = Vec3::new(i as f64, j as f64, k as f64) * D;
-            }
-        }
-    }
-    let packing = Packing::new(positions.clone(), vec![R; positions.len()], None).unwrap();
-    let mut bonds = BondSet::default();
-    let mut axes = Vec::new();
-    for k in 0..NZ {
-        for j in 0..NY {
-            for i in 0..NX {
-                let a = index(i, j, k);
-                for (axis, (di, dj, dk)) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)].iter().enumerate() {
-                    let (i2, j2, k2) = (i + di, j + dj, k + dk);
-                    if i2 < NX && j2 < NY && k2 < NZ {
-                        let b = index(i2, j2, k2);
-                        bonds.push(a as u32, b as u32, positions[b] - positions[a], [0; 3]);
-                        axes.push(axis);
-                    }
-                }
-            }
-        }
-    }
-    (packing, bonds, axes)
+    let (packing, bonds, tags) = super::sc_bar::bar(NX, NY, NZ, R);
+    (
+        packing,
+        bonds,
+        tags.into_iter().map(|(axis, _)| axis).collect(),
+    )
 }
 
 /// The plane at β (degrees) from the axis, normal (sin β, 0, cos β), through the bar's

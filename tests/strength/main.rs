@@ -11,5 +11,6 @@ mod jaeger;
 mod jaeger_lattice;
 mod model_file;
 mod planes;
+mod sc_bar;
 mod scatter;
 mod schemes;

@@ -10,26 +10,16 @@
 //! Skipped with a printed reason only when `yade` is not on PATH; with CI set, a missing
 //! `yade` fails.
 
+use crate::common::specimen::free_cubic_specimen;
 use crate::common::yade::yade_available;
+use crate::common::AssemblyFiles;
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
-use anisobond::packing::write_packing;
-use anisobond::schemes::Moments;
 use anisobond::specimen::Platens;
 use anisobond::validate::specimen::SpecimenTest;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
 use anisobond::validate::{validate_specimen, Problem};
 use std::process::Command;
-
-/// The free 1,000-sphere specimen (a generated packing with its cell removed), bonded by
-/// the anisotropic cubic model with parallel-bond moments.
-fn free_specimen() -> Assembly {
-    let mut packing = crate::common::bonded::generated(1000, 3);
-    packing.cell = None;
-    let mut model = Model::truszkowska_mrv();
-    model.geometry.moments = Moments::ParallelBond;
-    Assembly::new(packing, model).expect("bonded")
-}
 
 #[test]
 fn yade_platen_stiffness_matches_the_specimen_solve() {
@@ -37,7 +27,7 @@ fn yade_platen_stiffness_matches_the_specimen_solve() {
     if !yade_available(test) {
         return;
     }
-    let asm = free_specimen();
+    let asm = free_cubic_specimen();
     let mean = asm.packing.mean_radius();
     let engine = Yade(YadeValidationOptions::default());
     let mut stiffness = Vec::new();
@@ -82,23 +72,16 @@ fn validate_yade_specimen_command_passes_and_can_fail() {
     if !yade_available(test) {
         return;
     }
-    let asm = free_specimen();
+    let asm = free_cubic_specimen();
     let dir = tempfile::tempdir().unwrap();
-    let packing = dir.path().join("free.txt");
-    write_packing(&packing, &asm.packing).unwrap();
-    let model = dir.path().join("model.toml");
-    std::fs::write(&model, asm.model.to_toml_string()).unwrap();
+    let files = AssemblyFiles::write(dir.path(), &asm);
     let run = |extra: &[&str], out: &str| {
-        Command::new(env!("CARGO_BIN_EXE_anisobond"))
-            .args(["validate", "yade"])
-            .arg(&packing)
-            .arg("--model")
-            .arg(&model)
-            .args(["--specimen", "--platens", "bonded", "-o"])
-            .arg(dir.path().join(out))
-            .args(extra)
-            .output()
-            .unwrap()
+        files.validate(
+            "yade",
+            &["--specimen", "--platens", "bonded"],
+            &dir.path().join(out),
+            extra,
+        )
     };
     let ok = run(&[], "ok");
     let text = String::from_utf8_lossy(&ok.stdout);

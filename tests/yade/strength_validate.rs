@@ -9,11 +9,11 @@
 //! bonds that break in shear), the integrator with frictional contacts after breaking as
 //! YADE keeps its shear-broken bonds.
 
-use crate::common::strength_bar::{cubic_bar, ucs_prism, R};
+use crate::common::strength_bar::{check_ucs_run, cubic_bar, run_strength, ucs_prism, R};
 use crate::common::yade::yade_available;
+use crate::common::AssemblyFiles;
 use anisobond::validate::strength::StrengthTest;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
-use anisobond::validate::{validate_strength, Problem};
 
 #[test]
 fn yade_tension_peak_and_first_breaks_match_the_integrator() {
@@ -25,11 +25,7 @@ fn yade_tension_peak_and_first_breaks_match_the_integrator() {
     let engine = Yade(YadeValidationOptions::default());
     let dir = tempfile::tempdir().unwrap();
     let t = StrengthTest::new(2, 0.5 * R, 5e-7, 4_000);
-    let r = validate_strength(&engine, &Problem::of(dir.path(), &asm), &t, &|m: &str| {
-        eprintln!("{test}: {m}")
-    })
-    .expect("the strength test ran");
-    eprintln!("{}", anisobond::validate::strength::summary(&r));
+    let r = run_strength(test, &engine, dir.path(), &asm, &t);
     assert!(
         r.reference.breaks.len() >= 10,
         "the integrator broke only {} bonds",
@@ -54,38 +50,10 @@ fn yade_ucs_peak_and_first_breaks_match_the_integrator_with_contacts() {
     let engine = Yade(YadeValidationOptions::default());
     let dir = tempfile::tempdir().unwrap();
     let t = StrengthTest::new(2, 1.5 * R, 2e-6, 3_000).compression();
-    let r = validate_strength(&engine, &Problem::of(dir.path(), &asm), &t, &|m: &str| {
-        eprintln!("{test}: {m}")
-    })
-    .expect("the strength test ran");
-    eprintln!("{}", anisobond::validate::strength::summary(&r));
+    let r = run_strength(test, &engine, dir.path(), &asm, &t);
     check_ucs_run(&r.reference, &t);
     check_ucs_run(&r.measured[0], &t);
     assert!(r.passed(), "{:?}", r.failures());
-}
-
-/// A UCS run that failed: at least ten bonds broke before its first peak's end, the first
-/// peak is compressive and lies well before the run's end (the load fell by the peak drop).
-pub fn check_ucs_run(run: &anisobond::validate::strength::StrengthRun, t: &StrengthTest) {
-    assert!(
-        run.breaks.len() >= 10,
-        "{}: only {} bonds broke",
-        run.program,
-        run.breaks.len()
-    );
-    assert!(
-        run.peak_force > 0.0,
-        "{}: peak {}",
-        run.program,
-        run.peak_force
-    );
-    assert!(
-        run.peak_step < t.steps * 9 / 10,
-        "{}: the first peak at step {} of {}: the prism did not fail",
-        run.program,
-        run.peak_step,
-        t.steps
-    );
 }
 
 /// The command: `validate yade FREE --model M --strength` passes and writes its report; asking
@@ -99,21 +67,14 @@ fn validate_yade_strength_command_passes_and_can_fail() {
     }
     let asm = cubic_bar(6);
     let dir = tempfile::tempdir().unwrap();
-    let packing = dir.path().join("free.txt");
-    anisobond::packing::write_packing(&packing, &asm.packing).unwrap();
-    let model = dir.path().join("model.toml");
-    std::fs::write(&model, asm.model.to_toml_string()).unwrap();
+    let files = AssemblyFiles::write(dir.path(), &asm);
     let run = |extra: &[&str], out: &str| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_anisobond"))
-            .args(["validate", "yade"])
-            .arg(&packing)
-            .arg("--model")
-            .arg(&model)
-            .args(["--strength", "--steps", "3000", "-o"])
-            .arg(dir.path().join(out))
-            .args(extra)
-            .output()
-            .unwrap()
+        files.validate(
+            "yade",
+            &["--strength", "--steps", "3000"],
+            &dir.path().join(out),
+            extra,
+        )
     };
     let ok = run(&[], "ok");
     let text = String::from_utf8_lossy(&ok.stdout);
@@ -147,22 +108,9 @@ fn validate_yade_strength_command_passes_and_can_fail() {
 fn validate_strength_refuses_a_bad_load_or_peak_drop() {
     let asm = cubic_bar(3);
     let dir = tempfile::tempdir().unwrap();
-    let packing = dir.path().join("free.txt");
-    anisobond::packing::write_packing(&packing, &asm.packing).unwrap();
-    let model = dir.path().join("model.toml");
-    std::fs::write(&model, asm.model.to_toml_string()).unwrap();
-    let run = |extra: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_anisobond"))
-            .args(["validate", "yade"])
-            .arg(&packing)
-            .arg("--model")
-            .arg(&model)
-            .args(["--strength", "-o"])
-            .arg(dir.path().join("out"))
-            .args(extra)
-            .output()
-            .unwrap()
-    };
+    let files = AssemblyFiles::write(dir.path(), &asm);
+    let out = dir.path().join("out");
+    let run = |extra: &[&str]| files.validate("yade", &["--strength"], &out, extra);
     let drop = run(&["--load", "compression", "--peak-drop", "1.5"]);
     let err = String::from_utf8_lossy(&drop.stderr);
     assert_eq!(drop.status.code(), Some(1), "{err}");

@@ -27,6 +27,22 @@ class TensorOptions(TypedDict, total=False):
     prestress: float  # prestressed: compressive preload, Pa [0]
     progress: _Progress  # dynamic: callable(fraction) [None]
 
+class LabOptions(TypedDict, total=False):
+    """The virtual laboratory's keywords of strength_test, strength_sweep and
+    calibrate_strength_model: the ``strength-test`` flags (None or left out: the default)."""
+
+    width_particles: Optional[float]  # prism width / cylinder or disc diameter, in mean radii [16]
+    aspect: Optional[float]  # length / width (disc: thickness / diameter) [the test's own]
+    end_layer: Optional[float]  # glued end layers' depth, in mean radii [1]
+    loading_rate: Optional[float]  # axial strain per wave transit time, at most [1e-6]
+    max_strain: Optional[float]  # the run ends at this axial strain [0.005]
+    stop_fraction: Optional[float]  # ... or once the stress fell below this fraction of its peak [0.5]
+    peak_drop: Optional[float]  # the first peak ends where the stress falls by this fraction [0.05]
+    local_damping: Optional[float]  # Cundall local damping [0.1]
+    cell_particles: Optional[int]  # spheres of the generated packing (packing None) [1000]
+    seed: Optional[int]  # seed of the generated packing [1]
+    points: Optional[int]  # recorded points of the curve [1000]
+
 __version__: str
 
 class AnisobondError(ValueError): ...
@@ -241,17 +257,7 @@ def strength_test(
     law: str = "yade",
     shape: str = "prism",
     bedding_deg: Optional[float] = None,
-    width_particles: Optional[float] = None,
-    aspect: Optional[float] = None,
-    end_layer: Optional[float] = None,
-    loading_rate: Optional[float] = None,
-    max_strain: Optional[float] = None,
-    stop_fraction: Optional[float] = None,
-    peak_drop: Optional[float] = None,
-    local_damping: Optional[float] = None,
-    cell_particles: Optional[int] = None,
-    seed: Optional[int] = None,
-    points: Optional[int] = None,
+    **lab: Unpack[LabOptions],
 ) -> Dict[str, Any]:
     """The virtual laboratory (docs/strength-test.md), as ``anisobond strength-test``:
     "ucs", "tension" or "brazilian" on a specimen cut from ``packing`` (None: generated)
@@ -267,17 +273,7 @@ def strength_sweep(
     model: Optional[Model] = None,
     law: str = "yade",
     shape: str = "prism",
-    width_particles: Optional[float] = None,
-    aspect: Optional[float] = None,
-    end_layer: Optional[float] = None,
-    loading_rate: Optional[float] = None,
-    max_strain: Optional[float] = None,
-    stop_fraction: Optional[float] = None,
-    peak_drop: Optional[float] = None,
-    local_damping: Optional[float] = None,
-    cell_particles: Optional[int] = None,
-    seed: Optional[int] = None,
-    points: Optional[int] = None,
+    **lab: Unpack[LabOptions],
 ) -> Dict[str, Any]:
     """The bedding sweep (docs/strength-test.md), as ``anisobond strength-test
     --bedding-sweep``: UCS and Brazilian disc at each angle (None: 0, 15, ..., 90).
@@ -292,19 +288,9 @@ def calibrate_strength_model(
     law: str = "yade",
     shape: str = "prism",
     bedding_deg: Optional[float] = None,
-    width_particles: Optional[float] = None,
-    aspect: Optional[float] = None,
-    end_layer: Optional[float] = None,
-    loading_rate: Optional[float] = None,
-    max_strain: Optional[float] = None,
-    stop_fraction: Optional[float] = None,
-    peak_drop: Optional[float] = None,
-    local_damping: Optional[float] = None,
-    cell_particles: Optional[int] = None,
-    seed: Optional[int] = None,
-    points: Optional[int] = None,
     tolerance: Optional[float] = None,
     max_iterations: Optional[int] = None,
+    **lab: Unpack[LabOptions],
 ) -> Tuple[Model, Dict[str, Any]]:
     """Strength calibration (docs/calibrate-strength.md), as ``anisobond
     calibrate-strength`` (re-exported as ``anisobond.calibrate_strength``): the

@@ -11,8 +11,9 @@
 //! uses bpm/rotational's midpoint contact point ([`LeverArm::HalfLength`]).
 
 use super::{
-    atom_lines, box_lines, num, platens_name, relax_in_chunks, remaining_change, specimen_mass,
-    DeckLaunch, DeckPlan, DeckStart, EngineMeasurement, ScriptDeck, SpecimenTest,
+    atom_lines, bond_lines_one_type_each, box_lines, num, platens_name, relax_in_chunks,
+    remaining_change, specimen_mass, DeckLaunch, DeckPlan, DeckStart, EngineMeasurement,
+    ScriptDeck, SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
@@ -62,16 +63,7 @@ fn write_inputs(
     s.push_str("\nAtoms # bpm/sphere\n\n");
     s.push_str(&atom_lines(packing, types, density, true));
     s.push_str("\nBonds\n\n");
-    for b in 0..bonds.len() {
-        let _ = writeln!(
-            s,
-            "{} {} {} {}",
-            b + 1,
-            b + 1,
-            bonds.i[b] + 1,
-            bonds.j[b] + 1
-        );
-    }
+    s.push_str(&bond_lines_one_type_each(bonds));
     crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
     let mut c = String::from(
         "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t\n\

@@ -747,6 +747,23 @@ pub(super) fn atom_lines(
     s
 }
 
+/// The `Bonds` section's lines of a data file with one bond type per bond: bond b (from 0)
+/// is `b+1 b+1 i+1 j+1` (bond id, its own type, atom ids from 1).
+pub fn bond_lines_one_type_each(bonds: &crate::bonds::BondSet) -> String {
+    let mut s = String::new();
+    for b in 0..bonds.len() {
+        let _ = writeln!(
+            s,
+            "{} {} {} {}",
+            b + 1,
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        );
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

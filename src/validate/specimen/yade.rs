@@ -172,15 +172,7 @@ fn remaining(v: &serde_json::Value, path: &Path) -> Result<f64> {
 /// Read `platen_main`'s JSON; body ids are the packing's indices (`build_scene` appends
 /// the spheres in order).
 fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement> {
-    let text = crate::io::read_to_string(path)?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
-    let bad = |what: &str| {
-        Error::engine(
-            "YADE",
-            format!("{}: no valid `{what}` in YADE's result", path.display()),
-        )
-    };
+    let (v, bad) = crate::validate::yade::read_result_json(path)?;
     let num = |k: &str| v[k].as_f64().ok_or_else(|| bad(k));
     let ids = |k: &str| -> Result<Vec<usize>> {
         let mut out = v[k]

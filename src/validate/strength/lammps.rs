@@ -34,7 +34,7 @@ use crate::export::lammps::{
     bond_damping, bond_limits, write_strength_table, LammpsBondStyle, LammpsBreakage,
 };
 use crate::validate::harness::{Problem, Progress, Report, Timing};
-use crate::validate::specimen::{atom_lines, box_lines, num};
+use crate::validate::specimen::{atom_lines, bond_lines_one_type_each, box_lines, num};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -101,29 +101,9 @@ pub fn run(
         &deck(&test, &loading, 1.6 * max_len, plugin)?,
     )?;
     let mut timings = Vec::new();
-    let coeffs = (0..bonds.len())
-        .map(|b| BpmCoefficients {
-            kr: k.kn[b],
-            ks: k.ks[b],
-            kt: k.ktw[b],
-            kb: k.kr[b],
-            gamma_n: damping[b][0],
-            gamma_s: damping[b][1],
-            gamma_r: damping[b][2],
-            gamma_t: damping[b][3],
-        })
-        .collect();
+    let coeffs = bpm_coefficients(k, &damping);
     let law = Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute)?);
-    let reference = reference(
-        packing,
-        bonds,
-        law,
-        criteria,
-        launch.density,
-        0.0,
-        &loading,
-        &test,
-    )?;
+    let reference = reference(problem, law, criteria, launch.density, 0.0, &loading, &test)?;
     reference.record(&mut timings, progress);
     let mut measured = Vec::new();
     for &np in &launch.processes {
@@ -194,21 +174,47 @@ fn write_inputs(
     s.push_str("\nAtoms # bpm/sphere\n\n");
     s.push_str(&atom_lines(packing, types, density, true));
     s.push_str("\nBonds\n\n");
-    for b in 0..nb {
-        let _ = writeln!(
-            s,
-            "{} {} {} {}",
-            b + 1,
-            b + 1,
-            bonds.i[b] + 1,
-            bonds.j[b] + 1
-        );
-    }
+    s.push_str(&bond_lines_one_type_each(bonds));
     crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    crate::io::write_string_atomic(
+        &dir.join("bond_coeffs.lmp"),
+        &bond_coeff_lines(k, limits, damping),
+    )
+}
+
+/// Law (d)'s coefficients of each bond: bpm/rotational's k_r k_s k_t k_b from the bond's
+/// springs k_n k_s k_tw k_r, and its dashpots `damping` ([`bond_damping`]: γ_n γ_s γ_r γ_t).
+pub fn bpm_coefficients(
+    k: &crate::bonds::BondStiffness,
+    damping: &[[f64; 4]],
+) -> Vec<BpmCoefficients> {
+    (0..k.len())
+        .map(|b| BpmCoefficients {
+            kr: k.kn[b],
+            ks: k.ks[b],
+            kt: k.ktw[b],
+            kb: k.kr[b],
+            gamma_n: damping[b][0],
+            gamma_s: damping[b][1],
+            gamma_r: damping[b][2],
+            gamma_t: damping[b][3],
+        })
+        .collect()
+}
+
+/// `bond_coeffs.lmp` of bpm/rotational with one bond type per bond: a header comment, then
+/// `bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t`
+/// of each bond from its springs `k`, its limits ([`bond_limits`]: f_rc f_sc τ_bc τ_tc) and
+/// its damping ([`bond_damping`]).
+pub fn bond_coeff_lines(
+    k: &crate::bonds::BondStiffness,
+    limits: &[[f64; 4]],
+    damping: &[[f64; 4]],
+) -> String {
     let mut c = String::from(
         "# bond_coeff TYPE k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r gamma_t\n",
     );
-    for b in 0..nb {
+    for b in 0..k.len() {
         let (l, g) = (limits[b], damping[b]);
         let _ = writeln!(
             c,
@@ -228,7 +234,7 @@ fn write_inputs(
             num(g[3])
         );
     }
-    crate::io::write_string_atomic(&dir.join("bond_coeffs.lmp"), &c)
+    c
 }
 
 /// The plugin's inputs: `data.lmp` (as [`write_inputs`]'s, every bond of type 1), `bonds.csv`

@@ -79,16 +79,7 @@ pub fn run(
         MomentForm::Incremental,
         None,
     )?);
-    let reference = reference(
-        packing,
-        bonds,
-        law,
-        criteria,
-        launch.density,
-        0.0,
-        &loading,
-        test,
-    )?;
+    let reference = reference(problem, law, criteria, launch.density, 0.0, &loading, test)?;
     reference.record(&mut timings, progress);
     let mut measured = Vec::new();
     for &np in &launch.processes {

@@ -524,6 +524,33 @@ impl Loading {
             contacts: None,
         })
     }
+
+    /// Start `sim` (of spheres at `positions`) on this loading along `axis`: the free
+    /// spheres in the linear velocity field v·(x − lowest)/gauge, the bottom layer held and
+    /// the top one moved at v (prescribed motion), as the engines' decks start them.
+    pub fn start(&self, sim: &mut Simulation, positions: &[Vec3], axis: usize) -> Result<()> {
+        let along = |v: f64| {
+            let mut u = Vec3::zeros();
+            u[axis] = v;
+            u
+        };
+        for (v, x) in sim.particles.velocity.iter_mut().zip(positions) {
+            *v = along(self.velocity * (x[axis] - self.lowest) / self.gauge);
+        }
+        let mut held = Vec::new();
+        let mut velocity = Vec::new();
+        for (layer, v) in [(&self.bottom, 0.0), (&self.top, self.velocity)] {
+            for &p in layer {
+                held.push(p);
+                velocity.push(along(v));
+                sim.particles.velocity[p] = along(v);
+            }
+        }
+        sim.set_prescribed_motion(Some(PrescribedMotion {
+            particles: held,
+            velocity,
+        }))
+    }
 }
 
 /// The pair of bond `b`, ascending.
@@ -590,16 +617,14 @@ impl StrengthRun {
     }
 }
 
-/// The integrator's run of the test: `law` (the engine's, with its damping) and `criteria`
-/// (the same limits), the masses of `density`, Cundall `local_damping` (YADE's; 0 for
+/// The integrator's run of the test on `problem`'s packing and bonds: `law` (the engine's,
+/// with its damping) and `criteria` (the same limits), the masses of `density`, Cundall `local_damping` (YADE's; 0 for
 /// LAMMPS), the bottom layer held, the top moved at the loading's velocity, the free
 /// spheres started in the linear velocity field, frictional contacts after breaking when
 /// [`Loading::contacts`] says so (Verlet skin a fifth of the mean radius); the top layer's
 /// load read every step, its peak by [`peak_of`].
-#[allow(clippy::too_many_arguments)]
 pub fn reference(
-    packing: &Packing,
-    bonds: &BondSet,
+    problem: &super::Problem,
     law: Box<dyn BondLaw>,
     criteria: BondCriteria,
     density: f64,
@@ -607,6 +632,7 @@ pub fn reference(
     loading: &Loading,
     test: &StrengthTest,
 ) -> Result<StrengthRun> {
+    let (packing, bonds) = (problem.packing, problem.bonds);
     crate::dem::check_run_size("validate --strength", packing.len(), test.steps as f64)?;
     let t0 = std::time::Instant::now();
     let opts = DemOptions {
@@ -626,28 +652,7 @@ pub fn reference(
         sim.set_contacts(Some(Contacts::new(law, 0.2 * mean)?))?;
     }
     let ax = test.axis;
-    let along = |v: f64| {
-        let mut u = Vec3::zeros();
-        u[ax] = v;
-        u
-    };
-    // Free spheres in the linear velocity field; the layers at their own velocity, held.
-    for (v, x) in sim.particles.velocity.iter_mut().zip(&packing.positions) {
-        *v = along(loading.velocity * (x[ax] - loading.lowest) / loading.gauge);
-    }
-    let mut held = Vec::new();
-    let mut velocity = Vec::new();
-    for (layer, v) in [(&loading.bottom, 0.0), (&loading.top, loading.velocity)] {
-        for &p in layer {
-            held.push(p);
-            velocity.push(along(v));
-            sim.particles.velocity[p] = along(v);
-        }
-    }
-    sim.set_prescribed_motion(Some(PrescribedMotion {
-        particles: held,
-        velocity,
-    }))?;
+    loading.start(&mut sim, &packing.positions, ax)?;
     let mut curve = Vec::with_capacity(test.steps as usize + 1);
     for _ in 0..=test.steps {
         let step = sim.iteration();

@@ -145,8 +145,7 @@ pub fn run(
     let mut timings = Vec::new();
     let law = build_law(LawKind::Yade, packing, bonds, k)?;
     let reference = reference(
-        packing,
-        bonds,
+        problem,
         law,
         criteria,
         launch.density,
@@ -187,15 +186,7 @@ fn read_result(
     test: &StrengthTest,
     seconds: f64,
 ) -> Result<StrengthRun> {
-    let text = crate::io::read_to_string(path)?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
-    let bad = |what: &str| {
-        Error::engine(
-            "YADE",
-            format!("{}: no valid `{what}` in YADE's result", path.display()),
-        )
-    };
+    let (v, bad) = crate::validate::yade::read_result_json(path)?;
     let n = problem.packing.len() as u64;
     let raw = v["broken"]
         .as_array()
