@@ -492,3 +492,69 @@ fn route_a_and_breakage_with_the_many_body_term_are_refused_naming_the_way_out()
     assert!(err.to_string().contains("--no-break"), "{err}");
     assert!(crate::common::entries(&out).is_empty(), "files left behind");
 }
+
+/// A restart file keeps the term's reference (A_p⁻¹, V_p and every bond's L_b, per atom):
+/// 200 damped steps, a restart file, 200 more on one process; the restart file continued on
+/// two processes ends at the same state, and sets no new reference (one taken at the
+/// restart's strained state would zero the term's strain there).
+#[test]
+fn plugin_many_body_reference_survives_a_restart_on_two_processes() {
+    let Some(l) = lammps("plugin_many_body_restart") else {
+        return;
+    };
+    let dir = tmp();
+    let (pk, model, out) = exported(&l, dir.path(), 300);
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let cell = asm.packing.cell.unwrap().lengths;
+    let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
+    let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
+    let (set_lines, _) = perturbed_state(&asm.packing.positions, &strain(), &delta);
+    std::fs::write(out.join("perturbed.lmp"), set_lines).unwrap();
+    let dump = |name: &str| {
+        format!(
+            "write_dump all custom {name}.dump id xu yu zu fx fy fz modify sort id format float \
+             %.17g\n"
+        )
+    };
+    let first = format!(
+        "include perturbed.lmp\nrun 200\nwrite_restart state.restart\nrun 200\n{}",
+        dump("straight")
+    );
+    std::fs::write(out.join("first.lmp"), deck(Some(""), cell, &first)).unwrap();
+    let second = format!(
+        "include params.lmp\nplugin load ${{plugin}}\nread_restart state.restart\n\
+         comm_modify vel yes cutoff ${{cut}}\nneighbor ${{skin}} bin\n\
+         fix integrate all nve/bpm/sphere\nrun 200\n{}",
+        dump("restarted")
+    );
+    std::fs::write(out.join("second.lmp"), second).unwrap();
+    run(&l, &out, "first.lmp", 1);
+    let log = run(&l, &out, "second.lmp", 2);
+    assert!(
+        !log.contains("many-body reference of"),
+        "a new reference after the restart:\n{log}"
+    );
+    let (a, b) = (
+        dump_rows(&out.join("straight.dump")),
+        dump_rows(&out.join("restarted.dump")),
+    );
+    assert_eq!(a.len(), b.len());
+    let (mut dx, mut x_scale, mut df, mut f_max) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
+    for (id, ra) in &a {
+        let rb = &b[id];
+        for c in 0..3 {
+            x_scale = x_scale.max(ra[c].abs());
+            dx = dx.max((ra[c] - rb[c]).abs());
+            f_max = f_max.max(ra[3 + c].abs());
+            df = df.max((ra[3 + c] - rb[3 + c]).abs());
+        }
+    }
+    eprintln!(
+        "restart on 2 processes vs straight on 1: max |Δx| = {dx:.2e} m (positions up to \
+         {x_scale:.3e} m), max |Δf| / max |f| = {:.2e} (max |f| {f_max:.3e} N)",
+        df / f_max
+    );
+    assert!(f_max > 0.0);
+    assert!(dx < 1e-12 * x_scale, "positions: {dx:e}");
+    assert!(df < 1e-8 * f_max, "forces: {:e}", df / f_max);
+}
