@@ -1377,7 +1377,9 @@ pub fn manybody_keywords(spec: &ManyBodySpec) -> String {
     s
 }
 
-/// `in.elastic`, and `in.history` for bpm/rotational decks.
+/// `in.elastic` (with the many-body term: `${manybody}` on the plugin's bond_style line),
+/// and `in.history` for bpm/rotational decks.
+#[allow(clippy::too_many_arguments)]
 fn write_decks(
     dir: &Path,
     n: usize,
