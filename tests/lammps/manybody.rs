@@ -558,3 +558,61 @@ fn plugin_many_body_reference_survives_a_restart_on_two_processes() {
     assert!(dx < 1e-12 * x_scale, "positions: {dx:e}");
     assert!(df < 1e-8 * f_max, "forces: {:e}", df / f_max);
 }
+
+/// On FCC (every particle's bond star centro-symmetric) the term adds exactly D to the
+/// relaxed tensor (docs/manybody.md, "The closed form"): the element tests of the exported
+/// plugin deck with the term minus those without it are D, on one process and on two.
+#[test]
+fn plugin_element_tests_on_fcc_add_d_exactly() {
+    let Some(l) = lammps("plugin_many_body_fcc") else {
+        return;
+    };
+    let dir = tmp();
+    // 3³ FCC cells of touching spheres (R = 1 mm): 108 particles, 12 bonds each.
+    let r = 1e-3;
+    let a = 2.0 * std::f64::consts::SQRT_2 * r;
+    let mut text = format!("# periodic {} {} {}\n", 3.0 * a, 3.0 * a, 3.0 * a);
+    for (i, j, k) in (0..27).map(|c| (c / 9, (c / 3) % 3, c % 3)) {
+        for b in [
+            [0.0, 0.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [0.5, 0.0, 0.5],
+            [0.0, 0.5, 0.5],
+        ] {
+            let x = [i as f64 + b[0], j as f64 + b[1], k as f64 + b[2]].map(|v| v * a);
+            text.push_str(&format!("{} {} {} {r}\n", x[0], x[1], x[2]));
+        }
+    }
+    let pk = write(dir.path(), "fcc.txt", &text);
+    let model = MODEL.replace("value = 0.17", "value = 0.01");
+    let with = write(dir.path(), "with.toml", &model);
+    let without = write(
+        dir.path(),
+        "without.toml",
+        &model[..model.find("[manybody]").unwrap()],
+    );
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &with).unwrap();
+    assert_eq!(asm.bonds.len(), 108 * 6, "12 bonds per particle");
+    let d = asm.model.manybody.as_ref().unwrap().voigt().unwrap();
+    let tensor = |model: &Path, name: &str, np: usize| {
+        let out = dir.path().join(name);
+        succeeds(&mut export_plugin(&pk, model, &l.so, &out));
+        let _one = super::export::one_lammps_at_a_time();
+        super::export::run_deck(&l.lmp, &out, np).c
+    };
+    let off = tensor(&without, "off", 1);
+    let scale = (0..6).fold(0.0_f64, |m, i| m.max(off[i][i].abs()));
+    for np in [1, 2] {
+        let on = tensor(&with, &format!("on-np{np}"), np);
+        let dev = (0..6).fold(0.0_f64, |m, i| {
+            (0..6).fold(m, |m, j| m.max((on[i][j] - off[i][j] - d[(i, j)]).abs()))
+        });
+        eprintln!(
+            "FCC, {np} process(es): max |C_on − C_off − D| = {dev:.3e} Pa, {:.2e} of max |C_on| \
+             (max |D| {:.3e} Pa, max |C_off| {scale:.3e} Pa)",
+            dev / (0..6).fold(0.0_f64, |m, i| m.max(on[i][i].abs())),
+            d.amax()
+        );
+        assert!(dev < 1e-4 * d.amax(), "FCC np {np}: {dev:e} Pa");
+    }
+}
