@@ -616,3 +616,53 @@ fn plugin_element_tests_on_fcc_add_d_exactly() {
         assert!(dev < 1e-4 * d.amax(), "FCC np {np}: {dev:e} Pa");
     }
 }
+
+/// The plugin refuses a malformed `manybody` with the reason: too few entries of D, options
+/// without the term, an unknown measure, the term with breaking bonds.
+#[test]
+fn plugin_refuses_many_body_misuse_with_the_reason() {
+    let Some(l) = lammps("plugin_many_body_misuse") else {
+        return;
+    };
+    let dir = tmp();
+    let (pk, model, out) = exported(&l, dir.path(), 200);
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let cell = asm.packing.cell.unwrap().lengths;
+    let plain = deck(None, cell, "");
+    let style = "damping ${damping}\n";
+    assert!(plain.contains(style));
+    for (name, extra, expected) in [
+        (
+            "short",
+            "manybody 1e9 2e9 3e9",
+            "takes the 21 upper-triangle entries",
+        ),
+        (
+            "options",
+            "manybody/measure small",
+            "are for `manybody D11 … D66`",
+        ),
+        (
+            "measure",
+            "${manybody} manybody/measure tiny",
+            "expected green-lagrange or small",
+        ),
+        (
+            "break",
+            "${manybody} break yes",
+            "`manybody` with `break yes`",
+        ),
+    ] {
+        let file = format!("{name}.lmp");
+        let text = plain.replace(style, &format!("damping ${{damping}} {extra}\n"));
+        std::fs::write(out.join(&file), text).unwrap();
+        let o = run_lmp(&l.lmp, &out, &file, 1);
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name}: LAMMPS accepted it:\n{text}");
+        assert!(
+            text.contains(expected),
+            "{name}: expected `{expected}` in:\n{text}"
+        );
+    }
+}
