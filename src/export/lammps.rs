@@ -218,8 +218,8 @@ pub struct LammpsExport {
     /// The relaxed tensor (Pa) of the exact springs with bpm/rotational's midpoint lever arm
     /// (CG to 1e-10): what the deck converges to without `types`. Computed to refuse a
     /// network that is a mechanism (every tensor method refuses it), kept for the
-    /// validation. None for a box of mixed periodicity (no periodic equilibrium there), and
-    /// with the many-body term (the springs' relaxed tensor is not what that deck measures).
+    /// validation; with the many-body term, the relaxed tensor of the springs and the term
+    /// together. None for a box of mixed periodicity (no periodic equilibrium there).
     pub relaxed: Option<Stiffness6>,
 }
 
@@ -779,11 +779,13 @@ fn check_inputs(packing: &Packing, bonds: &BondSet, o: &LammpsOptions) -> Result
 /// What the deck converges to on a fully periodic cell: the relaxed tensor with
 /// bpm/rotational's midpoint lever arm (CG to 1e-10). A mechanism (two spheres on one bond,
 /// too few bonds, zero springs) is refused here as every tensor command refuses it. None on
-/// a box of mixed periodicity, which has no periodic equilibrium along its free axes.
+/// a box of mixed periodicity, which has no periodic equilibrium along its free axes. With
+/// `term`: the relaxed tensor of the springs and the many-body term together.
 fn deck_tensor(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
+    term: Option<&crate::manybody::ManyBody>,
     cell: &PeriodicCell,
 ) -> Result<Option<Stiffness6>> {
     if cell.is_mixed() {
@@ -794,7 +796,13 @@ fn deck_tensor(
         tolerance: 1e-10,
         ..Default::default()
     };
-    let relaxed = relaxed_tensor(packing, bonds, k, &opts)?.c;
+    let relaxed = match term {
+        Some(t) => {
+            crate::homogenize::relaxed::relaxed_tensor_with_term(packing, bonds, k, Some(t), &opts)?
+                .c
+        }
+        None => relaxed_tensor(packing, bonds, k, &opts)?.c,
+    };
     crate::homogenize::report::check_result_tensor(&relaxed, "relaxed (midpoint lever arm)")
         .map_err(|e| match e {
             Error::Degenerate(m) => Error::Degenerate(format!(
@@ -914,10 +922,12 @@ pub fn export_lammps(
     let limits = o.breakage.as_ref().map(|b| bond_limits(k, b)).transpose()?;
     // The term's checks are the library's own (degenerate particles refused or excluded,
     // default volumes on a fully periodic cell).
-    if let Some(spec) = &o.manybody {
-        spec.build(packing, bonds)?;
-    }
-    let relaxed = deck_tensor(packing, bonds, k, &cell)?.filter(|_| o.manybody.is_none());
+    let term = o
+        .manybody
+        .as_ref()
+        .map(|spec| spec.build(packing, bonds))
+        .transpose()?;
+    let relaxed = deck_tensor(packing, bonds, k, term.as_ref(), &cell)?;
     let exact_k = k;
     let t = typing(packing, bonds, k, limits, o)?;
     check_lammps_counts(packing.len(), t.n_types)?;

@@ -470,14 +470,6 @@ fn element_tests(
 ) -> Result<Report<LammpsDetails>> {
     let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
     let lmp = resolve_program(&o.lmp)?;
-    if o.export.manybody.is_some() {
-        return Err(Error::Invalid(
-            "validate lammps: the model has a [manybody] term; the reference these element \
-             tests are compared with (the relaxed tensor with the term) is not computed yet \
-             (issue 33): `export lammps --bond-style anisobond` writes the deck with the term"
-                .into(),
-        ));
-    }
     let mut timings: Vec<Timing> = Vec::new();
     let export = timed(&mut timings, "export", || {
         export_lammps(dir, packing, bonds, k, &o.export)

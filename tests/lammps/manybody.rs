@@ -666,3 +666,69 @@ fn plugin_refuses_many_body_misuse_with_the_reason() {
         );
     }
 }
+
+/// `validate lammps` on the plugin route with a `[manybody]` model: the element tests on one
+/// and two processes against the relaxed tensor of the springs and the term together
+/// (`relaxed_tensor_with_term`, midpoint lever arm), within the default 1e-4; that reference
+/// differs from the springs' alone by far more than that.
+#[test]
+fn validate_lammps_with_the_many_body_term_meets_the_relaxed_tensor() {
+    let Some(l) = lammps("validate_lammps_many_body") else {
+        return;
+    };
+    let dir = tmp();
+    let pk = packing(dir.path(), 200);
+    let model = write(dir.path(), "model.toml", MODEL);
+    let out = dir.path().join("validate");
+    let mut cmd = crate::common::bin();
+    cmd.args(["validate", "lammps"])
+        .arg(&pk)
+        .arg("--model")
+        .arg(&model)
+        .args(["--np", "2", "--lmp"])
+        .arg(&l.lmp)
+        .args(["--bond-style", "anisobond", "--plugin"])
+        .arg(&l.so)
+        .arg("-o")
+        .arg(&out);
+    let stdout = {
+        let _one = super::export::one_lammps_at_a_time();
+        succeeds(&mut cmd)
+    };
+    eprintln!("{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["passed"], true, "{stdout}");
+    let deck = std::fs::read_to_string(out.join("in.elastic")).unwrap();
+    assert!(deck.contains("${manybody}"), "the deck lacks the term");
+    // The reference includes the term: against the springs' relaxed tensor alone the
+    // difference is of the order of D.
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let opts = anisobond::homogenize::RelaxedOptions {
+        lever_arm: anisobond::homogenize::LeverArm::HalfLength,
+        tolerance: 1e-10,
+        ..Default::default()
+    };
+    let pair = anisobond::homogenize::relaxed_tensor(&asm.packing, &asm.bonds, &asm.springs, &opts)
+        .unwrap()
+        .c;
+    let term = asm
+        .model
+        .manybody
+        .as_ref()
+        .unwrap()
+        .build(&asm.packing, &asm.bonds)
+        .unwrap();
+    let with = anisobond::homogenize::relaxed_tensor_with_term(
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        Some(&term),
+        &opts,
+    )
+    .unwrap()
+    .c;
+    let gap = (with - pair).amax() / with.amax();
+    eprintln!("relaxed tensor with the term vs the springs' alone: {gap:.2e} of max |C|");
+    assert!(gap > 1e-2, "{gap:e}");
+}
