@@ -4,6 +4,8 @@
 //   bond_style anisobond model MODEL.toml [damping ZETA] [lattice_scaling MU]
 //   bond_style anisobond table BONDS.csv  [damping ZETA] [length_tolerance TOL]
 //   ... [break yes strengths STRENGTHS.csv [record BROKEN.txt]]   (or break no, the default)
+//   ... [manybody D11 D12 … D66 [manybody/measure green-lagrange|small]
+//        [manybody/degenerate refuse|exclude] [manybody/conditioning C]]   (21 numbers, Pa)
 //   bond_coeff *
 //
 // Requires atom_style bpm/sphere (or sphere: radius, rmass, omega, torque), `newton on on`
@@ -43,10 +45,61 @@ namespace {
 
 const char *const FIX_ID = "ANISOBOND_STATE";
 const char *const ARRAY_NAME = "anisobond_state";
+const char *const MB_FIX_ID = "ANISOBOND_MANYBODY";
+const char *const MB_ARRAY_NAME = "anisobond_manybody";
 
 using anisobond_vec::cross;
 using anisobond_vec::dot;
 using anisobond_vec::rotate_by;
+
+// Eigenvalues of the symmetric 3×3 matrix a (cyclic Jacobi rotations; a is overwritten).
+void symmetric_eigenvalues(double a[3][3], double ev[3]) {
+  for (int sweep = 0; sweep < 64; sweep++) {
+    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+    if (off <= 1e-36 * diag || off == 0.0) break;
+    for (int p = 0; p < 2; p++) {
+      for (int q = p + 1; q < 3; q++) {
+        if (a[p][q] == 0.0) continue;
+        const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+        const double t = (theta >= 0.0 ? 1.0 : -1.0) /
+                         (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
+        const double c = 1.0 / std::sqrt(t * t + 1.0), sn = t * c;
+        for (int k = 0; k < 3; k++) {  // columns p, q
+          const double akp = a[k][p], akq = a[k][q];
+          a[k][p] = c * akp - sn * akq;
+          a[k][q] = sn * akp + c * akq;
+        }
+        for (int k = 0; k < 3; k++) {  // rows p, q
+          const double apk = a[p][k], aqk = a[q][k];
+          a[p][k] = c * apk - sn * aqk;
+          a[q][k] = sn * apk + c * aqk;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < 3; k++) ev[k] = a[k][k];
+}
+
+// The inverse of a 3×3 matrix by its cofactors; false when its determinant is 0 or not finite.
+bool inverse3(const double a[3][3], double inv[9]) {
+  const double c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1];
+  const double c01 = a[1][2] * a[2][0] - a[1][0] * a[2][2];
+  const double c02 = a[1][0] * a[2][1] - a[1][1] * a[2][0];
+  const double det = a[0][0] * c00 + a[0][1] * c01 + a[0][2] * c02;
+  if (!(det != 0.0) || !std::isfinite(det)) return false;
+  const double r = 1.0 / det;
+  inv[0] = c00 * r;
+  inv[1] = (a[0][2] * a[2][1] - a[0][1] * a[2][2]) * r;
+  inv[2] = (a[0][1] * a[1][2] - a[0][2] * a[1][1]) * r;
+  inv[3] = c01 * r;
+  inv[4] = (a[0][0] * a[2][2] - a[0][2] * a[2][0]) * r;
+  inv[5] = (a[0][2] * a[1][0] - a[0][0] * a[1][2]) * r;
+  inv[6] = c02 * r;
+  inv[7] = (a[0][1] * a[2][0] - a[0][0] * a[2][1]) * r;
+  inv[8] = (a[0][0] * a[1][1] - a[0][1] * a[1][0]) * r;
+  return true;
+}
 
 inline std::uint64_t pair_key(tagint a, tagint b) {
   const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));
@@ -58,7 +111,11 @@ inline std::uint64_t pair_key(tagint a, tagint b) {
 
 BondAnisobond::BondAnisobond(LAMMPS *lmp)
     : Bond(lmp), break_(false), record_fp_(nullptr), zeta_(0.0), length_tol_(1e-6), mu_(0.0), r0_max_(0.0), index_(-1),
-      need_init_(false) {
+      need_init_(false), mb_(false), mb_small_(false), mb_cond_(1e-6), mb_exclude_(false),
+      mb_index_(-1), mb_need_ref_(false), mb_width_(9) {
+  for (int a = 0; a < 6; a++)
+    for (int b = 0; b < 6; b++) mb_d_[a][b] = 0.0;
+  comm_forward = comm_reverse = 0;
   partial_flag = 0;
   writedata = 0;
   born_matrix_enable = 0;
@@ -91,6 +148,11 @@ void BondAnisobond::settings(int narg, char **arg) {
   zeta_ = 0.0;
   length_tol_ = 1e-6;
   mu_ = 0.0;
+  mb_ = false;
+  mb_small_ = false;
+  mb_cond_ = 1e-6;
+  mb_exclude_ = false;
+  bool mb_options = false;  // a manybody/ keyword was given
   try {
     if (source_ == "model") {
       model_.reset(new rust::Box<anisobond::ModelHandle>(anisobond::load_model(arg[1])));
@@ -136,6 +198,50 @@ void BondAnisobond::settings(int narg, char **arg) {
     } else if (key == "strengths" && iarg + 1 < narg) {
       strengths = arg[iarg + 1];
       iarg += 2;
+    } else if (key == "manybody") {
+      if (narg - iarg - 1 < 21)
+        error->all(FLERR, "bond_style anisobond: `manybody` takes the 21 upper-triangle entries "
+                          "D11 D12 D13 D14 D15 D16 D22 … D66 of the term's Voigt matrix (Pa), "
+                          "got {}",
+                   narg - iarg - 1);
+      int k = iarg + 1;
+      for (int a = 0; a < 6; a++) {
+        for (int b = a; b < 6; b++) {
+          const double v = utils::numeric(FLERR, arg[k++], false, lmp);
+          if (!std::isfinite(v))
+            error->all(FLERR, "bond_style anisobond: manybody D{}{} = {} is not finite", a + 1,
+                       b + 1, v);
+          mb_d_[a][b] = mb_d_[b][a] = v;
+        }
+      }
+      mb_ = true;
+      iarg = k;
+    } else if (key == "manybody/measure" && iarg + 1 < narg) {
+      const std::string m = arg[iarg + 1];
+      if (m != "green-lagrange" && m != "small")
+        error->all(FLERR, "bond_style anisobond: manybody/measure `{}`: expected green-lagrange "
+                          "or small",
+                   m);
+      mb_small_ = m == "small";
+      mb_options = true;
+      iarg += 2;
+    } else if (key == "manybody/degenerate" && iarg + 1 < narg) {
+      const std::string m = arg[iarg + 1];
+      if (m != "refuse" && m != "exclude")
+        error->all(FLERR, "bond_style anisobond: manybody/degenerate `{}`: expected refuse or "
+                          "exclude",
+                   m);
+      mb_exclude_ = m == "exclude";
+      mb_options = true;
+      iarg += 2;
+    } else if (key == "manybody/conditioning" && iarg + 1 < narg) {
+      mb_cond_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (!(mb_cond_ >= 0.0 && mb_cond_ < 1.0))
+        error->all(FLERR, "bond_style anisobond: manybody/conditioning {} must lie in [0, 1) "
+                          "(λ_min/λ_max of Σ L⊗L)",
+                   mb_cond_);
+      mb_options = true;
+      iarg += 2;
     } else if (key == "length_tolerance" && iarg + 1 < narg) {
       length_tol_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (!(length_tol_ > 0.0))
@@ -144,10 +250,21 @@ void BondAnisobond::settings(int narg, char **arg) {
     } else {
       error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
                         "`length_tolerance TOL`, `lattice_scaling MU`, `break yes|no`, "
-                        "`strengths STRENGTHS.csv` or `record BROKEN.txt`",
+                        "`strengths STRENGTHS.csv`, `record BROKEN.txt`, `manybody D11 … D66`, "
+                        "`manybody/measure M`, `manybody/degenerate D` or "
+                        "`manybody/conditioning C`",
                  key);
     }
   }
+  if (mb_options && !mb_)
+    error->all(FLERR, "bond_style anisobond: manybody/measure, manybody/degenerate and "
+                      "manybody/conditioning are for `manybody D11 … D66`");
+  if (mb_ && break_)
+    error->all(FLERR, "bond_style anisobond: `manybody` with `break yes`: the many-body term of "
+                      "a network whose bonds break is not defined (each atom's fit is of its "
+                      "bonds at the reference); use `break no`");
+  // Σ l⊗L (reverse) and M_p (forward): 9 doubles per atom.
+  comm_forward = comm_reverse = mb_ ? 9 : 0;
   if (break_ && strengths.empty())
     error->all(FLERR, "bond_style anisobond: `break yes` needs `strengths STRENGTHS.csv` (each "
                       "bond's critical loads; `anisobond export lammps` writes "
@@ -268,6 +385,37 @@ void BondAnisobond::init_style() {
   // The cross-anisotropic scheme needs μ from all bonds: a collective step in the first
   // force call of the first run (compute() runs on every process at setup).
   need_init_ = model_ && (*model_)->needs_packing() && mu_ == 0.0;
+
+  // The many-body term's per-atom reference (created, found again or restored as the state).
+  mb_index_ = -1;
+  mb_need_ref_ = false;
+  if (mb_) {
+    if (!domain->xperiodic || !domain->yperiodic || !domain->zperiodic)
+      error->all(FLERR, "bond_style anisobond: `manybody` shares the box volume among the atoms "
+                        "(V_p ∝ r³, as anisobond's default), which needs a box periodic along "
+                        "x, y and z");
+    const int mcols = MB_L0 + 3 * atom->bond_per_atom;
+    mb_index_ = atom->find_custom(MB_ARRAY_NAME, flag, cols);
+    if (mb_index_ < 0) {
+      modify->add_fix(fmt::format("{} all property/atom d2_{} {} ghost no", MB_FIX_ID,
+                                  MB_ARRAY_NAME, mcols));
+      mb_index_ = atom->find_custom(MB_ARRAY_NAME, flag, cols);
+      if (mb_index_ < 0)
+        error->all(FLERR, "bond_style anisobond: could not create its many-body array");
+    }
+    if (flag != 1 || cols != mcols)
+      error->all(FLERR, "bond_style anisobond: per-atom array d2_{} has {} columns, expected {} "
+                        "({} + 3 × {} bonds per atom)",
+                 MB_ARRAY_NAME, cols, mcols, static_cast<int>(MB_L0), atom->bond_per_atom);
+    // Collective: any atom without its reference makes every process set it at the first
+    // force call (after read_data all are unset; after read_restart all are set).
+    double **mb = atom->darray[mb_index_];
+    int mine = 0, any = 0;
+    for (int i = 0; i < atom->nlocal; i++)
+      if (mb[i][MB_READY] != 1.0) mine = 1;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, world);
+    mb_need_ref_ = any != 0;
+  }
 }
 
 // μ = π̂·Σ(½ r0·min(R_i, R_j)²)/(3V) over every bond of every process (Šmilauer Eq. 20,
@@ -391,6 +539,7 @@ void BondAnisobond::remove_bond(int i, int m) {
 void BondAnisobond::compute(int eflag, int vflag) {
   ev_init(eflag, vflag);
   if (need_init_) initialise_bonds();
+  if (mb_ && mb_need_ref_) manybody_reference();
 
   double **x = atom->x, **v = atom->v, **f = atom->f;
   double **omega = atom->omega, **torque = atom->torque;
@@ -526,6 +675,7 @@ void BondAnisobond::compute(int eflag, int vflag) {
       ev_tally_xyz(i, j, nlocal, newton_bond, e, F[0], F[1], F[2], -l[0], -l[1], -l[2]);
     }
   }
+  if (mb_) manybody_compute();
   if (break_) {
     // The system's bond count (thermo `bonds`, restart files) follows the broken bonds.
     bigint all = 0;
@@ -601,6 +751,227 @@ void BondAnisobond::share_breaks(bigint nbroken) {
         if (gone.count(pair_key(tag[i], tag[j & NEIGHMASK]))) jlist[jj] = j & NEIGHMASK;
       }
     }
+  }
+}
+
+// The slot of owned atom i's bond with the atom of id `partner` (error if it has none).
+int BondAnisobond::slot_of(int i, tagint partner) const {
+  const int nbi = atom->num_bond[i];
+  const tagint *partners = atom->bond_atom[i];
+  int m = 0;
+  while (m < nbi && partners[m] != partner) m++;
+  if (m == nbi)
+    error->one(FLERR, "bond_style anisobond: bond {}-{} is not in atom {}'s bond list",
+               atom->tag[i], partner, atom->tag[i]);
+  return m;
+}
+
+// The many-body reference, collectively at the first force call: each bond's L_b (its present
+// branch vector), A_p = Σ_b L_b ⊗ L_b and the bond count summed into both ends and reverse-
+// communicated to the owners, then per owned atom A_p⁻¹ and V_p = V·r_p³/Σ r³, or the atom
+// refused or excluded when degenerate (src/manybody/term.rs, fit_inverse).
+void BondAnisobond::manybody_reference() {
+  double **x = atom->x;
+  double **mb = atom->darray[mb_index_];
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
+  int **bondlist = neighbor->bondlist;
+  mb_acc_.assign(9 * static_cast<size_t>(nall), 0.0);
+  for (int nb = 0; nb < neighbor->nbondlist; nb++) {
+    if (bondlist[nb][2] <= 0) continue;
+    const int i = bondlist[nb][0], j = bondlist[nb][1];
+    const int m = slot_of(i, tag[j]);
+    double *L = mb[i] + MB_L0 + 3 * m;
+    for (int k = 0; k < 3; k++) L[k] = x[j][k] - x[i][k];
+    for (const int p : {i, j}) {
+      double *acc = &mb_acc_[9 * static_cast<size_t>(p)];
+      acc[0] += L[0] * L[0];
+      acc[1] += L[0] * L[1];
+      acc[2] += L[0] * L[2];
+      acc[3] += L[1] * L[1];
+      acc[4] += L[1] * L[2];
+      acc[5] += L[2] * L[2];
+      acc[6] += 1.0;
+    }
+  }
+  mb_width_ = 7;
+  comm->reverse_comm(this, 7);
+
+  double r3 = 0.0, r3_all = 0.0;
+  for (int p = 0; p < nlocal; p++) r3 += atom->radius[p] * atom->radius[p] * atom->radius[p];
+  MPI_Allreduce(&r3, &r3_all, 1, MPI_DOUBLE, MPI_SUM, world);
+  const double volume = domain->xprd * domain->yprd * domain->zprd;
+  bigint excluded = 0;
+  for (int p = 0; p < nlocal; p++) {
+    const double *acc = &mb_acc_[9 * static_cast<size_t>(p)];
+    double a[3][3] = {{acc[0], acc[1], acc[2]}, {acc[1], acc[3], acc[4]}, {acc[2], acc[4], acc[5]}};
+    const double a_copy[3][3] = {{acc[0], acc[1], acc[2]},
+                                 {acc[1], acc[3], acc[4]},
+                                 {acc[2], acc[4], acc[5]}};
+    const int count = static_cast<int>(acc[6] + 0.5);
+    std::string why;
+    double inv[9];
+    if (count < 3) {
+      why = fmt::format("has {} bond{}", count, count == 1 ? "" : "s");
+    } else {
+      double ev[3];
+      symmetric_eigenvalues(a, ev);
+      const double lo = std::min(ev[0], std::min(ev[1], ev[2]));
+      const double hi = std::max(ev[0], std::max(ev[1], ev[2]));
+      const double ratio = lo / hi;
+      if (!(ratio >= mb_cond_ && ratio > 0.0))
+        why = fmt::format("has {} bonds (nearly) in one plane: λ_min/λ_max of Σ L⊗L is {:e}, "
+                          "below the accepted {:e}",
+                          count, ratio, mb_cond_);
+      else if (!inverse3(a_copy, inv))
+        why = fmt::format("has {} bonds whose Σ L⊗L cannot be inverted", count);
+    }
+    if (!why.empty()) {
+      if (!mb_exclude_)
+        error->one(FLERR, "bond_style anisobond: many-body term: atom {} {}; its local strain "
+                          "needs at least three bonds not in one plane (`manybody/degenerate "
+                          "exclude` leaves such atoms out)",
+                   tag[p], why);
+      for (int k = 0; k < 9; k++) mb[p][MB_AINV + k] = 0.0;
+      mb[p][MB_V] = 0.0;
+      excluded++;
+    } else {
+      for (int k = 0; k < 9; k++) mb[p][MB_AINV + k] = inv[k];
+      const double r = atom->radius[p];
+      mb[p][MB_V] = volume * (r * r * r) / r3_all;
+    }
+    mb[p][MB_READY] = 1.0;
+  }
+  bigint excluded_all = 0;
+  MPI_Allreduce(&excluded, &excluded_all, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+  if (comm->me == 0)
+    utils::logmesg(lmp, "bond_style anisobond: many-body reference of {} atoms, {} excluded "
+                        "(degenerate), box volume {:.17g}\n",
+                   atom->natoms, excluded_all, volume);
+  mb_need_ref_ = false;
+}
+
+// The many-body term's forces, energy and virial (three passes, see bond_anisobond.h):
+// Σ l_b ⊗ L_b per atom (reverse communication), M_p = V_p P_p A_p⁻¹ per owned atom
+// (forward communication), g_b = (M_i + M_j) L_b per bond, f_i += g_b, f_j −= g_b.
+void BondAnisobond::manybody_compute() {
+  double **x = atom->x, **f = atom->f;
+  double **mb = atom->darray[mb_index_];
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
+  const int newton_bond = force->newton_bond;
+  int **bondlist = neighbor->bondlist;
+  const int nbondlist = neighbor->nbondlist;
+  mb_acc_.assign(9 * static_cast<size_t>(nall), 0.0);
+  for (int nb = 0; nb < nbondlist; nb++) {
+    if (bondlist[nb][2] <= 0) continue;
+    const int i = bondlist[nb][0], j = bondlist[nb][1];
+    const double *L = mb[i] + MB_L0 + 3 * slot_of(i, tag[j]);
+    const double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+    for (const int p : {i, j}) {
+      double *acc = &mb_acc_[9 * static_cast<size_t>(p)];
+      for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) acc[3 * a + b] += l[a] * L[b];
+    }
+  }
+  mb_width_ = 9;
+  comm->reverse_comm(this, 9);
+
+  for (int p = 0; p < nlocal; p++) {
+    double *acc = &mb_acc_[9 * static_cast<size_t>(p)];
+    const double vol = mb[p][MB_V];
+    if (vol == 0.0) {
+      for (int k = 0; k < 9; k++) acc[k] = 0.0;
+      continue;
+    }
+    const double *ai = mb[p] + MB_AINV;
+    double F[3][3];  // F = (Σ l⊗L)·A⁻¹
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++)
+        F[a][b] = acc[3 * a] * ai[b] + acc[3 * a + 1] * ai[3 + b] + acc[3 * a + 2] * ai[6 + b];
+    double E[3][3];
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++) {
+        if (mb_small_) {
+          E[a][b] = 0.5 * (F[a][b] + F[b][a]) - (a == b ? 1.0 : 0.0);
+        } else {
+          double c = 0.0;
+          for (int k = 0; k < 3; k++) c += F[k][a] * F[k][b];
+          E[a][b] = 0.5 * (c - (a == b ? 1.0 : 0.0));
+        }
+      }
+    const double e[6] = {E[0][0], E[1][1], E[2][2], 2.0 * E[1][2], 2.0 * E[0][2], 2.0 * E[0][1]};
+    double sv[6];
+    double w = 0.0;
+    for (int a = 0; a < 6; a++) {
+      sv[a] = 0.0;
+      for (int b = 0; b < 6; b++) sv[a] += mb_d_[a][b] * e[b];
+      w += 0.5 * e[a] * sv[a];
+    }
+    const double S[3][3] = {{sv[0], sv[5], sv[4]}, {sv[5], sv[1], sv[3]}, {sv[4], sv[3], sv[2]}};
+    double P[3][3];
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++)
+        P[a][b] = mb_small_ ? S[a][b] : F[a][0] * S[0][b] + F[a][1] * S[1][b] + F[a][2] * S[2][b];
+    for (int a = 0; a < 3; a++)  // M = V·P·A⁻¹, in place of Σ l⊗L
+      for (int b = 0; b < 3; b++)
+        acc[3 * a + b] = vol * (P[a][0] * ai[b] + P[a][1] * ai[3 + b] + P[a][2] * ai[6 + b]);
+    if (eflag_global) energy += vol * w;
+    if (eflag_atom) eatom[p] += vol * w;
+  }
+  comm->forward_comm(this, 9);
+
+  for (int nb = 0; nb < nbondlist; nb++) {
+    if (bondlist[nb][2] <= 0) continue;
+    const int i = bondlist[nb][0], j = bondlist[nb][1];
+    const double *L = mb[i] + MB_L0 + 3 * slot_of(i, tag[j]);
+    const double *mi = &mb_acc_[9 * static_cast<size_t>(i)];
+    const double *mj = &mb_acc_[9 * static_cast<size_t>(j)];
+    double g[3];
+    for (int a = 0; a < 3; a++)
+      g[a] = (mi[3 * a] + mj[3 * a]) * L[0] + (mi[3 * a + 1] + mj[3 * a + 1]) * L[1] +
+             (mi[3 * a + 2] + mj[3 * a + 2]) * L[2];
+    for (int a = 0; a < 3; a++) {
+      f[i][a] += g[a];
+      f[j][a] -= g[a];
+    }
+    if (evflag)
+      ev_tally_xyz(i, j, nlocal, newton_bond, 0.0, g[0], g[1], g[2], x[i][0] - x[j][0],
+                   x[i][1] - x[j][1], x[i][2] - x[j][2]);
+  }
+}
+
+int BondAnisobond::pack_forward_comm(int n, int *list, double *buf, int, int *) {
+  int m = 0;
+  for (int k = 0; k < n; k++) {
+    const double *acc = &mb_acc_[9 * static_cast<size_t>(list[k])];
+    for (int q = 0; q < mb_width_; q++) buf[m++] = acc[q];
+  }
+  return m;
+}
+
+void BondAnisobond::unpack_forward_comm(int n, int first, double *buf) {
+  int m = 0;
+  for (int k = first; k < first + n; k++) {
+    double *acc = &mb_acc_[9 * static_cast<size_t>(k)];
+    for (int q = 0; q < mb_width_; q++) acc[q] = buf[m++];
+  }
+}
+
+int BondAnisobond::pack_reverse_comm(int n, int first, double *buf) {
+  int m = 0;
+  for (int k = first; k < first + n; k++) {
+    const double *acc = &mb_acc_[9 * static_cast<size_t>(k)];
+    for (int q = 0; q < mb_width_; q++) buf[m++] = acc[q];
+  }
+  return m;
+}
+
+void BondAnisobond::unpack_reverse_comm(int n, int *list, double *buf) {
+  int m = 0;
+  for (int k = 0; k < n; k++) {
+    double *acc = &mb_acc_[9 * static_cast<size_t>(list[k])];
+    for (int q = 0; q < mb_width_; q++) acc[q] += buf[m++];
   }
 }
 

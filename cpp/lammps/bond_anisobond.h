@@ -51,6 +51,26 @@
 // it); opened (truncated) at the style's first init, so a run restarted from a restart file
 // starts a new record.
 //
+// Many-body term (`manybody D11 D12 … D66`, issue 33; docs/manybody.md, "LAMMPS"): anisobond's
+// `ManyBody` (src/manybody/term.rs). Each atom p fits its local deformation gradient from its
+// bonds, F_p = (Σ_b l_b ⊗ L_b)·A_p⁻¹ with A_p = Σ_b L_b ⊗ L_b (L_b the bond's branch vector at
+// its first force call, l_b the present one, both from the bond's first atom to its second:
+// the sign cancels at the other end), and carries U_p = ½ V_p E_p : D : E_p (E_p Green–Lagrange
+// or small); D is the 6×6 Voigt matrix given by its 21 upper-triangle entries (Pa; order 11 22
+// 33 23 13 12, engineering shear). V_p is the box volume at the reference shared in proportion
+// to r³ (a fully periodic box, as the library's default). Bond b's gradient is
+// g_b = (M_i + M_j) L_b with M_p = V_p P_p A_p⁻¹ (P = F·(D:E), or D:ε for the small strain),
+// and f_i += g_b, f_j −= g_b. In LAMMPS each bond is stored once (newton_bond on), so a force
+// call makes three passes: Σ l_b ⊗ L_b into both ends (owned or ghost) and a reverse
+// communication to the owners; F_p and M_p on the owned atoms and a forward communication of
+// M_p to the ghosts; then g_b per bond. The reference (A_p⁻¹, V_p, each bond's L_b) is set
+// collectively at the first force call (the same reverse communication of Σ L ⊗ L and the
+// bond count) and kept per atom (`fix property/atom d2_anisobond_manybody`, migrating with the
+// atom, in restart files). An atom with fewer than three bonds, or with A_p's
+// λ_min/λ_max below `manybody/conditioning` (default 1e-6), is degenerate: refused
+// (`manybody/degenerate refuse`, the default) or left out of the term (`exclude`: V_p = 0,
+// it still moves its neighbours' fits), as in the library.
+//
 // Per-bond state lives in a per-atom array (`fix property/atom d2_anisobond_state N ghost no`,
 // created by the style): slot m of atom i belongs to its bond with atom->bond_atom[i][m],
 // so the state migrates with the atom, is written to restart files, and is restored when
@@ -82,6 +102,10 @@ class BondAnisobond : public Bond {
   void write_restart(FILE *fp) override;
   void read_restart(FILE *fp) override;
   double single(int, double, int, int, double &) override;
+  int pack_forward_comm(int, int *, double *, int, int *) override;
+  void unpack_forward_comm(int, int, double *) override;
+  int pack_reverse_comm(int, int, double *) override;
+  void unpack_reverse_comm(int, int *, double *) override;
 
   // Slots of one bond in the per-atom array (NSLOT doubles per bond).
   enum Slot {
@@ -95,6 +119,10 @@ class BondAnisobond : public Bond {
     S_FSC, S_TBC, S_TTC,
     NSLOT
   };
+
+  // Columns of the many-body per-atom array: A_p⁻¹ (row-major), V_p, a flag (1 = the
+  // reference is set), then the reference branch vector L_b (3) of each bond slot.
+  enum ManyBodySlot { MB_AINV = 0, MB_V = 9, MB_READY = 10, MB_L0 = 11 };
 
  private:
   struct Springs {
@@ -110,6 +138,9 @@ class BondAnisobond : public Bond {
   void read_strengths(const std::string &path);
   void remove_bond(int i, int m);
   void share_breaks(bigint nbroken);
+  int slot_of(int i, tagint partner) const;
+  void manybody_reference();
+  void manybody_compute();
 
   std::vector<std::string> args_;  // bond_style arguments (kept for restart files)
   std::string source_;             // "model" or "table"
@@ -126,6 +157,16 @@ class BondAnisobond : public Bond {
   double r0_max_;                  // longest rest length seen (all processes)
   int index_;                      // atom->darray index of the state array
   bool need_init_;                 // some bond may be uninitialised (set by init_style)
+  // Many-body term (off unless `manybody` is given).
+  bool mb_;                        // the term is on
+  double mb_d_[6][6];              // D (Pa, Voigt)
+  bool mb_small_;                  // small strain instead of Green–Lagrange
+  double mb_cond_;                 // smallest accepted λ_min/λ_max of A_p
+  bool mb_exclude_;                // degenerate atoms left out (else refused)
+  int mb_index_;                   // atom->darray index of the many-body array
+  bool mb_need_ref_;               // some atom's reference is not set yet (init_style)
+  std::vector<double> mb_acc_;     // 9 per atom (owned + ghost): Σ l⊗L, then M_p
+  int mb_width_;                   // doubles per atom in the present communication
 };
 
 }  // namespace LAMMPS_NS

@@ -215,6 +215,7 @@ pub fn run(a: Args) -> Result<()> {
         bond_style,
         history: Default::default(),
         breakage: breakage(&a, &asm)?,
+        manybody: asm.model.manybody.clone(),
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;
@@ -241,6 +242,12 @@ pub fn run(a: Args) -> Result<()> {
     );
     if let Some(t) = &e.types {
         println!("{}", t.summary());
+    }
+    if opts.manybody.is_some() {
+        println!(
+            "the model's [manybody] term: bond_style anisobond … ${{manybody}} (params.lmp: D's 21 \
+             upper-triangle entries, measure, degenerate rule)"
+        );
     }
     if let Some(b) = &opts.breakage {
         println!(

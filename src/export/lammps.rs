@@ -26,6 +26,11 @@
 //! bonds' contact (`pair_style granular`), or the plugin's `break yes strengths
 //! bond-strengths.csv` with the same contact; without it the decks are byte-identical to before (docs/strength.md,
 //! "LAMMPS").
+//!
+//! With [`LammpsOptions::manybody`] (a model with `[manybody]`, issue 33) the plugin's deck
+//! carries the many-body term (`bond_style anisobond … manybody D11 … D66`, docs/manybody.md,
+//! "LAMMPS"): the same physics as the library's [`crate::manybody::ManyBody`]. Stock
+//! bpm/rotational cannot carry it: that route is refused.
 
 use crate::bonds::types::{
     affine_weights, quantise, quantise_joint, quantise_weighted, sensitivity_weights,
@@ -35,6 +40,7 @@ use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
 use crate::homogenize::voigt::voigt_tensor;
+use crate::manybody::{DegenerateParticles, ManyBodySpec, StrainMeasure};
 use crate::packing::{Packing, PeriodicCell};
 use crate::strength::criteria::BpmLimits;
 use crate::strength::BondStrengths;
@@ -90,6 +96,10 @@ pub struct LammpsOptions {
     pub history: UndampedHistory,
     /// Bonds that break (the model's `[strength]`): None writes `break no` decks, as before.
     pub breakage: Option<LammpsBreakage>,
+    /// The many-body term (the model's `[manybody]`): the plugin's `manybody` keywords
+    /// (needs [`LammpsBondStyle::Anisobond`]; refused with breakage). None: no term, the
+    /// decks as before.
+    pub manybody: Option<ManyBodySpec>,
 }
 
 /// Breaking bonds in the exported decks (issue 32; docs/strength.md, "LAMMPS"): every bond's
@@ -187,6 +197,7 @@ impl Default for LammpsOptions {
             bond_style: LammpsBondStyle::BpmRotational,
             history: UndampedHistory::default(),
             breakage: None,
+            manybody: None,
         }
     }
 }
@@ -207,7 +218,8 @@ pub struct LammpsExport {
     /// The relaxed tensor (Pa) of the exact springs with bpm/rotational's midpoint lever arm
     /// (CG to 1e-10): what the deck converges to without `types`. Computed to refuse a
     /// network that is a mechanism (every tensor method refuses it), kept for the
-    /// validation. None for a box of mixed periodicity (no periodic equilibrium there).
+    /// validation; with the many-body term, the relaxed tensor of the springs and the term
+    /// together. None for a box of mixed periodicity (no periodic equilibrium there).
     pub relaxed: Option<Stiffness6>,
 }
 
@@ -739,6 +751,20 @@ fn check_inputs(packing: &Packing, bonds: &BondSet, o: &LammpsOptions) -> Result
             ));
         }
     }
+    if o.manybody.is_some() {
+        if plugin_of(o).is_none() {
+            return Err(Error::Invalid(
+                "LAMMPS export: the model has a [manybody] term, which stock bpm/rotational                  (route (a)) cannot carry (its bonds see only their own two atoms); use the                  plugin route: --bond-style anisobond (`bond_style anisobond … manybody`)"
+                    .into(),
+            ));
+        }
+        if o.breakage.is_some() {
+            return Err(Error::Invalid(
+                "LAMMPS export: the model has both [manybody] and [strength]; the many-body                  term of a network whose bonds break is not defined (each particle's fit is of                  its bonds at the reference): export with --no-break"
+                    .into(),
+            ));
+        }
+    }
     if cell.is_mixed() && o.types.is_some() {
         return Err(Error::Invalid(format!(
             "LAMMPS export: --types measures the quantisation by relaxed tensors, which need a \
@@ -753,11 +779,13 @@ fn check_inputs(packing: &Packing, bonds: &BondSet, o: &LammpsOptions) -> Result
 /// What the deck converges to on a fully periodic cell: the relaxed tensor with
 /// bpm/rotational's midpoint lever arm (CG to 1e-10). A mechanism (two spheres on one bond,
 /// too few bonds, zero springs) is refused here as every tensor command refuses it. None on
-/// a box of mixed periodicity, which has no periodic equilibrium along its free axes.
+/// a box of mixed periodicity, which has no periodic equilibrium along its free axes. With
+/// `term`: the relaxed tensor of the springs and the many-body term together.
 fn deck_tensor(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
+    term: Option<&crate::manybody::ManyBody>,
     cell: &PeriodicCell,
 ) -> Result<Option<Stiffness6>> {
     if cell.is_mixed() {
@@ -768,7 +796,13 @@ fn deck_tensor(
         tolerance: 1e-10,
         ..Default::default()
     };
-    let relaxed = relaxed_tensor(packing, bonds, k, &opts)?.c;
+    let relaxed = match term {
+        Some(t) => {
+            crate::homogenize::relaxed::relaxed_tensor_with_term(packing, bonds, k, Some(t), &opts)?
+                .c
+        }
+        None => relaxed_tensor(packing, bonds, k, &opts)?.c,
+    };
     crate::homogenize::report::check_result_tensor(&relaxed, "relaxed (midpoint lever arm)")
         .map_err(|e| match e {
             Error::Degenerate(m) => Error::Degenerate(format!(
@@ -886,7 +920,14 @@ pub fn export_lammps(
     let cell = check_inputs(packing, bonds, o)?;
     let plugin = plugin_of(o);
     let limits = o.breakage.as_ref().map(|b| bond_limits(k, b)).transpose()?;
-    let relaxed = deck_tensor(packing, bonds, k, &cell)?;
+    // The term's checks are the library's own (degenerate particles refused or excluded,
+    // default volumes on a fully periodic cell).
+    let term = o
+        .manybody
+        .as_ref()
+        .map(|spec| spec.build(packing, bonds))
+        .transpose()?;
+    let relaxed = deck_tensor(packing, bonds, k, term.as_ref(), &cell)?;
     let exact_k = k;
     let t = typing(packing, bonds, k, limits, o)?;
     check_lammps_counts(packing.len(), t.n_types)?;
@@ -897,6 +938,10 @@ pub fn export_lammps(
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
     let comment = types_comment(&what, t.report.as_ref());
     let breakage = o.breakage.as_ref().zip(t.limits.as_deref());
+    let what = match &o.manybody {
+        Some(_) => format!("{what}, with the many-body term"),
+        None => what,
+    };
     let mut files = vec![write_data_file(
         dir, packing, bonds, &t, &ids, &cell, &what, o.density,
     )?];
@@ -934,6 +979,7 @@ pub fn export_lammps(
         &comment,
         plugin.is_some(),
         contact.is_some(),
+        o.manybody.is_some(),
         &cell,
     )?);
     if let Some(r) = &t.report {
@@ -1297,10 +1343,53 @@ fn params_text(comment: &str, dt: f64, max_len: f64, o: &LammpsOptions) -> Strin
             num(o.damping_ratio)
         );
     }
+    if let Some(m) = &o.manybody {
+        let _ = write!(
+            p,
+            "# The many-body term (the model's [manybody], docs/manybody.md): `manybody` and D's 21\n\
+             # upper-triangle Voigt entries D11 D12 … D66 (Pa, order 11 22 33 23 13 12), the strain\n\
+             # measure, what to do with atoms whose bonds cannot fit a strain, and the accepted\n\
+             # λ_min/λ_max of Σ L⊗L\n\
+             variable manybody index \"{}\"\n",
+            manybody_keywords(m)
+        );
+    }
     p
 }
 
-/// `in.elastic`, and `in.history` for bpm/rotational decks.
+/// The plugin's `manybody` keywords of `spec`: D's 21 upper-triangle entries (lab frame, Pa),
+/// the measure, the degenerate rule and the conditioning (written explicitly, the library's
+/// [`ManyBodySpec::options`]). `spec` was checked by [`ManyBodySpec::build`].
+pub fn manybody_keywords(spec: &ManyBodySpec) -> String {
+    let d = spec
+        .voigt()
+        .expect("a [manybody] tensor checked by ManyBodySpec::build");
+    let mut s = String::from("manybody");
+    for a in 0..6 {
+        for b in a..6 {
+            let _ = write!(s, " {}", num(d[(a, b)]));
+        }
+    }
+    let o = spec.options();
+    let _ = write!(
+        s,
+        " manybody/measure {} manybody/degenerate {} manybody/conditioning {}",
+        match o.measure {
+            StrainMeasure::GreenLagrange => "green-lagrange",
+            StrainMeasure::Small => "small",
+        },
+        match o.degenerate {
+            DegenerateParticles::Refuse => "refuse",
+            DegenerateParticles::Exclude => "exclude",
+        },
+        num(o.conditioning)
+    );
+    s
+}
+
+/// `in.elastic` (with the many-body term: `${manybody}` on the plugin's bond_style line),
+/// and `in.history` for bpm/rotational decks.
+#[allow(clippy::too_many_arguments)]
 fn write_decks(
     dir: &Path,
     n: usize,
@@ -1308,10 +1397,14 @@ fn write_decks(
     comment: &str,
     plugin: bool,
     breakage: bool,
+    manybody: bool,
     cell: &PeriodicCell,
 ) -> Result<Vec<PathBuf>> {
     let cases = DeckCases::of(cell);
     let mut elastic = elastic_deck(n, nb, comment, plugin, &cases);
+    if manybody {
+        elastic = with_manybody(&elastic);
+    }
     if breakage {
         elastic = with_breakage(&elastic, plugin);
     }
@@ -1326,6 +1419,23 @@ fn write_decks(
         files.push(deck);
     }
     Ok(files)
+}
+
+/// The plugin deck with the many-body term: `${manybody}` (params.lmp) on its bond_style
+/// line, and the term in its header.
+fn with_manybody(deck: &str) -> String {
+    let style = "bond_style anisobond ${springs} damping ${damping}\n";
+    debug_assert!(deck.contains(style));
+    deck.replace(
+        style,
+        "bond_style anisobond ${springs} damping ${damping} ${manybody}\n",
+    )
+    .replacen(
+        "\n# Neighbour lists",
+        "\n# Many-body term (the model's [manybody]; params.lmp `manybody`): every atom's local strain\n\
+         #   fitted from its bonds loads the tensor D (docs/manybody.md, \"LAMMPS\").\n# Neighbour lists",
+        1,
+    )
 }
 
 /// The box a deck strains: its `boundary` flags and the load cases it runs
