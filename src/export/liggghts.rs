@@ -103,7 +103,19 @@ pub fn stable_timestep(
     k: &BondStiffness,
     density: f64,
 ) -> Result<f64> {
-    let mut ksum = vec![0.0; packing.len()];
+    stable_timestep_with(packing, bonds, k, density, None)
+}
+
+/// [`stable_timestep`] with `extra` (N/m, one per particle) added to each particle's k_i:
+/// the many-body term's share ([`manybody_stiffness`]).
+fn stable_timestep_with(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+    extra: Option<&[f64]>,
+) -> Result<f64> {
+    let mut ksum = extra.map_or_else(|| vec![0.0; packing.len()], <[f64]>::to_vec);
     for b in 0..bonds.len() {
         for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
             let r = packing.radii[p];
@@ -264,7 +276,13 @@ struct Plan {
 
 /// Check the inputs (options, periodic cell, bonds against the packing, the minimum image
 /// along the periodic axes, a given time step) and fix the [`Plan`].
-fn plan(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &DeckOptions) -> Result<Plan> {
+fn plan(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    extra: Option<&[f64]>,
+) -> Result<Plan> {
     check_options(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -301,7 +319,7 @@ fn plan(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &DeckOptions) 
     }
     let dt = match o.timestep {
         Some(dt) => dt,
-        None => stable_timestep(packing, bonds, k, o.density)?,
+        None => stable_timestep_with(packing, bonds, k, o.density, extra)?,
     };
     let cases = super::load_cases(&cell)
         .into_iter()
@@ -356,7 +374,8 @@ pub fn export_liggghts_with_limits(
 /// these `bonds` on this `packing`, [`crate::manybody::ManyBodySpec::build`]): it is written
 /// to `manybody.txt` ([`write_manybody_table`]) and the driver deck's pair style reads it
 /// (`manybody manybody.txt`), so the driver runs the library's [`ManyBody`] forces; the stock
-/// harmonic deck does not carry it (its header says so). Breakable bonds (`limits`) with the
+/// harmonic deck does not carry it (its header says so). The chosen time step counts the
+/// term's stiffness too ([`manybody_stiffness`]). Breakable bonds (`limits`) with the
 /// term are refused ([`Error::Model`]): a broken bond would change the fits of its particles.
 pub fn export_liggghts_full(
     dir: &Path,
@@ -387,7 +406,10 @@ pub fn export_liggghts_full(
             )));
         }
     }
-    let plan = plan(packing, bonds, k, o)?;
+    let extra = table
+        .as_ref()
+        .map(|t| manybody_stiffness(packing.len(), bonds, t));
+    let plan = plan(packing, bonds, k, o, extra.as_deref())?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
     if let Some(t) = &table {
@@ -1031,6 +1053,30 @@ pub fn manybody_table(
             })
             .collect(),
     })
+}
+
+/// The many-body term's share of each particle's stiffness (N/m) for the time step, as
+/// [`stable_timestep`] bounds the springs' by their sum: the diagonal Hessian blocks at the
+/// reference, V_p B(c, c) per stencil node, bounded by Σ_p V_p ‖D‖ |c_r^p|² with ‖D‖ the
+/// largest absolute row sum of D's Voigt matrix and c_r^p the coefficient of node r in F_p
+/// (docs/manybody.md, "Derivatives"). `t` must be the table of `bonds` (same order).
+fn manybody_stiffness(n: usize, bonds: &BondSet, t: &ManyBodyTable) -> Vec<f64> {
+    let norm = (0..6)
+        .map(|r| (0..6).map(|c| t.d[(r, c)].abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let mut own = vec![Vec3::zeros(); n];
+    let mut k = vec![0.0; n];
+    for (b, row) in t.bonds.iter().enumerate() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        own[i] -= row.coef_i;
+        own[j] += row.coef_j;
+        k[j] += t.volumes[i].1 * norm * row.coef_i.norm_squared();
+        k[i] += t.volumes[j].1 * norm * row.coef_j.norm_squared();
+    }
+    for p in 0..n {
+        k[p] += t.volumes[p].1 * norm * own[p].norm_squared();
+    }
+    k
 }
 
 /// Write `table` to `path` (shortest round-trip numbers: the same bits read back):

@@ -389,3 +389,99 @@ fn manybody_table_round_trip_and_refusal() {
     let err = read_manybody_table(&path).unwrap_err();
     assert!(matches!(err, anisobond::Error::Parse { .. }), "{err}");
 }
+
+/// `anisobond export liggghts` of a model with `[manybody]` writes the library's table of the
+/// same assembly and puts it on the driver deck; with `[strength]` too it is refused, with
+/// nothing written; `validate liggghts` refuses the model (its references lack the term).
+#[test]
+fn cli_export_writes_the_term_and_refusals() {
+    use crate::common::{bin, fails, holds_exactly, succeeds, write};
+    let dir = fresh_dir("manybody_cli");
+    let packing = crate::common::packing(&dir, 120);
+    let toml = model_toml("green-lagrange");
+    let model = write(&dir, "model.toml", &toml);
+    let out = dir.join("out");
+    let text = succeeds(
+        bin()
+            .args(["export", "liggghts"])
+            .arg(&packing)
+            .arg("--model")
+            .arg(&model)
+            .arg("--no-shear")
+            .arg("-o")
+            .arg(&out),
+    );
+    assert!(text.contains("many-body term: manybody.txt"), "{text}");
+    let deck = std::fs::read_to_string(out.join("anisobond.in")).unwrap();
+    assert!(
+        deck.contains(
+            "pair_style anisobond table bonds.csv damping ${damp} ${damp} manybody manybody.txt"
+        ),
+        "{deck}"
+    );
+    assert!(std::fs::read_to_string(out.join("harmonic.in"))
+        .unwrap()
+        .contains("Without the model's many-body term"));
+    // The library's term of the same packing and model, independently of the CLI.
+    let asm = anisobond::assembly::Assembly::from_packing_file(
+        &packing,
+        Model::from_toml_str(&toml, "<m>").unwrap(),
+        &model,
+    )
+    .unwrap();
+    let term = asm
+        .model
+        .manybody
+        .as_ref()
+        .unwrap()
+        .build(&asm.packing, &asm.bonds)
+        .unwrap();
+    let want =
+        anisobond::export::liggghts::manybody_table(&asm.packing, &asm.bonds, &term).unwrap();
+    assert_eq!(
+        read_manybody_table(&out.join("manybody.txt")).unwrap(),
+        want
+    );
+
+    // [strength] with [manybody]: refused, nothing written.
+    let both = write(
+        &dir,
+        "both.toml",
+        &format!(
+            "{toml}[strength]\n[strength.bond]\ntensile = 1e7\ncohesion = 1e8\nfriction = 0.5\n"
+        ),
+    );
+    let out2 = dir.join("out2");
+    let err = fails(
+        bin()
+            .args(["export", "liggghts"])
+            .arg(&packing)
+            .arg("--model")
+            .arg(&both)
+            .arg("-o")
+            .arg(&out2),
+    );
+    assert!(err.contains("[strength] and [manybody]"), "{err}");
+    assert!(!out2.exists());
+
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping the validate part: {r}");
+        return;
+    }
+    let _ = driver();
+    let out3 = dir.join("out3");
+    let o = bin()
+        .args(["validate", "liggghts"])
+        .arg(&packing)
+        .arg("--model")
+        .arg(&model)
+        .arg("-o")
+        .arg(&out3)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("[manybody]"), "{err}");
+    assert!(!out3.exists(), "validate left {}", out3.display());
+    holds_exactly(&dir, &["both.toml", "model.toml", "out", "packing.txt"]);
+}
