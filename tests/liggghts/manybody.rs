@@ -485,3 +485,98 @@ fn cli_export_writes_the_term_and_refusals() {
     assert!(!out3.exists(), "validate left {}", out3.display());
     holds_exactly(&dir, &["both.toml", "model.toml", "out", "packing.txt"]);
 }
+
+/// The model forms bring the model's term through the bridge: `model MODEL PACKING` and the
+/// in-place `model MODEL`, bonded at the reference and then stretched affinely (change_box
+/// … remap): their forces minus those of the same model without `[manybody]` equal the
+/// library's `ManyBody::evaluate` of the stretched positions.
+#[test]
+fn model_forms_match_library_under_uniform_strain() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    use anisobond::assembly::Assembly;
+    let dir = fresh_dir("manybody_model_forms");
+    let packing_file = crate::common::packing(&dir, 150);
+    let toml = model_toml("green-lagrange");
+    let plain = toml[..toml.find("[manybody]").unwrap()].to_string();
+    crate::common::write(&dir, "model.toml", &toml);
+    crate::common::write(&dir, "plain.toml", &plain);
+    let model = Model::from_toml_str(&toml, "<m>").unwrap();
+    let asm = Assembly::from_packing_file(&packing_file, model, Path::new("model.toml")).unwrap();
+    let term = asm
+        .model
+        .manybody
+        .as_ref()
+        .unwrap()
+        .build(&asm.packing, &asm.bonds)
+        .unwrap();
+    let opts = DeckOptions {
+        shear: false,
+        ..DeckOptions::default()
+    };
+    let s = export_liggghts_full(
+        &dir,
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        &opts,
+        None,
+        Some(&term),
+    )
+    .unwrap();
+    let stretch = [1.01, 0.995, 1.005];
+    let h = anisobond::Mat3::from_diagonal(&Vec3::new(stretch[0], stretch[1], stretch[2]));
+    let x: Vec<Vec3> = asm.packing.positions.iter().map(|p| h * p).collect();
+    let want = term
+        .evaluate(&term.branch_vectors(&x, &h).unwrap())
+        .unwrap();
+    let scale = want.forces.iter().map(|f| f.amax()).fold(0.0, f64::max);
+    let forces = |name: &str, style: &str| {
+        let text = format!(
+            "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\n\
+             communicate single vel yes\nread_data packing.data\n\
+             pair_style anisobond {style}\npair_coeff * *\n\
+             neighbor {} bin\nneigh_modify delay 0\ntimestep {}\nrun 0\n\
+             change_box all x scale {} y scale {} z scale {} remap\n\
+             dump d all custom 1 {name}.dump id fx fy fz\n\
+             dump_modify d sort id format \"%d %.17g %.17g %.17g\"\nrun 0\n",
+            0.05 * s.max_bond_length,
+            s.timestep,
+            stretch[0],
+            stretch[1],
+            stretch[2]
+        );
+        std::fs::write(dir.join(format!("{name}.in")), text).unwrap();
+        run_driver(&dir, &format!("{name}.in"), 1);
+        last_dump(&dir.join(format!("{name}.dump")))
+    };
+    for (form, with, without) in [
+        (
+            "packing",
+            "model model.toml packing.txt",
+            "model plain.toml packing.txt",
+        ),
+        ("in place", "model model.toml", "model plain.toml"),
+    ] {
+        let tag = form.replace(' ', "_");
+        let on = forces(&format!("{tag}_on"), with);
+        let off = forces(&format!("{tag}_off"), without);
+        let err = on
+            .iter()
+            .zip(&off)
+            .zip(&want.forces)
+            .map(|((a, b), w)| (Vec3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]) - w).amax())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "{form}: largest term force {scale:.3e} N, max |Δf| {err:.3e} N (relative {:.3e})",
+            err / scale
+        );
+        assert!(
+            scale > 0.0 && err <= 1e-10 * scale,
+            "{form}: driver term forces differ from ManyBody::evaluate by {:.3e} relative",
+            err / scale
+        );
+    }
+}
