@@ -4,6 +4,8 @@
 //     (BONDS.csv with normal_adhesion,shear_adhesion,tan_friction columns: breakable bonds)
 //   pair_style anisobond model MODEL.toml PACKING [damping GT GR] [length_tolerance TOL]
 //   pair_style anisobond model MODEL.toml [write_bonds FILE] [damping GT GR] [length_tolerance TOL]
+//   pair_style anisobond table BONDS.csv manybody MANYBODY.txt [...]   (the many-body term;
+//     a model with [manybody] brings it to the model forms without the keyword)
 //   pair_coeff * *
 //   any form also takes `breaks FILE`: rank 0 writes one line `step id_i id_j tension|shear`
 //   per broken bond (id_i < id_j, sorted by ids within a step; the same on any -np)
@@ -77,14 +79,21 @@ Pair *PairAnisobond::creator(LAMMPS *lmp) { return new PairAnisobond(lmp); }
 PairAnisobond::PairAnisobond(LAMMPS *lmp)
     : Pair(lmp), max_bonds_(0), max_length_(0.0), damp_t_(0.0), damp_r_(0.0),
       length_tol_(1e-6), in_place_(false), bonded_(false), breakable_(false),
-      breaks_fp_(NULL), fix_id_("anisobond_bonds"), fix_(NULL) {
+      breaks_fp_(NULL), manybody_(false), mb_gl_(true), mb_nmax_(0), mb_f_(NULL),
+      mb_m_(NULL), fix_id_("anisobond_bonds"), fix_(NULL) {
   single_enable = 0;
+  // The many-body term's per-atom sums and M_p travel as 9 doubles (see the header).
+  comm_forward = 9;
+  comm_reverse = 9;
+  for (int k = 0; k < 36; k++) mb_d_[k] = 0.0;
   no_virial_fdotr_compute = 1;  // the virial is tallied per bond
   restartinfo = 0;
 }
 
 PairAnisobond::~PairAnisobond() {
   if (breaks_fp_ != NULL) fclose(breaks_fp_);
+  memory->destroy(mb_f_);
+  memory->destroy(mb_m_);
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -104,7 +113,8 @@ namespace {
 
 bool is_keyword(const char *w) {
   return strcmp(w, "damping") == 0 || strcmp(w, "length_tolerance") == 0 ||
-         strcmp(w, "write_bonds") == 0 || strcmp(w, "breaks") == 0;
+         strcmp(w, "write_bonds") == 0 || strcmp(w, "breaks") == 0 ||
+         strcmp(w, "manybody") == 0;
 }
 
 }  // namespace
@@ -116,7 +126,13 @@ void PairAnisobond::settings(int narg, char **arg) {
   rust::Vec<anisobond::BondRow> rows;
   rust::Vec<anisobond::YadeLimits> limits;
   std::string limits_of;
+  // The many-body term of the model forms (through the bridge) or of `manybody FILE`.
+  anisobond::ManyBodyData mb_data;
+  bool mb_have = false, model_form = false, model_strength = false;
+  std::string mb_file;
   int iarg = 0;
+  manybody_ = false;
+  mb_volume_.clear();
   in_place_ = false;
   bonded_ = false;
   write_bonds_.clear();
@@ -135,11 +151,23 @@ void PairAnisobond::settings(int narg, char **arg) {
       // A word after MODEL that is not a keyword is the packing file; without it the atoms
       // in the box are bonded at the first run.
       auto model = anisobond::load_model(arg[1]);
+      model_form = true;
+      model_strength = model->has_strength();
+      if (model_strength && model->has_manybody())
+        throw std::runtime_error(std::string("model ") + arg[1] +
+                                 " has both [strength] and [manybody]: breakable bonds with the "
+                                 "many-body term are not supported (a broken bond would change "
+                                 "the fits of its particles); remove one of the two tables");
       if (narg >= 3 && !is_keyword(arg[2])) {
         if (model->needs_packing()) model->bind_packing(arg[2]);
         rows = anisobond::build_bond_table(arg[2], *model);
         if (model->has_strength()) limits = anisobond::packing_yade_limits(arg[2], *model);
         limits_of = std::string("model ") + arg[1] + " on " + arg[2];
+        if (model->has_manybody()) {
+          mb_data = anisobond::packing_manybody(arg[2], *model);
+          mb_have = true;
+          mb_of_ = limits_of;
+        }
         iarg = 3;
       } else {
         in_place_ = true;
@@ -175,9 +203,17 @@ void PairAnisobond::settings(int narg, char **arg) {
       if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: breaks needs a FILE");
       breaks_file_ = arg[iarg + 1];
       iarg += 2;
+    } else if (strcmp(arg[iarg], "manybody") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: manybody needs a FILE");
+      if (model_form)
+        error->all(FLERR, "pair_style anisobond: manybody FILE is for the table form "
+                          "`table BONDS.csv manybody FILE`; with `model MODEL` the model's "
+                          "[manybody] table gives the term");
+      mb_file = arg[iarg + 1];
+      iarg += 2;
     } else {
       std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] +
-                        "` (expected damping GT GR, length_tolerance TOL, write_bonds FILE or breaks FILE)";
+                        "` (expected damping GT GR, length_tolerance TOL, write_bonds FILE, breaks FILE or manybody FILE)";
       error->all(FLERR, msg.c_str());
     }
   }
@@ -196,6 +232,20 @@ void PairAnisobond::settings(int narg, char **arg) {
       error->all(FLERR, msg.c_str());
     }
   }
+  if (!mb_file.empty()) {
+    if (!limits.empty())
+      error->all(FLERR, "pair_style anisobond: manybody with breakable bonds (a bond table with "
+                        "normal_adhesion,shear_adhesion,tan_friction) is not supported: a broken "
+                        "bond would change the fits of its particles");
+    try {
+      mb_data = anisobond::load_manybody(mb_file);
+    } catch (const std::exception &e) {
+      std::string msg = std::string("pair_style anisobond: manybody ") + e.what();
+      error->all(FLERR, msg.c_str());
+    }
+    mb_have = true;
+    mb_of_ = "manybody " + mb_file;
+  }
   if (in_place_) {
     // Bonded at the first init_style(), when the atoms are there.
     bonds_.clear();
@@ -210,7 +260,66 @@ void PairAnisobond::settings(int narg, char **arg) {
     bonds.push_back(Bond{static_cast<int>(r.i) + 1, static_cast<int>(r.j) + 1, r.kn, r.ks, r.kr,
                          r.ktw, r.length, -1.0, 0.0, 0.0});
   add_limits(bonds, limits, limits_of);
+  if (mb_have) {
+    try {
+      add_manybody(bonds, mb_data, mb_of_);
+    } catch (const std::exception &e) {
+      std::string msg = std::string("pair_style anisobond: ") + e.what();
+      error->all(FLERR, msg.c_str());
+    }
+  }
   set_bonds(std::move(bonds));
+}
+
+// Attach the term of `data` to `bonds` (aligned, checked by ids) and keep D, the measure
+// and V_p by tag. Throws std::runtime_error naming `what` on a mismatch.
+void PairAnisobond::add_manybody(std::vector<Bond> &bonds, const anisobond::ManyBodyData &data,
+                                 const std::string &what) {
+  if (data.bonds.size() != bonds.size())
+    throw std::runtime_error(what + ": " + std::to_string(data.bonds.size()) +
+                             " many-body bond rows for " + std::to_string(bonds.size()) +
+                             " bonds (written for another bond table?)");
+  for (size_t b = 0; b < bonds.size(); b++) {
+    const anisobond::ManyBodyCoef &c = data.bonds[b];
+    if (c.id_i != static_cast<std::uint64_t>(bonds[b].tag_i) ||
+        c.id_j != static_cast<std::uint64_t>(bonds[b].tag_j))
+      throw std::runtime_error(what + ": many-body bond " + std::to_string(b + 1) + " joins atoms " +
+                               std::to_string(c.id_i) + "-" + std::to_string(c.id_j) +
+                               " but bond " + std::to_string(b + 1) + " of the table joins " +
+                               std::to_string(bonds[b].tag_i) + "-" +
+                               std::to_string(bonds[b].tag_j));
+    for (int k = 0; k < 3; k++) {
+      bonds[b].ai[k] = c.coef_i[k];
+      bonds[b].aj[k] = c.coef_j[k];
+    }
+  }
+  std::uint64_t max_id = 0;
+  for (const anisobond::ManyBodyParticle &p : data.particles) max_id = std::max(max_id, p.id);
+  if (max_id > 2147483647ULL) throw std::runtime_error(what + ": atom id beyond 2^31");
+  mb_volume_.assign(max_id + 1, -1.0);
+  for (const anisobond::ManyBodyParticle &p : data.particles) {
+    if (mb_volume_[p.id] >= 0.0)
+      throw std::runtime_error(what + ": atom " + std::to_string(p.id) + " given twice");
+    mb_volume_[p.id] = p.volume;
+  }
+  for (const Bond &b : bonds)
+    for (int t : {b.tag_i, b.tag_j})
+      if (t >= static_cast<int>(mb_volume_.size()) || mb_volume_[t] < 0.0)
+        throw std::runtime_error(what + ": bonded atom " + std::to_string(t) +
+                                 " has no volume share");
+  for (int k = 0; k < 36; k++) mb_d_[k] = data.d[k];
+  mb_gl_ = data.green_lagrange;
+  manybody_ = true;
+}
+
+void PairAnisobond::broadcast_manybody() {
+  int head[3] = {manybody_ ? 1 : 0, mb_gl_ ? 1 : 0, static_cast<int>(mb_volume_.size())};
+  MPI_Bcast(head, 3, MPI_INT, 0, world);
+  manybody_ = head[0] != 0;
+  mb_gl_ = head[1] != 0;
+  MPI_Bcast(mb_d_, 36, MPI_DOUBLE, 0, world);
+  mb_volume_.resize(head[2]);
+  if (head[2] > 0) MPI_Bcast(mb_volume_.data(), head[2], MPI_DOUBLE, 0, world);
 }
 
 void PairAnisobond::add_limits(std::vector<Bond> &bonds,
@@ -362,6 +471,14 @@ void PairAnisobond::bond_in_place() {
           bonds[b].tf = lim[b].tan_friction;
         }
       }
+      if (model->has_manybody()) {
+        mb_of_ = std::string("model ") + model_path_ + " (in place)";
+        add_manybody(bonds, anisobond::atoms_manybody(
+                                *model, rust::Slice<const double>(xs.data(), xs.size()),
+                                rust::Slice<const double>(rs.data(), rs.size()),
+                                rust::Slice<const uint64_t>(ids.data(), ids.size()), box),
+                     mb_of_);
+      }
     } catch (const std::exception &e) {
       failure = std::string("pair_style anisobond model ") + model_path_ +
                 " (in place, bonding the " + std::to_string(n) + " atoms of the first run): " +
@@ -381,6 +498,7 @@ void PairAnisobond::bond_in_place() {
   bonds.resize(header[1]);
   if (header[1] > 0)
     MPI_Bcast(bonds.data(), static_cast<int>(header[1] * sizeof(Bond)), MPI_BYTE, 0, world);
+  broadcast_manybody();
   set_bonds(std::move(bonds));
 }
 
@@ -662,6 +780,8 @@ void PairAnisobond::compute(int eflag, int vflag) {
     }
   }
 
+  if (manybody_) compute_manybody(eflag);
+
   if (!breaks_file_.empty() && !update->setupflag) write_breaks();
 
   if (damp_t_ > 0.0 || damp_r_ > 0.0) {
@@ -697,4 +817,154 @@ void PairAnisobond::write_breaks() {
     fprintf(breaks_fp_, BIGINT_FORMAT " %d %d %s\n", update->ntimestep, r[0], r[1],
             r[2] == 0 ? "tension" : "shear");
   fflush(breaks_fp_);
+}
+
+// The many-body term's forces (see the header): F_p by a reverse communication, M_p = V_p P_p
+// by a forward one, then g_b = M_i a_i + M_j a_j on every bond (docs/manybody.md).
+void PairAnisobond::compute_manybody(int eflag) {
+  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
+  if (atom->nmax > mb_nmax_) {
+    memory->destroy(mb_f_);
+    memory->destroy(mb_m_);
+    mb_nmax_ = atom->nmax;
+    memory->create(mb_f_, mb_nmax_, 9, "pair:anisobond_mb_f");
+    memory->create(mb_m_, mb_nmax_, 9, "pair:anisobond_mb_m");
+  }
+  for (int i = 0; i < nall; i++)
+    for (int k = 0; k < 9; k++) mb_f_[i][k] = mb_m_[i][k] = 0.0;
+  double **x = atom->x, **f = atom->f;
+  const int *tag = atom->tag;
+  double **a = fix_->array_atom;
+  const int ntag = static_cast<int>(first_bond_.size()) - 2;
+
+  // The bond b of owned atom i: its partner's index and the table row (same partner).
+  auto row_of = [&](int i, int b, int &j) -> const Bond & {
+    const double *s = &a[i][HEAD + b * NSLOT];
+    const int tag_j = static_cast<int>(s[S_TAG]);
+    const int k = tag[i] >= 1 && tag[i] <= ntag ? first_bond_[tag[i]] + b : -1;
+    if (k < 0 || k >= first_bond_[tag[i] + 1] || bonds_[k].tag_j != tag_j) {
+      char msg[256];
+      std::snprintf(msg, sizeof msg,
+                    "pair_style anisobond manybody: bond %d of atom %d (partner %d) is not the "
+                    "bond table's; the many-body term needs the bonds as the table gives them",
+                    b, tag[i], tag_j);
+      error->one(FLERR, msg);
+    }
+    j = atom->map(tag_j);
+    return bonds_[k];
+  };
+
+  // (1) Σ_b l_b ⊗ a_b at both ends.
+  for (int i = 0; i < nlocal; i++) {
+    const int nb = static_cast<int>(a[i][H_COUNT]);
+    for (int b = 0; b < nb; b++) {
+      int j;
+      const Bond &bd = row_of(i, b, j);
+      double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+      domain->minimum_image(l);
+      for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+          mb_f_[i][3 * r + c] += l[r] * bd.ai[c];
+          mb_f_[j][3 * r + c] += l[r] * bd.aj[c];
+        }
+    }
+  }
+  comm->reverse_comm_pair(this);
+
+  // (2) E_p, S = D:E, P and M_p = V_p P_p of every owned atom in the term.
+  const double *D = mb_d_;
+  double energy = 0.0;
+  for (int i = 0; i < nlocal; i++) {
+    const double vp = tag[i] < static_cast<int>(mb_volume_.size()) ? mb_volume_[tag[i]] : 0.0;
+    if (!(vp > 0.0)) continue;
+    const double *F = mb_f_[i];
+    double E[9];
+    for (int r = 0; r < 3; r++)
+      for (int c = 0; c < 3; c++) {
+        if (mb_gl_) {
+          double ftf = 0.0;
+          for (int k = 0; k < 3; k++) ftf += F[3 * k + r] * F[3 * k + c];
+          E[3 * r + c] = 0.5 * (ftf - (r == c ? 1.0 : 0.0));
+        } else {
+          E[3 * r + c] = 0.5 * (F[3 * r + c] + F[3 * c + r]) - (r == c ? 1.0 : 0.0);
+        }
+      }
+    const double ev[6] = {E[0], E[4], E[8], 2.0 * E[5], 2.0 * E[2], 2.0 * E[1]};
+    double sv[6];
+    for (int r = 0; r < 6; r++) {
+      sv[r] = 0.0;
+      for (int c = 0; c < 6; c++) sv[r] += D[6 * r + c] * ev[c];
+    }
+    double w = 0.0;
+    for (int r = 0; r < 6; r++) w += 0.5 * ev[r] * sv[r];
+    const double S[9] = {sv[0], sv[5], sv[4], sv[5], sv[1], sv[3], sv[4], sv[3], sv[2]};
+    double *M = mb_m_[i];
+    for (int r = 0; r < 3; r++)
+      for (int c = 0; c < 3; c++) {
+        double p = S[3 * r + c];
+        if (mb_gl_) {
+          p = 0.0;
+          for (int k = 0; k < 3; k++) p += F[3 * r + k] * S[3 * k + c];
+        }
+        M[3 * r + c] = vp * p;
+      }
+    if (eflag) {
+      if (eflag_global) energy += vp * w;
+      if (eflag_atom) eatom[i] += vp * w;
+    }
+  }
+  if (eflag && eflag_global) eng_vdwl += energy;
+  comm->forward_comm_pair(this);
+
+  // (3) g_b = M_i a_i + M_j a_j: +g_b on i, −g_b on j.
+  for (int i = 0; i < nlocal; i++) {
+    const int nb = static_cast<int>(a[i][H_COUNT]);
+    for (int b = 0; b < nb; b++) {
+      int j;
+      const Bond &bd = row_of(i, b, j);
+      double g[3];
+      for (int r = 0; r < 3; r++) {
+        g[r] = 0.0;
+        for (int c = 0; c < 3; c++) g[r] += mb_m_[i][3 * r + c] * bd.ai[c] + mb_m_[j][3 * r + c] * bd.aj[c];
+      }
+      for (int k = 0; k < 3; k++) {
+        f[i][k] += g[k];
+        f[j][k] -= g[k];
+      }
+      if (evflag) {
+        double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+        domain->minimum_image(l);
+        ev_tally_xyz(i, j, nlocal, force->newton_pair, 0.0, 0.0, g[0], g[1], g[2], -l[0], -l[1],
+                     -l[2]);
+      }
+    }
+  }
+}
+
+// LIGGGHTS 3.8's Comm (the LAMMPS interface before 2014) sends n × the returned count:
+// pack_comm and pack_reverse_comm return the values per atom (9), not the total.
+int PairAnisobond::pack_comm(int n, int *list, double *buf, int, int *) {
+  int m = 0;
+  for (int i = 0; i < n; i++)
+    for (int k = 0; k < 9; k++) buf[m++] = mb_m_[list[i]][k];
+  return 9;
+}
+
+void PairAnisobond::unpack_comm(int n, int first, double *buf) {
+  int m = 0;
+  for (int i = first; i < first + n; i++)
+    for (int k = 0; k < 9; k++) mb_m_[i][k] = buf[m++];
+}
+
+int PairAnisobond::pack_reverse_comm(int n, int first, double *buf) {
+  int m = 0;
+  for (int i = first; i < first + n; i++)
+    for (int k = 0; k < 9; k++) buf[m++] = mb_f_[i][k];
+  return 9;
+}
+
+void PairAnisobond::unpack_reverse_comm(int n, int *list, double *buf) {
+  int m = 0;
+  for (int i = 0; i < n; i++)
+    for (int k = 0; k < 9; k++) mb_f_[list[i]][k] += buf[m++];
 }

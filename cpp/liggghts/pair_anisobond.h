@@ -49,6 +49,19 @@
 // written as lines `step id_i id_j tension|shear` (a bond's cohesion broken; a frictional
 // contact lost later in tension is no new break), so the file is the same on any number
 // of processes. The step is update->ntimestep of the force call that judged the bond.
+//
+// Many-body term (issue 33; docs/manybody.md, "LIGGGHTS"): `manybody FILE` (the table form,
+// FILE as `anisobond export liggghts` writes manybody.txt for a model with [manybody]) or a
+// model with [manybody] (both model forms, through the bridge) adds the library's ManyBody
+// forces of U = Σ_p ½ V_p E_p:D:E_p. Each bond carries its fit coefficients a = A_p⁻¹ L_b at
+// both ends (the library's own, replicated with the bond table on every rank), each atom
+// its volume share V_p (0 = excluded, as the library excludes degenerate particles). Per
+// force call: (1) every bond adds l_b ⊗ a to F of both ends (ghost ends included), a reverse
+// communication sums the ghosts' share into the owners: F_p = Σ_b l_b ⊗ a_b; (2) each owned
+// atom forms E_p (Green–Lagrange or small), S = D:E, P = F·S (or S) and M_p = V_p P_p, and
+// a forward communication sends M to the ghosts; (3) every bond gets g_b = M_i a_i + M_j a_j,
+// f_i += g_b, f_j −= g_b, tallied in the virial as the springs are (−l ⊗ g), energy V_p W_p
+// on its atom. With breakable bonds the term is refused (a broken bond would change the fits).
 #ifndef ANISOBOND_PAIR_ANISOBOND_H
 #define ANISOBOND_PAIR_ANISOBOND_H
 
@@ -71,6 +84,11 @@ class PairAnisobond : public Pair {
   void coeff(int narg, char **arg);
   void init_style();
   double init_one(int i, int j);
+  // The many-body term's per-atom communication: forward M_p (9), reverse F_p sums (9).
+  int pack_comm(int n, int *list, double *buf, int pbc_flag, int *pbc);
+  void unpack_comm(int n, int first, double *buf);
+  int pack_reverse_comm(int n, int first, double *buf);
+  void unpack_reverse_comm(int n, int *list, double *buf);
 
   // For Force::pair_map.
   static Pair *creator(class LAMMPS *lmp);
@@ -99,7 +117,23 @@ class PairAnisobond : public Pair {
     int tag_i, tag_j;
     double kn, ks, kr, ktw, length;
     double an, as, tf;  // YADE CohFrict limits; an < 0: unbreakable
+    double ai[3], aj[3];  // many-body fit coefficients at tag_i and tag_j (0 without the term)
   };
+  // The many-body term: on when manybody_; D row-major (Voigt, Pa), the measure, V_p by tag.
+  bool manybody_;
+  double mb_d_[36];
+  bool mb_gl_;
+  std::vector<double> mb_volume_;
+  std::string mb_of_;  // where the term came from (for messages)
+  // Per-atom work arrays (owned + ghost): the sums Σ l⊗a (F_p) and M_p = V_p P_p, row-major.
+  int mb_nmax_;
+  double **mb_f_, **mb_m_;
+  // Take the term of `data` (coefficients aligned with `bonds`, checked by atom ids).
+  void add_manybody(std::vector<Bond> &bonds, const anisobond::ManyBodyData &data,
+                    const std::string &what);
+  // Every rank takes rank 0's D, measure and volumes (the in-place form).
+  void broadcast_manybody();
+  void compute_manybody(int eflag);
   // Give each bond its limits (lim aligned with bonds, or empty: unbreakable); a length
   // mismatch is refused naming `what`.
   void add_limits(std::vector<Bond> &bonds, const rust::Vec<anisobond::YadeLimits> &lim,

@@ -2,7 +2,7 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::export::liggghts::{export_liggghts_with_limits, DeckOptions};
+use anisobond::export::liggghts::{export_liggghts_full, DeckOptions};
 use anisobond::Result;
 
 /// Write LIGGGHTS input decks for a packing + model.
@@ -57,7 +57,22 @@ pub fn run(a: Args) -> Result<()> {
     };
     // A model with [strength]: breakable bonds, the limits in bonds.csv.
     let limits = anisobond::export::yade::yade_adhesions(packing, bonds, &asm.model)?;
-    let s = export_liggghts_with_limits(&staged, packing, bonds, k, &opts, limits.as_deref())?;
+    // A model with [manybody]: the term of these bonds, in manybody.txt for the driver deck.
+    let term = asm
+        .model
+        .manybody
+        .as_ref()
+        .map(|spec| spec.build(packing, bonds))
+        .transpose()?;
+    let s = export_liggghts_full(
+        &staged,
+        packing,
+        bonds,
+        k,
+        &opts,
+        limits.as_deref(),
+        term.as_ref(),
+    )?;
     set.commit()?;
     println!(
         "wrote LIGGGHTS decks for {} particles, {} bonds (longest {:.4e} m) into {}:",
@@ -70,6 +85,14 @@ pub fn run(a: Args) -> Result<()> {
     if limits.is_some() {
         println!(
             "breakable bonds: the model's [strength] as YADE's CohFrict limits in bonds.csv; the driver writes breaks.txt"
+        );
+    }
+    if let Some(t) = &term {
+        println!(
+            "many-body term: manybody.txt ({} of {} particles in the term, volume fraction {:.4}); the stock harmonic deck does not carry it",
+            t.len() - t.excluded().len(),
+            t.len(),
+            t.volume_fraction()
         );
     }
     println!(

@@ -18,10 +18,11 @@
 
 pub(crate) use super::num;
 use crate::bonds::{table, BondSet, BondStiffness};
+use crate::manybody::{ManyBody, StrainMeasure};
 use crate::packing::{Packing, PeriodicCell};
 use crate::strength::criteria::YadeAdhesion;
 use crate::tensor::Stiffness6;
-use crate::{Error, Result};
+use crate::{Error, Mat3, Result, Vec3};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 #[cfg(feature = "engines")]
@@ -102,7 +103,19 @@ pub fn stable_timestep(
     k: &BondStiffness,
     density: f64,
 ) -> Result<f64> {
-    let mut ksum = vec![0.0; packing.len()];
+    stable_timestep_with(packing, bonds, k, density, None)
+}
+
+/// [`stable_timestep`] with `extra` (N/m, one per particle) added to each particle's k_i:
+/// the many-body term's share ([`manybody_stiffness`]).
+fn stable_timestep_with(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+    extra: Option<&[f64]>,
+) -> Result<f64> {
+    let mut ksum = extra.map_or_else(|| vec![0.0; packing.len()], <[f64]>::to_vec);
     for b in 0..bonds.len() {
         for p in [bonds.i[b] as usize, bonds.j[b] as usize] {
             let r = packing.radii[p];
@@ -263,7 +276,13 @@ struct Plan {
 
 /// Check the inputs (options, periodic cell, bonds against the packing, the minimum image
 /// along the periodic axes, a given time step) and fix the [`Plan`].
-fn plan(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &DeckOptions) -> Result<Plan> {
+fn plan(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    extra: Option<&[f64]>,
+) -> Result<Plan> {
     check_options(o)?;
     let cell = packing.cell.ok_or_else(|| {
         Error::Invalid(
@@ -300,7 +319,7 @@ fn plan(packing: &Packing, bonds: &BondSet, k: &BondStiffness, o: &DeckOptions) 
     }
     let dt = match o.timestep {
         Some(dt) => dt,
-        None => stable_timestep(packing, bonds, k, o.density)?,
+        None => stable_timestep_with(packing, bonds, k, o.density, extra)?,
     };
     let cases = super::load_cases(&cell)
         .into_iter()
@@ -348,6 +367,36 @@ pub fn export_liggghts_with_limits(
     o: &DeckOptions,
     limits: Option<&[YadeAdhesion]>,
 ) -> Result<ExportSummary> {
+    export_liggghts_full(dir, packing, bonds, k, o, limits, None)
+}
+
+/// [`export_liggghts_with_limits`] with the model's many-body term `manybody` (the term of
+/// these `bonds` on this `packing`, [`crate::manybody::ManyBodySpec::build`]): it is written
+/// to `manybody.txt` ([`write_manybody_table`]) and the driver deck's pair style reads it
+/// (`manybody manybody.txt`), so the driver runs the library's [`ManyBody`] forces; the stock
+/// harmonic deck does not carry it (its header says so). The chosen time step counts the
+/// term's stiffness too ([`manybody_stiffness`]). Breakable bonds (`limits`) with the
+/// term are refused ([`Error::Model`]): a broken bond would change the fits of its particles.
+pub fn export_liggghts_full(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    limits: Option<&[YadeAdhesion]>,
+    manybody: Option<&ManyBody>,
+) -> Result<ExportSummary> {
+    if manybody.is_some() && limits.is_some() {
+        return Err(Error::Model(
+            "export liggghts: a model with both [strength] and [manybody]: the LIGGGHTS pair \
+             style keeps each particle's many-body fit of its bonds as bonded, so breakable bonds \
+             with the term are not supported; remove one of the two tables"
+                .into(),
+        ));
+    }
+    let table = manybody
+        .map(|t| manybody_table(packing, bonds, t))
+        .transpose()?;
     if let Some(l) = limits {
         if l.len() != bonds.len() {
             return Err(Error::Invalid(format!(
@@ -357,9 +406,17 @@ pub fn export_liggghts_with_limits(
             )));
         }
     }
-    let plan = plan(packing, bonds, k, o)?;
+    let extra = table
+        .as_ref()
+        .map(|t| manybody_stiffness(packing.len(), bonds, t));
+    let plan = plan(packing, bonds, k, o, extra.as_deref())?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
+    if let Some(t) = &table {
+        let path = dir.join("manybody.txt");
+        write_manybody_table(&path, t)?;
+        files.push(path);
+    }
     files.push(write_driver_deck(
         dir,
         packing,
@@ -367,8 +424,17 @@ pub fn export_liggghts_with_limits(
         o,
         &plan,
         limits.is_some(),
+        table.is_some(),
     )?);
-    files.extend(write_harmonic_deck(dir, packing, bonds, k, o, &plan)?);
+    files.extend(write_harmonic_deck(
+        dir,
+        packing,
+        bonds,
+        k,
+        o,
+        &plan,
+        table.is_some(),
+    )?);
     let run = dir.join("run.sh");
     let shear = plan.cases.iter().any(|&c| c >= 3);
     crate::io::write_string_atomic(&run, &run_script(shear))?;
@@ -436,6 +502,7 @@ fn write_driver_deck(
     o: &DeckOptions,
     plan: &Plan,
     breakable: bool,
+    manybody: bool,
 ) -> Result<PathBuf> {
     let period = plan.period;
     let mut s = String::new();
@@ -465,6 +532,10 @@ fn write_driver_deck(
             "#   (step id_i id_j tension|shear) to breaks.txt (docs/strength.md, \"LIGGGHTS\")."
         );
     }
+    if manybody {
+        let _ = writeln!(s, "# Many-body term (docs/manybody.md): manybody.txt gives D, each particle's volume share and each");
+        let _ = writeln!(s, "#   bond's fit coefficients; the pair style adds the forces of U = Σ_p ½ V_p E_p:D:E_p.");
+    }
     let _ = writeln!(
         s,
         "# {}",
@@ -487,8 +558,13 @@ fn write_driver_deck(
     let _ = write!(s, "read_data packing.data\n{box_line}");
     let _ = writeln!(
         s,
-        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}{}\npair_coeff * *",
-        if breakable { " breaks breaks.txt" } else { "" }
+        "pair_style anisobond table bonds.csv damping ${{damp}} ${{damp}}{}{}\npair_coeff * *",
+        if breakable { " breaks breaks.txt" } else { "" },
+        if manybody {
+            " manybody manybody.txt"
+        } else {
+            ""
+        }
     );
     integration_lines(&mut s, plan.max_len);
     element_test(&mut s, plan.lengths, o, &plan.cases);
@@ -506,6 +582,7 @@ fn write_harmonic_deck(
     k: &BondStiffness,
     o: &DeckOptions,
     plan: &Plan,
+    manybody: bool,
 ) -> Result<Vec<PathBuf>> {
     let hdata = dir.join("harmonic.data");
     crate::io::write_atomic(&hdata, |w| {
@@ -526,6 +603,12 @@ fn write_harmonic_deck(
         bonds.len()
     );
     h.push_str(HARMONIC_LIMITS);
+    if manybody {
+        let _ = writeln!(
+            h,
+            "# Without the model's many-body term (manybody.txt): only anisobond.in carries it."
+        );
+    }
     h.push_str(&mixed_box_comment(plan));
     let _ = writeln!(
         h,
@@ -884,4 +967,273 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
 pub fn which(program: &str) -> bool {
     std::env::var_os("PATH")
         .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
+}
+
+/// The many-body term (docs/manybody.md) as `pair_style anisobond … manybody FILE` reads it:
+/// D, the measure, each particle's volume share V_p (0: excluded) and each bond's fit
+/// coefficients a = A_p⁻¹ L_b at its two ends, L_b oriented from the bond's first particle to
+/// its second as in the bond table, so F_p = Σ_b l_b ⊗ a_b at either end.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ManyBodyTable {
+    /// D's lab-frame Voigt matrix (Pa).
+    pub d: Stiffness6,
+    /// The strain measure.
+    pub measure: StrainMeasure,
+    /// (atom id, V_p in m³) of every particle, V_p = 0 for an excluded one.
+    pub volumes: Vec<(u64, f64)>,
+    /// One per bond, in the bond table's order.
+    pub bonds: Vec<ManyBodyBond>,
+}
+
+/// One bond's fit coefficients in a [`ManyBodyTable`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ManyBodyBond {
+    /// Atom ids of its first and second particle (as `id_i,id_j` of the bond table).
+    pub ids: [u64; 2],
+    /// A_i⁻¹ L_b at the first particle (zero when it is excluded), 1/m.
+    pub coef_i: Vec3,
+    /// A_j⁻¹ L_b at the second particle (zero when it is excluded), 1/m.
+    pub coef_j: Vec3,
+}
+
+/// The [`ManyBodyTable`] of `term`, the term of `bonds` on `packing`: A_p = Σ_b L_b ⊗ L_b
+/// over p's bonds in bond order and its inverse as [`ManyBody::new`] forms them, so the
+/// coefficients are the library's own; atom ids as the bond table writes them.
+pub fn manybody_table(
+    packing: &Packing,
+    bonds: &BondSet,
+    term: &ManyBody,
+) -> Result<ManyBodyTable> {
+    let n = packing.len();
+    let refs = term.reference_branches();
+    if term.len() != n || refs.len() != bonds.len() {
+        return Err(Error::Invalid(format!(
+            "many-body table: the term has {} particles and {} bonds, the packing {n} and {}",
+            term.len(),
+            refs.len(),
+            bonds.len()
+        )));
+    }
+    let mut excluded = vec![false; n];
+    for &p in term.excluded() {
+        excluded[p as usize] = true;
+    }
+    let mut a = vec![Mat3::zeros(); n];
+    for (b, l) in refs.iter().enumerate() {
+        a[bonds.i[b] as usize] += l * l.transpose();
+        a[bonds.j[b] as usize] += l * l.transpose();
+    }
+    let mut inv = vec![Mat3::zeros(); n];
+    for p in (0..n).filter(|&p| !excluded[p]) {
+        inv[p] = a[p].try_inverse().ok_or_else(|| {
+            Error::Degenerate(format!(
+                "many-body table: particle {p} is in the term but Σ L⊗L of its bonds cannot be inverted"
+            ))
+        })?;
+    }
+    let ids = super::engine_ids(packing);
+    let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
+    Ok(ManyBodyTable {
+        d: *term.tensor(),
+        measure: term.measure(),
+        volumes: term
+            .particle_volumes()
+            .iter()
+            .enumerate()
+            .map(|(p, &v)| (id(p), v))
+            .collect(),
+        bonds: (0..bonds.len())
+            .map(|b| {
+                let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+                ManyBodyBond {
+                    ids: [id(i), id(j)],
+                    coef_i: inv[i] * refs[b],
+                    coef_j: inv[j] * refs[b],
+                }
+            })
+            .collect(),
+    })
+}
+
+/// The many-body term's share of each particle's stiffness (N/m) for the time step, as
+/// [`stable_timestep`] bounds the springs' by their sum: the diagonal Hessian blocks at the
+/// reference, V_p B(c, c) per stencil node, bounded by Σ_p V_p ‖D‖ |c_r^p|² with ‖D‖ the
+/// largest absolute row sum of D's Voigt matrix and c_r^p the coefficient of node r in F_p
+/// (docs/manybody.md, "Derivatives"). `t` must be the table of `bonds` (same order).
+fn manybody_stiffness(n: usize, bonds: &BondSet, t: &ManyBodyTable) -> Vec<f64> {
+    let norm = (0..6)
+        .map(|r| (0..6).map(|c| t.d[(r, c)].abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let mut own = vec![Vec3::zeros(); n];
+    let mut k = vec![0.0; n];
+    for (b, row) in t.bonds.iter().enumerate() {
+        let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+        own[i] -= row.coef_i;
+        own[j] += row.coef_j;
+        k[j] += t.volumes[i].1 * norm * row.coef_i.norm_squared();
+        k[i] += t.volumes[j].1 * norm * row.coef_j.norm_squared();
+    }
+    for p in 0..n {
+        k[p] += t.volumes[p].1 * norm * own[p].norm_squared();
+    }
+    k
+}
+
+/// Write `table` to `path` (shortest round-trip numbers: the same bits read back):
+/// `measure M`, `d` and its 36 entries (row-major Voigt, Pa), `particles N` then N lines
+/// `id V_p`, `bonds M` then M lines `id_i id_j a_i(3) a_j(3)`; `#` starts a comment.
+pub fn write_manybody_table(path: &Path, table: &ManyBodyTable) -> Result<()> {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# anisobond many-body term for pair_style anisobond … manybody FILE (docs/manybody.md):\n\
+         # D (Voigt, Pa, lab frame, row-major), the strain measure, each particle's volume share V_p\n\
+         # (m³; 0 = excluded: fewer than three non-coplanar bonds) and each bond's fit coefficients\n\
+         # a = A_p⁻¹ L_b (1/m) at its first and second particle, in the bond table's order."
+    );
+    let _ = writeln!(
+        s,
+        "measure {}",
+        match table.measure {
+            StrainMeasure::GreenLagrange => "green-lagrange",
+            StrainMeasure::Small => "small",
+        }
+    );
+    let d: Vec<String> = (0..6)
+        .flat_map(|r| (0..6).map(move |c| (r, c)))
+        .map(|(r, c)| num(table.d[(r, c)]))
+        .collect();
+    let _ = writeln!(s, "d {}", d.join(" "));
+    let _ = writeln!(s, "particles {}", table.volumes.len());
+    for (id, v) in &table.volumes {
+        let _ = writeln!(s, "{id} {}", num(*v));
+    }
+    let _ = writeln!(s, "bonds {}", table.bonds.len());
+    for b in &table.bonds {
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {} {} {} {}",
+            b.ids[0],
+            b.ids[1],
+            num(b.coef_i.x),
+            num(b.coef_i.y),
+            num(b.coef_i.z),
+            num(b.coef_j.x),
+            num(b.coef_j.y),
+            num(b.coef_j.z)
+        );
+    }
+    crate::io::write_string_atomic(path, &s)
+}
+
+/// Read a table written by [`write_manybody_table`]; a malformed line is refused naming
+/// the file, the line and what was expected ([`Error::Parse`]).
+pub fn read_manybody_table(path: &Path) -> Result<ManyBodyTable> {
+    let text = crate::io::read_to_string(path)?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| (k + 1, l.split('#').next().unwrap_or("").trim()))
+        .filter(|(_, l)| !l.is_empty());
+    let bad = |line: usize, m: String| Error::parse(path, line, m);
+    let mut next = |what: &str| {
+        lines
+            .next()
+            .ok_or_else(|| bad(0, format!("ends early: expected {what}")))
+    };
+    let number = |line: usize, w: &str, what: &str| -> Result<f64> {
+        w.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                bad(
+                    line,
+                    format!("{what}: expected a finite number, found `{w}`"),
+                )
+            })
+    };
+    let keyed = |(line, l): (usize, &str), key: &str, count: usize| -> Result<Vec<String>> {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        if w[0] != key || w.len() != count + 1 {
+            return Err(bad(
+                line,
+                format!("expected `{key}` and {count} value(s), found `{l}`"),
+            ));
+        }
+        Ok(w[1..].iter().map(|s| s.to_string()).collect())
+    };
+    let first = next("`measure green-lagrange|small`")?;
+    let measure = match keyed(first, "measure", 1)?[0].as_str() {
+        "green-lagrange" => StrainMeasure::GreenLagrange,
+        "small" => StrainMeasure::Small,
+        other => {
+            return Err(bad(
+                first.0,
+                format!("measure `{other}`: expected green-lagrange or small"),
+            ))
+        }
+    };
+    let dl = next("`d` and 36 numbers")?;
+    let dv = keyed(dl, "d", 36)?;
+    let mut d = Stiffness6::zeros();
+    for (k, w) in dv.iter().enumerate() {
+        d[(k / 6, k % 6)] = number(dl.0, w, "d")?;
+    }
+    let count = |(line, l): (usize, &str), key: &str| -> Result<usize> {
+        let w = keyed((line, l), key, 1)?;
+        w[0].parse::<usize>()
+            .map_err(|_| bad(line, format!("`{key}`: expected a count, found `{}`", w[0])))
+    };
+    let id = |line: usize, w: &str| -> Result<u64> {
+        w.parse::<u64>()
+            .ok()
+            .filter(|&v| v >= 1)
+            .ok_or_else(|| bad(line, format!("expected an atom id ≥ 1, found `{w}`")))
+    };
+    let pl = next("`particles N`")?;
+    let np = count(pl, "particles")?;
+    let mut volumes = Vec::with_capacity(np);
+    for _ in 0..np {
+        let (line, l) = next("a particle line `id V_p`")?;
+        let w: Vec<&str> = l.split_whitespace().collect();
+        if w.len() != 2 {
+            return Err(bad(line, format!("expected `id V_p`, found `{l}`")));
+        }
+        let v = number(line, w[1], "V_p")?;
+        if v < 0.0 {
+            return Err(bad(line, format!("V_p = {v}: expected ≥ 0 (m³)")));
+        }
+        volumes.push((id(line, w[0])?, v));
+    }
+    let bl = next("`bonds M`")?;
+    let nb = count(bl, "bonds")?;
+    let mut bonds = Vec::with_capacity(nb);
+    for _ in 0..nb {
+        let (line, l) = next("a bond line `id_i id_j a_i(3) a_j(3)`")?;
+        let w: Vec<&str> = l.split_whitespace().collect();
+        if w.len() != 8 {
+            return Err(bad(
+                line,
+                format!("expected `id_i id_j` and six coefficients, found `{l}`"),
+            ));
+        }
+        let c = |k: usize| number(line, w[k], "coefficient");
+        bonds.push(ManyBodyBond {
+            ids: [id(line, w[0])?, id(line, w[1])?],
+            coef_i: Vec3::new(c(2)?, c(3)?, c(4)?),
+            coef_j: Vec3::new(c(5)?, c(6)?, c(7)?),
+        });
+    }
+    if let Some((line, l)) = lines.next() {
+        return Err(bad(
+            line,
+            format!("unexpected line after the {nb} bonds: `{l}`"),
+        ));
+    }
+    Ok(ManyBodyTable {
+        d,
+        measure,
+        volumes,
+        bonds,
+    })
 }

@@ -137,6 +137,43 @@ pub mod bridge {
         pub c: [f64; 36],
     }
 
+    /// One particle of the many-body term: atom id and volume share V_p (m³; 0 = excluded).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ManyBodyParticle {
+        /// Atom id.
+        pub id: u64,
+        /// V_p (m³).
+        pub volume: f64,
+    }
+
+    /// One bond's many-body fit coefficients a = A_p⁻¹ L_b (1/m) at its first (`coef_i`) and
+    /// second (`coef_j`) particle, L_b oriented from the first to the second.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ManyBodyCoef {
+        /// Atom id of the first particle.
+        pub id_i: u64,
+        /// Atom id of the second particle.
+        pub id_j: u64,
+        /// A_i⁻¹ L_b.
+        pub coef_i: [f64; 3],
+        /// A_j⁻¹ L_b.
+        pub coef_j: [f64; 3],
+    }
+
+    /// The many-body term (docs/manybody.md) for an engine: D (Voigt, row-major, Pa), the
+    /// measure, particle volumes and per-bond coefficients aligned with the bond rows.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct ManyBodyData {
+        /// D, row-major: d[6·a + b] = D[a][b].
+        pub d: [f64; 36],
+        /// Green–Lagrange (true) or small strain (false).
+        pub green_lagrange: bool,
+        /// Every particle.
+        pub particles: Vec<ManyBodyParticle>,
+        /// Every bond, in the order of the bond rows.
+        pub bonds: Vec<ManyBodyCoef>,
+    }
+
     extern "Rust" {
         /// A validated model (bonding rule, scheme, geometry), optionally bound to a packing.
         type ModelHandle;
@@ -226,13 +263,31 @@ pub mod bridge {
         /// elastic) on one bond: normal force `normal` (N, compression positive) and shear
         /// magnitude `shear` (N). Allocation-free: for a per-bond, per-step call.
         fn yade_cohfrict_check(limits: &YadeLimits, normal: f64, shear: f64) -> BondVerdict;
+
+        /// True when the model has a `[manybody]` table (docs/manybody.md).
+        fn has_manybody(self: &ModelHandle) -> bool;
+        /// A many-body table as `anisobond export liggghts` writes it (`manybody.txt`).
+        fn load_manybody(path: &str) -> Result<ManyBodyData>;
+        /// The model's many-body term on a packing file, aligned with the rows of
+        /// `build_bond_table(packing_path, model)`; refused without `[manybody]`.
+        fn packing_manybody(packing_path: &str, model: &ModelHandle) -> Result<ManyBodyData>;
+        /// The model's many-body term on atoms given by arrays, aligned with the rows of
+        /// `bond_atoms` of the same atoms; refused without `[manybody]`.
+        fn atoms_manybody(
+            model: &ModelHandle,
+            x: &[f64],
+            radius: &[f64],
+            ids: &[u64],
+            domain: &AtomsBox,
+        ) -> Result<ManyBodyData>;
     }
 }
 
 use crate::strength::criteria::{yade_cohfrict, LocalLoads, YadeAdhesion, YadeMoments};
 use crate::strength::Mode;
 use bridge::{
-    AtomBonds, AtomsBox, BondRow, BondSprings, BondVerdict, Magnitudes, Tensor6, YadeLimits,
+    AtomBonds, AtomsBox, BondRow, BondSprings, BondVerdict, Magnitudes, ManyBodyCoef, ManyBodyData,
+    ManyBodyParticle, Tensor6, YadeLimits,
 };
 
 /// Opaque model for C++: the model, and the scheme once built.
@@ -646,4 +701,70 @@ fn yade_cohfrict_check(limits: &YadeLimits, normal: f64, shear: f64) -> BondVerd
         },
         index: f.index,
     }
+}
+
+impl ModelHandle {
+    fn has_manybody(&self) -> bool {
+        self.model.manybody.is_some()
+    }
+}
+
+fn manybody_data(t: &crate::export::liggghts::ManyBodyTable) -> ManyBodyData {
+    let mut d = [0.0; 36];
+    for (k, v) in d.iter_mut().enumerate() {
+        *v = t.d[(k / 6, k % 6)];
+    }
+    ManyBodyData {
+        d,
+        green_lagrange: t.measure == crate::manybody::StrainMeasure::GreenLagrange,
+        particles: t
+            .volumes
+            .iter()
+            .map(|&(id, volume)| ManyBodyParticle { id, volume })
+            .collect(),
+        bonds: t
+            .bonds
+            .iter()
+            .map(|b| ManyBodyCoef {
+                id_i: b.ids[0],
+                id_j: b.ids[1],
+                coef_i: [b.coef_i.x, b.coef_i.y, b.coef_i.z],
+                coef_j: [b.coef_j.x, b.coef_j.y, b.coef_j.z],
+            })
+            .collect(),
+    }
+}
+
+fn load_manybody(path: &str) -> Result<ManyBodyData> {
+    Ok(manybody_data(
+        &crate::export::liggghts::read_manybody_table(Path::new(path))?,
+    ))
+}
+
+/// The term of an assembly's bonds by its model's `[manybody]`, as the engines read it.
+fn assembly_manybody(asm: &Assembly) -> Result<ManyBodyData> {
+    let spec = asm.model.manybody.as_ref().ok_or_else(|| {
+        Error::Model("the model has no [manybody] table (docs/manybody.md)".into())
+    })?;
+    let term = spec.build(&asm.packing, &asm.bonds)?;
+    Ok(manybody_data(&crate::export::liggghts::manybody_table(
+        &asm.packing,
+        &asm.bonds,
+        &term,
+    )?))
+}
+
+fn packing_manybody(packing_path: &str, model: &ModelHandle) -> Result<ManyBodyData> {
+    assembly_manybody(&assembly(packing_path, model)?)
+}
+
+fn atoms_manybody(
+    model: &ModelHandle,
+    x: &[f64],
+    radius: &[f64],
+    ids: &[u64],
+    domain: &AtomsBox,
+) -> Result<ManyBodyData> {
+    let packing = atoms_packing(x, radius, ids, domain)?;
+    assembly_manybody(&Assembly::new(packing, model.model.clone())?)
 }

@@ -10,6 +10,7 @@ mod driver;
 mod dumps;
 mod harmonic;
 mod in_place;
+mod manybody;
 mod ppf_export;
 mod specimen;
 mod strength_export;
