@@ -183,7 +183,7 @@ pub fn spring_share(t: &Stiffness6, p: &Stiffness6) -> Result<f64> {
     let linv = l
         .try_inverse()
         .ok_or_else(|| Error::Degenerate("many-body calibration: singular target".into()))?;
-    let m = &linv * p * linv.transpose();
+    let m = linv * p * linv.transpose();
     let m = 0.5 * (m + m.transpose());
     let lmax = m.symmetric_eigenvalues().max();
     if !(lmax > 0.0 && lmax.is_finite()) {
@@ -353,7 +353,11 @@ pub(crate) fn relaxed_split(
         });
         m
     };
-    let (d, achieved, history) = solve_d(
+    let SolvedD {
+        d,
+        achieved,
+        history,
+    } = solve_d(
         &target,
         d0,
         phi,
@@ -476,10 +480,21 @@ pub struct SolveOptions {
     pub max_evaluations: usize,
 }
 
+/// What [`solve_d`] found.
+#[derive(Clone, Debug)]
+pub struct SolvedD {
+    /// D's constants.
+    pub d: Vec<f64>,
+    /// The achieved constants at `d` (the accepted evaluation's).
+    pub achieved: Vec<f64>,
+    /// Every evaluation: (d, achieved).
+    pub history: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
 /// Solve achieved(d) = target for D's constants by Broyden's method from `d0`, with φ·I as
 /// the initial Jacobian (the closed form at the Voigt level; the relaxed contribution lies
-/// below it). `achieved` is one relaxed solve of springs plus a term with D = d. Returns d,
-/// the achieved constants and the history of (d, achieved). The tolerance is relative to
+/// below it). `achieved` is one relaxed solve of springs plus a term with D = d. The
+/// tolerance is relative to
 /// each target constant (to 1e-3 of the largest one for a constant near zero).
 pub fn solve_d(
     target: &[f64],
@@ -487,7 +502,7 @@ pub fn solve_d(
     phi: f64,
     mut achieved: impl FnMut(&[f64]) -> Result<Vec<f64>>,
     opts: &SolveOptions,
-) -> Result<(Vec<f64>, Vec<f64>, Vec<(Vec<f64>, Vec<f64>)>)> {
+) -> Result<SolvedD> {
     super::check_iteration_options(opts.tolerance, opts.max_evaluations)?;
     let n = target.len();
     let goal = DVector::from_column_slice(target);
@@ -531,11 +546,11 @@ pub fn solve_d(
             result.evaluations, result.best_error, opts.tolerance, last, target
         )));
     }
-    Ok((
-        result.point.x.as_slice().to_vec(),
-        result.point.data,
+    Ok(SolvedD {
+        d: result.point.x.as_slice().to_vec(),
+        achieved: result.point.data,
         history,
-    ))
+    })
 }
 
 /// Whether the springs alone reach the cubic target at the mean-field level: Err(why) with

@@ -266,7 +266,7 @@ fn term_fraction(b: &Assembly) -> Result<f64> {
     };
     let fraction =
         crate::manybody::ManyBody::new(&b.packing, &b.bonds, &unit, &opts)?.volume_fraction();
-    if !(fraction > 0.0) {
+    if fraction <= 0.0 || fraction.is_nan() {
         return Err(Error::Degenerate(
             "many-body calibration: no particle of the packing has three non-coplanar bonds, so the term cannot act".into(),
         ));

@@ -349,7 +349,11 @@ fn the_d_iteration_reaches_a_softened_coupled_map() {
     ] {
         let d0: Vec<f64> = t.iter().zip(&p).map(|(t, p)| (t - p) / phi).collect();
         let mut calls = 0;
-        let (d, achieved, history) = solve_d(
+        let anisobond::calibrate::manybody::SolvedD {
+            d,
+            achieved,
+            history,
+        } = solve_d(
             &t,
             d0,
             phi,
