@@ -26,6 +26,18 @@ use crate::tensor::{CubicProjection, Stiffness6, TransverseProjection};
 use crate::{Error, Mat3, Result, Vec3};
 use nalgebra::{DMatrix, DVector};
 
+/// Cubic metals at room temperature, (name, C11, C12, C44) in Pa, for the domain map and
+/// docs/manybody.md's table: nickel, copper, iron and aluminium as issue 33 gives them
+/// (handbook values); tungsten from Wang, Gulick & Li, J. Appl. Phys. 138, 045902 (2025).
+/// All lie beyond the springs' domain (C12 > C44).
+pub const CUBIC_MATERIALS: [(&str, f64, f64, f64); 5] = [
+    ("Ni", 247e9, 147e9, 125e9),
+    ("Cu", 168e9, 121e9, 75e9),
+    ("Fe", 231.4e9, 134.7e9, 116.4e9),
+    ("Al", 107.3e9, 60.9e9, 28.3e9),
+    ("W", 523.5e9, 205.1e9, 160.8e9),
+];
+
 /// The symmetry of a target, and with it the frame of D and the order of its constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Symmetry {

@@ -389,3 +389,55 @@ fn the_d_iteration_reaches_a_softened_coupled_map() {
     );
     assert!(matches!(r, Err(Error::NotConverged(_))), "{r:?}");
 }
+
+#[test]
+fn domain_draws_the_new_reach_and_places_a_target_beyond_the_cauchy_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = crate::common::bin()
+        .args([
+            "domain",
+            "--samples",
+            "60",
+            "--target",
+            "C11=247GPa,C12=147GPa,C44=125GPa",
+            "-o",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("beyond the Cauchy line C12 = C44, so with the many-body term"),
+        "{out}"
+    );
+    // Every sample of the springs' domain lies on or below the Cauchy line (mean field).
+    let csv = std::fs::read_to_string(dir.path().join("domain.csv")).unwrap();
+    for line in csv.lines().skip(1) {
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(5)
+            .take(2)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert!(f[0] <= f[1] + 1e-9, "{line}");
+    }
+    assert!(dir.path().join("domain.png").exists());
+    // An unstable target is refused by condition, nothing written.
+    let bad = dir.path().join("bad");
+    let o = crate::common::bin()
+        .args([
+            "domain",
+            "--samples",
+            "10",
+            "--target",
+            "C11=1,C12=2,C44=1",
+            "-o",
+        ])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("C11 − C12 > 0"));
+    assert!(!bad.exists());
+}
