@@ -14,9 +14,10 @@ use crate::dem::{build_law, DemOptions, LawKind, Simulation};
 use crate::homogenize::laf::{laf_tensor, LafResult};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::prestress::{prestressed_tensor, Prestress, PrestressedTensor};
-use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions, RelaxedResult};
+use crate::homogenize::relaxed::{relaxed_tensor_with_term, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
 use crate::homogenize::{mean_field, voigt};
+use crate::manybody::ManyBody;
 use crate::model::Model;
 use crate::packing::{self, Packing, PeriodicCell};
 use crate::{Error, Result};
@@ -428,19 +429,27 @@ impl Assembly {
     ) -> Result<TensorResult> {
         refuse_mixed_equilibrium(self.packing.cell.as_ref(), method)?;
         let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
+        let term = self.manybody()?;
+        if term.is_some() {
+            refuse_without_term(method)?;
+        }
+        // The term's exact Voigt-level share (Σ V_p/V)·D, added to the affine estimates.
+        let affine_term = term
+            .as_ref()
+            .map_or_else(crate::tensor::Stiffness6::zeros, |t| t.closed_form_tensor());
         let (c, detail) = match method {
             Method::MeanField => {
                 let scheme = self.model.build_scheme(Some((p, b)))?;
                 let pre = self.mean_field_prefactor();
                 let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
-                (c, Detail::None)
+                (c + affine_term, Detail::None)
             }
             Method::Voigt => (
-                voigt::voigt_tensor(b, k, self.affine_volume()),
+                voigt::voigt_tensor(b, k, self.affine_volume()) + affine_term,
                 Detail::None,
             ),
             Method::Relaxed(opts) => {
-                let r = relaxed_tensor(p, b, k, opts)?;
+                let r = relaxed_tensor_with_term(p, b, k, term.as_ref(), opts)?;
                 check_relaxed_scale(&r.c, p, b, k, "relaxed")?;
                 (r.c, Detail::Relaxed(Box::new(r)))
             }
@@ -470,6 +479,7 @@ impl Assembly {
         let mut report = TensorReport::new(method.name(), c, Some((p, b)))?;
         // The volume the stresses are per (the box's but along a mixed box's free axes).
         report.volume = Some(self.affine_volume());
+        report.manybody_volume_fraction = term.as_ref().map(|t| t.volume_fraction());
         match &detail {
             Detail::Relaxed(r) => report.relative_residual = Some(r.relative_residual),
             Detail::Prestressed(t) => report.relative_residual = Some(t.relaxed.relative_residual),
@@ -481,11 +491,41 @@ impl Assembly {
         Ok(TensorResult { report, detail })
     }
 
+    /// The many-body term of the model's `[manybody]` on these bonds (docs/manybody.md), or
+    /// `None` for a model without one.
+    pub fn manybody(&self) -> Result<Option<ManyBody>> {
+        self.model
+            .manybody
+            .as_ref()
+            .map(|spec| spec.build(&self.packing, &self.bonds))
+            .transpose()
+    }
+
     /// The reference integrator on this assembly with bond law `law` and settings `dem`.
     pub fn simulation(&self, law: LawKind, dem: &DemOptions) -> Result<Simulation> {
         PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the integrator")?;
         let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
-        Simulation::new(&self.packing, &self.bonds, law, dem)
+        // The model's [manybody] term, built on the same bonds (docs/manybody.md "Integrator").
+        let term = match &self.model.manybody {
+            Some(spec) => Some(spec.build(&self.packing, &self.bonds)?),
+            None => None,
+        };
+        Simulation::with_manybody(&self.packing, &self.bonds, law, term, dem)
+    }
+
+    /// Refuse ([`Error::Model`]) a model with `[manybody]` in `what`, an integrator run on a
+    /// free specimen that does not apply the term: its default volume shares need a periodic
+    /// cell, and a free specimen's per-particle volumes are not given yet (docs/manybody.md
+    /// "Integrator"). Without the table: Ok.
+    pub fn refuse_manybody(&self, what: &str) -> Result<()> {
+        if self.model.manybody.is_some() {
+            return Err(Error::Model(format!(
+                "the model has a [manybody] term, which {what} does not apply yet (a free \
+                 specimen needs per-particle volumes for it); the periodic element and stress \
+                 tests (`run`, `stress-test`) apply it; or remove [manybody] from the model"
+            )));
+        }
+        Ok(())
     }
 
     /// The six strain-controlled element tests of the reference integrator (Truszkowska 2018
@@ -520,6 +560,7 @@ impl Assembly {
         progress: &(dyn Fn(f64) + Sync),
     ) -> Result<GrippedTensor> {
         PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the gripped tests")?;
+        self.refuse_manybody("the gripped tests (a free block)")?;
         gripped_tensor(
             &self.packing,
             &self.bonds,
@@ -678,11 +719,43 @@ impl EqualSpheres {
         }
         let pre = self.prefactor(&model.geometry)?;
         let scheme = model.build_scheme(None)?;
-        let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
+        let mut c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
+        // Every equal sphere fits its strain (Z isotropic bonds, none degenerate), so a uniform
+        // strain gives F_p = F everywhere and the term adds D itself (docs/manybody.md).
+        let fraction = match &model.manybody {
+            Some(spec) => {
+                c += spec.voigt()?;
+                Some(1.0)
+            }
+            None => None,
+        };
         let mut report = TensorReport::new("mean-field", c, None)?;
         report.coordination = Some(self.coordination);
+        report.manybody_volume_fraction = fraction;
         Ok(report)
     }
+}
+
+/// Refuse ([`Error::Invalid`]) a method that does not include a model's many-body term
+/// (docs/manybody.md): the prestressed tangent (its preload state is the springs' alone), the
+/// LAF (its shells hold first neighbours; the term couples second ones) and the integrator's
+/// element tests (the reference integrator does not evaluate the term yet). Mean field and
+/// Voigt add the term's exact closed form, the relaxed solve its Hessian.
+fn refuse_without_term(method: &Method) -> Result<()> {
+    let why = match method {
+        Method::MeanField | Method::Voigt | Method::Relaxed(_) => return Ok(()),
+        Method::Prestressed { .. } => "its preloaded state is that of the springs alone",
+        Method::Laf { .. } => {
+            "its shells relax first neighbours, and the term couples particles that share a \
+             bonded neighbour"
+        }
+        Method::Dynamic { .. } => "the reference integrator does not evaluate the term",
+    };
+    Err(Error::Invalid(format!(
+        "tensor method {}: the model has a many-body term ([manybody]) and {why}; use \
+         --method relaxed (exact) or voigt / mean-field (its closed form added)",
+        method.name()
+    )))
 }
 
 /// Refuse ([`Error::Invalid`]) `method` on a box of mixed periodicity unless it is an

@@ -1042,7 +1042,7 @@ def element_tests_in_place(strain=1e-5, steps=200, damping=0.4, paths=(0, 1, 2, 
 # Time step
 # --------------------------------------------------------------------------------------
 
-def critical_time_step(packing, bonds, density):
+def critical_time_step(packing, bonds, density, manybody=None):
     """Leapfrog stability limit dt_c = 2/omega_max (s) of the bonded packing.
 
     omega_max^2 is bounded by Gershgorin's theorem on M^-1/2 K M^-1/2, with K the
@@ -1050,7 +1050,8 @@ def critical_time_step(packing, bonds, density):
     contact point mid-gap as ScGeom) and M the masses m = density*4/3*pi*r^3 and
     inertias 2/5*m*r^2 that YADE's ``utils.sphere`` gives. The bound is >= the true
     omega_max, so dt_c is safe; unlike GlobalStiffnessTimeStepper it counts fresh,
-    force-free bonds.
+    force-free bonds. ``manybody`` (an ``anisobond.ManyBody``): its Hessian's Gershgorin
+    rows are added to the translation rows, so the bound holds with the term.
     """
     import numpy as np
     n = len(packing)
@@ -1098,6 +1099,8 @@ def critical_time_step(packing, bonds, density):
     rows = np.zeros((n, 6))
     np.add.at(rows, i, row_i)
     np.add.at(rows, j, row_j)
+    if manybody is not None:
+        rows[:, :3] += np.asarray(manybody.gershgorin_rows(m))[:, None]
     omega2 = rows.max()
     if not omega2 > 0:
         raise InputError("all bond springs are zero: no time step")
@@ -1258,15 +1261,120 @@ def verify_bonds(packing, bonds, interactions, tolerance=1e-9):
 
 
 # --------------------------------------------------------------------------------------
+# The many-body term (docs/manybody.md): YADE's bond laws are pairwise, so the term runs
+# as an engine of this module, its forces computed by the anisobond package every step.
+# --------------------------------------------------------------------------------------
+
+_MANYBODY = None
+
+
+class ManyBodyEngine(object):
+    """What ``add_manybody`` installed: the package's term (``anisobond.ManyBody``), the
+    YADE body ids in the packing's order, the cell's transformation when it was added
+    (the reference), the PyRunner, and the wall time its steps took (s)."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    def cell_gradient(self):
+        """The cell's deformation gradient since the term's reference, H = trsf * trsf0^-1
+        (identity in a free scene)."""
+        from yade import O
+        if not O.periodic:
+            return None
+        h = O.cell.trsf * self.trsf0_inverse
+        return [[h[a, b] for b in range(3)] for a in range(3)]
+
+    def positions(self):
+        from yade import O
+        return [tuple(O.bodies[i].state.pos) for i in self.ids]
+
+    def evaluate(self):
+        """The term's energy (J), forces (N) and nominal stress (Pa) now (a dict)."""
+        return self.term.evaluate(self.positions(), self.cell_gradient())
+
+
+def add_manybody(model, packing, bonds, ids=None, density=2600.0, safety=0.8, dt=None):
+    """Add the many-body term of ``model``'s ``[manybody]`` table (an ``anisobond.Model`` or
+    a model file) to the current scene: a ``PyRunner`` run every step just before
+    ``NewtonIntegrator`` adds each body's term force (``O.forces.addF``), computed by the
+    anisobond package from the bodies' positions and the cell's deformation gradient.
+    The reference state is the scene as it is now, which must hold ``packing``'s
+    positions and ``bonds`` (``build_scene`` makes such a scene); ``ids`` are the YADE body
+    ids in the packing's order (default 0..N-1). ``stress_voigt`` then adds the term's
+    stress. The term stiffens the packing: unless ``dt`` is given (then ``O.dt = dt``), the
+    time step becomes at most ``safety`` times the stability bound of springs and term
+    together (``critical_time_step(..., manybody=term)``, masses of ``density``). The term
+    costs one package call per step (measured in docs/manybody.md). Returns the ``ManyBodyEngine``; raises ``anisobond.ModelError`` when the model has no
+    ``[manybody]`` table."""
+    global _MANYBODY
+    import numpy as np
+    from yade import O
+    from yade.wrapper import NewtonIntegrator, PyRunner
+    ab = package()
+    m = _model(model)
+    pk = ab.Packing(packing.positions, packing.radii, cell=packing.cell)
+    image = np.column_stack([bonds.ix, bonds.iy, bonds.iz]).astype(float)
+    term = ab.Assembly.from_bonds(pk, m, bonds.i, bonds.j, image=image).many_body()
+    ids = list(range(len(packing))) if ids is None else list(ids)
+    if len(ids) != len(packing):
+        raise InputError("add_manybody: %d ids for %d particles" % (len(ids), len(packing)))
+    newton = [k for k, e in enumerate(O.engines) if isinstance(e, NewtonIntegrator)]
+    if not newton:
+        raise InputError("add_manybody: the scene has no NewtonIntegrator to run before")
+    runner = PyRunner(command="import anisobond_yade; anisobond_yade._manybody_step()",
+                      iterPeriod=1, label="anisobond_manybody")
+    engines = list(O.engines)
+    engines.insert(newton[0], runner)
+    O.engines = engines
+    O.dt = dt if dt is not None else min(
+        O.dt, safety * critical_time_step(packing, bonds, density, manybody=term))
+    trsf0 = O.cell.trsf if O.periodic else None
+    _MANYBODY = ManyBodyEngine(term=term, ids=ids, runner=runner, seconds=0.0, steps=0,
+                               trsf0_inverse=trsf0.inverse() if trsf0 is not None else None)
+    return _MANYBODY
+
+
+def remove_manybody():
+    """Take the term's engine out of the scene (and out of ``stress_voigt``)."""
+    global _MANYBODY
+    from yade import O
+    O.engines = [e for e in O.engines if getattr(e, "label", "") != "anisobond_manybody"]
+    _MANYBODY = None
+
+
+def _manybody_step():
+    """The PyRunner's command: add the term's forces of the current positions."""
+    from yade import O
+    from yade.minieigenHP import Vector3
+    t0 = time.time()
+    mb = _MANYBODY
+    forces = mb.evaluate()["forces"]
+    for i, f in zip(mb.ids, forces):
+        O.forces.addF(i, Vector3(float(f[0]), float(f[1]), float(f[2])))
+    mb.seconds += time.time() - t0
+    mb.steps += 1
+
+
+def manybody_stress_voigt():
+    """The term's nominal stress (Pa, Voigt 6-vector, symmetric part) now; zeros without it."""
+    if _MANYBODY is None:
+        return [0.0] * 6
+    s = _MANYBODY.evaluate()["stress"]
+    return [0.5 * (s[a][b] + s[b][a]) for a, b in VOIGT_PAIRS]
+
+
+# --------------------------------------------------------------------------------------
 # Measurements
 # --------------------------------------------------------------------------------------
 
 def stress_voigt():
     """YADE's Love stress (Pa, tension positive, utils.getStress) as a Voigt 6-vector of
-    its symmetric part."""
+    its symmetric part, plus the many-body term's stress when ``add_manybody`` added one."""
     from yade import utils
     s = utils.getStress()
-    return [0.5 * (s[a, b] + s[b, a]) for a, b in VOIGT_PAIRS]
+    extra = manybody_stress_voigt()
+    return [0.5 * (s[a, b] + s[b, a]) + e for (a, b), e in zip(VOIGT_PAIRS, extra)]
 
 
 def strain_voigt():
@@ -1327,7 +1435,7 @@ def run_path(path, strain, steps, damping, stress_volume=None):
 
 def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2600.0,
                   dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False,
-                  stress_volume=None):
+                  stress_volume=None, manybody=None):
     """Six-path element test (three uniaxial strains, three pure shears, Voigt order).
 
     Every path starts from the same initial state: the scene is built (and verified) once
@@ -1337,16 +1445,21 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
     ``damping`` (0 = undamped, for step-by-step comparison). C = S E^-1 with S, E the 6x6
     matrices of final stress and strain columns (all six paths needed; with fewer paths
     ``C`` is None and ``columns`` holds stress/strain_a of each path run). ``stress_volume``
-    (m^3): stresses per that volume, not the cell's (see ``run_path``).
+    (m^3): stresses per that volume, not the cell's (see ``run_path``). ``manybody``: a
+    model (or model file) whose ``[manybody]`` term is added to the scene (``add_manybody``).
     """
     from yade import O
     histories, timings, dt_used = {}, {}, None
+    remove_manybody()
     for k, p in enumerate(paths):
         t0 = time.time()
         if rebuild or k == 0:
             sc = build_scene(packing, bonds, density=density, damping=damping, dt=dt,
                              safety=safety)
             dt_used = sc.dt
+            if manybody is not None:
+                add_manybody(manybody, packing, bonds, density=density, safety=safety, dt=dt)
+                dt_used = O.dt
             if not rebuild:
                 O.saveTmp("anisobond-initial")
         else:
@@ -1693,14 +1806,18 @@ def main(argv=None):
         ap.error("--stress-volume: expected a positive volume in m^3, got %r" % a.stress_volume)
     packing = read_packing(a.packing)
     bonds = read_bond_table(a.bonds, len(packing))
+    manybody = None
     if a.model is not None:
         assign_springs(a.model, packing, bonds)
         print("anisobond_yade: springs of %d bonds computed by the anisobond package %s for %s"
               % (len(bonds), package().__version__, a.model))
+        if _model(a.model).has_many_body:
+            manybody = a.model
+            print("anisobond_yade: the model's [manybody] term runs as a PyRunner engine")
     t0 = time.time()
     res = element_tests(packing, bonds, strain=a.strain, steps=a.steps, damping=a.damping,
                         density=a.density, dt=a.dt, safety=a.safety, paths=paths,
-                        stress_volume=a.stress_volume)
+                        stress_volume=a.stress_volume, manybody=manybody)
     wall = time.time() - t0
     write_history_csv(os.path.join(a.out, a.history), res)
     write_tensor_json(os.path.join(a.out, a.tensor), res, packing, bonds)

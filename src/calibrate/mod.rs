@@ -159,7 +159,12 @@ pub fn calibrate(
                         "the springs reach (C11, C33, C13, C12) on the relaxed tensor, but their C44 is {:.5e} Pa, not the target's {c44:.5e} Pa (the elliptic scheme ties C44 to the others)",
                         cal.achieved_transverse.c44
                     ),
-                    (Err(e @ (Error::NotConverged(_) | Error::Invalid(_))), _) => e.to_string(),
+                    // Model: the elliptic scheme cannot hold the target's four constants
+                    // (a negative lattice modulus); the other two: out of its reach.
+                    (
+                        Err(e @ (Error::NotConverged(_) | Error::Invalid(_) | Error::Model(_))),
+                        _,
+                    ) => e.to_string(),
                     (Err(e), _) => return Err(e),
                 };
                 let axis = cross_axis(base)?;
@@ -289,10 +294,28 @@ fn relaxed_with_term(
     model: &Model,
     opts: &CubicOptions,
 ) -> Result<crate::tensor::Stiffness6> {
-    let _ = (b, model, opts);
-    Err(Error::Invalid(
-        "--on relaxed: the relaxed tensor with the many-body term is not available yet in this build; the target needs the term (use --on mean-field)".into(),
-    ))
+    let mu = match model.scheme {
+        SchemeSpec::CrossAnisotropic(_) => Some(lattice_scaling(
+            &b.packing,
+            &b.bonds,
+            model.geometry.pi_hat,
+        )?),
+        _ => None,
+    };
+    let scheme = model.scheme_for(mu)?;
+    let k = crate::bonds::assign_stiffness(&b.packing, &b.bonds, scheme.as_ref(), &model.geometry)?;
+    let term = match &model.manybody {
+        Some(spec) => Some(spec.build(&b.packing, &b.bonds)?),
+        None => None,
+    };
+    Ok(crate::homogenize::relaxed_tensor_with_term(
+        &b.packing,
+        &b.bonds,
+        &k,
+        term.as_ref(),
+        &opts.relaxed,
+    )?
+    .c)
 }
 
 /// The cubic branch of [`calibrate`]: the springs alone (as [`calibrate_cubic`]) where they

@@ -66,6 +66,9 @@ pub fn print_report(r: &TensorReport) {
     } else if let Some(z) = r.coordination {
         println!("equal-sphere mean field at coordination Z = {z:.3}");
     }
+    if let Some(f) = r.manybody_volume_fraction {
+        println!("many-body term included: volume fraction Σ V_p / V = {f:.6}");
+    }
     let [c11, c12, c44, r12, r44, zener] = cubic_row(&r.cubic);
     println!(
         "cubic projection: C11 = {c11:.4} GPa, C12 = {c12:.4} GPa, C44 = {c44:.4} GPa; C12/C11 = {r12:.4}, C44/C11 = {r44:.4}, Zener = {zener:.4}"

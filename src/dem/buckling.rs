@@ -388,6 +388,7 @@ pub fn compress_clamped_bar_with_progress(
 ) -> Result<CompressionResult> {
     check_compression_options(opts)?;
     let a = &bar.assembly;
+    a.refuse_manybody("the bar compression")?;
     let cap = match opts.loading {
         Loading::ConstantRate => opts.steps,
         Loading::KineticLimit { max_steps, .. } => max_steps,

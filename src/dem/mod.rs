@@ -22,6 +22,7 @@ pub(crate) mod element;
 pub(crate) mod equilibrium;
 pub(crate) mod grips;
 pub mod laws;
+pub(crate) mod manybody;
 pub(crate) mod measure;
 #[cfg(target_arch = "x86_64")]
 mod particle_lanes;

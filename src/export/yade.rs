@@ -410,8 +410,15 @@ pub fn check_exportable(p: &Packing, b: &BondSet, k: &BondStiffness) -> Result<(
 }
 
 /// The `run.py` text: imports the module next to it and runs `main` with the files of
-/// the directory and `opts`; arguments given to `yade -n -x run.py …` override them.
-pub fn run_script(opts: &YadeRunOptions, n_particles: usize, n_bonds: usize) -> String {
+/// the directory and `opts`; arguments given to `yade -n -x run.py …` override them. With
+/// `with_model`, `main` also gets the directory's `model.toml` (its springs and its
+/// `[manybody]` term, run by the anisobond Python package inside YADE).
+pub fn run_script(
+    opts: &YadeRunOptions,
+    n_particles: usize,
+    n_bonds: usize,
+    with_model: bool,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -445,6 +452,12 @@ pub fn run_script(opts: &YadeRunOptions, n_particles: usize, n_bonds: usize) -> 
         ),
         ("--out".to_string(), "HERE".to_string()),
     ];
+    if with_model {
+        args.push((
+            "--model".to_string(),
+            format!("os.path.join(HERE, {:?})", files::MODEL),
+        ));
+    }
     let rest = opts.to_args();
     for pair in rest.chunks(2) {
         args.push((pair[0].clone(), format!("{:?}", pair[1])));
@@ -471,6 +484,11 @@ pub fn write_yade_export(
     model: Option<&Model>,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
+    // The many-body term is built here once, so a packing it cannot carry (rattlers refused,
+    // no periodic cell for the default volumes) is refused before anything is written.
+    if let Some(spec) = model.and_then(|m| m.manybody.as_ref()) {
+        spec.build(packing, bonds)?;
+    }
     // Strengths by the positions as given (planes of weakness), before a mixed box shifts them.
     let adhesions = match model {
         Some(m) => yade_adhesions(packing, bonds, m)?,
@@ -509,7 +527,18 @@ pub fn write_yade_export(
         crate::io::write_string_atomic(&dir.join(files::MODEL), &m.to_toml_string())?;
     }
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
-    let mut script = run_script(opts, packing.len(), bonds.len());
+    let many_body = model.and_then(|m| m.manybody.as_ref());
+    let mut script = run_script(opts, packing.len(), bonds.len(), many_body.is_some());
+    if many_body.is_some() {
+        let first = script.find('\n').map_or(0, |n| n + 1);
+        script.insert_str(
+            first,
+            "# The model has a [manybody] term: YADE's bond laws are pairwise, so it runs as a\n\
+             #   PyRunner engine of anisobond_yade (add_manybody) whose forces the anisobond Python\n\
+             #   package computes every step: install the package for YADE's Python\n\
+             #   (pip install --target DIR anisobond; PYTHONPATH=DIR yade -n -x run.py).\n",
+        );
+    }
     if adhesions.is_some() {
         let first = script.find('\n').map_or(0, |n| n + 1);
         script.insert_str(
@@ -939,7 +968,7 @@ mod tests {
             paths: vec![3, 0],
             stress_volume: Some(2.5e-7),
         };
-        let s = run_script(&o, 10, 20);
+        let s = run_script(&o, 10, 20, false);
         for want in [
             "\"--strain\", \"2e-6\"",
             "\"--steps\", \"77\"",

@@ -45,8 +45,8 @@ pub use network::{LeverArm, Network};
 pub use prestress::PrestressedTensor;
 pub use prestress::{prestressed_tensor, stress_measure_correction, Prestress};
 pub use relaxed::{
-    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedResult, RelaxedSolver,
-    DEFAULT_PARTICLES_PER_AGGREGATE,
+    relaxed_tensor, relaxed_tensor_with_term, CgPreconditioner, RelaxedOptions, RelaxedResult,
+    RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
 };
 pub use report::Uncertainty;
 pub use report::{CubicSummary, TensorReport};

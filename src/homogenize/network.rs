@@ -312,13 +312,13 @@ pub struct Network {
     pub null_space: NullSpaceReport,
 }
 
-/// Every particle's index among the active ones (those with at least two bonds after
-/// pruning; `u32::MAX` for the others) and the original index of every active particle.
-fn active_numbering(degree: &[u32]) -> (Vec<u32>, Vec<u32>) {
+/// Every particle's index among the active ones (those with at least `min_degree` bonds
+/// after pruning; `u32::MAX` for the others) and the original index of every active particle.
+fn active_numbering(degree: &[u32], min_degree: u32) -> (Vec<u32>, Vec<u32>) {
     let mut index = vec![u32::MAX; degree.len()];
     let mut original = Vec::new();
     for (p, &d) in degree.iter().enumerate() {
-        if d >= 2 {
+        if d >= min_degree {
             index[p] = original.len() as u32;
             original.push(p as u32);
         }
@@ -354,6 +354,21 @@ impl Network {
         rotations: bool,
         axial_force: Option<&[f64]>,
     ) -> Result<Network> {
+        Network::build_with(packing, bonds, k, lever_arm, rotations, axial_force, false)
+    }
+
+    /// [`Network::build`], with `keep_dangling` keeping every particle with at least one bond
+    /// (dangling ones too): a many-body term couples a dangling particle to its neighbour's
+    /// fitted strain, so it is no longer free of load (docs/manybody.md, "Relaxed solve").
+    pub(crate) fn build_with(
+        packing: &Packing,
+        bonds: &BondSet,
+        k: &BondStiffness,
+        lever_arm: LeverArm,
+        rotations: bool,
+        axial_force: Option<&[f64]>,
+        keep_dangling: bool,
+    ) -> Result<Network> {
         if k.len() != bonds.len() {
             return Err(Error::Invalid(format!(
                 "{} bonds but {} stiffness entries",
@@ -371,8 +386,12 @@ impl Network {
             }
         }
         let n = packing.len();
-        let (bond_active, degree_all) = prune(n, bonds);
-        let (index, original) = active_numbering(&degree_all);
+        let (bond_active, degree_all) = if keep_dangling {
+            prune_dangling(n, bonds, vec![true; bonds.len()], |_| true)
+        } else {
+            prune(n, bonds)
+        };
+        let (index, original) = active_numbering(&degree_all, if keep_dangling { 1 } else { 2 });
         let m = original.len();
         let bond: Vec<usize> = (0..bonds.len()).filter(|&b| bond_active[b]).collect();
         let ends: Vec<(u32, u32)> = bond

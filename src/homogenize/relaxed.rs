@@ -18,6 +18,7 @@ use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpac
 use super::sparse::{mul6_cols, BlockSparse};
 use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
+use crate::manybody::ManyBody;
 use crate::packing::Packing;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result};
@@ -214,16 +215,63 @@ pub(crate) fn relaxed_solve_preloaded(
     initial: Option<&[Block6]>,
     axial_force: Option<&[f64]>,
 ) -> Result<RelaxedSolution> {
+    relaxed_solve_full(packing, bonds, k, opts, initial, axial_force, None)
+}
+
+/// The exact relaxed 6×6 stiffness (Pa) of the springs together with the many-body term
+/// `term` (built on the same packing and bonds, [`crate::manybody::ManyBodySpec::build`]):
+/// the term's Hessian joins K, its mixed block joins G and its affine tensor joins H, so the
+/// result is the minimum over the fluctuations of the total energy (docs/manybody.md,
+/// "Relaxed solve"). `None` is [`relaxed_tensor`]. `c_affine` carries the term's
+/// (Σ V_p/V)·D too.
+pub fn relaxed_tensor_with_term(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    term: Option<&ManyBody>,
+    opts: &RelaxedOptions,
+) -> Result<RelaxedResult> {
+    crate::packing::PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "relaxed tensor")?;
+    Ok(relaxed_solve_full(packing, bonds, k, opts, None, None, term)?.result)
+}
+
+/// [`relaxed_solve_preloaded`] with a many-body term: with a term, dangling particles stay
+/// in the network (a term couples them to their neighbour's fitted strain).
+fn relaxed_solve_full(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &RelaxedOptions,
+    initial: Option<&[Block6]>,
+    axial_force: Option<&[f64]>,
+    term: Option<&ManyBody>,
+) -> Result<RelaxedSolution> {
     opts.validate()?;
     require_cell(packing)?;
-    let mut net = Network::build(
+    if let Some(t) = term {
+        if t.len() != packing.len() || t.reference_branches().len() != bonds.len() {
+            return Err(Error::Invalid(format!(
+                "relaxed solver: the many-body term has {} particles and {} bonds, the packing                  {} particles and {} bonds (build it from the same packing and bonds)",
+                t.len(),
+                t.reference_branches().len(),
+                packing.len(),
+                bonds.len()
+            )));
+        }
+    }
+    let mut net = Network::build_with(
         packing,
         bonds,
         k,
         opts.lever_arm,
         opts.rotations,
         axial_force,
+        term.is_some(),
     )?;
+    let term_k = match term {
+        Some(t) => Some(add_term(&mut net, t)?),
+        None => None,
+    };
     let c_affine = net.h / net.volume;
     let m = net.n_active;
     if !opts.fluctuations || m == 0 {
@@ -241,7 +289,10 @@ pub(crate) fn relaxed_solve_preloaded(
             active: net.original,
         });
     }
-    let kmat = BlockSparse::assemble(&net);
+    let kmat = match &term_k {
+        Some((kt, _)) => BlockSparse::assemble(&net).add(kt)?,
+        None => BlockSparse::assemble(&net),
+    };
     let pre: Vec<(Block6, usize)> = (0..m)
         .into_par_iter()
         .map(|p| pinv_psd(&kmat.diagonal(p)))
@@ -253,7 +304,12 @@ pub(crate) fn relaxed_solve_preloaded(
             pre[p].1 < full
         })
         .count();
-    let scale = load_scales(&net);
+    let mut scale = load_scales(&net);
+    if let Some((_, term_scale)) = &term_k {
+        for (s, t) in scale.iter_mut().zip(term_scale) {
+            *s = s.hypot(*t);
+        }
+    }
     let (q, iterations, residual) = match opts.solver {
         RelaxedSolver::Cholesky => cholesky_fluctuations(&kmat, &net.g, &scale, opts.tolerance)?,
         RelaxedSolver::Cg { preconditioner } => {
@@ -278,6 +334,25 @@ pub(crate) fn relaxed_solve_preloaded(
         q,
         active: net.original,
     })
+}
+
+/// Add the many-body term at its reference state to the network (Kruyt 2014 Eqs. 10–14 with
+/// the term's energy): its affine tensor to H, its mixed block to G (each particle's row at
+/// its active index); returns its Hessian restricted to the active particles, for K, and the
+/// norm of its load per load case (for [`load_scales`]). Particles without bonds are in no
+/// particle's stencil, so nothing of the term falls on an inactive particle.
+fn add_term(net: &mut Network, term: &ManyBody) -> Result<(BlockSparse, [f64; 6])> {
+    let branch = term.reference_branches();
+    net.h += term.affine_tensor(branch)? * net.volume;
+    let g = term.load(branch)?;
+    for (p, gp) in g.iter().enumerate() {
+        match net.index[p] {
+            u32::MAX => debug_assert!(gp.amax() == 0.0),
+            a => net.g[a as usize] += gp,
+        }
+    }
+    let k = term.hessian(branch)?.restrict(&net.index, 1.0);
+    Ok((k, column_dots(&g, &g).map(f64::sqrt)))
 }
 
 /// Scale of each load case before the cancellation of bond contributions at a particle

@@ -51,6 +51,11 @@ pub struct TensorReport {
     /// (Kruyt 2014 Sec. 4: C_σ = (H − GᵀQ)/V is not symmetric unless the shells are exact).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub asymmetry: Option<f64>,
+    /// A model with a many-body term (`[manybody]`, docs/manybody.md): Σ_p V_p / V, the share
+    /// of D the term adds under a uniform strain (below 1 when degenerate particles are
+    /// excluded).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub manybody_volume_fraction: Option<f64>,
 }
 
 /// Refuse a computed tensor that is not a result: non-finite entries (an overflow in the
@@ -110,6 +115,7 @@ impl TensorReport {
             transverse: tp,
             relative_residual: None,
             asymmetry: None,
+            manybody_volume_fraction: None,
         };
         report.check_finite()?;
         Ok(report)
@@ -122,6 +128,10 @@ impl TensorReport {
             ("coordination", self.coordination.unwrap_or(0.0)),
             ("volume", self.volume.unwrap_or(0.0)),
             ("relative_residual", self.relative_residual.unwrap_or(0.0)),
+            (
+                "manybody_volume_fraction",
+                self.manybody_volume_fraction.unwrap_or(0.0),
+            ),
             ("cubic.C11", cu.c11),
             ("cubic.C12", cu.c12),
             ("cubic.C44", cu.c44),

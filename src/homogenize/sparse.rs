@@ -3,6 +3,7 @@
 //! of `homogenize`, below the solvers (`cholesky`, `two_level`, `relaxed`) that use it.
 
 use super::network::{Block6, Network};
+use crate::{Error, Result};
 use rayon::prelude::*;
 
 /// Block-sparse symmetric matrix with 6×6 blocks, stored by rows (both triangles).
@@ -155,6 +156,49 @@ impl BlockSparse {
             })
             .collect();
         BlockSparse::from_rows(rows)
+    }
+
+    /// `self + other` over the same block rows (both stored by rows with sorted columns):
+    /// rows merged by column, a shared block summed as self's + other's (a fixed order).
+    /// Refuses ([`Error::Invalid`]) matrices of different sizes.
+    pub fn add(&self, other: &BlockSparse) -> Result<BlockSparse> {
+        if self.rows() != other.rows() {
+            return Err(Error::Invalid(format!(
+                "block-sparse sum: {} rows and {} rows",
+                self.rows(),
+                other.rows()
+            )));
+        }
+        let rows = (0..self.rows())
+            .into_par_iter()
+            .map(|p| {
+                let (a, b): (Vec<_>, Vec<_>) = (self.row(p).collect(), other.row(p).collect());
+                let mut row = Vec::with_capacity(a.len().max(b.len()));
+                let (mut i, mut j) = (0, 0);
+                while i < a.len() || j < b.len() {
+                    let ca = a.get(i).map_or(usize::MAX, |e| e.0);
+                    let cb = b.get(j).map_or(usize::MAX, |e| e.0);
+                    if ca == cb {
+                        row.push((ca as u32, a[i].1 + b[j].1));
+                        i += 1;
+                        j += 1;
+                    } else if ca < cb {
+                        row.push((ca as u32, *a[i].1));
+                        i += 1;
+                    } else {
+                        row.push((cb as u32, *b[j].1));
+                        j += 1;
+                    }
+                }
+                row
+            })
+            .collect();
+        Ok(BlockSparse::from_rows(rows))
+    }
+
+    /// Number of stored blocks (both triangles).
+    pub fn blocks(&self) -> usize {
+        self.block.len()
     }
 
     /// Memory held by the matrix (bytes).

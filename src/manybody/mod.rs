@@ -14,9 +14,10 @@
 
 pub(crate) mod spec;
 pub(crate) mod term;
+mod time_step;
 
 pub use spec::ManyBodySpec;
-pub use term::{Evaluation, ManyBody};
+pub use term::{Evaluation, ManyBody, Workspace};
 
 use crate::tensor::{rotate, rotation_to_z, Stiffness6};
 use crate::{Error, Mat3, Result, Vec3};

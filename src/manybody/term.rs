@@ -45,6 +45,26 @@ pub struct ManyBody {
     excluded: Vec<u32>,
 }
 
+/// Caller-owned buffers of [`ManyBody::evaluate_into`] (structure of arrays, one entry per
+/// particle): what a time-stepping caller reuses every step instead of allocating.
+#[derive(Clone, Debug, Default)]
+pub struct Workspace {
+    /// V_p·W_p (J; 0 for an excluded particle).
+    pub energy: Vec<f64>,
+    /// V_p·P_p, P_p = ∂W/∂F the first Piola stress of particle p (N·m).
+    pub piola: Vec<Mat3>,
+    /// −∂U/∂x_p (N).
+    pub force: Vec<Vec3>,
+}
+
+impl Workspace {
+    /// U = Σ_p V_p W_p (J), summed in particle order (the same bits as
+    /// [`Evaluation::energy`]).
+    pub fn energy(&self) -> f64 {
+        self.energy.iter().sum()
+    }
+}
+
 /// The term at one state: energy, forces and nominal stress.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Evaluation {
@@ -301,6 +321,98 @@ impl ManyBody {
             })
             .collect();
         Ok(w.iter().sum())
+    }
+
+    /// A workspace for [`evaluate_into`](Self::evaluate_into), sized for this term.
+    pub fn workspace(&self) -> Workspace {
+        let n = self.len();
+        Workspace {
+            energy: vec![0.0; n],
+            piola: vec![Mat3::zeros(); n],
+            force: vec![Vec3::zeros(); n],
+        }
+    }
+
+    /// [`evaluate`](Self::evaluate) into the caller's buffers, allocating nothing: per
+    /// particle V_p·W_p and V_p·P_p, then the forces with each g_b computed where it is
+    /// used (the same operations in the same order as `evaluate`, so the same bits; the
+    /// energy and stress follow from the workspace by [`Workspace::energy`] and
+    /// [`bond_gradient`](Self::bond_gradient)). `branch(b)` gives the current branch vector
+    /// of bond b (the caller's bookkeeping of images and cell); it is not checked here.
+    /// Two parallel passes over fixed chunks of particles, each particle written by one
+    /// item: the same bits on any number of threads.
+    pub fn evaluate_into(&self, branch: impl Fn(usize) -> Vec3 + Sync, ws: &mut Workspace) {
+        const CHUNK: usize = 256;
+        let n = self.len();
+        ws.energy.resize(n, 0.0);
+        ws.piola.resize(n, Mat3::zeros());
+        ws.force.resize(n, Vec3::zeros());
+        ws.energy
+            .par_chunks_mut(CHUNK)
+            .zip(ws.piola.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, (we, wp))| {
+                for (l, (e, pv)) in we.iter_mut().zip(wp.iter_mut()).enumerate() {
+                    let p = c * CHUNK + l;
+                    if !self.included[p] {
+                        (*e, *pv) = (0.0, Mat3::zeros());
+                        continue;
+                    }
+                    let mut f = Mat3::zeros();
+                    for k in self.inc_start[p]..self.inc_start[p + 1] {
+                        f += branch(self.inc_bond[k] as usize) * self.inc_coef[k].transpose();
+                    }
+                    let (w, pk, _) = self.particle_state(&f);
+                    let v = self.particle_volume[p];
+                    (*e, *pv) = (v * w, pk * v);
+                }
+            });
+        let piola = &ws.piola;
+        ws.force
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (l, fo) in out.iter_mut().enumerate() {
+                    let p = c * CHUNK + l;
+                    let mut f = Vec3::zeros();
+                    for k in self.inc_start[p]..self.inc_start[p + 1] {
+                        let b = self.inc_bond[k] as usize;
+                        let g = self.gradient_in(b, piola);
+                        if self.bond_i[b] as usize == p {
+                            f += g;
+                        } else {
+                            f -= g;
+                        }
+                    }
+                    *fo = f;
+                }
+            });
+    }
+
+    /// g_b = ∂U/∂l_b (N) of bond `b` from a workspace filled by
+    /// [`evaluate_into`](Self::evaluate_into): the force on the bond's i end (−g_b on its j
+    /// end), as `evaluate` computes it.
+    pub fn bond_gradient(&self, b: usize, ws: &Workspace) -> Vec3 {
+        self.gradient_in(b, &ws.piola)
+    }
+
+    #[inline(always)]
+    fn gradient_in(&self, b: usize, piola: &[Mat3]) -> Vec3 {
+        let mut acc = Vec3::zeros();
+        for (end, p) in [self.bond_i[b], self.bond_j[b]].into_iter().enumerate() {
+            acc += piola[p as usize] * self.inc_coef[self.bond_inc[b][end] as usize];
+        }
+        acc
+    }
+
+    /// Number of bonds.
+    pub fn bond_count(&self) -> usize {
+        self.reference.len()
+    }
+
+    /// Bond `b`'s particles and the periodic image of its j end.
+    pub fn bond(&self, b: usize) -> (u32, u32, [i32; 3]) {
+        (self.bond_i[b], self.bond_j[b], self.image[b])
     }
 
     /// Energy, forces and nominal stress at branch vectors `branch` (one per bond, in the

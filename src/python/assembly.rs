@@ -182,6 +182,12 @@ impl PyAssembly {
         self.inner.coordination()
     }
 
+    /// The many-body term of the model's `[manybody]` table on these bonds (docs/manybody.md);
+    /// `ModelError` when the model has none.
+    fn many_body(&self) -> PyResult<super::manybody::PyManyBody> {
+        super::manybody::PyManyBody::of(&self.inner)
+    }
+
     /// Šmilauer's lattice scaling μ of these bonds (the cross-anisotropic scheme's input).
     #[getter]
     fn lattice_scaling(&self) -> PyResult<f64> {

@@ -12,6 +12,7 @@ mod assembly;
 mod calibrate;
 mod convert;
 mod errors;
+mod manybody;
 mod method;
 mod model;
 mod packing;
@@ -42,6 +43,7 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyModel>()?;
     m.add_class::<packing::PyPacking>()?;
     m.add_class::<assembly::PyAssembly>()?;
+    m.add_class::<manybody::PyManyBody>()?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate_model, m)?)?;
     m.add_function(wrap_pyfunction!(studies::buckle_bar, m)?)?;
     m.add_function(wrap_pyfunction!(studies::strength_test, m)?)?;

@@ -153,6 +153,12 @@ impl PyModel {
         self.inner.strength.is_some()
     }
 
+    /// True when the model has a `[manybody]` table (docs/manybody.md).
+    #[getter]
+    fn has_many_body(&self) -> bool {
+        self.inner.manybody.is_some()
+    }
+
     /// YADE CohFrict limits of arbitrary bonds by the model's `[strength]` table, as
     /// `anisobond_yade.assign` sets them (docs/strength.md, "YADE"): each bond's strength
     /// (`strength::strengths_along`: scheme, planes of weakness, scatter by bond index) made

@@ -891,6 +891,7 @@ pub fn run(
     let model = rotate_model(&opts.model.clone().unwrap_or_else(default_model), &q);
     let specimen = make_specimen(opts, &model, &q)?;
     let a = &specimen.assembly;
+    a.refuse_manybody("the strength test")?;
     let mut notes = Vec::new();
     if specimen.strengths.is_none() {
         notes.push("the model has no [strength] table: no bond breaks".into());

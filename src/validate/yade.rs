@@ -504,6 +504,24 @@ fn check_round_trip(
     }
 }
 
+/// What every YADE validation needs before it writes anything: `yade` on PATH and a model
+/// without a `[manybody]` term (YADE's bond laws are pairwise; its route for the term,
+/// `anisobond_yade.add_manybody`, needs the anisobond Python package inside YADE, which
+/// `validate yade` does not assume).
+pub(crate) fn check_runnable(p: &Problem) -> Result<()> {
+    if p.model.is_some_and(|m| m.manybody.is_some()) {
+        return Err(Error::Invalid(
+            "validate yade: the model has a [manybody] term, which YADE's bond laws cannot \
+             carry; YADE runs it only as anisobond_yade.add_manybody (a PyRunner engine \
+             computed by the anisobond Python package, see docs/manybody.md, \"YADE\"; `export \
+             yade` writes a run.py that adds it). Validate the term with `validate lammps` \
+             (plugin route) or `validate liggghts`"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// YADE 2023.02a (`yade` on PATH) as a validation [`Engine`], with its settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Yade(pub YadeValidationOptions);
@@ -652,6 +670,7 @@ struct Prepared {
 /// YADE reads.
 fn prepare(p: &Problem, opts: &YadeValidationOptions) -> Result<Prepared> {
     let (dir, packing, bonds, springs) = (p.dir, p.packing, p.bonds, p.springs);
+    check_runnable(p)?;
     export::check_exportable(packing, bonds, springs)?;
     if export::find_yade().is_none() {
         return Err(Error::Invalid(

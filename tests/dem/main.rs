@@ -11,6 +11,7 @@ mod grips_lattice;
 mod grips_motion;
 mod lanes;
 mod laws;
+mod manybody;
 mod prestress;
 mod servo_element;
 mod stop_rule;

@@ -8,6 +8,7 @@ mod common;
 
 mod closed_forms;
 mod derivatives;
+mod engines;
 mod model_file;
 mod refusals;
 mod setup;

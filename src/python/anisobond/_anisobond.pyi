@@ -1,7 +1,7 @@
 # Type stubs of the compiled part of anisobond (src/python/mod.rs). Units: m, N, Pa;
 # springs kn, ks in N/m, kr, ktw in N·m/rad; tensors (6, 6) in Pa, Voigt order 11 22 33 23 13 12.
 from os import PathLike
-from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 from typing_extensions import TypedDict, Unpack
 
@@ -64,6 +64,9 @@ class Model:
     ) -> Dict[str, np.ndarray]:
         """normals (N, 3) unit; r_i, r_j, lengths (N,) in m -> kn, ks (N/m), kr, ktw (N·m/rad), radius (m)."""
     @property
+    def has_many_body(self) -> bool:
+        """True when the model has a [manybody] table (docs/manybody.md)."""
+    @property
     def has_strength(self) -> bool:
         """True when the model has a [strength] table (docs/strength.md)."""
     def yade_adhesions(
@@ -109,6 +112,21 @@ class Packing:
     def solid_fraction(self) -> float: ...
     def __len__(self) -> int: ...
 
+class ManyBody:
+    """The many-body term of an assembly (docs/manybody.md), its reference the assembly's packing."""
+    def evaluate(
+        self, positions: _Floats, cell_gradient: Optional[_Floats] = None
+    ) -> Dict[str, Any]:
+        """energy (J), forces ((N, 3) N, -dU/dx) and nominal stress ((3, 3) Pa) at positions (m)."""
+    @property
+    def tensor(self) -> np.ndarray:
+        """D, (6, 6) Pa, lab frame."""
+    @property
+    def volume_fraction(self) -> float: ...
+    @property
+    def excluded(self) -> List[int]: ...
+    def __len__(self) -> int: ...
+
 class Assembly:
     """A packing bonded by a model: bonds and every bond's springs."""
     def __init__(self, packing: Packing, model: Model) -> None: ...
@@ -135,6 +153,8 @@ class Assembly:
     def coordination(self) -> float: ...
     @property
     def lattice_scaling(self) -> float: ...
+    def many_body(self) -> "ManyBody":
+        """The many-body term of the model's [manybody] table on these bonds (ModelError without one)."""
     def tensor(
         self,
         method: str = "relaxed",

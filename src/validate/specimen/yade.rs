@@ -10,7 +10,7 @@ use super::{
     SpecimenDetails, SpecimenTest,
 };
 use crate::bonds::table;
-use crate::export::yade::{files, find_yade, run_yade_script, YADE_MODULE};
+use crate::export::yade::{files, run_yade_script, YADE_MODULE};
 use crate::homogenize::network::LeverArm;
 use crate::packing;
 use crate::validate::harness::{reads_back_same, Problem, Progress};
@@ -69,12 +69,7 @@ pub fn run(
 ) -> Result<Report<SpecimenDetails>> {
     let test = &test.resolved(STRAIN);
     let asm = free_assembly(problem, "yade")?;
-    if find_yade().is_none() {
-        return Err(Error::Invalid(
-            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
-                .into(),
-        ));
-    }
+    crate::validate::yade::check_runnable(problem)?;
     let dir = problem.dir.join(DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     packing::io::write_packing(&dir.join(files::PACKING), &asm.packing)?;

@@ -22,7 +22,7 @@ use super::{
 };
 use crate::dem::{build_law, LawKind};
 use crate::export::yade::{
-    adhesions_of, files, find_yade, run_yade_script, write_bond_table_with_adhesions, YADE_MODULE,
+    adhesions_of, files, run_yade_script, write_bond_table_with_adhesions, YADE_MODULE,
 };
 use crate::validate::harness::{Problem, Progress, Report, Timing};
 use crate::{Error, Result};
@@ -126,12 +126,7 @@ pub fn run(
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
     let (_, strengths, criteria) = super::strength_setup("yade", problem, LawKind::Yade)?;
-    if find_yade().is_none() {
-        return Err(Error::Invalid(
-            "validate yade: `yade` is not on PATH (install YADE 2023.02a, e.g. apt install yade)"
-                .into(),
-        ));
-    }
+    crate::validate::yade::check_runnable(problem)?;
     let dt = super::time_step(problem, launch)?;
     let mut loading = Loading::of(packing, test, dt, "yade")?;
     if test.loading == super::StrengthLoading::Compression {

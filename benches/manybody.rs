@@ -1,0 +1,105 @@
+//! Cost of the many-body term in the relaxed solve (issue 33: at most 2× the solve without
+//! it; BENCHMARKS.md "Many-body term: relaxed solve"). Run with
+//! `cargo bench --bench manybody` (release build; RAYON_NUM_THREADS sets the thread count;
+//! ANISOBOND_BENCH_PARTICLES the size, default the demo's 30,700).
+//!
+//! One generated random packing (φ = 0.60, the Truszkowska standard assembly's preparation),
+//! gap-bonded at 0.17 R̄, the demo's model (Truszkowska 2018 MRV, cubic Zener > 1) and an
+//! isotropic term (K' = 10 GPa, G' = 3 GPa, Green–Lagrange, rattlers excluded). In the same
+//! run, alternately twice each (the faster run counted): the relaxed tensor of the springs
+//! alone and of the springs + term (default two-level CG), then where the term's time goes
+//! (its set-up, Hessian, load, affine tensor; the stored blocks of K with and without it).
+
+use anisobond::bonds::{assign_stiffness, build_bonds, BondingRule};
+use anisobond::homogenize::{
+    relaxed_tensor, relaxed_tensor_with_term, BlockSparse, LeverArm, Network, RelaxedOptions,
+};
+use anisobond::manybody::{DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions};
+use anisobond::model::Model;
+use anisobond::packing::{generate, GenerateOptions};
+use std::time::Instant;
+
+/// Seconds `f` takes, and its result.
+fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
+    let t = Instant::now();
+    let r = f();
+    (t.elapsed().as_secs_f64(), r)
+}
+
+fn main() {
+    let n: usize = std::env::var("ANISOBOND_BENCH_PARTICLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30_700);
+    let threads = rayon::current_num_threads();
+    let p = generate(
+        &GenerateOptions {
+            n_particles: n,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .expect("packing");
+    let bonds = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonding");
+    let model = Model::truszkowska_mrv();
+    let scheme = model.build_scheme(None).expect("scheme");
+    let k = assign_stiffness(&p, &bonds, scheme.as_ref(), &model.geometry).expect("springs");
+    println!(
+        "packing: {} particles, {} bonds (Z = {:.3}), {threads} threads",
+        p.len(),
+        bonds.len(),
+        bonds.coordination(p.len())
+    );
+    let tensor = LocalTensor::Isotropic {
+        bulk: 10e9,
+        shear: 3e9,
+    };
+    let options = ManyBodyOptions {
+        degenerate: DegenerateParticles::Exclude,
+        ..Default::default()
+    };
+    let opts = RelaxedOptions::default();
+    let (mut t_pair, mut t_term) = (f64::INFINITY, f64::INFINITY);
+    let (mut pair, mut with) = (None, None);
+    for _ in 0..2 {
+        let (t, r) = timed(|| relaxed_tensor(&p, &bonds, &k, &opts).expect("relaxed"));
+        t_pair = t_pair.min(t);
+        pair = Some(r);
+        // The term's set-up is part of its cost.
+        let (t, r) = timed(|| {
+            let mb = ManyBody::new(&p, &bonds, &tensor, &options).expect("term");
+            let r = relaxed_tensor_with_term(&p, &bonds, &k, Some(&mb), &opts).expect("relaxed");
+            (mb.volume_fraction(), r)
+        });
+        t_term = t_term.min(t);
+        with = Some(r);
+    }
+    let (pair, (fraction, with)) = (pair.unwrap(), with.unwrap());
+    println!(
+        "relaxed, springs: {t_pair:.3} s, {} iterations, residual {:.1e}, {} active particles, C11 {:.4e} Pa",
+        pair.iterations, pair.relative_residual, pair.active_particles, pair.c[(0, 0)]
+    );
+    println!(
+        "relaxed, springs + term: {t_term:.3} s, {} iterations, residual {:.1e}, {} active particles, C11 {:.4e} Pa, volume fraction {fraction:.4}",
+        with.iterations, with.relative_residual, with.active_particles, with.c[(0, 0)]
+    );
+    println!("ratio: {:.2}x", t_term / t_pair);
+    // Where the term's time goes.
+    let (t_new, mb) = timed(|| ManyBody::new(&p, &bonds, &tensor, &options).expect("term"));
+    let l = mb.reference_branches();
+    let (t_hess, kt) = timed(|| mb.hessian(l).expect("hessian"));
+    let (t_load, _) = timed(|| mb.load(l).expect("load"));
+    let (t_aff, _) = timed(|| mb.affine_tensor(l).expect("affine"));
+    let net = Network::build(&p, &bonds, &k, LeverArm::MidGap, true, None).expect("network");
+    let ks = BlockSparse::assemble(&net);
+    println!(
+        "term parts: set-up {t_new:.3} s, Hessian {t_hess:.3} s, load {t_load:.3} s, affine tensor {t_aff:.3} s"
+    );
+    println!(
+        "K blocks: springs {}, term {}, per particle {:.1} vs {:.1} (second neighbours)",
+        ks.blocks(),
+        kt.blocks(),
+        ks.blocks() as f64 / ks.rows() as f64,
+        kt.blocks() as f64 / kt.rows() as f64
+    );
+}

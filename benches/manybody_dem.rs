@@ -1,0 +1,114 @@
+//! Cost of the many-body term in the reference integrator (issue 33: at most 1.5× per
+//! particle-step): law (a) on a bonded periodic packing (gap 0.17 R̄, rattlers excluded from
+//! the term), without and with a rotated cubic term (Green–Lagrange), in the same run,
+//! alternating the two several times and keeping each one's best. Run:
+//! `cargo bench --bench manybody_dem` (MB_BENCH_PARTICLES, default 30,000; MB_BENCH_STEPS,
+//! default 100; MB_BENCH_THREADS, comma-separated, default 1,2; MB_BENCH_REPEATS, default 3).
+
+use anisobond::bonds::{build_bonds, BondStiffness, BondingRule};
+use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
+use anisobond::manybody::{DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions};
+use anisobond::packing::{generate, GenerateOptions};
+use anisobond::{Mat3, Vec3};
+use std::time::Instant;
+
+fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let n: usize = env("MB_BENCH_PARTICLES", 30_000);
+    let steps: usize = env("MB_BENCH_STEPS", 100);
+    let repeats: usize = env("MB_BENCH_REPEATS", 3);
+    let threads: Vec<usize> = std::env::var("MB_BENCH_THREADS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![1, 2]);
+    let p = generate(
+        &GenerateOptions {
+            n_particles: n,
+            seed: 1,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .expect("packing");
+    let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
+    let r = p.mean_radius();
+    let nb = b.len();
+    let k = BondStiffness {
+        radius: vec![r; nb],
+        kn: (0..nb)
+            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
+            .collect(),
+        ks: vec![0.4e6; nb],
+        kr: vec![0.1e6 * r * r; nb],
+        ktw: vec![0.05e6 * r * r; nb],
+    };
+    let c = anisobond::homogenize::voigt_tensor(&b, &k, p.volume());
+    let s = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]) / 3.0;
+    let d = LocalTensor::Cubic {
+        c11: 0.8 * s,
+        c12: 0.5 * s,
+        c44: 0.2 * s,
+        rotation: anisobond::tensor::rotation_z(0.3) * anisobond::tensor::rotation_x(1.1),
+    };
+    let options = ManyBodyOptions {
+        degenerate: DegenerateParticles::Exclude,
+        ..Default::default()
+    };
+    let mb = ManyBody::new(&p, &b, &d, &options).expect("term");
+    println!(
+        "setup: {n} particles, {nb} bonds (Z = {:.2}), {} excluded from the term",
+        b.coordination(n),
+        mb.excluded().len()
+    );
+    for t in threads {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let make = |with: bool| {
+                let law = build_law(LawKind::Yade, &p, &b, &k).expect("law");
+                let term = with.then(|| mb.clone());
+                let opts = DemOptions {
+                    local_damping: 0.4,
+                    // The same time step for both (the term's Gershgorin bound is smaller).
+                    time_step: Some(1e-9),
+                    ..Default::default()
+                };
+                let mut sim = Simulation::with_manybody(&p, &b, law, term, &opts).expect("sim");
+                for (i, v) in sim.particles.velocity.iter_mut().enumerate() {
+                    *v = Vec3::new((i as f64).sin(), (i as f64 * 1.3).cos(), (i as f64 * 0.7).sin())
+                        * 1e-4;
+                }
+                let mut l = Mat3::zeros();
+                l[(0, 1)] = 1e-3;
+                l[(2, 2)] = -2e-3;
+                sim.set_velocity_gradient(l).expect("periodic");
+                sim.run(20, &|_| {}).expect("warm-up");
+                sim
+            };
+            let mut sims = [make(false), make(true)];
+            let mut best = [f64::INFINITY; 2];
+            for _ in 0..repeats {
+                for (w, sim) in sims.iter_mut().enumerate() {
+                    let t0 = Instant::now();
+                    sim.run(steps, &|_| {}).expect("run");
+                    best[w] = best[w].min(t0.elapsed().as_secs_f64());
+                }
+            }
+            let per = |s: f64| s / (n * steps) as f64;
+            println!(
+                "{t} thread(s): without the term {:.3e} s per particle-step, with {:.3e}: ratio {:.3}",
+                per(best[0]),
+                per(best[1]),
+                best[1] / best[0]
+            );
+        });
+    }
+}
