@@ -101,7 +101,7 @@ pub struct CubicParameters {
 
 impl CubicParameters {
     /// The parameters at a point of the mean-field map: a_n = e^x, a_s = e^y, ρ.
-    fn at(model: CubicModel, extended: bool, p: &MapPoint) -> Self {
+    pub(crate) fn at(model: CubicModel, extended: bool, p: &MapPoint) -> Self {
         CubicParameters {
             model,
             extended,
@@ -714,7 +714,7 @@ fn describe_ratios(r12: f64, r44: f64, c11: Option<f64>) -> String {
 
 /// The error for a target outside the mean-field domain of `map`, with the nearest reachable
 /// tensor and, when the extended model reaches it, that suggestion.
-fn unreachable_error(
+pub(super) fn unreachable_error(
     kernel: &CubicKernel,
     map: &MeanFieldMap,
     t: &CubicTarget,
@@ -780,7 +780,7 @@ fn check_magnitude(name: &str, v: f64) -> Result<()> {
 
 /// The model both calibrations solve in (`opts.model`, else the one for the target's Zener
 /// ratio) and its mean-field map, after checking `default_normal`.
-fn target_map<'k>(
+pub(super) fn target_map<'k>(
     kernel: &'k CubicKernel,
     target: &CubicTarget,
     default_normal: f64,

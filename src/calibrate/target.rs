@@ -2,7 +2,9 @@
 //!
 //! Cubic: `C11=…,C12=…,C44=…` (Pa; a unit suffix Pa, kPa, MPa or GPa is accepted) or the
 //! ratios `C12/C11=…,C44/C11=…` (then the overall magnitude is left to the model file).
-//! Cross-anisotropic: `C11=…,C33=…,C13=…,C12=…` (Pa, about the model's axis).
+//! Cross-anisotropic: `C11=…,C33=…,C13=…,C12=…` (Pa, about the model's axis), or with the
+//! fifth independent constant `…,C44=…` (then the many-body term carries what the elliptic
+//! scheme, whose C44 is dependent, cannot; docs/manybody.md "Calibration").
 //! Spaces around `=` and before the unit are allowed (`C11 = 80 GPa`). A target is refused
 //! unless finite and positive definite, naming the condition that failed.
 
@@ -113,6 +115,9 @@ pub enum Target {
         c13: f64,
         /// C12.
         c12: f64,
+        /// C44 = C55 when given (five independent constants); `None`: the elliptic scheme's
+        /// dependent value.
+        c44: Option<f64>,
     },
 }
 
@@ -153,6 +158,18 @@ pub fn check_transverse_target(c11: f64, c33: f64, c13: f64, c12: f64) -> Result
                  positive definite transversely isotropic stiffness: {why}"
             )));
         }
+    }
+    Ok(())
+}
+
+/// The fifth condition of a five-constant transversely isotropic target: C44 > 0 (the
+/// other eigenvalues are [`check_transverse_target`]'s).
+pub fn check_transverse_c44(c11: f64, c33: f64, c13: f64, c12: f64, c44: f64) -> Result<()> {
+    if !(c44.is_finite() && c44 > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--target C11={c11:e}, C33={c33:e}, C13={c13:e}, C12={c12:e}, C44={c44:e} Pa is not \
+             a positive definite transversely isotropic stiffness: C44 = {c44:e} must be > 0"
+        )));
     }
     Ok(())
 }
@@ -216,7 +233,7 @@ pub(crate) fn parse_value(text: &str, key: &str, allow_unit: bool) -> Result<f64
 }
 
 impl Target {
-    /// Parse `C11=…,C12=…,C44=…`, `C12/C11=…,C44/C11=…` or `C11=…,C33=…,C13=…,C12=…`
+    /// Parse `C11=…,C12=…,C44=…`, `C12/C11=…,C44/C11=…` or `C11=…,C33=…,C13=…,C12=…[,C44=…]`
     /// (keys case-insensitive, separated by commas or whitespace; `C11 = 80 GPa` is fine).
     /// The tensor is refused unless finite and positive definite, before anything is
     /// computed.
@@ -231,7 +248,7 @@ impl Target {
         let items = target_items(text);
         if items.is_empty() {
             return Err(Error::Invalid(
-                "--target is empty: expected C11=…,C12=…,C44=… (Pa), C12/C11=…,C44/C11=…, or C11=…,C33=…,C13=…,C12=…".into(),
+                "--target is empty: expected C11=…,C12=…,C44=… (Pa), C12/C11=…,C44/C11=…, or C11=…,C33=…,C13=…,C12=…[,C44=…]".into(),
             ));
         }
         for item in &items {
@@ -265,12 +282,21 @@ impl Target {
             (None, None, None, None, None, Some(a), Some(b)) => {
                 Ok(Target::Cubic(CubicTarget::from_ratios(a, b)?))
             }
-            (Some(c11), Some(c12), Some(c13), Some(c33), None, None, None) => {
+            (Some(c11), Some(c12), Some(c13), Some(c33), c44, None, None) => {
                 check_transverse_target(c11, c33, c13, c12)?;
-                Ok(Target::CrossAnisotropic { c11, c33, c13, c12 })
+                if let Some(c44) = c44 {
+                    check_transverse_c44(c11, c33, c13, c12, c44)?;
+                }
+                Ok(Target::CrossAnisotropic {
+                    c11,
+                    c33,
+                    c13,
+                    c12,
+                    c44,
+                })
             }
             _ => Err(Error::Invalid(format!(
-                "--target `{text}`: give exactly C11, C12, C44 (cubic, Pa), or C12/C11 and C44/C11 (cubic ratios), or C11, C33, C13, C12 (cross-anisotropic, Pa)"
+                "--target `{text}`: give exactly C11, C12, C44 (cubic, Pa), or C12/C11 and C44/C11 (cubic ratios), or C11, C33, C13, C12[, C44] (cross-anisotropic, Pa)"
             ))),
         }
     }
@@ -298,9 +324,14 @@ mod tests {
                 c11: 130e6,
                 c33: 55e6,
                 c13: 28e6,
-                c12: 40e6
+                c12: 40e6,
+                c44: None
             }
         );
+        let t = Target::parse("C11=130e6 C33=55e6 C13=28e6 C12=40e6 C44=20e6").unwrap();
+        assert!(matches!(t, Target::CrossAnisotropic { c44: Some(v), .. } if v == 20e6));
+        let e = refusal("C11=130e6 C33=55e6 C13=28e6 C12=40e6 C44=-1e6");
+        assert!(e.contains("C44 = -1e6 must be > 0"), "{e}");
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 use super::LeverArmArg;
 use anisobond::assembly::Assembly;
+use anisobond::calibrate::ManyBodyCalibration;
 use anisobond::calibrate::{calibrate, CalibrateOn, Calibration, CrossCalibration};
 use anisobond::calibrate::{CubicCalibration, CubicOptions, CubicTarget, Family, Level, Target};
 use anisobond::homogenize::RelaxedOptions;
@@ -57,7 +58,8 @@ pub struct CalibrateArgs {
     #[arg(long)]
     model: PathBuf,
     /// Target: `C11=…,C12=…,C44=…` (Pa, or with a unit suffix GPa/MPa/kPa), the ratios
-    /// `C12/C11=…,C44/C11=…`, or for cross-anisotropy `C11=…,C33=…,C13=…,C12=…`.
+    /// `C12/C11=…,C44/C11=…`, or for cross-anisotropy `C11=…,C33=…,C13=…,C12=…[,C44=…]`.
+    /// A stable target the springs cannot reach gets a `[manybody]` term.
     #[arg(long)]
     target: String,
     /// Level: `mean-field` (no packing; a PACKING after it only supplies the bond density
@@ -213,6 +215,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     match &calibrated.calibration {
         Calibration::Cubic(cal) => print_cubic(cal, secs),
         Calibration::CrossRelaxed(cal) => print_cross(cal, secs),
+        Calibration::ManyBody(cal) => print_many_body(cal, secs),
         Calibration::CrossMeanField => println!("calibrated (mean field): cross-anisotropic; Šmilauer's inversion E′ = A⁻¹C/μ reproduces the target exactly under uniform strain, so the model holds the target itself. Its relaxed tensor on a packing is a few % softer: use --on relaxed PACKING to correct for that."),
     }
     // Round trip: the written file must read back as the same model.
@@ -323,4 +326,51 @@ fn print_cross(cal: &CrossCalibration, secs: f64) {
         t.c44 / 1e9,
         t.c66 / 1e9
     );
+}
+
+fn print_many_body(cal: &ManyBodyCalibration, secs: f64) {
+    println!(
+        "the springs alone cannot reach the target:\n  {}",
+        cal.pairwise_refusal.replace('\n', "\n  ")
+    );
+    let level = match cal.level {
+        Level::MeanField => "mean field (Voigt level: the term adds φ·D exactly)",
+        Level::Relaxed => "relaxed, on the packing",
+    };
+    println!(
+        "calibrated ({level}): springs plus the many-body term; springs at share s = {:.4} of their reachable tensor, term on a volume fraction φ = {:.4}{}",
+        cal.share,
+        cal.volume_fraction,
+        match cal.level {
+            Level::Relaxed => format!(", {} relaxed solves", cal.history.len() + 1),
+            Level::MeanField => String::new(),
+        }
+    );
+    if let Some(p) = cal.cubic_parameters {
+        println!(
+            "  springs: cubic {}{}, a_n = {:.6}, a_s = {:.6}, shear/normal = {:.6}",
+            p.model.as_str(),
+            if p.extended { " (extended)" } else { "" },
+            p.a_n,
+            p.a_s,
+            p.shear_over_normal
+        );
+    }
+    println!(
+        "  {:<6} {:>12} {:>12} {:>12} {:>14} {:>10}",
+        "", "target GPa", "springs GPa", "D GPa", "achieved GPa", "error"
+    );
+    for (k, name) in cal.symmetry.names().iter().enumerate() {
+        let (t, a) = (cal.target[k], cal.achieved[k]);
+        println!(
+            "  {name:<6} {:>12.5} {:>12.5} {:>12.5} {:>14.5} {:>+9.4} %",
+            t / 1e9,
+            cal.pairwise[k] / 1e9,
+            cal.d[k] / 1e9,
+            a / 1e9,
+            100.0 * (a - t) / t.abs()
+        );
+    }
+    println!("  (all constants fitted to the target; D is written as [manybody])");
+    println!("  time {secs:.2} s");
 }

@@ -148,6 +148,19 @@ pub fn run(a: DomainArgs) -> Result<()> {
         r.skipped
     );
     print_summary(&r);
+    if let Some((x, y)) = target {
+        // Target::parse has refused an unstable target, so this one is inside the stable
+        // domain: the springs reach it where the map's samples do, the term elsewhere.
+        println!(
+            "target C12/C11 = {x:.4}, C44/C11 = {y:.4}: inside the stable domain (−1/2 < C12/C11 < 1, C44 > 0), so `calibrate` reaches it{}",
+            if x > y {
+                "; beyond the Cauchy line C12 = C44, so with the many-body term"
+            } else {
+                ""
+            }
+        );
+    }
+    println!("  domain.png also draws the stable domain's bounds and marks Ni, Cu, Fe, Al, W (all reached with the many-body term)");
     r.write(&dir, target)?;
     out.commit()?;
     for name in ["domain.csv", "domain.png"] {

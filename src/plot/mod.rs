@@ -101,10 +101,29 @@ pub fn plot_domain(
     title: &str,
     target: Option<(f64, f64)>,
 ) -> Result<()> {
+    plot_domain_with_materials(path, samples, title, target, &[])
+}
+
+/// [`plot_domain`] with named materials' (C12/C11, C44/C11) marked and the stable domain's
+/// bounds drawn (C12/C11 = 1 and −1/2, C44/C11 = 0): with the many-body term `calibrate`
+/// reaches every point between them (docs/manybody.md "Calibration").
+pub fn plot_domain_with_materials(
+    path: &Path,
+    samples: &[DomainSample],
+    title: &str,
+    target: Option<(f64, f64)>,
+    materials: &[(&str, f64, f64)],
+) -> Result<()> {
     if samples.is_empty() {
         return Err(Error::Invalid("domain plot: no samples".into()));
     }
-    let w = DomainWindow::new(samples, target);
+    let mut w = DomainWindow::new(samples, target);
+    for &(_, x, y) in materials {
+        w.x0 = w.x0.min(x - 0.02);
+        w.x1 = w.x1.max(x + 0.02);
+        w.y1 = w.y1.max(y + 0.02);
+        w.y0 = w.y0.min((y - 0.02).max(0.0));
+    }
     render(path, (1000, 850), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 24))
@@ -135,6 +154,49 @@ pub fn plot_domain(
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
         }
         draw_domain_samples(&mut chart, samples)?;
+        let green = RGBColor(0, 140, 60);
+        let mut bounds: Vec<Vec<(f64, f64)>> = Vec::new();
+        for x in [1.0, -0.5] {
+            if x > w.x0 && x < w.x1 {
+                bounds.push(vec![(x, w.y0.max(0.0)), (x, w.y1)]);
+            }
+        }
+        if w.y0 <= 0.0 {
+            bounds.push(vec![(w.x0.max(-0.5), 0.0), (w.x1.min(1.0), 0.0)]);
+        }
+        for (k, b) in bounds.into_iter().enumerate() {
+            let series = chart
+                .draw_series(LineSeries::new(b, green.stroke_width(3)))
+                .map_err(s)?;
+            if k == 0 {
+                series
+                    .label("stable-domain bound (reached with the many-body term inside)")
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 20, y)], green.stroke_width(3))
+                    });
+            }
+        }
+        for (k, &(name, x, y)) in materials.iter().enumerate() {
+            let series = chart
+                .draw_series(std::iter::once(TriangleMarker::new(
+                    (x, y),
+                    8,
+                    green.filled(),
+                )))
+                .map_err(s)?;
+            if k == 0 {
+                series
+                    .label("materials (calibrated with the term)")
+                    .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 6, green.filled()));
+            }
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    name.to_string(),
+                    (x + 0.005, y + 0.005),
+                    ("sans-serif", 15).into_font(),
+                )))
+                .map_err(s)?;
+        }
         if let Some((tx, ty)) = target {
             chart
                 .draw_series(std::iter::once(Cross::new(

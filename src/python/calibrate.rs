@@ -155,6 +155,21 @@ fn info_dict<'py>(py: Python<'py>, calibration: &Calibration) -> PyResult<Bound<
         Calibration::CrossMeanField => {
             info.set_item("level", "meanfield")?;
         }
+        Calibration::ManyBody(c) => {
+            info.set_item("level", format!("{:?}", c.level).to_lowercase())?;
+            info.set_item("manybody", true)?;
+            info.set_item("spring_share", c.share)?;
+            info.set_item("volume_fraction", c.volume_fraction)?;
+            let names = c.symmetry.names();
+            let fitted_d = PyDict::new(py);
+            for ((name, a), d) in names.iter().zip(&c.achieved).zip(&c.d) {
+                info.set_item(*name, *a)?;
+                fitted_d.set_item(*name, *d)?;
+            }
+            info.set_item("fitted_d", fitted_d)?;
+            info.set_item("pairwise_refusal", c.pairwise_refusal.as_str())?;
+            info.set_item("iterations", c.history.len())?;
+        }
     }
     Ok(info)
 }

@@ -130,16 +130,23 @@ impl DomainReport {
         out
     }
 
-    /// Write domain.csv and domain.png (with `target`'s (C12/C11, C44/C11) marked) into
-    /// `dir`.
+    /// Write domain.csv and domain.png into `dir`: the springs' sampled domain, the stable
+    /// domain's bounds (inside them `calibrate` reaches any target with the many-body term),
+    /// `target`'s (C12/C11, C44/C11) and the cubic metals of
+    /// [`crate::calibrate::manybody::CUBIC_MATERIALS`] marked.
     #[cfg(feature = "plot")]
     pub fn write(&self, dir: &std::path::Path, target: Option<(f64, f64)>) -> Result<()> {
         crate::calibrate::domain::write_csv(&dir.join("domain.csv"), &self.samples)?;
-        crate::plot::plot_domain(
+        let materials: Vec<(&str, f64, f64)> = crate::calibrate::manybody::CUBIC_MATERIALS
+            .iter()
+            .map(|&(name, c11, c12, c44)| (name, c12 / c11, c44 / c11))
+            .collect();
+        crate::plot::plot_domain_with_materials(
             &dir.join("domain.png"),
             &self.samples,
             &format!("Accessible cubic domain ({})", self.label),
             target,
+            &materials,
         )
     }
 }

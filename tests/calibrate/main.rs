@@ -5,6 +5,7 @@
 mod common;
 
 mod cli;
+mod manybody;
 mod meanfield;
 mod relaxed;
 mod strength;

@@ -421,8 +421,15 @@ fn check_target(t: &Target) -> Result<(), TestCaseError> {
                 prop_assert!(a.is_finite() && b.is_finite() && d.is_finite());
             }
         }
-        Target::CrossAnisotropic { c11, c33, c13, c12 } => {
+        Target::CrossAnisotropic {
+            c11,
+            c33,
+            c13,
+            c12,
+            c44,
+        } => {
             prop_assert!([c11, c33, c13, c12].iter().all(|x| x.is_finite()));
+            prop_assert!(c44.map_or(true, |v| v.is_finite() && v > 0.0));
             prop_assert!(c11 > c12.abs() && c33 > 0.0 && (c11 + c12) * c33 > 2.0 * c13 * c13);
         }
     }
