@@ -795,7 +795,11 @@ fn rust_runs(
             || relaxed_tensor(packing, bonds, &k0, &RelaxedOptions::default()),
         )?),
     };
-    progress("integrator: undamped histories (incremental, total form, normal springs only)");
+    progress(if term.is_some() {
+        "integrator: undamped histories with the many-body term (incremental, total form)"
+    } else {
+        "integrator: undamped histories (incremental, total form, normal springs only)"
+    });
     let mut history = |name: &str, law: Box<dyn BondLaw>| {
         timed(&mut timings, name, || {
             integrator_history_with_term(
