@@ -525,6 +525,7 @@ struct LiggghtsRuns {
 }
 
 /// Every LIGGGHTS run, in order (one program at a time; runs beside the Rust side).
+#[allow(clippy::too_many_arguments)]
 fn liggghts_runs(
     dir: &Path,
     packing: &Packing,
