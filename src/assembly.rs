@@ -743,17 +743,19 @@ impl EqualSpheres {
 /// Voigt add the term's exact closed form, the relaxed solve its Hessian.
 fn refuse_without_term(method: &Method) -> Result<()> {
     let why = match method {
-        Method::MeanField | Method::Voigt | Method::Relaxed(_) => return Ok(()),
+        // The integrator evaluates the term (Assembly::simulation builds it; src/dem/manybody.rs).
+        Method::MeanField | Method::Voigt | Method::Relaxed(_) | Method::Dynamic { .. } => {
+            return Ok(())
+        }
         Method::Prestressed { .. } => "its preloaded state is that of the springs alone",
         Method::Laf { .. } => {
             "its shells relax first neighbours, and the term couples particles that share a \
              bonded neighbour"
         }
-        Method::Dynamic { .. } => "the reference integrator does not evaluate the term",
     };
     Err(Error::Invalid(format!(
         "tensor method {}: the model has a many-body term ([manybody]) and {why}; use \
-         --method relaxed (exact) or voigt / mean-field (its closed form added)",
+         --method relaxed (exact), dynamic, or voigt / mean-field (its closed form added)",
         method.name()
     )))
 }

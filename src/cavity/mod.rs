@@ -232,6 +232,7 @@ impl Cavity {
     /// is allocated), a bond crossing an x or y face, a wall ray that meets no sphere within
     /// 6 R̄ of the wall, and a clamped ring that holds nothing.
     pub fn new(source: &Assembly, geometry: CavityGeometry) -> Result<Cavity> {
+        source.refuse_manybody("the cavity study (a slab cut free)")?;
         geometry.check(source)?;
         let g = geometry;
         let r_mean = source.packing.mean_radius();

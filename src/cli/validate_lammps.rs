@@ -43,15 +43,6 @@ impl Args {
         let mut opts = LammpsValidateOptions::new(find_lmp(self.lmp.clone())?);
         opts.export.bond_style = bond_style;
         opts.export.types = types;
-        opts.export.manybody = anisobond::model::Model::from_path(&self.input.model)?.manybody;
-        if opts.export.manybody.is_some() && (self.specimen.specimen || self.strength.strength) {
-            return Err(anisobond::Error::Invalid(format!(
-                "validate lammps: the model {} has a [manybody] term, which the specimen and \
-                 strength decks do not carry (its default volumes share a fully periodic cell): \
-                 validate the periodic element tests (without --specimen/--strength)",
-                self.input.model.display()
-            )));
-        }
         opts.two_processes = self.np == 2;
         opts.tolerances.relaxed = self.tolerance;
         Ok(Lammps(opts))

@@ -873,6 +873,23 @@ pub struct YadeTensor {
     pub json: serde_json::Value,
 }
 
+/// The JSON a YADE script of the strength and specimen tests wrote at `path`, and the engine
+/// failure naming a key it lacks (or holds no valid value under).
+pub(crate) fn read_result_json(
+    path: &Path,
+) -> Result<(serde_json::Value, impl Fn(&str) -> Error + '_)> {
+    let text = crate::io::read_to_string(path)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
+    let bad = move |what: &str| {
+        Error::engine(
+            "YADE",
+            format!("{}: no valid `{what}` in YADE's result", path.display()),
+        )
+    };
+    Ok((v, bad))
+}
+
 /// Read `yade-tensor.json` (SPEC tensor report with `method = "yade"` and a `yade` block).
 pub fn read_yade_tensor(path: &Path) -> Result<YadeTensor> {
     let text = crate::io::read_to_string(path)?;

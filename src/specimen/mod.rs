@@ -485,6 +485,7 @@ pub fn slab_axis(cell: Option<&crate::packing::PeriodicCell>) -> Option<usize> {
 /// # Ok::<(), anisobond::Error>(())
 /// ```
 pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenReport> {
+    assembly.refuse_manybody("the specimen solve")?;
     opts.check()?;
     let packing = &assembly.packing;
     let cell = lateral_cell(assembly, opts)?;

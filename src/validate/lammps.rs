@@ -420,7 +420,15 @@ impl Engine for Lammps {
     }
     fn run(&self, p: &Problem, progress: Progress) -> Result<Report<LammpsDetails>> {
         match p.kind {
-            TestKind::PeriodicElement => element_tests(p, &self.0, progress),
+            TestKind::PeriodicElement => {
+                // The problem's model decides the term: options built without it (a library
+                // or Python caller) must not validate the springs alone.
+                let mut o = self.0.clone();
+                if let Some(m) = p.model {
+                    o.export.manybody = m.manybody.clone();
+                }
+                element_tests(p, &o, progress)
+            }
         }
     }
     fn write_files(&self, dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {

@@ -504,23 +504,6 @@ fn check_round_trip(
     }
 }
 
-/// The JSON a YADE script of the strength and specimen tests wrote at `path`, and the engine
-/// failure naming a key it lacks (or holds no valid value under).
-pub(crate) fn read_result_json(
-    path: &Path,
-) -> Result<(serde_json::Value, impl Fn(&str) -> Error + '_)> {
-    let text = crate::io::read_to_string(path)?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::engine("YADE", format!("{}: {e}", path.display())))?;
-    let bad = move |what: &str| {
-        Error::engine(
-            "YADE",
-            format!("{}: no valid `{what}` in YADE's result", path.display()),
-        )
-    };
-    Ok((v, bad))
-}
-
 /// YADE 2023.02a (`yade` on PATH) as a validation [`Engine`], with its settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Yade(pub YadeValidationOptions);

@@ -85,3 +85,102 @@ fn validate_yade_refuses_the_term_before_writing() {
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn free_specimen_validations_refuse_the_term_in_every_engine() {
+    // The refusal is the engines' common one (validate_specimen / validate_strength), so
+    // one engine shows it; it comes before any deck is written.
+    use anisobond::specimen::Platens;
+    use anisobond::validate::specimen::SpecimenTest;
+    use anisobond::validate::strength::StrengthTest;
+    use anisobond::validate::{validate_specimen, validate_strength};
+    let dir = tempfile::tempdir().unwrap();
+    let asm = fcc_assembly(MODEL);
+    let problem = Problem::of(dir.path(), &asm);
+    let engine = Yade(YadeValidationOptions::default());
+    let specimen = validate_specimen(
+        &engine,
+        &problem,
+        &SpecimenTest::new(2, 1e-3, Platens::Frictionless),
+        &|_| {},
+    );
+    let strength = validate_strength(
+        &engine,
+        &problem,
+        &StrengthTest::new(2, 1e-3, 1e-5, 100),
+        &|_| {},
+    );
+    for (what, r) in [
+        ("specimen test", specimen.map(|r| r.passed())),
+        ("strength test", strength.map(|r| r.passed())),
+    ] {
+        match r {
+            Err(Error::Invalid(m)) => {
+                assert!(m.contains("[manybody]") && m.contains(what), "{m}")
+            }
+            other => panic!("{what}: expected Invalid, got {other:?}"),
+        }
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn free_specimen_studies_refuse_the_term_instead_of_dropping_it() {
+    // The specimen solve and the cavity cut a free body: the term's default volumes need a
+    // periodic cell, so they refuse rather than solve the springs alone.
+    let asm = fcc_assembly(MODEL);
+    let specimen =
+        anisobond::specimen::solve(&asm, &anisobond::specimen::SpecimenOptions::new(2, 1e-3));
+    let cavity = anisobond::cavity::Cavity::new(
+        &asm,
+        anisobond::cavity::CavityGeometry {
+            inner_radius: 1e-3,
+            outer_radius: 3e-3,
+            clamp_width: 1e-3,
+            ray_spacing: 2e-4,
+        },
+    );
+    for (what, r) in [
+        ("specimen solve", specimen.err()),
+        ("cavity study", cavity.err()),
+    ] {
+        match r {
+            Some(Error::Model(m)) => assert!(m.contains("[manybody]") && m.contains(what), "{m}"),
+            other => panic!("{what}: expected a Model refusal, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn the_dynamic_tensor_method_carries_the_term() {
+    // The integrator's element tests with the term on FCC (centro-symmetric: relaxed =
+    // Voigt = springs + D) against the relaxed tensor with the term.
+    use anisobond::assembly::{Method, MethodKind, MethodOptions};
+    let text = MODEL.replace("bulk = 1.0e6\nshear = 0.0", "bulk = 2.0e6\nshear = 0.5e6");
+    let asm = fcc_assembly(&text);
+    let relaxed = asm.tensor(&Method::relaxed()).unwrap().report.c;
+    let dynamic = asm
+        .tensor(&MethodOptions::default().method(MethodKind::Dynamic))
+        .unwrap()
+        .report
+        .c;
+    let without = fcc_assembly(MODEL.split("[manybody]").next().unwrap())
+        .tensor(&Method::relaxed())
+        .unwrap()
+        .report
+        .c;
+    let scale = relaxed
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let diff = (0..6)
+        .flat_map(|i| (0..6).map(move |j| (i, j)))
+        .map(|(i, j)| (dynamic[i][j] - relaxed[i][j]).abs())
+        .fold(0.0_f64, f64::max);
+    assert!(
+        diff < 5e-3 * scale,
+        "dynamic vs relaxed: {diff:e} of {scale:e}"
+    );
+    // The term is not negligible here: C12 moves by K' − 2G'/3 ≈ 1.67 MPa.
+    assert!((relaxed[0][1] - without[0][1] - (2.0e6 - 2.0 * 0.5e6 / 3.0)).abs() < 1e-6 * scale);
+}

@@ -110,3 +110,44 @@ def test_exported_run_py_adds_the_term(tmp_path):
     want[3, 3] = want[4, 4] = want[5, 5] = D44
     err = np.abs((runs["export"] - runs["springs"]) - want).max() / D11
     assert err < 1e-4, (err, runs["export"] - runs["springs"])
+
+
+def test_yade_relaxes_a_disordered_packing_with_the_terms_forces(files, tmp_path):
+    """On a disordered packing the affine state is not in equilibrium: the term's forces
+    move the particles. YADE's damped element tests with the term must reach the library's
+    relaxed tensor with the term (an exact static solve), which lies far from both the
+    affine (Voigt-level) tensor and the springs' relaxed tensor plus the term's closed form."""
+    from conftest import CUBIC_MODEL
+    path = yade_pythonpath()
+    pk = ab.Packing.load(files / "packing.txt")
+    springs = ab.Assembly(pk, ab.Model.from_toml(CUBIC_MODEL))
+    c_springs = springs.tensor("relaxed")
+    c11 = float(c_springs[0, 0])
+    text = CUBIC_MODEL + "[manybody]\nkind = \"cubic\"\nc11 = %r\nc12 = %r\nc44 = %r\n" % (
+        0.6 * c11, 0.5 * c11, 0.1 * c11)
+    model = ab.Model.from_toml(text)
+    asm = ab.Assembly(pk, model)
+    c_rel = asm.tensor("relaxed")
+    c_aff = asm.tensor("voigt")
+    term = asm.many_body()
+    scale = np.abs(c_rel).max()
+    pk.save(tmp_path / "packing.txt")
+    asm.write_bonds(tmp_path / "bonds.csv")
+    (tmp_path / "model.toml").write_text(text)
+    out = tmp_path / "out.json"
+    r = subprocess.run(
+        ["yade", "-n", "-x", str(HERE / "yade_manybody.py"), str(tmp_path / "packing.txt"),
+         str(tmp_path / "bonds.csv"), str(tmp_path / "model.toml"), str(out), "1000"],
+        capture_output=True, text=True, cwd=tmp_path, timeout=1800,
+        env=dict(os.environ, PYTHONPATH=path))
+    assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    d = json.loads(out.read_text())
+    c_yade = np.array(d["manybody"]["c"])
+    err = np.abs(c_yade - c_rel).max() / scale
+    affine_gap = np.abs(c_aff - c_rel).max() / scale
+    d_lab = np.asarray(term.tensor) * term.volume_fraction
+    coupling_gap = np.abs(c_springs + d_lab - c_rel).max() / scale
+    print("YADE with the term vs relaxed: %.2e; affine gap %.2e; springs+D gap %.2e; "
+          "%.3g s/step" % (err, affine_gap, coupling_gap, d["manybody"]["seconds_per_step"]))
+    assert err < 1e-4
+    assert affine_gap > 5 * err and coupling_gap > 2 * err

@@ -14,9 +14,9 @@ sys.path.insert(0, os.path.join(here, "..", "..", "yade-scripts"))
 import anisobond_yade as ay  # noqa: E402
 
 packing_path, bonds_path, model, out = sys.argv[1:5]
+STEPS = int(sys.argv[5]) if len(sys.argv) > 5 else 50
 packing = ay.read_packing(packing_path)
 bonds = ay.read_bond_table(bonds_path, len(packing))
-STEPS = 50
 result = {}
 for name, mb in (("springs", None), ("manybody", model)):
     t0 = time.time()

@@ -172,7 +172,7 @@ fn remaining(v: &serde_json::Value, path: &Path) -> Result<f64> {
 /// Read `platen_main`'s JSON; body ids are the packing's indices (`build_scene` appends
 /// the spheres in order).
 fn read_result(path: &Path, n: usize, seconds: f64) -> Result<EngineMeasurement> {
-    let (v, bad) = crate::validate::yade::read_result_json(path)?;
+    let (v, bad) = crate::export::yade::read_result_json(path)?;
     let num = |k: &str| v[k].as_f64().ok_or_else(|| bad(k));
     let ids = |k: &str| -> Result<Vec<usize>> {
         let mut out = v[k]

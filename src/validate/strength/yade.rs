@@ -186,7 +186,7 @@ fn read_result(
     test: &StrengthTest,
     seconds: f64,
 ) -> Result<StrengthRun> {
-    let (v, bad) = crate::validate::yade::read_result_json(path)?;
+    let (v, bad) = crate::export::yade::read_result_json(path)?;
     let n = problem.packing.len() as u64;
     let raw = v["broken"]
         .as_array()
