@@ -944,7 +944,6 @@ impl Engine for Liggghts {
         Some(SpecimenDeck {
             launch,
             run: |launch, p, test, progress| {
-                refuse_manybody(p)?;
                 specimen::liggghts::DECK.run(launch, p, test, progress)
             },
         })
@@ -955,7 +954,6 @@ impl Engine for Liggghts {
         test: &super::strength::StrengthTest,
         progress: Progress,
     ) -> Result<Report<super::strength::StrengthDetails>> {
-        refuse_manybody(p)?;
         let o = &self.options;
         let launch = super::strength::Launch {
             program: self.programs.driver.clone(),
@@ -970,22 +968,6 @@ impl Engine for Liggghts {
         };
         super::strength::liggghts::run(&launch, p, test, progress)
     }
-}
-
-/// Refuse ([`Error::Model`]) a model with `[manybody]` for the specimen and strength tests:
-/// their decks and references do not carry the many-body term (issue 33), so the comparison
-/// would be of the springs alone. The periodic element tests carry it.
-fn refuse_manybody(p: &Problem) -> Result<()> {
-    if p.model.is_some_and(|m| m.manybody.is_some()) {
-        return Err(Error::Model(
-            "validate liggghts: the model has [manybody], and the specimen and strength tests do \
-             not carry the many-body term (their decks and references are of the springs alone). \
-             Validate the term with the periodic element tests (`validate liggghts` without \
-             --specimen/--strength), or remove [manybody] to validate the springs"
-                .into(),
-        ));
-    }
-    Ok(())
 }
 
 /// [`engine::validate`] with [`Liggghts`]: the periodic element tests of `packing` with
