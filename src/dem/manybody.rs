@@ -107,6 +107,12 @@ impl ManyBodyForces {
         &self.ws.force
     }
 
+    /// g_b = ∂U/∂l_b of bond `b` at the last [`compute`](Self::compute) (N): the term's force
+    /// on the bond's i end (−g_b on its j end).
+    pub(crate) fn bond_force(&self, b: usize) -> Vec3 {
+        self.term.bond_gradient(b, &self.ws)
+    }
+
     /// U of the last [`compute`](Self::compute) (J).
     pub(crate) fn energy(&self) -> f64 {
         self.ws.energy()

@@ -801,6 +801,12 @@ impl Simulation {
         self.manybody.as_ref().map(|m| m.term())
     }
 
+    /// The many-body term's force g_b on bond `b`'s i end at the last evaluation (N; −g_b on
+    /// its j end), if the term is on: its share of the bond's virial.
+    pub(crate) fn manybody_bond_force(&self, b: usize) -> Option<Vec3> {
+        self.manybody.as_ref().map(|m| m.bond_force(b))
+    }
+
     /// The failure criteria in force, if any.
     pub fn breakage(&self) -> Option<&BondCriteria> {
         self.criteria.as_ref()

@@ -106,6 +106,24 @@ pub fn stable_timestep(
     stable_timestep_with(packing, bonds, k, density, None)
 }
 
+/// [`stable_timestep`] with the many-body term `term` of these bonds (when given) added to
+/// each particle's stiffness sum, as [`export_liggghts_full`] chooses its step
+/// ([`manybody_stiffness`], docs/manybody.md "LIGGGHTS").
+pub fn stable_timestep_with_manybody(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    density: f64,
+    term: Option<&ManyBody>,
+) -> Result<f64> {
+    let extra = term
+        .map(|t| {
+            manybody_table(packing, bonds, t).map(|t| manybody_stiffness(packing.len(), bonds, &t))
+        })
+        .transpose()?;
+    stable_timestep_with(packing, bonds, k, density, extra.as_deref())
+}
+
 /// [`stable_timestep`] with `extra` (N/m, one per particle) added to each particle's k_i:
 /// the many-body term's share ([`manybody_stiffness`]).
 fn stable_timestep_with(

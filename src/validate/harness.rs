@@ -544,7 +544,8 @@ pub fn start_like_velocity_verlet(sim: &mut Simulation) -> Result<()> {
 /// virial stress of that step's force evaluation, σ_ab = Σ l_a f_b / V (branch vectors l
 /// from the bond's i to j end at the positions of the evaluation, f the force on i; Pa,
 /// tension positive), Voigt 11 22 33 23 13 12 from the upper triangle (σ_23 = Σ l_y f_z /
-/// V, …, as LAMMPS' and LIGGGHTS' virials). Errors name `what` when the start does not fit
+/// V, …, as LAMMPS' and LIGGGHTS' virials; f includes the many-body term's g_b when the
+/// simulation carries the term). Errors name `what` when the start does not fit
 /// the packing or a stress is not finite.
 pub fn integrator_history(
     mut sim: Simulation,
@@ -598,8 +599,11 @@ pub fn integrator_history(
         let volume = sim.volume();
         // Forces at the positions of this step, then the move to the next.
         sim.step()?;
+        // With the many-body term, its pair of forces ±g_b on the bond joins the bond's
+        // (the engines tally its virial the same way).
         let m = deterministic_sum_mat3(branches.len(), |b| {
-            branches[b] * sim.loads.force_i(b).transpose()
+            let f = sim.loads.force_i(b) + sim.manybody_bond_force(b).unwrap_or_else(Vec3::zeros);
+            branches[b] * f.transpose()
         }) / volume;
         let s = [
             m[(0, 0)],

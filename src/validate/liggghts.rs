@@ -26,6 +26,13 @@
 //!    for triclinic boxes under MPI): the undamped history, and the damped normal columns
 //!    against the serial six-case run.
 //!
+//! A model with `[manybody]` (docs/manybody.md, "LIGGGHTS"): every driver deck carries the
+//! term (`manybody manybody.txt`), the integrator runs it ([`Simulation::with_manybody`]), the
+//! relaxed reference is [`relaxed_tensor_with_term`], and the time step is the smaller of
+//! the export's step (springs and term, [`stable_timestep_with_manybody`]) and the
+//! integrator's critical step with the term. The stock harmonic checks (3) are not run:
+//! `bond_style harmonic` cannot carry the term; the report says so (`harmonic-skipped`).
+//!
 //! Conventions that are matched rather than differing: the integrator's leapfrog and
 //! LIGGGHTS' velocity Verlet give the same positions when the first force is zero (bonds
 //! stress-free at the start); the integrator's stress is taken with the branch vectors of
@@ -39,11 +46,13 @@ use crate::dem::element::{dynamic_tensor, ElementTestOptions};
 use crate::dem::laws::{LinearBondKernel, MomentForm};
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
-    columns_from_cases, export_liggghts, harmonic_setup, num, read_stress_history, run_liggghts,
-    stable_timestep, stress_variables, tensor_from_cases, DeckOptions, Launch, StressHistory,
+    columns_from_cases, export_liggghts_full, harmonic_setup, num, read_stress_history,
+    run_liggghts, stable_timestep_with_manybody, stress_variables, tensor_from_cases, DeckOptions,
+    Launch, StressHistory,
 };
 use crate::history::Settling;
-use crate::homogenize::relaxed::{relaxed_tensor, RelaxedOptions};
+use crate::homogenize::relaxed::{relaxed_tensor, relaxed_tensor_with_term, RelaxedOptions};
+use crate::manybody::ManyBody;
 use crate::packing::Packing;
 use crate::tensor::compare::relative_difference_to;
 use crate::tensor::Stiffness6;
@@ -74,7 +83,7 @@ pub struct Programs {
 pub struct ValidateOptions {
     /// Particle density (kg/m³), in every code.
     pub density: f64,
-    /// Time step (s); `None`: [`stable_timestep`] — the same in every run.
+    /// Time step (s); `None`: [`crate::export::liggghts::stable_timestep`] — the same in every run.
     pub timestep: Option<f64>,
     /// Steps of the undamped history comparison.
     pub history_steps: u64,
@@ -178,8 +187,9 @@ pub struct LiggghtsDetails {
     pub relaxed_tensor: Stiffness6,
     /// Stock harmonic deck: columns 1–3 (Pa).
     pub harmonic_columns: Vec<[f64; 6]>,
-    /// Relaxed tensor with k_s = k_r = k_tw = 0 (Pa).
-    pub relaxed_normal_springs: Stiffness6,
+    /// Relaxed tensor with k_s = k_r = k_tw = 0 (Pa; `None` with the many-body term, whose
+    /// stock harmonic checks are not run).
+    pub relaxed_normal_springs: Option<Stiffness6>,
     /// Driver at -np N, normal load cases: columns 1–3 (Pa; empty without MPI run).
     pub driver_mpi_columns: Vec<[f64; 6]>,
     /// The driver's damped element-test history (strain, stress Pa) for plots.
@@ -201,13 +211,16 @@ impl EngineDetails for LiggghtsDetails {
     type Json<'a> = LiggghtsJson<'a>;
     const ENGINE: &'static str = "liggghts";
     fn json(&self) -> LiggghtsJson<'_> {
+        let mut tensors_pa = vec![
+            ("driver", rows(&self.driver_tensor)),
+            ("integrator", rows(&self.integrator_tensor)),
+            ("relaxed", rows(&self.relaxed_tensor)),
+        ];
+        if let Some(c) = &self.relaxed_normal_springs {
+            tensors_pa.push(("relaxed_normal_springs", rows(c)));
+        }
         LiggghtsJson {
-            tensors_pa: vec![
-                ("driver", rows(&self.driver_tensor)),
-                ("integrator", rows(&self.integrator_tensor)),
-                ("relaxed", rows(&self.relaxed_tensor)),
-                ("relaxed_normal_springs", rows(&self.relaxed_normal_springs)),
-            ],
+            tensors_pa,
             harmonic_columns_pa: &self.harmonic_columns,
             driver_mpi_columns_pa: &self.driver_mpi_columns,
         }
@@ -281,12 +294,16 @@ pub fn initial_motion(packing: &Packing, dt: f64, o: &ValidateOptions) -> (Vec<V
 pub enum UndampedDeck {
     /// The driver: `pair_style anisobond table bonds.csv` on `packing.data`.
     Driver,
+    /// The driver with the many-body term: `… manybody manybody.txt` (the directory must
+    /// hold the files of [`export_liggghts_full`] with the term).
+    DriverManyBody,
     /// The stock LIGGGHTS: `bond_style harmonic` on `harmonic.data` (normal springs only).
     Harmonic,
 }
 
-/// Write an undamped deck into `dir` (which must hold the files of [`export_liggghts`]):
-/// the bonded packing with initial `velocities` (m/s) and `spins` (rad/s), integrated free
+/// Write an undamped deck into `dir` (which must hold the files of
+/// [`crate::export::liggghts::export_liggghts`], or [`export_liggghts_full`] with the term
+/// for [`UndampedDeck::DriverManyBody`]): the bonded packing with initial `velocities` (m/s) and `spins` (rad/s), integrated free
 /// of damping and deformation for `o.history_steps`, σ = −p (Pa) written every
 /// `o.history_every` steps to `undamped_history.txt`. Returns the deck's file name.
 pub fn write_undamped_deck(
@@ -299,7 +316,9 @@ pub fn write_undamped_deck(
     o: &ValidateOptions,
 ) -> Result<&'static str> {
     let (data_in, data_out, deck) = match which {
-        UndampedDeck::Driver => ("packing.data", "undamped.data", "undamped.in"),
+        UndampedDeck::Driver | UndampedDeck::DriverManyBody => {
+            ("packing.data", "undamped.data", "undamped.in")
+        }
         UndampedDeck::Harmonic => (
             "harmonic.data",
             "harmonic_undamped.data",
@@ -326,10 +345,18 @@ pub fn write_undamped_deck(
     let mut s = String::new();
     let _ = writeln!(s, "# anisobond validate liggghts: undamped run from seeded initial velocities and spins (no deformation).");
     match which {
-        UndampedDeck::Driver => {
+        UndampedDeck::Driver | UndampedDeck::DriverManyBody => {
             let _ = writeln!(s, "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\ncommunicate single vel yes");
             let _ = writeln!(s, "read_data {data_out}");
-            let _ = writeln!(s, "pair_style anisobond table bonds.csv\npair_coeff * *");
+            let term = if which == UndampedDeck::DriverManyBody {
+                " manybody manybody.txt"
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                s,
+                "pair_style anisobond table bonds.csv{term}\npair_coeff * *"
+            );
         }
         UndampedDeck::Harmonic => {
             harmonic_setup(&mut s, data_out, max_bond_length);
@@ -379,15 +406,83 @@ pub fn integrator_history(
     steps: &[u64],
     density: f64,
 ) -> Result<Vec<[f64; 6]>> {
+    integrator_history_with_term(
+        packing, bonds, law, None, velocities, spins, dt, steps, density,
+    )
+}
+
+/// [`integrator_history`] with the many-body term `term` of these bonds in the integrator
+/// ([`Simulation::with_manybody`]).
+#[allow(clippy::too_many_arguments)]
+pub fn integrator_history_with_term(
+    packing: &Packing,
+    bonds: &BondSet,
+    law: Box<dyn BondLaw>,
+    term: Option<&ManyBody>,
+    velocities: &[Vec3],
+    spins: &[Vec3],
+    dt: f64,
+    steps: &[u64],
+    density: f64,
+) -> Result<Vec<[f64; 6]>> {
     if steps.contains(&0) {
         return Err(Error::Invalid(
             "integrator history: output steps start at 1".into(),
         ));
     }
-    let sim = reference_simulation(packing, bonds, law, density, Some(dt), 0.8)?;
+    let sim = match term {
+        None => reference_simulation(packing, bonds, law, density, Some(dt), 0.8)?,
+        Some(t) => Simulation::with_manybody(
+            packing,
+            bonds,
+            law,
+            Some(t.clone()),
+            &reference_options(density, Some(dt), 0.8),
+        )?,
+    };
     let iterations: Vec<u64> = steps.iter().map(|n| n - 1).collect();
     let start = HistoryStart::Moving { velocities, spins };
     harness::integrator_history(sim, start, &iterations, "integrator history")
+}
+
+/// The options of [`reference_simulation`] (undamped, unscaled masses of `density`).
+fn reference_options(density: f64, dt: Option<f64>, safety: f64) -> DemOptions {
+    DemOptions {
+        time_step: dt,
+        safety,
+        local_damping: 0.0,
+        mass: MassOptions {
+            density,
+            scaling: 1.0,
+        },
+        ..DemOptions::default()
+    }
+}
+
+/// The validation's time step without `o.timestep`: the export's [`crate::export::liggghts::stable_timestep`]
+/// (bounded with the term's stiffness when there is one), and with the term the smaller of
+/// that and the integrator's critical step with the term (its Gershgorin bound × 0.8), so
+/// that every code runs stably at the one step.
+fn validation_timestep(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    term: Option<&ManyBody>,
+    o: &ValidateOptions,
+) -> Result<f64> {
+    let export = stable_timestep_with_manybody(packing, bonds, k, o.density, term)?;
+    let Some(t) = term else {
+        return Ok(export);
+    };
+    let integrator = Simulation::with_manybody(
+        packing,
+        bonds,
+        build_law(LawKind::Yade, packing, bonds, k)?,
+        Some(t.clone()),
+        &reference_options(o.density, None, 0.8),
+    )?
+    .time_step();
+    Ok(export.min(integrator))
 }
 
 /// The stock deck's estimated remaining change of its columns (Pa per unit strain, max
@@ -417,9 +512,11 @@ const HISTORY_EVERY: u64 = 100;
 struct LiggghtsRuns {
     driver_undamped: StressHistory,
     driver_undamped_mpi: Option<StressHistory>,
-    harmonic_undamped: StressHistory,
+    /// `None` with the many-body term (the stock deck does not carry it).
+    harmonic_undamped: Option<StressHistory>,
     driver_element: StressHistory,
     driver_case_ends: Vec<u64>,
+    /// Empty with the many-body term.
     harmonic_columns: Vec<[f64; 6]>,
     /// How the stock deck's three cases were settling at their ends (stress in Pa).
     harmonic_settling: Vec<Option<Settling>>,
@@ -428,20 +525,28 @@ struct LiggghtsRuns {
 }
 
 /// Every LIGGGHTS run, in order (one program at a time; runs beside the Rust side).
+#[allow(clippy::too_many_arguments)]
 fn liggghts_runs(
     dir: &Path,
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
+    term: Option<&ManyBody>,
     programs: &Programs,
     dt: f64,
     o: &ValidateOptions,
 ) -> Result<LiggghtsRuns> {
+    let driver_deck = if term.is_some() {
+        UndampedDeck::DriverManyBody
+    } else {
+        UndampedDeck::Driver
+    };
     let mut runs = LiggghtsSetup {
         dir,
         packing,
         bonds,
         k,
+        term,
         dt,
         o,
         motion: initial_motion(packing, dt, o),
@@ -449,24 +554,23 @@ fn liggghts_runs(
     };
     let driver_undamped = runs.undamped(
         "undamped_driver_np1",
-        UndampedDeck::Driver,
+        driver_deck,
         &launch(&programs.driver, 1),
     )?;
     let driver_undamped_mpi = if o.processes > 1 {
         let sub = format!("undamped_driver_np{}", o.processes);
-        Some(runs.undamped(
-            &sub,
-            UndampedDeck::Driver,
-            &launch(&programs.driver, o.processes),
-        )?)
+        Some(runs.undamped(&sub, driver_deck, &launch(&programs.driver, o.processes))?)
     } else {
         None
     };
-    let harmonic_undamped = runs.undamped(
-        "undamped_harmonic",
-        UndampedDeck::Harmonic,
-        &launch(&programs.liggghts, 1),
-    )?;
+    let harmonic_undamped = match term {
+        Some(_) => None,
+        None => Some(runs.undamped(
+            "undamped_harmonic",
+            UndampedDeck::Harmonic,
+            &launch(&programs.liggghts, 1),
+        )?),
+    };
     let (sum, driver_element) = runs.element(
         "element_driver_np1",
         "six",
@@ -474,7 +578,10 @@ fn liggghts_runs(
         &launch(&programs.driver, 1),
         "anisobond.in",
     )?;
-    let (harmonic_columns, harmonic_settling) = runs.harmonic_element(&programs.liggghts)?;
+    let (harmonic_columns, harmonic_settling) = match term {
+        Some(_) => (Vec::new(), Vec::new()),
+        None => runs.harmonic_element(&programs.liggghts)?,
+    };
     let driver_mpi_columns = if o.processes > 1 {
         let np = o.processes;
         let (s, h) = runs.element(
@@ -520,6 +627,8 @@ struct LiggghtsSetup<'a> {
     packing: &'a Packing,
     bonds: &'a BondSet,
     k: &'a BondStiffness,
+    /// The model's many-body term: written with every export, carried by the driver decks.
+    term: Option<&'a ManyBody>,
     dt: f64,
     o: &'a ValidateOptions,
     /// Initial velocities and spins ([`initial_motion`]).
@@ -553,7 +662,15 @@ impl LiggghtsSetup<'_> {
         launch: &Launch,
     ) -> Result<StressHistory> {
         let d = self.dir.join(sub);
-        let sum = export_liggghts(&d, self.packing, self.bonds, self.k, &self.deck(0.0, false))?;
+        let sum = export_liggghts_full(
+            &d,
+            self.packing,
+            self.bonds,
+            self.k,
+            &self.deck(0.0, false),
+            None,
+            self.term,
+        )?;
         let (velocities, spins) = &self.motion;
         let name = write_undamped_deck(
             &d,
@@ -582,7 +699,15 @@ impl LiggghtsSetup<'_> {
         deck_file: &str,
     ) -> Result<(crate::export::liggghts::ExportSummary, StressHistory)> {
         let d = self.dir.join(sub);
-        let summary = export_liggghts(&d, self.packing, self.bonds, self.k, deck_options)?;
+        let summary = export_liggghts_full(
+            &d,
+            self.packing,
+            self.bonds,
+            self.k,
+            deck_options,
+            None,
+            self.term,
+        )?;
         let stage = format!("{sub} ({cases} damped cases)");
         let history = timed(&mut self.timings, &stage, || {
             run_liggghts(launch, &d, deck_file)?;
@@ -620,19 +745,24 @@ impl LiggghtsSetup<'_> {
 struct RustRuns {
     incremental: Vec<[f64; 6]>,
     total: Vec<[f64; 6]>,
+    /// Empty with the many-body term (the stock harmonic checks are not run).
     normal_springs: Vec<[f64; 6]>,
     relaxed: Stiffness6,
-    relaxed_normal_springs: Stiffness6,
+    relaxed_normal_springs: Option<Stiffness6>,
     integrator: Stiffness6,
     timings: Vec<Timing>,
 }
 
 /// The Rust half: the relaxed tensors (full springs and normal springs only), the
 /// integrator's three undamped histories from the seeded motion, and its element tests.
+/// With the many-body term `term`: the relaxed tensor and the integrator carry it, and the
+/// normal-spring references (for the stock harmonic deck) are not computed.
+#[allow(clippy::too_many_arguments)]
 fn rust_runs(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
+    term: Option<&ManyBody>,
     dt: f64,
     steps: &[u64],
     o: &ValidateOptions,
@@ -644,20 +774,40 @@ fn rust_runs(
     for v in [&mut k0.ks, &mut k0.kr, &mut k0.ktw] {
         v.iter_mut().for_each(|x| *x = 0.0);
     }
-    progress("relaxed solver (full springs and normal springs only)");
-    let relaxed = timed(&mut timings, "relaxed", || {
-        relaxed_tensor(packing, bonds, k, &RelaxedOptions::default())
-    })?;
-    let relaxed0 = timed(&mut timings, "relaxed (normal springs only)", || {
-        relaxed_tensor(packing, bonds, &k0, &RelaxedOptions::default())
-    })?;
-    progress("integrator: undamped histories (incremental, total form, normal springs only)");
+    let relaxed = match term {
+        None => {
+            progress("relaxed solver (full springs and normal springs only)");
+            timed(&mut timings, "relaxed", || {
+                relaxed_tensor(packing, bonds, k, &RelaxedOptions::default())
+            })?
+        }
+        Some(t) => {
+            progress("relaxed solver (springs and many-body term)");
+            timed(&mut timings, "relaxed (with the many-body term)", || {
+                relaxed_tensor_with_term(packing, bonds, k, Some(t), &RelaxedOptions::default())
+            })?
+        }
+    };
+    let relaxed0 = match term {
+        Some(_) => None,
+        None => Some(timed(
+            &mut timings,
+            "relaxed (normal springs only)",
+            || relaxed_tensor(packing, bonds, &k0, &RelaxedOptions::default()),
+        )?),
+    };
+    progress(if term.is_some() {
+        "integrator: undamped histories with the many-body term (incremental, total form)"
+    } else {
+        "integrator: undamped histories (incremental, total form, normal springs only)"
+    });
     let mut history = |name: &str, law: Box<dyn BondLaw>| {
         timed(&mut timings, name, || {
-            integrator_history(
+            integrator_history_with_term(
                 packing,
                 bonds,
                 law,
+                term,
                 &velocities,
                 &spins,
                 dt,
@@ -679,31 +829,36 @@ fn rust_runs(
         "integrator undamped (YADE law, total form)",
         build_law(LawKind::Yade, packing, bonds, k)?,
     )?;
-    let normal_springs = history(
-        "integrator undamped (normal springs only)",
-        build_law(LawKind::Yade, packing, bonds, &k0)?,
-    )?;
+    let normal_springs = match term {
+        Some(_) => Vec::new(),
+        None => history(
+            "integrator undamped (normal springs only)",
+            build_law(LawKind::Yade, packing, bonds, &k0)?,
+        )?,
+    };
     progress("integrator: six element tests (Cundall damping)");
     let integrator = timed(&mut timings, "integrator element tests", || {
-        integrator_element_tests(packing, bonds, k, dt, o)
+        integrator_element_tests(packing, bonds, k, term, dt, o)
     })?;
     Ok(RustRuns {
         incremental,
         total,
         normal_springs,
         relaxed: relaxed.c,
-        relaxed_normal_springs: relaxed0.c,
+        relaxed_normal_springs: relaxed0.map(|r| r.c),
         integrator,
         timings,
     })
 }
 
 /// The integrator's quasi-static tensor (YADE's law, Cundall damping, strain in one step:
-/// Truszkowska 2018 Eq. 27) with the validation's time step and density.
+/// Truszkowska 2018 Eq. 27) with the validation's time step and density, and the many-body
+/// term `term` when given.
 fn integrator_element_tests(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
+    term: Option<&ManyBody>,
     dt: f64,
     o: &ValidateOptions,
 ) -> Result<Stiffness6> {
@@ -721,10 +876,11 @@ fn integrator_element_tests(
         },
         ..ElementTestOptions::default()
     };
-    let initial = Simulation::new(
+    let initial = Simulation::with_manybody(
         packing,
         bonds,
         build_law(LawKind::Yade, packing, bonds, k)?,
+        term.cloned(),
         &element_opts.dem,
     )?;
     Ok(dynamic_tensor(&initial, &element_opts, &|_| {})?.c)
@@ -764,7 +920,6 @@ impl Engine for Liggghts {
         check_options(&self.options)
     }
     fn run(&self, p: &Problem, progress: Progress) -> Result<ValidationReport> {
-        refuse_manybody(p)?;
         match p.kind {
             TestKind::PeriodicElement => element_tests(p, &self.programs, &self.options, progress),
         }
@@ -789,7 +944,6 @@ impl Engine for Liggghts {
         Some(SpecimenDeck {
             launch,
             run: |launch, p, test, progress| {
-                refuse_manybody(p)?;
                 specimen::liggghts::DECK.run(launch, p, test, progress)
             },
         })
@@ -800,7 +954,6 @@ impl Engine for Liggghts {
         test: &super::strength::StrengthTest,
         progress: Progress,
     ) -> Result<Report<super::strength::StrengthDetails>> {
-        refuse_manybody(p)?;
         let o = &self.options;
         let launch = super::strength::Launch {
             program: self.programs.driver.clone(),
@@ -815,22 +968,6 @@ impl Engine for Liggghts {
         };
         super::strength::liggghts::run(&launch, p, test, progress)
     }
-}
-
-/// Refuse ([`Error::Model`]) a model with `[manybody]`: the validation's decks, integrator
-/// and relaxed references do not carry the many-body term yet (issue 33), so its comparison
-/// would be of the springs alone. The driver runs the term (`export liggghts`, manybody.txt).
-fn refuse_manybody(p: &Problem) -> Result<()> {
-    if p.model.is_some_and(|m| m.manybody.is_some()) {
-        return Err(Error::Model(
-            "validate liggghts: the model has [manybody], and the validation does not carry the \
-             many-body term yet (its integrator and relaxed references and its decks are of the \
-             springs alone). Run the term in LIGGGHTS with `anisobond export liggghts` (the driver \
-             deck reads manybody.txt), or remove [manybody] to validate the springs"
-                .into(),
-        ));
-    }
-    Ok(())
 }
 
 /// [`engine::validate`] with [`Liggghts`]: the periodic element tests of `packing` with
@@ -871,19 +1008,32 @@ fn element_tests(
     progress: Progress,
 ) -> Result<ValidationReport> {
     let (packing, bonds, k) = (p.packing, p.bonds, p.springs);
+    let term = match p.model.and_then(|m| m.manybody.as_ref()) {
+        Some(spec) => Some(spec.build(packing, bonds)?),
+        None => None,
+    };
     let dt = match o.timestep {
         Some(dt) => dt,
-        None => stable_timestep(packing, bonds, k, o.density)?,
+        None => validation_timestep(packing, bonds, k, term.as_ref(), o)?,
     };
     let steps = history_output_steps(o)?;
-    let (lig, rust) = both_halves(p, programs, dt, &steps, o, progress)?;
+    let (lig, rust) = both_halves(p, term.as_ref(), programs, dt, &steps, o, progress)?;
     let mut checks = Vec::new();
     let undamped = undamped_checks(&lig, &rust, &steps, o, &mut checks)?;
     // (2) Damped quasi-static tensors, relative to the largest entry of the relaxed one.
     let driver_tensor = tensor_from_cases(&lig.driver_element, &lig.driver_case_ends)?;
     checks.extend(tensor_checks(&driver_tensor, &rust, o));
-    // (3) Stock harmonic deck, damped, against the relaxed normal-spring network.
-    checks.push(harmonic_check(&lig, &rust, o));
+    // (3) Stock harmonic deck, damped, against the relaxed normal-spring network (not run
+    // with the many-body term, which `bond_style harmonic` cannot carry).
+    checks.push(match &rust.relaxed_normal_springs {
+        Some(relaxed0) => harmonic_check(&lig, relaxed0, o),
+        None => Check::info(
+            "harmonic-skipped",
+            "stock harmonic deck not run: the model has [manybody], and `bond_style harmonic` \
+             carries normal springs only, without the term (no value)",
+            f64::NAN,
+        ),
+    });
     // (4) -np N damped normal load cases against the serial six-case run.
     let driver_mpi_columns = lig.driver_mpi_columns.clone().unwrap_or_default();
     if lig.driver_mpi_columns.is_some() {
@@ -945,8 +1095,10 @@ fn history_output_steps(o: &ValidateOptions) -> Result<Vec<u64>> {
 
 /// The LIGGGHTS runs in a second thread beside the Rust side (integrator and relaxed
 /// solver), both to the end; the first error of either.
+#[allow(clippy::too_many_arguments)]
 fn both_halves(
     p: &Problem,
+    term: Option<&ManyBody>,
     programs: &Programs,
     dt: f64,
     steps: &[u64],
@@ -955,17 +1107,22 @@ fn both_halves(
 ) -> Result<(LiggghtsRuns, RustRuns)> {
     let (dir, packing, bonds, k) = (p.dir, p.packing, p.bonds, p.springs);
     progress(&format!(
-        "LIGGGHTS runs started in {} (undamped driver -np 1{}, undamped harmonic, damped element tests)",
+        "LIGGGHTS runs started in {} (undamped driver -np 1{}{}, damped element tests)",
         dir.display(),
         if o.processes > 1 {
             format!(" and -np {}", o.processes)
         } else {
             String::new()
+        },
+        if term.is_some() {
+            " with the many-body term"
+        } else {
+            ", undamped harmonic"
         }
     ));
     let (lig, rust) = std::thread::scope(|scope| {
-        let lig = scope.spawn(|| liggghts_runs(dir, packing, bonds, k, programs, dt, o));
-        let rust = rust_runs(packing, bonds, k, dt, steps, o, progress);
+        let lig = scope.spawn(|| liggghts_runs(dir, packing, bonds, k, term, programs, dt, o));
+        let rust = rust_runs(packing, bonds, k, term, dt, steps, o, progress);
         let lig = lig.join().unwrap_or_else(|_| {
             Err(Error::Invalid(
                 "validate liggghts: the thread running LIGGGHTS panicked".into(),
@@ -981,6 +1138,7 @@ struct UndampedRows {
     driver: Vec<[f64; 6]>,
     /// Empty without an MPI run.
     driver_mpi: Vec<[f64; 6]>,
+    /// Empty with the many-body term.
     harmonic: Vec<[f64; 6]>,
 }
 
@@ -1016,16 +1174,19 @@ fn undamped_checks(
         "undamped stress history: driver vs integrator's YADE law, moments in total form from orientations (convention difference, reported)",
         compare("history-total-form", &driver, &rust.total).relative,
     ));
-    let harmonic = rows_at(&lig.harmonic_undamped, steps, "stock harmonic undamped")?;
-    checks.push(Check::new(
-        "harmonic-history",
-        format!(
-            "undamped stress history, {} steps: stock harmonic deck vs integrator with k_s = k_r = k_tw = 0",
-            o.history_steps
-        ),
-        compare("harmonic-history", &harmonic, &rust.normal_springs).relative,
-        o.tolerances.history,
-    ));
+    let mut harmonic = Vec::new();
+    if let Some(h) = &lig.harmonic_undamped {
+        harmonic = rows_at(h, steps, "stock harmonic undamped")?;
+        checks.push(Check::new(
+            "harmonic-history",
+            format!(
+                "undamped stress history, {} steps: stock harmonic deck vs integrator with k_s = k_r = k_tw = 0",
+                o.history_steps
+            ),
+            compare("harmonic-history", &harmonic, &rust.normal_springs).relative,
+            o.tolerances.history,
+        ));
+    }
     let mut driver_mpi = Vec::new();
     if let Some(h2) = &lig.driver_undamped_mpi {
         driver_mpi = rows_at(h2, steps, "driver -np N undamped")?;
@@ -1094,8 +1255,8 @@ fn tensor_checks(driver_tensor: &Stiffness6, rust: &RustRuns, o: &ValidateOption
 /// network. A normal-spring network at Z ≈ 6 is near a mechanism and relaxes slowly: when
 /// the deck was still changing by more than the tolerance, the comparison is reported as
 /// not converged instead of judged (issue 20).
-fn harmonic_check(lig: &LiggghtsRuns, rust: &RustRuns, o: &ValidateOptions) -> Check {
-    let relaxed0_cols = columns_of(&rust.relaxed_normal_springs, 3);
+fn harmonic_check(lig: &LiggghtsRuns, relaxed0: &Stiffness6, o: &ValidateOptions) -> Check {
+    let relaxed0_cols = columns_of(relaxed0, 3);
     let scale = relaxed0_cols
         .iter()
         .flatten()
@@ -1175,10 +1336,9 @@ pub fn write_report(dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
     rows("integrator", &columns_of(&r.integrator_tensor, 6));
     rows("relaxed", &columns_of(&r.relaxed_tensor, 6));
     rows("harmonic", &r.harmonic_columns);
-    rows(
-        "relaxed_normal_springs",
-        &columns_of(&r.relaxed_normal_springs, 6),
-    );
+    if let Some(c) = &r.relaxed_normal_springs {
+        rows("relaxed_normal_springs", &columns_of(c, 6));
+    }
     rows("driver_mpi_normal_cases", &r.driver_mpi_columns);
     let p = dir.join("tensors.csv");
     crate::io::write_string_atomic(&p, &c)?;
@@ -1225,7 +1385,7 @@ mod tests {
                 integrator_tensor: Stiffness6::identity(),
                 relaxed_tensor: Stiffness6::identity(),
                 harmonic_columns: vec![],
-                relaxed_normal_springs: Stiffness6::identity(),
+                relaxed_normal_springs: Some(Stiffness6::identity()),
                 driver_mpi_columns: vec![],
                 driver_element_history: StressHistory::default(),
             },

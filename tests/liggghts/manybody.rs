@@ -392,7 +392,8 @@ fn manybody_table_round_trip_and_refusal() {
 
 /// `anisobond export liggghts` of a model with `[manybody]` writes the library's table of the
 /// same assembly and puts it on the driver deck; with `[strength]` too it is refused, with
-/// nothing written; `validate liggghts` refuses the model (its references lack the term).
+/// nothing written; `validate liggghts --specimen` refuses the model (the specimen deck and
+/// reference lack the term; the element tests carry it, see the test below).
 #[test]
 fn cli_export_writes_the_term_and_refusals() {
     use crate::common::{bin, fails, holds_exactly, succeeds, write};
@@ -471,7 +472,7 @@ fn cli_export_writes_the_term_and_refusals() {
     let _ = driver();
     let out3 = dir.join("out3");
     let o = bin()
-        .args(["validate", "liggghts"])
+        .args(["validate", "liggghts", "--specimen"])
         .arg(&packing)
         .arg("--model")
         .arg(&model)
@@ -579,4 +580,105 @@ fn model_forms_match_library_under_uniform_strain() {
             err / scale
         );
     }
+}
+
+/// `validate liggghts` of a model with `[manybody]` (issue 33): the driver decks carry the
+/// term, the integrator and the relaxed reference too. Every check passes within the usual
+/// tolerances (history 1e-6, tensors 5e-3, -np 2 vs -np 1 1e-6); the reference is the relaxed
+/// tensor with the term recomputed here, which is far from the springs' alone, so a run of
+/// the springs alone would fail `tensor-driver-relaxed`.
+#[test]
+fn validate_with_the_term_meets_the_relaxed_tensor_with_the_term() {
+    use anisobond::homogenize::{relaxed_tensor, relaxed_tensor_with_term, RelaxedOptions};
+    use anisobond::tensor::relative_difference;
+    use anisobond::validate::liggghts::{checks_table, Liggghts, Programs, ValidateOptions};
+    use anisobond::validate::{validate, Problem, TestKind};
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let toml = model_toml("green-lagrange");
+    let b = bonded(200, 7, &toml);
+    let model = Model::from_toml_str(&toml, "<test model>").unwrap();
+    let term = model
+        .manybody
+        .as_ref()
+        .unwrap()
+        .build(&b.packing, &b.bonds)
+        .unwrap();
+    let dir = fresh_dir("manybody_validate");
+    let problem = Problem {
+        dir: &dir,
+        packing: &b.packing,
+        bonds: &b.bonds,
+        springs: &b.k,
+        model: Some(&model),
+        kind: TestKind::PeriodicElement,
+    };
+    let engine = Liggghts {
+        programs: Programs {
+            driver: driver(),
+            liggghts: "liggghts".into(),
+        },
+        options: ValidateOptions {
+            integrator_tolerance: 1e-5,
+            ..ValidateOptions::default()
+        },
+    };
+    let t0 = std::time::Instant::now();
+    let r = validate(&engine, &problem, &|s| {
+        eprintln!("[{:6.1} s] {s}", t0.elapsed().as_secs_f64())
+    })
+    .expect("validation runs");
+    eprintln!("{}", checks_table(&r));
+    let ids: Vec<&str> = r.checks.iter().map(|c| c.id.as_str()).collect();
+    for want in [
+        "history",
+        "mpi-history",
+        "tensor-driver-relaxed",
+        "tensor-integrator-relaxed",
+        "tensor-driver-integrator",
+        "mpi-columns",
+        "harmonic-skipped",
+    ] {
+        assert!(ids.contains(&want), "check {want} missing: {ids:?}");
+    }
+    assert!(
+        !ids.contains(&"harmonic-history") && !ids.contains(&"harmonic-relaxed"),
+        "the stock harmonic deck cannot carry the term: {ids:?}"
+    );
+    assert!(r.failures().is_empty(), "{}", checks_table(&r));
+    // The reference, recomputed here: the relaxed tensor with the term, and the springs'
+    // alone for contrast.
+    let with_term = relaxed_tensor_with_term(
+        &b.packing,
+        &b.bonds,
+        &b.k,
+        Some(&term),
+        &RelaxedOptions::default(),
+    )
+    .unwrap()
+    .c;
+    let springs = relaxed_tensor(&b.packing, &b.bonds, &b.k, &RelaxedOptions::default())
+        .unwrap()
+        .c;
+    // max |ΔC| / max |C_b| of relative_difference(a, b).
+    let same = relative_difference(&r.relaxed_tensor, &with_term);
+    let away = relative_difference(&springs, &with_term);
+    let driver_vs_springs = relative_difference(&r.driver_tensor, &springs);
+    eprintln!(
+        "report's relaxed vs recomputed {same:.2e}; springs alone vs with the term {away:.3}; \
+         driver vs springs alone {driver_vs_springs:.3}; dt {:.3e} s",
+        r.time_step
+    );
+    assert!(same < 1e-9, "{same}");
+    assert!(
+        away > 20.0 * 5e-3,
+        "the term should change the tensor clearly: {away}"
+    );
+    assert!(driver_vs_springs > 20.0 * 5e-3, "{driver_vs_springs}");
+    // The step is bounded with the term: not above the springs' own stable step.
+    let springs_dt =
+        anisobond::export::liggghts::stable_timestep(&b.packing, &b.bonds, &b.k, 2500.0).unwrap();
+    assert!(r.time_step < springs_dt, "{} vs {springs_dt}", r.time_step);
 }
