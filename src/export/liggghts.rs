@@ -108,7 +108,7 @@ pub fn stable_timestep(
 
 /// [`stable_timestep`] with the many-body term `term` of these bonds (when given) added to
 /// each particle's stiffness sum, as [`export_liggghts_full`] chooses its step
-/// ([`manybody_stiffness`], docs/manybody.md "LIGGGHTS").
+/// (`manybody_stiffness`, docs/manybody.md "LIGGGHTS").
 pub fn stable_timestep_with_manybody(
     packing: &Packing,
     bonds: &BondSet,
@@ -393,7 +393,7 @@ pub fn export_liggghts_with_limits(
 /// to `manybody.txt` ([`write_manybody_table`]) and the driver deck's pair style reads it
 /// (`manybody manybody.txt`), so the driver runs the library's [`ManyBody`] forces; the stock
 /// harmonic deck does not carry it (its header says so). The chosen time step counts the
-/// term's stiffness too ([`manybody_stiffness`]). Breakable bonds (`limits`) with the
+/// term's stiffness too (`manybody_stiffness`). Breakable bonds (`limits`) with the
 /// term are refused ([`Error::Model`]): a broken bond would change the fits of its particles.
 pub fn export_liggghts_full(
     dir: &Path,

@@ -6,7 +6,7 @@ use super::ManyBody;
 use crate::{Error, Result};
 
 impl ManyBody {
-    /// Per particle p: max over its three translation rows a of Σ_q Σ_c |K_pq[a][c]| /
+    /// Per particle p: max over its three translation rows a of Σ_q Σ_c |K_pq(a, c)| /
     /// √(m_p m_q) (1/s²), K the term's Hessian at the reference state. Added to the
     /// springs' Gershgorin rows it bounds ω²_max of M^-1/2 K M^-1/2, so dt_c = 2/ω_max stays
     /// safe. Refuses masses of the wrong count or not finite and > 0.
