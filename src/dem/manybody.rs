@@ -144,16 +144,6 @@ impl ManyBodyForces {
         let l: Vec<Vec3> = (0..t.len())
             .map(|b| branch(&p.position, t, &hm, periodic, b))
             .collect();
-        let k = self.term.hessian(&l)?;
-        for (r, row) in rows.iter_mut().enumerate() {
-            for (c, blk) in k.row(r) {
-                for a in 0..3 {
-                    for d in 0..3 {
-                        row[a] += blk[(a, d)].abs() / (p.mass[r] * p.mass[c]).sqrt();
-                    }
-                }
-            }
-        }
-        Ok(())
+        self.term.add_gershgorin_rows(&l, &p.mass, rows)
     }
 }

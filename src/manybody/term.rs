@@ -486,14 +486,10 @@ impl ManyBody {
         })
     }
 
-    /// The Hessian ∂²U/∂x∂x (N/m) at branch vectors `branch`, over every particle, in 6×6
-    /// blocks of the relaxed solver's DOFs (translation first; the rotation rows are zero):
-    /// particles sharing a bonded neighbour are coupled. Each block row is summed in a fixed
-    /// order (the same bits on any number of threads).
-    pub fn hessian(&self, branch: &[Vec3]) -> Result<BlockSparse> {
-        self.check_branch(branch)?;
-        let n = self.len();
-        let states: Vec<(Mat3, Mat3)> = (0..n)
+    /// Per particle, its fitted F_p and S_p = D:E_p at `branch` (identity and zero for an
+    /// excluded particle): the state the Hessian and the load are linearised about.
+    fn particle_states(&self, branch: &[Vec3]) -> Vec<(Mat3, Mat3)> {
+        (0..self.len())
             .into_par_iter()
             .map(|p| {
                 if !self.included[p] {
@@ -502,18 +498,34 @@ impl ManyBody {
                 let f = self.gradient_of(p, branch);
                 (f, self.particle_state(&f).2)
             })
-            .collect();
+            .collect()
+    }
+
+    /// The particles whose stencil can hold particle `r`: r itself and its bonded
+    /// neighbours, sorted, each once (the fixed order the Hessian and load rows sum in).
+    fn stencil_owners(&self, r: usize) -> Vec<u32> {
+        let mut owners: Vec<u32> = vec![r as u32];
+        for k in self.inc_start[r]..self.inc_start[r + 1] {
+            let b = self.inc_bond[k] as usize;
+            owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
+        }
+        owners.sort_unstable();
+        owners.dedup();
+        owners
+    }
+
+    /// The Hessian ∂²U/∂x∂x (N/m) at branch vectors `branch`, over every particle, in 6×6
+    /// blocks of the relaxed solver's DOFs (translation first; the rotation rows are zero):
+    /// particles sharing a bonded neighbour are coupled. Each block row is summed in a fixed
+    /// order (the same bits on any number of threads).
+    pub fn hessian(&self, branch: &[Vec3]) -> Result<BlockSparse> {
+        self.check_branch(branch)?;
+        let n = self.len();
+        let states = self.particle_states(branch);
         let rows: Vec<Vec<(u32, Block6)>> = (0..n)
             .into_par_iter()
             .map(|r| {
-                // The particles whose stencil holds r: r itself and its bonded neighbours.
-                let mut owners: Vec<u32> = vec![r as u32];
-                for k in self.inc_start[r]..self.inc_start[r + 1] {
-                    let b = self.inc_bond[k] as usize;
-                    owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
-                }
-                owners.sort_unstable();
-                owners.dedup();
+                let owners = self.stencil_owners(r);
                 let mut entries: Vec<(u32, Mat3)> = Vec::new();
                 for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
                     let p = p as usize;
@@ -552,23 +564,11 @@ impl ManyBody {
     pub fn load(&self, branch: &[Vec3]) -> Result<Vec<Block6>> {
         self.check_branch(branch)?;
         let n = self.len();
-        let states: Vec<(Mat3, Mat3)> = (0..n)
-            .into_par_iter()
-            .map(|p| {
-                let f = self.gradient_of(p, branch);
-                (f, self.particle_state(&f).2)
-            })
-            .collect();
+        let states = self.particle_states(branch);
         Ok((0..n)
             .into_par_iter()
             .map(|r| {
-                let mut owners: Vec<u32> = vec![r as u32];
-                for k in self.inc_start[r]..self.inc_start[r + 1] {
-                    let b = self.inc_bond[k] as usize;
-                    owners.push(self.bond_i[b] + self.bond_j[b] - r as u32);
-                }
-                owners.sort_unstable();
-                owners.dedup();
+                let owners = self.stencil_owners(r);
                 let mut g = nalgebra::Matrix3x6::<f64>::zeros();
                 for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
                     let p = p as usize;

@@ -3,7 +3,7 @@
 //! alone (YADE's route) can add the term's ω².
 
 use super::ManyBody;
-use crate::{Error, Result};
+use crate::{Error, Result, Vec3};
 
 impl ManyBody {
     /// Per particle p: max over its three translation rows a of Σ_q Σ_c |K_pq(a, c)| /
@@ -24,18 +24,33 @@ impl ManyBody {
                 masses[p]
             )));
         }
-        let k = self.hessian(self.reference_branches())?;
-        Ok((0..k.rows())
-            .map(|p| {
-                let mut rows = [0.0_f64; 3];
-                for (q, block) in k.row(p) {
-                    let scale = 1.0 / (masses[p] * masses[q]).sqrt();
-                    for (a, row) in rows.iter_mut().enumerate() {
-                        *row += (0..3).map(|c| block[(a, c)].abs()).sum::<f64>() * scale;
+        let mut rows = vec![[0.0_f64; 6]; self.len()];
+        self.add_gershgorin_rows(self.reference_branches(), masses, &mut rows)?;
+        Ok(rows
+            .iter()
+            .map(|r| r[..3].iter().fold(0.0_f64, |m, v| m.max(*v)))
+            .collect())
+    }
+
+    /// Add to each particle's translation rows of `rows` (an integrator's Gershgorin rows,
+    /// translations then rotations) Σ_q Σ_c |K_pq(a, c)| / √(m_p m_q), K the term's Hessian
+    /// at branch vectors `branch` (the term applies no torque, so rotation rows get nothing).
+    pub(crate) fn add_gershgorin_rows(
+        &self,
+        branch: &[Vec3],
+        masses: &[f64],
+        rows: &mut [[f64; 6]],
+    ) -> Result<()> {
+        let k = self.hessian(branch)?;
+        for (r, row) in rows.iter_mut().enumerate() {
+            for (c, blk) in k.row(r) {
+                for a in 0..3 {
+                    for d in 0..3 {
+                        row[a] += blk[(a, d)].abs() / (masses[r] * masses[c]).sqrt();
                     }
                 }
-                rows.iter().fold(0.0_f64, |m, v| m.max(*v))
-            })
-            .collect())
+            }
+        }
+        Ok(())
     }
 }
