@@ -214,7 +214,7 @@ pub fn local_fields(
                 .into(),
         ));
     }
-    if let Some(x) = strain.iter().find(|x| !(x.abs() <= 0.1)) {
+    if let Some(x) = strain.iter().find(|x| !x.is_finite() || x.abs() > 0.1) {
         return Err(Error::Invalid(format!(
             "local fields: strain component {x} is not a small strain: the solution is linear \
              (small-strain), expected finite |ε| ≤ 0.1"
