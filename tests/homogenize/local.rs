@@ -34,6 +34,15 @@ fn varied_springs(n: usize) -> BondStiffness {
     k
 }
 
+/// `p` with radii between 0.85 and 1.15 of its own (the bonds and their branch vectors
+/// unchanged): unequal contact arms and particle volumes.
+fn polydisperse(p: &Packing) -> Packing {
+    let radii = (0..p.len())
+        .map(|q| p.radii[q] * (1.0 + 0.15 * (1.3 * q as f64).sin()))
+        .collect();
+    Packing::new(p.positions.clone(), radii, p.cell).unwrap()
+}
+
 /// The relaxed options with the direct solver (exact up to rounding).
 fn cholesky() -> LocalOptions {
     LocalOptions {
@@ -61,7 +70,8 @@ fn amax(v: &Voigt6) -> f64 {
 
 /// (a) On a disordered network with rotational springs (and with a pruned particle and a
 /// two-bond one) Σ_p V_p σ_p / V equals C_relaxed·ε of the same (direct) solve to 1e-12 and the
-/// particle volumes add to V; every load-carrying particle is in force balance.
+/// particle volumes add to V (unequal radii); every load-carrying particle is in force and
+/// torque balance.
 #[test]
 fn particle_stresses_add_up_to_the_relaxed_stress() {
     for thin in [false, true] {
@@ -70,6 +80,7 @@ fn particle_stresses_add_up_to_the_relaxed_stress() {
         } else {
             disordered_fcc(3, 7, 0.25)
         };
+        let p = polydisperse(&p);
         let k = varied_springs(b.len());
         let e = strain();
         let f = local_fields(&p, &b, &k, &e, &cholesky()).unwrap();
@@ -93,6 +104,26 @@ fn particle_stresses_add_up_to_the_relaxed_stress() {
             worst < 1e-9 * fmax,
             "thinned {thin}: unbalanced {worst:e} of {fmax:e}"
         );
+        // Torque balance about every centre, with the mid-gap contact arms written out here
+        // (r_i = R_i + gap/2): the force arms of the stresses and the bond moments are those
+        // of the solve.
+        let mut torque = vec![Vec3::zeros(); p.len()];
+        for (bi, force) in f.bond_force.iter().enumerate() {
+            let (i, j) = (b.i[bi] as usize, b.j[bi] as usize);
+            let (n, l) = (b.normal[bi], b.length[bi]);
+            let gap = l - p.radii[i] - p.radii[j];
+            let (ri, rj) = (p.radii[i] + 0.5 * gap, p.radii[j] + 0.5 * gap);
+            torque[i] += (n * ri).cross(force) + f.bond_moment[bi];
+            torque[j] += (n * rj).cross(force) - f.bond_moment[bi];
+        }
+        let worst = torque.iter().map(|x| x.norm()).fold(0.0, f64::max);
+        let scale = fmax * 1e-3;
+        assert!(
+            worst < 1e-9 * scale,
+            "thinned {thin}: torque {worst:e} of {scale:e}"
+        );
+        let mmax = f.bond_moment.iter().map(|x| x.norm()).fold(0.0, f64::max);
+        assert!(mmax > 1e-6 * scale, "the bonds carry moments: {mmax:e}");
         if thin {
             assert_eq!(f.relaxed.null_space.removed_particles, 1);
             let reasons: Vec<_> = f
