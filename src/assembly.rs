@@ -653,7 +653,7 @@ impl Assembly {
         )?;
         if self.model.manybody.is_some() {
             return Err(Error::Model(
-                "local fields: the model has a many-body term ([manybody]), whose share of each                  particle's stress is not given yet; remove [manybody] from the model for the                  springs' local fields"
+                "local fields: the model has a many-body term ([manybody]), whose share of each particle's stress is not given yet; remove [manybody] from the model for the springs' local fields"
                     .into(),
             ));
         }
