@@ -10,6 +10,8 @@
 //! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - `cholesky.rs`, `two_level.rs`: the relaxed solve's direct solver and CG preconditioner.
 //! - `network.rs`: the linearised bond network the last two share.
+//! - `term_operator.rs`: the many-body term's Hessian, load and affine tensor for the relaxed
+//!   solve, in factored form.
 //! - `geometric.rs`: the initial-stress stiffness of a pre-loaded network;
 //!   `buckling.rs`: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
@@ -26,6 +28,7 @@ pub(crate) mod prestress;
 pub(crate) mod relaxed;
 pub(crate) mod report;
 pub(crate) mod sparse;
+pub(crate) mod term_operator;
 pub(crate) mod two_level;
 pub(crate) mod voigt;
 

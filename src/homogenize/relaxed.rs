@@ -15,7 +15,8 @@
 
 use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
-use super::sparse::{mul6_cols, mul_add6_cols, BlockSparse};
+use super::sparse::{mul6_cols, BlockSparse};
+use super::term_operator::TermOperator;
 use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::manybody::ManyBody;
@@ -268,10 +269,11 @@ fn relaxed_solve_full(
         axial_force,
         term.is_some(),
     )?;
-    let term_k = match term {
-        Some(t) => Some(add_term(&mut net, t)?),
+    let term_op = match term {
+        Some(t) => Some(TermOperator::new(t, &net.index, net.n_active)?),
         None => None,
     };
+    let term_scale = term_op.as_ref().map(|op| add_term(&mut net, op));
     let c_affine = net.h / net.volume;
     let m = net.n_active;
     if !opts.fluctuations || m == 0 {
@@ -290,21 +292,14 @@ fn relaxed_solve_full(
         });
     }
     let springs = BlockSparse::assemble(&net);
-    // With a term: K = springs + term for the set-up (diagonal blocks, coarse space, Cholesky,
-    // the tensor), and for the CG's products the springs' 6×6 blocks beside the term's
-    // translation-only 3×3 ones (a 6×6 product of them would spend 3/4 of its work on zeros).
-    let (merged, term3, term_scale) = match term_k {
-        Some((kt, ts)) => (
-            Some(springs.add(&kt)?),
-            Some(Translational::of(&kt)),
-            Some(ts),
-        ),
-        None => (None, None, None),
-    };
-    let kmat = merged.as_ref().unwrap_or(&springs);
+    // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
+    // assembled K; only the sparse Cholesky assembles it (below).
     let pre: Vec<(Block6, usize)> = (0..m)
         .into_par_iter()
-        .map(|p| pinv_psd(&kmat.diagonal(p)))
+        .map(|p| match &term_op {
+            Some(op) => pinv_psd(&(springs.diagonal(p) + op.diagonal(p))),
+            None => pinv_psd(&springs.diagonal(p)),
+        })
         .collect();
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
@@ -319,19 +314,31 @@ fn relaxed_solve_full(
             *s = s.hypot(*t);
         }
     }
-    let (q, iterations, residual) = match opts.solver {
-        RelaxedSolver::Cholesky => cholesky_fluctuations(kmat, &net.g, &scale, opts.tolerance)?,
+    let (q, iterations, residual, (gtq, qtkq)) = match opts.solver {
+        RelaxedSolver::Cholesky => {
+            let merged = match term {
+                Some(t) => Some(
+                    springs.add(&t.hessian(t.reference_branches())?.restrict(&net.index, 1.0))?,
+                ),
+                None => None,
+            };
+            let kmat = merged.as_ref().unwrap_or(&springs);
+            let (q, it, res) = cholesky_fluctuations(kmat, &net.g, &scale, opts.tolerance)?;
+            let terms = kmat.fluctuation_terms(&net.g, &q);
+            (q, it, res, terms)
+        }
         RelaxedSolver::Cg { preconditioner } => {
-            let two_level = coarse_space(packing, &net, kmat, preconditioner, opts.rotations)?;
-            let start = initial.filter(|x| x.len() == m);
             let op = Stiffness {
                 k: &springs,
-                term: term3.as_ref(),
+                term: term_op.as_ref(),
             };
-            pcg(&op, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?
+            let two_level = coarse_space(packing, &net, &op, preconditioner, opts.rotations)?;
+            let start = initial.filter(|x| x.len() == m);
+            let (q, it, res) = pcg(&op, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?;
+            let terms = op.fluctuation_terms(&net.g, &q);
+            (q, it, res, terms)
         }
     };
-    let (gtq, qtkq) = kmat.fluctuation_terms(&net.g, &q);
     let c = net.h - gtq - gtq.transpose() + qtkq;
     let c = (c + c.transpose()) * (0.5 / net.volume);
     Ok(RelaxedSolution {
@@ -349,83 +356,50 @@ fn relaxed_solve_full(
     })
 }
 
-/// The many-body term's stiffness in 3×3 translation blocks (CSR over the active particles):
-/// its rotation rows and columns are zero.
-struct Translational {
-    row_start: Vec<usize>,
-    col: Vec<u32>,
-    block: Vec<crate::Mat3>,
-}
-
-impl Translational {
-    /// The translation blocks of `k`, row by row.
-    fn of(k: &BlockSparse) -> Translational {
-        let mut row_start = vec![0];
-        let (mut col, mut block) = (Vec::new(), Vec::new());
-        for p in 0..k.rows() {
-            for (c, b) in k.row(p) {
-                col.push(c as u32);
-                block.push(b.fixed_view::<3, 3>(0, 0).into_owned());
-            }
-            row_start.push(col.len());
-        }
-        Translational {
-            row_start,
-            col,
-            block,
-        }
-    }
-}
-
-/// K of the CG: the springs' 6×6 blocks, plus a many-body term's 3×3 translation blocks.
+/// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form.
 struct Stiffness<'a> {
     k: &'a BlockSparse,
-    term: Option<&'a Translational>,
+    term: Option<&'a TermOperator>,
 }
 
 impl Stiffness<'_> {
     /// Y = K X on the first `cols` load cases, row by row in a fixed order.
     fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
-        let Some(t) = self.term else {
-            return self.k.apply_cols(x, y, cols);
-        };
-        y.par_iter_mut().enumerate().for_each(|(p, yp)| {
-            let mut acc = Block6::zeros();
-            for (c, b) in self.k.row(p) {
-                mul_add6_cols(&mut acc, b, &x[c], cols);
-            }
-            for e in t.row_start[p]..t.row_start[p + 1] {
-                let (b, xq) = (&t.block[e], &x[t.col[e] as usize]);
-                for c in 0..cols.min(6) {
-                    for i in 0..3 {
-                        acc[(i, c)] += b[(i, 0)] * xq[(0, c)]
-                            + b[(i, 1)] * xq[(1, c)]
-                            + b[(i, 2)] * xq[(2, c)];
-                    }
-                }
-            }
-            *yp = acc;
-        });
+        self.k.apply_cols(x, y, cols);
+        if let Some(t) = self.term {
+            t.add_apply(x, y, cols);
+        }
+    }
+
+    /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
+    /// order) with the term's share of K.
+    fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
+        if self.term.is_none() {
+            return self.k.fluctuation_terms(g, q);
+        }
+        let mut kq = vec![Block6::zeros(); q.len()];
+        self.apply_cols(q, &mut kq, 6);
+        let mut gtq = Block6::zeros();
+        let mut qtkq = Block6::zeros();
+        for p in 0..q.len() {
+            gtq += g[p].transpose() * q[p];
+            qtkq += q[p].transpose() * kq[p];
+        }
+        (gtq, qtkq)
     }
 }
 
 /// Add the many-body term at its reference state to the network (Kruyt 2014 Eqs. 10–14 with
-/// the term's energy): its affine tensor to H, its mixed block to G (each particle's row at
-/// its active index); returns its Hessian restricted to the active particles, for K, and the
-/// norm of its load per load case (for [`load_scales`]). Particles without bonds are in no
-/// particle's stencil, so nothing of the term falls on an inactive particle.
-fn add_term(net: &mut Network, term: &ManyBody) -> Result<(BlockSparse, [f64; 6])> {
-    let branch = term.reference_branches();
-    net.h += term.affine_tensor(branch)? * net.volume;
-    let g = term.load(branch)?;
-    for (p, gp) in g.iter().enumerate() {
-        match net.index[p] {
-            u32::MAX => debug_assert!(gp.amax() == 0.0),
-            a => net.g[a as usize] += gp,
-        }
+/// the term's energy): its affine tensor to H, its mixed block to G; returns the norm of its
+/// load per load case (for [`load_scales`]). Particles without bonds are in no particle's
+/// stencil, so nothing of the term falls on an inactive particle.
+fn add_term(net: &mut Network, term: &TermOperator) -> [f64; 6] {
+    net.h += term.affine();
+    let g = term.load();
+    for (gn, gp) in net.g.iter_mut().zip(&g) {
+        *gn += gp;
     }
-    let k = term.hessian(branch)?.restrict(&net.index, 1.0);
-    Ok((k, column_dots(&g, &g).map(f64::sqrt)))
+    column_dots(&g, &g).map(f64::sqrt)
 }
 
 /// Scale of each load case before the cancellation of bond contributions at a particle
@@ -476,13 +450,14 @@ fn cholesky_fluctuations(
 }
 
 /// The two-level coarse space of the CG ([`super::two_level`], aggregates on a grid over
-/// the periodic cell), or `None` for block-Jacobi. A coarse space that cannot be factored
+/// the periodic cell; with a many-body term, its K P from the term's factored form), or
+/// `None` for block-Jacobi. A coarse space that cannot be factored
 /// (e.g. a single aggregate, whose translations are all null) only weakens the
 /// preconditioner: `None` then too; the solution and its accuracy are unchanged.
 fn coarse_space(
     packing: &Packing,
     net: &Network,
-    kmat: &BlockSparse,
+    kmat: &Stiffness,
     preconditioner: CgPreconditioner,
     rotations: bool,
 ) -> Result<Option<TwoLevel>> {
@@ -501,12 +476,16 @@ fn coarse_space(
         .iter()
         .map(|&p| packing.positions[p as usize])
         .collect();
-    Ok(TwoLevel::new(
-        kmat,
+    Ok(TwoLevel::with_extra(
+        kmat.k,
         &positions,
         lengths,
         rotations,
         particles_per_aggregate,
+        |aggregate, prolongation| {
+            kmat.term
+                .map(|t| t.times_prolongation(aggregate, prolongation))
+        },
     )
     .ok())
 }

@@ -87,11 +87,13 @@ fn group_by<T: Copy>(
 }
 
 /// K P, one short row per fine node (CSR: start, (aggregate, Σ_q∈aggregate K_pq P_q)), in
-/// a fixed order: the row's columns in order, aggregates sorted.
+/// a fixed order: the row's columns in order, aggregates sorted; `extra` rows (another
+/// operator's K P, e.g. a many-body term applied in factored form) added after k's.
 fn k_times_p(
     k: &BlockSparse,
     aggregate: &[u32],
     prolongation: &[Block6],
+    extra: Option<&[Vec<(u32, Block6)>]>,
 ) -> (Vec<usize>, Vec<(u32, Block6)>) {
     let kp_rows: Vec<Vec<(u32, Block6)>> = (0..k.rows())
         .into_par_iter()
@@ -103,6 +105,12 @@ fn k_times_p(
                 match acc.iter_mut().find(|(a, _)| *a == b) {
                     Some((_, s)) => *s += v,
                     None => acc.push((b, v)),
+                }
+            }
+            for (b, v) in extra.map_or(&[][..], |e| &e[p][..]) {
+                match acc.iter_mut().find(|(a, _)| a == b) {
+                    Some((_, s)) => *s += v,
+                    None => acc.push((*b, *v)),
                 }
             }
             acc.sort_by_key(|(a, _)| *a);
@@ -173,6 +181,28 @@ impl TwoLevel {
         rotations: bool,
         per_aggregate: usize,
     ) -> Result<TwoLevel> {
+        Self::with_extra(
+            k,
+            positions,
+            box_lengths,
+            rotations,
+            per_aggregate,
+            |_, _| None,
+        )
+    }
+
+    /// [`Self::new`] for the operator K = `k` + K', K' known only through its products with
+    /// the prolongation: `extra(aggregate, prolongation)` gives, per fine node, K'P's blocks
+    /// (aggregate, Σ_q∈aggregate K'_pq P_q) sorted by aggregate (the relaxed solve's
+    /// many-body term, applied in factored form and never assembled).
+    pub(crate) fn with_extra(
+        k: &BlockSparse,
+        positions: &[Vec3],
+        box_lengths: Vec3,
+        rotations: bool,
+        per_aggregate: usize,
+        extra: impl FnOnce(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
+    ) -> Result<TwoLevel> {
         let m = k.rows();
         if positions.len() != m || m == 0 {
             return Err(Error::Invalid(format!(
@@ -206,7 +236,14 @@ impl TwoLevel {
             .map(|(p, &a)| (a, p as u32, ()));
         let (start, nodes) = group_by(n_agg, members, ());
         let nodes: Vec<u32> = nodes.into_iter().map(|(p, ())| p).collect();
-        let (kp_start, kp) = k_times_p(k, &aggregate, &prolongation);
+        let extra = extra(&aggregate, &prolongation);
+        if extra.as_ref().is_some_and(|e| e.len() != m) {
+            return Err(Error::Invalid(format!(
+                "two-level preconditioner: {} rows of the extra operator for {m} particles",
+                extra.as_ref().map_or(0, |e| e.len())
+            )));
+        }
+        let (kp_start, kp) = k_times_p(k, &aggregate, &prolongation, extra.as_deref());
         // (KP)ᵀ by aggregate: the blocks of every aggregate's column, by fine row.
         let columns = (0..m).flat_map(|p| {
             kp[kp_start[p]..kp_start[p + 1]]

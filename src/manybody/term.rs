@@ -294,6 +294,15 @@ impl ManyBody {
             .collect())
     }
 
+    /// Particle `p`'s stencil: the particles its F_p depends on and their coefficients c_n,
+    /// ∂F_p/∂x_n = I ⊗ c_n (p first; empty for an excluded particle). With
+    /// [`particle_volumes`](Self::particle_volumes) and [`tensor`](Self::tensor) it gives the
+    /// reference-state Hessian in factored form, Σ_p V_p B_pᵀ D B_p (the relaxed solve's CG).
+    pub fn stencil(&self, p: usize) -> (&[u32], &[Vec3]) {
+        let span = self.sten_start[p]..self.sten_start[p + 1];
+        (&self.sten_node[span.clone()], &self.sten_coef[span])
+    }
+
     /// The reference branch vectors L_b (m).
     pub fn reference_branches(&self) -> &[Vec3] {
         &self.reference

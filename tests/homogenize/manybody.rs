@@ -10,7 +10,8 @@ use super::common::{bin, on_threads, packing, stderr, tmp, write, CUBIC_MODEL};
 use anisobond::assembly::{Assembly, Method};
 use anisobond::bonds::{build_bonds, BondSet, BondStiffness, BondingRule};
 use anisobond::homogenize::{
-    relaxed_tensor, relaxed_tensor_with_term, voigt_tensor, LeverArm, RelaxedOptions, RelaxedSolver,
+    relaxed_tensor, relaxed_tensor_with_term, voigt_tensor, CgPreconditioner, LeverArm,
+    RelaxedOptions, RelaxedSolver,
 };
 use anisobond::manybody::{
     DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions, StrainMeasure,
@@ -362,13 +363,45 @@ fn disordered_packing_with_the_term_matches_a_dense_solve_of_the_total_hessian()
         let voigt_level = c_pair + mb.tensor() * frac;
         let err_h = max_abs(&(hh / p.volume() - voigt_level)) / max_abs(&voigt_level);
         assert!(err_h < 1e-9, "dense H vs Voigt level: {err_h:e}");
-        for solver in [RelaxedSolver::Cholesky, RelaxedSolver::default()] {
+        // The default CG, and the two-level CG with aggregates of 8 (about 30 of them): the
+        // term's K·P for the coarse space, from its factored form, crosses many aggregates.
+        let small_aggregates = RelaxedSolver::Cg {
+            preconditioner: CgPreconditioner::TwoLevel {
+                particles_per_aggregate: 8,
+            },
+        };
+        for solver in [
+            RelaxedSolver::Cholesky,
+            RelaxedSolver::default(),
+            small_aggregates,
+        ] {
             let opts = RelaxedOptions {
                 solver,
                 tolerance: 1e-11,
                 ..Default::default()
             };
             let res = relaxed_tensor_with_term(&p, &b, &k, Some(&mb), &opts).unwrap();
+            if solver == small_aggregates {
+                // The coarse space took part (a coarse matrix that cannot be factored would
+                // fall back to block-Jacobi, with its iteration count).
+                let jacobi = RelaxedOptions {
+                    solver: RelaxedSolver::Cg {
+                        preconditioner: CgPreconditioner::BlockJacobi,
+                    },
+                    ..opts
+                };
+                let bj = relaxed_tensor_with_term(&p, &b, &k, Some(&mb), &jacobi).unwrap();
+                println!(
+                    "CG iterations: two-level (8 per aggregate) {}, block-Jacobi {}",
+                    res.iterations, bj.iterations
+                );
+                assert!(
+                    res.iterations < bj.iterations,
+                    "two-level {} vs block-Jacobi {}",
+                    res.iterations,
+                    bj.iterations
+                );
+            }
             let err = max_abs(&(res.c - dense)) / max_abs(&dense);
             let err_aff = max_abs(&(res.c_affine - voigt_level)) / max_abs(&voigt_level);
             println!(
