@@ -247,7 +247,21 @@ pub fn write_particles_vtu(
     packing: &Packing,
     state: Option<&StrainedState>,
 ) -> Result<()> {
+    write_particles_vtu_grains(path, packing, state, None)
+}
+
+/// [`write_particles_vtu`] with the point field `grain` (each particle's grain id, for
+/// ParaView to colour grains; docs/polycrystal.md) when `grains` is given.
+pub fn write_particles_vtu_grains(
+    path: &Path,
+    packing: &Packing,
+    state: Option<&StrainedState>,
+    grains: Option<&[u32]>,
+) -> Result<()> {
     let n = packing.len();
+    if let Some(g) = grains {
+        check_len("grain", g.len(), n)?;
+    }
     let zeros = vec![Vec3::zeros(); n];
     let (disp, rot) = match state {
         Some(s) => {
@@ -257,16 +271,20 @@ pub fn write_particles_vtu(
         }
         None => (&zeros, &zeros),
     };
+    let mut point_data = vec![
+        ("radius".into(), 1, join(&packing.radii)),
+        ("displacement".into(), 3, vectors(disp)),
+        ("rotation".into(), 3, vectors(rot)),
+    ];
+    if let Some(g) = grains {
+        point_data.push(("grain".into(), 1, join(g)));
+    }
     let grid = Grid {
         points: packing.positions.clone(),
         connectivity: (0..n).collect(),
         offsets: (1..=n).collect(),
         types: vec![1; n], // VTK_VERTEX
-        point_data: vec![
-            ("radius".into(), 1, join(&packing.radii)),
-            ("displacement".into(), 3, vectors(disp)),
-            ("rotation".into(), 3, vectors(rot)),
-        ],
+        point_data,
         cell_data: Vec::new(),
     };
     write_grid(path, &grid)
