@@ -621,7 +621,8 @@ impl Assembly {
         )
     }
 
-    /// ParaView files `particles.vtu` and `bonds.vtu` in `dir`: the assembly unloaded, or
+    /// ParaView files `particles.vtu` and `bonds.vtu` in `dir` (a polycrystal's grain ids as
+    /// the point field `grain` and the cell fields `grain_i`, `grain_j`): the assembly unloaded, or
     /// under a small macroscopic `strain` (Voigt, engineering, every |ε| ≤ 0.1; periodic
     /// packings only) its quasi-static state from the relaxed solve. Returns that state.
     pub fn write_vtk(
@@ -629,7 +630,9 @@ impl Assembly {
         dir: &Path,
         strain: Option<&crate::tensor::Voigt6>,
     ) -> Result<Option<crate::export::vtk::StrainedState>> {
-        use crate::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu_grains};
+        use crate::export::vtk::{
+            strained_state, write_bonds_vtu_grains, write_particles_vtu_grains,
+        };
         if let Some(e) = strain {
             PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "a strained state")?;
             if let Some(x) = e.iter().find(|x| x.abs() > 0.1 || x.is_nan()) {
@@ -654,7 +657,7 @@ impl Assembly {
         };
         let grains = self.grains.as_ref().map(|g| g.grain.as_slice());
         write_particles_vtu_grains(&dir.join("particles.vtu"), p, state.as_ref(), grains)?;
-        write_bonds_vtu(&dir.join("bonds.vtu"), p, b, k, state.as_ref())?;
+        write_bonds_vtu_grains(&dir.join("bonds.vtu"), p, b, k, state.as_ref(), grains)?;
         Ok(state)
     }
 

@@ -83,4 +83,18 @@ fn grain_ids_go_to_the_bond_table_and_the_particles_vtu() {
         .map(|v| v.parse().unwrap())
         .collect();
     assert_eq!(&read, grain);
+    let vtu = std::fs::read_to_string(dir.path().join("bonds.vtu")).unwrap();
+    for (name, ends) in [("grain_i", &a.bonds.i), ("grain_j", &a.bonds.j)] {
+        let start = vtu
+            .find(&format!("Name=\"{name}\""))
+            .expect("a grain field");
+        let values = &vtu[start..];
+        let values = &values[values.find('>').unwrap() + 1..values.find("</DataArray>").unwrap()];
+        let read: Vec<u32> = values
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let expected: Vec<u32> = ends.iter().map(|&p| grain[p as usize]).collect();
+        assert_eq!(read, expected, "{name}");
+    }
 }
