@@ -581,14 +581,10 @@ impl Model {
     /// `path`'s folder.
     pub fn from_str_for(text: &str, path: &Path) -> Result<Model> {
         let name = path.display().to_string();
-        let base = Some(path.parent().unwrap_or(Path::new("")));
-        let base = base.map(|b| {
-            if b.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                b
-            }
-        });
+        let base = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => Some(dir),
+            _ => Some(Path::new(".")),
+        };
         if is_json(path) {
             Model::from_json_in(text, &name, base)
         } else {
