@@ -11,6 +11,7 @@ use crate::dem::stress_tests::{
     stress_controlled_tensor, StressControlledResult, StressTestOptions,
 };
 use crate::dem::{build_law, DemOptions, LawKind, Simulation};
+use crate::grains::Grains;
 use crate::homogenize::laf::{laf_tensor, LafResult};
 use crate::homogenize::local::{local_fields, LocalFields, LocalOptions};
 use crate::homogenize::network::LeverArm;
@@ -55,6 +56,9 @@ pub struct Assembly {
     /// Each bond's type in the user's file (a LAMMPS data file's Bonds section,
     /// [`Assembly::from_data_bonds`]), written to bond tables as `type`; `None` otherwise.
     pub bond_types: Option<Vec<u32>>,
+    /// The grains of a polycrystal (the model's `[grains]`, docs/polycrystal.md), which the
+    /// springs were assigned by; `None` for a single crystal.
+    grains: Option<Grains>,
 }
 
 /// How to get the assembly's 6×6 stiffness tensor.
@@ -251,7 +255,7 @@ impl Assembly {
             return Ok((assembly, cut));
         }
         let source_bonds = bonds::rules::build_bonds(packing, model.bonding)?;
-        let scheme = model.build_scheme(Some((packing, &source_bonds)))?;
+        let scheme = model.crystal_scheme_of(Some((packing, &source_bonds)))?;
         let bonds = bonds::rules::build_bonds(&cut.packing, model.bonding)?;
         if bonds.is_empty() {
             return Err(Error::Degenerate(format!(
@@ -259,9 +263,7 @@ impl Assembly {
                 cut.packing.len()
             )));
         }
-        let springs =
-            bonds::assign_stiffness(&cut.packing, &bonds, scheme.as_ref(), &model.geometry)?;
-        let assembly = Assembly::of_parts(cut.packing.clone(), model, bonds, springs);
+        let assembly = Assembly::springs_by(cut.packing.clone(), model, bonds, scheme.as_ref())?;
         Ok((assembly, cut))
     }
 
@@ -279,14 +281,45 @@ impl Assembly {
 
     /// Every bond's springs by the model's scheme and geometry.
     fn springs_of(packing: Packing, model: Model, bonds: BondSet) -> Result<Assembly> {
-        let scheme = model.build_scheme(Some((&packing, &bonds)))?;
-        let springs = bonds::assign_stiffness(&packing, &bonds, scheme.as_ref(), &model.geometry)?;
-        Ok(Assembly::of_parts(packing, model, bonds, springs))
+        let scheme = model.crystal_scheme_of(Some((&packing, &bonds)))?;
+        Assembly::springs_by(packing, model, bonds, scheme.as_ref())
+    }
+
+    /// Every bond's springs by `scheme` (the model's crystal) and the model's geometry: for a
+    /// model with `[grains]` the grains are built on `packing` and each bond gets its grain's
+    /// springs ([`bonds::assign_stiffness_by_grain`], docs/polycrystal.md).
+    fn springs_by(
+        packing: Packing,
+        model: Model,
+        bonds: BondSet,
+        scheme: &dyn crate::schemes::StiffnessScheme,
+    ) -> Result<Assembly> {
+        let (springs, grains) = match &model.grains {
+            None => (
+                bonds::assign_stiffness(&packing, &bonds, scheme, &model.geometry)?,
+                None,
+            ),
+            Some(spec) => {
+                let grains = spec.build(&packing)?;
+                let springs = bonds::assign_stiffness_by_grain(
+                    &packing,
+                    &bonds,
+                    scheme,
+                    &model.geometry,
+                    &grains,
+                    spec.boundary_factor,
+                )?;
+                (springs, Some(grains))
+            }
+        };
+        let mut assembly = Assembly::of_parts(packing, model, bonds, springs);
+        assembly.grains = grains;
+        Ok(assembly)
     }
 
     /// The assembly of these parts as they are, without bond types (those come only from a
-    /// data file's `Bonds` section, [`Assembly::from_data_bonds`]).
-    fn of_parts(
+    /// data file's `Bonds` section, [`Assembly::from_data_bonds`]) or grains.
+    pub(crate) fn of_parts(
         packing: Packing,
         model: Model,
         bonds: BondSet,
@@ -298,7 +331,15 @@ impl Assembly {
             bonds,
             springs,
             bond_types: None,
+            grains: None,
         }
+    }
+
+    /// The grains the springs were assigned by (a model with `[grains]`,
+    /// docs/polycrystal.md), or `None`: a single crystal, or bonds and springs taken from a
+    /// bond table ([`Assembly::from_table_file`]).
+    pub fn grains(&self) -> Option<&Grains> {
+        self.grains.as_ref()
     }
 
     /// An assembly of a data file's own bond network ([`packing::io::DataBonds`], the
@@ -440,6 +481,15 @@ impl Assembly {
             .map_or_else(crate::tensor::Stiffness6::zeros, |t| t.closed_form_tensor());
         let (c, detail) = match method {
             Method::MeanField => {
+                if self.grains.is_some() {
+                    return Err(Error::Invalid(
+                        "tensor method mean-field: the model has [grains], and the mean field \
+                         integrates one orientation's scheme over the bond directions; a \
+                         polycrystal's springs differ by grain: use voigt (the sum over its \
+                         bonds), relaxed or laf (docs/polycrystal.md)"
+                            .into(),
+                    ));
+                }
                 let scheme = self.model.build_scheme(Some((p, b)))?;
                 let pre = self.mean_field_prefactor();
                 let c = mean_field::mean_field_converged(scheme.as_ref(), pre)?;
@@ -572,7 +622,8 @@ impl Assembly {
         )
     }
 
-    /// ParaView files `particles.vtu` and `bonds.vtu` in `dir`: the assembly unloaded, or
+    /// ParaView files `particles.vtu` and `bonds.vtu` in `dir` (a polycrystal's grain ids as
+    /// the point field `grain` and the cell fields `grain_i`, `grain_j`): the assembly unloaded, or
     /// under a small macroscopic `strain` (Voigt, engineering, every |ε| ≤ 0.1; periodic
     /// packings only) its quasi-static state from the relaxed solve. Returns that state.
     pub fn write_vtk(
@@ -580,7 +631,9 @@ impl Assembly {
         dir: &Path,
         strain: Option<&crate::tensor::Voigt6>,
     ) -> Result<Option<crate::export::vtk::StrainedState>> {
-        use crate::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
+        use crate::export::vtk::{
+            strained_state, write_bonds_vtu_grains, write_particles_vtu_grains,
+        };
         if let Some(e) = strain {
             PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "a strained state")?;
             if let Some(x) = e.iter().find(|x| x.abs() > 0.1 || x.is_nan()) {
@@ -603,20 +656,23 @@ impl Assembly {
             }
             _ => None,
         };
-        write_particles_vtu(&dir.join("particles.vtu"), p, state.as_ref())?;
-        write_bonds_vtu(&dir.join("bonds.vtu"), p, b, k, state.as_ref())?;
+        let grains = self.grains.as_ref().map(|g| g.grain.as_slice());
+        write_particles_vtu_grains(&dir.join("particles.vtu"), p, state.as_ref(), grains)?;
+        write_bonds_vtu_grains(&dir.join("bonds.vtu"), p, b, k, state.as_ref(), grains)?;
         Ok(state)
     }
 
     /// Write the bond-stiffness table (CSV, SPEC columns, then `id_i,id_j` when the packing
-    /// has particle ids and `type` when the bonds came from a data file) atomically.
+    /// has particle ids, `type` when the bonds came from a data file and `grain_i,grain_j`
+    /// for a polycrystal) atomically.
     pub fn write_bonds(&self, path: &Path) -> Result<()> {
-        bonds::table::write_bond_table_with_columns(
+        bonds::table::write_bond_table_with_grains(
             path,
             &self.bonds_as_given(),
             &self.springs,
             self.packing.ids.as_deref(),
             self.bond_types.as_deref(),
+            self.grains.as_ref().map(|g| g.grain.as_slice()),
         )
     }
 

@@ -183,6 +183,20 @@ impl Read for String {
     }
 }
 
+/// A non-negative integer (`count`, `seed`); a float, even a whole one, is refused.
+impl Read for u64 {
+    fn from_raw<E: de::Error>(key: &str, raw: &Raw) -> Result<u64, E> {
+        match *raw {
+            Raw::Unsigned(u) => Ok(u),
+            Raw::Signed(i) if i >= 0 => Ok(i as u64),
+            Raw::Signed(i) => Err(E::custom(format!(
+                "`{key}`: {i} is negative, expected a non-negative integer"
+            ))),
+            _ => Err(invalid_type(key, raw, "a non-negative integer")),
+        }
+    }
+}
+
 /// Exactly three numbers (`axis`, `euler_zyz_deg`).
 impl Read for [f64; 3] {
     fn from_raw<E: de::Error>(key: &str, raw: &Raw) -> Result<[f64; 3], E> {
@@ -315,6 +329,15 @@ keyed! {
     strike_deg("strike_deg") = read: Read;
     dip_deg("dip_deg") = read: Read;
     pi_hat("pi_hat") = read: Read;
+    count("count") = read: Read;
+    mean_size("mean_size") = read: Read;
+    file("file") = read: Read;
+    direction("direction") = read: Read;
+    spread_deg("spread_deg") = read: Read;
+    euler_file("euler_file") = read: Read;
+    seed("seed") = read: Read;
+    boundary_factor("boundary_factor") = read: Read;
+    orientation("orientation") = name: DeserializeOwned;
     model("model") = name: DeserializeOwned;
     convention("convention") = name: DeserializeOwned;
     bond_radius("bond_radius") = name: DeserializeOwned;

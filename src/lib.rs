@@ -41,6 +41,7 @@ pub mod error;
 pub mod export;
 #[cfg(feature = "ffi")]
 pub mod ffi;
+pub mod grains;
 pub mod history;
 pub mod homogenize;
 pub mod io;

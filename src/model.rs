@@ -1,5 +1,7 @@
-//! Model files (docs/formats.md "Model"): which pairs are bonded, which stiffness scheme, and how a
-//! magnitude becomes a spring constant. TOML, or JSON by extension.
+//! Model files (docs/formats.md "Model"): which pairs are bonded, which stiffness scheme, how a
+//! magnitude becomes a spring constant, and optionally a strength (`[strength]`), a many-body
+//! term (`[manybody]`) or grains (`[grains]`, a polycrystal: docs/polycrystal.md). TOML, or
+//! JSON by extension.
 //!
 //! ```toml
 //! [bonding]
@@ -103,6 +105,9 @@ pub struct Model {
     /// The `[manybody]` term (docs/manybody.md), its rotation or axis resolved against the
     /// scheme's; `None` when the file has none (pairwise bonds only).
     pub manybody: Option<crate::manybody::ManyBodySpec>,
+    /// The `[grains]` table (docs/polycrystal.md): a polycrystal, each grain the scheme turned
+    /// into its own orientation; `None` when the file has none (one crystal).
+    pub grains: Option<crate::grains::GrainsSpec>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -124,6 +129,14 @@ struct RawModel {
     /// `[manybody]` (src/manybody/spec.rs, docs/manybody.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     manybody: Option<crate::manybody::spec::RawManyBody>,
+    /// `[grains]` (src/grains/spec.rs, docs/polycrystal.md), checked as it is read; its file
+    /// paths resolved against the model file's folder by `Model::from_raw`.
+    #[serde(
+        default,
+        deserialize_with = "crate::grains::spec::checked",
+        skip_serializing_if = "Option::is_none"
+    )]
+    grains: Option<crate::grains::spec::RawGrains>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -552,6 +565,7 @@ impl Model {
             geometry: Geometry::default(),
             strength: None,
             manybody: None,
+            grains: None,
         }
     }
 
@@ -562,12 +576,19 @@ impl Model {
 
     /// Parse model text in the format `path`'s extension names (JSON for `.json`, TOML
     /// otherwise); `path` is used in error messages.
+    ///
+    /// Relative file paths in the model (`[grains] file`, `euler_file`) resolve against
+    /// `path`'s folder.
     pub fn from_str_for(text: &str, path: &Path) -> Result<Model> {
         let name = path.display().to_string();
+        let base = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => Some(dir),
+            _ => Some(Path::new(".")),
+        };
         if is_json(path) {
-            Model::from_json_str(text, &name)
+            Model::from_json_in(text, &name, base)
         } else {
-            Model::from_toml_str(text, &name)
+            Model::from_toml_in(text, &name, base)
         }
     }
 
@@ -597,17 +618,31 @@ impl Model {
     /// assert!(e.contains("euler_zyz_deg") && e.contains("model.toml:"), "{e}");
     /// # Ok::<(), anisobond::Error>(())
     /// ```
+    ///
+    /// Relative file paths in the model are kept as written (relative to the working
+    /// folder); [`Model::from_path`] resolves them against the model file's folder.
     pub fn from_toml_str(text: &str, name: &str) -> Result<Model> {
-        let text = normalized(text);
-        let raw: RawModel = toml::from_str(&text).map_err(|e| toml_error(&text, name, &e))?;
-        Model::from_raw(raw).map_err(|e| prefix(name, e))
+        Model::from_toml_in(text, name, None)
     }
 
     /// Parse a JSON model; `name` is used in error messages. A UTF-8 BOM is accepted.
+    /// Relative file paths are kept as written ([`Model::from_toml_str`]).
     pub fn from_json_str(text: &str, name: &str) -> Result<Model> {
+        Model::from_json_in(text, name, None)
+    }
+
+    /// [`Model::from_toml_str`] with relative file paths resolved against `base`.
+    fn from_toml_in(text: &str, name: &str, base: Option<&Path>) -> Result<Model> {
+        let text = normalized(text);
+        let raw: RawModel = toml::from_str(&text).map_err(|e| toml_error(&text, name, &e))?;
+        Model::from_raw(raw, base).map_err(|e| prefix(name, e))
+    }
+
+    /// [`Model::from_json_str`] with relative file paths resolved against `base`.
+    fn from_json_in(text: &str, name: &str, base: Option<&Path>) -> Result<Model> {
         let text = normalized(text);
         let raw: RawModel = serde_json::from_str(&text).map_err(|e| json_error(name, &e))?;
-        Model::from_raw(raw).map_err(|e| prefix(name, e))
+        Model::from_raw(raw, base).map_err(|e| prefix(name, e))
     }
 
     /// The `[strength]` table of the model file at `path`, checked; `None` when it has none.
@@ -635,7 +670,7 @@ impl Model {
 
     /// The checked model of a parsed file: bonding rule, scheme and geometry, each refused
     /// with the key at fault; scheme parameters checked where that needs no packing.
-    fn from_raw(raw: RawModel) -> Result<Model> {
+    fn from_raw(raw: RawModel, base: Option<&Path>) -> Result<Model> {
         let bonding = match raw.bonding {
             None => BondingRule::default(),
             Some(b) => b.rule()?,
@@ -665,17 +700,31 @@ impl Model {
                 Some(crate::manybody::ManyBodySpec::from_raw(m, rotation, axis)?)
             }
         };
+        let grains = raw
+            .grains
+            .as_ref()
+            .map(|g| crate::grains::GrainsSpec::from_raw(g, base))
+            .transpose()?;
+        if grains.is_some() && manybody.is_some() {
+            return Err(Error::Model(
+                "[grains] with [manybody]: a polycrystal's many-body term would need each \
+                 grain's own tensor D, which is not done yet (docs/polycrystal.md); remove one \
+                 of the tables"
+                    .into(),
+            ));
+        }
         let model = Model {
             bonding,
             scheme,
             geometry,
             strength: raw.strength,
             manybody,
+            grains,
         };
         // Validate the scheme parameters now (negative stiffness, a ≤ 0, …) where that
         // needs no packing.
         if !matches!(model.scheme, SchemeSpec::CrossAnisotropic(_)) {
-            model.build_scheme(None)?;
+            model.crystal_scheme(None)?;
         }
         Ok(model)
     }
@@ -687,7 +736,21 @@ impl Model {
 
     /// Build the stiffness scheme. The cross-anisotropic scheme needs the bonded packing
     /// (for the lattice scaling μ, Šmilauer); the others ignore it.
+    /// Refuses a model with `[grains]` ([`Error::Model`]): one scheme is one orientation, so
+    /// springs from it would silently be the single crystal's; a polycrystal's springs come
+    /// from its [`crate::Assembly`], and [`Self::crystal_scheme`] is the one crystal's scheme
+    /// when that is what is meant.
     pub fn build_scheme(
+        &self,
+        bonded: Option<(&Packing, &BondSet)>,
+    ) -> Result<Box<dyn StiffnessScheme>> {
+        self.refuse_grains("one stiffness scheme")?;
+        self.crystal_scheme_of(bonded)
+    }
+
+    /// [`Self::build_scheme`] of a polycrystal's crystal (the scheme in the model's own
+    /// orientation, before any grain's turn), or of a single crystal.
+    pub fn crystal_scheme_of(
         &self,
         bonded: Option<(&Packing, &BondSet)>,
     ) -> Result<Box<dyn StiffnessScheme>> {
@@ -702,7 +765,20 @@ impl Model {
             }
             _ => None,
         };
-        self.scheme_for(mu)
+        self.crystal_scheme(mu)
+    }
+
+    /// Refuse ([`Error::Model`]) a model with `[grains]` in `what`, which takes one crystal
+    /// orientation (docs/polycrystal.md "What refuses grains"). Without the table: Ok.
+    pub fn refuse_grains(&self, what: &str) -> Result<()> {
+        if self.grains.is_some() {
+            return Err(Error::Model(format!(
+                "the model has [grains] (a polycrystal, each grain its own orientation), and \
+                 {what} takes one crystal orientation; build an Assembly (its springs are by \
+                 grain), or remove [grains] for the single crystal"
+            )));
+        }
+        Ok(())
     }
 
     /// The springs of arbitrary bonds: unit `normals` (lab frame), sphere radii `r_i`, `r_j`
@@ -720,6 +796,7 @@ impl Model {
         lengths: &[f64],
         lattice_scaling: Option<f64>,
     ) -> Result<crate::bonds::BondStiffness> {
+        self.refuse_grains("springs of bonds given by columns (no particles, so no grains)")?;
         crate::bonds::stiffness::check_bond_columns(normals, r_i, r_j, lengths)?;
         let scheme = self.scheme_for(lattice_scaling)?;
         crate::bonds::stiffness::springs_along(
@@ -735,7 +812,15 @@ impl Model {
 
     /// The stiffness scheme with a given lattice scaling μ (needed by, and only by, the
     /// cross-anisotropic scheme; [`Self::build_scheme`] takes μ from a bonded packing).
+    /// Refuses a model with `[grains]`, as [`Self::build_scheme`] does.
     pub fn scheme_for(&self, lattice_scaling: Option<f64>) -> Result<Box<dyn StiffnessScheme>> {
+        self.refuse_grains("one stiffness scheme")?;
+        self.crystal_scheme(lattice_scaling)
+    }
+
+    /// [`Self::scheme_for`] of the crystal, with or without `[grains]`: the scheme in the
+    /// model's own orientation (a grain's springs turn it by the grain's, docs/polycrystal.md).
+    pub fn crystal_scheme(&self, lattice_scaling: Option<f64>) -> Result<Box<dyn StiffnessScheme>> {
         Ok(match &self.scheme {
             SchemeSpec::Cubic(cubic) => Box::new(cubic.checked()?),
             SchemeSpec::Isotropic { normal, shear } => Box::new(Isotropic::new(*normal, *shear)?),
@@ -799,6 +884,7 @@ impl Model {
             geometry: Some(self.geometry),
             strength: self.strength.clone(),
             manybody: self.manybody.as_ref().map(|m| m.to_raw()),
+            grains: self.grains.as_ref().map(|g| g.to_raw()),
         }
     }
 

@@ -15,12 +15,13 @@ use crate::{Error, Result, Vec3};
 
 pub use rules::BondingRule;
 pub use rules::{build_bonds, coordination_gap, COORDINATION_MAX_GAP};
-pub use stiffness::{assign_stiffness, lattice_scaling, BondStiffness};
+pub use stiffness::{assign_stiffness, assign_stiffness_by_grain, lattice_scaling, BondStiffness};
 pub use table::{
     check_against_packing, parse_bond_table, parse_bond_table_lines, read_bond_table,
     read_bond_table_atom_ids, read_bond_table_of, write_bond_table, write_bond_table_columns_to,
-    write_bond_table_ids_to, write_bond_table_to, write_bond_table_with_columns,
-    write_bond_table_with_ids, TableWithIds,
+    write_bond_table_grains_to, write_bond_table_ids_to, write_bond_table_to,
+    write_bond_table_with_columns, write_bond_table_with_grains, write_bond_table_with_ids,
+    TableWithIds,
 };
 pub use types::sensitivity_weights;
 pub use types::{

@@ -2,7 +2,8 @@
 //! `i,j,nx,ny,nz,length,radius,kn,ks,kr,ktw,ix,iy,iz` — length = centre distance (m),
 //! radius = R_b (m), kn/ks in N/m, kr/ktw in N·m/rad, ix,iy,iz = periodic image of j;
 //! then `id_i,id_j` (the particles' own ids) when the packing has them and `type` (the
-//! bond's type in the user's file) when the bonds came from one. Readers find columns by name.
+//! bond's type in the user's file) when the bonds came from one, then `grain_i,grain_j` (the
+//! particles' grains, docs/polycrystal.md) for a polycrystal. Readers find columns by name.
 //!
 //! Numbers are written in their shortest round-trip form, so a table read back gives the
 //! same bits. Rows are formatted in parallel chunks and written in bond order.
@@ -34,6 +35,7 @@ fn format_rows(
     k: &BondStiffness,
     ids: Option<&[u64]>,
     types: Option<&[u32]>,
+    grains: Option<&[u32]>,
     range: std::ops::Range<usize>,
 ) {
     s.clear();
@@ -72,6 +74,12 @@ fn format_rows(
             s.push(',');
             push_int(s, &mut ib, types[b]);
         }
+        if let Some(grains) = grains {
+            s.push(',');
+            push_int(s, &mut ib, grains[bonds.i[b] as usize]);
+            s.push(',');
+            push_int(s, &mut ib, grains[bonds.j[b] as usize]);
+        }
         s.push('\n');
     }
 }
@@ -106,12 +114,28 @@ pub fn write_bond_table_columns_to(
     ids: Option<&[u64]>,
     types: Option<&[u32]>,
 ) -> std::io::Result<()> {
+    write_bond_table_grains_to(w, bonds, k, ids, types, None)
+}
+
+/// [`write_bond_table_columns_to`] with the trailing columns `grain_i,grain_j` (the grain
+/// of each end, `grains` indexed by particle) when `grains` is given.
+pub fn write_bond_table_grains_to(
+    w: &mut dyn Write,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+    types: Option<&[u32]>,
+    grains: Option<&[u32]>,
+) -> std::io::Result<()> {
     let mut header = HEADER.to_string();
     if ids.is_some() {
         header.push_str(",id_i,id_j");
     }
     if types.is_some() {
         header.push_str(",type");
+    }
+    if grains.is_some() {
+        header.push_str(",grain_i,grain_j");
     }
     writeln!(w, "{header}")?;
     let n = bonds.len();
@@ -136,6 +160,7 @@ pub fn write_bond_table_columns_to(
                     k,
                     ids,
                     types,
+                    grains,
                     c * CHUNK..((c + 1) * CHUNK).min(n),
                 );
             });
@@ -177,6 +202,21 @@ pub fn write_bond_table_with_columns(
 ) -> Result<()> {
     crate::io::write_atomic(path, |w| {
         write_bond_table_columns_to(w, bonds, k, ids, types).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// [`write_bond_table_with_columns`] with `grain_i,grain_j` too when `grains` is given
+/// ([`write_bond_table_grains_to`]).
+pub fn write_bond_table_with_grains(
+    path: &Path,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    ids: Option<&[u64]>,
+    types: Option<&[u32]>,
+    grains: Option<&[u32]>,
+) -> Result<()> {
+    crate::io::write_atomic(path, |w| {
+        write_bond_table_grains_to(w, bonds, k, ids, types, grains).map_err(|e| Error::io(path, e))
     })
 }
 

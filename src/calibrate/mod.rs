@@ -118,6 +118,9 @@ pub fn calibrate(
     on: CalibrateOn<'_>,
     opts: &CubicOptions,
 ) -> Result<Calibrated> {
+    // A polycrystal's tensor is not one scheme's: fitting the crystal's parameters to it is
+    // not done yet (docs/polycrystal.md).
+    base.refuse_grains("calibration (it fits one scheme's parameters)")?;
     let mut base = base.clone();
     base.manybody = None;
     let base = &base;

@@ -247,7 +247,21 @@ pub fn write_particles_vtu(
     packing: &Packing,
     state: Option<&StrainedState>,
 ) -> Result<()> {
+    write_particles_vtu_grains(path, packing, state, None)
+}
+
+/// [`write_particles_vtu`] with the point field `grain` (each particle's grain id, for
+/// ParaView to colour grains; docs/polycrystal.md) when `grains` is given.
+pub fn write_particles_vtu_grains(
+    path: &Path,
+    packing: &Packing,
+    state: Option<&StrainedState>,
+    grains: Option<&[u32]>,
+) -> Result<()> {
     let n = packing.len();
+    if let Some(g) = grains {
+        check_len("grain", g.len(), n)?;
+    }
     let zeros = vec![Vec3::zeros(); n];
     let (disp, rot) = match state {
         Some(s) => {
@@ -257,16 +271,20 @@ pub fn write_particles_vtu(
         }
         None => (&zeros, &zeros),
     };
+    let mut point_data = vec![
+        ("radius".into(), 1, join(&packing.radii)),
+        ("displacement".into(), 3, vectors(disp)),
+        ("rotation".into(), 3, vectors(rot)),
+    ];
+    if let Some(g) = grains {
+        point_data.push(("grain".into(), 1, join(g)));
+    }
     let grid = Grid {
         points: packing.positions.clone(),
         connectivity: (0..n).collect(),
         offsets: (1..=n).collect(),
         types: vec![1; n], // VTK_VERTEX
-        point_data: vec![
-            ("radius".into(), 1, join(&packing.radii)),
-            ("displacement".into(), 3, vectors(disp)),
-            ("rotation".into(), 3, vectors(rot)),
-        ],
+        point_data,
         cell_data: Vec::new(),
     };
     write_grid(path, &grid)
@@ -281,7 +299,23 @@ pub fn write_bonds_vtu(
     stiffness: &BondStiffness,
     state: Option<&StrainedState>,
 ) -> Result<()> {
+    write_bonds_vtu_grains(path, packing, bonds, stiffness, state, None)
+}
+
+/// [`write_bonds_vtu`] with the cell fields `grain_i`, `grain_j` (the grains of each bond's
+/// particles, `grains` indexed by particle; docs/polycrystal.md) when `grains` is given.
+pub fn write_bonds_vtu_grains(
+    path: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    stiffness: &BondStiffness,
+    state: Option<&StrainedState>,
+    grains: Option<&[u32]>,
+) -> Result<()> {
     let nb = bonds.len();
+    if let Some(g) = grains {
+        check_len("grain", g.len(), packing.len())?;
+    }
     check_len("bond stiffness", stiffness.len(), nb)?;
     let zeros = vec![Vec3::zeros(); nb];
     let force = match state {
@@ -305,22 +339,28 @@ pub fn write_bonds_vtu(
         }
     }
     let normal_force: Vec<f64> = (0..nb).map(|b| bonds.normal[b].dot(&force[b])).collect();
+    let mut cell_data = vec![
+        ("kn".into(), 1, join(&stiffness.kn)),
+        ("ks".into(), 1, join(&stiffness.ks)),
+        ("kr".into(), 1, join(&stiffness.kr)),
+        ("ktw".into(), 1, join(&stiffness.ktw)),
+        ("length".into(), 1, join(&bonds.length)),
+        ("normal".into(), 3, vectors(&bonds.normal)),
+        ("force".into(), 3, vectors(force)),
+        ("normal_force".into(), 1, join(&normal_force)),
+    ];
+    if let Some(g) = grains {
+        for (name, ends) in [("grain_i", &bonds.i), ("grain_j", &bonds.j)] {
+            cell_data.push((name.into(), 1, join(ends.iter().map(|&p| g[p as usize]))));
+        }
+    }
     let grid = Grid {
         points,
         connectivity,
         offsets: (1..=nb).map(|k| 2 * k).collect(),
         types: vec![3; nb], // VTK_LINE
         point_data: Vec::new(),
-        cell_data: vec![
-            ("kn".into(), 1, join(&stiffness.kn)),
-            ("ks".into(), 1, join(&stiffness.ks)),
-            ("kr".into(), 1, join(&stiffness.kr)),
-            ("ktw".into(), 1, join(&stiffness.ktw)),
-            ("length".into(), 1, join(&bonds.length)),
-            ("normal".into(), 3, vectors(&bonds.normal)),
-            ("force".into(), 3, vectors(force)),
-            ("normal_force".into(), 1, join(&normal_force)),
-        ],
+        cell_data,
     };
     write_grid(path, &grid)
 }

@@ -25,13 +25,14 @@ use std::sync::Arc;
 pub struct PyModel {
     pub(super) inner: Model,
     /// The scheme, built (and checked, which scans the sphere) once; None when it needs a
-    /// lattice scaling μ (cross-anisotropic).
+    /// lattice scaling μ (cross-anisotropic) or the model has `[grains]` (a polycrystal has
+    /// no one scheme: `springs` then refuses through `Model::springs_for`).
     scheme: Option<Arc<dyn StiffnessScheme>>,
 }
 
 impl PyModel {
     pub(super) fn wrap(inner: Model) -> PyResult<Self> {
-        let scheme = if inner.needs_packing() {
+        let scheme = if inner.needs_packing() || inner.grains.is_some() {
             None
         } else {
             Some(Arc::from(inner.build_scheme(None).map_err(to_py)?))

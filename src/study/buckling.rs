@@ -162,6 +162,7 @@ pub fn kumar_model(alpha: f64, kappa: f64, sigma_n: f64) -> Model {
         },
         strength: None,
         manybody: None,
+        grains: None,
     }
 }
 

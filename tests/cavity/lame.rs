@@ -18,6 +18,7 @@ pub fn isotropic_model() -> Model {
         geometry: Geometry::default(),
         strength: None,
         manybody: None,
+        grains: None,
     }
 }
 

@@ -34,6 +34,7 @@ pub fn smilauer_model() -> Model {
         },
         strength: None,
         manybody: None,
+        grains: None,
     }
 }
 

@@ -435,17 +435,16 @@ pub fn free_assembly(problem: &super::Problem, engine: &str) -> Result<Assembly>
              free cluster (read it with --free, or a file with a `# free` line)"
         )));
     }
-    Ok(Assembly {
-        packing: problem.packing.clone(),
-        model: problem.model.cloned().ok_or_else(|| {
+    Ok(Assembly::of_parts(
+        problem.packing.clone(),
+        problem.model.cloned().ok_or_else(|| {
             Error::Invalid(format!(
                 "validate {engine} --specimen: the problem has no model (the report records it)"
             ))
         })?,
-        bonds: problem.bonds.clone(),
-        springs: problem.springs.clone(),
-        bond_types: None,
-    })
+        problem.bonds.clone(),
+        problem.springs.clone(),
+    ))
 }
 
 /// The specimen solve of `asm` for `test` with `lever_arm`, timed into `timings`.
