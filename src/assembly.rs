@@ -13,6 +13,7 @@ use crate::dem::stress_tests::{
 use crate::dem::{build_law, DemOptions, LawKind, Simulation};
 use crate::grains::Grains;
 use crate::homogenize::laf::{laf_tensor, LafResult};
+use crate::homogenize::local::{local_fields, LocalFields, LocalOptions};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::prestress::{prestressed_tensor, Prestress, PrestressedTensor};
 use crate::homogenize::relaxed::{relaxed_tensor_with_term, RelaxedOptions, RelaxedResult};
@@ -683,6 +684,36 @@ impl Assembly {
             }
         }
         b
+    }
+}
+
+impl Assembly {
+    /// The local fields of the relaxed solution under the macroscopic engineering strain
+    /// `strain` (Voigt, every |e| ≤ 0.1): per particle the fluctuation, rotation, Love–Weber
+    /// stress and fitted strain, per bond the force and moment
+    /// ([`crate::homogenize::local_fields`]; docs/references.md "Local fields"). Refuses as
+    /// [`Method::Relaxed`] does (a box of mixed periodicity, a network carrying no load
+    /// across the cell) and ([`Error::Model`]) a model with a many-body term, whose share of
+    /// the local stress is not given yet.
+    pub fn local_fields(
+        &self,
+        strain: &crate::tensor::Voigt6,
+        options: &LocalOptions,
+    ) -> Result<LocalFields> {
+        refuse_mixed_equilibrium(
+            self.packing.cell.as_ref(),
+            &Method::Relaxed(options.relaxed),
+        )?;
+        if self.model.manybody.is_some() {
+            return Err(Error::Model(
+                "local fields: the model has a many-body term ([manybody]), whose share of each particle's stress is not given yet; remove [manybody] from the model for the springs' local fields"
+                    .into(),
+            ));
+        }
+        let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
+        let fields = local_fields(p, b, k, strain, options)?;
+        check_relaxed_scale(&fields.relaxed.c, p, b, k, "relaxed")?;
+        Ok(fields)
     }
 }
 

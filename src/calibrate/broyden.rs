@@ -6,7 +6,11 @@
 //! decides from the residual only: a trial is accepted when |f| decreases (or it meets the
 //! tolerance); otherwise, or when the residual function reports the trial point
 //! [`Evaluation::Inadmissible`], the step is halved. When no trial of an iteration is
-//! accepted, the Jacobian restarts from the caller's estimate.
+//! accepted, the Jacobian restarts from the caller's estimate. When the projected full step
+//! does not move the point at all (every unknown it would move sits at its bound), no solve is
+//! spent on it: the Jacobian restarts once, and a second such step ends the iteration
+//! ([`End::Pinned`]) — a target outside the box's reach is then known at once instead of
+//! after the whole budget of solves.
 
 use crate::{Error, Result};
 use nalgebra::{DMatrix, DVector};
@@ -55,6 +59,9 @@ pub(crate) enum End {
     Budget,
     /// Every trial of an iteration was inadmissible; the last trial point.
     Inadmissible(DVector<f64>),
+    /// The projected Newton step left the point where it was, with the caller's Jacobian
+    /// as well: the residual decreases only outside the box.
+    Pinned,
 }
 
 /// Result of [`solve`].
@@ -90,6 +97,8 @@ pub(crate) fn solve<T: Clone>(
         best_error: error,
         evaluations: 1,
     };
+    // Whether the Jacobian was restarted because the last step was pinned.
+    let mut restarted_pinned = false;
     loop {
         if let Some(end) = error_end(it.error, it.evaluations, opts) {
             return Ok(it.finish(end));
@@ -100,7 +109,12 @@ pub(crate) fn solve<T: Clone>(
             step *= opts.max_step / biggest;
         }
         match it.search(step, &mut residual, &project, opts)? {
-            Search::Accepted => {}
+            Search::Accepted => restarted_pinned = false,
+            Search::Pinned if restarted_pinned => return Ok(it.finish(End::Pinned)),
+            Search::Pinned => {
+                it.jac = restart(&it.current.x);
+                restarted_pinned = true;
+            }
             Search::Rejected => it.jac = restart(&it.current.x),
             Search::Inadmissible(last_trial) => {
                 return Ok(it.finish(End::Inadmissible(last_trial)));
@@ -147,6 +161,8 @@ enum Search {
     Rejected,
     /// Every trial inadmissible; the last one.
     Inadmissible(DVector<f64>),
+    /// The projected full step is the current point: nothing evaluated.
+    Pinned,
 }
 
 impl<T: Clone> Iteration<T> {
@@ -162,9 +178,14 @@ impl<T: Clone> Iteration<T> {
     ) -> Result<Search> {
         let mut admissible = false;
         let mut last_trial = self.current.x.clone();
-        for _ in 0..opts.max_trials {
+        for attempt in 0..opts.max_trials {
             let mut trial = &self.current.x + &step;
             project(&mut trial);
+            if attempt == 0 && trial == self.current.x {
+                // A box projection maps every shorter step along this one to the same
+                // point: no trial can move.
+                return Ok(Search::Pinned);
+            }
             last_trial.clone_from(&trial);
             let (f_new, data) = match residual(&trial)? {
                 Evaluation::Admissible(f, data) => (f, data),
@@ -270,6 +291,42 @@ mod tests {
             &opts(n),
         )
         .unwrap()
+    }
+
+    /// The root of x − 3 outside the box [0, 1], from x = 1: the first step projects onto
+    /// x = 1 itself, so the iteration ends [`End::Pinned`] after the Jacobian restart,
+    /// having evaluated nothing beyond the start; the root of x − 0.5 inside the box is
+    /// still found from the same start.
+    #[test]
+    fn ends_when_the_box_pins_the_step() {
+        let run = |root: f64, evaluated: &mut usize| {
+            let start = Point {
+                f: DVector::from_vec(vec![1.0 - root]),
+                x: DVector::from_vec(vec![1.0]),
+                data: (),
+            };
+            let jac = DMatrix::from_element(1, 1, 1.0);
+            solve(
+                start,
+                jac.clone(),
+                |x: &DVector<f64>| {
+                    *evaluated += 1;
+                    Ok(Evaluation::Admissible(x.add_scalar(-root), ()))
+                },
+                |x: &mut DVector<f64>| x[0] = x[0].clamp(0.0, 1.0),
+                |_: &DVector<f64>| jac.clone(),
+                &opts(1),
+            )
+            .unwrap()
+        };
+        let mut evaluated = 0;
+        let out = run(3.0, &mut evaluated);
+        assert!(matches!(out.end, End::Pinned), "{out:?}");
+        assert_eq!((evaluated, out.evaluations), (0, 1));
+        let mut evaluated = 0;
+        let out = run(0.5, &mut evaluated);
+        assert!(matches!(out.end, End::Converged), "{out:?}");
+        assert!((out.point.x[0] - 0.5).abs() < 1e-12 && evaluated >= 1);
     }
 
     /// x² = 2, y³ = 3 from a poor Jacobian.

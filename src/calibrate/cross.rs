@@ -229,6 +229,10 @@ fn not_reached<T>(
             "cross-anisotropic calibration: no convergence in {} relaxed solves; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
             result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
         ))),
+        End::Pinned => Some(Error::NotConverged(format!(
+            "cross-anisotropic calibration: after {} relaxed solves the step toward the target leaves the scheme's parameter box; relaxed (C11, C33, C13, C12) = ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa vs target ({:.4e}, {:.4e}, {:.4e}, {:.4e}) Pa",
+            result.evaluations, proj.c11, proj.c33, proj.c13, proj.c12, target[0], target[1], target[2], target[3]
+        ))),
         End::Inadmissible(w_try) => {
             let why = target_lattice_moduli(w_try[0], w_try[1], w_try[2], w_try[3], mu)
                 .err()

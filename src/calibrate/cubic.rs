@@ -1117,10 +1117,17 @@ fn relaxed_not_converged<T>(
     result: &broyden::BroydenResult<T>,
     nearest: Option<IterationRecord>,
 ) -> Error {
+    let stop = match result.end {
+        End::Pinned => format!(
+            "after {} relaxed solve{}: the step toward it leaves the scheme's parameter box",
+            result.evaluations,
+            if result.evaluations == 1 { "" } else { "s" }
+        ),
+        _ => format!("within {} relaxed solves", result.evaluations),
+    };
     let mut msg = format!(
-        "relaxed calibration did not reach the target {} within {} relaxed solves (relative ratio error {:.2e} > tolerance {:.1e}).",
+        "relaxed calibration did not reach the target {} {stop} (relative ratio error {:.2e} > tolerance {:.1e}).",
         describe_ratios(target.c12_over_c11, target.c44_over_c11, target.c11),
-        result.evaluations,
         result.best_error,
         opts.tolerance
     );

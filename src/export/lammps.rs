@@ -754,13 +754,13 @@ fn check_inputs(packing: &Packing, bonds: &BondSet, o: &LammpsOptions) -> Result
     if o.manybody.is_some() {
         if plugin_of(o).is_none() {
             return Err(Error::Invalid(
-                "LAMMPS export: the model has a [manybody] term, which stock bpm/rotational                  (route (a)) cannot carry (its bonds see only their own two atoms); use the                  plugin route: --bond-style anisobond (`bond_style anisobond … manybody`)"
+                "LAMMPS export: the model has a [manybody] term, which stock bpm/rotational (route (a)) cannot carry (its bonds see only their own two atoms); use the plugin route: --bond-style anisobond (`bond_style anisobond … manybody`)"
                     .into(),
             ));
         }
         if o.breakage.is_some() {
             return Err(Error::Invalid(
-                "LAMMPS export: the model has both [manybody] and [strength]; the many-body                  term of a network whose bonds break is not defined (each particle's fit is of                  its bonds at the reference): export with --no-break"
+                "LAMMPS export: the model has both [manybody] and [strength]; the many-body term of a network whose bonds break is not defined (each particle's fit is of its bonds at the reference): export with --no-break"
                     .into(),
             ));
         }

@@ -4,6 +4,9 @@
 //!   Šmilauer's microplane integral), no packing needed.
 //! - `voigt.rs`: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
 //! - `relaxed.rs`: the exact quasi-static tensor from one sparse equilibrium solve.
+//! - `local.rs`: the relaxed solution's local fields under a macroscopic strain (per-particle
+//!   fluctuation, rotation, Love–Weber stress, fitted strain; bond forces) and their
+//!   statistics per label.
 //! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - `cholesky.rs`, `two_level.rs`: the relaxed solve's direct solver and CG preconditioner.
 //! - `network.rs`: the linearised bond network the last two share.
@@ -16,6 +19,7 @@ pub(crate) mod buckling;
 pub(crate) mod cholesky;
 pub(crate) mod geometric;
 pub(crate) mod laf;
+pub(crate) mod local;
 pub(crate) mod mean_field;
 pub(crate) mod network;
 pub(crate) mod prestress;
@@ -34,6 +38,10 @@ pub use cholesky::BlockCholesky;
 pub use geometric::geometric_stiffness;
 pub use laf::laf_tensor;
 pub use laf::LafResult;
+pub use local::{
+    local_fields, DegenerateFit, GroupStatistics, LocalFields, LocalOptions, LocalReport, Unfitted,
+    UnfittedReason,
+};
 pub use mean_field::mean_field;
 pub use mean_field::{
     equal_sphere_prefactor, mean_field_converged, orientation_average, SphereQuadrature,

@@ -251,7 +251,7 @@ fn relaxed_solve_full(
     if let Some(t) = term {
         if t.len() != packing.len() || t.reference_branches().len() != bonds.len() {
             return Err(Error::Invalid(format!(
-                "relaxed solver: the many-body term has {} particles and {} bonds, the packing                  {} particles and {} bonds (build it from the same packing and bonds)",
+                "relaxed solver: the many-body term has {} particles and {} bonds, the packing {} particles and {} bonds (build it from the same packing and bonds)",
                 t.len(),
                 t.reference_branches().len(),
                 packing.len(),

@@ -39,6 +39,7 @@ pub(crate) mod compare;
 pub(crate) mod elastic;
 pub(crate) mod fit;
 pub(crate) mod fourth;
+pub(crate) mod polycrystal;
 pub(crate) mod rotate;
 pub(crate) mod symmetry;
 pub(crate) mod waves;
@@ -51,6 +52,13 @@ pub use elastic::{
 };
 pub use fit::{fit_symmetric, fit_symmetric_eq27};
 pub use fourth::{from_fourth_order, rotate_fourth_order, to_fourth_order, Tensor4};
+pub use polycrystal::{
+    constraint_moduli, cubic_hashin_shtrikman, cubic_self_consistent_shear,
+    hashin_shtrikman_bounds, hashin_shtrikman_estimate, hill_average, isotropic_projection,
+    isotropic_tensor, orientation_averages, self_consistent, self_consistent_with,
+    universal_anisotropy_index, HashinShtrikmanBound, HashinShtrikmanBounds, OrientationAverages,
+    PolycrystalReference, SELF_CONSISTENT_MAX_ITERATIONS, SELF_CONSISTENT_TOLERANCE,
+};
 pub use rotate::{
     bond_matrix, orthonormalize_rotation, rotate, rotation_to_z, rotation_x, rotation_y, rotation_z,
 };

@@ -5,6 +5,7 @@
 mod common;
 
 mod kruyt;
+mod local;
 mod manybody;
 mod meanfield_cubic;
 mod prestress;

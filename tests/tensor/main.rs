@@ -7,5 +7,6 @@ mod common;
 mod elastic;
 mod fit;
 mod method_names;
+mod polycrystal;
 mod rotate;
 mod symmetry;
