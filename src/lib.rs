@@ -89,6 +89,7 @@ pub mod prelude {
     pub use crate::study::cavity::{self, CavityReport, CavityStudyOptions};
     pub use crate::study::demo::{self, DemoOptions, DemoReport};
     pub use crate::study::domain::{self, DomainOn, DomainReport};
+    pub use crate::study::polycrystal::{self, PolycrystalOptions, PolycrystalReport};
     pub use crate::study::strength_test::{self, StrengthTestOptions, StrengthTestReport};
     pub use crate::study::OptionNames;
     pub use crate::tensor::{Stiffness6, Voigt6};

@@ -17,6 +17,7 @@ pub mod interrupt;
 mod output;
 mod pack;
 mod plot;
+mod polycrystal;
 pub mod run;
 mod specimen;
 mod strength_test;
@@ -93,6 +94,9 @@ enum Command {
     Cavity(cavity::CavityArgs),
     /// The accessible (C12/C11, C44/C11) domain of the cubic models, as CSV and PNG.
     Domain(domain::DomainArgs),
+    /// A polycrystal ([grains]): its relaxed tensor beside the single crystal's bounds and
+    /// estimates, and each grain's stress against its orientation.
+    Polycrystal(polycrystal::PolycrystalArgs),
     /// A finite bonded specimen between two platens (bottom layer held, top layer moved along
     /// --axis): its exact static response — platen stiffness (N/m), apparent E (Pa) and ν,
     /// the displacement field (JSON, CSV, VTK).
@@ -298,6 +302,7 @@ pub fn run() -> Result<()> {
         Command::Calibrate(a) => calibrate::run(a),
         Command::CalibrateStrength(a) => calibrate_strength::run(a),
         Command::Domain(a) => domain::run(a),
+        Command::Polycrystal(a) => polycrystal::run(a),
         Command::Specimen(a) => specimen::run(a),
         Command::Buckle(a) => buckle::run(a),
         Command::StrengthTest(a) => strength_test::run(a),

@@ -7,6 +7,9 @@
 //! - [`cavity`]: Šmilauer's pressurised cavity (`anisobond cavity`, `Assembly.cavity`).
 //! - [`demo`]: Truszkowska 2018's assembly by every method (`anisobond demo`).
 //! - [`domain`]: the accessible cubic domain (`anisobond domain`).
+//! - [`polycrystal`]: a polycrystal's relaxed tensor beside its single crystal's bounds and
+//!   estimates, and each grain's stress against its orientation (`anisobond polycrystal`,
+//!   `anisobond.polycrystal`).
 //! - [`strength_test`]: the virtual laboratory — UCS, direct tension and the Brazilian disc
 //!   to failure at a bedding angle (`anisobond strength-test`, `anisobond.strength_test`).
 //! - [`strength_sweep`]: UCS and Brazilian disc over a list of bedding angles
@@ -16,6 +19,7 @@ pub mod buckling;
 pub mod cavity;
 pub mod demo;
 pub mod domain;
+pub mod polycrystal;
 pub mod strength_sweep;
 pub mod strength_test;
 

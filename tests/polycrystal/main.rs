@@ -12,6 +12,7 @@ mod fibre;
 mod orientation;
 mod refusals;
 mod single_crystal;
+mod study;
 mod threads;
 
 use anisobond::prelude::*;
