@@ -24,6 +24,8 @@
 //! friction μ, no damping: the integrator's Cundall–Strack law), `special_bonds lj 0 1 1`
 //! so that a pair leaves the exclusion list when its bond breaks.
 
+mod common;
+
 use anisobond::assembly::Assembly;
 use anisobond::dem::laws::{BpmNormalize, LammpsBpmLaw};
 use anisobond::dem::{
@@ -31,11 +33,12 @@ use anisobond::dem::{
 };
 use anisobond::export::lammps::{bond_damping, bond_limits, LammpsBreakage};
 use anisobond::model::Model;
-use anisobond::packing::{generate, GenerateOptions, Packing};
+use anisobond::packing::Packing;
 use anisobond::strength::{assign_strength, StrengthSpec};
 use anisobond::validate::specimen::bond_lines_one_type_each;
 use anisobond::validate::strength::lammps::{bond_coeff_lines, bpm_coefficients};
 use anisobond::validate::strength::{Loading, StrengthTest};
+use common::env;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -69,22 +72,10 @@ fn main() {
         Ok("yade") => LawKind::Yade,
         _ => LawKind::LammpsBpm,
     };
-    let threads: Vec<usize> = std::env::var("BREAKAGE_BENCH_THREADS")
-        .unwrap_or_else(|_| "1,2".into())
-        .split(',')
-        .filter_map(|t| t.trim().parse().ok())
-        .collect();
+    let threads = common::thread_counts("BREAKAGE_BENCH_THREADS");
 
     let t0 = Instant::now();
-    let periodic = generate(
-        &GenerateOptions {
-            n_particles: n_gen,
-            seed: 1,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
+    let periodic = common::packing(n_gen);
     let cell = periodic.cell.as_ref().expect("periodic").lengths;
     let keep: Vec<usize> = (0..periodic.len())
         .filter(|&k| {
@@ -170,7 +161,7 @@ fn main() {
             ))
             .expect("contacts on");
             loading.start(&mut sim, &p.positions, 2).expect("layers");
-            let cpu0 = cpu_seconds();
+            let cpu0 = common::cpu_seconds();
             let clock = Instant::now();
             let mut peak = f64::NEG_INFINITY;
             for _ in 0..steps {
@@ -179,7 +170,7 @@ fn main() {
                 peak = peak.max(f);
             }
             let wall = clock.elapsed().as_secs_f64();
-            let cpu = cpu_seconds() - cpu0;
+            let cpu = common::cpu_seconds() - cpu0;
             let broken = sim.break_events().len();
             let contacts = sim.contacts().map_or(0, |c| c.len());
             let rebuilds = sim.contacts().map_or(0, |c| c.rebuilds());
@@ -305,25 +296,4 @@ fn write_lammps(
 /// A float written so that it reads back bit for bit.
 fn num(x: f64) -> String {
     format!("{x:e}")
-}
-
-/// CPU time (s) of all threads of this process so far (per-thread `schedstat`; 0 without
-/// /proc), as in benches/dem.rs.
-fn cpu_seconds() -> f64 {
-    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    dir.filter_map(|e| e.ok())
-        .filter_map(|e| std::fs::read_to_string(e.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum::<f64>()
-        * 1e-9
-}
-
-/// A number from the environment, or the default.
-fn env(name: &str, default: f64) -> f64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default)
 }

@@ -7,44 +7,24 @@
 //! Besides wall time it prints the CPU time of all threads (from /proc), which is less
 //! sensitive to other processes on a loaded machine.
 
-use anisobond::bonds::{build_bonds, BondStiffness, BondingRule};
+mod common;
+
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
-use anisobond::packing::{generate, GenerateOptions};
-use anisobond::{Mat3, Vec3};
+use anisobond::Vec3;
+use common::env;
 use std::time::Instant;
 
 fn main() {
-    let n: usize = std::env::var("DEM_BENCH_PARTICLES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(30_000);
+    let n: usize = env("DEM_BENCH_PARTICLES", 30_000);
     let t0 = Instant::now();
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed: 1,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
+    let p = common::packing(n);
     let p = if std::env::var("DEM_BENCH_SORT").is_ok() {
         morton_sorted(&p)
     } else {
         p
     };
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
-    let r = p.mean_radius();
+    let (b, k) = common::bonds_and_springs(&p);
     let nb = b.len();
-    let k = BondStiffness {
-        radius: vec![r; nb],
-        kn: (0..nb)
-            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
-            .collect(),
-        ks: vec![0.4e6; nb],
-        kr: vec![0.1e6 * r * r; nb],
-        ktw: vec![0.05e6 * r * r; nb],
-    };
     println!(
         "setup: {} particles, {} bonds (Z = {:.2}) in {:.1} s",
         n,
@@ -52,14 +32,8 @@ fn main() {
         b.coordination(n),
         t0.elapsed().as_secs_f64()
     );
-    let steps: usize = std::env::var("DEM_BENCH_STEPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(200);
-    let thread_counts: Vec<usize> = std::env::var("DEM_BENCH_THREADS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![1, 2]);
+    let steps: usize = env("DEM_BENCH_STEPS", 200);
+    let thread_counts = common::thread_counts("DEM_BENCH_THREADS");
     let kind = match std::env::var("DEM_BENCH_LAW").as_deref() {
         Ok("parallel-bond") => LawKind::ParallelBond,
         Ok("kumar") => LawKind::Kumar,
@@ -72,22 +46,17 @@ fn main() {
             .expect("pool");
         pool.install(|| {
             let law = build_law(kind, &p, &b, &k).expect("law");
-            let mut sim = Simulation::new(&p, &b, law, &DemOptions { local_damping: env_f64("DEM_BENCH_DAMPING", 0.4), ..Default::default() }).expect("sim");
-            for (i, v) in sim.particles.velocity.iter_mut().enumerate() {
-                *v = Vec3::new((i as f64).sin(), (i as f64 * 1.3).cos(), (i as f64 * 0.7).sin()) * 1e-4;
-            }
-            // A small shear rate, as in an element test (exercises the periodic terms).
-            let mut l = Mat3::zeros();
-            let rate = env_f64("DEM_BENCH_RATE", 1e-3);
-            l[(0, 1)] = rate;
-            l[(2, 2)] = -2.0 * rate;
-            sim.set_velocity_gradient(l).expect("periodic");
-            sim.run(20, &|_| {}).expect("warm-up");
-            let cpu0 = cpu_seconds();
+            let options = DemOptions {
+                local_damping: env("DEM_BENCH_DAMPING", 0.4),
+                ..Default::default()
+            };
+            let mut sim = Simulation::new(&p, &b, law, &options).expect("sim");
+            common::start_moving(&mut sim, env("DEM_BENCH_RATE", 1e-3));
+            let cpu0 = common::cpu_seconds();
             let t = Instant::now();
             sim.run(steps, &|_| {}).expect("run");
             let secs = t.elapsed().as_secs_f64();
-            let cpu = cpu_seconds() - cpu0;
+            let cpu = common::cpu_seconds() - cpu0;
             println!(
                 "law {kind:?}, {threads} thread(s): {steps} steps in {secs:.3} s = {:.3e} particle-steps/s ({:.3e} bond-steps/s); CPU {cpu:.3} s = {:.3e} particle-steps per CPU-s",
                 (n * steps) as f64 / secs,
@@ -99,19 +68,6 @@ fn main() {
             }
         });
     }
-}
-
-/// CPU time (s) consumed so far by all threads of this process (sum of the per-thread
-/// `schedstat` run times; 0 where /proc is unavailable).
-fn cpu_seconds() -> f64 {
-    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    dir.filter_map(|e| e.ok())
-        .filter_map(|e| std::fs::read_to_string(e.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum::<f64>()
-        * 1e-9
 }
 
 /// FNV-1a hash of the particle state and resultants (−0 folded onto +0), to check that an
@@ -167,12 +123,4 @@ fn morton_sorted(p: &anisobond::packing::Packing) -> anisobond::packing::Packing
         p.cell,
     )
     .expect("sorted")
-}
-
-/// A number from the environment, or the default.
-fn env_f64(name: &str, default: f64) -> f64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default)
 }

@@ -5,49 +5,21 @@
 //! `cargo bench --bench manybody_dem` (MB_BENCH_PARTICLES, default 30,000; MB_BENCH_STEPS,
 //! default 100; MB_BENCH_THREADS, comma-separated, default 1,2; MB_BENCH_REPEATS, default 3).
 
-use anisobond::bonds::{build_bonds, BondStiffness, BondingRule};
+mod common;
+
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::manybody::{DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions};
-use anisobond::packing::{generate, GenerateOptions};
-use anisobond::{Mat3, Vec3};
+use common::env;
 use std::time::Instant;
-
-fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default)
-}
 
 fn main() {
     let n: usize = env("MB_BENCH_PARTICLES", 30_000);
     let steps: usize = env("MB_BENCH_STEPS", 100);
     let repeats: usize = env("MB_BENCH_REPEATS", 3);
-    let threads: Vec<usize> = std::env::var("MB_BENCH_THREADS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![1, 2]);
-    let p = generate(
-        &GenerateOptions {
-            n_particles: n,
-            seed: 1,
-            ..Default::default()
-        },
-        &|_| {},
-    )
-    .expect("packing");
-    let b = build_bonds(&p, BondingRule::Gap(0.17)).expect("bonds");
-    let r = p.mean_radius();
+    let threads = common::thread_counts("MB_BENCH_THREADS");
+    let p = common::packing(n);
+    let (b, k) = common::bonds_and_springs(&p);
     let nb = b.len();
-    let k = BondStiffness {
-        radius: vec![r; nb],
-        kn: (0..nb)
-            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
-            .collect(),
-        ks: vec![0.4e6; nb],
-        kr: vec![0.1e6 * r * r; nb],
-        ktw: vec![0.05e6 * r * r; nb],
-    };
     let c = anisobond::homogenize::voigt_tensor(&b, &k, p.volume());
     let s = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]) / 3.0;
     let d = LocalTensor::Cubic {
@@ -82,15 +54,7 @@ fn main() {
                     ..Default::default()
                 };
                 let mut sim = Simulation::with_manybody(&p, &b, law, term, &opts).expect("sim");
-                for (i, v) in sim.particles.velocity.iter_mut().enumerate() {
-                    *v = Vec3::new((i as f64).sin(), (i as f64 * 1.3).cos(), (i as f64 * 0.7).sin())
-                        * 1e-4;
-                }
-                let mut l = Mat3::zeros();
-                l[(0, 1)] = 1e-3;
-                l[(2, 2)] = -2e-3;
-                sim.set_velocity_gradient(l).expect("periodic");
-                sim.run(20, &|_| {}).expect("warm-up");
+                common::start_moving(&mut sim, 1e-3);
                 sim
             };
             let mut sims = [make(false), make(true)];

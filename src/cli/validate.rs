@@ -168,12 +168,7 @@ fn run_specimen<E: Engine>(engine: &E, run: RunDir, flags: &SpecimenFlags) -> Re
     let name = E::Details::ENGINE;
     let test = flags.test(&run.asm);
     test.check(name)?;
-    println!(
-        "validate {name} --specimen: {} particles, {} bonds; runs in {}",
-        run.asm.packing.len(),
-        run.asm.bonds.len(),
-        run.dir.display()
-    );
+    run.announce(&format!("validate {name} --specimen"), "");
     let problem = Problem::of(&run.dir, &run.asm);
     let report = validate_specimen(engine, &problem, &test, &|m| run.progress(m))?;
     print!("{}", specimen::summary(&report));
@@ -191,12 +186,7 @@ fn run_strength<E: Engine>(
     let name = E::Details::ENGINE;
     let test = flags.test(specimen, &run.asm);
     test.check(name)?;
-    println!(
-        "validate {name} --strength: {} particles, {} bonds; runs in {}",
-        run.asm.packing.len(),
-        run.asm.bonds.len(),
-        run.dir.display()
-    );
+    run.announce(&format!("validate {name} --strength"), "");
     let problem = Problem::of(&run.dir, &run.asm);
     let report = validate_strength(engine, &problem, &test, &|m| run.progress(m))?;
     print!("{}", strength::summary(&report));
@@ -232,6 +222,16 @@ impl RunDir {
             asm,
             t0: std::time::Instant::now(),
         })
+    }
+
+    /// The first line of `command`'s run: the input's size and where it runs, then `tail`.
+    fn announce(&self, command: &str, tail: &str) {
+        println!(
+            "{command}: {} particles, {} bonds; runs in {}{tail}",
+            self.asm.packing.len(),
+            self.asm.bonds.len(),
+            self.dir.display()
+        );
     }
 
     /// A progress line on stderr with the seconds since the run started.
@@ -274,16 +274,10 @@ fn finish<D>(name: &str, report: &anisobond::validate::Report<D>) -> Result<()> 
 /// [`Error::EngineFailed`]).
 fn run_engine<E: Engine>(engine: &E, run: RunDir) -> Result<()> {
     let name = E::Details::ENGINE;
-    println!(
-        "validate {name}: {} particles, {} bonds; runs in {}{}",
-        run.asm.packing.len(),
-        run.asm.bonds.len(),
-        run.dir.display(),
-        run.output.as_ref().map_or(String::new(), |o| format!(
-            " (moved to {} when done)",
-            o.display()
-        ))
-    );
+    let moved = run.output.as_ref().map_or(String::new(), |o| {
+        format!(" (moved to {} when done)", o.display())
+    });
+    run.announce(&format!("validate {name}"), &moved);
     let problem = Problem::of(&run.dir, &run.asm);
     let report = validate(engine, &problem, &|m| run.progress(m))?;
     print!("{}", summary(&report));

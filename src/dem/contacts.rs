@@ -1052,20 +1052,8 @@ impl Grid {
             .collect();
         let flat = |c: &[i64; 3]| ((c[2] * dims[1] + c[1]) * dims[0] + c[0]) as usize;
         let n_cells = (dims[0] * dims[1] * dims[2]) as usize;
-        let mut start = vec![0usize; n_cells + 1];
-        for c in &cell_of {
-            start[flat(c) + 1] += 1;
-        }
-        for k in 0..n_cells {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut members = vec![0u32; n];
-        for (p, c) in cell_of.iter().enumerate() {
-            let f = flat(c);
-            members[fill[f]] = p as u32;
-            fill[f] += 1;
-        }
+        let (start, members) =
+            crate::packing::neighbours::bucket_by_cell(n_cells, n, |p| flat(&cell_of[p]));
         Ok(Grid {
             dims,
             periodic: h.is_some(),

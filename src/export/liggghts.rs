@@ -981,6 +981,15 @@ pub fn run_liggghts(launch: &Launch, dir: &Path, deck: &str) -> Result<String> {
 }
 
 #[cfg(feature = "engines")]
+/// LIGGGHTS' version from its screen output `out` (its `LIGGGHTS (…)` line), else `unknown`.
+pub fn liggghts_version(out: &str) -> String {
+    out.lines()
+        .find_map(|l| l.trim().strip_prefix("LIGGGHTS ("))
+        .map(|l| l.trim_end_matches(')').to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+#[cfg(feature = "engines")]
 /// True when `program` is found on PATH.
 pub fn which(program: &str) -> bool {
     std::env::var_os("PATH")

@@ -156,6 +156,30 @@ pub(crate) fn pairs_in(
     Ok(blocks.into_iter().flatten().collect())
 }
 
+/// The `n` items sorted by their cell `cell_of(p)` < `n_cells` (a counting sort): the items
+/// of cell c are `members[start[c]..start[c + 1]]`, in ascending order.
+pub(crate) fn bucket_by_cell(
+    n_cells: usize,
+    n: usize,
+    cell_of: impl Fn(usize) -> usize,
+) -> (Vec<usize>, Vec<u32>) {
+    let mut start = vec![0usize; n_cells + 1];
+    for p in 0..n {
+        start[cell_of(p) + 1] += 1;
+    }
+    for k in 0..n_cells {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut members = vec![0u32; n];
+    for p in 0..n {
+        let f = cell_of(p);
+        members[fill[f]] = p as u32;
+        fill[f] += 1;
+    }
+    (start, members)
+}
+
 /// Cells at least one cutoff wide, with the spheres of each (counting sort by cell).
 pub(crate) struct CellGrid {
     dims: [usize; 3],
@@ -234,20 +258,7 @@ impl CellGrid {
             .collect();
         let n_cells = dims[0] * dims[1] * dims[2];
         let flat = |c: &[usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
-        let mut start = vec![0usize; n_cells + 1];
-        for c in &cell_of {
-            start[flat(c) + 1] += 1;
-        }
-        for k in 0..n_cells {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut members = vec![0u32; n];
-        for (p, c) in cell_of.iter().enumerate() {
-            let f = flat(c);
-            members[fill[f]] = p as u32;
-            fill[f] += 1;
-        }
+        let (start, members) = bucket_by_cell(n_cells, n, |p| flat(&cell_of[p]));
         CellGrid {
             dims,
             periodic,

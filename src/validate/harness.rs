@@ -489,7 +489,12 @@ pub fn reference_simulation(
     dt: Option<f64>,
     safety: f64,
 ) -> Result<Simulation> {
-    let options = DemOptions {
+    Simulation::new(packing, bonds, law, &reference_options(density, dt, safety))
+}
+
+/// The options of [`reference_simulation`] (undamped, unscaled masses of `density`).
+pub fn reference_options(density: f64, dt: Option<f64>, safety: f64) -> DemOptions {
+    DemOptions {
         time_step: dt,
         safety,
         local_damping: 0.0,
@@ -498,8 +503,7 @@ pub fn reference_simulation(
             scaling: 1.0,
         },
         ..DemOptions::default()
-    };
-    Simulation::new(packing, bonds, law, &options)
+    }
 }
 
 /// How the reference integrator starts an undamped history, to match the engine's own

@@ -61,7 +61,7 @@ use crate::validate::engine::{
 };
 pub use crate::validate::harness::checks_table;
 use crate::validate::harness::{
-    self, named, reference_simulation, rows, timed, Check, EngineDetails, HistoryComparison,
+    self, named, reference_options, rows, timed, Check, EngineDetails, HistoryComparison,
     HistoryStart, Report, Timing,
 };
 use crate::{Error, Result, Vec3};
@@ -148,6 +148,18 @@ impl Default for ValidateOptions {
                 relaxed: 5e-3,
                 processes: 1e-6,
             },
+        }
+    }
+}
+
+impl ValidateOptions {
+    /// The process counts the specimen and strength tests run on: 1, and `processes` when
+    /// that is more.
+    fn process_counts(&self) -> Vec<usize> {
+        if self.processes > 1 {
+            vec![1, self.processes]
+        } else {
+            vec![1]
         }
     }
 }
@@ -430,33 +442,16 @@ pub fn integrator_history_with_term(
             "integrator history: output steps start at 1".into(),
         ));
     }
-    let sim = match term {
-        None => reference_simulation(packing, bonds, law, density, Some(dt), 0.8)?,
-        Some(t) => Simulation::with_manybody(
-            packing,
-            bonds,
-            law,
-            Some(t.clone()),
-            &reference_options(density, Some(dt), 0.8),
-        )?,
-    };
+    let sim = Simulation::with_manybody(
+        packing,
+        bonds,
+        law,
+        term.cloned(),
+        &reference_options(density, Some(dt), 0.8),
+    )?;
     let iterations: Vec<u64> = steps.iter().map(|n| n - 1).collect();
     let start = HistoryStart::Moving { velocities, spins };
     harness::integrator_history(sim, start, &iterations, "integrator history")
-}
-
-/// The options of [`reference_simulation`] (undamped, unscaled masses of `density`).
-fn reference_options(density: f64, dt: Option<f64>, safety: f64) -> DemOptions {
-    DemOptions {
-        time_step: dt,
-        safety,
-        local_damping: 0.0,
-        mass: MassOptions {
-            density,
-            scaling: 1.0,
-        },
-        ..DemOptions::default()
-    }
 }
 
 /// The validation's time step without `o.timestep`: the export's [`crate::export::liggghts::stable_timestep`]
@@ -931,11 +926,7 @@ impl Engine for Liggghts {
         let o = &self.options;
         let launch = DeckLaunch {
             program: self.programs.driver.clone(),
-            processes: if o.processes > 1 {
-                vec![1, o.processes]
-            } else {
-                vec![1]
-            },
+            processes: o.process_counts(),
             density: o.density,
             time_step: o.timestep,
             // The deck's step is LIGGGHTS' stable step itself, as the element tests take it.
@@ -957,11 +948,7 @@ impl Engine for Liggghts {
         let o = &self.options;
         let launch = super::strength::Launch {
             program: self.programs.driver.clone(),
-            processes: if o.processes > 1 {
-                vec![1, o.processes]
-            } else {
-                vec![1]
-            },
+            processes: o.process_counts(),
             density: o.density,
             // LIGGGHTS' stable step itself, as the element and specimen tests take it.
             safety: 1.0,

@@ -179,6 +179,24 @@ fn bad_models_are_clear_errors_without_output() {
     }
 }
 
+/// `anisobond ARGS… PACKING --model MODEL -o OUT` run to success: the JSON it wrote to
+/// `out`, and its printed text (standard output, then standard error).
+fn json_report(args: &[&str], p: &Path, m: &Path, out: &Path) -> (serde_json::Value, String) {
+    let o = bin()
+        .args(args)
+        .arg(p)
+        .arg("--model")
+        .arg(m)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v = serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    (v, text)
+}
+
 /// `stress-test` (Šmilauer's servo-controlled element tests) against `tensor --method
 /// relaxed` on the same packing and model: the orthotropic entries agree to a few per mille
 /// of C11 (the small remainder is the relaxed tensor's non-orthotropic part, which the
@@ -189,18 +207,7 @@ fn stress_test_agrees_with_the_relaxed_tensor() {
     let p = packing(d.path(), 300);
     let m = write(d.path(), "model.toml", MODEL);
     let run = |args: &[&str], out: &Path| {
-        let o = bin()
-            .args(args)
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
-            .arg("-o")
-            .arg(out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        let (v, _) = json_report(args, &p, &m, out);
         let c: Vec<Vec<f64>> = serde_json::from_value(v["C"].clone()).unwrap();
         c
     };
@@ -292,20 +299,7 @@ fn grips_block_tensor_is_close_to_the_periodic_relaxed_one() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let m = write(d.path(), "model.toml", MODEL);
     let cubic = |args: &[&str], out: &Path| {
-        let o = bin()
-            .args(args)
-            .arg(&p)
-            .arg("--model")
-            .arg(&m)
-            .arg("-o")
-            .arg(out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
-        let text =
-            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        let (v, text) = json_report(args, &p, &m, out);
         (
             ["C11", "C12", "C44"].map(|k| v["cubic"][k].as_f64().unwrap()),
             text,

@@ -28,6 +28,24 @@ pub fn gap_bonded(n: usize, seed: u64) -> (Packing, BondSet) {
     (p, b)
 }
 
+/// [`gap_bonded`] with springs that depend on the bond direction through k_n only:
+/// k_n = 10⁶(1 + n_x²), k_s = 0.4·10⁶ N/m, k_r = 0.1·10⁶ R̄², k_tw = 0.05·10⁶ R̄² N·m/rad.
+pub fn periodic_bonded(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness) {
+    let (p, b) = gap_bonded(n, seed);
+    let r = p.mean_radius();
+    let nb = b.len();
+    let k = BondStiffness {
+        radius: vec![r; nb],
+        kn: (0..nb)
+            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
+            .collect(),
+        ks: vec![0.4e6; nb],
+        kr: vec![0.1e6 * r * r; nb],
+        ktw: vec![0.05e6 * r * r; nb],
+    };
+    (p, b, k)
+}
+
 /// Anisotropic springs: k_n and k_s depend on the bond direction (so that every one of the
 /// 21 components is exercised); with `moments`, bending k_n R̄²/4 and twisting k_s R̄²/2.
 pub fn directional_springs(p: &Packing, b: &BondSet, moments: bool) -> BondStiffness {

@@ -39,6 +39,16 @@ pub fn driver() -> PathBuf {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The driver (built by [`driver`]) on `mpi_processes` (`None`: one process, no MPI),
+/// without `-var` pairs.
+pub fn driver_launch(mpi_processes: Option<usize>) -> anisobond::export::liggghts::Launch {
+    anisobond::export::liggghts::Launch {
+        program: driver(),
+        mpi_processes,
+        vars: vec![],
+    }
+}
+
 pub struct Bonded {
     pub packing: Packing,
     pub bonds: BondSet,
@@ -66,6 +76,18 @@ pub fn bonded(n: usize, seed: u64, model_toml: &str) -> Bonded {
 /// Largest |a − b| over the entries, relative to the largest |b|.
 pub fn rel_diff(a: &anisobond::tensor::Stiffness6, b: &anisobond::tensor::Stiffness6) -> f64 {
     (a - b).abs().max() / b.abs().max()
+}
+
+/// The largest difference of two stress histories (rows of six components), and the largest
+/// |σ| of the first: the scale it is judged against.
+pub fn history_difference(a: &[[f64; 6]], b: &[[f64; 6]]) -> (f64, f64) {
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = a
+        .iter()
+        .zip(b)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+        .fold(0.0f64, f64::max);
+    (worst, scale)
 }
 
 pub fn fresh_dir(name: &str) -> PathBuf {

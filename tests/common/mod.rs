@@ -105,6 +105,21 @@ pub fn packing(dir: &Path, n: usize) -> PathBuf {
     p
 }
 
+/// The many-body term of `model`'s `[manybody]` table (which it must have) on `packing` and
+/// `bonds`.
+pub fn manybody_term(
+    model: &anisobond::model::Model,
+    packing: &anisobond::packing::Packing,
+    bonds: &anisobond::bonds::BondSet,
+) -> anisobond::manybody::ManyBody {
+    model
+        .manybody
+        .as_ref()
+        .expect("the model's [manybody]")
+        .build(packing, bonds)
+        .expect("the many-body term")
+}
+
 /// Standard error as text.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).to_string()

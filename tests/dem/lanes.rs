@@ -3,24 +3,12 @@
 //! lane), on a periodic packing under a shear rate. The scalar kernels are chosen by the
 //! run's own option (`DemOptions::simd = false`).
 
-use crate::common::bonded::gap_bonded;
-use anisobond::bonds::BondStiffness;
+use crate::common::bonded::periodic_bonded;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
 use anisobond::{Mat3, Vec3};
 
 fn run(scalar: bool, spin: f64) -> Vec<u64> {
-    let (p, b) = gap_bonded(400, 11);
-    let r = p.mean_radius();
-    let nb = b.len();
-    let k = BondStiffness {
-        radius: vec![r; nb],
-        kn: (0..nb)
-            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
-            .collect(),
-        ks: vec![0.4e6; nb],
-        kr: vec![0.1e6 * r * r; nb],
-        ktw: vec![0.05e6 * r * r; nb],
-    };
+    let (p, b, k) = periodic_bonded(400, 11);
     let law = build_law(LawKind::Yade, &p, &b, &k).unwrap();
     let mut sim = Simulation::new(
         &p,

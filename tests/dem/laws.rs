@@ -2,7 +2,7 @@
 //! band of undamped runs and its O(dt²) scaling, bit-identical histories on 1 and 2 threads,
 //! weakly bonded particles, the blow-up error, and the relaxation speed of the element tests.
 
-use crate::common::bonded::gap_bonded;
+use crate::common::bonded::periodic_bonded;
 use anisobond::bonds::{BondSet, BondStiffness};
 use anisobond::dem::Quat;
 use anisobond::dem::{build_law, DemOptions, LawKind, Simulation};
@@ -140,22 +140,6 @@ fn two_particle_closed_forms_all_laws() {
         let q: Quat = sim.particles.orientation[1];
         assert!((q.rotation_vector().x - omega * t).abs() < 1e-12);
     }
-}
-
-fn periodic_bonded(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness) {
-    let (p, b) = gap_bonded(n, seed);
-    let r = p.mean_radius();
-    let nb = b.len();
-    let k = BondStiffness {
-        radius: vec![r; nb],
-        kn: (0..nb)
-            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
-            .collect(),
-        ks: vec![0.4e6; nb],
-        kr: vec![0.1e6 * r * r; nb],
-        ktw: vec![0.05e6 * r * r; nb],
-    };
-    (p, b, k)
 }
 
 /// Kick every particle with a random velocity and record the total energy band.

@@ -5,7 +5,7 @@
 //! evaluation against `ManyBody::evaluate` bit for bit; refusals (small strain, breakage,
 //! another state).
 
-use crate::common::bonded::gap_bonded;
+use crate::common::bonded::{gap_bonded, periodic_bonded};
 use crate::common::lattice::{fcc_bonded, simple_cubic_bonded, uniform_springs};
 use crate::common::on_threads;
 use anisobond::bonds::{BondSet, BondStiffness};
@@ -126,23 +126,6 @@ fn lattice_element_tests_give_the_closed_form_plus_d() {
             "{name}: beyond Cauchy"
         );
     }
-}
-
-/// A 300-particle gap-bonded periodic packing with direction-dependent springs.
-fn periodic_bonded(n: usize, seed: u64) -> (Packing, BondSet, BondStiffness) {
-    let (p, b) = gap_bonded(n, seed);
-    let r = p.mean_radius();
-    let nb = b.len();
-    let k = BondStiffness {
-        radius: vec![r; nb],
-        kn: (0..nb)
-            .map(|e| 1e6 * (1.0 + b.normal[e].x.powi(2)))
-            .collect(),
-        ks: vec![0.4e6; nb],
-        kr: vec![0.1e6 * r * r; nb],
-        ktw: vec![0.05e6 * r * r; nb],
-    };
-    (p, b, k)
 }
 
 /// A D comparable to the springs' Voigt tensor (its mean C11), rotated cubic with

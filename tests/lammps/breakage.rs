@@ -232,24 +232,32 @@ fn route_a_bar_in_tension_peaks_at_bonds_per_section_times_f_rc() {
     assert!(breakage.contains("bond_style bpm/rotational break yes smooth ${smooth}"));
     assert!(breakage.contains("pair_style granular"));
 
+    let (de, peaks) = tension_on_one_and_two(&lmp, &out, false, "route (a)");
+
+    check_contact_after_break(&lmp, &out, false, 1, de, peaks[0]);
+}
+
+/// The bar of `out` (the plugin's deck or route (a)'s) pulled at the strain step of
+/// f_rc(2 MPa) on one process and on two, each peak checked ([`check_peak`], `what` naming
+/// the route); the two peaks agree within 1e-9. The strain step and the peaks.
+fn tension_on_one_and_two(lmp: &Path, out: &Path, plugin: bool, what: &str) -> (f64, Vec<f64>) {
     let de = strain_step(f_rc(2e6));
-    let (deck, _) = tension_decks(false, "m m p", de, 500, None);
+    let (deck, _) = tension_decks(plugin, "m m p", de, 500, None);
     std::fs::write(out.join("tension.lmp"), deck).unwrap();
     let mut peaks = Vec::new();
     for np in [1, 2] {
         let _ = std::fs::remove_file(out.join("tension.txt"));
-        run_ok(&lmp, &out, "tension.lmp", np);
+        run_ok(lmp, out, "tension.lmp", np);
         peaks.push(check_peak(
-            &out,
+            out,
             f_rc(2e6),
             de,
             (NX * NY) as u64,
-            &format!("route (a), -np {np}"),
+            &format!("{what}, -np {np}"),
         ));
     }
     assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
-
-    check_contact_after_break(&lmp, &out, false, 1, de, peaks[0]);
+    (de, peaks)
 }
 
 /// After the break: held (the crack open, the halves relax: no tension across a broken
@@ -328,22 +336,7 @@ fn plugin_bar_in_tension_breaks_the_same_and_keeps_its_strengths_across_a_restar
         "{breakage}"
     );
 
-    let de = strain_step(f_rc(2e6));
-    let (deck, _) = tension_decks(true, "m m p", de, 500, None);
-    std::fs::write(out.join("tension.lmp"), deck).unwrap();
-    let mut peaks = Vec::new();
-    for np in [1, 2] {
-        let _ = std::fs::remove_file(out.join("tension.txt"));
-        run_ok(&lmp, &out, "tension.lmp", np);
-        peaks.push(check_peak(
-            &out,
-            f_rc(2e6),
-            de,
-            (NX * NY) as u64,
-            &format!("plugin, -np {np}"),
-        ));
-    }
-    assert!((peaks[0] - peaks[1]).abs() <= 1e-9 * peaks[0], "{peaks:?}");
+    let (de, peaks) = tension_on_one_and_two(&lmp, &out, true, "plugin");
     // The broken pairs become granular contacts, also when the partner is on the other
     // process (the plugin sends the broken pairs to every process).
     for np in [1, 2] {

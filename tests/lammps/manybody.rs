@@ -6,36 +6,22 @@
 //! run on two processes gives the same positions and forces as on one; stock bpm/rotational
 //! (route a) is refused for a model with `[manybody]`, naming the plugin route.
 
-use super::export::export_cmd;
+use super::export::{export_cmd, CROSS};
 use super::plugin::{export_plugin, lammps, run_lmp, Lammps};
 use crate::common::{fails, packing, succeeds, tmp, write};
 use anisobond::{Mat3, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// The cross-anisotropic model of the plugin tests with a rotated cubic many-body term of
-/// the springs' order (degenerate particles excluded: the model file's default).
-const MODEL: &str = r#"
-[bonding]
-rule = "gap"
-value = 0.17
-[scheme]
-kind = "cross-anisotropic"
-C11 = 30e9
-C33 = 12e9
-C13 = 5e9
-C12 = 8e9
-strike_deg = 270
-dip_deg = 25
-[geometry]
-convention = "modulus"
-[manybody]
-kind = "cubic"
-c11 = 20e9
-c12 = 14e9
-c44 = 6e9
-euler_zyz_deg = [10, 20, 30]
-"#;
+/// The cross-anisotropic model of the plugin tests (`export`'s [`CROSS`]) with a rotated
+/// cubic many-body term of the springs' order (degenerate particles excluded: the model
+/// file's default).
+fn model() -> String {
+    format!(
+        "{CROSS}[manybody]\nkind = \"cubic\"\nc11 = 20e9\nc12 = 14e9\nc44 = 6e9\n\
+         euler_zyz_deg = [10, 20, 30]\n"
+    )
+}
 
 /// The strained box of the tests, H (upper triangular: LAMMPS' box vectors a = (lx, 0, 0),
 /// b = (xy, ly, 0), c = (xz, yz, lz) are H times the reference cell's).
@@ -150,13 +136,37 @@ fn dump_rows(path: &Path) -> BTreeMap<u64, Vec<f64>> {
     rows
 }
 
-/// Export the plugin deck of MODEL on a packing of `n` particles into `dir/deck`.
+/// Export the plugin deck of [`model`] on a packing of `n` particles into `dir/deck`.
 fn exported(l: &Lammps, dir: &Path, n: usize) -> (PathBuf, PathBuf, PathBuf) {
     let pk = packing(dir, n);
-    let model = write(dir, "model.toml", MODEL);
+    let model = write(dir, "model.toml", &model());
     let out = dir.join("deck");
     succeeds(&mut export_plugin(&pk, &model, &l.so, &out));
     (pk, model, out)
+}
+
+/// The plugin deck of [`model`] on 300 particles exported into `dir/deck` ([`exported`]),
+/// with its `perturbed.lmp` ([`write_perturbed`]): the assembly, the deck's folder, the
+/// reference cell and the perturbed positions.
+fn perturbed_deck(
+    l: &Lammps,
+    dir: &Path,
+) -> (anisobond::assembly::Assembly, PathBuf, Vec3, Vec<Vec3>) {
+    let (pk, model, out) = exported(l, dir, 300);
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let cell = asm.packing.cell.unwrap().lengths;
+    let y = write_perturbed(&out, &asm);
+    (asm, out, cell, y)
+}
+
+/// Write `out/perturbed.lmp`, which sets `asm`'s particles at the [`strain`]ed state H·X + δ,
+/// δ up to 1 % of the mean radius ([`perturbation`]); those positions.
+fn write_perturbed(out: &Path, asm: &anisobond::assembly::Assembly) -> Vec<Vec3> {
+    let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
+    let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
+    let (set_lines, y) = perturbed_state(&asm.packing.positions, &strain(), &delta);
+    std::fs::write(out.join("perturbed.lmp"), set_lines).unwrap();
+    y
 }
 
 /// Run `input` in `dir` on `np` processes; its standard output (failure: panic with it).
@@ -267,10 +277,7 @@ fn compare_at_perturbed_state(
     let d = term.tensor();
     // The perturbed state: H·X + δ, δ up to 1 % of the mean radius.
     let h = strain();
-    let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
-    let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
-    let (set_lines, y) = perturbed_state(&asm.packing.positions, &h, &delta);
-    std::fs::write(out.join("perturbed.lmp"), set_lines).unwrap();
+    let y = write_perturbed(out, asm);
     let tail = |name: &str| {
         format!(
             "include perturbed.lmp\ndump d all custom 1 {name}.dump id fx fy fz\n\
@@ -370,13 +377,7 @@ fn plugin_many_body_run_on_two_processes_equals_one() {
         return;
     };
     let dir = tmp();
-    let (pk, model, out) = exported(&l, dir.path(), 300);
-    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
-    let cell = asm.packing.cell.unwrap().lengths;
-    let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
-    let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
-    let (set_lines, _) = perturbed_state(&asm.packing.positions, &strain(), &delta);
-    std::fs::write(out.join("perturbed.lmp"), set_lines).unwrap();
+    let (asm, out, cell, y0) = perturbed_deck(&l, dir.path());
     let tail = |name: &str| {
         format!(
             "include perturbed.lmp\nrun 0\nwrite_dump all custom {name}-start.dump id fx fy fz \
@@ -407,10 +408,6 @@ fn plugin_many_body_run_on_two_processes_equals_one() {
     assert_eq!(b.len(), a.len());
     // Displacements from the start (positions relative to the largest displacement), forces
     // relative to the largest force.
-    let (y0, _) = (
-        perturbed_state(&asm.packing.positions, &strain(), &delta).1,
-        (),
-    );
     let (mut dx, mut u_max, mut df, mut f_max, mut term_effect) = (0.0_f64, 0.0_f64, 0.0, 0.0, 0.0);
     for (p, y) in y0.iter().enumerate() {
         let (ra, rb, ro) = (
@@ -444,7 +441,7 @@ fn plugin_many_body_run_on_two_processes_equals_one() {
 fn route_a_and_breakage_with_the_many_body_term_are_refused_naming_the_way_out() {
     let dir = tmp();
     let pk = packing(dir.path(), 200);
-    let model = write(dir.path(), "model.toml", MODEL);
+    let model = write(dir.path(), "model.toml", &model());
     let out = dir.path().join("deck");
     // Stock bpm/rotational (the default route) cannot carry the term.
     let err = fails(&mut export_cmd(&pk, &model, &[], &out));
@@ -503,13 +500,7 @@ fn plugin_many_body_reference_survives_a_restart_on_two_processes() {
         return;
     };
     let dir = tmp();
-    let (pk, model, out) = exported(&l, dir.path(), 300);
-    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
-    let cell = asm.packing.cell.unwrap().lengths;
-    let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
-    let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
-    let (set_lines, _) = perturbed_state(&asm.packing.positions, &strain(), &delta);
-    std::fs::write(out.join("perturbed.lmp"), set_lines).unwrap();
+    let (_, out, cell, _) = perturbed_deck(&l, dir.path());
     let dump = |name: &str| {
         format!(
             "write_dump all custom {name}.dump id xu yu zu fx fy fz modify sort id format float \
@@ -584,7 +575,7 @@ fn plugin_element_tests_on_fcc_add_d_exactly() {
         }
     }
     let pk = write(dir.path(), "fcc.txt", &text);
-    let model = MODEL.replace("value = 0.17", "value = 0.01");
+    let model = model().replace("value = 0.17", "value = 0.01");
     let with = write(dir.path(), "with.toml", &model);
     let without = write(
         dir.path(),
@@ -678,7 +669,7 @@ fn validate_lammps_with_the_many_body_term_meets_the_relaxed_tensor() {
     };
     let dir = tmp();
     let pk = packing(dir.path(), 200);
-    let model = write(dir.path(), "model.toml", MODEL);
+    let model = write(dir.path(), "model.toml", &model());
     let out = dir.path().join("validate");
     let mut cmd = crate::common::bin();
     cmd.args(["validate", "lammps"])
@@ -712,13 +703,7 @@ fn validate_lammps_with_the_many_body_term_meets_the_relaxed_tensor() {
     let pair = anisobond::homogenize::relaxed_tensor(&asm.packing, &asm.bonds, &asm.springs, &opts)
         .unwrap()
         .c;
-    let term = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
+    let term = crate::common::manybody_term(&asm.model, &asm.packing, &asm.bonds);
     let with = anisobond::homogenize::relaxed_tensor_with_term(
         &asm.packing,
         &asm.bonds,

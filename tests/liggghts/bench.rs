@@ -5,7 +5,7 @@
 
 use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
-    export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
+    export_liggghts, read_stress_history, run_liggghts, DeckOptions,
 };
 
 /// Sum of "Loop time of T on P procs for S steps" lines: (seconds, steps).
@@ -56,16 +56,7 @@ fn driver_throughput_30k() {
     for np in [1usize, 2] {
         let dir = fresh_dir(&format!("bench{np}"));
         export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-        let screen = run_liggghts(
-            &Launch {
-                program: driver(),
-                mpi_processes: Some(np),
-                vars: vec![],
-            },
-            &dir,
-            "anisobond.in",
-        )
-        .unwrap();
+        let screen = run_liggghts(&driver_launch(Some(np)), &dir, "anisobond.in").unwrap();
         let (t, s) = loop_time(&screen);
         eprintln!(
             "-np {np}: {s} steps in {t:.2} s: {:.3e} particle-steps/s ({:.3} s per 1000 steps)",
@@ -74,17 +65,7 @@ fn driver_throughput_30k() {
         );
         hist.push(read_stress_history(&dir.join("stress_history.txt")).unwrap());
     }
-    let scale = hist[0]
-        .stress
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    let worst = hist[0]
-        .stress
-        .iter()
-        .zip(&hist[1].stress)
-        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-        .fold(0.0f64, f64::max);
+    let (worst, scale) = history_difference(&hist[0].stress, &hist[1].stress);
     eprintln!("np1 vs np2: {:.3e}", worst / scale);
     assert!(worst <= 1e-9 * scale);
 }

@@ -5,7 +5,7 @@
 use crate::common::liggghts::*;
 use anisobond::export::liggghts::{
     columns_from_cases, export_liggghts, read_stress_history, run_liggghts, tensor_from_cases,
-    DeckOptions, Launch,
+    DeckOptions,
 };
 use anisobond::homogenize::{relaxed_tensor, RelaxedOptions};
 
@@ -21,7 +21,7 @@ fn element_test_matches_relaxed_tensor() {
         eprintln!("skipping: {r}");
         return;
     }
-    let exe = driver();
+    let launch = driver_launch(None);
     let b = bonded(500, 7, ISO_MODEL);
     let dir = fresh_dir("element");
     let opts = DeckOptions {
@@ -37,16 +37,7 @@ fn element_test_matches_relaxed_tensor() {
     };
     let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).expect("export");
     let t0 = std::time::Instant::now();
-    run_liggghts(
-        &Launch {
-            program: exe,
-            mpi_processes: None,
-            vars: vec![],
-        },
-        &dir,
-        "anisobond.in",
-    )
-    .expect("driver run");
+    run_liggghts(&launch, &dir, "anisobond.in").expect("driver run");
     eprintln!("run took {:?}", t0.elapsed());
     let h = read_stress_history(&dir.join("stress_history.txt")).expect("history");
     let c = tensor_from_cases(&h, &sum.case_end_steps).expect("tensor");
@@ -106,16 +97,7 @@ fn two_particle_run_spin(
          group two id 2\n{actions}\n"
     );
     std::fs::write(dir.join("two.in"), deck).unwrap();
-    run_liggghts(
-        &Launch {
-            program: driver(),
-            mpi_processes: None,
-            vars: vec![],
-        },
-        &dir,
-        "two.in",
-    )
-    .map_err(|e| e.to_string())?;
+    run_liggghts(&driver_launch(None), &dir, "two.in").map_err(|e| e.to_string())?;
     // Last snapshot of dump.txt: id fx fy fz tqx tqy tqz, sorted by id.
     let text = std::fs::read_to_string(dir.join("dump.txt")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
@@ -292,16 +274,7 @@ fn affine_normal_strains_give_the_voigt_normal_block() {
         ..DeckOptions::default()
     };
     let sum = export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-    run_liggghts(
-        &Launch {
-            program: driver(),
-            mpi_processes: None,
-            vars: vec![],
-        },
-        &dir,
-        "anisobond.in",
-    )
-    .unwrap();
+    run_liggghts(&driver_launch(None), &dir, "anisobond.in").unwrap();
     let h = read_stress_history(&dir.join("stress_history.txt")).unwrap();
     let cols = columns_from_cases(&h, &sum.case_end_steps).unwrap();
     let v = anisobond::homogenize::voigt_tensor(&b.bonds, &b.k, b.packing.volume());
@@ -346,31 +319,12 @@ fn mpi_two_processes_reproduce_one_process() {
     for np in [1usize, 2] {
         let dir = fresh_dir(&format!("mpi{np}"));
         export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-        run_liggghts(
-            &Launch {
-                program: driver(),
-                mpi_processes: Some(np),
-                vars: vec![],
-            },
-            &dir,
-            "anisobond.in",
-        )
-        .unwrap();
+        run_liggghts(&driver_launch(Some(np)), &dir, "anisobond.in").unwrap();
         hist.push(read_stress_history(&dir.join("stress_history.txt")).unwrap());
     }
     assert_eq!(hist[0].step, hist[1].step);
     assert!(hist[0].step.len() >= 30);
-    let scale = hist[0]
-        .stress
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    let worst = hist[0]
-        .stress
-        .iter()
-        .zip(&hist[1].stress)
-        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-        .fold(0.0f64, f64::max);
+    let (worst, scale) = history_difference(&hist[0].stress, &hist[1].stress);
     eprintln!("np1 vs np2: max |Δσ| / max |σ| = {:.3e}", worst / scale);
     assert!(
         worst <= 1e-9 * scale,
@@ -408,11 +362,7 @@ fn bonds_computed_through_the_bridge_equal_the_bond_table() {
             assert!(deck.contains("pair_style anisobond model"));
             std::fs::write(dir.join("anisobond.in"), deck).unwrap();
         }
-        let launch = Launch {
-            program: driver(),
-            mpi_processes: None,
-            vars: vec![],
-        };
+        let launch = driver_launch(None);
         run_liggghts(&launch, &dir, "anisobond.in").unwrap();
         hist.push(read_stress_history(&dir.join("stress_history.txt")).unwrap());
     }
@@ -438,11 +388,7 @@ fn missing_partner_under_mpi_is_an_error_not_a_silent_result() {
         ..DeckOptions::default()
     };
     export_liggghts(&dir, &b.packing, &b.bonds, &b.k, &opts).unwrap();
-    let launch = Launch {
-        program: driver(),
-        mpi_processes: Some(2),
-        vars: vec![],
-    };
+    let launch = driver_launch(Some(2));
     let started = std::time::Instant::now();
     let e = run_liggghts(&launch, &dir, "anisobond.in")
         .unwrap_err()
@@ -528,11 +474,7 @@ fn restart_file_keeps_the_bonds_and_their_history() {
     );
     std::fs::write(dir.join("a.in"), a).unwrap();
     std::fs::write(dir.join("b.in"), bdeck).unwrap();
-    let launch = Launch {
-        program: driver(),
-        mpi_processes: None,
-        vars: vec![],
-    };
+    let launch = driver_launch(None);
     run_liggghts(&launch, &dir, "a.in").unwrap();
     run_liggghts(&launch, &dir, "b.in").unwrap();
     let read = |f: &str| -> Vec<Vec<f64>> {

@@ -15,7 +15,7 @@ use crate::common::liggghts::*;
 use crate::common::{bin, CUBIC_MODEL};
 use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::{
-    columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions, Launch,
+    columns_from_cases, export_liggghts, read_stress_history, run_liggghts, DeckOptions,
 };
 use anisobond::model::Model;
 use anisobond::packing::{read_packing_as, CellChoice};
@@ -68,16 +68,7 @@ fn in_place_deck(dir: &Path, data: &Path, model: &str, opts: &DeckOptions) -> Ve
 
 fn run_driver(dir: &Path, np: Option<usize>) {
     let t0 = std::time::Instant::now();
-    run_liggghts(
-        &Launch {
-            program: driver(),
-            mpi_processes: np,
-            vars: vec![],
-        },
-        dir,
-        "anisobond.in",
-    )
-    .expect("driver run");
+    run_liggghts(&driver_launch(np), dir, "anisobond.in").expect("driver run");
     eprintln!(
         "{}: driver run (np {}) took {:.1} s",
         dir.display(),
@@ -297,11 +288,7 @@ fn in_place_refuses_mixed_periodicity_write_bonds_with_a_table_and_restarts() {
         ),
     ] {
         std::fs::write(dir.join(name), deck(boundary, style)).unwrap();
-        let launch = Launch {
-            program: driver(),
-            mpi_processes: None,
-            vars: vec![],
-        };
+        let launch = driver_launch(None);
         let e = run_liggghts(&launch, &dir, name).unwrap_err().to_string();
         assert!(e.contains(want), "{name}: expected `{want}` in: {e}");
         assert!(!dir.join("out.csv").exists());
@@ -319,11 +306,7 @@ fn in_place_refuses_mixed_periodicity_write_bonds_with_a_table_and_restarts() {
          pair_style anisobond model model.toml write_bonds again.csv\npair_coeff * *\nrun 0\n",
     )
     .unwrap();
-    let launch = Launch {
-        program: driver(),
-        mpi_processes: None,
-        vars: vec![],
-    };
+    let launch = driver_launch(None);
     run_liggghts(&launch, &dir, "first.in").unwrap();
     assert!(dir.join("first.csv").exists() && dir.join("r.restart").exists());
     let e = run_liggghts(&launch, &dir, "again.in")

@@ -6,7 +6,7 @@
 use crate::common::liggghts::*;
 use anisobond::bonds::BondSet;
 use anisobond::export::liggghts::{
-    export_liggghts_full, read_manybody_table, run_liggghts, DeckOptions, ExportSummary, Launch,
+    export_liggghts_full, read_manybody_table, run_liggghts, DeckOptions, ExportSummary,
 };
 use anisobond::manybody::{ManyBody, StrainMeasure};
 use anisobond::model::Model;
@@ -32,24 +32,29 @@ fn setup(dir: &Path, n: usize, measure: &str) -> (Bonded, ManyBody, ExportSummar
     let toml = model_toml(measure);
     let b = degenerate_three(bonded(n, 11, &toml));
     let model = Model::from_toml_str(&toml, "<test model>").unwrap();
-    let term = model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&b.packing, &b.bonds)
-        .expect("term");
+    let term = crate::common::manybody_term(&model, &b.packing, &b.bonds);
     assert!(
         !term.excluded().is_empty() && term.excluded().len() < n / 4,
         "the term should exclude a few particles: {} of {n}",
         term.excluded().len()
     );
+    let s = export_with_term(dir, &b.packing, &b.bonds, &b.k, &term);
+    (b, term, s)
+}
+
+/// The driver decks of `packing` (normal cases only) with the term, exported into `dir`.
+fn export_with_term(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &anisobond::bonds::BondStiffness,
+    term: &ManyBody,
+) -> ExportSummary {
     let opts = DeckOptions {
         shear: false,
         ..DeckOptions::default()
     };
-    let s = export_liggghts_full(dir, &b.packing, &b.bonds, &b.k, &opts, None, Some(&term))
-        .expect("export");
-    (b, term, s)
+    export_liggghts_full(dir, packing, bonds, k, &opts, None, Some(term)).expect("export")
 }
 
 /// `b` with particles 0, 1 and 2 left two bonds each (their first in bond order), so the
@@ -159,16 +164,8 @@ fn deck(dir: &Path, name: &str, summary: &ExportSummary, manybody: bool, body: &
 }
 
 fn run_driver(dir: &Path, deck: &str, np: usize) -> String {
-    run_liggghts(
-        &Launch {
-            program: driver(),
-            mpi_processes: (np > 1).then_some(np),
-            vars: vec![],
-        },
-        dir,
-        deck,
-    )
-    .unwrap_or_else(|e| panic!("{deck} (np {np}) failed: {e}"))
+    run_liggghts(&driver_launch((np > 1).then_some(np)), dir, deck)
+        .unwrap_or_else(|e| panic!("{deck} (np {np}) failed: {e}"))
 }
 
 /// The last snapshot of a `dump custom` sorted by id: per atom its columns after the id.
@@ -353,12 +350,7 @@ fn manybody_table_round_trip_and_refusal() {
     let toml = model_toml("green-lagrange");
     let b = bonded(120, 5, &toml);
     let model = Model::from_toml_str(&toml, "<test model>").unwrap();
-    let term = model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&b.packing, &b.bonds)
-        .unwrap();
+    let term = crate::common::manybody_term(&model, &b.packing, &b.bonds);
     let t = anisobond::export::liggghts::manybody_table(&b.packing, &b.bonds, &term).unwrap();
     // The coefficients reproduce the library's F_p: under a uniform gradient G every included
     // particle's Σ_b (G L_b) ⊗ a_b is G (recomputed here from the table).
@@ -430,13 +422,7 @@ fn cli_export_writes_the_term_and_refusals() {
         &model,
     )
     .unwrap();
-    let term = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
+    let term = crate::common::manybody_term(&asm.model, &asm.packing, &asm.bonds);
     let want =
         anisobond::export::liggghts::manybody_table(&asm.packing, &asm.bonds, &term).unwrap();
     assert_eq!(
@@ -506,27 +492,8 @@ fn model_forms_match_library_under_uniform_strain() {
     crate::common::write(&dir, "plain.toml", &plain);
     let model = Model::from_toml_str(&toml, "<m>").unwrap();
     let asm = Assembly::from_packing_file(&packing_file, model, Path::new("model.toml")).unwrap();
-    let term = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
-    let opts = DeckOptions {
-        shear: false,
-        ..DeckOptions::default()
-    };
-    let s = export_liggghts_full(
-        &dir,
-        &asm.packing,
-        &asm.bonds,
-        &asm.springs,
-        &opts,
-        None,
-        Some(&term),
-    )
-    .unwrap();
+    let term = crate::common::manybody_term(&asm.model, &asm.packing, &asm.bonds);
+    let s = export_with_term(&dir, &asm.packing, &asm.bonds, &asm.springs, &term);
     let stretch = [1.01, 0.995, 1.005];
     let h = anisobond::Mat3::from_diagonal(&Vec3::new(stretch[0], stretch[1], stretch[2]));
     let x: Vec<Vec3> = asm.packing.positions.iter().map(|p| h * p).collect();
@@ -600,12 +567,7 @@ fn validate_with_the_term_meets_the_relaxed_tensor_with_the_term() {
     let toml = model_toml("green-lagrange");
     let b = bonded(200, 7, &toml);
     let model = Model::from_toml_str(&toml, "<test model>").unwrap();
-    let term = model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&b.packing, &b.bonds)
-        .unwrap();
+    let term = crate::common::manybody_term(&model, &b.packing, &b.bonds);
     let dir = fresh_dir("manybody_validate");
     let problem = Problem {
         dir: &dir,

@@ -14,7 +14,7 @@
 
 use crate::common::liggghts::*;
 use crate::common::{bin, succeeds, write};
-use anisobond::export::liggghts::{run_liggghts, Launch};
+use anisobond::export::liggghts::run_liggghts;
 use std::path::Path;
 
 const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
@@ -76,16 +76,8 @@ fn export(dir: &Path, model: &Path, strain: f64) -> std::path::PathBuf {
 
 /// Run the driver deck in `out` on `np` processes; the largest σ11 of load case 11 (Pa).
 fn run(out: &Path, np: usize) -> f64 {
-    let log = run_liggghts(
-        &Launch {
-            program: driver(),
-            mpi_processes: (np > 1).then_some(np),
-            vars: Vec::new(),
-        },
-        out,
-        "anisobond.in",
-    )
-    .expect("driver run");
+    let log = run_liggghts(&driver_launch((np > 1).then_some(np)), out, "anisobond.in")
+        .expect("driver run");
     if np > 1 {
         assert!(log.contains("MPI processor grid"), "{log}");
     }

@@ -189,16 +189,7 @@ fn throughput_driver_vs_integrator() {
         )
         .unwrap();
         let la = load_average();
-        let screen = run_liggghts(
-            &Launch {
-                program: driver(),
-                mpi_processes: Some(np),
-                vars: vec![],
-            },
-            &dir,
-            name,
-        )
-        .unwrap();
+        let screen = run_liggghts(&driver_launch(Some(np)), &dir, name).unwrap();
         let (t, s) = loop_time(&screen);
         eprintln!(
             "driver -np {np}: {n} particles, {} bonds, {s} steps in {t:.2} s: {:.3e} particle-steps/s (load average before: {la})",

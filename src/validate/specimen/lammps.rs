@@ -214,6 +214,19 @@ fn run_lmp(dir: &Path, lmp: &Path, np: usize) -> Result<f64> {
     run_lmp_input(dir, lmp, np, "in.specimen", "specimen")
 }
 
+/// LAMMPS' version from the first line (`LAMMPS (…)`) of the log `log-np{np}.lammps` that
+/// [`run_lmp_input`] keeps in `dir`, else `unknown`.
+pub(crate) fn log_version(dir: &Path, np: usize) -> String {
+    let log =
+        crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
+    log.lines()
+        .next()
+        .and_then(|l| l.strip_prefix("LAMMPS ("))
+        .and_then(|l| l.split(')').next())
+        .unwrap_or("unknown")
+        .to_string()
+}
+
 /// Run `lmp -in INPUT` in `dir` on `np` processes (log `log-npN.lammps`); a failure is
 /// [`Error::EngineFailed`] naming `test` and LAMMPS' ERROR lines. Returns the wall time (s).
 pub(crate) fn run_lmp_input(
@@ -299,15 +312,7 @@ fn read_result(
     };
     let (f1, f2, f3) = (num("f1")?, num("f2")?, num("force_top")?);
     let remaining = remaining_change(f1, f2, f3);
-    let log =
-        crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
-    let version = log
-        .lines()
-        .next()
-        .and_then(|l| l.strip_prefix("LAMMPS ("))
-        .and_then(|l| l.split(')').next())
-        .unwrap_or("unknown")
-        .to_string();
+    let version = log_version(dir, np);
     Ok(EngineMeasurement {
         version,
         processes: np,

@@ -226,11 +226,7 @@ fn read_result(
         return Err(bad(&format!("SPECIMEN line `{line}`: expected 5 numbers")));
     };
     let remaining = remaining_change(f1, f2, f3);
-    let version = out
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("LIGGGHTS ("))
-        .map(|l| l.trim_end_matches(')').to_string())
-        .unwrap_or_else(|| "unknown".into());
+    let version = crate::export::liggghts::liggghts_version(out);
     Ok(EngineMeasurement {
         version,
         processes: np,

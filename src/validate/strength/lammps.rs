@@ -33,7 +33,7 @@ use crate::dem::LawKind;
 use crate::export::lammps::{
     bond_damping, bond_limits, write_strength_table, LammpsBondStyle, LammpsBreakage,
 };
-use crate::validate::harness::{Problem, Progress, Report, Timing};
+use crate::validate::harness::{Problem, Progress, Report};
 use crate::validate::specimen::{atom_lines, bond_lines_one_type_each, box_lines, num};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -118,20 +118,17 @@ pub fn run(
             "strength",
         )?;
         let m = read_run(&dir, problem, np, &test, plugin.is_some(), seconds)?;
-        timings.push(Timing {
-            stage: format!("lammps_np{np}"),
-            seconds,
-        });
-        progress(&format!(
-            "LAMMPS{} on {np} process(es): done in {seconds:.1} s: peak {:.7e} N, {} bonds broken",
-            if plugin.is_some() {
-                " (bond_style anisobond)"
-            } else {
-                ""
-            },
-            m.peak_force,
-            m.breaks.len()
-        ));
+        let style = if plugin.is_some() {
+            " (bond_style anisobond)"
+        } else {
+            ""
+        };
+        m.record_stage(
+            format!("lammps_np{np}"),
+            &format!("LAMMPS{style} on {np} process(es):"),
+            &mut timings,
+            progress,
+        );
         measured.push(m);
     }
     compare(
@@ -450,14 +447,7 @@ fn read_run(
             ))
         })?);
     }
-    let log =
-        crate::io::read_to_string(&dir.join(format!("log-np{np}.lammps"))).unwrap_or_default();
-    let version = log
-        .lines()
-        .next()
-        .and_then(|l| l.strip_prefix("LAMMPS ("))
-        .and_then(|l| l.split(')').next())
-        .unwrap_or("unknown");
+    let version = crate::validate::specimen::lammps::log_version(dir, np);
     let breaks = order_breaks("LAMMPS", problem.bonds, &raw)?;
     let (peak_force, peak_step) = super::peak_of(test, &curve, &breaks)
         .ok_or_else(|| fail(format!("{}: no force read", fpath.display())))?;

@@ -28,7 +28,7 @@ use crate::dem::laws::{LinearBondKernel, MomentForm};
 use crate::dem::LawKind;
 use crate::export::liggghts::{run_liggghts, Launch as RunLaunch};
 use crate::export::yade::{adhesions_of, write_bond_table_with_adhesions};
-use crate::validate::harness::{Problem, Progress, Report, Timing};
+use crate::validate::harness::{Problem, Progress, Report};
 use crate::validate::specimen::{atom_lines, box_lines, num};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -102,15 +102,12 @@ pub fn run(
             dir.join(format!("log-np{np}.liggghts")),
         );
         let m = read_run(&dir, problem, np, &out, seconds)?;
-        timings.push(Timing {
-            stage: format!("liggghts_np{np}"),
-            seconds,
-        });
-        progress(&format!(
-            "LIGGGHTS on {np} process(es): done in {seconds:.1} s: peak {:.7e} N, {} bonds broken",
-            m.peak_force,
-            m.breaks.len()
-        ));
+        m.record_stage(
+            format!("liggghts_np{np}"),
+            &format!("LIGGGHTS on {np} process(es):"),
+            &mut timings,
+            progress,
+        );
         measured.push(m);
     }
     compare(
@@ -255,11 +252,7 @@ fn read_run(
             ))
         })?);
     }
-    let version = out
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("LIGGGHTS ("))
-        .map(|l| l.trim_end_matches(')').to_string())
-        .unwrap_or_else(|| "unknown".into());
+    let version = crate::export::liggghts::liggghts_version(out);
     Ok(StrengthRun {
         program: format!("LIGGGHTS driver ({version})"),
         processes: np,

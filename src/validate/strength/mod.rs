@@ -604,12 +604,29 @@ impl StrengthRun {
     /// found (peak force, bonds broken) on `progress`: what every engine's test does with
     /// [`reference()`]'s result.
     pub fn record(&self, timings: &mut Vec<Timing>, progress: Progress) {
+        self.record_stage(
+            "integrator".into(),
+            "anisobond: integrator",
+            timings,
+            progress,
+        );
+    }
+
+    /// Record this run's wall time as `stage` of `timings` and say on `progress` what `who`
+    /// found (`{who} done in … s: peak … N, … bonds broken`).
+    pub fn record_stage(
+        &self,
+        stage: String,
+        who: &str,
+        timings: &mut Vec<Timing>,
+        progress: Progress,
+    ) {
         timings.push(Timing {
-            stage: "integrator".into(),
+            stage,
             seconds: self.seconds,
         });
         progress(&format!(
-            "anisobond: integrator done in {:.1} s: peak {:.7e} N, {} bonds broken",
+            "{who} done in {:.1} s: peak {:.7e} N, {} bonds broken",
             self.seconds,
             self.peak_force,
             self.breaks.len()

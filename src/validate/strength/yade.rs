@@ -24,7 +24,7 @@ use crate::dem::{build_law, LawKind};
 use crate::export::yade::{
     adhesions_of, files, run_yade_script, write_bond_table_with_adhesions, YADE_MODULE,
 };
-use crate::validate::harness::{Problem, Progress, Report, Timing};
+use crate::validate::harness::{Problem, Progress, Report};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -155,17 +155,8 @@ pub fn run(
     )?;
     reference.record(&mut timings, progress);
     let out = run_yade_script(&script_path, &[])?;
-    timings.push(Timing {
-        stage: "yade_process".into(),
-        seconds: out.wall_seconds,
-    });
     let m = read_result(&dir.join(RESULT), problem, test, out.wall_seconds)?;
-    progress(&format!(
-        "YADE: done in {:.1} s: peak {:.7e} N, {} bonds broken",
-        out.wall_seconds,
-        m.peak_force,
-        m.breaks.len()
-    ));
+    m.record_stage("yade_process".into(), "YADE:", &mut timings, progress);
     compare(
         "yade",
         "yade",
