@@ -5,13 +5,15 @@
 //! - `voigt.rs`: the sum over the actual bonds (uniform strain; Kruyt 2014 Eq. 27).
 //! - `relaxed.rs`: the exact quasi-static tensor from one sparse equilibrium solve.
 //! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
-//! - `cholesky.rs`, `two_level.rs`: the relaxed solve's direct solver and CG preconditioner.
+//! - `cholesky.rs`, `two_level.rs`, `amg.rs`: the relaxed solve's direct solver and CG
+//!   preconditioners (two-level; smoothed-aggregation multigrid).
 //! - `network.rs`: the linearised bond network the last two share.
 //! - `geometric.rs`: the initial-stress stiffness of a pre-loaded network;
 //!   `buckling.rs`: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
 //! - `report.rs`: the SPEC tensor report (JSON).
 
+pub(crate) mod amg;
 pub(crate) mod buckling;
 pub(crate) mod cholesky;
 pub(crate) mod geometric;
@@ -25,6 +27,7 @@ pub(crate) mod sparse;
 pub(crate) mod two_level;
 pub(crate) mod voigt;
 
+pub use amg::Amg;
 pub use buckling::UpdatedGeometryResult;
 pub use buckling::{
     clamped_bar_buckling, euler_stress, extensible_stress, mazzilli_stress, BucklingOptions,
