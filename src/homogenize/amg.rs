@@ -216,8 +216,8 @@ fn aggregate(graph: &Graph) -> (Vec<u32>, usize) {
         count += 1;
     }
     let phase1 = agg.clone();
-    for i in 0..n {
-        if agg[i] != FREE {
+    for (i, gi) in agg.iter_mut().enumerate() {
+        if *gi != FREE {
             continue;
         }
         let mut best: Option<(f64, u32)> = None;
@@ -228,7 +228,7 @@ fn aggregate(graph: &Graph) -> (Vec<u32>, usize) {
             }
         }
         if let Some((_, g)) = best {
-            agg[i] = g;
+            *gi = g;
         }
     }
     for g in agg.iter_mut() {
