@@ -168,6 +168,8 @@ enum SolverArg {
     Cg,
     /// Conjugate gradients with the block-Jacobi preconditioner only.
     CgJacobi,
+    /// Conjugate gradients with a smoothed-aggregation multigrid V-cycle (rigid-body modes).
+    CgAmg,
     /// Sparse Cholesky (faer, supernodal): direct, more memory.
     Cholesky,
 }
@@ -182,6 +184,9 @@ impl From<SolverArg> for RelaxedSolver {
             },
             SolverArg::CgJacobi => RelaxedSolver::Cg {
                 preconditioner: CgPreconditioner::BlockJacobi,
+            },
+            SolverArg::CgAmg => RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::Amg,
             },
             SolverArg::Cholesky => RelaxedSolver::Cholesky,
         }
@@ -394,6 +399,7 @@ fn print_detail(detail: &Detail, st: &StaticArgs) {
                     SolverArg::Cholesky => "sparse Cholesky".to_string(),
                     SolverArg::Cg => format!("two-level CG, {} iterations", r.iterations),
                     SolverArg::CgJacobi => format!("block-Jacobi CG, {} iterations", r.iterations),
+                    SolverArg::CgAmg => format!("multigrid CG, {} iterations", r.iterations),
                 },
                 r.relative_residual, r.active_particles, r.active_bonds,
                 ns.removed_particles, ns.removed_bonds, ns.two_bond_particles, ns.rigid_translations, ns.other_singular_particles

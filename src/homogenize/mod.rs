@@ -8,7 +8,8 @@
 //!   fluctuation, rotation, Love–Weber stress, fitted strain; bond forces) and their
 //!   statistics per label.
 //! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
-//! - `cholesky.rs`, `two_level.rs`: the relaxed solve's direct solver and CG preconditioner.
+//! - `cholesky.rs`, `two_level.rs`, `amg.rs`: the relaxed solve's direct solver and CG
+//!   preconditioners (two-level; smoothed-aggregation multigrid).
 //! - `network.rs`: the linearised bond network the last two share.
 //! - `term_operator.rs`: the many-body term's Hessian, load and affine tensor for the relaxed
 //!   solve, in factored form.
@@ -17,6 +18,7 @@
 //! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
 //! - `report.rs`: the SPEC tensor report (JSON).
 
+pub(crate) mod amg;
 pub(crate) mod buckling;
 pub(crate) mod cholesky;
 pub(crate) mod geometric;
@@ -32,6 +34,7 @@ pub(crate) mod term_operator;
 pub(crate) mod two_level;
 pub(crate) mod voigt;
 
+pub use amg::Amg;
 pub use buckling::UpdatedGeometryResult;
 pub use buckling::{
     clamped_bar_buckling, euler_stress, extensible_stress, mazzilli_stress, BucklingOptions,

@@ -13,6 +13,7 @@
 //! Singular modes are detected and reported ([`NullSpaceReport`]), not regularised away:
 //! the right-hand sides are orthogonal to them, so CG converges in the range of K.
 
+use super::amg::Amg;
 use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
 use super::sparse::{mul6_cols, BlockSparse};
@@ -38,6 +39,9 @@ pub enum CgPreconditioner {
         /// Target cluster size.
         particles_per_aggregate: usize,
     },
+    /// Smoothed-aggregation algebraic multigrid seeded with the rigid-body modes
+    /// (`amg.rs`): one V-cycle per iteration.
+    Amg,
 }
 
 /// Linear solver of the relaxed equilibrium K Q = G.
@@ -333,8 +337,25 @@ fn relaxed_solve_full(
                 term: term_op.as_ref(),
             };
             let two_level = coarse_space(packing, &net, &op, preconditioner, opts.rotations)?;
+            // The multigrid hierarchy is built on the assembled matrix: the springs', plus
+            // the term's Hessian when there is one.
+            let merged = match (preconditioner, term) {
+                (CgPreconditioner::Amg, Some(t)) => Some(springs.add(
+                    &t.hessian(t.reference_branches())?
+                        .restrict(&net.index, 1.0),
+                )?),
+                _ => None,
+            };
+            let amg = match preconditioner {
+                CgPreconditioner::Amg => {
+                    let kmat = merged.as_ref().unwrap_or(&springs);
+                    Some(Amg::of_network(kmat, packing, &net.original, opts.rotations)?)
+                }
+                _ => None,
+            };
             let start = initial.filter(|x| x.len() == m);
-            let (q, it, res) = pcg(&op, &net.g, &pre, two_level.as_ref(), &scale, opts, start)?;
+            let coarse = (two_level.as_ref(), amg.as_ref());
+            let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
             let terms = op.fluctuation_terms(&net.g, &q);
             (q, it, res, terms)
         }
@@ -547,7 +568,7 @@ fn held_cg(
         ..Default::default()
     };
     let op = Stiffness { k, term: None };
-    pcg(&op, b, &pre, two_level, &scale, &opts, None)
+    pcg(&op, b, &pre, (two_level, None), &scale, &opts, None)
 }
 
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
@@ -573,12 +594,13 @@ fn worst_residual(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> f64 {
 
 /// Preconditioned conjugate gradients on the six load cases together, K X = B, from
 /// X₀ = `start` (or 0); block-Jacobi, or the balancing two-level preconditioner
-/// z = Q r + (I − QK) M (I − KQ) r with M = block-Jacobi when `two_level` is given.
+/// z = Q r + (I − QK) M (I − KQ) r with M = block-Jacobi when `two_level` is given, or one
+/// multigrid V-cycle when `amg` is.
 fn pcg(
     k: &Stiffness,
     b: &[Block6],
     pre: &[(Block6, usize)],
-    two_level: Option<&TwoLevel>,
+    (two_level, amg): (Option<&TwoLevel>, Option<&Amg>),
     scale: &[f64; 6],
     opts: &RelaxedOptions,
     start: Option<&[Block6]>,
@@ -588,6 +610,7 @@ fn pcg(
     // Load cases past the last live one are zero throughout: not computed.
     let cols = live.iter().rposition(|&l| l).map_or(1, |c| c + 1);
     let mut precondition = Preconditioner::new(pre, two_level, cols, m);
+    precondition.amg = amg;
     let (mut x, mut r) = cg_start(k, b, start, &live, two_level)?;
     let mut z = vec![Block6::zeros(); m];
     precondition.apply(&r, &mut z)?;
@@ -654,6 +677,8 @@ struct Preconditioner<'a> {
     w: Vec<Block6>,
     /// Q K M r (two-level only).
     t: Vec<Block6>,
+    /// The multigrid V-cycle, when used instead.
+    amg: Option<&'a Amg<'a>>,
 }
 
 impl<'a> Preconditioner<'a> {
@@ -674,6 +699,7 @@ impl<'a> Preconditioner<'a> {
             cols,
             w,
             t,
+            amg: None,
         }
     }
 
@@ -690,6 +716,9 @@ impl<'a> Preconditioner<'a> {
     /// stays ⟂ range(P) since Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this
     /// start).
     fn apply(&mut self, r: &[Block6], z: &mut [Block6]) -> Result<()> {
+        if let Some(amg) = self.amg {
+            return amg.apply_cols(r, z, self.cols);
+        }
         let Some(tl) = self.two_level else {
             Self::jacobi(self.pre, self.cols, r, z);
             return Ok(());
