@@ -399,16 +399,7 @@ impl ManyBody {
             .par_chunks_mut(PARTICLE_CHUNK)
             .zip(ws.piola.par_chunks_mut(PARTICLE_CHUNK))
             .enumerate()
-            .for_each(|(c, (we, wp))| {
-                for (l, (e, pv)) in we.iter_mut().zip(wp.iter_mut()).enumerate() {
-                    let p = c * PARTICLE_CHUNK + l;
-                    (*e, *pv) = if self.included[p] {
-                        self.energy_piola(&self.fit(p, br), self.particle_volume[p])
-                    } else {
-                        (0.0, Mat3::zeros())
-                    };
-                }
-            });
+            .for_each(|(c, (we, wp))| self.particle_pass(c * PARTICLE_CHUNK, br, we, wp));
         let piola = &ws.piola;
         ws.gradient
             .par_chunks_mut(BOND_CHUNK)
@@ -453,71 +444,65 @@ impl ManyBody {
     }
 
     /// (V·W, V·P) of a particle of volume `v` at gradient F: energy density W = ½ E:D:E and
-    /// first Piola stress P = ∂W/∂F (F·S for Green–Lagrange, S for the small strain), each
-    /// product written out (the arithmetic `evaluate`, `energy` and `evaluate_into` share).
+    /// first Piola stress P = ∂W/∂F (F·S for Green–Lagrange, S for the small strain): the one
+    /// lane of [`energy_piola_lanes`], the arithmetic `evaluate`, `energy` and
+    /// `evaluate_into` share.
     #[inline(always)]
     fn energy_piola(&self, f: &Mat3, v: f64) -> (f64, Mat3) {
-        let fm = |r: usize, c: usize| f[(r, c)];
-        // Voigt strain [e11, e22, e33, 2e23, 2e13, 2e12].
-        let ev: [f64; 6] = match self.measure {
-            StrainMeasure::GreenLagrange => {
-                let c = |r: usize, s: usize| {
-                    fm(0, r) * fm(0, s) + fm(1, r) * fm(1, s) + fm(2, r) * fm(2, s)
-                };
-                [
-                    (c(0, 0) - 1.0) * 0.5,
-                    (c(1, 1) - 1.0) * 0.5,
-                    (c(2, 2) - 1.0) * 0.5,
-                    c(1, 2),
-                    c(0, 2),
-                    c(0, 1),
-                ]
+        let lanes: [[f64; 1]; 9] = std::array::from_fn(|k| [f[k]]);
+        let (e, pk) = energy_piola_lanes::<1>(&self.d6, self.measure, &lanes, &[v]);
+        (e[0], Mat3::from_fn(|r, c| pk[r + 3 * c][0]))
+    }
+
+    /// Pass 2 of [`gradients_into`](Self::gradients_into) on one chunk of particles from
+    /// `base`: V_p·W_p into `we`, V_p·P_p into `wp`. Where AVX2 runs, the fitted F of four
+    /// included particles at a time go through [`energy_piola_avx2`] (the same operations
+    /// as the one-lane [`energy_piola`](Self::energy_piola), so the same bits); the rest one
+    /// by one.
+    #[allow(clippy::needless_range_loop)] // `l` indexes both outputs and names the slot
+    fn particle_pass(&self, base: usize, br: &[Vec3], we: &mut [f64], wp: &mut [Mat3]) {
+        #[cfg(target_arch = "x86_64")]
+        let lanes = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
+        let mut slot = [0usize; 4];
+        let mut fs = [[0.0f64; 4]; 9];
+        let mut vs = [0.0f64; 4];
+        let mut filled = 0;
+        for l in 0..we.len() {
+            let p = base + l;
+            if !self.included[p] {
+                (we[l], wp[l]) = (0.0, Mat3::zeros());
+                continue;
             }
-            StrainMeasure::Small => [
-                fm(0, 0) - 1.0,
-                fm(1, 1) - 1.0,
-                fm(2, 2) - 1.0,
-                fm(1, 2) + fm(2, 1),
-                fm(0, 2) + fm(2, 0),
-                fm(0, 1) + fm(1, 0),
-            ],
-        };
-        let mut sv = [0.0f64; 6];
-        for (r, out) in sv.iter_mut().enumerate() {
-            let mut acc = self.d6[(r, 0)] * ev[0];
-            for k in 1..6 {
-                acc += self.d6[(r, k)] * ev[k];
+            let f = self.fit(p, br);
+            if !lanes {
+                (we[l], wp[l]) = self.energy_piola(&f, self.particle_volume[p]);
+                continue;
             }
-            *out = acc;
-        }
-        let mut w = ev[0] * sv[0];
-        for k in 1..6 {
-            w += ev[k] * sv[k];
-        }
-        let s = [
-            [sv[0], sv[5], sv[4]],
-            [sv[5], sv[1], sv[3]],
-            [sv[4], sv[3], sv[2]],
-        ];
-        let mut pk = [0.0f64; 9];
-        match self.measure {
-            StrainMeasure::GreenLagrange => {
-                for c in 0..3 {
-                    for r in 0..3 {
-                        pk[r + 3 * c] =
-                            (fm(r, 0) * s[0][c] + fm(r, 1) * s[1][c] + fm(r, 2) * s[2][c]) * v;
+            slot[filled] = l;
+            for (k, lane) in fs.iter_mut().enumerate() {
+                lane[filled] = f[k];
+            }
+            vs[filled] = self.particle_volume[p];
+            filled += 1;
+            if filled == 4 {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    // SAFETY: AVX2 is available (checked above).
+                    let (e, pk) = unsafe { energy_piola_avx2(&self.d6, self.measure, &fs, &vs) };
+                    for (m, &at) in slot.iter().enumerate() {
+                        we[at] = e[m];
+                        wp[at] = Mat3::from_fn(|r, c| pk[r + 3 * c][m]);
                     }
                 }
-            }
-            StrainMeasure::Small => {
-                for c in 0..3 {
-                    for r in 0..3 {
-                        pk[r + 3 * c] = s[r][c] * v;
-                    }
-                }
+                filled = 0;
             }
         }
-        (v * (0.5 * w), Mat3::from_column_slice(&pk))
+        for m in 0..filled {
+            let f = Mat3::from_fn(|r, c| fs[r + 3 * c][m]);
+            (we[slot[m]], wp[slot[m]]) = self.energy_piola(&f, vs[m]);
+        }
     }
 
     /// g_b = ∂U/∂l_b (N) of bond `b` from a workspace filled by
@@ -807,6 +792,118 @@ impl ManyBody {
         }
         Ok(())
     }
+}
+
+/// (V·W, V·P) of `L` particles at once (lane l: gradient entries `f[k][l]`, column-major k,
+/// volume `v[l]`): W = ½ E:D:E with E the measure's strain of F, S = D:E, P = F·S
+/// (Green–Lagrange) or S (small strain). Every lane performs the same IEEE operations in the
+/// same order (no fused multiply–add), so any `L` gives the one-lane bits.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane arithmetic: one index over every lane array
+fn energy_piola_lanes<const L: usize>(
+    d6: &Stiffness6,
+    measure: StrainMeasure,
+    f: &[[f64; L]; 9],
+    v: &[f64; L],
+) -> ([f64; L], [[f64; L]; 9]) {
+    let fm = |r: usize, c: usize| &f[r + 3 * c];
+    let zero = [0.0f64; L];
+    // Voigt strain [e11, e22, e33, 2e23, 2e13, 2e12].
+    let mut ev = [zero; 6];
+    match measure {
+        StrainMeasure::GreenLagrange => {
+            let c = |r: usize, s: usize| {
+                let (a, b, d) = (fm(0, r), fm(1, r), fm(2, r));
+                let (x, y, z) = (fm(0, s), fm(1, s), fm(2, s));
+                let mut out = zero;
+                for l in 0..L {
+                    out[l] = a[l] * x[l] + b[l] * y[l] + d[l] * z[l];
+                }
+                out
+            };
+            for (k, &(r, s2)) in [(0, 0), (1, 1), (2, 2)].iter().enumerate() {
+                let cc = c(r, s2);
+                for l in 0..L {
+                    ev[k][l] = (cc[l] - 1.0) * 0.5;
+                }
+            }
+            ev[3] = c(1, 2);
+            ev[4] = c(0, 2);
+            ev[5] = c(0, 1);
+        }
+        StrainMeasure::Small => {
+            for k in 0..3 {
+                for l in 0..L {
+                    ev[k][l] = fm(k, k)[l] - 1.0;
+                }
+            }
+            for (k, &(r, c)) in [(1, 2), (0, 2), (0, 1)].iter().enumerate() {
+                for l in 0..L {
+                    ev[3 + k][l] = fm(r, c)[l] + fm(c, r)[l];
+                }
+            }
+        }
+    }
+    let mut sv = [zero; 6];
+    for (r, out) in sv.iter_mut().enumerate() {
+        for l in 0..L {
+            let mut acc = d6[(r, 0)] * ev[0][l];
+            for (k, e) in ev.iter().enumerate().skip(1) {
+                acc += d6[(r, k)] * e[l];
+            }
+            out[l] = acc;
+        }
+    }
+    let mut energy = zero;
+    for l in 0..L {
+        let mut w = ev[0][l] * sv[0][l];
+        for k in 1..6 {
+            w += ev[k][l] * sv[k][l];
+        }
+        energy[l] = v[l] * (0.5 * w);
+    }
+    // S row by row from its Voigt entries.
+    let s = [[0, 5, 4], [5, 1, 3], [4, 3, 2]];
+    let mut pk = [zero; 9];
+    match measure {
+        StrainMeasure::GreenLagrange => {
+            for c in 0..3 {
+                for r in 0..3 {
+                    for l in 0..L {
+                        pk[r + 3 * c][l] = (fm(r, 0)[l] * sv[s[0][c]][l]
+                            + fm(r, 1)[l] * sv[s[1][c]][l]
+                            + fm(r, 2)[l] * sv[s[2][c]][l])
+                            * v[l];
+                    }
+                }
+            }
+        }
+        StrainMeasure::Small => {
+            for c in 0..3 {
+                for r in 0..3 {
+                    for l in 0..L {
+                        pk[r + 3 * c][l] = sv[s[r][c]][l] * v[l];
+                    }
+                }
+            }
+        }
+    }
+    (energy, pk)
+}
+
+/// [`energy_piola_lanes`] of four particles compiled for AVX2 (the same bits as one lane).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn energy_piola_avx2(
+    d6: &Stiffness6,
+    measure: StrainMeasure,
+    f: &[[f64; 4]; 9],
+    v: &[f64; 4],
+) -> ([f64; 4], [[f64; 4]; 9]) {
+    energy_piola_lanes::<4>(d6, measure, f, v)
 }
 
 /// A_p⁻¹ of the branch vectors `ls` of one particle, or why it has none: fewer than three
