@@ -1,8 +1,10 @@
 //! The many-body term (issue 33, docs/manybody.md "Integrator") in the reference integrator:
 //! every step, after the bond law, each particle's fitted Green–Lagrange strain gives the
-//! term's energy and forces ([`ManyBody::evaluate_into`], no allocation); the forces join the
-//! particles' resultants, the energy the ledger ([`super::Energies::manybody`]) and
-//! Σ g_b ⊗ l_b the Love stress. Built once from the intact bonds; refused with breakage.
+//! term's energy and its pair of forces ±g_b on every bond ([`ManyBody::gradients_into`], no
+//! allocation); the particle update adds ±g_b to each particle's resultant as it gathers the
+//! bond loads (no pass of its own), the energy joins the ledger
+//! ([`super::Energies::manybody`]) and Σ g_b ⊗ l_b the Love stress. Built once from the
+//! intact bonds; refused with breakage.
 
 use super::state::{deterministic_sum_mat3, BondTopology, Particles};
 use crate::manybody::{ManyBody, StrainMeasure, Workspace};
@@ -93,18 +95,19 @@ impl ManyBodyForces {
         &self.term
     }
 
-    /// Energy and forces at the current positions and cell `h` (`None`: free).
+    /// Energy and bond gradients g_b at the current positions and cell `h` (`None`: free).
     pub(crate) fn compute(&mut self, p: &Particles, t: &BondTopology, h: Option<&Mat3>) {
         let periodic = h.is_some();
         let hm = h.copied().unwrap_or_else(Mat3::zeros);
         let x = &p.position[..];
         self.term
-            .evaluate_into(|b| branch(x, t, &hm, periodic, b), &mut self.ws);
+            .gradients_into(|b| branch(x, t, &hm, periodic, b), &mut self.ws);
     }
 
-    /// −∂U/∂x_p of the last [`compute`](Self::compute) (N).
-    pub(crate) fn forces(&self) -> &[Vec3] {
-        &self.ws.force
+    /// g_b = ∂U/∂l_b of every bond at the last [`compute`](Self::compute) (N): the term's
+    /// force on particle p is Σ_b (+g_b at i_b, −g_b at j_b).
+    pub(crate) fn bond_gradients(&self) -> &[Vec3] {
+        &self.ws.gradient
     }
 
     /// g_b = ∂U/∂l_b of bond `b` at the last [`compute`](Self::compute) (N): the term's force

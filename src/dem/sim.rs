@@ -104,7 +104,8 @@ struct Resultants<'a> {
     external: Option<&'a ExternalForces>,
     /// Contact forces and torques per particle, if contacts are on.
     contact: Option<(&'a [Vec3], &'a [Vec3])>,
-    /// The many-body term's forces per particle, if it is on.
+    /// The many-body term's g_b per bond, if it is on: +g_b on i_b, −g_b on j_b
+    /// (docs/manybody.md "Integrator"), gathered here rather than in a pass of its own.
     manybody: Option<&'a [Vec3]>,
 }
 
@@ -135,8 +136,11 @@ impl Resultants<'_> {
             f += cf[k];
             t += ct[k];
         }
-        if let Some(m) = self.manybody {
-            f += m[k];
+        if let Some(g) = self.manybody {
+            for &e in &self.entries[self.start[k]..self.start[k + 1]] {
+                let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
+                f += g[(e >> 1) as usize] * sign;
+            }
         }
         (f, t)
     }
@@ -1027,7 +1031,7 @@ impl Simulation {
                 loads: &self.loads.per_bond[..],
                 external: self.external.as_ref(),
                 contact: self.contacts.as_ref().map(|c| (c.force(), c.torque())),
-                manybody: self.manybody.as_ref().map(|m| m.forces()),
+                manybody: self.manybody.as_ref().map(|m| m.bond_gradients()),
             },
             mass: &p.mass[..],
             inertia: &p.inertia[..],

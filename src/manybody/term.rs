@@ -16,6 +16,12 @@ use crate::tensor::{to_fourth_order, Stiffness6, Tensor4, Voigt6};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
+/// Particles per parallel work item of [`ManyBody::evaluate_into`] (fixed: the same bits on
+/// any number of threads).
+const PARTICLE_CHUNK: usize = 256;
+/// Bonds per parallel work item of [`ManyBody::evaluate_into`].
+const BOND_CHUNK: usize = 1024;
+
 /// The many-body term of one bonded packing (structure of arrays; see the module docs).
 #[derive(Clone, Debug)]
 pub struct ManyBody {
@@ -28,8 +34,6 @@ pub struct ManyBody {
     bond_j: Vec<u32>,
     image: Vec<[i32; 3]>,
     reference: Vec<Vec3>,
-    /// Incidence index of bond b at its i end and at its j end.
-    bond_inc: Vec<[u32; 2]>,
     particle_volume: Vec<f64>,
     included: Vec<bool>,
     /// Per particle (CSR, n + 1 offsets): its bonds in bond order and a_b = A_p⁻¹ L_b
@@ -43,6 +47,10 @@ pub struct ManyBody {
     sten_node: Vec<u32>,
     sten_coef: Vec<Vec3>,
     excluded: Vec<u32>,
+    /// Per bond, its fit coefficients a_b at its i end and at its j end (copies of
+    /// `inc_coef`, laid out by bond so that the per-bond pass of `evaluate` and
+    /// `evaluate_into` reads them in sequence).
+    bond_coef: Vec<[Vec3; 2]>,
 }
 
 /// Caller-owned buffers of [`ManyBody::evaluate_into`] (structure of arrays, one entry per
@@ -55,8 +63,11 @@ pub struct Workspace {
     pub piola: Vec<Mat3>,
     /// g_b = ∂U/∂l_b per bond (N): the force on its i end.
     pub gradient: Vec<Vec3>,
-    /// −∂U/∂x_p (N).
+    /// −∂U/∂x_p (N); filled by [`ManyBody::evaluate_into`], not by
+    /// [`ManyBody::gradients_into`].
     pub force: Vec<Vec3>,
+    /// l_b per bond at the last evaluation (m).
+    pub branch: Vec<Vec3>,
 }
 
 impl Workspace {
@@ -208,6 +219,11 @@ impl ManyBody {
             sten_start.push(sten_node.len());
         }
 
+        let bond_coef = bond_inc
+            .iter()
+            .map(|&[ki, kj]| [inc_coef[ki as usize], inc_coef[kj as usize]])
+            .collect();
+
         Ok(ManyBody {
             d4: to_fourth_order(&d6),
             d6,
@@ -218,7 +234,6 @@ impl ManyBody {
             bond_j: bonds.j.clone(),
             image: bonds.image.clone(),
             reference,
-            bond_inc,
             particle_volume,
             included,
             inc_start,
@@ -228,6 +243,7 @@ impl ManyBody {
             sten_node,
             sten_coef,
             excluded,
+            bond_coef,
         })
     }
 
@@ -325,7 +341,8 @@ impl ManyBody {
             .into_par_iter()
             .map(|p| {
                 if self.included[p] {
-                    self.particle_state(&self.gradient_of(p, branch)).0 * self.particle_volume[p]
+                    self.energy_piola(&self.fit(p, branch), self.particle_volume[p])
+                        .0
                 } else {
                     0.0
                 }
@@ -342,72 +359,159 @@ impl ManyBody {
             piola: vec![Mat3::zeros(); n],
             gradient: vec![Vec3::zeros(); self.reference.len()],
             force: vec![Vec3::zeros(); n],
+            branch: vec![Vec3::zeros(); self.reference.len()],
         }
     }
 
     /// [`evaluate`](Self::evaluate) into the caller's buffers, allocating nothing: per
-    /// particle V_p·W_p and V_p·P_p, per bond g_b, per particle the forces (the same
-    /// operations in the same order as `evaluate`, so the same bits; the energy and stress
-    /// follow from the workspace by [`Workspace::energy`] and
-    /// [`bond_gradient`](Self::bond_gradient)). `branch(b)` gives the current branch vector
-    /// of bond b (the caller's bookkeeping of images and cell); it is not checked here.
-    /// Three parallel passes over fixed chunks, each entry written by one item: the same
-    /// bits on any number of threads.
+    /// bond l_b and g_b, per particle V_p·W_p, V_p·P_p and the forces (the same operations in
+    /// the same order as `evaluate`, so the same bits; the energy and stress follow from the
+    /// workspace by [`Workspace::energy`] and [`bond_gradient`](Self::bond_gradient)).
+    /// `branch(b)` gives the current branch vector of bond b (the caller's bookkeeping of
+    /// images and cell); it is not checked here. Parallel passes over fixed chunks, each
+    /// entry written by one item: the same bits on any number of threads.
     pub fn evaluate_into(&self, branch: impl Fn(usize) -> Vec3 + Sync, ws: &mut Workspace) {
-        const CHUNK: usize = 256;
-        let n = self.len();
-        ws.energy.resize(n, 0.0);
-        ws.piola.resize(n, Mat3::zeros());
-        ws.force.resize(n, Vec3::zeros());
-        ws.gradient.resize(self.reference.len(), Vec3::zeros());
-        ws.energy
-            .par_chunks_mut(CHUNK)
-            .zip(ws.piola.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, (we, wp))| {
-                for (l, (e, pv)) in we.iter_mut().zip(wp.iter_mut()).enumerate() {
-                    let p = c * CHUNK + l;
-                    if !self.included[p] {
-                        (*e, *pv) = (0.0, Mat3::zeros());
-                        continue;
-                    }
-                    let mut f = Mat3::zeros();
-                    for k in self.inc_start[p]..self.inc_start[p + 1] {
-                        f += branch(self.inc_bond[k] as usize) * self.inc_coef[k].transpose();
-                    }
-                    let (w, pk, _) = self.particle_state(&f);
-                    let v = self.particle_volume[p];
-                    (*e, *pv) = (v * w, pk * v);
-                }
-            });
-        let piola = &ws.piola;
-        ws.gradient
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, out)| {
-                for (l, g) in out.iter_mut().enumerate() {
-                    *g = self.gradient_in(c * CHUNK + l, piola);
-                }
-            });
+        self.gradients_into(branch, ws);
+        ws.force.resize(self.len(), Vec3::zeros());
         let gradient = &ws.gradient;
         ws.force
-            .par_chunks_mut(CHUNK)
+            .par_chunks_mut(PARTICLE_CHUNK)
             .enumerate()
             .for_each(|(c, out)| {
                 for (l, fo) in out.iter_mut().enumerate() {
-                    let p = c * CHUNK + l;
-                    let mut f = Vec3::zeros();
-                    for k in self.inc_start[p]..self.inc_start[p + 1] {
-                        let b = self.inc_bond[k] as usize;
-                        if self.bond_i[b] as usize == p {
-                            f += gradient[b];
-                        } else {
-                            f -= gradient[b];
-                        }
-                    }
-                    *fo = f;
+                    *fo = self.force_on(c * PARTICLE_CHUNK + l, gradient);
                 }
             });
+    }
+
+    /// [`evaluate_into`](Self::evaluate_into) without its last pass, the per-particle forces
+    /// (`ws.force` is left as it was): for a caller that gathers f_p = Σ_b ±g_b itself, as
+    /// the integrator does in its particle update (+g_b at i_b, −g_b at j_b). Three passes:
+    /// l_b per bond, F_p → V_p·W_p and V_p·P_p per particle, g_b per bond.
+    pub fn gradients_into(&self, branch: impl Fn(usize) -> Vec3 + Sync, ws: &mut Workspace) {
+        let n = self.len();
+        let nb = self.reference.len();
+        ws.energy.resize(n, 0.0);
+        ws.piola.resize(n, Mat3::zeros());
+        ws.gradient.resize(nb, Vec3::zeros());
+        ws.branch.resize(nb, Vec3::zeros());
+        ws.branch
+            .par_chunks_mut(BOND_CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (l, o) in out.iter_mut().enumerate() {
+                    *o = branch(c * BOND_CHUNK + l);
+                }
+            });
+        let br = &ws.branch;
+        ws.energy
+            .par_chunks_mut(PARTICLE_CHUNK)
+            .zip(ws.piola.par_chunks_mut(PARTICLE_CHUNK))
+            .enumerate()
+            .for_each(|(c, (we, wp))| self.particle_pass(c * PARTICLE_CHUNK, br, we, wp));
+        let piola = &ws.piola;
+        ws.gradient
+            .par_chunks_mut(BOND_CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (l, g) in out.iter_mut().enumerate() {
+                    *g = self.gradient_in(c * BOND_CHUNK + l, piola);
+                }
+            });
+    }
+
+    /// f_p = −∂U/∂x_p = Σ_b (+g_b at i_b, −g_b at j_b), in the particle's bond order.
+    #[inline(always)]
+    fn force_on(&self, p: usize, gradient: &[Vec3]) -> Vec3 {
+        let mut f = Vec3::zeros();
+        for &b in &self.inc_bond[self.inc_start[p]..self.inc_start[p + 1]] {
+            let b = b as usize;
+            if self.bond_i[b] as usize == p {
+                f += gradient[b];
+            } else {
+                f -= gradient[b];
+            }
+        }
+        f
+    }
+
+    /// F_p = Σ_b l_b ⊗ a_b of an included particle, written out entry by entry (the
+    /// arithmetic of `evaluate`, `energy` and `evaluate_into`).
+    #[inline(always)]
+    fn fit(&self, p: usize, branch: &[Vec3]) -> Mat3 {
+        let span = self.inc_start[p]..self.inc_start[p + 1];
+        let mut f = [0.0f64; 9];
+        for (&b, a) in self.inc_bond[span.clone()].iter().zip(&self.inc_coef[span]) {
+            let l = branch[b as usize];
+            for c in 0..3 {
+                for r in 0..3 {
+                    f[r + 3 * c] += l[r] * a[c];
+                }
+            }
+        }
+        Mat3::from_column_slice(&f)
+    }
+
+    /// (V·W, V·P) of a particle of volume `v` at gradient F: energy density W = ½ E:D:E and
+    /// first Piola stress P = ∂W/∂F (F·S for Green–Lagrange, S for the small strain): the one
+    /// lane of [`energy_piola_lanes`], the arithmetic `evaluate`, `energy` and
+    /// `evaluate_into` share.
+    #[inline(always)]
+    fn energy_piola(&self, f: &Mat3, v: f64) -> (f64, Mat3) {
+        let lanes: [[f64; 1]; 9] = std::array::from_fn(|k| [f[k]]);
+        let (e, pk) = energy_piola_lanes::<1>(&self.d6, self.measure, &lanes, &[v]);
+        (e[0], Mat3::from_fn(|r, c| pk[r + 3 * c][0]))
+    }
+
+    /// Pass 2 of [`gradients_into`](Self::gradients_into) on one chunk of particles from
+    /// `base`: V_p·W_p into `we`, V_p·P_p into `wp`. Where AVX2 runs, the fitted F of four
+    /// included particles at a time go through [`energy_piola_avx2`] (the same operations
+    /// as the one-lane [`energy_piola`](Self::energy_piola), so the same bits); the rest one
+    /// by one.
+    #[allow(clippy::needless_range_loop)] // `l` indexes both outputs and names the slot
+    fn particle_pass(&self, base: usize, br: &[Vec3], we: &mut [f64], wp: &mut [Mat3]) {
+        #[cfg(target_arch = "x86_64")]
+        let lanes = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
+        let mut slot = [0usize; 4];
+        let mut fs = [[0.0f64; 4]; 9];
+        let mut vs = [0.0f64; 4];
+        let mut filled = 0;
+        for l in 0..we.len() {
+            let p = base + l;
+            if !self.included[p] {
+                (we[l], wp[l]) = (0.0, Mat3::zeros());
+                continue;
+            }
+            let f = self.fit(p, br);
+            if !lanes {
+                (we[l], wp[l]) = self.energy_piola(&f, self.particle_volume[p]);
+                continue;
+            }
+            slot[filled] = l;
+            for (k, lane) in fs.iter_mut().enumerate() {
+                lane[filled] = f[k];
+            }
+            vs[filled] = self.particle_volume[p];
+            filled += 1;
+            if filled == 4 {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    // SAFETY: AVX2 is available (checked above).
+                    let (e, pk) = unsafe { energy_piola_avx2(&self.d6, self.measure, &fs, &vs) };
+                    for (m, &at) in slot.iter().enumerate() {
+                        we[at] = e[m];
+                        wp[at] = Mat3::from_fn(|r, c| pk[r + 3 * c][m]);
+                    }
+                }
+                filled = 0;
+            }
+        }
+        for m in 0..filled {
+            let f = Mat3::from_fn(|r, c| fs[r + 3 * c][m]);
+            (we[slot[m]], wp[slot[m]]) = self.energy_piola(&f, vs[m]);
+        }
     }
 
     /// g_b = ∂U/∂l_b (N) of bond `b` from a workspace filled by
@@ -417,13 +521,19 @@ impl ManyBody {
         ws.gradient[b]
     }
 
+    /// g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j, written out (the arithmetic `evaluate` and
+    /// `evaluate_into` share).
     #[inline(always)]
     fn gradient_in(&self, b: usize, piola: &[Mat3]) -> Vec3 {
-        let mut acc = Vec3::zeros();
-        for (end, p) in [self.bond_i[b], self.bond_j[b]].into_iter().enumerate() {
-            acc += piola[p as usize] * self.inc_coef[self.bond_inc[b][end] as usize];
-        }
-        acc
+        let [ai, aj] = &self.bond_coef[b];
+        let (mi, mj) = (
+            &piola[self.bond_i[b] as usize],
+            &piola[self.bond_j[b] as usize],
+        );
+        Vec3::from_fn(|r, _| {
+            (mi[(r, 0)] * ai[0] + mi[(r, 1)] * ai[1] + mi[(r, 2)] * ai[2])
+                + (mj[(r, 0)] * aj[0] + mj[(r, 1)] * aj[1] + mj[(r, 2)] * aj[2])
+        })
     }
 
     /// Number of bonds.
@@ -449,39 +559,19 @@ impl ManyBody {
                 if !self.included[p] {
                     return (0.0, Mat3::zeros());
                 }
-                let f = self.gradient_of(p, branch);
-                let (w, pk, _) = self.particle_state(&f);
-                let v = self.particle_volume[p];
-                (v * w, pk * v)
+                self.energy_piola(&self.fit(p, branch), self.particle_volume[p])
             })
             .collect();
+        let piola: Vec<Mat3> = per_particle.iter().map(|e| e.1).collect();
         // Pass 2: g_b = ∂U/∂l_b.
         let g: Vec<Vec3> = (0..self.reference.len())
             .into_par_iter()
-            .map(|b| {
-                let mut acc = Vec3::zeros();
-                for (end, p) in [self.bond_i[b], self.bond_j[b]].into_iter().enumerate() {
-                    acc +=
-                        per_particle[p as usize].1 * self.inc_coef[self.bond_inc[b][end] as usize];
-                }
-                acc
-            })
+            .map(|b| self.gradient_in(b, &piola))
             .collect();
         // Pass 3: f_p = −∂U/∂x_p = Σ_b (+g_b at i_b, −g_b at j_b).
         let forces: Vec<Vec3> = (0..n)
             .into_par_iter()
-            .map(|p| {
-                let mut f = Vec3::zeros();
-                for k in self.inc_start[p]..self.inc_start[p + 1] {
-                    let b = self.inc_bond[k] as usize;
-                    if self.bond_i[b] as usize == p {
-                        f += g[b];
-                    } else {
-                        f -= g[b];
-                    }
-                }
-                f
-            })
+            .map(|p| self.force_on(p, &g))
             .collect();
         let energy = per_particle.iter().map(|e| e.0).sum();
         let mut stress = Mat3::zeros();
@@ -711,6 +801,118 @@ impl ManyBody {
         }
         Ok(())
     }
+}
+
+/// (V·W, V·P) of `L` particles at once (lane l: gradient entries `f[k][l]`, column-major k,
+/// volume `v[l]`): W = ½ E:D:E with E the measure's strain of F, S = D:E, P = F·S
+/// (Green–Lagrange) or S (small strain). Every lane performs the same IEEE operations in the
+/// same order (no fused multiply–add), so any `L` gives the one-lane bits.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane arithmetic: one index over every lane array
+fn energy_piola_lanes<const L: usize>(
+    d6: &Stiffness6,
+    measure: StrainMeasure,
+    f: &[[f64; L]; 9],
+    v: &[f64; L],
+) -> ([f64; L], [[f64; L]; 9]) {
+    let fm = |r: usize, c: usize| &f[r + 3 * c];
+    let zero = [0.0f64; L];
+    // Voigt strain [e11, e22, e33, 2e23, 2e13, 2e12].
+    let mut ev = [zero; 6];
+    match measure {
+        StrainMeasure::GreenLagrange => {
+            let c = |r: usize, s: usize| {
+                let (a, b, d) = (fm(0, r), fm(1, r), fm(2, r));
+                let (x, y, z) = (fm(0, s), fm(1, s), fm(2, s));
+                let mut out = zero;
+                for l in 0..L {
+                    out[l] = a[l] * x[l] + b[l] * y[l] + d[l] * z[l];
+                }
+                out
+            };
+            for (k, &(r, s2)) in [(0, 0), (1, 1), (2, 2)].iter().enumerate() {
+                let cc = c(r, s2);
+                for l in 0..L {
+                    ev[k][l] = (cc[l] - 1.0) * 0.5;
+                }
+            }
+            ev[3] = c(1, 2);
+            ev[4] = c(0, 2);
+            ev[5] = c(0, 1);
+        }
+        StrainMeasure::Small => {
+            for k in 0..3 {
+                for l in 0..L {
+                    ev[k][l] = fm(k, k)[l] - 1.0;
+                }
+            }
+            for (k, &(r, c)) in [(1, 2), (0, 2), (0, 1)].iter().enumerate() {
+                for l in 0..L {
+                    ev[3 + k][l] = fm(r, c)[l] + fm(c, r)[l];
+                }
+            }
+        }
+    }
+    let mut sv = [zero; 6];
+    for (r, out) in sv.iter_mut().enumerate() {
+        for l in 0..L {
+            let mut acc = d6[(r, 0)] * ev[0][l];
+            for (k, e) in ev.iter().enumerate().skip(1) {
+                acc += d6[(r, k)] * e[l];
+            }
+            out[l] = acc;
+        }
+    }
+    let mut energy = zero;
+    for l in 0..L {
+        let mut w = ev[0][l] * sv[0][l];
+        for k in 1..6 {
+            w += ev[k][l] * sv[k][l];
+        }
+        energy[l] = v[l] * (0.5 * w);
+    }
+    // S row by row from its Voigt entries.
+    let s = [[0, 5, 4], [5, 1, 3], [4, 3, 2]];
+    let mut pk = [zero; 9];
+    match measure {
+        StrainMeasure::GreenLagrange => {
+            for c in 0..3 {
+                for r in 0..3 {
+                    for l in 0..L {
+                        pk[r + 3 * c][l] = (fm(r, 0)[l] * sv[s[0][c]][l]
+                            + fm(r, 1)[l] * sv[s[1][c]][l]
+                            + fm(r, 2)[l] * sv[s[2][c]][l])
+                            * v[l];
+                    }
+                }
+            }
+        }
+        StrainMeasure::Small => {
+            for c in 0..3 {
+                for r in 0..3 {
+                    for l in 0..L {
+                        pk[r + 3 * c][l] = sv[s[r][c]][l] * v[l];
+                    }
+                }
+            }
+        }
+    }
+    (energy, pk)
+}
+
+/// [`energy_piola_lanes`] of four particles compiled for AVX2 (the same bits as one lane).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn energy_piola_avx2(
+    d6: &Stiffness6,
+    measure: StrainMeasure,
+    f: &[[f64; 4]; 9],
+    v: &[f64; 4],
+) -> ([f64; 4], [[f64; 4]; 9]) {
+    energy_piola_lanes::<4>(d6, measure, f, v)
 }
 
 /// A_p⁻¹ of the branch vectors `ls` of one particle, or why it has none: fewer than three

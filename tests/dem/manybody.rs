@@ -294,6 +294,14 @@ fn evaluate_into_has_the_bits_of_evaluate() {
             for (bb, lb) in mb.reference_branches().iter().enumerate() {
                 s += mb.bond_gradient(bb, &ws) * lb.transpose();
             }
+            // The integrator's entry (no force pass) leaves the same energy and g_b.
+            let mut lean = mb.workspace();
+            mb.gradients_into(|b| branch[b], &mut lean);
+            assert_eq!(lean.energy().to_bits(), ws.energy().to_bits());
+            assert!(
+                lean.gradient == ws.gradient,
+                "{threads} threads: g_b differ"
+            );
             (ws.energy(), ws.force.clone(), s / p.volume())
         });
         assert_eq!(energy.to_bits(), reference.energy.to_bits());
