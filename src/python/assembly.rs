@@ -150,6 +150,33 @@ impl PyAssembly {
         Ok(d)
     }
 
+    /// The grains the springs were assigned by (a model with `[grains]`, docs/polycrystal.md)
+    /// as a dict: `grain` (N,) uint32, each particle's grain id; `orientation` (G, 3, 3), each
+    /// grain's Bunge matrix (sample → crystal); `centres` (G, 3) m, the Voronoi centres, or
+    /// None for a grain file's map. None for a single crystal or bonds from a table.
+    #[getter]
+    fn grains<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(g) = self.inner.grains() else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("grain", PyArray1::from_slice(py, &g.grain))?;
+        let rows: Vec<f64> = g
+            .orientation
+            .iter()
+            .flat_map(|m| (0..3).flat_map(move |r| (0..3).map(move |c| m[(r, c)])))
+            .collect();
+        d.set_item(
+            "orientation",
+            PyArray1::from_vec(py, rows).reshape([g.len(), 3, 3])?,
+        )?;
+        match &g.centres {
+            Some(c) => d.set_item("centres", vec3_array(py, c)?)?,
+            None => d.set_item("centres", py.None())?,
+        }
+        Ok(Some(d))
+    }
+
     /// The packing.
     #[getter]
     fn packing(&self) -> PyPacking {
@@ -207,7 +234,7 @@ impl PyAssembly {
     /// progress=None; an unknown keyword is an InputError.
     /// lever_arm: "mid-gap" (YADE's contact point), "proportional" or "half-length"
     /// (LAMMPS bpm/rotational). tolerance, solver: relaxed only; relative CG residual in [1e-12, 1e-2], "cg",
-    /// "cg-jacobi" or "cholesky".
+    /// "cg-jacobi", "cg-amg" (smoothed-aggregation multigrid) or "cholesky".
     /// law, strain, damping, max_steps: dynamic only; "yade", "parallel-bond", "kumar" or "lammps-bpm",
     /// strain per path, Cundall damping, step limit per path.
     /// progress: a callable taking the completed fraction (0-1), called as the dynamic

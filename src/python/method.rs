@@ -34,14 +34,21 @@ pub(super) const LEVER_ARMS: [(&str, LeverArm); 3] = [
     ("half-length", LeverArm::HalfLength),
 ];
 
-/// The solvers of the relaxed method (`solver=`; "cg" is the default, two-level CG).
-pub(super) fn relaxed_solvers() -> [(&'static str, RelaxedSolver); 3] {
+/// The solvers of the relaxed method (`solver=`; "cg" is the default, two-level CG), the
+/// names of the CLI's `--solver`.
+pub(super) fn relaxed_solvers() -> [(&'static str, RelaxedSolver); 4] {
     [
         ("cg", RelaxedSolver::default()),
         (
             "cg-jacobi",
             RelaxedSolver::Cg {
                 preconditioner: CgPreconditioner::BlockJacobi,
+            },
+        ),
+        (
+            "cg-amg",
+            RelaxedSolver::Cg {
+                preconditioner: CgPreconditioner::Amg,
             },
         ),
         ("cholesky", RelaxedSolver::Cholesky),

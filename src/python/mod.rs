@@ -48,6 +48,7 @@ fn _anisobond(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(studies::buckle_bar, m)?)?;
     m.add_function(wrap_pyfunction!(studies::strength_test, m)?)?;
     m.add_function(wrap_pyfunction!(studies::strength_sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(studies::polycrystal, m)?)?;
     m.add_function(wrap_pyfunction!(strength::calibrate_strength_model, m)?)?;
     m.add_function(wrap_pyfunction!(tensor::engineering_constants, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;

@@ -1,5 +1,5 @@
-//! The studies (the library's [`crate::study`]) as Python functions: Kumar's buckled bars
-//! and the virtual laboratory's strength tests (`Assembly.cavity` is a method, in
+//! The studies (the library's [`crate::study`]) as Python functions: Kumar's buckled bars,
+//! the polycrystal study and the virtual laboratory's strength tests (`Assembly.cavity` is a method, in
 //! `assembly.rs`). Their dicts are the studies' reports,
 //! the keys of the command's JSON, plus numpy arrays.
 
@@ -7,7 +7,7 @@
 #![allow(missing_docs)]
 #![allow(clippy::useless_conversion)]
 
-use super::convert::{report_to_py, vec3_array};
+use super::convert::{json_to_py, report_to_py, vec3_array};
 use super::errors::to_py;
 use super::model::PyModel;
 use super::packing::PyPacking;
@@ -119,6 +119,38 @@ pub(super) fn buckle_bar<'py>(
     let d = report_to_py(py, &row, "buckle_bar")?;
     d.set_item("mode", vec3_array(py, &mode)?)?;
     Ok(d)
+}
+
+/// The polycrystal study (docs/polycrystal.md), as `anisobond polycrystal`: `model` must have
+/// a `[grains]` table. The relaxed tensor of `packing` bonded by `model` beside the single
+/// crystal's (the model without `[grains]`) random-texture bounds and estimates, and each
+/// grain's mean stress along `load_axis` ("x", "y" or "z") under the uniaxial engineering
+/// `strain` against its longitudinal modulus; `grain_counts` (e.g. [1, 8, 64]) adds a
+/// convergence series. Returns polycrystal.json's dict (the same keys). GIL released.
+#[pyfunction]
+#[pyo3(signature = (packing, model, *, strain = 1e-4, load_axis = "x", grain_counts = None))]
+pub(super) fn polycrystal<'py>(
+    py: Python<'py>,
+    packing: &PyPacking,
+    model: &PyModel,
+    strain: f64,
+    load_axis: &str,
+    grain_counts: Option<Vec<usize>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crate::study::polycrystal::{run, PolycrystalOptions};
+    use crate::study::OptionNames;
+    let opts = PolycrystalOptions {
+        strain,
+        load_axis: super::method::one_of("load_axis", load_axis, &[("x", 0), ("y", 1), ("z", 2)])?,
+        grain_counts: grain_counts.unwrap_or_default(),
+        ..PolycrystalOptions::default()
+    };
+    opts.check(OptionNames::Keywords).map_err(to_py)?;
+    let (p, m) = (&packing.inner, &model.inner);
+    let json = py
+        .detach(|| run(p, m, &opts, OptionNames::Keywords, &|_| {})?.to_json())
+        .map_err(to_py)?;
+    Ok(json_to_py(py, &json)?.cast_into::<PyDict>()?)
 }
 
 lab_pyfunction! {

@@ -19,7 +19,7 @@ class TensorOptions(TypedDict, total=False):
     energy: bool  # LAF energy (upper-bound) form [False]
     lever_arm: str  # "mid-gap" | "proportional" | "half-length" ["mid-gap"]
     tolerance: float  # relaxed: relative CG residual [1e-6]
-    solver: str  # relaxed: "cg" | "cg-jacobi" | "cholesky" ["cg"]
+    solver: str  # relaxed: "cg" | "cg-jacobi" | "cg-amg" | "cholesky" ["cg"]
     law: str  # dynamic: "yade" | "parallel-bond" | "kumar" | "lammps-bpm" ["yade"]
     strain: float  # dynamic: strain per path [1e-5]
     damping: float  # dynamic: Cundall damping [0.4]
@@ -158,6 +158,11 @@ class Assembly:
     def bonds(self) -> Dict[str, np.ndarray]:
         """i, j, normal (Nb, 3), length, radius, kn, ks, kr, ktw, image (Nb, 3)."""
     @property
+    def grains(self) -> Optional[Dict[str, Optional[np.ndarray]]]:
+        """The grains of a model with [grains] (docs/polycrystal.md): grain (N,) uint32 per
+        particle, orientation (G, 3, 3) Bunge matrices (sample -> crystal), centres (G, 3) m
+        or None (a grain file's map); None for a single crystal."""
+    @property
     def packing(self) -> Packing: ...
     @property
     def model(self) -> Model: ...
@@ -249,6 +254,20 @@ def buckle_bar(
     """Kumar 2016's clamped round bar (docs/buckling.md): a row of buckling.json
     (modulus_pa, sigma_network_pa, sigma_euler_pa, sigma_mazzilli_pa, sigma_deformed_pa,
     shear_stiffness_n, network with EI, …) and the first mode. tolerance None: 1e-6."""
+def polycrystal(
+    packing: Packing,
+    model: Model,
+    *,
+    strain: float = 1e-4,
+    load_axis: str = "x",
+    grain_counts: Optional[Sequence[int]] = None,
+) -> Dict[str, Any]:
+    """The polycrystal study (docs/polycrystal.md), as `anisobond polycrystal`: model needs
+    a [grains] table. polycrystal.json as a dict: tensor_pa, bulk_pa, shear_pa, anisotropy
+    beside the single crystal's tensor and its Voigt/Reuss/Hill/Hashin-Shtrikman/
+    self-consistent estimates (single_crystal), grains (per grain: bunge_deg,
+    longitudinal_modulus_pa, mean_stress_pa, ...) under the uniaxial strain along load_axis
+    ("x", "y", "z"), and series (one row per grain count of grain_counts)."""
 def strength_test(
     test: str = "ucs",
     *,
