@@ -340,16 +340,20 @@ fn relaxed_solve_full(
             // The multigrid hierarchy is built on the assembled matrix: the springs', plus
             // the term's Hessian when there is one.
             let merged = match (preconditioner, term) {
-                (CgPreconditioner::Amg, Some(t)) => Some(springs.add(
-                    &t.hessian(t.reference_branches())?
-                        .restrict(&net.index, 1.0),
-                )?),
+                (CgPreconditioner::Amg, Some(t)) => Some(
+                    springs.add(&t.hessian(t.reference_branches())?.restrict(&net.index, 1.0))?,
+                ),
                 _ => None,
             };
             let amg = match preconditioner {
                 CgPreconditioner::Amg => {
                     let kmat = merged.as_ref().unwrap_or(&springs);
-                    Some(Amg::of_network(kmat, packing, &net.original, opts.rotations)?)
+                    Some(Amg::of_network(
+                        kmat,
+                        packing,
+                        &net.original,
+                        opts.rotations,
+                    )?)
                 }
                 _ => None,
             };
