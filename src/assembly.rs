@@ -307,6 +307,7 @@ impl Assembly {
                     scheme,
                     &model.geometry,
                     &grains,
+                    spec.boundary,
                     spec.boundary_factor,
                 )?;
                 (springs, Some(grains))

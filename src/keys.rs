@@ -338,6 +338,7 @@ keyed! {
     seed("seed") = read: Read;
     boundary_factor("boundary_factor") = read: Read;
     orientation("orientation") = name: DeserializeOwned;
+    boundary("boundary") = name: DeserializeOwned;
     model("model") = name: DeserializeOwned;
     convention("convention") = name: DeserializeOwned;
     bond_radius("bond_radius") = name: DeserializeOwned;

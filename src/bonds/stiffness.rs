@@ -89,8 +89,8 @@ pub fn springs_along(
 /// scheme's magnitudes along its normal turned into the grain's crystal frame,
 /// magnitudes(g·n) (g the grain's Bunge matrix, sample → crystal; the scheme's own
 /// rotation acts after it, so an identity orientation gives the single crystal exactly); a
-/// bond whose particles lie in different grains gets the mean of both grains' springs times
-/// `boundary_factor`. Parallel, independent of the thread count; refuses a grain map not of
+/// bond whose particles lie in different grains gets both grains' springs combined by
+/// `boundary` (their mean, or in series) times `boundary_factor`. Parallel, independent of the thread count; refuses a grain map not of
 /// this packing and a spring negative or not finite, naming the bond.
 pub fn assign_stiffness_by_grain(
     packing: &Packing,
@@ -98,6 +98,7 @@ pub fn assign_stiffness_by_grain(
     scheme: &dyn StiffnessScheme,
     geometry: &Geometry,
     grains: &Grains,
+    boundary: crate::grains::BoundaryRule,
     boundary_factor: f64,
 ) -> Result<BondStiffness> {
     if grains.grain.len() != packing.len() {
@@ -138,12 +139,12 @@ pub fn assign_stiffness_by_grain(
                 springs(gi)
             } else {
                 let (a, c) = (springs(gi), springs(gj));
-                let mean = |x: f64, y: f64| 0.5 * (x + y) * boundary_factor;
+                let across = |x: f64, y: f64| boundary.combine(x, y) * boundary_factor;
                 crate::schemes::Springs {
-                    kn: mean(a.kn, c.kn),
-                    ks: mean(a.ks, c.ks),
-                    kr: mean(a.kr, c.kr),
-                    ktw: mean(a.ktw, c.ktw),
+                    kn: across(a.kn, c.kn),
+                    ks: across(a.ks, c.ks),
+                    kr: across(a.kr, c.kr),
+                    ktw: across(a.ktw, c.ktw),
                 }
             };
             (geometry.bond_radius(ri, rj), s)

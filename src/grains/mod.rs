@@ -28,4 +28,4 @@ pub use centres::{count_for_mean_size, seeded_centres, GrainRegion};
 pub use files::{read_euler_file, read_grain_file};
 pub use map::Grains;
 pub use orientation::{bunge_deg, bunge_matrix, fibre_orientation, uniform_orientation};
-pub use spec::{GrainMap, GrainsSpec, Orientations};
+pub use spec::{BoundaryRule, GrainMap, GrainsSpec, Orientations};

@@ -54,9 +54,35 @@ pub struct GrainsSpec {
     pub orientation: Orientations,
     /// Seed of the centres (ChaCha8 stream 0) and the orientations (stream 1); default 0.
     pub seed: u64,
-    /// A bond whose particles lie in different grains gets the mean of both grains' springs
-    /// times this factor (finite, > 0; default 1).
+    /// How a bond whose particles lie in different grains combines both grains' springs.
+    pub boundary: BoundaryRule,
+    /// That combination is multiplied by this factor (finite, > 0; default 1).
     pub boundary_factor: f64,
+}
+
+/// `boundary = "mean" | "series"`: the springs of a bond across a grain boundary from the two
+/// grains' springs k_g, k_h (each spring separately).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BoundaryRule {
+    /// ½(k_g + k_h): the default.
+    #[default]
+    Mean,
+    /// 2k_g k_h/(k_g + k_h): the bond's two halves, each in its own grain, in series (0 when
+    /// both are 0). Never stiffer than the mean; the relaxed tensor is concave in the springs,
+    /// so the mean rule stiffens a network of heterogeneous springs (docs/polycrystal.md).
+    Series,
+}
+
+impl BoundaryRule {
+    /// The boundary bond's spring from the two grains' springs `a`, `b` (≥ 0).
+    pub fn combine(self, a: f64, b: f64) -> f64 {
+        match self {
+            BoundaryRule::Mean => 0.5 * (a + b),
+            BoundaryRule::Series if a + b > 0.0 => 2.0 * a * b / (a + b),
+            BoundaryRule::Series => 0.0,
+        }
+    }
 }
 
 /// `orientation = "random" | "fibre" | "euler-file"`.
@@ -123,6 +149,8 @@ pub(crate) struct RawGrains {
         skip_serializing_if = "Option::is_none"
     )]
     seed: Option<u64>,
+    #[serde(default, deserialize_with = "keys::boundary")]
+    boundary: BoundaryRule,
     #[serde(
         default,
         deserialize_with = "keys::boundary_factor",
@@ -273,6 +301,7 @@ impl GrainsSpec {
             map,
             orientation,
             seed,
+            boundary: raw.boundary,
             boundary_factor,
         })
     }
@@ -282,6 +311,7 @@ impl GrainsSpec {
         let path = |p: &Path| p.to_string_lossy().into_owned();
         let mut raw = RawGrains {
             seed: Some(self.seed),
+            boundary: self.boundary,
             boundary_factor: Some(self.boundary_factor),
             ..RawGrains::default()
         };

@@ -13,7 +13,7 @@ fn a_written_polycrystal_model_reads_back_identically() {
     std::fs::write(dir.path().join("e.txt"), "1 2 3\n").unwrap();
     for grains in [
         "[grains]\ncount = 7\n",
-        "[grains]\nmean_size = 2.5\nseed = 12\nboundary_factor = 0.75\n",
+        "[grains]\nmean_size = 2.5\nseed = 12\nboundary = \"series\"\nboundary_factor = 0.75\n",
         "[grains]\ncount = 3\norientation = \"fibre\"\naxis = [1, 1, 0]\n\
          direction = [1, 1, 1]\nspread_deg = 7.5\n",
         "[grains]\nfile = \"ids.txt\"\norientation = \"euler-file\"\neuler_file = \"e.txt\"\n",

@@ -55,6 +55,7 @@ fn bad_grains_keys_are_named_at_their_line() {
             "axis",
         ),
         ("count = 4\nboundary_factor = 0\n", "boundary_factor"),
+        ("count = 4\nboundary = \"harmonic\"\n", "boundary"),
     ] {
         match Model::from_toml_str(&t(body), "model.toml") {
             Err(e @ Error::Parse { .. }) => {

@@ -133,6 +133,21 @@ fn isotropic_grains_are_the_isotropic_assembly_exactly() {
 /// h the mean of both crystals' springs times `boundary_factor`.
 #[test]
 fn grain_files_and_the_boundary_rule_against_single_crystals() {
+    boundary_rule_against_single_crystals("", |x, y| 0.5 * (x + y) * 0.5);
+    // The series rule: the bond's two halves in series (a spring both grains leave at 0,
+    // e.g. no rotational spring, stays 0).
+    boundary_rule_against_single_crystals("boundary = \"series\"\n", |x, y| {
+        if x + y > 0.0 {
+            2.0 * x * y / (x + y) * 0.5
+        } else {
+            0.0
+        }
+    });
+}
+
+/// [`grain_files_and_the_boundary_rule_against_single_crystals`] with `rule` added to the
+/// table and `across(k_g, k_h)` the expected spring of a boundary bond.
+fn boundary_rule_against_single_crystals(rule: &str, across: fn(f64, f64) -> f64) {
     let p = generated(600, 8);
     let dir = super::common::tmp();
     let sub = dir.path().join("models");
@@ -151,8 +166,10 @@ fn grain_files_and_the_boundary_rule_against_single_crystals() {
         &path,
         cubic_model(
             "",
-            "[grains]\nfile = \"ids.txt\"\norientation = \"euler-file\"\n\
-             euler_file = \"euler.txt\"\nboundary_factor = 0.5\n",
+            &format!(
+                "[grains]\nfile = \"ids.txt\"\norientation = \"euler-file\"\n\
+                 euler_file = \"euler.txt\"\nboundary_factor = 0.5\n{rule}"
+            ),
         ),
     )
     .unwrap();
@@ -165,7 +182,7 @@ fn grain_files_and_the_boundary_rule_against_single_crystals() {
             Assembly::new(p.clone(), model(&cubic_model(&rotation_key(&g), ""))).unwrap()
         })
         .collect();
-    let (mut inside, mut across) = (0, 0);
+    let (mut inside, mut crossing) = (0, 0);
     for b in 0..poly.bonds.len() {
         let (gi, gj) = (
             ids[poly.bonds.i[b] as usize] as usize,
@@ -183,9 +200,9 @@ fn grain_files_and_the_boundary_rule_against_single_crystals() {
             inside += 1;
             k(&crystals[gi])
         } else {
-            across += 1;
+            crossing += 1;
             let (x, y) = (k(&crystals[gi]), k(&crystals[gj]));
-            [0, 1, 2, 3].map(|c| 0.5 * (x[c] + y[c]) * 0.5)
+            [0, 1, 2, 3].map(|c| across(x[c], y[c]))
         };
         let got = k(&poly);
         for c in 0..4 {
@@ -198,7 +215,7 @@ fn grain_files_and_the_boundary_rule_against_single_crystals() {
         }
     }
     assert!(
-        inside > 100 && across > 100,
-        "{inside} inside, {across} across"
+        inside > 100 && crossing > 100,
+        "{inside} inside, {crossing} across"
     );
 }
