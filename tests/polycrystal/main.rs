@@ -14,6 +14,7 @@ mod refusals;
 mod single_crystal;
 mod study;
 mod threads;
+mod vtk_cli;
 
 use anisobond::prelude::*;
 
