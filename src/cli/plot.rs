@@ -2,7 +2,7 @@
 //! and `anisobond export vtk` (ParaView files of particles and bonds).
 
 use anisobond::assembly::Assembly;
-use anisobond::export::vtk::{strained_state, write_bonds_vtu, write_particles_vtu};
+use anisobond::export::vtk::{strained_state, write_bonds_vtu_grains, write_particles_vtu_grains};
 use anisobond::homogenize::RelaxedOptions;
 use anisobond::io::OutputSet;
 use anisobond::model::{Model, SchemeSpec};
@@ -144,13 +144,21 @@ pub fn export_vtk(a: ExportVtkArgs) -> Result<()> {
         }
         (None, _) => None,
     };
-    write_particles_vtu(&dir.join("particles.vtu"), &b.packing, state.as_ref())?;
-    write_bonds_vtu(
+    // A polycrystal's grain ids: the point field `grain`, the cell fields `grain_i`, `grain_j`.
+    let grains = b.grains().map(|g| g.grain.as_slice());
+    write_particles_vtu_grains(
+        &dir.join("particles.vtu"),
+        &b.packing,
+        state.as_ref(),
+        grains,
+    )?;
+    write_bonds_vtu_grains(
         &dir.join("bonds.vtu"),
         &b.packing,
         &b.bonds,
         &b.springs,
         state.as_ref(),
+        grains,
     )?;
     out.commit()?;
     let (particles, bonds) = (a.output.join("particles.vtu"), a.output.join("bonds.vtu"));

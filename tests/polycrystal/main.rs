@@ -7,6 +7,7 @@
 mod common;
 
 mod assignment;
+mod engines;
 mod exports;
 mod fibre;
 mod orientation;
@@ -14,6 +15,7 @@ mod refusals;
 mod single_crystal;
 mod study;
 mod threads;
+mod vtk_cli;
 
 use anisobond::prelude::*;
 
