@@ -404,13 +404,7 @@ impl Stiffness<'_> {
         }
         let mut kq = vec![Block6::zeros(); q.len()];
         self.apply_cols(q, &mut kq, 6);
-        let mut gtq = Block6::zeros();
-        let mut qtkq = Block6::zeros();
-        for p in 0..q.len() {
-            gtq += g[p].transpose() * q[p];
-            qtkq += q[p].transpose() * kq[p];
-        }
-        (gtq, qtkq)
+        super::sparse::fluctuation_sums(g, q, &kq)
     }
 }
 

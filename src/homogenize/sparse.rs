@@ -77,13 +77,7 @@ impl BlockSparse {
     pub fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
         let mut kq = vec![Block6::zeros(); q.len()];
         self.apply(q, &mut kq);
-        let mut gtq = Block6::zeros();
-        let mut qtkq = Block6::zeros();
-        for p in 0..q.len() {
-            gtq += g[p].transpose() * q[p];
-            qtkq += q[p].transpose() * kq[p];
-        }
-        (gtq, qtkq)
+        fluctuation_sums(g, q, &kq)
     }
 
     /// Y = K X for a block vector X (one 6×6 block per particle: DOF × load case).
@@ -260,4 +254,16 @@ pub(crate) fn mul6(a: &Block6, b: &Block6) -> Block6 {
     let mut c = Block6::zeros();
     mul_add6(&mut c, a, b);
     c
+}
+
+/// (Gᵀq, qᵀ(Kq)) summed over the particles in order, given Kq: the two fluctuation terms of
+/// the relaxed tensor C·V = H − Gᵀq − qᵀG + qᵀKq, whatever applied K.
+pub(crate) fn fluctuation_sums(g: &[Block6], q: &[Block6], kq: &[Block6]) -> (Block6, Block6) {
+    let mut gtq = Block6::zeros();
+    let mut qtkq = Block6::zeros();
+    for p in 0..q.len() {
+        gtq += g[p].transpose() * q[p];
+        qtkq += q[p].transpose() * kq[p];
+    }
+    (gtq, qtkq)
 }

@@ -5,37 +5,12 @@
 //! particles (printed, and bounded by 2×).
 
 use crate::common::lattice::*;
-use anisobond::bonds::{BondSet, BondStiffness};
-use anisobond::homogenize::{
-    relaxed_tensor, CgPreconditioner, RelaxedOptions, RelaxedResult, RelaxedSolver,
-};
-use anisobond::packing::Packing;
+use crate::relaxed_solvers::solve;
+use anisobond::homogenize::{CgPreconditioner, RelaxedSolver};
 
 const AMG: RelaxedSolver = RelaxedSolver::Cg {
     preconditioner: CgPreconditioner::Amg,
 };
-
-fn solve(
-    p: &Packing,
-    b: &BondSet,
-    k: &BondStiffness,
-    solver: RelaxedSolver,
-    tolerance: f64,
-    rotations: bool,
-) -> RelaxedResult {
-    relaxed_tensor(
-        p,
-        b,
-        k,
-        &RelaxedOptions {
-            solver,
-            tolerance,
-            rotations,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-}
 
 #[test]
 fn amg_cg_equals_sparse_cholesky_on_disordered_networks() {

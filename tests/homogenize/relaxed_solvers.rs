@@ -20,7 +20,9 @@ const TWO_LEVEL: RelaxedSolver = RelaxedSolver::Cg {
 };
 const SOLVERS: [RelaxedSolver; 3] = [JACOBI, TWO_LEVEL, RelaxedSolver::Cholesky];
 
-fn solve(
+/// The relaxed tensor by `solver` at `tolerance`, with or without rotations (also used by
+/// `amg.rs`).
+pub fn solve(
     p: &Packing,
     b: &BondSet,
     k: &BondStiffness,
