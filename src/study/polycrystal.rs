@@ -194,11 +194,6 @@ pub struct PolycrystalReport {
     pub series: Vec<SeriesRow>,
 }
 
-/// The Voigt index of the normal component along `axis`.
-fn component(axis: usize) -> usize {
-    axis
-}
-
 /// |C − iso(C)| / |C| in Mandel form (the shear rows and columns weighted so that the
 /// Frobenius norm is the tensor's).
 pub fn anisotropy_distance(c: &Stiffness6) -> f64 {
@@ -301,7 +296,9 @@ pub fn run(
         .grains()
         .ok_or_else(|| Error::Model("polycrystal: the assembly has no grains".into()))?;
     let mut strain = Voigt6::zeros();
-    strain[component(options.load_axis)] = options.strain;
+    // The normal strain along axis a is Voigt component a (11, 22, 33 first).
+    let a = options.load_axis;
+    strain[a] = options.strain;
     let fields = poly.local_fields(
         &strain,
         &LocalOptions {
@@ -312,7 +309,6 @@ pub fn run(
     let c_poly = fields.relaxed.c;
     let (bulk, shear) = moduli(&c_poly);
     let stats = fields.statistics(&grains.grain)?;
-    let a = component(options.load_axis);
     let axis = {
         let mut v = crate::Vec3::zeros();
         v[options.load_axis] = 1.0;
