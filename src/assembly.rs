@@ -544,12 +544,13 @@ impl Assembly {
     }
 
     /// The many-body term of the model's `[manybody]` on these bonds (docs/manybody.md), or
-    /// `None` for a model without one.
+    /// `None` for a model without one; a polycrystal's particles load their grain's D
+    /// ([`crate::manybody::ManyBodySpec::build_with_grains`]).
     pub fn manybody(&self) -> Result<Option<ManyBody>> {
         self.model
             .manybody
             .as_ref()
-            .map(|spec| spec.build(&self.packing, &self.bonds))
+            .map(|spec| spec.build_with_grains(&self.packing, &self.bonds, self.grains.as_ref()))
             .transpose()
     }
 
@@ -558,10 +559,7 @@ impl Assembly {
         PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "the integrator")?;
         let law = build_law(law, &self.packing, &self.bonds, &self.springs)?;
         // The model's [manybody] term, built on the same bonds (docs/manybody.md "Integrator").
-        let term = match &self.model.manybody {
-            Some(spec) => Some(spec.build(&self.packing, &self.bonds)?),
-            None => None,
-        };
+        let term = self.manybody()?;
         Simulation::with_manybody(&self.packing, &self.bonds, law, term, dem)
     }
 

@@ -705,14 +705,6 @@ impl Model {
             .as_ref()
             .map(|g| crate::grains::GrainsSpec::from_raw(g, base))
             .transpose()?;
-        if grains.is_some() && manybody.is_some() {
-            return Err(Error::Model(
-                "[grains] with [manybody]: a polycrystal's many-body term would need each \
-                 grain's own tensor D, which is not done yet (docs/polycrystal.md); remove one \
-                 of the tables"
-                    .into(),
-            ));
-        }
         let model = Model {
             bonding,
             scheme,

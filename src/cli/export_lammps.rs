@@ -203,6 +203,7 @@ pub fn run(a: Args) -> Result<()> {
     let (bond_style, types) = a.bonds.options("export lammps")?;
     let (set, staged) = a.to.stage()?;
     let asm = a.to.input.assembly()?;
+    anisobond::manybody::refuse_polycrystal_term(&asm.model, "export lammps")?;
     let opts = LammpsOptions {
         density: a.density,
         strain: a.strain,

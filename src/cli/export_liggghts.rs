@@ -43,6 +43,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let (set, staged) = a.to.stage()?;
     let asm = a.to.input.assembly()?;
+    anisobond::manybody::refuse_polycrystal_term(&asm.model, "export liggghts")?;
     let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
     let opts = DeckOptions {
         density: a.density,

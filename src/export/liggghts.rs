@@ -1061,7 +1061,7 @@ pub fn manybody_table(
     let ids = super::engine_ids(packing);
     let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
     Ok(ManyBodyTable {
-        d: *term.tensor(),
+        d: *term.tensor()?,
         measure: term.measure(),
         volumes: term
             .particle_volumes()

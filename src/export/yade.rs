@@ -486,6 +486,9 @@ pub fn write_yade_export(
 ) -> Result<YadeExport> {
     // The many-body term is built here once, so a packing it cannot carry (rattlers refused,
     // no periodic cell for the default volumes) is refused before anything is written.
+    if let Some(m) = model {
+        crate::manybody::refuse_polycrystal_term(m, "export yade")?;
+    }
     if let Some(spec) = model.and_then(|m| m.manybody.as_ref()) {
         spec.build(packing, bonds)?;
     }

@@ -743,10 +743,9 @@ fn load_manybody(path: &str) -> Result<ManyBodyData> {
 
 /// The term of an assembly's bonds by its model's `[manybody]`, as the engines read it.
 fn assembly_manybody(asm: &Assembly) -> Result<ManyBodyData> {
-    let spec = asm.model.manybody.as_ref().ok_or_else(|| {
+    let term = asm.manybody()?.ok_or_else(|| {
         Error::Model("the model has no [manybody] table (docs/manybody.md)".into())
     })?;
-    let term = spec.build(&asm.packing, &asm.bonds)?;
     Ok(manybody_data(&crate::export::liggghts::manybody_table(
         &asm.packing,
         &asm.bonds,

@@ -7,6 +7,8 @@
 //! and one scatter per particle, instead of multiplying ~37 assembled blocks per row. Its
 //! load and affine tensor have closed forms: a uniform strain ε gives δF_p = ε (the fit
 //! reproduces it, Σ_b L_b ⊗ a_b = I), so G_r = Σ_p V_p N(c_pr)ᵀ D and H = Σ_p V_p D.
+//! A polycrystal's particles each load their grain's D (`ManyBody::tensor_of`): every
+//! product by D above takes the owner's.
 
 use super::network::Block6;
 use crate::manybody::ManyBody;
@@ -31,9 +33,14 @@ fn strain_map(v: &Vec3) -> Matrix6x3<f64> {
 
 /// The term at its reference state over the active particles of a relaxed solve.
 pub(crate) struct TermOperator {
-    d6: Stiffness6,
+    /// The term's tensors D (one, or one per grain).
+    d6: Vec<Stiffness6>,
+    /// Per owner, its entry of `d6`; empty when there is one tensor.
+    owner_tensor: Vec<u32>,
     /// Σ_p V_p over every particle, in particle order.
     total_volume: f64,
+    /// Per entry of `d6`, Σ_p V_p of its particles, in particle order (several tensors only).
+    tensor_volume: Vec<f64>,
     /// Per owner (a particle in the term, V_p > 0): V_p and its stencil (CSR: active node,
     /// coefficient c_n).
     volume: Vec<f64>,
@@ -56,7 +63,13 @@ impl TermOperator {
     pub(crate) fn new(term: &ManyBody, index: &[u32], m: usize) -> Result<TermOperator> {
         let volumes = term.particle_volumes();
         let (mut volume, mut start, mut node, mut coef) = (Vec::new(), vec![0], vec![], vec![]);
+        let several = term.tensors().len() > 1;
+        let mut owner_tensor = Vec::new();
+        let mut tensor_volume = vec![0.0; if several { term.tensors().len() } else { 0 }];
         for (p, &v) in volumes.iter().enumerate() {
+            if several {
+                tensor_volume[term.tensor_index(p)] += v;
+            }
             let (nodes, coefs) = term.stencil(p);
             if nodes.is_empty() || v == 0.0 {
                 continue;
@@ -73,6 +86,9 @@ impl TermOperator {
                 coef.push(*c);
             }
             volume.push(v);
+            if several {
+                owner_tensor.push(term.tensor_index(p) as u32);
+            }
             start.push(node.len());
         }
         // Transpose: rows by active node, owners in increasing order.
@@ -96,8 +112,10 @@ impl TermOperator {
         }
         let owners = volume.len();
         Ok(TermOperator {
-            d6: *term.tensor(),
+            d6: term.tensors().to_vec(),
+            owner_tensor,
             total_volume: volumes.iter().sum(),
+            tensor_volume,
             volume,
             start,
             node,
@@ -109,10 +127,26 @@ impl TermOperator {
         })
     }
 
+    /// D of owner `o`.
+    #[inline(always)]
+    fn d_of(&self, o: usize) -> &Stiffness6 {
+        if self.owner_tensor.is_empty() {
+            &self.d6[0]
+        } else {
+            &self.d6[self.owner_tensor[o] as usize]
+        }
+    }
+
     /// The term's share of H (Kruyt 2014 Eq. 14 with the term's energy), (Σ_p V_p)·D: the
-    /// affine tensor times the volume.
+    /// affine tensor times the volume (Σ_t (Σ_{p∈t} V_p)·D_t with a tensor per grain).
     pub(crate) fn affine(&self) -> Block6 {
-        self.d6 * self.total_volume
+        if self.d6.len() == 1 {
+            return self.d6[0] * self.total_volume;
+        }
+        self.d6
+            .iter()
+            .zip(&self.tensor_volume)
+            .fold(Block6::zeros(), |acc, (d, v)| acc + d * *v)
     }
 
     /// The term's load G_r = Σ_p V_p N(c_pr)ᵀ D of every active row (translation rows; the
@@ -123,8 +157,8 @@ impl TermOperator {
             .map(|r| {
                 let mut g = Matrix3x6::<f64>::zeros();
                 for k in self.row_start[r]..self.row_start[r + 1] {
-                    let v = self.volume[self.row_owner[k] as usize];
-                    g += strain_map(&self.row_coef[k]).transpose() * self.d6 * v;
+                    let o = self.row_owner[k] as usize;
+                    g += strain_map(&self.row_coef[k]).transpose() * self.d_of(o) * self.volume[o];
                 }
                 let mut blk = Block6::zeros();
                 blk.fixed_view_mut::<3, 6>(0, 0).copy_from(&g);
@@ -138,9 +172,9 @@ impl TermOperator {
         let mut blk = Block6::zeros();
         for k in self.row_start[r]..self.row_start[r + 1] {
             let n = strain_map(&self.row_coef[k]);
-            let v = self.volume[self.row_owner[k] as usize];
+            let o = self.row_owner[k] as usize;
             let mut top = blk.fixed_view_mut::<3, 3>(0, 0);
-            top += n.transpose() * self.d6 * n * v;
+            top += n.transpose() * self.d_of(o) * n * self.volume[o];
         }
         blk
     }
@@ -151,8 +185,8 @@ impl TermOperator {
     pub(crate) fn add_apply(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
         let cols = cols.min(6);
         let mut stress = self.stress.lock().unwrap_or_else(|e| e.into_inner());
-        let d: &[f64; 36] = self.d6.as_slice().try_into().expect("6×6");
         stress.par_iter_mut().enumerate().for_each(|(o, so)| {
+            let d: &[f64; 36] = self.d_of(o).as_slice().try_into().expect("6×6");
             let s: &mut [f64; 36] = so.as_mut_slice().try_into().expect("6×6");
             let v = self.volume[o];
             for c in 0..cols {
@@ -228,7 +262,7 @@ impl TermOperator {
                 }
                 acc.sort_by_key(|(a, _)| *a);
                 for (_, s) in acc.iter_mut() {
-                    *s = self.d6 * *s * self.volume[o];
+                    *s = self.d_of(o) * *s * self.volume[o];
                 }
                 acc
             })

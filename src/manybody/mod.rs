@@ -22,6 +22,23 @@ pub use term::{Evaluation, ManyBody, Workspace};
 use crate::tensor::{rotate, rotation_to_z, Stiffness6};
 use crate::{Error, Mat3, Result, Vec3};
 
+/// Refuse ([`Error::Model`]) a model with both `[grains]` and `[manybody]` in an engine's
+/// export or validation (`engine`): the engines carry one tensor D (the LAMMPS plugin's
+/// keywords, LIGGGHTS' `manybody.txt`, the YADE runner's model), not one per grain, so the
+/// engine would run the single crystal's term on a polycrystal (docs/polycrystal.md "Copper
+/// polycrystal (many-body term)"). Any other model: Ok.
+pub fn refuse_polycrystal_term(model: &crate::model::Model, engine: &str) -> Result<()> {
+    if model.grains.is_some() && model.manybody.is_some() {
+        return Err(Error::Model(format!(
+            "{engine}: the model has [grains] and [manybody]; a polycrystal's many-body term \
+             loads each grain's own tensor D, which the {engine} files carry only as one \
+             tensor; the library's relaxed tensor and integrator (`tensor`, `run`, \
+             `stress-test`, `polycrystal`) apply it; or remove one of the tables"
+        )));
+    }
+    Ok(())
+}
+
 /// The tensor D a particle's local strain loads (Pa), by its symmetry.
 #[derive(Clone, Debug, PartialEq)]
 pub enum LocalTensor {

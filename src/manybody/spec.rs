@@ -4,8 +4,9 @@
 
 use super::{DegenerateParticles, LocalTensor, ManyBody, ManyBodyOptions, StrainMeasure};
 use crate::bonds::BondSet;
+use crate::grains::Grains;
 use crate::packing::Packing;
-use crate::tensor::Stiffness6;
+use crate::tensor::{rotate, Stiffness6};
 use crate::{Error, Mat3, Result, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +38,54 @@ impl ManyBodySpec {
     /// The term of `bonds` on `packing` (their reference state), as [`ManyBody::new`].
     pub fn build(&self, packing: &Packing, bonds: &BondSet) -> Result<ManyBody> {
         ManyBody::new(packing, bonds, &self.tensor, &self.options())
+    }
+
+    /// The term of `bonds` on `packing` with `grains` (a polycrystal, docs/polycrystal.md):
+    /// particle p loads its grain's D, the lab tensor turned into the grain,
+    /// D_g = rotate(D, gᵀ) (g the Bunge matrix, lab → crystal; the sense of the springs'
+    /// magnitudes(g·n), the grain's turn first and the spec's own rotation after it). An
+    /// identity grain keeps D as it is (bit for bit the single crystal). `None`: [`build`](Self::build).
+    pub fn build_with_grains(
+        &self,
+        packing: &Packing,
+        bonds: &BondSet,
+        grains: Option<&Grains>,
+    ) -> Result<ManyBody> {
+        let Some(grains) = grains else {
+            return self.build(packing, bonds);
+        };
+        if grains.grain.len() != packing.len() {
+            return Err(Error::Invalid(format!(
+                "many-body term by grain: the grain map has {} particles, the packing {}",
+                grains.grain.len(),
+                packing.len()
+            )));
+        }
+        let tensors = self.grain_tensors(grains)?;
+        ManyBody::per_particle(
+            packing,
+            bonds,
+            tensors,
+            grains.grain.clone(),
+            &self.options(),
+        )
+    }
+
+    /// Each grain's lab-frame D (Pa): rotate(D, gᵀ) of the spec's lab D, D itself for an
+    /// identity orientation.
+    pub fn grain_tensors(&self, grains: &Grains) -> Result<Vec<Stiffness6>> {
+        let d = self.voigt()?;
+        Ok(grains
+            .orientation
+            .iter()
+            .map(|g| {
+                if *g == Mat3::identity() {
+                    d
+                } else {
+                    rotate(&d, &g.transpose())
+                }
+            })
+            .collect())
     }
 
     /// D's lab-frame Voigt matrix (Pa), checked ([`LocalTensor::voigt`]).

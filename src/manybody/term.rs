@@ -25,8 +25,13 @@ const BOND_CHUNK: usize = 1024;
 /// The many-body term of one bonded packing (structure of arrays; see the module docs).
 #[derive(Clone, Debug)]
 pub struct ManyBody {
-    d6: Stiffness6,
-    d4: Tensor4,
+    /// The table of tensors D (lab-frame Voigt and fourth order): one for a single crystal,
+    /// one per grain of a polycrystal (docs/polycrystal.md "Copper polycrystal").
+    d6: Vec<Stiffness6>,
+    d4: Vec<Tensor4>,
+    /// Per particle, its entry of the table; empty when the table has one tensor (the single
+    /// crystal's path, unchanged).
+    phase: Vec<u32>,
     measure: StrainMeasure,
     cell: Option<PeriodicCell>,
     volume: f64,
@@ -104,7 +109,54 @@ impl ManyBody {
         options: &ManyBodyOptions,
     ) -> Result<ManyBody> {
         let d6 = tensor.voigt()?;
+        ManyBody::per_particle(packing, bonds, vec![d6], Vec::new(), options)
+    }
+
+    /// [`ManyBody::new`] with a tensor per particle: particle p loads `tensors[phase[p]]`
+    /// (lab-frame Voigt matrices, Pa), e.g. its grain's D turned into the grain
+    /// (`ManyBodySpec::build_with_grains`). `phase` may be empty when `tensors` has one
+    /// entry. Refuses ([`Error::Invalid`]) an empty table, a tensor that is not finite and
+    /// symmetric, a `phase` of the wrong length or naming no tensor.
+    pub fn per_particle(
+        packing: &Packing,
+        bonds: &BondSet,
+        tensors: Vec<Stiffness6>,
+        phase: Vec<u32>,
+        options: &ManyBodyOptions,
+    ) -> Result<ManyBody> {
         let n = packing.len();
+        if tensors.is_empty() {
+            return Err(Error::Invalid(
+                "many-body term: no tensor D given (expected one, or one per phase)".into(),
+            ));
+        }
+        for (t, d) in tensors.iter().enumerate() {
+            let scale = d.amax();
+            if !(scale.is_finite() && (d - d.transpose()).amax() <= 1e-12 * scale) {
+                return Err(Error::Invalid(format!(
+                    "many-body term: tensor {t} is not finite and symmetric (an energy's tensor is)"
+                )));
+            }
+        }
+        if !(phase.is_empty() && tensors.len() == 1) && phase.len() != n {
+            return Err(Error::Invalid(format!(
+                "many-body term: {} tensor indices for {n} particles",
+                phase.len()
+            )));
+        }
+        if let Some(p) = phase.iter().position(|&t| t as usize >= tensors.len()) {
+            return Err(Error::Invalid(format!(
+                "many-body term: particle {p} names tensor {}, but there are {}",
+                phase[p],
+                tensors.len()
+            )));
+        }
+        // One tensor: every particle's, without an index (the single crystal's path).
+        let phase = if tensors.len() == 1 {
+            Vec::new()
+        } else {
+            phase
+        };
         if let Some(b) =
             (0..bonds.len()).find(|&b| bonds.i[b] as usize >= n || bonds.j[b] as usize >= n)
         {
@@ -225,8 +277,9 @@ impl ManyBody {
             .collect();
 
         Ok(ManyBody {
-            d4: to_fourth_order(&d6),
-            d6,
+            d4: tensors.iter().map(to_fourth_order).collect(),
+            d6: tensors,
+            phase,
             measure: options.measure,
             cell: packing.cell,
             volume: packing.volume(),
@@ -247,9 +300,38 @@ impl ManyBody {
         })
     }
 
-    /// The lab-frame Voigt matrix of D (Pa).
-    pub fn tensor(&self) -> &Stiffness6 {
+    /// The lab-frame Voigt matrix of D (Pa) of a term with one tensor. Refuses
+    /// ([`Error::Model`]) a term with a tensor per grain (what reads one D, an engine's
+    /// table, cannot carry it): see [`tensors`](Self::tensors).
+    pub fn tensor(&self) -> Result<&Stiffness6> {
+        match self.d6.as_slice() {
+            [d] => Ok(d),
+            many => Err(Error::Model(format!(
+                "many-body term: it has {} tensors D (one per grain of a polycrystal), not one",
+                many.len()
+            ))),
+        }
+    }
+
+    /// The table of lab-frame tensors D (Pa): one, or one per grain.
+    pub fn tensors(&self) -> &[Stiffness6] {
         &self.d6
+    }
+
+    /// The entry of [`tensors`](Self::tensors) particle `p` loads.
+    #[inline(always)]
+    pub fn tensor_index(&self, p: usize) -> usize {
+        if self.phase.is_empty() {
+            0
+        } else {
+            self.phase[p] as usize
+        }
+    }
+
+    /// D of particle `p` (lab frame, Pa).
+    #[inline(always)]
+    pub fn tensor_of(&self, p: usize) -> &Stiffness6 {
+        &self.d6[self.tensor_index(p)]
     }
 
     /// The strain measure.
@@ -283,9 +365,22 @@ impl ManyBody {
     }
 
     /// The closed form of the term's Voigt-level tensor, (Σ_p V_p / V)·D (Pa): the uniform
-    /// strain gives F_p = F for every particle.
+    /// strain gives F_p = F for every particle. With a tensor per grain, Σ_p V_p D_p / V, the
+    /// volume-weighted average of the grains' D (summed per tensor in particle order).
     pub fn closed_form_tensor(&self) -> Stiffness6 {
-        self.d6 * self.volume_fraction()
+        if self.d6.len() == 1 {
+            return self.d6[0] * self.volume_fraction();
+        }
+        let mut share = vec![0.0; self.d6.len()];
+        for (p, v) in self.particle_volume.iter().enumerate() {
+            share[self.tensor_index(p)] += v;
+        }
+        self.d6
+            .iter()
+            .zip(&share)
+            .fold(Stiffness6::zeros(), |acc, (d, v)| {
+                acc + d * (v / self.volume)
+            })
     }
 
     /// Current branch vectors l_b = x_j − x_i + H·(image ∘ L) of positions `positions` (not
@@ -341,7 +436,7 @@ impl ManyBody {
             .into_par_iter()
             .map(|p| {
                 if self.included[p] {
-                    self.energy_piola(&self.fit(p, branch), self.particle_volume[p])
+                    self.energy_piola(p, &self.fit(p, branch), self.particle_volume[p])
                         .0
                 } else {
                     0.0
@@ -452,14 +547,15 @@ impl ManyBody {
         Mat3::from_column_slice(&f)
     }
 
-    /// (V·W, V·P) of a particle of volume `v` at gradient F: energy density W = ½ E:D:E and
+    /// (V·W, V·P) of particle `p` (its D) of volume `v` at gradient F: energy density
+    /// W = ½ E:D:E and
     /// first Piola stress P = ∂W/∂F (F·S for Green–Lagrange, S for the small strain): the one
     /// lane of [`energy_piola_lanes`], the arithmetic `evaluate`, `energy` and
     /// `evaluate_into` share.
     #[inline(always)]
-    fn energy_piola(&self, f: &Mat3, v: f64) -> (f64, Mat3) {
+    fn energy_piola(&self, p: usize, f: &Mat3, v: f64) -> (f64, Mat3) {
         let lanes: [[f64; 1]; 9] = std::array::from_fn(|k| [f[k]]);
-        let (e, pk) = energy_piola_lanes::<1>(&self.d6, self.measure, &lanes, &[v]);
+        let (e, pk) = energy_piola_lanes::<1>(self.tensor_of(p), self.measure, &lanes, &[v]);
         (e[0], Mat3::from_fn(|r, c| pk[r + 3 * c][0]))
     }
 
@@ -467,11 +563,12 @@ impl ManyBody {
     /// `base`: V_p·W_p into `we`, V_p·P_p into `wp`. Where AVX2 runs, the fitted F of four
     /// included particles at a time go through [`energy_piola_avx2`] (the same operations
     /// as the one-lane [`energy_piola`](Self::energy_piola), so the same bits); the rest one
-    /// by one.
+    /// by one. With a tensor per grain every particle goes one by one (the lanes share one D;
+    /// the bits are the same either way).
     #[allow(clippy::needless_range_loop)] // `l` indexes both outputs and names the slot
     fn particle_pass(&self, base: usize, br: &[Vec3], we: &mut [f64], wp: &mut [Mat3]) {
         #[cfg(target_arch = "x86_64")]
-        let lanes = std::arch::is_x86_feature_detected!("avx2");
+        let lanes = self.d6.len() == 1 && std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let lanes = false;
         let mut slot = [0usize; 4];
@@ -486,7 +583,7 @@ impl ManyBody {
             }
             let f = self.fit(p, br);
             if !lanes {
-                (we[l], wp[l]) = self.energy_piola(&f, self.particle_volume[p]);
+                (we[l], wp[l]) = self.energy_piola(p, &f, self.particle_volume[p]);
                 continue;
             }
             slot[filled] = l;
@@ -499,7 +596,7 @@ impl ManyBody {
                 #[cfg(target_arch = "x86_64")]
                 {
                     // SAFETY: AVX2 is available (checked above).
-                    let (e, pk) = unsafe { energy_piola_avx2(&self.d6, self.measure, &fs, &vs) };
+                    let (e, pk) = unsafe { energy_piola_avx2(&self.d6[0], self.measure, &fs, &vs) };
                     for (m, &at) in slot.iter().enumerate() {
                         we[at] = e[m];
                         wp[at] = Mat3::from_fn(|r, c| pk[r + 3 * c][m]);
@@ -510,7 +607,7 @@ impl ManyBody {
         }
         for m in 0..filled {
             let f = Mat3::from_fn(|r, c| fs[r + 3 * c][m]);
-            (we[slot[m]], wp[slot[m]]) = self.energy_piola(&f, vs[m]);
+            (we[slot[m]], wp[slot[m]]) = self.energy_piola(base + slot[m], &f, vs[m]);
         }
     }
 
@@ -559,7 +656,7 @@ impl ManyBody {
                 if !self.included[p] {
                     return (0.0, Mat3::zeros());
                 }
-                self.energy_piola(&self.fit(p, branch), self.particle_volume[p])
+                self.energy_piola(p, &self.fit(p, branch), self.particle_volume[p])
             })
             .collect();
         let piola: Vec<Mat3> = per_particle.iter().map(|e| e.1).collect();
@@ -595,7 +692,7 @@ impl ManyBody {
                     return (Mat3::identity(), Mat3::zeros());
                 }
                 let f = self.gradient_of(p, branch);
-                (f, self.particle_state(&f).2)
+                (f, self.particle_state(p, &f).2)
             })
             .collect()
     }
@@ -635,7 +732,7 @@ impl ManyBody {
                     let (f, s) = &states[p];
                     let cr = self.sten_coef[kr];
                     for k in span {
-                        let blk = self.pair_block(&cr, &self.sten_coef[k], f, s)
+                        let blk = self.pair_block(p, &cr, &self.sten_coef[k], f, s)
                             * self.particle_volume[p];
                         entries.push((self.sten_node[k], blk));
                     }
@@ -679,7 +776,7 @@ impl ManyBody {
                     let cr = self.sten_coef[kr];
                     for k in self.inc_start[p]..self.inc_start[p + 1] {
                         let mb = affine_map(&self.reference[self.inc_bond[k] as usize]);
-                        g += self.pair_block(&cr, &self.inc_coef[k], f, s)
+                        g += self.pair_block(p, &cr, &self.inc_coef[k], f, s)
                             * mb
                             * self.particle_volume[p];
                     }
@@ -706,13 +803,14 @@ impl ManyBody {
                     return acc;
                 }
                 let f = self.gradient_of(p, branch);
-                let s = self.particle_state(&f).2;
+                let s = self.particle_state(p, &f).2;
                 let span = self.inc_start[p]..self.inc_start[p + 1];
                 for kb in span.clone() {
                     let mb = affine_map(&self.reference[self.inc_bond[kb] as usize]);
                     for kc in span.clone() {
                         let mc = affine_map(&self.reference[self.inc_bond[kc] as usize]);
-                        let blk = self.pair_block(&self.inc_coef[kb], &self.inc_coef[kc], &f, &s);
+                        let blk =
+                            self.pair_block(p, &self.inc_coef[kb], &self.inc_coef[kc], &f, &s);
                         acc += mb.transpose() * blk * mc;
                     }
                 }
@@ -724,15 +822,16 @@ impl ManyBody {
 
     /// ∂²W/∂F∂F contracted with coefficient vectors u (row) and v (column), per unit
     /// volume: (u·S v) I + F B(u, v) Fᵀ for Green–Lagrange, B(u, v) for small strain, with
-    /// B(u, v)_ac = Σ_jl u_j D_ajcl v_l.
-    fn pair_block(&self, u: &Vec3, v: &Vec3, f: &Mat3, s: &Mat3) -> Mat3 {
+    /// B(u, v)_ac = Σ_jl u_j D_ajcl v_l (D of particle `p`).
+    fn pair_block(&self, p: usize, u: &Vec3, v: &Vec3, f: &Mat3, s: &Mat3) -> Mat3 {
+        let d4 = &self.d4[self.tensor_index(p)];
         let mut bm = Mat3::zeros();
         for a in 0..3 {
             for c in 0..3 {
                 let mut acc = 0.0;
                 for j in 0..3 {
                     for l in 0..3 {
-                        acc += u[j] * self.d4[a][j][c][l] * v[l];
+                        acc += u[j] * d4[a][j][c][l] * v[l];
                     }
                 }
                 bm[(a, c)] = acc;
@@ -759,8 +858,8 @@ impl ManyBody {
     }
 
     /// Energy density W, first Piola stress P = ∂W/∂F and the stress S = D:E conjugate to
-    /// the measure's strain E, at gradient F.
-    fn particle_state(&self, f: &Mat3) -> (f64, Mat3, Mat3) {
+    /// the measure's strain E, at gradient F (D of particle `p`).
+    fn particle_state(&self, p: usize, f: &Mat3) -> (f64, Mat3, Mat3) {
         let e = match self.measure {
             StrainMeasure::Small => (f + f.transpose()) * 0.5 - Mat3::identity(),
             StrainMeasure::GreenLagrange => (f.transpose() * f - Mat3::identity()) * 0.5,
@@ -773,7 +872,7 @@ impl ManyBody {
             2.0 * e[(0, 2)],
             2.0 * e[(0, 1)],
         );
-        let sv = self.d6 * ev;
+        let sv = self.tensor_of(p) * ev;
         let s = Mat3::new(
             sv[0], sv[5], sv[4], sv[5], sv[1], sv[3], sv[4], sv[3], sv[2],
         );

@@ -19,14 +19,11 @@ pub struct PyManyBody {
 impl PyManyBody {
     /// The term of `assembly`'s model; refuses a model without `[manybody]`.
     pub(super) fn of(assembly: &crate::Assembly) -> PyResult<Self> {
-        let spec = assembly.model.manybody.as_ref().ok_or_else(|| {
+        let inner = assembly.manybody().map_err(to_py)?.ok_or_else(|| {
             ModelError::new_err(
                 "the model has no [manybody] table (docs/manybody.md): it has no many-body term",
             )
         })?;
-        let inner = spec
-            .build(&assembly.packing, &assembly.bonds)
-            .map_err(to_py)?;
         Ok(PyManyBody { inner })
     }
 }
@@ -98,10 +95,10 @@ impl PyManyBody {
         Ok(PyArray1::from_vec(py, rows))
     }
 
-    /// The lab-frame tensor D (Pa, (6, 6) Voigt).
+    /// The lab-frame tensor D (Pa, (6, 6) Voigt); a polycrystal's term (one D per grain) is refused.
     #[getter]
     fn tensor<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let d = self.inner.tensor();
+        let d = self.inner.tensor().map_err(to_py)?;
         tensor_array(
             py,
             &[0, 1, 2, 3, 4, 5].map(|i| [0, 1, 2, 3, 4, 5].map(|j| d[(i, j)])),

@@ -425,6 +425,7 @@ impl Engine for Lammps {
                 // or Python caller) must not validate the springs alone.
                 let mut o = self.0.clone();
                 if let Some(m) = p.model {
+                    crate::manybody::refuse_polycrystal_term(m, "validate lammps")?;
                     o.export.manybody = m.manybody.clone();
                 }
                 element_tests(p, &o, progress)

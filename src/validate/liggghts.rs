@@ -995,6 +995,9 @@ fn element_tests(
     progress: Progress,
 ) -> Result<ValidationReport> {
     let (packing, bonds, k) = (p.packing, p.bonds, p.springs);
+    if let Some(m) = p.model {
+        crate::manybody::refuse_polycrystal_term(m, "validate liggghts")?;
+    }
     let term = match p.model.and_then(|m| m.manybody.as_ref()) {
         Some(spec) => Some(spec.build(packing, bonds)?),
         None => None,

@@ -377,7 +377,7 @@ fn model_files_bring_the_term_to_the_integrator() {
         .unwrap();
     let (kb, g) = (2e12, 0.5e12);
     let expect = cubic(kb + 4.0 * g / 3.0, kb - 2.0 * g / 3.0, g);
-    let got = *sim.manybody().expect("the term").tensor();
+    let got = *sim.manybody().expect("the term").tensor().unwrap();
     assert!((got - expect).amax() <= 1e-9 * expect.amax());
     sim.set_velocity_gradient(path_gradient(0, 1e-5) / sim.time_step())
         .unwrap();

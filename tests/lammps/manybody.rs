@@ -208,7 +208,7 @@ fn plugin_forces_energy_and_stress_are_the_librarys_many_body_term() {
         .expect("the manybody variable");
     let words: Vec<&str> = line.trim_end_matches('"').split_whitespace().collect();
     let at = words.iter().position(|w| *w == "\"manybody").unwrap();
-    let d = term.tensor();
+    let d = term.tensor().unwrap();
     let mut k = at + 1;
     for a in 0..6 {
         for b in a..6 {
@@ -274,7 +274,7 @@ fn compare_at_perturbed_state(
     extra: &str,
 ) {
     let cell = asm.packing.cell.unwrap().lengths;
-    let d = term.tensor();
+    let d = term.tensor().unwrap();
     // The perturbed state: H·X + δ, δ up to 1 % of the mean radius.
     let h = strain();
     let y = write_perturbed(out, asm);

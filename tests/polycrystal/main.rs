@@ -10,6 +10,7 @@ mod assignment;
 mod engines;
 mod exports;
 mod fibre;
+mod manybody;
 mod orientation;
 mod refusals;
 mod single_crystal;

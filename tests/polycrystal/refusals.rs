@@ -135,15 +135,7 @@ fn grain_files_that_do_not_fit_are_refused_naming_file_and_line() {
 #[test]
 fn what_cannot_honour_grains_refuses_them() {
     let grains = "[grains]\ncount = 5\n";
-    // [grains] with [manybody].
-    let text = cubic_model(
-        "",
-        &format!("{grains}[manybody]\nkind = \"isotropic\"\nbulk = 1e9\nshear = 1e9\n"),
-    );
-    match Model::from_toml_str(&text, "model.toml") {
-        Err(Error::Model(m)) => assert!(m.contains("[grains]") && m.contains("[manybody]"), "{m}"),
-        other => panic!("expected Error::Model, got {other:?}"),
-    }
+    // ([grains] with [manybody] is a polycrystal's term: tests/polycrystal/manybody.rs.)
     let model = Model::from_toml_str(&cubic_model("", grains), "model.toml").unwrap();
     // One scheme, the column springs and calibration: Error::Model.
     assert!(matches!(model.build_scheme(None), Err(Error::Model(_))));
