@@ -9,6 +9,9 @@
 //   pair_coeff * *
 //   any form also takes `breaks FILE`: rank 0 writes one line `step id_i id_j tension|shear`
 //   per broken bond (id_i < id_j, sorted by ids within a step; the same on any -np)
+//   and `contacts KN KS MU`: broken bonds and spheres that come into touch are the
+//   integrator's frictional contacts (see the header), new pairs with springs KN, KS (N/m),
+//   every contact with friction MU
 //
 // BONDS.csv is the SPEC bond table (i, j 0-based in packing order = atom ids i+1, j+1);
 // with `model MODEL PACKING` the bonds and springs are computed through the anisobond
@@ -32,6 +35,8 @@
 #include "force.h"
 #include "memory.h"
 #include "modify.h"
+#include "neigh_list.h"
+#include "neigh_request.h"
 #include "neighbor.h"
 #include "update.h"
 
@@ -82,6 +87,10 @@ PairAnisobond::PairAnisobond(LAMMPS *lmp)
       breaks_fp_(NULL), manybody_(false), mb_gl_(true), mb_nmax_(0), mb_f_(NULL),
       mb_m_(NULL), fix_id_("anisobond_bonds"), fix_(NULL) {
   single_enable = 0;
+  contacts_ = false;
+  c_kn_ = c_ks_ = c_mu_ = 0.0;
+  r_max_ = 0.0;
+  slots_ = 1;
   // The many-body term's per-atom sums and M_p travel as 9 doubles (see the header).
   comm_forward = 9;
   comm_reverse = 9;
@@ -114,7 +123,7 @@ namespace {
 bool is_keyword(const char *w) {
   return strcmp(w, "damping") == 0 || strcmp(w, "length_tolerance") == 0 ||
          strcmp(w, "write_bonds") == 0 || strcmp(w, "breaks") == 0 ||
-         strcmp(w, "manybody") == 0;
+         strcmp(w, "manybody") == 0 || strcmp(w, "contacts") == 0;
 }
 
 }  // namespace
@@ -137,6 +146,7 @@ void PairAnisobond::settings(int narg, char **arg) {
   bonded_ = false;
   write_bonds_.clear();
   breaks_file_.clear();
+  contacts_ = false;
   if (breaks_fp_ != NULL) {
     fclose(breaks_fp_);
     breaks_fp_ = NULL;
@@ -203,6 +213,17 @@ void PairAnisobond::settings(int narg, char **arg) {
       if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: breaks needs a FILE");
       breaks_file_ = arg[iarg + 1];
       iarg += 2;
+    } else if (strcmp(arg[iarg], "contacts") == 0) {
+      if (iarg + 4 > narg) error->all(FLERR, "pair_style anisobond: contacts needs KN KS MU");
+      c_kn_ = force->numeric(FLERR, arg[iarg + 1]);
+      c_ks_ = force->numeric(FLERR, arg[iarg + 2]);
+      c_mu_ = force->numeric(FLERR, arg[iarg + 3]);
+      if (!(c_kn_ > 0.0 && std::isfinite(c_kn_)) || !(c_ks_ >= 0.0 && std::isfinite(c_ks_)) ||
+          !(c_mu_ >= 0.0 && std::isfinite(c_mu_)))
+        error->all(FLERR, "pair_style anisobond: contacts KN KS MU needs KN > 0, KS >= 0 and "
+                          "MU >= 0 (N/m, N/m, tan of the friction angle), all finite");
+      contacts_ = true;
+      iarg += 4;
     } else if (strcmp(arg[iarg], "manybody") == 0) {
       if (iarg + 2 > narg) error->all(FLERR, "pair_style anisobond: manybody needs a FILE");
       if (model_form)
@@ -213,7 +234,7 @@ void PairAnisobond::settings(int narg, char **arg) {
       iarg += 2;
     } else {
       std::string msg = std::string("pair_style anisobond: unknown keyword `") + arg[iarg] +
-                        "` (expected damping GT GR, length_tolerance TOL, write_bonds FILE, breaks FILE or manybody FILE)";
+                        "` (expected damping GT GR, length_tolerance TOL, write_bonds FILE, breaks FILE, contacts KN KS MU or manybody FILE)";
       error->all(FLERR, msg.c_str());
     }
   }
@@ -514,8 +535,8 @@ void PairAnisobond::coeff(int narg, char **arg) {
 
 double PairAnisobond::init_one(int, int) {
   // The ghost cutoff follows the pair cutoff (+ skin): at least the longest bond, with
-  // room for stretching.
-  return 1.05 * max_length_;
+  // room for stretching; with contacts also the largest touching distance 2 R_max.
+  return std::max(1.05 * max_length_, contacts_ ? 2.0 * r_max_ : 0.0);
 }
 
 void PairAnisobond::init_style() {
@@ -548,10 +569,25 @@ void PairAnisobond::init_style() {
   // shell when no neighbour list is requested, so raise the user ghost cutoff to the
   // longest bond (+5 % for stretching) + skin. A partner still missing is an error in
   // compute().
-  const double need = 1.05 * max_length_ + neighbor->skin;
+  // Contacts: the largest radius sets the neighbour cutoff; a full list finds each pair
+  // from both ends, so the owner of the lower tag keeps it whether the other is a ghost.
+  if (contacts_) {
+    if (manybody_)
+      error->all(FLERR, "pair_style anisobond: contacts with the many-body term is not "
+                        "supported (its bonds are read slot by slot from the bond table)");
+    double rmax = 0.0;
+    for (int i = 0; i < atom->nlocal; i++) rmax = std::max(rmax, atom->radius[i]);
+    MPI_Allreduce(&rmax, &r_max_, 1, MPI_DOUBLE, MPI_MAX, world);
+    const int irequest = neighbor->request(this);
+    neighbor->requests[irequest]->half = 0;
+    neighbor->requests[irequest]->full = 1;
+  }
+  const double need =
+      std::max(1.05 * max_length_, contacts_ ? 2.0 * r_max_ : 0.0) + neighbor->skin;
   if (comm->cutghostuser < need) comm->cutghostuser = need;
 
-  const int nvalues = HEAD + max_bonds_ * NSLOT;
+  slots_ = max_bonds_ + (contacts_ ? static_cast<int>(CONTACT_SLOTS) : 0);
+  const int nvalues = HEAD + slots_ * NSLOT;
   fix_ = static_cast<FixPropertyAtom *>(modify->find_fix_id(fix_id_.c_str()));
   if (fix_ == NULL) {
     // fix ID all property/atom NAME vector restart commGhost commGhostRev defaults...
@@ -616,6 +652,51 @@ void PairAnisobond::fill_bonds() {
   }
 }
 
+// Contacts: give every owned atom a slot for each never-bonded partner of higher tag in
+// touch now (R_i + R_j − d ≥ 0) that it has none for; the slot loop of compute() evaluates
+// it as a new contact in this force call.
+void PairAnisobond::add_new_contacts() {
+  double **x = atom->x, *radius = atom->radius;
+  const int *tag = atom->tag;
+  double **a = fix_->array_atom;
+  const int inum = list->inum;
+  for (int ii = 0; ii < inum; ii++) {
+    const int i = list->ilist[ii];
+    const int *jlist = list->firstneigh[i];
+    const int jnum = list->numneigh[i];
+    for (int jj = 0; jj < jnum; jj++) {
+      const int j = jlist[jj] & NEIGHMASK;
+      if (tag[j] <= tag[i]) continue;
+      const double l[3] = {x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]};
+      const double rs = radius[i] + radius[j];
+      if (dot(l, l) > rs * rs) continue;
+      int nb = static_cast<int>(a[i][H_COUNT]);
+      bool have = false;
+      for (int b = 0; b < nb && !have; b++)
+        have = static_cast<int>(a[i][HEAD + b * NSLOT + S_TAG]) == tag[j];
+      if (have) continue;
+      if (nb >= slots_) {
+        char msg[256];
+        std::snprintf(msg, sizeof msg,
+                      "pair_style anisobond contacts: atom %d has %d bonds and contacts, no room "
+                      "for one more (with atom %d): at most its bonds + %d contacts",
+                      tag[i], nb, tag[j], static_cast<int>(CONTACT_SLOTS));
+        error->one(FLERR, msg);
+      }
+      double *s = &a[i][HEAD + nb * NSLOT];
+      for (int k = 0; k < NSLOT; k++) s[k] = 0.0;
+      s[S_TAG] = tag[j];
+      s[S_KN] = c_kn_;
+      s[S_KS] = c_ks_;
+      s[S_AN] = -1.0;  // never judged: not a bond
+      s[S_TF] = c_mu_;
+      s[S_COH] = 0.0;  // a contact, new (no normal yet)
+      s[S_NEW] = 1.0;
+      a[i][H_COUNT] = nb + 1;
+    }
+  }
+}
+
 void PairAnisobond::compute(int eflag, int vflag) {
   if (eflag || vflag)
     ev_setup(eflag, vflag);
@@ -631,6 +712,8 @@ void PairAnisobond::compute(int eflag, int vflag) {
   double **a = fix_->array_atom;
   // The setup force call of a run must not advance the history (rotations by ω·dt).
   const double dt = update->setupflag ? 0.0 : update->dt;
+
+  if (contacts_) add_new_contacts();
 
   for (int i = 0; i < nlocal; i++) {
     int nb = static_cast<int>(a[i][H_COUNT]);
@@ -652,111 +735,198 @@ void PairAnisobond::compute(int eflag, int vflag) {
       domain->minimum_image(l);
       const double d = std::sqrt(dot(l, l));
       const double n[3] = {l[0] / d, l[1] / d, l[2] / d};
-      if (s[S_R0] < 0.0) {
-        // First force call of this bond: the rest length is the actual distance, which
-        // must agree with the table's (same packing, same ids).
-        const double want = -s[S_R0];
-        if (std::fabs(d - want) > length_tol_ * want) {
-          char msg[512];
-          std::snprintf(msg, sizeof msg,
-                        "pair_style anisobond: bond %d-%d has length %.9g m in the box but "
-                        "%.9g m in the bond table (wrong packing or atom ids?)",
-                        tag[i], tag_j, d, want);
-          error->one(FLERR, msg);
-        }
-        s[S_R0] = d;
-        s[S_LP] = l[0];
-        s[S_LP + 1] = l[1];
-        s[S_LP + 2] = l[2];
-      }
       const double kn = s[S_KN], ks = s[S_KS], kr = s[S_KR], ktw = s[S_KTW];
-      const double gap = d - radius[i] - radius[j];
-      const double ri = radius[i] + 0.5 * gap, rj = radius[j] + 0.5 * gap;
-
-      // Rotate the shear force and moments with the contact (YADE ScGeom::rotate).
-      double *lp = &s[S_LP];
-      const double dp = std::sqrt(dot(lp, lp));
-      const double np[3] = {lp[0] / dp, lp[1] / dp, lp[2] / dp};
-      double axis[3];
-      cross(np, n, axis);
-      double spin[3] = {omega[i][0] + omega[j][0], omega[i][1] + omega[j][1],
-                        omega[i][2] + omega[j][2]};
-      const double tw = 0.5 * dt * dot(spin, n);
-      const double twist_axis[3] = {tw * n[0], tw * n[1], tw * n[2]};
       double *fs = &s[S_FS], *mb = &s[S_MB], *mt = &s[S_MT];
-      rotate_by(fs, axis);
-      rotate_by(fs, twist_axis);
-      rotate_by(mb, axis);
-      rotate_by(mb, twist_axis);
-      rotate_by(mt, axis);
-      rotate_by(mt, twist_axis);
+      // Loads on i (force F at the arm r_i n, moment M) and the pair's elastic energy.
+      double F[3], M[3] = {0.0, 0.0, 0.0}, ri = 0.0, rj = 0.0, e = 0.0;
+      // The slot is a contact in this call; `carried`: a bond just broken in shear handed
+      // its trial shear force on (capped, neither rotated nor incremented now).
+      bool contact = contacts_ && s[S_COH] <= 0.0, carried = false;
 
-      // Relative displacement of j w.r.t. i at the contact point.
-      double wi[3], wj[3];
-      const double ani[3] = {ri * n[0], ri * n[1], ri * n[2]};
-      const double anj[3] = {-rj * n[0], -rj * n[1], -rj * n[2]};
-      cross(omega[i], ani, wi);
-      cross(omega[j], anj, wj);
-      double du[3];
-      for (int k = 0; k < 3; k++) du[k] = (l[k] - lp[k]) + dt * (wj[k] - wi[k]);
-      const double dun = dot(du, n);
-      for (int k = 0; k < 3; k++) fs[k] += ks * (du[k] - dun * n[k]);
+      if (!contact) {
+        if (s[S_R0] < 0.0) {
+          // First force call of this bond: the rest length is the actual distance, which
+          // must agree with the table's (same packing, same ids).
+          const double want = -s[S_R0];
+          if (std::fabs(d - want) > length_tol_ * want) {
+            char msg[512];
+            std::snprintf(msg, sizeof msg,
+                          "pair_style anisobond: bond %d-%d has length %.9g m in the box but "
+                          "%.9g m in the bond table (wrong packing or atom ids?)",
+                          tag[i], tag_j, d, want);
+            error->one(FLERR, msg);
+          }
+          s[S_R0] = d;
+          s[S_LP] = l[0];
+          s[S_LP + 1] = l[1];
+          s[S_LP + 2] = l[2];
+        }
+        const double gap = d - radius[i] - radius[j];
+        ri = radius[i] + 0.5 * gap;
+        rj = radius[j] + 0.5 * gap;
 
-      // Relative rotation increment.
-      double th[3] = {dt * (omega[j][0] - omega[i][0]), dt * (omega[j][1] - omega[i][1]),
-                      dt * (omega[j][2] - omega[i][2])};
-      const double thn = dot(th, n);
-      for (int k = 0; k < 3; k++) {
-        mb[k] += kr * (th[k] - thn * n[k]);
-        mt[k] += ktw * thn * n[k];
-      }
-      lp[0] = l[0];
-      lp[1] = l[1];
-      lp[2] = l[2];
+        // Rotate the shear force and moments with the contact (YADE ScGeom::rotate).
+        double *lp = &s[S_LP];
+        const double dp = std::sqrt(dot(lp, lp));
+        const double np[3] = {lp[0] / dp, lp[1] / dp, lp[2] / dp};
+        double axis[3];
+        cross(np, n, axis);
+        double spin[3] = {omega[i][0] + omega[j][0], omega[i][1] + omega[j][1],
+                          omega[i][2] + omega[j][2]};
+        const double tw = 0.5 * dt * dot(spin, n);
+        const double twist_axis[3] = {tw * n[0], tw * n[1], tw * n[2]};
+        rotate_by(fs, axis);
+        rotate_by(fs, twist_axis);
+        rotate_by(mb, axis);
+        rotate_by(mb, twist_axis);
+        rotate_by(mt, axis);
+        rotate_by(mt, twist_axis);
 
-      const double fnm = kn * (d - s[S_R0]);  // tension positive
-      if (s[S_AN] >= 0.0 && !update->setupflag) {
-        // Breakage by YADE's CohFrict criterion, the library's own (the normal force
-        // compression positive); dt = 0 setup calls do not judge.
-        if (s[S_COH] > 0.0) {
-          const anisobond::YadeLimits lim{s[S_AN], s[S_AS], s[S_TF]};
-          const anisobond::BondVerdict v =
-              anisobond::yade_cohfrict_check(lim, -fnm, std::sqrt(dot(fs, fs)));
-          if (v.broken) {
-            a[i][H_BROKEN] += 1.0;
-            if (!breaks_file_.empty()) {
-              step_breaks_.push_back(std::min(tag[i], tag_j));
-              step_breaks_.push_back(std::max(tag[i], tag_j));
-              step_breaks_.push_back(v.mode == 0 ? 0 : 1);
+        // Relative displacement of j w.r.t. i at the contact point.
+        double wi[3], wj[3];
+        const double ani[3] = {ri * n[0], ri * n[1], ri * n[2]};
+        const double anj[3] = {-rj * n[0], -rj * n[1], -rj * n[2]};
+        cross(omega[i], ani, wi);
+        cross(omega[j], anj, wj);
+        double du[3];
+        for (int k = 0; k < 3; k++) du[k] = (l[k] - lp[k]) + dt * (wj[k] - wi[k]);
+        const double dun = dot(du, n);
+        for (int k = 0; k < 3; k++) fs[k] += ks * (du[k] - dun * n[k]);
+
+        // Relative rotation increment.
+        double th[3] = {dt * (omega[j][0] - omega[i][0]), dt * (omega[j][1] - omega[i][1]),
+                        dt * (omega[j][2] - omega[i][2])};
+        const double thn = dot(th, n);
+        for (int k = 0; k < 3; k++) {
+          mb[k] += kr * (th[k] - thn * n[k]);
+          mt[k] += ktw * thn * n[k];
+        }
+        lp[0] = l[0];
+        lp[1] = l[1];
+        lp[2] = l[2];
+
+        const double fnm = kn * (d - s[S_R0]);  // tension positive
+        bool frictional = false;
+        if (s[S_AN] >= 0.0 && !update->setupflag) {
+          // Breakage by YADE's CohFrict criterion, the library's own (the normal force
+          // compression positive); dt = 0 setup calls do not judge.
+          if (s[S_COH] > 0.0) {
+            const anisobond::YadeLimits lim{s[S_AN], s[S_AS], s[S_TF]};
+            const anisobond::BondVerdict verdict =
+                anisobond::yade_cohfrict_check(lim, -fnm, std::sqrt(dot(fs, fs)));
+            if (verdict.broken) {
+              a[i][H_BROKEN] += 1.0;
+              if (!breaks_file_.empty()) {
+                step_breaks_.push_back(std::min(tag[i], tag_j));
+                step_breaks_.push_back(std::max(tag[i], tag_j));
+                step_breaks_.push_back(verdict.mode == 0 ? 0 : 1);
+              }
+              if (contacts_) {
+                // The pair is a contact from now on, with the bond's springs and the
+                // contacts' friction; a shear break hands its trial shear force on.
+                contact = true;
+                carried = verdict.mode != 0;
+                s[S_COH] = 0.0;
+                s[S_TF] = c_mu_;
+                for (int k = 0; k < 3; k++) {
+                  mb[k] = mt[k] = 0.0;
+                  if (!carried) fs[k] = 0.0;
+                }
+              } else if (verdict.mode == 0) {
+                remove_slot(a[i], b, nb);
+                b--;
+                continue;
+              } else {
+                s[S_COH] = 0.0;  // broken in shear: a frictional contact from now on
+              }
             }
-            if (v.mode == 0) {
+          }
+          if (!contact && s[S_COH] <= 0.0) {
+            // Frictional contact (YADE after cohesion broke): lost in tension; else
+            // |F_s| ≤ F_n tan φ and no moments.
+            if (fnm > 0.0) {
               remove_slot(a[i], b, nb);
               b--;
               continue;
             }
-            s[S_COH] = 0.0;  // broken in shear: a frictional contact from now on
+            const double cap = -fnm * s[S_TF], mag = std::sqrt(dot(fs, fs));
+            if (mag > cap)
+              for (int k = 0; k < 3; k++) fs[k] *= mag > 0.0 ? cap / mag : 0.0;
+            for (int k = 0; k < 3; k++) mb[k] = mt[k] = 0.0;
+            frictional = true;
           }
         }
-        if (s[S_COH] <= 0.0) {
-          // Frictional contact (YADE after cohesion broke): lost in tension; else
-          // |F_s| ≤ F_n tan φ and no moments.
-          if (fnm > 0.0) {
+        if (!contact) {
+          for (int k = 0; k < 3; k++) {
+            F[k] = fnm * n[k] + fs[k];
+            M[k] = mb[k] + mt[k];
+          }
+          if (eflag) {
+            e = 0.5 * kn * (d - s[S_R0]) * (d - s[S_R0]);
+            if (ks > 0) e += 0.5 * dot(fs, fs) / ks;
+            if (!frictional && kr > 0) e += 0.5 * dot(mb, mb) / kr;
+            if (!frictional && ktw > 0) e += 0.5 * dot(mt, mt) / ktw;
+          }
+        }
+      }
+
+      if (contact) {
+        // The integrator's frictional contact (header; src/dem/contacts.rs pair_kernel).
+        const double pd = radius[i] + radius[j] - d;
+        if (!(pd >= 0.0) || d == 0.0) {
+          // Apart: no force, no memory; a never-bonded pair's slot goes.
+          if (s[S_NEW] > 0.0) {
             remove_slot(a[i], b, nb);
             b--;
             continue;
           }
-          const double cap = -fnm * s[S_TF], mag = std::sqrt(dot(fs, fs));
-          if (mag > cap)
-            for (int k = 0; k < 3; k++) fs[k] *= mag > 0.0 ? cap / mag : 0.0;
-          for (int k = 0; k < 3; k++) mb[k] = mt[k] = 0.0;
+          s[S_COH] = 0.0;
+          for (int k = 0; k < 3; k++) fs[k] = s[S_LP + k] = 0.0;
+          continue;
+        }
+        const bool active = s[S_COH] < 0.0;
+        const double *nold = active ? &s[S_LP] : n;
+        ri = radius[i] - 0.5 * pd;
+        rj = radius[j] - 0.5 * pd;
+        const double c1x[3] = {ri * n[0], ri * n[1], ri * n[2]};
+        const double c2x[3] = {c1x[0] - l[0], c1x[1] - l[1], c1x[2] - l[2]};
+        if (!carried) {
+          double axis[3];
+          cross(nold, n, axis);
+          double spin[3] = {omega[i][0] + omega[j][0], omega[i][1] + omega[j][1],
+                            omega[i][2] + omega[j][2]};
+          const double tw = dt * 0.5 * dot(nold, spin);
+          const double twist_axis[3] = {nold[0] * tw, nold[1] * tw, nold[2] * tw};
+          rotate_by(fs, axis);
+          rotate_by(fs, twist_axis);
+          double wi[3], wj[3], vr[3];
+          cross(omega[i], c1x, wi);
+          cross(omega[j], c2x, wj);
+          for (int k = 0; k < 3; k++) vr[k] = (v[j][k] + wj[k]) - (v[i][k] + wi[k]);
+          const double vn = dot(n, vr);
+          // The integrator's F_s (on j) less k_s Δu_s is this (on i) plus it.
+          for (int k = 0; k < 3; k++) fs[k] += ((vr[k] - n[k] * vn) * dt) * ks;
+        }
+        const double fn = kn * pd;
+        const double mu = s[S_TF];
+        const double max2 = (fn * fn) * (mu * mu), fs2 = dot(fs, fs);
+        if (fs2 > max2) {
+          const double ratio = std::sqrt(max2) / std::sqrt(fs2);
+          for (int k = 0; k < 3; k++) fs[k] *= ratio;
+        }
+        s[S_COH] = -1.0;
+        for (int k = 0; k < 3; k++) {
+          s[S_LP + k] = n[k];
+          F[k] = -fn * n[k] + fs[k];
+        }
+        if (eflag) {
+          e = 0.5 * fn * fn / kn;
+          if (ks > 0) e += 0.5 * dot(fs, fs) / ks;
         }
       }
-      double F[3], M[3];
-      for (int k = 0; k < 3; k++) {
-        F[k] = fnm * n[k] + fs[k];
-        M[k] = mb[k] + mt[k];
-      }
+
       double ti[3], tj[3];
+      const double ani[3] = {ri * n[0], ri * n[1], ri * n[2]};
       cross(ani, F, ti);  // (r_i n) × F
       const double anjp[3] = {rj * n[0], rj * n[1], rj * n[2]};
       cross(anjp, F, tj);  // (r_j n) × F
@@ -767,19 +937,12 @@ void PairAnisobond::compute(int eflag, int vflag) {
         torque[j][k] += tj[k] - M[k];
       }
       if (evflag) {
-        double e = 0.0;
-        if (eflag) {
-          e = 0.5 * kn * (d - s[S_R0]) * (d - s[S_R0]);
-          if (ks > 0) e += 0.5 * dot(fs, fs) / ks;
-          if (kr > 0) e += 0.5 * dot(mb, mb) / kr;
-          if (ktw > 0) e += 0.5 * dot(mt, mt) / ktw;
-        }
         // LAMMPS convention: force on i, del = x_i − x_j = −l.
-        ev_tally_xyz(i, j, nlocal, newton_pair, e, 0.0, F[0], F[1], F[2], -l[0], -l[1], -l[2]);
+        ev_tally_xyz(i, j, nlocal, newton_pair, eflag ? e : 0.0, 0.0, F[0], F[1], F[2], -l[0],
+                     -l[1], -l[2]);
       }
     }
   }
-
   if (manybody_) compute_manybody(eflag);
 
   if (!breaks_file_.empty() && !update->setupflag) write_breaks();

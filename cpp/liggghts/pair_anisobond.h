@@ -36,7 +36,29 @@
 // strength::criteria::yade_cohfrict, fragile, moments elastic as YADE 2023.02a): tension
 // (−F_n > a_n, compression positive) removes the bond; shear (|F_s| > a_s + F_n tan φ) turns
 // it into a frictional contact (compression only, |F_s| ≤ F_n tan φ, no moments) that is
-// removed once it is in tension, as YADE does. No new contacts are detected.
+// removed once it is in tension, as YADE does. Without `contacts` no new contacts are
+// detected.
+//
+// Contacts (`contacts KN KS MU`; issue 32, docs/strength.md "LIGGGHTS"): the integrator's
+// frictional contact (src/dem/contacts.rs, YADE's Law2_ScGeom_FrictPhys_CundallStrack) for
+// every broken bond and for spheres that were never bonded and come into touch:
+//   overlap  u_n = R_i + R_j − d ≥ 0, F_n = k_n u_n (compression only; apart: no force, the
+//            shear force forgotten, as YADE erases the interaction)
+//   shear    F_s ← F_s − F_s×(n_old×n) − F_s×τ, τ = ½dt((ω_i+ω_j)·n_old) n_old (n_old the
+//            normal of the last step in touch; none for a new contact), then
+//            F_s += k_s dt [v_r − (v_r·n)n], v_r the relative velocity at the contact point
+//            (mid-overlap, arms R − u_n/2) from the atoms' velocities
+//   Coulomb  |F_s| ≤ μ F_n; no moments.
+// A broken bond's pair keeps the bond's k_n, k_s (as YADE's CohFrictPhys and the integrator's
+// Contacts::set_pair_stiffness); new pairs get KN, KS; every contact μ = MU (the integrator's
+// ContactLaw::friction). A bond broken in shear hands its trial shear force on, capped at
+// μ F_n in the break step and neither rotated nor incremented there (the integrator's
+// Contacts::carry_shear); one broken in tension starts a fresh contact (usually apart). A
+// broken bond's slot stays (its springs), a new pair's slot is dropped when the spheres
+// part. New pairs come from a full neighbour list (cutoff max(1.05 × longest bond, 2 R_max)
+// + skin): each pair once, on the owner of its lower tag. Each atom has room for
+// CONTACT_SLOTS contacts beyond its bonds (refused by name beyond that). Not with the
+// many-body term.
 //
 // State lives in a `fix property/atom` created in init_style(): per owned atom the number of
 // bonds, the number of its bonds that broke, then the bonds to partners of higher tag
@@ -108,9 +130,13 @@ class PairAnisobond : public Pair {
     S_AN = S_LP + 3,  // normalAdhesion a_n (N); < 0: unbreakable
     S_AS,             // shearAdhesion a_s (N)
     S_TF,             // tan φ
-    S_COH,            // 1 cohesive, 0 cohesion broken in shear (frictional contact)
+    S_COH,            // 1 cohesive, 0 cohesion broken in shear (frictional contact); with
+                      // `contacts`: 0 a contact not in touch, −1 in touch (S_LP its normal)
+    S_NEW,            // 1: a contact of a never-bonded pair (dropped when apart)
     NSLOT
   };
+  // Contacts an atom can hold beyond its bonds (`contacts`): equal spheres touch at most 12.
+  enum { CONTACT_SLOTS = 12 };
 
  private:
   struct Bond {
@@ -139,6 +165,13 @@ class PairAnisobond : public Pair {
   void add_limits(std::vector<Bond> &bonds, const rust::Vec<anisobond::YadeLimits> &lim,
                   const std::string &what);
   bool breakable_;                  // some bond has limits
+  // `contacts KN KS MU`: on, springs of new pairs (N/m), friction of every contact; the
+  // largest radius (neighbour cutoff) and the slots per atom.
+  bool contacts_;
+  double c_kn_, c_ks_, c_mu_;
+  double r_max_;
+  int slots_;
+  void add_new_contacts();
   // `breaks FILE`: rank 0's open file (NULL elsewhere and without the keyword), the name,
   // and this step's local breaks as (tag_i, tag_j, mode 0 tension / 1 shear) triples.
   std::string breaks_file_;

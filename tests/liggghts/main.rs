@@ -13,6 +13,7 @@ mod in_place;
 mod manybody;
 mod ppf_export;
 mod specimen;
+mod strength_contacts;
 mod strength_export;
 mod strength_tension;
 mod strength_validate;

@@ -5,10 +5,14 @@
 //! adhesions `export yade` writes) on one and two MPI processes, and in the integrator with the
 //! same law (a) (incremental moments), springs, adhesions and time step; both undamped. The
 //! peak stress within 2 % and the first ten bonds to break the same, in the same order (the
-//! pair style's own record of which bond broke when).
+//! pair style's own record of which bond broke when). The same in uniaxial compression (UCS)
+//! of the turned-lattice prism of tests/common/strength_bar.rs (`ucs_prism`: 1,027 spheres,
+//! 2,635 bonds that break in shear), the pair style with `contacts KN KS MU` (broken bonds and
+//! spheres that come into touch are the integrator's frictional contacts) and the integrator
+//! with its contacts on.
 
 use crate::common::liggghts::*;
-use crate::common::strength_bar::{cubic_bar, run_strength, R};
+use crate::common::strength_bar::{check_ucs_run, cubic_bar, run_strength, ucs_prism, R};
 use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
 use anisobond::validate::strength::StrengthTest;
 use anisobond::validate::{validate_strength, Problem};
@@ -46,6 +50,33 @@ fn liggghts_tension_peak_and_first_breaks_match_the_integrator_on_one_and_two_pr
     assert_eq!(r.measured[0].breaks[..10], r.measured[1].breaks[..10]);
     let log = std::fs::read_to_string(dir.join("liggghts-strength/log-np2.liggghts")).unwrap();
     assert!(log.contains("MPI processor grid"), "{log}");
+    assert!(r.passed(), "{:?}", r.failures());
+}
+
+/// UCS: the prism pushed down 2e-6 of its gauge length per step for 3,000 steps (the first
+/// peak near step 1,000, then softening), undamped in both, the pair style's contacts against
+/// the integrator's: the first peak within 2 % and the first ten broken bonds the same, in
+/// order, on one and two processes; the two LIGGGHTS runs break the same first ten at the
+/// same steps.
+#[test]
+fn liggghts_ucs_peak_and_first_breaks_match_the_integrator_with_contacts() {
+    if let Some(r) = missing(TOOLS) {
+        eprintln!("skipping: {r}");
+        return;
+    }
+    let asm = ucs_prism();
+    let dir = fresh_dir("strength_validate_ucs");
+    let t = StrengthTest::new(2, 1.5 * R, 2e-6, 3_000).compression();
+    let r = run_strength("liggghts_ucs", &engine(), &dir, &asm, &t);
+    check_ucs_run(&r.reference, &t);
+    assert_eq!(r.measured.len(), 2);
+    for m in &r.measured {
+        check_ucs_run(m, &t);
+    }
+    assert_eq!(r.measured[0].breaks[..10], r.measured[1].breaks[..10]);
+    // The deck asked for the contacts, with the integrator's law for new pairs.
+    let deck = std::fs::read_to_string(dir.join("liggghts-strength/strength.in")).unwrap();
+    assert!(deck.contains(" contacts 2e6 7e5 5e-1\n"), "{deck}");
     assert!(r.passed(), "{:?}", r.failures());
 }
 

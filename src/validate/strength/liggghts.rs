@@ -20,12 +20,20 @@
 //! integrator runs law (a) with *incremental* moments (the driver's convention) and the same
 //! springs, adhesions and time step. LIGGGHTS' step n evaluates the forces at x_n, as the
 //! integrator's iteration n, so the break steps compare one to one.
+//!
+//! In compression (the UCS test) both turn broken bonds into frictional contacts and let
+//! spheres that come into touch make new ones: the pair style's `contacts KN KS MU` is the
+//! integrator's [`crate::dem::Contacts`] law (a broken bond's pair with the bond's springs,
+//! new pairs with [`super::contact_law`]'s, every contact its friction; a shear-broken bond's
+//! capped trial shear force handed on), and [`Loading::contacts`] turns the integrator's on.
+//! The peak is then the first peak ([`super::peak_of`]).
 
 use super::{
-    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
+    compare, order_breaks, peak_of, reference, Launch, Loading, StrengthDetails, StrengthLoading,
+    StrengthRun, StrengthTest,
 };
 use crate::dem::laws::{LinearBondKernel, MomentForm};
-use crate::dem::LawKind;
+use crate::dem::{ContactLaw, LawKind};
 use crate::export::liggghts::{run_liggghts, Launch as RunLaunch};
 use crate::export::yade::{adhesions_of, write_bond_table_with_adhesions};
 use crate::validate::harness::{Problem, Progress, Report};
@@ -51,7 +59,8 @@ fn breaks_file(np: usize) -> String {
 }
 
 /// Run the driver's strength test of `problem`'s free bar on each process count and the
-/// integrator's with law (a) (incremental moments), both undamped, and compare.
+/// integrator's with law (a) (incremental moments), both undamped, and compare; in
+/// compression both with frictional contacts after breaking.
 pub fn run(
     launch: &Launch,
     problem: &Problem,
@@ -61,14 +70,20 @@ pub fn run(
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
     let (_, strengths, criteria) = super::strength_setup("liggghts", problem, LawKind::Yade)?;
     let dt = super::time_step(problem, launch)?;
-    let loading = Loading::of(packing, test, dt, "liggghts")?;
+    let mut loading = Loading::of(packing, test, dt, "liggghts")?;
+    if test.loading == StrengthLoading::Compression {
+        loading.contacts = Some(super::contact_law(k, &strengths)?);
+    }
     let dir = problem.dir.join(DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let adhesions = adhesions_of(packing, bonds, &strengths);
     write_bond_table_with_adhesions(&dir.join("bonds.csv"), bonds, k, None, &adhesions)?;
     write_data(&dir, problem, test, &loading, launch.density)?;
     let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
-    crate::io::write_string_atomic(&dir.join(DECK), &deck(test, dt, 0.05 * max_len))?;
+    crate::io::write_string_atomic(
+        &dir.join(DECK),
+        &deck(test, dt, 0.05 * max_len, loading.contacts.as_ref()),
+    )?;
     let mut timings = Vec::new();
     // Law (a) with YADE's `useIncrementalForm = True` moments (the driver's convention; law
     // a's own are the total form): still YADE's law, so it keeps law a's name, which the
@@ -101,7 +116,7 @@ pub fn run(
             dir.join("log.liggghts"),
             dir.join(format!("log-np{np}.liggghts")),
         );
-        let m = read_run(&dir, problem, np, &out, seconds)?;
+        let m = read_run(&dir, problem, test, &loading, np, &out, seconds)?;
         m.record_stage(
             format!("liggghts_np{np}"),
             &format!("LIGGGHTS on {np} process(es):"),
@@ -172,18 +187,27 @@ fn write_data(
     crate::io::write_string_atomic(&dir.join("strength.data"), &s)
 }
 
-/// The deck: read, bond (with `breaks ${breaks}`), hold the bottom, freeze the top, print
-/// the top layer's axial force every step to `${force}`, run `test.steps`.
-fn deck(test: &StrengthTest, dt: f64, skin: f64) -> String {
+/// The deck: read, bond (with `breaks ${breaks}`, and `contacts KN KS MU` when `contacts`
+/// is given), hold the bottom, freeze the top, print the top layer's axial force every step
+/// to `${force}`, run `test.steps`.
+fn deck(test: &StrengthTest, dt: f64, skin: f64, contacts: Option<&ContactLaw>) -> String {
+    let contacts = contacts.map_or(String::new(), |c| {
+        format!(
+            " contacts {} {} {}",
+            num(c.normal_stiffness),
+            num(c.shear_stiffness),
+            num(c.friction)
+        )
+    });
     format!(
-        "# anisobond → LIGGGHTS driver (pair_style anisobond) strength test: direct tension along {axn}.\n\
+        "# anisobond → LIGGGHTS driver (pair_style anisobond) strength test: {what} along {axn}.\n\
          # Run:  anisobond-liggghts -in {DECK} -var force F -var breaks B   (or under mpirun -np N)\n\
          # Atom types: 1 free, 2 bottom layer (not integrated: held), 3 top layer (fix freeze: moves\n\
          # at its initial velocity). Undamped. Output: the top layer's axial force per step (F, the\n\
          # force on the layer before freeze zeroes it: tension negative) and the broken bonds (B).\n\
          units si\natom_style granular\natom_modify map array\nboundary f f f\nnewton on\n\
          communicate single vel yes\nread_data strength.data\n\
-         pair_style anisobond table bonds.csv breaks ${{breaks}}\npair_coeff * *\n\
+         pair_style anisobond table bonds.csv breaks ${{breaks}}{contacts}\npair_coeff * *\n\
          neighbor {skin} bin\nneigh_modify delay 0\ntimestep {dt}\n\
          group bottom type 2\ngroup top type 3\ngroup mobile subtract all bottom\n\
          fix integrate mobile nve/sphere\nfix ftop top freeze\n\
@@ -191,6 +215,7 @@ fn deck(test: &StrengthTest, dt: f64, skin: f64) -> String {
          fix hist all print 1 \"${{st}} ${{ft}}\" file ${{force}} screen no title \"# step top_force_N\"\n\
          thermo 1000\n\
          run {steps}\n",
+        what = test.loading.describe(),
         axn = ["x", "y", "z"][test.axis],
         skin = num(skin),
         dt = num(dt),
@@ -199,11 +224,14 @@ fn deck(test: &StrengthTest, dt: f64, skin: f64) -> String {
     )
 }
 
-/// One run's result: the peak of the top layer's tensile force (−F) and the broken bonds
-/// (ids → packing indices).
+/// One run's result: the peak of the top layer's load (sign × −F: tensile in tension, the
+/// first compressive peak in compression, [`peak_of`]) and the broken bonds (ids → packing
+/// indices).
 fn read_run(
     dir: &Path,
     problem: &Problem,
+    test: &StrengthTest,
+    loading: &Loading,
     np: usize,
     out: &str,
     seconds: f64,
@@ -211,7 +239,7 @@ fn read_run(
     let bad = |m: String| Error::engine("LIGGGHTS", format!("on {np} process(es): {m}"));
     let fpath = dir.join(force_file(np));
     let text = crate::io::read_to_string(&fpath)?;
-    let (mut peak, mut peak_step) = (f64::NEG_INFINITY, 0u64);
+    let mut curve = Vec::new();
     for (ln, line) in text.lines().enumerate() {
         if line.starts_with('#') || line.trim().is_empty() {
             continue;
@@ -228,11 +256,9 @@ fn read_run(
                 ln + 1
             ))
         })?;
-        if -f > peak {
-            (peak, peak_step) = (-f, s as u64);
-        }
+        curve.push((s as u64, loading.sign * -f));
     }
-    if !peak.is_finite() {
+    if curve.is_empty() {
         return Err(bad(format!("{}: no force recorded", fpath.display())));
     }
     let bpath = dir.join(breaks_file(np));
@@ -253,12 +279,16 @@ fn read_run(
         })?);
     }
     let version = crate::export::liggghts::liggghts_version(out);
+    let breaks = order_breaks("LIGGGHTS", problem.bonds, &raw)?;
+    let (peak_force, peak_step) = peak_of(test, &curve, &breaks)
+        .filter(|p| p.0.is_finite())
+        .ok_or_else(|| bad(format!("{}: no finite force recorded", fpath.display())))?;
     Ok(StrengthRun {
         program: format!("LIGGGHTS driver ({version})"),
         processes: np,
-        peak_force: peak,
+        peak_force,
         peak_step,
-        breaks: order_breaks("LIGGGHTS", problem.bonds, &raw)?,
+        breaks,
         seconds,
     })
 }
@@ -300,10 +330,23 @@ mod tests {
     #[test]
     fn the_deck_names_the_record_and_the_axis() {
         let t = StrengthTest::new(1, 1e-4, 1e-6, 300);
-        let d = deck(&t, 1e-7, 1e-5);
-        assert!(d.contains("pair_style anisobond table bonds.csv breaks ${breaks}"));
+        let d = deck(&t, 1e-7, 1e-5, None);
+        assert!(d.contains("pair_style anisobond table bonds.csv breaks ${breaks}\n"));
         assert!(d.contains("variable ft equal f_ftop[2]"));
         assert!(d.contains("run 300\n"));
+        assert!(d.contains("direct tension along y"));
         assert!(!d.contains("damping"));
+        assert!(!d.contains("contacts"));
+        let c = ContactLaw {
+            normal_stiffness: 2e6,
+            shear_stiffness: 7e5,
+            friction: 0.5,
+        };
+        let d = deck(&t.compression(), 1e-7, 1e-5, Some(&c));
+        assert!(
+            d.contains("breaks ${breaks} contacts 2e6 7e5 5e-1\n"),
+            "{d}"
+        );
+        assert!(d.contains("uniaxial compression along y"));
     }
 }
