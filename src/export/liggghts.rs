@@ -619,6 +619,7 @@ fn write_driver_deck(
 
 /// `harmonic.data` and `harmonic.in`: the stock deck (atom_style hybrid granular molecular,
 /// one `bond_style harmonic` type per bond), the normal load cases of the periodic axes.
+#[allow(clippy::too_many_arguments)]
 fn write_harmonic_deck(
     dir: &Path,
     packing: &Packing,
