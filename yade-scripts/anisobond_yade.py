@@ -37,7 +37,7 @@ or the command line (what the exported ``run.py`` calls)::
 
     yade -n -x anisobond_yade.py --packing packing.txt --bonds bonds.csv --out DIR \
          [--strain 1e-5] [--steps 200] [--damping 0.4] [--density 2600] [--dt S] \
-         [--safety 0.8] [--paths 11,22,33,23,13,12]
+         [--safety 0.8] [--paths 11,22,33,23,13,12] [--grains grains.txt]
 
 Undamped step-by-step mode (for comparison with another integrator): ``--damping 0
 --steps 1000`` -- the history records the stress after every step either way.
@@ -319,6 +319,84 @@ def read_bond_table(path, n_particles=None):
     for c in ADHESION_COLUMNS:
         setattr(table, c, adhesions[c] if adhesion else None)
     return table
+
+
+GRAIN_LABEL = "anisobond-grain-"
+
+
+def read_grains(path, n_particles):
+    """Read a grain-id file (docs/formats.md "Grain files"; ``anisobond export yade`` of a
+    polycrystal writes ``grains.txt``): one grain id per data line, an integer 0 <= id <
+    2^32 - 1, in the packing's order, ``#`` comments and blank lines skipped, exactly
+    ``n_particles`` ids. Errors name the file and line."""
+    ids = []
+    with open(path) as f:
+        for n, raw in enumerate(f, 1):
+            t = raw.split("#", 1)[0].strip()
+            if not t:
+                continue
+            try:
+                g = int(t)
+            except ValueError:
+                g = -1
+            if not 0 <= g < 2 ** 32 - 1:
+                raise InputError("%s:%d: `%s`: expected one grain id per line, an integer from "
+                                 "0 to %d" % (path, n, t, 2 ** 32 - 2))
+            ids.append(g)
+    if len(ids) != n_particles:
+        raise InputError("%s: %d grain ids, but the packing has %d particles (one id per "
+                         "particle, in the packing's order)" % (path, len(ids), n_particles))
+    return ids
+
+
+def grain_colour(g):
+    """A colour of grain ``g`` for YADE's view (``shape.color``): hues spread by the golden
+    ratio, so neighbouring ids differ."""
+    import colorsys
+    return colorsys.hsv_to_rgb((0.618033988749895 * g) % 1.0, 0.75, 0.95)
+
+
+def attach_grains(grains, bodies=None):
+    """Give each sphere of the current scene (``bodies``: default ``scene_spheres()``, in
+    body-id order) its grain ``grains[k]``: a copy of its material labelled
+    ``anisobond-grain-G`` (one copy per grain and original material, every other attribute
+    equal, appended to ``O.materials``, so it is saved with the scene) and the grain's colour
+    (``grain_colour``). Not ``groupMask``: masks decide which bodies interact. The copies
+    have the original's density (masses unchanged) and stiffness, friction and cohesion
+    values, so the Ip2 functor makes the same physics for a new contact, and existing
+    interactions are not touched. ``scene_grains()`` reads the ids back."""
+    from yade import O
+    if bodies is None:
+        bodies, _ = scene_spheres()
+    if len(grains) != len(bodies):
+        raise InputError("%d grain ids for %d spheres: expected one per sphere"
+                         % (len(grains), len(bodies)))
+    copies = {}
+    for body, g in zip(bodies, grains):
+        g = int(g)
+        key = (g, body.material.id)
+        if key not in copies:
+            m = body.material
+            attrs = m.dict()
+            attrs["label"] = GRAIN_LABEL + str(g)
+            attrs.pop("id", None)
+            copy = type(m)(**attrs)
+            O.materials.append(copy)
+            copies[key] = copy
+        body.material = copies[key]
+        body.shape.color = grain_colour(g)
+
+
+def scene_grains(bodies=None):
+    """The grain id of each sphere of the current scene (``bodies``: default
+    ``scene_spheres()``) as ``attach_grains`` set it, None for a sphere without one."""
+    if bodies is None:
+        bodies, _ = scene_spheres()
+    out = []
+    for body in bodies:
+        label = body.material.label
+        out.append(int(label[len(GRAIN_LABEL):]) if label.startswith(GRAIN_LABEL) else None)
+    return out
 
 
 def _write_atomic(path, text):
@@ -1119,7 +1197,7 @@ class Scene(object):
 
 
 def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8,
-                branch_tolerance=1e-9, verify=True):
+                branch_tolerance=1e-9, verify=True, grains=None):
     """Reset YADE's ``O`` and build the bonded scene: periodic with the packing's cell, or
     free (``O.periodic = False``, no cell; every bond's image must then be 0, 0, 0) when
     ``packing.cell`` is None.
@@ -1131,7 +1209,8 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
     ``safety * critical_time_step``. With ``verify`` every bond's branch vector, normal,
     penetration depth and springs are checked against the table (relative tolerance
     ``branch_tolerance`` of the bond length); a mismatch raises ``BondMismatch``.
-    Returns a ``Scene``.
+    ``grains`` (a polycrystal's grain id per sphere, ``read_grains``) are attached to the
+    spheres by ``attach_grains``. Returns a ``Scene``.
     """
     from yade import O, utils
     from yade.wrapper import (CohFrictMat, ForceResetter, InteractionLoop,
@@ -1163,6 +1242,8 @@ def build_scene(packing, bonds, density=2600.0, damping=0.0, dt=None, safety=0.8
         etaRoll=-1.0, etaTwist=-1.0, fragile=False, label="anisobond"))
     O.bodies.append([utils.sphere(Vector3(*p), r, material=mat)
                      for p, r in zip(packing.positions, packing.radii)])
+    if grains is not None:
+        attach_grains(grains, [O.bodies[k] for k in range(n)])
     O.engines = [
         ForceResetter(),
         InteractionLoop(
@@ -1435,7 +1516,7 @@ def run_path(path, strain, steps, damping, stress_volume=None):
 
 def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2600.0,
                   dt=None, safety=0.8, paths=(0, 1, 2, 3, 4, 5), rebuild=False,
-                  stress_volume=None, manybody=None):
+                  stress_volume=None, manybody=None, grains=None):
     """Six-path element test (three uniaxial strains, three pure shears, Voigt order).
 
     Every path starts from the same initial state: the scene is built (and verified) once
@@ -1447,6 +1528,7 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
     ``C`` is None and ``columns`` holds stress/strain_a of each path run). ``stress_volume``
     (m^3): stresses per that volume, not the cell's (see ``run_path``). ``manybody``: a
     model (or model file) whose ``[manybody]`` term is added to the scene (``add_manybody``).
+    ``grains``: each sphere's grain id, attached by ``build_scene`` (``attach_grains``).
     """
     from yade import O
     histories, timings, dt_used = {}, {}, None
@@ -1455,7 +1537,7 @@ def element_tests(packing, bonds, strain=1e-5, steps=200, damping=0.4, density=2
         t0 = time.time()
         if rebuild or k == 0:
             sc = build_scene(packing, bonds, density=density, damping=damping, dt=dt,
-                             safety=safety)
+                             safety=safety, grains=grains)
             dt_used = sc.dt
             if manybody is not None:
                 add_manybody(manybody, packing, bonds, density=density, safety=safety, dt=dt)
@@ -1792,6 +1874,9 @@ def main(argv=None):
     ap.add_argument("--stress-volume", type=float, default=None,
                     help="volume (m^3) the stresses are per, instead of the cell's (a box of "
                          "mixed periodicity: the box as read)")
+    ap.add_argument("--grains", default=None,
+                    help="grain-id file (a polycrystal): each sphere gets its grain's copy of "
+                         "the material, labelled anisobond-grain-G, and colour")
     ap.add_argument("--model", default=None,
                     help="model file: compute the springs with the anisobond Python package "
                          "instead of taking the table's")
@@ -1806,6 +1891,7 @@ def main(argv=None):
         ap.error("--stress-volume: expected a positive volume in m^3, got %r" % a.stress_volume)
     packing = read_packing(a.packing)
     bonds = read_bond_table(a.bonds, len(packing))
+    grains = None if a.grains is None else read_grains(a.grains, len(packing))
     manybody = None
     if a.model is not None:
         assign_springs(a.model, packing, bonds)
@@ -1817,7 +1903,7 @@ def main(argv=None):
     t0 = time.time()
     res = element_tests(packing, bonds, strain=a.strain, steps=a.steps, damping=a.damping,
                         density=a.density, dt=a.dt, safety=a.safety, paths=paths,
-                        stress_volume=a.stress_volume, manybody=manybody)
+                        stress_volume=a.stress_volume, manybody=manybody, grains=grains)
     wall = time.time() - t0
     write_history_csv(os.path.join(a.out, a.history), res)
     write_tensor_json(os.path.join(a.out, a.tensor), res, packing, bonds)

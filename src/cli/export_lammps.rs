@@ -217,6 +217,7 @@ pub fn run(a: Args) -> Result<()> {
         history: Default::default(),
         breakage: breakage(&a, &asm)?,
         manybody: asm.model.manybody.clone(),
+        grains: asm.grains().map(|g| g.grain.clone()),
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;

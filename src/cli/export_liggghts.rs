@@ -2,7 +2,7 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::export::liggghts::{export_liggghts_full, DeckOptions};
+use anisobond::export::liggghts::{export_liggghts_grains, DeckOptions};
 use anisobond::Result;
 
 /// Write LIGGGHTS input decks for a packing + model.
@@ -65,7 +65,7 @@ pub fn run(a: Args) -> Result<()> {
         .as_ref()
         .map(|spec| spec.build(packing, bonds))
         .transpose()?;
-    let s = export_liggghts_full(
+    let s = export_liggghts_grains(
         &staged,
         packing,
         bonds,
@@ -73,6 +73,7 @@ pub fn run(a: Args) -> Result<()> {
         &opts,
         limits.as_deref(),
         term.as_ref(),
+        asm.grains().map(|g| g.grain.as_slice()),
     )?;
     set.commit()?;
     println!(

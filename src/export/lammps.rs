@@ -100,6 +100,10 @@ pub struct LammpsOptions {
     /// (needs [`LammpsBondStyle::Anisobond`]; refused with breakage). None: no term, the
     /// decks as before.
     pub manybody: Option<ManyBodySpec>,
+    /// A polycrystal's grain id of every particle (`Assembly::grains`, docs/polycrystal.md):
+    /// written as the molecule ID of `data.lmp`, grain + 1 (LAMMPS keeps 0 for an atom in no
+    /// molecule). None: every atom molecule 1 (one grain), as before.
+    pub grains: Option<Vec<u32>>,
 }
 
 /// Breaking bonds in the exported decks (issue 32; docs/strength.md, "LAMMPS"): every bond's
@@ -198,6 +202,7 @@ impl Default for LammpsOptions {
             history: UndampedHistory::default(),
             breakage: None,
             manybody: None,
+            grains: None,
         }
     }
 }
@@ -918,6 +923,7 @@ pub fn export_lammps(
     o: &LammpsOptions,
 ) -> Result<LammpsExport> {
     let cell = check_inputs(packing, bonds, o)?;
+    let mol = molecule_ids(packing.len(), o.grains.as_deref())?;
     let plugin = plugin_of(o);
     let limits = o.breakage.as_ref().map(|b| bond_limits(k, b)).transpose()?;
     // The term's checks are the library's own (degenerate particles refused or excluded,
@@ -942,8 +948,12 @@ pub fn export_lammps(
         Some(_) => format!("{what}, with the many-body term"),
         None => what,
     };
+    let data_what = match &o.grains {
+        Some(_) => Cow::Owned(format!("{what}; molecule ID = grain + 1")),
+        None => Cow::Borrowed(what.as_str()),
+    };
     let mut files = vec![write_data_file(
-        dir, packing, bonds, &t, &ids, &cell, &what, o.density,
+        dir, packing, bonds, &t, &ids, &mol, &cell, &data_what, o.density,
     )?];
     match plugin {
         // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
@@ -1003,10 +1013,23 @@ pub fn export_lammps(
     })
 }
 
-/// `data.lmp`: atom_style bpm/sphere `id mol type diameter density x y z` (atom ids `ids`),
-/// a triclinic box (tilts 0; the decks also make any data file's box triclinic) so that the
-/// shear cases can tilt it, bond b of type b + 1 (route a), of its quantised type, or 1
-/// (plugin).
+/// The molecule ID of every atom: grain + 1 of a polycrystal's `grains` (one per particle,
+/// else refused), 1 for every atom without grains (a single crystal is one grain).
+fn molecule_ids(n: usize, grains: Option<&[u32]>) -> Result<Vec<u64>> {
+    match grains {
+        None => Ok(vec![1; n]),
+        Some(g) if g.len() != n => Err(Error::Invalid(format!(
+            "LAMMPS export: {} grain ids for {n} particles; expected one per particle",
+            g.len()
+        ))),
+        Some(g) => Ok(g.iter().map(|&k| u64::from(k) + 1).collect()),
+    }
+}
+
+/// `data.lmp`: atom_style bpm/sphere `id mol type diameter density x y z` (atom ids `ids`,
+/// molecule IDs `mol`: a polycrystal's grain + 1, [`molecule_ids`]), a triclinic box (tilts
+/// 0; the decks also make any data file's box triclinic) so that the shear cases can tilt
+/// it, bond b of type b + 1 (route a), of its quantised type, or 1 (plugin).
 #[allow(clippy::too_many_arguments)]
 fn write_data_file(
     dir: &Path,
@@ -1014,6 +1037,7 @@ fn write_data_file(
     bonds: &BondSet,
     t: &Typing,
     ids: &[u64],
+    mol: &[u64],
     cell: &PeriodicCell,
     what: &str,
     density: f64,
@@ -1045,8 +1069,9 @@ fn write_data_file(
     for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
         let _ = writeln!(
             s,
-            "{} 1 1 {} {} {} {} {}",
+            "{} {} 1 {} {} {} {} {}",
             ids[p],
+            mol[p],
             num(2.0 * r),
             num(density),
             num(x.x),

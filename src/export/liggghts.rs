@@ -404,6 +404,31 @@ pub fn export_liggghts_full(
     limits: Option<&[YadeAdhesion]>,
     manybody: Option<&ManyBody>,
 ) -> Result<ExportSummary> {
+    export_liggghts_grains(dir, packing, bonds, k, o, limits, manybody, None)
+}
+
+/// [`export_liggghts_full`] of a polycrystal: each particle's grain id (`grains`,
+/// `Assembly::grains`) is the molecule ID of the stock deck's `harmonic.data`, grain + 1
+/// (LAMMPS' 0 = no molecule), which `dump custom … mol` writes (docs/polycrystal.md). The
+/// driver deck's `atom_style granular` has no molecule column.
+#[allow(clippy::too_many_arguments)]
+pub fn export_liggghts_grains(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    o: &DeckOptions,
+    limits: Option<&[YadeAdhesion]>,
+    manybody: Option<&ManyBody>,
+    grains: Option<&[u32]>,
+) -> Result<ExportSummary> {
+    if let Some(g) = grains.filter(|g| g.len() != packing.len()) {
+        return Err(Error::Invalid(format!(
+            "export liggghts: {} grain ids for {} particles; expected one per particle",
+            g.len(),
+            packing.len()
+        )));
+    }
     if manybody.is_some() && limits.is_some() {
         return Err(Error::Model(
             "export liggghts: a model with both [strength] and [manybody]: the LIGGGHTS pair \
@@ -452,6 +477,7 @@ pub fn export_liggghts_full(
         o,
         &plan,
         table.is_some(),
+        grains,
     )?);
     let run = dir.join("run.sh");
     let shear = plan.cases.iter().any(|&c| c >= 3);
@@ -593,6 +619,7 @@ fn write_driver_deck(
 
 /// `harmonic.data` and `harmonic.in`: the stock deck (atom_style hybrid granular molecular,
 /// one `bond_style harmonic` type per bond), the normal load cases of the periodic axes.
+#[allow(clippy::too_many_arguments)]
 fn write_harmonic_deck(
     dir: &Path,
     packing: &Packing,
@@ -601,10 +628,12 @@ fn write_harmonic_deck(
     o: &DeckOptions,
     plan: &Plan,
     manybody: bool,
+    grains: Option<&[u32]>,
 ) -> Result<Vec<PathBuf>> {
     let hdata = dir.join("harmonic.data");
     crate::io::write_atomic(&hdata, |w| {
-        write_harmonic_data(w, packing, bonds, k, o.density).map_err(|e| Error::io(&hdata, e))
+        write_harmonic_data(w, packing, bonds, k, o.density, grains)
+            .map_err(|e| Error::io(&hdata, e))
     })?;
     let mean_mass = packing
         .radii
@@ -698,22 +727,30 @@ fn run_script(shear: bool) -> String {
     s
 }
 
-/// The `harmonic.data` file: atoms (hybrid granular molecular: `id type x y z diameter
-/// density molecule`), one bond type per bond with `K = k_n/2` and `r0` = bond length.
 /// The atom id of particle `p`: the packing's own (a data file's, a dump's), else p + 1.
 fn id_of(packing: &Packing, p: usize) -> u64 {
     super::engine_ids(packing).map_or(p as u64 + 1, |ids| ids[p])
 }
 
+/// The `harmonic.data` file: atoms (hybrid granular molecular: `id type x y z diameter
+/// density molecule`; molecule = a polycrystal's grain + 1, else 1), one bond type per bond
+/// with `K = k_n/2` and `r0` = bond length.
 fn write_harmonic_data(
     w: &mut dyn std::io::Write,
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,
     density: f64,
+    grains: Option<&[u32]>,
 ) -> std::io::Result<()> {
     let l = packing.cell.map(|c| c.lengths).unwrap_or_default();
-    writeln!(w, "LIGGGHTS data file written by anisobond (atom_style hybrid granular molecular, bond_style harmonic)\n")?;
+    let mol = |p: usize| grains.map_or(1, |g| u64::from(g[p]) + 1);
+    let what = if grains.is_some() {
+        "; molecule = grain + 1"
+    } else {
+        ""
+    };
+    writeln!(w, "LIGGGHTS data file written by anisobond (atom_style hybrid granular molecular, bond_style harmonic{what})\n")?;
     writeln!(
         w,
         "{} atoms\n{} bonds\n1 atom types\n{} bond types\n",
@@ -742,13 +779,14 @@ fn write_harmonic_data(
     for (p, (x, r)) in packing.positions.iter().zip(&packing.radii).enumerate() {
         writeln!(
             w,
-            "{} 1 {} {} {} {} {} 1",
+            "{} 1 {} {} {} {} {} {}",
             id_of(packing, p),
             num(x.x),
             num(x.y),
             num(x.z),
             num(2.0 * r),
-            num(density)
+            num(density),
+            mol(p)
         )?;
     }
     writeln!(w, "\nBonds\n")?;

@@ -49,6 +49,8 @@ pub mod files {
     pub const HISTORY: &str = "yade-history.csv";
     /// Tensor report written by the run.
     pub const TENSOR: &str = "yade-tensor.json";
+    /// A polycrystal's grain id of every particle (docs/formats.md "Grain files").
+    pub const GRAINS: &str = "grains.txt";
 }
 
 /// Columns appended to the export's `bonds.csv` when the model has a `[strength]` table:
@@ -484,6 +486,30 @@ pub fn write_yade_export(
     model: Option<&Model>,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
+    write_yade_export_grains(dir, packing, bonds, springs, model, opts, None)
+}
+
+/// [`write_yade_export`] of a polycrystal: `grains` (each particle's grain id,
+/// `Assembly::grains`) are written to `grains.txt` (the grain-file format) and `run.py`
+/// passes them to `anisobond_yade`, which gives each sphere its grain's copy of the material
+/// (labelled `anisobond-grain-G`, every value equal, so no interaction changes) and colour
+/// (docs/polycrystal.md, "Grain ids in the engines").
+pub fn write_yade_export_grains(
+    dir: &Path,
+    packing: &Packing,
+    bonds: &BondSet,
+    springs: &BondStiffness,
+    model: Option<&Model>,
+    opts: &YadeRunOptions,
+    grains: Option<&[u32]>,
+) -> Result<YadeExport> {
+    if let Some(g) = grains.filter(|g| g.len() != packing.len()) {
+        return Err(Error::Invalid(format!(
+            "YADE export: {} grain ids for {} particles; expected one per particle",
+            g.len(),
+            packing.len()
+        )));
+    }
     // The many-body term is built here once, so a packing it cannot carry (rattlers refused,
     // no periodic cell for the default volumes) is refused before anything is written.
     if let Some(m) = model {
@@ -532,6 +558,28 @@ pub fn write_yade_export(
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
     let many_body = model.and_then(|m| m.manybody.as_ref());
     let mut script = run_script(opts, packing.len(), bonds.len(), many_body.is_some());
+    if let Some(g) = grains {
+        let mut text = String::with_capacity(8 * g.len() + 128);
+        text.push_str(
+            "# grain id of each particle of packing.txt, in its order (anisobond polycrystal)\n",
+        );
+        for id in g {
+            let _ = writeln!(text, "{id}");
+        }
+        crate::io::write_string_atomic(&dir.join(files::GRAINS), &text)?;
+        let out = "    \"--out\", HERE,\n";
+        let arg = format!(
+            "    \"--grains\", os.path.join(HERE, {:?}),\n",
+            files::GRAINS
+        );
+        script = script.replacen(out, &format!("{out}{arg}"), 1);
+        let first = script.find('\n').map_or(0, |n| n + 1);
+        script.insert_str(
+            first,
+            "# A polycrystal: grains.txt gives each sphere its grain; anisobond_yade gives it its grain's\n\
+             #   copy of the material (label anisobond-grain-G, values equal) and colour.\n",
+        );
+    }
     if many_body.is_some() {
         let first = script.find('\n').map_or(0, |n| n + 1);
         script.insert_str(
@@ -675,20 +723,21 @@ pub fn export_yade(
     write_assembly_export(dir, &asm, opts)
 }
 
-/// [`write_yade_export`] of an assembly: its packing, bonds and springs, and its model
-/// saved for the record.
+/// [`write_yade_export`] of an assembly: its packing, bonds and springs, its model saved for
+/// the record, and a polycrystal's grains ([`write_yade_export_grains`]).
 pub fn write_assembly_export(
     dir: &Path,
     asm: &Assembly,
     opts: &YadeRunOptions,
 ) -> Result<YadeExport> {
-    write_yade_export(
+    write_yade_export_grains(
         dir,
         &asm.packing,
         &asm.bonds,
         &asm.springs,
         Some(&asm.model),
         opts,
+        asm.grains().map(|g| g.grain.as_slice()),
     )
 }
 

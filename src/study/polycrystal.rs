@@ -286,12 +286,14 @@ pub fn run(
         grains: None,
         ..model.clone()
     };
+    // The single crystal and every polycrystal share the packing's bonds (the same rule on
+    // the same packing): built once here, their springs assigned by each model.
     let single = Assembly::new(packing.clone(), single_model)?;
     let c_single = matrix(&single.tensor(&method)?.report.c);
     let reference = PolycrystalReference::of(&c_single)?;
 
     progress(PolycrystalProgress::Polycrystal);
-    let poly = Assembly::new(packing.clone(), model.clone())?;
+    let poly = Assembly::with_bonds(packing.clone(), model.clone(), single.bonds)?;
     let grains: &Grains = poly
         .grains()
         .ok_or_else(|| Error::Model("polycrystal: the assembly has no grains".into()))?;
@@ -359,7 +361,12 @@ pub fn run(
         if let Some(spec) = m.grains.as_mut() {
             spec.map = GrainMap::Count(n);
         }
-        let c = matrix(&Assembly::new(packing.clone(), m)?.tensor(&method)?.report.c);
+        let c = matrix(
+            &Assembly::with_bonds(packing.clone(), m, poly.bonds.clone())?
+                .tensor(&method)?
+                .report
+                .c,
+        );
         let (k, g) = moduli(&c);
         series.push(SeriesRow {
             grains: n,

@@ -7,6 +7,7 @@
 mod common;
 
 mod assignment;
+mod engine_grains;
 mod engines;
 mod exports;
 mod fibre;
