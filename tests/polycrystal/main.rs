@@ -7,6 +7,7 @@
 mod common;
 
 mod assignment;
+mod boundary;
 mod engines;
 mod exports;
 mod fibre;
