@@ -3,9 +3,9 @@
 //! k_n = E′_N(θ)·π̂r²/(2r′)) and g from the model's [`Geometry`].
 
 use super::BondSet;
-use crate::grains::Grains;
+use crate::grains::{BoundaryRule, Grains};
 use crate::packing::Packing;
-use crate::schemes::{Geometry, StiffnessScheme};
+use crate::schemes::{Geometry, Springs, StiffnessScheme};
 use crate::{Error, Result};
 use rayon::prelude::*;
 
@@ -89,16 +89,19 @@ pub fn springs_along(
 /// scheme's magnitudes along its normal turned into the grain's crystal frame,
 /// magnitudes(g·n) (g the grain's Bunge matrix, sample → crystal; the scheme's own
 /// rotation acts after it, so an identity orientation gives the single crystal exactly); a
-/// bond whose particles lie in different grains gets both grains' springs combined by
-/// `boundary` (their mean, or in series) times `boundary_factor`. Parallel, independent of the thread count; refuses a grain map not of
-/// this packing and a spring negative or not finite, naming the bond.
+/// bond whose particles lie in different grains gets, times `boundary_factor`, both grains'
+/// springs combined by `boundary` (their mean, or in series) or, for
+/// [`BoundaryRule::ContactPoint`], the springs of the one grain of the two whose centre is
+/// nearer its contact point ([`boundary_grain`]). Parallel, independent of the thread count;
+/// refuses a grain map not of this packing, the contact-point rule without grain centres
+/// (a user's grain file) and a spring negative or not finite, naming the bond.
 pub fn assign_stiffness_by_grain(
     packing: &Packing,
     bonds: &BondSet,
     scheme: &dyn StiffnessScheme,
     geometry: &Geometry,
     grains: &Grains,
-    boundary: crate::grains::BoundaryRule,
+    boundary: BoundaryRule,
     boundary_factor: f64,
 ) -> Result<BondStiffness> {
     if grains.grain.len() != packing.len() {
@@ -112,6 +115,13 @@ pub fn assign_stiffness_by_grain(
         return Err(Error::Model(format!(
             "[grains] boundary_factor = {boundary_factor}: expected a finite factor > 0"
         )));
+    }
+    if boundary == BoundaryRule::ContactPoint && grains.centres.is_none() {
+        return Err(Error::Model(
+            "[grains] boundary = \"contact-point\" needs the grains' Voronoi centres, and this \
+             grain map (a user's grain file) has none: use boundary = \"mean\" or \"series\""
+                .into(),
+        ));
     }
     let identity: Vec<bool> = grains
         .orientation
@@ -135,22 +145,56 @@ pub fn assign_stiffness_by_grain(
             let (n, l) = (&bonds.normal[b], bonds.length[b]);
             let (gi, gj) = (grains.grain[i], grains.grain[j]);
             let springs = |g| geometry.springs(magnitudes(g, n), ri, rj, l);
+            let scaled = |s: Springs, f: &dyn Fn(f64, f64) -> f64, t: Springs| Springs {
+                kn: f(s.kn, t.kn),
+                ks: f(s.ks, t.ks),
+                kr: f(s.kr, t.kr),
+                ktw: f(s.ktw, t.ktw),
+            };
             let s = if gi == gj {
                 springs(gi)
+            } else if boundary == BoundaryRule::ContactPoint {
+                let s = springs(boundary_grain(packing, bonds, grains, b));
+                scaled(s, &|x, _| x * boundary_factor, s)
             } else {
-                let (a, c) = (springs(gi), springs(gj));
-                let across = |x: f64, y: f64| boundary.combine(x, y) * boundary_factor;
-                crate::schemes::Springs {
-                    kn: across(a.kn, c.kn),
-                    ks: across(a.ks, c.ks),
-                    kr: across(a.kr, c.kr),
-                    ktw: across(a.ktw, c.ktw),
-                }
+                let across = |x: f64, y: f64| {
+                    // Mean and series always combine (`combine` is None for contact-point only).
+                    boundary.combine(x, y).unwrap_or(f64::NAN) * boundary_factor
+                };
+                scaled(springs(gi), &across, springs(gj))
             };
             (geometry.bond_radius(ri, rj), s)
         },
         &|b| format!("bond {b} ({}–{})", bonds.i[b], bonds.j[b]),
     )
+}
+
+/// The grain whose springs bond `b` takes under [`BoundaryRule::ContactPoint`]: of the
+/// grains g, h of its two particles, the one whose Voronoi centre is nearer (minimum image
+/// in a periodic cell) to its contact point x_i + r_i·n, r_i = R_i + gap/2 (YADE's mid-gap
+/// point, whatever lever arm a solver takes later); a tie to the lower id. Inside one grain,
+/// that grain. Needs `grains.centres` (the caller checks).
+fn boundary_grain(packing: &Packing, bonds: &BondSet, grains: &Grains, b: usize) -> u32 {
+    let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
+    let (gi, gj) = (grains.grain[i], grains.grain[j]);
+    let Some(centres) = grains.centres.as_ref().filter(|_| gi != gj) else {
+        return gi;
+    };
+    let (ri, rj, l) = (packing.radii[i], packing.radii[j], bonds.length[b]);
+    let point = packing.positions[i] + bonds.normal[b] * (0.5 * (l + ri - rj));
+    let distance2 = |g: u32| {
+        let d = point - centres[g as usize];
+        match &packing.cell {
+            Some(cell) => cell.minimum_image(d).0.norm_squared(),
+            None => d.norm_squared(),
+        }
+    };
+    let (lo, hi) = (gi.min(gj), gi.max(gj));
+    if distance2(hi) < distance2(lo) {
+        hi
+    } else {
+        lo
+    }
 }
 
 /// The springs of `n` bonds, bond b's radius and springs by `each(b)`, computed in parallel

@@ -1,7 +1,8 @@
 //! Polycrystals (issue 34, docs/polycrystal.md): a grain map of the packing — each particle's
 //! grain — and each grain's crystal orientation, so that a bond inside grain g gets the
-//! model's scheme turned into that grain's frame and a bond across a boundary the documented
-//! mean of both grains' springs (`crate::bonds::assign_stiffness_by_grain`).
+//! model's scheme turned into that grain's frame and a bond across a boundary the springs of
+//! a documented rule ([`BoundaryRule`]: mean, series, or the grain holding its contact point;
+//! `crate::bonds::assign_stiffness_by_grain`).
 //!
 //! - `centres.rs`: seeded grain centres, uniform in the periodic cell or the specimen's box;
 //!   the grain count from a mean grain size in particle diameters.

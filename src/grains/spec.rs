@@ -60,27 +60,36 @@ pub struct GrainsSpec {
     pub boundary_factor: f64,
 }
 
-/// `boundary = "mean" | "series"`: the springs of a bond across a grain boundary from the two
-/// grains' springs k_g, k_h (each spring separately).
+/// `boundary = "mean" | "series" | "contact-point"`: the springs of a bond across a grain
+/// boundary, from the springs k_g, k_h the bond would have inside either grain.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BoundaryRule {
-    /// ½(k_g + k_h): the default.
+    /// ½(k_g + k_h), each spring separately: the default.
     #[default]
     Mean,
-    /// 2k_g k_h/(k_g + k_h): the bond's two halves, each in its own grain, in series (0 when
-    /// both are 0). Never stiffer than the mean; the relaxed tensor is concave in the springs,
-    /// so the mean rule stiffens a network of heterogeneous springs (docs/polycrystal.md).
+    /// 2k_g k_h/(k_g + k_h), each spring separately: the bond's two halves, each in its own
+    /// grain, in series (0 when both are 0). Never stiffer than the mean; the relaxed tensor
+    /// is concave in the springs, so the mean rule stiffens a network of heterogeneous
+    /// springs (docs/polycrystal.md).
     Series,
+    /// All springs of the one grain whose Voronoi region holds the bond's contact point (the
+    /// mid-gap point, YADE's): of the two grains, the one whose centre is nearer to it
+    /// (minimum image; a tie to the lower id). A sharp interface: no bond mixes two
+    /// orientations. Needs the grain centres: a grain file is refused.
+    ContactPoint,
 }
 
 impl BoundaryRule {
-    /// The boundary bond's spring from the two grains' springs `a`, `b` (≥ 0).
-    pub fn combine(self, a: f64, b: f64) -> f64 {
+    /// The boundary bond's spring from the two grains' springs `a`, `b` (≥ 0), for the rules
+    /// that combine both; `None` for [`BoundaryRule::ContactPoint`], which takes one grain's
+    /// springs whole (chosen by geometry, `bonds::assign_stiffness_by_grain`).
+    pub fn combine(self, a: f64, b: f64) -> Option<f64> {
         match self {
-            BoundaryRule::Mean => 0.5 * (a + b),
-            BoundaryRule::Series if a + b > 0.0 => 2.0 * a * b / (a + b),
-            BoundaryRule::Series => 0.0,
+            BoundaryRule::Mean => Some(0.5 * (a + b)),
+            BoundaryRule::Series if a + b > 0.0 => Some(2.0 * a * b / (a + b)),
+            BoundaryRule::Series => Some(0.0),
+            BoundaryRule::ContactPoint => None,
         }
     }
 }
@@ -290,6 +299,14 @@ impl GrainsSpec {
                 "[grains] seed = {seed}: expected an integer from 0 to {} (a TOML integer)",
                 i64::MAX
             )));
+        }
+        if raw.boundary == BoundaryRule::ContactPoint && matches!(map, GrainMap::File(_)) {
+            return Err(Error::Model(
+                "[grains] boundary = \"contact-point\" needs Voronoi grains (`count` or \
+                 `mean_size`): a grain file has no grain regions to hold a contact point; use \
+                 boundary = \"mean\" or \"series\" with `file`"
+                    .into(),
+            ));
         }
         let boundary_factor = raw.boundary_factor.unwrap_or(1.0);
         if !(boundary_factor.is_finite() && boundary_factor > 0.0) {

@@ -7,6 +7,7 @@
 mod common;
 
 mod assignment;
+mod boundary;
 mod engine_grains;
 mod engines;
 mod exports;
