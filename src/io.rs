@@ -689,6 +689,13 @@ pub fn refuse_non_finite<T: serde::Serialize>(value: &T, at: &str) -> crate::Res
     check_json_numbers(&json, at)
 }
 
+/// `value` as pretty JSON, refused ([`refuse_non_finite`]) when a number in it is not finite:
+/// how a report writes its JSON file; `at` names the report in errors.
+pub fn finite_json<T: serde::Serialize>(value: &T, at: &str) -> crate::Result<String> {
+    refuse_non_finite(value, at)?;
+    serde_json::to_string_pretty(value).map_err(|e| crate::Error::Invalid(format!("{at}: {e}")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -41,6 +41,18 @@ impl OptionNames {
             OptionNames::Keywords => field.to_owned(),
         }
     }
+
+    /// Refuse the first of `values` (field, value) that is not finite and > 0, naming its
+    /// option.
+    pub fn require_positive(self, values: &[(&str, f64)]) -> crate::Result<()> {
+        match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            Some((field, v)) => Err(crate::Error::Invalid(format!(
+                "{} {v}: expected a finite value > 0",
+                self.name(field)
+            ))),
+            None => Ok(()),
+        }
+    }
 }
 
 /// `Some(x)` when `x` is finite; `None` (JSON `null`, Python `None`) for a value that has no
