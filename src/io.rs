@@ -737,4 +737,26 @@ mod tests {
         // The plain check of the JSON form refuses the Nones too.
         assert!(check_json_numbers(&serde_json::to_value(&ok).unwrap(), "row").is_err());
     }
+
+    #[test]
+    fn finite_json_is_serde_json_pretty_or_the_refusal() {
+        let row = |value| Row {
+            optional: None,
+            inner: Inner {
+                kept: Some(2.5),
+                value,
+            },
+        };
+        assert_eq!(
+            finite_json(&row(1.0), "report.json").unwrap(),
+            serde_json::to_string_pretty(&row(1.0)).unwrap()
+        );
+        let e = finite_json(&row(f64::NAN), "report.json").unwrap_err();
+        assert!(matches!(e, Error::Invalid(_)));
+        assert!(
+            e.to_string()
+                .contains("`report.json.inner.value` is not a finite number"),
+            "{e}"
+        );
+    }
 }

@@ -72,3 +72,40 @@ pub fn require_finite(x: f64, what: &str) -> crate::Result<f64> {
         )))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn require_positive_names_the_first_bad_option_as_the_client_calls_it() {
+        let values = [
+            ("width_particles", 6.0),
+            ("max_strain", 0.0),
+            ("end_layer", -1.0),
+        ];
+        for (names, option) in [
+            (OptionNames::Flags, "--max-strain"),
+            (OptionNames::Keywords, "max_strain"),
+        ] {
+            let e = names.require_positive(&values).unwrap_err();
+            assert!(matches!(e, crate::Error::Invalid(_)));
+            assert_eq!(
+                e.to_string(),
+                format!("{option} 0: expected a finite value > 0")
+            );
+        }
+        for bad in [f64::NAN, f64::INFINITY] {
+            let e = OptionNames::Flags
+                .require_positive(&[("kappa", bad)])
+                .unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("--kappa {bad}: expected a finite value > 0")
+            );
+        }
+        OptionNames::Flags
+            .require_positive(&[("kappa", 1.0), ("sigma_n", 1e-300)])
+            .unwrap();
+    }
+}
