@@ -689,6 +689,13 @@ pub fn refuse_non_finite<T: serde::Serialize>(value: &T, at: &str) -> crate::Res
     check_json_numbers(&json, at)
 }
 
+/// `value` as pretty JSON, refused ([`refuse_non_finite`]) when a number in it is not finite:
+/// how a report writes its JSON file; `at` names the report in errors.
+pub fn finite_json<T: serde::Serialize>(value: &T, at: &str) -> crate::Result<String> {
+    refuse_non_finite(value, at)?;
+    serde_json::to_string_pretty(value).map_err(|e| crate::Error::Invalid(format!("{at}: {e}")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -729,5 +736,27 @@ mod tests {
         }
         // The plain check of the JSON form refuses the Nones too.
         assert!(check_json_numbers(&serde_json::to_value(&ok).unwrap(), "row").is_err());
+    }
+
+    #[test]
+    fn finite_json_is_serde_json_pretty_or_the_refusal() {
+        let row = |value| Row {
+            optional: None,
+            inner: Inner {
+                kept: Some(2.5),
+                value,
+            },
+        };
+        assert_eq!(
+            finite_json(&row(1.0), "report.json").unwrap(),
+            serde_json::to_string_pretty(&row(1.0)).unwrap()
+        );
+        let e = finite_json(&row(f64::NAN), "report.json").unwrap_err();
+        assert!(matches!(e, Error::Invalid(_)));
+        assert!(
+            e.to_string()
+                .contains("`report.json.inner.value` is not a finite number"),
+            "{e}"
+        );
     }
 }

@@ -17,6 +17,7 @@ use super::broyden::{self, BroydenOptions, End, Evaluation, Point};
 use super::cubic::{base_rotation, CubicOptions, CubicParameters, Level, MeanFieldMap};
 use super::kernel::CubicKernel;
 use super::target::CubicTarget;
+use crate::dem::transversely_isotropic;
 use crate::homogenize::mean_field::mean_field_converged;
 use crate::manybody::{DegenerateParticles, LocalTensor, ManyBodySpec, StrainMeasure};
 use crate::model::{CrossTarget, Model, SchemeSpec};
@@ -65,31 +66,22 @@ impl Symmetry {
     /// The Voigt matrix of constants `c` in the symmetry's own frame (crystal frame; axis
     /// along 3).
     pub fn matrix(&self, c: &[f64]) -> Stiffness6 {
-        let mut m = Stiffness6::zeros();
         match self {
             Symmetry::Cubic { .. } => {
+                let mut m = Stiffness6::zeros();
                 for a in 0..3 {
                     for b in 0..3 {
                         m[(a, b)] = if a == b { c[0] } else { c[1] };
                     }
                     m[(a + 3, a + 3)] = c[2];
                 }
+                m
             }
             Symmetry::TransverselyIsotropic { .. } => {
                 let (c11, c33, c13, c12, c44) = (c[0], c[1], c[2], c[3], c[4]);
-                m[(0, 0)] = c11;
-                m[(1, 1)] = c11;
-                m[(2, 2)] = c33;
-                for (a, b, v) in [(0, 1, c12), (0, 2, c13), (1, 2, c13)] {
-                    m[(a, b)] = v;
-                    m[(b, a)] = v;
-                }
-                m[(3, 3)] = c44;
-                m[(4, 4)] = c44;
-                m[(5, 5)] = 0.5 * (c11 - c12);
+                transversely_isotropic([c11, c12, c13, c33, c44])
             }
         }
-        m
     }
 
     /// The independent constants of a lab-frame tensor (its projection onto the symmetry:

@@ -215,9 +215,7 @@ pub struct StrengthCalibration {
 impl StrengthCalibration {
     /// The report as pretty JSON; refuses a non-finite number.
     pub fn to_json(&self) -> Result<String> {
-        crate::io::refuse_non_finite(self, "strength_calibration.json")?;
-        serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Invalid(format!("strength_calibration.json: {e}")))
+        crate::io::finite_json(self, "strength_calibration.json")
     }
 }
 

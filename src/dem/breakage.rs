@@ -146,6 +146,17 @@ pub struct BondCriteria {
     bpm: bool,
 }
 
+/// Entry `k` of a plane-family list of the strengths (`what`: the list, as the message names
+/// it), or the error naming joint bond `b` that crosses family `k`.
+fn family_entry<T: Copy>(list: &[T], b: usize, k: usize, what: &str) -> Result<T> {
+    list.get(k).copied().ok_or_else(|| {
+        Error::Invalid(format!(
+            "breakage: bond {b} crosses plane family {k}, but the strengths carry {} {what}",
+            list.len()
+        ))
+    })
+}
+
 impl BondCriteria {
     /// The criteria of law `law` from each bond's strength: YADE's adhesions with
     /// r = min(R_i, R_j) (law a; moments elastic as YADE 2023.02a), LAMMPS's limits (law d)
@@ -186,20 +197,18 @@ impl BondCriteria {
             let s = strengths.get(b);
             let criterion = match strengths.joint_of(b) {
                 Some(k) => {
-                    let plane = *strengths.plane_normals.get(k).ok_or_else(|| {
-                        Error::Invalid(format!(
-                            "breakage: bond {b} crosses plane family {k}, but the strengths carry \
-                             {} plane normals (BondStrengths::plane_normals)",
-                            strengths.plane_normals.len()
-                        ))
-                    })?;
-                    let section = *strengths.plane_sections.get(k).ok_or_else(|| {
-                        Error::Invalid(format!(
-                            "breakage: bond {b} crosses plane family {k}, but the strengths carry \
-                             {} joint sections (BondStrengths::plane_sections)",
-                            strengths.plane_sections.len()
-                        ))
-                    })?;
+                    let plane = family_entry(
+                        &strengths.plane_normals,
+                        b,
+                        k,
+                        "plane normals (BondStrengths::plane_normals)",
+                    )?;
+                    let section = family_entry(
+                        &strengths.plane_sections,
+                        b,
+                        k,
+                        "joint sections (BondStrengths::plane_sections)",
+                    )?;
                     BondCriterion::Joint {
                         limits: JointLimits::on_section(
                             &s,

@@ -17,6 +17,23 @@ use crate::packing::Packing;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
+/// Cundall's local damping λ of the accelerations `a` (in place) of a body of mass or
+/// inertia `m` moving with `v` (the fluctuating velocity, or the spin), per component as
+/// YADE's NewtonIntegrator damps translation and rotation alike. Returns the work terms
+/// −dt·F_d·v̄ with F_d = −mλ·sign(s)·a and v̄ the mean of the half-step velocities.
+#[inline(always)]
+fn cundall_damping(a: &mut Vec3, v: &Vec3, m: f64, lambda: f64, dt: f64) -> [f64; 3] {
+    let mut terms = [0.0; 3];
+    for k in 0..3 {
+        let s = a[k] * (v[k] + 0.5 * dt * a[k]);
+        let sg = sign(s);
+        let damped = a[k] * (1.0 - lambda * sg);
+        terms[k] = m * lambda * sg * a[k] * (v[k] + 0.5 * dt * damped) * dt;
+        a[k] = damped;
+    }
+    terms
+}
+
 /// One particle of YADE's NewtonIntegrator: Cundall damping on the fluctuating velocity,
 /// leapfrog of translation and rotation, the periodic cell's affine terms, the spin
 /// quaternion. Returns the kinetic energy at the force time and the six damping terms in
@@ -41,14 +58,7 @@ fn update_particle(
     let inv_m = 1.0 / m;
     let mut a = f * inv_m;
     if lambda > 0.0 {
-        for k in 0..3 {
-            let s = a[k] * (fluct[k] + 0.5 * dt * a[k]);
-            let sg = sign(s);
-            let damped = a[k] * (1.0 - lambda * sg);
-            // −dt·F_d·v̄ with F_d = −mλ·sign(s)·a and v̄ the mean of the half-step velocities.
-            terms[k] = m * lambda * sg * a[k] * (fluct[k] + 0.5 * dt * damped) * dt;
-            a[k] = damped;
-        }
+        terms[..3].copy_from_slice(&cundall_damping(&mut a, &fluct, m, lambda, dt));
     }
     let mut energy = 0.5 * m * (fluct + a * (0.5 * dt)).norm_squared();
     if c.periodic {
@@ -58,13 +68,7 @@ fn update_particle(
     let inv_inertia = 1.0 / inertia;
     let mut alpha = t * inv_inertia;
     if lambda > 0.0 {
-        for k in 0..3 {
-            let s = alpha[k] * (w[k] + 0.5 * dt * alpha[k]);
-            let sg = sign(s);
-            let damped = alpha[k] * (1.0 - lambda * sg);
-            terms[3 + k] = inertia * lambda * sg * alpha[k] * (w[k] + 0.5 * dt * damped) * dt;
-            alpha[k] = damped;
-        }
+        terms[3..].copy_from_slice(&cundall_damping(&mut alpha, w, inertia, lambda, dt));
     }
     energy += 0.5 * inertia * (*w + alpha * (0.5 * dt)).norm_squared();
     *w += alpha * dt;

@@ -167,9 +167,7 @@ pub struct LocalReport {
 impl LocalReport {
     /// The report as JSON, refused if a number is not finite.
     pub fn to_json(&self) -> Result<String> {
-        crate::io::refuse_non_finite(self, "local fields report")?;
-        serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Invalid(format!("local fields report: {e}")))
+        crate::io::finite_json(self, "local fields report")
     }
 }
 

@@ -214,20 +214,13 @@ impl BucklingStudyOptions {
                 n("slenderness")
             )));
         }
-        for (name, v) in [
+        names.require_positive(&[
             ("radius_particles", self.radius_particles),
             ("kappa", self.kappa),
             ("sigma_n", self.sigma_n),
             ("clamp_depth", self.clamp_depth),
             ("dem_strain", self.dem_strain),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::Invalid(format!(
-                    "{} {v}: expected a finite value > 0",
-                    n(name)
-                )));
-            }
-        }
+        ])?;
         self.buckling_options()
             .check()
             .map_err(|e| e.in_context(format!("{} {}", n("tolerance"), self.tolerance)))?;

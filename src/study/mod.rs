@@ -41,6 +41,18 @@ impl OptionNames {
             OptionNames::Keywords => field.to_owned(),
         }
     }
+
+    /// Refuse the first of `values` (field, value) that is not finite and > 0, naming its
+    /// option.
+    pub fn require_positive(self, values: &[(&str, f64)]) -> crate::Result<()> {
+        match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            Some((field, v)) => Err(crate::Error::Invalid(format!(
+                "{} {v}: expected a finite value > 0",
+                self.name(field)
+            ))),
+            None => Ok(()),
+        }
+    }
 }
 
 /// `Some(x)` when `x` is finite; `None` (JSON `null`, Python `None`) for a value that has no
@@ -58,5 +70,42 @@ pub fn require_finite(x: f64, what: &str) -> crate::Result<f64> {
         Err(crate::Error::Degenerate(format!(
             "{what} = {x} is not a finite number (overflow or a degenerate result)"
         )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn require_positive_names_the_first_bad_option_as_the_client_calls_it() {
+        let values = [
+            ("width_particles", 6.0),
+            ("max_strain", 0.0),
+            ("end_layer", -1.0),
+        ];
+        for (names, option) in [
+            (OptionNames::Flags, "--max-strain"),
+            (OptionNames::Keywords, "max_strain"),
+        ] {
+            let e = names.require_positive(&values).unwrap_err();
+            assert!(matches!(e, crate::Error::Invalid(_)));
+            assert_eq!(
+                e.to_string(),
+                format!("{option} 0: expected a finite value > 0")
+            );
+        }
+        for bad in [f64::NAN, f64::INFINITY] {
+            let e = OptionNames::Flags
+                .require_positive(&[("kappa", bad)])
+                .unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("--kappa {bad}: expected a finite value > 0")
+            );
+        }
+        OptionNames::Flags
+            .require_positive(&[("kappa", 1.0), ("sigma_n", 1e-300)])
+            .unwrap();
     }
 }

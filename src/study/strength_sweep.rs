@@ -253,9 +253,7 @@ pub fn run(
 impl StrengthSweepReport {
     /// strength_sweep.json: the report as pretty JSON; refuses a non-finite number.
     pub fn to_json(&self) -> Result<String> {
-        crate::io::refuse_non_finite(self, "strength_sweep.json")?;
-        serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Invalid(format!("strength_sweep.json: {e}")))
+        crate::io::finite_json(self, "strength_sweep.json")
     }
 
     /// strength_sweep.csv: one row per angle, units in the header.

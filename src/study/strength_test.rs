@@ -247,20 +247,13 @@ impl StrengthTestOptions {
     /// options as `names` does.
     pub fn check(&self, names: OptionNames) -> Result<()> {
         let n = |f: &str| names.name(f);
-        for (name, v) in [
+        names.require_positive(&[
             ("width_particles", self.width_particles),
             ("aspect", self.aspect()),
             ("end_layer", self.end_layer),
             ("loading_rate", self.loading_rate),
             ("max_strain", self.max_strain),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::Invalid(format!(
-                    "{} {v}: expected a finite value > 0",
-                    n(name)
-                )));
-            }
-        }
+        ])?;
         if !self.bedding_deg.is_finite() {
             return Err(Error::Invalid(format!(
                 "{} {}: expected a finite angle in degrees",
@@ -1135,9 +1128,7 @@ pub fn run(
 impl StrengthTestReport {
     /// strength_test.json: the report as pretty JSON; refuses a non-finite number.
     pub fn to_json(&self) -> Result<String> {
-        crate::io::refuse_non_finite(self, "strength_test.json")?;
-        serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Invalid(format!("strength_test.json: {e}")))
+        crate::io::finite_json(self, "strength_test.json")
     }
 
     /// strength_test.csv: the curve, units in the header.

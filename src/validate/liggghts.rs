@@ -407,26 +407,9 @@ pub fn write_undamped_deck(
 /// happened. So the integrator is started after that first drift; its step n then
 /// evaluates the forces at x_n, as LIGGGHTS' step n, and the stress is taken with the
 /// branch vectors of that evaluation (before the step's drift), in LIGGGHTS' triangle.
+/// `term`: the many-body term of these bonds in the integrator ([`Simulation::with_manybody`]).
 #[allow(clippy::too_many_arguments)]
 pub fn integrator_history(
-    packing: &Packing,
-    bonds: &BondSet,
-    law: Box<dyn BondLaw>,
-    velocities: &[Vec3],
-    spins: &[Vec3],
-    dt: f64,
-    steps: &[u64],
-    density: f64,
-) -> Result<Vec<[f64; 6]>> {
-    integrator_history_with_term(
-        packing, bonds, law, None, velocities, spins, dt, steps, density,
-    )
-}
-
-/// [`integrator_history`] with the many-body term `term` of these bonds in the integrator
-/// ([`Simulation::with_manybody`]).
-#[allow(clippy::too_many_arguments)]
-pub fn integrator_history_with_term(
     packing: &Packing,
     bonds: &BondSet,
     law: Box<dyn BondLaw>,
@@ -648,6 +631,26 @@ impl LiggghtsSetup<'_> {
         }
     }
 
+    /// The problem (with the term) exported with `deck_options` into dir/`sub`: that
+    /// directory and the export's summary.
+    fn export(
+        &self,
+        sub: &str,
+        deck_options: &DeckOptions,
+    ) -> Result<(PathBuf, crate::export::liggghts::ExportSummary)> {
+        let d = self.dir.join(sub);
+        let summary = export_liggghts_full(
+            &d,
+            self.packing,
+            self.bonds,
+            self.k,
+            deck_options,
+            None,
+            self.term,
+        )?;
+        Ok((d, summary))
+    }
+
     /// An undamped run in dir/`sub` (timed): the export, the undamped deck `which` from
     /// the initial motion, and its stress history.
     fn undamped(
@@ -656,16 +659,7 @@ impl LiggghtsSetup<'_> {
         which: UndampedDeck,
         launch: &Launch,
     ) -> Result<StressHistory> {
-        let d = self.dir.join(sub);
-        let sum = export_liggghts_full(
-            &d,
-            self.packing,
-            self.bonds,
-            self.k,
-            &self.deck(0.0, false),
-            None,
-            self.term,
-        )?;
+        let (d, sum) = self.export(sub, &self.deck(0.0, false))?;
         let (velocities, spins) = &self.motion;
         let name = write_undamped_deck(
             &d,
@@ -693,16 +687,7 @@ impl LiggghtsSetup<'_> {
         launch: &Launch,
         deck_file: &str,
     ) -> Result<(crate::export::liggghts::ExportSummary, StressHistory)> {
-        let d = self.dir.join(sub);
-        let summary = export_liggghts_full(
-            &d,
-            self.packing,
-            self.bonds,
-            self.k,
-            deck_options,
-            None,
-            self.term,
-        )?;
+        let (d, summary) = self.export(sub, deck_options)?;
         let stage = format!("{sub} ({cases} damped cases)");
         let history = timed(&mut self.timings, &stage, || {
             run_liggghts(launch, &d, deck_file)?;
@@ -798,7 +783,7 @@ fn rust_runs(
     });
     let mut history = |name: &str, law: Box<dyn BondLaw>| {
         timed(&mut timings, name, || {
-            integrator_history_with_term(
+            integrator_history(
                 packing,
                 bonds,
                 law,

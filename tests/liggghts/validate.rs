@@ -210,7 +210,18 @@ fn throughput_driver_vs_integrator() {
         .unwrap(),
     );
     let t0 = std::time::Instant::now();
-    let r = integrator_history(&b.packing, &b.bonds, law, &v, &w, dt, &[steps], o.density).unwrap();
+    let r = integrator_history(
+        &b.packing,
+        &b.bonds,
+        law,
+        None,
+        &v,
+        &w,
+        dt,
+        &[steps],
+        o.density,
+    )
+    .unwrap();
     let t = t0.elapsed().as_secs_f64();
     eprintln!(
         "integrator ({} rayon threads): {steps} steps in {t:.2} s: {:.3e} particle-steps/s (load average before: {la})",

@@ -401,16 +401,6 @@ fn scalar_chunk_from(
     energy
 }
 
-fn scalar_chunk(
-    inp: &KernelInputs,
-    base: usize,
-    hot: &[BondHot],
-    st: &mut [BondDyn],
-    out: &mut [BondLoad],
-) -> f64 {
-    scalar_chunk_from(0.0, inp, base, hot, st, out)
-}
-
 /// Law (a) on one chunk of bonds: four lanes with AVX2 when the CPU has it, else the
 /// scalar kernel (the same bits either way). Returns the chunk's moment energy.
 pub(super) fn law_a_chunk(
@@ -439,5 +429,5 @@ pub(super) fn law_a_chunk(
         // image index of the chunk is in bounds (the unchecked reads of `kernel4`).
         return unsafe { chunk_avx2(inp, base, hot, st, out) };
     }
-    scalar_chunk(inp, base, hot, st, out)
+    scalar_chunk_from(0.0, inp, base, hot, st, out)
 }

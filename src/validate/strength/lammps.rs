@@ -148,6 +148,33 @@ pub fn run(
     )
 }
 
+/// `data.lmp` of the strength test in `dir`: the header (`title`; `bond_types` bond types),
+/// the box, the atoms (`id mol type diameter density x y z`) and `bond_lines`.
+fn write_data(
+    dir: &Path,
+    problem: &Problem,
+    types: &[u8],
+    density: f64,
+    title: &str,
+    bond_types: usize,
+    bond_lines: &str,
+) -> Result<()> {
+    let (packing, bonds) = (problem.packing, problem.bonds);
+    let (n, nb) = (packing.len(), bonds.len());
+    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
+    let mut s = format!(
+        "LAMMPS data file written by anisobond {}: {title}\n\n{n} atoms\n3 atom types\n\
+         {nb} bonds\n{bond_types} bond types\n\n",
+        env!("CARGO_PKG_VERSION"),
+    );
+    s.push_str(&box_lines(packing, 2.0 * max_len));
+    s.push_str("\nAtoms # bpm/sphere\n\n");
+    s.push_str(&atom_lines(packing, types, density, true));
+    s.push_str("\nBonds\n\n");
+    s.push_str(bond_lines);
+    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)
+}
+
 /// `data.lmp` (atoms `id mol type diameter density x y z`, bond b of type b + 1) and
 /// `bond_coeffs.lmp` (`k_r k_s k_t k_b f_rc f_sc tau_tc tau_bc gamma_n gamma_s gamma_r
 /// gamma_t` of each bond).
@@ -159,20 +186,10 @@ fn write_inputs(
     limits: &[[f64; 4]],
     damping: &[[f64; 4]],
 ) -> Result<()> {
-    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let (n, nb) = (packing.len(), bonds.len());
-    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
-    let mut s = format!(
-        "LAMMPS data file written by anisobond {}: strength test, {n} particles, {nb} bonds \
-         (one bond type per bond)\n\n{n} atoms\n3 atom types\n{nb} bonds\n{nb} bond types\n\n",
-        env!("CARGO_PKG_VERSION"),
-    );
-    s.push_str(&box_lines(packing, 2.0 * max_len));
-    s.push_str("\nAtoms # bpm/sphere\n\n");
-    s.push_str(&atom_lines(packing, types, density, true));
-    s.push_str("\nBonds\n\n");
-    s.push_str(&bond_lines_one_type_each(bonds));
-    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    let (n, nb, k) = (problem.packing.len(), problem.bonds.len(), problem.springs);
+    let title = format!("strength test, {n} particles, {nb} bonds (one bond type per bond)");
+    let bond_lines = bond_lines_one_type_each(problem.bonds);
+    write_data(dir, problem, types, density, &title, nb, &bond_lines)?;
     crate::io::write_string_atomic(
         &dir.join("bond_coeffs.lmp"),
         &bond_coeff_lines(k, limits, damping),
@@ -243,22 +260,20 @@ fn write_plugin_inputs(
     density: f64,
     limits: &[[f64; 4]],
 ) -> Result<()> {
-    let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let (n, nb) = (packing.len(), bonds.len());
-    let max_len = bonds.length.iter().copied().fold(0.0, f64::max);
-    let mut s = format!(
-        "LAMMPS data file written by anisobond {}: strength test (bond_style anisobond), {n} \
-         particles, {nb} bonds\n\n{n} atoms\n3 atom types\n{nb} bonds\n1 bond types\n\n",
-        env!("CARGO_PKG_VERSION"),
-    );
-    s.push_str(&box_lines(packing, 2.0 * max_len));
-    s.push_str("\nAtoms # bpm/sphere\n\n");
-    s.push_str(&atom_lines(packing, types, density, true));
-    s.push_str("\nBonds\n\n");
+    let (n, nb) = (problem.packing.len(), problem.bonds.len());
+    let (bonds, k) = (problem.bonds, problem.springs);
+    let title = format!("strength test (bond_style anisobond), {n} particles, {nb} bonds");
+    let mut bond_lines = String::new();
     for b in 0..nb {
-        let _ = writeln!(s, "{} 1 {} {}", b + 1, bonds.i[b] + 1, bonds.j[b] + 1);
+        let _ = writeln!(
+            bond_lines,
+            "{} 1 {} {}",
+            b + 1,
+            bonds.i[b] + 1,
+            bonds.j[b] + 1
+        );
     }
-    crate::io::write_string_atomic(&dir.join("data.lmp"), &s)?;
+    write_data(dir, problem, types, density, &title, 1, &bond_lines)?;
     crate::bonds::table::write_bond_table_with_ids(&dir.join("bonds.csv"), bonds, k, None)?;
     let ids: Vec<u64> = (1..=n as u64).collect();
     write_strength_table(dir, bonds, &ids, limits)?;
