@@ -429,9 +429,7 @@ pub fn longitudinal_modulus(c: &Stiffness6, d: &crate::Vec3) -> f64 {
 impl PolycrystalReport {
     /// polycrystal.json, refused if a number is not finite.
     pub fn to_json(&self) -> Result<String> {
-        crate::io::refuse_non_finite(self, "polycrystal report")?;
-        serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Invalid(format!("polycrystal report: {e}")))
+        crate::io::finite_json(self, "polycrystal report")
     }
 
     /// polycrystal_grains.csv: one row per grain.
