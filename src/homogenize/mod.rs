@@ -19,6 +19,7 @@
 //! - `report.rs`: the SPEC tensor report (JSON).
 
 pub(crate) mod amg;
+mod amg_blocks;
 pub(crate) mod buckling;
 pub(crate) mod cholesky;
 pub(crate) mod geometric;
