@@ -12,7 +12,7 @@
 use super::network::Block6;
 use super::sparse::BlockSparse;
 use super::term_operator::TermOperator;
-use super::two_level::TwoLevel;
+use super::two_level::{CoarseLayer, TwoLevel};
 use crate::{Result, Vec3};
 
 /// Fewest nodes an aggregate needs to keep its strain modes: with fewer, the six modes on
@@ -58,7 +58,7 @@ pub(crate) fn coarse_space(
     // measured on 8,000 particles with nickel's D, 240 iterations against 584 of the rigid
     // modes on aggregates of 128, for 28 % less CPU time (docs/manybody.md).
     let per_aggregate = (per_aggregate / 4).max(per_aggregate.min(MIN_STRAIN_MEMBERS));
-    let strain_layer: &(dyn Fn(&Vec3, usize) -> Block6 + Sync) = &strain_modes;
+    let strain_layer: CoarseLayer = &strain_modes;
     TwoLevel::with_layers(
         springs,
         positions,

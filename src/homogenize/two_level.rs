@@ -155,6 +155,10 @@ fn coarse_matrix(
     BlockSparse::from_rows(rows)
 }
 
+/// A further coarse node per aggregate: the prolongation of a node at arm d / h (h the cells'
+/// mean edge) in an aggregate of the given size ([`TwoLevel::with_layers`]).
+pub(crate) type CoarseLayer<'a> = &'a (dyn Fn(&Vec3, usize) -> Block6 + Sync);
+
 /// The coarse space and its factored coarse matrix.
 pub struct TwoLevel {
     /// Aggregate of every node.
@@ -229,7 +233,7 @@ impl TwoLevel {
         positions: &[Vec3],
         box_lengths: Vec3,
         (rotations, per_aggregate): (bool, usize),
-        more: &[&(dyn Fn(&Vec3, usize) -> Block6 + Sync)],
+        more: &[CoarseLayer],
         mut extra: impl FnMut(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
     ) -> Result<TwoLevel> {
         let m = k.rows();
