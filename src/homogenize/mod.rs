@@ -12,7 +12,8 @@
 //!   preconditioners (two-level; smoothed-aggregation multigrid).
 //! - `network.rs`: the linearised bond network the last two share.
 //! - `term_operator.rs`: the many-body term's Hessian, load and affine tensor for the relaxed
-//!   solve, in factored form.
+//!   solve, in factored form; `term_preconditioner.rs`: the two-level coarse space with it
+//!   (rigid and uniform-strain modes per aggregate).
 //! - `geometric.rs`: the initial-stress stiffness of a pre-loaded network;
 //!   `buckling.rs`: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
@@ -32,6 +33,7 @@ pub(crate) mod relaxed;
 pub(crate) mod report;
 pub(crate) mod sparse;
 pub(crate) mod term_operator;
+pub(crate) mod term_preconditioner;
 pub(crate) mod two_level;
 pub(crate) mod voigt;
 

@@ -495,18 +495,24 @@ fn coarse_space(
         .iter()
         .map(|&p| packing.positions[p as usize])
         .collect();
-    Ok(TwoLevel::with_extra(
-        kmat.k,
-        &positions,
-        lengths,
-        rotations,
-        particles_per_aggregate,
-        |aggregate, prolongation| {
-            kmat.term
-                .map(|t| t.times_prolongation(aggregate, prolongation))
-        },
-    )
-    .ok())
+    let space = match kmat.term {
+        Some(t) => super::term_preconditioner::coarse_space(
+            kmat.k,
+            t,
+            &positions,
+            lengths,
+            rotations,
+            particles_per_aggregate,
+        ),
+        None => TwoLevel::new(
+            kmat.k,
+            &positions,
+            lengths,
+            rotations,
+            particles_per_aggregate,
+        ),
+    };
+    Ok(space.ok())
 }
 
 /// X with K X = B by block-Jacobi preconditioned CG to the relative residual `tolerance` on

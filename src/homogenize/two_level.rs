@@ -92,7 +92,7 @@ fn group_by<T: Copy>(
 fn k_times_p(
     k: &BlockSparse,
     aggregate: &[u32],
-    prolongation: &[Block6],
+    (layers, prolongation): (usize, &[Block6]),
     extra: Option<&[Vec<(u32, Block6)>]>,
 ) -> (Vec<usize>, Vec<(u32, Block6)>) {
     let kp_rows: Vec<Vec<(u32, Block6)>> = (0..k.rows())
@@ -100,11 +100,13 @@ fn k_times_p(
         .map(|p| {
             let mut acc: Vec<(u32, Block6)> = Vec::new();
             for (q, kpq) in k.row(p) {
-                let b = aggregate[q];
-                let v = kpq * prolongation[q];
-                match acc.iter_mut().find(|(a, _)| *a == b) {
-                    Some((_, s)) => *s += v,
-                    None => acc.push((b, v)),
+                for l in 0..layers {
+                    let b = aggregate[q] * layers as u32 + l as u32;
+                    let v = kpq * prolongation[q * layers + l];
+                    match acc.iter_mut().find(|(a, _)| *a == b) {
+                        Some((_, s)) => *s += v,
+                        None => acc.push((b, v)),
+                    }
                 }
             }
             for (b, v) in extra.map_or(&[][..], |e| &e[p][..]) {
@@ -127,20 +129,22 @@ fn k_times_p(
     (kp_start, kp)
 }
 
-/// Coarse matrix PᵀKP, one block row per aggregate (`members`: CSR of its nodes), from the
-/// rows of K P (`kp`: CSR by fine node), in a fixed summation order.
+/// Coarse matrix PᵀKP, one block row per coarse node (`layers` per aggregate, `members`:
+/// CSR of every aggregate's nodes), from the rows of K P (`kp`: CSR by fine node), in a
+/// fixed summation order.
 fn coarse_matrix(
-    prolongation: &[Block6],
+    (layers, prolongation): (usize, &[Block6]),
     (start, nodes): (&[usize], &[u32]),
     (kp_start, kp): (&[usize], &[(u32, Block6)]),
 ) -> BlockSparse {
-    let rows: Vec<Vec<(u32, Block6)>> = (0..start.len() - 1)
+    let rows: Vec<Vec<(u32, Block6)>> = (0..(start.len() - 1) * layers)
         .into_par_iter()
-        .map(|a| {
+        .map(|c| {
+            let (a, l) = (c / layers, c % layers);
             let mut acc: BTreeMap<u32, Block6> = BTreeMap::new();
             for &p in &nodes[start[a]..start[a + 1]] {
                 let p = p as usize;
-                let ppt = prolongation[p].transpose();
+                let ppt = prolongation[p * layers + l].transpose();
                 for (b, kpb) in &kp[kp_start[p]..kp_start[p + 1]] {
                     *acc.entry(*b).or_insert_with(Block6::zeros) += ppt * kpb;
                 }
@@ -151,12 +155,19 @@ fn coarse_matrix(
     BlockSparse::from_rows(rows)
 }
 
+/// A further coarse node per aggregate: the prolongation of a node at arm d / h (h the cells'
+/// mean edge) in an aggregate of the given size ([`TwoLevel::with_layers`]).
+pub(crate) type CoarseLayer<'a> = &'a (dyn Fn(&Vec3, usize) -> Block6 + Sync);
+
 /// The coarse space and its factored coarse matrix.
 pub struct TwoLevel {
     /// Aggregate of every node.
     aggregate: Vec<u32>,
-    /// Rigid-mode prolongation of every node: fine DOFs (u, ω) = P_p (t, θ) of its aggregate,
-    /// u = t + θ × d, ω = θ (d = position − aggregate centre).
+    /// Coarse nodes per aggregate (1: the rigid modes; more with [`Self::with_layers`]).
+    layers: usize,
+    /// Prolongation of every node and layer (`layers` blocks per node): fine DOFs (u, ω) =
+    /// Σ_l P_pl x_(aggregate, l); layer 0 the rigid modes u = t + θ × d, ω = θ
+    /// (d = position − aggregate centre).
     prolongation: Vec<Block6>,
     /// Nodes of every aggregate (CSR), in increasing order, for fixed-order restriction.
     start: Vec<usize>,
@@ -201,7 +212,29 @@ impl TwoLevel {
         box_lengths: Vec3,
         rotations: bool,
         per_aggregate: usize,
-        extra: impl FnOnce(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
+        extra: impl FnMut(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
+    ) -> Result<TwoLevel> {
+        Self::with_layers(
+            k,
+            positions,
+            box_lengths,
+            (rotations, per_aggregate),
+            &[],
+            extra,
+        )
+    }
+
+    /// [`Self::with_extra`] with further coarse nodes per aggregate beyond the rigid modes:
+    /// layer l + 1 prolongs node p by `more[l](d_p / h, members)` (d_p its arm from the
+    /// aggregate's centre, h the cells' mean edge, `members` the aggregate's size); `extra` is
+    /// called once per layer with that layer's coarse node of every fine node.
+    pub(crate) fn with_layers(
+        k: &BlockSparse,
+        positions: &[Vec3],
+        box_lengths: Vec3,
+        (rotations, per_aggregate): (bool, usize),
+        more: &[CoarseLayer],
+        mut extra: impl FnMut(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
     ) -> Result<TwoLevel> {
         let m = k.rows();
         if positions.len() != m || m == 0 {
@@ -226,35 +259,72 @@ impl TwoLevel {
             .iter()
             .map(|(c, _)| occupied.binary_search(c).unwrap_or(0) as u32)
             .collect();
-        let prolongation: Vec<Block6> = raw
-            .par_iter()
-            .map(|(_, d)| rigid_modes(d, rotations))
-            .collect();
         let members = aggregate
             .iter()
             .enumerate()
             .map(|(p, &a)| (a, p as u32, ()));
         let (start, nodes) = group_by(n_agg, members, ());
         let nodes: Vec<u32> = nodes.into_iter().map(|(p, ())| p).collect();
-        let extra = extra(&aggregate, &prolongation);
-        if extra.as_ref().is_some_and(|e| e.len() != m) {
-            return Err(Error::Invalid(format!(
-                "two-level preconditioner: {} rows of the extra operator for {m} particles",
-                extra.as_ref().map_or(0, |e| e.len())
-            )));
+        let layers = 1 + more.len();
+        let h = (box_lengths.x * box_lengths.y * box_lengths.z * per_aggregate as f64 / m as f64)
+            .cbrt();
+        let prolongation: Vec<Block6> = raw
+            .par_iter()
+            .zip(aggregate.par_iter())
+            .flat_map_iter(|((_, d), &a)| {
+                let size = start[a as usize + 1] - start[a as usize];
+                std::iter::once(rigid_modes(d, rotations))
+                    .chain(more.iter().map(move |f| f(&(d / h), size)))
+            })
+            .collect();
+        let mut extra_rows: Option<Vec<Vec<(u32, Block6)>>> = None;
+        for l in 0..layers {
+            let ids: Vec<u32> = aggregate
+                .iter()
+                .map(|&a| a * layers as u32 + l as u32)
+                .collect();
+            let pl: Vec<Block6> = prolongation
+                .iter()
+                .skip(l)
+                .step_by(layers)
+                .copied()
+                .collect();
+            let Some(rows) = extra(&ids, &pl) else {
+                break;
+            };
+            if rows.len() != m {
+                return Err(Error::Invalid(format!(
+                    "two-level preconditioner: {} rows of the extra operator for {m} particles",
+                    rows.len()
+                )));
+            }
+            match extra_rows.as_mut() {
+                None => extra_rows = Some(rows),
+                Some(acc) => acc.par_iter_mut().zip(rows).for_each(|(a, r)| {
+                    a.extend(r);
+                    a.sort_by_key(|(b, _)| *b);
+                }),
+            }
         }
-        let (kp_start, kp) = k_times_p(k, &aggregate, &prolongation, extra.as_deref());
+        let (kp_start, kp) = k_times_p(
+            k,
+            &aggregate,
+            (layers, &prolongation),
+            extra_rows.as_deref(),
+        );
         // (KP)ᵀ by aggregate: the blocks of every aggregate's column, by fine row.
         let columns = (0..m).flat_map(|p| {
             kp[kp_start[p]..kp_start[p + 1]]
                 .iter()
                 .map(move |(b, blk)| (*b, p as u32, blk.transpose()))
         });
-        let (kpt_start, kpt) = group_by(n_agg, columns, Block6::zeros());
-        let coarse_matrix = coarse_matrix(&prolongation, (&start, &nodes), (&kp_start, &kp));
+        let (kpt_start, kpt) = group_by(n_agg * layers, columns, Block6::zeros());
+        let coarse_matrix =
+            coarse_matrix((layers, &prolongation), (&start, &nodes), (&kp_start, &kp));
         let coarse = BlockCholesky::factor(&coarse_matrix)?;
         Ok(TwoLevel {
             aggregate,
+            layers,
             prolongation,
             start,
             nodes,
@@ -278,14 +348,16 @@ impl TwoLevel {
         q: &mut [Block6],
         kq: &mut [Block6],
     ) -> Result<()> {
-        let restricted: Vec<Block6> = (0..self.aggregates())
+        let layers = self.layers;
+        let restricted: Vec<Block6> = (0..self.aggregates() * layers)
             .into_par_iter()
-            .map(|a| {
+            .map(|c| {
+                let (a, l) = (c / layers, c % layers);
                 let mut s = Block6::zeros();
                 for &p in &self.nodes[self.start[a]..self.start[a + 1]] {
                     mul_add6(
                         &mut s,
-                        &self.prolongation[p as usize].transpose(),
+                        &self.prolongation[p as usize * layers + l].transpose(),
                         &r[p as usize],
                     );
                 }
@@ -297,7 +369,11 @@ impl TwoLevel {
             .zip(kq.par_iter_mut())
             .enumerate()
             .for_each(|(p, (q, kq))| {
-                *q = mul6(&self.prolongation[p], &xc[self.aggregate[p] as usize]);
+                let c = self.aggregate[p] as usize * layers;
+                *q = mul6(&self.prolongation[p * layers], &xc[c]);
+                for l in 1..layers {
+                    mul_add6(q, &self.prolongation[p * layers + l], &xc[c + l]);
+                }
                 let mut s = Block6::zeros();
                 for (b, kpb) in &self.kp[self.kp_start[p]..self.kp_start[p + 1]] {
                     mul_add6(&mut s, kpb, &xc[*b as usize]);
@@ -314,7 +390,8 @@ impl TwoLevel {
 
     /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
     pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
-        let restricted: Vec<Block6> = (0..self.aggregates())
+        let layers = self.layers;
+        let restricted: Vec<Block6> = (0..self.aggregates() * layers)
             .into_par_iter()
             .map(|a| {
                 let mut s = Block6::zeros();
@@ -326,7 +403,11 @@ impl TwoLevel {
             .collect();
         let xc = self.coarse.solve(&restricted)?;
         out.par_iter_mut().enumerate().for_each(|(p, o)| {
-            *o = mul6_cols(&self.prolongation[p], &xc[self.aggregate[p] as usize], cols);
+            let c = self.aggregate[p] as usize * layers;
+            *o = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
+            for l in 1..layers {
+                mul_add6_cols(o, &self.prolongation[p * layers + l], &xc[c + l], cols);
+            }
         });
         Ok(())
     }
