@@ -92,7 +92,7 @@ pub fn springs_along(
 /// bond whose particles lie in different grains gets, times `boundary_factor`, both grains'
 /// springs combined by `boundary` (their mean, or in series) or, for
 /// [`BoundaryRule::ContactPoint`], the springs of the one grain of the two whose centre is
-/// nearer its contact point ([`boundary_grain`]). Parallel, independent of the thread count;
+/// nearer its contact point (`boundary_grain`). Parallel, independent of the thread count;
 /// refuses a grain map not of this packing, the contact-point rule without grain centres
 /// (a user's grain file) and a spring negative or not finite, naming the bond.
 pub fn assign_stiffness_by_grain(
