@@ -137,6 +137,11 @@ impl TermOperator {
         }
     }
 
+    /// The term's tensors D (one, or one per grain).
+    pub(crate) fn tensors(&self) -> &[Stiffness6] {
+        &self.d6
+    }
+
     /// The term's share of H (Kruyt 2014 Eq. 14 with the term's energy), (Σ_p V_p)·D: the
     /// affine tensor times the volume (Σ_t (Σ_{p∈t} V_p)·D_t with a tensor per grain).
     pub(crate) fn affine(&self) -> Block6 {
