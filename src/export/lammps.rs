@@ -1016,14 +1016,11 @@ pub fn export_lammps(
 /// The molecule ID of every atom: grain + 1 of a polycrystal's `grains` (one per particle,
 /// else refused), 1 for every atom without grains (a single crystal is one grain).
 fn molecule_ids(n: usize, grains: Option<&[u32]>) -> Result<Vec<u64>> {
-    match grains {
-        None => Ok(vec![1; n]),
-        Some(g) if g.len() != n => Err(Error::Invalid(format!(
-            "LAMMPS export: {} grain ids for {n} particles; expected one per particle",
-            g.len()
-        ))),
-        Some(g) => Ok(g.iter().map(|&k| u64::from(k) + 1).collect()),
-    }
+    super::check_grain_count(grains, n, "LAMMPS export")?;
+    Ok(match grains {
+        None => vec![1; n],
+        Some(g) => g.iter().map(|&k| u64::from(k) + 1).collect(),
+    })
 }
 
 /// `data.lmp`: atom_style bpm/sphere `id mol type diameter density x y z` (atom ids `ids`,

@@ -422,13 +422,7 @@ pub fn export_liggghts_grains(
     manybody: Option<&ManyBody>,
     grains: Option<&[u32]>,
 ) -> Result<ExportSummary> {
-    if let Some(g) = grains.filter(|g| g.len() != packing.len()) {
-        return Err(Error::Invalid(format!(
-            "export liggghts: {} grain ids for {} particles; expected one per particle",
-            g.len(),
-            packing.len()
-        )));
-    }
+    super::check_grain_count(grains, packing.len(), "export liggghts")?;
     if manybody.is_some() && limits.is_some() {
         return Err(Error::Model(
             "export liggghts: a model with both [strength] and [manybody]: the LIGGGHTS pair \

@@ -61,6 +61,22 @@ pub(crate) fn engine_ids(packing: &Packing) -> Option<&[u64]> {
 /// Give a written script its run bit wherever it is readable (`chmod +x` under the
 /// user's umask: 644 → 755, 600 → 700), so that `./run.sh` runs as the export's message
 /// says.
+/// Refuses ([`Error::Invalid`]) grain ids (`Assembly::grains`) that are not one per particle,
+/// before an export writes anything; `what` names the export in the message.
+pub(crate) fn check_grain_count(
+    grains: Option<&[u32]>,
+    particles: usize,
+    what: &str,
+) -> Result<()> {
+    match grains {
+        Some(g) if g.len() != particles => Err(Error::Invalid(format!(
+            "{what}: {} grain ids for {particles} particles; expected one per particle",
+            g.len()
+        ))),
+        _ => Ok(()),
+    }
+}
+
 pub(crate) fn make_executable(path: &std::path::Path) -> Result<()> {
     #[cfg(unix)]
     {

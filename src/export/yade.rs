@@ -503,13 +503,7 @@ pub fn write_yade_export_grains(
     opts: &YadeRunOptions,
     grains: Option<&[u32]>,
 ) -> Result<YadeExport> {
-    if let Some(g) = grains.filter(|g| g.len() != packing.len()) {
-        return Err(Error::Invalid(format!(
-            "YADE export: {} grain ids for {} particles; expected one per particle",
-            g.len(),
-            packing.len()
-        )));
-    }
+    super::check_grain_count(grains, packing.len(), "YADE export")?;
     // The many-body term is built here once, so a packing it cannot carry (rattlers refused,
     // no periodic cell for the default volumes) is refused before anything is written.
     if let Some(m) = model {

@@ -21,20 +21,7 @@ pub(crate) fn to_f32(b: &Block6) -> Block32 {
 #[inline(always)]
 fn mul_add32_cols(acc: &mut Block6, a: &Block32, b: &Block6, cols: usize) {
     let a: [f64; 36] = std::array::from_fn(|k| a[k] as f64);
-    let b = b.as_slice();
-    let c = acc.as_mut_slice();
-    for j in 0..cols {
-        let mut col = [0.0f64; 6];
-        col.copy_from_slice(&c[6 * j..6 * j + 6]);
-        for k in 0..6 {
-            let s = b[k + 6 * j];
-            let ak = &a[6 * k..6 * k + 6];
-            for i in 0..6 {
-                col[i] += ak[i] * s;
-            }
-        }
-        c[6 * j..6 * j + 6].copy_from_slice(&col);
-    }
+    super::sparse::mul_add_columns_of(acc, &a, b, cols);
 }
 
 /// Σ_q B_pq x_q over row `p`'s blocks, in stored order, on the first `cols` columns.

@@ -224,7 +224,15 @@ pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usiz
 /// column by column. Always inlined, so a constant `cols` (6 in [`mul_add6`]) unrolls.
 #[inline(always)]
 fn mul_add_columns(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
-    let (a, b) = (a.as_slice(), b.as_slice());
+    let a: &[f64; 36] = a.as_slice().try_into().expect("a 6×6 block has 36 entries");
+    mul_add_columns_of(acc, a, b, cols);
+}
+
+/// [`mul_add_columns`] with `a` as its 36 column-major entries (the multigrid's
+/// single-precision blocks widen into such an array first).
+#[inline(always)]
+pub(crate) fn mul_add_columns_of(acc: &mut Block6, a: &[f64; 36], b: &Block6, cols: usize) {
+    let b = b.as_slice();
     let c = acc.as_mut_slice();
     for j in 0..cols {
         let mut col = [0.0f64; 6];
