@@ -369,21 +369,19 @@ impl Network {
         axial_force: Option<&[f64]>,
         keep_dangling: bool,
     ) -> Result<Network> {
-        if k.len() != bonds.len() {
-            return Err(Error::Invalid(format!(
-                "{} bonds but {} stiffness entries",
-                bonds.len(),
-                k.len()
-            )));
-        }
-        if let Some(f) = axial_force {
-            if f.len() != bonds.len() {
-                return Err(Error::Invalid(format!(
-                    "{} bonds but {} axial preloads",
-                    bonds.len(),
-                    f.len()
-                )));
+        // One entry per bond in every per-bond input.
+        let per_bond = |len: usize, what: &str| {
+            if len == bonds.len() {
+                return Ok(());
             }
+            Err(Error::Invalid(format!(
+                "{} bonds but {len} {what}",
+                bonds.len()
+            )))
+        };
+        per_bond(k.len(), "stiffness entries")?;
+        if let Some(f) = axial_force {
+            per_bond(f.len(), "axial preloads")?;
         }
         let n = packing.len();
         let (bond_active, degree_all) = if keep_dangling {

@@ -19,7 +19,7 @@ mod time_step;
 pub use spec::ManyBodySpec;
 pub use term::{Evaluation, ManyBody, Workspace};
 
-use crate::tensor::{rotate, rotation_to_z, Stiffness6};
+use crate::tensor::{cubic_tensor, rotate, rotation_to_z, transverse_tensor, Stiffness6};
 use crate::{Error, Mat3, Result, Vec3};
 
 /// Refuse ([`Error::Model`]) a model with both `[grains]` and `[manybody]` in an engine's
@@ -103,7 +103,7 @@ impl LocalTensor {
         match self {
             LocalTensor::Isotropic { bulk, shear } => {
                 let (k, g) = (finite("bulk", *bulk)?, finite("shear", *shear)?);
-                Ok(cubic_matrix(k + 4.0 * g / 3.0, k - 2.0 * g / 3.0, g))
+                Ok(cubic_tensor(k + 4.0 * g / 3.0, k - 2.0 * g / 3.0, g))
             }
             LocalTensor::Cubic {
                 c11,
@@ -111,7 +111,7 @@ impl LocalTensor {
                 c44,
                 rotation,
             } => {
-                let d = cubic_matrix(
+                let d = cubic_tensor(
                     finite("c11", *c11)?,
                     finite("c12", *c12)?,
                     finite("c44", *c44)?,
@@ -134,17 +134,7 @@ impl LocalTensor {
                     finite("c12", *c12)?,
                     finite("c44", *c44)?,
                 );
-                let mut d = Stiffness6::zeros();
-                d[(0, 0)] = c11;
-                d[(1, 1)] = c11;
-                d[(2, 2)] = c33;
-                for (a, b, v) in [(0, 1, c12), (0, 2, c13), (1, 2, c13)] {
-                    d[(a, b)] = v;
-                    d[(b, a)] = v;
-                }
-                d[(3, 3)] = c44;
-                d[(4, 4)] = c44;
-                d[(5, 5)] = 0.5 * (c11 - c12);
+                let d = transverse_tensor([c11, c33, c13, c12, c44], 0.5 * (c11 - c12));
                 // Q takes the axis to e_z (lab → material frame): D_lab = rotate(D, Qᵀ).
                 let q = rotation_to_z(axis)
                     .map_err(|e| Error::Model(format!("many-body tensor: {e}")))?;
@@ -173,18 +163,6 @@ impl LocalTensor {
             }
         }
     }
-}
-
-/// The cubic Voigt matrix of (c11, c12, c44) in its own frame.
-fn cubic_matrix(c11: f64, c12: f64, c44: f64) -> Stiffness6 {
-    let mut d = Stiffness6::zeros();
-    for a in 0..3 {
-        for b in 0..3 {
-            d[(a, b)] = if a == b { c11 } else { c12 };
-        }
-        d[(a + 3, a + 3)] = c44;
-    }
-    d
 }
 
 /// Refuse a matrix that is not a proper rotation (|RᵀR − I| > 1e-9 or det ≤ 0).

@@ -193,6 +193,22 @@ struct Copies {
     image: Vec<[i32; 3]>,
 }
 
+impl Copies {
+    /// The kept spheres as a packing in `cell` (`None`: free), with their sources and images;
+    /// fewer than two is refused ([`Error::Degenerate`]) by `refusal(count)`.
+    fn into_packing(
+        self,
+        cell: Option<PeriodicCell>,
+        refusal: impl FnOnce(usize) -> String,
+    ) -> Result<(Packing, Vec<u32>, Vec<[i32; 3]>)> {
+        if self.positions.len() < 2 {
+            return Err(Error::Degenerate(refusal(self.positions.len())));
+        }
+        let packing = Packing::new(self.positions, self.radii, cell)?;
+        Ok((packing, self.source, self.image))
+    }
+}
+
 fn copies(
     packing: &Packing,
     images: impl Iterator<Item = [i32; 3]>,
@@ -255,19 +271,10 @@ pub fn cut(packing: &Packing, region: &Region) -> Result<Cut> {
         (ranges[1].0..=ranges[1].1)
             .flat_map(move |sy| (ranges[2].0..=ranges[2].1).map(move |sz| [sx, sy, sz]))
     });
-    let Copies {
-        positions,
-        radii,
-        source,
-        image,
-    } = copies(packing, images, |y| region.contains(y));
-    if positions.len() < 2 {
-        return Err(Error::Degenerate(format!(
-            "cut: the region holds {} sphere centres, need at least 2",
-            positions.len()
-        )));
-    }
-    let mut free = Packing::new(positions, radii, None)?;
+    let (mut free, source, image) = copies(packing, images, |y| region.contains(y))
+        .into_packing(None, |n| {
+            format!("cut: the region holds {n} sphere centres, need at least 2")
+        })?;
     if let Some(ids) = &packing.ids {
         let mut seen = vec![false; packing.len()];
         let unique = source
@@ -416,23 +423,19 @@ pub fn cut_holed_slab(packing: &Packing, slab: &HoledSlab, margin: f64) -> Resul
     );
     let axis = [0.5 * lengths.x, 0.5 * lengths.y];
     let images = (0..nx).flat_map(|sx| (0..ny).map(move |sy| [sx, sy, 0]));
-    let Copies {
-        positions,
-        radii,
-        source,
-        image,
-    } = copies(packing, images, |y| {
+    let in_annulus = |y: &Vec3| {
         let rho = (y.x - axis[0]).hypot(y.y - axis[1]);
         rho >= a && rho <= b
-    });
-    if positions.len() < 2 {
-        return Err(Error::Degenerate(format!(
-            "holed slab: the annulus {a:e} m ≤ ρ ≤ {b:e} m holds {} sphere centres, need at \
-             least 2",
-            positions.len()
-        )));
-    }
-    let packing = Packing::new(positions, radii, Some(PeriodicCell::new(lengths)?))?;
+    };
+    let (packing, source, image) = copies(packing, images, in_annulus).into_packing(
+        Some(PeriodicCell::new(lengths)?),
+        |n| {
+            format!(
+                "holed slab: the annulus {a:e} m ≤ ρ ≤ {b:e} m holds {n} sphere centres, need \
+                 at least 2"
+            )
+        },
+    )?;
     Ok(SlabCut {
         packing,
         source,

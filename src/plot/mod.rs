@@ -14,6 +14,7 @@ use crate::{Error, Result, Vec3};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
+use std::ops::Range;
 use std::path::Path;
 use std::sync::Once;
 
@@ -62,6 +63,34 @@ type Chart<'a, 'b> = ChartContext<
     BitMapBackend<'b>,
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
+
+/// How a chart is framed (pixels): its caption's font size, its margin and the sizes of its
+/// x and y label areas.
+#[derive(Clone, Copy)]
+struct Frame {
+    caption: u32,
+    margin: u32,
+    labels: (u32, u32),
+}
+
+impl Frame {
+    /// The chart on `area` captioned `title`, over `x` × `y`.
+    fn chart<'a, 'b>(
+        self,
+        area: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+        title: &str,
+        x: Range<f64>,
+        y: Range<f64>,
+    ) -> std::result::Result<Chart<'a, 'b>, String> {
+        ChartBuilder::on(area)
+            .caption(title, ("sans-serif", self.caption))
+            .margin(self.margin)
+            .x_label_area_size(self.labels.0)
+            .y_label_area_size(self.labels.1)
+            .build_cartesian_2d(x, y)
+            .map_err(s)
+    }
+}
 
 /// The legend of `chart` (labels at `font_size` on a translucent white box with a black
 /// border) at `position`.
@@ -125,13 +154,12 @@ pub fn plot_domain_with_materials(
         w.y0 = w.y0.min((y - 0.02).max(0.0));
     }
     render(path, (1000, 850), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 24))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(60)
-            .build_cartesian_2d(w.x0..w.x1, w.y0..w.y1)
-            .map_err(s)?;
+        let mut chart = Frame {
+            caption: 24,
+            margin: 15,
+            labels: (50, 60),
+        }
+        .chart(root, title, w.x0..w.x1, w.y0..w.y1)?;
         chart
             .configure_mesh()
             .x_desc("C12/C11")
@@ -265,19 +293,9 @@ fn draw_poisson_lines<'a, 'b: 'a>(
     for nu in [0.0, 0.1, 0.2, 0.3, 0.4] {
         let x = nu / (1.0 - nu);
         if x > w.x0 && x < w.x1 {
-            chart
-                .draw_series(LineSeries::new(
-                    [(x, w.y0), (x, w.y1)],
-                    poisson.stroke_width(1),
-                ))
-                .map_err(s)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    format!("ν={nu:.1}"),
-                    (x, w.y1 - 0.02 * (w.y1 - w.y0)),
-                    ("sans-serif", 14).into_font().color(&poisson),
-                )))
-                .map_err(s)?;
+            let label_at = (x, w.y1 - 0.02 * (w.y1 - w.y0));
+            let line = [(x, w.y0), (x, w.y1)];
+            draw_labelled_line(chart, line, poisson, 1, format!("ν={nu:.1}"), label_at)?;
         }
     }
     Ok(())
@@ -303,17 +321,31 @@ fn draw_zener_lines<'a, 'b: 'a>(
         }
         let width = if z == 1.0 { 2 } else { 1 };
         let label_at = line[line.len() / 5];
-        chart
-            .draw_series(LineSeries::new(line, grey.stroke_width(width)))
-            .map_err(s)?;
-        chart
-            .draw_series(std::iter::once(Text::new(
-                format!("Z={z}"),
-                label_at,
-                ("sans-serif", 14).into_font().color(&grey),
-            )))
-            .map_err(s)?;
+        draw_labelled_line(chart, line, grey, width, format!("Z={z}"), label_at)?;
     }
+    Ok(())
+}
+
+/// A reference line through `points`, `width` pixels of `colour`, labelled `label` at
+/// `label_at` in 14-pixel text of the same colour.
+fn draw_labelled_line<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    points: impl IntoIterator<Item = (f64, f64)>,
+    colour: RGBColor,
+    width: u32,
+    label: String,
+    label_at: (f64, f64),
+) -> std::result::Result<(), String> {
+    chart
+        .draw_series(LineSeries::new(points, colour.stroke_width(width)))
+        .map_err(s)?;
+    chart
+        .draw_series(std::iter::once(Text::new(
+            label,
+            label_at,
+            ("sans-serif", 14).into_font().color(&colour),
+        )))
+        .map_err(s)?;
     Ok(())
 }
 
@@ -448,13 +480,12 @@ pub fn plot_stiffness_sections(
         let root = root.titled(title, ("sans-serif", 24)).map_err(s)?;
         let panels = root.split_evenly((1, sections.len()));
         for ((area, sec), (normal, shear)) in panels.iter().zip(sections).zip(&curves) {
-            let mut chart = ChartBuilder::on(area)
-                .caption(&sec.name, ("sans-serif", 18))
-                .margin(10)
-                .x_label_area_size(35)
-                .y_label_area_size(70)
-                .build_cartesian_2d(-r..r, -r..r)
-                .map_err(s)?;
+            let mut chart = Frame {
+                caption: 18,
+                margin: 10,
+                labels: (35, 70),
+            }
+            .chart(area, &sec.name, -r..r, -r..r)?;
             chart
                 .configure_mesh()
                 .x_labels(5)
@@ -703,13 +734,12 @@ fn draw_lines(path: &Path, plot: LinePlot, series: &[Series]) -> Result<()> {
     let ((x0, x1), (y0, y1)) = (plot.x, plot.y);
     let pad = 0.05 * (y1 - y0);
     render(path, (1000, 700), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(plot.title, ("sans-serif", 24))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(plot.y_label_area)
-            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
-            .map_err(s)?;
+        let mut chart = Frame {
+            caption: 24,
+            margin: 15,
+            labels: (50, plot.y_label_area),
+        }
+        .chart(root, plot.title, x0..x1, (y0 - pad)..(y1 + pad))?;
         let mut mesh = chart.configure_mesh();
         mesh.x_desc(plot.x_label).y_desc(plot.y_label);
         if let Some(f) = plot.x_ticks {
@@ -775,13 +805,12 @@ pub fn plot_particle_map(
     let vmax = mags[((mags.len() - 1) as f64 * 0.99) as usize];
     let colour = |v: f64| diverging_colour(v, vmax);
     render(path, (800, 800), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(s)?;
+        let mut chart = Frame {
+            caption: 20,
+            margin: 15,
+            labels: (40, 70),
+        }
+        .chart(root, title, x0..x1, y0..y1)?;
         chart
             .configure_mesh()
             .x_desc("x (m)")

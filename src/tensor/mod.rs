@@ -62,6 +62,7 @@ pub use polycrystal::{
 pub use rotate::{
     bond_matrix, orthonormalize_rotation, rotate, rotation_to_z, rotation_x, rotation_y, rotation_z,
 };
+pub(crate) use symmetry::{cubic_tensor, transverse_tensor};
 pub use symmetry::{
     CubicProjection, CubicUncertainty, TransverseProjection, TransverseUncertainty,
     OFF_SYMMETRY_TERMS,

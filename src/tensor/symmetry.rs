@@ -116,14 +116,7 @@ impl CubicProjection {
 
     /// The full symmetrised 6×6 cubic tensor (Truszkowska 2018 Eq. 30).
     pub fn to_matrix(&self) -> Stiffness6 {
-        let mut m = Stiffness6::zeros();
-        for i in 0..3 {
-            for j in 0..3 {
-                m[(i, j)] = if i == j { self.c11 } else { self.c12 };
-            }
-            m[(i + 3, i + 3)] = self.c44;
-        }
-        m
+        cubic_tensor(self.c11, self.c12, self.c44)
     }
 }
 
@@ -229,19 +222,38 @@ impl TransverseProjection {
 
     /// The full symmetrised 6×6 transversely isotropic tensor (axis z).
     pub fn to_matrix(&self) -> Stiffness6 {
-        let mut m = Stiffness6::zeros();
-        m[(0, 0)] = self.c11;
-        m[(1, 1)] = self.c11;
-        m[(2, 2)] = self.c33;
-        m[(0, 1)] = self.c12;
-        m[(1, 0)] = self.c12;
-        for (a, b) in [(0, 2), (1, 2)] {
-            m[(a, b)] = self.c13;
-            m[(b, a)] = self.c13;
-        }
-        m[(3, 3)] = self.c44;
-        m[(4, 4)] = self.c44;
-        m[(5, 5)] = self.c66;
-        m
+        transverse_tensor([self.c11, self.c33, self.c13, self.c12, self.c44], self.c66)
     }
+}
+
+/// The cubic Voigt tensor in its own axes (Pa): `c11` on the diagonal of the normal block,
+/// `c12` off it, `c44` on the shear diagonal, zeros elsewhere.
+pub(crate) fn cubic_tensor(c11: f64, c12: f64, c44: f64) -> Stiffness6 {
+    let mut m = Stiffness6::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            m[(i, j)] = if i == j { c11 } else { c12 };
+        }
+        m[(i + 3, i + 3)] = c44;
+    }
+    m
+}
+
+/// The transversely isotropic Voigt tensor about z (Pa) of `[c11, c33, c13, c12, c44]` and
+/// `c66` (C66 = (C11 − C12)/2 for a true transversely isotropic tensor; given, so a
+/// projection's own value is kept), zeros elsewhere.
+pub(crate) fn transverse_tensor(c: [f64; 5], c66: f64) -> Stiffness6 {
+    let [c11, c33, c13, c12, c44] = c;
+    let mut m = Stiffness6::zeros();
+    m[(0, 0)] = c11;
+    m[(1, 1)] = c11;
+    m[(2, 2)] = c33;
+    for (a, b, v) in [(0, 1, c12), (0, 2, c13), (1, 2, c13)] {
+        m[(a, b)] = v;
+        m[(b, a)] = v;
+    }
+    m[(3, 3)] = c44;
+    m[(4, 4)] = c44;
+    m[(5, 5)] = c66;
+    m
 }
