@@ -9,6 +9,7 @@
 
 use super::Strength;
 use crate::schemes::cross_anisotropic::axis_from_strike_dip;
+use crate::tensor::unit_vector;
 use crate::{Error, Result, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -77,13 +78,12 @@ impl PlaneFamily {
     /// strength. Refuses a zero or non-finite normal, a spacing not finite and > 0, a
     /// non-finite offset and joint strengths not finite and ≥ 0.
     pub fn new(normal: Vec3, spacing: f64, offset: f64, joint: Strength) -> Result<Self> {
-        let len = normal.norm();
-        if !(len.is_finite() && len > 0.0) {
-            return Err(Error::Model(format!(
+        let unit = unit_vector(&normal).ok_or_else(|| {
+            Error::Model(format!(
                 "plane of weakness: normal [{}, {}, {}] must be finite and non-zero",
                 normal.x, normal.y, normal.z
-            )));
-        }
+            ))
+        })?;
         if !(spacing.is_finite() && spacing > 0.0) {
             return Err(Error::Model(format!(
                 "plane of weakness: spacing = {spacing}, expected a finite value > 0 m"
@@ -95,7 +95,7 @@ impl PlaneFamily {
             )));
         }
         Ok(PlaneFamily {
-            normal: normal / len,
+            normal: unit,
             spacing,
             offset,
             joint: joint.checked("plane of weakness joint strength")?,

@@ -14,6 +14,7 @@
 
 use super::Strength;
 use crate::schemes::cubic::{CubicModel, ROTATION_TOLERANCE};
+use crate::tensor::unit_vector;
 use crate::{Error, Mat3, Result, Vec3};
 
 /// The strength of a bond by its orientation. Types, not flags: each variant carries only
@@ -65,13 +66,12 @@ impl StrengthScheme {
                 StrengthScheme::Isotropic(s.checked("isotropic strength")?)
             }
             StrengthScheme::CrossAnisotropic(c) => {
-                let len = c.axis.norm();
-                if !(len.is_finite() && len > 0.0) {
-                    return Err(Error::Model(format!(
+                let axis = unit_vector(&c.axis).ok_or_else(|| {
+                    Error::Model(format!(
                         "cross-anisotropic strength: axis [{}, {}, {}] must be finite and non-zero",
                         c.axis.x, c.axis.y, c.axis.z
-                    )));
-                }
+                    ))
+                })?;
                 StrengthScheme::CrossAnisotropic(CrossStrength {
                     along: c
                         .along
@@ -79,7 +79,7 @@ impl StrengthScheme {
                     across: c
                         .across
                         .checked("cross-anisotropic strength across the axis")?,
-                    axis: c.axis / len,
+                    axis,
                 })
             }
             StrengthScheme::Cubic(c) => {

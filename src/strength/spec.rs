@@ -30,6 +30,7 @@ use super::schemes::{CrossStrength, CubicStrength, StrengthScheme};
 use super::{JointSection, PlaneFamily, Scatter, Strength};
 use crate::schemes::cross_anisotropic::axis_from_strike_dip;
 use crate::schemes::cubic::{self, CubicModel};
+use crate::tensor::unit_vector;
 use crate::{Error, Mat3, Result, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -155,14 +156,12 @@ fn axis_of(
     match (axis, strike, dip) {
         (None, None, None) => Ok(None),
         (Some(a), None, None) => {
-            let v = Vec3::new(a[0], a[1], a[2]);
-            let n = v.norm();
-            if !(n.is_finite() && n > 0.0) {
-                return Err(Error::Model(format!(
+            let unit = unit_vector(&Vec3::new(a[0], a[1], a[2])).ok_or_else(|| {
+                Error::Model(format!(
                     "{table}: axis/normal {a:?} must be a finite non-zero vector"
-                )));
-            }
-            Ok(Some(v / n))
+                ))
+            })?;
+            Ok(Some(unit))
         }
         (None, Some(s), Some(d)) if s.is_finite() && d.is_finite() => {
             Ok(Some(axis_from_strike_dip(s, d)))

@@ -21,6 +21,13 @@ pub const fn voigt_index(i: usize, j: usize) -> usize {
 /// Tensor index pair of Voigt index `a` (inverse of [`voigt_index`]).
 pub const VOIGT_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
 
+/// `v / |v|`, or `None` when |v| is zero or not finite (each caller refuses that in its own
+/// words).
+pub(crate) fn unit_vector(v: &crate::Vec3) -> Option<crate::Vec3> {
+    let len = v.norm();
+    (len.is_finite() && len > 0.0).then(|| v / len)
+}
+
 /// The symmetric strain tensor of a Voigt engineering strain (ε_ij = e_a/2 off the diagonal).
 pub fn strain_tensor(e: &Voigt6) -> crate::Mat3 {
     let mut m = crate::Mat3::zeros();

@@ -54,14 +54,12 @@ pub fn rotation_z(angle: f64) -> Mat3 {
 /// axis × e_z), or a half turn about x when `axis` points along −z. Used to bring a
 /// symmetry axis to z before a transversely isotropic projection.
 pub fn rotation_to_z(axis: &Vec3) -> Result<Mat3> {
-    let norm = axis.norm();
-    if !norm.is_finite() || norm == 0.0 {
-        return Err(Error::Invalid(format!(
+    let a = super::unit_vector(axis).ok_or_else(|| {
+        Error::Invalid(format!(
             "symmetry axis ({}, {}, {}): expected a finite non-zero vector",
             axis[0], axis[1], axis[2]
-        )));
-    }
-    let a = axis / norm;
+        ))
+    })?;
     let ez = Vec3::z();
     let cos = a.dot(&ez);
     if cos < -1.0 + 1e-12 {

@@ -6,7 +6,7 @@
 //! Musgrave 1970). With C in Voigt form the entries are Γ = Nᵀ C N with N the 6×3 map
 //! of a unit direction into Voigt strain ("Christoffel matrix" form).
 
-use super::{Stiffness6, VOIGT_PAIRS};
+use super::{unit_vector, Stiffness6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result, Vec3};
 
 /// One plane-wave mode for a given propagation direction.
@@ -72,13 +72,12 @@ pub fn acoustic_tensor(c: &Stiffness6, n: &Vec3) -> Mat3 {
 /// Errors on a zero or non-finite direction, a non-positive density, or a direction in
 /// which Γ is not positive definite (C not positive definite: no real wave speed).
 pub fn phase_velocities(c: &Stiffness6, density: f64, direction: &Vec3) -> Result<PhaseVelocities> {
-    let len = direction.norm();
-    if !(len.is_finite() && len > 0.0) {
-        return Err(Error::Invalid(format!(
+    let n = unit_vector(direction).ok_or_else(|| {
+        Error::Invalid(format!(
             "wave direction must be a finite non-zero vector, got {} {} {}",
             direction.x, direction.y, direction.z
-        )));
-    }
+        ))
+    })?;
     if !(density.is_finite() && density > 0.0) {
         return Err(Error::Invalid(format!(
             "density must be finite and > 0 kg/m³, got {density}"
@@ -89,7 +88,6 @@ pub fn phase_velocities(c: &Stiffness6, density: f64, direction: &Vec3) -> Resul
             "stiffness tensor has non-finite entries".into(),
         ));
     }
-    let n = direction / len;
     let gamma = acoustic_tensor(c, &n);
     let eig = nalgebra::SymmetricEigen::new(gamma);
     let mut order = [0usize, 1, 2];
