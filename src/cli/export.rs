@@ -4,14 +4,7 @@ use anisobond::export::yade::{self, YadeRunOptions};
 use anisobond::Result;
 use clap::Subcommand;
 
-/// Export a packing + model to another DEM code, ready to run.
-#[derive(clap::Args)]
-pub struct ExportArgs {
-    #[command(subcommand)]
-    pub target: ExportTarget,
-}
-
-/// The codes to export to.
+/// The codes to export to (the subcommands of `export`).
 #[derive(Subcommand)]
 pub enum ExportTarget {
     /// YADE 2023.02a: DIR/packing.txt, bonds.csv, model.toml, anisobond_yade.py and run.py;
@@ -45,23 +38,32 @@ pub struct YadeArgs {
     /// Cundall non-viscous damping of YADE's NewtonIntegrator (0 = undamped).
     #[arg(long, default_value_t = 0.4)]
     pub damping: f64,
-    /// Particle density (kg/m³).
-    #[arg(long, default_value_t = 2600.0)]
-    pub density: f64,
-    /// Time step (s); default: --safety × the critical step from the bond stiffnesses.
-    #[arg(long)]
-    pub dt: Option<f64>,
-    /// Fraction of the critical time step used when --dt is not given.
-    #[arg(long, default_value_t = 0.8)]
-    pub safety: f64,
+    #[command(flatten)]
+    pub step: YadeStepArgs,
     /// Strain paths to run, Voigt labels.
     #[arg(long, default_value = "11,22,33,23,13,12")]
     pub paths: String,
 }
 
+/// The masses and the time step of YADE's run, as `export yade` and `validate yade` take
+/// them (YADE's time step is anisobond's critical estimate unless given).
+#[derive(clap::Args)]
+pub struct YadeStepArgs {
+    /// Particle density (kg/m³).
+    #[arg(long, default_value_t = 2600.0)]
+    pub density: f64,
+    /// Time step (s); default: --safety × anisobond's critical estimate from the bond
+    /// stiffnesses.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Fraction of the critical time step used when --dt is not given.
+    #[arg(long, default_value_t = 0.8)]
+    pub safety: f64,
+}
+
 /// Run `export`.
-pub fn run(a: ExportArgs) -> Result<()> {
-    match a.target {
+pub fn run(target: ExportTarget) -> Result<()> {
+    match target {
         ExportTarget::Yade(y) => export_yade(y),
         ExportTarget::Vtk(v) => super::plot::export_vtk(v),
         ExportTarget::Liggghts(l) => super::export_liggghts::run(l),
@@ -93,9 +95,9 @@ fn export_yade(a: YadeArgs) -> Result<()> {
         strain: a.strain,
         steps: a.steps,
         damping: a.damping,
-        density: a.density,
-        time_step: a.dt,
-        safety: a.safety,
+        density: a.step.density,
+        time_step: a.step.dt,
+        safety: a.step.safety,
         paths: yade::parse_paths(&a.paths)?,
         stress_volume: None,
     };

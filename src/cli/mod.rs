@@ -71,7 +71,8 @@ enum Command {
     /// Stiffness tensor (Pa) of a model (the methods are listed by `command()`).
     Tensor(TensorArgs),
     /// Export a packing + model (the codes are listed by `command()`).
-    Export(export::ExportArgs),
+    #[command(subcommand)]
+    Export(export::ExportTarget),
     /// The reference DEM integrator on a periodic packing: the six element tests (strain in
     /// one step, Cundall-damped relaxation), stress–strain history CSV and tensor JSON.
     Run(run::RunArgs),
@@ -113,7 +114,8 @@ enum Command {
     #[command(subcommand)]
     Plot(plot::PlotCommand),
     /// Validate anisobond against another DEM code (the codes are listed by `command()`).
-    Validate(validate::ValidateArgs),
+    #[command(subcommand)]
+    Validate(validate::ValidateTarget),
     /// Convert a packing file for another program's loader: YADE `SpherePack.load`
     /// (spherepack) or `ymport.text` (text), LIGGGHTS `read_data` (liggghts), or SPEC text,
     /// keeping the cell and (for LIGGGHTS) the particle ids.

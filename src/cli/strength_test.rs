@@ -199,6 +199,18 @@ impl StrengthTestArgs {
         let model = self.model.as_deref().map(Model::from_path).transpose()?;
         self.lab.options(test, model)
     }
+
+    /// The output set (its inputs: the packing and model files given) and the output
+    /// folder staged in it.
+    fn outputs(&self) -> Result<(OutputSet, PathBuf)> {
+        let inputs: Vec<&std::path::Path> = [self.lab.packing.as_deref(), self.model.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
+        let mut out = OutputSet::new(&inputs);
+        let dir = out.dir(&self.output)?;
+        Ok((out, dir))
+    }
 }
 
 /// The summary printed after the run.
@@ -254,12 +266,7 @@ fn run_sweep(a: &StrengthTestArgs, angles: &str) -> Result<()> {
         angles_deg,
     };
     opts.check(OptionNames::Flags)?;
-    let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), a.model.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
-    let mut out = OutputSet::new(&inputs);
-    let dir = out.dir(&a.output)?;
+    let (out, dir) = a.outputs()?;
     let report = run_sweep_study(&opts, &|p| {
         println!(
             "[{}/{}] {} at β = {}°: peak {:.4e} Pa",
@@ -304,12 +311,7 @@ pub fn run(a: StrengthTestArgs) -> Result<()> {
     }
     let opts = a.options()?;
     opts.check(OptionNames::Flags)?;
-    let inputs: Vec<&std::path::Path> = [a.lab.packing.as_deref(), a.model.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
-    let mut out = OutputSet::new(&inputs);
-    let dir = out.dir(&a.output)?;
+    let (out, dir) = a.outputs()?;
     let bar: Mutex<Option<ProgressBar>> = Mutex::new(None);
     let report = run_study(&opts, &|p| match p {
         StrengthTestProgress::Specimen {

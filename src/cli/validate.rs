@@ -4,14 +4,14 @@
 //! agreement is outside its tolerance ([`run_engine`], the one path every engine takes).
 
 use super::cell::BondedInput;
-use super::validate_specimen::SpecimenFlags;
-use super::validate_strength::StrengthFlags;
+use super::validate_strength::FreeTestFlags;
 use anisobond::export::yade::parse_paths;
 use anisobond::io::OutputSet;
-use anisobond::validate::specimen;
-use anisobond::validate::strength;
 use anisobond::validate::yade::{Yade, YadeValidationOptions};
-use anisobond::validate::{outcome, summary, unsettled_lines, EngineDetails};
+use anisobond::validate::{
+    checks_summary, outcome, summary, unsettled_lines, write_report_files, EngineDetails, Progress,
+    Report, SharedDetails,
+};
 use anisobond::validate::{
     validate, validate_specimen, validate_strength, Engine, Problem, Tolerances,
 };
@@ -19,14 +19,7 @@ use anisobond::Result;
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
 
-/// Validate anisobond against another DEM code.
-#[derive(clap::Args)]
-pub struct ValidateArgs {
-    #[command(subcommand)]
-    pub target: ValidateTarget,
-}
-
-/// The codes to validate against.
+/// The codes to validate against (the subcommands of `validate`).
 #[derive(Subcommand)]
 pub enum ValidateTarget {
     /// YADE 2023.02a (`yade` on PATH): undamped stress histories step by step, damped
@@ -53,15 +46,9 @@ pub struct YadeValidateArgs {
     /// Strain of every path, applied in one step (engineering; extension positive).
     #[arg(long, default_value_t = 1e-5)]
     pub strain: f64,
-    /// Particle density (kg/m³) of both codes.
-    #[arg(long, default_value_t = 2600.0)]
-    pub density: f64,
-    /// Time step (s) of both codes; default: --safety × anisobond's critical estimate.
-    #[arg(long)]
-    pub dt: Option<f64>,
-    /// Fraction of the critical time step used when --dt is not given.
-    #[arg(long, default_value_t = 0.8)]
-    pub safety: f64,
+    /// The masses and the time step, the same in both codes.
+    #[command(flatten)]
+    pub step: super::export::YadeStepArgs,
     /// Steps of the undamped runs (strain step included).
     #[arg(long, default_value_t = 1000)]
     pub undamped_steps: usize,
@@ -86,12 +73,9 @@ pub struct YadeValidateArgs {
     /// Largest admissible relative difference of each damped tensor from the relaxed one.
     #[arg(long, default_value_t = 1e-3)]
     pub relaxed_tolerance: f64,
-    /// The specimen test instead of the element tests.
+    /// The specimen or the strength test instead of the element tests.
     #[command(flatten)]
-    pub specimen: SpecimenFlags,
-    /// The strength test instead of the element tests.
-    #[command(flatten)]
-    pub strength: StrengthFlags,
+    pub tests: FreeTestFlags,
 }
 
 impl YadeValidateArgs {
@@ -99,9 +83,9 @@ impl YadeValidateArgs {
     fn engine(&self) -> Result<Yade> {
         Ok(Yade(YadeValidationOptions {
             strain: self.strain,
-            density: self.density,
-            time_step: self.dt,
-            safety: self.safety,
+            density: self.step.density,
+            time_step: self.step.dt,
+            safety: self.step.safety,
             undamped_steps: self.undamped_steps,
             undamped_paths: parse_paths(&self.undamped_paths)?,
             damped_steps: self.damped_steps,
@@ -118,79 +102,56 @@ impl YadeValidateArgs {
 }
 
 /// Run `validate`.
-pub fn run(a: ValidateArgs) -> Result<()> {
-    match a.target {
-        ValidateTarget::Yade(y) => dispatch(
-            &y.engine()?,
-            &y.input,
-            y.output.as_deref(),
-            &y.specimen,
-            &y.strength,
-        ),
-        ValidateTarget::Liggghts(a) => dispatch(
-            &a.engine()?,
-            &a.input,
-            Some(&a.output),
-            &a.specimen,
-            &a.strength,
-        ),
-        ValidateTarget::Lammps(a) => dispatch(
-            &a.engine()?,
-            &a.input,
-            Some(&a.output),
-            &a.specimen,
-            &a.strength,
-        ),
+pub fn run(target: ValidateTarget) -> Result<()> {
+    match target {
+        ValidateTarget::Yade(y) => dispatch(&y.engine()?, &y.input, y.output.as_deref(), &y.tests),
+        ValidateTarget::Liggghts(a) => dispatch(&a.engine()?, &a.input, Some(&a.output), &a.tests),
+        ValidateTarget::Lammps(a) => dispatch(&a.engine()?, &a.input, Some(&a.output), &a.tests),
     }
 }
 
-/// The element tests, or the specimen test with `--specimen`: the engine's options
-/// checked, the output staged and the bonded input read ([`RunDir::open`]), then the run.
+/// The element tests, the specimen test with `--specimen` or the strength test with
+/// `--strength`: the engine's options checked, the output staged and the bonded input read
+/// ([`RunDir::open`]), then the run.
 fn dispatch<E: Engine>(
     engine: &E,
     input: &BondedInput,
     output: Option<&Path>,
-    specimen: &SpecimenFlags,
-    strength: &StrengthFlags,
+    tests: &FreeTestFlags,
 ) -> Result<()> {
     let run = RunDir::open(engine, input, output)?;
-    if strength.strength {
-        run_strength(engine, run, specimen, strength)
+    let (specimen, name) = (&tests.specimen, E::Details::ENGINE);
+    if tests.strength.strength {
+        let test = tests.strength.test(specimen, &run.asm);
+        test.check(name)?;
+        run_free_test(name, run, "--strength", |p, progress| {
+            validate_strength(engine, p, &test, progress)
+        })
     } else if specimen.specimen {
-        run_specimen(engine, run, specimen)
+        let test = specimen.test(&run.asm);
+        test.check(name)?;
+        run_free_test(name, run, "--specimen", |p, progress| {
+            validate_specimen(engine, p, &test, progress)
+        })
     } else {
         run_engine(engine, run)
     }
 }
 
-/// `validate ENGINE --specimen`: as [`run_engine`], with the specimen test.
-fn run_specimen<E: Engine>(engine: &E, run: RunDir, flags: &SpecimenFlags) -> Result<()> {
-    let name = E::Details::ENGINE;
-    let test = flags.test(&run.asm);
-    test.check(name)?;
-    run.announce(&format!("validate {name} --specimen"), "");
-    let problem = Problem::of(&run.dir, &run.asm);
-    let report = validate_specimen(engine, &problem, &test, &|m| run.progress(m))?;
-    print!("{}", specimen::summary(&report));
-    run.keep(|dir| specimen::write_files(dir, &report))?;
-    finish(name, &report)
-}
-
-/// `validate ENGINE --strength`: as [`run_specimen`], with the strength test.
-fn run_strength<E: Engine>(
-    engine: &E,
+/// `validate ENGINE --specimen` or `--strength` (`flag`), as [`run_engine`]: the test
+/// announced, run on the problem by `validate_test`, the summary printed, the report files
+/// kept and the end ([`finish`]).
+fn run_free_test<D: SharedDetails>(
+    name: &str,
     run: RunDir,
-    specimen: &SpecimenFlags,
-    flags: &StrengthFlags,
+    flag: &str,
+    validate_test: impl FnOnce(&Problem, Progress) -> Result<Report<D>>,
 ) -> Result<()> {
-    let name = E::Details::ENGINE;
-    let test = flags.test(specimen, &run.asm);
-    test.check(name)?;
-    run.announce(&format!("validate {name} --strength"), "");
+    run.announce(&format!("validate {name} {flag}"), "");
     let problem = Problem::of(&run.dir, &run.asm);
-    let report = validate_strength(engine, &problem, &test, &|m| run.progress(m))?;
-    print!("{}", strength::summary(&report));
-    run.keep(|dir| strength::write_files(dir, &report))?;
+    let report = validate_test(&problem, &|m| run.progress(m))?;
+    print!("{}", checks_summary(&report));
+    run.keep(|dir| write_report_files(dir, &report))?;
     finish(name, &report)
 }
 
@@ -256,7 +217,7 @@ impl RunDir {
 /// naming the failed checks; else [`Error::NotConverged`] when a compared run had not
 /// settled (its checks not judged: neither a pass nor a failure, so not a success either);
 /// else exit 0.
-fn finish<D>(name: &str, report: &anisobond::validate::Report<D>) -> Result<()> {
+fn finish<D>(name: &str, report: &Report<D>) -> Result<()> {
     for line in &unsettled_lines(report) {
         println!("not judged: {line}");
     }

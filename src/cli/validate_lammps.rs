@@ -27,12 +27,9 @@ pub struct Args {
     /// The deck's bonds, as for `export lammps`.
     #[command(flatten)]
     pub bonds: super::export_lammps::BondArgs,
-    /// The specimen test instead of the element tests.
+    /// The specimen or the strength test instead of the element tests.
     #[command(flatten)]
-    pub specimen: super::validate_specimen::SpecimenFlags,
-    /// The strength test instead of the element tests.
-    #[command(flatten)]
-    pub strength: super::validate_strength::StrengthFlags,
+    pub tests: super::validate_strength::FreeTestFlags,
 }
 
 impl Args {

@@ -48,12 +48,9 @@ pub struct Args {
     /// Tolerance of the quasi-static tensors (relative).
     #[arg(long, default_value_t = 5e-3)]
     pub tensor_tolerance: f64,
-    /// The specimen test instead of the element tests.
+    /// The specimen or the strength test instead of the element tests.
     #[command(flatten)]
-    pub specimen: super::validate_specimen::SpecimenFlags,
-    /// The strength test instead of the element tests.
-    #[command(flatten)]
-    pub strength: super::validate_strength::StrengthFlags,
+    pub tests: super::validate_strength::FreeTestFlags,
 }
 
 fn find_driver(given: Option<PathBuf>) -> Result<PathBuf> {

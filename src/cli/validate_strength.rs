@@ -6,6 +6,18 @@
 use super::validate_specimen::SpecimenFlags;
 use anisobond::validate::strength::{StrengthLoading, StrengthTest};
 
+/// The free-specimen tests of every `validate ENGINE`, each instead of the element tests:
+/// `--specimen` and `--strength` with their options.
+#[derive(clap::Args, Clone, Debug)]
+pub struct FreeTestFlags {
+    /// The specimen test.
+    #[command(flatten)]
+    pub specimen: SpecimenFlags,
+    /// The strength test.
+    #[command(flatten)]
+    pub strength: StrengthFlags,
+}
+
 /// `--load`: how the bar is loaded.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LoadArg {

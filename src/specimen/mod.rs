@@ -37,7 +37,7 @@ mod select;
 pub(crate) mod surface;
 mod system;
 
-pub use select::{parse_ids, Selection};
+pub use select::{parse_ids, Cylinder, Selection};
 pub use surface::Shape;
 
 use crate::assembly::Assembly;

@@ -21,26 +21,79 @@ pub enum Selection {
         /// Upper corner.
         hi: Vec3,
     },
-    /// Centres inside a cylinder whose axis is parallel to `dim` (0 = x, 1 = y, 2 = z) and
-    /// passes through `(c1, c2)` in the other two axes (in x, y, z order), of `radius`,
-    /// between `lo` and `hi` along `dim` (m): LAMMPS's `region cylinder dim c1 c2 radius lo hi`.
-    Cylinder {
-        /// Axis direction.
-        dim: usize,
-        /// First transverse coordinate of the axis.
-        c1: f64,
-        /// Second transverse coordinate of the axis.
-        c2: f64,
-        /// Radius.
-        radius: f64,
-        /// Lower bound along `dim`.
-        lo: f64,
-        /// Upper bound along `dim`.
-        hi: f64,
-    },
+    /// Centres inside a cylinder ([`Cylinder`]).
+    Cylinder(Cylinder),
     /// The particles with these ids: the packing's own ids when its file gave them (LAMMPS or
     /// LIGGGHTS atom ids, YADE body ids), else the 0-based order in the file.
     Ids(Vec<u64>),
+}
+
+/// A cylinder whose axis is parallel to `dim` (0 = x, 1 = y, 2 = z) and passes through
+/// `(c1, c2)` in the other two axes (in x, y, z order), of `radius`, between `lo` and `hi`
+/// along `dim` (m): LAMMPS's `region cylinder dim c1 c2 radius lo hi`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cylinder {
+    /// Axis direction.
+    pub dim: usize,
+    /// First transverse coordinate of the axis.
+    pub c1: f64,
+    /// Second transverse coordinate of the axis.
+    pub c2: f64,
+    /// Radius.
+    pub radius: f64,
+    /// Lower bound along `dim`.
+    pub lo: f64,
+    /// Upper bound along `dim`.
+    pub hi: f64,
+}
+
+impl Cylinder {
+    /// Why the cylinder's numbers are refused, if they are.
+    fn refusal(&self) -> Option<&'static str> {
+        let c = self;
+        if c.dim > 2 {
+            Some("cylinder axis must be x, y or z")
+        } else if ![c.c1, c.c2, c.radius, c.lo, c.hi]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            Some("cylinder numbers must be finite")
+        } else if c.radius <= 0.0 || c.lo > c.hi {
+            Some("cylinder radius must be > 0 and lo <= hi")
+        } else {
+            None
+        }
+    }
+
+    /// Whether the point `p` is inside (closed bounds).
+    fn contains(&self, p: &Vec3) -> bool {
+        let (a1, a2) = match self.dim {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let (d1, d2) = (p[a1] - self.c1, p[a2] - self.c2);
+        p[self.dim] >= self.lo
+            && p[self.dim] <= self.hi
+            && d1 * d1 + d2 * d2 <= self.radius * self.radius
+    }
+
+    /// A short description for reports and errors.
+    fn describe(&self) -> String {
+        let Cylinder {
+            c1,
+            c2,
+            radius,
+            lo,
+            hi,
+            ..
+        } = self;
+        format!(
+            "cylinder along {} through ({c1:e}, {c2:e}), radius {radius:e} m, from {lo:e} \
+             to {hi:e} m",
+            ["x", "y", "z"][self.dim.min(2)]
+        )
+    }
 }
 
 impl Selection {
@@ -91,14 +144,14 @@ impl Selection {
                     other => return Err(bad(format!("axis {other:?} is not x, y or z"))),
                 };
                 let w = numbers(rest, 5, " after the axis")?;
-                Selection::Cylinder {
+                Selection::Cylinder(Cylinder {
                     dim,
                     c1: w[0],
                     c2: w[1],
                     radius: w[2],
                     lo: w[3],
                     hi: w[4],
-                }
+                })
             }
             "ids" => Selection::Ids(parse_ids(rest, option)?),
             "file" => {
@@ -126,18 +179,7 @@ impl Selection {
                 "box [{:e}, {:e}] × [{:e}, {:e}] × [{:e}, {:e}] m",
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
             ),
-            Selection::Cylinder {
-                dim,
-                c1,
-                c2,
-                radius,
-                lo,
-                hi,
-            } => format!(
-                "cylinder along {} through ({c1:e}, {c2:e}), radius {radius:e} m, from {lo:e} \
-                 to {hi:e} m",
-                ["x", "y", "z"][(*dim).min(2)]
-            ),
+            Selection::Cylinder(c) => c.describe(),
             Selection::Ids(ids) => format!("{} listed ids", ids.len()),
         }
     }
@@ -161,22 +203,9 @@ impl Selection {
                     return bad("box lower corner above its upper corner");
                 }
             }
-            Selection::Cylinder {
-                dim,
-                c1,
-                c2,
-                radius,
-                lo,
-                hi,
-            } => {
-                if *dim > 2 {
-                    return bad("cylinder axis must be x, y or z");
-                }
-                if ![*c1, *c2, *radius, *lo, *hi].iter().all(|v| v.is_finite()) {
-                    return bad("cylinder numbers must be finite");
-                }
-                if *radius <= 0.0 || lo > hi {
-                    return bad("cylinder radius must be > 0 and lo <= hi");
+            Selection::Cylinder(c) => {
+                if let Some(why) = c.refusal() {
+                    return bad(why);
                 }
             }
             Selection::Ids(ids) => {
@@ -213,26 +242,7 @@ impl Selection {
                 .iter()
                 .map(|p| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]))
                 .collect(),
-            Selection::Cylinder {
-                dim,
-                c1,
-                c2,
-                radius,
-                lo,
-                hi,
-            } => {
-                let (a1, a2) = match dim {
-                    0 => (1, 2),
-                    1 => (0, 2),
-                    _ => (0, 1),
-                };
-                x.iter()
-                    .map(|p| {
-                        let (d1, d2) = (p[a1] - c1, p[a2] - c2);
-                        p[*dim] >= *lo && p[*dim] <= *hi && d1 * d1 + d2 * d2 <= radius * radius
-                    })
-                    .collect()
-            }
+            Selection::Cylinder(c) => x.iter().map(|p| c.contains(p)).collect(),
             Selection::Ids(ids) => {
                 let mut flag = vec![false; n];
                 match &packing.ids {

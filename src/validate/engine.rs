@@ -4,8 +4,8 @@
 //! [`TestKind`]s it runs. A client runs any engine through [`validate`]; a new test kind is
 //! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
 
+pub use super::harness::{check_tolerances, Problem, Progress, TestKind};
 use super::harness::{EngineDetails, Report};
-pub use super::harness::{Problem, Progress, TestKind};
 use super::specimen::{SpecimenDeck, SpecimenDetails, SpecimenTest};
 use super::strength::{StrengthDetails, StrengthTest};
 use crate::{Error, Result};
@@ -25,22 +25,6 @@ pub struct Tolerances {
     /// The engine on N MPI processes against one.
     #[serde(skip)]
     pub processes: f64,
-}
-
-/// Refuse any tolerance of `named` (option name, value) for which `admissible` is false,
-/// saying what is `expected`.
-pub fn check_tolerances(
-    engine: &str,
-    named: &[(&str, f64)],
-    expected: &str,
-    admissible: fn(f64) -> bool,
-) -> Result<()> {
-    match named.iter().find(|(_, v)| !admissible(*v)) {
-        Some((name, v)) => Err(Error::Invalid(format!(
-            "validate {engine}: the {name} must be {expected}, got {v}"
-        ))),
-        None => Ok(()),
-    }
 }
 
 /// A validation engine: runs a [`Problem`] in another code and in anisobond, and compares.

@@ -42,6 +42,22 @@ impl TestKind {
     }
 }
 
+/// Refuse any tolerance of `named` (option name, value) for which `admissible` is false,
+/// saying what is `expected`.
+pub fn check_tolerances(
+    engine: &str,
+    named: &[(&str, f64)],
+    expected: &str,
+    admissible: fn(f64) -> bool,
+) -> Result<()> {
+    match named.iter().find(|(_, v)| !admissible(*v)) {
+        Some((name, v)) => Err(Error::Invalid(format!(
+            "validate {engine}: the {name} must be {expected}, got {v}"
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// What every engine is given: where to run, the bonded packing, its model, the test kind.
 #[derive(Clone, Copy, Debug)]
 pub struct Problem<'a> {
@@ -168,6 +184,30 @@ pub fn timed<T>(
         seconds: t0.elapsed().as_secs_f64(),
     });
     Ok(r)
+}
+
+/// One regime's element-test histories of both codes (rows by path and step, step 0 first):
+/// what an engine's side-by-side CSV and plot show.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HistoryPair {
+    /// The engine's.
+    pub engine: Vec<HistoryRow>,
+    /// The reference integrator's.
+    pub integrator: Vec<HistoryRow>,
+}
+
+/// The damped element-test tensors of an engine and of anisobond, with the static
+/// references (Pa).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DampedTensors {
+    /// The engine's, C = S·E⁻¹ of the final stress/strain columns.
+    pub engine: Stiffness6,
+    /// The reference integrator's, same formula.
+    pub integrator: Stiffness6,
+    /// The relaxed solver's.
+    pub relaxed: Stiffness6,
+    /// The affine (Voigt) tensor of the same network, for scale.
+    pub affine: Stiffness6,
 }
 
 /// Step-by-step comparison of two stress histories (Pa), relative to the largest |stress|
@@ -692,11 +732,22 @@ pub fn summary<D: EngineDetails>(r: &Report<D>) -> String {
     s
 }
 
-/// The report of a test with one report for every engine (the specimen, the strength test)
-/// as text: the details' own lines, `heading` over the checks table, the wall times.
-pub fn checks_summary<D: EngineDetails>(r: &Report<D>, heading: &str) -> String {
+/// The details of a test with one report for every engine (the specimen, the strength
+/// test): the line over its checks table and the names of its report files.
+pub trait SharedDetails: EngineDetails + Sized {
+    /// The line over the checks table of the summary.
+    const CHECKS_HEADING: &'static str;
+    /// The report JSON's file name.
+    const REPORT_JSON: &'static str;
+    /// The checks CSV's file name.
+    const CHECKS_CSV: &'static str;
+}
+
+/// The report of a test with one report for every engine as text: the details' own lines,
+/// the heading over the checks table, the wall times.
+pub fn checks_summary<D: SharedDetails>(r: &Report<D>) -> String {
     let mut s = D::summary(r);
-    let _ = writeln!(s, "{heading}");
+    let _ = writeln!(s, "{}", D::CHECKS_HEADING);
     s += &checks_table(r);
     let _ = writeln!(s, "\nwall time:");
     for t in &r.timings {
@@ -705,18 +756,13 @@ pub fn checks_summary<D: EngineDetails>(r: &Report<D>, heading: &str) -> String 
     s
 }
 
-/// Write the report JSON as `json_name` and the checks CSV as `csv_name` into `dir`
-/// (atomically each); returns the paths written.
-pub fn write_report_files<D: EngineDetails>(
-    dir: &Path,
-    r: &Report<D>,
-    json_name: &str,
-    csv_name: &str,
-) -> Result<Vec<PathBuf>> {
+/// Write the report JSON and the checks CSV of a test with one report for every engine into
+/// `dir` (atomically each); returns the paths written.
+pub fn write_report_files<D: SharedDetails>(dir: &Path, r: &Report<D>) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let json = dir.join(json_name);
+    let json = dir.join(D::REPORT_JSON);
     write_report_json(&json, r)?;
-    let csv = dir.join(csv_name);
+    let csv = dir.join(D::CHECKS_CSV);
     crate::io::write_string_atomic(&csv, &checks_csv(&r.checks))?;
     Ok(vec![json, csv])
 }

@@ -33,6 +33,7 @@ pub use engine::{
     validate, validate_specimen, validate_strength, Engine, Problem, Progress, TestKind, Tolerances,
 };
 pub use harness::{
-    failure_lines, outcome, summary, unsettled_lines, write_report_json, EngineDetails, Report,
+    checks_summary, failure_lines, outcome, summary, unsettled_lines, write_report_files,
+    write_report_json, EngineDetails, Report, SharedDetails,
 };
-pub use harness::{Check, HistoryComparison, Timing};
+pub use harness::{Check, DampedTensors, HistoryComparison, HistoryPair, Timing};

@@ -40,7 +40,8 @@ use crate::tensor::{Stiffness6, VOIGT_PAIRS};
 use crate::validate::engine::{self, check_tolerances, Engine, Problem, Progress, TestKind};
 use crate::validate::harness::{
     history_series, matrix_rows, named, reads_back_same, reference_simulation, side_by_side_csv,
-    write_report_json, Check, EngineDetails, HistoryComparison, Report, Timing,
+    write_report_json, Check, DampedTensors, EngineDetails, HistoryComparison, HistoryPair, Report,
+    Timing,
 };
 use crate::{Error, Mat3, Result};
 use serde::Serialize;
@@ -177,24 +178,15 @@ pub struct YadeDetails {
     pub critical_time_step: f64,
     /// YADE's version string (from its report).
     pub yade_version: String,
-    /// Undamped histories of YADE (rows by path and step, step 0 first).
-    pub undamped_yade: Vec<HistoryRow>,
-    /// Undamped histories of anisobond's reference integrator.
-    pub undamped_anisobond: Vec<HistoryRow>,
+    /// Undamped histories of YADE and of anisobond's reference integrator.
+    pub undamped_runs: HistoryPair,
     /// One comparison per undamped path (labelled by the path's Voigt label).
     pub undamped: Vec<HistoryComparison>,
-    /// Damped histories of YADE.
-    pub damped_yade: Vec<HistoryRow>,
-    /// Damped histories of the reference integrator.
-    pub damped_anisobond: Vec<HistoryRow>,
-    /// Damped tensor of YADE, C = S·E⁻¹ of the final columns (Pa).
-    pub c_yade: Stiffness6,
-    /// Damped tensor of the reference integrator, same formula (Pa).
-    pub c_anisobond: Stiffness6,
-    /// Relaxed-solver tensor, mid-gap lever arms (Pa).
-    pub c_relaxed: Stiffness6,
-    /// Affine (Voigt) tensor of the same network, for scale (Pa).
-    pub c_affine: Stiffness6,
+    /// Damped histories of YADE and of the reference integrator.
+    pub damped_runs: HistoryPair,
+    /// The damped tensors of YADE and of the integrator, the relaxed solver's (mid-gap
+    /// lever arms) and the affine one.
+    pub tensors: DampedTensors,
     /// The YADE export directory.
     pub yade_dir: PathBuf,
 }
@@ -263,17 +255,17 @@ impl EngineDetails for YadeDetails {
             tolerances: o.tolerances,
             undamped: &self.undamped,
             units: "Pa",
-            c_yade: &self.c_yade,
-            c_anisobond: &self.c_anisobond,
-            c_relaxed: &self.c_relaxed,
-            c_affine: &self.c_affine,
+            c_yade: &self.tensors.engine,
+            c_anisobond: &self.tensors.integrator,
+            c_relaxed: &self.tensors.relaxed,
+            c_affine: &self.tensors.affine,
         }
     }
     fn tensors(&self) -> Vec<(String, Stiffness6)> {
         named(&[
-            ("YADE", self.c_yade),
-            ("anisobond", self.c_anisobond),
-            ("relaxed", self.c_relaxed),
+            ("YADE", self.tensors.engine),
+            ("anisobond", self.tensors.integrator),
+            ("relaxed", self.tensors.relaxed),
         ])
     }
     fn summary(v: &YadeValidation) -> String {
@@ -619,15 +611,21 @@ fn element_tests(
             options: opts.clone(),
             critical_time_step: s.critical_time_step,
             yade_version,
-            undamped_yade: yade.undamped,
-            undamped_anisobond: ours.undamped,
+            undamped_runs: HistoryPair {
+                engine: yade.undamped,
+                integrator: ours.undamped,
+            },
             undamped,
-            damped_yade: yade.damped,
-            damped_anisobond: ours.damped,
-            c_yade,
-            c_anisobond,
-            c_relaxed: ours.relaxed.c,
-            c_affine: ours.relaxed.c_affine,
+            damped_runs: HistoryPair {
+                engine: yade.damped,
+                integrator: ours.damped,
+            },
+            tensors: DampedTensors {
+                engine: c_yade,
+                integrator: c_anisobond,
+                relaxed: ours.relaxed.c,
+                affine: ours.relaxed.c_affine,
+            },
             yade_dir: s.yade_dir,
         },
     })
@@ -822,7 +820,7 @@ fn yade_timings(yade: &YadeRuns, ours: [f64; 3]) -> Vec<Timing> {
 /// paths written.
 pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    // Both regimes: CSV name, plot name, what, the CSV's title line, YADE's and our rows.
+    // Both regimes: CSV name, plot name, what, the CSV's title line, both codes' rows.
     let o = &v.options;
     let regimes = [
         (
@@ -830,34 +828,36 @@ pub fn write_validation_files(dir: &Path, v: &YadeValidation) -> Result<Vec<Path
             outputs::UNDAMPED_PNG,
             "undamped",
             "undamped (damping 0)".to_string(),
-            &v.undamped_yade,
-            &v.undamped_anisobond,
+            &v.undamped_runs,
         ),
         (
             outputs::DAMPED_CSV,
             outputs::DAMPED_PNG,
             "damped",
             format!("damped (Cundall {})", o.damping),
-            &v.damped_yade,
-            &v.damped_anisobond,
+            &v.damped_runs,
         ),
     ];
     let mut written = Vec::new();
-    for (csv, _, _, regime, rows_y, rows_a) in &regimes {
+    for (csv, _, _, regime, runs) in &regimes {
         let path = dir.join(csv);
         let title = format!(
             "{regime}, strain {:e} in one step, dt {:e} s, {} particles, {} bonds",
             o.strain, v.time_step, v.n_particles, v.n_bonds
         );
-        let csv = side_by_side_csv(&title, ("yade", rows_y), ("anisobond", rows_a));
+        let csv = side_by_side_csv(
+            &title,
+            ("yade", &runs.engine),
+            ("anisobond", &runs.integrator),
+        );
         crate::io::write_string_atomic(&path, &csv)?;
         written.push(path);
     }
     let summary = dir.join(outputs::SUMMARY_JSON);
     write_report_json(&summary, v)?;
     written.push(summary);
-    for (_, png_name, what, _, rows_y, rows_a) in &regimes {
-        let series = history_series(("YADE", rows_y), ("anisobond", rows_a));
+    for (_, png_name, what, _, runs) in &regimes {
+        let series = history_series(("YADE", &runs.engine), ("anisobond", &runs.integrator));
         if !series.is_empty() {
             let png = dir.join(png_name);
             crate::plot::plot_series(

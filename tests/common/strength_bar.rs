@@ -124,7 +124,7 @@ pub fn run_strength<E: anisobond::validate::Engine>(
         eprintln!("{test}: {m}")
     })
     .expect("the strength test ran");
-    eprintln!("{}", anisobond::validate::strength::summary(&r));
+    eprintln!("{}", anisobond::validate::checks_summary(&r));
     r
 }
 

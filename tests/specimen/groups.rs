@@ -7,7 +7,7 @@
 use anisobond::assembly::Assembly;
 use anisobond::model::Model;
 use anisobond::packing::Packing;
-use anisobond::specimen::{solve, Load, Platens, Selection, Shape, SpecimenOptions};
+use anisobond::specimen::{solve, Cylinder, Load, Platens, Selection, Shape, SpecimenOptions};
 use anisobond::{Error, Vec3};
 
 const R: f64 = 1e-3;
@@ -78,14 +78,14 @@ fn groups_by_box_cylinder_and_ids_match_the_end_layers_and_the_closed_form() {
             },
         ),
         (
-            Selection::Cylinder {
+            Selection::Cylinder(Cylinder {
                 dim: 2,
                 c1: 2.0 * R,
                 c2: 3.0 * R,
                 radius: 10.0 * R,
                 lo: -0.5 * R,
                 hi: 0.5 * R,
-            },
+            }),
             Selection::Ids(ids_of(nz - 1)),
         ),
     ];
@@ -116,14 +116,14 @@ fn groups_by_box_cylinder_and_ids_match_the_end_layers_and_the_closed_form() {
     );
     // A cylinder picking only the middle column's top particle: a punch, softer.
     let mut o = SpecimenOptions::new(2, 0.5 * R);
-    o.moved = Some(Selection::Cylinder {
+    o.moved = Some(Selection::Cylinder(Cylinder {
         dim: 2,
         c1: 2.0 * R,
         c2: 2.0 * R,
         radius: 0.5 * R,
         lo: top - 0.5 * R,
         hi: top + 0.5 * R,
-    });
+    }));
     let r = solve(&asm, &o).unwrap();
     assert_eq!(r.moved_particles, 1);
     assert!(r.platen_stiffness < k1 && r.platen_stiffness >= KN / (nz - 1) as f64);

@@ -71,7 +71,7 @@ fn yade_and_anisobond_agree_on_300_particles() {
 
     // The damped comparison discriminates: relaxation moves C well beyond the tolerance.
     let affine = voigt_tensor(&b, &k, packing.volume());
-    let relaxation = relative_difference(&affine, &v.c_relaxed);
+    let relaxation = relative_difference(&affine, &v.tensors.relaxed);
     assert!(
         relaxation > 0.02,
         "relaxed ≈ affine ({relaxation:.3e}): the tensor checks would not discriminate"
@@ -80,7 +80,7 @@ fn yade_and_anisobond_agree_on_300_particles() {
     // Independent closed form: the stress of step 2 (the first force evaluation that sees
     // the strain, YADE's one-step-late velGrad) is the affine C_Voigt·ε in both codes, to
     // the geometric non-linearity of a 1e-5 strain.
-    for rows in [&v.undamped_yade, &v.undamped_anisobond] {
+    for rows in [&v.undamped_runs.engine, &v.undamped_runs.integrator] {
         let s1 = rows.iter().find(|r| r.step == 1).unwrap();
         let s2 = rows.iter().find(|r| r.step == 2).unwrap();
         assert_eq!(s1.stress.amax(), 0.0, "stress after step 1 must be zero");
@@ -112,7 +112,8 @@ fn yade_and_anisobond_agree_on_300_particles() {
     let steps = 100;
     let rows = run_path_like_yade(&heavier, 5, opts.strain, steps, 0.0).unwrap();
     let yade: Vec<_> = v
-        .undamped_yade
+        .undamped_runs
+        .engine
         .iter()
         .filter(|r| r.step <= steps)
         .cloned()

@@ -8,14 +8,14 @@
 //! returns an [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
 //! `platen-stiffness` (|k_engine − k_solve| / k_solve, default tolerance 1e-3).
 
-use super::harness::{Check, EngineDetails, Report, Timing};
+use super::harness::{Check, EngineDetails, Report, SharedDetails, Timing};
 use crate::assembly::Assembly;
 use crate::homogenize::network::LeverArm;
 use crate::specimen::{self, Platens, SpecimenOptions, SpecimenReport};
 use crate::{Error, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub mod lammps;
 pub mod liggghts;
@@ -350,6 +350,14 @@ pub struct SpecimenJson<'a> {
     predicted: &'a SpecimenReport,
 }
 
+/// The summary ([`super::checks_summary`]): the engine's and the solve's lines, the checks
+/// table, wall times; the files: [`outputs`].
+impl SharedDetails for SpecimenDetails {
+    const CHECKS_HEADING: &'static str = "relative differences (dimensionless):";
+    const REPORT_JSON: &'static str = outputs::REPORT_JSON;
+    const CHECKS_CSV: &'static str = outputs::CHECKS_CSV;
+}
+
 impl EngineDetails for SpecimenDetails {
     type Json<'a> = SpecimenJson<'a>;
     const ENGINE: &'static str = "specimen";
@@ -680,16 +688,6 @@ pub fn compare(
             measured,
         },
     })
-}
-
-/// The report as text: the engine's and the solve's lines, the checks table, wall times.
-pub fn summary(r: &Report<SpecimenDetails>) -> String {
-    super::harness::checks_summary(r, "relative differences (dimensionless):")
-}
-
-/// Write the report JSON and the checks CSV into `dir` (atomically each).
-pub fn write_files(dir: &Path, r: &Report<SpecimenDetails>) -> Result<Vec<PathBuf>> {
-    super::harness::write_report_files(dir, r, outputs::REPORT_JSON, outputs::CHECKS_CSV)
 }
 
 /// A number as the LAMMPS and LIGGGHTS specimen decks write it (shortest round-trip, `e`).

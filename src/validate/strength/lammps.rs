@@ -26,7 +26,8 @@
 //! tension there are no contacts (`pair_style zero`), as before.
 
 use super::{
-    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
+    compare, order_breaks, reference, runs_per_process, Launch, Loading, Start, StrengthDetails,
+    StrengthRun, StrengthTest,
 };
 use crate::dem::laws::{BpmCoefficients, BpmNormalize, LammpsBpmLaw};
 use crate::dem::LawKind;
@@ -62,33 +63,20 @@ pub fn run(
         LammpsBondStyle::Anisobond { plugin } => Some(plugin.as_path()),
     };
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let (model, strengths, criteria) =
-        super::strength_setup("lammps", problem, LawKind::LammpsBpm)?;
+    let sub = if plugin.is_some() { PLUGIN_DIR } else { DIR };
+    let start = Start::of("lammps", LawKind::LammpsBpm, sub, problem, launch, test)?;
+    let (criteria, loading, dir) = (start.criteria, start.loading, start.dir);
     let breakage = LammpsBreakage {
-        strengths,
-        pi_hat: model.geometry.pi_hat,
+        strengths: start.strengths,
+        pi_hat: start.model.geometry.pi_hat,
         smooth: false,
     };
     let limits = bond_limits(k, &breakage)?;
-    let dt = super::time_step(problem, launch)?;
-    let mut loading = Loading::of(packing, test, dt, "lammps")?;
-    if test.loading == super::StrengthLoading::Compression {
-        loading.contacts = Some(super::contact_law(k, &breakage.strengths)?);
-    }
+    let dt = loading.time_step;
     let damping: Vec<[f64; 4]> = (0..bonds.len())
         .map(|b| bond_damping(packing, bonds, k, b, launch.density, test.damping_ratio))
         .collect();
-    let dir = problem
-        .dir
-        .join(if plugin.is_some() { PLUGIN_DIR } else { DIR });
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let mut types = vec![1u8; packing.len()];
-    for &p in &loading.bottom {
-        types[p] = 2;
-    }
-    for &p in &loading.top {
-        types[p] = 3;
-    }
+    let types = loading.atom_types(packing.len());
     match plugin {
         None => write_inputs(&dir, problem, &types, launch.density, &limits, &damping)?,
         Some(_) => write_plugin_inputs(&dir, problem, &types, launch.density, &limits)?,
@@ -105,8 +93,12 @@ pub fn run(
     let law = Box::new(LammpsBpmLaw::new(coeffs, BpmNormalize::Absolute)?);
     let reference = reference(problem, law, criteria, launch.density, 0.0, &loading, &test)?;
     reference.record(&mut timings, progress);
-    let mut measured = Vec::new();
-    for &np in &launch.processes {
+    let who = if plugin.is_some() {
+        "LAMMPS (bond_style anisobond)"
+    } else {
+        "LAMMPS"
+    };
+    let measured = runs_per_process(launch, "lammps", who, &mut timings, progress, |np| {
         for f in ["force.txt", "broken.txt"] {
             let _ = std::fs::remove_file(dir.join(f));
         }
@@ -117,30 +109,18 @@ pub fn run(
             "in.strength",
             "strength",
         )?;
-        let m = read_run(&dir, problem, np, &test, plugin.is_some(), seconds)?;
-        let style = if plugin.is_some() {
-            " (bond_style anisobond)"
-        } else {
-            ""
-        };
-        m.record_stage(
-            format!("lammps_np{np}"),
-            &format!("LAMMPS{style} on {np} process(es):"),
-            &mut timings,
-            progress,
-        );
-        measured.push(m);
-    }
+        read_run(&dir, problem, np, &test, plugin.is_some(), seconds)
+    })?;
+    let engine = if plugin.is_some() {
+        "lammps-plugin"
+    } else {
+        "lammps"
+    };
     compare(
-        if plugin.is_some() {
-            "lammps-plugin"
-        } else {
-            "lammps"
-        },
+        engine,
         "lammps-bpm",
         &test,
-        packing,
-        bonds.len(),
+        problem,
         reference,
         measured,
         dt,

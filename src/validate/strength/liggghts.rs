@@ -29,8 +29,8 @@
 //! The peak is then the first peak ([`super::peak_of`]).
 
 use super::{
-    compare, order_breaks, peak_of, reference, Launch, Loading, StrengthDetails, StrengthLoading,
-    StrengthRun, StrengthTest,
+    compare, order_breaks, peak_of, reference, runs_per_process, Launch, Loading, Start,
+    StrengthDetails, StrengthRun, StrengthTest,
 };
 use crate::dem::laws::{LinearBondKernel, MomentForm};
 use crate::dem::{ContactLaw, LawKind};
@@ -68,14 +68,14 @@ pub fn run(
     progress: Progress,
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let (_, strengths, criteria) = super::strength_setup("liggghts", problem, LawKind::Yade)?;
-    let dt = super::time_step(problem, launch)?;
-    let mut loading = Loading::of(packing, test, dt, "liggghts")?;
-    if test.loading == StrengthLoading::Compression {
-        loading.contacts = Some(super::contact_law(k, &strengths)?);
-    }
-    let dir = problem.dir.join(DIR);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let Start {
+        strengths,
+        criteria,
+        loading,
+        dir,
+        ..
+    } = Start::of("liggghts", LawKind::Yade, DIR, problem, launch, test)?;
+    let dt = loading.time_step;
     let adhesions = adhesions_of(packing, bonds, &strengths);
     write_bond_table_with_adhesions(&dir.join("bonds.csv"), bonds, k, None, &adhesions)?;
     write_data(&dir, problem, test, &loading, launch.density)?;
@@ -96,8 +96,8 @@ pub fn run(
     )?);
     let reference = reference(problem, law, criteria, launch.density, 0.0, &loading, test)?;
     reference.record(&mut timings, progress);
-    let mut measured = Vec::new();
-    for &np in &launch.processes {
+    let (stage, who) = ("liggghts", "LIGGGHTS");
+    let measured = runs_per_process(launch, stage, who, &mut timings, progress, |np| {
         for f in [force_file(np), breaks_file(np)] {
             let _ = std::fs::remove_file(dir.join(f));
         }
@@ -116,25 +116,10 @@ pub fn run(
             dir.join("log.liggghts"),
             dir.join(format!("log-np{np}.liggghts")),
         );
-        let m = read_run(&dir, problem, test, &loading, np, &out, seconds)?;
-        m.record_stage(
-            format!("liggghts_np{np}"),
-            &format!("LIGGGHTS on {np} process(es):"),
-            &mut timings,
-            progress,
-        );
-        measured.push(m);
-    }
+        read_run(&dir, problem, test, &loading, np, &out, seconds)
+    })?;
     compare(
-        "liggghts",
-        "yade",
-        test,
-        packing,
-        bonds.len(),
-        reference,
-        measured,
-        dt,
-        timings,
+        "liggghts", "yade", test, problem, reference, measured, dt, timings,
     )
 }
 
@@ -149,13 +134,7 @@ fn write_data(
 ) -> Result<()> {
     let packing = problem.packing;
     let n = packing.len();
-    let mut types = vec![1u8; n];
-    for &p in &loading.bottom {
-        types[p] = 2;
-    }
-    for &p in &loading.top {
-        types[p] = 3;
-    }
+    let types = loading.atom_types(n);
     let max_len = problem.bonds.length.iter().copied().fold(0.0, f64::max);
     let mut s = format!(
         "LIGGGHTS data file written by anisobond {}: strength test, free bar (atom_style \

@@ -18,7 +18,7 @@
 //! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
 //! breaking order, differ; 0 passes).
 
-use super::harness::{Check, EngineDetails, Progress, Report, Timing};
+use super::harness::{Check, EngineDetails, Progress, Report, SharedDetails, Timing};
 use crate::bonds::BondSet;
 use crate::dem::{
     BondCriteria, BondLaw, ContactLaw, Contacts, DemOptions, PrescribedMotion, Simulation,
@@ -29,7 +29,7 @@ use crate::{Error, Result, Vec3};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub mod lammps;
 pub mod liggghts;
@@ -86,6 +86,75 @@ pub fn strength_setup<'a>(
         &model.geometry,
     )?;
     Ok((model, strengths, criteria))
+}
+
+/// What every engine's strength run starts from ([`Start::of`]).
+pub struct Start<'a> {
+    /// The problem's model.
+    pub model: &'a crate::model::Model,
+    /// Its bonds' strengths ([`strength_setup`]).
+    pub strengths: BondStrengths,
+    /// The integrator's criteria for the engine's law.
+    pub criteria: BondCriteria,
+    /// The loading at the test's [`time_step`], with frictional contacts after breaking
+    /// ([`contact_law`]) in compression.
+    pub loading: Loading,
+    /// The engine's directory (created).
+    pub dir: PathBuf,
+}
+
+impl<'a> Start<'a> {
+    /// The start of `engine`'s run of `test` with `law` in the directory `sub` of the
+    /// problem's: [`strength_setup`], [`time_step`], [`Loading::of`] (with contacts in
+    /// compression), the directory created.
+    pub fn of(
+        engine: &str,
+        law: crate::dem::LawKind,
+        sub: &str,
+        problem: &super::Problem<'a>,
+        launch: &Launch,
+        test: &StrengthTest,
+    ) -> Result<Start<'a>> {
+        let (model, strengths, criteria) = strength_setup(engine, problem, law)?;
+        let dt = time_step(problem, launch)?;
+        let mut loading = Loading::of(problem.packing, test, dt, engine)?;
+        if test.loading == StrengthLoading::Compression {
+            loading.contacts = Some(contact_law(problem.springs, &strengths)?);
+        }
+        let dir = problem.dir.join(sub);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        Ok(Start {
+            model,
+            strengths,
+            criteria,
+            loading,
+            dir,
+        })
+    }
+}
+
+/// The engine's runs on each of `launch.processes` (`run(np)`), each recorded as the stage
+/// `{stage}_np{np}` of `timings` and said on `progress` as `{who} on {np} process(es):`.
+pub fn runs_per_process(
+    launch: &Launch,
+    stage: &str,
+    who: &str,
+    timings: &mut Vec<Timing>,
+    progress: Progress,
+    mut run: impl FnMut(usize) -> Result<StrengthRun>,
+) -> Result<Vec<StrengthRun>> {
+    let mut measured = Vec::with_capacity(launch.processes.len());
+    for &np in &launch.processes {
+        let m = run(np)?;
+        m.record_stage(
+            format!("{stage}_np{np}"),
+            &format!("{who} on {np} process(es):"),
+            timings,
+            progress,
+        );
+        measured.push(m);
+    }
+    Ok(measured)
 }
 
 /// The time step of a strength test: `safety` × the single-particle stable step of the
@@ -242,19 +311,13 @@ impl StrengthTest {
         if self.compared == 0 {
             return bad("at least one broken bond must be compared".into());
         }
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return bad(format!(
-                "the tolerance must be in (0, 1), got {}",
-                self.tolerance
-            ));
-        }
-        if !(self.peak_drop.is_finite() && self.peak_drop > 0.0 && self.peak_drop < 1.0) {
-            return bad(format!(
-                "the peak drop must be in (0, 1), got {}",
-                self.peak_drop
-            ));
-        }
-        Ok(())
+        let fractions = [("tolerance", self.tolerance), ("peak drop", self.peak_drop)];
+        super::harness::check_tolerances(
+            &format!("{engine} --strength"),
+            &fractions,
+            "in (0, 1)",
+            |v| v.is_finite() && v > 0.0 && v < 1.0,
+        )
     }
 }
 
@@ -369,6 +432,14 @@ pub struct StrengthJson<'a> {
     engine_peak: Vec<f64>,
     reference: &'a StrengthRun,
     measured: &'a [StrengthRun],
+}
+
+/// The summary ([`super::checks_summary`]): the runs' lines, the checks table, wall times;
+/// the files: [`outputs`].
+impl SharedDetails for StrengthDetails {
+    const CHECKS_HEADING: &'static str = "checks:";
+    const REPORT_JSON: &'static str = outputs::REPORT_JSON;
+    const CHECKS_CSV: &'static str = outputs::CHECKS_CSV;
 }
 
 impl EngineDetails for StrengthDetails {
@@ -523,6 +594,19 @@ impl Loading {
             sign: test.loading.sign(),
             contacts: None,
         })
+    }
+
+    /// The atom type of every particle of a packing of `n`, as the decks number them: 2 the
+    /// bottom layer, 3 the top one, 1 free.
+    pub fn atom_types(&self, n: usize) -> Vec<u8> {
+        let mut types = vec![1u8; n];
+        for &p in &self.bottom {
+            types[p] = 2;
+        }
+        for &p in &self.top {
+            types[p] = 3;
+        }
+        types
     }
 
     /// Start `sim` (of spheres at `positions`) on this loading along `axis`: the free
@@ -717,8 +801,7 @@ pub fn compare(
     engine: &'static str,
     law: &'static str,
     test: &StrengthTest,
-    packing: &Packing,
-    n_bonds: usize,
+    problem: &super::Problem,
     reference: StrengthRun,
     measured: Vec<StrengthRun>,
     time_step: f64,
@@ -730,6 +813,7 @@ pub fn compare(
             "no run measured a peak: the engine returned nothing to compare with the integrator",
         ));
     }
+    let packing = problem.packing;
     let area = section_area(packing, test.axis);
     let mut checks = Vec::new();
     for m in &measured {
@@ -764,7 +848,7 @@ pub fn compare(
     }
     Ok(Report {
         n_particles: packing.len(),
-        n_bonds,
+        n_bonds: problem.bonds.len(),
         time_step,
         checks,
         timings,
@@ -777,16 +861,6 @@ pub fn compare(
             measured,
         },
     })
-}
-
-/// The report as text: the runs' lines, the checks table, wall times.
-pub fn summary(r: &Report<StrengthDetails>) -> String {
-    super::harness::checks_summary(r, "checks:")
-}
-
-/// Write the report JSON and the checks CSV into `dir` (atomically each).
-pub fn write_files(dir: &Path, r: &Report<StrengthDetails>) -> Result<Vec<PathBuf>> {
-    super::harness::write_report_files(dir, r, outputs::REPORT_JSON, outputs::CHECKS_CSV)
 }
 
 #[cfg(test)]

@@ -18,14 +18,15 @@
 //! μ·F_n, goes on in both (`crate::dem::BondCriterion::handed_on_shear`).
 
 use super::{
-    compare, order_breaks, reference, Launch, Loading, StrengthDetails, StrengthRun, StrengthTest,
+    compare, order_breaks, reference, Launch, Loading, Start, StrengthDetails, StrengthRun,
+    StrengthTest,
 };
 use crate::dem::{build_law, LawKind};
 use crate::export::yade::{
     adhesions_of, files, run_yade_script, write_bond_table_with_adhesions, YADE_MODULE,
 };
 use crate::validate::harness::{Problem, Progress, Report};
-use crate::{Error, Result};
+use crate::Result;
 use std::path::Path;
 
 /// Sub-directory of the validation directory YADE runs in.
@@ -125,49 +126,50 @@ pub fn run(
     progress: Progress,
 ) -> Result<Report<StrengthDetails>> {
     let (packing, bonds, k) = (problem.packing, problem.bonds, problem.springs);
-    let (_, strengths, criteria) = super::strength_setup("yade", problem, LawKind::Yade)?;
     crate::export::yade::check_yade_runnable(problem.model)?;
-    let dt = super::time_step(problem, launch)?;
-    let mut loading = Loading::of(packing, test, dt, "yade")?;
-    if test.loading == super::StrengthLoading::Compression {
-        loading.contacts = Some(super::contact_law(k, &strengths)?);
-    }
-    let dir = problem.dir.join(DIR);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let start = Start::of("yade", LawKind::Yade, DIR, problem, launch, test)?;
+    let (loading, dir) = (&start.loading, &start.dir);
     // The free bar's files as `export yade` writes them (it exports periodic packings only):
     // the packing, the bond table with each bond's adhesions, the module.
-    let adhesions = adhesions_of(packing, bonds, &strengths);
+    let adhesions = adhesions_of(packing, bonds, &start.strengths);
     crate::packing::io::write_packing(&dir.join(files::PACKING), packing)?;
     write_bond_table_with_adhesions(&dir.join(files::BONDS), bonds, k, None, &adhesions)?;
     crate::io::write_string_atomic(&dir.join(files::MODULE), YADE_MODULE)?;
     let script_path = dir.join(SCRIPT);
-    crate::io::write_string_atomic(&script_path, &script(test, &loading, launch.density))?;
+    crate::io::write_string_atomic(&script_path, &script(test, loading, launch.density))?;
     let mut timings = Vec::new();
     let law = build_law(LawKind::Yade, packing, bonds, k)?;
-    let reference = reference(
-        problem,
-        law,
-        criteria,
-        launch.density,
-        DAMPING,
-        &loading,
-        test,
-    )?;
+    let (criteria, density) = (start.criteria, launch.density);
+    let reference = reference(problem, law, criteria, density, DAMPING, loading, test)?;
     reference.record(&mut timings, progress);
     let out = run_yade_script(&script_path, &[])?;
     let m = read_result(&dir.join(RESULT), problem, test, out.wall_seconds)?;
     m.record_stage("yade_process".into(), "YADE:", &mut timings, progress);
+    let dt = loading.time_step;
     compare(
         "yade",
         "yade",
         test,
-        packing,
-        bonds.len(),
+        problem,
         reference,
         vec![m],
         dt,
         timings,
     )
+}
+
+/// The rows of the JSON array `v[key]`, each an array read by `row`; `None` when the key is
+/// not an array or any row is refused.
+fn json_rows<T>(
+    v: &serde_json::Value,
+    key: &str,
+    row: impl Fn(&[serde_json::Value]) -> Option<T>,
+) -> Option<Vec<T>> {
+    v[key]
+        .as_array()?
+        .iter()
+        .map(|r| row(r.as_array()?))
+        .collect()
 }
 
 /// Read `strength.py`'s JSON (body ids are the packing's indices).
@@ -179,32 +181,20 @@ fn read_result(
 ) -> Result<StrengthRun> {
     let (v, bad) = crate::export::yade::read_result_json(path)?;
     let n = problem.packing.len() as u64;
-    let raw = v["broken"]
-        .as_array()
-        .ok_or_else(|| bad("broken"))?
-        .iter()
-        .map(|row| {
-            let r = row.as_array()?;
-            let (i, j, s) = (
-                r.first()?.as_u64()?,
-                r.get(1)?.as_u64()?,
-                r.get(2)?.as_u64()?,
-            );
-            (i < n && j < n).then_some((i as usize, j as usize, s))
-        })
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| bad("broken"))?;
-    let curve = v["force"]
-        .as_array()
-        .ok_or_else(|| bad("force"))?
-        .iter()
-        .map(|row| {
-            let r = row.as_array()?;
-            let f = r.get(1)?.as_f64()?;
-            f.is_finite().then_some((r.first()?.as_u64()?, f))
-        })
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| bad("force"))?;
+    let raw = json_rows(&v, "broken", |r| {
+        let (i, j, s) = (
+            r.first()?.as_u64()?,
+            r.get(1)?.as_u64()?,
+            r.get(2)?.as_u64()?,
+        );
+        (i < n && j < n).then_some((i as usize, j as usize, s))
+    })
+    .ok_or_else(|| bad("broken"))?;
+    let curve = json_rows(&v, "force", |r| {
+        let f = r.get(1)?.as_f64()?;
+        f.is_finite().then_some((r.first()?.as_u64()?, f))
+    })
+    .ok_or_else(|| bad("force"))?;
     let breaks = order_breaks("YADE", problem.bonds, &raw)?;
     let (peak_force, peak_step) =
         super::peak_of(test, &curve, &breaks).ok_or_else(|| bad("force"))?;
