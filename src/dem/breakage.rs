@@ -26,6 +26,15 @@ use crate::strength::criteria::{
 use crate::strength::{BondStrengths, Failure, LocalLoads, Mode};
 use crate::{Error, Result, Vec3};
 
+/// Per-thread buffers of [`BondCriteria::failed_in_chunk`]: one chunk's force norms and
+/// local loads.
+#[derive(Default)]
+struct ChunkScratch {
+    normal: Vec<f64>,
+    shear_sq: Vec<f64>,
+    local: Vec<LocalLoads>,
+}
+
 /// One bond breaking in the integrator.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BreakEvent {
@@ -135,12 +144,12 @@ pub(crate) fn law_name(kind: LawKind) -> &'static str {
 pub struct BondCriteria {
     law: LawKind,
     per_bond: Vec<BondCriterion>,
-    /// Per bond, the limits of [`BondCriteria::broken_in`]'s quick test for YADE's criterion
+    /// Per bond, the limits of [`BondCriteria::failed_in_chunk`]'s quick test for YADE's criterion
     /// without moments, as arrays: a_n (NaN for any other criterion, which never passes), a_s, tan φ.
     screen_normal: Vec<f64>,
     screen_shear: Vec<f64>,
     screen_tan: Vec<f64>,
-    /// Some bond has the quick test (else [`BondCriteria::broken_in`] needs no force norms).
+    /// Some bond has the quick test (else [`BondCriteria::failed_in_chunk`] needs no force norms).
     screens: bool,
     /// Some bond has LAMMPS's criterion (judged on the law's local loads of a whole chunk).
     bpm: bool,
@@ -282,57 +291,70 @@ impl BondCriteria {
         }
     }
 
-    /// Bonds `first..first + normal.len()` that break on the loads F_n = `normal[k]`,
-    /// |F_s|² = `shear_sq[k]` (the pair of slices) the law just computed, skipping those not `intact`, pushed to
-    /// `out` in bond order: [`BondCriterion::judge`] bond by bond. For YADE's criterion without
-    /// moments, a bond clearly inside both limits (−F_n ≤ a_n and |F_s|² below max F_s² by a
-    /// relative 1e-9, far above the rounding of |F_s|) holds without the square root and the
-    /// index's divisions, its limits read from arrays; any other is judged in full, so the
-    /// verdict is the criterion's (LAMMPS's on the chunk's [`BondLaw::local_loads_chunk`],
-    /// the loads [`BondCriterion::judge`] would take one call at a time).
-    pub(crate) fn broken_in(
+    /// Bonds `first..first + len` (one chunk of at most [`BOND_CHUNK`] bonds) that break on
+    /// the loads `law` just computed, skipping those not `intact`, pushed to `out` in bond
+    /// order: [`BondCriterion::judge`] bond by bond. For YADE's criterion without moments, a
+    /// bond clearly inside both limits (−F_n ≤ a_n and |F_s|² below max F_s² by a relative
+    /// 1e-9, far above the rounding of |F_s|) holds without the square root and the index's
+    /// divisions, on the law's [`BondLaw::bond_force_norms`] and limits read from arrays; any
+    /// other is judged in full, so the verdict is the criterion's (LAMMPS's on the chunk's
+    /// [`BondLaw::local_loads_chunk`], the loads [`BondCriterion::judge`] would take one call
+    /// at a time). The chunk's loads go to per-thread scratch buffers, overwritten before they
+    /// are read (no zeroing per chunk and step).
+    pub(crate) fn failed_in_chunk(
         &self,
         law: &dyn BondLaw,
         particles: &Particles,
         first: usize,
-        (normal, shear_sq): (&[f64], &[f64]),
+        len: usize,
         intact: &[bool],
         out: &mut Vec<(usize, Failure)>,
     ) {
-        let end = first + normal.len();
-        let mut local = [LocalLoads::default(); BOND_CHUNK];
-        let local = &mut local[..normal.len().min(BOND_CHUNK)];
-        let chunk_loads = self.bpm && local.len() == normal.len();
-        if chunk_loads {
-            law.local_loads_chunk(particles, first, local);
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<ChunkScratch> =
+                std::cell::RefCell::new(ChunkScratch::default());
         }
-        let an = &self.screen_normal[first..end];
-        let as_ = &self.screen_shear[first..end];
-        let tan = &self.screen_tan[first..end];
-        for k in 0..normal.len() {
-            let b = first + k;
-            if !intact[b] {
-                continue;
+        SCRATCH.with(|s| {
+            let s = &mut *s.borrow_mut();
+            let end = first + len;
+            let screens = self.screens;
+            if screens {
+                s.normal.resize(len.max(s.normal.len()), 0.0);
+                s.shear_sq.resize(len.max(s.shear_sq.len()), 0.0);
+                law.bond_force_norms(first, &mut s.normal[..len], &mut s.shear_sq[..len]);
             }
-            // YadeAdhesion::max_shear without cohesionDisablesFriction.
-            let max_fs = (as_[k] + normal[k] * tan[k]).max(0.0);
-            if -normal[k] <= an[k] && shear_sq[k] < max_fs * max_fs * (1.0 - 1e-9) {
-                continue;
+            let chunk_loads = self.bpm && len <= BOND_CHUNK;
+            if chunk_loads {
+                s.local
+                    .resize(len.max(s.local.len()), LocalLoads::default());
+                law.local_loads_chunk(particles, first, &mut s.local[..len]);
             }
-            let f = match &self.per_bond[b] {
-                BondCriterion::Bpm(l) if chunk_loads => lammps_bpm(l, &local[k]),
-                c => c.judge(law, particles, b),
-            };
-            if f.broken {
-                out.push((b, f));
+            let an = &self.screen_normal[first..end];
+            let as_ = &self.screen_shear[first..end];
+            let tan = &self.screen_tan[first..end];
+            for k in 0..len {
+                let b = first + k;
+                if !intact[b] {
+                    continue;
+                }
+                if screens {
+                    // YadeAdhesion::max_shear without cohesionDisablesFriction (NaN limits of
+                    // any other criterion never pass).
+                    let (normal, shear_sq) = (s.normal[k], s.shear_sq[k]);
+                    let max_fs = (as_[k] + normal * tan[k]).max(0.0);
+                    if -normal <= an[k] && shear_sq < max_fs * max_fs * (1.0 - 1e-9) {
+                        continue;
+                    }
+                }
+                let f = match &self.per_bond[b] {
+                    BondCriterion::Bpm(l) if chunk_loads => lammps_bpm(l, &s.local[k]),
+                    c => c.judge(law, particles, b),
+                };
+                if f.broken {
+                    out.push((b, f));
+                }
             }
-        }
-    }
-
-    /// Whether [`BondCriteria::broken_in`] reads the force norms (some bond has the quick
-    /// test; without it every intact bond is judged in full and they go unread).
-    pub(crate) fn reads_force_norms(&self) -> bool {
-        self.screens
+        });
     }
 
     /// The bond law these criteria are for.

@@ -89,10 +89,23 @@ fn check_springs(kn: f64, ks: f64, what: &str) -> Result<()> {
 
 /// A sorted set of unordered particle pairs, for the exclusion predicate of
 /// [`Contacts::compute`] (the pairs held by intact bonds): `contains` is a binary search.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+/// Removing marks the pair instead of shifting the sorted list (a run that breaks most of its
+/// bonds would otherwise move the list once per break, quadratic in the bonds).
+#[derive(Clone, Debug, Default)]
 pub struct PairSet {
     pairs: Vec<(u32, u32)>,
+    /// Per entry of `pairs`: removed.
+    removed: Vec<bool>,
+    len: usize,
 }
+
+impl PartialEq for PairSet {
+    fn eq(&self, other: &Self) -> bool {
+        self.len == other.len && self.live().eq(other.live())
+    }
+}
+
+impl Eq for PairSet {}
 
 impl PairSet {
     /// The set of the given pairs (either order; duplicates and self-pairs are dropped).
@@ -104,33 +117,50 @@ impl PairSet {
             .collect();
         pairs.sort_unstable();
         pairs.dedup();
-        PairSet { pairs }
+        let len = pairs.len();
+        PairSet {
+            removed: vec![false; len],
+            pairs,
+            len,
+        }
+    }
+
+    /// The pairs in the set, in order.
+    fn live(&self) -> impl Iterator<Item = &(u32, u32)> {
+        self.pairs
+            .iter()
+            .zip(&self.removed)
+            .filter(|(_, r)| !**r)
+            .map(|(p, _)| p)
     }
 
     /// Whether the pair {i, j} is in the set.
     pub fn contains(&self, i: usize, j: usize) -> bool {
-        self.pairs.binary_search(&key(i, j)).is_ok()
+        self.pairs
+            .binary_search(&key(i, j))
+            .is_ok_and(|k| !self.removed[k])
     }
 
     /// Remove {i, j} (a bond broke); returns whether it was there.
     pub fn remove(&mut self, i: usize, j: usize) -> bool {
         match self.pairs.binary_search(&key(i, j)) {
-            Ok(k) => {
-                self.pairs.remove(k);
+            Ok(k) if !self.removed[k] => {
+                self.removed[k] = true;
+                self.len -= 1;
                 true
             }
-            Err(_) => false,
+            _ => false,
         }
     }
 
     /// Number of pairs.
     pub fn len(&self) -> usize {
-        self.pairs.len()
+        self.len
     }
 
     /// True when empty.
     pub fn is_empty(&self) -> bool {
-        self.pairs.is_empty()
+        self.len == 0
     }
 }
 
@@ -848,10 +878,15 @@ fn pair_kernel(
         p.position[j]
     };
     let l = xj - xi;
-    let d = l.norm();
     let (ri, rj) = (p.radius[i], p.radius[j]);
-    let pd = ri + rj - d;
-    if pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
+    let d2 = l.norm_squared();
+    let reach = ri + rj;
+    // Clearly apart (|l|² above (R_i + R_j)² by far more than rounding): no square root; any
+    // other pair takes the exact test below.
+    let apart = d2 > reach * reach * (1.0 + 1e-9);
+    let d = if apart { f64::INFINITY } else { d2.sqrt() };
+    let pd = reach - d;
+    if apart || pd < 0.0 || d.is_nan() || d == 0.0 || (inp.excluded)(i, j) {
         // Apart (YADE erases the interaction) or held by a bond: no contact, no memory. A
         // pair neither active nor carrying a broken bond's shear already has both zero.
         if st.active || st.carried {

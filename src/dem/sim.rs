@@ -858,20 +858,9 @@ impl Simulation {
             .into_par_iter()
             .map(|c| {
                 let first = c * BOND_CHUNK;
-                let len = BOND_CHUNK.min(n - first);
-                let (mut normal, mut shear_sq) = ([0.0; BOND_CHUNK], [0.0; BOND_CHUNK]);
-                if criteria.reads_force_norms() {
-                    law.bond_force_norms(first, &mut normal[..len], &mut shear_sq[..len]);
-                }
                 let mut out = Vec::new();
-                criteria.broken_in(
-                    law,
-                    particles,
-                    first,
-                    (&normal[..len], &shear_sq[..len]),
-                    intact,
-                    &mut out,
-                );
+                let len = BOND_CHUNK.min(n - first);
+                criteria.failed_in_chunk(law, particles, first, len, intact, &mut out);
                 out
             })
             .collect();

@@ -538,9 +538,10 @@ fn energy_closes_at_the_default_time_step_in_a_run_to_failure_with_contacts() {
 }
 
 /// A 8 × 8 × 17 bar (1,088 spheres, > 2 bond and particle chunks) with Weibull-scattered
-/// strengths, pulled fast with moment springs on: the break events (bond, step, mode,
-/// index, energy) and the final positions are bit-identical on 1 and 2 threads, and with
-/// the AVX2 lanes of law (a) or its scalar kernel.
+/// strengths, pulled fast with moment springs on (law (a) along the bar; law (d) also
+/// sheared, so that the particles turn and its lanes see bending and twist): the break events
+/// (bond, step, mode, index, energy) and the final positions are bit-identical on 1 and 2
+/// threads, and with the AVX2 lanes of each law or its scalar kernel.
 #[test]
 fn breaks_are_the_same_on_one_and_two_threads_and_with_or_without_lanes() {
     let (nx, ny, nz) = (8, 8, 17);
@@ -552,6 +553,20 @@ fn breaks_are_the_same_on_one_and_two_threads_and_with_or_without_lanes() {
         }),
         ..isotropic(1.0e6, 2.0e6)
     };
+    for law in [LawKind::Yade, LawKind::LammpsBpm] {
+        same_breaks_on_threads_and_lanes(law, nz, &packing, &bonds, &spec);
+    }
+}
+
+/// The checks of [`breaks_are_the_same_on_one_and_two_threads_and_with_or_without_lanes`]
+/// for one law.
+fn same_breaks_on_threads_and_lanes(
+    law: LawKind,
+    nz: usize,
+    packing: &Packing,
+    bonds: &BondSet,
+    spec: &StrengthSpec,
+) {
     let run = |threads: usize, simd: bool| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -564,9 +579,10 @@ fn breaks_are_the_same_on_one_and_two_threads_and_with_or_without_lanes() {
                     simd,
                     ..Default::default()
                 };
-                let mut sim = simulation(LawKind::Yade, &packing, &bonds, &spec, true, &opts);
+                let mut sim = simulation(law, packing, bonds, spec, true, &opts);
                 let v = (nz - 1) as f64 * (R * R / KN) * 1e6 / (400.0 * sim.time_step());
-                pull(&mut sim, &packing, nz, v);
+                let shear = if law == LawKind::Yade { 0.0 } else { 0.3 * v };
+                move_top(&mut sim, packing, nz, Vec3::new(shear, 0.0, v));
                 sim.run(1500, &|_| {}).unwrap();
                 let events: Vec<(usize, u64, Mode, u64, u64)> = sim
                     .break_events()
@@ -591,16 +607,20 @@ fn breaks_are_the_same_on_one_and_two_threads_and_with_or_without_lanes() {
             })
     };
     let one = run(1, true);
-    println!("{} bonds broke in 1,500 steps", one.0.len());
-    assert!(one.0.len() > 50, "only {} bonds broke", one.0.len());
+    println!("{law:?}: {} bonds broke in 1,500 steps", one.0.len());
+    assert!(
+        one.0.len() > 50,
+        "{law:?}: only {} bonds broke",
+        one.0.len()
+    );
     assert!(
         one.0
             .windows(2)
             .all(|w| (w[0].1, w[0].0) < (w[1].1, w[1].0)),
         "events not in (step, bond) order"
     );
-    assert!(one == run(2, true), "1 vs 2 threads");
-    assert!(one == run(2, false), "lanes vs scalar kernel");
+    assert!(one == run(2, true), "{law:?}: 1 vs 2 threads");
+    assert!(one == run(2, false), "{law:?}: lanes vs scalar kernel");
 }
 
 /// Refusals: criteria for another law or another number of bonds.

@@ -286,6 +286,12 @@ unsafe fn kernel4(
         le(vv, mul(splat(SMALL_ANGLE_LIMIT * SMALL_ANGLE_LIMIT), ww)),
         zero,
     );
+    // Lanes without moment springs (broken bonds) do not use their rotation (their moments
+    // and energy are selected out, as the scalar kernel skips them): the series for them too,
+    // never libm.
+    let ones = splat(f64::from_bits(u64::MAX));
+    let used = select(gt(kr, zero), ones, gt(ktw, zero));
+    let small = select(used, small, ones);
     let rotation = if movemask(small) == 0b1111 {
         let inv = div(splat(1.0), abs(qw));
         let u = mul(mul(vv, inv), inv);
@@ -296,9 +302,13 @@ unsafe fn kernel4(
         let f = mul(mul(splat(2.0), poly), inv);
         qv.scale(select(lt(qw, zero), neg(f), f))
     } else {
-        let (w, v) = (st4(qw), qv.lanes());
+        let (w, v, used) = (st4(qw), qv.lanes(), movemask(used));
         V::gather(std::array::from_fn(|l| {
-            rotation_vector_of(&Quat { w: w[l], v: v[l] })
+            if used & (1 << l) != 0 {
+                rotation_vector_of(&Quat { w: w[l], v: v[l] })
+            } else {
+                Vec3::zeros()
+            }
         }))
     };
     let twist = rotation.dot(n);

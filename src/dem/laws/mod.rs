@@ -17,6 +17,8 @@
 //! velocity at the contact point including the periodic image's velocity L·H_prev·c);
 //! they differ in the springs and in how moments accumulate.
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod bpm_lanes;
 pub(crate) mod kumar;
 pub(crate) mod lammps_bpm;
 #[cfg(target_arch = "x86_64")]
