@@ -13,7 +13,7 @@ use crate::dem::stress_tests::{
 use crate::dem::{build_law, DemOptions, LawKind, Simulation};
 use crate::grains::Grains;
 use crate::homogenize::laf::{laf_tensor, LafResult};
-use crate::homogenize::local::{local_fields, LocalFields, LocalOptions};
+use crate::homogenize::local::{local_fields_with_term, LocalFields, LocalOptions};
 use crate::homogenize::network::LeverArm;
 use crate::homogenize::prestress::{prestressed_tensor, Prestress, PrestressedTensor};
 use crate::homogenize::relaxed::{relaxed_tensor_with_term, RelaxedOptions, RelaxedResult};
@@ -695,8 +695,8 @@ impl Assembly {
     /// stress and fitted strain, per bond the force and moment
     /// ([`crate::homogenize::local_fields`]; docs/references.md "Local fields"). Refuses as
     /// [`Method::Relaxed`] does (a box of mixed periodicity, a network carrying no load
-    /// across the cell) and ([`Error::Model`]) a model with a many-body term, whose share of
-    /// the local stress is not given yet.
+    /// across the cell). With the model's many-body term, the fluctuation and each
+    /// particle's stress include it ([`crate::homogenize::local_fields_with_term`]).
     pub fn local_fields(
         &self,
         strain: &crate::tensor::Voigt6,
@@ -706,14 +706,11 @@ impl Assembly {
             self.packing.cell.as_ref(),
             &Method::Relaxed(options.relaxed),
         )?;
-        if self.model.manybody.is_some() {
-            return Err(Error::Model(
-                "local fields: the model has a many-body term ([manybody]), whose share of each particle's stress is not given yet; remove [manybody] from the model for the springs' local fields"
-                    .into(),
-            ));
-        }
+        // The model's [manybody] term, each particle its grain's D: its share of each
+        // particle's stress joins the springs' (homogenize::local_fields_with_term).
+        let term = self.manybody()?;
         let (p, b, k) = (&self.packing, &self.bonds, &self.springs);
-        let fields = local_fields(p, b, k, strain, options)?;
+        let fields = local_fields_with_term(p, b, k, term.as_ref(), strain, options)?;
         check_relaxed_scale(&fields.relaxed.c, p, b, k, "relaxed")?;
         Ok(fields)
     }

@@ -337,6 +337,7 @@ keyed! {
     euler_file("euler_file") = read: Read;
     seed("seed") = read: Read;
     boundary_factor("boundary_factor") = read: Read;
+    boundary_strength_factor("boundary_strength_factor") = read: Read;
     orientation("orientation") = name: DeserializeOwned;
     boundary("boundary") = name: DeserializeOwned;
     model("model") = name: DeserializeOwned;
@@ -345,6 +346,52 @@ keyed! {
     bond_length("bond_length") = name: DeserializeOwned;
     moments("moments") = name: DeserializeOwned;
 }
+
+/// Whether a model-file key is left out when its table is written back: an `Option` when
+/// `None`; a key with a default value (an enum's name) is always written.
+pub trait Absent {
+    /// True when the key is not written.
+    fn absent(&self) -> bool {
+        false
+    }
+}
+
+impl<T> Absent for Option<T> {
+    fn absent(&self) -> bool {
+        self.is_none()
+    }
+}
+
+/// For `#[serde(skip_serializing_if = "crate::keys::absent")]`: [`Absent::absent`].
+pub fn absent<T: Absent>(value: &T) -> bool {
+    value.absent()
+}
+
+/// A model-file table as written (`Raw*`), one line per key, `name: Type = "reader"`: each
+/// field defaults when its key is absent, is read by its [`keyed!`] reader (which names the
+/// key in a refusal) and is left out when written back if [`absent`] (a `None`). A field's
+/// type other than an `Option` implements [`Absent`] (always written).
+macro_rules! table {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $($field:ident: $ty:ty = $reader:literal,)*
+        }
+    ) => {
+        $(#[$meta])*
+        $vis struct $name {
+            $(
+                #[serde(
+                    default,
+                    deserialize_with = $reader,
+                    skip_serializing_if = "crate::keys::absent"
+                )]
+                $field: $ty,
+            )*
+        }
+    };
+}
+pub(crate) use table;
 
 #[cfg(test)]
 mod tests {

@@ -295,7 +295,8 @@ fn breakage(
         return Ok(None);
     };
     spec.refuse_cut_sections("export lammps")?;
-    let strengths = anisobond::strength::assign_strength(&asm.packing, &asm.bonds, &spec)?;
+    let (p, b, g) = (&asm.packing, &asm.bonds, asm.model.grains.as_ref());
+    let strengths = anisobond::grains::assign_strength_by_grain(p, b, &spec, g, asm.grains())?;
     Ok(Some(anisobond::export::lammps::LammpsBreakage {
         strengths,
         pi_hat: asm.model.geometry.pi_hat,

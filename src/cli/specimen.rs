@@ -3,7 +3,7 @@
 
 use super::cell;
 use super::output::check_json_numbers;
-use anisobond::export::vtk::{write_bonds_vtu, write_particles_vtu, StrainedState};
+use anisobond::export::vtk::{write_bonds_vtu_grains, write_particles_vtu_grains, StrainedState};
 use anisobond::io::OutputSet;
 use anisobond::specimen::{
     Lateral, Load, Platens, Selection, Shape, SolverChoice, SpecimenOptions, SpecimenReport,
@@ -203,14 +203,11 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         rotation: r.rotation_field.clone(),
         force: r.bond_force.clone(),
     };
-    write_particles_vtu(&dir.join("particles.vtu"), &asm.packing, Some(&state))?;
-    write_bonds_vtu(
-        &dir.join("bonds.vtu"),
-        &asm.packing,
-        &asm.bonds,
-        &asm.springs,
-        Some(&state),
-    )?;
+    // A polycrystal's grain ids: `grain` per particle, `grain_i`, `grain_j` per bond.
+    let grains = asm.grains().map(|g| g.grain.as_slice());
+    let (p, b, k) = (&asm.packing, &asm.bonds, &asm.springs);
+    write_particles_vtu_grains(&dir.join("particles.vtu"), p, Some(&state), grains)?;
+    write_bonds_vtu_grains(&dir.join("bonds.vtu"), p, b, k, Some(&state), grains)?;
     out.commit()?;
     print_report(&r, &a.output);
     Ok(())

@@ -18,10 +18,11 @@
 
 use crate::assembly::Assembly;
 use crate::bonds::{table, BondSet, BondStiffness};
+use crate::grains::assign_strength_by_grain;
 use crate::model::Model;
 use crate::packing::{self, Packing};
 use crate::strength::criteria::YadeAdhesion;
-use crate::strength::{assign_strength, StrengthSpec};
+use crate::strength::StrengthSpec;
 use crate::tensor::{Stiffness6, Voigt6};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -60,7 +61,8 @@ pub mod files {
 pub const ADHESION_COLUMNS: [&str; 3] = ["normal_adhesion", "shear_adhesion", "tan_friction"];
 
 /// Every bond's YADE CohFrict limits by `model`'s `[strength]` table, `None` when it has
-/// none: the bond's strength ([`assign_strength`]: scheme, planes of weakness, scatter) as
+/// none: the bond's strength ([`assign_strength_by_grain`]: scheme, planes of weakness,
+/// scatter, the grain-boundary factor) as
 /// `Ip2_CohFrictMat_CohFrictMat_CohFrictPhys` turns cohesions into adhesions,
 /// a_n = σ_t·r², a_s = c·r², r = min(R_i, R_j) ([`YadeAdhesion::of`]; YADE 2023.02a's moments
 /// are elastic). A joint bond takes its joint's σ_t, c_w, μ_w, judged by YADE's own law along
@@ -78,7 +80,7 @@ pub fn yade_adhesions(
     Ok(Some(adhesions_of(
         packing,
         bonds,
-        &assign_strength(packing, bonds, &spec)?,
+        &assign_strength_by_grain(packing, bonds, &spec, model.grains.as_ref(), None)?,
     )))
 }
 

@@ -12,6 +12,8 @@
 //! - `files.rs`: a user's grain ids per particle and Bunge angles per grain.
 //! - `spec.rs`: the `[grains]` table of a model file and the grains it builds on a packing.
 //! - `map.rs`: [`Grains`], the grain of every particle and the orientation of every grain.
+//! - `strength.rs`: bond strengths with the boundary strength factor
+//!   ([`assign_strength_by_grain`]).
 //!
 //! Convention: a grain's orientation is the Bunge matrix g, which maps **sample (lab)
 //! coordinates to crystal coordinates** (v_crystal = g·v_sample), the same sense as the cubic
@@ -23,6 +25,7 @@ pub(crate) mod files;
 pub(crate) mod map;
 pub(crate) mod orientation;
 pub(crate) mod spec;
+pub(crate) mod strength;
 
 pub use assign::nearest_centres;
 pub use centres::{count_for_mean_size, seeded_centres, GrainRegion};
@@ -30,3 +33,4 @@ pub use files::{read_euler_file, read_grain_file};
 pub use map::Grains;
 pub use orientation::{bunge_deg, bunge_matrix, fibre_orientation, uniform_orientation};
 pub use spec::{BoundaryRule, GrainMap, GrainsSpec, Orientations};
+pub use strength::assign_strength_by_grain;

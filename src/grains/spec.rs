@@ -58,6 +58,10 @@ pub struct GrainsSpec {
     pub boundary: BoundaryRule,
     /// That combination is multiplied by this factor (finite, > 0; default 1).
     pub boundary_factor: f64,
+    /// A boundary bond's strengths (σ_t, c, σ_b, τ_t; not the friction) are those the
+    /// `[strength]` table gives it, times this factor (finite, > 0; default 1):
+    /// [`super::assign_strength_by_grain`].
+    pub boundary_strength_factor: f64,
 }
 
 /// `boundary = "mean" | "series" | "contact-point"`: the springs of a bond across a grain
@@ -104,69 +108,28 @@ pub(crate) enum RawOrientation {
     EulerFile,
 }
 
-/// `[grains]` as written; every value read by [`crate::keys`], which names the key.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct RawGrains {
-    #[serde(
-        default,
-        deserialize_with = "keys::count",
-        skip_serializing_if = "Option::is_none"
-    )]
-    count: Option<u64>,
-    #[serde(
-        default,
-        deserialize_with = "keys::mean_size",
-        skip_serializing_if = "Option::is_none"
-    )]
-    mean_size: Option<f64>,
-    #[serde(
-        default,
-        deserialize_with = "keys::file",
-        skip_serializing_if = "Option::is_none"
-    )]
-    file: Option<String>,
-    #[serde(default, deserialize_with = "keys::orientation")]
-    orientation: RawOrientation,
-    #[serde(
-        default,
-        deserialize_with = "keys::axis",
-        skip_serializing_if = "Option::is_none"
-    )]
-    axis: Option<[f64; 3]>,
-    #[serde(
-        default,
-        deserialize_with = "keys::direction",
-        skip_serializing_if = "Option::is_none"
-    )]
-    direction: Option<[f64; 3]>,
-    #[serde(
-        default,
-        deserialize_with = "keys::spread_deg",
-        skip_serializing_if = "Option::is_none"
-    )]
-    spread_deg: Option<f64>,
-    #[serde(
-        default,
-        deserialize_with = "keys::euler_file",
-        skip_serializing_if = "Option::is_none"
-    )]
-    euler_file: Option<String>,
-    #[serde(
-        default,
-        deserialize_with = "keys::seed",
-        skip_serializing_if = "Option::is_none"
-    )]
-    seed: Option<u64>,
-    #[serde(default, deserialize_with = "keys::boundary")]
-    boundary: BoundaryRule,
-    #[serde(
-        default,
-        deserialize_with = "keys::boundary_factor",
-        skip_serializing_if = "Option::is_none"
-    )]
-    boundary_factor: Option<f64>,
+keys::table! {
+    /// `[grains]` as written; every value read by [`crate::keys`], which names the key.
+    #[derive(Clone, Debug, Default, Deserialize, Serialize)]
+    #[serde(deny_unknown_fields)]
+    pub(crate) struct RawGrains {
+        count: Option<u64> = "keys::count",
+        mean_size: Option<f64> = "keys::mean_size",
+        file: Option<String> = "keys::file",
+        orientation: RawOrientation = "keys::orientation",
+        axis: Option<[f64; 3]> = "keys::axis",
+        direction: Option<[f64; 3]> = "keys::direction",
+        spread_deg: Option<f64> = "keys::spread_deg",
+        euler_file: Option<String> = "keys::euler_file",
+        seed: Option<u64> = "keys::seed",
+        boundary: BoundaryRule = "keys::boundary",
+        boundary_factor: Option<f64> = "keys::boundary_factor",
+        boundary_strength_factor: Option<f64> = "keys::boundary_strength_factor",
+    }
 }
+
+impl keys::Absent for RawOrientation {}
+impl keys::Absent for BoundaryRule {}
 
 /// `[grains]` read and checked (the refusal at the table's position): what the model reader
 /// keeps until it resolves the table's file paths ([`GrainsSpec::from_raw`]).
@@ -308,18 +271,26 @@ impl GrainsSpec {
                     .into(),
             ));
         }
-        let boundary_factor = raw.boundary_factor.unwrap_or(1.0);
-        if !(boundary_factor.is_finite() && boundary_factor > 0.0) {
-            return Err(Error::Model(format!(
-                "[grains] boundary_factor = {boundary_factor}: expected a finite factor > 0"
-            )));
-        }
+        let factor = |value: Option<f64>, key: &str| -> Result<f64> {
+            let f = value.unwrap_or(1.0);
+            if f.is_finite() && f > 0.0 {
+                Ok(f)
+            } else {
+                Err(Error::Model(format!(
+                    "[grains] {key} = {f}: expected a finite factor > 0"
+                )))
+            }
+        };
         Ok(GrainsSpec {
             map,
             orientation,
             seed,
             boundary: raw.boundary,
-            boundary_factor,
+            boundary_factor: factor(raw.boundary_factor, "boundary_factor")?,
+            boundary_strength_factor: factor(
+                raw.boundary_strength_factor,
+                "boundary_strength_factor",
+            )?,
         })
     }
 
@@ -330,6 +301,7 @@ impl GrainsSpec {
             seed: Some(self.seed),
             boundary: self.boundary,
             boundary_factor: Some(self.boundary_factor),
+            boundary_strength_factor: Some(self.boundary_strength_factor),
             ..RawGrains::default()
         };
         match &self.map {

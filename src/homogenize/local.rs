@@ -12,10 +12,18 @@
 //! the least-squares gradient of its bonds' branch-vector fluctuations (the best-fit strain of
 //! Liao, Chang, Young & Chang 1997; the same fit as the many-body term, docs/manybody.md "The
 //! energy"), over its load-carrying bonds.
+//!
+//! With the many-body term ([`local_fields_with_term`], docs/manybody.md) the fluctuation is
+//! that of the springs and the term together, and particle p's stress adds the term's own:
+//! (V_p^D/V_p)·D_p:ε_p^D, with ε_p^D = sym(F_p − I) the term's fitted strain of p (its own
+//! fit over all its bonds, linear in the fluctuation) and V_p^D its volume in the term. The
+//! term's nominal stress is (1/V) Σ_b g_b ⊗ L_b = (1/V) Σ_p V_p^D P_p (Σ_b a_b ⊗ L_b = I), so
+//! the same split gives Σ_p V_p σ_p = V σ with the term too (Hill's lemma for the particles).
 
 use super::network::{csr, LeverArm};
-use super::relaxed::{relaxed_solve, RelaxedOptions, RelaxedResult};
+use super::relaxed::{relaxed_solve, relaxed_solve_with_term, RelaxedOptions, RelaxedResult};
 use crate::bonds::{BondSet, BondStiffness};
+use crate::manybody::ManyBody;
 use crate::packing::{Packing, PeriodicCell};
 use crate::tensor::{strain_tensor, Voigt6, VOIGT_PAIRS};
 use crate::{Error, Mat3, Result, Vec3};
@@ -88,7 +96,8 @@ pub struct Unfitted {
 pub struct LocalFields {
     /// The macroscopic engineering strain applied (Voigt).
     pub strain: Voigt6,
-    /// The macroscopic Love stress (1/V) Σ_b sym(l_b ⊗ f_b) of the bond forces (Pa).
+    /// The macroscopic stress (Pa): the Love stress (1/V) Σ_b sym(l_b ⊗ f_b) of the bond
+    /// forces, plus the many-body term's (1/V) Σ_p V_p^D D_p:ε_p^D where there is one.
     pub stress: Voigt6,
     /// The relaxed solve: its tensor `c` (so c·strain is the stress of the exact solution),
     /// iterations, residual, null space.
@@ -104,8 +113,12 @@ pub struct LocalFields {
     pub rotation: Vec<Vec3>,
     /// V_p of each particle (m³): V·r_p³/Σ r³.
     pub particle_volume: Vec<f64>,
-    /// Love–Weber stress σ_p of each particle (Pa, Voigt).
+    /// Stress σ_p of each particle (Pa, Voigt): Love–Weber of its bonds' forces, plus the
+    /// term's share `particle_term_stress[p]` where there is a term.
     pub particle_stress: Vec<Voigt6>,
+    /// The many-body term's share of σ_p, (V_p^D/V_p)·D_p:ε_p^D (Pa, Voigt; already in
+    /// `particle_stress`); empty without a term.
+    pub particle_term_stress: Vec<Voigt6>,
     /// Fitted engineering strain ε_p of each particle (Voigt), `None` where it cannot be
     /// fitted ([`LocalFields::unfitted`]).
     pub particle_strain: Vec<Option<Voigt6>>,
@@ -204,6 +217,22 @@ pub fn local_fields(
     strain: &Voigt6,
     options: &LocalOptions,
 ) -> Result<LocalFields> {
+    local_fields_with_term(packing, bonds, springs, None, strain, options)
+}
+
+/// [`local_fields`] of the springs together with the many-body term `term` (built on the
+/// same packing and bonds, [`crate::manybody::ManyBodySpec::build_with_grains`]): the
+/// fluctuation minimises the total energy (as [`super::relaxed_tensor_with_term`]) and each
+/// particle's stress adds the term's (module docs), so the per-particle stresses still add up
+/// to V times the macroscopic stress, c·ε at equilibrium. `None` is [`local_fields`].
+pub fn local_fields_with_term(
+    packing: &Packing,
+    bonds: &BondSet,
+    springs: &BondStiffness,
+    term: Option<&ManyBody>,
+    strain: &Voigt6,
+    options: &LocalOptions,
+) -> Result<LocalFields> {
     PeriodicCell::require_fully_periodic(packing.cell.as_ref(), "local fields")?;
     if packing.cell.is_none() {
         return Err(Error::Invalid(
@@ -226,7 +255,10 @@ pub fn local_fields(
         )));
     }
     let ropts = &options.relaxed;
-    let sol = relaxed_solve(packing, bonds, springs, ropts, None)?;
+    let sol = match term {
+        Some(_) => relaxed_solve_with_term(packing, bonds, springs, term, ropts)?,
+        None => relaxed_solve(packing, bonds, springs, ropts, None)?,
+    };
     let n = packing.len();
     let nb = bonds.len();
     let eps = strain_tensor(strain);
@@ -274,12 +306,29 @@ pub fn local_fields(
     for (b, f) in bond_force.iter().enumerate() {
         love += bonds.branch(b) * f.transpose();
     }
-    let stress = stress_voigt(&love) / volume;
+    let mut stress = stress_voigt(&love) / volume;
 
     // Particle volumes V·r³/Σr³ (summed in particle order).
     let r3: Vec<f64> = packing.radii.iter().map(|r| r * r * r).collect();
     let total: f64 = r3.iter().sum();
     let particle_volume: Vec<f64> = r3.iter().map(|x| volume * x / total).collect();
+
+    // The term's stress V_p^D D_p:ε_p^D of each particle, and its sum in particle order.
+    let term_stress: Vec<Voigt6> = match term {
+        Some(t) => {
+            let own = term_particle_stress(t, &eps, &fluctuation);
+            let mut sum = Voigt6::zeros();
+            for s in &own {
+                sum += s;
+            }
+            stress += sum / volume;
+            own.iter()
+                .zip(&particle_volume)
+                .map(|(s, v)| s / *v)
+                .collect()
+        }
+        None => Vec::new(),
+    };
 
     // Every particle's bonds, in bond order.
     let (start, inc) = csr(
@@ -302,7 +351,10 @@ pub fn local_fields(
                 let arm = if bonds.i[b] as usize == p { ri } else { rj };
                 s += (bonds.normal[b] * arm) * bond_force[b].transpose();
             }
-            let sigma = stress_voigt(&s) / particle_volume[p];
+            let mut sigma = stress_voigt(&s) / particle_volume[p];
+            if let Some(t) = term_stress.get(p) {
+                sigma += t;
+            }
             let fit = fitted_strain(p, own, bonds, &fluctuation, &active, options.conditioning)
                 .map(|g| strain + strain_voigt(&g));
             (sigma, fit)
@@ -340,11 +392,34 @@ pub fn local_fields(
         rotation,
         particle_volume,
         particle_stress,
+        particle_term_stress: term_stress,
         particle_strain,
         unfitted,
         bond_force,
         bond_moment,
     })
+}
+
+/// V_p^D·D_p:ε_p^D of every particle of the term `t` (Pa·m³, Voigt; zero for a particle the
+/// term leaves out): ε_p^D = sym(F_p − I) of the term's own fit, linear in the displacement,
+/// F_p − I = ε + Σ_n w_n ⊗ c_n over p's stencil (Σ_b L_b ⊗ a_b = I takes the affine part to
+/// ε exactly, the same fit as the relaxed solve's term at the reference state).
+fn term_particle_stress(t: &ManyBody, eps: &Mat3, fluctuation: &[Vec3]) -> Vec<Voigt6> {
+    let volumes = t.particle_volumes();
+    (0..t.len())
+        .into_par_iter()
+        .map(|p| {
+            let (nodes, coef) = t.stencil(p);
+            if volumes[p] == 0.0 || nodes.is_empty() {
+                return Voigt6::zeros();
+            }
+            let mut grad = *eps;
+            for (&n, c) in nodes.iter().zip(coef) {
+                grad += fluctuation[n as usize] * c.transpose();
+            }
+            (t.tensor_of(p) * strain_voigt(&grad)) * volumes[p]
+        })
+        .collect()
 }
 
 /// Contact arms (r_i, r_j) of bond `b` (they add to its length).

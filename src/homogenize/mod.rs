@@ -48,8 +48,8 @@ pub use geometric::geometric_stiffness;
 pub use laf::laf_tensor;
 pub use laf::LafResult;
 pub use local::{
-    local_fields, DegenerateFit, GroupStatistics, LocalFields, LocalOptions, LocalReport, Unfitted,
-    UnfittedReason,
+    local_fields, local_fields_with_term, DegenerateFit, GroupStatistics, LocalFields,
+    LocalOptions, LocalReport, Unfitted, UnfittedReason,
 };
 pub use mean_field::mean_field;
 pub use mean_field::{

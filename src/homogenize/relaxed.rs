@@ -240,6 +240,19 @@ pub fn relaxed_tensor_with_term(
     Ok(relaxed_solve_full(packing, bonds, k, opts, None, None, term)?.result)
 }
 
+/// [`relaxed_solve`] with the many-body term `term` (as [`relaxed_tensor_with_term`]): the
+/// fluctuation field of the springs and the term together, for the local fields
+/// ([`super::local`]).
+pub(crate) fn relaxed_solve_with_term(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    term: Option<&ManyBody>,
+    opts: &RelaxedOptions,
+) -> Result<RelaxedSolution> {
+    relaxed_solve_full(packing, bonds, k, opts, None, None, term)
+}
+
 /// [`relaxed_solve_preloaded`] with a many-body term: with a term, dangling particles stay
 /// in the network (a term couples them to their neighbour's fitted strain).
 fn relaxed_solve_full(

@@ -189,6 +189,7 @@ impl PyModel {
             .detach(|| {
                 let spec = crate::strength::StrengthSpec::from_table(table)?;
                 spec.refuse_cut_sections("Model.yade_adhesions")?;
+                refuse_boundary_strength(&self.inner)?;
                 crate::strength::strengths_along(&spec, &x, &l)
             })
             .map_err(to_py)?;
@@ -222,5 +223,17 @@ impl PyModel {
 
     fn __eq__(&self, other: &Self) -> bool {
         self.inner.to_toml_string() == other.inner.to_toml_string()
+    }
+}
+
+/// Refuse ([`crate::Error::Model`]) a model whose `[grains]` scale the strengths of boundary
+/// bonds: bonds given as arrays have no particles, so no grains to tell a boundary bond by.
+fn refuse_boundary_strength(model: &crate::model::Model) -> crate::Result<()> {
+    match &model.grains {
+        Some(g) if g.boundary_strength_factor != 1.0 => Err(crate::Error::Model(format!(
+            "Model.yade_adhesions: [grains] boundary_strength_factor = {} needs each bond's              grains, and bonds given as arrays have no particles; use the assembly's export              (Assembly.export_yade) or remove the factor",
+            g.boundary_strength_factor
+        ))),
+        _ => Ok(()),
     }
 }

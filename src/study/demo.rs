@@ -169,7 +169,7 @@ impl DemoReport {
     /// plots, ParaView files of the relaxed state under e11 = −1e-4, the YADE and LIGGGHTS
     /// runs.
     pub fn write(&self, dir: &std::path::Path) -> Result<Vec<String>> {
-        use crate::export::{liggghts, vtk, yade};
+        use crate::export::{liggghts, yade};
         let (b, model) = (&self.assembly, &self.model);
         crate::packing::io::write_packing(&dir.join("packing.txt"), &b.packing)?;
         crate::io::write_string_atomic(&dir.join("model.toml"), &model.to_toml_string())?;
@@ -183,12 +183,9 @@ impl DemoReport {
             written.push(name);
         }
         written.extend(self.write_plots(dir)?);
+        // The relaxed state under e11 = −1e-4 (with the grain fields of a polycrystal).
         let strain = crate::tensor::Voigt6::new(-1e-4, 0.0, 0.0, 0.0, 0.0, 0.0);
-        let relaxed = crate::homogenize::relaxed::RelaxedOptions::default();
-        let state = vtk::strained_state(&b.packing, &b.bonds, &b.springs, &strain, &relaxed)?;
-        vtk::write_particles_vtu(&dir.join("particles.vtu"), &b.packing, Some(&state))?;
-        let bonds_vtu = dir.join("bonds.vtu");
-        vtk::write_bonds_vtu(&bonds_vtu, &b.packing, &b.bonds, &b.springs, Some(&state))?;
+        b.write_vtk(dir, Some(&strain))?;
         written.extend(["particles.vtu", "bonds.vtu"].map(String::from));
         let yade_opts = yade::YadeRunOptions::default();
         let (p, k) = (&b.packing, &b.springs);

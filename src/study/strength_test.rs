@@ -80,12 +80,13 @@ use crate::dem::{
     build_law, check_run_size, BondCriteria, ContactLaw, Contacts, DemOptions, LawKind,
     PrescribedMotion, Simulation,
 };
+use crate::grains::assign_strength_by_grain;
 use crate::model::{Model, SchemeSpec};
 use crate::packing::cut::Region;
 use crate::packing::{generate, GenerateOptions, Packing};
 use crate::specimen::{self, Platens, Selection, SpecimenOptions};
 use crate::strength::Mode;
-use crate::strength::{assign_strength, BondStrengths, StrengthScheme, StrengthSpec};
+use crate::strength::{BondStrengths, StrengthScheme, StrengthSpec};
 use crate::{Error, Mat3, Result, Vec3};
 use serde::Serialize;
 
@@ -619,7 +620,8 @@ fn make_specimen(opts: &StrengthTestOptions, model: &Model, q: &Mat3) -> Result<
     let strengths = match &model.strength {
         Some(table) => {
             let spec = rotate_strength(&StrengthSpec::from_table(table)?, q);
-            Some(assign_strength(&assembly.packing, &assembly.bonds, &spec)?)
+            let (p, b, g) = (&assembly.packing, &assembly.bonds, model.grains.as_ref());
+            Some(assign_strength_by_grain(p, b, &spec, g, assembly.grains())?)
         }
         None => None,
     };

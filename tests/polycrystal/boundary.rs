@@ -284,3 +284,92 @@ fn contact_point_refusals_are_typed_and_the_rule_reads_back() {
         m
     );
 }
+
+/// A bicrystal with a `[strength]` table (cross-anisotropic bond strengths, Weibull scatter)
+/// and `boundary_strength_factor = 0.6`: every bond across the boundary has exactly 0.6 × the
+/// tensile, cohesion, bending and twisting strengths the table gives it without grains (the
+/// friction unchanged), every bond inside a grain exactly those; the grains built again from
+/// the table give the same bits; YADE's adhesions (a_n = σ_t r², a_s = c r²) carry the factor;
+/// the model written back reads back with it.
+#[test]
+fn boundary_strength_factor_scales_the_strengths_of_boundary_bonds_only() {
+    use anisobond::export::yade::yade_adhesions;
+    use anisobond::grains::assign_strength_by_grain;
+    use anisobond::strength::{assign_strength, StrengthSpec};
+    let strength = "[strength]\nstrike_deg = 90.0\ndip_deg = 30.0\n\
+                    [strength.bond]\ntensile = 5e6\ncohesion = 1e7\nfriction = 0.5\n\
+                    [strength.along]\ntensile = 2e6\ncohesion = 6e6\n\
+                    [strength.scatter]\ndistribution = \"weibull\"\nmodulus = 5.0\nseed = 9\n";
+    let p = generated(1500, 21);
+    let text = |factor: &str| {
+        cubic_model(
+            "",
+            &format!("[grains]\ncount = 2\nseed = 3\n{factor}{strength}"),
+        )
+    };
+    let a = Assembly::new(p.clone(), model(&text("boundary_strength_factor = 0.6\n"))).unwrap();
+    let spec = StrengthSpec::from_table(a.model.strength.as_ref().unwrap()).unwrap();
+    let grains_spec = a.model.grains.as_ref().unwrap();
+    assert_eq!(grains_spec.boundary_strength_factor, 0.6);
+    let g = &a.grains().unwrap().grain;
+    let (pk, b) = (&a.packing, &a.bonds);
+    let got = assign_strength_by_grain(pk, b, &spec, Some(grains_spec), a.grains()).unwrap();
+    let rebuilt = assign_strength_by_grain(pk, b, &spec, Some(grains_spec), None).unwrap();
+    assert_eq!(got, rebuilt);
+    let base = assign_strength(pk, b, &spec).unwrap();
+    let (mut inside, mut across) = (0, 0);
+    for k in 0..b.len() {
+        let (s, t) = (got.get(k), base.get(k));
+        if g[b.i[k] as usize] == g[b.j[k] as usize] {
+            inside += 1;
+            assert_eq!(s, t, "bond {k} inside a grain");
+        } else {
+            across += 1;
+            assert_eq!(s.tensile, 0.6 * t.tensile, "bond {k}: tensile");
+            assert_eq!(s.cohesion, 0.6 * t.cohesion, "bond {k}: cohesion");
+            assert_eq!(s.bending, 0.6 * t.bending, "bond {k}: bending");
+            assert_eq!(s.twisting, 0.6 * t.twisting, "bond {k}: twisting");
+            assert_eq!(s.friction, t.friction, "bond {k}: friction");
+        }
+    }
+    println!("bicrystal: {inside} bonds inside a grain, {across} across the boundary");
+    assert!(inside > 0 && across > 0);
+    // The strengths differ bond to bond (scheme and scatter): the check is not of constants.
+    assert!(base.tensile.iter().any(|&x| x != base.tensile[0]));
+
+    // YADE's adhesions through the export path: the factor on boundary bonds only.
+    let with = yade_adhesions(pk, b, &a.model).unwrap().unwrap();
+    let plain = Assembly::new(p, model(&text(""))).unwrap();
+    assert_eq!(
+        plain
+            .model
+            .grains
+            .as_ref()
+            .unwrap()
+            .boundary_strength_factor,
+        1.0
+    );
+    let without = yade_adhesions(pk, b, &plain.model).unwrap().unwrap();
+    for k in 0..b.len() {
+        let f = if g[b.i[k] as usize] == g[b.j[k] as usize] {
+            1.0
+        } else {
+            0.6
+        };
+        let close = |x: f64, y: f64| (x - f * y).abs() <= 1e-15 * y.abs();
+        assert!(
+            close(with[k].normal, without[k].normal),
+            "bond {k}: normal adhesion"
+        );
+        assert!(
+            close(with[k].shear, without[k].shear),
+            "bond {k}: shear adhesion"
+        );
+    }
+
+    // Written back (TOML and JSON), the model reads back with the factor.
+    let again = Model::from_toml_str(&a.model.to_toml_string(), "back.toml").unwrap();
+    assert_eq!(again, a.model);
+    let again = Model::from_json_str(&a.model.to_json_string(), "back.json").unwrap();
+    assert_eq!(again, a.model);
+}

@@ -55,6 +55,22 @@ fn bad_grains_keys_are_named_at_their_line() {
             "axis",
         ),
         ("count = 4\nboundary_factor = 0\n", "boundary_factor"),
+        (
+            "count = 4\nboundary_strength_factor = 0\n",
+            "boundary_strength_factor",
+        ),
+        (
+            "count = 4\nboundary_strength_factor = -0.5\n",
+            "boundary_strength_factor",
+        ),
+        (
+            "count = 4\nboundary_strength_factor = inf\n",
+            "boundary_strength_factor",
+        ),
+        (
+            "count = 4\nboundary_strength_factor = \"weak\"\n",
+            "boundary_strength_factor",
+        ),
         ("count = 4\nboundary = \"harmonic\"\n", "boundary"),
     ] {
         match Model::from_toml_str(&t(body), "model.toml") {

@@ -105,3 +105,65 @@ fn export_vtk_writes_the_grain_ids_of_a_polycrystal() {
     assert!(!data_arrays(&out.join("particles.vtu")).contains_key("grain"));
     assert!(!data_arrays(&out.join("bonds.vtu")).contains_key("grain_i"));
 }
+
+/// `anisobond specimen` on a free polycrystal block writes the same grain fields: `grain` of
+/// particles.vtu and `grain_i`, `grain_j` of bonds.vtu equal the grains of
+/// `Assembly::from_files` of the same files (Voronoi grains in the spheres' bounding box);
+/// a single crystal's specimen files have none.
+#[test]
+fn specimen_writes_the_grain_ids_of_a_polycrystal() {
+    let dir = tmp();
+    let periodic = Assembly::from_files(
+        &packing(dir.path(), 300),
+        &write(dir.path(), "m.toml", &cubic_model("", "")),
+    )
+    .unwrap();
+    // The same spheres without a cell: a free block.
+    let free = Packing::new(
+        periodic.packing.positions.clone(),
+        periodic.packing.radii.clone(),
+        None,
+    )
+    .unwrap();
+    let pk = dir.path().join("free.txt");
+    write_packing(&pk, &free).unwrap();
+    let poly = write(
+        dir.path(),
+        "poly.toml",
+        &cubic_model("", "[grains]\ncount = 5\nseed = 2\n"),
+    );
+    let a = Assembly::from_files(&pk, &poly).unwrap();
+    assert!(a.packing.cell.is_none());
+    let grain = &a.grains().expect("a polycrystal").grain;
+    assert!(grain.iter().any(|&g| g != grain[0]), "more than one grain");
+    let out = dir.path().join("specimen");
+    succeeds(
+        bin()
+            .arg("specimen")
+            .arg(&pk)
+            .arg("--model")
+            .arg(&poly)
+            .args(["--free", "-o"])
+            .arg(&out),
+    );
+    let particles = data_arrays(&out.join("particles.vtu"));
+    assert_eq!(&ids(&particles, "grain"), grain, "particles.vtu `grain`");
+    let bonds = data_arrays(&out.join("bonds.vtu"));
+    for (name, ends) in [("grain_i", &a.bonds.i), ("grain_j", &a.bonds.j)] {
+        let want: Vec<u32> = ends.iter().map(|&p| grain[p as usize]).collect();
+        assert_eq!(ids(&bonds, name), want, "bonds.vtu `{name}`");
+    }
+    let single = write(dir.path(), "single.toml", &cubic_model("", ""));
+    let out = dir.path().join("single");
+    succeeds(
+        bin()
+            .arg("specimen")
+            .arg(&pk)
+            .arg("--model")
+            .arg(&single)
+            .args(["--free", "-o"])
+            .arg(&out),
+    );
+    assert!(!data_arrays(&out.join("particles.vtu")).contains_key("grain"));
+    assert!(!data_arrays(&out.join("bonds.vtu")).contains_key("grain_i"));
+}

@@ -1,9 +1,10 @@
 """VTK files of a polycrystal opened by meshio (issue 34): particles.vtu's point field `grain`
 and bonds.vtu's cell fields `grain_i`, `grain_j`, as meshio parses them, are the grain ids of
 `Assembly.grains` and the particle ids of `Assembly.bonds` (the library's own arrays) — for
-`Assembly.export_vtk` (unloaded and strained) and for `anisobond export vtk` of the same files;
-a single crystal's files have no grain field. meshio is a third-party reader (PyPI, installed
-by .ci/test-all): missing, the tests skip with the reason outside CI and fail under CI=true."""
+`Assembly.export_vtk` (unloaded and strained), for `anisobond export vtk` of the same files
+and for `anisobond specimen` of the spheres as a free block; a single crystal's files have no
+grain field. meshio is a third-party reader (PyPI, installed by .ci/test-all): missing, the
+tests skip with the reason outside CI and fail under CI=true."""
 
 import os
 
@@ -93,3 +94,36 @@ def test_meshio_finds_no_grain_field_for_a_single_crystal(meshio, poly):
     assert "grain" not in p.point_data and np.array_equal(p.point_data["radius"], pk.radii)
     assert "grain_i" not in b.cell_data and "grain_j" not in b.cell_data
     assert np.array_equal(b.cell_data["kn"][0], asm.bonds["kn"])
+
+
+def test_meshio_reads_the_grain_ids_of_a_specimen(meshio, poly, tmp_path):
+    """`anisobond specimen` on the polycrystal's spheres as a free block (the packing saved
+    without its cell): particles.vtu's `grain` and bonds.vtu's `grain_i`, `grain_j` are those
+    of `Assembly.grains` and `Assembly.bonds` of the same free packing and model (grains in
+    the spheres' bounding box), beside the solve's displacements; a single crystal's specimen
+    files have no grain field."""
+    pk = ab.Packing.load(poly / "packing.txt")
+    free = ab.Packing(pk.positions, pk.radii)
+    free.save(tmp_path / "free.txt")
+    asm = ab.Assembly(free, ab.Model.load(poly / "poly.toml"))
+    grain = asm.grains["grain"]
+    assert set(grain.tolist()) == set(range(6))
+    out = tmp_path / "specimen"
+    cli("specimen", tmp_path / "free.txt", "--model", poly / "poly.toml", "--free", "-o", out)
+    p = meshio.read(out / "particles.vtu")
+    assert np.array_equal(p.points, free.positions)
+    assert np.array_equal(p.point_data["grain"], grain)
+    assert np.abs(p.point_data["displacement"]).max() > 0
+    b = meshio.read(out / "bonds.vtu")
+    i, j = asm.bonds["i"].astype(np.int64), asm.bonds["j"].astype(np.int64)
+    ends = b.cells[0].data
+    # A free block: every line joins two particles, no periodic image.
+    assert np.array_equal(ends[:, 0], i) and np.array_equal(ends[:, 1], j)
+    assert np.array_equal(b.cell_data["grain_i"][0], grain[i])
+    assert np.array_equal(b.cell_data["grain_j"][0], grain[j])
+    same = grain[i] == grain[j]
+    assert same.any() and (~same).any()
+    single = tmp_path / "single"
+    cli("specimen", tmp_path / "free.txt", "--model", poly / "single.toml", "--free", "-o", single)
+    assert "grain" not in meshio.read(single / "particles.vtu").point_data
+    assert "grain_i" not in meshio.read(single / "bonds.vtu").cell_data

@@ -77,7 +77,8 @@ pub fn strength_setup<'a>(
     }
     let spec = crate::strength::StrengthSpec::from_table(table)?;
     spec.refuse_cut_sections(&format!("validate {engine} --strength"))?;
-    let strengths = crate::strength::assign_strength(problem.packing, problem.bonds, &spec)?;
+    let (p, b, g) = (problem.packing, problem.bonds, model.grains.as_ref());
+    let strengths = crate::grains::assign_strength_by_grain(p, b, &spec, g, None)?;
     let criteria = BondCriteria::for_law(
         law,
         &strengths,
