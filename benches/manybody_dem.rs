@@ -3,7 +3,9 @@
 //! the term), without and with a rotated cubic term (Green–Lagrange), in the same run,
 //! alternating the two several times and keeping each one's best. Run:
 //! `cargo bench --bench manybody_dem` (MB_BENCH_PARTICLES, default 30,000; MB_BENCH_STEPS,
-//! default 100; MB_BENCH_THREADS, comma-separated, default 1,2; MB_BENCH_REPEATS, default 5).
+//! default 100; MB_BENCH_THREADS, comma-separated, default 1,2; MB_BENCH_REPEATS, default 5;
+//! MB_BENCH_ONLY=with or without: build and run only that one, for an instruction count
+//! under `valgrind --tool=callgrind --toggle-collect='*Simulation::step*'`).
 //! Prints the ratio of the best times and the median (and range) of the ratios of the
 //! alternating pairs, the steadier figure on a loaded machine.
 
@@ -19,6 +21,7 @@ fn main() {
     let steps: usize = env("MB_BENCH_STEPS", 100);
     let repeats: usize = env("MB_BENCH_REPEATS", 5).max(1);
     let threads = common::thread_counts("MB_BENCH_THREADS");
+    let only: String = env("MB_BENCH_ONLY", String::new());
     let p = common::packing(n);
     let (b, k) = common::bonds_and_springs(&p);
     let nb = b.len();
@@ -59,6 +62,14 @@ fn main() {
                 common::start_moving(&mut sim, 1e-3);
                 sim
             };
+            if only == "with" || only == "without" {
+                let mut sim = make(only == "with");
+                let t0 = Instant::now();
+                sim.run(steps, &|_| {}).expect("run");
+                let per = t0.elapsed().as_secs_f64() / (n * steps) as f64;
+                println!("{t} thread(s): {only} the term only: {per:.3e} s per particle-step");
+                return;
+            }
             let mut sims = [make(false), make(true)];
             let mut best = [f64::INFINITY; 2];
             // The ratio of each alternating pair: on a loaded machine the two best times

@@ -110,7 +110,9 @@ struct Resultants<'a> {
     contact: Option<(&'a [Vec3], &'a [Vec3])>,
     /// The many-body term's g_b per bond, if it is on: +g_b on i_b, −g_b on j_b
     /// (docs/manybody.md "Integrator"), gathered here rather than in a pass of its own.
-    manybody: Option<&'a [Vec3]>,
+    manybody: Option<&'a [super::manybody::Lane3]>,
+    /// The AVX2 kernels run.
+    lanes: bool,
 }
 
 impl Resultants<'_> {
@@ -141,10 +143,8 @@ impl Resultants<'_> {
             t += ct[k];
         }
         if let Some(g) = self.manybody {
-            for &e in &self.entries[self.start[k]..self.start[k + 1]] {
-                let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
-                f += g[(e >> 1) as usize] * sign;
-            }
+            let entries = &self.entries[self.start[k]..self.start[k + 1]];
+            f = super::manybody::gather(f, entries, g, self.lanes);
         }
         (f, t)
     }
@@ -943,7 +943,7 @@ impl Simulation {
         }
         if let Some(m) = &mut self.manybody {
             let h = self.cell.as_ref().map(|c| c.h);
-            m.compute(&self.particles, &self.topology, h.as_ref());
+            m.compute(&self.particles, &self.topology, h.as_ref(), self.simd);
         }
         let first_new = self.break_events.len();
         if self.criteria.is_some() {
@@ -1025,6 +1025,7 @@ impl Simulation {
                 external: self.external.as_ref(),
                 contact: self.contacts.as_ref().map(|c| (c.force(), c.torque())),
                 manybody: self.manybody.as_ref().map(|m| m.bond_gradients()),
+                lanes,
             },
             mass: &p.mass[..],
             inertia: &p.inertia[..],

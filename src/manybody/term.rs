@@ -58,6 +58,18 @@ pub struct ManyBody {
     bond_coef: Vec<[Vec3; 2]>,
 }
 
+/// The fit as the integrator reads it ([`ManyBody::fit_layout`]).
+pub(crate) struct FitLayout<'a> {
+    /// Per particle, its first entry (n + 1 offsets).
+    pub(crate) start: &'a [usize],
+    /// Per entry, the bond (in bond order per particle).
+    pub(crate) bond: &'a [u32],
+    /// Per entry, a_b = A_p⁻¹ L_b (zero for an excluded particle).
+    pub(crate) coef: &'a [Vec3],
+    /// Per bond, its coefficients at its i and j ends.
+    pub(crate) bond_coef: &'a [[Vec3; 2]],
+}
+
 /// Caller-owned buffers of [`ManyBody::evaluate_into`] (structure of arrays, one entry per
 /// particle): what a time-stepping caller reuses every step instead of allocating.
 #[derive(Clone, Debug, Default)]
@@ -631,6 +643,51 @@ impl ManyBody {
             (mi[(r, 0)] * ai[0] + mi[(r, 1)] * ai[1] + mi[(r, 2)] * ai[2])
                 + (mj[(r, 0)] * aj[0] + mj[(r, 1)] * aj[1] + mj[(r, 2)] * aj[2])
         })
+    }
+
+    /// The fit as the integrator reads it (`dem::manybody`): per particle (CSR, n + 1
+    /// offsets) its bonds in bond order and their coefficients a_b (zero for an excluded
+    /// particle), and per bond its coefficients at its i and j ends.
+    pub(crate) fn fit_layout(&self) -> FitLayout<'_> {
+        FitLayout {
+            start: &self.inc_start,
+            bond: &self.inc_bond,
+            coef: &self.inc_coef,
+            bond_coef: &self.bond_coef,
+        }
+    }
+
+    /// Whether particle `p` is in the term (not excluded as degenerate).
+    #[inline(always)]
+    pub(crate) fn is_included(&self, p: usize) -> bool {
+        self.included[p]
+    }
+
+    /// (V·W, V·P) of particle `p` of volume `v` at gradient `f`: the one-lane arithmetic of
+    /// `evaluate` and `gradients_into`, for the integrator's own passes.
+    #[inline(always)]
+    pub(crate) fn energy_piola_of(&self, p: usize, f: &Mat3, v: f64) -> (f64, Mat3) {
+        self.energy_piola(p, f, v)
+    }
+
+    /// [`energy_piola_of`](Self::energy_piola_of) of four particles at once through the
+    /// AVX2 lanes (the same bits), for a term with one tensor D (lane l: gradient entries
+    /// `f[k][l]`, column-major k, volume `v[l]`); `None` with a tensor per grain.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    pub(crate) unsafe fn energy_piola4_avx2(
+        &self,
+        f: &[[f64; 4]; 9],
+        v: &[f64; 4],
+    ) -> Option<([f64; 4], [[f64; 4]; 9])> {
+        match self.d6.as_slice() {
+            // SAFETY: the caller guarantees AVX2.
+            [d] => Some(unsafe { energy_piola_avx2(d, self.measure, f, v) }),
+            _ => None,
+        }
     }
 
     /// Number of bonds.
