@@ -420,3 +420,74 @@ fn validate_lammps_on_a_polycrystal_with_the_term_passes() {
     eprintln!("relaxed tensor with the per-grain term vs one D for all: {gap:.2e} of max |C|");
     assert!(gap > 1e-2, "{gap:e}");
 }
+
+/// The plugin refuses misuse of `manybody/grains`, each with its reason: an atom whose grain
+/// the file does not give (naming the atom and its molecule ID), both `manybody D…` and
+/// `manybody/grains`, a short line and a grain given twice (naming the file and line).
+#[test]
+fn plugin_refuses_grain_misuse_with_the_reason() {
+    let Some(l) = lammps("plugin_grains_misuse") else {
+        return;
+    };
+    let dir = tmp();
+    let (asm, out, _) = exported(&l, dir.path());
+    let cell = asm.packing.cell.unwrap().lengths;
+    let text = std::fs::read_to_string(out.join("manybody-grains.txt")).unwrap();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    // Grain 4 left out; a line cut short; grain 0 twice.
+    let without_4: String = lines
+        .iter()
+        .filter(|l| !l.starts_with("4 "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(out.join("no4.txt"), without_4).unwrap();
+    let short = lines[0].rsplit_once(' ').unwrap().0;
+    std::fs::write(out.join("short.txt"), format!("{short}\n")).unwrap();
+    std::fs::write(
+        out.join("twice.txt"),
+        format!("{}\n{}\n", lines[0], lines[0]),
+    )
+    .unwrap();
+    assert!(
+        asm.grains().unwrap().grain.contains(&4),
+        "grain 4 has particles"
+    );
+    let one_d = "manybody 1e9 0 0 0 0 0 1e9 0 0 0 0 1e9 0 0 0 1e9 0 0 1e9 0 1e9";
+    for (name, extra, expected) in [
+        (
+            "missing",
+            " manybody/grains no4.txt".to_string(),
+            "whose D manybody/grains no4.txt does not give".to_string(),
+        ),
+        (
+            "both",
+            format!(" {one_d} manybody/grains manybody-grains.txt"),
+            "both given".to_string(),
+        ),
+        (
+            "short",
+            " manybody/grains short.txt".to_string(),
+            "manybody/grains short.txt line 1".to_string(),
+        ),
+        (
+            "twice",
+            " manybody/grains twice.txt".to_string(),
+            "line 2: grain 0 given twice".to_string(),
+        ),
+    ] {
+        let file = format!("{name}.lmp");
+        std::fs::write(out.join(&file), deck(Some(extra.as_str()), cell, "")).unwrap();
+        let o = super::plugin::run_lmp(&l.lmp, &out, &file, 1);
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name}: LAMMPS accepted it:\n{text}");
+        assert!(
+            text.contains(&expected),
+            "{name}: expected `{expected}` in:\n{text}"
+        );
+        if name == "missing" {
+            // The first atom of grain 4 on this one process is named, or another of its atoms.
+            assert!(text.contains("(grain 4)"), "{text}");
+        }
+    }
+}
