@@ -6,6 +6,8 @@
 //   ... [break yes strengths STRENGTHS.csv [record BROKEN.txt]]   (or break no, the default)
 //   ... [manybody D11 D12 … D66 [manybody/measure green-lagrange|small]
 //        [manybody/degenerate refuse|exclude] [manybody/conditioning C]]   (21 numbers, Pa)
+//   ... [manybody/grains GRAINS.txt [manybody/measure …] …]   (a polycrystal: D per grain,
+//        the grain of an atom = its molecule ID − 1)
 //   bond_coeff *
 //
 // Requires atom_style bpm/sphere (or sphere: radius, rmass, omega, torque), `newton on on`
@@ -152,7 +154,11 @@ void BondAnisobond::settings(int narg, char **arg) {
   mb_small_ = false;
   mb_cond_ = 1e-6;
   mb_exclude_ = false;
+  mb_grains_file_.clear();
+  mb_grain_d_.clear();
+  mb_grain_set_.clear();
   bool mb_options = false;  // a manybody/ keyword was given
+  bool mb_one = false;      // `manybody D11 … D66` was given
   try {
     if (source_ == "model") {
       model_.reset(new rust::Box<anisobond::ModelHandle>(anisobond::load_model(arg[1])));
@@ -215,7 +221,12 @@ void BondAnisobond::settings(int narg, char **arg) {
         }
       }
       mb_ = true;
+      mb_one = true;
       iarg = k;
+    } else if (key == "manybody/grains" && iarg + 1 < narg) {
+      mb_grains_file_ = arg[iarg + 1];
+      mb_ = true;
+      iarg += 2;
     } else if (key == "manybody/measure" && iarg + 1 < narg) {
       const std::string m = arg[iarg + 1];
       if (m != "green-lagrange" && m != "small")
@@ -251,6 +262,7 @@ void BondAnisobond::settings(int narg, char **arg) {
       error->all(FLERR, "bond_style anisobond: keyword `{}`: expected `damping ZETA`, "
                         "`length_tolerance TOL`, `lattice_scaling MU`, `break yes|no`, "
                         "`strengths STRENGTHS.csv`, `record BROKEN.txt`, `manybody D11 … D66`, "
+                        "`manybody/grains GRAINS.txt`, "
                         "`manybody/measure M`, `manybody/degenerate D` or "
                         "`manybody/conditioning C`",
                  key);
@@ -258,7 +270,13 @@ void BondAnisobond::settings(int narg, char **arg) {
   }
   if (mb_options && !mb_)
     error->all(FLERR, "bond_style anisobond: manybody/measure, manybody/degenerate and "
-                      "manybody/conditioning are for `manybody D11 … D66`");
+                      "manybody/conditioning are for `manybody D11 … D66` or `manybody/grains "
+                      "FILE`");
+  if (mb_one && !mb_grains_file_.empty())
+    error->all(FLERR, "bond_style anisobond: `manybody D11 … D66` (one D) and `manybody/grains "
+                      "{}` (a D per grain) both given; give one",
+               mb_grains_file_);
+  if (!mb_grains_file_.empty()) read_grain_tensors(mb_grains_file_);
   if (mb_ && break_)
     error->all(FLERR, "bond_style anisobond: `manybody` with `break yes`: the many-body term of "
                       "a network whose bonds break is not defined (each atom's fit is of its "
@@ -310,6 +328,68 @@ void BondAnisobond::read_strengths(const std::string &path) {
       error->all(FLERR, "bond_style anisobond: strength table {} line {}: bond {}-{} given twice",
                  path, lineno, static_cast<tagint>(v[0]), static_cast<tagint>(v[1]));
   }
+}
+
+// `manybody/grains FILE`: one line per grain, `g D11 D12 … D66` (grain id g ≥ 0 and D's 21
+// upper-triangle Voigt entries in the lab frame, Pa, each finite); `#` starts a comment.
+// A grain given twice, a short line or a bad number is refused naming the file and line.
+void BondAnisobond::read_grain_tensors(const std::string &path) {
+  std::ifstream in(path);
+  if (!in)
+    error->all(FLERR, "bond_style anisobond: cannot open the many-body grain tensors {}", path);
+  std::string line;
+  long lineno = 0;
+  while (std::getline(in, line)) {
+    lineno++;
+    const std::string body = line.substr(0, line.find('#'));
+    std::stringstream ss(body);
+    std::vector<std::string> w;
+    std::string word;
+    while (ss >> word) w.push_back(word);
+    if (w.empty()) continue;
+    if (w.size() != 22)
+      error->all(FLERR, "bond_style anisobond: manybody/grains {} line {}: `{}`: expected a grain "
+                        "id and D's 21 upper-triangle entries D11 D12 … D66 (Pa), found {} words",
+                 path, lineno, line, w.size());
+    char *end = nullptr;
+    const long g = std::strtol(w[0].c_str(), &end, 10);
+    if (end == w[0].c_str() || *end != '\0' || g < 0 || g > 2147483646L)
+      error->all(FLERR, "bond_style anisobond: manybody/grains {} line {}: grain id `{}`: "
+                        "expected a whole number ≥ 0 (molecule ID − 1)",
+                 path, lineno, w[0]);
+    double d[36];
+    int k = 1;
+    for (int a = 0; a < 6; a++)
+      for (int b = a; b < 6; b++) {
+        end = nullptr;
+        const double v = std::strtod(w[k].c_str(), &end);
+        if (end == w[k].c_str() || *end != '\0' || !std::isfinite(v))
+          error->all(FLERR, "bond_style anisobond: manybody/grains {} line {}: D{}{} `{}`: "
+                            "expected a finite number (Pa)",
+                     path, lineno, a + 1, b + 1, w[k]);
+        d[6 * a + b] = d[6 * b + a] = v;
+        k++;
+      }
+    const size_t gi = static_cast<size_t>(g);
+    if (gi >= mb_grain_set_.size()) {
+      mb_grain_set_.resize(gi + 1, 0);
+      mb_grain_d_.resize(36 * (gi + 1), 0.0);
+    }
+    if (mb_grain_set_[gi])
+      error->all(FLERR, "bond_style anisobond: manybody/grains {} line {}: grain {} given twice",
+                 path, lineno, g);
+    mb_grain_set_[gi] = 1;
+    std::copy(d, d + 36, mb_grain_d_.begin() + 36 * gi);
+  }
+  if (mb_grain_set_.empty())
+    error->all(FLERR, "bond_style anisobond: manybody/grains {}: no grain given", path);
+}
+
+// D of owned atom p (row-major Voigt, 36 entries): its grain's (molecule ID − 1, checked by
+// init_style) with `manybody/grains`, else the one D.
+const double *BondAnisobond::manybody_tensor(int p) const {
+  if (mb_grains_file_.empty()) return &mb_d_[0][0];
+  return &mb_grain_d_[36 * static_cast<size_t>(atom->molecule[p] - 1)];
 }
 
 // bond_coeff TYPES: the springs come per bond from the model or table, so a type only
@@ -407,6 +487,21 @@ void BondAnisobond::init_style() {
       error->all(FLERR, "bond_style anisobond: per-atom array d2_{} has {} columns, expected {} "
                         "({} + 3 × {} bonds per atom)",
                  MB_ARRAY_NAME, cols, mcols, static_cast<int>(MB_L0), atom->bond_per_atom);
+    // A polycrystal: every owned atom's grain (molecule ID − 1) must have its D in the file.
+    if (!mb_grains_file_.empty()) {
+      if (!atom->molecule_flag)
+        error->all(FLERR, "bond_style anisobond: manybody/grains takes each atom's grain from "
+                          "its molecule ID (grain + 1), which this atom style has not: use "
+                          "atom_style bpm/sphere");
+      for (int i = 0; i < atom->nlocal; i++) {
+        const tagint m = atom->molecule[i];
+        if (m < 1 || static_cast<size_t>(m - 1) >= mb_grain_set_.size() ||
+            !mb_grain_set_[static_cast<size_t>(m - 1)])
+          error->one(FLERR, "bond_style anisobond: atom {} has molecule ID {} (grain {}), whose "
+                            "D manybody/grains {} does not give",
+                     atom->tag[i], m, m - 1, mb_grains_file_);
+      }
+    }
     // Collective: any atom without its reference makes every process set it at the first
     // force call (after read_data all are unset; after read_restart all are set).
     double **mb = atom->darray[mb_index_];
@@ -846,8 +941,11 @@ void BondAnisobond::manybody_reference() {
   MPI_Allreduce(&excluded, &excluded_all, 1, MPI_LMP_BIGINT, MPI_SUM, world);
   if (comm->me == 0)
     utils::logmesg(lmp, "bond_style anisobond: many-body reference of {} atoms, {} excluded "
-                        "(degenerate), box volume {:.17g}\n",
-                   atom->natoms, excluded_all, volume);
+                        "(degenerate), box volume {:.17g}{}\n",
+                   atom->natoms, excluded_all, volume,
+                   mb_grains_file_.empty()
+                       ? std::string()
+                       : fmt::format(", D per grain from {}", mb_grains_file_));
   mb_need_ref_ = false;
 }
 
@@ -901,11 +999,12 @@ void BondAnisobond::manybody_compute() {
         }
       }
     const double e[6] = {E[0][0], E[1][1], E[2][2], 2.0 * E[1][2], 2.0 * E[0][2], 2.0 * E[0][1]};
+    const double *D = manybody_tensor(p);  // p's grain's D, or the one D
     double sv[6];
     double w = 0.0;
     for (int a = 0; a < 6; a++) {
       sv[a] = 0.0;
-      for (int b = 0; b < 6; b++) sv[a] += mb_d_[a][b] * e[b];
+      for (int b = 0; b < 6; b++) sv[a] += D[6 * a + b] * e[b];
       w += 0.5 * e[a] * sv[a];
     }
     const double S[3][3] = {{sv[0], sv[5], sv[4]}, {sv[5], sv[1], sv[3]}, {sv[4], sv[3], sv[2]}};

@@ -71,6 +71,14 @@
 // (`manybody/degenerate refuse`, the default) or left out of the term (`exclude`: V_p = 0,
 // it still moves its neighbours' fits), as in the library.
 //
+// A polycrystal (issue 34; docs/polycrystal.md, "Engines"): `manybody/grains FILE` instead of
+// the 21 numbers gives each grain its own D, FILE one line per grain `g D11 D12 … D66` (grain
+// id g ≥ 0, then D's 21 upper-triangle entries in the lab frame, Pa; `#` starts a comment;
+// docs/formats.md). Atom p's grain is its molecule ID − 1 (`anisobond export lammps` writes
+// molecule = grain + 1 into data.lmp; atom_style bpm/sphere keeps molecule IDs), read on the
+// owned atoms only (D_p enters M_p, formed by the owner); an owned atom whose grain the file
+// does not give is refused. Restart files keep the keyword and FILE is read again.
+//
 // Per-bond state lives in a per-atom array (`fix property/atom d2_anisobond_state N ghost no`,
 // created by the style): slot m of atom i belongs to its bond with atom->bond_atom[i][m],
 // so the state migrates with the atom, is written to restart files, and is restored when
@@ -140,6 +148,8 @@ class BondAnisobond : public Bond {
   void share_breaks(bigint nbroken);
   int slot_of(int i, tagint partner) const;
   void manybody_reference();
+  void read_grain_tensors(const std::string &path);
+  const double *manybody_tensor(int p) const;
   void manybody_compute();
 
   std::vector<std::string> args_;  // bond_style arguments (kept for restart files)
@@ -159,7 +169,10 @@ class BondAnisobond : public Bond {
   bool need_init_;                 // some bond may be uninitialised (set by init_style)
   // Many-body term (off unless `manybody` is given).
   bool mb_;                        // the term is on
-  double mb_d_[6][6];              // D (Pa, Voigt)
+  double mb_d_[6][6];              // D (Pa, Voigt) of `manybody D11 … D66`
+  std::string mb_grains_file_;     // `manybody/grains FILE` ("" = one D)
+  std::vector<double> mb_grain_d_;  // 36 per grain id (row-major Voigt, Pa), by grain id
+  std::vector<char> mb_grain_set_;  // 1 where the file gives that grain's D
   bool mb_small_;                  // small strain instead of Green–Lagrange
   double mb_cond_;                 // smallest accepted λ_min/λ_max of A_p
   bool mb_exclude_;                // degenerate atoms left out (else refused)

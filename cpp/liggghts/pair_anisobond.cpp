@@ -94,7 +94,6 @@ PairAnisobond::PairAnisobond(LAMMPS *lmp)
   // The many-body term's per-atom sums and M_p travel as 9 doubles (see the header).
   comm_forward = 9;
   comm_reverse = 9;
-  for (int k = 0; k < 36; k++) mb_d_[k] = 0.0;
   no_virial_fdotr_compute = 1;  // the virial is tallied per bond
   restartinfo = 0;
 }
@@ -142,6 +141,8 @@ void PairAnisobond::settings(int narg, char **arg) {
   int iarg = 0;
   manybody_ = false;
   mb_volume_.clear();
+  mb_tensor_.clear();
+  mb_d_.clear();
   in_place_ = false;
   bonded_ = false;
   write_bonds_.clear();
@@ -317,30 +318,45 @@ void PairAnisobond::add_manybody(std::vector<Bond> &bonds, const anisobond::Many
   std::uint64_t max_id = 0;
   for (const anisobond::ManyBodyParticle &p : data.particles) max_id = std::max(max_id, p.id);
   if (max_id > 2147483647ULL) throw std::runtime_error(what + ": atom id beyond 2^31");
+  if (data.d.empty() || data.d.size() % 36 != 0)
+    throw std::runtime_error(what + ": " + std::to_string(data.d.size()) +
+                             " tensor entries, expected 36 per tensor D");
+  const std::uint32_t ntensors = static_cast<std::uint32_t>(data.d.size() / 36);
   mb_volume_.assign(max_id + 1, -1.0);
+  mb_tensor_.assign(max_id + 1, 0);
   for (const anisobond::ManyBodyParticle &p : data.particles) {
     if (mb_volume_[p.id] >= 0.0)
       throw std::runtime_error(what + ": atom " + std::to_string(p.id) + " given twice");
+    if (p.tensor >= ntensors)
+      throw std::runtime_error(what + ": atom " + std::to_string(p.id) + " loads tensor " +
+                               std::to_string(p.tensor) + " of " + std::to_string(ntensors));
     mb_volume_[p.id] = p.volume;
+    mb_tensor_[p.id] = static_cast<int>(p.tensor);
   }
   for (const Bond &b : bonds)
     for (int t : {b.tag_i, b.tag_j})
       if (t >= static_cast<int>(mb_volume_.size()) || mb_volume_[t] < 0.0)
         throw std::runtime_error(what + ": bonded atom " + std::to_string(t) +
                                  " has no volume share");
-  for (int k = 0; k < 36; k++) mb_d_[k] = data.d[k];
+  mb_d_.assign(data.d.begin(), data.d.end());
   mb_gl_ = data.green_lagrange;
   manybody_ = true;
 }
 
 void PairAnisobond::broadcast_manybody() {
-  int head[3] = {manybody_ ? 1 : 0, mb_gl_ ? 1 : 0, static_cast<int>(mb_volume_.size())};
-  MPI_Bcast(head, 3, MPI_INT, 0, world);
+  int head[4] = {manybody_ ? 1 : 0, mb_gl_ ? 1 : 0, static_cast<int>(mb_volume_.size()),
+                 static_cast<int>(mb_d_.size())};
+  MPI_Bcast(head, 4, MPI_INT, 0, world);
   manybody_ = head[0] != 0;
   mb_gl_ = head[1] != 0;
-  MPI_Bcast(mb_d_, 36, MPI_DOUBLE, 0, world);
+  mb_d_.resize(head[3]);
+  if (head[3] > 0) MPI_Bcast(mb_d_.data(), head[3], MPI_DOUBLE, 0, world);
   mb_volume_.resize(head[2]);
-  if (head[2] > 0) MPI_Bcast(mb_volume_.data(), head[2], MPI_DOUBLE, 0, world);
+  mb_tensor_.resize(head[2]);
+  if (head[2] > 0) {
+    MPI_Bcast(mb_volume_.data(), head[2], MPI_DOUBLE, 0, world);
+    MPI_Bcast(mb_tensor_.data(), head[2], MPI_INT, 0, world);
+  }
 }
 
 void PairAnisobond::add_limits(std::vector<Bond> &bonds,
@@ -1034,12 +1050,13 @@ void PairAnisobond::compute_manybody(int eflag) {
   }
   comm->reverse_comm_pair(this);
 
-  // (2) E_p, S = D:E, P and M_p = V_p P_p of every owned atom in the term.
-  const double *D = mb_d_;
+  // (2) E_p, S = D_p:E (D_p: p's grain's D, or the one D), P and M_p = V_p P_p of every
+  // owned atom in the term.
   double energy = 0.0;
   for (int i = 0; i < nlocal; i++) {
     const double vp = tag[i] < static_cast<int>(mb_volume_.size()) ? mb_volume_[tag[i]] : 0.0;
     if (!(vp > 0.0)) continue;
+    const double *D = &mb_d_[36 * static_cast<size_t>(mb_tensor_[tag[i]])];
     const double *F = mb_f_[i];
     double E[9];
     for (int r = 0; r < 3; r++)

@@ -75,7 +75,8 @@
 // Many-body term (issue 33; docs/manybody.md, "LIGGGHTS"): `manybody FILE` (the table form,
 // FILE as `anisobond export liggghts` writes manybody.txt for a model with [manybody]) or a
 // model with [manybody] (both model forms, through the bridge) adds the library's ManyBody
-// forces of U = Σ_p ½ V_p E_p:D:E_p. Each bond carries its fit coefficients a = A_p⁻¹ L_b at
+// forces of U = Σ_p ½ V_p E_p:D_p:E_p, D_p the one D or, for a polycrystal (issue 34), the
+// D of p's grain (the table's `tensors G` and each particle's tensor index). Each bond carries its fit coefficients a = A_p⁻¹ L_b at
 // both ends (the library's own, replicated with the bond table on every rank), each atom
 // its volume share V_p (0 = excluded, as the library excludes degenerate particles). Per
 // force call: (1) every bond adds l_b ⊗ a to F of both ends (ghost ends included), a reverse
@@ -145,11 +146,13 @@ class PairAnisobond : public Pair {
     double an, as, tf;  // YADE CohFrict limits; an < 0: unbreakable
     double ai[3], aj[3];  // many-body fit coefficients at tag_i and tag_j (0 without the term)
   };
-  // The many-body term: on when manybody_; D row-major (Voigt, Pa), the measure, V_p by tag.
+  // The many-body term: on when manybody_; the tensors D row-major (Voigt, Pa; 36 each: one,
+  // or one per grain of a polycrystal), the measure, V_p and the tensor of each atom by tag.
   bool manybody_;
-  double mb_d_[36];
+  std::vector<double> mb_d_;
   bool mb_gl_;
   std::vector<double> mb_volume_;
+  std::vector<int> mb_tensor_;
   std::string mb_of_;  // where the term came from (for messages)
   // Per-atom work arrays (owned + ghost): the sums Σ l⊗a (F_p) and M_p = V_p P_p, row-major.
   int mb_nmax_;

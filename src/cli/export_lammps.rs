@@ -203,7 +203,6 @@ pub fn run(a: Args) -> Result<()> {
     let (bond_style, types) = a.bonds.options("export lammps")?;
     let (set, staged) = a.to.stage()?;
     let asm = a.to.input.assembly()?;
-    anisobond::manybody::refuse_polycrystal_term(&asm.model, "export lammps")?;
     let opts = LammpsOptions {
         density: a.density,
         strain: a.strain,
@@ -218,6 +217,7 @@ pub fn run(a: Args) -> Result<()> {
         breakage: breakage(&a, &asm)?,
         manybody: asm.model.manybody.clone(),
         grains: asm.grains().map(|g| g.grain.clone()),
+        grain_orientations: asm.grains().map(|g| g.orientation.clone()),
     };
     let e = export_lammps(&staged, &asm.packing, &asm.bonds, &asm.springs, &opts)?;
     set.commit()?;

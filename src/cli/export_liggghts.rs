@@ -43,7 +43,6 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let (set, staged) = a.to.stage()?;
     let asm = a.to.input.assembly()?;
-    anisobond::manybody::refuse_polycrystal_term(&asm.model, "export liggghts")?;
     let (packing, bonds, k) = (&asm.packing, &asm.bonds, &asm.springs);
     let opts = DeckOptions {
         density: a.density,
@@ -58,13 +57,9 @@ pub fn run(a: Args) -> Result<()> {
     };
     // A model with [strength]: breakable bonds, the limits in bonds.csv.
     let limits = anisobond::export::yade::yade_adhesions(packing, bonds, &asm.model)?;
-    // A model with [manybody]: the term of these bonds, in manybody.txt for the driver deck.
-    let term = asm
-        .model
-        .manybody
-        .as_ref()
-        .map(|spec| spec.build(packing, bonds))
-        .transpose()?;
+    // A model with [manybody]: the term of these bonds, in manybody.txt for the driver deck
+    // (a polycrystal's with each grain's D).
+    let term = asm.manybody()?;
     let s = export_liggghts_grains(
         &staged,
         packing,

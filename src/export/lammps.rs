@@ -30,7 +30,10 @@
 //! With [`LammpsOptions::manybody`] (a model with `[manybody]`, issue 33) the plugin's deck
 //! carries the many-body term (`bond_style anisobond … manybody D11 … D66`, docs/manybody.md,
 //! "LAMMPS"): the same physics as the library's [`crate::manybody::ManyBody`]. Stock
-//! bpm/rotational cannot carry it: that route is refused.
+//! bpm/rotational cannot carry it: that route is refused. A polycrystal's term (with
+//! [`LammpsOptions::grains`] and [`LammpsOptions::grain_orientations`], issue 34) loads each
+//! grain's own D: the export writes them to `manybody-grains.txt` ([`write_grain_tensors`])
+//! and the deck gives the plugin `manybody/grains manybody-grains.txt` (grain = molecule ID − 1).
 
 use crate::bonds::types::{
     affine_weights, quantise, quantise_joint, quantise_weighted, sensitivity_weights,
@@ -104,6 +107,11 @@ pub struct LammpsOptions {
     /// written as the molecule ID of `data.lmp`, grain + 1 (LAMMPS keeps 0 for an atom in no
     /// molecule). None: every atom molecule 1 (one grain), as before.
     pub grains: Option<Vec<u32>>,
+    /// The grains' orientations (`Grains::orientation`: Bunge matrices, lab → crystal), one
+    /// per grain id of `grains`: with `manybody`, each grain's D is rotate(D, gᵀ)
+    /// ([`ManyBodySpec::grain_tensors`]), written to `manybody-grains.txt` for the plugin's
+    /// `manybody/grains`. Needed when `grains` and `manybody` are both given.
+    pub grain_orientations: Option<Vec<crate::Mat3>>,
 }
 
 /// Breaking bonds in the exported decks (issue 32; docs/strength.md, "LAMMPS"): every bond's
@@ -203,6 +211,7 @@ impl Default for LammpsOptions {
             breakage: None,
             manybody: None,
             grains: None,
+            grain_orientations: None,
         }
     }
 }
@@ -927,11 +936,12 @@ pub fn export_lammps(
     let plugin = plugin_of(o);
     let limits = o.breakage.as_ref().map(|b| bond_limits(k, b)).transpose()?;
     // The term's checks are the library's own (degenerate particles refused or excluded,
-    // default volumes on a fully periodic cell).
+    // default volumes on a fully periodic cell); a polycrystal's loads each grain's D.
+    let grains = manybody_grains(o)?;
     let term = o
         .manybody
         .as_ref()
-        .map(|spec| spec.build(packing, bonds))
+        .map(|spec| spec.build_with_grains(packing, bonds, grains.as_ref()))
         .transpose()?;
     let relaxed = deck_tensor(packing, bonds, k, term.as_ref(), &cell)?;
     let exact_k = k;
@@ -955,6 +965,12 @@ pub fn export_lammps(
     let mut files = vec![write_data_file(
         dir, packing, bonds, &t, &ids, &mol, &cell, &data_what, o.density,
     )?];
+    // A polycrystal's term: each grain's D, by grain id, for `manybody/grains`.
+    if let (Some(term), Some(_)) = (&term, &grains) {
+        let path = dir.join(GRAIN_TENSORS);
+        write_grain_tensors(&path, term.tensors())?;
+        files.push(path);
+    }
     match plugin {
         // The plugin's springs: the SPEC bond table, with `id_i,id_j` (the atom ids the
         // plugin finds each bond by) when the packing has its own ids, else ids = indices + 1.
@@ -971,7 +987,7 @@ pub fn export_lammps(
     }
     let contact = breakage.map(|(b, _)| Contact::of(packing, bonds, exact_k, b, o));
     let params = dir.join("params.lmp");
-    let mut params_body = params_text(&comment, dt, max_len, o);
+    let mut params_body = params_text(&comment, dt, max_len, o, grains.is_some());
     if let Some(c) = &contact {
         params_body.push_str(&c.params(o));
     }
@@ -1011,6 +1027,127 @@ pub fn export_lammps(
         types: t.report,
         relaxed,
     })
+}
+
+/// The file of a polycrystal's per-grain D (`manybody/grains`).
+pub const GRAIN_TENSORS: &str = "manybody-grains.txt";
+
+/// The grain map of a polycrystal's many-body term: `grains` with their orientations
+/// (refused without them, [`Error::Invalid`]), None without the term or without grains.
+fn manybody_grains(o: &LammpsOptions) -> Result<Option<crate::grains::Grains>> {
+    let (Some(_), Some(grain)) = (&o.manybody, &o.grains) else {
+        return Ok(None);
+    };
+    let orientation = o.grain_orientations.clone().ok_or_else(|| {
+        Error::Invalid(
+            "LAMMPS export: a polycrystal's many-body term (grains and [manybody]) needs the \
+             grains' orientations (LammpsOptions::grain_orientations) to turn D into each grain"
+                .into(),
+        )
+    })?;
+    crate::grains::Grains::new(grain.clone(), orientation, None).map(Some)
+}
+
+/// Write `manybody-grains.txt`: a comment header, then one line per grain `g D11 D12 … D66`
+/// (grain id, D's 21 upper-triangle entries of the lab-frame Voigt matrix in Pa, shortest
+/// round-trip numbers), the file the plugin's `manybody/grains` reads (docs/formats.md).
+pub fn write_grain_tensors(path: &Path, tensors: &[Stiffness6]) -> Result<()> {
+    let mut s = String::from(
+        "# anisobond many-body term of a polycrystal for bond_style anisobond … manybody/grains FILE\n\
+         # (docs/manybody.md, \"LAMMPS\"): one line per grain, the grain id (= LAMMPS molecule ID − 1)\n\
+         # and its D = rotate(D, gᵀ), 21 upper-triangle Voigt entries D11 D12 … D16 D22 … D66\n\
+         # (lab frame, Pa, order 11 22 33 23 13 12, engineering shear)\n",
+    );
+    for (g, d) in tensors.iter().enumerate() {
+        let _ = write!(s, "{g}");
+        for a in 0..6 {
+            for b in a..6 {
+                let _ = write!(s, " {}", num(d[(a, b)]));
+            }
+        }
+        s.push('\n');
+    }
+    crate::io::write_string_atomic(path, &s)
+}
+
+/// Read a file written by [`write_grain_tensors`] (grain ids in any order, each once):
+/// each grain's lab-frame D (Pa), by grain id; a malformed line, a missing or repeated
+/// grain is refused naming the file and line ([`Error::Parse`]).
+pub fn read_grain_tensors(path: &Path) -> Result<Vec<Stiffness6>> {
+    let text = crate::io::read_to_string(path)?;
+    let mut by_grain: Vec<Option<Stiffness6>> = Vec::new();
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let w: Vec<&str> = raw
+            .split('#')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
+        if w.is_empty() {
+            continue;
+        }
+        if w.len() != 22 {
+            return Err(Error::parse(
+                path,
+                line,
+                format!(
+                    "expected a grain id and 21 entries D11 … D66, found {} words",
+                    w.len()
+                ),
+            ));
+        }
+        let g: usize = w[0]
+            .parse::<u32>()
+            .ok()
+            .filter(|&g| g < i32::MAX as u32)
+            .ok_or_else(|| {
+                Error::parse(
+                    path,
+                    line,
+                    format!(
+                        "grain id `{}`: expected a whole number ≥ 0 (molecule ID − 1)",
+                        w[0]
+                    ),
+                )
+            })? as usize;
+        let mut d = Stiffness6::zeros();
+        let mut i = 1;
+        for a in 0..6 {
+            for b in a..6 {
+                let v = w[i]
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        Error::parse(
+                            path,
+                            line,
+                            format!(
+                                "D{}{} `{}`: expected a finite number (Pa)",
+                                a + 1,
+                                b + 1,
+                                w[i]
+                            ),
+                        )
+                    })?;
+                d[(a, b)] = v;
+                d[(b, a)] = v;
+                i += 1;
+            }
+        }
+        if g >= by_grain.len() {
+            by_grain.resize(g + 1, None);
+        }
+        if by_grain[g].replace(d).is_some() {
+            return Err(Error::parse(path, line, format!("grain {g} given twice")));
+        }
+    }
+    by_grain
+        .into_iter()
+        .enumerate()
+        .map(|(g, d)| d.ok_or_else(|| Error::parse(path, 0, format!("grain {g} is not given"))))
+        .collect()
 }
 
 /// The molecule ID of every atom: grain + 1 of a polycrystal's `grains` (one per particle,
@@ -1332,7 +1469,7 @@ pub fn write_strength_table(
 }
 
 /// `params.lmp`: the decks' settings, each overridable with `-var NAME VALUE`.
-fn params_text(comment: &str, dt: f64, max_len: f64, o: &LammpsOptions) -> String {
+fn params_text(comment: &str, dt: f64, max_len: f64, o: &LammpsOptions, per_grain: bool) -> String {
     let mut p = format!(
         "# Settings of in.elastic (override any with -var NAME VALUE)\n# Bonds: {comment}\n\
          # The data file the decks read (-var data FILE, or ./run.sh NP FILE: e.g. your own data\n\
@@ -1366,14 +1503,23 @@ fn params_text(comment: &str, dt: f64, max_len: f64, o: &LammpsOptions) -> Strin
         );
     }
     if let Some(m) = &o.manybody {
+        let (d, keywords) = if per_grain {
+            (
+                format!("`manybody/grains {GRAIN_TENSORS}` (a polycrystal: each grain's D, by\n# grain id = molecule ID − 1)"),
+                grain_manybody_keywords(m),
+            )
+        } else {
+            (
+                "`manybody` and D's 21\n# upper-triangle Voigt entries D11 D12 … D66 (Pa, order 11 22 33 23 13 12)".to_string(),
+                manybody_keywords(m),
+            )
+        };
         let _ = write!(
             p,
-            "# The many-body term (the model's [manybody], docs/manybody.md): `manybody` and D's 21\n\
-             # upper-triangle Voigt entries D11 D12 … D66 (Pa, order 11 22 33 23 13 12), the strain\n\
+            "# The many-body term (the model's [manybody], docs/manybody.md): {d}, the strain\n\
              # measure, what to do with atoms whose bonds cannot fit a strain, and the accepted\n\
              # λ_min/λ_max of Σ L⊗L\n\
-             variable manybody index \"{}\"\n",
-            manybody_keywords(m)
+             variable manybody index \"{keywords}\"\n"
         );
     }
     p
@@ -1392,6 +1538,18 @@ pub fn manybody_keywords(spec: &ManyBodySpec) -> String {
             let _ = write!(s, " {}", num(d[(a, b)]));
         }
     }
+    s + &manybody_options(spec)
+}
+
+/// The plugin's keywords of a polycrystal's term: `manybody/grains manybody-grains.txt`
+/// ([`write_grain_tensors`]) and the options of [`manybody_keywords`].
+pub fn grain_manybody_keywords(spec: &ManyBodySpec) -> String {
+    format!("manybody/grains {GRAIN_TENSORS}{}", manybody_options(spec))
+}
+
+/// ` manybody/measure M manybody/degenerate R manybody/conditioning C` of `spec`.
+fn manybody_options(spec: &ManyBodySpec) -> String {
+    let mut s = String::new();
     let o = spec.options();
     let _ = write!(
         s,

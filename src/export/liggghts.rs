@@ -1029,17 +1029,21 @@ pub fn which(program: &str) -> bool {
 }
 
 /// The many-body term (docs/manybody.md) as `pair_style anisobond … manybody FILE` reads it:
-/// D, the measure, each particle's volume share V_p (0: excluded) and each bond's fit
-/// coefficients a = A_p⁻¹ L_b at its two ends, L_b oriented from the bond's first particle to
-/// its second as in the bond table, so F_p = Σ_b l_b ⊗ a_b at either end.
+/// D (one, or one per grain of a polycrystal: [`ManyBody::tensors`]), the measure, each
+/// particle's volume share V_p (0: excluded) and tensor, and each bond's fit coefficients
+/// a = A_p⁻¹ L_b at its two ends, L_b oriented from the bond's first particle to its second
+/// as in the bond table, so F_p = Σ_b l_b ⊗ a_b at either end.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ManyBodyTable {
-    /// D's lab-frame Voigt matrix (Pa).
-    pub d: Stiffness6,
+    /// The lab-frame Voigt matrices D (Pa): one, or one per grain (grain g's is entry g,
+    /// rotate(D, gᵀ) as [`crate::manybody::ManyBodySpec::grain_tensors`] turns it).
+    pub tensors: Vec<Stiffness6>,
     /// The strain measure.
     pub measure: StrainMeasure,
     /// (atom id, V_p in m³) of every particle, V_p = 0 for an excluded one.
     pub volumes: Vec<(u64, f64)>,
+    /// The entry of `tensors` every particle loads (aligned with `volumes`; all 0 with one).
+    pub tensor: Vec<u32>,
     /// One per bond, in the bond table's order.
     pub bonds: Vec<ManyBodyBond>,
 }
@@ -1093,8 +1097,9 @@ pub fn manybody_table(
     let ids = super::engine_ids(packing);
     let id = |p: usize| ids.map_or(p as u64 + 1, |ids| ids[p]);
     Ok(ManyBodyTable {
-        d: *term.tensor()?,
+        tensors: term.tensors().to_vec(),
         measure: term.measure(),
+        tensor: (0..n).map(|p| term.tensor_index(p) as u32).collect(),
         volumes: term
             .particle_volumes()
             .iter()
@@ -1116,32 +1121,58 @@ pub fn manybody_table(
 
 /// The many-body term's share of each particle's stiffness (N/m) for the time step, as
 /// [`stable_timestep`] bounds the springs' by their sum: the diagonal Hessian blocks at the
-/// reference, V_p B(c, c) per stencil node, bounded by Σ_p V_p ‖D‖ |c_r^p|² with ‖D‖ the
-/// largest absolute row sum of D's Voigt matrix and c_r^p the coefficient of node r in F_p
+/// reference, V_p B(c, c) per stencil node, bounded by Σ_p V_p ‖D_p‖ |c_r^p|² with ‖D_p‖ the
+/// largest absolute row sum of p's D (its grain's) and c_r^p the coefficient of node r in F_p
 /// (docs/manybody.md, "Derivatives"). `t` must be the table of `bonds` (same order).
 fn manybody_stiffness(n: usize, bonds: &BondSet, t: &ManyBodyTable) -> Vec<f64> {
-    let norm = (0..6)
-        .map(|r| (0..6).map(|c| t.d[(r, c)].abs()).sum::<f64>())
-        .fold(0.0, f64::max);
+    let norms: Vec<f64> = t
+        .tensors
+        .iter()
+        .map(|d| {
+            (0..6)
+                .map(|r| (0..6).map(|c| d[(r, c)].abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    // V_p ‖D_p‖ of every particle (its own grain's D).
+    let weight: Vec<f64> = (0..n)
+        .map(|p| t.volumes[p].1 * norms[t.tensor[p] as usize])
+        .collect();
     let mut own = vec![Vec3::zeros(); n];
     let mut k = vec![0.0; n];
     for (b, row) in t.bonds.iter().enumerate() {
         let (i, j) = (bonds.i[b] as usize, bonds.j[b] as usize);
         own[i] -= row.coef_i;
         own[j] += row.coef_j;
-        k[j] += t.volumes[i].1 * norm * row.coef_i.norm_squared();
-        k[i] += t.volumes[j].1 * norm * row.coef_j.norm_squared();
+        k[j] += weight[i] * row.coef_i.norm_squared();
+        k[i] += weight[j] * row.coef_j.norm_squared();
     }
     for p in 0..n {
-        k[p] += t.volumes[p].1 * norm * own[p].norm_squared();
+        k[p] += weight[p] * own[p].norm_squared();
     }
     k
 }
 
 /// Write `table` to `path` (shortest round-trip numbers: the same bits read back):
 /// `measure M`, `d` and its 36 entries (row-major Voigt, Pa), `particles N` then N lines
-/// `id V_p`, `bonds M` then M lines `id_i id_j a_i(3) a_j(3)`; `#` starts a comment.
+/// `id V_p`, `bonds M` then M lines `id_i id_j a_i(3) a_j(3)`; `#` starts a comment. With a
+/// tensor per grain (a polycrystal) `tensors G` and G lines `d …` (grain 0 first) replace the
+/// one `d` line and every particle line ends with its tensor: `id V_p g` (docs/formats.md).
 pub fn write_manybody_table(path: &Path, table: &ManyBodyTable) -> Result<()> {
+    if table.tensor.len() != table.volumes.len()
+        || table
+            .tensor
+            .iter()
+            .any(|&g| g as usize >= table.tensors.len())
+    {
+        return Err(Error::Invalid(format!(
+            "many-body table: {} tensor indices for {} particles, {} tensors",
+            table.tensor.len(),
+            table.volumes.len(),
+            table.tensors.len()
+        )));
+    }
+    let several = table.tensors.len() != 1;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -1150,6 +1181,13 @@ pub fn write_manybody_table(path: &Path, table: &ManyBodyTable) -> Result<()> {
          # (m³; 0 = excluded: fewer than three non-coplanar bonds) and each bond's fit coefficients\n\
          # a = A_p⁻¹ L_b (1/m) at its first and second particle, in the bond table's order."
     );
+    if several {
+        let _ = writeln!(
+            s,
+            "# A polycrystal: one D per grain (rotate(D, gᵀ), grain 0 first); each particle line\n\
+             # `id V_p g` names its grain's D."
+        );
+    }
     let _ = writeln!(
         s,
         "measure {}",
@@ -1158,14 +1196,23 @@ pub fn write_manybody_table(path: &Path, table: &ManyBodyTable) -> Result<()> {
             StrainMeasure::Small => "small",
         }
     );
-    let d: Vec<String> = (0..6)
-        .flat_map(|r| (0..6).map(move |c| (r, c)))
-        .map(|(r, c)| num(table.d[(r, c)]))
-        .collect();
-    let _ = writeln!(s, "d {}", d.join(" "));
+    if several {
+        let _ = writeln!(s, "tensors {}", table.tensors.len());
+    }
+    for t in &table.tensors {
+        let d: Vec<String> = (0..6)
+            .flat_map(|r| (0..6).map(move |c| (r, c)))
+            .map(|(r, c)| num(t[(r, c)]))
+            .collect();
+        let _ = writeln!(s, "d {}", d.join(" "));
+    }
     let _ = writeln!(s, "particles {}", table.volumes.len());
-    for (id, v) in &table.volumes {
-        let _ = writeln!(s, "{id} {}", num(*v));
+    for ((id, v), g) in table.volumes.iter().zip(&table.tensor) {
+        if several {
+            let _ = writeln!(s, "{id} {} {g}", num(*v));
+        } else {
+            let _ = writeln!(s, "{id} {}", num(*v));
+        }
     }
     let _ = writeln!(s, "bonds {}", table.bonds.len());
     for b in &table.bonds {
@@ -1232,16 +1279,33 @@ pub fn read_manybody_table(path: &Path) -> Result<ManyBodyTable> {
             ))
         }
     };
-    let dl = next("`d` and 36 numbers")?;
-    let dv = keyed(dl, "d", 36)?;
-    let mut d = Stiffness6::zeros();
-    for (k, w) in dv.iter().enumerate() {
-        d[(k / 6, k % 6)] = number(dl.0, w, "d")?;
-    }
+    let read_d = |dl: (usize, &str)| -> Result<Stiffness6> {
+        let dv = keyed(dl, "d", 36)?;
+        let mut d = Stiffness6::zeros();
+        for (k, w) in dv.iter().enumerate() {
+            d[(k / 6, k % 6)] = number(dl.0, w, "d")?;
+        }
+        Ok(d)
+    };
     let count = |(line, l): (usize, &str), key: &str| -> Result<usize> {
         let w = keyed((line, l), key, 1)?;
         w[0].parse::<usize>()
             .map_err(|_| bad(line, format!("`{key}`: expected a count, found `{}`", w[0])))
+    };
+    // One `d` line, or `tensors G` and G of them (a polycrystal: particle lines name theirs).
+    let dl = next("`d` and 36 numbers, or `tensors G`")?;
+    let (tensors, several) = if dl.1.starts_with("tensors") {
+        let g = count(dl, "tensors")?;
+        if g == 0 {
+            return Err(bad(dl.0, "`tensors 0`: expected at least one D".into()));
+        }
+        let mut t = Vec::with_capacity(g);
+        for _ in 0..g {
+            t.push(read_d(next("a `d` line and 36 numbers")?)?);
+        }
+        (t, true)
+    } else {
+        (vec![read_d(dl)?], false)
     };
     let id = |line: usize, w: &str| -> Result<u64> {
         w.parse::<u64>()
@@ -1252,17 +1316,37 @@ pub fn read_manybody_table(path: &Path) -> Result<ManyBodyTable> {
     let pl = next("`particles N`")?;
     let np = count(pl, "particles")?;
     let mut volumes = Vec::with_capacity(np);
+    let mut tensor = Vec::with_capacity(np);
+    let columns = if several { "`id V_p g`" } else { "`id V_p`" };
     for _ in 0..np {
-        let (line, l) = next("a particle line `id V_p`")?;
+        let (line, l) = next(&format!("a particle line {columns}"))?;
         let w: Vec<&str> = l.split_whitespace().collect();
-        if w.len() != 2 {
-            return Err(bad(line, format!("expected `id V_p`, found `{l}`")));
+        if w.len() != if several { 3 } else { 2 } {
+            return Err(bad(line, format!("expected {columns}, found `{l}`")));
         }
         let v = number(line, w[1], "V_p")?;
         if v < 0.0 {
             return Err(bad(line, format!("V_p = {v}: expected ≥ 0 (m³)")));
         }
         volumes.push((id(line, w[0])?, v));
+        let g = match w.get(2) {
+            None => 0,
+            Some(g) => g
+                .parse::<u32>()
+                .ok()
+                .filter(|&g| (g as usize) < tensors.len())
+                .ok_or_else(|| {
+                    bad(
+                        line,
+                        format!(
+                            "tensor `{g}`: expected one of the {} tensors, 0 to {}",
+                            tensors.len(),
+                            tensors.len() - 1
+                        ),
+                    )
+                })?,
+        };
+        tensor.push(g);
     }
     let bl = next("`bonds M`")?;
     let nb = count(bl, "bonds")?;
@@ -1290,9 +1374,10 @@ pub fn read_manybody_table(path: &Path) -> Result<ManyBodyTable> {
         ));
     }
     Ok(ManyBodyTable {
-        d,
+        tensors,
         measure,
         volumes,
+        tensor,
         bonds,
     })
 }

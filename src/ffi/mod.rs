@@ -144,6 +144,8 @@ pub mod bridge {
         pub id: u64,
         /// V_p (m³).
         pub volume: f64,
+        /// The entry of `ManyBodyData::d` it loads (its grain's D; 0 with one tensor).
+        pub tensor: u32,
     }
 
     /// One bond's many-body fit coefficients a = A_p⁻¹ L_b (1/m) at its first (`coef_i`) and
@@ -160,12 +162,13 @@ pub mod bridge {
         pub coef_j: [f64; 3],
     }
 
-    /// The many-body term (docs/manybody.md) for an engine: D (Voigt, row-major, Pa), the
-    /// measure, particle volumes and per-bond coefficients aligned with the bond rows.
+    /// The many-body term (docs/manybody.md) for an engine: D (Voigt, row-major, Pa; one, or
+    /// one per grain of a polycrystal), the measure, particle volumes and per-bond
+    /// coefficients aligned with the bond rows.
     #[derive(Clone, Debug, PartialEq)]
     pub struct ManyBodyData {
-        /// D, row-major: d[6·a + b] = D[a][b].
-        pub d: [f64; 36],
+        /// The tensors D, 36 entries each, row-major: d[36·t + 6·a + b] = D_t[a][b].
+        pub d: Vec<f64>,
         /// Green–Lagrange (true) or small strain (false).
         pub green_lagrange: bool,
         /// Every particle.
@@ -710,17 +713,19 @@ impl ModelHandle {
 }
 
 fn manybody_data(t: &crate::export::liggghts::ManyBodyTable) -> ManyBodyData {
-    let mut d = [0.0; 36];
-    for (k, v) in d.iter_mut().enumerate() {
-        *v = t.d[(k / 6, k % 6)];
-    }
+    let d = t
+        .tensors
+        .iter()
+        .flat_map(|d| (0..36).map(move |k| d[(k / 6, k % 6)]))
+        .collect();
     ManyBodyData {
         d,
         green_lagrange: t.measure == crate::manybody::StrainMeasure::GreenLagrange,
         particles: t
             .volumes
             .iter()
-            .map(|&(id, volume)| ManyBodyParticle { id, volume })
+            .zip(&t.tensor)
+            .map(|(&(id, volume), &tensor)| ManyBodyParticle { id, volume, tensor })
             .collect(),
         bonds: t
             .bonds

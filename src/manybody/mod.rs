@@ -23,10 +23,10 @@ use crate::tensor::{cubic_tensor, rotate, rotation_to_z, transverse_tensor, Stif
 use crate::{Error, Mat3, Result, Vec3};
 
 /// Refuse ([`Error::Model`]) a model with both `[grains]` and `[manybody]` in an engine's
-/// export or validation (`engine`): the engines carry one tensor D (the LAMMPS plugin's
-/// keywords, LIGGGHTS' `manybody.txt`, the YADE runner's model), not one per grain, so the
-/// engine would run the single crystal's term on a polycrystal (docs/polycrystal.md "Copper
-/// polycrystal (many-body term)"). Any other model: Ok.
+/// export or validation (`engine`) that carries one tensor D (YADE's runner), not one per
+/// grain, so the engine would run the single crystal's term on a polycrystal
+/// (docs/polycrystal.md "What refuses grains"; LAMMPS' plugin and LIGGGHTS carry a D per
+/// grain). Any other model: Ok.
 pub fn refuse_polycrystal_term(model: &crate::model::Model, engine: &str) -> Result<()> {
     if model.grains.is_some() && model.manybody.is_some() {
         return Err(Error::Model(format!(

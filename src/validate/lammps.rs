@@ -425,8 +425,15 @@ impl Engine for Lammps {
                 // or Python caller) must not validate the springs alone.
                 let mut o = self.0.clone();
                 if let Some(m) = p.model {
-                    crate::manybody::refuse_polycrystal_term(m, "validate lammps")?;
                     o.export.manybody = m.manybody.clone();
+                    // A polycrystal (issue 34): its grains as molecule IDs and, with the
+                    // term, each grain's D (`manybody/grains`), from the model's [grains]
+                    // built on this packing as the assembly built them.
+                    if let (Some(spec), None) = (&m.grains, &o.export.grains) {
+                        let g = spec.build(p.packing)?;
+                        o.export.grains = Some(g.grain);
+                        o.export.grain_orientations = Some(g.orientation);
+                    }
                 }
                 element_tests(p, &o, progress)
             }

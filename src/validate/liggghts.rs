@@ -980,11 +980,16 @@ fn element_tests(
     progress: Progress,
 ) -> Result<ValidationReport> {
     let (packing, bonds, k) = (p.packing, p.bonds, p.springs);
-    if let Some(m) = p.model {
-        crate::manybody::refuse_polycrystal_term(m, "validate liggghts")?;
-    }
-    let term = match p.model.and_then(|m| m.manybody.as_ref()) {
-        Some(spec) => Some(spec.build(packing, bonds)?),
+    // The model's term; a polycrystal's (issue 34) loads each grain's D (its grains built on
+    // this packing as the assembly built them), which manybody.txt carries per particle.
+    let term = match p
+        .model
+        .and_then(|m| m.manybody.as_ref().map(|spec| (m, spec)))
+    {
+        Some((m, spec)) => {
+            let grains = m.grains.as_ref().map(|g| g.build(packing)).transpose()?;
+            Some(spec.build_with_grains(packing, bonds, grains.as_ref())?)
+        }
         None => None,
     };
     let dt = match o.timestep {

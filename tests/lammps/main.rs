@@ -10,6 +10,7 @@ mod common;
 mod breakage;
 mod exit_codes;
 mod export;
+mod grains;
 mod manybody;
 mod plugin;
 mod plugin_strength_validate;

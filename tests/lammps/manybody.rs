@@ -25,7 +25,7 @@ fn model() -> String {
 
 /// The strained box of the tests, H (upper triangular: LAMMPS' box vectors a = (lx, 0, 0),
 /// b = (xy, ly, 0), c = (xz, yz, lz) are H times the reference cell's).
-fn strain() -> Mat3 {
+pub(super) fn strain() -> Mat3 {
     Mat3::new(1.002, 0.003, 0.001, 0.0, 0.999, -0.002, 0.0, 0.0, 1.001)
 }
 
@@ -44,7 +44,7 @@ fn change_box(h: &Mat3, l: Vec3, remap: bool) -> String {
 }
 
 /// A fixed seeded perturbation (splitmix64), each component uniform in ±`amplitude`.
-fn perturbation(n: usize, amplitude: f64) -> Vec<Vec3> {
+pub(super) fn perturbation(n: usize, amplitude: f64) -> Vec<Vec3> {
     let mut state: u64 = 0x5eed_0033;
     let mut next = || {
         state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -60,7 +60,7 @@ fn perturbation(n: usize, amplitude: f64) -> Vec<Vec3> {
 }
 
 /// The positions H·X_p + δ_p as `set atom` lines (atom ids = index + 1), and the positions.
-fn perturbed_state(x: &[Vec3], h: &Mat3, delta: &[Vec3]) -> (String, Vec<Vec3>) {
+pub(super) fn perturbed_state(x: &[Vec3], h: &Mat3, delta: &[Vec3]) -> (String, Vec<Vec3>) {
     let mut s = String::new();
     let mut y = Vec::new();
     for (p, (xp, dp)) in x.iter().zip(delta).enumerate() {
@@ -82,7 +82,7 @@ fn perturbed_state(x: &[Vec3], h: &Mat3, delta: &[Vec3]) -> (String, Vec<Vec3>) 
 /// printed), then `tail`.
 /// `term`: None without the term, Some(extra) with `${manybody}` and the keywords `extra`
 /// (a later keyword overrides the export's).
-fn deck(term: Option<&str>, cell: Vec3, tail: &str) -> String {
+pub(super) fn deck(term: Option<&str>, cell: Vec3, tail: &str) -> String {
     let manybody = match term {
         Some(extra) => format!(" ${{manybody}}{extra}"),
         None => String::new(),
@@ -106,7 +106,7 @@ fn deck(term: Option<&str>, cell: Vec3, tail: &str) -> String {
 }
 
 /// The words after `key` on the last line of `text` that starts with it, as numbers.
-fn numbers(text: &str, key: &str) -> Vec<f64> {
+pub(super) fn numbers(text: &str, key: &str) -> Vec<f64> {
     let line = text
         .lines()
         .rfind(|l| l.starts_with(key))
@@ -118,7 +118,7 @@ fn numbers(text: &str, key: &str) -> Vec<f64> {
 }
 
 /// The rows of a `dump custom` file sorted by id: id → the other columns.
-fn dump_rows(path: &Path) -> BTreeMap<u64, Vec<f64>> {
+pub(super) fn dump_rows(path: &Path) -> BTreeMap<u64, Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut rows = BTreeMap::new();
     let mut in_atoms = false;
@@ -161,7 +161,7 @@ fn perturbed_deck(
 
 /// Write `out/perturbed.lmp`, which sets `asm`'s particles at the [`strain`]ed state H·X + δ,
 /// δ up to 1 % of the mean radius ([`perturbation`]); those positions.
-fn write_perturbed(out: &Path, asm: &anisobond::assembly::Assembly) -> Vec<Vec3> {
+pub(super) fn write_perturbed(out: &Path, asm: &anisobond::assembly::Assembly) -> Vec<Vec3> {
     let mean_r = asm.packing.radii.iter().sum::<f64>() / asm.packing.len() as f64;
     let delta = perturbation(asm.packing.len(), 0.01 * mean_r);
     let (set_lines, y) = perturbed_state(&asm.packing.positions, &strain(), &delta);
@@ -170,7 +170,7 @@ fn write_perturbed(out: &Path, asm: &anisobond::assembly::Assembly) -> Vec<Vec3>
 }
 
 /// Run `input` in `dir` on `np` processes; its standard output (failure: panic with it).
-fn run(l: &Lammps, dir: &Path, input: &str, np: usize) -> String {
+pub(super) fn run(l: &Lammps, dir: &Path, input: &str, np: usize) -> String {
     let out = run_lmp(&l.lmp, dir, input, np);
     let text = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(

@@ -8,6 +8,7 @@ mod bench;
 mod data_files;
 mod driver;
 mod dumps;
+mod grains;
 mod harmonic;
 mod in_place;
 mod manybody;

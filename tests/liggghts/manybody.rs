@@ -14,7 +14,7 @@ use anisobond::packing::{Packing, PeriodicCell};
 use anisobond::Vec3;
 use std::path::Path;
 
-const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
+pub(super) const TOOLS: &[&str] = &["liggghts", "mpicxx", "mpirun", "make", "g++"];
 
 /// Isotropic springs (the driver test's model) with a rotated cubic D beyond the Cauchy line.
 fn model_toml(measure: &str) -> String {
@@ -113,7 +113,7 @@ impl Rng {
 /// The state x = S·x_ref + δ (S = diag(`stretch`), |δ_k| ≤ `amplitude`·R̄) in the cell
 /// S·L, written as `strained.data` (positions wrapped into the cell); returns the unwrapped
 /// positions and S.
-fn strained_state(
+pub(super) fn strained_state(
     dir: &Path,
     packing: &Packing,
     stretch: [f64; 3],
@@ -146,7 +146,7 @@ fn strained_state(
 /// A deck on `strained.data`: the pair style with (`manybody`) or without the term, the
 /// springs' rest lengths taken there (so they carry no force at the first call), `body`
 /// after the setup.
-fn deck(dir: &Path, name: &str, summary: &ExportSummary, manybody: bool, body: &str) {
+pub(super) fn deck(dir: &Path, name: &str, summary: &ExportSummary, manybody: bool, body: &str) {
     let text = format!(
         "units si\natom_style granular\natom_modify map array\nboundary p p p\nnewton on\n\
          communicate single vel yes\nread_data strained.data\n\
@@ -163,13 +163,13 @@ fn deck(dir: &Path, name: &str, summary: &ExportSummary, manybody: bool, body: &
     std::fs::write(dir.join(name), text).unwrap();
 }
 
-fn run_driver(dir: &Path, deck: &str, np: usize) -> String {
+pub(super) fn run_driver(dir: &Path, deck: &str, np: usize) -> String {
     run_liggghts(&driver_launch((np > 1).then_some(np)), dir, deck)
         .unwrap_or_else(|e| panic!("{deck} (np {np}) failed: {e}"))
 }
 
 /// The last snapshot of a `dump custom` sorted by id: per atom its columns after the id.
-fn last_dump(path: &Path) -> Vec<Vec<f64>> {
+pub(super) fn last_dump(path: &Path) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap();
     let start = text.rfind("ITEM: ATOMS").unwrap();
     text[start..]
@@ -185,7 +185,7 @@ fn last_dump(path: &Path) -> Vec<Vec<f64>> {
 }
 
 /// The potential energy of the `thermo_style custom step c_epot` line of step 0.
-fn step0_energy(log: &str) -> f64 {
+pub(super) fn step0_energy(log: &str) -> f64 {
     let mut lines = log
         .lines()
         .skip_while(|l| !l.trim_start().starts_with("Step"));
