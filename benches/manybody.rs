@@ -1,7 +1,10 @@
 //! Cost of the many-body term in the relaxed solve (issue 33: at most 2× the solve without
 //! it; BENCHMARKS.md "Many-body term: relaxed solve"). Run with
 //! `cargo bench --bench manybody` (release build; RAYON_NUM_THREADS sets the thread count;
-//! ANISOBOND_BENCH_PARTICLES the size, default the demo's 30,700).
+//! ANISOBOND_BENCH_PARTICLES the size, default the demo's 30,700). For instruction counts
+//! (`valgrind --tool=callgrind`, repeatable on a loaded machine): ANISOBOND_BENCH_ONCE=1 runs
+//! each solve once and stops, ANISOBOND_BENCH_ONLY=none|pair|term only the packing, or it and
+//! one solve (the solve's count is the difference from `none`'s).
 //!
 //! One generated random packing (φ = 0.60, the Truszkowska standard assembly's preparation),
 //! gap-bonded at 0.17 R̄, the demo's model (Truszkowska 2018 MRV, cubic Zener > 1) and an
@@ -86,19 +89,34 @@ fn main() {
         ..Default::default()
     };
     let opts = RelaxedOptions::default();
+    let once = std::env::var("ANISOBOND_BENCH_ONCE").is_ok();
     let (mut t_pair, mut t_term) = (f64::INFINITY, f64::INFINITY);
     let (mut c_pair, mut c_term) = (f64::INFINITY, f64::INFINITY);
     let (mut pair, mut with) = (None, None);
-    for _ in 0..2 {
-        let (t, c, r) = timed_cpu(|| relaxed_tensor(&p, &bonds, &k, &opts).expect("relaxed"));
-        (t_pair, c_pair) = (t_pair.min(t), c_pair.min(c));
-        pair = Some(r);
+    for _ in 0..if once { 1 } else { 2 } {
+        let only = std::env::var("ANISOBOND_BENCH_ONLY").unwrap_or_default();
+        if only == "none" {
+            return;
+        }
+        if only != "term" {
+            let (t, c, r) = timed_cpu(|| relaxed_tensor(&p, &bonds, &k, &opts).expect("relaxed"));
+            if only == "pair" {
+                println!("pair: {} iterations", r.iterations);
+                return;
+            }
+            (t_pair, c_pair) = (t_pair.min(t), c_pair.min(c));
+            pair = Some(r);
+        }
         // The term's set-up is part of its cost.
         let (t, c, r) = timed_cpu(|| {
             let mb = ManyBody::new(&p, &bonds, &tensor, &options).expect("term");
             let r = relaxed_tensor_with_term(&p, &bonds, &k, Some(&mb), &opts).expect("relaxed");
             (mb.volume_fraction(), r)
         });
+        if only == "term" {
+            println!("term: {} iterations", r.1.iterations);
+            return;
+        }
         (t_term, c_term) = (t_term.min(t), c_term.min(c));
         with = Some(r);
     }
@@ -116,6 +134,9 @@ fn main() {
         t_term / t_pair,
         c_term / c_pair
     );
+    if once {
+        return;
+    }
     // Where the term's time goes: the relaxed CG applies it in factored form (one gather and
     // one scatter per stencil entry); the assembled Hessian serves the Cholesky solver only.
     let (t_new, mb) = timed(|| ManyBody::new(&p, &bonds, &tensor, &options).expect("term"));

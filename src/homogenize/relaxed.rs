@@ -172,6 +172,37 @@ fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
     s
 }
 
+/// [`column_dots`] of p and K p (the same bits) together with pᵀ diag(K) p per column, the
+/// scale of the rounding error of pᵀKp in [`pcg`].
+fn curvatures(p: &[Block6], kp: &[Block6], diag: &[[f64; 6]]) -> ([f64; 6], [f64; 6]) {
+    const CH: usize = 2048;
+    let parts: Vec<([f64; 6], [f64; 6])> = p
+        .par_chunks(CH)
+        .zip(kp.par_chunks(CH))
+        .zip(diag.par_chunks(CH))
+        .map(|((cp, ck), cd)| {
+            let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
+            for ((x, y), d) in cp.iter().zip(ck).zip(cd) {
+                for c in 0..6 {
+                    s[c] += x.column(c).dot(&y.column(c));
+                    for (i, di) in d.iter().enumerate() {
+                        t[c] += di * x[(i, c)] * x[(i, c)];
+                    }
+                }
+            }
+            (s, t)
+        })
+        .collect();
+    let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
+    for (ps, pt) in parts {
+        for c in 0..6 {
+            s[c] += ps[c];
+            t[c] += pt[c];
+        }
+    }
+    (s, t)
+}
+
 /// A relaxed solve together with its fluctuation field.
 #[derive(Clone, Debug)]
 pub struct RelaxedSolution {
@@ -311,13 +342,16 @@ fn relaxed_solve_full(
     let springs = BlockSparse::assemble(&net);
     // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
     // assembled K; only the sparse Cholesky assembles it (below).
-    let pre: Vec<(Block6, usize)> = (0..m)
+    let (pre, diag): (Vec<_>, Vec<_>) = (0..m)
         .into_par_iter()
-        .map(|p| match &term_op {
-            Some(op) => pinv_psd(&(springs.diagonal(p) + op.diagonal(p))),
-            None => pinv_psd(&springs.diagonal(p)),
+        .map(|p| {
+            let block = match &term_op {
+                Some(op) => springs.diagonal(p) + op.diagonal(p),
+                None => springs.diagonal(p),
+            };
+            (pinv_psd(&block), diagonal_entries(&block))
         })
-        .collect();
+        .unzip();
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
             let full = if net.degree[p] == 2 { 5 } else { 6 };
@@ -348,6 +382,7 @@ fn relaxed_solve_full(
             let op = Stiffness {
                 k: &springs,
                 term: term_op.as_ref(),
+                diag,
             };
             let two_level = coarse_space(packing, &net, &op, preconditioner, opts.rotations)?;
             // The multigrid hierarchy is built on the assembled matrix: the springs', plus
@@ -394,19 +429,41 @@ fn relaxed_solve_full(
     })
 }
 
-/// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form.
+/// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form,
+/// with the diagonal entries of the sum (per row, the six DOFs).
 struct Stiffness<'a> {
     k: &'a BlockSparse,
     term: Option<&'a TermOperator>,
+    diag: Vec<[f64; 6]>,
 }
 
 impl Stiffness<'_> {
+    /// The most scalars in one row of K: 6 per stored block of the springs', plus the
+    /// term's coupled nodes ([`TermOperator::coupling_width`]).
+    fn row_width(&self) -> usize {
+        6 * (self.k.max_row_blocks() + self.term.map_or(0, |t| t.coupling_width()))
+    }
+
+    /// The longest chain of additions in one computed x_cᵀ K x_c: one entry of K x (6 per
+    /// stored block of a row, plus the term's, [`TermOperator::rounding_depth`]) and the dot
+    /// product of [`column_dots`] (6 within a row, one per row of a chunk, one per chunk).
+    fn rounding_depth(&self, rows: usize) -> usize {
+        let entry = 6 * self.k.max_row_blocks() + self.term.map_or(0, |t| t.rounding_depth());
+        entry + 6 + rows.min(2048) + rows.div_ceil(2048)
+    }
+
     /// Y = K X on the first `cols` load cases, row by row in a fixed order.
+    /// With a term, one pass over the rows after the term's per-owner stresses: the springs'
+    /// row, then the term's (the bits of the two applied one after the other).
     fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
-        self.k.apply_cols(x, y, cols);
-        if let Some(t) = self.term {
-            t.add_apply(x, y, cols);
-        }
+        let Some(t) = self.term else {
+            return self.k.apply_cols(x, y, cols);
+        };
+        let stress = t.stresses(x, cols);
+        y.par_iter_mut().enumerate().for_each(|(r, yr)| {
+            *yr = self.k.row_times(r, x, cols);
+            t.add_row(r, &stress, yr, cols);
+        });
     }
 
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
@@ -419,6 +476,11 @@ impl Stiffness<'_> {
         self.apply_cols(q, &mut kq, 6);
         super::sparse::fluctuation_sums(g, q, &kq)
     }
+}
+
+/// The six diagonal entries of a 6×6 block.
+fn diagonal_entries(block: &Block6) -> [f64; 6] {
+    std::array::from_fn(|i| block[(i, i)])
 }
 
 /// Add the many-body term at its reference state to the network (Kruyt 2014 Eqs. 10–14 with
@@ -574,17 +636,24 @@ fn held_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let pre: Vec<(Block6, usize)> = (0..k.rows())
+    let (pre, diag): (Vec<_>, Vec<_>) = (0..k.rows())
         .into_par_iter()
-        .map(|p| pinv_psd(&k.diagonal(p)))
-        .collect();
+        .map(|p| {
+            let block = k.diagonal(p);
+            (pinv_psd(&block), diagonal_entries(&block))
+        })
+        .unzip();
     let scale = column_dots(b, b).map(f64::sqrt);
     let opts = RelaxedOptions {
         tolerance,
         max_iterations,
         ..Default::default()
     };
-    let op = Stiffness { k, term: None };
+    let op = Stiffness {
+        k,
+        term: None,
+        diag,
+    };
     pcg(&op, b, &pre, (two_level, None), &scale, &opts, None)
 }
 
@@ -597,16 +666,77 @@ fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {
 
 /// Largest relative residual ‖r_c‖/‖b_c‖ over the live columns.
 fn worst_residual(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> f64 {
+    column_residuals(r, live, bnorm)
+        .iter()
+        .fold(0.0, |a: f64, &b| a.max(b))
+}
+
+/// Relative residual ‖r_c‖/‖b_c‖ of every live column (0 for the others).
+fn column_residuals(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> [f64; 6] {
     let rr = column_dots(r, r);
-    (0..6)
-        .map(|c| {
-            if live[c] {
-                rr[c].sqrt() / bnorm[c]
-            } else {
-                0.0
-            }
-        })
-        .fold(0.0, f64::max)
+    std::array::from_fn(|c| {
+        if live[c] {
+            rr[c].sqrt() / bnorm[c]
+        } else {
+            0.0
+        }
+    })
+}
+
+/// γ_n = n u / (1 − n u) (u = 2⁻⁵³, the unit roundoff): a computed sum of products with at
+/// most n additions in a chain differs from the exact one by at most γ_n times the sum of
+/// their absolute values (Higham 2002, "Accuracy and Stability of Numerical Algorithms",
+/// Eq. 3.5 and Lemma 3.1).
+fn unit_rounding_bound(n: usize) -> f64 {
+    let nu = n as f64 * f64::EPSILON / 2.0;
+    nu / (1.0 - nu)
+}
+
+/// The verdict on the curvatures pᵀKp of the CG's search directions in the `judged` load
+/// cases (`bound`: γ_n w pᵀdiag(K)p, the rounding error each can carry: a computed sum of
+/// products errs by at most γ_n times the sum of their absolute values, and |p|ᵀ|K||p| ≤
+/// w pᵀdiag(K)p for a positive semi-definite K of w scalars per row, as |K_ij| ≤
+/// √(K_ii K_jj)). A curvature below −bound is a negative one, which only a
+/// preload (geometric stiffness) can give: the network buckles ([`Error::Degenerate`]). One
+/// within ±bound carries no sign: the direction has no energy that the arithmetic can see.
+/// Its load case is then done if its residual meets the tolerance (marked in `done`: no
+/// further steps), and otherwise stalled at rounding level ([`Error::NotConverged`]): a step
+/// rz/pᵀKp would be a quotient of rounding errors, and stopping would return an answer
+/// above the tolerance asked for.
+fn judge_curvature(
+    pap: &[f64; 6],
+    bound: &[f64; 6],
+    judged: &[bool; 6],
+    residual: &[f64; 6],
+    tolerance: f64,
+    done: &mut [bool; 6],
+) -> Result<()> {
+    if let Some(c) = (0..6).find(|&c| judged[c] && pap[c] < -bound[c]) {
+        return Err(Error::Degenerate(format!(
+            "relaxed solver: the stiffness matrix is not positive (pᵀKp = {:.3e} < 0 in load \
+             case {}, beyond its rounding error {:.1e}): under this preload the network is \
+             unstable (buckles)",
+            pap[c],
+            c + 1,
+            bound[c]
+        )));
+    }
+    for c in (0..6).filter(|&c| judged[c] && pap[c].abs() <= bound[c]) {
+        if residual[c] > tolerance {
+            return Err(Error::NotConverged(format!(
+                "relaxed solver: stalled at rounding level in load case {}: the search \
+                 direction's curvature pᵀKp = {:.3e} is within its rounding error {:.1e} while \
+                 the relative residual is {:.3e} > tolerance {tolerance:.1e}; loosen the \
+                 tolerance (--cg-tolerance) or use the sparse Cholesky solver",
+                c + 1,
+                pap[c],
+                bound[c],
+                residual[c]
+            )));
+        }
+        done[c] = true;
+    }
+    Ok(())
 }
 
 /// Preconditioned conjugate gradients on the six load cases together, K X = B, from
@@ -635,8 +765,14 @@ fn pcg(
     let mut ap = vec![Block6::zeros(); m];
     let mut rz = column_dots(&r, &z);
     let mut worst = 0.0;
+    // |fl(pᵀKp) − pᵀKp| ≤ γ_n |p|ᵀ|K||p| ≤ γ_n w pᵀdiag(K)p ([`judge_curvature`]).
+    let rounding = unit_rounding_bound(k.rounding_depth(m)) * k.row_width() as f64;
+    // Load cases whose search direction reached the rounding level after their residual met
+    // the tolerance: no further steps (their residual stays as it is).
+    let mut done = [false; 6];
     for it in 0..=opts.max_iterations {
-        worst = worst_residual(&r, &live, &bnorm);
+        let residual = column_residuals(&r, &live, &bnorm);
+        worst = residual.iter().fold(0.0, |a: f64, &b| a.max(b));
         if worst <= opts.tolerance {
             return Ok((x, it, worst));
         }
@@ -644,18 +780,12 @@ fn pcg(
             break;
         }
         k.apply_cols(&p, &mut ap, cols);
-        let pap = column_dots(&p, &ap);
-        if let Some(c) = (0..6).find(|&c| live[c] && pap[c] < 0.0) {
-            // Only a preloaded network (geometric stiffness) can make K indefinite.
-            return Err(Error::Degenerate(format!(
-                "relaxed solver: the stiffness matrix is not positive (pᵀKp = {:.3e} < 0 in \
-                 load case {}): under this preload the network is unstable (buckles)",
-                pap[c],
-                c + 1
-            )));
-        }
+        let (pap, pdp) = curvatures(&p, &ap, &k.diag);
+        let judged: [bool; 6] = std::array::from_fn(|c| live[c] && !done[c]);
+        let bound: [f64; 6] = std::array::from_fn(|c| rounding * pdp[c]);
+        judge_curvature(&pap, &bound, &judged, &residual, opts.tolerance, &mut done)?;
         let alpha: [f64; 6] = std::array::from_fn(|c| {
-            if live[c] && pap[c] > 0.0 {
+            if live[c] && !done[c] && pap[c] > 0.0 {
                 rz[c] / pap[c]
             } else {
                 0.0
@@ -664,8 +794,13 @@ fn pcg(
         cg_step(&mut x, &mut r, &p, &ap, &alpha);
         precondition.apply(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
-        let beta: [f64; 6] =
-            std::array::from_fn(|c| if rz[c] > 0.0 { rz_new[c] / rz[c] } else { 0.0 });
+        let beta: [f64; 6] = std::array::from_fn(|c| {
+            if rz[c] > 0.0 && !done[c] {
+                rz_new[c] / rz[c]
+            } else {
+                0.0
+            }
+        });
         p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
             for (c, &b) in beta.iter().enumerate() {
                 for i in 0..6 {
@@ -815,4 +950,149 @@ fn cg_step(x: &mut [Block6], r: &mut [Block6], p: &[Block6], ap: &[Block6], alph
                 }
             }
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    type V6 = nalgebra::Vector6<f64>;
+    /// What [`pcg`] returns.
+    type Solve = Result<(Vec<Block6>, usize, f64)>;
+
+    /// A ring of `n` nodes joined by the block A (K_ii = 2A, K_i,i±1 = −A): K = L ⊗ A with L
+    /// the ring's Laplacian, null on equal displacements of every node.
+    fn ring(n: usize, a: &Block6) -> BlockSparse {
+        let ends: Vec<(u32, u32)> = (0..n).map(|i| (i as u32, ((i + 1) % n) as u32)).collect();
+        BlockSparse::assemble_blocks(n, &ends, |_| (*a, *a, -a))
+    }
+
+    /// A symmetric positive definite block with entries that are not round numbers.
+    fn spd_block() -> Block6 {
+        let b = Block6::from_fn(|i, j| ((i * 7 + j * 3) % 11) as f64 / 7.0 + 0.1 * (i + j) as f64);
+        b * b.transpose() + Block6::identity() * 3.1
+    }
+
+    /// CG on the ring with block-Jacobi: load case 1 the alternating load (−1)^i A e, an
+    /// eigenvector of L ⊗ A (λ = 4: x_i = (−1)^i e / 4), plus δ times a load equal on every
+    /// node, in K's null space, of `floor` times the alternating one's norm (the relative
+    /// residual CG cannot go below); load case 2 a load orthogonal to the null space, which
+    /// takes several iterations.
+    fn ring_solve(floor: f64, tolerance: f64) -> (Solve, Vec<Block6>) {
+        let n = 16;
+        let a = spd_block();
+        let k = ring(n, &a);
+        let e = V6::from_fn(|i, _| 1.0 + 0.3 * i as f64);
+        let null = V6::from_fn(|i, _| (i as f64 * 1.3).sin() + 0.2);
+        let delta = floor * (a * e).norm() / null.norm();
+        let mut b = vec![Block6::zeros(); n];
+        let mut want = vec![Block6::zeros(); n];
+        let mut h: Vec<V6> = (0..n)
+            .map(|i| V6::from_fn(|j, _| ((i * 5 + j * 3) % 7) as f64 - 3.0))
+            .collect();
+        let mean = h.iter().sum::<V6>() / n as f64;
+        h.iter_mut().for_each(|v| *v -= mean);
+        for i in 0..n {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            b[i].set_column(0, &(a * e * sign + null * delta));
+            b[i].set_column(1, &(a * h[i]));
+            want[i].set_column(0, &(e * (sign / 4.0)));
+        }
+        let (pre, diag): (Vec<_>, Vec<_>) = (0..n)
+            .map(|p| {
+                let block = k.diagonal(p);
+                (pinv_psd(&block), diagonal_entries(&block))
+            })
+            .unzip();
+        let op = Stiffness {
+            k: &k,
+            term: None,
+            diag,
+        };
+        let scale = column_dots(&b, &b).map(f64::sqrt);
+        let opts = RelaxedOptions {
+            tolerance,
+            max_iterations: 200,
+            ..Default::default()
+        };
+        (pcg(&op, &b, &pre, (None, None), &scale, &opts, None), want)
+    }
+
+    /// A load case whose residual met the tolerance while another iterates on: its search
+    /// direction lies in K's null space, where the computed pᵀKp is rounding of either sign.
+    /// It is done, not called buckling, and its solution keeps no null component that a step
+    /// rz/pᵀKp (a quotient of rounding errors) would add.
+    #[test]
+    fn rounding_level_curvature_after_convergence_ends_the_load_case() {
+        let (res, want) = ring_solve(1e-7, 1e-6);
+        let (x, iterations, residual) = res.expect("converged");
+        assert!(
+            residual <= 1e-6 && iterations > 2,
+            "{iterations} {residual:e}"
+        );
+        let n = x.len() as f64;
+        let mean: V6 = x.iter().map(|b| b.column(0).into_owned()).sum::<V6>() / n;
+        let scale = want[0].column(0).norm();
+        // The first step's own null component is of the order of the floor (1.6e-6 measured);
+        // a step rz/pᵀKp on a rounding-level curvature would add one many orders larger.
+        assert!(
+            mean.norm() < 1e-4 * scale,
+            "null component {:e}",
+            mean.norm()
+        );
+        for (got, want) in x.iter().zip(&want) {
+            let err = (got.column(0) - mean - want.column(0)).norm();
+            assert!(err < 1e-7 * scale, "{err:e}");
+        }
+    }
+
+    /// The same load case with a tolerance below the null component's residual: stalled at
+    /// rounding level ([`Error::NotConverged`]), not a buckling network.
+    #[test]
+    fn rounding_level_curvature_above_the_tolerance_is_a_stall_not_buckling() {
+        match ring_solve(1e-7, 1e-8).0 {
+            Err(Error::NotConverged(m)) => {
+                assert!(
+                    m.contains("rounding level") && m.contains("load case 1"),
+                    "{m}"
+                )
+            }
+            other => panic!("expected a stall at rounding level, got {other:?}"),
+        }
+    }
+
+    /// A K with a negative direction (the ring's K less 1.2 λ_min(A) times the identity,
+    /// whose diagonal blocks stay positive: equal displacements of every node have curvature
+    /// −1.2 λ_min(A) per node) loaded along it: refused as buckling, far beyond rounding.
+    #[test]
+    fn a_truly_negative_curvature_is_still_buckling() {
+        let n = 8;
+        let a = spd_block();
+        let shift = 1.2 * a.symmetric_eigenvalues().min();
+        let ends: Vec<(u32, u32)> = (0..n).map(|i| (i as u32, ((i + 1) % n) as u32)).collect();
+        // Half the shift on each end of every edge: −shift·I on every diagonal block.
+        let half = Block6::identity() * (0.5 * shift);
+        let k = BlockSparse::assemble_blocks(n, &ends, |_| (a - half, a - half, -a));
+        let mut b = vec![Block6::zeros(); n];
+        for bi in b.iter_mut() {
+            bi.set_column(0, &V6::from_fn(|j, _| 1.0 + 0.1 * j as f64));
+        }
+        let (pre, diag): (Vec<_>, Vec<_>) = (0..n)
+            .map(|p| {
+                let block = k.diagonal(p);
+                (pinv_psd(&block), diagonal_entries(&block))
+            })
+            .unzip();
+        let op = Stiffness {
+            k: &k,
+            term: None,
+            diag,
+        };
+        let scale = column_dots(&b, &b).map(f64::sqrt);
+        let opts = RelaxedOptions::default();
+        match pcg(&op, &b, &pre, (None, None), &scale, &opts, None) {
+            Err(Error::Degenerate(m)) => assert!(m.contains("buckles"), "{m}"),
+            other => panic!("expected buckling, got {other:?}"),
+        }
+    }
 }

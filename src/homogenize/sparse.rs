@@ -88,13 +88,28 @@ impl BlockSparse {
     /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
     /// solve with fewer than six right-hand sides does not pay for six.
     pub fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
-        y.par_iter_mut().enumerate().for_each(|(p, yp)| {
-            let mut acc = Block6::zeros();
-            for k in self.row_start[p]..self.row_start[p + 1] {
-                mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
-            }
-            *yp = acc;
-        });
+        y.par_iter_mut()
+            .enumerate()
+            .for_each(|(p, yp)| *yp = self.row_times(p, x, cols));
+    }
+
+    /// Row `p` of K X on the first `cols` load cases, its blocks in column order.
+    #[inline(always)]
+    pub(crate) fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+        let mut acc = Block6::zeros();
+        for k in self.row_start[p]..self.row_start[p + 1] {
+            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
+        }
+        acc
+    }
+
+    /// The most stored blocks in one row.
+    pub(crate) fn max_row_blocks(&self) -> usize {
+        self.row_start
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(0)
     }
 
     /// The diagonal block of row `p`.

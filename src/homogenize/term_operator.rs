@@ -16,7 +16,7 @@ use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
 use nalgebra::{Matrix3x6, Matrix6x3};
 use rayon::prelude::*;
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 /// N(v): the engineering strain (Voigt) of δF = u ⊗ v per displacement u; the force that a
 /// Voigt stress s puts on the node of coefficient v is N(v)ᵀ s.
@@ -52,7 +52,7 @@ pub(crate) struct TermOperator {
     row_start: Vec<usize>,
     row_owner: Vec<u32>,
     row_coef: Vec<Vec3>,
-    /// Work of [`Self::add_apply`]: V_p D ε_p per owner, one column per load case.
+    /// Work of [`Self::stresses`]: V_p D ε_p per owner, one column per load case.
     stress: Mutex<Vec<Block6>>,
 }
 
@@ -184,10 +184,10 @@ impl TermOperator {
         blk
     }
 
-    /// Y += K X on the first `cols` load cases: per owner V_p D ε_p (gather), then per row
-    /// Σ_p N(c_pr)ᵀ σ_p (scatter as a gather over the row's owners, in a fixed order: the same
-    /// bits on any number of threads).
-    pub(crate) fn add_apply(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+    /// K X on the first `cols` load cases, first part: V_p D ε_p of every owner (gather;
+    /// one column per load case), in the operator's work buffer; [`Self::add_row`] then adds
+    /// each row's share.
+    pub(crate) fn stresses(&self, x: &[Block6], cols: usize) -> MutexGuard<'_, Vec<Block6>> {
         let cols = cols.min(6);
         let mut stress = self.stress.lock().unwrap_or_else(|e| e.into_inner());
         stress.par_iter_mut().enumerate().for_each(|(o, so)| {
@@ -224,23 +224,53 @@ impl TermOperator {
                 }
             }
         });
-        let stress = &*stress;
-        y.par_iter_mut().enumerate().for_each(|(r, yr)| {
-            let out: &mut [f64; 36] = yr.as_mut_slice().try_into().expect("6×6");
-            for k in self.row_start[r]..self.row_start[r + 1] {
-                let s: &[f64; 36] = stress[self.row_owner[k] as usize]
-                    .as_slice()
-                    .try_into()
-                    .expect("6×6");
-                let u = &self.row_coef[k];
-                for c in 0..cols {
-                    let sc = &s[6 * c..6 * c + 6];
-                    out[6 * c] += sc[0] * u.x + sc[5] * u.y + sc[4] * u.z;
-                    out[1 + 6 * c] += sc[5] * u.x + sc[1] * u.y + sc[3] * u.z;
-                    out[2 + 6 * c] += sc[4] * u.x + sc[3] * u.y + sc[2] * u.z;
-                }
+        stress
+    }
+
+    /// Row r of K X added to `yr`: Σ_p N(c_pr)ᵀ σ_p over the row's owners in increasing
+    /// order (the scatter as a gather in a fixed order: the same bits on any number of
+    /// threads), with `stress` from [`Self::stresses`] of the same X.
+    #[inline(always)]
+    pub(crate) fn add_row(&self, r: usize, stress: &[Block6], yr: &mut Block6, cols: usize) {
+        let cols = cols.min(6);
+        let out: &mut [f64; 36] = yr.as_mut_slice().try_into().expect("6×6");
+        for k in self.row_start[r]..self.row_start[r + 1] {
+            let s: &[f64; 36] = stress[self.row_owner[k] as usize]
+                .as_slice()
+                .try_into()
+                .expect("6×6");
+            let u = &self.row_coef[k];
+            for c in 0..cols {
+                let sc = &s[6 * c..6 * c + 6];
+                out[6 * c] += sc[0] * u.x + sc[5] * u.y + sc[4] * u.z;
+                out[1 + 6 * c] += sc[5] * u.x + sc[1] * u.y + sc[3] * u.z;
+                out[2 + 6 * c] += sc[4] * u.x + sc[3] * u.y + sc[2] * u.z;
             }
-        });
+        }
+    }
+
+    /// The most nodes one row couples to through the term (Σ over the row's owners of their
+    /// stencils' sizes, an upper bound of the row's blocks in the assembled Hessian).
+    pub(crate) fn coupling_width(&self) -> usize {
+        (0..self.row_start.len() - 1)
+            .map(|r| {
+                (self.row_start[r]..self.row_start[r + 1])
+                    .map(|k| {
+                        let o = self.row_owner[k] as usize;
+                        self.start[o + 1] - self.start[o]
+                    })
+                    .sum::<usize>()
+            })
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The longest chain of additions in one entry of [`Self::add_row`]: 3 per stencil
+    /// entry and one for the symmetric part (ε_p), 6 (D ε_p), 3 per owner of the row.
+    pub(crate) fn rounding_depth(&self) -> usize {
+        let stencil = self.start.windows(2).map(|w| w[1] - w[0]).max();
+        let owners = self.row_start.windows(2).map(|w| w[1] - w[0]).max();
+        3 * stencil.unwrap_or(0) + 1 + 6 + 3 * owners.unwrap_or(0)
     }
 
     /// K P of the two-level coarse space, per active row: (aggregate, Σ_q∈aggregate K_rq P_q)

@@ -132,3 +132,45 @@ fn isotropic_preload_follows_the_closed_form_and_raises_c12_above_c44() {
     assert!(before.c12 < before.c44);
     assert!(after.c12 > after.c44, "C12 {} C44 {}", after.c12, after.c44);
 }
+
+/// A compressive preload far beyond the network's stability (issue 33's refinement of the
+/// relaxed CG's sign test): the relaxed tangent is refused as buckling (`Error::Degenerate`),
+/// not taken for rounding. The geometric stiffness −N/l (I − nn) of a bond under a compressive
+/// axial force N exceeds the transverse stiffness of its springs when N/l ≳ k_s, which an
+/// isotropic pressure reaches at p of the order of the springs' C11 (N/l ≈ 0.6 k_n p/C11 for
+/// isotropic bond directions): the preload is raised from half of C11 by doubling until refused.
+#[test]
+fn a_preload_beyond_stability_is_refused_as_buckling() {
+    use anisobond::assembly::Assembly;
+    use anisobond::model::Model;
+    use anisobond::packing::{generate, GenerateOptions};
+    use anisobond::tensor::CubicProjection;
+    use anisobond::Error;
+    let opts = GenerateOptions {
+        n_particles: 800,
+        solid_fraction: 0.60,
+        mean_radius: 1e-3,
+        seed: 5,
+        ..Default::default()
+    };
+    let a = Assembly::new(generate(&opts, &|_| {}).unwrap(), Model::truszkowska_mrv()).unwrap();
+    let ro = RelaxedOptions::default();
+    let free = relaxed_tensor(&a.packing, &a.bonds, &a.springs, &ro).unwrap();
+    let c11 = CubicProjection::from_stiffness(&free.c).c11;
+    let mut refused = None;
+    for factor in [0.5, 1.0, 2.0, 4.0, 8.0] {
+        let pre =
+            Prestress::isotropic(&a.packing, &a.bonds, &a.springs, factor * c11, &ro).unwrap();
+        match prestressed_tensor(&a.packing, &a.bonds, &a.springs, &pre, &ro) {
+            Ok(_) => continue,
+            Err(e) => {
+                refused = Some((factor, e));
+                break;
+            }
+        }
+    }
+    match refused {
+        Some((_, Error::Degenerate(m))) => assert!(m.contains("buckles"), "{m}"),
+        other => panic!("expected buckling under a preload up to 8 C11, got {other:?}"),
+    }
+}
