@@ -342,16 +342,8 @@ fn relaxed_solve_full(
     let springs = BlockSparse::assemble(&net);
     // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
     // assembled K; only the sparse Cholesky assembles it (below).
-    let (pre, diag): (Vec<_>, Vec<_>) = (0..m)
-        .into_par_iter()
-        .map(|p| {
-            let block = match &term_op {
-                Some(op) => springs.diagonal(p) + op.diagonal(p),
-                None => springs.diagonal(p),
-            };
-            (pinv_psd(&block), diagonal_entries(&block))
-        })
-        .unzip();
+    debug_assert_eq!(springs.rows(), m);
+    let (pre, diag) = jacobi_pieces(&springs, term_op.as_ref());
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
             let full = if net.degree[p] == 2 { 5 } else { 6 };
@@ -479,6 +471,26 @@ impl Stiffness<'_> {
 }
 
 /// The six diagonal entries of a 6×6 block.
+/// Block-Jacobi pieces of K (the springs' K plus the term's diagonal blocks): each
+/// particle's pseudo-inverse with its rank, and its diagonal entries for [`pcg`]'s
+/// rounding bound on pᵀKp.
+#[allow(clippy::type_complexity)]
+fn jacobi_pieces(
+    k: &BlockSparse,
+    term: Option<&TermOperator>,
+) -> (Vec<(Block6, usize)>, Vec<[f64; 6]>) {
+    (0..k.rows())
+        .into_par_iter()
+        .map(|p| {
+            let block = match term {
+                Some(op) => k.diagonal(p) + op.diagonal(p),
+                None => k.diagonal(p),
+            };
+            (pinv_psd(&block), diagonal_entries(&block))
+        })
+        .unzip()
+}
+
 fn diagonal_entries(block: &Block6) -> [f64; 6] {
     std::array::from_fn(|i| block[(i, i)])
 }
@@ -636,13 +648,7 @@ fn held_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let (pre, diag): (Vec<_>, Vec<_>) = (0..k.rows())
-        .into_par_iter()
-        .map(|p| {
-            let block = k.diagonal(p);
-            (pinv_psd(&block), diagonal_entries(&block))
-        })
-        .unzip();
+    let (pre, diag) = jacobi_pieces(k, None);
     let scale = column_dots(b, b).map(f64::sqrt);
     let opts = RelaxedOptions {
         tolerance,
@@ -998,24 +1004,7 @@ mod tests {
             b[i].set_column(1, &(a * h[i]));
             want[i].set_column(0, &(e * (sign / 4.0)));
         }
-        let (pre, diag): (Vec<_>, Vec<_>) = (0..n)
-            .map(|p| {
-                let block = k.diagonal(p);
-                (pinv_psd(&block), diagonal_entries(&block))
-            })
-            .unzip();
-        let op = Stiffness {
-            k: &k,
-            term: None,
-            diag,
-        };
-        let scale = column_dots(&b, &b).map(f64::sqrt);
-        let opts = RelaxedOptions {
-            tolerance,
-            max_iterations: 200,
-            ..Default::default()
-        };
-        (pcg(&op, &b, &pre, (None, None), &scale, &opts, None), want)
+        (held_cg(&k, &b, None, tolerance, 200), want)
     }
 
     /// A load case whose residual met the tolerance while another iterates on: its search
@@ -1077,20 +1066,8 @@ mod tests {
         for bi in b.iter_mut() {
             bi.set_column(0, &V6::from_fn(|j, _| 1.0 + 0.1 * j as f64));
         }
-        let (pre, diag): (Vec<_>, Vec<_>) = (0..n)
-            .map(|p| {
-                let block = k.diagonal(p);
-                (pinv_psd(&block), diagonal_entries(&block))
-            })
-            .unzip();
-        let op = Stiffness {
-            k: &k,
-            term: None,
-            diag,
-        };
-        let scale = column_dots(&b, &b).map(f64::sqrt);
         let opts = RelaxedOptions::default();
-        match pcg(&op, &b, &pre, (None, None), &scale, &opts, None) {
+        match held_cg(&k, &b, None, opts.tolerance, opts.max_iterations) {
             Err(Error::Degenerate(m)) => assert!(m.contains("buckles"), "{m}"),
             other => panic!("expected buckling, got {other:?}"),
         }
