@@ -1,4 +1,4 @@
-//! Law (d) four bonds at a time: [`super::lammps_bpm::bond_step`] (lab-frame route,
+//! Law (d) four bonds at a time: [`super::bpm_bond::bond_step`] (lab-frame route,
 //! `normalize no`) written over AVX2 lanes of `[f64; 4]`.
 //!
 //! Every lane performs exactly the scalar kernel's IEEE operations in the same order (no
@@ -10,7 +10,7 @@
 //! the scalar kernel (a copy of their normal). The chunk's sums are added in bond order as
 //! the scalar loop adds them.
 
-use super::lammps_bpm::{bond_step, BpmBond, BpmCoefficients, BpmResult, ElasticParts, StepInputs};
+use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, ElasticParts, StepInputs};
 use super::lanes::{
     abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F, LANES,
     V,

@@ -18,6 +18,7 @@
 //! they differ in the springs and in how moments accumulate.
 
 #[cfg(target_arch = "x86_64")]
+pub(crate) mod bpm_bond;
 pub(crate) mod bpm_lanes;
 pub(crate) mod kumar;
 pub(crate) mod lammps_bpm;
