@@ -245,16 +245,18 @@ fn validate_lammps_passes_with_one_and_two_processes_including_shear() {
     }
     assert!(out.join("checks.csv").exists() && out.join("in.elastic").exists());
     // The undamped histories: LAMMPS (1 and 2 processes) against the integrator with law
-    // lammps-bpm, every path within 1e-8 of its largest stress (measured 2e-9 to 3.4e-9 on
-    // one process, 2.3e-9 between two and one), the shears included.
-    for id in [
-        "history-np1-lammps-bpm",
-        "history-np2-lammps-bpm",
-        "history-np2-np1",
+    // lammps-bpm, every path within 5e-8 of its largest stress (LAMMPS' acos angles carry up
+    // to √ε ≈ 1.5e-8 rad of rounding, the integrator's atan2 angles not: measured 1.36e-8 and
+    // 1.39e-8; docs/lammps.md), the shears included; LAMMPS' two runs, which share that
+    // rounding, within 1e-8 of each other (measured 2.3e-9).
+    for (id, bound) in [
+        ("history-np1-lammps-bpm", 5e-8),
+        ("history-np2-lammps-bpm", 5e-8),
+        ("history-np2-np1", 1e-8),
     ] {
         let c = checks.iter().find(|c| c["id"] == id).unwrap();
         assert_eq!(c["passed"], true, "{c}");
-        assert!(c["value"].as_f64().unwrap() < 1e-8, "{c}");
+        assert!(c["value"].as_f64().unwrap() < bound, "{c}");
     }
     let h = &report["undamped_history"];
     assert_eq!(
@@ -268,7 +270,7 @@ fn validate_lammps_passes_with_one_and_two_processes_including_shear() {
             // 101 rows (step 0 and every 10th); the stress moved: the history is not trivial.
             assert_eq!(p["steps"], 101, "{p}");
             assert!(p["max_stress_Pa"].as_f64().unwrap() > 1e6, "{p}");
-            assert!(p["relative"].as_f64().unwrap() < 1e-8, "{p}");
+            assert!(p["relative"].as_f64().unwrap() < 5e-8, "{p}");
         }
     }
     let csv = std::fs::read_to_string(out.join("undamped-history.csv")).unwrap();
