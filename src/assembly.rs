@@ -18,6 +18,7 @@ use crate::homogenize::network::LeverArm;
 use crate::homogenize::prestress::{prestressed_tensor, Prestress, PrestressedTensor};
 use crate::homogenize::relaxed::{relaxed_tensor_with_term, RelaxedOptions, RelaxedResult};
 use crate::homogenize::report::TensorReport;
+use crate::homogenize::system::{relaxed_system, RelaxedSystem};
 use crate::homogenize::{mean_field, voigt};
 use crate::manybody::ManyBody;
 use crate::model::Model;
@@ -541,6 +542,22 @@ impl Assembly {
             _ => {}
         }
         Ok(TensorResult { report, detail })
+    }
+
+    /// The relaxed solve's linear system (K, G, H, V; [`crate::homogenize::system`]) of this
+    /// assembly with `opts`' lever arm and rotations, the many-body term included: for
+    /// solving C = (H − Gᵀ K⁺ G)/V with another code. Refuses a box that is not fully
+    /// periodic, as the relaxed tensor does.
+    pub fn relaxed_system(&self, opts: &RelaxedOptions) -> Result<RelaxedSystem> {
+        PeriodicCell::require_fully_periodic(self.packing.cell.as_ref(), "relaxed system")?;
+        let term = self.manybody()?;
+        relaxed_system(
+            &self.packing,
+            &self.bonds,
+            &self.springs,
+            term.as_ref(),
+            opts,
+        )
     }
 
     /// The many-body term of the model's `[manybody]` on these bonds (docs/manybody.md), or

@@ -18,6 +18,7 @@
 //!   `buckling.rs`: the linearised buckling load of a clamped bar (Kumar 2016 Sec. 5).
 //! - `prestress.rs`: the tangent of an assembly deformed from a loaded state (geometric terms).
 //! - `report.rs`: the SPEC tensor report (JSON).
+//! - `system.rs`: the relaxed solve's K, G, H and V handed out (CSR), for other solvers.
 
 pub(crate) mod amg;
 mod amg_blocks;
@@ -32,6 +33,7 @@ pub(crate) mod prestress;
 pub(crate) mod relaxed;
 pub(crate) mod report;
 pub(crate) mod sparse;
+pub(crate) mod system;
 pub(crate) mod term_operator;
 pub(crate) mod term_preconditioner;
 pub(crate) mod two_level;
@@ -68,6 +70,7 @@ pub use relaxed::{
 pub use report::Uncertainty;
 pub use report::{CubicSummary, TensorReport};
 pub use sparse::BlockSparse;
+pub use system::{relaxed_system, RelaxedSystem};
 pub use two_level::TwoLevel;
 pub use voigt::voigt_tensor;
 

@@ -295,33 +295,8 @@ fn relaxed_solve_full(
     axial_force: Option<&[f64]>,
     term: Option<&ManyBody>,
 ) -> Result<RelaxedSolution> {
-    opts.validate()?;
-    require_cell(packing)?;
-    if let Some(t) = term {
-        if t.len() != packing.len() || t.reference_branches().len() != bonds.len() {
-            return Err(Error::Invalid(format!(
-                "relaxed solver: the many-body term has {} particles and {} bonds, the packing {} particles and {} bonds (build it from the same packing and bonds)",
-                t.len(),
-                t.reference_branches().len(),
-                packing.len(),
-                bonds.len()
-            )));
-        }
-    }
-    let mut net = Network::build_with(
-        packing,
-        bonds,
-        k,
-        opts.lever_arm,
-        opts.rotations,
-        axial_force,
-        term.is_some(),
-    )?;
-    let term_op = match term {
-        Some(t) => Some(TermOperator::new(t, &net.index, net.n_active)?),
-        None => None,
-    };
-    let term_scale = term_op.as_ref().map(|op| add_term(&mut net, op));
+    let (mut net, term_op, term_scale) =
+        network_with_term(packing, bonds, k, opts, axial_force, term)?;
     let c_affine = net.h / net.volume;
     let m = net.n_active;
     if !opts.fluctuations || m == 0 {
@@ -419,6 +394,48 @@ fn relaxed_solve_full(
         q,
         active: net.original,
     })
+}
+
+/// The checked, linearised network of the springs, with the many-body term's load and
+/// affine tensor added to G and H when there is one (then dangling particles stay: the term
+/// couples them): what the relaxed solve and the exported system (`system.rs`) share. Also
+/// the term in factored form and its load scales.
+pub(super) fn network_with_term(
+    packing: &Packing,
+    bonds: &BondSet,
+    k: &BondStiffness,
+    opts: &RelaxedOptions,
+    axial_force: Option<&[f64]>,
+    term: Option<&ManyBody>,
+) -> Result<(Network, Option<TermOperator>, Option<[f64; 6]>)> {
+    opts.validate()?;
+    require_cell(packing)?;
+    if let Some(t) = term {
+        if t.len() != packing.len() || t.reference_branches().len() != bonds.len() {
+            return Err(Error::Invalid(format!(
+                "relaxed solver: the many-body term has {} particles and {} bonds, the packing {} particles and {} bonds (build it from the same packing and bonds)",
+                t.len(),
+                t.reference_branches().len(),
+                packing.len(),
+                bonds.len()
+            )));
+        }
+    }
+    let mut net = Network::build_with(
+        packing,
+        bonds,
+        k,
+        opts.lever_arm,
+        opts.rotations,
+        axial_force,
+        term.is_some(),
+    )?;
+    let term_op = match term {
+        Some(t) => Some(TermOperator::new(t, &net.index, net.n_active)?),
+        None => None,
+    };
+    let term_scale = term_op.as_ref().map(|op| add_term(&mut net, op));
+    Ok((net, term_op, term_scale))
 }
 
 /// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form,

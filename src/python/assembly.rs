@@ -264,6 +264,43 @@ impl PyAssembly {
         json_to_py(py, &r.to_json())
     }
 
+    /// The relaxed solve's linear system as a dict, for solving it with another code:
+    /// "indptr", "indices", "data" (K in CSR over the 6·m DOFs of the m active particles: ux,
+    /// uy, uz in m, then θx, θy, θz in rad, scipy.sparse.csr_matrix((data, indices, indptr))),
+    /// "g" (6m, 6) the loads of the six unit strains (Voigt order, engineering shears), "h"
+    /// (6, 6) the affine energy matrix (Pa·m³), "volume" (m³) and "active" (m,) the packing
+    /// index of each row block. The relaxed tensor is C = (h − gᵀq)/volume with K q = g (K is
+    /// singular along the rigid translations; g is orthogonal to them). lever_arm and
+    /// rotations as for tensor("relaxed"); a many-body term is included. GIL released.
+    #[pyo3(signature = (*, lever_arm = "mid-gap", rotations = true))]
+    fn relaxed_system<'py>(
+        &self,
+        py: Python<'py>,
+        lever_arm: &str,
+        rotations: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let opts = crate::homogenize::relaxed::RelaxedOptions {
+            lever_arm: super::method::one_of("lever_arm", lever_arm, &super::method::LEVER_ARMS)?,
+            rotations,
+            ..Default::default()
+        };
+        let asm = &self.inner;
+        let s = py.detach(|| asm.relaxed_system(&opts)).map_err(to_py)?;
+        let d = PyDict::new(py);
+        let indptr: Vec<i64> = s.row_start.iter().map(|&r| r as i64).collect();
+        let indices: Vec<i64> = s.column.iter().map(|&c| c as i64).collect();
+        let active: Vec<i64> = s.active.iter().map(|&p| p as i64).collect();
+        d.set_item("indptr", PyArray1::from_vec(py, indptr))?;
+        d.set_item("indices", PyArray1::from_vec(py, indices))?;
+        d.set_item("data", PyArray1::from_vec(py, s.value))?;
+        d.set_item("g", PyArray1::from_vec(py, s.g).reshape([s.unknowns, 6])?)?;
+        let h: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| s.h[(i, j)]));
+        d.set_item("h", tensor_array(py, &h)?)?;
+        d.set_item("volume", s.volume)?;
+        d.set_item("active", PyArray1::from_vec(py, active))?;
+        Ok(d)
+    }
+
     /// The assembly as a finite specimen between two platens (`anisobond specimen`,
     /// docs/specimens.md): the dict of specimen.json (platen_stiffness N/m, young Pa, poisson,
     /// reactions N, …) plus "displacement" (N, 3) m and "layer" (N,) 0/1/2 (none, held,

@@ -12,4 +12,5 @@ mod meanfield_cubic;
 mod prestress;
 mod relaxed;
 mod relaxed_solvers;
+mod system;
 mod voigt;

@@ -463,3 +463,28 @@ def test_specimen_equals_cli_and_the_simple_cubic_closed_form(tmp_path):
         asm.specimen("z", strain=1e-4, force=1.0)
     with pytest.raises(ab.InputError, match="moved"):
         asm.specimen("z", moved="sphere:1,2,3")
+
+
+def test_relaxed_system_solved_by_numpy_is_the_cli_tensor(files, cubic):
+    # The relaxed solve's K (CSR), G, H and V handed out: solved here by numpy's dense
+    # least squares on the Jacobi-scaled K (independent of the library's solvers), C =
+    # (H − Gᵀ K⁺ G)/V equals the command's sparse-Cholesky tensor.
+    s = cubic.relaxed_system()
+    n = len(s["indptr"]) - 1
+    assert n == 6 * len(s["active"]) and s["g"].shape == (n, 6) and s["h"].shape == (6, 6)
+    k = np.zeros((n, n))
+    for r in range(n):
+        lo, hi = s["indptr"][r], s["indptr"][r + 1]
+        k[r, s["indices"][lo:hi]] = s["data"][lo:hi]
+    assert np.abs(k - k.T).max() <= 1e-12 * np.abs(k).max()
+    d = np.where(np.diag(k) > 0, 1 / np.sqrt(np.abs(np.diag(k))), 0.0)
+    q = np.linalg.lstsq(k * d[:, None] * d[None, :], s["g"] * d[:, None], rcond=1e-11)[0]
+    q *= d[:, None]
+    c = (s["h"] - s["g"].T @ q) / s["volume"]
+    c = 0.5 * (c + c.T)
+    expected = np.array(cli_report(files, "relaxed", "cubic.toml", "--solver", "cholesky")["C"])
+    assert np.abs(c - expected).max() <= 1e-9 * np.abs(expected).max()
+    # Relaxing lowers the affine H/V (the comparison is not trivial).
+    assert expected[3, 3] < 0.99 * s["h"][3, 3] / s["volume"]
+    with pytest.raises(ab.InputError, match="lever_arm"):
+        cubic.relaxed_system(lever_arm="nowhere")
