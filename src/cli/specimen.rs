@@ -62,6 +62,9 @@ pub enum SolverArg {
     Cholesky,
     /// Two-level preconditioned CG.
     Cg,
+    /// CG with a smoothed-aggregation multigrid V-cycle (rigid-body modes), as `tensor
+    /// --solver cg-amg`.
+    CgAmg,
 }
 
 /// Options of `anisobond specimen`.
@@ -181,6 +184,7 @@ pub fn run(a: SpecimenArgs) -> Result<()> {
         SolverArg::Auto => SolverChoice::Auto,
         SolverArg::Cholesky => SolverChoice::Cholesky,
         SolverArg::Cg => SolverChoice::Cg,
+        SolverArg::CgAmg => SolverChoice::CgAmg,
     };
     let r = anisobond::specimen::solve(&asm, &opts).map_err(|e| match e {
         Error::Invalid(m) => Error::Invalid(format!(

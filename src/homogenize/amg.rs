@@ -90,6 +90,16 @@ impl BlockRows {
         BlockRows { start, entries }
     }
 
+    /// Row `i` replaced by `row` (the later rows moved in place).
+    fn replace_row(&mut self, i: usize, row: Vec<(u32, Block6)>) {
+        let (a, b) = (self.start[i], self.start[i + 1]);
+        let shift = row.len() as isize - (b - a) as isize;
+        self.entries.splice(a..b, row);
+        for s in &mut self.start[i + 1..] {
+            *s = (*s as isize + shift) as usize;
+        }
+    }
+
     /// The entries of row `i`.
     fn row(&self, i: usize) -> &[(u32, Block6)] {
         &self.entries[self.start[i]..self.start[i + 1]]
@@ -179,6 +189,22 @@ impl Graph {
         Graph { start, edges }
     }
 
+    /// The graph without node `s`'s edges: `s` is isolated (an aggregate of its own).
+    fn without(self, s: usize) -> Graph {
+        let rows = (0..self.nodes())
+            .map(|i| match i == s {
+                true => Vec::new(),
+                false => self
+                    .row(i)
+                    .iter()
+                    .filter(|(j, _)| *j as usize != s)
+                    .copied()
+                    .collect(),
+            })
+            .collect();
+        Graph::from_rows(rows)
+    }
+
     /// Number of nodes.
     fn nodes(&self) -> usize {
         self.start.len() - 1
@@ -255,10 +281,11 @@ fn members(agg: &[u32], n_agg: usize) -> (Vec<usize>, Vec<u32>) {
 }
 
 /// The fine level's near-null space: the rigid modes of every node about its aggregate's
-/// centre (minimum-image arms from the aggregate's first node, then from their mean).
+/// centre (minimum-image arms from the aggregate's first node, then from their mean; plain
+/// arms without a cell).
 fn rigid_near_null(
     positions: &[Vec3],
-    cell: &PeriodicCell,
+    cell: Option<&PeriodicCell>,
     rotations: bool,
     (start, nodes): (&[usize], &[u32]),
 ) -> Vec<Block6> {
@@ -269,7 +296,10 @@ fn rigid_near_null(
             let x0 = positions[group[0] as usize];
             let offsets: Vec<Vec3> = group
                 .iter()
-                .map(|&p| cell.minimum_image(positions[p as usize] - x0).0)
+                .map(|&p| {
+                    let d = positions[p as usize] - x0;
+                    cell.map_or(d, |c| c.minimum_image(d).0)
+                })
                 .collect();
             let centre = offsets.iter().fold(Vec3::zeros(), |s, o| s + o) / group.len() as f64;
             group
@@ -284,6 +314,47 @@ fn rigid_near_null(
         b[p as usize] = rigid_modes(&d, rotations);
     }
     b
+}
+
+/// The fine near-null space of a held structure for [`Amg::of_held`]: a specimen between
+/// platens (issue 35), free or periodic across its axis, its prescribed DOFs eliminated.
+pub struct HeldModes<'p> {
+    /// Node positions (m), one per row of K (the apart node's is not used).
+    pub positions: &'p [Vec3],
+    /// Arms by minimum image along this box's periodic axes (the lateral ones of a prism
+    /// periodic across its axis); `None`: plain arms (a free cluster).
+    pub cell: Option<PeriodicCell>,
+    /// The spin unknowns' scale: the rotation modes' spin rows are `spin_scale`·θ (the
+    /// specimen solves for R̄·ω: R̄ in m).
+    pub spin_scale: f64,
+    /// Per node, its eliminated (prescribed) DOFs: their rows of the modes are zero, so the
+    /// coarse space leaves them to the smoother (the Dirichlet rows of SA-AMG).
+    pub held: &'p [[bool; 6]],
+    /// A node kept out of the aggregation on every level, its own aggregate whose six DOFs
+    /// are all coarse unknowns down to the direct solve (the specimen's period-change node,
+    /// coupled to every bond across a lateral face).
+    pub apart: Option<usize>,
+}
+
+impl HeldModes<'_> {
+    /// The rigid modes about the aggregates' centres, spins scaled, held rows zero; the
+    /// apart node's modes are its six unit vectors (held ones zero).
+    fn near_null(&self, start: &[usize], nodes: &[u32]) -> Vec<Block6> {
+        let mut b = rigid_near_null(self.positions, self.cell.as_ref(), true, (start, nodes));
+        b.par_iter_mut().enumerate().for_each(|(p, bp)| {
+            if Some(p) == self.apart {
+                *bp = Block6::identity();
+            } else {
+                for r in 3..6 {
+                    bp.row_mut(r).scale_mut(self.spin_scale);
+                }
+            }
+            for r in (0..6).filter(|&r| self.held[p][r]) {
+                bp.row_mut(r).fill(0.0);
+            }
+        });
+        b
+    }
 }
 
 /// Tentative prolongator of every node (its rows of the aggregate's orthonormalised
@@ -651,6 +722,34 @@ impl<'a> Amg<'a> {
         rotations: bool,
         coarse_nodes: usize,
     ) -> Result<Amg<'a>> {
+        Self::build(k, positions, Some(cell), rotations, coarse_nodes, None)
+    }
+
+    /// The hierarchy of a held structure's eliminated `k` (a specimen between platens, no
+    /// rigid-body modes; issue 35): the fine near-null space of `held` ([`HeldModes`]), the
+    /// coarsest level factored as definite (pinned as [`Self::new`] does only when that
+    /// fails).
+    pub(crate) fn of_held(k: &'a BlockSparse, held: &HeldModes) -> Result<Amg<'a>> {
+        if held.held.len() != k.rows() || held.apart.is_some_and(|s| s >= k.rows()) {
+            return Err(Error::Invalid(format!(
+                "multigrid preconditioner: {} held-DOF rows for {} nodes",
+                held.held.len(),
+                k.rows()
+            )));
+        }
+        let cell = held.cell.as_ref();
+        Self::build(k, held.positions, cell, true, COARSE_NODES, Some(held))
+    }
+
+    /// The hierarchy: [`Self::with_coarse_nodes`], or [`Self::of_held`] with `held`.
+    fn build(
+        k: &'a BlockSparse,
+        positions: &[Vec3],
+        cell: Option<&PeriodicCell>,
+        rotations: bool,
+        coarse_nodes: usize,
+        held: Option<&HeldModes>,
+    ) -> Result<Amg<'a>> {
         let m = k.rows();
         if positions.len() != m || m == 0 {
             return Err(Error::Invalid(format!(
@@ -664,6 +763,8 @@ impl<'a> Amg<'a> {
         let mut smoothers = Vec::new();
         let mut transfers = Vec::new();
         let mut near_null: Option<Vec<Block6>> = None;
+        // The node kept out of the aggregation on this level.
+        let mut apart = held.and_then(|h| h.apart);
         loop {
             let a = current.as_ref().unwrap_or(k);
             let n = a.rows();
@@ -686,7 +787,13 @@ impl<'a> Amg<'a> {
             } else {
                 COARSE_THETA
             };
-            let (agg, n_agg) = aggregate(&Graph::of_matrix(a, theta));
+            let mut graph = Graph::of_matrix(a, theta);
+            if let Some(s) = apart {
+                graph = graph.without(s);
+            }
+            let (agg, n_agg) = aggregate(&graph);
+            let apart_fine = apart;
+            apart = apart.map(|s| agg[s] as usize);
             if n_agg * 10 > n * 9 {
                 // Coarsening stalls: this level is the coarsest.
                 smoothers.push(Smoother::new(dinv, rho));
@@ -696,11 +803,22 @@ impl<'a> Amg<'a> {
             let groups = members(&agg, n_agg);
             let b = match near_null.take() {
                 Some(b) => b,
-                None => rigid_near_null(positions, cell, rotations, (&groups.0, &groups.1)),
+                None => {
+                    let (start, nodes) = (&groups.0[..], &groups.1[..]);
+                    match held {
+                        Some(h) => h.near_null(start, nodes),
+                        None => rigid_near_null(positions, cell, rotations, (start, nodes)),
+                    }
+                }
             };
             let (p0, coarse_b) = tentative(&b, (&groups.0, &groups.1));
             drop(b);
-            let p = smoothed_prolongator(a, &dinv, omega, &agg, &p0);
+            let mut p = smoothed_prolongator(a, &dinv, omega, &agg, &p0);
+            if let Some(s) = apart_fine {
+                // The apart node keeps its tentative row: smoothed, its row would reach every
+                // aggregate its bonds touch, and A P would fill in quadratically.
+                p.replace_row(s, vec![(agg[s], p0[s])]);
+            }
             drop(p0);
             let pt = p.transpose(n_agg);
             let ac = galerkin(a, &p, &pt);
@@ -714,7 +832,14 @@ impl<'a> Amg<'a> {
             current = Some(ac);
             near_null = Some(coarse_b);
         }
-        let direct = BlockCholesky::factor(current.as_ref().unwrap_or(k)).ok();
+        let coarsest = current.as_ref().unwrap_or(k);
+        // A held structure has no rigid-body modes: no node's translations are pinned.
+        let direct = match held {
+            Some(_) => BlockCholesky::factor_definite(coarsest)
+                .or_else(|_| BlockCholesky::factor(coarsest))
+                .ok(),
+            None => BlockCholesky::factor(coarsest).ok(),
+        };
         drop(current);
         Ok(Amg {
             fine: k,

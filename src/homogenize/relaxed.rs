@@ -656,6 +656,30 @@ pub(crate) fn two_level_cg(
     held_cg(k, b, two_level.as_ref(), tolerance, max_iterations)
 }
 
+/// [`block_jacobi_cg`] preconditioned by one multigrid V-cycle of `amg` per iteration (built
+/// on `k`, e.g. by [`Amg::of_held`]): the specimen's `cg-amg` solve (issue 35).
+pub(crate) fn amg_cg(
+    k: &BlockSparse,
+    b: &[Block6],
+    amg: &Amg,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<Block6>, usize, f64)> {
+    let (pre, diag) = jacobi_pieces(k, None);
+    let scale = column_dots(b, b).map(f64::sqrt);
+    let opts = RelaxedOptions {
+        tolerance,
+        max_iterations,
+        ..Default::default()
+    };
+    let op = Stiffness {
+        k,
+        term: None,
+        diag,
+    };
+    pcg(&op, b, &pre, (None, Some(amg)), &scale, &opts, None)
+}
+
 /// The CG of a held structure shared by [`block_jacobi_cg`] and [`two_level_cg`]: block-Jacobi
 /// blocks, column scales of `b`, and the two-level correction when given.
 fn held_cg(

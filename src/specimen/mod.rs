@@ -12,7 +12,8 @@
 //! lateral confining pressure loads the outermost particles (`surface.rs`). The equilibrium
 //! K u = f (Kruyt 2014 Eqs. 10–14, six DOFs per sphere) is solved for the free DOFs with the
 //! prescribed DOFs eliminated symmetrically: faer's sparse Cholesky, or conjugate gradients
-//! (two-level preconditioner) for large or semi-definite specimens.
+//! (two-level preconditioner) for large or semi-definite specimens, or on request CG with the
+//! smoothed-aggregation multigrid V-cycle (`cg-amg`, issue 35).
 //!
 //! Frictionless platens leave the two lateral translations and the rotation about the axis
 //! free; one held particle's lateral translations, and the lateral translation of a second,
@@ -81,6 +82,9 @@ pub enum SolverChoice {
     Cholesky,
     /// Conjugate gradients with the two-level preconditioner.
     Cg,
+    /// Conjugate gradients with a smoothed-aggregation multigrid V-cycle (`cg-amg`, as the
+    /// relaxed tensor's; `homogenize/amg.rs`), at any size.
+    CgAmg,
 }
 
 /// Loaded particles above which [`SolverChoice::Auto`] uses CG: the Cholesky factor of a 3D
@@ -381,6 +385,14 @@ pub enum SpecimenSolver {
         iterations: usize,
         /// Whether the two-level preconditioner was used.
         two_level: bool,
+    },
+    /// CG preconditioned by one smoothed-aggregation multigrid V-cycle per iteration
+    /// ([`SolverChoice::CgAmg`]); the same field to the CG tolerance.
+    CgAmg {
+        /// Iterations to the tolerance.
+        iterations: usize,
+        /// Levels of the hierarchy (the finest included).
+        levels: usize,
     },
 }
 

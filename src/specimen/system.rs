@@ -8,9 +8,10 @@ use super::{
     Platens, SolverChoice, SpecimenOptions, SpecimenSolver, CG_TOLERANCE, CG_TOLERANCE_LARGE,
     DIRECT_LIMIT,
 };
+use crate::homogenize::amg::{Amg, HeldModes};
 use crate::homogenize::cholesky::BlockCholesky;
 use crate::homogenize::network::Block6;
-use crate::homogenize::relaxed::{block_jacobi_cg, two_level_cg};
+use crate::homogenize::relaxed::{amg_cg, block_jacobi_cg, two_level_cg};
 use crate::homogenize::sparse::BlockSparse;
 use crate::packing::Packing;
 use crate::{Result, Vec3};
@@ -251,14 +252,7 @@ pub(super) fn solve_field(
     mean_radius: f64,
 ) -> Result<Field> {
     let (kmod, rhs) = eliminate(kfull, bc, mean_radius);
-    let (mut u, unknowns, solver) = solve_system(
-        &kmod,
-        &rhs,
-        opts.solver,
-        packing,
-        &net.original,
-        net.nodes(),
-    )?;
+    let (mut u, unknowns, solver) = solve_system(&kmod, &rhs, opts, packing, net, bc, mean_radius)?;
     for (a, ua) in u.iter_mut().enumerate() {
         for d in 0..6 {
             for case in 0..bc.cases {
@@ -326,23 +320,68 @@ fn remove_turn(u: &mut [Block6], bc: &Boundary, net: &Network, packing: &Packing
     }
 }
 
-/// Solve the eliminated system `k x = b` by `choice` (see [`SolverChoice`]); returns x, the
-/// unknowns and the method.
+/// Solve the eliminated system `k x = b` by `opts.solver` (see [`SolverChoice`]); returns x,
+/// the unknowns and the method.
 fn solve_system(
     k: &BlockSparse,
     b: &[Block6],
-    choice: SolverChoice,
+    opts: &SpecimenOptions,
     packing: &Packing,
-    original: &[usize],
-    nodes: usize,
+    net: &Network,
+    bc: &Boundary,
+    mean_radius: f64,
 ) -> Result<(Vec<Block6>, usize, SpecimenSolver)> {
+    let (choice, original, nodes) = (opts.solver, &net.original, net.nodes());
     let m = original.len();
     let context = "specimen: the bonded specimen held by its platens has a mechanism that the \
                    load excites, or the solve did not converge";
     let large = m > DIRECT_LIMIT;
+    let tolerance = if large {
+        CG_TOLERANCE_LARGE
+    } else {
+        CG_TOLERANCE
+    };
+    if choice == SolverChoice::CgAmg {
+        let held: Vec<[bool; 6]> = bc
+            .prescribed
+            .iter()
+            .map(|p| p.map(|v| v.is_some()))
+            .collect();
+        let positions: Vec<Vec3> = (0..nodes)
+            .map(|a| {
+                original
+                    .get(a)
+                    .map_or(Vec3::zeros(), |&p| packing.positions[p])
+            })
+            .collect();
+        // Arms by minimum image across the lateral faces only (the axis is cut).
+        let cell = match net.periods {
+            Some(l) => {
+                let mut periodic = [true; 3];
+                periodic[opts.axis] = false;
+                Some(crate::packing::PeriodicCell::with_periodic(l, periodic)?)
+            }
+            None => None,
+        };
+        let modes = HeldModes {
+            positions: &positions,
+            cell,
+            spin_scale: mean_radius,
+            held: &held,
+            apart: net.periods.map(|_| m),
+        };
+        let amg = Amg::of_held(k, &modes)?;
+        let (x, iterations, _) =
+            amg_cg(k, b, &amg, tolerance, 20_000 + 2 * nodes).map_err(|e| e.in_context(context))?;
+        let solver = SpecimenSolver::CgAmg {
+            iterations,
+            levels: amg.levels(),
+        };
+        return Ok((x, 6 * nodes, solver));
+    }
     let direct = match choice {
         SolverChoice::Cholesky => true,
-        SolverChoice::Cg => false,
+        SolverChoice::Cg | SolverChoice::CgAmg => false,
         SolverChoice::Auto => !large,
     };
     if direct {
@@ -376,11 +415,6 @@ fn solve_system(
         .map(|&p| packing.positions[p] - lo)
         .collect();
     positions.resize(nodes, extent * 0.5);
-    let tolerance = if large {
-        CG_TOLERANCE_LARGE
-    } else {
-        CG_TOLERANCE
-    };
     let (x, iterations, _) = two_level_cg(k, b, &positions, lengths, tolerance, 20_000)
         .map_err(|e| e.in_context(context))?;
     let solver = SpecimenSolver::Cg {

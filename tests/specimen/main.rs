@@ -8,5 +8,6 @@ mod common;
 mod cli;
 mod closed_forms;
 mod groups;
+mod multigrid;
 mod periodic;
 mod slab;
