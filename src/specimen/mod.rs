@@ -379,7 +379,10 @@ pub enum SpecimenSolver {
     Cholesky,
     /// Preconditioned CG (block-Jacobi, or two-level for large specimens): a field in
     /// equilibrium; zero-energy modes the load does not excite (counter-rotating "gear"
-    /// spins) keep what CG leaves in them: they carry no force and change no reported number.
+    /// spins, a loosely held particle's swing) keep what CG leaves in them: they carry no
+    /// force and change neither the forces nor E, but a free specimen's ν, a slope of the
+    /// displacements, can take up their displacements (block-Jacobi vs multigrid CG: 2e-4 on
+    /// 1,200 spheres, 1.7e-5 on 30,000; a known defect, docs/specimens.md).
     Cg {
         /// Iterations to the tolerance.
         iterations: usize,
