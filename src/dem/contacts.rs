@@ -43,6 +43,8 @@ use std::collections::BTreeMap;
 const PAIR_CHUNK: usize = 1024;
 /// Particles per parallel work item of the gather and the neighbour search.
 const PARTICLE_BLOCK: usize = 512;
+/// Particles per parallel work item of the Verlet list's displacement check.
+const CHECK_BLOCK: usize = 4096;
 /// Relative margin on the grid's cell width, so that a pair at exactly the cutoff is not lost
 /// to rounding in the fractional coordinates.
 const GRID_MARGIN: f64 = 1e-9;
@@ -640,20 +642,31 @@ impl Contacts {
             _ => return Ok(true),
         };
         let strain = (f - Mat3::identity()).norm();
+        // Blocks of particles scanned in order, the blocks' maxima reduced in parallel: a
+        // maximum is exact in any order (NaN kept by `nan_max`), without rayon's per-item
+        // cost on every particle of every step.
+        let blocks = p
+            .position
+            .par_chunks(CHECK_BLOCK)
+            .zip(r.position.par_chunks(CHECK_BLOCK));
         let u_max = if r.h_inv.is_none() {
             // F = I: x − I·x⁰ is x − x⁰ to the bit (x⁰ finite), and the largest |u| is the
             // root of the largest |u|² (the root is monotonic), so the same bound.
-            p.position
-                .par_iter()
-                .zip(r.position.par_iter())
-                .map(|(x, x0)| (x - x0).norm_squared())
+            blocks
+                .map(|(x, x0)| {
+                    x.iter()
+                        .zip(x0)
+                        .fold(0.0, |m, (x, x0)| nan_max(m, (x - x0).norm_squared()))
+                })
                 .reduce(|| 0.0, nan_max)
                 .sqrt()
         } else {
-            p.position
-                .par_iter()
-                .zip(r.position.par_iter())
-                .map(|(x, x0)| (x - f * x0).norm())
+            blocks
+                .map(|(x, x0)| {
+                    x.iter()
+                        .zip(x0)
+                        .fold(0.0, |m, (x, x0)| nan_max(m, (x - f * x0).norm()))
+                })
                 .reduce(|| 0.0, nan_max)
         };
         if !u_max.is_finite() {
@@ -990,7 +1003,11 @@ fn candidate_pairs(
                         }
                         None => ([0; 3], x[j] - x[i]),
                     };
-                    if branch.norm() <= r[i] + r[j] + skin {
+                    // Clearly beyond the cutoff (|l|² above its square by far more than
+                    // rounding): no square root; any other pair takes the exact test.
+                    let reach = r[i] + r[j] + skin;
+                    let d2 = branch.norm_squared();
+                    if d2 <= reach * reach * (1.0 + 1e-9) && d2.sqrt() <= reach {
                         out.push((i as u32, j as u32, image));
                     }
                 });
