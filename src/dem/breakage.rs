@@ -33,6 +33,23 @@ struct ChunkScratch {
     normal: Vec<f64>,
     shear_sq: Vec<f64>,
     local: Vec<LocalLoads>,
+    bpm: Vec<[f64; 4]>,
+}
+
+/// The quick test of LAMMPS's criterion ([`lammps_bpm`]): true when the bond with elastic
+/// loads `parts` = [F_r, |F_s|², |τ_b|², |τ_t|²] and `factors` = [1/f_rc, 1/f_sc², 1/τ_bc²,
+/// 1/τ_tc²] surely holds, B < 1. By Cauchy–Schwarz B ≤ X + √(3·S) with X = F_r/f_rc and
+/// S = |F_s|²/f_sc² + |τ_b|²/τ_bc² + |τ_t|²/τ_tc², so 3·S < (1 − X)² (by a relative 1e-9,
+/// far above the rounding of either side) is enough, without the criterion's three square
+/// roots and four divisions. False for NaN factors (another criterion) or loads: judged in
+/// full.
+#[inline(always)]
+fn bpm_clearly_holds(parts: &[f64; 4], factors: &[f64; 4]) -> bool {
+    let [fr, fs2, tb2, tt2] = *parts;
+    let [ir, is2, ib2, it2] = *factors;
+    let head = 1.0 - fr * ir;
+    let rest = 3.0 * ((fs2 * is2 + tb2 * ib2) + tt2 * it2);
+    head > 0.0 && rest < head * head * (1.0 - 1e-9)
 }
 
 /// One bond breaking in the integrator.
@@ -153,6 +170,9 @@ pub struct BondCriteria {
     screens: bool,
     /// Some bond has LAMMPS's criterion (judged on the law's local loads of a whole chunk).
     bpm: bool,
+    /// Per bond, the factors of [`BondCriteria::failed_in_chunk`]'s quick test for LAMMPS's
+    /// criterion: [1/f_rc, 1/f_sc², 1/τ_bc², 1/τ_tc²] (NaN for any other criterion).
+    bpm_screen: Vec<[f64; 4]>,
 }
 
 /// Entry `k` of a plane-family list of the strengths (`what`: the list, as the message names
@@ -280,8 +300,22 @@ impl BondCriteria {
             screen_shear.push(a_s);
             screen_tan.push(tan);
         }
+        let bpm_screen = per_bond
+            .iter()
+            .map(|c| match c {
+                BondCriterion::Bpm(l) => {
+                    let sq = |x: f64| {
+                        let inv = 1.0 / x;
+                        inv * inv
+                    };
+                    [1.0 / l.f_rc, sq(l.f_sc), sq(l.t_bc), sq(l.t_tc)]
+                }
+                _ => [f64::NAN; 4],
+            })
+            .collect();
         BondCriteria {
             law,
+            bpm_screen,
             screens: screen_normal.iter().any(|a| !a.is_nan()),
             bpm: per_bond.iter().any(|c| matches!(c, BondCriterion::Bpm(_))),
             per_bond,
@@ -323,7 +357,13 @@ impl BondCriteria {
                 s.shear_sq.resize(len.max(s.shear_sq.len()), 0.0);
                 law.bond_force_norms(first, &mut s.normal[..len], &mut s.shear_sq[..len]);
             }
-            let chunk_loads = self.bpm && len <= BOND_CHUNK;
+            // LAMMPS's criterion: the quick test `bpm_clearly_holds` on the law's elastic
+            // parts, the full criterion on the bonds it does not clear.
+            let quick = self.bpm && {
+                s.bpm.resize(len.max(s.bpm.len()), [0.0; 4]);
+                law.bpm_parts_chunk(first, &mut s.bpm[..len])
+            };
+            let chunk_loads = self.bpm && !quick && len <= BOND_CHUNK;
             if chunk_loads {
                 s.local
                     .resize(len.max(s.local.len()), LocalLoads::default());
@@ -345,6 +385,9 @@ impl BondCriteria {
                     if -normal <= an[k] && shear_sq < max_fs * max_fs * (1.0 - 1e-9) {
                         continue;
                     }
+                }
+                if quick && bpm_clearly_holds(&s.bpm[k], &self.bpm_screen[b]) {
+                    continue;
                 }
                 let f = match &self.per_bond[b] {
                     BondCriterion::Bpm(l) if chunk_loads => lammps_bpm(l, &s.local[k]),
@@ -375,5 +418,82 @@ impl BondCriteria {
     /// The criterion of bond `b`.
     pub fn get(&self, b: usize) -> &BondCriterion {
         &self.per_bond[b]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The quick test never clears a bond that LAMMPS's criterion breaks, on loads drawn
+    /// around the failure surface (B from 0.2 to 2 with every mix of the four terms, tension
+    /// and compression) and on the surface itself (B = 1 to rounding); it clears every bond
+    /// in tension with B ≤ ½.
+    #[test]
+    fn bpm_quick_test_clears_only_bonds_that_hold() {
+        let lim = BpmLimits {
+            f_rc: 3.0e3,
+            f_sc: 7.0e3,
+            t_bc: 2.0,
+            t_tc: 5.0,
+        };
+        let factors = {
+            let sq = |x: f64| (1.0 / x) * (1.0 / x);
+            [1.0 / lim.f_rc, sq(lim.f_sc), sq(lim.t_bc), sq(lim.t_tc)]
+        };
+        // A fixed pseudo-random sequence (no dependency), uniform in [0, 1).
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut inside, mut cleared_inside) = (0, 0);
+        for n in 0..200_000 {
+            // Terms (X, Y, Z, W) with Y, Z, W ≥ 0 summing to B (X may be negative).
+            let b = if n % 4 == 0 {
+                1.0
+            } else {
+                0.2 + 1.8 * uniform()
+            };
+            let w = [uniform() - 0.3, uniform(), uniform() * uniform(), uniform()];
+            let total: f64 = w.iter().sum();
+            let t = w.map(|x| x / total * b);
+            if t[1..].iter().any(|&x| x < 0.0) {
+                continue;
+            }
+            let fr = t[0] * lim.f_rc;
+            let (fs, tb, tt) = (t[1] * lim.f_sc, t[2] * lim.t_bc, t[3] * lim.t_tc);
+            let parts = [fr, fs * fs, tb * tb, tt * tt];
+            let exact = lammps_bpm(
+                &lim,
+                &LocalLoads {
+                    normal: -fr,
+                    shear: parts[1].sqrt(),
+                    bending: parts[2].sqrt(),
+                    twisting: parts[3].sqrt(),
+                },
+            );
+            let cleared = bpm_clearly_holds(&parts, &factors);
+            assert!(
+                !(cleared && exact.broken),
+                "cleared a bond that breaks: B = {}, terms {t:?}",
+                exact.index
+            );
+            // In tension with B ≤ ½ the bound is at most X + √3·(B − X) ≤ √3/2 < 1: cleared.
+            if exact.index <= 0.5 && t[0] >= 0.0 {
+                inside += 1;
+                cleared_inside += cleared as usize;
+            }
+        }
+        assert!(inside > 1000, "{inside} bonds drawn well inside");
+        assert_eq!(
+            cleared_inside, inside,
+            "cleared {cleared_inside} of {inside} bonds in tension with B ≤ 0.5"
+        );
+        // NaN factors (another criterion) and NaN loads are never cleared.
+        assert!(!bpm_clearly_holds(&[0.0; 4], &[f64::NAN; 4]));
+        assert!(!bpm_clearly_holds(&[f64::NAN, 0.0, 0.0, 0.0], &factors));
     }
 }

@@ -41,8 +41,10 @@ use std::collections::BTreeMap;
 
 /// Pairs per parallel work item (fixed, so per-chunk sums are the same on any thread count).
 const PAIR_CHUNK: usize = 1024;
-/// Particles per parallel work item of the gather and the neighbour search.
+/// Particles per parallel work item of the neighbour search.
 const PARTICLE_BLOCK: usize = 512;
+/// Particles per parallel work item of the Verlet list's displacement check.
+const CHECK_BLOCK: usize = 4096;
 /// Relative margin on the grid's cell width, so that a pair at exactly the cutoff is not lost
 /// to rounding in the fractional coordinates.
 const GRID_MARGIN: f64 = 1e-9;
@@ -257,12 +259,12 @@ pub struct Contacts {
     excluded: PairSet,
     state: Vec<PairState>,
     loads: Vec<PairLoad>,
-    /// Particle → pair CSR: offsets and entries `2·pair + side` in list order.
-    start: Vec<usize>,
-    entries: Vec<u32>,
     reference: Option<Reference>,
     /// (elastic energy, dissipation, contacts in touch) per pair chunk of the last evaluation.
     chunk_sums: Vec<[f64; 3]>,
+    /// Per pair chunk, the listed pairs in touch at the last evaluation, in list order: the
+    /// only pairs with loads (every other pair's are zero), which the gather adds.
+    touching: Vec<Vec<u32>>,
     dissipated: f64,
     rebuilds: u64,
     force: Vec<Vec3>,
@@ -301,10 +303,9 @@ impl Contacts {
             excluded: PairSet::default(),
             state: Vec::new(),
             loads: Vec::new(),
-            start: Vec::new(),
-            entries: Vec::new(),
             reference: None,
             chunk_sums: Vec::new(),
+            touching: Vec::new(),
             dissipated: 0.0,
             rebuilds: 0,
             force: Vec::new(),
@@ -640,20 +641,31 @@ impl Contacts {
             _ => return Ok(true),
         };
         let strain = (f - Mat3::identity()).norm();
+        // Blocks of particles scanned in order, the blocks' maxima reduced in parallel: a
+        // maximum is exact in any order (NaN kept by `nan_max`), without rayon's per-item
+        // cost on every particle of every step.
+        let blocks = p
+            .position
+            .par_chunks(CHECK_BLOCK)
+            .zip(r.position.par_chunks(CHECK_BLOCK));
         let u_max = if r.h_inv.is_none() {
             // F = I: x − I·x⁰ is x − x⁰ to the bit (x⁰ finite), and the largest |u| is the
             // root of the largest |u|² (the root is monotonic), so the same bound.
-            p.position
-                .par_iter()
-                .zip(r.position.par_iter())
-                .map(|(x, x0)| (x - x0).norm_squared())
+            blocks
+                .map(|(x, x0)| {
+                    x.iter()
+                        .zip(x0)
+                        .fold(0.0, |m, (x, x0)| nan_max(m, (x - x0).norm_squared()))
+                })
                 .reduce(|| 0.0, nan_max)
                 .sqrt()
         } else {
-            p.position
-                .par_iter()
-                .zip(r.position.par_iter())
-                .map(|(x, x0)| (x - f * x0).norm())
+            blocks
+                .map(|(x, x0)| {
+                    x.iter()
+                        .zip(x0)
+                        .fold(0.0, |m, (x, x0)| nan_max(m, (x - f * x0).norm()))
+                })
                 .reduce(|| 0.0, nan_max)
         };
         if !u_max.is_finite() {
@@ -710,35 +722,18 @@ impl Contacts {
             );
         }
         // Pairs dropped from the list are beyond the skin: not in touch, nothing to keep.
-        let mut start = vec![0usize; n + 1];
-        for c in &list {
-            start[c.i as usize + 1] += 1;
-            start[c.j as usize + 1] += 1;
-        }
-        for k in 0..n {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut entries = vec![0u32; start[n]];
         if list.len() >= (u32::MAX / 2) as usize {
             return Err(Error::Invalid(format!(
                 "contacts: {} candidate pairs exceed the index range",
                 list.len()
             )));
         }
-        for (k, c) in list.iter().enumerate() {
-            for (side, q) in [c.i, c.j].into_iter().enumerate() {
-                entries[fill[q as usize]] = (2 * k + side) as u32;
-                fill[q as usize] += 1;
-            }
-        }
         self.loads = vec![PairLoad::default(); list.len()];
         self.chunk_sums = vec![[0.0; 3]; list.len().div_ceil(PAIR_CHUNK)];
+        self.touching = vec![Vec::new(); list.len().div_ceil(PAIR_CHUNK)];
         self.list = list;
         self.held = held;
         self.state = state;
-        self.start = start;
-        self.entries = entries;
         self.reference = Some(Reference {
             position: p.position.clone(),
             h_inv: match h {
@@ -779,21 +774,28 @@ impl Contacts {
             self.loads.par_chunks_mut(PAIR_CHUNK),
             self.chunk_sums.par_iter_mut(),
             self.held.par_chunks(PAIR_CHUNK),
+            self.touching.par_iter_mut(),
         )
             .into_par_iter()
-            .for_each(|(list, state, loads, slot, held)| {
+            .enumerate()
+            .for_each(|(chunk, (list, state, loads, slot, held, touching))| {
                 let mut sum = [0.0; 3];
-                for (((c, s), l), &h) in list
+                touching.clear();
+                for (k, (((c, s), l), &h)) in list
                     .iter()
                     .zip(state.iter_mut())
                     .zip(loads.iter_mut())
                     .zip(held)
+                    .enumerate()
                 {
                     if h {
                         // Held by a bond: state and loads stay zero (set_excluded, rebuild).
                         continue;
                     }
                     let [e, d, a] = pair_kernel(&inp, c, s, l);
+                    if s.active {
+                        touching.push((chunk * PAIR_CHUNK + k) as u32);
+                    }
                     sum[0] += e;
                     sum[1] += d;
                     sum[2] += a;
@@ -803,37 +805,24 @@ impl Contacts {
         self.dissipated += self.chunk_sums.iter().map(|s| s[1]).sum::<f64>();
     }
 
-    /// Sum each particle's contact loads in the list's order into `self.force`/`self.torque`.
+    /// Sum each particle's contact loads in the list's order into `self.force`/`self.torque`:
+    /// the pairs in touch, in list order, each added to both its particles (a particle's
+    /// sum takes its pairs in list order, as a gather over its pairs would; every other pair's
+    /// loads are zero, and adding +0 to a sum started at +0 changes no bit). Sequential: the
+    /// same bits on any number of threads, and O(contacts) rather than O(listed pairs).
     fn gather(&mut self, n: usize) {
         self.force.resize(n, Vec3::zeros());
         self.torque.resize(n, Vec3::zeros());
-        let (start, entries, loads, held) = (&self.start, &self.entries, &self.loads, &self.held);
-        self.force
-            .par_chunks_mut(PARTICLE_BLOCK)
-            .zip(self.torque.par_chunks_mut(PARTICLE_BLOCK))
-            .enumerate()
-            .for_each(|(b, (fs, ts))| {
-                for (l, (f, t)) in fs.iter_mut().zip(ts.iter_mut()).enumerate() {
-                    let k = b * PARTICLE_BLOCK + l;
-                    let (mut fk, mut tk) = (Vec3::zeros(), Vec3::zeros());
-                    for &e in &entries[start[k]..start[k + 1]] {
-                        // A held pair's loads are zero: adding them changes no bit.
-                        if held[(e >> 1) as usize] {
-                            continue;
-                        }
-                        let load = &loads[(e >> 1) as usize];
-                        if e & 1 == 0 {
-                            fk += load.force_i;
-                            tk += load.torque_i;
-                        } else {
-                            fk -= load.force_i;
-                            tk += load.torque_j;
-                        }
-                    }
-                    *f = fk;
-                    *t = tk;
-                }
-            });
+        self.force.fill(Vec3::zeros());
+        self.torque.fill(Vec3::zeros());
+        for &k in self.touching.iter().flatten() {
+            let (c, load) = (&self.list[k as usize], &self.loads[k as usize]);
+            let (i, j) = (c.i as usize, c.j as usize);
+            self.force[i] += load.force_i;
+            self.torque[i] += load.torque_i;
+            self.force[j] -= load.force_i;
+            self.torque[j] += load.torque_j;
+        }
     }
 }
 
@@ -990,7 +979,11 @@ fn candidate_pairs(
                         }
                         None => ([0; 3], x[j] - x[i]),
                     };
-                    if branch.norm() <= r[i] + r[j] + skin {
+                    // Clearly beyond the cutoff (|l|² above its square by far more than
+                    // rounding): no square root; any other pair takes the exact test.
+                    let reach = r[i] + r[j] + skin;
+                    let d2 = branch.norm_squared();
+                    if d2 <= reach * reach * (1.0 + 1e-9) && d2.sqrt() <= reach {
                         out.push((i as u32, j as u32, image));
                     }
                 });

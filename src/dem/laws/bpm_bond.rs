@@ -54,9 +54,13 @@ pub(super) struct BpmBond {
     pub(super) r0_hat: Vec3,
     /// The topology's i end is particle 2.
     pub(super) flipped: bool,
-    /// Broken ([`BondLaw::break_bond`]): its coefficients are zero, so its loads are zero and
-    /// [`BondLaw::compute`] only keeps its normal current.
+    /// Broken ([`BondLaw::break_bond`]): its coefficients are zero, so its loads are zero;
+    /// the AVX2 lanes skip it, the scalar kernel only keeps its normal current (no one reads
+    /// a broken bond's record).
     pub(super) broken: bool,
+    /// Some damping coefficient is > 0 (set with the coefficients by `initialize`; the AVX2
+    /// lanes read it instead of comparing four coefficients per bond and step).
+    pub(super) damped: bool,
 }
 
 /// Per-bond results of the last evaluation: force on the topology's j end and its normal,

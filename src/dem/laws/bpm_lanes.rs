@@ -4,16 +4,17 @@
 //! Every lane performs exactly the scalar kernel's IEEE operations in the same order (no
 //! fused multiply–add, no reassociation; branches become per-lane selects), so the results
 //! are bit for bit those of the scalar kernel. The lanes take the intact bonds of a chunk in
-//! order, four at a time; a group with a lane off the common path (a periodic image, a zero
-//! shear or in-plane rotation, an angle beyond the series' range, LAMMPS' zero m_q, a
-//! non-finite value) is done by the scalar kernel instead, bond by bond. Broken bonds take
-//! the scalar kernel (a copy of their normal). The chunk's sums are added in bond order as
-//! the scalar loop adds them.
+//! order, four at a time; a group with a lane off the common path (a periodic image, an
+//! angle beyond the series' range, LAMMPS' zero m_q, a non-finite value) is done by the
+//! scalar kernel instead, bond by bond; a zero shear angle or in-plane rotation (bonds
+//! between particles that never turned, as a held layer's) stays in the lanes with the
+//! scalar kernel's zero vectors selected. Broken bonds are skipped (zero loads, no sums).
+//! The chunk's sums are added in bond order as the scalar loop adds them.
 
 use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, ElasticParts, StepInputs};
 use super::lanes::{
-    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F, LANES,
-    V,
+    abs, add, at, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F,
+    LANES, V,
 };
 use crate::dem::quat::{ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
@@ -47,9 +48,13 @@ fn series_range(y: F, x: F) -> F {
 
 /// Four intact bonds without periodic images (`idx` into the chunk); returns false, having
 /// written nothing, when a lane is off the common path (module docs).
+///
+/// # Safety
+/// Every particle index of the bonds must be below the length of every particle array
+/// (unchecked reads).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn kernel4(
+unsafe fn kernel4(
     inp: &StepInputs,
     bonds: &[BpmBond],
     coeffs: &[BpmCoefficients],
@@ -66,8 +71,8 @@ fn kernel4(
     let zero = splat(0.0);
     let one = splat(1.0);
     let half = splat(0.5);
-    let x1 = V::gather(ia.map(|i| p.position[i]));
-    let x2 = V::gather(ib.map(|i| p.position[i]));
+    let x1 = V::gather(ia.map(|i| at(&p.position, i)));
+    let x2 = V::gather(ib.map(|i| at(&p.position, i)));
     let r = x1.sub(x2);
     let r_mag = sqrt(r.dot(r));
     let r_mag_inv = div(one, r_mag);
@@ -75,7 +80,7 @@ fn kernel4(
     let r0_mag = ld(bd.map(|b| b.r0_mag));
     let r0b = V::gather(bd.map(|b| b.r0_hat)).scale(r0_mag);
     // Rotation matrix of q₂ (`rotation_matrix`).
-    let q2 = ib.map(|i| p.orientation[i]);
+    let q2 = ib.map(|i| at(&p.orientation, i));
     let (w, x, y, z) = (
         ld(q2.map(|q| q.w)),
         ld(q2.map(|q| q.v.x)),
@@ -115,12 +120,13 @@ fn kernel4(
     let cross = r0.cross(r);
     let cross_mag = sqrt(cross.dot(cross));
     let dot0 = r0.dot(r);
-    let mut ok = and(gt(cross_mag, zero), series_range(cross_mag, dot0));
+    // A lane with |r₀ × r| = 0 takes the scalar kernel's t = 0 (selected below).
+    let mut ok = series_range(cross_mag, dot0);
     let rb_x = add(add(mul(m0.x, r.x), mul(m1.x, r.y)), mul(m2.x, r.z));
     let rb_y = add(add(mul(m0.y, r.x), mul(m1.y, r.y)), mul(m2.y, r.z));
     ok = and(ok, select(ne(rb_x, zero), ne(rb_x, zero), ne(rb_y, zero)));
     // Relative rotation q₁q₂* (Eigen's product, q₂'s vector negated).
-    let q1 = ia.map(|i| p.orientation[i]);
+    let q1 = ia.map(|i| at(&p.orientation, i));
     let (aw, ax, ay, az) = (
         ld(q1.map(|q| q.w)),
         ld(q1.map(|q| q.v.x)),
@@ -140,15 +146,21 @@ fn kernel4(
     let out_plane = add(mul(qw, qw), mul(zt, zt));
     let abs_z = abs(zt);
     let d = sqrt(mul(out_plane, in_plane));
-    ok = and(ok, ne(zt, zero));
+    // z = 0 gives ψ = +0 through the series as the scalar kernel's 0.0, and |v⊥|² = 0 (no
+    // relative rotation off the axis, as between two particles that never turned) takes the
+    // scalar kernel's u = r̂ × u = 0 (selected below); θ = +0 through the series either way.
     ok = and(ok, series_range(abs_z, qw));
-    ok = and(ok, ne(in_plane, zero));
     ok = and(ok, series_range(d, out_plane));
     if movemask(ok) != 0b1111 {
         return false;
     }
+    let zero_v = V::splat(0.0, 0.0, 0.0);
     let gamma = atan_series(div(cross_mag, dot0));
-    let t = cross.scale(div(one, cross_mag));
+    let t = V::select(
+        gt(cross_mag, zero),
+        cross.scale(div(one, cross_mag)),
+        zero_v,
+    );
     let s = rhat.cross(t).neg();
     let mut fs = s.scale(mul(mul(ks, r_mag), gamma));
     let mut ts = t.scale(mul(mul(mul(mul(half, r_mag), ks), r_mag), gamma));
@@ -158,8 +170,9 @@ fn kernel4(
     let theta = mul(two, atan_series(div(d, out_plane)));
     let e = rhat.cross(v);
     let inv = div(one, d);
-    let u = vp.scale(zt).sub(e.scale(qw)).scale(inv);
-    let bend = e.scale(zt).add(vp.scale(qw)).scale(inv);
+    let turned = ne(in_plane, zero);
+    let u = V::select(turned, vp.scale(zt).sub(e.scale(qw)).scale(inv), zero_v);
+    let bend = V::select(turned, e.scale(zt).add(vp.scale(qw)).scale(inv), zero_v);
     fs = fs.add(u.scale(mul(mul(mul(splat(-0.5), ks), r_mag), theta)));
     ts = ts.add(bend.scale(mul(mul(mul(mul(splat(-0.25), ks), r_mag), r_mag), theta)));
     let tb = bend.scale(mul(kb, theta));
@@ -173,18 +186,17 @@ fn kernel4(
         energy = select(gt(k, zero), add(energy, div(mul(half, load2), k)), energy);
     }
     // Damping (`damping_loads`), where a lane has any coefficient.
-    let damped =
-        c.map(|c| c.gamma_n > 0.0 || c.gamma_s > 0.0 || c.gamma_r > 0.0 || c.gamma_t > 0.0);
+    let damped = bd.map(|b| b.damped);
     let mut power = [0.0; LANES];
     if damped.iter().any(|&d| d) {
         let gn = ld(c.map(|c| c.gamma_n));
         let gs = ld(c.map(|c| c.gamma_s));
         let gr = ld(c.map(|c| c.gamma_r));
         let gt_ = ld(c.map(|c| c.gamma_t));
-        let v1 = V::gather(ia.map(|i| p.velocity[i]));
-        let v2 = V::gather(ib.map(|i| p.velocity[i]));
-        let w1 = V::gather(ia.map(|i| p.angular_velocity[i]));
-        let w2 = V::gather(ib.map(|i| p.angular_velocity[i]));
+        let v1 = V::gather(ia.map(|i| at(&p.velocity, i)));
+        let v2 = V::gather(ib.map(|i| at(&p.velocity, i)));
+        let w1 = V::gather(ia.map(|i| at(&p.angular_velocity, i)));
+        let w2 = V::gather(ib.map(|i| at(&p.angular_velocity, i)));
         let vn1 = rhat.scale(v1.dot(rhat));
         let vn2 = rhat.scale(v2.dot(rhat));
         let mut df = vn1.sub(vn2).scale(gn);
@@ -196,7 +208,6 @@ fn kernel4(
         let slide = s1.sub(s2).scale(gs);
         df = df.add(slide);
         let tdamp = r.cross(slide).scale(half);
-        let zero_v = V::splat(0.0, 0.0, 0.0);
         let mut dt12 = zero_v.add(tdamp);
         let mut dt21 = zero_v.add(tdamp);
         let vroll = w1.cross(rhat).sub(w2.cross(rhat));
@@ -262,7 +273,8 @@ fn kernel4(
 /// [`bond_step`], the sums in bond order. Returns (damping power, elastic energy).
 ///
 /// # Safety
-/// The CPU must support AVX2.
+/// The CPU must support AVX2, and every particle index of `bonds` must be below the length
+/// of every particle array of `inp` (as [`kernel4`]).
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn chunk_avx2(
     inp: &StepInputs,
@@ -288,8 +300,8 @@ pub(super) unsafe fn chunk_avx2(
     for k in 0..bonds.len() {
         let b = &bonds[k];
         if b.broken {
-            // Adds nothing to the sums: its place in the order does not matter.
-            scalar(k, results, out, &mut sums);
+            // Zero loads (left by the break) and nothing to the sums; its record is not read
+            // again (the criteria skip broken bonds).
             continue;
         }
         if b.image2 != Vec3::zeros() {
@@ -305,7 +317,8 @@ pub(super) unsafe fn chunk_avx2(
         n += 1;
         if n == LANES {
             n = 0;
-            if !kernel4(inp, bonds, coeffs, group, results, out, &mut sums) {
+            // SAFETY: the caller's guarantee covers these bonds.
+            if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sums) } {
                 for &g in &group {
                     scalar(g, results, out, &mut sums);
                 }

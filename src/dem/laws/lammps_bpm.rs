@@ -48,6 +48,10 @@ pub struct LammpsBpmLaw {
     /// (damping power, elastic energy) per bond chunk of the last evaluation.
     chunk_sums: Vec<[f64; 2]>,
     dissipated: f64,
+    /// 1 + the largest particle index of any bond (usize::MAX before `initialize`): one
+    /// comparison per step bounds-checks every bond for the unchecked reads of the AVX2
+    /// lanes.
+    index_bound: usize,
 }
 
 impl LammpsBpmLaw {
@@ -78,6 +82,7 @@ impl LammpsBpmLaw {
             results: vec![BpmResult::default(); n],
             chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
             dissipated: 0.0,
+            index_bound: if n == 0 { 0 } else { usize::MAX },
         })
     }
 
@@ -148,6 +153,10 @@ impl BondLaw for LammpsBpmLaw {
                 r0_hat: r * inv,
                 flipped,
                 broken: self.bonds[b].broken,
+                damped: {
+                    let c = &self.coeffs[b];
+                    c.gamma_n > 0.0 || c.gamma_s > 0.0 || c.gamma_r > 0.0 || c.gamma_t > 0.0
+                },
             };
         }
         self.results
@@ -155,6 +164,12 @@ impl BondLaw for LammpsBpmLaw {
             .for_each(|r| *r = BpmResult::default());
         self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
         self.dissipated = 0.0;
+        self.index_bound = self
+            .bonds
+            .iter()
+            .map(|b| b.p1.max(b.p2) as usize + 1)
+            .max()
+            .unwrap_or(0);
         Ok(())
     }
 
@@ -168,7 +183,20 @@ impl BondLaw for LammpsBpmLaw {
         #[cfg(target_arch = "x86_64")]
         let lanes = ctx.simd
             && self.normalize == BpmNormalize::Absolute
-            && std::arch::is_x86_feature_detected!("avx2");
+            && std::arch::is_x86_feature_detected!("avx2")
+            && {
+                let p = ctx.particles;
+                let len = [
+                    p.position.len(),
+                    p.orientation.len(),
+                    p.velocity.len(),
+                    p.angular_velocity.len(),
+                ]
+                .into_iter()
+                .min()
+                .unwrap_or(0);
+                self.index_bound <= len
+            };
         (
             self.bonds.par_chunks(BOND_CHUNK),
             self.coeffs.par_chunks(BOND_CHUNK),
@@ -180,7 +208,8 @@ impl BondLaw for LammpsBpmLaw {
             .for_each(|(bonds, coeffs, results, out, slot)| {
                 #[cfg(target_arch = "x86_64")]
                 if lanes {
-                    // SAFETY: the CPU has AVX2 (checked above).
+                    // SAFETY: the CPU has AVX2 and every bond's particle indices are in
+                    // bounds (both checked above).
                     *slot =
                         unsafe { super::bpm_lanes::chunk_avx2(&inp, bonds, coeffs, results, out) };
                     return;
@@ -252,6 +281,14 @@ impl BondLaw for LammpsBpmLaw {
         }
     }
 
+    fn bpm_parts_chunk(&self, first: usize, out: &mut [[f64; 4]]) -> bool {
+        for (o, r) in out.iter_mut().zip(&self.results[first..]) {
+            let e = &r.elastic;
+            *o = [e.fr, e.fs2, e.tb2, e.tt2];
+        }
+        true
+    }
+
     /// Zero coefficients (springs and damping): the bond gives zero loads from then on, as
     /// LAMMPS drops a broken bond from its bond list.
     fn break_bond(&mut self, _: &Particles, b: usize) -> f64 {
@@ -261,6 +298,7 @@ impl BondLaw for LammpsBpmLaw {
         }
         self.coeffs[b] = BpmCoefficients::default();
         self.bonds[b].broken = true;
+        self.bonds[b].damped = false;
         self.results[b] = BpmResult {
             normal: self.results[b].normal,
             ..Default::default()

@@ -172,10 +172,11 @@ impl V {
 
 /// `slice[k]` without the bounds check.
 ///
-/// Callers guarantee `k < slice.len()`: [`law_a_chunk`] checks every index of its chunk
-/// before it takes the unchecked path.
+/// Callers guarantee `k < slice.len()`: [`law_a_chunk`] (and law (d)'s
+/// `LammpsBpmLaw::compute`) checks every index of its chunk before it takes the unchecked
+/// path.
 #[inline(always)]
-unsafe fn at<T: Copy>(slice: &[T], k: usize) -> T {
+pub(crate) unsafe fn at<T: Copy>(slice: &[T], k: usize) -> T {
     debug_assert!(k < slice.len());
     // SAFETY: the caller guarantees k < slice.len().
     unsafe { *slice.get_unchecked(k) }
@@ -191,11 +192,13 @@ unsafe fn at<T: Copy>(slice: &[T], k: usize) -> T {
 #[target_feature(enable = "avx2")]
 unsafe fn kernel4(
     inp: &KernelInputs,
-    hot: &[BondHot; LANES],
+    hot: &[BondHot],
+    idx: [usize; LANES],
     st: &mut [BondDyn],
     out: &mut [BondLoad],
 ) -> [f64; LANES] {
     let p = inp.particles;
+    let hot = idx.map(|k| hot[k]);
     let dt = splat(inp.dt);
     let ii = hot.map(|c| c.i as usize);
     let jj = hot.map(|c| c.j as usize);
@@ -227,7 +230,7 @@ unsafe fn kernel4(
     let wi = V::gather(ii.map(|i| at(&p.angular_velocity, i)));
     let wj = V::gather(jj.map(|j| at(&p.angular_velocity, j)));
     // ScGeom::precompute.
-    let n_old = V::gather(std::array::from_fn(|l| st[l].normal));
+    let n_old = V::gather(idx.map(|k| st[k].normal));
     let orthonormal_axis = n_old.cross(n);
     let twist_angle = mul(mul(dt, splat(0.5)), n_old.dot(wi.add(wj)));
     let twist_axis = n_old.scale(twist_angle);
@@ -245,7 +248,7 @@ unsafe fn kernel4(
     let rel_vel_t = rel_vel.sub(n.scale(n.dot(rel_vel)));
     let shear_inc = rel_vel_t.scale(dt);
     // Rotate the shear force with the contact.
-    let mut shear = V::gather(std::array::from_fn(|l| st[l].shear_force));
+    let mut shear = V::gather(idx.map(|k| st[k].shear_force));
     shear = shear.sub(shear.cross(orthonormal_axis));
     shear = shear.sub(shear.cross(twist_axis));
     // Normal and incremental shear.
@@ -335,13 +338,13 @@ unsafe fn kernel4(
         e_bending,
     );
     let (force, torque_i, torque_j) = (force.lanes(), torque_i.lanes(), torque_j.lanes());
-    for l in 0..LANES {
-        st[l] = BondDyn {
+    for (l, &k) in idx.iter().enumerate() {
+        st[k] = BondDyn {
             normal: n[l],
             shear_force: shear[l],
             normal_force: fn_[l],
         };
-        out[l] = BondLoad {
+        out[k] = BondLoad {
             force_i: force[l],
             torque_i: torque_i[l],
             torque_j: torque_j[l],
@@ -363,26 +366,37 @@ unsafe fn chunk_avx2(
     st: &mut [BondDyn],
     out: &mut [BondLoad],
 ) -> f64 {
-    let full = hot.len() / LANES * LANES;
+    // The intact bonds in order, four at a time. A broken bond is skipped: its springs are
+    // zero, so the kernel would give it zero loads (those the break left) and add +0 to the
+    // energy (a no-op on a sum of non-negative terms), and no one reads its state.
     let mut energy = 0.0;
-    for g in (0..full).step_by(LANES) {
-        let group: &[BondHot; LANES] = hot[g..g + LANES]
-            .try_into()
-            .unwrap_or_else(|_| unreachable!());
-        // SAFETY: the caller's guarantee covers these bonds.
-        let e = unsafe { kernel4(inp, group, &mut st[g..g + LANES], &mut out[g..g + LANES]) };
-        for x in e {
-            energy += x;
+    let mut group = [0usize; LANES];
+    let mut n = 0;
+    for (k, c) in hot.iter().enumerate() {
+        if c.broken {
+            continue;
+        }
+        group[n] = k;
+        n += 1;
+        if n == LANES {
+            n = 0;
+            // SAFETY: the caller's guarantee covers these bonds.
+            for x in unsafe { kernel4(inp, hot, group, st, out) } {
+                energy += x;
+            }
         }
     }
-    scalar_chunk_from(
-        energy,
-        inp,
-        base + full,
-        &hot[full..],
-        &mut st[full..],
-        &mut out[full..],
-    )
+    for &g in &group[..n] {
+        energy = scalar_chunk_from(
+            energy,
+            inp,
+            base + g,
+            &hot[g..g + 1],
+            &mut st[g..g + 1],
+            &mut out[g..g + 1],
+        );
+    }
+    energy
 }
 
 /// The scalar kernel over bonds; returns their moment energy summed in bond order, added

@@ -99,10 +99,20 @@ pub trait BondLaw: Send + Sync {
             *l = self.local_loads(particles, first + k);
         }
     }
+    /// LAMMPS bpm/rotational's elastic loads of bonds `first..first + out.len()` as
+    /// [F_r, |F_s|², |τ_b|², |τ_t|²] (F_r tension positive), for the quick test of its
+    /// breaking criterion without square roots or divisions; false (nothing written) for a
+    /// law that does not keep them (the default).
+    fn bpm_parts_chunk(&self, first: usize, out: &mut [[f64; 4]]) -> bool {
+        let _ = (first, out);
+        false
+    }
     /// Break bond `b`: from now on it carries nothing (zero springs, state and damping, so
     /// every kernel, the AVX2 lanes included, gives it zero loads) and
     /// [`BondLaw::elastic_energy`] no longer counts it. Returns the elastic energy it held at
-    /// the last evaluation (J); `particles` as for [`BondLaw::local_loads`].
+    /// the last evaluation (J); `particles` as for [`BondLaw::local_loads`]. The AVX2 kernels
+    /// skip a broken bond from then on, so its [`BondLaw::bond_normal`] may stay that of its
+    /// last evaluation intact.
     fn break_bond(&mut self, particles: &Particles, b: usize) -> f64;
     /// Boxed clone (element tests restart each path from the same initial law state).
     fn box_clone(&self) -> Box<dyn BondLaw>;
@@ -153,6 +163,9 @@ struct BondHot {
     j: u32,
     /// Index into `LinearBondKernel::images`, or [`NO_IMAGE`].
     image: u32,
+    /// Broken ([`BondLaw::break_bond`]): zero springs, so zero loads and energy; the AVX2
+    /// chunk skips it (in the padding after `image`: the record stays 56 bytes).
+    broken: bool,
     kn: f64,
     ks: f64,
     kr: f64,
@@ -807,6 +820,7 @@ impl BondLaw for LinearBondKernel {
         }
         let h = &mut self.hot[b];
         (h.kn, h.ks, h.kr, h.ktw) = (0.0, 0.0, 0.0, 0.0);
+        h.broken = true;
         let st = &mut self.dyn_state[b];
         st.normal_force = 0.0;
         st.shear_force = Vec3::zeros();
