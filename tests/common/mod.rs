@@ -5,6 +5,7 @@
 pub mod bonded;
 pub mod lattice;
 pub mod liggghts;
+pub mod reference;
 pub mod specimen;
 pub mod strength_bar;
 pub mod yade;

@@ -8,6 +8,7 @@
 
 use super::manybody::{deck, last_dump, run_driver, step0_energy, strained_state, TOOLS};
 use crate::common::liggghts::*;
+use crate::common::reference::{cubic4, rotate4};
 use anisobond::assembly::Assembly;
 use anisobond::export::liggghts::{
     export_liggghts_full, manybody_table, read_manybody_table, write_manybody_table, DeckOptions,
@@ -15,19 +16,25 @@ use anisobond::export::liggghts::{
 use anisobond::model::Model;
 use anisobond::Vec3;
 
-/// Isotropic springs, four grains of a random texture and a cubic D (Zener 3) that turns
-/// with each grain, so the grains differ only by their D.
+/// The cubic D (C11, C12, C44 in Pa; Zener 2C44/(C11 − C12) = 3) in the crystal frame.
+const D: (f64, f64, f64) = (5e9, 3e9, 3e9);
+
+/// Isotropic springs, four grains of a random texture and the cubic [`D`] that turns with
+/// each grain, so the grains differ only by their D.
 fn model_toml(grains: bool) -> String {
     format!(
         "[bonding]\nrule = \"gap\"\nvalue = 0.17\n\
          [scheme]\nkind = \"isotropic\"\nnormal = 1.0e12\nshear = 4.0e11\n\
          [geometry]\nconvention = \"area\"\nmoments = \"parallel-bond\"\n{}\
-         [manybody]\nkind = \"cubic\"\nc11 = 5e9\nc12 = 3e9\nc44 = 3e9\n",
+         [manybody]\nkind = \"cubic\"\nc11 = {:e}\nc12 = {:e}\nc44 = {:e}\n",
         if grains {
             "[grains]\ncount = 4\nseed = 3\n"
         } else {
             ""
-        }
+        },
+        D.0,
+        D.1,
+        D.2
     )
 }
 
@@ -42,8 +49,9 @@ fn polycrystal(n: usize, seed: u64) -> Assembly {
 }
 
 /// The table of the per-grain term: `tensors 4`, every particle's tensor its grain, D the
-/// term's (rotate(D, gᵀ)); written and read back to the same bits; a tensor index beyond
-/// the tensors is refused naming the line.
+/// term's, which is rotate(D, gᵀ) of the tests' explicit rotation (1e-12 of max |D|);
+/// written and read back to the same bits; a tensor index beyond the tensors is refused
+/// naming the line.
 #[test]
 fn the_table_carries_a_d_per_grain_and_reads_back() {
     let asm = polycrystal(150, 5);
@@ -61,6 +69,16 @@ fn the_table_carries_a_d_per_grain_and_reads_back() {
             .unwrap()
     );
     assert_eq!(t.tensor, grains.grain);
+    // Each grain's D is the textbook one turned by gᵀ (crystal → lab), independently.
+    let scale = D.0.abs().max(D.1.abs()).max(D.2.abs());
+    for (g, d) in t.tensors.iter().enumerate() {
+        let want = rotate4(cubic4(D.0, D.1, D.2), &grains.orientation[g].transpose());
+        let dev = (d - want).amax();
+        assert!(
+            dev <= 1e-12 * scale,
+            "grain {g}: {dev:e} Pa off rotate(D, gᵀ)"
+        );
+    }
     let dir = fresh_dir("grains_table");
     let path = dir.join("manybody.txt");
     write_manybody_table(&path, &t).unwrap();

@@ -1,0 +1,41 @@
+//! Independent references the tests write out themselves, never the library's code: the
+//! textbook cubic tensor turned by an explicit fourth-order rotation.
+#![allow(dead_code)]
+
+use anisobond::tensor::Stiffness6;
+use anisobond::Mat3;
+
+/// The textbook cubic tensor in its crystal axes, D_abcd = C12 δ_ab δ_cd + C44 (δ_ac δ_bd +
+/// δ_ad δ_bc) + (C11 − C12 − 2 C44) [a = b = c = d] (Voigt constants C11, C12, C44).
+pub fn cubic4(c11: f64, c12: f64, c44: f64) -> impl Fn(usize, usize, usize, usize) -> f64 {
+    move |a, b, c, e| {
+        let delta = |x: usize, y: usize| if x == y { 1.0 } else { 0.0 };
+        let mut v = c12 * delta(a, b) * delta(c, e)
+            + c44 * (delta(a, c) * delta(b, e) + delta(a, e) * delta(b, c));
+        if a == b && b == c && c == e {
+            v += c11 - c12 - 2.0 * c44;
+        }
+        v
+    }
+}
+
+/// The fourth-order tensor `d` turned by Q, D'_ijkl = Σ_abcd Q_ia Q_jb Q_kc Q_ld D_abcd,
+/// written out as a Voigt matrix (engineering strain; pairs 11, 22, 33, 23, 13, 12): the
+/// tests' reference for rotate(D, Q), independent of the library's rotation.
+pub fn rotate4(d: impl Fn(usize, usize, usize, usize) -> f64, q: &Mat3) -> Stiffness6 {
+    let pairs = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
+    Stiffness6::from_fn(|r, s| {
+        let ((i, j), (k, l)) = (pairs[r], pairs[s]);
+        let mut acc = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                for c in 0..3 {
+                    for e in 0..3 {
+                        acc += q[(i, a)] * q[(j, b)] * q[(k, c)] * q[(l, e)] * d(a, b, c, e);
+                    }
+                }
+            }
+        }
+        acc
+    })
+}
