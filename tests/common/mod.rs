@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod bonded;
+pub mod lammps;
 pub mod lattice;
 pub mod liggghts;
 pub mod reference;

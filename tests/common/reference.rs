@@ -1,9 +1,10 @@
 //! Independent references the tests write out themselves, never the library's code: the
-//! textbook cubic tensor turned by an explicit fourth-order rotation.
+//! textbook cubic tensor turned by an explicit fourth-order rotation, and the brute-force
+//! nearest grain centre with the minimum image by whole cells.
 #![allow(dead_code)]
 
 use anisobond::tensor::Stiffness6;
-use anisobond::Mat3;
+use anisobond::{Mat3, Vec3};
 
 /// The textbook cubic tensor in its crystal axes, D_abcd = C12 δ_ab δ_cd + C44 (δ_ac δ_bd +
 /// δ_ad δ_bc) + (C11 − C12 − 2 C44) [a = b = c = d] (Voigt constants C11, C12, C44).
@@ -38,4 +39,30 @@ pub fn rotate4(d: impl Fn(usize, usize, usize, usize) -> f64, q: &Mat3) -> Stiff
         }
         acc
     })
+}
+
+/// The nearest of `centres` to `x` by brute force, in an orthorhombic periodic cell of edges
+/// `l` (each difference brought into [−L/2, L/2] by whole cells; the plain distance when `l`
+/// is None), the lower index on a tie.
+pub fn nearest_centre(x: &Vec3, centres: &[Vec3], l: Option<Vec3>) -> usize {
+    let mut best = (f64::INFINITY, 0);
+    for (g, c) in centres.iter().enumerate() {
+        let mut d2 = 0.0;
+        for k in 0..3 {
+            let mut d = x[k] - c[k];
+            if let Some(l) = l {
+                while d > 0.5 * l[k] {
+                    d -= l[k];
+                }
+                while d < -0.5 * l[k] {
+                    d += l[k];
+                }
+            }
+            d2 += d * d;
+        }
+        if d2 < best.0 {
+            best = (d2, g);
+        }
+    }
+    best.1
 }
