@@ -6,7 +6,7 @@
 use crate::common::liggghts::*;
 use anisobond::bonds::BondSet;
 use anisobond::export::liggghts::{
-    export_liggghts_full, read_manybody_table, run_liggghts, DeckOptions, ExportSummary,
+    read_manybody_table, run_liggghts, DeckOptions, ExportSummary, LiggghtsInputs,
 };
 use anisobond::manybody::{ManyBody, StrainMeasure};
 use anisobond::model::Model;
@@ -54,7 +54,12 @@ pub(super) fn export_with_term(
         shear: false,
         ..DeckOptions::default()
     };
-    export_liggghts_full(dir, packing, bonds, k, &opts, None, Some(term)).expect("export")
+    LiggghtsInputs {
+        manybody: Some(term),
+        ..LiggghtsInputs::new(packing, bonds, k, &opts)
+    }
+    .export(dir)
+    .expect("export")
 }
 
 /// `b` with particles 0, 1 and 2 left two bonds each (their first in bond order), so the

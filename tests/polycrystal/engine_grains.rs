@@ -257,8 +257,12 @@ fn a_grain_count_other_than_the_particles_is_refused_with_nothing_written() {
     assert!(!out.exists(), "YADE files left behind");
     let out = dir.path().join("liggghts");
     let lo = liggghts::DeckOptions::default();
-    let e =
-        liggghts::export_liggghts_grains(&out, p, b, k, &lo, None, None, Some(short)).unwrap_err();
+    let e = liggghts::LiggghtsInputs {
+        grains: Some(short),
+        ..liggghts::LiggghtsInputs::new(p, b, k, &lo)
+    }
+    .export(&out)
+    .unwrap_err();
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
     assert!(
         e.to_string().contains("299 grain ids for 300 particles"),
