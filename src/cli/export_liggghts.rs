@@ -2,7 +2,7 @@
 //! and input decks (driver deck with the full per-bond law, stock `bond_style harmonic`
 //! deck with normal springs only) for an element test of the bonded packing.
 
-use anisobond::export::liggghts::{export_liggghts_grains, DeckOptions};
+use anisobond::export::liggghts::{DeckOptions, LiggghtsInputs};
 use anisobond::Result;
 
 /// Write LIGGGHTS input decks for a packing + model.
@@ -60,16 +60,13 @@ pub fn run(a: Args) -> Result<()> {
     // A model with [manybody]: the term of these bonds, in manybody.txt for the driver deck
     // (a polycrystal's with each grain's D).
     let term = asm.manybody()?;
-    let s = export_liggghts_grains(
-        &staged,
-        packing,
-        bonds,
-        k,
-        &opts,
-        limits.as_deref(),
-        term.as_ref(),
-        asm.grains().map(|g| g.grain.as_slice()),
-    )?;
+    let s = LiggghtsInputs {
+        limits: limits.as_deref(),
+        manybody: term.as_ref(),
+        grains: asm.grains().map(|g| g.grain.as_slice()),
+        ..LiggghtsInputs::new(packing, bonds, k, &opts)
+    }
+    .export(&staged)?;
     set.commit()?;
     println!(
         "wrote LIGGGHTS decks for {} particles, {} bonds (longest {:.4e} m) into {}:",

@@ -16,6 +16,7 @@
 //! (`tests/dem/manybody.rs`).
 
 use super::state::{deterministic_sum_mat3, BondTopology, Particles};
+use crate::manybody::term::Lanes4;
 use crate::manybody::{ManyBody, StrainMeasure};
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
@@ -151,10 +152,7 @@ impl FitInputs<'_> {
         // SAFETY: maskload reads only the three unmasked f64 of a Vec3.
         let load3 = |v: &Vec3| unsafe { _mm256_maskload_pd(v.as_ptr(), mask) };
         let grouped = self.term.tensors().len() == 1;
-        let mut slot = [0usize; 4];
-        let mut fs = [[0.0f64; 4]; 9];
-        let mut vs = [0.0f64; 4];
-        let mut filled = 0;
+        let mut four = Lanes4::default();
         for l in 0..we.len() {
             let p = base + l;
             if !self.term.is_included(p) {
@@ -180,39 +178,24 @@ impl FitInputs<'_> {
                 // SAFETY: writes four f64 into a local array.
                 unsafe { _mm256_storeu_pd(out.as_mut_ptr(), col[c]) };
             }
+            let f = Mat3::from_fn(|r, c| cols[c][r]);
             if !grouped {
-                let f = Mat3::from_fn(|r, c| cols[c][r]);
                 let (w, m) = self.term.energy_piola_of(p, &f, self.volume[p]);
                 (we[l], wp[l]) = (w, columns(&m));
                 continue;
             }
-            slot[filled] = l;
-            for c in 0..3 {
-                for r in 0..3 {
-                    fs[r + 3 * c][filled] = cols[c][r];
+            if four.push(l, &f, self.volume[p]) {
+                // SAFETY: AVX2 is available (this function's contract); one tensor D
+                // (checked above).
+                unsafe {
+                    self.term
+                        .lanes4_avx2(&mut four, |at, e, m| (we[at], wp[at]) = (e, columns(&m)));
                 }
             }
-            vs[filled] = self.volume[p];
-            filled += 1;
-            if filled == 4 {
-                // SAFETY: AVX2 is available (this function's contract).
-                let (e, pk) = unsafe { self.term.energy_piola4_avx2(&fs, &vs) }
-                    .expect("one tensor D (checked above)");
-                for (m, &at) in slot.iter().enumerate() {
-                    we[at] = e[m];
-                    for (c, column) in wp[at].iter_mut().enumerate() {
-                        column.0 = [pk[3 * c][m], pk[1 + 3 * c][m], pk[2 + 3 * c][m], 0.0];
-                    }
-                }
-                filled = 0;
-            }
         }
-        for m in 0..filled {
-            let f = Mat3::from_fn(|r, c| fs[r + 3 * c][m]);
-            let p = base + slot[m];
-            let (w, pk) = self.term.energy_piola_of(p, &f, vs[m]);
-            (we[slot[m]], wp[slot[m]]) = (w, columns(&pk));
-        }
+        self.term.lanes_one_by_one(&mut four, base, |at, e, m| {
+            (we[at], wp[at]) = (e, columns(&m))
+        });
     }
 }
 

@@ -107,7 +107,7 @@ pub fn stable_timestep(
 }
 
 /// [`stable_timestep`] with the many-body term `term` of these bonds (when given) added to
-/// each particle's stiffness sum, as [`export_liggghts_full`] chooses its step
+/// each particle's stiffness sum, as [`LiggghtsInputs::export`] chooses its step
 /// (`manybody_stiffness`, docs/manybody.md "LIGGGHTS").
 pub fn stable_timestep_with_manybody(
     packing: &Packing,
@@ -360,7 +360,8 @@ fn plan(
 /// of mixed periodicity, LAMMPS `boundary p p f`: the decks' boundary is `m` along the free
 /// axes and they run the load cases of the periodic axes only, [`super::load_cases`]); the
 /// bonds must be those of this packing. Atom ids are the packing's own ([`Packing::ids`])
-/// when it has them (all ≥ 1), else index + 1.
+/// when it has them (all ≥ 1), else index + 1. [`LiggghtsInputs::export`] with no limits,
+/// term or grains.
 pub fn export_liggghts(
     dir: &Path,
     packing: &Packing,
@@ -368,126 +369,124 @@ pub fn export_liggghts(
     k: &BondStiffness,
     o: &DeckOptions,
 ) -> Result<ExportSummary> {
-    export_liggghts_with_limits(dir, packing, bonds, k, o, None)
+    LiggghtsInputs::new(packing, bonds, k, o).export(dir)
 }
 
-/// [`export_liggghts`] with each bond's YADE CohFrict limits (`limits`, one per bond, as
-/// [`super::yade::yade_adhesions`] gives them for a model with `[strength]`): `bonds.csv`
-/// then carries the [`super::yade::ADHESION_COLUMNS`], which `pair_style anisobond table`
-/// reads, so the driver deck's bonds break by YADE's criterion (docs/strength.md,
-/// "LIGGGHTS"). The stock harmonic deck stays unbreakable. A count other than one per bond
-/// is refused.
-pub fn export_liggghts_with_limits(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &DeckOptions,
-    limits: Option<&[YadeAdhesion]>,
-) -> Result<ExportSummary> {
-    export_liggghts_full(dir, packing, bonds, k, o, limits, None)
+/// What the LIGGGHTS export is given: the bonded packing and the deck options
+/// ([`LiggghtsInputs::new`]), and the model's optional limits, many-body term and grains
+/// (fields set by the caller; [`LiggghtsInputs::export`] writes the files).
+#[derive(Clone, Copy, Debug)]
+pub struct LiggghtsInputs<'a> {
+    /// The packing, periodic along every axis or some.
+    pub packing: &'a Packing,
+    /// Its bonds.
+    pub bonds: &'a BondSet,
+    /// The bonds' springs.
+    pub springs: &'a BondStiffness,
+    /// The element test's options.
+    pub options: &'a DeckOptions,
+    /// Each bond's YADE CohFrict limits (one per bond, as [`super::yade::yade_adhesions`]
+    /// gives them for a model with `[strength]`): `bonds.csv` then carries the
+    /// [`super::yade::ADHESION_COLUMNS`], which `pair_style anisobond table` reads, so the
+    /// driver deck's bonds break by YADE's criterion (docs/strength.md, "LIGGGHTS"). The stock
+    /// harmonic deck stays unbreakable. A count other than one per bond is refused.
+    pub limits: Option<&'a [YadeAdhesion]>,
+    /// The model's many-body term (the term of these bonds on this packing,
+    /// [`crate::manybody::ManyBodySpec::build`]): written to `manybody.txt`
+    /// ([`write_manybody_table`]) and read by the driver deck's pair style (`manybody
+    /// manybody.txt`), so the driver runs the library's [`ManyBody`] forces; the stock
+    /// harmonic deck does not carry it (its header says so). The chosen time step counts the
+    /// term's stiffness too (`manybody_stiffness`). With `limits` it is refused
+    /// ([`Error::Model`]): a broken bond would change the fits of its particles.
+    pub manybody: Option<&'a ManyBody>,
+    /// A polycrystal's grain id of each particle (`Assembly::grains`): the molecule ID of the
+    /// stock deck's `harmonic.data`, grain + 1 (LAMMPS' 0 = no molecule), which `dump custom
+    /// … mol` writes (docs/polycrystal.md). The driver deck's `atom_style granular` has no
+    /// molecule column.
+    pub grains: Option<&'a [u32]>,
 }
 
-/// [`export_liggghts_with_limits`] with the model's many-body term `manybody` (the term of
-/// these `bonds` on this `packing`, [`crate::manybody::ManyBodySpec::build`]): it is written
-/// to `manybody.txt` ([`write_manybody_table`]) and the driver deck's pair style reads it
-/// (`manybody manybody.txt`), so the driver runs the library's [`ManyBody`] forces; the stock
-/// harmonic deck does not carry it (its header says so). The chosen time step counts the
-/// term's stiffness too (`manybody_stiffness`). Breakable bonds (`limits`) with the
-/// term are refused ([`Error::Model`]): a broken bond would change the fits of its particles.
-pub fn export_liggghts_full(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &DeckOptions,
-    limits: Option<&[YadeAdhesion]>,
-    manybody: Option<&ManyBody>,
-) -> Result<ExportSummary> {
-    export_liggghts_grains(dir, packing, bonds, k, o, limits, manybody, None)
-}
-
-/// [`export_liggghts_full`] of a polycrystal: each particle's grain id (`grains`,
-/// `Assembly::grains`) is the molecule ID of the stock deck's `harmonic.data`, grain + 1
-/// (LAMMPS' 0 = no molecule), which `dump custom … mol` writes (docs/polycrystal.md). The
-/// driver deck's `atom_style granular` has no molecule column.
-#[allow(clippy::too_many_arguments)]
-pub fn export_liggghts_grains(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &DeckOptions,
-    limits: Option<&[YadeAdhesion]>,
-    manybody: Option<&ManyBody>,
-    grains: Option<&[u32]>,
-) -> Result<ExportSummary> {
-    super::check_grain_count(grains, packing.len(), "export liggghts")?;
-    if manybody.is_some() && limits.is_some() {
-        return Err(Error::Model(
-            "export liggghts: a model with both [strength] and [manybody]: the LIGGGHTS pair \
-             style keeps each particle's many-body fit of its bonds as bonded, so breakable bonds \
-             with the term are not supported; remove one of the two tables"
-                .into(),
-        ));
-    }
-    let table = manybody
-        .map(|t| manybody_table(packing, bonds, t))
-        .transpose()?;
-    if let Some(l) = limits {
-        if l.len() != bonds.len() {
-            return Err(Error::Invalid(format!(
-                "export liggghts: {} bond limits for {} bonds",
-                l.len(),
-                bonds.len()
-            )));
+impl<'a> LiggghtsInputs<'a> {
+    /// `packing` with `bonds`, springs `k` and the options `o`; no limits, term or grains.
+    pub fn new(
+        packing: &'a Packing,
+        bonds: &'a BondSet,
+        k: &'a BondStiffness,
+        o: &'a DeckOptions,
+    ) -> Self {
+        LiggghtsInputs {
+            packing,
+            bonds,
+            springs: k,
+            options: o,
+            limits: None,
+            manybody: None,
+            grains: None,
         }
     }
-    let extra = table
-        .as_ref()
-        .map(|t| manybody_stiffness(packing.len(), bonds, t));
-    let plan = plan(packing, bonds, k, o, extra.as_deref())?;
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
-    if let Some(t) = &table {
-        let path = dir.join("manybody.txt");
-        write_manybody_table(&path, t)?;
-        files.push(path);
+
+    /// Write the files of [`export_liggghts`] into `dir`, with the limits, the term's
+    /// `manybody.txt` and the grains' molecule IDs where given (see the fields).
+    pub fn export(&self, dir: &Path) -> Result<ExportSummary> {
+        let LiggghtsInputs {
+            packing,
+            bonds,
+            springs: k,
+            options: o,
+            limits,
+            manybody,
+            grains,
+        } = *self;
+        super::check_grain_count(grains, packing.len(), "export liggghts")?;
+        if manybody.is_some() && limits.is_some() {
+            return Err(Error::Model(
+                "export liggghts: a model with both [strength] and [manybody]: the LIGGGHTS pair \
+                 style keeps each particle's many-body fit of its bonds as bonded, so breakable bonds \
+                 with the term are not supported; remove one of the two tables"
+                    .into(),
+            ));
+        }
+        let table = manybody
+            .map(|t| manybody_table(packing, bonds, t))
+            .transpose()?;
+        if let Some(l) = limits {
+            if l.len() != bonds.len() {
+                return Err(Error::Invalid(format!(
+                    "export liggghts: {} bond limits for {} bonds",
+                    l.len(),
+                    bonds.len()
+                )));
+            }
+        }
+        let extra = table
+            .as_ref()
+            .map(|t| manybody_stiffness(packing.len(), bonds, t));
+        let plan = plan(packing, bonds, k, o, extra.as_deref())?;
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let mut files = write_data_and_table(dir, packing, bonds, k, o.density, limits)?;
+        if let Some(t) = &table {
+            let path = dir.join("manybody.txt");
+            write_manybody_table(&path, t)?;
+            files.push(path);
+        }
+        files.push(write_driver_deck(dir, self, &plan)?);
+        files.extend(write_harmonic_deck(dir, self, &plan)?);
+        let run = dir.join("run.sh");
+        let shear = plan.cases.iter().any(|&c| c >= 3);
+        crate::io::write_string_atomic(&run, &run_script(shear))?;
+        super::make_executable(&run)?;
+        files.push(run);
+        Ok(ExportSummary {
+            files,
+            timestep: plan.dt,
+            damping_rate: plan.gamma,
+            case_end_steps: (1..=plan.cases.len() as u64)
+                .map(|c| c * plan.period)
+                .collect(),
+            cases: plan.cases,
+            max_bond_length: plan.max_len,
+        })
     }
-    files.push(write_driver_deck(
-        dir,
-        packing,
-        bonds,
-        o,
-        &plan,
-        limits.is_some(),
-        table.is_some(),
-    )?);
-    files.extend(write_harmonic_deck(
-        dir,
-        packing,
-        bonds,
-        k,
-        o,
-        &plan,
-        table.is_some(),
-        grains,
-    )?);
-    let run = dir.join("run.sh");
-    let shear = plan.cases.iter().any(|&c| c >= 3);
-    crate::io::write_string_atomic(&run, &run_script(shear))?;
-    super::make_executable(&run)?;
-    files.push(run);
-    Ok(ExportSummary {
-        files,
-        timestep: plan.dt,
-        damping_rate: plan.gamma,
-        case_end_steps: (1..=plan.cases.len() as u64)
-            .map(|c| c * plan.period)
-            .collect(),
-        cases: plan.cases,
-        max_bond_length: plan.max_len,
-    })
 }
 
 /// `packing.data` and `bonds.csv`: the packing's own atom ids (a data file's, a dump's) are
@@ -533,15 +532,14 @@ fn mixed_box_comment(plan: &Plan) -> String {
 }
 
 /// `anisobond.in`: the driver deck (`pair_style anisobond table bonds.csv`).
-fn write_driver_deck(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    o: &DeckOptions,
-    plan: &Plan,
-    breakable: bool,
-    manybody: bool,
-) -> Result<PathBuf> {
+fn write_driver_deck(dir: &Path, i: &LiggghtsInputs, plan: &Plan) -> Result<PathBuf> {
+    let LiggghtsInputs {
+        packing,
+        bonds,
+        options: o,
+        ..
+    } = *i;
+    let (breakable, manybody) = (i.limits.is_some(), i.manybody.is_some());
     let period = plan.period;
     let mut s = String::new();
     let _ = writeln!(
@@ -613,17 +611,16 @@ fn write_driver_deck(
 
 /// `harmonic.data` and `harmonic.in`: the stock deck (atom_style hybrid granular molecular,
 /// one `bond_style harmonic` type per bond), the normal load cases of the periodic axes.
-#[allow(clippy::too_many_arguments)]
-fn write_harmonic_deck(
-    dir: &Path,
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    o: &DeckOptions,
-    plan: &Plan,
-    manybody: bool,
-    grains: Option<&[u32]>,
-) -> Result<Vec<PathBuf>> {
+fn write_harmonic_deck(dir: &Path, i: &LiggghtsInputs, plan: &Plan) -> Result<Vec<PathBuf>> {
+    let LiggghtsInputs {
+        packing,
+        bonds,
+        springs: k,
+        options: o,
+        grains,
+        ..
+    } = *i;
+    let manybody = i.manybody.is_some();
     let hdata = dir.join("harmonic.data");
     crate::io::write_atomic(&hdata, |w| {
         write_harmonic_data(w, packing, bonds, k, o.density, grains)

@@ -583,10 +583,7 @@ impl ManyBody {
         let lanes = self.d6.len() == 1 && std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let lanes = false;
-        let mut slot = [0usize; 4];
-        let mut fs = [[0.0f64; 4]; 9];
-        let mut vs = [0.0f64; 4];
-        let mut filled = 0;
+        let mut four = Lanes4::default();
         for l in 0..we.len() {
             let p = base + l;
             if !self.included[p] {
@@ -598,29 +595,56 @@ impl ManyBody {
                 (we[l], wp[l]) = self.energy_piola(p, &f, self.particle_volume[p]);
                 continue;
             }
-            slot[filled] = l;
-            for (k, lane) in fs.iter_mut().enumerate() {
-                lane[filled] = f[k];
-            }
-            vs[filled] = self.particle_volume[p];
-            filled += 1;
-            if filled == 4 {
+            if four.push(l, &f, self.particle_volume[p]) {
                 #[cfg(target_arch = "x86_64")]
                 {
                     // SAFETY: AVX2 is available (checked above).
-                    let (e, pk) = unsafe { energy_piola_avx2(&self.d6[0], self.measure, &fs, &vs) };
-                    for (m, &at) in slot.iter().enumerate() {
-                        we[at] = e[m];
-                        wp[at] = Mat3::from_fn(|r, c| pk[r + 3 * c][m]);
-                    }
+                    unsafe { self.lanes4_avx2(&mut four, |at, e, pk| (we[at], wp[at]) = (e, pk)) };
                 }
-                filled = 0;
             }
         }
-        for m in 0..filled {
-            let f = Mat3::from_fn(|r, c| fs[r + 3 * c][m]);
-            (we[slot[m]], wp[slot[m]]) = self.energy_piola(base + slot[m], &f, vs[m]);
+        self.lanes_one_by_one(&mut four, base, |at, e, pk| (we[at], wp[at]) = (e, pk));
+    }
+
+    /// (V·W, V·P) of the four particles gathered in `four` (full) through the AVX2 lanes
+    /// ([`energy_piola_avx2`], the one-lane bits), for a term with one tensor D: `put(slot,
+    /// V·W, V·P)` lane by lane; `four` emptied.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn lanes4_avx2(
+        &self,
+        four: &mut Lanes4,
+        mut put: impl FnMut(usize, f64, Mat3),
+    ) {
+        debug_assert!(four.filled == 4 && self.d6.len() == 1);
+        // SAFETY: the caller guarantees AVX2.
+        let (e, pk) = unsafe { energy_piola_avx2(&self.d6[0], self.measure, &four.f, &four.v) };
+        for (m, &at) in four.slot.iter().enumerate() {
+            put(at, e[m], Mat3::from_fn(|r, c| pk[r + 3 * c][m]));
         }
+        four.filled = 0;
+    }
+
+    /// (V·W, V·P) of the particles left in `four` (fewer than four), one lane at a time
+    /// ([`energy_piola`](Self::energy_piola); particle `base` + slot): `put(slot, V·W, V·P)`;
+    /// `four` emptied.
+    #[inline(always)]
+    pub(crate) fn lanes_one_by_one(
+        &self,
+        four: &mut Lanes4,
+        base: usize,
+        mut put: impl FnMut(usize, f64, Mat3),
+    ) {
+        for m in 0..four.filled {
+            let f = Mat3::from_fn(|r, c| four.f[r + 3 * c][m]);
+            let at = four.slot[m];
+            let (e, pk) = self.energy_piola(base + at, &f, four.v[m]);
+            put(at, e, pk);
+        }
+        four.filled = 0;
     }
 
     /// g_b = ∂U/∂l_b (N) of bond `b` from a workspace filled by
@@ -668,26 +692,6 @@ impl ManyBody {
     #[inline(always)]
     pub(crate) fn energy_piola_of(&self, p: usize, f: &Mat3, v: f64) -> (f64, Mat3) {
         self.energy_piola(p, f, v)
-    }
-
-    /// [`energy_piola_of`](Self::energy_piola_of) of four particles at once through the
-    /// AVX2 lanes (the same bits), for a term with one tensor D (lane l: gradient entries
-    /// `f[k][l]`, column-major k, volume `v[l]`); `None` with a tensor per grain.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[inline]
-    pub(crate) unsafe fn energy_piola4_avx2(
-        &self,
-        f: &[[f64; 4]; 9],
-        v: &[f64; 4],
-    ) -> Option<([f64; 4], [[f64; 4]; 9])> {
-        match self.d6.as_slice() {
-            // SAFETY: the caller guarantees AVX2.
-            [d] => Some(unsafe { energy_piola_avx2(d, self.measure, f, v) }),
-            _ => None,
-        }
     }
 
     /// Number of bonds.
@@ -1054,6 +1058,35 @@ fn energy_piola_lanes<const L: usize>(
         }
     }
     (energy, pk)
+}
+
+/// Up to four included particles waiting for the AVX2 lanes of a term with one D: their
+/// fitted F (entry k = r + 3c, column-major, lane by lane), volumes, and slots in the
+/// caller's chunk. The set-up [`ManyBody::gradients_into`]'s particle pass and the
+/// integrator's (`dem::manybody`) share: [`push`](Self::push) each particle, then
+/// [`ManyBody::lanes4_avx2`] when full and [`ManyBody::lanes_one_by_one`] for the rest.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Lanes4 {
+    slot: [usize; 4],
+    f: [[f64; 4]; 9],
+    v: [f64; 4],
+    filled: usize,
+}
+
+impl Lanes4 {
+    /// The particle of slot `at`, its F and volume `v` into the next lane; true when the four
+    /// lanes are full.
+    #[inline(always)]
+    pub(crate) fn push(&mut self, at: usize, f: &Mat3, v: f64) -> bool {
+        let m = self.filled;
+        self.slot[m] = at;
+        for (k, lane) in self.f.iter_mut().enumerate() {
+            lane[m] = f[k];
+        }
+        self.v[m] = v;
+        self.filled += 1;
+        self.filled == 4
+    }
 }
 
 /// [`energy_piola_lanes`] of four particles compiled for AVX2 (the same bits as one lane).

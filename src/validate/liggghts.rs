@@ -46,9 +46,9 @@ use crate::dem::element::{dynamic_tensor, ElementTestOptions};
 use crate::dem::laws::{LinearBondKernel, MomentForm};
 use crate::dem::{build_law, BondLaw, DemOptions, LawKind, MassOptions, Simulation};
 use crate::export::liggghts::{
-    columns_from_cases, export_liggghts_full, harmonic_setup, num, read_stress_history,
-    run_liggghts, stable_timestep_with_manybody, stress_variables, tensor_from_cases, DeckOptions,
-    Launch, StressHistory,
+    columns_from_cases, harmonic_setup, num, read_stress_history, run_liggghts,
+    stable_timestep_with_manybody, stress_variables, tensor_from_cases, DeckOptions, Launch,
+    LiggghtsInputs, StressHistory,
 };
 use crate::history::Settling;
 use crate::homogenize::relaxed::{relaxed_tensor, relaxed_tensor_with_term, RelaxedOptions};
@@ -307,14 +307,14 @@ pub enum UndampedDeck {
     /// The driver: `pair_style anisobond table bonds.csv` on `packing.data`.
     Driver,
     /// The driver with the many-body term: `… manybody manybody.txt` (the directory must
-    /// hold the files of [`export_liggghts_full`] with the term).
+    /// hold the files of [`LiggghtsInputs::export`] with the term).
     DriverManyBody,
     /// The stock LIGGGHTS: `bond_style harmonic` on `harmonic.data` (normal springs only).
     Harmonic,
 }
 
 /// Write an undamped deck into `dir` (which must hold the files of
-/// [`crate::export::liggghts::export_liggghts`], or [`export_liggghts_full`] with the term
+/// [`crate::export::liggghts::export_liggghts`], or [`LiggghtsInputs::export`] with the term
 /// for [`UndampedDeck::DriverManyBody`]): the bonded packing with initial `velocities` (m/s) and `spins` (rad/s), integrated free
 /// of damping and deformation for `o.history_steps`, σ = −p (Pa) written every
 /// `o.history_every` steps to `undamped_history.txt`. Returns the deck's file name.
@@ -639,15 +639,11 @@ impl LiggghtsSetup<'_> {
         deck_options: &DeckOptions,
     ) -> Result<(PathBuf, crate::export::liggghts::ExportSummary)> {
         let d = self.dir.join(sub);
-        let summary = export_liggghts_full(
-            &d,
-            self.packing,
-            self.bonds,
-            self.k,
-            deck_options,
-            None,
-            self.term,
-        )?;
+        let summary = LiggghtsInputs {
+            manybody: self.term,
+            ..LiggghtsInputs::new(self.packing, self.bonds, self.k, deck_options)
+        }
+        .export(&d)?;
         Ok((d, summary))
     }
 

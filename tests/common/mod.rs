@@ -3,8 +3,10 @@
 #![allow(dead_code)]
 
 pub mod bonded;
+pub mod lammps;
 pub mod lattice;
 pub mod liggghts;
+pub mod reference;
 pub mod specimen;
 pub mod strength_bar;
 pub mod yade;

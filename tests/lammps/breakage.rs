@@ -12,8 +12,9 @@
 //! break at their quantised limits within the reported quantisation error. Without a
 //! `[strength]` table (or with `--no-break`) the decks are those of a model without one.
 
-use super::export::{export_cmd, lmp};
+use super::export::export_cmd;
 use super::plugin::{export_plugin, lammps, run_lmp, Lammps};
+use crate::common::lammps::lmp;
 use crate::common::{succeeds, tmp, write};
 use std::path::{Path, PathBuf};
 

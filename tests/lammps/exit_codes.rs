@@ -2,8 +2,9 @@
 //! LAMMPS is an engine failure (exit 6, naming LAMMPS), a validation that runs to the end with
 //! a comparison outside its tolerance is exit 7; a refusal of the input stays exit 1.
 
+use crate::common::lammps::lmp;
 use crate::common::*;
-use crate::export::{lmp, one_lammps_at_a_time};
+use crate::export::one_lammps_at_a_time;
 
 #[test]
 fn engine_failure_out_of_tolerance_and_bad_input_have_their_own_exit_codes() {

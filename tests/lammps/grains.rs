@@ -7,9 +7,12 @@
 //! 1e-10, a restart on two processes continues the run, and `validate lammps` (np 1 and 2)
 //! meets the relaxed tensor with the per-grain term. Stock bpm/rotational is refused.
 
-use super::manybody::{deck, dump_rows, numbers, run, strain, write_perturbed};
+use super::manybody::{
+    deck, dump_rows, numbers, relaxed_with_term, run, strain, validate_plugin_np2, write_perturbed,
+};
 use super::plugin::{export_plugin, lammps};
-use crate::common::{fails, packing, succeeds, tmp, write};
+use crate::common::reference::{cubic4, rotate4};
+use crate::common::{fails, manybody_term, packing, succeeds, tmp, write};
 use anisobond::assembly::Assembly;
 use anisobond::tensor::Stiffness6;
 use anisobond::Mat3;
@@ -30,34 +33,10 @@ fn model() -> String {
     )
 }
 
-/// The textbook cubic D as a fourth-order tensor turned by Q (D'_ijkl = Q_ia Q_jb Q_kc Q_ld
-/// D_abcd), as a Voigt matrix (engineering strain): independent of the library's rotation.
+/// The textbook cubic [`D`] turned by Q (D'_ijkl = Q_ia Q_jb Q_kc Q_ld D_abcd, the tests'
+/// explicit rotation `common::reference::rotate4`): independent of the library's rotation.
 fn rotated_cubic(q: &Mat3) -> Stiffness6 {
-    let (c11, c12, c44) = D;
-    let delta = |x: usize, y: usize| if x == y { 1.0 } else { 0.0 };
-    let d = |a: usize, b: usize, c: usize, e: usize| {
-        let mut v = c12 * delta(a, b) * delta(c, e)
-            + c44 * (delta(a, c) * delta(b, e) + delta(a, e) * delta(b, c));
-        if a == b && b == c && c == e {
-            v += c11 - c12 - 2.0 * c44;
-        }
-        v
-    };
-    let pairs = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
-    Stiffness6::from_fn(|r, s| {
-        let ((i, j), (k, l)) = (pairs[r], pairs[s]);
-        let mut acc = 0.0;
-        for a in 0..3 {
-            for b in 0..3 {
-                for c in 0..3 {
-                    for e in 0..3 {
-                        acc += q[(i, a)] * q[(j, b)] * q[(k, c)] * q[(l, e)] * d(a, b, c, e);
-                    }
-                }
-            }
-        }
-        acc
-    })
+    rotate4(cubic4(D.0, D.1, D.2), q)
 }
 
 /// The lines `g D11 … D66` of `manybody-grains.txt`, parsed here: D by grain id.
@@ -223,13 +202,7 @@ fn plugin_forces_with_a_d_per_grain_are_the_librarys() {
     let lib = term
         .evaluate(&term.branch_vectors(&y, &h).unwrap())
         .unwrap();
-    let single = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
+    let single = manybody_term(&asm.model, &asm.packing, &asm.bonds);
     let lib_single = single
         .evaluate(&single.branch_vectors(&y, &h).unwrap())
         .unwrap();
@@ -356,25 +329,7 @@ fn validate_lammps_on_a_polycrystal_with_the_term_passes() {
     let pk = packing(dir.path(), 300);
     let model = write(dir.path(), "model.toml", &model());
     let out = dir.path().join("validate");
-    let mut cmd = crate::common::bin();
-    cmd.args(["validate", "lammps"])
-        .arg(&pk)
-        .arg("--model")
-        .arg(&model)
-        .args(["--np", "2", "--lmp"])
-        .arg(&l.lmp)
-        .args(["--bond-style", "anisobond", "--plugin"])
-        .arg(&l.so)
-        .arg("-o")
-        .arg(&out);
-    let stdout = {
-        let _one = super::export::one_lammps_at_a_time();
-        succeeds(&mut cmd)
-    };
-    eprintln!("{stdout}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(report["passed"], true, "{stdout}");
+    let report = validate_plugin_np2(&l, &pk, &model, &out);
     assert!(out.join("manybody-grains.txt").is_file());
     let checks = report["checks"].as_array().unwrap();
     let value = |id: &str| {
@@ -391,32 +346,10 @@ fn validate_lammps_on_a_polycrystal_with_the_term_passes() {
         value("tensor-np2-np1")
     );
     // The reference with the per-grain term against the single crystal's term.
-    let opts = anisobond::homogenize::RelaxedOptions {
-        lever_arm: anisobond::homogenize::LeverArm::HalfLength,
-        tolerance: 1e-10,
-        ..Default::default()
-    };
     let asm = Assembly::from_files(&pk, &model).unwrap();
-    let relaxed = |term: &anisobond::manybody::ManyBody| {
-        anisobond::homogenize::relaxed_tensor_with_term(
-            &asm.packing,
-            &asm.bonds,
-            &asm.springs,
-            Some(term),
-            &opts,
-        )
-        .unwrap()
-        .c
-    };
-    let poly = relaxed(&asm.manybody().unwrap().unwrap());
-    let one = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
-    let gap = (poly - relaxed(&one)).amax() / poly.amax();
+    let poly = relaxed_with_term(&asm, &asm.manybody().unwrap().unwrap());
+    let one = manybody_term(&asm.model, &asm.packing, &asm.bonds);
+    let gap = (poly - relaxed_with_term(&asm, &one)).amax() / poly.amax();
     eprintln!("relaxed tensor with the per-grain term vs one D for all: {gap:.2e} of max |C|");
     assert!(gap > 1e-2, "{gap:e}");
 }

@@ -671,17 +671,47 @@ fn validate_lammps_with_the_many_body_term_meets_the_relaxed_tensor() {
     let pk = packing(dir.path(), 200);
     let model = write(dir.path(), "model.toml", &model());
     let out = dir.path().join("validate");
+    validate_plugin_np2(&l, &pk, &model, &out);
+    let deck = std::fs::read_to_string(out.join("in.elastic")).unwrap();
+    assert!(deck.contains("${manybody}"), "the deck lacks the term");
+    // The reference includes the term: against the springs' relaxed tensor alone the
+    // difference is of the order of D.
+    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
+    let pair = anisobond::homogenize::relaxed_tensor(
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        &midpoint_relaxed(),
+    )
+    .unwrap()
+    .c;
+    let term = crate::common::manybody_term(&asm.model, &asm.packing, &asm.bonds);
+    let with = relaxed_with_term(&asm, &term);
+    let gap = (with - pair).amax() / with.amax();
+    eprintln!("relaxed tensor with the term vs the springs' alone: {gap:.2e} of max |C|");
+    assert!(gap > 1e-2, "{gap:e}");
+}
+
+/// `anisobond validate lammps PK --model MODEL --np 2` on the plugin route (`lmp` and
+/// `--bond-style anisobond --plugin` of `l`) into `out`, one LAMMPS at a time: its report,
+/// after asserting that it passed (standard output printed).
+pub(super) fn validate_plugin_np2(
+    l: &Lammps,
+    pk: &Path,
+    model: &Path,
+    out: &Path,
+) -> serde_json::Value {
     let mut cmd = crate::common::bin();
     cmd.args(["validate", "lammps"])
-        .arg(&pk)
+        .arg(pk)
         .arg("--model")
-        .arg(&model)
+        .arg(model)
         .args(["--np", "2", "--lmp"])
         .arg(&l.lmp)
         .args(["--bond-style", "anisobond", "--plugin"])
         .arg(&l.so)
         .arg("-o")
-        .arg(&out);
+        .arg(out);
     let stdout = {
         let _one = super::export::one_lammps_at_a_time();
         succeeds(&mut cmd)
@@ -690,30 +720,31 @@ fn validate_lammps_with_the_many_body_term_meets_the_relaxed_tensor() {
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["passed"], true, "{stdout}");
-    let deck = std::fs::read_to_string(out.join("in.elastic")).unwrap();
-    assert!(deck.contains("${manybody}"), "the deck lacks the term");
-    // The reference includes the term: against the springs' relaxed tensor alone the
-    // difference is of the order of D.
-    let asm = anisobond::assembly::Assembly::from_files(&pk, &model).unwrap();
-    let opts = anisobond::homogenize::RelaxedOptions {
+    report
+}
+
+/// The relaxed solve of `validate lammps`' reference: bpm/rotational's midpoint lever arm,
+/// tolerance 1e-10.
+pub(super) fn midpoint_relaxed() -> anisobond::homogenize::RelaxedOptions {
+    anisobond::homogenize::RelaxedOptions {
         lever_arm: anisobond::homogenize::LeverArm::HalfLength,
         tolerance: 1e-10,
         ..Default::default()
-    };
-    let pair = anisobond::homogenize::relaxed_tensor(&asm.packing, &asm.bonds, &asm.springs, &opts)
-        .unwrap()
-        .c;
-    let term = crate::common::manybody_term(&asm.model, &asm.packing, &asm.bonds);
-    let with = anisobond::homogenize::relaxed_tensor_with_term(
+    }
+}
+
+/// The relaxed tensor of `asm`'s springs with `term` ([`midpoint_relaxed`]).
+pub(super) fn relaxed_with_term(
+    asm: &anisobond::assembly::Assembly,
+    term: &anisobond::manybody::ManyBody,
+) -> anisobond::tensor::Stiffness6 {
+    anisobond::homogenize::relaxed_tensor_with_term(
         &asm.packing,
         &asm.bonds,
         &asm.springs,
-        Some(&term),
-        &opts,
+        Some(term),
+        &midpoint_relaxed(),
     )
     .unwrap()
-    .c;
-    let gap = (with - pair).amax() / with.amax();
-    eprintln!("relaxed tensor with the term vs the springs' alone: {gap:.2e} of max |C|");
-    assert!(gap > 1e-2, "{gap:e}");
+    .c
 }

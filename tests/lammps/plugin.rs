@@ -8,9 +8,10 @@
 //! migrate); misuse is refused with the reason.
 
 use super::export::{
-    export_cmd, lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, run_deck, CROSS,
+    export_cmd, lammps_tensor, max_relative, one_lammps_at_a_time, relaxed, run_deck, CROSS,
     ROTATED_CUBIC,
 };
+use crate::common::lammps::lmp;
 use crate::common::{packing, root, succeeds, target_dir, tmp, write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

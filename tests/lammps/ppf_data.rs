@@ -8,8 +8,9 @@
 //! table and the box (Σ k_n l² n_x⁴ / V: under a stretch along x only the x rows stretch, and
 //! every particle's two x bonds pull equally, so the affine state is the equilibrium).
 
-use super::export::{export_cmd, lmp, one_lammps_at_a_time};
+use super::export::{export_cmd, one_lammps_at_a_time};
 use super::plugin::{export_plugin, lammps};
+use crate::common::lammps::lmp;
 use crate::common::{succeeds, tmp, write, CUBIC_MODEL};
 use std::path::Path;
 use std::process::Command;

@@ -8,7 +8,8 @@
 //! comparison resolves the contact point: LAMMPS is several times closer to the midpoint
 //! solve than to YADE's mid-gap one (which differs by ~1.5e-4 on this packing).
 
-use super::export::{lmp, one_lammps_at_a_time};
+use super::export::one_lammps_at_a_time;
+use crate::common::lammps::lmp;
 use crate::common::specimen::{check_platen_stiffness, free_cubic_specimen};
 use anisobond::homogenize::LeverArm;
 use anisobond::specimen::{self, Platens};

@@ -9,7 +9,8 @@
 //! 2,635 bonds that break in shear), with frictional contacts after breaking in both
 //! (`pair_style granular` hooke, and the integrator's contacts).
 
-use super::export::{lmp, one_lammps_at_a_time};
+use super::export::one_lammps_at_a_time;
+use crate::common::lammps::lmp;
 use crate::common::strength_bar::{check_ucs_run, cubic_bar, run_strength, ucs_prism, R};
 use anisobond::validate::lammps::{Lammps, LammpsValidateOptions};
 use anisobond::validate::strength::StrengthTest;

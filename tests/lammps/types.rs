@@ -7,9 +7,9 @@
 //! deck run by `lmp` gives the relaxed tensor of the quantised network within 1e-4.
 
 use super::export::{
-    export_cmd, lammps_tensor, lmp, max_relative, one_lammps_at_a_time, relaxed, CROSS,
-    ROTATED_CUBIC,
+    export_cmd, lammps_tensor, max_relative, one_lammps_at_a_time, relaxed, CROSS, ROTATED_CUBIC,
 };
+use crate::common::lammps::lmp;
 use crate::common::{bin, packing, stderr, succeeds, tmp, write};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};

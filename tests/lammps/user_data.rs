@@ -6,8 +6,9 @@
 //! (`export lammps` route (a) and the plugin, `export liggghts`, `export yade`), and the
 //! plugin deck run by LAMMPS on that same data file, unedited (`./run.sh 1 user.data`).
 
-use super::export::{export_cmd, lmp, max_relative, one_lammps_at_a_time, relaxed, tensor_of};
+use super::export::{export_cmd, max_relative, one_lammps_at_a_time, relaxed, tensor_of};
 use super::plugin::{export_plugin, lammps};
+use crate::common::lammps::lmp;
 use crate::common::{bin, fails, succeeds, tmp, write, CUBIC_MODEL};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

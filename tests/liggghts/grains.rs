@@ -6,28 +6,36 @@
 //! liggghts` meets the relaxed tensor with the per-grain term. Skipped with a reason only
 //! when LIGGGHTS/MPI/make are absent and CI is unset.
 
-use super::manybody::{deck, last_dump, run_driver, step0_energy, strained_state, TOOLS};
-use crate::common::liggghts::*;
-use anisobond::assembly::Assembly;
-use anisobond::export::liggghts::{
-    export_liggghts_full, manybody_table, read_manybody_table, write_manybody_table, DeckOptions,
+use super::manybody::{
+    driver_at_strained_state, export_with_term, first_dump, force_error, last_dump, max_diff,
+    run_np1_np2, strained_state, validate_engine, TOOLS,
 };
+use crate::common::liggghts::*;
+use crate::common::manybody_term;
+use crate::common::reference::{cubic4, rotate4};
+use anisobond::assembly::Assembly;
+use anisobond::export::liggghts::{manybody_table, read_manybody_table, write_manybody_table};
 use anisobond::model::Model;
-use anisobond::Vec3;
 
-/// Isotropic springs, four grains of a random texture and a cubic D (Zener 3) that turns
-/// with each grain, so the grains differ only by their D.
+/// The cubic D (C11, C12, C44 in Pa; Zener 2C44/(C11 − C12) = 3) in the crystal frame.
+const D: (f64, f64, f64) = (5e9, 3e9, 3e9);
+
+/// Isotropic springs, four grains of a random texture and the cubic [`D`] that turns with
+/// each grain, so the grains differ only by their D.
 fn model_toml(grains: bool) -> String {
     format!(
         "[bonding]\nrule = \"gap\"\nvalue = 0.17\n\
          [scheme]\nkind = \"isotropic\"\nnormal = 1.0e12\nshear = 4.0e11\n\
          [geometry]\nconvention = \"area\"\nmoments = \"parallel-bond\"\n{}\
-         [manybody]\nkind = \"cubic\"\nc11 = 5e9\nc12 = 3e9\nc44 = 3e9\n",
+         [manybody]\nkind = \"cubic\"\nc11 = {:e}\nc12 = {:e}\nc44 = {:e}\n",
         if grains {
             "[grains]\ncount = 4\nseed = 3\n"
         } else {
             ""
-        }
+        },
+        D.0,
+        D.1,
+        D.2
     )
 }
 
@@ -42,8 +50,9 @@ fn polycrystal(n: usize, seed: u64) -> Assembly {
 }
 
 /// The table of the per-grain term: `tensors 4`, every particle's tensor its grain, D the
-/// term's (rotate(D, gᵀ)); written and read back to the same bits; a tensor index beyond
-/// the tensors is refused naming the line.
+/// term's, which is rotate(D, gᵀ) of the tests' explicit rotation (1e-12 of max |D|);
+/// written and read back to the same bits; a tensor index beyond the tensors is refused
+/// naming the line.
 #[test]
 fn the_table_carries_a_d_per_grain_and_reads_back() {
     let asm = polycrystal(150, 5);
@@ -61,6 +70,16 @@ fn the_table_carries_a_d_per_grain_and_reads_back() {
             .unwrap()
     );
     assert_eq!(t.tensor, grains.grain);
+    // Each grain's D is the textbook one turned by gᵀ (crystal → lab), independently.
+    let scale = D.0.abs().max(D.1.abs()).max(D.2.abs());
+    for (g, d) in t.tensors.iter().enumerate() {
+        let want = rotate4(cubic4(D.0, D.1, D.2), &grains.orientation[g].transpose());
+        let dev = (d - want).amax();
+        assert!(
+            dev <= 1e-12 * scale,
+            "grain {g}: {dev:e} Pa off rotate(D, gᵀ)"
+        );
+    }
     let dir = fresh_dir("grains_table");
     let path = dir.join("manybody.txt");
     write_manybody_table(&path, &t).unwrap();
@@ -93,59 +112,22 @@ fn driver_forces_with_a_d_per_grain_match_the_library_and_np2_equals_np1() {
     let asm = polycrystal(200, 7);
     let term = asm.manybody().unwrap().unwrap();
     let dir = fresh_dir("grains_forces");
-    let opts = DeckOptions {
-        shear: false,
-        ..DeckOptions::default()
-    };
-    let s = export_liggghts_full(
-        &dir,
-        &asm.packing,
-        &asm.bonds,
-        &asm.springs,
-        &opts,
-        None,
-        Some(&term),
-    )
-    .unwrap();
-    let (x, h) = strained_state(&dir, &asm.packing, [1.02, 0.985, 1.01], 0.02);
-    deck(
-        &dir,
-        "forces.in",
-        &s,
-        true,
-        "compute epot all pe\nthermo_style custom step c_epot\nthermo_modify format float %.17g\n\
-         dump d all custom 1 forces.dump id fx fy fz\n\
-         dump_modify d sort id format \"%d %.17g %.17g %.17g\"\nrun 0\n",
-    );
-    let log = run_driver(&dir, "forces.in", 1);
-    let got = last_dump(&dir.join("forces.dump"));
+    let s = export_with_term(&dir, &asm.packing, &asm.bonds, &asm.springs, &term);
+    let (got, e, x, h) = driver_at_strained_state(&dir, &s, &asm.packing);
     let want = term
         .evaluate(&term.branch_vectors(&x, &h).unwrap())
         .unwrap();
-    let single = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
+    let single = manybody_term(&asm.model, &asm.packing, &asm.bonds);
     let one_d = single
         .evaluate(&single.branch_vectors(&x, &h).unwrap())
         .unwrap();
-    assert_eq!(got.len(), want.forces.len());
-    let scale = want.forces.iter().map(|f| f.amax()).fold(0.0, f64::max);
-    let err = got
-        .iter()
-        .zip(&want.forces)
-        .map(|(g, w)| (Vec3::new(g[0], g[1], g[2]) - w).amax())
-        .fold(0.0, f64::max);
+    let (err, scale) = force_error(&got, &want.forces);
     let vs_single = want
         .forces
         .iter()
         .zip(&one_d.forces)
         .map(|(a, b)| (a - b).amax())
         .fold(0.0, f64::max);
-    let e = step0_energy(&log);
     let e_err = (e - want.energy).abs() / want.energy.abs();
     eprintln!(
         "per-grain term: max |Δf| / max |f| = {:.3e} (max {scale:.3e} N); energy {e:.9e} J vs \
@@ -170,37 +152,17 @@ fn driver_forces_with_a_d_per_grain_match_the_library_and_np2_equals_np1() {
              dump_modify d sort id format \"%d %.17g %.17g %.17g %.17g %.17g %.17g\"\nrun 400\n"
         )
     };
-    deck(&dir, "np.in", &s, true, &body("np1"));
-    run_driver(&dir, "np.in", 1);
-    deck(&dir, "np.in", &s, true, &body("np2"));
-    run_driver(&dir, "np.in", 2);
-    let text = std::fs::read_to_string(dir.join("np1.dump")).unwrap();
-    let start = text.find("ITEM: ATOMS").unwrap();
-    let first: Vec<Vec<f64>> = text[start..]
-        .lines()
-        .skip(1)
-        .take(asm.packing.len())
-        .map(|l| {
-            l.split_whitespace()
-                .skip(1)
-                .map(|w| w.parse().unwrap())
-                .collect()
-        })
-        .collect();
+    run_np1_np2(&dir, &s, body);
+    let first = first_dump(&dir.join("np1.dump"), asm.packing.len());
     let (one, two) = (
         last_dump(&dir.join("np1.dump")),
         last_dump(&dir.join("np2.dump")),
     );
-    let diff = |a: &[Vec<f64>], b: &[Vec<f64>], cols: std::ops::Range<usize>| {
-        a.iter().zip(b).fold(0.0_f64, |d, (ra, rb)| {
-            cols.clone().fold(d, |d, c| d.max((ra[c] - rb[c]).abs()))
-        })
-    };
-    let motion = diff(&one, &first, 0..3);
-    let fscale = diff(&one, &vec![vec![0.0; 6]; one.len()], 3..6);
+    let motion = max_diff(&one, &first, 0..3);
+    let fscale = max_diff(&one, &vec![vec![0.0; 6]; one.len()], 3..6);
     let (dx, df) = (
-        diff(&one, &two, 0..3) / motion,
-        diff(&one, &two, 3..6) / fscale,
+        max_diff(&one, &two, 0..3) / motion,
+        max_diff(&one, &two, 3..6) / fscale,
     );
     eprintln!("np 2 vs np 1 after 400 steps: x {dx:.2e} of the motion {motion:.3e} m, f {df:.2e}");
     assert!(motion > 0.0 && fscale > 0.0);
@@ -218,7 +180,7 @@ fn driver_forces_with_a_d_per_grain_match_the_library_and_np2_equals_np1() {
 fn validate_liggghts_on_a_polycrystal_with_the_term_passes() {
     use anisobond::homogenize::{relaxed_tensor_with_term, RelaxedOptions};
     use anisobond::tensor::relative_difference;
-    use anisobond::validate::liggghts::{checks_table, Liggghts, Programs, ValidateOptions};
+    use anisobond::validate::liggghts::checks_table;
     use anisobond::validate::{validate, Problem};
     if let Some(r) = missing(TOOLS) {
         eprintln!("skipping: {r}");
@@ -227,16 +189,7 @@ fn validate_liggghts_on_a_polycrystal_with_the_term_passes() {
     let asm = polycrystal(200, 7);
     let dir = fresh_dir("grains_validate");
     let problem = Problem::of(&dir, &asm);
-    let engine = Liggghts {
-        programs: Programs {
-            driver: driver(),
-            liggghts: "liggghts".into(),
-        },
-        options: ValidateOptions {
-            integrator_tolerance: 1e-5,
-            ..ValidateOptions::default()
-        },
-    };
+    let engine = validate_engine();
     let r = validate(&engine, &problem, &|s| eprintln!("{s}")).expect("validation runs");
     eprintln!("{}", checks_table(&r));
     let ids: Vec<&str> = r.checks.iter().map(|c| c.id.as_str()).collect();
@@ -257,13 +210,7 @@ fn validate_liggghts_on_a_polycrystal_with_the_term_passes() {
         "the driver decks lack the per-grain D"
     );
     let term = asm.manybody().unwrap().unwrap();
-    let single = asm
-        .model
-        .manybody
-        .as_ref()
-        .unwrap()
-        .build(&asm.packing, &asm.bonds)
-        .unwrap();
+    let single = manybody_term(&asm.model, &asm.packing, &asm.bonds);
     let relaxed = |t| {
         relaxed_tensor_with_term(
             &asm.packing,

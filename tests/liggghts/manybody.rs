@@ -6,7 +6,7 @@
 use crate::common::liggghts::*;
 use anisobond::bonds::BondSet;
 use anisobond::export::liggghts::{
-    export_liggghts_full, read_manybody_table, run_liggghts, DeckOptions, ExportSummary,
+    read_manybody_table, run_liggghts, DeckOptions, ExportSummary, LiggghtsInputs,
 };
 use anisobond::manybody::{ManyBody, StrainMeasure};
 use anisobond::model::Model;
@@ -43,7 +43,7 @@ fn setup(dir: &Path, n: usize, measure: &str) -> (Bonded, ManyBody, ExportSummar
 }
 
 /// The driver decks of `packing` (normal cases only) with the term, exported into `dir`.
-fn export_with_term(
+pub(super) fn export_with_term(
     dir: &Path,
     packing: &Packing,
     bonds: &BondSet,
@@ -54,7 +54,12 @@ fn export_with_term(
         shear: false,
         ..DeckOptions::default()
     };
-    export_liggghts_full(dir, packing, bonds, k, &opts, None, Some(term)).expect("export")
+    LiggghtsInputs {
+        manybody: Some(term),
+        ..LiggghtsInputs::new(packing, bonds, k, &opts)
+    }
+    .export(dir)
+    .expect("export")
 }
 
 /// `b` with particles 0, 1 and 2 left two bonds each (their first in bond order), so the
@@ -171,10 +176,16 @@ pub(super) fn run_driver(dir: &Path, deck: &str, np: usize) -> String {
 /// The last snapshot of a `dump custom` sorted by id: per atom its columns after the id.
 pub(super) fn last_dump(path: &Path) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap();
-    let start = text.rfind("ITEM: ATOMS").unwrap();
-    text[start..]
+    atom_rows(&text[text.rfind("ITEM: ATOMS").unwrap()..], usize::MAX)
+}
+
+/// At most `n` rows after the `ITEM: ATOMS` line that starts `snapshot`: per atom its
+/// columns after the id.
+fn atom_rows(snapshot: &str, n: usize) -> Vec<Vec<f64>> {
+    snapshot
         .lines()
         .skip(1)
+        .take(n)
         .map(|l| {
             l.split_whitespace()
                 .skip(1)
@@ -193,6 +204,90 @@ pub(super) fn step0_energy(log: &str) -> f64 {
     let w: Vec<&str> = lines.next().unwrap().split_whitespace().collect();
     assert_eq!(w[0], "0");
     w[1].parse().unwrap()
+}
+
+/// The driver with the term on one process at the strained, perturbed state of
+/// [`strained_state`] (S = diag(1.02, 0.985, 1.01), δ up to 2 % of R̄; the springs at rest
+/// there), by the deck `forces.in` in `dir`: the forces per atom (by id), the potential
+/// energy of step 0, and the unwrapped positions and S.
+pub(super) fn driver_at_strained_state(
+    dir: &Path,
+    summary: &ExportSummary,
+    packing: &Packing,
+) -> (Vec<Vec<f64>>, f64, Vec<Vec3>, anisobond::Mat3) {
+    let (x, h) = strained_state(dir, packing, [1.02, 0.985, 1.01], 0.02);
+    deck(
+        dir,
+        "forces.in",
+        summary,
+        true,
+        "compute epot all pe\nthermo_style custom step c_epot\nthermo_modify format float %.17g\n\
+         dump d all custom 1 forces.dump id fx fy fz\n\
+         dump_modify d sort id format \"%d %.17g %.17g %.17g\"\nrun 0\n",
+    );
+    let log = run_driver(dir, "forces.in", 1);
+    (
+        last_dump(&dir.join("forces.dump")),
+        step0_energy(&log),
+        x,
+        h,
+    )
+}
+
+/// (max |f_got − f_want|, max |f_want|) over the atoms and components (N), `got` rows
+/// (fx, fy, fz) of a dump; as many rows as forces.
+pub(super) fn force_error(got: &[Vec<f64>], want: &[Vec3]) -> (f64, f64) {
+    assert_eq!(got.len(), want.len());
+    let scale = want.iter().map(|f| f.amax()).fold(0.0, f64::max);
+    let err = got
+        .iter()
+        .zip(want)
+        .map(|(g, w)| (Vec3::new(g[0], g[1], g[2]) - w).amax())
+        .fold(0.0, f64::max);
+    (err, scale)
+}
+
+/// The decks `body(name)` with the term on the state of `strained.data`, run as `np1` on
+/// one process and `np2` on two.
+pub(super) fn run_np1_np2(dir: &Path, summary: &ExportSummary, body: impl Fn(&str) -> String) {
+    deck(dir, "np.in", summary, true, &body("np1"));
+    run_driver(dir, "np.in", 1);
+    deck(dir, "np.in", summary, true, &body("np2"));
+    run_driver(dir, "np.in", 2);
+}
+
+/// The first snapshot of a `dump custom` of `n` atoms sorted by id: per atom its columns
+/// after the id.
+pub(super) fn first_dump(path: &Path, n: usize) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    atom_rows(&text[text.find("ITEM: ATOMS").unwrap()..], n)
+}
+
+/// The largest |a − b| over the rows and the columns `cols`.
+pub(super) fn max_diff(a: &[Vec<f64>], b: &[Vec<f64>], cols: std::ops::Range<usize>) -> f64 {
+    let mut d: f64 = 0.0;
+    for (ra, rb) in a.iter().zip(b) {
+        for c in cols.clone() {
+            d = d.max((ra[c] - rb[c]).abs());
+        }
+    }
+    d
+}
+
+/// `validate liggghts` with the driver built here and `liggghts` on PATH, the integrator
+/// held to 1e-5 (the other tolerances the defaults).
+pub(super) fn validate_engine() -> anisobond::validate::liggghts::Liggghts {
+    use anisobond::validate::liggghts::{Liggghts, Programs, ValidateOptions};
+    Liggghts {
+        programs: Programs {
+            driver: driver(),
+            liggghts: "liggghts".into(),
+        },
+        options: ValidateOptions {
+            integrator_tolerance: 1e-5,
+            ..ValidateOptions::default()
+        },
+    }
 }
 
 /// Forces and energy of the driver at a perturbed, strained state (springs at rest there)
@@ -217,29 +312,11 @@ fn forces_match_library_at_strained_state() {
         // The table read back is the one the driver reads.
         let table = read_manybody_table(&dir.join("manybody.txt")).unwrap();
         assert_eq!(table.bonds.len(), b.bonds.len());
-        let (x, h) = strained_state(&dir, &b.packing, [1.02, 0.985, 1.01], 0.02);
-        deck(
-            &dir,
-            "forces.in",
-            &s,
-            true,
-            "compute epot all pe\nthermo_style custom step c_epot\nthermo_modify format float %.17g\n\
-             dump d all custom 1 forces.dump id fx fy fz\n\
-             dump_modify d sort id format \"%d %.17g %.17g %.17g\"\nrun 0\n",
-        );
-        let log = run_driver(&dir, "forces.in", 1);
-        let got = last_dump(&dir.join("forces.dump"));
+        let (got, e, x, h) = driver_at_strained_state(&dir, &s, &b.packing);
         let want = term
             .evaluate(&term.branch_vectors(&x, &h).unwrap())
             .unwrap();
-        assert_eq!(got.len(), want.forces.len());
-        let scale = want.forces.iter().map(|f| f.amax()).fold(0.0, f64::max);
-        let err = got
-            .iter()
-            .zip(&want.forces)
-            .map(|(g, w)| (Vec3::new(g[0], g[1], g[2]) - w).amax())
-            .fold(0.0, f64::max);
-        let e = step0_energy(&log);
+        let (err, scale) = force_error(&got, &want.forces);
         let e_err = (e - want.energy).abs() / want.energy.abs();
         eprintln!(
             "{measure}: largest force {scale:.3e} N, max |Δf| {err:.3e} N (relative {:.3e}); \
@@ -280,10 +357,7 @@ fn two_processes_match_one() {
              run 400\n"
         )
     };
-    deck(&dir, "np.in", &s, true, &body("np1"));
-    run_driver(&dir, "np.in", 1);
-    deck(&dir, "np.in", &s, true, &body("np2"));
-    run_driver(&dir, "np.in", 2);
+    run_np1_np2(&dir, &s, body);
     deck(&dir, "off.in", &s, false, &body("off"));
     run_driver(&dir, "off.in", 1);
     let (one, two, off) = (
@@ -295,38 +369,16 @@ fn two_processes_match_one() {
     assert!(text.contains("ITEM: TIMESTEP\n400\n"), "no step 400 dump");
     // Per column group (x, v, f): largest difference relative to the group's scale (for x:
     // the motion since the start).
-    let first: Vec<Vec<f64>> = {
-        let start = text.find("ITEM: ATOMS").unwrap();
-        text[start..]
-            .lines()
-            .skip(1)
-            .take(one.len())
-            .map(|l| {
-                l.split_whitespace()
-                    .skip(1)
-                    .map(|w| w.parse().unwrap())
-                    .collect()
-            })
-            .collect()
-    };
-    let diff = |a: &[Vec<f64>], b: &[Vec<f64>], cols: std::ops::Range<usize>| {
-        let mut d: f64 = 0.0;
-        for (ra, rb) in a.iter().zip(b) {
-            for c in cols.clone() {
-                d = d.max((ra[c] - rb[c]).abs());
-            }
-        }
-        d
-    };
-    let motion = diff(&one, &first, 0..3);
-    let vscale = diff(&one, &vec![vec![0.0; 9]; one.len()], 3..6);
-    let fscale = diff(&one, &vec![vec![0.0; 9]; one.len()], 6..9);
+    let first = first_dump(&dir.join("np1.dump"), one.len());
+    let motion = max_diff(&one, &first, 0..3);
+    let vscale = max_diff(&one, &vec![vec![0.0; 9]; one.len()], 3..6);
+    let fscale = max_diff(&one, &vec![vec![0.0; 9]; one.len()], 6..9);
     let (dx, dv, df) = (
-        diff(&one, &two, 0..3) / motion,
-        diff(&one, &two, 3..6) / vscale,
-        diff(&one, &two, 6..9) / fscale,
+        max_diff(&one, &two, 0..3) / motion,
+        max_diff(&one, &two, 3..6) / vscale,
+        max_diff(&one, &two, 6..9) / fscale,
     );
-    let term_effect = diff(&one, &off, 0..3) / motion;
+    let term_effect = max_diff(&one, &off, 0..3) / motion;
     eprintln!(
         "np 2 vs np 1: x {dx:.3e} (of the motion {motion:.3e} m), v {dv:.3e}, f {df:.3e}; \
          without the term x differs by {term_effect:.3e}"
@@ -558,7 +610,7 @@ fn model_forms_match_library_under_uniform_strain() {
 fn validate_with_the_term_meets_the_relaxed_tensor_with_the_term() {
     use anisobond::homogenize::{relaxed_tensor, relaxed_tensor_with_term, RelaxedOptions};
     use anisobond::tensor::relative_difference;
-    use anisobond::validate::liggghts::{checks_table, Liggghts, Programs, ValidateOptions};
+    use anisobond::validate::liggghts::checks_table;
     use anisobond::validate::{validate, Problem, TestKind};
     if let Some(r) = missing(TOOLS) {
         eprintln!("skipping: {r}");
@@ -577,16 +629,7 @@ fn validate_with_the_term_meets_the_relaxed_tensor_with_the_term() {
         model: Some(&model),
         kind: TestKind::PeriodicElement,
     };
-    let engine = Liggghts {
-        programs: Programs {
-            driver: driver(),
-            liggghts: "liggghts".into(),
-        },
-        options: ValidateOptions {
-            integrator_tolerance: 1e-5,
-            ..ValidateOptions::default()
-        },
-    };
+    let engine = validate_engine();
     let t0 = std::time::Instant::now();
     let r = validate(&engine, &problem, &|s| {
         eprintln!("[{:6.1} s] {s}", t0.elapsed().as_secs_f64())

@@ -2,33 +2,15 @@
 //! written here, and the grain count of a mean size by hand.
 
 use super::common::bonded::generated;
+use super::common::reference::nearest_centre;
 use super::{isotropic_model, model};
 use anisobond::grains::{count_for_mean_size, nearest_centres};
 use anisobond::prelude::*;
 
-/// The nearest centre of `x` in an orthorhombic periodic cell of edges `l` (each
-/// difference brought into [−L/2, L/2] by whole cells), the lower index on a tie.
+/// The brute-force nearest centre of `x` (`common::reference::nearest_centre`: the minimum
+/// image by whole cells in the cell of edges `l`, the lower index on a tie), as a grain.
 fn brute_force(x: &Vec3, centres: &[Vec3], l: Option<Vec3>) -> u32 {
-    let mut best = (f64::INFINITY, 0);
-    for (g, c) in centres.iter().enumerate() {
-        let mut d2 = 0.0;
-        for k in 0..3 {
-            let mut d = x[k] - c[k];
-            if let Some(l) = l {
-                while d > 0.5 * l[k] {
-                    d -= l[k];
-                }
-                while d < -0.5 * l[k] {
-                    d += l[k];
-                }
-            }
-            d2 += d * d;
-        }
-        if d2 < best.0 {
-            best = (d2, g as u32);
-        }
-    }
-    best.1
+    nearest_centre(x, centres, l) as u32
 }
 
 /// The seeded Voronoi map of a generated periodic packing is the brute-force nearest

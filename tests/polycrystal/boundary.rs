@@ -6,6 +6,7 @@
 //! rule; its refusals are typed.
 
 use super::common::bonded::generated;
+use super::common::reference::nearest_centre;
 use super::{cubic_model, model, rotation_key};
 use anisobond::bonds::assign_stiffness_by_grain;
 use anisobond::grains::{bunge_deg, nearest_centres, BoundaryRule, Grains};
@@ -30,32 +31,6 @@ fn contact_point(p: &Packing, bonds: &BondSet, b: usize) -> Vec3 {
     let len = branch.norm();
     let (ri, rj) = (p.radii[i], p.radii[j]);
     p.positions[i] + branch * ((ri + 0.5 * (len - ri - rj)) / len)
-}
-
-/// The nearest of `centres` to `x` in an orthorhombic periodic cell of edges `l` (each
-/// difference brought into [−L/2, L/2] by whole cells; plain distance when `l` is None),
-/// the lower index on a tie.
-fn nearest(x: &Vec3, centres: &[Vec3], l: Option<Vec3>) -> usize {
-    let mut best = (f64::INFINITY, 0);
-    for (g, c) in centres.iter().enumerate() {
-        let mut d2 = 0.0;
-        for k in 0..3 {
-            let mut d = x[k] - c[k];
-            if let Some(l) = l {
-                while d > 0.5 * l[k] {
-                    d -= l[k];
-                }
-                while d < -0.5 * l[k] {
-                    d += l[k];
-                }
-            }
-            d2 += d * d;
-        }
-        if d2 < best.0 {
-            best = (d2, g);
-        }
-    }
-    best.1
 }
 
 /// Bond by bond, `poly`'s springs against the brute force: a bond inside grain g has the
@@ -83,7 +58,7 @@ fn check_against_brute_force(
             (gi, 1.0)
         } else {
             across += 1;
-            let g = nearest(&contact_point(p, bonds, b), centres, Some(l));
+            let g = nearest_centre(&contact_point(p, bonds, b), centres, Some(l));
             assert!(g == gi || g == gj, "two grains only");
             took_j += usize::from(g == gj);
             (g, factor)
@@ -207,7 +182,7 @@ fn contact_point_rule_takes_the_minimum_image_across_the_cell_faces() {
         .filter(|&b| grain[a.bonds.i[b] as usize] != grain[a.bonds.j[b] as usize])
         .filter(|&b| {
             let x = contact_point(&p, &a.bonds, b);
-            nearest(&x, &centres, None) != nearest(&x, &centres, Some(l))
+            nearest_centre(&x, &centres, None) != nearest_centre(&x, &centres, Some(l))
         })
         .count();
     assert!(

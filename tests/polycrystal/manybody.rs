@@ -11,6 +11,7 @@
 //! stresses add up to C·ε (Hill's lemma), and `anisobond polycrystal`'s study takes the term.
 
 use super::common::bonded::generated;
+use super::common::reference::{cubic4, rotate4};
 use super::common::{bin, on_threads, packing, stderr, tmp, write};
 use super::{bits, cubic_model, model, relaxed, rotation_key};
 use anisobond::dem::{path_gradient, DemOptions, LawKind};
@@ -42,36 +43,10 @@ fn one_grain(dir: &std::path::Path, angles: &str) -> String {
     )
 }
 
-/// The textbook cubic D as a fourth-order tensor, turned by Q (D'_ijkl = Q_ia Q_jb Q_kc Q_ld
-/// D_abcd), written out as a Voigt matrix (engineering strain): independent of the library's
-/// rotation.
+/// The textbook cubic [`D`] turned by Q (D'_ijkl = Q_ia Q_jb Q_kc Q_ld D_abcd, the tests'
+/// explicit rotation `common::reference::rotate4`): independent of the library's rotation.
 fn rotated_cubic(q: &Mat3) -> Stiffness6 {
-    let (c11, c12, c44) = D;
-    let d = |a: usize, b: usize, c: usize, e: usize| {
-        let delta = |x: usize, y: usize| if x == y { 1.0 } else { 0.0 };
-        let mut v = c12 * delta(a, b) * delta(c, e)
-            + c44 * (delta(a, c) * delta(b, e) + delta(a, e) * delta(b, c));
-        if a == b && b == c && c == e {
-            v += c11 - c12 - 2.0 * c44;
-        }
-        v
-    };
-    let pairs = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
-    Stiffness6::from_fn(|r, s| {
-        let (i, j) = pairs[r];
-        let (k, l) = pairs[s];
-        let mut acc = 0.0;
-        for a in 0..3 {
-            for b in 0..3 {
-                for c in 0..3 {
-                    for e in 0..3 {
-                        acc += q[(i, a)] * q[(j, b)] * q[(k, c)] * q[(l, e)] * d(a, b, c, e);
-                    }
-                }
-            }
-        }
-        acc
-    })
+    rotate4(cubic4(D.0, D.1, D.2), q)
 }
 
 /// The term of an assembly's model, built on its grains.
