@@ -599,19 +599,41 @@ fn galerkin(a: &BlockSparse, p: &BlockRows, pt: &BlockRows) -> BlockSparse {
         )
         .collect();
     let ap = BlockRows::from_rows(ap_rows);
-    let rows: Vec<Vec<(u32, Block6)>> = (0..n_coarse)
+    // The upper triangle (c ≥ g) only, the lower one its transpose: Ac is exactly
+    // symmetric (its single-precision copy too) and the second product costs about half.
+    let upper: Vec<Vec<(u32, Block6)>> = (0..n_coarse)
         .into_par_iter()
         .map_init(
             || RowAccumulator::new(n_coarse),
             |acc, g| {
                 for (i, pti) in pt.row(g) {
                     for (c, apic) in ap.row(*i as usize) {
-                        acc.add(*c, pti, apic);
+                        if *c as usize >= g {
+                            acc.add(*c, pti, apic);
+                        }
                     }
                 }
                 acc.take()
             },
         )
+        .collect();
+    drop(ap);
+    let upper = BlockRows::from_rows(upper);
+    // Row g: the transposed upper blocks of the rows above it (increasing column), then its
+    // own upper row.
+    let lower = upper.transpose(n_coarse);
+    let rows: Vec<Vec<(u32, Block6)>> = (0..n_coarse)
+        .into_par_iter()
+        .map(|g| {
+            let mut row: Vec<(u32, Block6)> = lower
+                .row(g)
+                .iter()
+                .filter(|(c, _)| (*c as usize) < g)
+                .cloned()
+                .collect();
+            row.extend_from_slice(upper.row(g));
+            row
+        })
         .collect();
     BlockSparse::from_rows(rows)
 }
