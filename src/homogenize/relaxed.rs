@@ -629,7 +629,7 @@ pub(crate) fn block_jacobi_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    held_cg(k, b, None, tolerance, max_iterations)
+    held_cg(k, b, (None, None), tolerance, max_iterations)
 }
 
 /// [`block_jacobi_cg`] with the two-level preconditioner of [`super::two_level`] (aggregates
@@ -653,7 +653,7 @@ pub(crate) fn two_level_cg(
         DEFAULT_PARTICLES_PER_AGGREGATE,
     )
     .ok();
-    held_cg(k, b, two_level.as_ref(), tolerance, max_iterations)
+    held_cg(k, b, (two_level.as_ref(), None), tolerance, max_iterations)
 }
 
 /// [`block_jacobi_cg`] preconditioned by one multigrid V-cycle of `amg` per iteration (built
@@ -665,27 +665,16 @@ pub(crate) fn amg_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let (pre, diag) = jacobi_pieces(k, None);
-    let scale = column_dots(b, b).map(f64::sqrt);
-    let opts = RelaxedOptions {
-        tolerance,
-        max_iterations,
-        ..Default::default()
-    };
-    let op = Stiffness {
-        k,
-        term: None,
-        diag,
-    };
-    pcg(&op, b, &pre, (None, Some(amg)), &scale, &opts, None)
+    held_cg(k, b, (None, Some(amg)), tolerance, max_iterations)
 }
 
-/// The CG of a held structure shared by [`block_jacobi_cg`] and [`two_level_cg`]: block-Jacobi
-/// blocks, column scales of `b`, and the two-level correction when given.
+/// The CG of a held structure shared by [`block_jacobi_cg`], [`two_level_cg`] and
+/// [`amg_cg`]: block-Jacobi blocks, column scales of `b`, and the two-level correction or
+/// the multigrid V-cycle when given.
 fn held_cg(
     k: &BlockSparse,
     b: &[Block6],
-    two_level: Option<&TwoLevel>,
+    coarse: (Option<&TwoLevel>, Option<&Amg>),
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
@@ -701,7 +690,7 @@ fn held_cg(
         term: None,
         diag,
     };
-    pcg(&op, b, &pre, (two_level, None), &scale, &opts, None)
+    pcg(&op, b, &pre, coarse, &scale, &opts, None)
 }
 
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
@@ -1045,7 +1034,7 @@ mod tests {
             b[i].set_column(1, &(a * h[i]));
             want[i].set_column(0, &(e * (sign / 4.0)));
         }
-        (held_cg(&k, &b, None, tolerance, 200), want)
+        (held_cg(&k, &b, (None, None), tolerance, 200), want)
     }
 
     /// A load case whose residual met the tolerance while another iterates on: its search
@@ -1108,7 +1097,7 @@ mod tests {
             bi.set_column(0, &V6::from_fn(|j, _| 1.0 + 0.1 * j as f64));
         }
         let opts = RelaxedOptions::default();
-        match held_cg(&k, &b, None, opts.tolerance, opts.max_iterations) {
+        match held_cg(&k, &b, (None, None), opts.tolerance, opts.max_iterations) {
             Err(Error::Degenerate(m)) => assert!(m.contains("buckles"), "{m}"),
             other => panic!("expected buckling, got {other:?}"),
         }
