@@ -6,7 +6,7 @@ solve". Run with the Python package installed (target/venv of .ci/test-all) and 
     target/venv/bin/python benches/scipy_cg.py PACKING MODEL TOLERANCE OUT.json
 
 Writes OUT.json: the time to get the system (s), the solve's wall and CPU time (s; scipy's
-sparse product is one thread), CG iterations per load case, and C (Pa)."""
+sparse product runs on one thread, numpy's vector operations may use more), CG iterations per load case, and C (Pa)."""
 import json
 import sys
 import time
