@@ -544,7 +544,7 @@ impl Assembly {
         Ok(TensorResult { report, detail })
     }
 
-    /// The relaxed solve's linear system (K, G, H, V; [`crate::homogenize::system`]) of this
+    /// The relaxed solve's linear system (K, G, H, V: [`crate::homogenize::RelaxedSystem`]) of this
     /// assembly with `opts`' lever arm and rotations, the many-body term included: for
     /// solving C = (H − Gᵀ K⁺ G)/V with another code. Refuses a box that is not fully
     /// periodic, as the relaxed tensor does.
