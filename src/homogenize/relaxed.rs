@@ -335,9 +335,7 @@ fn relaxed_solve_full(
     let (q, iterations, residual, (gtq, qtkq)) = match opts.solver {
         RelaxedSolver::Cholesky => {
             let merged = match term {
-                Some(t) => Some(
-                    springs.add(&t.hessian(t.reference_branches())?.restrict(&net.index, 1.0))?,
-                ),
+                Some(t) => Some(with_term_hessian(&springs, t, &net.index)?),
                 None => None,
             };
             let kmat = merged.as_ref().unwrap_or(&springs);
@@ -355,9 +353,9 @@ fn relaxed_solve_full(
             // The multigrid hierarchy is built on the assembled matrix: the springs', plus
             // the term's Hessian when there is one.
             let merged = match (preconditioner, term) {
-                (CgPreconditioner::Amg, Some(t)) => Some(
-                    springs.add(&t.hessian(t.reference_branches())?.restrict(&net.index, 1.0))?,
-                ),
+                (CgPreconditioner::Amg, Some(t)) => {
+                    Some(with_term_hessian(&springs, t, &net.index)?)
+                }
                 _ => None,
             };
             let amg = match preconditioner {
@@ -436,6 +434,21 @@ pub(super) fn network_with_term(
     };
     let term_scale = term_op.as_ref().map(|op| add_term(&mut net, op));
     Ok((net, term_op, term_scale))
+}
+
+/// The springs' assembled K plus the many-body term's Hessian restricted to the active
+/// particles (`index`: packing → row): K in assembled form (second neighbours), for the
+/// sparse Cholesky, the multigrid and the exported system.
+pub(super) fn with_term_hessian(
+    springs: &BlockSparse,
+    term: &ManyBody,
+    index: &[u32],
+) -> Result<BlockSparse> {
+    springs.add(
+        &term
+            .hessian(term.reference_branches())?
+            .restrict(index, 1.0),
+    )
 }
 
 /// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form,

@@ -7,7 +7,7 @@
 //! its Hessian is added in assembled form (second neighbours), as the Cholesky route does.
 
 use super::network::Block6;
-use super::relaxed::{network_with_term, RelaxedOptions};
+use super::relaxed::{network_with_term, with_term_hessian, RelaxedOptions};
 use super::sparse::BlockSparse;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::manybody::ManyBody;
@@ -69,9 +69,7 @@ pub fn relaxed_system(
     let (net, _, _) = network_with_term(packing, bonds, k, opts, None, term)?;
     let springs = BlockSparse::assemble(&net);
     let merged = match term {
-        Some(t) => {
-            Some(springs.add(&t.hessian(t.reference_branches())?.restrict(&net.index, 1.0))?)
-        }
+        Some(t) => Some(with_term_hessian(&springs, t, &net.index)?),
         None => None,
     };
     let kmat = merged.as_ref().unwrap_or(&springs);
