@@ -20,6 +20,20 @@ pub fn cubic4(c11: f64, c12: f64, c44: f64) -> impl Fn(usize, usize, usize, usiz
     }
 }
 
+/// The fourth-order tensor of a Voigt matrix, C_ijkl = C6[a, b] for (i, j) ↔ a and (k, l) ↔ b
+/// (no factors; pairs 11, 22, 33, 23, 13, 12), so that `rotate4(voigt4(c), q)` turns `c`.
+pub fn voigt4(c: &Stiffness6) -> impl Fn(usize, usize, usize, usize) -> f64 + '_ {
+    let index = |i: usize, j: usize| match (i.min(j), i.max(j)) {
+        (0, 0) => 0,
+        (1, 1) => 1,
+        (2, 2) => 2,
+        (1, 2) => 3,
+        (0, 2) => 4,
+        _ => 5,
+    };
+    move |i, j, k, l| c[(index(i, j), index(k, l))]
+}
+
 /// The fourth-order tensor `d` turned by Q, D'_ijkl = Σ_abcd Q_ia Q_jb Q_kc Q_ld D_abcd,
 /// written out as a Voigt matrix (engineering strain; pairs 11, 22, 33, 23, 13, 12): the
 /// tests' reference for rotate(D, Q), independent of the library's rotation.

@@ -2,11 +2,12 @@
 //! of Truszkowska 2018 Eqs. 9–15 for the test only), against docs/references.md values, closed
 //! forms and symmetries.
 
+use crate::common::reference::{rotate4, voigt4};
 use anisobond::homogenize::{
     equal_sphere_prefactor, mean_field, orientation_average, SphereQuadrature, DEFAULT_ORDER,
 };
 use anisobond::schemes::{Magnitudes, StiffnessScheme};
-use anisobond::tensor::{Stiffness6, VOIGT_PAIRS};
+use anisobond::tensor::Stiffness6;
 use anisobond::{Mat3, Vec3};
 
 /// Spheroid radial function r(c; a) = a^(2/3)/sqrt(c² + (1−c²)a²) (Truszkowska 2018 Eq. 9).
@@ -121,43 +122,6 @@ impl StiffnessScheme for LocalCubic {
             .map(|p| rt * p)
             .collect()
     }
-}
-
-/// Voigt 6×6 → full C_ijkl (no factors: C6[a,b] = C_ijkl).
-fn full(c: &Stiffness6) -> [[[[f64; 3]; 3]; 3]; 3] {
-    let mut t = [[[[0.0; 3]; 3]; 3]; 3];
-    for (a, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
-        for (b, &(k, l)) in VOIGT_PAIRS.iter().enumerate() {
-            for (p, q) in [(i, j), (j, i)] {
-                for (r, s) in [(k, l), (l, k)] {
-                    t[p][q][r][s] = c[(a, b)];
-                }
-            }
-        }
-    }
-    t
-}
-
-/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (docs/references.md "Conventions").
-fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
-    let t = full(c);
-    let mut out = Stiffness6::zeros();
-    for (x, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
-        for (y, &(k, l)) in VOIGT_PAIRS.iter().enumerate() {
-            let mut sum = 0.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    for cc in 0..3 {
-                        for d in 0..3 {
-                            sum += q[(i, a)] * q[(j, b)] * q[(k, cc)] * q[(l, d)] * t[a][b][cc][d];
-                        }
-                    }
-                }
-            }
-            out[(x, y)] = sum;
-        }
-    }
-    out
 }
 
 fn rel_diff(a: &Stiffness6, b: &Stiffness6) -> f64 {
@@ -355,7 +319,7 @@ fn rotated_scheme_gives_rotated_tensor() {
     let mut rotated = LocalCubic::zener_above_1();
     rotated.rotation = r;
     let lab = mean_field(&rotated, 1.0, 24);
-    let want = rotate(&crystal, &r.transpose());
+    let want = rotate4(voigt4(&crystal), &r.transpose());
     let d = rel_diff(&lab, &want);
     assert!(d < 1e-11, "{d:e}");
     // And it is really rotated: not the crystal tensor.

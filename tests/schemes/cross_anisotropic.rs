@@ -2,6 +2,7 @@
 //! and its inverse (docs/references.md), the paper's worked example, closed-form lattice scalings
 //! and the mean-field orientation integral.
 
+use crate::common::reference::{rotate4, voigt4};
 use crate::common::transverse;
 use std::f64::consts::PI;
 
@@ -13,7 +14,6 @@ use anisobond::schemes::StiffnessScheme;
 use anisobond::schemes::{
     axis_from_strike_dip, dependent_c44, inverse_block, microplane_matrix, CrossAnisotropic,
 };
-use anisobond::tensor::{Stiffness6, VOIGT_PAIRS};
 use anisobond::{Mat3, Vec3};
 
 /// The 1/35 matrix of docs/references.md / Šmilauer Eq. 10, times 35.
@@ -26,37 +26,6 @@ const A35: [[i64; 4]; 5] = [
 ];
 /// C66 = (C11 − C12)/2 row, times 35 (docs/references.md).
 const C66_35: [i64; 4] = [12, 2, 16, 5];
-
-/// rotate(C, Q)_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (docs/references.md "Conventions").
-fn rotate(c: &Stiffness6, q: &Mat3) -> Stiffness6 {
-    let mut t = [[[[0.0; 3]; 3]; 3]; 3];
-    for (a, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
-        for (b, &(k, l)) in VOIGT_PAIRS.iter().enumerate() {
-            for (p, q) in [(i, j), (j, i)] {
-                for (r, s) in [(k, l), (l, k)] {
-                    t[p][q][r][s] = c[(a, b)];
-                }
-            }
-        }
-    }
-    let mut out = Stiffness6::zeros();
-    for (x, &(i, j)) in VOIGT_PAIRS.iter().enumerate() {
-        for (y, &(k, l)) in VOIGT_PAIRS.iter().enumerate() {
-            let mut sum = 0.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    for cc in 0..3 {
-                        for d in 0..3 {
-                            sum += q[(i, a)] * q[(j, b)] * q[(k, cc)] * q[(l, d)] * t[a][b][cc][d];
-                        }
-                    }
-                }
-            }
-            out[(x, y)] = sum;
-        }
-    }
-    out
-}
 
 #[test]
 fn microplane_matrix_is_the_exact_1_over_35_matrix() {
@@ -199,7 +168,7 @@ fn mean_field_with_six_mu_reproduces_a_tilted_target() {
     let e2 = axis.cross(&e1);
     let q = Mat3::from_columns(&[e1, e2, axis]);
     assert!((q.determinant() - 1.0).abs() < 1e-14);
-    let want = rotate(&transverse(130e6, 55e6, 28e6, 40e6, 32.25e6), &q);
+    let want = rotate4(voigt4(&transverse(130e6, 55e6, 28e6, 40e6, 32.25e6)), &q);
     let d = (c - want).abs().max() / 130e6;
     assert!(d < 1e-13, "relative difference {d:e}");
     assert!(s.kink_planes().is_empty());
