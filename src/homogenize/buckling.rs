@@ -19,7 +19,7 @@
 
 use super::cholesky::BlockCholesky;
 use super::geometric::geometric_stiffness;
-use super::network::{Block6, LeverArm, Network};
+use super::network::{symmetric_eigen6, Block6, LeverArm, Network};
 use super::sparse::BlockSparse;
 use crate::assembly::Assembly;
 use crate::model::Model;
@@ -711,12 +711,11 @@ fn shifted_on_range(k: &BlockSparse, a: &BlockSparse, sigma: f64) -> (BlockSpars
     // Per node: eigenvectors of K_pp, the columns of the null directions zeroed.
     let basis: Vec<(Block6, [bool; 6])> = (0..k.rows())
         .map(|p| {
-            let eig = nalgebra::SymmetricEigen::new(k.diagonal(p));
-            let max = eig.eigenvalues.iter().copied().fold(0.0_f64, f64::max);
+            let (values, mut t) = symmetric_eigen6(&k.diagonal(p));
+            let max = values.iter().copied().fold(0.0_f64, f64::max);
             let mut keep = [false; 6];
-            let mut t = eig.eigenvectors;
             for (c, kept) in keep.iter_mut().enumerate() {
-                *kept = max > 0.0 && eig.eigenvalues[c] > 1e-10 * max;
+                *kept = max > 0.0 && values[c] > 1e-10 * max;
                 if !*kept {
                     t.column_mut(c).fill(0.0);
                 }
@@ -737,9 +736,9 @@ fn shifted_on_range(k: &BlockSparse, a: &BlockSparse, sigma: f64) -> (BlockSpars
             for (c, b) in row.iter_mut() {
                 *b = basis[p].0.transpose() * *b * basis[*c as usize].0;
                 if *c as usize == p {
-                    let eig = nalgebra::SymmetricEigen::new((*b + b.transpose()) * 0.5);
-                    let max = eig.eigenvalues.iter().copied().fold(0.0_f64, f64::max);
-                    if eig.eigenvalues.iter().any(|&e| e < -1e-10 * max) {
+                    let (values, _) = symmetric_eigen6(b);
+                    let max = values.iter().copied().fold(0.0_f64, f64::max);
+                    if values.iter().any(|&e| e < -1e-10 * max) {
                         indefinite = true;
                     }
                     for d in 0..6 {

@@ -13,7 +13,7 @@
 //! only by null vectors, which leave the tensor unchanged. A further (global) mechanism makes
 //! the factorisation fail or the residual check fail: it is reported, not hidden.
 
-use super::network::Block6;
+use super::network::{symmetric_eigen6, Block6};
 use super::sparse::BlockSparse;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -31,17 +31,17 @@ const NULL_THRESHOLD: f64 = 1e-10;
 /// Orthonormal basis (first `rank` columns) of the range of a symmetric PSD 6×6 block; the
 /// identity when the block is regular.
 fn range_basis(block: &Block6) -> (Block6, usize) {
-    let eig = nalgebra::SymmetricEigen::new(*block);
-    let max = eig.eigenvalues.iter().cloned().fold(0.0_f64, f64::max);
+    let (values, vectors) = symmetric_eigen6(block);
+    let max = values.iter().cloned().fold(0.0_f64, f64::max);
     let keep: Vec<usize> = (0..6)
-        .filter(|&k| max > 0.0 && eig.eigenvalues[k] > NULL_THRESHOLD * max)
+        .filter(|&k| max > 0.0 && values[k] > NULL_THRESHOLD * max)
         .collect();
     if keep.len() == 6 {
         return (Block6::identity(), 6);
     }
     let mut t = Block6::zeros();
     for (c, &k) in keep.iter().enumerate() {
-        t.set_column(c, &eig.eigenvectors.column(k));
+        t.set_column(c, &vectors.column(k));
     }
     (t, keep.len())
 }
