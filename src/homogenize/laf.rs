@@ -125,7 +125,7 @@ fn shell_solve(
     for (li, &p) in inner.iter().enumerate() {
         rhs.view_mut((6 * li, 0), (6, 6)).copy_from(&net.g[p]);
         for &ei in &inc[start[p]..start[p + 1]] {
-            let e = &net.elements[ei as usize];
+            let e = &net.element(ei as usize);
             let (a, b) = net.ends[ei as usize];
             let (diag, off, other) = if a as usize == p {
                 (e.kii, e.kij, b as usize)

@@ -298,8 +298,15 @@ pub struct Network {
     pub ends: Vec<(u32, u32)>,
     /// Original bond index of every active bond.
     pub bond: Vec<usize>,
-    /// Element matrices of every active bond.
-    pub elements: Vec<Element>,
+    /// Springs and geometry of every active bond: its element matrices are recomputed on
+    /// demand ([`Network::element`]) rather than stored (1.7 kB a bond, most of the memory
+    /// at a million particles; issue 35).
+    laws: Vec<BondLaw>,
+    /// Axial preload N of every active bond (N; tension positive), when the network is
+    /// linearised about a loaded state.
+    axial: Option<Vec<f64>>,
+    /// Whether the particle rotations are unknowns.
+    rotations: bool,
     /// Number of active bonds of every active particle.
     pub degree: Vec<u32>,
     /// Load G per active particle (6 DOFs × 6 strains).
@@ -310,6 +317,9 @@ pub struct Network {
     pub volume: f64,
     /// Singular modes found so far.
     pub null_space: NullSpaceReport,
+    /// Σ over the active bonds of ‖G_i‖² + ‖G_j‖² per load case (column): the scale of each
+    /// load before the bond contributions cancel at the particles.
+    pub load_norms2: [f64; 6],
 }
 
 /// Every particle's index among the active ones (those with at least `min_degree` bonds
@@ -326,17 +336,33 @@ fn active_numbering(degree: &[u32], min_degree: u32) -> (Vec<u32>, Vec<u32>) {
     (index, original)
 }
 
-/// The affine stiffness H = Σ LᵀSL and the load G of the `m` active particles, summed over
-/// the elements in order (Kruyt 2014 Eqs. 10–14).
-fn affine_sums(elements: &[Element], ends: &[(u32, u32)], m: usize) -> (Block6, Vec<Block6>) {
+/// Bonds whose elements are formed at once when summing over all of them: bounded memory,
+/// the sums still in bond order.
+const ELEMENT_CHUNK: usize = 8192;
+
+/// The affine stiffness H = Σ LᵀSL, the load G of the `m` active particles and Σ ‖G_i‖² +
+/// ‖G_j‖² per load case, summed over the elements in bond order (Kruyt 2014 Eqs. 10–14); the
+/// elements are formed a chunk at a time in parallel.
+fn affine_sums(net: &Network, m: usize) -> (Block6, Vec<Block6>, [f64; 6]) {
     let mut h = Block6::zeros();
     let mut g = vec![Block6::zeros(); m];
-    for (e, &(pi, pj)) in elements.iter().zip(ends) {
-        h += e.h;
-        g[pi as usize] += e.gi;
-        g[pj as usize] += e.gj;
+    let mut norms2 = [0.0f64; 6];
+    for start in (0..net.ends.len()).step_by(ELEMENT_CHUNK) {
+        let end = (start + ELEMENT_CHUNK).min(net.ends.len());
+        let elements: Vec<Element> = (start..end)
+            .into_par_iter()
+            .map(|e| net.element(e))
+            .collect();
+        for (e, &(pi, pj)) in elements.iter().zip(&net.ends[start..end]) {
+            h += e.h;
+            g[pi as usize] += e.gi;
+            g[pj as usize] += e.gj;
+            for (c, n2) in norms2.iter_mut().enumerate() {
+                *n2 += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
+            }
+        }
     }
-    (h, g)
+    (h, g, norms2)
 }
 
 impl Network {
@@ -396,18 +422,11 @@ impl Network {
             .iter()
             .map(|&b| (index[bonds.i[b] as usize], index[bonds.j[b] as usize]))
             .collect();
-        let elements: Vec<Element> = bond
+        let laws: Vec<BondLaw> = bond
             .par_iter()
-            .map(|&b| {
-                let law = BondLaw::of(packing, bonds, k, b, lever_arm);
-                let mut e = element(&law, rotations);
-                if let Some(f) = axial_force.filter(|f| f[b] != 0.0) {
-                    e += geometric_element(&law.normal, law.length, f[b]);
-                }
-                e
-            })
+            .map(|&b| BondLaw::of(packing, bonds, k, b, lever_arm))
             .collect();
-        let (h, g) = affine_sums(&elements, &ends, m);
+        let axial = axial_force.map(|f| bond.iter().map(|&b| f[b]).collect());
         let degree: Vec<u32> = original.iter().map(|&p| degree_all[p as usize]).collect();
         let null_space = NullSpaceReport {
             removed_particles: n - m,
@@ -416,19 +435,36 @@ impl Network {
             rigid_translations: if bond.is_empty() { 0 } else { 3 },
             other_singular_particles: 0,
         };
-        Ok(Network {
+        let mut net = Network {
             n_active: m,
             index,
             original,
             ends,
             bond,
-            elements,
+            laws,
+            axial,
+            rotations,
             degree,
-            g,
-            h,
+            g: Vec::new(),
+            h: Block6::zeros(),
             volume: packing.volume(),
             null_space,
-        })
+            load_norms2: [0.0; 6],
+        };
+        (net.h, net.g, net.load_norms2) = affine_sums(&net, m);
+        Ok(net)
+    }
+
+    /// The element matrices of active bond `e` ([`element`], plus its
+    /// [`geometric_element`] under an axial preload), formed from its stored springs and
+    /// geometry: the same numbers every time.
+    pub fn element(&self, e: usize) -> Element {
+        let law = &self.laws[e];
+        let mut el = element(law, self.rotations);
+        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+            el += geometric_element(&law.normal, law.length, f);
+        }
+        el
     }
 
     /// Active neighbours of every active particle (CSR: start offsets, neighbour list).

@@ -542,13 +542,7 @@ fn add_term(net: &mut Network, term: &TermOperator) -> [f64; 6] {
 /// (√Σ over the bonds of ‖G_i‖² + ‖G_j‖²): a right-hand side below 1e-10 of it is zero up
 /// to rounding (e.g. a perfect lattice).
 fn load_scales(net: &Network) -> [f64; 6] {
-    let mut scale = [0.0f64; 6];
-    for e in &net.elements {
-        for (c, sc) in scale.iter_mut().enumerate() {
-            *sc += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
-        }
-    }
-    scale.map(f64::sqrt)
+    net.load_norms2.map(f64::sqrt)
 }
 
 /// Q with K Q = G by the sparse Cholesky of K (dead load cases zero), with its relative

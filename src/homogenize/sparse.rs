@@ -2,7 +2,7 @@
 //! specimen, the cavity, buckling, LAF) and its unrolled 6×6 block kernels: the bottom layer
 //! of `homogenize`, below the solvers (`cholesky`, `two_level`, `relaxed`) that use it.
 
-use super::network::{Block6, Network};
+use super::network::{csr, Block6, Network};
 use crate::{Error, Result};
 use rayon::prelude::*;
 
@@ -14,12 +14,75 @@ pub struct BlockSparse {
 }
 
 impl BlockSparse {
-    /// Assemble K of a network.
+    /// Assemble K of a network row by row, forming each bond's element from its springs at
+    /// both of its rows (never all elements at once: at a million particles they would take
+    /// 6.6 GB; issue 35). Each block is summed in the order of [`Self::assemble_blocks`]
+    /// (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the bits are the same.
     pub fn assemble(net: &Network) -> BlockSparse {
-        BlockSparse::assemble_blocks(net.n_active, &net.ends, |e| {
-            let el = &net.elements[e];
-            (el.kii, el.kjj, el.kij)
-        })
+        const ROWS: usize = 4096;
+        let m = net.n_active;
+        let (start, edges) = csr(m, net.end_pairs(), |k, _| k as u32);
+        let mut row_start = Vec::with_capacity(m + 1);
+        row_start.push(0);
+        let mut col = Vec::new();
+        let mut block = Vec::new();
+        for r0 in (0..m).step_by(ROWS) {
+            let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(m))
+                .into_par_iter()
+                .map(|r| {
+                    // (column, bond, kind: 0 = K_ii, 1 = K_jj, 2 = K_ij, 3 = K_ijᵀ, element)
+                    let mut parts: Vec<(u32, u32, u8, usize)> = Vec::new();
+                    let mut elements = Vec::new();
+                    let mut last = u32::MAX;
+                    for &e in &edges[start[r]..start[r + 1]] {
+                        if e == last {
+                            continue; // a bond to the particle's own image is listed twice
+                        }
+                        last = e;
+                        let (pi, pj) = net.ends[e as usize];
+                        let at = elements.len();
+                        let el = net.element(e as usize);
+                        elements.push((el.kii, el.kjj, el.kij));
+                        if pi as usize == r {
+                            parts.push((pi, e, 0, at));
+                            parts.push((pj, e, 2, at));
+                        }
+                        if pj as usize == r {
+                            parts.push((pj, e, 1, at));
+                            parts.push((pi, e, 3, at));
+                        }
+                    }
+                    parts.sort_unstable();
+                    let mut row: Vec<(u32, Block6)> = Vec::new();
+                    for &(c, _, kind, at) in &parts {
+                        if row.last().is_none_or(|x| x.0 != c) {
+                            row.push((c, Block6::zeros()));
+                        }
+                        let (kii, kjj, kij) = &elements[at];
+                        let acc = &mut row.last_mut().expect("pushed above").1;
+                        match kind {
+                            0 => *acc += kii,
+                            1 => *acc += kjj,
+                            2 => *acc += kij,
+                            _ => *acc += kij.transpose(),
+                        }
+                    }
+                    row
+                })
+                .collect();
+            for row in rows {
+                for (c, b) in row {
+                    col.push(c);
+                    block.push(b);
+                }
+                row_start.push(col.len());
+            }
+        }
+        BlockSparse {
+            row_start,
+            col,
+            block,
+        }
     }
 
     /// Assemble a symmetric matrix over `m` nodes from per-edge blocks: edge e joining
