@@ -481,10 +481,10 @@ impl Stiffness<'_> {
         let Some(t) = self.term else {
             return self.k.apply_cols(x, y, cols);
         };
-        let stress = t.stresses(x, cols);
+        let work = t.stresses(x, cols);
         y.par_iter_mut().enumerate().for_each(|(r, yr)| {
             *yr = self.k.row_times(r, x, cols);
-            t.add_row(r, &stress, yr, cols);
+            t.add_row(r, &work, yr, cols);
         });
     }
 

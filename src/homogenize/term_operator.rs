@@ -11,6 +11,7 @@
 //! product by D above takes the owner's.
 
 use super::network::Block6;
+use super::sparse::mul6;
 use crate::manybody::ManyBody;
 use crate::tensor::Stiffness6;
 use crate::{Error, Result, Vec3};
@@ -29,6 +30,34 @@ fn strain_map(v: &Vec3) -> Matrix6x3<f64> {
         v.z, 0.0, v.x, //
         v.y, v.x, 0.0,
     )
+}
+
+/// e += N(c)·P_t, the engineering strain of the displacements (translation rows of `p`, one
+/// column per coarse DOF) times the stencil coefficient `c`: [`strain_map`] written out, its
+/// zero entries skipped.
+#[inline(always)]
+fn add_strain_of(e: &mut Block6, c: &Vec3, p: &Block6) {
+    for j in 0..6 {
+        let (px, py, pz) = (p[(0, j)], p[(1, j)], p[(2, j)]);
+        e[(0, j)] += c.x * px;
+        e[(1, j)] += c.y * py;
+        e[(2, j)] += c.z * pz;
+        e[(3, j)] += c.z * py + c.y * pz;
+        e[(4, j)] += c.z * px + c.x * pz;
+        e[(5, j)] += c.y * px + c.x * py;
+    }
+}
+
+/// f += N(u)ᵀ·s on the translation rows of `f`: the forces that the stresses `s` (one column
+/// per coarse DOF) put on the node of coefficient `u`, [`strain_map`]ᵀ written out.
+#[inline(always)]
+fn add_force_of(f: &mut Block6, u: &Vec3, s: &Block6) {
+    for j in 0..6 {
+        let c = s.column(j);
+        f[(0, j)] += c[0] * u.x + c[5] * u.y + c[4] * u.z;
+        f[(1, j)] += c[5] * u.x + c[1] * u.y + c[3] * u.z;
+        f[(2, j)] += c[4] * u.x + c[3] * u.y + c[2] * u.z;
+    }
 }
 
 /// The term at its reference state over the active particles of a relaxed solve.
@@ -52,8 +81,15 @@ pub(crate) struct TermOperator {
     row_start: Vec<usize>,
     row_owner: Vec<u32>,
     row_coef: Vec<Vec3>,
-    /// Work of [`Self::stresses`]: V_p D ε_p per owner, one column per load case.
-    stress: Mutex<Vec<Block6>>,
+    /// Work of [`Self::stresses`].
+    work: Mutex<TermWork>,
+}
+
+/// Work buffers of [`TermOperator::stresses`], lanes = load cases: X's translation rows per
+/// active node ([i][c]) and V_p D ε_p per owner ([component][c]).
+pub(crate) struct TermWork {
+    xt: Vec<[[f64; 6]; 3]>,
+    stress: Vec<[[f64; 6]; 6]>,
 }
 
 impl TermOperator {
@@ -123,7 +159,10 @@ impl TermOperator {
             row_start,
             row_owner,
             row_coef,
-            stress: Mutex::new(vec![Block6::zeros(); owners]),
+            work: Mutex::new(TermWork {
+                xt: vec![[[0.0; 6]; 3]; m],
+                stress: vec![[[0.0; 6]; 6]; owners],
+            }),
         })
     }
 
@@ -185,66 +224,93 @@ impl TermOperator {
     }
 
     /// K X on the first `cols` load cases, first part: V_p D ε_p of every owner (gather;
-    /// one column per load case), in the operator's work buffer; [`Self::add_row`] then adds
-    /// each row's share.
-    pub(crate) fn stresses(&self, x: &[Block6], cols: usize) -> MutexGuard<'_, Vec<Block6>> {
+    /// one lane per load case), in the operator's work buffers; [`Self::add_row`] then adds
+    /// each row's share. X's translation rows are first copied with the load cases
+    /// innermost, so that the steps below run on two load cases at once (vector lanes, the
+    /// 3×3 δF_p of both in registers) and the scatter on six; each lane's operations and
+    /// their order are those of one load case alone, so the bits are those of a column-by-
+    /// column product.
+    pub(crate) fn stresses(&self, x: &[Block6], cols: usize) -> MutexGuard<'_, TermWork> {
         let cols = cols.min(6);
-        let mut stress = self.stress.lock().unwrap_or_else(|e| e.into_inner());
+        let mut work = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        let TermWork { xt, stress } = &mut *work;
+        xt.par_iter_mut().zip(x.par_iter()).for_each(|(t, xn)| {
+            let xn = xn.as_slice();
+            for (i, ti) in t.iter_mut().enumerate() {
+                for (c, tc) in ti.iter_mut().enumerate() {
+                    *tc = if c < cols { xn[i + 6 * c] } else { 0.0 };
+                }
+            }
+        });
+        let xt = &*xt;
         stress.par_iter_mut().enumerate().for_each(|(o, so)| {
             let d: &[f64; 36] = self.d_of(o).as_slice().try_into().expect("6×6");
-            let s: &mut [f64; 36] = so.as_mut_slice().try_into().expect("6×6");
             let v = self.volume[o];
-            for c in 0..cols {
-                let mut g = [[0.0f64; 3]; 3];
-                for k in self.start[o]..self.start[o + 1] {
-                    let xn: &[f64; 36] =
-                        x[self.node[k] as usize].as_slice().try_into().expect("6×6");
-                    let w = &self.coef[k];
-                    for (i, gi) in g.iter_mut().enumerate() {
-                        let xi = xn[i + 6 * c];
-                        gi[0] += xi * w.x;
-                        gi[1] += xi * w.y;
-                        gi[2] += xi * w.z;
+            let stencil = self.start[o]..self.start[o + 1];
+            // Two load cases at a time: their 3×3 δF_p stays in registers.
+            for l in (0..cols).step_by(2) {
+                // g[i][j] = Σ_n u_n,i c_n,j (δF_p), per lane.
+                let mut g = [[[0.0f64; 2]; 3]; 3];
+                for k in stencil.clone() {
+                    let xn = &xt[self.node[k] as usize];
+                    let w = [self.coef[k].x, self.coef[k].y, self.coef[k].z];
+                    for (gi, xi) in g.iter_mut().zip(xn) {
+                        let x2 = [xi[l], xi[l + 1]];
+                        for (gij, wj) in gi.iter_mut().zip(&w) {
+                            gij[0] += x2[0] * wj;
+                            gij[1] += x2[1] * wj;
+                        }
                     }
                 }
+                let sum = |a: [f64; 2], b: [f64; 2]| [a[0] + b[0], a[1] + b[1]];
                 let e = [
                     g[0][0],
                     g[1][1],
                     g[2][2],
-                    g[1][2] + g[2][1],
-                    g[0][2] + g[2][0],
-                    g[0][1] + g[1][0],
+                    sum(g[1][2], g[2][1]),
+                    sum(g[0][2], g[2][0]),
+                    sum(g[0][1], g[1][0]),
                 ];
-                for i in 0..6 {
-                    let mut acc = 0.0;
+                for (i, si) in so.iter_mut().enumerate() {
+                    let mut acc = [0.0f64; 2];
                     for (j, ej) in e.iter().enumerate() {
-                        acc += d[i + 6 * j] * ej;
+                        let dij = d[i + 6 * j];
+                        acc[0] += dij * ej[0];
+                        acc[1] += dij * ej[1];
                     }
-                    s[i + 6 * c] = acc * v;
+                    si[l] = acc[0] * v;
+                    si[l + 1] = acc[1] * v;
                 }
             }
         });
-        stress
+        work
     }
 
     /// Row r of K X added to `yr`: Σ_p N(c_pr)ᵀ σ_p over the row's owners in increasing
     /// order (the scatter as a gather in a fixed order: the same bits on any number of
-    /// threads), with `stress` from [`Self::stresses`] of the same X.
+    /// threads), with `work` from [`Self::stresses`] of the same X.
     #[inline(always)]
-    pub(crate) fn add_row(&self, r: usize, stress: &[Block6], yr: &mut Block6, cols: usize) {
+    pub(crate) fn add_row(&self, r: usize, work: &TermWork, yr: &mut Block6, cols: usize) {
         let cols = cols.min(6);
-        let out: &mut [f64; 36] = yr.as_mut_slice().try_into().expect("6×6");
+        let out = yr.as_mut_slice();
+        let mut acc = [[0.0f64; 6]; 3];
+        for (i, ai) in acc.iter_mut().enumerate() {
+            for (c, a) in ai.iter_mut().enumerate().take(cols) {
+                *a = out[i + 6 * c];
+            }
+        }
         for k in self.row_start[r]..self.row_start[r + 1] {
-            let s: &[f64; 36] = stress[self.row_owner[k] as usize]
-                .as_slice()
-                .try_into()
-                .expect("6×6");
+            let s = &work.stress[self.row_owner[k] as usize];
             let u = &self.row_coef[k];
-            for c in 0..cols {
-                let sc = &s[6 * c..6 * c + 6];
-                out[6 * c] += sc[0] * u.x + sc[5] * u.y + sc[4] * u.z;
-                out[1 + 6 * c] += sc[5] * u.x + sc[1] * u.y + sc[3] * u.z;
-                out[2 + 6 * c] += sc[4] * u.x + sc[3] * u.y + sc[2] * u.z;
+            for c in 0..6 {
+                acc[0][c] += s[0][c] * u.x + s[5][c] * u.y + s[4][c] * u.z;
+                acc[1][c] += s[5][c] * u.x + s[1][c] * u.y + s[3][c] * u.z;
+                acc[2][c] += s[4][c] * u.x + s[3][c] * u.y + s[2][c] * u.z;
+            }
+        }
+        for (i, ai) in acc.iter().enumerate() {
+            for (c, a) in ai.iter().enumerate().take(cols) {
+                out[i + 6 * c] = *a;
             }
         }
     }
@@ -288,16 +354,20 @@ impl TermOperator {
                 let mut acc: Vec<(u32, Block6)> = Vec::new();
                 for k in self.start[o]..self.start[o + 1] {
                     let n = self.node[k] as usize;
-                    let e = strain_map(&self.coef[k]) * prolongation[n].fixed_view::<3, 6>(0, 0);
                     let a = aggregate[n];
-                    match acc.iter_mut().find(|(b, _)| *b == a) {
-                        Some((_, s)) => *s += e,
-                        None => acc.push((a, e)),
-                    }
+                    let i = match acc.iter().position(|(b, _)| *b == a) {
+                        Some(i) => i,
+                        None => {
+                            acc.push((a, Block6::zeros()));
+                            acc.len() - 1
+                        }
+                    };
+                    add_strain_of(&mut acc[i].1, &self.coef[k], &prolongation[n]);
                 }
                 acc.sort_by_key(|(a, _)| *a);
+                let d = self.d_of(o);
                 for (_, s) in acc.iter_mut() {
-                    *s = self.d_of(o) * *s * self.volume[o];
+                    *s = mul6(d, s) * self.volume[o];
                 }
                 acc
             })
@@ -307,14 +377,16 @@ impl TermOperator {
             .map(|r| {
                 let mut acc: Vec<(u32, Block6)> = Vec::new();
                 for k in self.row_start[r]..self.row_start[r + 1] {
-                    let nt = strain_map(&self.row_coef[k]).transpose();
+                    let u = &self.row_coef[k];
                     for (a, s) in &per_owner[self.row_owner[k] as usize] {
-                        let mut blk = Block6::zeros();
-                        blk.fixed_view_mut::<3, 6>(0, 0).copy_from(&(nt * s));
-                        match acc.iter_mut().find(|(b, _)| b == a) {
-                            Some((_, t)) => *t += blk,
-                            None => acc.push((*a, blk)),
-                        }
+                        let i = match acc.iter().position(|(b, _)| b == a) {
+                            Some(i) => i,
+                            None => {
+                                acc.push((*a, Block6::zeros()));
+                                acc.len() - 1
+                            }
+                        };
+                        add_force_of(&mut acc[i].1, u, s);
                     }
                 }
                 acc.sort_by_key(|(a, _)| *a);
