@@ -8,12 +8,17 @@
 //! Two passes a step, over fixed chunks (the same bits on any number of threads), with the
 //! IEEE operations of [`ManyBody::gradients_into`] in the same order (so its bits): per
 //! particle, F_p = Σ_b l_b ⊗ a_b with each branch vector taken from the positions as it is
-//! summed (no pass over the bonds to store them; a bond inside the cell as (x_q − x_p) ⊗ (±a_b),
-//! exactly l_b ⊗ a_b), then V·W and V·P four particles at a time; per bond,
-//! g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j. Where AVX2 runs (and [`super::DemOptions::simd`]),
-//! three-component vectors are padded to four and each sum of products is one packed
-//! operation per term; the scalar path is checked against it bit for bit
-//! (`tests/dem/manybody.rs`).
+//! summed (x_j − x_i, as the bond laws take it), then V·W and V·P four particles at a time;
+//! per bond, g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j. Where AVX2 runs (and
+//! [`super::DemOptions::simd`]), each sum of products is one packed operation per term; the
+//! scalar path is checked against it bit for bit (`tests/dem/manybody.rs`).
+//!
+//! Memory is what the term costs (docs/manybody.md "Integrator": without it the integrator's
+//! per-step data about fill the last-level cache), so its per-step arrays are lean: a_b once,
+//! per bond (the fit reads it through the topology's CSR), V·P and g_b unpadded (a packed load
+//! of three components reads one f64 beyond, whose lane is never used; a packed store of g_b
+//! spills into the next bond's slot, written after it, and the last bond of a chunk is
+//! stored by components).
 
 use super::state::{deterministic_sum_mat3, BondTopology, Particles};
 use crate::manybody::term::Lanes4;
@@ -26,39 +31,25 @@ use rayon::prelude::*;
 const PARTICLE_CHUNK: usize = 256;
 /// Bonds per parallel work item of the bond pass.
 const BOND_CHUNK: usize = 1024;
-/// Flag of a link naming a bond that crosses the cell (its branch vector needs H·c): the
-/// rest of the link is the bond's index; without it, the link is the bond's other particle.
+/// Flag of an entry's other particle when its bond crosses the cell (its branch vector needs
+/// H·c).
 const IMAGE_LINK: u32 = 1 << 31;
-
-/// Three components padded to four and aligned to 32 bytes: one AVX2 load or store.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(32))]
-pub(crate) struct Lane3(pub(crate) [f64; 4]);
-
-impl Lane3 {
-    #[inline(always)]
-    fn vec(&self) -> Vec3 {
-        Vec3::new(self.0[0], self.0[1], self.0[2])
-    }
-}
 
 /// The term and its per-step buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct ManyBodyForces {
     term: ManyBody,
-    /// Per entry of the term's particle → bond CSR: the bond's other particle, or
-    /// [`IMAGE_LINK`] | bond for a bond crossing the cell.
-    link: Vec<u32>,
-    /// Per entry: the fit coefficient a_b, negated at the bond's j end for a link to a
-    /// particle ((x_i − x_j) ⊗ (−a) is l_b ⊗ a bit for bit: IEEE products are symmetric in
-    /// sign), as is for an image link.
-    coef: Vec<Vec3>,
+    /// Per entry of the topology's CSR (the term's, entry for entry): the bond's other
+    /// particle, | [`IMAGE_LINK`] for a bond crossing the cell.
+    other: Vec<u32>,
     /// V_p·W_p of the last evaluation (J).
     energy: Vec<f64>,
-    /// V_p·P_p of the last evaluation, by columns (N·m).
-    piola: Vec<[Lane3; 3]>,
-    /// g_b = ∂U/∂l_b of the last evaluation (N): the force on the bond's i end.
-    gradient: Vec<Lane3>,
+    /// V_p·P_p of the last evaluation, column-major (N·m), and one zero entry after the last
+    /// particle's (what a packed load of its last column reads beyond it).
+    piola: Vec<[f64; 9]>,
+    /// g_b = ∂U/∂l_b of the last evaluation (N): the force on the bond's i end; one zero
+    /// entry after the last bond's.
+    gradient: Vec<[f64; 3]>,
 }
 
 /// Branch vector of bond `b`, x_j + H·c − x_i, as [`super::Simulation::branch`] (the same
@@ -81,12 +72,13 @@ fn crosses(c: &Vec3) -> bool {
     c.x != 0.0 || c.y != 0.0 || c.z != 0.0
 }
 
-/// What the particle pass reads: the term, its links, the positions and the cell.
+/// What the particle pass reads: the term, the topology's CSR, the positions and the cell.
 struct FitInputs<'a> {
     term: &'a ManyBody,
     start: &'a [usize],
-    link: &'a [u32],
-    coef: &'a [Vec3],
+    entries: &'a [u32],
+    other: &'a [u32],
+    coef: &'a [[Vec3; 2]],
     volume: &'a [f64],
     x: &'a [Vec3],
     t: &'a BondTopology,
@@ -94,27 +86,26 @@ struct FitInputs<'a> {
 }
 
 impl FitInputs<'_> {
-    /// l_b of entry `k` of particle p at `xp`, and its coefficient: (x_q − x_p, ±a_b) for a
-    /// link to particle q, (l_b, a_b) for an image link.
-    #[inline(always)]
-    fn branch_of(&self, k: usize, xp: &Vec3) -> Vec3 {
-        let q = self.link[k];
-        if q & IMAGE_LINK == 0 {
-            self.x[q as usize] - xp
-        } else {
-            branch(self.x, self.t, &self.h, true, (q & !IMAGE_LINK) as usize)
-        }
-    }
-
     /// F_p = Σ_b l_b ⊗ a_b of an included particle, entry by entry (`ManyBody::fit`'s
-    /// operations).
+    /// operations; l_b = x_j − x_i from whichever end p is).
     #[inline(always)]
     fn fit(&self, p: usize) -> Mat3 {
         let xp = self.x[p];
         let mut f = [0.0f64; 9];
         for k in self.start[p]..self.start[p + 1] {
-            let l = self.branch_of(k, &xp);
-            let a = &self.coef[k];
+            let (b, side) = (
+                (self.entries[k] >> 1) as usize,
+                (self.entries[k] & 1) as usize,
+            );
+            let q = self.other[k];
+            let l = if q & IMAGE_LINK != 0 {
+                branch(self.x, self.t, &self.h, true, b)
+            } else if side == 0 {
+                self.x[q as usize] - xp
+            } else {
+                xp - self.x[q as usize]
+            };
+            let a = &self.coef[b][side];
             for c in 0..3 {
                 for r in 0..3 {
                     f[r + 3 * c] += l[r] * a[c];
@@ -126,49 +117,55 @@ impl FitInputs<'_> {
 
     /// The particle pass on the chunk from `base`, one particle at a time: V_p·W_p into
     /// `we`, V_p·P_p into `wp` (zero for an excluded particle).
-    fn chunk(&self, base: usize, we: &mut [f64], wp: &mut [[Lane3; 3]]) {
+    fn chunk(&self, base: usize, we: &mut [f64], wp: &mut [[f64; 9]]) {
         for (l, (e, pk)) in we.iter_mut().zip(wp.iter_mut()).enumerate() {
             let p = base + l;
             if !self.term.is_included(p) {
-                (*e, *pk) = (0.0, [Lane3::default(); 3]);
+                (*e, *pk) = (0.0, [0.0; 9]);
                 continue;
             }
             let (w, m) = self.term.energy_piola_of(p, &self.fit(p), self.volume[p]);
-            (*e, *pk) = (w, columns(&m));
+            (*e, *pk) = (w, flat(&m));
         }
     }
 
     /// [`chunk`](Self::chunk) with AVX2: F_p by columns, each entry's l_b·a_b[c] one packed
     /// product and sum per column; then V·W and V·P of four included particles at a time
-    /// (`ManyBody::energy_piola4_avx2`, the one-lane bits), the rest one by one.
+    /// (`ManyBody::energy_piola4_avx2`, the one-lane bits), the rest one by one. At a bond's
+    /// j end l_b is −(x_q − x_p) by a flip of the sign bit: x_j − x_i itself, but for the
+    /// sign of a zero, which changes no bit of F (its sums start at +0, and +0 + −0 = +0).
     ///
     /// # Safety
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn chunk_avx2(&self, base: usize, we: &mut [f64], wp: &mut [[Lane3; 3]]) {
+    unsafe fn chunk_avx2(&self, base: usize, we: &mut [f64], wp: &mut [[f64; 9]]) {
         use std::arch::x86_64::*;
         let mask = _mm256_set_epi64x(0, -1, -1, -1);
         // SAFETY: maskload reads only the three unmasked f64 of a Vec3.
         let load3 = |v: &Vec3| unsafe { _mm256_maskload_pd(v.as_ptr(), mask) };
+        /// The sign bit to flip at each side.
+        const FLIP: [f64; 2] = [0.0, -0.0];
         let grouped = self.term.tensors().len() == 1;
         let mut four = Lanes4::default();
         for l in 0..we.len() {
             let p = base + l;
             if !self.term.is_included(p) {
-                (we[l], wp[l]) = (0.0, [Lane3::default(); 3]);
+                (we[l], wp[l]) = (0.0, [0.0; 9]);
                 continue;
             }
             let xp = load3(&self.x[p]);
             let mut col = [_mm256_setzero_pd(); 3];
             let span = self.start[p]..self.start[p + 1];
-            for (&q, a) in self.link[span.clone()].iter().zip(&self.coef[span]) {
+            for (&e, &q) in self.entries[span.clone()].iter().zip(&self.other[span]) {
+                let (b, side) = ((e >> 1) as usize, (e & 1) as usize);
                 let lb = if q & IMAGE_LINK == 0 {
-                    _mm256_sub_pd(load3(&self.x[q as usize]), xp)
+                    let d = _mm256_sub_pd(load3(&self.x[q as usize]), xp);
+                    _mm256_xor_pd(d, _mm256_broadcast_sd(&FLIP[side]))
                 } else {
-                    let b = (q & !IMAGE_LINK) as usize;
                     load3(&branch(self.x, self.t, &self.h, true, b))
                 };
+                let a = &self.coef[b][side];
                 col[0] = _mm256_add_pd(col[0], _mm256_mul_pd(lb, _mm256_set1_pd(a.x)));
                 col[1] = _mm256_add_pd(col[1], _mm256_mul_pd(lb, _mm256_set1_pd(a.y)));
                 col[2] = _mm256_add_pd(col[2], _mm256_mul_pd(lb, _mm256_set1_pd(a.z)));
@@ -181,7 +178,7 @@ impl FitInputs<'_> {
             let f = Mat3::from_fn(|r, c| cols[c][r]);
             if !grouped {
                 let (w, m) = self.term.energy_piola_of(p, &f, self.volume[p]);
-                (we[l], wp[l]) = (w, columns(&m));
+                (we[l], wp[l]) = (w, flat(&m));
                 continue;
             }
             if four.push(l, &f, self.volume[p]) {
@@ -189,47 +186,46 @@ impl FitInputs<'_> {
                 // (checked above).
                 unsafe {
                     self.term
-                        .lanes4_avx2(&mut four, |at, e, m| (we[at], wp[at]) = (e, columns(&m)));
+                        .lanes4_avx2(&mut four, |at, e, m| (we[at], wp[at]) = (e, flat(&m)));
                 }
             }
         }
-        self.term.lanes_one_by_one(&mut four, base, |at, e, m| {
-            (we[at], wp[at]) = (e, columns(&m))
-        });
+        self.term
+            .lanes_one_by_one(&mut four, base, |at, e, m| (we[at], wp[at]) = (e, flat(&m)));
     }
 }
 
-/// The columns of `m`, padded.
+/// The entries of `m`, column-major.
 #[inline(always)]
-fn columns(m: &Mat3) -> [Lane3; 3] {
-    std::array::from_fn(|c| Lane3([m[(0, c)], m[(1, c)], m[(2, c)], 0.0]))
+fn flat(m: &Mat3) -> [f64; 9] {
+    std::array::from_fn(|k| m[k])
+}
+
+/// M·a for M column-major, as ((m₀ a_x + m₁ a_y) + m₂ a_z) per row.
+#[inline(always)]
+fn times(m: &[f64; 9], a: &Vec3) -> Vec3 {
+    Vec3::from_fn(|r, _| m[r] * a[0] + m[3 + r] * a[1] + m[6 + r] * a[2])
 }
 
 /// g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j of the bonds from `base` into `out`, written out
 /// (`ManyBody::gradient_in`'s operations).
 fn bond_chunk(
     base: usize,
-    out: &mut [Lane3],
+    out: &mut [[f64; 3]],
     coef: &[[Vec3; 2]],
     t: &BondTopology,
-    piola: &[[Lane3; 3]],
+    piola: &[[f64; 9]],
 ) {
     for (l, g) in out.iter_mut().enumerate() {
         let b = base + l;
         let [ai, aj] = &coef[b];
         let (mi, mj) = (&piola[t.i[b] as usize], &piola[t.j[b] as usize]);
-        *g = Lane3(std::array::from_fn(|r| {
-            if r == 3 {
-                return 0.0;
-            }
-            (mi[0].0[r] * ai[0] + mi[1].0[r] * ai[1] + mi[2].0[r] * ai[2])
-                + (mj[0].0[r] * aj[0] + mj[1].0[r] * aj[1] + mj[2].0[r] * aj[2])
-        }));
+        *g = (times(mi, ai) + times(mj, aj)).into();
     }
 }
 
 /// [`bond_chunk`] with AVX2: each matrix–vector product three packed products of columns,
-/// summed in the scalar order.
+/// summed in the scalar order. `piola` has an entry after the last particle's.
 ///
 /// # Safety
 /// The CPU must have AVX2.
@@ -237,38 +233,56 @@ fn bond_chunk(
 #[target_feature(enable = "avx2")]
 unsafe fn bond_chunk_avx2(
     base: usize,
-    out: &mut [Lane3],
+    out: &mut [[f64; 3]],
     coef: &[[Vec3; 2]],
     t: &BondTopology,
-    piola: &[[Lane3; 3]],
+    piola: &[[f64; 9]],
 ) {
     use std::arch::x86_64::*;
-    // SAFETY: a Lane3 is four f64, 32-byte aligned.
-    let ld = |v: &Lane3| unsafe { _mm256_load_pd(v.0.as_ptr()) };
-    let times = |m: &[Lane3; 3], a: &Vec3| {
+    let Some(last) = out.len().checked_sub(1) else {
+        return;
+    };
+    // Column c of particle p: four f64 from 9p + 3c (the fourth, the next column's first
+    // entry or the zero after the last particle, lands in a lane never used).
+    let at = |p: u32, c: usize| {
+        debug_assert!((p as usize) + 1 < piola.len());
+        // SAFETY: 9p + 3c + 4 ≤ 9(p + 2) ≤ 9·piola.len(): p is a particle, piola has one
+        // entry more.
+        unsafe { _mm256_loadu_pd(piola.as_ptr().cast::<f64>().add(9 * p as usize + 3 * c)) }
+    };
+    let times = |p: u32, a: &Vec3| {
         _mm256_add_pd(
             _mm256_add_pd(
-                _mm256_mul_pd(ld(&m[0]), _mm256_set1_pd(a.x)),
-                _mm256_mul_pd(ld(&m[1]), _mm256_set1_pd(a.y)),
+                _mm256_mul_pd(at(p, 0), _mm256_set1_pd(a.x)),
+                _mm256_mul_pd(at(p, 1), _mm256_set1_pd(a.y)),
             ),
-            _mm256_mul_pd(ld(&m[2]), _mm256_set1_pd(a.z)),
+            _mm256_mul_pd(at(p, 2), _mm256_set1_pd(a.z)),
         )
     };
     let span = base..base + out.len();
     let ends = t.i[span.clone()].iter().zip(&t.j[span.clone()]);
-    for ((g, [ai, aj]), (&i, &j)) in out.iter_mut().zip(&coef[span]).zip(ends) {
-        let (mi, mj) = (&piola[i as usize], &piola[j as usize]);
-        let v = _mm256_add_pd(times(mi, ai), times(mj, aj));
-        // SAFETY: a Lane3 is four f64, 32-byte aligned.
-        unsafe { _mm256_store_pd(g.0.as_mut_ptr(), v) };
+    let dst = out.as_mut_ptr().cast::<f64>();
+    for (l, ([ai, aj], (&i, &j))) in coef[span].iter().zip(ends).enumerate() {
+        let v = _mm256_add_pd(times(i, ai), times(j, aj));
+        if l < last {
+            // SAFETY: four f64 from 3l: g_l and the first of g_{l+1} (inside `out`, written
+            // next).
+            unsafe { _mm256_storeu_pd(dst.add(3 * l), v) };
+        } else {
+            let mut g = [0.0f64; 4];
+            // SAFETY: writes four f64 into a local array.
+            unsafe { _mm256_storeu_pd(g.as_mut_ptr(), v) };
+            out[l] = [g[0], g[1], g[2]];
+        }
     }
 }
 
-/// `f` + Σ (±g_b) over the particle's CSR `entries` (`2·bond + side`: +g_b at the bond's
-/// i end, −g_b at its j end), in entry order: the term's share of a resultant, added as
-/// the particle update gathers the bond loads. `simd`: AVX2 is available.
+/// `f` + Σ (±g_b) over the particle's CSR `entries` (`2·bond + side`: +g_b at the bond's i
+/// end, −g_b at its j end), in entry order: the term's share of a resultant, added as the
+/// particle update gathers the bond loads. `g` has an entry after the last bond's; `simd`:
+/// AVX2 is available.
 #[inline(always)]
-pub(crate) fn gather(f: Vec3, entries: &[u32], g: &[Lane3], simd: bool) -> Vec3 {
+pub(crate) fn gather(f: Vec3, entries: &[u32], g: &[[f64; 3]], simd: bool) -> Vec3 {
     #[cfg(target_arch = "x86_64")]
     if simd {
         // SAFETY: the caller checked AVX2.
@@ -278,7 +292,7 @@ pub(crate) fn gather(f: Vec3, entries: &[u32], g: &[Lane3], simd: bool) -> Vec3 
     let mut f = f;
     for &e in entries {
         let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
-        f += g[(e >> 1) as usize].vec() * sign;
+        f += Vec3::from(g[(e >> 1) as usize]) * sign;
     }
     f
 }
@@ -289,14 +303,17 @@ pub(crate) fn gather(f: Vec3, entries: &[u32], g: &[Lane3], simd: bool) -> Vec3 
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(f: Vec3, entries: &[u32], g: &[Lane3]) -> Vec3 {
+unsafe fn gather_avx2(f: Vec3, entries: &[u32], g: &[[f64; 3]]) -> Vec3 {
     use std::arch::x86_64::*;
     const SIGN: [f64; 2] = [1.0, -1.0];
     let mut acc = _mm256_set_pd(0.0, f.z, f.y, f.x);
+    let base = g.as_ptr().cast::<f64>();
     for &e in entries {
+        let b = (e >> 1) as usize;
+        debug_assert!(b + 1 < g.len());
         let sign = _mm256_set1_pd(SIGN[(e & 1) as usize]);
-        // SAFETY: a Lane3 is four f64, 32-byte aligned.
-        let v = unsafe { _mm256_load_pd(g[(e >> 1) as usize].0.as_ptr()) };
+        // SAFETY: four f64 from 3b: g_b and one more (b is a bond, g has an entry more).
+        let v = unsafe { _mm256_loadu_pd(base.add(3 * b)) };
         acc = _mm256_add_pd(acc, _mm256_mul_pd(v, sign));
     }
     let mut out = [0.0f64; 4];
@@ -366,36 +383,51 @@ impl ManyBodyForces {
                 particles.len()
             )));
         }
-        // The links of the particle pass, in the term's CSR order.
+        // Each entry's other particle, in the topology's CSR order, which must be the
+        // term's (both list each particle's bonds in bond order).
         let fit = term.fit_layout();
-        let (start, inc_bond, inc_coef) = (fit.start, fit.bond, fit.coef);
-        let mut link = Vec::with_capacity(inc_bond.len());
-        let mut coef = Vec::with_capacity(inc_bond.len());
-        for p in 0..particles.len() {
-            for k in start[p]..start[p + 1] {
-                let b = inc_bond[k] as usize;
-                let a = inc_coef[k];
-                let (i, j) = (topology.i[b] as usize, topology.j[b] as usize);
-                if periodic && crosses(&topology.cell_dist[b]) {
-                    link.push(IMAGE_LINK | b as u32);
-                    coef.push(a);
-                } else if i == p {
-                    link.push(j as u32);
-                    coef.push(a);
-                } else {
-                    link.push(i as u32);
-                    coef.push(-a);
-                }
-            }
+        let same_csr = fit.start == &topology.start[..]
+            && fit.bond.len() == topology.entries.len()
+            && fit
+                .bond
+                .iter()
+                .zip(&topology.entries)
+                .all(|(&b, &e)| b == e >> 1);
+        let same_coef = topology.entries.iter().enumerate().all(|(k, &e)| {
+            let c = fit.bond_coef[(e >> 1) as usize][(e & 1) as usize];
+            c.map(f64::to_bits) == fit.coef[k].map(f64::to_bits)
+        });
+        if !same_csr || !same_coef {
+            return Err(Error::Invalid(
+                "many-body term in the integrator: the term lists the particles' bonds in \
+                 another order than the integrator's topology"
+                    .into(),
+            ));
         }
+        let other = topology
+            .entries
+            .iter()
+            .map(|&e| {
+                let b = (e >> 1) as usize;
+                let q = if e & 1 == 0 {
+                    topology.j[b]
+                } else {
+                    topology.i[b]
+                };
+                if periodic && crosses(&topology.cell_dist[b]) {
+                    q | IMAGE_LINK
+                } else {
+                    q
+                }
+            })
+            .collect();
         let n = particles.len();
         Ok(ManyBodyForces {
             term,
-            link,
-            coef,
+            other,
             energy: vec![0.0; n],
-            piola: vec![[Lane3::default(); 3]; n],
-            gradient: vec![Lane3::default(); topology.len()],
+            piola: vec![[0.0; 9]; n + 1],
+            gradient: vec![[0.0; 3]; topology.len() + 1],
         })
     }
 
@@ -423,28 +455,28 @@ impl ManyBodyForces {
         };
         let ManyBodyForces {
             term,
-            link,
-            coef,
+            other,
             energy,
             piola,
             gradient,
         } = self;
-        let layout = term.fit_layout();
-        let (start, bond_coef) = (layout.start, layout.bond_coef);
+        let bond_coef = term.fit_layout().bond_coef;
         let fit = FitInputs {
             term,
-            start,
-            link,
-            coef,
+            start: &t.start,
+            entries: &t.entries,
+            other,
+            coef: bond_coef,
             volume: term.particle_volumes(),
             x: &p.position,
             t,
             h: h.copied().unwrap_or_else(Mat3::zeros),
         };
         const PC: usize = PARTICLE_CHUNK;
+        let n = energy.len();
         energy
             .par_chunks_mut(PC)
-            .zip(piola.par_chunks_mut(PC))
+            .zip(piola[..n].par_chunks_mut(PC))
             .enumerate()
             .for_each(|(c, (we, wp))| {
                 #[cfg(target_arch = "x86_64")]
@@ -455,29 +487,31 @@ impl ManyBodyForces {
                 fit.chunk(c * PC, we, wp)
             });
         let piola = &piola[..];
-        gradient
+        let nb = gradient.len() - 1;
+        gradient[..nb]
             .par_chunks_mut(BOND_CHUNK)
             .enumerate()
             .for_each(|(c, out)| {
                 #[cfg(target_arch = "x86_64")]
                 if lanes {
-                    // SAFETY: AVX2 is available (checked above).
+                    // SAFETY: AVX2 is available (checked above); piola has its extra entry.
                     return unsafe { bond_chunk_avx2(c * BOND_CHUNK, out, bond_coef, t, piola) };
                 }
                 bond_chunk(c * BOND_CHUNK, out, bond_coef, t, piola)
             });
     }
 
-    /// g_b = ∂U/∂l_b of every bond at the last [`compute`](Self::compute) (N), padded: the
-    /// term's force on particle p is Σ_b (+g_b at i_b, −g_b at j_b) ([`gather`]).
-    pub(crate) fn bond_gradients(&self) -> &[Lane3] {
+    /// g_b = ∂U/∂l_b of every bond at the last [`compute`](Self::compute) (N), and a zero
+    /// entry after them: the term's force on particle p is Σ_b (+g_b at i_b, −g_b at j_b)
+    /// ([`gather`]).
+    pub(crate) fn bond_gradients(&self) -> &[[f64; 3]] {
         &self.gradient
     }
 
     /// g_b = ∂U/∂l_b of bond `b` at the last [`compute`](Self::compute) (N): the term's force
     /// on the bond's i end (−g_b on its j end).
     pub(crate) fn bond_force(&self, b: usize) -> Vec3 {
-        self.gradient[b].vec()
+        self.gradient[b].into()
     }
 
     /// U of the last [`compute`](Self::compute) (J), summed in particle order (the bits of
@@ -493,7 +527,7 @@ impl ManyBodyForces {
         let periodic = h.is_some();
         let hm = h.copied().unwrap_or_else(Mat3::zeros);
         deterministic_sum_mat3(t.len(), |b| {
-            self.gradient[b].vec() * branch(&p.position, t, &hm, periodic, b).transpose()
+            self.bond_force(b) * branch(&p.position, t, &hm, periodic, b).transpose()
         })
     }
 

@@ -110,7 +110,7 @@ struct Resultants<'a> {
     contact: Option<(&'a [Vec3], &'a [Vec3])>,
     /// The many-body term's g_b per bond, if it is on: +g_b on i_b, −g_b on j_b
     /// (docs/manybody.md "Integrator"), gathered here rather than in a pass of its own.
-    manybody: Option<&'a [super::manybody::Lane3]>,
+    manybody: Option<&'a [[f64; 3]]>,
     /// The AVX2 kernels run.
     lanes: bool,
 }
