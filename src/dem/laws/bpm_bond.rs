@@ -19,8 +19,10 @@ pub enum BpmNormalize {
 
 /// One bond's `bond_coeff` values of bpm/rotational (SI): springs k_r, k_s (N/m, or N with
 /// [`BpmNormalize::PerRestLength`]), k_t, k_b (N·m/rad), damping γ_n, γ_s (N·s/m), γ_r (N·s/m,
-/// torque ½γ_r l Δv_roll), γ_t (N·m·s/rad, torque ½γ_t Δω).
+/// torque ½γ_r l Δv_roll), γ_t (N·m·s/rad, torque ½γ_t Δω). In this order in memory (the
+/// AVX2 lanes load four coefficients of a bond at once).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub struct BpmCoefficients {
     /// k_r, normal spring.
     pub kr: f64,
@@ -50,10 +52,14 @@ pub(super) struct BpmBond {
     pub(super) image2: Vec3,
     /// Rest length r₀ (m).
     pub(super) r0_mag: f64,
-    /// Unit reference direction (x₁ − x₂)/r₀, lab frame.
-    pub(super) r0_hat: Vec3,
+    /// r₀·r̂₀ (r̂₀ = (x₁ − x₂)/r₀ the unit reference direction, lab frame; the product
+    /// computed once at `initialize`) and r₀: the four values the AVX2 lanes load at once.
+    pub(super) r0: [f64; 4],
     /// The topology's i end is particle 2.
     pub(super) flipped: bool,
+    /// −0.0 when `flipped`, +0.0 otherwise: the AVX2 lanes' sign flip (exclusive or) and
+    /// blend mask (sign bit) for the flipped ends.
+    pub(super) flip: f64,
     /// Broken ([`BondLaw::break_bond`]): its coefficients are zero, so its loads are zero;
     /// the AVX2 lanes skip it, the scalar kernel only keeps its normal current (no one reads
     /// a broken bond's record).
@@ -65,17 +71,22 @@ pub(super) struct BpmBond {
 
 /// Per-bond results of the last evaluation: force on the topology's j end and its normal,
 /// and the elastic parts the breaking criterion reads (LAMMPS judges the elastic loads,
-/// before damping).
+/// before damping). In this order in memory, 12 values (the AVX2 lanes store a bond's record
+/// as three rows of four).
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub(super) struct BpmResult {
+    pub(super) elastic: ElasticParts,
     pub(super) force_j: Vec3,
     pub(super) normal: Vec3,
-    pub(super) elastic: ElasticParts,
+    /// Padding to 12 values (unused).
+    pub(super) pad: f64,
 }
 
 /// One bond's elastic loads, as squares where the energy needs them anyway (no square root
 /// per bond and step unless breakage asks).
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub(super) struct ElasticParts {
     /// F_r = k_r(|r| − r₀) (N, tension positive).
     pub(super) fr: f64,
@@ -323,7 +334,7 @@ pub(super) fn bond_step(
         };
         return;
     }
-    let r0 = bd.r0_hat * bd.r0_mag;
+    let r0 = Vec3::new(bd.r0[0], bd.r0[1], bd.r0[2]);
     let (q1, q2) = (&p.orientation[a], &p.orientation[b]);
     let (mut f12, mut t12, mut t21, elastic) = elastic_loads(
         c,
@@ -362,6 +373,7 @@ pub(super) fn bond_step(
             force_j: -f12,
             normal: rhat,
             elastic,
+            pad: 0.0,
         };
     } else {
         o.force_i = -f12;
@@ -371,6 +383,7 @@ pub(super) fn bond_step(
             force_j: f12,
             normal: -rhat,
             elastic,
+            pad: 0.0,
         };
     }
 }

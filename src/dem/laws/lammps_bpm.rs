@@ -150,8 +150,12 @@ impl BondLaw for LammpsBpmLaw {
                 p2,
                 image2,
                 r0_mag,
-                r0_hat: r * inv,
+                r0: {
+                    let r0 = (r * inv) * r0_mag;
+                    [r0.x, r0.y, r0.z, r0_mag]
+                },
                 flipped,
+                flip: if flipped { -0.0 } else { 0.0 },
                 broken: self.bonds[b].broken,
                 damped: {
                     let c = &self.coeffs[b];
