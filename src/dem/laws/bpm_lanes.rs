@@ -8,8 +8,9 @@
 //! angle beyond the series' range, LAMMPS' zero m_q, a non-finite value) is done by the
 //! scalar kernel instead, bond by bond; a zero shear angle or in-plane rotation (bonds
 //! between particles that never turned, as a held layer's) stays in the lanes with the
-//! scalar kernel's zero vectors selected. Broken bonds are skipped (zero loads, no sums).
-//! The chunk's sums are added in bond order as the scalar loop adds them.
+//! scalar kernel's zero vectors selected. Broken bonds are skipped (zero loads, no damping power).
+//! The chunk's damping power is summed in bond order as the scalar loop sums it; the elastic
+//! energy is not computed per step (`ElasticParts::energy`, when asked).
 
 use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, StepInputs};
 use super::lanes::{
@@ -129,7 +130,7 @@ const _: () = {
     assert!(std::mem::offset_of!(BondLoad, force_i) == 0);
     assert!(std::mem::offset_of!(BondLoad, torque_i) == 24);
     assert!(std::mem::offset_of!(BondLoad, torque_j) == 48);
-    assert!(std::mem::size_of::<BpmResult>() == 96);
+    assert!(std::mem::size_of::<BpmResult>() == 80);
     assert!(std::mem::size_of::<BpmCoefficients>() == 64);
 };
 
@@ -160,7 +161,7 @@ unsafe fn kernel4(
     idx: [usize; LANES],
     results: &mut [BpmResult],
     out: &mut [BondLoad],
-    sums: &mut [f64; 2],
+    sum: &mut f64,
 ) -> bool {
     let p = inp.particles;
     let bd = idx.map(|k| &bonds[k]);
@@ -272,10 +273,6 @@ unsafe fn kernel4(
     let mut t12 = ts.add(tt).add(tb);
     let mut t21 = ts.sub(tt).sub(tb);
     let (fs2, tb2, tt2) = (fs.dot(fs), tb.dot(tb), tt.dot(tt));
-    let mut energy = zero;
-    for (load2, k) in [(mul(fr, fr), kr), (fs2, ks), (tb2, kb), (tt2, kt)] {
-        energy = select(gt(k, zero), add(energy, div(mul(half, load2), k)), energy);
-    }
     // Damping (`damping_loads`), where a lane has any coefficient.
     let damped = bd.map(|b| b.damped);
     let mut power = [0.0; LANES];
@@ -336,30 +333,38 @@ unsafe fn kernel4(
     let force_i = force_j.neg();
     let torque_i = V::select(flip, t12, t21);
     let torque_j = V::select(flip, t21, t12);
-    // Rows of the records: BondLoad (force_i, torque_i, torque_j) and BpmResult (fr, |F_s|²,
-    // |τ_b|², |τ_t|², energy, force_j, normal, padding), repr(C)/checked layouts.
+    // Rows of the records: BondLoad (force_i, torque_i, torque_j) and BpmResult (F_r, |F_s|²,
+    // |τ_b|², |τ_t|², force_j, normal), repr(C)/checked layouts.
     let load_a = transpose4([force_i.x, force_i.y, force_i.z, torque_i.x]);
     let load_b = transpose4([torque_i.y, torque_i.z, torque_j.x, torque_j.y]);
     let load_c = st4(torque_j.z);
     let res_a = transpose4([fr, fs2, tb2, tt2]);
-    let res_b = transpose4([energy, force_j.x, force_j.y, force_j.z]);
-    let res_c = transpose4([normal.x, normal.y, normal.z, zero]);
-    let energy = st4(energy);
+    let res_b = transpose4([force_j.x, force_j.y, force_j.z, normal.x]);
+    // (n_y, n_z) of lanes 0, 2 and of lanes 1, 3.
+    let res_c02 = _mm256_unpacklo_pd(normal.y, normal.z);
+    let res_c13 = _mm256_unpackhi_pd(normal.y, normal.z);
+    let res_c = [
+        _mm256_castpd256_pd128(res_c02),
+        _mm256_castpd256_pd128(res_c13),
+        _mm256_extractf128_pd::<1>(res_c02),
+        _mm256_extractf128_pd::<1>(res_c13),
+    ];
     for l in 0..LANES {
-        if damped[l] {
-            sums[0] -= power[l];
-        }
-        sums[1] += energy[l];
         let o = &mut out[idx[l]] as *mut BondLoad as *mut f64;
         let r = &mut results[idx[l]] as *mut BpmResult as *mut f64;
-        // SAFETY: a BondLoad is nine f64 and a BpmResult twelve (layouts checked above).
+        // SAFETY: a BondLoad is nine f64 and a BpmResult ten (layouts checked above).
         unsafe {
             _mm256_storeu_pd(o, load_a[l]);
             _mm256_storeu_pd(o.add(4), load_b[l]);
             *o.add(8) = load_c[l];
             _mm256_storeu_pd(r, res_a[l]);
             _mm256_storeu_pd(r.add(4), res_b[l]);
-            _mm256_storeu_pd(r.add(8), res_c[l]);
+            _mm_storeu_pd(r.add(8), res_c[l]);
+        }
+    }
+    for l in 0..LANES {
+        if damped[l] {
+            *sum -= power[l];
         }
     }
     true
@@ -367,7 +372,7 @@ unsafe fn kernel4(
 
 /// A chunk of law-(d) bonds (`normalize no`): the intact bonds without periodic images four
 /// at a time through [`kernel4`], every other bond and group through the scalar
-/// [`bond_step`], the sums in bond order. Returns (damping power, elastic energy).
+/// [`bond_step`], the damping power summed in bond order, which it returns.
 ///
 /// # Safety
 /// The CPU must support AVX2, and every particle index of `bonds` must be below the length
@@ -379,21 +384,20 @@ pub(super) unsafe fn chunk_avx2(
     coeffs: &[BpmCoefficients],
     results: &mut [BpmResult],
     out: &mut [BondLoad],
-) -> [f64; 2] {
-    let mut sums = [0.0, 0.0];
+) -> f64 {
+    let mut sum = 0.0;
     let mut group = [0usize; LANES];
     let mut n = 0;
-    let scalar =
-        |k: usize, results: &mut [BpmResult], out: &mut [BondLoad], sums: &mut [f64; 2]| {
-            bond_step(
-                inp,
-                &bonds[k],
-                &coeffs[k],
-                &mut results[k],
-                &mut out[k],
-                sums,
-            )
-        };
+    let scalar = |k: usize, results: &mut [BpmResult], out: &mut [BondLoad], sum: &mut f64| {
+        bond_step(
+            inp,
+            &bonds[k],
+            &coeffs[k],
+            &mut results[k],
+            &mut out[k],
+            sum,
+        )
+    };
     for k in 0..bonds.len() {
         let b = &bonds[k];
         if b.broken {
@@ -404,10 +408,10 @@ pub(super) unsafe fn chunk_avx2(
         if b.image2 != Vec3::zeros() {
             // In order: the pending group first, then this bond.
             for &g in &group[..n] {
-                scalar(g, results, out, &mut sums);
+                scalar(g, results, out, &mut sum);
             }
             n = 0;
-            scalar(k, results, out, &mut sums);
+            scalar(k, results, out, &mut sum);
             continue;
         }
         group[n] = k;
@@ -415,15 +419,15 @@ pub(super) unsafe fn chunk_avx2(
         if n == LANES {
             n = 0;
             // SAFETY: the caller's guarantee covers these bonds.
-            if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sums) } {
+            if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sum) } {
                 for &g in &group {
-                    scalar(g, results, out, &mut sums);
+                    scalar(g, results, out, &mut sum);
                 }
             }
         }
     }
     for &g in &group[..n] {
-        scalar(g, results, out, &mut sums);
+        scalar(g, results, out, &mut sum);
     }
-    sums
+    sum
 }
