@@ -314,7 +314,8 @@ unsafe fn kernel4(
             add(add(df.neg().dot(v1), df.dot(v2)), dt21.dot(w1)),
             dt12.dot(w2),
         );
-        power = st4(pw);
+        // An undamped lane adds −0 (x − 0 = x): the scalar kernel adds nothing there.
+        power = st4(select(mask, pw, zero));
     }
     // The flipped ends (topology i = particle 2): a sign flip by −0.0 and a blend on its
     // sign bit, as the scalar kernel's branch.
@@ -334,38 +335,46 @@ unsafe fn kernel4(
     let torque_i = V::select(flip, t12, t21);
     let torque_j = V::select(flip, t21, t12);
     // Rows of the records: BondLoad (force_i, torque_i, torque_j) and BpmResult (F_r, |F_s|²,
-    // |τ_b|², |τ_t|², force_j, normal), repr(C)/checked layouts.
-    let load_a = transpose4([force_i.x, force_i.y, force_i.z, torque_i.x]);
-    let load_b = transpose4([torque_i.y, torque_i.z, torque_j.x, torque_j.y]);
-    let load_c = st4(torque_j.z);
-    let res_a = transpose4([fr, fs2, tb2, tt2]);
-    let res_b = transpose4([force_j.x, force_j.y, force_j.z, normal.x]);
-    // (n_y, n_z) of lanes 0, 2 and of lanes 1, 3.
-    let res_c02 = _mm256_unpacklo_pd(normal.y, normal.z);
-    let res_c13 = _mm256_unpackhi_pd(normal.y, normal.z);
-    let res_c = [
-        _mm256_castpd256_pd128(res_c02),
-        _mm256_castpd256_pd128(res_c13),
-        _mm256_extractf128_pd::<1>(res_c02),
-        _mm256_extractf128_pd::<1>(res_c13),
-    ];
-    for l in 0..LANES {
-        let o = &mut out[idx[l]] as *mut BondLoad as *mut f64;
-        let r = &mut results[idx[l]] as *mut BpmResult as *mut f64;
-        // SAFETY: a BondLoad is nine f64 and a BpmResult ten (layouts checked above).
-        unsafe {
-            _mm256_storeu_pd(o, load_a[l]);
-            _mm256_storeu_pd(o.add(4), load_b[l]);
-            *o.add(8) = load_c[l];
-            _mm256_storeu_pd(r, res_a[l]);
-            _mm256_storeu_pd(r.add(4), res_b[l]);
-            _mm_storeu_pd(r.add(8), res_c[l]);
+    // |τ_b|², |τ_t|², force_j, normal), repr(C)/checked layouts; each set of rows stored as
+    // soon as it is transposed (four registers live at a time).
+    assert!(idx.iter().all(|&k| k < out.len() && k < results.len()));
+    let (ob, rb) = (out.as_mut_ptr(), results.as_mut_ptr());
+    // SAFETY: every index is in bounds (just checked); a BondLoad is nine f64 and a
+    // BpmResult ten (layouts checked above); the four bonds are distinct.
+    let o = idx.map(|k| unsafe { ob.add(k) } as *mut f64);
+    let rp = idx.map(|k| unsafe { rb.add(k) } as *mut f64);
+    // SAFETY: as above.
+    unsafe {
+        let rows = transpose4([force_i.x, force_i.y, force_i.z, torque_i.x]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(o[l], rows[l]);
         }
+        let rows = transpose4([torque_i.y, torque_i.z, torque_j.x, torque_j.y]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(o[l].add(4), rows[l]);
+        }
+        let tz = st4(torque_j.z);
+        for l in 0..LANES {
+            *o[l].add(8) = tz[l];
+        }
+        let rows = transpose4([fr, fs2, tb2, tt2]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(rp[l], rows[l]);
+        }
+        let rows = transpose4([force_j.x, force_j.y, force_j.z, normal.x]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(rp[l].add(4), rows[l]);
+        }
+        // (n_y, n_z) of lanes 0, 2 and of lanes 1, 3.
+        let c02 = _mm256_unpacklo_pd(normal.y, normal.z);
+        let c13 = _mm256_unpackhi_pd(normal.y, normal.z);
+        _mm_storeu_pd(rp[0].add(8), _mm256_castpd256_pd128(c02));
+        _mm_storeu_pd(rp[1].add(8), _mm256_castpd256_pd128(c13));
+        _mm_storeu_pd(rp[2].add(8), _mm256_extractf128_pd::<1>(c02));
+        _mm_storeu_pd(rp[3].add(8), _mm256_extractf128_pd::<1>(c13));
     }
-    for l in 0..LANES {
-        if damped[l] {
-            *sum -= power[l];
-        }
+    for p in power {
+        *sum -= p;
     }
     true
 }
