@@ -19,8 +19,10 @@ pub enum BpmNormalize {
 
 /// One bond's `bond_coeff` values of bpm/rotational (SI): springs k_r, k_s (N/m, or N with
 /// [`BpmNormalize::PerRestLength`]), k_t, k_b (N·m/rad), damping γ_n, γ_s (N·s/m), γ_r (N·s/m,
-/// torque ½γ_r l Δv_roll), γ_t (N·m·s/rad, torque ½γ_t Δω).
+/// torque ½γ_r l Δv_roll), γ_t (N·m·s/rad, torque ½γ_t Δω). In this order in memory (the
+/// AVX2 lanes load four coefficients of a bond at once).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub struct BpmCoefficients {
     /// k_r, normal spring.
     pub kr: f64,
@@ -50,10 +52,14 @@ pub(super) struct BpmBond {
     pub(super) image2: Vec3,
     /// Rest length r₀ (m).
     pub(super) r0_mag: f64,
-    /// Unit reference direction (x₁ − x₂)/r₀, lab frame.
-    pub(super) r0_hat: Vec3,
+    /// r₀·r̂₀ (r̂₀ = (x₁ − x₂)/r₀ the unit reference direction, lab frame; the product
+    /// computed once at `initialize`) and r₀: the four values the AVX2 lanes load at once.
+    pub(super) r0: [f64; 4],
     /// The topology's i end is particle 2.
     pub(super) flipped: bool,
+    /// −0.0 when `flipped`, +0.0 otherwise: the AVX2 lanes' sign flip (exclusive or) and
+    /// blend mask (sign bit) for the flipped ends.
+    pub(super) flip: f64,
     /// Broken ([`BondLaw::break_bond`]): its coefficients are zero, so its loads are zero;
     /// the AVX2 lanes skip it, the scalar kernel only keeps its normal current (no one reads
     /// a broken bond's record).
@@ -65,17 +71,20 @@ pub(super) struct BpmBond {
 
 /// Per-bond results of the last evaluation: force on the topology's j end and its normal,
 /// and the elastic parts the breaking criterion reads (LAMMPS judges the elastic loads,
-/// before damping).
+/// before damping). In this order in memory, ten values (the AVX2 lanes store a bond's
+/// record as two rows of four and a pair).
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub(super) struct BpmResult {
+    pub(super) elastic: ElasticParts,
     pub(super) force_j: Vec3,
     pub(super) normal: Vec3,
-    pub(super) elastic: ElasticParts,
 }
 
 /// One bond's elastic loads, as squares where the energy needs them anyway (no square root
 /// per bond and step unless breakage asks).
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub(super) struct ElasticParts {
     /// F_r = k_r(|r| − r₀) (N, tension positive).
     pub(super) fr: f64,
@@ -85,8 +94,32 @@ pub(super) struct ElasticParts {
     pub(super) tb2: f64,
     /// |τ_t|² (N²·m²).
     pub(super) tt2: f64,
-    /// Elastic energy (J).
-    pub(super) energy: f64,
+}
+
+impl ElasticParts {
+    /// The elastic energy (J) of these loads, Σ ½ load²/k over the springs k > 0 (k_r and
+    /// k_s divided by r₀ under `normalize yes`, as [`elastic_loads`] scales them). Computed
+    /// when asked (the energies, a break), not per bond and step.
+    pub(super) fn energy(&self, c: &BpmCoefficients, normalize: BpmNormalize, r0_mag: f64) -> f64 {
+        let (mut kr, mut ks) = (c.kr, c.ks);
+        if normalize == BpmNormalize::PerRestLength {
+            let r0_mag_inv = 1.0 / r0_mag;
+            kr *= r0_mag_inv;
+            ks *= r0_mag_inv;
+        }
+        let mut energy = 0.0;
+        for (load2, k) in [
+            (self.fr * self.fr, kr),
+            (self.fs2, ks),
+            (self.tb2, c.kb),
+            (self.tt2, c.kt),
+        ] {
+            if k > 0.0 {
+                energy += 0.5 * load2 / k;
+            }
+        }
+        energy
+    }
 }
 
 /// atan2(y, x) for y ≥ 0: the series of [`atan_series`] when y ≤ 2⁻⁴·x (within an ulp
@@ -116,7 +149,7 @@ pub(super) fn rotation_matrix(q: &Quat) -> [Vec3; 3] {
 }
 
 /// Elastic loads (Wang 2009; Mora & Wang 2009) of one bond: (force on 2, torque on 2,
-/// torque on 1, the elastic parts and energy). `r` = x₁ − x₂ (lab frame) of length `r_mag`,
+/// torque on 1, the elastic parts). `r` = x₁ − x₂ (lab frame) of length `r_mag`,
 /// `r0` = r₀·r̂₀ in particle 2's body frame, q₁, q₂ the orientations (unit).
 ///
 /// bpm/rotational's quantities computed in the lab frame, with fewer operations than its
@@ -220,19 +253,7 @@ pub(super) fn elastic_loads(
     let torque1on2 = ts + tt + tb;
     let torque2on1 = ts - tt - tb;
     let (fs2, tb2, tt2) = (fs.dot(&fs), tb.dot(&tb), tt.dot(&tt));
-    let mut energy = 0.0;
-    for (load2, k) in [(fr * fr, kr), (fs2, ks), (tb2, c.kb), (tt2, c.kt)] {
-        if k > 0.0 {
-            energy += 0.5 * load2 / k;
-        }
-    }
-    let parts = ElasticParts {
-        fr,
-        fs2,
-        tb2,
-        tt2,
-        energy,
-    };
+    let parts = ElasticParts { fr, fs2, tb2, tt2 };
     (force, torque1on2, torque2on1, parts)
 }
 
@@ -289,9 +310,8 @@ pub(super) struct StepInputs<'a> {
     pub(super) normalize: BpmNormalize,
 }
 
-/// One bond of a step: its loads into `out`, its results, its damping power subtracted from
-/// `sums[0]` and its elastic energy added to `sums[1]` (the AVX2 lanes of `bpm_lanes`
-/// repeat these operations exactly).
+/// One bond of a step: its loads into `out`, its results and its damping power subtracted
+/// from `power` (the AVX2 lanes of `bpm_lanes` repeat these operations exactly).
 #[inline(always)]
 pub(super) fn bond_step(
     inp: &StepInputs,
@@ -299,7 +319,7 @@ pub(super) fn bond_step(
     c: &BpmCoefficients,
     result: &mut BpmResult,
     o: &mut BondLoad,
-    sums: &mut [f64; 2],
+    power: &mut f64,
 ) {
     let p = inp.particles;
     let (a, b) = (bd.p1 as usize, bd.p2 as usize);
@@ -323,7 +343,7 @@ pub(super) fn bond_step(
         };
         return;
     }
-    let r0 = bd.r0_hat * bd.r0_mag;
+    let r0 = Vec3::new(bd.r0[0], bd.r0[1], bd.r0[2]);
     let (q1, q2) = (&p.orientation[a], &p.orientation[b]);
     let (mut f12, mut t12, mut t21, elastic) = elastic_loads(
         c,
@@ -350,9 +370,8 @@ pub(super) fn bond_step(
         t12 += dt12;
         t21 += dt21;
         // Power removed: −(loads on 1 and 2 · their velocities).
-        sums[0] -= (-df).dot(&v1) + df.dot(&v2) + dt21.dot(&w1) + dt12.dot(&w2);
+        *power -= (-df).dot(&v1) + df.dot(&v2) + dt21.dot(&w1) + dt12.dot(&w2);
     }
-    sums[1] += elastic.energy;
     if bd.flipped {
         // Topology i = particle 2.
         o.force_i = f12;

@@ -8,17 +8,19 @@
 //! angle beyond the series' range, LAMMPS' zero m_q, a non-finite value) is done by the
 //! scalar kernel instead, bond by bond; a zero shear angle or in-plane rotation (bonds
 //! between particles that never turned, as a held layer's) stays in the lanes with the
-//! scalar kernel's zero vectors selected. Broken bonds are skipped (zero loads, no sums).
-//! The chunk's sums are added in bond order as the scalar loop adds them.
+//! scalar kernel's zero vectors selected. Broken bonds are skipped (zero loads, no damping power).
+//! The chunk's damping power is summed in bond order as the scalar loop sums it; the elastic
+//! energy is not computed per step (`ElasticParts::energy`, when asked).
 
-use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, ElasticParts, StepInputs};
+use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, StepInputs};
 use super::lanes::{
-    abs, add, at, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F,
-    LANES, V,
+    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F, LANES,
+    V,
 };
-use crate::dem::quat::{ATAN_C, SMALL_ANGLE_LIMIT};
+use crate::dem::quat::{Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
 use crate::Vec3;
+use std::arch::x86_64::*;
 
 /// Per lane: a ∧ b of two masks.
 #[inline]
@@ -46,6 +48,104 @@ fn series_range(y: F, x: F) -> F {
     and(gt(x, splat(0.0)), le(y, mul(splat(SMALL_ANGLE_LIMIT), x)))
 }
 
+/// Per lane: a ⊕ b, bitwise (a sign flip by −0.0, as Rust's unary minus).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn xor(a: F, b: F) -> F {
+    _mm256_xor_pd(a, b)
+}
+
+/// 4×4 transpose: four rows (a lane's four values in memory order) to four columns (one
+/// value of the four lanes), and back (it is its own inverse).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose4(r: [F; LANES]) -> [F; LANES] {
+    let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+    let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+    let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+    let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+    [
+        _mm256_permute2f128_pd::<0x20>(t0, t2),
+        _mm256_permute2f128_pd::<0x20>(t1, t3),
+        _mm256_permute2f128_pd::<0x31>(t0, t2),
+        _mm256_permute2f128_pd::<0x31>(t1, t3),
+    ]
+}
+
+/// Four rows of four values at `p[l]`, as columns.
+///
+/// # Safety
+/// Each `p[l]` must point to four readable f64.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load_rows(p: [*const f64; LANES]) -> [F; LANES] {
+    // SAFETY: the caller's guarantee.
+    transpose4(p.map(|q| unsafe { _mm256_loadu_pd(q) }))
+}
+
+/// `s[i[l]]` of four lanes, loaded as two pairs and a single per vector (x, y) and z.
+///
+/// # Safety
+/// Every `i[l]` must be below `s.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn gather3(s: &[Vec3], i: [usize; LANES]) -> V {
+    // SAFETY: the caller guarantees the indices; Vec3 is three contiguous f64 (checked below).
+    unsafe {
+        let p = i.map(|k| {
+            debug_assert!(k < s.len());
+            s.as_ptr().add(k) as *const f64
+        });
+        let pair = |a: usize, b: usize| {
+            _mm256_insertf128_pd::<1>(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p[a])),
+                _mm_loadu_pd(p[b]),
+            )
+        };
+        let single = |a: usize, b: usize| {
+            _mm256_insertf128_pd::<1>(
+                _mm256_castpd128_pd256(_mm_load_sd(p[a].add(2))),
+                _mm_load_sd(p[b].add(2)),
+            )
+        };
+        // [x0 y0 x2 y2], [x1 y1 x3 y3]; [z0 · z2 ·], [z1 · z3 ·].
+        let (a, b) = (pair(0, 2), pair(1, 3));
+        let (za, zb) = (single(0, 2), single(1, 3));
+        V {
+            x: _mm256_unpacklo_pd(a, b),
+            y: _mm256_unpackhi_pd(a, b),
+            z: _mm256_unpacklo_pd(za, zb),
+        }
+    }
+}
+
+/// Where w and v sit in a [`Quat`] (in f64): the lanes load a quaternion as one row.
+const QUAT_W: usize = std::mem::offset_of!(Quat, w) / 8;
+const QUAT_V: usize = std::mem::offset_of!(Quat, v) / 8;
+const _: () = {
+    assert!(std::mem::size_of::<Vec3>() == 24);
+    assert!(std::mem::size_of::<Quat>() == 32);
+    assert!((QUAT_W == 0 && QUAT_V == 1) || (QUAT_W == 3 && QUAT_V == 0));
+    assert!(std::mem::size_of::<BondLoad>() == 72);
+    assert!(std::mem::offset_of!(BondLoad, force_i) == 0);
+    assert!(std::mem::offset_of!(BondLoad, torque_i) == 24);
+    assert!(std::mem::offset_of!(BondLoad, torque_j) == 48);
+    assert!(std::mem::size_of::<BpmResult>() == 80);
+    assert!(std::mem::size_of::<BpmCoefficients>() == 64);
+};
+
+/// (w, x, y, z) of `s[i[l]]`.
+///
+/// # Safety
+/// Every `i[l]` must be below `s.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_quat(s: &[Quat], i: [usize; LANES]) -> [F; LANES] {
+    // SAFETY: the caller guarantees the indices; a Quat is four f64 (checked above).
+    let c = unsafe { load_rows(i.map(|k| s.as_ptr().add(k) as *const f64)) };
+    [c[QUAT_W], c[QUAT_V], c[QUAT_V + 1], c[QUAT_V + 2]]
+}
+
 /// Four intact bonds without periodic images (`idx` into the chunk); returns false, having
 /// written nothing, when a lane is off the common path (module docs).
 ///
@@ -61,32 +161,31 @@ unsafe fn kernel4(
     idx: [usize; LANES],
     results: &mut [BpmResult],
     out: &mut [BondLoad],
-    sums: &mut [f64; 2],
+    sum: &mut f64,
 ) -> bool {
     let p = inp.particles;
-    let bd = idx.map(|k| bonds[k]);
-    let c = idx.map(|k| coeffs[k]);
+    let bd = idx.map(|k| &bonds[k]);
     let ia = bd.map(|b| b.p1 as usize);
     let ib = bd.map(|b| b.p2 as usize);
     let zero = splat(0.0);
     let one = splat(1.0);
     let half = splat(0.5);
-    let x1 = V::gather(ia.map(|i| at(&p.position, i)));
-    let x2 = V::gather(ib.map(|i| at(&p.position, i)));
+    // SAFETY (the gathers): the caller guarantees every particle index in bounds.
+    let x1 = unsafe { gather3(&p.position, ia) };
+    let x2 = unsafe { gather3(&p.position, ib) };
     let r = x1.sub(x2);
     let r_mag = sqrt(r.dot(r));
     let r_mag_inv = div(one, r_mag);
     let rhat = r.scale(r_mag_inv);
-    let r0_mag = ld(bd.map(|b| b.r0_mag));
-    let r0b = V::gather(bd.map(|b| b.r0_hat)).scale(r0_mag);
+    // SAFETY: `r0` is four f64.
+    let [r0x, r0y, r0z, r0_mag] = unsafe { load_rows(bd.map(|b| b.r0.as_ptr())) };
+    let r0b = V {
+        x: r0x,
+        y: r0y,
+        z: r0z,
+    };
     // Rotation matrix of q₂ (`rotation_matrix`).
-    let q2 = ib.map(|i| at(&p.orientation, i));
-    let (w, x, y, z) = (
-        ld(q2.map(|q| q.w)),
-        ld(q2.map(|q| q.v.x)),
-        ld(q2.map(|q| q.v.y)),
-        ld(q2.map(|q| q.v.z)),
-    );
+    let [w, x, y, z] = unsafe { gather_quat(&p.orientation, ib) };
     let (x2_, y2_, z2_) = (add(x, x), add(y, y), add(z, z));
     let (xx, yy, zz) = (mul(x, x2_), mul(y, y2_), mul(z, z2_));
     let (xy, xz, yz) = (mul(x, y2_), mul(x, z2_), mul(y, z2_));
@@ -111,10 +210,9 @@ unsafe fn kernel4(
         y: m1.dot(r0b),
         z: m2.dot(r0b),
     };
-    let kr = ld(c.map(|c| c.kr));
-    let ks = ld(c.map(|c| c.ks));
-    let kt = ld(c.map(|c| c.kt));
-    let kb = ld(c.map(|c| c.kb));
+    let cp = idx.map(|k| &coeffs[k] as *const BpmCoefficients as *const f64);
+    // SAFETY: BpmCoefficients is eight f64 (repr(C), k_r k_s k_t k_b then the dampings).
+    let [kr, ks, kt, kb] = unsafe { load_rows(cp) };
     let fr = mul(kr, sub(r_mag, r0_mag));
     let mut force = rhat.scale(fr);
     let cross = r0.cross(r);
@@ -126,13 +224,7 @@ unsafe fn kernel4(
     let rb_y = add(add(mul(m0.y, r.x), mul(m1.y, r.y)), mul(m2.y, r.z));
     ok = and(ok, select(ne(rb_x, zero), ne(rb_x, zero), ne(rb_y, zero)));
     // Relative rotation q₁q₂* (Eigen's product, q₂'s vector negated).
-    let q1 = ia.map(|i| at(&p.orientation, i));
-    let (aw, ax, ay, az) = (
-        ld(q1.map(|q| q.w)),
-        ld(q1.map(|q| q.v.x)),
-        ld(q1.map(|q| q.v.y)),
-        ld(q1.map(|q| q.v.z)),
-    );
+    let [aw, ax, ay, az] = unsafe { gather_quat(&p.orientation, ia) };
     let (bw, bx, by, bz) = (w, neg(x), neg(y), neg(z));
     let qw = sub(sub(sub(mul(aw, bw), mul(ax, bx)), mul(ay, by)), mul(az, bz));
     let v = V {
@@ -181,22 +273,16 @@ unsafe fn kernel4(
     let mut t12 = ts.add(tt).add(tb);
     let mut t21 = ts.sub(tt).sub(tb);
     let (fs2, tb2, tt2) = (fs.dot(fs), tb.dot(tb), tt.dot(tt));
-    let mut energy = zero;
-    for (load2, k) in [(mul(fr, fr), kr), (fs2, ks), (tb2, kb), (tt2, kt)] {
-        energy = select(gt(k, zero), add(energy, div(mul(half, load2), k)), energy);
-    }
     // Damping (`damping_loads`), where a lane has any coefficient.
     let damped = bd.map(|b| b.damped);
     let mut power = [0.0; LANES];
     if damped.iter().any(|&d| d) {
-        let gn = ld(c.map(|c| c.gamma_n));
-        let gs = ld(c.map(|c| c.gamma_s));
-        let gr = ld(c.map(|c| c.gamma_r));
-        let gt_ = ld(c.map(|c| c.gamma_t));
-        let v1 = V::gather(ia.map(|i| at(&p.velocity, i)));
-        let v2 = V::gather(ib.map(|i| at(&p.velocity, i)));
-        let w1 = V::gather(ia.map(|i| at(&p.angular_velocity, i)));
-        let w2 = V::gather(ib.map(|i| at(&p.angular_velocity, i)));
+        // SAFETY: as above (the dampings are the coefficients' last four f64).
+        let [gn, gs, gr, gt_] = unsafe { load_rows(cp.map(|q| q.add(4))) };
+        let v1 = unsafe { gather3(&p.velocity, ia) };
+        let v2 = unsafe { gather3(&p.velocity, ib) };
+        let w1 = unsafe { gather3(&p.angular_velocity, ia) };
+        let w2 = unsafe { gather3(&p.angular_velocity, ib) };
         let vn1 = rhat.scale(v1.dot(rhat));
         let vn2 = rhat.scale(v2.dot(rhat));
         let mut df = vn1.sub(vn2).scale(gn);
@@ -228,49 +314,74 @@ unsafe fn kernel4(
             add(add(df.neg().dot(v1), df.dot(v2)), dt21.dot(w1)),
             dt12.dot(w2),
         );
-        power = st4(pw);
+        // An undamped lane adds −0 (x − 0 = x): the scalar kernel adds nothing there.
+        power = st4(select(mask, pw, zero));
     }
-    let (f12, t12, t21, rh) = (force.lanes(), t12.lanes(), t21.lanes(), rhat.lanes());
-    let (fr, fs2, tb2, tt2, energy) = (st4(fr), st4(fs2), st4(tb2), st4(tt2), st4(energy));
-    for l in 0..LANES {
-        if damped[l] {
-            sums[0] -= power[l];
+    // The flipped ends (topology i = particle 2): a sign flip by −0.0 and a blend on its
+    // sign bit, as the scalar kernel's branch.
+    let flip = ld(bd.map(|b| b.flip));
+    let force_j = V {
+        x: xor(force.x, flip),
+        y: xor(force.y, flip),
+        z: xor(force.z, flip),
+    };
+    let normal = rhat.neg();
+    let normal = V {
+        x: xor(normal.x, flip),
+        y: xor(normal.y, flip),
+        z: xor(normal.z, flip),
+    };
+    let force_i = force_j.neg();
+    let torque_i = V::select(flip, t12, t21);
+    let torque_j = V::select(flip, t21, t12);
+    // Rows of the records: BondLoad (force_i, torque_i, torque_j) and BpmResult (F_r, |F_s|²,
+    // |τ_b|², |τ_t|², force_j, normal), repr(C)/checked layouts; each set of rows stored as
+    // soon as it is transposed (four registers live at a time).
+    assert!(idx.iter().all(|&k| k < out.len() && k < results.len()));
+    let (ob, rb) = (out.as_mut_ptr(), results.as_mut_ptr());
+    // SAFETY: every index is in bounds (just checked); a BondLoad is nine f64 and a
+    // BpmResult ten (layouts checked above); the four bonds are distinct.
+    let o = idx.map(|k| unsafe { ob.add(k) } as *mut f64);
+    let rp = idx.map(|k| unsafe { rb.add(k) } as *mut f64);
+    // SAFETY: as above.
+    unsafe {
+        let rows = transpose4([force_i.x, force_i.y, force_i.z, torque_i.x]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(o[l], rows[l]);
         }
-        sums[1] += energy[l];
-        let elastic = ElasticParts {
-            fr: fr[l],
-            fs2: fs2[l],
-            tb2: tb2[l],
-            tt2: tt2[l],
-            energy: energy[l],
-        };
-        let o = &mut out[idx[l]];
-        if bd[l].flipped {
-            o.force_i = f12[l];
-            o.torque_i = t12[l];
-            o.torque_j = t21[l];
-            results[idx[l]] = BpmResult {
-                force_j: -f12[l],
-                normal: rh[l],
-                elastic,
-            };
-        } else {
-            o.force_i = -f12[l];
-            o.torque_i = t21[l];
-            o.torque_j = t12[l];
-            results[idx[l]] = BpmResult {
-                force_j: f12[l],
-                normal: -rh[l],
-                elastic,
-            };
+        let rows = transpose4([torque_i.y, torque_i.z, torque_j.x, torque_j.y]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(o[l].add(4), rows[l]);
         }
+        let tz = st4(torque_j.z);
+        for l in 0..LANES {
+            *o[l].add(8) = tz[l];
+        }
+        let rows = transpose4([fr, fs2, tb2, tt2]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(rp[l], rows[l]);
+        }
+        let rows = transpose4([force_j.x, force_j.y, force_j.z, normal.x]);
+        for l in 0..LANES {
+            _mm256_storeu_pd(rp[l].add(4), rows[l]);
+        }
+        // (n_y, n_z) of lanes 0, 2 and of lanes 1, 3.
+        let c02 = _mm256_unpacklo_pd(normal.y, normal.z);
+        let c13 = _mm256_unpackhi_pd(normal.y, normal.z);
+        _mm_storeu_pd(rp[0].add(8), _mm256_castpd256_pd128(c02));
+        _mm_storeu_pd(rp[1].add(8), _mm256_castpd256_pd128(c13));
+        _mm_storeu_pd(rp[2].add(8), _mm256_extractf128_pd::<1>(c02));
+        _mm_storeu_pd(rp[3].add(8), _mm256_extractf128_pd::<1>(c13));
+    }
+    for p in power {
+        *sum -= p;
     }
     true
 }
 
 /// A chunk of law-(d) bonds (`normalize no`): the intact bonds without periodic images four
 /// at a time through [`kernel4`], every other bond and group through the scalar
-/// [`bond_step`], the sums in bond order. Returns (damping power, elastic energy).
+/// [`bond_step`], the damping power summed in bond order, which it returns.
 ///
 /// # Safety
 /// The CPU must support AVX2, and every particle index of `bonds` must be below the length
@@ -282,21 +393,20 @@ pub(super) unsafe fn chunk_avx2(
     coeffs: &[BpmCoefficients],
     results: &mut [BpmResult],
     out: &mut [BondLoad],
-) -> [f64; 2] {
-    let mut sums = [0.0, 0.0];
+) -> f64 {
+    let mut sum = 0.0;
     let mut group = [0usize; LANES];
     let mut n = 0;
-    let scalar =
-        |k: usize, results: &mut [BpmResult], out: &mut [BondLoad], sums: &mut [f64; 2]| {
-            bond_step(
-                inp,
-                &bonds[k],
-                &coeffs[k],
-                &mut results[k],
-                &mut out[k],
-                sums,
-            )
-        };
+    let scalar = |k: usize, results: &mut [BpmResult], out: &mut [BondLoad], sum: &mut f64| {
+        bond_step(
+            inp,
+            &bonds[k],
+            &coeffs[k],
+            &mut results[k],
+            &mut out[k],
+            sum,
+        )
+    };
     for k in 0..bonds.len() {
         let b = &bonds[k];
         if b.broken {
@@ -307,10 +417,10 @@ pub(super) unsafe fn chunk_avx2(
         if b.image2 != Vec3::zeros() {
             // In order: the pending group first, then this bond.
             for &g in &group[..n] {
-                scalar(g, results, out, &mut sums);
+                scalar(g, results, out, &mut sum);
             }
             n = 0;
-            scalar(k, results, out, &mut sums);
+            scalar(k, results, out, &mut sum);
             continue;
         }
         group[n] = k;
@@ -318,15 +428,15 @@ pub(super) unsafe fn chunk_avx2(
         if n == LANES {
             n = 0;
             // SAFETY: the caller's guarantee covers these bonds.
-            if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sums) } {
+            if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sum) } {
                 for &g in &group {
-                    scalar(g, results, out, &mut sums);
+                    scalar(g, results, out, &mut sum);
                 }
             }
         }
     }
     for &g in &group[..n] {
-        scalar(g, results, out, &mut sums);
+        scalar(g, results, out, &mut sum);
     }
-    sums
+    sum
 }

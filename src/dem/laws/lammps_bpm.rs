@@ -45,8 +45,8 @@ pub struct LammpsBpmLaw {
     normalize: BpmNormalize,
     bonds: Vec<BpmBond>,
     results: Vec<BpmResult>,
-    /// (damping power, elastic energy) per bond chunk of the last evaluation.
-    chunk_sums: Vec<[f64; 2]>,
+    /// Damping power per bond chunk of the last evaluation.
+    chunk_sums: Vec<f64>,
     dissipated: f64,
     /// 1 + the largest particle index of any bond (usize::MAX before `initialize`): one
     /// comparison per step bounds-checks every bond for the unchecked reads of the AVX2
@@ -80,7 +80,7 @@ impl LammpsBpmLaw {
             normalize,
             bonds: vec![BpmBond::default(); n],
             results: vec![BpmResult::default(); n],
-            chunk_sums: vec![[0.0; 2]; n.div_ceil(BOND_CHUNK)],
+            chunk_sums: vec![0.0; n.div_ceil(BOND_CHUNK)],
             dissipated: 0.0,
             index_bound: if n == 0 { 0 } else { usize::MAX },
         })
@@ -150,8 +150,12 @@ impl BondLaw for LammpsBpmLaw {
                 p2,
                 image2,
                 r0_mag,
-                r0_hat: r * inv,
+                r0: {
+                    let r0 = (r * inv) * r0_mag;
+                    [r0.x, r0.y, r0.z, r0_mag]
+                },
                 flipped,
+                flip: if flipped { -0.0 } else { 0.0 },
                 broken: self.bonds[b].broken,
                 damped: {
                     let c = &self.coeffs[b];
@@ -162,7 +166,7 @@ impl BondLaw for LammpsBpmLaw {
         self.results
             .iter_mut()
             .for_each(|r| *r = BpmResult::default());
-        self.chunk_sums.iter_mut().for_each(|s| *s = [0.0; 2]);
+        self.chunk_sums.iter_mut().for_each(|s| *s = 0.0);
         self.dissipated = 0.0;
         self.index_bound = self
             .bonds
@@ -214,7 +218,7 @@ impl BondLaw for LammpsBpmLaw {
                         unsafe { super::bpm_lanes::chunk_avx2(&inp, bonds, coeffs, results, out) };
                     return;
                 }
-                let mut sums = [0.0, 0.0];
+                let mut power = 0.0;
                 for k in 0..bonds.len() {
                     bond_step(
                         &inp,
@@ -222,16 +226,24 @@ impl BondLaw for LammpsBpmLaw {
                         &coeffs[k],
                         &mut results[k],
                         &mut out[k],
-                        &mut sums,
+                        &mut power,
                     );
                 }
-                *slot = sums;
+                *slot = power;
             });
-        self.dissipated += ctx.dt * self.chunk_sums.iter().map(|s| s[0]).sum::<f64>();
+        self.dissipated += ctx.dt * self.chunk_sums.iter().sum::<f64>();
     }
 
+    /// Σ of the intact bonds' energies at the last evaluation, in bond order (computed here
+    /// from their elastic parts, not per step).
     fn elastic_energy(&self) -> f64 {
-        self.chunk_sums.iter().map(|s| s[1]).sum()
+        self.results
+            .iter()
+            .zip(&self.coeffs)
+            .zip(&self.bonds)
+            .filter(|(_, bd)| !bd.broken)
+            .map(|((r, c), bd)| r.elastic.energy(c, self.normalize, bd.r0_mag))
+            .sum()
     }
 
     fn viscous_dissipation(&self) -> f64 {
@@ -292,10 +304,10 @@ impl BondLaw for LammpsBpmLaw {
     /// Zero coefficients (springs and damping): the bond gives zero loads from then on, as
     /// LAMMPS drops a broken bond from its bond list.
     fn break_bond(&mut self, _: &Particles, b: usize) -> f64 {
-        let energy = self.results[b].elastic.energy;
-        if let Some(sum) = self.chunk_sums.get_mut(b / BOND_CHUNK) {
-            sum[1] -= energy;
-        }
+        let energy =
+            self.results[b]
+                .elastic
+                .energy(&self.coeffs[b], self.normalize, self.bonds[b].r0_mag);
         self.coeffs[b] = BpmCoefficients::default();
         self.bonds[b].broken = true;
         self.bonds[b].damped = false;
