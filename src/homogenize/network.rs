@@ -455,8 +455,8 @@ impl Network {
         Ok(net)
     }
 
-    /// The element matrices of active bond `e` ([`element`], plus its
-    /// [`geometric_element`] under an axial preload), formed from its stored springs and
+    /// The element matrices of active bond `e` (`element()`, plus its
+    /// `geometric_element` under an axial preload), formed from its stored springs and
     /// geometry: the same numbers every time.
     pub fn element(&self, e: usize) -> Element {
         let law = &self.laws[e];

@@ -55,7 +55,7 @@ impl BlockSparse {
                     parts.sort_unstable();
                     let mut row: Vec<(u32, Block6)> = Vec::new();
                     for &(c, _, kind, at) in &parts {
-                        if row.last().is_none_or(|x| x.0 != c) {
+                        if !matches!(row.last(), Some(x) if x.0 == c) {
                             row.push((c, Block6::zeros()));
                         }
                         let (kii, kjj, kij) = &elements[at];
