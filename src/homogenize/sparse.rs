@@ -22,10 +22,7 @@ impl BlockSparse {
         const ROWS: usize = 4096;
         let m = net.n_active;
         let (start, edges) = csr(m, net.end_pairs(), |k, _| k as u32);
-        let mut row_start = Vec::with_capacity(m + 1);
-        row_start.push(0);
-        let mut col = Vec::new();
-        let mut block = Vec::new();
+        let mut k = BlockSparse::from_rows(Vec::new());
         for r0 in (0..m).step_by(ROWS) {
             let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(m))
                 .into_par_iter()
@@ -70,19 +67,9 @@ impl BlockSparse {
                     row
                 })
                 .collect();
-            for row in rows {
-                for (c, b) in row {
-                    col.push(c);
-                    block.push(b);
-                }
-                row_start.push(col.len());
-            }
+            k.push_rows(rows);
         }
-        BlockSparse {
-            row_start,
-            col,
-            block,
-        }
+        k
     }
 
     /// Assemble a symmetric matrix over `m` nodes from per-edge blocks: edge e joining
@@ -196,21 +183,23 @@ impl BlockSparse {
 
     /// A matrix from its block rows, each sorted by column (both triangles stored).
     pub fn from_rows(rows: Vec<Vec<(u32, Block6)>>) -> BlockSparse {
-        let mut row_start = Vec::with_capacity(rows.len() + 1);
-        row_start.push(0);
-        let mut col = Vec::new();
-        let mut block = Vec::new();
+        let mut k = BlockSparse {
+            row_start: vec![0],
+            col: Vec::new(),
+            block: Vec::new(),
+        };
+        k.push_rows(rows);
+        k
+    }
+
+    /// Append block rows, each sorted by column, below the stored ones.
+    fn push_rows(&mut self, rows: Vec<Vec<(u32, Block6)>>) {
         for r in rows {
             for (c, b) in r {
-                col.push(c);
-                block.push(b);
+                self.col.push(c);
+                self.block.push(b);
             }
-            row_start.push(col.len());
-        }
-        BlockSparse {
-            row_start,
-            col,
-            block,
+            self.row_start.push(self.col.len());
         }
     }
 
