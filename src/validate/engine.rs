@@ -4,9 +4,9 @@
 //! [`TestKind`]s it runs. A client runs any engine through [`validate`]; a new test kind is
 //! a [`TestKind`] variant every engine's [`Engine::run`] answers (docs/architecture.md).
 
-pub use super::harness::{check_tolerances, Problem, Progress, TestKind};
+pub use super::harness::{check_tolerances, Launch, Problem, Progress, TestKind};
 use super::harness::{EngineDetails, Report};
-use super::specimen::{SpecimenDeck, SpecimenDetails, SpecimenTest};
+use super::specimen::{SpecimenDetails, SpecimenTest};
 use super::strength::{StrengthDetails, StrengthTest};
 use crate::{Error, Result};
 use serde::Serialize;
@@ -72,33 +72,51 @@ pub trait Engine: Sync {
     fn run(&self, problem: &Problem, progress: Progress) -> Result<Report<Self::Details>>;
     /// Write the report files into `dir` (atomically each); returns the paths written.
     fn write_files(&self, dir: &Path, report: &Report<Self::Details>) -> Result<Vec<PathBuf>>;
-    /// The specimen deck ([`super::specimen`]) and its settings: the engine builds the
-    /// bonded specimen of a free packing, loads it between platens by its own means, and its
-    /// platen stiffness is compared with the specimen solve's. Its report is the same for
-    /// every engine, so it is a deck of its own rather than a [`TestKind`]. Default: none
-    /// (the test is refused).
-    fn specimen_deck(&self) -> Option<SpecimenDeck> {
-        None
-    }
-    /// The strength test ([`super::strength`]) of the free bar of `problem`: direct tension
-    /// to failure in the engine and in the integrator with the same bond law and limits;
-    /// peak stress and the first broken bonds compared. One report for every engine, as
-    /// [`Engine::specimen_deck`]. Default: refused.
-    fn strength(
-        &self,
-        _problem: &Problem,
-        _test: &StrengthTest,
-        _progress: Progress,
-    ) -> Result<Report<StrengthDetails>> {
-        Err(Error::Invalid(format!(
-            "validate {}: the engine does not run the strength test",
-            Self::Details::ENGINE
-        )))
+    /// The engine's free-specimen decks — the specimen test ([`super::specimen`]: the
+    /// engine builds the bonded specimen of a free packing, loads it between platens by its
+    /// own means, and its platen stiffness is compared with the specimen solve's) and the
+    /// strength test ([`super::strength`]: direct tension or compression to failure in the
+    /// engine and in the integrator with the same bond law and limits, peak stress and first
+    /// broken bonds compared) — with the one [`Launch`] both take. Their reports are the same
+    /// for every engine, so they are decks rather than [`TestKind`]s. Default: none (both
+    /// tests are refused); an error when the engine's program cannot be found.
+    fn decks(&self) -> Result<Option<Decks<'_>>> {
+        Ok(None)
     }
 }
 
+/// Runs an engine's specimen deck with its [`Launch`]: writes, runs and reads the deck, and
+/// compares with the specimen solve.
+pub type SpecimenRunner =
+    fn(&Launch, &Problem, &SpecimenTest, Progress) -> Result<Report<SpecimenDetails>>;
+
+/// Runs an engine's strength deck with its [`Launch`], against the integrator with the same
+/// law (it may hold engine options the launch does not carry, as LAMMPS' bond style).
+pub type StrengthRunner<'a> =
+    Box<dyn Fn(&Launch, &Problem, &StrengthTest, Progress) -> Result<Report<StrengthDetails>> + 'a>;
+
+/// An engine's free-specimen decks as [`Engine::decks`] gives them.
+pub struct Decks<'a> {
+    /// The settings both decks take.
+    pub launch: Launch,
+    /// The specimen test's runner.
+    pub specimen: SpecimenRunner,
+    /// The strength test's runner.
+    pub strength: StrengthRunner<'a>,
+}
+
+/// The decks of `engine`, or the refusal of `test` by an engine that has none.
+fn decks_of<'a, E: Engine>(engine: &'a E, test: &str) -> Result<Decks<'a>> {
+    engine.decks()?.ok_or_else(|| {
+        Error::Invalid(format!(
+            "validate {}: the engine does not run the {test}",
+            E::Details::ENGINE
+        ))
+    })
+}
+
 /// Run the strength test `test` of `engine` on `problem`: the engine's and the test's
-/// options checked, then [`Engine::strength`].
+/// options checked, then the engine's strength deck ([`Engine::decks`]) run.
 pub fn validate_strength<E: Engine>(
     engine: &E,
     problem: &Problem,
@@ -108,7 +126,8 @@ pub fn validate_strength<E: Engine>(
     engine.check()?;
     test.check(E::Details::ENGINE)?;
     refuse_many_body(E::Details::ENGINE, problem, "strength test")?;
-    engine.strength(problem, test, progress)
+    let decks = decks_of(engine, "strength test")?;
+    (decks.strength)(&decks.launch, problem, test, progress)
 }
 
 /// Refuse a model with a `[manybody]` term for a free-specimen test: no engine's specimen
@@ -128,7 +147,7 @@ fn refuse_many_body(engine: &str, problem: &Problem, test: &str) -> Result<()> {
 }
 
 /// Run the specimen test `test` of `engine` on `problem`: the engine's and the test's
-/// options checked, then the engine's [`Engine::specimen_deck`] run.
+/// options checked, then the engine's specimen deck ([`Engine::decks`]) run.
 ///
 /// The platen stiffness of a free packing's specimen in YADE against the specimen solve
 /// (z axis, end layers of one mean radius, frictionless platens):
@@ -156,13 +175,8 @@ pub fn validate_specimen<E: Engine>(
     engine.check()?;
     test.check(E::Details::ENGINE)?;
     refuse_many_body(E::Details::ENGINE, problem, "specimen test")?;
-    let deck = engine.specimen_deck().ok_or_else(|| {
-        Error::Invalid(format!(
-            "validate {}: the engine does not run the specimen test",
-            E::Details::ENGINE
-        ))
-    })?;
-    (deck.run)(&deck.launch, problem, test, progress)
+    let decks = decks_of(engine, "specimen test")?;
+    (decks.specimen)(&decks.launch, problem, test, progress)
 }
 
 /// Run `engine` on `problem`: its options checked, the test kind refused unless the engine

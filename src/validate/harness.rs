@@ -58,6 +58,35 @@ pub fn check_tolerances(
     }
 }
 
+/// How an engine launches its free-specimen decks: the settings of `validate ENGINE` they
+/// take, given by [`super::Engine::decks`] (so a deck depends on no engine file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Launch {
+    /// The program run (`lmp`, the LIGGGHTS driver; YADE is found on PATH).
+    pub program: PathBuf,
+    /// The process counts of the runs compared (1, then more with `-np`).
+    pub processes: Vec<usize>,
+    /// Particle density (kg/m³).
+    pub density: f64,
+    /// Time step (s); `None`: `safety` × the single-particle stable step.
+    pub time_step: Option<f64>,
+    /// Fraction of the stable step taken when `time_step` is `None` (the same in the engine
+    /// and the integrator).
+    pub safety: f64,
+}
+
+impl Launch {
+    /// The decks' time step (s): `time_step`, else `safety` × the single-particle stable step
+    /// of the bonded packing at `density` ([`crate::export::liggghts::stable_timestep`]).
+    pub fn step(&self, packing: &Packing, bonds: &BondSet, springs: &BondStiffness) -> Result<f64> {
+        match self.time_step {
+            Some(dt) => Ok(dt),
+            None => Ok(self.safety
+                * crate::export::liggghts::stable_timestep(packing, bonds, springs, self.density)?),
+        }
+    }
+}
+
 /// What every engine is given: where to run, the bonded packing, its model, the test kind.
 #[derive(Clone, Copy, Debug)]
 pub struct Problem<'a> {

@@ -14,12 +14,13 @@
 //! exact spin rotation by O((ω·dt)³) per step (~1e-21 here); what separates the histories
 //! is rounding, amplified by bpm/rotational's acos of cosines near 1.
 
+use super::engine::{Decks, Launch};
 pub use super::harness::start_like_velocity_verlet;
 use super::harness::{
     self, compare_history_rows, history_series, matrix_rows, reference_simulation,
     side_by_side_csv, timed, Check, EngineDetails, HistoryComparison, HistoryStart, Report, Timing,
 };
-use super::specimen::{self, DeckLaunch, SpecimenDeck};
+use super::specimen;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::{build_law, LawKind};
 use crate::export::lammps::{
@@ -443,10 +444,10 @@ impl Engine for Lammps {
     fn write_files(&self, dir: &Path, r: &Report<LammpsDetails>) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
-    fn specimen_deck(&self) -> Option<SpecimenDeck> {
+    fn decks(&self) -> Result<Option<Decks<'_>>> {
         let o = &self.0;
-        let launch = DeckLaunch {
-            program: o.lmp.clone(),
+        let launch = Launch {
+            program: resolve_program(&o.lmp)?,
             processes: if o.two_processes { vec![1, 2] } else { vec![1] },
             density: o.export.density,
             // The element-test export's step: `safety` × the single-particle bound (the whole
@@ -454,26 +455,15 @@ impl Engine for Lammps {
             time_step: None,
             safety: o.export.safety,
         };
-        Some(SpecimenDeck {
+        Ok(Some(Decks {
             launch,
-            run: |launch, p, test, progress| specimen::lammps::DECK.run(launch, p, test, progress),
-        })
-    }
-
-    fn strength(
-        &self,
-        p: &Problem,
-        test: &super::strength::StrengthTest,
-        progress: Progress,
-    ) -> Result<Report<super::strength::StrengthDetails>> {
-        let o = &self.0;
-        let launch = super::strength::Launch {
-            program: resolve_program(&o.lmp)?,
-            processes: if o.two_processes { vec![1, 2] } else { vec![1] },
-            density: o.export.density,
-            safety: o.export.safety,
-        };
-        super::strength::lammps::run(&launch, p, test, &o.export.bond_style, progress)
+            specimen: |launch, p, test, progress| {
+                specimen::lammps::DECK.run(launch, p, test, progress)
+            },
+            strength: Box::new(move |launch, p, test, progress| {
+                super::strength::lammps::run(launch, p, test, &o.export.bond_style, progress)
+            }),
+        }))
     }
 }
 

@@ -40,7 +40,8 @@
 //! virial keeps one triangle (σ_12 = Σ l_x F_y / V, σ_13 = Σ l_x F_z / V,
 //! σ_23 = Σ l_y F_z / V), and the integrator's Love stress is compared in the same triangle.
 
-use super::specimen::{self, DeckLaunch, SpecimenDeck};
+use super::engine::{self as deck, Decks};
+use super::specimen;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::dem::element::{dynamic_tensor, ElementTestOptions};
 use crate::dem::laws::{LinearBondKernel, MomentForm};
@@ -903,38 +904,23 @@ impl Engine for Liggghts {
     fn write_files(&self, dir: &Path, r: &ValidationReport) -> Result<Vec<PathBuf>> {
         write_report(dir, r)
     }
-    fn specimen_deck(&self) -> Option<SpecimenDeck> {
+    fn decks(&self) -> Result<Option<Decks<'_>>> {
         let o = &self.options;
-        let launch = DeckLaunch {
+        let launch = deck::Launch {
             program: self.programs.driver.clone(),
             processes: o.process_counts(),
             density: o.density,
             time_step: o.timestep,
-            // The deck's step is LIGGGHTS' stable step itself, as the element tests take it.
+            // The decks' step is LIGGGHTS' stable step itself, as the element tests take it.
             safety: 1.0,
         };
-        Some(SpecimenDeck {
+        Ok(Some(Decks {
             launch,
-            run: |launch, p, test, progress| {
+            specimen: |launch, p, test, progress| {
                 specimen::liggghts::DECK.run(launch, p, test, progress)
             },
-        })
-    }
-    fn strength(
-        &self,
-        p: &Problem,
-        test: &super::strength::StrengthTest,
-        progress: Progress,
-    ) -> Result<Report<super::strength::StrengthDetails>> {
-        let o = &self.options;
-        let launch = super::strength::Launch {
-            program: self.programs.driver.clone(),
-            processes: o.process_counts(),
-            density: o.density,
-            // LIGGGHTS' stable step itself, as the element and specimen tests take it.
-            safety: 1.0,
-        };
-        super::strength::liggghts::run(&launch, p, test, progress)
+            strength: Box::new(super::strength::liggghts::run),
+        }))
     }
 }
 

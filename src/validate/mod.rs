@@ -4,7 +4,8 @@
 //!
 //! - `engine.rs`: the [`Engine`] trait every engine implements — what it is given (a
 //!   [`Problem`]: packing, bonds, springs, model, [`TestKind`]), what it returns, how it
-//!   reports progress — and [`validate`], the one entry every client calls.
+//!   reports progress —, the free-specimen decks' [`Launch`] and runners ([`Decks`]), and
+//!   [`validate`], the one entry every client calls.
 //! - `harness.rs`: what every engine shares — checks, history comparisons, the reference
 //!   integrator's run of an engine's history, timings, the report and its JSON, the checks
 //!   table, the summary and CSV; an engine adds only a runner.
@@ -30,7 +31,8 @@ pub mod strength;
 pub mod yade;
 
 pub use engine::{
-    validate, validate_specimen, validate_strength, Engine, Problem, Progress, TestKind, Tolerances,
+    validate, validate_specimen, validate_strength, Decks, Engine, Launch, Problem, Progress,
+    SpecimenRunner, StrengthRunner, TestKind, Tolerances,
 };
 pub use harness::{
     checks_summary, failure_lines, outcome, summary, unsettled_lines, write_report_files,

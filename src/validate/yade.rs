@@ -23,7 +23,8 @@
 //!
 //! Tensor differences are max_ab |A − B| / max_ab |B| ([`relative_difference`]).
 
-use super::specimen::{self, DeckLaunch, SpecimenDeck};
+use super::engine::{Decks, Launch};
+use super::specimen;
 use crate::bonds::{table, BondSet, BondStiffness};
 use crate::dem::element::to_voigt;
 use crate::dem::{build_law, LawKind, Simulation};
@@ -513,33 +514,19 @@ impl Engine for Yade {
     fn write_files(&self, dir: &Path, r: &YadeValidation) -> Result<Vec<PathBuf>> {
         write_validation_files(dir, r)
     }
-    fn specimen_deck(&self) -> Option<SpecimenDeck> {
-        let launch = DeckLaunch {
+    fn decks(&self) -> Result<Option<Decks<'_>>> {
+        let launch = Launch {
             program: "yade".into(),
             processes: vec![1],
             density: self.0.density,
             time_step: self.0.time_step,
             safety: self.0.safety,
         };
-        Some(SpecimenDeck {
+        Ok(Some(Decks {
             launch,
-            run: specimen::yade::run,
-        })
-    }
-
-    fn strength(
-        &self,
-        p: &Problem,
-        test: &super::strength::StrengthTest,
-        progress: Progress,
-    ) -> Result<Report<super::strength::StrengthDetails>> {
-        let launch = super::strength::Launch {
-            program: "yade".into(),
-            processes: vec![1],
-            density: self.0.density,
-            safety: self.0.safety,
-        };
-        super::strength::yade::run(&launch, p, test, progress)
+            specimen: specimen::yade::run,
+            strength: Box::new(super::strength::yade::run),
+        }))
     }
 }
 

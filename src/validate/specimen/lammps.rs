@@ -12,8 +12,8 @@
 
 use super::{
     atom_lines, bond_lines_one_type_each, box_lines, num, platens_name, relax_in_chunks,
-    remaining_change, specimen_mass, DeckLaunch, DeckPlan, DeckStart, EngineMeasurement,
-    ScriptDeck, SpecimenTest,
+    remaining_change, specimen_mass, DeckPlan, DeckStart, EngineMeasurement, Launch, ScriptDeck,
+    SpecimenTest,
 };
 use crate::bonds::{BondSet, BondStiffness};
 use crate::homogenize::network::LeverArm;
@@ -354,7 +354,7 @@ pub(in crate::validate) const DECK: ScriptDeck = ScriptDeck {
 
 /// Write the test's `data.lmp` and `bond_coeffs.lmp` into its directory; returns the deck
 /// `in.specimen` with the plan's time step and δ and the viscous damping.
-fn write_deck_files(start: &DeckStart, launch: &DeckLaunch, plan: &DeckPlan) -> Result<String> {
+fn write_deck_files(start: &DeckStart, launch: &Launch, plan: &DeckPlan) -> Result<String> {
     let DeckStart { test, asm, .. } = start;
     let (types, far_block) = &start.types;
     let packing = &asm.packing;

@@ -12,12 +12,12 @@
 //! mid-gap contact point ([`LeverArm::MidGap`]).
 
 use super::{
-    atom_lines, box_lines, num, platens_name, relax_in_chunks, remaining_change, DeckLaunch,
-    DeckPlan, DeckStart, EngineMeasurement, ScriptDeck, SpecimenTest,
+    atom_lines, box_lines, num, platens_name, relax_in_chunks, remaining_change, DeckPlan,
+    DeckStart, EngineMeasurement, Launch, ScriptDeck, SpecimenTest,
 };
 use crate::assembly::Assembly;
 use crate::bonds::table;
-use crate::export::liggghts::{run_liggghts, Launch};
+use crate::export::liggghts::{run_liggghts, Launch as RunLaunch};
 use crate::homogenize::network::LeverArm;
 use crate::specimen::Platens;
 use crate::{Error, Result};
@@ -165,7 +165,7 @@ pub(in crate::validate) const DECK: ScriptDeck = ScriptDeck {
 
 /// Write the test's `specimen.data` into its directory; returns the deck `specimen.in`
 /// with the plan's time step and damping rate and the top layer's speed.
-fn write_deck(start: &DeckStart, launch: &DeckLaunch, plan: &DeckPlan) -> Result<String> {
+fn write_deck(start: &DeckStart, launch: &Launch, plan: &DeckPlan) -> Result<String> {
     let DeckStart { test, asm, .. } = start;
     let (types, far_block) = &start.types;
     let max_len = asm.bonds.length.iter().copied().fold(0.0, f64::max);
@@ -185,7 +185,7 @@ fn write_deck(start: &DeckStart, launch: &DeckLaunch, plan: &DeckPlan) -> Result
 /// Run `specimen.in` with the driver in `dir` on `np` processes, its log kept as
 /// `log-npN.liggghts`; returns its output and wall time (s).
 fn run_driver(driver: &Path, dir: &Path, np: usize) -> Result<(String, f64)> {
-    let launch = Launch {
+    let launch = RunLaunch {
         program: driver.to_path_buf(),
         mpi_processes: (np > 1).then_some(np),
         vars: Vec::new(),

@@ -4,10 +4,11 @@
 //! quasi-statically to equilibrium; the engine's platen stiffness F/δ against the specimen
 //! solve's ([`crate::specimen::solve`]) with the engine's contact-point convention.
 //!
-//! An engine gives its deck in [`super::Engine::specimen_deck`]: the deck runs its code and
+//! An engine gives its deck in [`super::Engine::decks`]: the deck runs its code and
 //! returns an [`EngineMeasurement`]; [`compare`] makes the [`Report`] with the one check
 //! `platen-stiffness` (|k_engine − k_solve| / k_solve, default tolerance 1e-3).
 
+pub use super::harness::Launch;
 use super::harness::{Check, EngineDetails, Report, SharedDetails, Timing};
 use crate::assembly::Assembly;
 use crate::homogenize::network::LeverArm;
@@ -29,64 +30,12 @@ pub mod outputs {
     pub const CHECKS_CSV: &str = "checks.csv";
 }
 
-/// How an engine runs its specimen deck: the settings of `validate ENGINE` the deck takes,
-/// given by the engine's [`super::Engine::specimen_deck`] (so a deck depends on no engine
-/// file).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DeckLaunch {
-    /// The program run (`lmp`, the LIGGGHTS driver; YADE is found on PATH).
-    pub program: PathBuf,
-    /// The process counts of the runs compared (1, then more with `-np`).
-    pub processes: Vec<usize>,
-    /// Particle density (kg/m³).
-    pub density: f64,
-    /// Time step (s); `None`: `safety` × the engine's stable step.
-    pub time_step: Option<f64>,
-    /// Fraction of the stable step taken when `time_step` is `None`.
-    pub safety: f64,
-}
-
-impl DeckLaunch {
-    /// The deck's time step (s): `time_step`, else `safety` × the stable step of `asm` at
-    /// `density` ([`crate::export::liggghts::stable_timestep`]).
-    pub(super) fn step(&self, asm: &Assembly) -> Result<f64> {
-        match self.time_step {
-            Some(dt) => Ok(dt),
-            None => Ok(self.safety
-                * crate::export::liggghts::stable_timestep(
-                    &asm.packing,
-                    &asm.bonds,
-                    &asm.springs,
-                    self.density,
-                )?),
-        }
-    }
-}
-
-/// Runs an engine's specimen deck with its [`DeckLaunch`]: writes, runs and reads the deck,
-/// and compares with the solve ([`compare`]).
-pub type DeckRunner = fn(
-    &DeckLaunch,
-    &super::Problem,
-    &SpecimenTest,
-    super::engine::Progress,
-) -> Result<Report<SpecimenDetails>>;
-
-/// An engine's specimen deck as [`super::Engine::specimen_deck`] gives it: the settings of
-/// `validate ENGINE` it takes and its runner.
-pub struct SpecimenDeck {
-    /// The settings.
-    pub launch: DeckLaunch,
-    /// The runner.
-    pub run: DeckRunner,
-}
-
 /// The numbers every deck-driven engine's deck takes from the solve.
 pub(super) struct DeckPlan {
     /// Shortening δ = strain × the gauge length (between the layers' mean centres), as the
     /// solve (m).
     pub delta: f64,
-    /// Time step (s), [`DeckLaunch::step`].
+    /// Time step (s), [`Launch::step`].
     pub dt: f64,
     /// Damping rate √(K/M)/4 (1/s) of the specimen's slow modes, K the solve's platen
     /// stiffness, M the specimen's mass ([`specimen_mass`]); it changes the way to rest,
@@ -111,9 +60,9 @@ pub(super) struct ScriptDeck {
     /// The deck's file name in that directory.
     pub deck_file: &'static str,
     /// Write the deck's data files into the start's directory; returns the deck.
-    pub write: fn(&DeckStart, &DeckLaunch, &DeckPlan) -> Result<String>,
+    pub write: fn(&DeckStart, &Launch, &DeckPlan) -> Result<String>,
     /// Run the written deck once on `np` processes and read what it measured.
-    pub run_once: fn(&DeckStart, &DeckLaunch, &DeckPlan, usize) -> Result<EngineMeasurement>,
+    pub run_once: fn(&DeckStart, &Launch, &DeckPlan, usize) -> Result<EngineMeasurement>,
 }
 
 impl ScriptDeck {
@@ -122,7 +71,7 @@ impl ScriptDeck {
     /// reported in `progress`), compared with the solve.
     pub(super) fn run(
         &self,
-        launch: &DeckLaunch,
+        launch: &Launch,
         problem: &super::Problem,
         test: &SpecimenTest,
         progress: super::engine::Progress,
@@ -140,7 +89,7 @@ impl ScriptDeck {
         let mass = specimen_mass(&asm.packing, launch.density);
         let plan = DeckPlan {
             delta: start.test.strain() * predicted.length,
-            dt: launch.step(asm)?,
+            dt: launch.step(&asm.packing, &asm.bonds, &asm.springs)?,
             damping_rate: (predicted.platen_stiffness / mass).sqrt() / 4.0,
         };
         let deck = (self.write)(&start, launch, &plan)?;

@@ -6,7 +6,7 @@
 //! YADE's mid-gap contact point ([`LeverArm::MidGap`]).
 
 use super::{
-    compare, free_assembly, platens_name, predict_reported, DeckLaunch, EngineMeasurement,
+    compare, free_assembly, platens_name, predict_reported, EngineMeasurement, Launch,
     SpecimenDetails, SpecimenTest,
 };
 use crate::bonds::table;
@@ -62,7 +62,7 @@ fn script(args: &[(&str, String)]) -> String {
 
 /// Run YADE's platen test of `problem`'s free specimen and compare with the solve.
 pub fn run(
-    opts: &DeckLaunch,
+    opts: &Launch,
     problem: &Problem,
     test: &SpecimenTest,
     progress: Progress,
@@ -115,7 +115,7 @@ pub fn run(
 
 /// The options of `platen_main` for `test` (flag, value): the end layers, the platens, the
 /// strain, the damping, the density, the time step, the settling rule.
-fn platen_args(test: &SpecimenTest, opts: &DeckLaunch) -> Vec<(&'static str, String)> {
+fn platen_args(test: &SpecimenTest, opts: &Launch) -> Vec<(&'static str, String)> {
     let mut args = vec![
         ("--axis", test.axis.to_string()),
         ("--depth", format!("{:e}", test.end_layer)),

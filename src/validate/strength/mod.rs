@@ -12,7 +12,7 @@
 //! [`StrengthTest::peak_drop`] after bonds broke), so that broken pairs locking up as
 //! contacts after the failure (re-hardening) do not count.
 //!
-//! An engine implements [`super::Engine::strength`]: it runs its code and returns a
+//! An engine gives its strength deck in [`super::Engine::decks`]: it runs its code and returns a
 //! [`StrengthRun`] per process count; [`reference()`] runs the integrator; [`compare`] makes
 //! the [`Report`] with, per run, `peak-stress` (|σ_engine − σ_integrator| / σ_integrator,
 //! default tolerance 2 %) and `first-breaks` (how many of the first ten broken bonds, in
@@ -35,20 +35,7 @@ pub mod lammps;
 pub mod liggghts;
 pub mod yade;
 
-/// How an engine runs its strength test: its program, the process counts, the density and
-/// the time step (given by the engine's [`super::Engine::strength`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Launch {
-    /// The program (`lmp`; YADE is found on PATH).
-    pub program: PathBuf,
-    /// Process counts of the runs compared (1, then more with `-np`).
-    pub processes: Vec<usize>,
-    /// Particle density (kg/m³).
-    pub density: f64,
-    /// Fraction of the single-particle stable step taken as the time step (the same in the
-    /// engine and the integrator).
-    pub safety: f64,
-}
+pub use super::harness::Launch;
 
 /// What every engine's strength test starts from: `problem`'s model, its bonds' strengths
 /// (`[strength]`, docs/strength.md) and the integrator's criteria for `law`. Refuses a problem
@@ -97,7 +84,7 @@ pub struct Start<'a> {
     pub strengths: BondStrengths,
     /// The integrator's criteria for the engine's law.
     pub criteria: BondCriteria,
-    /// The loading at the test's [`time_step`], with frictional contacts after breaking
+    /// The loading at the test's time step ([`Launch::step`]), with frictional contacts after breaking
     /// ([`contact_law`]) in compression.
     pub loading: Loading,
     /// The engine's directory (created).
@@ -106,7 +93,7 @@ pub struct Start<'a> {
 
 impl<'a> Start<'a> {
     /// The start of `engine`'s run of `test` with `law` in the directory `sub` of the
-    /// problem's: [`strength_setup`], [`time_step`], [`Loading::of`] (with contacts in
+    /// problem's: [`strength_setup`], [`Launch::step`], [`Loading::of`] (with contacts in
     /// compression), the directory created.
     pub fn of(
         engine: &str,
@@ -117,7 +104,7 @@ impl<'a> Start<'a> {
         test: &StrengthTest,
     ) -> Result<Start<'a>> {
         let (model, strengths, criteria) = strength_setup(engine, problem, law)?;
-        let dt = time_step(problem, launch)?;
+        let dt = launch.step(problem.packing, problem.bonds, problem.springs)?;
         let mut loading = Loading::of(problem.packing, test, dt, engine)?;
         if test.loading == StrengthLoading::Compression {
             loading.contacts = Some(contact_law(problem.springs, &strengths)?);
@@ -156,18 +143,6 @@ pub fn runs_per_process(
         measured.push(m);
     }
     Ok(measured)
-}
-
-/// The time step of a strength test: `safety` × the single-particle stable step of the
-/// exports ([`crate::export::liggghts::stable_timestep`]).
-pub fn time_step(problem: &super::Problem, launch: &Launch) -> Result<f64> {
-    Ok(launch.safety
-        * crate::export::liggghts::stable_timestep(
-            problem.packing,
-            problem.bonds,
-            problem.springs,
-            launch.density,
-        )?)
 }
 
 /// Files a strength validation writes into its directory.
