@@ -1,7 +1,8 @@
 //! Cost of the many-body term in the relaxed solve (issue 33: at most 2× the solve without
 //! it; BENCHMARKS.md "Many-body term: relaxed solve"). Run with
 //! `cargo bench --bench manybody` (release build; RAYON_NUM_THREADS sets the thread count;
-//! ANISOBOND_BENCH_PARTICLES the size, default the demo's 30,700). For instruction counts
+//! ANISOBOND_BENCH_PARTICLES the size, default the demo's 30,700; ANISOBOND_BENCH_SEED the
+//! packing's seed, default 2018). For instruction counts
 //! (`valgrind --tool=callgrind`, repeatable on a loaded machine): ANISOBOND_BENCH_ONCE=1 runs
 //! each solve once and stops, ANISOBOND_BENCH_ONLY=none|pair|term only the packing, or it and
 //! one solve (the solve's count is the difference from `none`'s).
@@ -62,9 +63,16 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(30_700);
     let threads = rayon::current_num_threads();
+    // ANISOBOND_BENCH_SEED: another packing (seed 1 is the CLI's `pack --preset
+    // truszkowska-standard`, with nearly degenerate particles, docs/manybody.md).
+    let seed = std::env::var("ANISOBOND_BENCH_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(GenerateOptions::default().seed);
     let p = generate(
         &GenerateOptions {
             n_particles: n,
+            seed,
             ..Default::default()
         },
         &|_| {},

@@ -18,6 +18,7 @@ use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
 use super::sparse::{mul6_cols, BlockSparse};
 use super::term_operator::TermOperator;
+use super::term_preconditioner::StiffGroups;
 use super::two_level::TwoLevel;
 use crate::bonds::{BondSet, BondStiffness};
 use crate::manybody::ManyBody;
@@ -348,6 +349,7 @@ fn relaxed_solve_full(
                 k: &springs,
                 term: term_op.as_ref(),
                 diag,
+                groups: term_op.as_ref().and_then(|t| StiffGroups::new(&springs, t)),
             };
             let two_level = coarse_space(packing, &net, &op, preconditioner, opts.rotations)?;
             // The multigrid hierarchy is built on the assembled matrix: the springs', plus
@@ -457,6 +459,8 @@ struct Stiffness<'a> {
     k: &'a BlockSparse,
     term: Option<&'a TermOperator>,
     diag: Vec<[f64; 6]>,
+    /// Dense diagonal blocks of the preconditioner over the term's stiff stencils.
+    groups: Option<StiffGroups>,
 }
 
 impl Stiffness<'_> {
@@ -696,6 +700,7 @@ fn held_cg(
         k,
         term: None,
         diag,
+        groups: None,
     };
     pcg(&op, b, &pre, coarse, &scale, &opts, None)
 }
@@ -801,6 +806,7 @@ fn pcg(
     let cols = live.iter().rposition(|&l| l).map_or(1, |c| c + 1);
     let mut precondition = Preconditioner::new(pre, two_level, cols, m);
     precondition.amg = amg;
+    precondition.groups = k.groups.as_ref();
     let (mut x, mut r) = cg_start(k, b, start, &live, two_level)?;
     let mut z = vec![Block6::zeros(); m];
     precondition.apply(&r, &mut z)?;
@@ -874,6 +880,8 @@ struct Preconditioner<'a> {
     t: Vec<Block6>,
     /// The multigrid V-cycle, when used instead.
     amg: Option<&'a Amg<'a>>,
+    /// The term's stiff stencils as dense blocks of M (term_preconditioner.rs).
+    groups: Option<&'a StiffGroups>,
 }
 
 impl<'a> Preconditioner<'a> {
@@ -895,6 +903,7 @@ impl<'a> Preconditioner<'a> {
             w,
             t,
             amg: None,
+            groups: None,
         }
     }
 
@@ -916,9 +925,15 @@ impl<'a> Preconditioner<'a> {
         }
         let Some(tl) = self.two_level else {
             Self::jacobi(self.pre, self.cols, r, z);
+            if let Some(g) = self.groups {
+                g.apply(r, z, self.cols);
+            }
             return Ok(());
         };
         Self::jacobi(self.pre, self.cols, r, &mut self.w); // w = M r
+        if let Some(g) = self.groups {
+            g.apply(r, &mut self.w, self.cols);
+        }
         tl.coarse_of_k_cols(&self.w, &mut self.t, self.cols)?; // t = Q K w
         z.par_iter_mut()
             .zip(self.w.par_iter().zip(self.t.par_iter()))

@@ -21,7 +21,7 @@ use std::sync::{Mutex, MutexGuard};
 
 /// N(v): the engineering strain (Voigt) of δF = u ⊗ v per displacement u; the force that a
 /// Voigt stress s puts on the node of coefficient v is N(v)ᵀ s.
-fn strain_map(v: &Vec3) -> Matrix6x3<f64> {
+pub(crate) fn strain_map(v: &Vec3) -> Matrix6x3<f64> {
     Matrix6x3::new(
         v.x, 0.0, 0.0, //
         0.0, v.y, 0.0, //
@@ -174,6 +174,27 @@ impl TermOperator {
         } else {
             &self.d6[self.owner_tensor[o] as usize]
         }
+    }
+
+    /// Owners (particles in the term, V_p > 0).
+    pub(crate) fn owners(&self) -> usize {
+        self.volume.len()
+    }
+
+    /// Owner `o`'s V_p, D and stencil (active nodes and their coefficients c_n).
+    pub(crate) fn owner(&self, o: usize) -> (f64, &Stiffness6, &[u32], &[Vec3]) {
+        let span = self.start[o]..self.start[o + 1];
+        (
+            self.volume[o],
+            self.d_of(o),
+            &self.node[span.clone()],
+            &self.coef[span],
+        )
+    }
+
+    /// The owners whose stencil holds active row `r`, ascending.
+    pub(crate) fn owners_of_row(&self, r: usize) -> &[u32] {
+        &self.row_owner[self.row_start[r]..self.row_start[r + 1]]
     }
 
     /// The term's tensors D (one, or one per grain).
