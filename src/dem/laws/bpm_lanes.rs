@@ -14,8 +14,8 @@
 
 use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, StepInputs};
 use super::lanes::{
-    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F, LANES,
-    V,
+    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub,
+    transpose4, F, LANES, V,
 };
 use crate::dem::quat::{Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
@@ -53,23 +53,6 @@ fn series_range(y: F, x: F) -> F {
 #[target_feature(enable = "avx2")]
 fn xor(a: F, b: F) -> F {
     _mm256_xor_pd(a, b)
-}
-
-/// 4×4 transpose: four rows (a lane's four values in memory order) to four columns (one
-/// value of the four lanes), and back (it is its own inverse).
-#[inline]
-#[target_feature(enable = "avx2")]
-fn transpose4(r: [F; LANES]) -> [F; LANES] {
-    let t0 = _mm256_unpacklo_pd(r[0], r[1]);
-    let t1 = _mm256_unpackhi_pd(r[0], r[1]);
-    let t2 = _mm256_unpacklo_pd(r[2], r[3]);
-    let t3 = _mm256_unpackhi_pd(r[2], r[3]);
-    [
-        _mm256_permute2f128_pd::<0x20>(t0, t2),
-        _mm256_permute2f128_pd::<0x20>(t1, t3),
-        _mm256_permute2f128_pd::<0x31>(t0, t2),
-        _mm256_permute2f128_pd::<0x31>(t1, t3),
-    ]
 }
 
 /// Four rows of four values at `p[l]`, as columns.
