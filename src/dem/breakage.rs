@@ -34,6 +34,8 @@ struct ChunkScratch {
     shear_sq: Vec<f64>,
     local: Vec<LocalLoads>,
     bpm: Vec<[f64; 4]>,
+    /// Bonds of the chunk that LAMMPS's quick test did not clear (AVX2 path).
+    uncleared: Vec<usize>,
 }
 
 /// The quick test of LAMMPS's criterion ([`lammps_bpm`]): true when the bond with elastic
@@ -50,6 +52,46 @@ fn bpm_clearly_holds(parts: &[f64; 4], factors: &[f64; 4]) -> bool {
     let head = 1.0 - fr * ir;
     let rest = 3.0 * ((fs2 * is2 + tb2 * ib2) + tt2 * it2);
     head > 0.0 && rest < head * head * (1.0 - 1e-9)
+}
+
+/// [`bpm_clearly_holds`] on four bonds at once (AVX2, the same IEEE operations per lane, so
+/// the same verdicts): one bit per bond, set where it surely holds.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn bpm_clearly_hold4(parts: &[[f64; 4]; 4], factors: &[[f64; 4]; 4]) -> i32 {
+    use super::laws::lanes::{add, gt, ld, lt, movemask, mul, select, splat, sub, transpose4};
+    let rows = |a: &[[f64; 4]; 4]| transpose4([ld(a[0]), ld(a[1]), ld(a[2]), ld(a[3])]);
+    let [fr, fs2, tb2, tt2] = rows(parts);
+    let [ir, is2, ib2, it2] = rows(factors);
+    let head = sub(splat(1.0), mul(fr, ir));
+    let rest = mul(
+        splat(3.0),
+        add(add(mul(fs2, is2), mul(tb2, ib2)), mul(tt2, it2)),
+    );
+    let positive = gt(head, splat(0.0));
+    let inside = lt(rest, mul(mul(head, head), splat(1.0 - 1e-9)));
+    movemask(select(positive, inside, splat(0.0)))
+}
+
+/// [`bpm_clearly_hold4`] over the groups of four of a chunk: the positions `k` (in order)
+/// of the bonds it does not clear, pushed to `out`; returns how many bonds it tested (the
+/// rest, fewer than four, are left to the scalar test).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn bpm_not_clearly_held(parts: &[[f64; 4]], factors: &[[f64; 4]], out: &mut Vec<usize>) -> usize {
+    let len = parts.len().min(factors.len());
+    let mut k0 = 0;
+    while k0 + 4 <= len {
+        let p: &[[f64; 4]; 4] = parts[k0..k0 + 4].try_into().expect("four");
+        let f: &[[f64; 4]; 4] = factors[k0..k0 + 4].try_into().expect("four");
+        let held = bpm_clearly_hold4(p, f);
+        if held != 0b1111 {
+            out.extend((0..4).filter(|l| held >> l & 1 == 0).map(|l| k0 + l));
+        }
+        k0 += 4;
+    }
+    k0
 }
 
 /// One bond breaking in the integrator.
@@ -372,7 +414,31 @@ impl BondCriteria {
             let an = &self.screen_normal[first..end];
             let as_ = &self.screen_shear[first..end];
             let tan = &self.screen_tan[first..end];
-            for k in 0..len {
+            let mut k0 = 0;
+            #[cfg(target_arch = "x86_64")]
+            if quick && !screens && std::arch::is_x86_feature_detected!("avx2") {
+                // LAMMPS's quick test four bonds at a time; the bonds it does not clear
+                // judged in full, in bond order (as the loop below).
+                s.uncleared.clear();
+                // SAFETY: the CPU has AVX2 (checked above).
+                k0 = unsafe {
+                    bpm_not_clearly_held(
+                        &s.bpm[..len],
+                        &self.bpm_screen[first..end],
+                        &mut s.uncleared,
+                    )
+                };
+                for &k in &s.uncleared {
+                    let b = first + k;
+                    if intact[b] {
+                        let f = self.per_bond[b].judge(law, particles, b);
+                        if f.broken {
+                            out.push((b, f));
+                        }
+                    }
+                }
+            }
+            for k in k0..len {
                 let b = first + k;
                 if !intact[b] {
                     continue;
@@ -495,5 +561,56 @@ mod tests {
         // NaN factors (another criterion) and NaN loads are never cleared.
         assert!(!bpm_clearly_holds(&[0.0; 4], &[f64::NAN; 4]));
         assert!(!bpm_clearly_holds(&[f64::NAN, 0.0, 0.0, 0.0], &factors));
+    }
+
+    /// The AVX2 quick test gives the scalar test's verdict on every bond (the same IEEE
+    /// operations per lane): loads and factors near the test's boundary, NaN factors and
+    /// loads, in groups of four and over a chunk whose length is not a multiple of four.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn bpm_quick_test_in_lanes_is_the_scalar_test() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: no AVX2 on this CPU");
+            return;
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 40_003;
+        let mut parts = Vec::with_capacity(n);
+        let mut factors = Vec::with_capacity(n);
+        for k in 0..n {
+            let mut p = [2.0 * uniform() - 0.5, uniform(), uniform(), uniform()];
+            let mut f = [1.0, 0.1 * uniform(), 0.1 * uniform(), 0.1 * uniform()];
+            match k % 97 {
+                0 => f = [f64::NAN; 4],
+                1 => p[0] = f64::NAN,
+                2 => p = [0.0; 4],
+                _ => {}
+            }
+            // Some bonds exactly at 3·S = (1 − X)², where the margin decides.
+            if k % 5 == 0 {
+                let head = 1.0 - p[0] * f[0];
+                p[3] = 0.0;
+                p[2] = 0.0;
+                f[1] = 1.0;
+                p[1] = head * head / 3.0;
+            }
+            parts.push(p);
+            factors.push(f);
+        }
+        let mut uncleared = Vec::new();
+        // SAFETY: AVX2 checked above.
+        let tested = unsafe { bpm_not_clearly_held(&parts, &factors, &mut uncleared) };
+        assert_eq!(tested, n - n % 4);
+        let expected: Vec<usize> = (0..tested)
+            .filter(|&k| !bpm_clearly_holds(&parts[k], &factors[k]))
+            .collect();
+        assert!(expected.len() > 1000 && expected.len() < tested - 1000);
+        assert_eq!(uncleared, expected);
     }
 }

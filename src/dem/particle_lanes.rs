@@ -6,8 +6,46 @@ use super::laws::lanes::{
     add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
 };
 use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
-use super::state::UpdateConsts;
+use super::state::{BondLoad, UpdateConsts};
 use crate::{Mat3, Vec3};
+use std::arch::x86_64::*;
+
+const _: () = {
+    assert!(std::mem::size_of::<BondLoad>() == 72);
+    assert!(std::mem::offset_of!(BondLoad, force_i) == 0);
+    assert!(std::mem::offset_of!(BondLoad, torque_i) == 24);
+    assert!(std::mem::offset_of!(BondLoad, torque_j) == 48);
+};
+
+/// The bond part of a particle's resultant (`sim::Resultants::at`): starting from the force
+/// `f`, f ± force_i (as f + (±1)·force_i) and t + torque_i or torque_j of each CSR entry
+/// `2·bond + side` in order, one AVX2 register per 3-vector (the fourth lane unused), so the
+/// same IEEE operations per component as the scalar loop and the same bits.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn gather_bond_loads(f: Vec3, entries: &[u32], loads: &[BondLoad]) -> (Vec3, Vec3) {
+    const SIGN: [f64; 2] = [1.0, -1.0];
+    let mut fv = _mm256_setr_pd(f.x, f.y, f.z, 0.0);
+    let mut tv = _mm256_setzero_pd();
+    let three = _mm256_setr_epi64x(-1, -1, -1, 0);
+    for &e in entries {
+        let side = (e & 1) as usize;
+        let p = &loads[(e >> 1) as usize] as *const BondLoad as *const f64;
+        // SAFETY: a BondLoad is nine f64 (checked above): force_i and torque_i.x are its
+        // first four; the torque's three f64 at 3 or 6 are read under a mask (the fourth
+        // lane, past the record for torque_j, is not read).
+        let (force, torque) = unsafe {
+            (
+                _mm256_loadu_pd(p),
+                _mm256_maskload_pd(p.add(3 + 3 * side), three),
+            )
+        };
+        fv = _mm256_add_pd(fv, _mm256_mul_pd(force, _mm256_set1_pd(SIGN[side])));
+        tv = _mm256_add_pd(tv, torque);
+    }
+    let (f, t) = (st4(fv), st4(tv));
+    (Vec3::new(f[0], f[1], f[2]), Vec3::new(t[0], t[1], t[2]))
+}
 
 /// M·x for a matrix shared by all lanes, in nalgebra's order ((m₀·x + m₁·y) + m₂·z).
 #[inline]

@@ -125,18 +125,32 @@ impl Resultants<'_> {
             Some(e) => e.force[k] * e.scale,
             None => Vec3::zeros(),
         };
+        let entries = &self.entries[self.start[k]..self.start[k + 1]];
+        #[cfg(target_arch = "x86_64")]
+        let lanes = self.lanes;
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
         let mut t = Vec3::zeros();
-        for &e in &self.entries[self.start[k]..self.start[k + 1]] {
-            let load = &self.loads[(e >> 1) as usize];
-            let j_side = e & 1 == 1;
-            let sign = if j_side { -1.0 } else { 1.0 };
-            let torque = if j_side {
-                &load.torque_j
-            } else {
-                &load.torque_i
-            };
-            f += load.force_i * sign;
-            t += torque;
+        if lanes {
+            #[cfg(target_arch = "x86_64")]
+            {
+                // SAFETY: `lanes` is set only where the CPU has AVX2.
+                (f, t) =
+                    unsafe { super::particle_lanes::gather_bond_loads(f, entries, self.loads) };
+            }
+        } else {
+            for &e in entries {
+                let load = &self.loads[(e >> 1) as usize];
+                let j_side = e & 1 == 1;
+                let sign = if j_side { -1.0 } else { 1.0 };
+                let torque = if j_side {
+                    &load.torque_j
+                } else {
+                    &load.torque_i
+                };
+                f += load.force_i * sign;
+                t += torque;
+            }
         }
         if let Some((cf, ct)) = self.contact {
             f += cf[k];

@@ -64,6 +64,9 @@ pub(super) struct BpmBond {
     /// the AVX2 lanes skip it, the scalar kernel only keeps its normal current (no one reads
     /// a broken bond's record).
     pub(super) broken: bool,
+    /// `image2` is not zero (set by `initialize`; the AVX2 lanes test this byte per bond
+    /// and step instead of three coordinates).
+    pub(super) imaged: bool,
     /// Some damping coefficient is > 0 (set with the coefficients by `initialize`; the AVX2
     /// lanes read it instead of comparing four coefficients per bond and step).
     pub(super) damped: bool,

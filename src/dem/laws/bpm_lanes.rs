@@ -14,8 +14,8 @@
 
 use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, StepInputs};
 use super::lanes::{
-    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub, F, LANES,
-    V,
+    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub,
+    transpose4, F, LANES, V,
 };
 use crate::dem::quat::{Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
@@ -53,23 +53,6 @@ fn series_range(y: F, x: F) -> F {
 #[target_feature(enable = "avx2")]
 fn xor(a: F, b: F) -> F {
     _mm256_xor_pd(a, b)
-}
-
-/// 4×4 transpose: four rows (a lane's four values in memory order) to four columns (one
-/// value of the four lanes), and back (it is its own inverse).
-#[inline]
-#[target_feature(enable = "avx2")]
-fn transpose4(r: [F; LANES]) -> [F; LANES] {
-    let t0 = _mm256_unpacklo_pd(r[0], r[1]);
-    let t1 = _mm256_unpackhi_pd(r[0], r[1]);
-    let t2 = _mm256_unpacklo_pd(r[2], r[3]);
-    let t3 = _mm256_unpackhi_pd(r[2], r[3]);
-    [
-        _mm256_permute2f128_pd::<0x20>(t0, t2),
-        _mm256_permute2f128_pd::<0x20>(t1, t3),
-        _mm256_permute2f128_pd::<0x31>(t0, t2),
-        _mm256_permute2f128_pd::<0x31>(t1, t3),
-    ]
 }
 
 /// Four rows of four values at `p[l]`, as columns.
@@ -150,8 +133,9 @@ unsafe fn gather_quat(s: &[Quat], i: [usize; LANES]) -> [F; LANES] {
 /// written nothing, when a lane is off the common path (module docs).
 ///
 /// # Safety
-/// Every particle index of the bonds must be below the length of every particle array
-/// (unchecked reads).
+/// Every particle index of the bonds must be below the length of every particle array, and
+/// every `idx` below the length of `bonds`, `coeffs`, `results` and `out` (unchecked reads
+/// and writes).
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn kernel4(
@@ -164,7 +148,9 @@ unsafe fn kernel4(
     sum: &mut f64,
 ) -> bool {
     let p = inp.particles;
-    let bd = idx.map(|k| &bonds[k]);
+    // SAFETY (every unchecked index below): the caller's `idx` are below the length of
+    // `bonds`, `coeffs`, `results` and `out` (checked once per chunk).
+    let bd = idx.map(|k| unsafe { bonds.get_unchecked(k) });
     let ia = bd.map(|b| b.p1 as usize);
     let ib = bd.map(|b| b.p2 as usize);
     let zero = splat(0.0);
@@ -210,7 +196,8 @@ unsafe fn kernel4(
         y: m1.dot(r0b),
         z: m2.dot(r0b),
     };
-    let cp = idx.map(|k| &coeffs[k] as *const BpmCoefficients as *const f64);
+    let cp =
+        idx.map(|k| unsafe { coeffs.get_unchecked(k) } as *const BpmCoefficients as *const f64);
     // SAFETY: BpmCoefficients is eight f64 (repr(C), k_r k_s k_t k_b then the dampings).
     let [kr, ks, kt, kb] = unsafe { load_rows(cp) };
     let fr = mul(kr, sub(r_mag, r0_mag));
@@ -306,16 +293,23 @@ unsafe fn kernel4(
             .scale(mul(half, gt_));
         dt12 = dt12.add(ttw);
         dt21 = dt21.sub(ttw);
-        let mask = ld(damped.map(|d| if d { f64::from_bits(u64::MAX) } else { 0.0 }));
-        force = V::select(mask, force.add(df), force);
-        t12 = V::select(mask, t12.add(dt12), t12);
-        t21 = V::select(mask, t21.add(dt21), t21);
         let pw = add(
             add(add(df.neg().dot(v1), df.dot(v2)), dt21.dot(w1)),
             dt12.dot(w2),
         );
-        // An undamped lane adds −0 (x − 0 = x): the scalar kernel adds nothing there.
-        power = st4(select(mask, pw, zero));
+        if damped.iter().all(|&d| d) {
+            force = force.add(df);
+            t12 = t12.add(dt12);
+            t21 = t21.add(dt21);
+            power = st4(pw);
+        } else {
+            let mask = ld(damped.map(|d| if d { f64::from_bits(u64::MAX) } else { 0.0 }));
+            force = V::select(mask, force.add(df), force);
+            t12 = V::select(mask, t12.add(dt12), t12);
+            t21 = V::select(mask, t21.add(dt21), t21);
+            // An undamped lane adds −0 (x − 0 = x): the scalar kernel adds nothing there.
+            power = st4(select(mask, pw, zero));
+        }
     }
     // The flipped ends (topology i = particle 2): a sign flip by −0.0 and a blend on its
     // sign bit, as the scalar kernel's branch.
@@ -337,10 +331,9 @@ unsafe fn kernel4(
     // Rows of the records: BondLoad (force_i, torque_i, torque_j) and BpmResult (F_r, |F_s|²,
     // |τ_b|², |τ_t|², force_j, normal), repr(C)/checked layouts; each set of rows stored as
     // soon as it is transposed (four registers live at a time).
-    assert!(idx.iter().all(|&k| k < out.len() && k < results.len()));
     let (ob, rb) = (out.as_mut_ptr(), results.as_mut_ptr());
-    // SAFETY: every index is in bounds (just checked); a BondLoad is nine f64 and a
-    // BpmResult ten (layouts checked above); the four bonds are distinct.
+    // SAFETY: every index is in bounds (the caller's guarantee); a BondLoad is nine f64 and
+    // a BpmResult ten (layouts checked above); the four bonds are distinct.
     let o = idx.map(|k| unsafe { ob.add(k) } as *mut f64);
     let rp = idx.map(|k| unsafe { rb.add(k) } as *mut f64);
     // SAFETY: as above.
@@ -407,14 +400,15 @@ pub(super) unsafe fn chunk_avx2(
             sum,
         )
     };
-    for k in 0..bonds.len() {
-        let b = &bonds[k];
+    let n_bonds = bonds.len();
+    assert!(coeffs.len() == n_bonds && results.len() == n_bonds && out.len() == n_bonds);
+    for (k, b) in bonds.iter().enumerate() {
         if b.broken {
             // Zero loads (left by the break) and nothing to the sums; its record is not read
             // again (the criteria skip broken bonds).
             continue;
         }
-        if b.image2 != Vec3::zeros() {
+        if b.imaged {
             // In order: the pending group first, then this bond.
             for &g in &group[..n] {
                 scalar(g, results, out, &mut sum);
@@ -427,7 +421,8 @@ pub(super) unsafe fn chunk_avx2(
         n += 1;
         if n == LANES {
             n = 0;
-            // SAFETY: the caller's guarantee covers these bonds.
+            // SAFETY: the caller's guarantee covers these bonds' particles; every index of
+            // `group` is below the four lengths (equal, asserted above).
             if !unsafe { kernel4(inp, bonds, coeffs, group, results, out, &mut sum) } {
                 for &g in &group {
                     scalar(g, results, out, &mut sum);

@@ -157,6 +157,7 @@ impl BondLaw for LammpsBpmLaw {
                 flipped,
                 flip: if flipped { -0.0 } else { 0.0 },
                 broken: self.bonds[b].broken,
+                imaged: image2 != Vec3::zeros(),
                 damped: {
                     let c = &self.coeffs[b];
                     c.gamma_n > 0.0 || c.gamma_s > 0.0 || c.gamma_r > 0.0 || c.gamma_t > 0.0

@@ -75,6 +75,23 @@ lane_ops! {
     ne(a: F, b: F) -> F = _mm256_cmp_pd::<_CMP_NEQ_UQ>(a, b);
 }
 
+/// 4×4 transpose: four rows (a lane's four values in memory order) to four columns (one
+/// value of the four lanes), and back (it is its own inverse).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn transpose4(r: [F; LANES]) -> [F; LANES] {
+    let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+    let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+    let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+    let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+    [
+        _mm256_permute2f128_pd::<0x20>(t0, t2),
+        _mm256_permute2f128_pd::<0x20>(t1, t3),
+        _mm256_permute2f128_pd::<0x31>(t0, t2),
+        _mm256_permute2f128_pd::<0x31>(t1, t3),
+    ]
+}
+
 #[derive(Clone, Copy)]
 pub(crate) struct V {
     pub(crate) x: F,
