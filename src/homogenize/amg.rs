@@ -34,7 +34,7 @@
 use super::amg_blocks::CompactRows;
 use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, Block6};
-use super::sparse::{mul6_cols, mul_add6, mul_add6_cols, BlockSparse};
+use super::sparse::{mul6_cols, mul_add6, BlockSparse, UpperBlocks};
 use crate::packing::PeriodicCell;
 use crate::{Error, Mat3, Result, Vec3};
 use nalgebra::Vector6;
@@ -690,7 +690,7 @@ struct Work {
 
 /// The multigrid hierarchy of a stiffness matrix (borrowed: the finest level's).
 pub struct Amg<'a> {
-    fine: &'a BlockSparse,
+    fine: Fine<'a>,
     /// The matrix of every coarse level in single precision (`None`: level 0, `fine`).
     ops: Vec<Option<CompactRows>>,
     /// Block rows of every level.
@@ -864,7 +864,7 @@ impl<'a> Amg<'a> {
         };
         drop(current);
         Ok(Amg {
-            fine: k,
+            fine: Fine::Full(k),
             ops,
             sizes,
             smoothers,
@@ -872,6 +872,21 @@ impl<'a> Amg<'a> {
             direct,
             work: Mutex::new(None),
         })
+    }
+
+    /// The same hierarchy with the finest level's products taken from `upper`, the upper
+    /// triangle of the matrix it was built on ([`UpperBlocks::of`]: the same bits), so that
+    /// matrix can be freed (issue 35).
+    pub(crate) fn on_upper(self, upper: &UpperBlocks) -> Amg<'_> {
+        Amg {
+            fine: Fine::Upper(upper),
+            ops: self.ops,
+            sizes: self.sizes,
+            smoothers: self.smoothers,
+            transfers: self.transfers,
+            direct: self.direct,
+            work: self.work,
+        }
     }
 
     /// Number of levels (the finest included).
@@ -908,7 +923,7 @@ impl<'a> Amg<'a> {
     fn residual(&self, l: usize, b: &[Block6], x: &[Block6], r: &mut [Block6], cols: usize) {
         match &self.ops[l] {
             Some(op) => op.residual(b, x, r, cols),
-            None => residual_of(self.fine, b, x, r, cols),
+            None => residual_of(&self.fine, b, x, r, cols),
         }
     }
 
@@ -916,7 +931,7 @@ impl<'a> Amg<'a> {
     fn subtract(&self, l: usize, d: &[Block6], r: &mut [Block6], cols: usize) {
         match &self.ops[l] {
             Some(op) => op.subtract_product(d, r, cols),
-            None => subtract_product(self.fine, d, r, cols),
+            None => subtract_product(&self.fine, d, r, cols),
         }
     }
 
@@ -1052,28 +1067,35 @@ impl<'a> Amg<'a> {
 }
 
 /// r = b − A x on the first `cols` load cases, row by row in a fixed order.
-fn residual_of(a: &BlockSparse, b: &[Block6], x: &[Block6], r: &mut [Block6], cols: usize) {
+fn residual_of(a: &Fine, b: &[Block6], x: &[Block6], r: &mut [Block6], cols: usize) {
     r.par_iter_mut()
         .zip(b.par_iter())
         .enumerate()
-        .for_each(|(p, (rp, bp))| {
-            let mut acc = Block6::zeros();
-            for (q, apq) in a.row(p) {
-                mul_add6_cols(&mut acc, apq, &x[q], cols);
-            }
-            *rp = bp - acc;
-        });
+        .for_each(|(p, (rp, bp))| *rp = bp - a.row_times(p, x, cols));
 }
 
 /// r −= A d on the first `cols` load cases, row by row in a fixed order.
-fn subtract_product(a: &BlockSparse, d: &[Block6], r: &mut [Block6], cols: usize) {
-    r.par_iter_mut().enumerate().for_each(|(p, rp)| {
-        let mut acc = Block6::zeros();
-        for (q, apq) in a.row(p) {
-            mul_add6_cols(&mut acc, apq, &d[q], cols);
+fn subtract_product(a: &Fine, d: &[Block6], r: &mut [Block6], cols: usize) {
+    r.par_iter_mut()
+        .enumerate()
+        .for_each(|(p, rp)| *rp -= a.row_times(p, d, cols));
+}
+
+/// The finest level's matrix: the one the hierarchy was built on, or its upper triangle
+/// ([`Amg::on_upper`]); a row's product sums its blocks in column order either way.
+enum Fine<'a> {
+    Full(&'a BlockSparse),
+    Upper(&'a UpperBlocks),
+}
+
+impl Fine<'_> {
+    #[inline(always)]
+    fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+        match self {
+            Fine::Full(a) => a.row_times(p, x, cols),
+            Fine::Upper(a) => a.row_times(p, x, cols),
         }
-        *rp -= acc;
-    });
+    }
 }
 
 #[cfg(test)]

@@ -65,7 +65,7 @@ pub use prestress::PrestressedTensor;
 pub use prestress::{prestressed_tensor, stress_measure_correction, Prestress};
 pub use relaxed::{
     relaxed_tensor, relaxed_tensor_with_term, CgPreconditioner, RelaxedOptions, RelaxedResult,
-    RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE,
+    RelaxedSolver, DEFAULT_PARTICLES_PER_AGGREGATE, MAX_AGGREGATES,
 };
 pub use report::Uncertainty;
 pub use report::{CubicSummary, TensorReport};

@@ -467,6 +467,13 @@ impl Network {
         el
     }
 
+    /// Free every bond's springs, geometry and preload once K is assembled (80 bytes a bond:
+    /// 0.3 GB at a million particles, issue 35); [`Network::element`] then panics.
+    pub(crate) fn release_springs(&mut self) {
+        self.laws = Vec::new();
+        self.axial = None;
+    }
+
     /// Active neighbours of every active particle (CSR: start offsets, neighbour list).
     pub fn adjacency(&self) -> (Vec<usize>, Vec<u32>) {
         csr(self.n_active, self.end_pairs(), |_, other| other as u32)

@@ -16,7 +16,7 @@
 use super::amg::Amg;
 use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
-use super::sparse::{mul6_cols, BlockSparse};
+use super::sparse::{mul6_cols, BlockRows, BlockSparse, UpperBlocks};
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
 use super::two_level::TwoLevel;
@@ -34,8 +34,8 @@ pub enum CgPreconditioner {
     #[default]
     BlockJacobi,
     /// Block-Jacobi plus an exact coarse solve on the rigid motions of spatial clusters of
-    /// about `particles_per_aggregate` particles (`two_level.rs`): iterations nearly
-    /// independent of N.
+    /// about `particles_per_aggregate` particles, more when that would make more than
+    /// [`MAX_AGGREGATES`] clusters (`two_level.rs`): iterations nearly independent of N.
     TwoLevel {
         /// Target cluster size.
         particles_per_aggregate: usize,
@@ -70,6 +70,20 @@ impl Default for RelaxedSolver {
 
 /// Default cluster size of the two-level preconditioner.
 pub const DEFAULT_PARTICLES_PER_AGGREGATE: usize = 128;
+
+/// The most clusters of the two-level preconditioner: its coarse Cholesky factor of the
+/// clusters' periodic 3-D grid costs time as the square and memory as the 4/3 power of their
+/// number (at 1,000,000 particles and 128 a cluster, 7,800 clusters: 53 CPU s and 2.2 GB,
+/// half the solve; issue 35). Above it clusters grow instead, which costs iterations (at
+/// 300,000 particles 43 with 128 a cluster, 49 with 245, 58 with 384). The grid's cells
+/// are rounded, so the count is about this at most.
+pub const MAX_AGGREGATES: usize = 4096;
+
+/// The cluster size of `m` particles for a requested `per_aggregate`: at least the request,
+/// and large enough for about [`MAX_AGGREGATES`] clusters at most.
+pub(crate) fn aggregate_size(per_aggregate: usize, m: usize) -> usize {
+    per_aggregate.max(m.div_ceil(MAX_AGGREGATES))
+}
 
 /// Options of the relaxed solver.
 #[derive(Clone, Copy, Debug)]
@@ -315,10 +329,17 @@ fn relaxed_solve_full(
             active: net.original,
         });
     }
-    let springs = BlockSparse::assemble(&net);
+    let assembled = BlockSparse::assemble(&net);
+    // K holds the springs from here on: free the network's copy before the solve's vectors.
+    net.release_springs();
     // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
     // assembled K; only the sparse Cholesky assembles it (below).
-    debug_assert_eq!(springs.rows(), m);
+    debug_assert_eq!(assembled.rows(), m);
+    // The two-level and block-Jacobi CG of the springs alone only read K's rows and multiply
+    // by it: its upper triangle serves (the same bits, half the memory; issue 35).
+    let products_only = term.is_none()
+        && matches!(opts.solver, RelaxedSolver::Cg { preconditioner } if preconditioner != CgPreconditioner::Amg);
+    let springs = Springs::of(assembled, products_only);
     let (pre, diag) = jacobi_pieces(&springs, term_op.as_ref());
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
@@ -333,50 +354,91 @@ fn relaxed_solve_full(
             *s = s.hypot(*t);
         }
     }
-    let (q, iterations, residual, (gtq, qtkq)) = match opts.solver {
-        RelaxedSolver::Cholesky => {
+    let (q, iterations, residual, (gtq, qtkq)) = match (opts.solver, springs) {
+        (RelaxedSolver::Cholesky, springs) => {
+            let springs = springs.full()?;
             let merged = match term {
-                Some(t) => Some(with_term_hessian(&springs, t, &net.index)?),
+                Some(t) => Some(with_term_hessian(springs, t, &net.index)?),
                 None => None,
             };
-            let kmat = merged.as_ref().unwrap_or(&springs);
+            let kmat = merged.as_ref().unwrap_or(springs);
             let (q, it, res) = cholesky_fluctuations(kmat, &net.g, &scale, opts.tolerance)?;
             let terms = kmat.fluctuation_terms(&net.g, &q);
             (q, it, res, terms)
         }
-        RelaxedSolver::Cg { preconditioner } => {
-            let op = Stiffness {
-                k: &springs,
-                term: term_op.as_ref(),
-                diag,
-                groups: term_op.as_ref().and_then(|t| StiffGroups::new(&springs, t)),
-            };
-            let two_level = coarse_space(packing, &net, &op, preconditioner, opts.rotations)?;
-            // The multigrid hierarchy is built on the assembled matrix: the springs', plus
-            // the term's Hessian when there is one.
-            let merged = match (preconditioner, term) {
-                (CgPreconditioner::Amg, Some(t)) => {
-                    Some(with_term_hessian(&springs, t, &net.index)?)
-                }
-                _ => None,
-            };
-            let amg = match preconditioner {
-                CgPreconditioner::Amg => {
-                    let kmat = merged.as_ref().unwrap_or(&springs);
-                    Some(Amg::of_network(
-                        kmat,
-                        packing,
-                        &net.original,
-                        opts.rotations,
-                    )?)
-                }
-                _ => None,
-            };
+        (RelaxedSolver::Cg { preconditioner }, springs) => {
             let start = initial.filter(|x| x.len() == m);
-            let coarse = (two_level.as_ref(), amg.as_ref());
-            let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
-            let terms = op.fluctuation_terms(&net.g, &q);
-            (q, it, res, terms)
+            if preconditioner == CgPreconditioner::Amg {
+                // The multigrid hierarchy is built on the assembled matrix: the springs',
+                // plus the term's Hessian when there is one.
+                let full = springs.full()?;
+                let merged = match term {
+                    Some(t) => Some(with_term_hessian(full, t, &net.index)?),
+                    None => None,
+                };
+                let kmat = merged.as_ref().unwrap_or(full);
+                let amg = Amg::of_network(kmat, packing, &net.original, opts.rotations)?;
+                // Without a term, the V-cycle's finest level and the CG multiply by the
+                // springs' upper triangle from here on, the full matrix freed.
+                let upper = match merged {
+                    None => UpperBlocks::of(full),
+                    Some(_) => None,
+                };
+                let (q, it, res, terms) = match upper {
+                    Some(u) => {
+                        let amg = amg.on_upper(&u);
+                        drop(springs);
+                        let upper = Springs::UpperRef(&u);
+                        let op = Stiffness {
+                            k: &upper,
+                            term: term_op.as_ref(),
+                            diag,
+                            groups: None,
+                        };
+                        let coarse = (None, Some(&amg));
+                        let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
+                        let terms = op.fluctuation_terms(&net.g, &q);
+                        (q, it, res, terms)
+                    }
+                    None => {
+                        // The V-cycle carries the term's stiff stencils itself: no groups.
+                        let op = Stiffness {
+                            k: &springs,
+                            term: term_op.as_ref(),
+                            diag,
+                            groups: None,
+                        };
+                        let coarse = (None, Some(&amg));
+                        let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
+                        let terms = op.fluctuation_terms(&net.g, &q);
+                        (q, it, res, terms)
+                    }
+                };
+                (q, it, res, terms)
+            } else {
+                let two_level = coarse_space(
+                    packing,
+                    &net,
+                    (&springs, term_op.as_ref()),
+                    preconditioner,
+                    opts.rotations,
+                )?;
+                // With a term, K is the full matrix (`products_only` is false).
+                let groups = match term_op.as_ref() {
+                    Some(t) => StiffGroups::new(springs.full()?, t),
+                    None => None,
+                };
+                let op = Stiffness {
+                    k: &springs,
+                    term: term_op.as_ref(),
+                    diag,
+                    groups,
+                };
+                let coarse = (two_level.as_ref(), None);
+                let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
+                let terms = op.fluctuation_terms(&net.g, &q);
+                (q, it, res, terms)
+            }
         }
     };
     let c = net.h - gtq - gtq.transpose() + qtkq;
@@ -456,11 +518,99 @@ pub(super) fn with_term_hessian(
 /// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form,
 /// with the diagonal entries of the sum (per row, the six DOFs).
 struct Stiffness<'a> {
-    k: &'a BlockSparse,
+    k: &'a Springs<'a>,
     term: Option<&'a TermOperator>,
     diag: Vec<[f64; 6]>,
     /// Dense diagonal blocks of the preconditioner over the term's stiff stencils.
     groups: Option<StiffGroups>,
+}
+
+/// The springs' K as the solvers read it: stored in full (borrowed or owned), or by its
+/// upper triangle ([`UpperBlocks`]: the same products bit for bit, half the memory).
+enum Springs<'a> {
+    Borrowed(&'a BlockSparse),
+    Full(BlockSparse),
+    Upper(UpperBlocks),
+    UpperRef(&'a UpperBlocks),
+}
+
+/// What a [`Springs`] holds, borrowed.
+enum SpringsView<'a> {
+    Full(&'a BlockSparse),
+    Upper(&'a UpperBlocks),
+}
+
+impl Springs<'_> {
+    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
+    /// transposes bit for bit (then the full matrix is freed).
+    fn of(k: BlockSparse, products_only: bool) -> Springs<'static> {
+        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
+            Some(u) => Springs::Upper(u),
+            None => Springs::Full(k),
+        }
+    }
+
+    fn view(&self) -> SpringsView<'_> {
+        match self {
+            Springs::Borrowed(k) => SpringsView::Full(k),
+            Springs::Full(k) => SpringsView::Full(k),
+            Springs::Upper(k) => SpringsView::Upper(k),
+            Springs::UpperRef(k) => SpringsView::Upper(k),
+        }
+    }
+
+    /// The full matrix (the sparse Cholesky and the multigrid setup need it).
+    fn full(&self) -> Result<&BlockSparse> {
+        match self.view() {
+            SpringsView::Full(k) => Ok(k),
+            SpringsView::Upper(_) => Err(Error::Invalid(
+                "relaxed solver: the full stiffness matrix was freed".into(),
+            )),
+        }
+    }
+
+    fn max_row_blocks(&self) -> usize {
+        match self.view() {
+            SpringsView::Full(k) => k.max_row_blocks(),
+            SpringsView::Upper(k) => k.max_row_blocks(),
+        }
+    }
+
+    fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+        match self.view() {
+            SpringsView::Full(k) => k.apply_cols(x, y, cols),
+            SpringsView::Upper(k) => k.apply_cols(x, y, cols),
+        }
+    }
+
+    #[inline(always)]
+    fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+        match self.view() {
+            SpringsView::Full(k) => k.row_times(p, x, cols),
+            SpringsView::Upper(k) => k.row_times(p, x, cols),
+        }
+    }
+}
+
+impl BlockRows for Springs<'_> {
+    fn rows(&self) -> usize {
+        match self.view() {
+            SpringsView::Full(k) => k.rows(),
+            SpringsView::Upper(k) => BlockRows::rows(k),
+        }
+    }
+    fn each_in_row(&self, p: usize, f: impl FnMut(usize, &Block6)) {
+        match self.view() {
+            SpringsView::Full(k) => BlockRows::each_in_row(k, p, f),
+            SpringsView::Upper(k) => k.each_in_row(p, f),
+        }
+    }
+    fn diagonal(&self, p: usize) -> Block6 {
+        match self.view() {
+            SpringsView::Full(k) => k.diagonal(p),
+            SpringsView::Upper(k) => BlockRows::diagonal(k, p),
+        }
+    }
 }
 
 impl Stiffness<'_> {
@@ -495,9 +645,6 @@ impl Stiffness<'_> {
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
     /// order) with the term's share of K.
     fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
-        if self.term.is_none() {
-            return self.k.fluctuation_terms(g, q);
-        }
         let mut kq = vec![Block6::zeros(); q.len()];
         self.apply_cols(q, &mut kq, 6);
         super::sparse::fluctuation_sums(g, q, &kq)
@@ -510,7 +657,7 @@ impl Stiffness<'_> {
 /// rounding bound on pᵀKp.
 #[allow(clippy::type_complexity)]
 fn jacobi_pieces(
-    k: &BlockSparse,
+    k: &impl BlockRows,
     term: Option<&TermOperator>,
 ) -> (Vec<(Block6, usize)>, Vec<[f64; 6]>) {
     (0..k.rows())
@@ -591,7 +738,7 @@ fn cholesky_fluctuations(
 fn coarse_space(
     packing: &Packing,
     net: &Network,
-    kmat: &Stiffness,
+    (k, term): (&Springs, Option<&TermOperator>),
     preconditioner: CgPreconditioner,
     rotations: bool,
 ) -> Result<Option<TwoLevel>> {
@@ -610,21 +757,23 @@ fn coarse_space(
         .iter()
         .map(|&p| packing.positions[p as usize])
         .collect();
-    let space = match kmat.term {
+    let particles_per_aggregate = aggregate_size(particles_per_aggregate, positions.len());
+    let space = match term {
         Some(t) => super::term_preconditioner::coarse_space(
-            kmat.k,
+            k.full()?,
             t,
             &positions,
             lengths,
             rotations,
             particles_per_aggregate,
         ),
-        None => TwoLevel::new(
-            kmat.k,
+        None => TwoLevel::with_extra(
+            k,
             &positions,
             lengths,
             rotations,
             particles_per_aggregate,
+            |_, _| None,
         ),
     };
     Ok(space.ok())
@@ -661,7 +810,7 @@ pub(crate) fn two_level_cg(
         positions,
         box_lengths,
         true,
-        DEFAULT_PARTICLES_PER_AGGREGATE,
+        aggregate_size(DEFAULT_PARTICLES_PER_AGGREGATE, k.rows()),
     )
     .ok();
     held_cg(k, b, (two_level.as_ref(), None), tolerance, max_iterations)
@@ -690,6 +839,7 @@ fn held_cg(
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let (pre, diag) = jacobi_pieces(k, None);
+    let k = Springs::Borrowed(k);
     let scale = column_dots(b, b).map(f64::sqrt);
     let opts = RelaxedOptions {
         tolerance,
@@ -697,7 +847,7 @@ fn held_cg(
         ..Default::default()
     };
     let op = Stiffness {
-        k,
+        k: &k,
         term: None,
         diag,
         groups: None,
@@ -876,8 +1026,6 @@ struct Preconditioner<'a> {
     cols: usize,
     /// M r (two-level only).
     w: Vec<Block6>,
-    /// Q K M r (two-level only).
-    t: Vec<Block6>,
     /// The multigrid V-cycle, when used instead.
     amg: Option<&'a Amg<'a>>,
     /// The term's stiff stencils as dense blocks of M (term_preconditioner.rs).
@@ -892,16 +1040,15 @@ impl<'a> Preconditioner<'a> {
         cols: usize,
         m: usize,
     ) -> Self {
-        let (w, t) = match two_level {
-            Some(_) => (vec![Block6::zeros(); m], vec![Block6::zeros(); m]),
-            None => (Vec::new(), Vec::new()),
+        let w = match two_level {
+            Some(_) => vec![Block6::zeros(); m],
+            None => Vec::new(),
         };
         Preconditioner {
             pre,
             two_level,
             cols,
             w,
-            t,
             amg: None,
             groups: None,
         }
@@ -934,10 +1081,10 @@ impl<'a> Preconditioner<'a> {
         if let Some(g) = self.groups {
             g.apply(r, &mut self.w, self.cols);
         }
-        tl.coarse_of_k_cols(&self.w, &mut self.t, self.cols)?; // t = Q K w
+        tl.coarse_of_k_cols(&self.w, z, self.cols)?; // z = Q K w
         z.par_iter_mut()
-            .zip(self.w.par_iter().zip(self.t.par_iter()))
-            .for_each(|(z, (w, t))| *z = w - t);
+            .zip(self.w.par_iter())
+            .for_each(|(z, w)| *z = w - *z);
         Ok(())
     }
 }

@@ -270,6 +270,157 @@ impl BlockSparse {
     }
 }
 
+/// Row-by-row read access to a symmetric block matrix, stored in full ([`BlockSparse`]) or
+/// by its upper triangle ([`UpperBlocks`]): what the preconditioners' setups read.
+pub(crate) trait BlockRows: Sync {
+    /// Number of block rows.
+    fn rows(&self) -> usize;
+    /// Calls `f(q, K_pq)` for the stored blocks of row `p`, in increasing column order.
+    fn each_in_row(&self, p: usize, f: impl FnMut(usize, &Block6));
+    /// The diagonal block of row `p` (zero when not stored).
+    fn diagonal(&self, p: usize) -> Block6;
+}
+
+impl BlockRows for BlockSparse {
+    fn rows(&self) -> usize {
+        BlockSparse::rows(self)
+    }
+    fn each_in_row(&self, p: usize, mut f: impl FnMut(usize, &Block6)) {
+        for (q, b) in self.row(p) {
+            f(q, b);
+        }
+    }
+    fn diagonal(&self, p: usize) -> Block6 {
+        BlockSparse::diagonal(self, p)
+    }
+}
+
+impl BlockRows for UpperBlocks {
+    fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+    fn each_in_row(&self, p: usize, mut f: impl FnMut(usize, &Block6)) {
+        for &(q, at) in &self.low[self.low_start[p]..self.low_start[p + 1]] {
+            f(q as usize, &self.block[at as usize].transpose());
+        }
+        for k in self.row_start[p]..self.row_start[p + 1] {
+            f(self.col[k] as usize, &self.block[k]);
+        }
+    }
+    fn diagonal(&self, p: usize) -> Block6 {
+        let k = self.row_start[p];
+        if k < self.row_start[p + 1] && self.col[k] as usize == p {
+            self.block[k]
+        } else {
+            Block6::zeros()
+        }
+    }
+}
+
+/// A [`BlockSparse`] whose off-diagonal blocks are exact transposes of each other (K_qp =
+/// K_pqᵀ bit for bit, as [`BlockSparse::assemble`] sums them), stored once: the upper
+/// triangle and the diagonal by rows, each row's lower blocks read transposed from the rows
+/// above. Products give the same bits as the full matrix's (the same blocks, in column
+/// order, by the same kernel) with about half its memory and traffic (issue 35).
+pub(crate) struct UpperBlocks {
+    row_start: Vec<usize>,
+    col: Vec<u32>,
+    block: Vec<Block6>,
+    /// Row p's blocks left of the diagonal (CSR by p): (column q, position of K_qp in `block`),
+    /// q increasing.
+    low_start: Vec<usize>,
+    low: Vec<(u32, u32)>,
+    max_row_blocks: usize,
+}
+
+impl UpperBlocks {
+    /// The upper triangle of `k`, or `None` when some off-diagonal block differs in any bit
+    /// from its mirror's transpose (then products must use `k` itself) or `k` holds 2³² blocks
+    /// or more.
+    pub(crate) fn of(k: &BlockSparse) -> Option<UpperBlocks> {
+        let m = k.rows();
+        let mirrored = (0..m).into_par_iter().all(|p| {
+            k.row(p).filter(|&(q, _)| q < p).all(|(q, b)| {
+                k.row(q)
+                    .find(|&(c, _)| c == p)
+                    .is_some_and(|(_, u)| u.transpose() == *b)
+            }) && k
+                .row(p)
+                .filter(|&(q, _)| q > p)
+                .all(|(q, _)| k.row(q).any(|(c, _)| c == p))
+        });
+        if !mirrored || k.blocks() >= u32::MAX as usize {
+            return None;
+        }
+        let mut row_start = Vec::with_capacity(m + 1);
+        row_start.push(0);
+        let upper = k.blocks().div_ceil(2) + m;
+        let mut col = Vec::with_capacity(upper);
+        let mut block = Vec::with_capacity(upper);
+        let mut low_count = vec![0usize; m + 1];
+        for p in 0..m {
+            for (q, b) in k.row(p).filter(|&(q, _)| q >= p) {
+                col.push(q as u32);
+                block.push(*b);
+                if q > p {
+                    low_count[q + 1] += 1;
+                }
+            }
+            row_start.push(col.len());
+        }
+        for p in 0..m {
+            low_count[p + 1] += low_count[p];
+        }
+        let low_start = low_count;
+        let mut fill = low_start.clone();
+        let mut low = vec![(0u32, 0u32); low_start[m]];
+        // Rows in increasing order: every row's lower list fills with q increasing.
+        for q in 0..m {
+            for at in row_start[q]..row_start[q + 1] {
+                let p = col[at] as usize;
+                if p > q {
+                    low[fill[p]] = (q as u32, at as u32);
+                    fill[p] += 1;
+                }
+            }
+        }
+        Some(UpperBlocks {
+            row_start,
+            col,
+            block,
+            low_start,
+            low,
+            max_row_blocks: k.max_row_blocks(),
+        })
+    }
+
+    /// Row `p` of K X on the first `cols` load cases: the blocks in column order, as
+    /// [`BlockSparse::row_times`].
+    #[inline(always)]
+    pub(crate) fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+        let mut acc = Block6::zeros();
+        for &(q, at) in &self.low[self.low_start[p]..self.low_start[p + 1]] {
+            mul_add6_transposed_cols(&mut acc, &self.block[at as usize], &x[q as usize], cols);
+        }
+        for k in self.row_start[p]..self.row_start[p + 1] {
+            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
+        }
+        acc
+    }
+
+    /// Y = K X on the first `cols` load cases (as [`BlockSparse::apply_cols`]).
+    pub(crate) fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+        y.par_iter_mut()
+            .enumerate()
+            .for_each(|(p, yp)| *yp = self.row_times(p, x, cols));
+    }
+
+    /// The most blocks in one row of the full matrix.
+    pub(crate) fn max_row_blocks(&self) -> usize {
+        self.max_row_blocks
+    }
+}
+
 /// acc += a·b for 6×6 blocks: an unrolled column-major kernel (nalgebra's generic product
 /// of fixed 6×6 matrices goes through its gemm path and is several times slower here).
 #[inline(always)]
@@ -315,6 +466,28 @@ pub(crate) fn mul_add_columns_of(acc: &mut Block6, a: &[f64; 36], b: &Block6, co
     }
 }
 
+/// acc += aᵀ·b on the first `cols` columns of b, reading `a` transposed in place: the same
+/// products summed in the same order as [`mul_add6_cols`] on an explicitly transposed block,
+/// so the same bits without storing the transpose.
+#[inline(always)]
+pub(crate) fn mul_add6_transposed_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
+    let a = a.as_slice();
+    let b = b.as_slice();
+    let c = acc.as_mut_slice();
+    for j in 0..cols.min(6) {
+        let mut col = [0.0f64; 6];
+        col.copy_from_slice(&c[6 * j..6 * j + 6]);
+        for k in 0..6 {
+            let s = b[k + 6 * j];
+            for i in 0..6 {
+                // (aᵀ)[i, k] = a[k, i], stored column-major at 6 i + k.
+                col[i] += a[6 * i + k] * s;
+            }
+        }
+        c[6 * j..6 * j + 6].copy_from_slice(&col);
+    }
+}
+
 /// a·b on the first `cols` columns of b (see [`mul_add6_cols`]).
 #[inline(always)]
 pub(crate) fn mul6_cols(a: &Block6, b: &Block6, cols: usize) -> Block6 {
@@ -341,4 +514,101 @@ pub(crate) fn fluctuation_sums(g: &[Block6], q: &[Block6], kq: &[Block6]) -> (Bl
         qtkq += q[p].transpose() * kq[p];
     }
     (gtq, qtkq)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block with entries that are not round numbers, different for every seed.
+    fn block(seed: usize) -> Block6 {
+        Block6::from_fn(|i, j| {
+            ((seed * 31 + i * 7 + j * 13) % 17) as f64 / 3.0 - 2.7 + 1e-3 * seed as f64
+        })
+    }
+
+    /// A matrix of a ring with chords, a repeated edge (a bond to two images of one
+    /// neighbour) and a self edge (a bond to the particle's own image).
+    fn matrix() -> BlockSparse {
+        let n = 23;
+        let mut ends: Vec<(u32, u32)> = (0..n).map(|i| (i, (i + 1) % n)).collect();
+        ends.extend((0..n).step_by(3).map(|i| ((i + 7) % n, i)));
+        ends.push((4, 5));
+        ends.push((9, 9));
+        BlockSparse::assemble_blocks(n as usize, &ends, |e| {
+            let a = block(e);
+            (
+                a * a.transpose(),
+                block(e + 100) * block(e + 100).transpose(),
+                block(e + 200),
+            )
+        })
+    }
+
+    /// The transposed kernel gives the bits of the plain kernel on the explicit transpose.
+    #[test]
+    fn transposed_kernel_equals_the_explicit_transpose() {
+        for cols in [1, 4, 6] {
+            let (a, b) = (block(1), block(2));
+            let mut plain = block(3);
+            let mut read = plain;
+            mul_add6_cols(&mut plain, &a.transpose(), &b, cols);
+            mul_add6_transposed_cols(&mut read, &a, &b, cols);
+            assert_eq!(plain, read, "{cols} columns");
+        }
+    }
+
+    /// The upper triangle multiplies with the full matrix's bits and reads its rows alike.
+    #[test]
+    fn upper_triangle_gives_the_full_products_bit_for_bit() {
+        let k = matrix();
+        let upper = UpperBlocks::of(&k).expect("assembled blocks mirror exactly");
+        assert_eq!(upper.max_row_blocks(), k.max_row_blocks());
+        let x: Vec<Block6> = (0..k.rows()).map(|p| block(p + 300)).collect();
+        for cols in [2, 6] {
+            let (mut full, mut half) = (
+                vec![Block6::zeros(); k.rows()],
+                vec![Block6::zeros(); k.rows()],
+            );
+            k.apply_cols(&x, &mut full, cols);
+            upper.apply_cols(&x, &mut half, cols);
+            assert_eq!(full, half, "{cols} columns");
+        }
+        for p in 0..k.rows() {
+            let mut read = Vec::new();
+            upper.each_in_row(p, |q, b| read.push((q, *b)));
+            let want: Vec<(usize, Block6)> = k.row(p).map(|(q, b)| (q, *b)).collect();
+            assert_eq!(read, want, "row {p}");
+            assert_eq!(BlockRows::diagonal(&upper, p), k.diagonal(p));
+        }
+    }
+
+    /// A matrix whose mirrored blocks differ (in one bit, or a missing mirror) is refused.
+    #[test]
+    fn upper_triangle_refuses_an_unmirrored_matrix() {
+        let k = matrix();
+        let rows = |change: &dyn Fn(usize, usize, &mut Block6) -> bool| {
+            let rows: Vec<Vec<(u32, Block6)>> = (0..k.rows())
+                .map(|p| {
+                    k.row(p)
+                        .filter_map(|(q, b)| {
+                            let mut b = *b;
+                            change(p, q, &mut b).then_some((q as u32, b))
+                        })
+                        .collect()
+                })
+                .collect();
+            BlockSparse::from_rows(rows)
+        };
+        let nudged = rows(&|p, q, b| {
+            if (p, q) == (5, 4) {
+                b[(1, 2)] = f64::from_bits(b[(1, 2)].to_bits() ^ 1);
+            }
+            true
+        });
+        assert!(UpperBlocks::of(&nudged).is_none());
+        let missing = rows(&|p, q, _| (p, q) != (4, 5));
+        assert!(UpperBlocks::of(&missing).is_none());
+        assert!(UpperBlocks::of(&rows(&|_, _, _| true)).is_some());
+    }
 }
