@@ -376,8 +376,9 @@ impl UpperBlocks {
         let mut low = vec![(0u32, 0u32); low_start[m]];
         // Rows in increasing order: every row's lower list fills with q increasing.
         for q in 0..m {
-            for at in row_start[q]..row_start[q + 1] {
-                let p = col[at] as usize;
+            let first = row_start[q];
+            for (at, &c) in (first..).zip(&col[first..row_start[q + 1]]) {
+                let p = c as usize;
                 if p > q {
                     low[fill[p]] = (q as u32, at as u32);
                     fill[p] += 1;
