@@ -495,6 +495,17 @@ mod tests {
     /// around the failure surface (B from 0.2 to 2 with every mix of the four terms, tension
     /// and compression) and on the surface itself (B = 1 to rounding); it clears every bond
     /// in tension with B ≤ ½.
+    /// A fixed pseudo-random sequence (xorshift64 from `seed`; no dependency), uniform in
+    /// [0, 1).
+    fn uniform_sequence(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     #[test]
     fn bpm_quick_test_clears_only_bonds_that_hold() {
         let lim = BpmLimits {
@@ -507,14 +518,7 @@ mod tests {
             let sq = |x: f64| (1.0 / x) * (1.0 / x);
             [1.0 / lim.f_rc, sq(lim.f_sc), sq(lim.t_bc), sq(lim.t_tc)]
         };
-        // A fixed pseudo-random sequence (no dependency), uniform in [0, 1).
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_sequence(0x2545_f491_4f6c_dd1d);
         let (mut inside, mut cleared_inside) = (0, 0);
         for n in 0..200_000 {
             // Terms (X, Y, Z, W) with Y, Z, W ≥ 0 summing to B (X may be negative).
@@ -573,13 +577,7 @@ mod tests {
             eprintln!("skipped: no AVX2 on this CPU");
             return;
         }
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_sequence(0x9e37_79b9_7f4a_7c15);
         let n = 40_003;
         let mut parts = Vec::with_capacity(n);
         let mut factors = Vec::with_capacity(n);

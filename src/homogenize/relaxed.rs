@@ -368,6 +368,20 @@ fn relaxed_solve_full(
         }
         (RelaxedSolver::Cg { preconditioner }, springs) => {
             let start = initial.filter(|x| x.len() == m);
+            // The CG on K = `k` (+ the term) with its preconditioner's pieces; every path
+            // below ends here once.
+            let solve =
+                |k: &Springs, groups, coarse: (Option<&TwoLevel>, Option<&Amg<'_>>)| -> Result<_> {
+                    let op = Stiffness {
+                        k,
+                        term: term_op.as_ref(),
+                        diag,
+                        groups,
+                    };
+                    let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
+                    let terms = op.fluctuation_terms(&net.g, &q);
+                    Ok((q, it, res, terms))
+                };
             if preconditioner == CgPreconditioner::Amg {
                 // The multigrid hierarchy is built on the assembled matrix: the springs',
                 // plus the term's Hessian when there is one.
@@ -379,42 +393,20 @@ fn relaxed_solve_full(
                 let kmat = merged.as_ref().unwrap_or(full);
                 let amg = Amg::of_network(kmat, packing, &net.original, opts.rotations)?;
                 // Without a term, the V-cycle's finest level and the CG multiply by the
-                // springs' upper triangle from here on, the full matrix freed.
+                // springs' upper triangle from here on, the full matrix freed. The V-cycle
+                // carries the term's stiff stencils itself: no groups.
                 let upper = match merged {
                     None => UpperBlocks::of(full),
                     Some(_) => None,
                 };
-                let (q, it, res, terms) = match upper {
+                match upper {
                     Some(u) => {
                         let amg = amg.on_upper(&u);
                         drop(springs);
-                        let upper = Springs::UpperRef(&u);
-                        let op = Stiffness {
-                            k: &upper,
-                            term: term_op.as_ref(),
-                            diag,
-                            groups: None,
-                        };
-                        let coarse = (None, Some(&amg));
-                        let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
-                        let terms = op.fluctuation_terms(&net.g, &q);
-                        (q, it, res, terms)
+                        solve(&Springs::UpperRef(&u), None, (None, Some(&amg)))?
                     }
-                    None => {
-                        // The V-cycle carries the term's stiff stencils itself: no groups.
-                        let op = Stiffness {
-                            k: &springs,
-                            term: term_op.as_ref(),
-                            diag,
-                            groups: None,
-                        };
-                        let coarse = (None, Some(&amg));
-                        let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
-                        let terms = op.fluctuation_terms(&net.g, &q);
-                        (q, it, res, terms)
-                    }
-                };
-                (q, it, res, terms)
+                    None => solve(&springs, None, (None, Some(&amg)))?,
+                }
             } else {
                 let two_level = coarse_space(
                     packing,
@@ -428,16 +420,7 @@ fn relaxed_solve_full(
                     Some(t) => StiffGroups::new(springs.full()?, t),
                     None => None,
                 };
-                let op = Stiffness {
-                    k: &springs,
-                    term: term_op.as_ref(),
-                    diag,
-                    groups,
-                };
-                let coarse = (two_level.as_ref(), None);
-                let (q, it, res) = pcg(&op, &net.g, &pre, coarse, &scale, opts, start)?;
-                let terms = op.fluctuation_terms(&net.g, &q);
-                (q, it, res, terms)
+                solve(&springs, groups, (two_level.as_ref(), None))?
             }
         }
     };
