@@ -491,10 +491,6 @@ impl BondCriteria {
 mod tests {
     use super::*;
 
-    /// The quick test never clears a bond that LAMMPS's criterion breaks, on loads drawn
-    /// around the failure surface (B from 0.2 to 2 with every mix of the four terms, tension
-    /// and compression) and on the surface itself (B = 1 to rounding); it clears every bond
-    /// in tension with B ≤ ½.
     /// A fixed pseudo-random sequence (xorshift64 from `seed`; no dependency), uniform in
     /// [0, 1).
     fn uniform_sequence(mut state: u64) -> impl FnMut() -> f64 {
@@ -506,6 +502,10 @@ mod tests {
         }
     }
 
+    /// The quick test never clears a bond that LAMMPS's criterion breaks, on loads drawn
+    /// around the failure surface (B from 0.2 to 2 with every mix of the four terms, tension
+    /// and compression) and on the surface itself (B = 1 to rounding); it clears every bond
+    /// in tension with B ≤ ½.
     #[test]
     fn bpm_quick_test_clears_only_bonds_that_hold() {
         let lim = BpmLimits {

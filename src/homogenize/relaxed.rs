@@ -339,8 +339,8 @@ fn relaxed_solve_full(
     // by it: its upper triangle serves (the same bits, half the memory; issue 35).
     let products_only = term.is_none()
         && matches!(opts.solver, RelaxedSolver::Cg { preconditioner } if preconditioner != CgPreconditioner::Amg);
-    let springs = Springs::of(assembled, products_only);
-    let (pre, diag) = jacobi_pieces(&springs, term_op.as_ref());
+    let stored = StoredSprings::of(assembled, products_only);
+    let (pre, diag) = jacobi_pieces(&stored.springs(), term_op.as_ref());
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
             let full = if net.degree[p] == 2 { 5 } else { 6 };
@@ -354,9 +354,9 @@ fn relaxed_solve_full(
             *s = s.hypot(*t);
         }
     }
-    let (q, iterations, residual, (gtq, qtkq)) = match (opts.solver, springs) {
-        (RelaxedSolver::Cholesky, springs) => {
-            let springs = springs.full()?;
+    let (q, iterations, residual, (gtq, qtkq)) = match (opts.solver, stored) {
+        (RelaxedSolver::Cholesky, stored) => {
+            let springs = stored.springs().full()?;
             let merged = match term {
                 Some(t) => Some(with_term_hessian(springs, t, &net.index)?),
                 None => None,
@@ -366,12 +366,12 @@ fn relaxed_solve_full(
             let terms = kmat.fluctuation_terms(&net.g, &q);
             (q, it, res, terms)
         }
-        (RelaxedSolver::Cg { preconditioner }, springs) => {
+        (RelaxedSolver::Cg { preconditioner }, stored) => {
             let start = initial.filter(|x| x.len() == m);
             // The CG on K = `k` (+ the term) with its preconditioner's pieces; every path
             // below ends here once.
             let solve =
-                |k: &Springs, groups, coarse: (Option<&TwoLevel>, Option<&Amg<'_>>)| -> Result<_> {
+                |k: Springs, groups, coarse: (Option<&TwoLevel>, Option<&Amg<'_>>)| -> Result<_> {
                     let op = Stiffness {
                         k,
                         term: term_op.as_ref(),
@@ -385,7 +385,7 @@ fn relaxed_solve_full(
             if preconditioner == CgPreconditioner::Amg {
                 // The multigrid hierarchy is built on the assembled matrix: the springs',
                 // plus the term's Hessian when there is one.
-                let full = springs.full()?;
+                let full = stored.springs().full()?;
                 let merged = match term {
                     Some(t) => Some(with_term_hessian(full, t, &net.index)?),
                     None => None,
@@ -402,16 +402,17 @@ fn relaxed_solve_full(
                 match upper {
                     Some(u) => {
                         let amg = amg.on_upper(&u);
-                        drop(springs);
-                        solve(&Springs::UpperRef(&u), None, (None, Some(&amg)))?
+                        drop(stored);
+                        solve(Springs::Upper(&u), None, (None, Some(&amg)))?
                     }
-                    None => solve(&springs, None, (None, Some(&amg)))?,
+                    None => solve(stored.springs(), None, (None, Some(&amg)))?,
                 }
             } else {
+                let springs = stored.springs();
                 let two_level = coarse_space(
                     packing,
                     &net,
-                    (&springs, term_op.as_ref()),
+                    (springs, term_op.as_ref()),
                     preconditioner,
                     opts.rotations,
                 )?;
@@ -420,7 +421,7 @@ fn relaxed_solve_full(
                     Some(t) => StiffGroups::new(springs.full()?, t),
                     None => None,
                 };
-                solve(&springs, groups, (two_level.as_ref(), None))?
+                solve(springs, groups, (two_level.as_ref(), None))?
             }
         }
     };
@@ -501,97 +502,96 @@ pub(super) fn with_term_hessian(
 /// K of the CG: the springs' assembled 6×6 blocks, plus a many-body term in factored form,
 /// with the diagonal entries of the sum (per row, the six DOFs).
 struct Stiffness<'a> {
-    k: &'a Springs<'a>,
+    k: Springs<'a>,
     term: Option<&'a TermOperator>,
     diag: Vec<[f64; 6]>,
     /// Dense diagonal blocks of the preconditioner over the term's stiff stencils.
     groups: Option<StiffGroups>,
 }
 
-/// The springs' K as the solvers read it: stored in full (borrowed or owned), or by its
-/// upper triangle ([`UpperBlocks`]: the same products bit for bit, half the memory).
-enum Springs<'a> {
-    Borrowed(&'a BlockSparse),
+/// The springs' assembled K as the solve stores it: in full, or by its upper triangle
+/// ([`UpperBlocks`]: the same products bit for bit, half the memory).
+enum StoredSprings {
     Full(BlockSparse),
     Upper(UpperBlocks),
-    UpperRef(&'a UpperBlocks),
 }
 
-/// What a [`Springs`] holds, borrowed.
-enum SpringsView<'a> {
+impl StoredSprings {
+    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
+    /// transposes bit for bit (then the full matrix is freed).
+    fn of(k: BlockSparse, products_only: bool) -> StoredSprings {
+        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
+            Some(u) => StoredSprings::Upper(u),
+            None => StoredSprings::Full(k),
+        }
+    }
+
+    fn springs(&self) -> Springs<'_> {
+        match self {
+            StoredSprings::Full(k) => Springs::Full(k),
+            StoredSprings::Upper(k) => Springs::Upper(k),
+        }
+    }
+}
+
+/// The springs' K as the solvers read it, borrowed: in full or by its upper triangle.
+#[derive(Clone, Copy)]
+enum Springs<'a> {
     Full(&'a BlockSparse),
     Upper(&'a UpperBlocks),
 }
 
-impl Springs<'_> {
-    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
-    /// transposes bit for bit (then the full matrix is freed).
-    fn of(k: BlockSparse, products_only: bool) -> Springs<'static> {
-        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
-            Some(u) => Springs::Upper(u),
-            None => Springs::Full(k),
-        }
-    }
-
-    fn view(&self) -> SpringsView<'_> {
-        match self {
-            Springs::Borrowed(k) => SpringsView::Full(k),
-            Springs::Full(k) => SpringsView::Full(k),
-            Springs::Upper(k) => SpringsView::Upper(k),
-            Springs::UpperRef(k) => SpringsView::Upper(k),
-        }
-    }
-
+impl<'a> Springs<'a> {
     /// The full matrix (the sparse Cholesky and the multigrid setup need it).
-    fn full(&self) -> Result<&BlockSparse> {
-        match self.view() {
-            SpringsView::Full(k) => Ok(k),
-            SpringsView::Upper(_) => Err(Error::Invalid(
+    fn full(self) -> Result<&'a BlockSparse> {
+        match self {
+            Springs::Full(k) => Ok(k),
+            Springs::Upper(_) => Err(Error::Invalid(
                 "relaxed solver: the full stiffness matrix was freed".into(),
             )),
         }
     }
 
-    fn max_row_blocks(&self) -> usize {
-        match self.view() {
-            SpringsView::Full(k) => k.max_row_blocks(),
-            SpringsView::Upper(k) => k.max_row_blocks(),
+    fn max_row_blocks(self) -> usize {
+        match self {
+            Springs::Full(k) => k.max_row_blocks(),
+            Springs::Upper(k) => k.max_row_blocks(),
         }
     }
 
-    fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
-        match self.view() {
-            SpringsView::Full(k) => k.apply_cols(x, y, cols),
-            SpringsView::Upper(k) => k.apply_cols(x, y, cols),
+    fn apply_cols(self, x: &[Block6], y: &mut [Block6], cols: usize) {
+        match self {
+            Springs::Full(k) => k.apply_cols(x, y, cols),
+            Springs::Upper(k) => k.apply_cols(x, y, cols),
         }
     }
 
     #[inline(always)]
-    fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
-        match self.view() {
-            SpringsView::Full(k) => k.row_times(p, x, cols),
-            SpringsView::Upper(k) => k.row_times(p, x, cols),
+    fn row_times(self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+        match self {
+            Springs::Full(k) => k.row_times(p, x, cols),
+            Springs::Upper(k) => k.row_times(p, x, cols),
         }
     }
 }
 
 impl BlockRows for Springs<'_> {
     fn rows(&self) -> usize {
-        match self.view() {
-            SpringsView::Full(k) => k.rows(),
-            SpringsView::Upper(k) => BlockRows::rows(k),
+        match *self {
+            Springs::Full(k) => k.rows(),
+            Springs::Upper(k) => BlockRows::rows(k),
         }
     }
     fn each_in_row(&self, p: usize, f: impl FnMut(usize, &Block6)) {
-        match self.view() {
-            SpringsView::Full(k) => BlockRows::each_in_row(k, p, f),
-            SpringsView::Upper(k) => k.each_in_row(p, f),
+        match *self {
+            Springs::Full(k) => BlockRows::each_in_row(k, p, f),
+            Springs::Upper(k) => k.each_in_row(p, f),
         }
     }
     fn diagonal(&self, p: usize) -> Block6 {
-        match self.view() {
-            SpringsView::Full(k) => k.diagonal(p),
-            SpringsView::Upper(k) => BlockRows::diagonal(k, p),
+        match *self {
+            Springs::Full(k) => k.diagonal(p),
+            Springs::Upper(k) => BlockRows::diagonal(k, p),
         }
     }
 }
@@ -721,7 +721,7 @@ fn cholesky_fluctuations(
 fn coarse_space(
     packing: &Packing,
     net: &Network,
-    (k, term): (&Springs, Option<&TermOperator>),
+    (k, term): (Springs, Option<&TermOperator>),
     preconditioner: CgPreconditioner,
     rotations: bool,
 ) -> Result<Option<TwoLevel>> {
@@ -751,7 +751,7 @@ fn coarse_space(
             particles_per_aggregate,
         ),
         None => TwoLevel::with_extra(
-            k,
+            &k,
             &positions,
             lengths,
             rotations,
@@ -822,7 +822,7 @@ fn held_cg(
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let (pre, diag) = jacobi_pieces(k, None);
-    let k = Springs::Borrowed(k);
+    let k = Springs::Full(k);
     let scale = column_dots(b, b).map(f64::sqrt);
     let opts = RelaxedOptions {
         tolerance,
@@ -830,7 +830,7 @@ fn held_cg(
         ..Default::default()
     };
     let op = Stiffness {
-        k: &k,
+        k,
         term: None,
         diag,
         groups: None,
