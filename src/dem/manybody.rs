@@ -5,20 +5,22 @@
 //! joins the ledger ([`super::Energies::manybody`]) and Σ g_b ⊗ l_b the Love stress. Built
 //! once from the intact bonds; refused with breakage.
 //!
-//! Two passes a step, over fixed chunks (the same bits on any number of threads), with the
-//! IEEE operations of [`ManyBody::gradients_into`] in the same order (so its bits): per
-//! particle, F_p = Σ_b l_b ⊗ a_b with each branch vector taken from the positions as it is
-//! summed (x_j − x_i, as the bond laws take it), then V·W and V·P four particles at a time;
-//! per bond, g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j. Where AVX2 runs (and
-//! [`super::DemOptions::simd`]), each sum of products is one packed operation per term; the
-//! scalar path is checked against it bit for bit (`tests/dem/manybody.rs`).
+//! One pass a step, over fixed chunks of particles (the same bits on any number of threads),
+//! with the IEEE operations of [`ManyBody::gradients_into`] in the same order (so its bits):
+//! per particle, F_p = Σ_b l_b ⊗ a_b with each branch vector taken from the positions as it
+//! is summed (x_j − x_i, as the bond laws take it), then V·W and V·P four particles at a
+//! time, then at once, while a_b is still in cache, the half-gradient (V_p P_p) a_b^p of each
+//! of its bonds, stored at the bond's end (`2·bond + side`, the topology's entry code). The
+//! particle update adds g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j, the two halves side by side,
+//! which is `ManyBody::gradient_in`'s sum: no pass over the bonds, no V·P array. Where AVX2
+//! runs (and [`super::DemOptions::simd`]), each sum of products is one packed operation per
+//! term; the scalar path is checked against it bit for bit (`passes_have_the_bits_of_gradients_into`).
 //!
 //! Memory is what the term costs (docs/manybody.md "Integrator": without it the integrator's
-//! per-step data about fill the last-level cache), so its per-step arrays are lean: a_b once,
-//! per bond (the fit reads it through the topology's CSR), V·P and g_b unpadded (a packed load
-//! of three components reads one f64 beyond, whose lane is never used; a packed store of g_b
-//! spills into the next bond's slot, written after it, and the last bond of a chunk is
-//! stored by components).
+//! per-step data about fill the last-level cache), so its per-step arrays are lean: a_b per
+//! entry of the topology's CSR, read in sequence by the one pass; the halves unpadded (a
+//! packed load of three components reads one f64 beyond, whose lane is never used; they are
+//! stored by two and one components, as another thread may write the next).
 
 use super::state::{deterministic_sum_mat3, BondTopology, Particles};
 use crate::manybody::term::Lanes4;
@@ -29,8 +31,6 @@ use rayon::prelude::*;
 /// Particles per parallel work item of the particle pass (fixed: the same bits on any
 /// number of threads; each entry is written by one item).
 const PARTICLE_CHUNK: usize = 256;
-/// Bonds per parallel work item of the bond pass.
-const BOND_CHUNK: usize = 1024;
 /// Flag of an entry's other particle when its bond crosses the cell (its branch vector needs
 /// H·c).
 const IMAGE_LINK: u32 = 1 << 31;
@@ -44,13 +44,23 @@ pub(crate) struct ManyBodyForces {
     other: Vec<u32>,
     /// V_p·W_p of the last evaluation (J).
     energy: Vec<f64>,
-    /// V_p·P_p of the last evaluation, column-major (N·m), and one zero entry after the last
-    /// particle's (what a packed load of its last column reads beyond it).
-    piola: Vec<[f64; 9]>,
-    /// g_b = ∂U/∂l_b of the last evaluation (N): the force on the bond's i end; one zero
-    /// entry after the last bond's.
-    gradient: Vec<[f64; 3]>,
+    /// Per entry code `2·bond + side`, the bond's half-gradient (V_p P_p) a_b^p at that end
+    /// of the last evaluation (N): g_b = half[2b] + half[2b + 1], the force on its i end;
+    /// one zero entry after the last (what a packed load of the last reads beyond it).
+    half: Vec<[f64; 3]>,
 }
+
+/// Where the particle pass writes the halves: every chunk writes through one pointer, each
+/// entry code by the one particle that has it (checked in [`ManyBodyForces::new`]), so no
+/// two chunks write one entry.
+#[derive(Clone, Copy)]
+struct HalfOut(*mut [f64; 3]);
+
+// SAFETY: the chunks write disjoint entries (see `HalfOut`), and nothing reads the halves
+// while the pass runs.
+unsafe impl Send for HalfOut {}
+// SAFETY: as above.
+unsafe impl Sync for HalfOut {}
 
 /// Branch vector of bond `b`, x_j + H·c − x_i, as [`super::Simulation::branch`] (the same
 /// operations, so the term sees the bits the bond laws see; H·c is skipped for the bonds
@@ -78,7 +88,8 @@ struct FitInputs<'a> {
     start: &'a [usize],
     entries: &'a [u32],
     other: &'a [u32],
-    coef: &'a [[Vec3; 2]],
+    /// Per entry, a_b at the particle's end (the term's `fit_layout().coef`).
+    coef: &'a [Vec3],
     volume: &'a [f64],
     x: &'a [Vec3],
     t: &'a BondTopology,
@@ -105,7 +116,7 @@ impl FitInputs<'_> {
             } else {
                 xp - self.x[q as usize]
             };
-            let a = &self.coef[b][side];
+            let a = &self.coef[k];
             for c in 0..3 {
                 for r in 0..3 {
                     f[r + 3 * c] += l[r] * a[c];
@@ -116,22 +127,68 @@ impl FitInputs<'_> {
     }
 
     /// The particle pass on the chunk from `base`, one particle at a time: V_p·W_p into
-    /// `we`, V_p·P_p into `wp` (zero for an excluded particle).
-    fn chunk(&self, base: usize, we: &mut [f64], wp: &mut [[f64; 9]]) {
-        for (l, (e, pk)) in we.iter_mut().zip(wp.iter_mut()).enumerate() {
+    /// `we`, the halves (V_p P_p) a_b^p of its entries into `half` (zero for an excluded
+    /// particle).
+    fn chunk(&self, base: usize, we: &mut [f64], half: HalfOut) {
+        for (l, e) in we.iter_mut().enumerate() {
             let p = base + l;
             if !self.term.is_included(p) {
-                (*e, *pk) = (0.0, [0.0; 9]);
+                *e = 0.0;
+                self.put_halves(p, half, |_| [0.0; 3]);
                 continue;
             }
             let (w, m) = self.term.energy_piola_of(p, &self.fit(p), self.volume[p]);
-            (*e, *pk) = (w, flat(&m));
+            *e = w;
+            let m = flat(&m);
+            self.put_halves(p, half, |a| times(&m, a).into());
+        }
+    }
+
+    /// half[code] = `of(a_b)` for each entry of particle `p`, in entry order.
+    #[inline(always)]
+    fn put_halves(&self, p: usize, half: HalfOut, of: impl Fn(&Vec3) -> [f64; 3]) {
+        let span = self.start[p]..self.start[p + 1];
+        for (&code, a) in self.entries[span.clone()].iter().zip(&self.coef[span]) {
+            // SAFETY: `code` < 2·bonds < the halves' length, and only particle p has it
+            // (`HalfOut`).
+            unsafe { *half.0.add(code as usize) = of(a) };
+        }
+    }
+
+    /// [`put_halves`](Self::put_halves) with AVX2, from the columns `c` of M = V_p P_p (the
+    /// fourth lane unused): each M a_b three packed products of columns, summed as `times`
+    /// sums them (the same bits), stored as two and one components (the next entry may be
+    /// another thread's).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn put_halves_avx2(&self, p: usize, c: [std::arch::x86_64::__m256d; 3], half: HalfOut) {
+        use std::arch::x86_64::*;
+        let span = self.start[p]..self.start[p + 1];
+        for (&code, a) in self.entries[span.clone()].iter().zip(&self.coef[span]) {
+            let v = _mm256_add_pd(
+                _mm256_add_pd(
+                    _mm256_mul_pd(c[0], _mm256_set1_pd(a.x)),
+                    _mm256_mul_pd(c[1], _mm256_set1_pd(a.y)),
+                ),
+                _mm256_mul_pd(c[2], _mm256_set1_pd(a.z)),
+            );
+            let dst = half.0.add(code as usize).cast::<f64>();
+            // SAFETY: three f64 of entry `code` < 2·bonds, which only particle p has
+            // (`HalfOut`).
+            unsafe {
+                _mm_storeu_pd(dst, _mm256_castpd256_pd128(v));
+                _mm_store_sd(dst.add(2), _mm256_extractf128_pd::<1>(v));
+            }
         }
     }
 
     /// [`chunk`](Self::chunk) with AVX2: F_p by columns, each entry's l_b·a_b[c] one packed
     /// product and sum per column; then V·W and V·P of four included particles at a time
-    /// (`ManyBody::energy_piola4_avx2`, the one-lane bits), the rest one by one. At a bond's
+    /// (`ManyBody::energy_piola4_avx2`, the one-lane bits), the rest one by one, and each
+    /// particle's halves as soon as its V·P is known (its a_b still in cache). At a bond's
     /// j end l_b is −(x_q − x_p) by a flip of the sign bit: x_j − x_i itself, but for the
     /// sign of a zero, which changes no bit of F (its sums start at +0, and +0 + −0 = +0).
     ///
@@ -139,7 +196,7 @@ impl FitInputs<'_> {
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn chunk_avx2(&self, base: usize, we: &mut [f64], wp: &mut [[f64; 9]]) {
+    unsafe fn chunk_avx2(&self, base: usize, we: &mut [f64], half: HalfOut) {
         use std::arch::x86_64::*;
         let mask = _mm256_set_epi64x(0, -1, -1, -1);
         // SAFETY: maskload reads only the three unmasked f64 of a Vec3.
@@ -151,21 +208,27 @@ impl FitInputs<'_> {
         for l in 0..we.len() {
             let p = base + l;
             if !self.term.is_included(p) {
-                (we[l], wp[l]) = (0.0, [0.0; 9]);
+                we[l] = 0.0;
+                self.put_halves(p, half, |_| [0.0; 3]);
                 continue;
             }
             let xp = load3(&self.x[p]);
             let mut col = [_mm256_setzero_pd(); 3];
             let span = self.start[p]..self.start[p + 1];
-            for (&e, &q) in self.entries[span.clone()].iter().zip(&self.other[span]) {
+            let coef = &self.coef[span.clone()];
+            let links = self.entries[span.clone()].iter().zip(&self.other[span]);
+            for ((&e, &q), a) in links.zip(coef) {
                 let (b, side) = ((e >> 1) as usize, (e & 1) as usize);
                 let lb = if q & IMAGE_LINK == 0 {
-                    let d = _mm256_sub_pd(load3(&self.x[q as usize]), xp);
+                    debug_assert!((q as usize) < self.x.len());
+                    // SAFETY: every other particle is below the particle count (checked in
+                    // `ManyBodyForces::new`), the positions' length (checked in `compute`).
+                    let xq = unsafe { self.x.get_unchecked(q as usize) };
+                    let d = _mm256_sub_pd(load3(xq), xp);
                     _mm256_xor_pd(d, _mm256_broadcast_sd(&FLIP[side]))
                 } else {
                     load3(&branch(self.x, self.t, &self.h, true, b))
                 };
-                let a = &self.coef[b][side];
                 col[0] = _mm256_add_pd(col[0], _mm256_mul_pd(lb, _mm256_set1_pd(a.x)));
                 col[1] = _mm256_add_pd(col[1], _mm256_mul_pd(lb, _mm256_set1_pd(a.y)));
                 col[2] = _mm256_add_pd(col[2], _mm256_mul_pd(lb, _mm256_set1_pd(a.z)));
@@ -175,24 +238,44 @@ impl FitInputs<'_> {
                 // SAFETY: writes four f64 into a local array.
                 unsafe { _mm256_storeu_pd(out.as_mut_ptr(), col[c]) };
             }
-            let f = Mat3::from_fn(|r, c| cols[c][r]);
+            // SAFETY (each `put_halves_avx2` below): AVX2 is available (this function's
+            // contract).
             if !grouped {
+                let f = Mat3::from_fn(|r, c| cols[c][r]);
                 let (w, m) = self.term.energy_piola_of(p, &f, self.volume[p]);
-                (we[l], wp[l]) = (w, flat(&m));
+                we[l] = w;
+                unsafe { self.put_halves_avx2(p, columns(|k| m[k]), half) };
                 continue;
             }
-            if four.push(l, &f, self.volume[p]) {
+            if four.push_columns(l, &cols, self.volume[p]) {
                 // SAFETY: AVX2 is available (this function's contract); one tensor D
                 // (checked above).
                 unsafe {
-                    self.term
-                        .lanes4_avx2(&mut four, |at, e, m| (we[at], wp[at]) = (e, flat(&m)));
+                    self.term.lanes4_avx2_in_lanes(&mut four, |at, e, pk, m| {
+                        we[at] = e;
+                        self.put_halves_avx2(base + at, columns(|k| pk[k][m]), half);
+                    });
                 }
             }
         }
-        self.term
-            .lanes_one_by_one(&mut four, base, |at, e, m| (we[at], wp[at]) = (e, flat(&m)));
+        self.term.lanes_one_by_one(&mut four, base, |at, e, m| {
+            we[at] = e;
+            // SAFETY: AVX2 is available (this function's contract).
+            unsafe { self.put_halves_avx2(base + at, columns(|k| m[k]), half) };
+        });
     }
+}
+
+/// The columns of a matrix with entry (r, c) `at(r + 3c)`, the fourth lane zero.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn columns(at: impl Fn(usize) -> f64) -> [std::arch::x86_64::__m256d; 3] {
+    use std::arch::x86_64::*;
+    [0, 1, 2].map(|c| _mm256_set_pd(0.0, at(3 * c + 2), at(3 * c + 1), at(3 * c)))
 }
 
 /// The entries of `m`, column-major.
@@ -207,114 +290,52 @@ fn times(m: &[f64; 9], a: &Vec3) -> Vec3 {
     Vec3::from_fn(|r, _| m[r] * a[0] + m[3 + r] * a[1] + m[6 + r] * a[2])
 }
 
-/// g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j of the bonds from `base` into `out`, written out
-/// (`ManyBody::gradient_in`'s operations).
-fn bond_chunk(
-    base: usize,
-    out: &mut [[f64; 3]],
-    coef: &[[Vec3; 2]],
-    t: &BondTopology,
-    piola: &[[f64; 9]],
-) {
-    for (l, g) in out.iter_mut().enumerate() {
-        let b = base + l;
-        let [ai, aj] = &coef[b];
-        let (mi, mj) = (&piola[t.i[b] as usize], &piola[t.j[b] as usize]);
-        *g = (times(mi, ai) + times(mj, aj)).into();
-    }
-}
-
-/// [`bond_chunk`] with AVX2: each matrix–vector product three packed products of columns,
-/// summed in the scalar order. `piola` has an entry after the last particle's.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn bond_chunk_avx2(
-    base: usize,
-    out: &mut [[f64; 3]],
-    coef: &[[Vec3; 2]],
-    t: &BondTopology,
-    piola: &[[f64; 9]],
-) {
-    use std::arch::x86_64::*;
-    let Some(last) = out.len().checked_sub(1) else {
-        return;
-    };
-    // Column c of particle p: four f64 from 9p + 3c (the fourth, the next column's first
-    // entry or the zero after the last particle, lands in a lane never used).
-    let at = |p: u32, c: usize| {
-        debug_assert!((p as usize) + 1 < piola.len());
-        // SAFETY: 9p + 3c + 4 ≤ 9(p + 2) ≤ 9·piola.len(): p is a particle, piola has one
-        // entry more.
-        unsafe { _mm256_loadu_pd(piola.as_ptr().cast::<f64>().add(9 * p as usize + 3 * c)) }
-    };
-    let times = |p: u32, a: &Vec3| {
-        _mm256_add_pd(
-            _mm256_add_pd(
-                _mm256_mul_pd(at(p, 0), _mm256_set1_pd(a.x)),
-                _mm256_mul_pd(at(p, 1), _mm256_set1_pd(a.y)),
-            ),
-            _mm256_mul_pd(at(p, 2), _mm256_set1_pd(a.z)),
-        )
-    };
-    let span = base..base + out.len();
-    let ends = t.i[span.clone()].iter().zip(&t.j[span.clone()]);
-    let dst = out.as_mut_ptr().cast::<f64>();
-    for (l, ([ai, aj], (&i, &j))) in coef[span].iter().zip(ends).enumerate() {
-        let v = _mm256_add_pd(times(i, ai), times(j, aj));
-        if l < last {
-            // SAFETY: four f64 from 3l: g_l and the first of g_{l+1} (inside `out`, written
-            // next).
-            unsafe { _mm256_storeu_pd(dst.add(3 * l), v) };
-        } else {
-            let mut g = [0.0f64; 4];
-            // SAFETY: writes four f64 into a local array.
-            unsafe { _mm256_storeu_pd(g.as_mut_ptr(), v) };
-            out[l] = [g[0], g[1], g[2]];
-        }
-    }
-}
-
 /// `f` + Σ (±g_b) over the particle's CSR `entries` (`2·bond + side`: +g_b at the bond's i
-/// end, −g_b at its j end), in entry order: the term's share of a resultant, added as the
-/// particle update gathers the bond loads. `g` has an entry after the last bond's; `simd`:
-/// AVX2 is available.
+/// end, −g_b at its j end), in entry order, with g_b = half[2b] + half[2b + 1]: the term's
+/// share of a resultant, added as the particle update gathers the bond loads. `half` has an
+/// entry after the last bond's; `simd`: AVX2 is available.
 #[inline(always)]
-pub(crate) fn gather(f: Vec3, entries: &[u32], g: &[[f64; 3]], simd: bool) -> Vec3 {
+pub(crate) fn gather(f: Vec3, entries: &[u32], half: &[[f64; 3]], simd: bool) -> Vec3 {
     #[cfg(target_arch = "x86_64")]
     if simd {
         // SAFETY: the caller checked AVX2.
-        return unsafe { gather_avx2(f, entries, g) };
+        return unsafe { gather_avx2(f, entries, half) };
     }
     let _ = simd;
     let mut f = f;
     for &e in entries {
         let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
-        f += Vec3::from(g[(e >> 1) as usize]) * sign;
+        let b2 = (e & !1) as usize;
+        f += (Vec3::from(half[b2]) + Vec3::from(half[b2 + 1])) * sign;
     }
     f
 }
 
-/// [`gather`] with AVX2 (each ±g_b one packed product and sum: the same bits).
+/// [`gather`] with AVX2 (each g_b one packed sum of its halves, ±g_b one packed product
+/// and sum: the same bits).
 ///
 /// # Safety
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(f: Vec3, entries: &[u32], g: &[[f64; 3]]) -> Vec3 {
+unsafe fn gather_avx2(f: Vec3, entries: &[u32], half: &[[f64; 3]]) -> Vec3 {
     use std::arch::x86_64::*;
     const SIGN: [f64; 2] = [1.0, -1.0];
     let mut acc = _mm256_set_pd(0.0, f.z, f.y, f.x);
-    let base = g.as_ptr().cast::<f64>();
+    let base = half.as_ptr().cast::<f64>();
     for &e in entries {
-        let b = (e >> 1) as usize;
-        debug_assert!(b + 1 < g.len());
+        let b2 = (e & !1) as usize;
+        debug_assert!(b2 + 2 < half.len());
         let sign = _mm256_set1_pd(SIGN[(e & 1) as usize]);
-        // SAFETY: four f64 from 3b: g_b and one more (b is a bond, g has an entry more).
-        let v = unsafe { _mm256_loadu_pd(base.add(3 * b)) };
-        acc = _mm256_add_pd(acc, _mm256_mul_pd(v, sign));
+        // SAFETY: four f64 from 3·b2 and from 3·(b2 + 1): the two halves and one more each
+        // (b2 + 1 < 2·bonds, half has an entry more).
+        let g = unsafe {
+            _mm256_add_pd(
+                _mm256_loadu_pd(base.add(3 * b2)),
+                _mm256_loadu_pd(base.add(3 * b2 + 3)),
+            )
+        };
+        acc = _mm256_add_pd(acc, _mm256_mul_pd(g, sign));
     }
     let mut out = [0.0f64; 4];
     // SAFETY: writes four f64 into a local array.
@@ -404,7 +425,24 @@ impl ManyBodyForces {
                     .into(),
             ));
         }
-        let other = topology
+        // Each bond end (entry code 2·bond + side) once in the CSR: the particle pass's
+        // chunks write the halves without overlap (`HalfOut`).
+        let mut seen = vec![false; 2 * topology.len()];
+        let mut once = topology.entries.len() == seen.len();
+        for &e in &topology.entries {
+            match seen.get_mut(e as usize) {
+                Some(s) if !*s => *s = true,
+                _ => once = false,
+            }
+        }
+        if !once {
+            return Err(Error::Invalid(
+                "many-body term in the integrator: the topology does not list each bond end \
+                 once"
+                    .into(),
+            ));
+        }
+        let other: Vec<u32> = topology
             .entries
             .iter()
             .map(|&e| {
@@ -422,12 +460,17 @@ impl ManyBodyForces {
             })
             .collect();
         let n = particles.len();
+        // The AVX2 fit reads the positions of these particles unchecked.
+        if other.iter().any(|&q: &u32| (q & !IMAGE_LINK) as usize >= n) {
+            return Err(Error::Invalid(
+                "many-body term in the integrator: a bond names a particle beyond the count".into(),
+            ));
+        }
         Ok(ManyBodyForces {
             term,
             other,
             energy: vec![0.0; n],
-            piola: vec![[0.0; 9]; n + 1],
-            gradient: vec![[0.0; 3]; topology.len() + 1],
+            half: vec![[0.0; 3]; 2 * topology.len() + 1],
         })
     }
 
@@ -436,9 +479,9 @@ impl ManyBodyForces {
         &self.term
     }
 
-    /// Energy and bond gradients g_b at the current positions and cell `h` (`None`: free):
-    /// the particle pass, then the bond pass (see the module docs); `simd`: the AVX2 kernels
-    /// may run (the same bits).
+    /// Energy and the bonds' halves at the current positions and cell `h` (`None`: free):
+    /// the one particle pass (see the module docs); `simd`: the AVX2 kernels may run (the
+    /// same bits).
     pub(crate) fn compute(
         &mut self,
         p: &Particles,
@@ -457,61 +500,48 @@ impl ManyBodyForces {
             term,
             other,
             energy,
-            piola,
-            gradient,
+            half,
         } = self;
-        let bond_coef = term.fit_layout().bond_coef;
+        // The AVX2 fit reads positions unchecked below the particle count.
+        assert_eq!(
+            p.position.len(),
+            energy.len(),
+            "many-body term: particle count"
+        );
         let fit = FitInputs {
             term,
             start: &t.start,
             entries: &t.entries,
             other,
-            coef: bond_coef,
+            coef: term.fit_layout().coef,
             volume: term.particle_volumes(),
             x: &p.position,
             t,
             h: h.copied().unwrap_or_else(Mat3::zeros),
         };
+        let out = HalfOut(half.as_mut_ptr());
         const PC: usize = PARTICLE_CHUNK;
-        let n = energy.len();
-        energy
-            .par_chunks_mut(PC)
-            .zip(piola[..n].par_chunks_mut(PC))
-            .enumerate()
-            .for_each(|(c, (we, wp))| {
-                #[cfg(target_arch = "x86_64")]
-                if lanes {
-                    // SAFETY: AVX2 is available (checked above).
-                    return unsafe { fit.chunk_avx2(c * PC, we, wp) };
-                }
-                fit.chunk(c * PC, we, wp)
-            });
-        let piola = &piola[..];
-        let nb = gradient.len() - 1;
-        gradient[..nb]
-            .par_chunks_mut(BOND_CHUNK)
-            .enumerate()
-            .for_each(|(c, out)| {
-                #[cfg(target_arch = "x86_64")]
-                if lanes {
-                    // SAFETY: AVX2 is available (checked above); piola has its extra entry.
-                    return unsafe { bond_chunk_avx2(c * BOND_CHUNK, out, bond_coef, t, piola) };
-                }
-                bond_chunk(c * BOND_CHUNK, out, bond_coef, t, piola)
-            });
+        energy.par_chunks_mut(PC).enumerate().for_each(|(c, we)| {
+            #[cfg(target_arch = "x86_64")]
+            if lanes {
+                // SAFETY: AVX2 is available (checked above).
+                return unsafe { fit.chunk_avx2(c * PC, we, out) };
+            }
+            fit.chunk(c * PC, we, out)
+        });
     }
 
-    /// g_b = ∂U/∂l_b of every bond at the last [`compute`](Self::compute) (N), and a zero
-    /// entry after them: the term's force on particle p is Σ_b (+g_b at i_b, −g_b at j_b)
-    /// ([`gather`]).
-    pub(crate) fn bond_gradients(&self) -> &[[f64; 3]] {
-        &self.gradient
+    /// The bonds' halves of the last [`compute`](Self::compute) (N), per entry code
+    /// `2·bond + side`, and a zero entry after them: g_b = half[2b] + half[2b + 1], and the
+    /// term's force on particle p is Σ_b (+g_b at i_b, −g_b at j_b) ([`gather`]).
+    pub(crate) fn bond_halves(&self) -> &[[f64; 3]] {
+        &self.half
     }
 
     /// g_b = ∂U/∂l_b of bond `b` at the last [`compute`](Self::compute) (N): the term's force
     /// on the bond's i end (−g_b on its j end).
     pub(crate) fn bond_force(&self, b: usize) -> Vec3 {
-        self.gradient[b].into()
+        Vec3::from(self.half[2 * b]) + Vec3::from(self.half[2 * b + 1])
     }
 
     /// U of the last [`compute`](Self::compute) (J), summed in particle order (the bits of
@@ -629,7 +659,7 @@ mod tests {
                         let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
                         expect += ws.gradient[(e >> 1) as usize] * sign;
                     }
-                    let got = gather(f0, entries, forces.bond_gradients(), simd);
+                    let got = gather(f0, entries, forces.bond_halves(), simd);
                     assert_eq!(bits(got), bits(expect), "particle {q}, simd {simd}");
                 }
             }

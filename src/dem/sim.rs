@@ -108,8 +108,9 @@ struct Resultants<'a> {
     external: Option<&'a ExternalForces>,
     /// Contact forces and torques per particle, if contacts are on.
     contact: Option<(&'a [Vec3], &'a [Vec3])>,
-    /// The many-body term's g_b per bond, if it is on: +g_b on i_b, −g_b on j_b
-    /// (docs/manybody.md "Integrator"), gathered here rather than in a pass of its own.
+    /// The many-body term's halves per bond end, if it is on: +g_b on i_b, −g_b on j_b with
+    /// g_b the sum of the bond's two halves (docs/manybody.md "Integrator"), gathered here
+    /// rather than in a pass of its own.
     manybody: Option<&'a [[f64; 3]]>,
     /// The AVX2 kernels run.
     lanes: bool,
@@ -1038,7 +1039,7 @@ impl Simulation {
                 loads: &self.loads.per_bond[..],
                 external: self.external.as_ref(),
                 contact: self.contacts.as_ref().map(|c| (c.force(), c.torque())),
-                manybody: self.manybody.as_ref().map(|m| m.bond_gradients()),
+                manybody: self.manybody.as_ref().map(|m| m.bond_halves()),
                 lanes,
             },
             mass: &p.mass[..],

@@ -628,6 +628,28 @@ impl ManyBody {
         four.filled = 0;
     }
 
+    /// [`lanes4_avx2`](Self::lanes4_avx2) handing each particle's V·P as the lanes hold it:
+    /// `put(slot, V·W, pk, lane)` with V·P's entry (r, c) at `pk[r + 3c][lane]` (no matrix
+    /// built per particle); `four` emptied.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn lanes4_avx2_in_lanes(
+        &self,
+        four: &mut Lanes4,
+        mut put: impl FnMut(usize, f64, &[[f64; 4]; 9], usize),
+    ) {
+        debug_assert!(four.filled == 4 && self.d6.len() == 1);
+        // SAFETY: the caller guarantees AVX2.
+        let (e, pk) = unsafe { energy_piola_avx2(&self.d6[0], self.measure, &four.f, &four.v) };
+        for (m, &at) in four.slot.iter().enumerate() {
+            put(at, e[m], &pk, m);
+        }
+        four.filled = 0;
+    }
+
     /// (V·W, V·P) of the particles left in `four` (fewer than four), one lane at a time
     /// ([`energy_piola`](Self::energy_piola); particle `base` + slot): `put(slot, V·W, V·P)`;
     /// `four` emptied.
@@ -1082,6 +1104,22 @@ impl Lanes4 {
         self.slot[m] = at;
         for (k, lane) in self.f.iter_mut().enumerate() {
             lane[m] = f[k];
+        }
+        self.v[m] = v;
+        self.filled += 1;
+        self.filled == 4
+    }
+
+    /// [`push`](Self::push) with F given by columns: entry (r, c) is `cols[c][r]` (the
+    /// fourth of each column unused).
+    #[inline(always)]
+    pub(crate) fn push_columns(&mut self, at: usize, cols: &[[f64; 4]; 3], v: f64) -> bool {
+        let m = self.filled;
+        self.slot[m] = at;
+        for (c, col) in cols.iter().enumerate() {
+            for (r, x) in col[..3].iter().enumerate() {
+                self.f[r + 3 * c][m] = *x;
+            }
         }
         self.v[m] = v;
         self.filled += 1;
