@@ -340,17 +340,15 @@ fn relaxed_solve_full(
             active: net.original,
         });
     }
-    let assembled = BlockSparse::assemble(&net);
-    // K holds the springs from here on: free the network's copy before the solve's vectors.
-    net.release_springs();
-    // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
-    // assembled K; only the sparse Cholesky assembles it (below).
-    debug_assert_eq!(assembled.rows(), m);
     // The two-level and block-Jacobi CG of the springs alone only read K's rows and multiply
     // by it: its upper triangle serves (the same bits, half the memory; issue 35).
+    // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
+    // assembled K; only the sparse Cholesky assembles it (below).
     let products_only = term.is_none()
         && matches!(opts.solver, RelaxedSolver::Cg { preconditioner } if preconditioner != CgPreconditioner::Amg);
-    let stored = StoredSprings::of(assembled, products_only);
+    let stored = StoredSprings::assemble(&net, products_only);
+    // K holds the springs from here on: free the network's copy before the solve's vectors.
+    net.release_springs();
     let (pre, diag) = jacobi_pieces(&stored.springs(), term_op.as_ref());
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
@@ -528,12 +526,12 @@ enum StoredSprings {
 }
 
 impl StoredSprings {
-    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
-    /// transposes bit for bit (then the full matrix is freed).
-    fn of(k: BlockSparse, products_only: bool) -> StoredSprings {
-        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
+    /// K of the network, by its upper triangle alone when `products_only` (assembled
+    /// directly: the full K is never formed), else in full.
+    fn assemble(net: &Network, products_only: bool) -> StoredSprings {
+        match products_only.then(|| UpperBlocks::assemble(net)).flatten() {
             Some(u) => StoredSprings::Upper(u),
-            None => StoredSprings::Full(k),
+            None => StoredSprings::Full(BlockSparse::assemble(net)),
         }
     }
 
