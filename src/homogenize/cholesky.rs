@@ -17,6 +17,7 @@ use super::network::{symmetric_eigen6, Block6};
 use super::sparse::BlockSparse;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
 };
@@ -226,7 +227,13 @@ impl BlockCholesky {
     /// Reduce, order (AMD) and factor `k`. Errors when no node can be pinned or when the
     /// reduced matrix is not positive definite (a global mechanism).
     pub fn factor(k: &BlockSparse) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, true)
+        BlockCholesky::factor_with(k, true, None)
+    }
+
+    /// [`Self::factor`] with the nodes eliminated in the given `order` (every node once),
+    /// e.g. a nested dissection the caller knows from the geometry, instead of AMD.
+    pub(crate) fn factor_in_order(k: &BlockSparse, order: &[u32]) -> Result<BlockCholesky> {
+        BlockCholesky::factor_with(k, true, Some(order))
     }
 
     /// Reduce, order and factor a `k` that has no rigid-body modes (a structure held by
@@ -234,13 +241,13 @@ impl BlockCholesky {
     /// is pinned (`pinned` is `usize::MAX`). Errors when the reduced matrix is not positive
     /// definite (a global mechanism, e.g. a part not held by the prescribed nodes).
     pub fn factor_definite(k: &BlockSparse) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, false)
+        BlockCholesky::factor_with(k, false, None)
     }
 
     /// Reduce every node to the range of its diagonal block (and, with `pin`, fix one
     /// node's translations), order (AMD) and factor; see [`Self::factor`] and
     /// [`Self::factor_definite`].
-    fn factor_with(k: &BlockSparse, pin: bool) -> Result<BlockCholesky> {
+    fn factor_with(k: &BlockSparse, pin: bool, order: Option<&[u32]>) -> Result<BlockCholesky> {
         let m = k.rows();
         if m == 0 {
             return Err(Error::Invalid("Cholesky: empty stiffness matrix".into()));
@@ -256,13 +263,38 @@ impl BlockCholesky {
         }
         let (col_ptr, row_idx, values) = reduced_upper(k, &basis, &offset);
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic = factorize_symbolic_cholesky(
-            sym,
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
+        // The nodes' order expanded to their kept unknowns: forward[new] = old.
+        let forward: Vec<usize> = match order {
+            Some(order) => {
+                if order.len() != m || {
+                    let mut seen = vec![false; m];
+                    order
+                        .iter()
+                        .any(|&p| std::mem::replace(&mut seen[p as usize], true))
+                } {
+                    return Err(Error::Invalid(format!(
+                        "Cholesky: an elimination order of {} entries for {m} nodes, not \
+                         each node once",
+                        order.len()
+                    )));
+                }
+                order
+                    .iter()
+                    .flat_map(|&p| offset[p as usize]..offset[p as usize + 1])
+                    .collect()
+            }
+            None => Vec::new(),
+        };
+        let mut inverse = vec![0usize; forward.len()];
+        for (new, &old) in forward.iter().enumerate() {
+            inverse[old] = new;
+        }
+        let ordering = match order {
+            Some(_) => SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, n)),
+            None => SymmetricOrdering::Amd,
+        };
+        let symbolic = factorize_symbolic_cholesky(sym, Side::Upper, ordering, Default::default())
+            .map_err(|e| Error::Invalid(format!("Cholesky symbolic analysis: {e:?}")))?;
         let factor = numeric_llt(&symbolic, SparseColMatRef::new(sym, &values), pin)?;
         Ok(BlockCholesky {
             basis,
@@ -288,6 +320,18 @@ impl BlockCholesky {
     /// X with K X = B for six right-hand sides (one 6×6 block per node: DOF × case), B
     /// orthogonal to the removed null space; X has zero components along it.
     pub fn solve(&self, b: &[Block6]) -> Result<Vec<Block6>> {
+        self.solve_split(b, 6)
+    }
+
+    /// [`Self::solve`] with the triangular solves on the load cases in two halves of three
+    /// at once (one per thread: faer's solves are serial, and they are the CG's coarse
+    /// solve in every iteration); the halves are the same on any thread count, so the bits.
+    pub(crate) fn solve_in_halves(&self, b: &[Block6]) -> Result<Vec<Block6>> {
+        self.solve_split(b, 3)
+    }
+
+    /// [`Self::solve`] with the triangular solves on groups of `group` load cases.
+    fn solve_split(&self, b: &[Block6], group: usize) -> Result<Vec<Block6>> {
         let m = self.basis.len();
         if b.len() != m {
             return Err(Error::Invalid(format!(
@@ -305,17 +349,32 @@ impl BlockCholesky {
                 }
             }
         }
-        // Sequential triangular solves: cheap, and no synchronisation inside the CG loop.
+        // Sequential triangular solves within a group: no synchronisation inside them.
         let par = Par::Seq;
-        let mut mem = MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(6, par))
-            .map_err(|_| Error::Invalid("Cholesky: cannot allocate solve workspace".into()))?;
         let llt = LltRef::new(&self.symbolic, &self.factor);
-        llt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut x, n, 6),
-            par,
-            MemStack::new(&mut mem),
-        );
+        let solve_group = |x: &mut [f64]| -> Result<()> {
+            let cols = x.len() / n;
+            let mut mem =
+                MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(cols, par))
+                    .map_err(|_| {
+                        Error::Invalid("Cholesky: cannot allocate solve workspace".into())
+                    })?;
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(x, n, cols),
+                par,
+                MemStack::new(&mut mem),
+            );
+            Ok(())
+        };
+        if group >= 6 {
+            solve_group(&mut x)?;
+        } else {
+            let (first, second) = x.split_at_mut(group * n);
+            let (ra, rb) = rayon::join(|| solve_group(first), || solve_group(second));
+            ra?;
+            rb?;
+        }
         Ok(self
             .basis
             .par_iter()

@@ -187,27 +187,38 @@ fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
     s
 }
 
+/// Rows per chunk of [`curvatures`]' sums (fixed: the same bits on any thread count).
+const CURVATURE_ROWS: usize = 2048;
+
 /// [`column_dots`] of p and K p (the same bits) together with pᵀ diag(K) p per column, the
 /// scale of the rounding error of pᵀKp in [`pcg`].
 fn curvatures(p: &[Block6], kp: &[Block6], diag: &[[f64; 6]]) -> ([f64; 6], [f64; 6]) {
-    const CH: usize = 2048;
+    const CH: usize = CURVATURE_ROWS;
     let parts: Vec<([f64; 6], [f64; 6])> = p
         .par_chunks(CH)
         .zip(kp.par_chunks(CH))
         .zip(diag.par_chunks(CH))
-        .map(|((cp, ck), cd)| {
-            let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
-            for ((x, y), d) in cp.iter().zip(ck).zip(cd) {
-                for c in 0..6 {
-                    s[c] += x.column(c).dot(&y.column(c));
-                    for (i, di) in d.iter().enumerate() {
-                        t[c] += di * x[(i, c)] * x[(i, c)];
-                    }
-                }
-            }
-            (s, t)
-        })
+        .map(|((cp, ck), cd)| curvature_chunk(cp, ck, cd))
         .collect();
+    sum_curvatures(parts)
+}
+
+/// One chunk's sums of [`curvatures`], rows in order.
+fn curvature_chunk(cp: &[Block6], ck: &[Block6], cd: &[[f64; 6]]) -> ([f64; 6], [f64; 6]) {
+    let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
+    for ((x, y), d) in cp.iter().zip(ck).zip(cd) {
+        for c in 0..6 {
+            s[c] += x.column(c).dot(&y.column(c));
+            for (i, di) in d.iter().enumerate() {
+                t[c] += di * x[(i, c)] * x[(i, c)];
+            }
+        }
+    }
+    (s, t)
+}
+
+/// The chunks' sums of [`curvatures`] added in chunk order.
+fn sum_curvatures(parts: Vec<([f64; 6], [f64; 6])>) -> ([f64; 6], [f64; 6]) {
     let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
     for (ps, pt) in parts {
         for c in 0..6 {
@@ -329,17 +340,15 @@ fn relaxed_solve_full(
             active: net.original,
         });
     }
-    let assembled = BlockSparse::assemble(&net);
-    // K holds the springs from here on: free the network's copy before the solve's vectors.
-    net.release_springs();
-    // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
-    // assembled K; only the sparse Cholesky assembles it (below).
-    debug_assert_eq!(assembled.rows(), m);
     // The two-level and block-Jacobi CG of the springs alone only read K's rows and multiply
     // by it: its upper triangle serves (the same bits, half the memory; issue 35).
+    // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
+    // assembled K; only the sparse Cholesky assembles it (below).
     let products_only = term.is_none()
         && matches!(opts.solver, RelaxedSolver::Cg { preconditioner } if preconditioner != CgPreconditioner::Amg);
-    let stored = StoredSprings::of(assembled, products_only);
+    let stored = StoredSprings::assemble(&net, products_only);
+    // K holds the springs from here on: free the network's copy before the solve's vectors.
+    net.release_springs();
     let (pre, diag) = jacobi_pieces(&stored.springs(), term_op.as_ref());
     net.null_space.other_singular_particles = (0..m)
         .filter(|&p| {
@@ -517,12 +526,12 @@ enum StoredSprings {
 }
 
 impl StoredSprings {
-    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
-    /// transposes bit for bit (then the full matrix is freed).
-    fn of(k: BlockSparse, products_only: bool) -> StoredSprings {
-        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
+    /// K of the network, by its upper triangle alone when `products_only` (assembled
+    /// directly: the full K is never formed), else in full.
+    fn assemble(net: &Network, products_only: bool) -> StoredSprings {
+        match products_only.then(|| UpperBlocks::assemble(net)).flatten() {
             Some(u) => StoredSprings::Upper(u),
-            None => StoredSprings::Full(k),
+            None => StoredSprings::Full(BlockSparse::assemble(net)),
         }
     }
 
@@ -623,6 +632,30 @@ impl Stiffness<'_> {
             *yr = self.k.row_times(r, x, cols);
             t.add_row(r, &work, yr, cols);
         });
+    }
+
+    /// K p into `ap` and the curvatures of [`curvatures`] (the same bits), in one pass over
+    /// the rows when K is the springs' upper triangle alone: each chunk's sums are taken as
+    /// soon as its rows of K p are computed, while p and K p are in cache.
+    fn apply_curvatures(
+        &self,
+        p: &[Block6],
+        ap: &mut [Block6],
+        cols: usize,
+    ) -> ([f64; 6], [f64; 6]) {
+        match (self.k, self.term) {
+            (Springs::Upper(k), None) => {
+                let parts = k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, |first, ys| {
+                    let rows = first..first + ys.len();
+                    curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
+                });
+                sum_curvatures(parts)
+            }
+            _ => {
+                self.apply_cols(p, ap, cols);
+                curvatures(p, ap, &self.diag)
+            }
+        }
     }
 
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
@@ -961,8 +994,7 @@ fn pcg(
         if it == opts.max_iterations {
             break;
         }
-        k.apply_cols(&p, &mut ap, cols);
-        let (pap, pdp) = curvatures(&p, &ap, &k.diag);
+        let (pap, pdp) = k.apply_curvatures(&p, &mut ap, cols);
         let judged: [bool; 6] = std::array::from_fn(|c| live[c] && !done[c]);
         let bound: [f64; 6] = std::array::from_fn(|c| rounding * pdp[c]);
         judge_curvature(&pap, &bound, &judged, &residual, opts.tolerance, &mut done)?;
@@ -1039,10 +1071,17 @@ impl<'a> Preconditioner<'a> {
 
     /// z = M r, the block-Jacobi step.
     fn jacobi(pre: &[(Block6, usize)], cols: usize, r: &[Block6], z: &mut [Block6]) {
-        z.par_iter_mut()
-            .zip(r.par_iter())
-            .zip(pre.par_iter())
-            .for_each(|((z, r), (p, _))| *z = mul6_cols(p, r, cols));
+        const CH: usize = 512;
+        z.par_chunks_mut(CH)
+            .zip(r.par_chunks(CH))
+            .zip(pre.par_chunks(CH))
+            .for_each(|((z, r), pre)| {
+                super::sparse::with_avx2(|| {
+                    for ((z, r), (p, _)) in z.iter_mut().zip(r).zip(pre) {
+                        *z = mul6_cols(p, r, cols);
+                    }
+                })
+            });
     }
 
     /// z = M r, or with the coarse space z = (I − QK) M r: with r ⟂ range(P) (arranged by
@@ -1064,10 +1103,7 @@ impl<'a> Preconditioner<'a> {
         if let Some(g) = self.groups {
             g.apply(r, &mut self.w, self.cols);
         }
-        tl.coarse_of_k_cols(&self.w, z, self.cols)?; // z = Q K w
-        z.par_iter_mut()
-            .zip(self.w.par_iter())
-            .for_each(|(z, w)| *z = w - *z);
+        tl.deflate_cols(&self.w, z, self.cols)?; // z = w − Q K w
         Ok(())
     }
 }
