@@ -19,9 +19,22 @@ impl BlockSparse {
     /// 6.6 GB; issue 35). Each block is summed in the order of [`Self::assemble_blocks`]
     /// (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the bits are the same.
     pub fn assemble(net: &Network) -> BlockSparse {
+        BlockSparse::assemble_rows(net.n_active, &net.ends, |e| {
+            let el = net.element(e);
+            (el.kii, el.kjj, el.kij)
+        })
+    }
+
+    /// [`Self::assemble_blocks`] row by row, forming edge e's blocks `blocks(e)` at both of
+    /// its rows instead of holding every edge's (the same bits).
+    pub(crate) fn assemble_rows(
+        m: usize,
+        ends: &[(u32, u32)],
+        blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
+    ) -> BlockSparse {
         const ROWS: usize = 4096;
-        let m = net.n_active;
-        let (start, edges) = csr(m, net.end_pairs(), |k, _| k as u32);
+        let pairs = ends.iter().map(|&(a, b)| (a as usize, b as usize));
+        let (start, edges) = csr(m, pairs, |k, _| k as u32);
         let mut k = BlockSparse::from_rows(Vec::new());
         for r0 in (0..m).step_by(ROWS) {
             let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(m))
@@ -36,10 +49,9 @@ impl BlockSparse {
                             continue; // a bond to the particle's own image is listed twice
                         }
                         last = e;
-                        let (pi, pj) = net.ends[e as usize];
+                        let (pi, pj) = ends[e as usize];
                         let at = elements.len();
-                        let el = net.element(e as usize);
-                        elements.push((el.kii, el.kjj, el.kij));
+                        elements.push(blocks(e as usize));
                         if pi as usize == r {
                             parts.push((pi, e, 0, at));
                             parts.push((pj, e, 2, at));
@@ -193,7 +205,7 @@ impl BlockSparse {
     }
 
     /// Append block rows, each sorted by column, below the stored ones.
-    fn push_rows(&mut self, rows: Vec<Vec<(u32, Block6)>>) {
+    pub(crate) fn push_rows(&mut self, rows: Vec<Vec<(u32, Block6)>>) {
         for r in rows {
             for (c, b) in r {
                 self.col.push(c);
