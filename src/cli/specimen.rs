@@ -298,7 +298,7 @@ fn print_report(r: &SpecimenReport, dir: &Path) {
         r.poisson
     );
     println!(
-        "  solve: {:?}, {} unknowns, relative residual {:.2e}",
+        "  solve: {}, {} unknowns, relative residual {:.2e}",
         r.solver, r.unknowns, r.relative_residual
     );
     println!(

@@ -244,6 +244,15 @@ impl BlockCholesky {
         BlockCholesky::factor_with(k, false, None)
     }
 
+    /// [`Self::factor_definite`] with the nodes eliminated in the given `order` (every node
+    /// once) instead of AMD.
+    pub(crate) fn factor_definite_in_order(
+        k: &BlockSparse,
+        order: &[u32],
+    ) -> Result<BlockCholesky> {
+        BlockCholesky::factor_with(k, false, Some(order))
+    }
+
     /// Reduce every node to the range of its diagonal block (and, with `pin`, fix one
     /// node's translations), order (AMD) and factor; see [`Self::factor`] and
     /// [`Self::factor_definite`].

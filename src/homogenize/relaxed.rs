@@ -19,7 +19,7 @@ use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpac
 use super::sparse::{mul6_cols, BlockRows, BlockSparse, UpperBlocks};
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
-use super::two_level::TwoLevel;
+use super::two_level::{HeldSpace, TwoLevel};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::manybody::ManyBody;
 use crate::packing::Packing;
@@ -535,6 +535,15 @@ impl StoredSprings {
         }
     }
 
+    /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
+    /// transposes bit for bit (then the full matrix is freed).
+    fn of(k: BlockSparse, products_only: bool) -> StoredSprings {
+        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
+            Some(u) => StoredSprings::Upper(u),
+            None => StoredSprings::Full(k),
+        }
+    }
+
     fn springs(&self) -> Springs<'_> {
         match self {
             StoredSprings::Full(k) => Springs::Full(k),
@@ -810,26 +819,36 @@ pub(crate) fn block_jacobi_cg(
 
 /// [`block_jacobi_cg`] with the two-level preconditioner of [`super::two_level`] (aggregates
 /// of about [`DEFAULT_PARTICLES_PER_AGGREGATE`] nodes on a grid over `box_lengths`, `positions`
-/// inside [0, box_lengths)): iterations nearly independent of the size, for a held structure
-/// too large for the direct solve. Falls back to block-Jacobi when the coarse matrix cannot
-/// be factored (only the preconditioner is weaker).
+/// inside [0, box_lengths); the coarse space of the held structure, [`TwoLevel::held`]):
+/// iterations nearly independent of the size, for a held structure too large for the direct
+/// solve. Falls back to block-Jacobi when the coarse matrix cannot be factored (only the
+/// preconditioner is weaker). Once the preconditioner is set up, `k` is kept by its upper
+/// triangle ([`StoredSprings`]: the same bits, half the memory).
 pub(crate) fn two_level_cg(
-    k: &BlockSparse,
+    k: BlockSparse,
     b: &[Block6],
-    positions: &[crate::Vec3],
-    box_lengths: crate::Vec3,
+    (positions, box_lengths): (&[crate::Vec3], crate::Vec3),
+    held: &HeldSpace,
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let two_level = TwoLevel::new(
-        k,
+    let two_level = TwoLevel::held(
+        &k,
         positions,
         box_lengths,
-        true,
         aggregate_size(DEFAULT_PARTICLES_PER_AGGREGATE, k.rows()),
+        held,
     )
     .ok();
-    held_cg(k, b, (two_level.as_ref(), None), tolerance, max_iterations)
+    let pieces = jacobi_pieces(&k, None);
+    let stored = StoredSprings::of(k, true);
+    held_cg_with(
+        (stored.springs(), pieces),
+        b,
+        (two_level.as_ref(), None),
+        tolerance,
+        max_iterations,
+    )
 }
 
 /// [`block_jacobi_cg`] preconditioned by one multigrid V-cycle of `amg` per iteration (built
@@ -854,8 +873,28 @@ fn held_cg(
     tolerance: f64,
     max_iterations: usize,
 ) -> Result<(Vec<Block6>, usize, f64)> {
-    let (pre, diag) = jacobi_pieces(k, None);
-    let k = Springs::Full(k);
+    let pieces = jacobi_pieces(k, None);
+    held_cg_with(
+        (Springs::Full(k), pieces),
+        b,
+        coarse,
+        tolerance,
+        max_iterations,
+    )
+}
+
+/// The block-Jacobi pieces of K ([`jacobi_pieces`]): pseudo-inverted diagonal blocks and
+/// their diagonal entries.
+type JacobiPieces = (Vec<(Block6, usize)>, Vec<[f64; 6]>);
+
+/// [`held_cg`] on the springs `k` with their block-Jacobi pieces.
+fn held_cg_with(
+    (k, (pre, diag)): (Springs, JacobiPieces),
+    b: &[Block6],
+    coarse: (Option<&TwoLevel>, Option<&Amg>),
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<Block6>, usize, f64)> {
     let scale = column_dots(b, b).map(f64::sqrt);
     let opts = RelaxedOptions {
         tolerance,

@@ -20,7 +20,26 @@ impl BlockSparse {
     /// (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the bits are the same.
     pub fn assemble(net: &Network) -> BlockSparse {
         let mut k = BlockSparse::from_rows(Vec::new());
-        assemble_rows(net, false, |rows| k.push_rows(rows));
+        assemble_rows(
+            net.n_active,
+            &net.ends,
+            element_blocks(net),
+            false,
+            |rows| k.push_rows(rows),
+        );
+        k
+    }
+
+    /// [`Self::assemble_blocks`] row by row over `m` nodes and the edges `ends`, forming edge
+    /// e's blocks `blocks(e)` = (K_ii, K_jj, K_ij) at both of its rows instead of holding
+    /// every edge's (the same bits).
+    pub(crate) fn assemble_rows(
+        m: usize,
+        ends: &[(u32, u32)],
+        blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
+    ) -> BlockSparse {
+        let mut k = BlockSparse::from_rows(Vec::new());
+        assemble_rows(m, ends, blocks, false, |rows| k.push_rows(rows));
         k
     }
 
@@ -145,7 +164,7 @@ impl BlockSparse {
     }
 
     /// Append block rows, each sorted by column, below the stored ones.
-    fn push_rows(&mut self, rows: Vec<Vec<(u32, Block6)>>) {
+    pub(crate) fn push_rows(&mut self, rows: Vec<Vec<(u32, Block6)>>) {
         for r in rows {
             for (c, b) in r {
                 self.col.push(c);
@@ -222,15 +241,30 @@ impl BlockSparse {
     }
 }
 
-/// The block rows of K of a network, by chunks of rows handed to `sink` in order, each
-/// bond's element formed from its springs at both of its rows (never all elements at once:
+/// Edge e's blocks (K_ii, K_jj, K_ij) of a network, from its element.
+fn element_blocks(net: &Network) -> impl Fn(usize) -> (Block6, Block6, Block6) + Sync + '_ {
+    |e| {
+        let el = net.element(e);
+        (el.kii, el.kjj, el.kij)
+    }
+}
+
+/// The block rows of K over `m` nodes and the edges `ends`, by chunks of rows handed to
+/// `sink` in order, each edge's blocks `blocks(e)` = (K_ii, K_jj, K_ij) formed at both of its
+/// rows (never all elements at once:
 /// at a million particles they would take 6.6 GB; issue 35). Each block is summed in the
 /// order of [`BlockSparse::assemble_blocks`] (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the
 /// bits are the same; with `upper`, only the blocks on and right of the diagonal.
-fn assemble_rows(net: &Network, upper: bool, mut sink: impl FnMut(Vec<Vec<(u32, Block6)>>)) {
+fn assemble_rows(
+    m: usize,
+    ends: &[(u32, u32)],
+    blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
+    upper: bool,
+    mut sink: impl FnMut(Vec<Vec<(u32, Block6)>>),
+) {
     const ROWS: usize = 4096;
-    let m = net.n_active;
-    let (start, edges) = csr(m, net.end_pairs(), |k, _| k as u32);
+    let pairs = ends.iter().map(|&(a, b)| (a as usize, b as usize));
+    let (start, edges) = csr(m, pairs, |k, _| k as u32);
     for r0 in (0..m).step_by(ROWS) {
         let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(m))
             .into_par_iter()
@@ -244,10 +278,9 @@ fn assemble_rows(net: &Network, upper: bool, mut sink: impl FnMut(Vec<Vec<(u32, 
                         continue; // a bond to the particle's own image is listed twice
                     }
                     last = e;
-                    let (pi, pj) = net.ends[e as usize];
+                    let (pi, pj) = ends[e as usize];
                     let at = elements.len();
-                    let el = net.element(e as usize);
-                    elements.push((el.kii, el.kjj, el.kij));
+                    elements.push(blocks(e as usize));
                     if pi as usize == r {
                         parts.push((pi, e, 0, at));
                         parts.push((pj, e, 2, at));
@@ -388,7 +421,7 @@ impl UpperBlocks {
     pub(crate) fn assemble(net: &Network) -> Option<UpperBlocks> {
         let mut row_start = vec![0usize];
         let (mut col, mut block) = (Vec::new(), Vec::new());
-        assemble_rows(net, true, |rows| {
+        assemble_rows(net.n_active, &net.ends, element_blocks(net), true, |rows| {
             for r in rows {
                 for (c, b) in r {
                     col.push(c);

@@ -262,6 +262,19 @@ fn coarse_matrix(
 /// mean edge) in an aggregate of the given size ([`TwoLevel::with_layers`]).
 pub(crate) type CoarseLayer<'a> = &'a (dyn Fn(&Vec3, usize) -> Block6 + Sync);
 
+/// The prescribed DOFs of a held structure ([`TwoLevel::held`]) and the node that is its
+/// own aggregate (the specimen's period changes), if any.
+pub(crate) struct HeldSpace<'a> {
+    /// Per node, its prescribed DOFs (eliminated: their rows and columns of K hold only the
+    /// diagonal).
+    pub held: &'a [[bool; 6]],
+    /// A node whose six DOFs are not a particle's motion: an aggregate of its own.
+    pub apart: Option<usize>,
+    /// The unit of the spins: the unknowns hold `spin_scale` × ω (the specimen's R̄ ω), so a
+    /// rigid turn θ gives them `spin_scale` × θ.
+    pub spin_scale: f64,
+}
+
 /// The coarse space and its factored coarse matrix.
 pub struct TwoLevel {
     /// Aggregate of every node.
@@ -383,6 +396,50 @@ impl TwoLevel {
         box_lengths: Vec3,
         (rotations, per_aggregate): (bool, usize),
         more: &[CoarseLayer],
+        extra: impl FnMut(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
+    ) -> Result<TwoLevel> {
+        Self::build(
+            k,
+            positions,
+            box_lengths,
+            (rotations, per_aggregate),
+            (more, None),
+            extra,
+        )
+    }
+
+    /// The coarse space of a held structure (the specimen's K with its prescribed DOFs
+    /// eliminated, which has no rigid-body modes): the rigid modes vanish on the prescribed
+    /// DOFs, as the structure's own near-null modes do (Vaněk, Mandel & Brezina 1996: the
+    /// tentative prolongator is zero on Dirichlet DOFs), the spins in the unknowns' unit, a
+    /// node held `apart` (the period
+    /// changes' node) is its own aggregate with all six DOFs, and the coarse matrix is factored
+    /// without pinning a node ([`BlockCholesky::factor_definite`]): the coarse solve is
+    /// exact, as the balancing preconditioner assumes.
+    pub(crate) fn held(
+        k: &BlockSparse,
+        positions: &[Vec3],
+        box_lengths: Vec3,
+        per_aggregate: usize,
+        held: &HeldSpace,
+    ) -> Result<TwoLevel> {
+        Self::build(
+            k,
+            positions,
+            box_lengths,
+            (true, per_aggregate),
+            (&[], Some(held)),
+            |_, _| None,
+        )
+    }
+
+    /// [`Self::with_layers`], or [`Self::held`] with `held`.
+    fn build(
+        k: &impl BlockRows,
+        positions: &[Vec3],
+        box_lengths: Vec3,
+        (rotations, per_aggregate): (bool, usize),
+        (more, held): (&[CoarseLayer], Option<&HeldSpace>),
         mut extra: impl FnMut(&[u32], &[Block6]) -> Option<Vec<Vec<(u32, Block6)>>>,
     ) -> Result<TwoLevel> {
         let m = k.rows();
@@ -400,14 +457,24 @@ impl TwoLevel {
         let (cells, raw) = grid_cells(positions, box_lengths, per_aggregate);
         // Number the non-empty cells in increasing (x, y, z) order; sorting the occupied
         // cells costs O(m log m) whatever the grid's size.
-        let mut occupied: Vec<[usize; 3]> = raw.iter().map(|(c, _)| *c).collect();
+        let apart = held.and_then(|h| h.apart);
+        let mut occupied: Vec<[usize; 3]> = raw
+            .iter()
+            .enumerate()
+            .filter(|&(p, _)| Some(p) != apart)
+            .map(|(_, (c, _))| *c)
+            .collect();
         occupied.sort_unstable();
         occupied.dedup();
-        let n_agg = occupied.len();
-        let aggregate: Vec<u32> = raw
+        let mut n_agg = occupied.len();
+        let mut aggregate: Vec<u32> = raw
             .iter()
             .map(|(c, _)| occupied.binary_search(c).unwrap_or(0) as u32)
             .collect();
+        if let Some(a) = apart {
+            aggregate[a] = n_agg as u32;
+            n_agg += 1;
+        }
         let members = aggregate
             .iter()
             .enumerate()
@@ -417,7 +484,7 @@ impl TwoLevel {
         let layers = 1 + more.len();
         let h = (box_lengths.x * box_lengths.y * box_lengths.z * per_aggregate as f64 / m as f64)
             .cbrt();
-        let prolongation: Vec<Block6> = raw
+        let mut prolongation: Vec<Block6> = raw
             .par_iter()
             .zip(aggregate.par_iter())
             .flat_map_iter(|((_, d), &a)| {
@@ -426,6 +493,32 @@ impl TwoLevel {
                     .chain(more.iter().map(move |f| f(&(d / h), size)))
             })
             .collect();
+        if let Some(hs) = held {
+            if hs.held.len() != m {
+                return Err(Error::Invalid(format!(
+                    "two-level preconditioner: {} held masks for {m} particles",
+                    hs.held.len()
+                )));
+            }
+            prolongation
+                .par_chunks_mut(layers)
+                .zip(hs.held.par_iter())
+                .enumerate()
+                .for_each(|(p, (blocks, mask))| {
+                    for b in blocks.iter_mut() {
+                        if Some(p) == apart {
+                            *b = Block6::identity();
+                        } else {
+                            for d in 3..6 {
+                                b.row_mut(d).scale_mut(hs.spin_scale);
+                            }
+                        }
+                        for (d, _) in mask.iter().enumerate().filter(|(_, &h)| h) {
+                            b.row_mut(d).fill(0.0);
+                        }
+                    }
+                });
+        }
         let mut extra_rows: Option<Vec<Vec<(u32, Block6)>>> = None;
         for l in 0..layers {
             let ids: Vec<u32> = aggregate
@@ -465,15 +558,23 @@ impl TwoLevel {
             restriction_chunks(&kp_start, &kp, n_agg * layers);
         let coarse_matrix =
             coarse_matrix((layers, &prolongation), (&start, &nodes), (&kp_start, &kp));
-        let coarse = match nested_dissection(cells, &occupied) {
-            Some(order) => {
-                let nodes: Vec<u32> = order
-                    .iter()
-                    .flat_map(|&a| (0..layers as u32).map(move |l| a * layers as u32 + l))
-                    .collect();
-                BlockCholesky::factor_in_order(&coarse_matrix, &nodes)?
+        // Nested dissection where the grid allows it (the held structure's apart node, the
+        // period change, last: it couples to every cluster the cut crosses), else AMD; a
+        // held structure has no rigid-body modes, so no cluster is pinned.
+        let order = nested_dissection(cells, &occupied).map(|mut order| {
+            if apart.is_some() {
+                order.push(occupied.len() as u32);
             }
-            None => BlockCholesky::factor(&coarse_matrix)?,
+            order
+                .iter()
+                .flat_map(|&a| (0..layers as u32).map(move |l| a * layers as u32 + l))
+                .collect::<Vec<u32>>()
+        });
+        let coarse = match (held.is_some(), order) {
+            (false, Some(nodes)) => BlockCholesky::factor_in_order(&coarse_matrix, &nodes)?,
+            (false, None) => BlockCholesky::factor(&coarse_matrix)?,
+            (true, Some(nodes)) => BlockCholesky::factor_definite_in_order(&coarse_matrix, &nodes)?,
+            (true, None) => BlockCholesky::factor_definite(&coarse_matrix)?,
         };
         Ok(TwoLevel {
             aggregate,

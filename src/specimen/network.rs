@@ -205,14 +205,10 @@ impl Network {
     pub fn stiffness(&self, assembly: &Assembly, opts: &SpecimenOptions) -> BlockSparse {
         let (packing, bonds) = (&assembly.packing, &assembly.bonds);
         let lateral = [(opts.axis + 1) % 3, (opts.axis + 2) % 3];
-        let elements: Vec<_> = self
-            .loaded_bonds
-            .iter()
-            .map(|&b| {
-                let law = BondLaw::of(packing, bonds, &assembly.springs, b, opts.lever_arm);
-                element(&law, true)
-            })
-            .collect();
+        let element_of = |b: usize| {
+            let law = BondLaw::of(packing, bonds, &assembly.springs, b, opts.lever_arm);
+            element(&law, true)
+        };
         let mut index = vec![u32::MAX; packing.len()];
         for (a, &p) in self.original.iter().enumerate() {
             index[p] = a as u32;
@@ -222,33 +218,48 @@ impl Network {
             .iter()
             .map(|&b| (index[bonds.i[b] as usize], index[bonds.j[b] as usize]))
             .collect();
-        let mut blocks: Vec<(Block6, Block6, Block6)> =
-            elements.iter().map(|el| (el.kii, el.kjj, el.kij)).collect();
+        // The edges past the bonds couple a bond across a lateral face to the period changes'
+        // node: (bond, whether the edge is j's). Each edge's blocks are formed at both of its
+        // rows when the row-by-row assembly asks for them, never all at once (at a million
+        // particles 3.3 GB; issue 35).
+        let nb = ends.len();
+        let mut across: Vec<(usize, bool)> = Vec::new();
         if self.periods.is_some() {
             let a = self.original.len() as u32;
             for (e, &b) in self.loaded_bonds.iter().enumerate() {
-                if !crosses(bonds, lateral, b) {
-                    continue;
+                if crosses(bonds, lateral, b) {
+                    ends.push((ends[e].0, a));
+                    across.push((b, false));
+                    ends.push((ends[e].1, a));
+                    across.push((b, true));
                 }
-                // T (3×6) = [n₀ I | n₁ I] maps the period changes to j's extra translation.
-                let mut t = nalgebra::Matrix3x6::<f64>::zeros();
-                for (c, &d) in lateral.iter().enumerate() {
-                    let nd = f64::from(bonds.image[b][d]);
-                    for r in 0..3 {
-                        t[(r, 3 * c + r)] = nd;
-                    }
-                }
-                let el = &elements[e];
-                let kj_t = el.kjj.fixed_view::<6, 3>(0, 0) * t;
-                let ki_t = el.kij.fixed_view::<6, 3>(0, 0) * t;
-                let kaa = t.transpose() * el.kjj.fixed_view::<3, 3>(0, 0) * t;
-                ends.push((ends[e].0, a));
-                blocks.push((Block6::zeros(), kaa, ki_t));
-                ends.push((ends[e].1, a));
-                blocks.push((Block6::zeros(), Block6::zeros(), kj_t));
             }
         }
-        BlockSparse::assemble_blocks(self.nodes(), &ends, |e| blocks[e])
+        let blocks = |e: usize| -> (Block6, Block6, Block6) {
+            if e < nb {
+                let el = element_of(self.loaded_bonds[e]);
+                return (el.kii, el.kjj, el.kij);
+            }
+            let (b, at_j) = across[e - nb];
+            // T (3×6) = [n₀ I | n₁ I] maps the period changes to j's extra translation.
+            let mut t = nalgebra::Matrix3x6::<f64>::zeros();
+            for (c, &d) in lateral.iter().enumerate() {
+                let nd = f64::from(bonds.image[b][d]);
+                for r in 0..3 {
+                    t[(r, 3 * c + r)] = nd;
+                }
+            }
+            let el = element_of(b);
+            if at_j {
+                let kj_t = el.kjj.fixed_view::<6, 3>(0, 0) * t;
+                (Block6::zeros(), Block6::zeros(), kj_t)
+            } else {
+                let ki_t = el.kij.fixed_view::<6, 3>(0, 0) * t;
+                let kaa = t.transpose() * el.kjj.fixed_view::<3, 3>(0, 0) * t;
+                (Block6::zeros(), kaa, ki_t)
+            }
+        };
+        BlockSparse::assemble_rows(self.nodes(), &ends, blocks)
     }
 }
 

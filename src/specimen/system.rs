@@ -13,8 +13,10 @@ use crate::homogenize::cholesky::BlockCholesky;
 use crate::homogenize::network::Block6;
 use crate::homogenize::relaxed::{amg_cg, block_jacobi_cg, two_level_cg};
 use crate::homogenize::sparse::BlockSparse;
+use crate::homogenize::two_level::HeldSpace;
 use crate::packing::Packing;
 use crate::{Result, Vec3};
+use rayon::prelude::*;
 
 /// What the platens prescribe and what loads act, in two load cases of one matrix: case 0 the
 /// moved group shortened by δ₀, case 1 the confining pressure with the groups held in place.
@@ -215,44 +217,53 @@ fn eliminate(kfull: &BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSpar
             }
         }
     }
-    let rows: Vec<Vec<(u32, Block6)>> = (0..nodes)
-        .map(|a| {
-            kfull
-                .row(a)
-                .map(|(c, blk)| {
-                    let mut b = *blk;
-                    for r in 0..6 {
-                        for s in 0..6 {
-                            let fixed = prescribed[a][r].is_some() || prescribed[c][s].is_some();
-                            let v = if fixed && !(a == c && r == s) {
-                                0.0
-                            } else {
-                                blk[(r, s)]
-                            };
-                            b[(r, s)] = v * scale(a, r) * scale(c, s);
+    // In chunks of rows: never a second copy of the whole matrix beside the two (issue 35).
+    const ROWS: usize = 4096;
+    let mut k = BlockSparse::from_rows(Vec::new());
+    for r0 in (0..nodes).step_by(ROWS) {
+        let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(nodes))
+            .into_par_iter()
+            .map(|a| {
+                kfull
+                    .row(a)
+                    .map(|(c, blk)| {
+                        let mut b = *blk;
+                        for r in 0..6 {
+                            for s in 0..6 {
+                                let fixed =
+                                    prescribed[a][r].is_some() || prescribed[c][s].is_some();
+                                let v = if fixed && !(a == c && r == s) {
+                                    0.0
+                                } else {
+                                    blk[(r, s)]
+                                };
+                                b[(r, s)] = v * scale(a, r) * scale(c, s);
+                            }
                         }
-                    }
-                    (c as u32, b)
-                })
-                .collect()
-        })
-        .collect();
-    (BlockSparse::from_rows(rows), rhs)
+                        (c as u32, b)
+                    })
+                    .collect()
+            })
+            .collect();
+        k.push_rows(rows);
+    }
+    (k, rhs)
 }
 
 /// Solve K u = f for the free DOFs with the prescribed ones eliminated ([`eliminate`]), back in
 /// radians with the prescribed DOFs at their values exactly, less the rigid turn about the axis
-/// that frictionless platens leave free ([`remove_turn`]).
+/// that frictionless platens leave free ([`remove_turn`]). `kfull` is freed once eliminated.
 pub(super) fn solve_field(
-    kfull: &BlockSparse,
+    kfull: BlockSparse,
     bc: &Boundary,
     net: &Network,
     packing: &Packing,
     opts: &SpecimenOptions,
     mean_radius: f64,
 ) -> Result<Field> {
-    let (kmod, rhs) = eliminate(kfull, bc, mean_radius);
-    let (mut u, unknowns, solver) = solve_system(&kmod, &rhs, opts, packing, net, bc, mean_radius)?;
+    let (kmod, rhs) = eliminate(&kfull, bc, mean_radius);
+    drop(kfull);
+    let (mut u, unknowns, solver) = solve_system(kmod, &rhs, opts, packing, net, bc, mean_radius)?;
     for (a, ua) in u.iter_mut().enumerate() {
         for d in 0..6 {
             for case in 0..bc.cases {
@@ -321,9 +332,10 @@ fn remove_turn(u: &mut [Block6], bc: &Boundary, net: &Network, packing: &Packing
 }
 
 /// Solve the eliminated system `k x = b` by `opts.solver` (see [`SolverChoice`]); returns x,
-/// the unknowns and the method.
+/// the unknowns and the method (`kmod` is given up to the two-level CG, which keeps only its
+/// upper triangle).
 fn solve_system(
-    k: &BlockSparse,
+    kmod: BlockSparse,
     b: &[Block6],
     opts: &SpecimenOptions,
     packing: &Packing,
@@ -331,7 +343,13 @@ fn solve_system(
     bc: &Boundary,
     mean_radius: f64,
 ) -> Result<(Vec<Block6>, usize, SpecimenSolver)> {
+    let k = &kmod;
     let (choice, original, nodes) = (opts.solver, &net.original, net.nodes());
+    let held: Vec<[bool; 6]> = bc
+        .prescribed
+        .iter()
+        .map(|p| p.map(|v| v.is_some()))
+        .collect();
     let m = original.len();
     let context = "specimen: the bonded specimen held by its platens has a mechanism that the \
                    load excites, or the solve did not converge";
@@ -342,11 +360,6 @@ fn solve_system(
         CG_TOLERANCE
     };
     if choice == SolverChoice::CgAmg {
-        let held: Vec<[bool; 6]> = bc
-            .prescribed
-            .iter()
-            .map(|p| p.map(|v| v.is_some()))
-            .collect();
         let positions: Vec<Vec3> = (0..nodes)
             .map(|a| {
                 original
@@ -415,8 +428,14 @@ fn solve_system(
         .map(|&p| packing.positions[p] - lo)
         .collect();
     positions.resize(nodes, extent * 0.5);
-    let (x, iterations, _) = two_level_cg(k, b, &positions, lengths, tolerance, 20_000)
-        .map_err(|e| e.in_context(context))?;
+    let space = HeldSpace {
+        held: &held,
+        apart: net.periods.map(|_| m),
+        spin_scale: mean_radius,
+    };
+    let (x, iterations, _) =
+        two_level_cg(kmod, b, (&positions, lengths), &space, tolerance, 20_000)
+            .map_err(|e| e.in_context(context))?;
     let solver = SpecimenSolver::Cg {
         iterations,
         two_level: true,

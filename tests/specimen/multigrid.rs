@@ -122,11 +122,13 @@ fn cg_amg_gives_the_simple_cubic_closed_form() {
 
 /// A random free specimen (1,200 generated spheres read as free, Truszkowska's MRV model)
 /// between frictionless and bonded platens; and a periodic cube stacked four times, periodic across z
-/// (the period-change node), between both platens: the multigrid CG gives the sparse
-/// Cholesky factorisation's platen stiffness, E, forces (and the prism's ν) to 1e-8 (CG relative residual 1e-12; where the free
-/// specimen's zero-energy spins stop the factorisation, the block-Jacobi CG's).
+/// (the period-change node), between both platens: the multigrid CG and the two-level CG
+/// (its coarse space zero on the prescribed DOFs, the period-change node its own aggregate)
+/// give the sparse Cholesky factorisation's platen stiffness, E, forces (and the prism's ν)
+/// to 1e-8 (CG relative residual 1e-12; where the free specimen's zero-energy spins stop the
+/// factorisation, the block-Jacobi CG's).
 #[test]
-fn cg_amg_equals_the_direct_solve_free_and_periodic() {
+fn cg_amg_and_two_level_cg_equal_the_direct_solve_free_and_periodic() {
     let p = crate::common::bonded::generated(1200, 3);
     let free = Packing::new(p.positions.clone(), p.radii.clone(), None).unwrap();
     let mean_r = free.radii.iter().sum::<f64>() / free.len() as f64;
@@ -147,6 +149,9 @@ fn cg_amg_equals_the_direct_solve_free_and_periodic() {
             direct.solver
         );
         same_answer(&amg, &direct, 1e-8, what, false);
+        let two_level = solved(&asm, o, SolverChoice::Cg);
+        println!("{what}: two-level CG {:?}", two_level.solver);
+        same_answer(&two_level, &direct, 1e-8, what, false);
     }
     let cube = crate::common::bonded::generated(400, 5);
     let prism = stacked_in(&cube, 4, [true; 3]);
@@ -165,6 +170,18 @@ fn cg_amg_equals_the_direct_solve_free_and_periodic() {
             &direct,
             1e-8,
             &format!("periodic prism, {platens:?}"),
+            true,
+        );
+        let two_level = solved(&asm, &o, SolverChoice::Cg);
+        println!(
+            "periodic prism, {platens:?}: two-level CG {:?}",
+            two_level.solver
+        );
+        same_answer(
+            &two_level,
+            &direct,
+            1e-8,
+            &format!("periodic prism, {platens:?}, two-level"),
             true,
         );
     }
