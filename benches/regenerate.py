@@ -769,24 +769,31 @@ def manybody_dem(threads):
     process (benches/manybody_dem.rs), on 1 and `threads` threads; issue 33 asks for at most
     1.5× per particle-step."""
     n = 3000 if QUICK else 30000
+    steps, repeats = (100, 3) if QUICK else (300, 7)
     rows = []
     ratios = {}
     setup = ""
     for t in sorted({1, threads}):
         cmd = ["cargo", "bench", "--quiet", "--bench", "manybody_dem"]
-        env = {"MB_BENCH_THREADS": str(t), "MB_BENCH_PARTICLES": str(n)}
+        env = {"MB_BENCH_THREADS": str(t), "MB_BENCH_PARTICLES": str(n),
+               "MB_BENCH_STEPS": str(steps), "MB_BENCH_REPEATS": str(repeats)}
         wall, rss, out = sh(cmd, env=env, cwd=ROOT)
-        text = "`MB_BENCH_THREADS=%d MB_BENCH_PARTICLES=%d cargo bench --bench manybody_dem`" % (t, n)
-        m = re.search(r"without the term ([0-9.e+-]+) s per particle-step, with ([0-9.e+-]+): "
-                      r"ratio ([0-9.]+)", out)
+        text = ("`MB_BENCH_THREADS=%d MB_BENCH_PARTICLES=%d MB_BENCH_STEPS=%d MB_BENCH_REPEATS=%d "
+                "cargo bench --bench manybody_dem`" % (t, n, steps, repeats))
+        m = re.search(r"\): without the term ([0-9.e+-]+) s per particle-step, with ([0-9.e+-]+): "
+                      r"ratio ([0-9.]+) \(best of each\); paired ratios: median ([0-9.]+), "
+                      r"range ([0-9.]+)–([0-9.]+)", out)
+        cpu = re.search(r"CPU time: without [0-9.e+-]+ s per particle-step, with [0-9.e+-]+: "
+                        r"ratio ([0-9.]+) \(best of each\); paired ratios: median ([0-9.]+)", out)
         setup = grab(r"setup: (.*)", out) or setup
         if not m:
-            rows.append([text, n, t, "failed: see `%s`" % " ".join(cmd), "", ""])
+            rows.append([text, n, t, "failed: see `%s`" % " ".join(cmd), "", "", "", ""])
             continue
         without, with_term, ratio = float(m.group(1)), float(m.group(2)), float(m.group(3))
         ratios[t] = ratio
         rows.append([text, n, t, "%.3e s per particle-step" % without, "%.3e s" % with_term,
-                     "%.2f" % ratio])
+                     "%.2f" % ratio, "%s (%s–%s)" % (m.group(4), m.group(5), m.group(6)),
+                     "%s / %s" % cpu.groups() if cpu else "—"])
     worst = max(ratios.values()) if ratios else float("nan")
     verdict = ("within the issue's 1.5×" if worst <= 1.5 else
                "OVER the issue's 1.5× (%.2f×)" % worst)
@@ -794,12 +801,16 @@ def manybody_dem(threads):
              "Cundall damping 0.4, a small shear rate, dt 1e-9 s, without the term and with a "
              "rotated cubic many-body term (Green–Lagrange, D at 0.8 / 0.5 / 0.2 of the springs' "
              "mean Voigt C11; docs/manybody.md \"Integrator\"). Both run in the same process, "
-             "alternating, and each keeps the best of 3 runs of 100 steps: %s. "
-             "Measured by `python3 benches/regenerate.py%s` on %s." % (
-                 setup, verdict, " --quick" if QUICK else (" --only manybody-dem" if ONLY else ""),
+             "alternating, %d runs of %d steps each; the ratio is of the best time of each (wall), "
+             "beside the median and range of the %d alternating pairs' ratios and the CPU-time "
+             "ratios (best / paired median): %s. Measured by `python3 benches/regenerate.py%s` "
+             "on %s." % (
+                 setup, repeats, steps, repeats, verdict,
+                 " --quick" if QUICK else (" --only manybody-dem" if ONLY else ""),
                  measured_at()))
     section("Many-body term in the integrator", intro,
-            ["command", "particles", "threads", "without the term", "with the term", "ratio"], rows)
+            ["command", "particles", "threads", "without the term", "with the term", "ratio",
+             "paired ratios: median (range)", "CPU ratio: best / paired median"], rows)
 
 
 def main():
