@@ -1100,31 +1100,14 @@ impl Fine<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::network::Network;
     use super::*;
-    use crate::packing::{generate, GenerateOptions};
 
     #[test]
     fn level_zero_spectral_radius_respects_the_two_node_bound() {
         // K = Σ BᵀSB over two-node bonds with S ⪰ 0: each element is at most twice its
         // diagonal blocks (parallelogram law), so ρ(D⁻¹K) ≤ 2 exactly; the Lanczos estimate
         // is a Ritz value and may not exceed it. The blocks are graded (N/m against N·m/rad).
-        let opts = GenerateOptions {
-            n_particles: 1500,
-            ..Default::default()
-        };
-        let packing = generate(&opts, &|_| {}).unwrap();
-        let asm = crate::assembly::Assembly::new(packing, crate::model::Model::truszkowska_mrv())
-            .unwrap();
-        let net = Network::build(
-            &asm.packing,
-            &asm.bonds,
-            &asm.springs,
-            super::super::network::LeverArm::MidGap,
-            true,
-            None,
-        )
-        .unwrap();
+        let net = super::super::network::mrv_test_network();
         let k = BlockSparse::assemble(&net);
         let diag: Vec<Block6> = (0..k.rows()).map(|p| k.diagonal(p)).collect();
         let dinv: Vec<Block6> = diag.iter().map(|d| pinv_psd(d).0).collect();

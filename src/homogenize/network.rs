@@ -586,6 +586,29 @@ pub fn pinv_psd(m: &Block6) -> (Block6, usize) {
     (inv, rank)
 }
 
+/// The relaxed network of a generated 1,500-sphere packing with Truszkowska's MRV model (a
+/// fixture of the solvers' unit tests).
+#[cfg(test)]
+pub(crate) fn mrv_test_network() -> Network {
+    use crate::packing::{generate, GenerateOptions};
+    let opts = GenerateOptions {
+        n_particles: 1500,
+        ..Default::default()
+    };
+    let packing = generate(&opts, &|_| {}).unwrap();
+    let asm =
+        crate::assembly::Assembly::new(packing, crate::model::Model::truszkowska_mrv()).unwrap();
+    Network::build(
+        &asm.packing,
+        &asm.bonds,
+        &asm.springs,
+        LeverArm::MidGap,
+        true,
+        None,
+    )
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

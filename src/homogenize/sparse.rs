@@ -724,23 +724,7 @@ mod tests {
     /// assembled K, bit for bit (blocks, lower lists, the longest row).
     #[test]
     fn upper_triangle_assembled_directly_equals_the_cut_full_matrix() {
-        use crate::packing::{generate, GenerateOptions};
-        let opts = GenerateOptions {
-            n_particles: 1500,
-            ..Default::default()
-        };
-        let packing = generate(&opts, &|_| {}).unwrap();
-        let asm = crate::assembly::Assembly::new(packing, crate::model::Model::truszkowska_mrv())
-            .unwrap();
-        let net = Network::build(
-            &asm.packing,
-            &asm.bonds,
-            &asm.springs,
-            super::super::network::LeverArm::MidGap,
-            true,
-            None,
-        )
-        .unwrap();
+        let net = super::super::network::mrv_test_network();
         let cut = UpperBlocks::of(&BlockSparse::assemble(&net)).expect("mirrored");
         let direct = UpperBlocks::assemble(&net).expect("fewer than 2³² blocks");
         assert_eq!(direct.row_start, cut.row_start);
