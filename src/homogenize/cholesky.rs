@@ -254,8 +254,8 @@ impl BlockCholesky {
     }
 
     /// Reduce every node to the range of its diagonal block (and, with `pin`, fix one
-    /// node's translations), order (AMD) and factor; see [`Self::factor`] and
-    /// [`Self::factor_definite`].
+    /// node's translations), order (the given `order`, else AMD) and factor; see
+    /// [`Self::factor`] and [`Self::factor_definite`].
     fn factor_with(k: &BlockSparse, pin: bool, order: Option<&[u32]>) -> Result<BlockCholesky> {
         let m = k.rows();
         if m == 0 {
@@ -279,7 +279,7 @@ impl BlockCholesky {
                     let mut seen = vec![false; m];
                     order
                         .iter()
-                        .any(|&p| std::mem::replace(&mut seen[p as usize], true))
+                        .any(|&p| p as usize >= m || std::mem::replace(&mut seen[p as usize], true))
                 } {
                     return Err(Error::Invalid(format!(
                         "Cholesky: an elimination order of {} entries for {m} nodes, not \

@@ -821,9 +821,10 @@ pub(crate) fn block_jacobi_cg(
 /// of about [`DEFAULT_PARTICLES_PER_AGGREGATE`] nodes on a grid over `box_lengths`, `positions`
 /// inside [0, box_lengths); the coarse space of the held structure, [`TwoLevel::held`]):
 /// iterations nearly independent of the size, for a held structure too large for the direct
-/// solve. Falls back to block-Jacobi when the coarse matrix cannot be factored (only the
-/// preconditioner is weaker). Once the preconditioner is set up, `k` is kept by its upper
-/// triangle ([`StoredSprings`]: the same bits, half the memory).
+/// solve. Falls back to block-Jacobi when the coarse space cannot be built (only the
+/// preconditioner is weaker; the last value returned says whether the two-level one was
+/// used). Once the preconditioner is set up, `k` is kept by its upper triangle
+/// ([`StoredSprings`]: the same bits, half the memory).
 pub(crate) fn two_level_cg(
     k: BlockSparse,
     b: &[Block6],
@@ -831,7 +832,7 @@ pub(crate) fn two_level_cg(
     held: &HeldSpace,
     tolerance: f64,
     max_iterations: usize,
-) -> Result<(Vec<Block6>, usize, f64)> {
+) -> Result<(Vec<Block6>, usize, f64, bool)> {
     let two_level = TwoLevel::held(
         &k,
         positions,
@@ -842,13 +843,14 @@ pub(crate) fn two_level_cg(
     .ok();
     let pieces = jacobi_pieces(&k, None);
     let stored = StoredSprings::of(k, true);
-    held_cg_with(
+    let (x, iterations, residual) = held_cg_with(
         (stored.springs(), pieces),
         b,
         (two_level.as_ref(), None),
         tolerance,
         max_iterations,
-    )
+    )?;
+    Ok((x, iterations, residual, two_level.is_some()))
 }
 
 /// [`block_jacobi_cg`] preconditioned by one multigrid V-cycle of `amg` per iteration (built

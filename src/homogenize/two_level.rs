@@ -454,6 +454,17 @@ impl TwoLevel {
                 "two-level preconditioner: particles per aggregate must be positive".into(),
             ));
         }
+        if let Some(h) = held {
+            // The node held apart gets its own cluster with one identity block per layer:
+            // only one layer keeps those columns independent.
+            if h.apart.is_some_and(|a| a >= m) || !more.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "two-level preconditioner: a held structure's node apart ({:?}) must be                      one of its {m} nodes, with no extra coarse layers ({} given)",
+                    h.apart,
+                    more.len()
+                )));
+            }
+        }
         let (cells, raw) = grid_cells(positions, box_lengths, per_aggregate);
         // Number the non-empty cells in increasing (x, y, z) order; sorting the occupied
         // cells costs O(m log m) whatever the grid's size.

@@ -433,12 +433,13 @@ fn solve_system(
         apart: net.periods.map(|_| m),
         spin_scale: mean_radius,
     };
-    let (x, iterations, _) =
+    // Block-Jacobi alone where the coarse space could not be built: the report says which.
+    let (x, iterations, _, two_level) =
         two_level_cg(kmod, b, (&positions, lengths), &space, tolerance, 20_000)
             .map_err(|e| e.in_context(context))?;
     let solver = SpecimenSolver::Cg {
         iterations,
-        two_level: true,
+        two_level,
     };
     Ok((x, 6 * nodes, solver))
 }
