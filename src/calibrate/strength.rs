@@ -413,7 +413,7 @@ pub fn calibrate_strength(
     };
     let zero_bond = !scaled(&table.bond);
     let zero_along = table.along.as_ref().is_some_and(|a| !scaled(a));
-    if (parameters.len() == 1 && zero_bond && table.along.as_ref().map_or(true, |a| !scaled(a)))
+    if (parameters.len() == 1 && zero_bond && table.along.as_ref().is_none_or(|a| !scaled(a)))
         || (parameters.len() == 2 && (zero_bond || zero_along))
     {
         return Err(Error::Model(

@@ -551,7 +551,7 @@ fn wall_loads(
                     continue;
                 }
                 let t = s - (r * r - d2).sqrt();
-                if best.map_or(true, |(bt, _)| t < bt) {
+                if best.is_none_or(|(bt, _)| t < bt) {
                     best = Some((t, p));
                 }
             }

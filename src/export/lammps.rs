@@ -554,7 +554,7 @@ pub fn bond_types_with_limits(
                     t.0.len()
                 )));
             }
-            if best.as_ref().map_or(true, |(_, _, _, e, _)| err < *e) {
+            if best.as_ref().is_none_or(|(_, _, _, e, _)| err < *e) {
                 best = Some((name, t, kq, err, cq));
             }
         }

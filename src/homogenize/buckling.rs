@@ -806,7 +806,7 @@ fn lowest_load_factors(
                 (0..2).all(|c| (lambda[c] - previous[c]).abs() < opts.tolerance * lambda[c]);
             if settled
                 && residuals.iter().all(|r| *r < opts.tolerance)
-                && hidden.map_or(true, |h| lambda[0] < h)
+                && hidden.is_none_or(|h| lambda[0] < h)
             {
                 let sigma = lambda[0] * (1.0 - sturm_margin(opts.tolerance));
                 if no_load_factor_below(k, aff, sigma) {

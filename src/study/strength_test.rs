@@ -1008,7 +1008,7 @@ pub fn run(
         }
     }
     let last = run.point(run.sim.break_events().len())?;
-    if curve.last().map_or(true, |p| p.step != last.step) {
+    if curve.last().is_none_or(|p| p.step != last.step) {
         curve.push(last);
     }
     let series: Vec<(f64, usize)> = curve.iter().map(|c| (c.stress_pa, c.broken)).collect();

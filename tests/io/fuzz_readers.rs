@@ -429,7 +429,7 @@ fn check_target(t: &Target) -> Result<(), TestCaseError> {
             c44,
         } => {
             prop_assert!([c11, c33, c13, c12].iter().all(|x| x.is_finite()));
-            prop_assert!(c44.map_or(true, |v| v.is_finite() && v > 0.0));
+            prop_assert!(c44.is_none_or(|v| v.is_finite() && v > 0.0));
             prop_assert!(c11 > c12.abs() && c33 > 0.0 && (c11 + c12) * c33 > 2.0 * c13 * c13);
         }
     }
