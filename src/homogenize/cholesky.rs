@@ -227,13 +227,7 @@ impl BlockCholesky {
     /// Reduce, order (AMD) and factor `k`. Errors when no node can be pinned or when the
     /// reduced matrix is not positive definite (a global mechanism).
     pub fn factor(k: &BlockSparse) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, true, None)
-    }
-
-    /// [`Self::factor`] with the nodes eliminated in the given `order` (every node once),
-    /// e.g. a nested dissection the caller knows from the geometry, instead of AMD.
-    pub(crate) fn factor_in_order(k: &BlockSparse, order: &[u32]) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, true, Some(order))
+        BlockCholesky::factor_ordered(k, true, None)
     }
 
     /// Reduce, order and factor a `k` that has no rigid-body modes (a structure held by
@@ -241,22 +235,18 @@ impl BlockCholesky {
     /// is pinned (`pinned` is `usize::MAX`). Errors when the reduced matrix is not positive
     /// definite (a global mechanism, e.g. a part not held by the prescribed nodes).
     pub fn factor_definite(k: &BlockSparse) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, false, None)
-    }
-
-    /// [`Self::factor_definite`] with the nodes eliminated in the given `order` (every node
-    /// once) instead of AMD.
-    pub(crate) fn factor_definite_in_order(
-        k: &BlockSparse,
-        order: &[u32],
-    ) -> Result<BlockCholesky> {
-        BlockCholesky::factor_with(k, false, Some(order))
+        BlockCholesky::factor_ordered(k, false, None)
     }
 
     /// Reduce every node to the range of its diagonal block (and, with `pin`, fix one
-    /// node's translations), order (the given `order`, else AMD) and factor; see
-    /// [`Self::factor`] and [`Self::factor_definite`].
-    fn factor_with(k: &BlockSparse, pin: bool, order: Option<&[u32]>) -> Result<BlockCholesky> {
+    /// node's translations, as [`Self::factor`]; without, as [`Self::factor_definite`]),
+    /// order and factor: the nodes eliminated in `order` (every node once, e.g. a nested
+    /// dissection the caller knows from the geometry), else by AMD.
+    pub(crate) fn factor_ordered(
+        k: &BlockSparse,
+        pin: bool,
+        order: Option<&[u32]>,
+    ) -> Result<BlockCholesky> {
         let m = k.rows();
         if m == 0 {
             return Err(Error::Invalid("Cholesky: empty stiffness matrix".into()));
@@ -329,18 +319,18 @@ impl BlockCholesky {
     /// X with K X = B for six right-hand sides (one 6×6 block per node: DOF × case), B
     /// orthogonal to the removed null space; X has zero components along it.
     pub fn solve(&self, b: &[Block6]) -> Result<Vec<Block6>> {
-        self.solve_split(b, 6)
+        self.solve_split(b, false)
     }
 
     /// [`Self::solve`] with the triangular solves on the load cases in two halves of three
     /// at once (one per thread: faer's solves are serial, and they are the CG's coarse
     /// solve in every iteration); the halves are the same on any thread count, so the bits.
     pub(crate) fn solve_in_halves(&self, b: &[Block6]) -> Result<Vec<Block6>> {
-        self.solve_split(b, 3)
+        self.solve_split(b, true)
     }
 
-    /// [`Self::solve`] with the triangular solves on groups of `group` load cases.
-    fn solve_split(&self, b: &[Block6], group: usize) -> Result<Vec<Block6>> {
+    /// [`Self::solve`] with the triangular solves on all six load cases at once, or `in_halves`.
+    fn solve_split(&self, b: &[Block6], in_halves: bool) -> Result<Vec<Block6>> {
         let m = self.basis.len();
         if b.len() != m {
             return Err(Error::Invalid(format!(
@@ -376,10 +366,10 @@ impl BlockCholesky {
             );
             Ok(())
         };
-        if group >= 6 {
+        if !in_halves {
             solve_group(&mut x)?;
         } else {
-            let (first, second) = x.split_at_mut(group * n);
+            let (first, second) = x.split_at_mut(3 * n);
             let (ra, rb) = rayon::join(|| solve_group(first), || solve_group(second));
             ra?;
             rb?;

@@ -518,13 +518,7 @@ impl UpperBlocks {
         y.par_chunks_mut(rows)
             .enumerate()
             .map(|(c, ys)| {
-                #[cfg(target_arch = "x86_64")]
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the processor has AVX2 (checked above).
-                    unsafe { self.rows_avx2(c * rows, x, ys, cols) };
-                    return then(c * rows, ys);
-                }
-                self.rows(c * rows, x, ys, cols);
+                with_avx2(|| self.rows(c * rows, x, ys, cols));
                 then(c * rows, ys)
             })
             .collect()
@@ -536,13 +530,6 @@ impl UpperBlocks {
         for (p, yp) in (first..).zip(ys.iter_mut()) {
             *yp = self.row_times(p, x, cols);
         }
-    }
-
-    /// [`Self::rows`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn rows_avx2(&self, first: usize, x: &[Block6], ys: &mut [Block6], cols: usize) {
-        self.rows(first, x, ys, cols);
     }
 
     /// The most blocks in one row of the full matrix.

@@ -459,7 +459,8 @@ impl TwoLevel {
             // only one layer keeps those columns independent.
             if h.apart.is_some_and(|a| a >= m) || !more.is_empty() {
                 return Err(Error::Invalid(format!(
-                    "two-level preconditioner: a held structure's node apart ({:?}) must be                      one of its {m} nodes, with no extra coarse layers ({} given)",
+                    "two-level preconditioner: a held structure's node apart ({:?}) must be \
+                     one of its {m} nodes, with no extra coarse layers ({} given)",
                     h.apart,
                     more.len()
                 )));
@@ -581,12 +582,8 @@ impl TwoLevel {
                 .flat_map(|&a| (0..layers as u32).map(move |l| a * layers as u32 + l))
                 .collect::<Vec<u32>>()
         });
-        let coarse = match (held.is_some(), order) {
-            (false, Some(nodes)) => BlockCholesky::factor_in_order(&coarse_matrix, &nodes)?,
-            (false, None) => BlockCholesky::factor(&coarse_matrix)?,
-            (true, Some(nodes)) => BlockCholesky::factor_definite_in_order(&coarse_matrix, &nodes)?,
-            (true, None) => BlockCholesky::factor_definite(&coarse_matrix)?,
-        };
+        let coarse =
+            BlockCholesky::factor_ordered(&coarse_matrix, held.is_none(), order.as_deref())?;
         Ok(TwoLevel {
             aggregate,
             layers,
@@ -837,7 +834,7 @@ mod tests {
             coarse_matrix((1, &prolongation), (&start, &nodes), (&kp_start, &kp))
         };
         let amd = BlockCholesky::factor(&coarse).expect("factor");
-        let nd = BlockCholesky::factor_in_order(&coarse, &order).expect("factor");
+        let nd = BlockCholesky::factor_ordered(&coarse, true, Some(&order)).expect("factor");
         // The same solution in either order (the pinned node is the same: the first that can).
         let b: Vec<Block6> = (0..coarse.rows())
             .map(|c| Block6::from_fn(|i, j| ((c * 11 + i * 3 + j * 7) % 13) as f64 - 6.0))
