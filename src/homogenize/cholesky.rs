@@ -14,7 +14,7 @@
 //! the factorisation fail or the residual check fail: it is reported, not hidden.
 
 use super::network::{symmetric_eigen6, Block6};
-use super::sparse::BlockSparse;
+use super::sparse::{BlockSparse, Cols};
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
@@ -322,15 +322,17 @@ impl BlockCholesky {
         self.solve_split(b, false)
     }
 
-    /// [`Self::solve`] with the triangular solves on the load cases in two halves of three
-    /// at once (one per thread: faer's solves are serial, and they are the CG's coarse
-    /// solve in every iteration); the halves are the same on any thread count, so the bits.
-    pub(crate) fn solve_in_halves(&self, b: &[Block6]) -> Result<Vec<Block6>> {
-        self.solve_split(b, true)
+    /// [`Self::solve`] of `C` load cases with the triangular solves on them in two halves
+    /// (three and three of six, one and one of two; one per thread: faer's solves are serial,
+    /// and they are the CG's coarse solve in every iteration); the halves are the same on any
+    /// thread count, so the bits. An odd `C` is solved at once.
+    pub(crate) fn solve_in_halves<const C: usize>(&self, b: &[Cols<C>]) -> Result<Vec<Cols<C>>> {
+        self.solve_split(b, C % 2 == 0)
     }
 
-    /// [`Self::solve`] with the triangular solves on all six load cases at once, or `in_halves`.
-    fn solve_split(&self, b: &[Block6], in_halves: bool) -> Result<Vec<Block6>> {
+    /// [`Self::solve`] of `C` load cases with the triangular solves on all at once, or
+    /// `in_halves`.
+    fn solve_split<const C: usize>(&self, b: &[Cols<C>], in_halves: bool) -> Result<Vec<Cols<C>>> {
         let m = self.basis.len();
         if b.len() != m {
             return Err(Error::Invalid(format!(
@@ -339,10 +341,10 @@ impl BlockCholesky {
             )));
         }
         let n = self.n;
-        let mut x = vec![0.0; 6 * n];
+        let mut x = vec![0.0; C * n];
         for (p, (t, r)) in self.basis.iter().enumerate() {
             let tb = t.transpose() * b[p];
-            for c in 0..6 {
+            for c in 0..C {
                 for a in 0..*r {
                     x[c * n + self.offset[p] + a] = tb[(a, c)];
                 }
@@ -369,7 +371,7 @@ impl BlockCholesky {
         if !in_halves {
             solve_group(&mut x)?;
         } else {
-            let (first, second) = x.split_at_mut(3 * n);
+            let (first, second) = x.split_at_mut(C / 2 * n);
             let (ra, rb) = rayon::join(|| solve_group(first), || solve_group(second));
             ra?;
             rb?;
@@ -379,8 +381,8 @@ impl BlockCholesky {
             .par_iter()
             .enumerate()
             .map(|(p, (t, r))| {
-                let mut xp = Block6::zeros();
-                for c in 0..6 {
+                let mut xp = Cols::<C>::zeros();
+                for c in 0..C {
                     for a in 0..*r {
                         xp[(a, c)] = x[c * n + self.offset[p] + a];
                     }

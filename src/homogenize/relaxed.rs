@@ -16,7 +16,7 @@
 use super::amg::Amg;
 use super::cholesky::BlockCholesky;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
-use super::sparse::{mul6_cols, BlockRows, BlockSparse, UpperBlocks};
+use super::sparse::{mul6_cols, AsSix, BlockRows, BlockSparse, Cols, UpperBlocks};
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
 use super::two_level::{HeldSpace, TwoLevel};
@@ -163,13 +163,13 @@ pub struct RelaxedResult {
 }
 
 /// Per-column dot products Σ_p (a_p ∘ b_p) summed over rows, deterministic (fixed chunks).
-fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
+fn column_dots<const C: usize>(a: &[Cols<C>], b: &[Cols<C>]) -> [f64; C] {
     const CH: usize = 2048;
-    let parts: Vec<[f64; 6]> = a
+    let parts: Vec<[f64; C]> = a
         .par_chunks(CH)
         .zip(b.par_chunks(CH))
         .map(|(ca, cb)| {
-            let mut s = [0.0; 6];
+            let mut s = [0.0; C];
             for (x, y) in ca.iter().zip(cb) {
                 for (c, sc) in s.iter_mut().enumerate() {
                     *sc += x.column(c).dot(&y.column(c));
@@ -178,9 +178,9 @@ fn column_dots(a: &[Block6], b: &[Block6]) -> [f64; 6] {
             s
         })
         .collect();
-    let mut s = [0.0; 6];
+    let mut s = [0.0; C];
     for part in parts {
-        for c in 0..6 {
+        for c in 0..C {
             s[c] += part[c];
         }
     }
@@ -192,9 +192,13 @@ const CURVATURE_ROWS: usize = 2048;
 
 /// [`column_dots`] of p and K p (the same bits) together with pᵀ diag(K) p per column, the
 /// scale of the rounding error of pᵀKp in [`pcg`].
-fn curvatures(p: &[Block6], kp: &[Block6], diag: &[[f64; 6]]) -> ([f64; 6], [f64; 6]) {
+fn curvatures<const C: usize>(
+    p: &[Cols<C>],
+    kp: &[Cols<C>],
+    diag: &[[f64; 6]],
+) -> ([f64; C], [f64; C]) {
     const CH: usize = CURVATURE_ROWS;
-    let parts: Vec<([f64; 6], [f64; 6])> = p
+    let parts: Vec<([f64; C], [f64; C])> = p
         .par_chunks(CH)
         .zip(kp.par_chunks(CH))
         .zip(diag.par_chunks(CH))
@@ -204,10 +208,14 @@ fn curvatures(p: &[Block6], kp: &[Block6], diag: &[[f64; 6]]) -> ([f64; 6], [f64
 }
 
 /// One chunk's sums of [`curvatures`], rows in order.
-fn curvature_chunk(cp: &[Block6], ck: &[Block6], cd: &[[f64; 6]]) -> ([f64; 6], [f64; 6]) {
-    let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
+fn curvature_chunk<const C: usize>(
+    cp: &[Cols<C>],
+    ck: &[Cols<C>],
+    cd: &[[f64; 6]],
+) -> ([f64; C], [f64; C]) {
+    let (mut s, mut t) = ([0.0; C], [0.0; C]);
     for ((x, y), d) in cp.iter().zip(ck).zip(cd) {
-        for c in 0..6 {
+        for c in 0..C {
             s[c] += x.column(c).dot(&y.column(c));
             for (i, di) in d.iter().enumerate() {
                 t[c] += di * x[(i, c)] * x[(i, c)];
@@ -218,10 +226,10 @@ fn curvature_chunk(cp: &[Block6], ck: &[Block6], cd: &[[f64; 6]]) -> ([f64; 6], 
 }
 
 /// The chunks' sums of [`curvatures`] added in chunk order.
-fn sum_curvatures(parts: Vec<([f64; 6], [f64; 6])>) -> ([f64; 6], [f64; 6]) {
-    let (mut s, mut t) = ([0.0; 6], [0.0; 6]);
+fn sum_curvatures<const C: usize>(parts: Vec<([f64; C], [f64; C])>) -> ([f64; C], [f64; C]) {
+    let (mut s, mut t) = ([0.0; C], [0.0; C]);
     for (ps, pt) in parts {
-        for c in 0..6 {
+        for c in 0..C {
             s[c] += ps[c];
             t[c] += pt[c];
         }
@@ -577,7 +585,7 @@ impl<'a> Springs<'a> {
         }
     }
 
-    fn apply_cols(self, x: &[Block6], y: &mut [Block6], cols: usize) {
+    fn apply_cols<const C: usize>(self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
         match self {
             Springs::Full(k) => k.apply_cols(x, y, cols),
             Springs::Upper(k) => k.apply_cols(x, y, cols),
@@ -585,7 +593,7 @@ impl<'a> Springs<'a> {
     }
 
     #[inline(always)]
-    fn row_times(self, p: usize, x: &[Block6], cols: usize) -> Block6 {
+    fn row_times<const C: usize>(self, p: usize, x: &[Cols<C>], cols: usize) -> Cols<C> {
         match self {
             Springs::Full(k) => k.row_times(p, x, cols),
             Springs::Upper(k) => k.row_times(p, x, cols),
@@ -631,10 +639,17 @@ impl Stiffness<'_> {
 
     /// Y = K X on the first `cols` load cases, row by row in a fixed order.
     /// With a term, one pass over the rows after the term's per-owner stresses: the springs'
-    /// row, then the term's (the bits of the two applied one after the other).
-    fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+    /// row, then the term's (the bits of the two applied one after the other). The term
+    /// takes six load cases ([`pcg`] refuses fewer with it).
+    fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize)
+    where
+        Cols<C>: AsSix,
+    {
         let Some(t) = self.term else {
             return self.k.apply_cols(x, y, cols);
+        };
+        let (Some(x), Some(y)) = (AsSix::six(x), AsSix::six_mut(y)) else {
+            unreachable!("pcg refuses the many-body term on fewer than six load cases");
         };
         let work = t.stresses(x, cols);
         y.par_iter_mut().enumerate().for_each(|(r, yr)| {
@@ -646,12 +661,15 @@ impl Stiffness<'_> {
     /// K p into `ap` and the curvatures of [`curvatures`] (the same bits), in one pass over
     /// the rows when K is the springs' upper triangle alone: each chunk's sums are taken as
     /// soon as its rows of K p are computed, while p and K p are in cache.
-    fn apply_curvatures(
+    fn apply_curvatures<const C: usize>(
         &self,
-        p: &[Block6],
-        ap: &mut [Block6],
+        p: &[Cols<C>],
+        ap: &mut [Cols<C>],
         cols: usize,
-    ) -> ([f64; 6], [f64; 6]) {
+    ) -> ([f64; C], [f64; C])
+    where
+        Cols<C>: AsSix,
+    {
         match (self.k, self.term) {
             (Springs::Upper(k), None) => {
                 let parts = k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, |first, ys| {
@@ -889,7 +907,9 @@ fn held_cg(
 /// their diagonal entries.
 type JacobiPieces = (Vec<(Block6, usize)>, Vec<[f64; 6]>);
 
-/// [`held_cg`] on the springs `k` with their block-Jacobi pieces.
+/// [`held_cg`] on the springs `k` with their block-Jacobi pieces, on as many load cases as
+/// `b` has up to its last non-zero one (a specimen's one or two: the CG's vectors, products
+/// and coarse solves carry no dead columns; issue 35), six with the multigrid.
 fn held_cg_with(
     (k, (pre, diag)): (Springs, JacobiPieces),
     b: &[Block6],
@@ -909,25 +929,60 @@ fn held_cg_with(
         diag,
         groups: None,
     };
-    pcg(&op, b, &pre, coarse, &scale, &opts, None)
+    let cols = scale.iter().rposition(|&s| s > 0.0).map_or(1, |c| c + 1);
+    match (cols, coarse.1) {
+        (1, None) => narrow_pcg::<1>(&op, b, &pre, coarse, &scale, &opts),
+        (2, None) => narrow_pcg::<2>(&op, b, &pre, coarse, &scale, &opts),
+        _ => pcg(&op, b, &pre, coarse, &scale, &opts, None),
+    }
+}
+
+/// [`pcg`] on the first `C` load cases of `b` (the others zero), its solution widened back
+/// to six (zero past `C`).
+fn narrow_pcg<const C: usize>(
+    op: &Stiffness,
+    b: &[Block6],
+    pre: &[(Block6, usize)],
+    coarse: (Option<&TwoLevel>, Option<&Amg>),
+    scale: &[f64; 6],
+    opts: &RelaxedOptions,
+) -> Result<(Vec<Block6>, usize, f64)>
+where
+    Cols<C>: AsSix,
+{
+    let narrow: Vec<Cols<C>> = b
+        .par_iter()
+        .map(|b| b.fixed_columns::<C>(0).into_owned())
+        .collect();
+    let scale: [f64; C] = std::array::from_fn(|c| scale[c]);
+    let (x, iterations, residual) = pcg(op, &narrow, pre, coarse, &scale, opts, None)?;
+    let wide = x
+        .par_iter()
+        .map(|x| {
+            let mut w = Block6::zeros();
+            w.fixed_columns_mut::<C>(0).copy_from(x);
+            w
+        })
+        .collect();
+    Ok((wide, iterations, residual))
 }
 
 /// Right-hand-side columns that are not rounding noise (norm above 1e-10 of the load case's
 /// scale before cancellation), and the column norms.
-fn live_columns(b: &[Block6], scale: &[f64; 6]) -> ([bool; 6], [f64; 6]) {
+fn live_columns<const C: usize>(b: &[Cols<C>], scale: &[f64; C]) -> ([bool; C], [f64; C]) {
     let bnorm = column_dots(b, b).map(f64::sqrt);
     (std::array::from_fn(|c| bnorm[c] > 1e-10 * scale[c]), bnorm)
 }
 
 /// Largest relative residual ‖r_c‖/‖b_c‖ over the live columns.
-fn worst_residual(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> f64 {
+fn worst_residual<const C: usize>(r: &[Cols<C>], live: &[bool; C], bnorm: &[f64; C]) -> f64 {
     column_residuals(r, live, bnorm)
         .iter()
         .fold(0.0, |a: f64, &b| a.max(b))
 }
 
 /// Relative residual ‖r_c‖/‖b_c‖ of every live column (0 for the others).
-fn column_residuals(r: &[Block6], live: &[bool; 6], bnorm: &[f64; 6]) -> [f64; 6] {
+fn column_residuals<const C: usize>(r: &[Cols<C>], live: &[bool; C], bnorm: &[f64; C]) -> [f64; C] {
     let rr = column_dots(r, r);
     std::array::from_fn(|c| {
         if live[c] {
@@ -958,15 +1013,15 @@ fn unit_rounding_bound(n: usize) -> f64 {
 /// further steps), and otherwise stalled at rounding level ([`Error::NotConverged`]): a step
 /// rz/pᵀKp would be a quotient of rounding errors, and stopping would return an answer
 /// above the tolerance asked for.
-fn judge_curvature(
-    pap: &[f64; 6],
-    bound: &[f64; 6],
-    judged: &[bool; 6],
-    residual: &[f64; 6],
+fn judge_curvature<const C: usize>(
+    pap: &[f64; C],
+    bound: &[f64; C],
+    judged: &[bool; C],
+    residual: &[f64; C],
     tolerance: f64,
-    done: &mut [bool; 6],
+    done: &mut [bool; C],
 ) -> Result<()> {
-    if let Some(c) = (0..6).find(|&c| judged[c] && pap[c] < -bound[c]) {
+    if let Some(c) = (0..C).find(|&c| judged[c] && pap[c] < -bound[c]) {
         return Err(Error::Degenerate(format!(
             "relaxed solver: the stiffness matrix is not positive (pᵀKp = {:.3e} < 0 in load \
              case {}, beyond its rounding error {:.1e}): under this preload the network is \
@@ -976,7 +1031,7 @@ fn judge_curvature(
             bound[c]
         )));
     }
-    for c in (0..6).filter(|&c| judged[c] && pap[c].abs() <= bound[c]) {
+    for c in (0..C).filter(|&c| judged[c] && pap[c].abs() <= bound[c]) {
         if residual[c] > tolerance {
             return Err(Error::NotConverged(format!(
                 "relaxed solver: stalled at rounding level in load case {}: the search \
@@ -994,20 +1049,30 @@ fn judge_curvature(
     Ok(())
 }
 
-/// Preconditioned conjugate gradients on the six load cases together, K X = B, from
+/// Preconditioned conjugate gradients on `C` load cases together (the relaxed tensor's six,
+/// a specimen's one or two), K X = B, from
 /// X₀ = `start` (or 0); block-Jacobi, or the balancing two-level preconditioner
 /// z = Q r + (I − QK) M (I − KQ) r with M = block-Jacobi when `two_level` is given, or one
-/// multigrid V-cycle when `amg` is.
-fn pcg(
+/// multigrid V-cycle when `amg` is. The many-body term and the multigrid take six load cases:
+/// refused with fewer.
+fn pcg<const C: usize>(
     k: &Stiffness,
-    b: &[Block6],
+    b: &[Cols<C>],
     pre: &[(Block6, usize)],
     (two_level, amg): (Option<&TwoLevel>, Option<&Amg>),
-    scale: &[f64; 6],
+    scale: &[f64; C],
     opts: &RelaxedOptions,
-    start: Option<&[Block6]>,
-) -> Result<(Vec<Block6>, usize, f64)> {
+    start: Option<&[Cols<C>]>,
+) -> Result<(Vec<Cols<C>>, usize, f64)>
+where
+    Cols<C>: AsSix,
+{
     let m = b.len();
+    if C != 6 && (k.term.is_some() || k.groups.is_some() || amg.is_some()) {
+        return Err(Error::Invalid(format!(
+            "relaxed solver: the many-body term and the multigrid take six load cases, not {C}"
+        )));
+    }
     let (live, bnorm) = live_columns(b, scale);
     // Load cases past the last live one are zero throughout: not computed.
     let cols = live.iter().rposition(|&l| l).map_or(1, |c| c + 1);
@@ -1015,17 +1080,17 @@ fn pcg(
     precondition.amg = amg;
     precondition.groups = k.groups.as_ref();
     let (mut x, mut r) = cg_start(k, b, start, &live, two_level)?;
-    let mut z = vec![Block6::zeros(); m];
+    let mut z = vec![Cols::<C>::zeros(); m];
     precondition.apply(&r, &mut z)?;
     let mut p = z.clone();
-    let mut ap = vec![Block6::zeros(); m];
+    let mut ap = vec![Cols::<C>::zeros(); m];
     let mut rz = column_dots(&r, &z);
     let mut worst = 0.0;
     // |fl(pᵀKp) − pᵀKp| ≤ γ_n |p|ᵀ|K||p| ≤ γ_n w pᵀdiag(K)p ([`judge_curvature`]).
     let rounding = unit_rounding_bound(k.rounding_depth(m)) * k.row_width() as f64;
     // Load cases whose search direction reached the rounding level after their residual met
     // the tolerance: no further steps (their residual stays as it is).
-    let mut done = [false; 6];
+    let mut done = [false; C];
     for it in 0..=opts.max_iterations {
         let residual = column_residuals(&r, &live, &bnorm);
         worst = residual.iter().fold(0.0, |a: f64, &b| a.max(b));
@@ -1036,10 +1101,10 @@ fn pcg(
             break;
         }
         let (pap, pdp) = k.apply_curvatures(&p, &mut ap, cols);
-        let judged: [bool; 6] = std::array::from_fn(|c| live[c] && !done[c]);
-        let bound: [f64; 6] = std::array::from_fn(|c| rounding * pdp[c]);
+        let judged: [bool; C] = std::array::from_fn(|c| live[c] && !done[c]);
+        let bound: [f64; C] = std::array::from_fn(|c| rounding * pdp[c]);
         judge_curvature(&pap, &bound, &judged, &residual, opts.tolerance, &mut done)?;
-        let alpha: [f64; 6] = std::array::from_fn(|c| {
+        let alpha: [f64; C] = std::array::from_fn(|c| {
             if live[c] && !done[c] && pap[c] > 0.0 {
                 rz[c] / pap[c]
             } else {
@@ -1049,7 +1114,7 @@ fn pcg(
         cg_step(&mut x, &mut r, &p, &ap, &alpha);
         precondition.apply(&r, &mut z)?;
         let rz_new = column_dots(&r, &z);
-        let beta: [f64; 6] = std::array::from_fn(|c| {
+        let beta: [f64; C] = std::array::from_fn(|c| {
             if rz[c] > 0.0 && !done[c] {
                 rz_new[c] / rz[c]
             } else {
@@ -1073,7 +1138,7 @@ fn pcg(
 
 /// The preconditioner of [`pcg`] on its first `cols` load cases: block-Jacobi M, or with
 /// the two-level coarse space (I − QK) M, with its work vectors.
-struct Preconditioner<'a> {
+struct Preconditioner<'a, const C: usize> {
     /// Pseudo-inverses of the diagonal blocks.
     pre: &'a [(Block6, usize)],
     /// The coarse space, when used.
@@ -1081,14 +1146,17 @@ struct Preconditioner<'a> {
     /// Load cases computed.
     cols: usize,
     /// M r (two-level only).
-    w: Vec<Block6>,
+    w: Vec<Cols<C>>,
     /// The multigrid V-cycle, when used instead.
     amg: Option<&'a Amg<'a>>,
     /// The term's stiff stencils as dense blocks of M (term_preconditioner.rs).
     groups: Option<&'a StiffGroups>,
 }
 
-impl<'a> Preconditioner<'a> {
+impl<'a, const C: usize> Preconditioner<'a, C>
+where
+    Cols<C>: AsSix,
+{
     /// The preconditioner of `m` nodes.
     fn new(
         pre: &'a [(Block6, usize)],
@@ -1097,7 +1165,7 @@ impl<'a> Preconditioner<'a> {
         m: usize,
     ) -> Self {
         let w = match two_level {
-            Some(_) => vec![Block6::zeros(); m],
+            Some(_) => vec![Cols::<C>::zeros(); m],
             None => Vec::new(),
         };
         Preconditioner {
@@ -1111,7 +1179,7 @@ impl<'a> Preconditioner<'a> {
     }
 
     /// z = M r, the block-Jacobi step.
-    fn jacobi(pre: &[(Block6, usize)], cols: usize, r: &[Block6], z: &mut [Block6]) {
+    fn jacobi(pre: &[(Block6, usize)], cols: usize, r: &[Cols<C>], z: &mut [Cols<C>]) {
         const CH: usize = 512;
         z.par_chunks_mut(CH)
             .zip(r.par_chunks(CH))
@@ -1129,35 +1197,48 @@ impl<'a> Preconditioner<'a> {
     /// [`cg_start`]), the balancing preconditioner reduces to this, and every later residual
     /// stays ⟂ range(P) since Pᵀ K (I − QK) = 0 (Tang et al. 2009, A-DEF2 ≡ BNN with this
     /// start).
-    fn apply(&mut self, r: &[Block6], z: &mut [Block6]) -> Result<()> {
+    fn apply(&mut self, r: &[Cols<C>], z: &mut [Cols<C>]) -> Result<()> {
         if let Some(amg) = self.amg {
+            let (Some(r), Some(z)) = (AsSix::six(r), AsSix::six_mut(z)) else {
+                unreachable!("pcg refuses the multigrid on fewer than six load cases");
+            };
             return amg.apply_cols(r, z, self.cols);
         }
         let Some(tl) = self.two_level else {
             Self::jacobi(self.pre, self.cols, r, z);
-            if let Some(g) = self.groups {
-                g.apply(r, z, self.cols);
-            }
+            Self::stiff_groups(self.groups, r, z, self.cols);
             return Ok(());
         };
         Self::jacobi(self.pre, self.cols, r, &mut self.w); // w = M r
-        if let Some(g) = self.groups {
-            g.apply(r, &mut self.w, self.cols);
-        }
+        Self::stiff_groups(self.groups, r, &mut self.w, self.cols);
         tl.deflate_cols(&self.w, z, self.cols)?; // z = w − Q K w
         Ok(())
+    }
+
+    /// The term's stiff groups' dense blocks into z = M r, when there are any (six load
+    /// cases: [`pcg`] refuses fewer with them).
+    fn stiff_groups(groups: Option<&StiffGroups>, r: &[Cols<C>], z: &mut [Cols<C>], cols: usize) {
+        if let Some(g) = groups {
+            let (Some(r), Some(z)) = (AsSix::six(r), AsSix::six_mut(z)) else {
+                unreachable!("pcg refuses the term's groups on fewer than six load cases");
+            };
+            g.apply(r, z, cols);
+        }
     }
 }
 
 /// The start of [`pcg`]: X₀ = `start` (its dead load cases zeroed) or 0, R₀ = B − K X₀,
 /// then with the coarse space x += Q r, r −= K Q r on the live load cases, so that Pᵀ r = 0.
-fn cg_start(
+fn cg_start<const C: usize>(
     k: &Stiffness,
-    b: &[Block6],
-    start: Option<&[Block6]>,
-    live: &[bool; 6],
+    b: &[Cols<C>],
+    start: Option<&[Cols<C>]>,
+    live: &[bool; C],
     two_level: Option<&TwoLevel>,
-) -> Result<(Vec<Block6>, Vec<Block6>)> {
+) -> Result<(Vec<Cols<C>>, Vec<Cols<C>>)>
+where
+    Cols<C>: AsSix,
+{
     let m = b.len();
     let mut x = match start {
         Some(s) => {
@@ -1171,19 +1252,19 @@ fn cg_start(
             }
             x
         }
-        None => vec![Block6::zeros(); m],
+        None => vec![Cols::<C>::zeros(); m],
     };
     let mut r = b.to_vec();
     if start.is_some() {
-        let mut kx = vec![Block6::zeros(); m];
-        k.apply_cols(&x, &mut kx, 6);
+        let mut kx = vec![Cols::<C>::zeros(); m];
+        k.apply_cols(&x, &mut kx, C);
         r.par_iter_mut()
             .zip(kx.par_iter())
             .for_each(|(r, kx)| *r -= kx);
     }
     if let Some(tl) = two_level {
-        let mut q = vec![Block6::zeros(); m];
-        let mut kq = vec![Block6::zeros(); m];
+        let mut q = vec![Cols::<C>::zeros(); m];
+        let mut kq = vec![Cols::<C>::zeros(); m];
         tl.coarse_correction(&r, &mut q, &mut kq)?;
         x.par_iter_mut()
             .zip(r.par_iter_mut())
@@ -1203,7 +1284,13 @@ fn cg_start(
 }
 
 /// The CG update x += α p, r −= α K p, per load case.
-fn cg_step(x: &mut [Block6], r: &mut [Block6], p: &[Block6], ap: &[Block6], alpha: &[f64; 6]) {
+fn cg_step<const C: usize>(
+    x: &mut [Cols<C>],
+    r: &mut [Cols<C>],
+    p: &[Cols<C>],
+    ap: &[Cols<C>],
+    alpha: &[f64; C],
+) {
     x.par_iter_mut()
         .zip(r.par_iter_mut())
         .zip(p.par_iter().zip(ap.par_iter()))
@@ -1306,6 +1393,50 @@ mod tests {
                 )
             }
             other => panic!("expected a stall at rounding level, got {other:?}"),
+        }
+    }
+
+    /// The CG on one or two live load cases runs on blocks of that many columns
+    /// ([`narrow_pcg`]: a specimen's solve) and gives the six-column CG's solution on them
+    /// bit for bit, in as many iterations: every column's operations are the same.
+    #[test]
+    fn narrow_load_cases_give_the_six_column_solution() {
+        let n = 16;
+        let a = spd_block();
+        let k = ring(n, &a);
+        for live in [1, 2] {
+            let mut h: Vec<Block6> = (0..n)
+                .map(|i| Block6::from_fn(|j, c| ((i * 5 + j * 3 + c) % 7) as f64 - 3.0))
+                .collect();
+            // Loads of zero sum: consistent with the ring's null space.
+            let mean = h.iter().sum::<Block6>() / n as f64;
+            let b: Vec<Block6> = h
+                .iter_mut()
+                .map(|hi| {
+                    let mut bi = a * (*hi - mean);
+                    bi.columns_mut(live, 6 - live).fill(0.0);
+                    bi
+                })
+                .collect();
+            let (narrow, it_narrow, _) =
+                held_cg(&k, &b, (None, None), 1e-10, 200).expect("converged");
+            let (pre, diag) = jacobi_pieces(&k, None);
+            let op = Stiffness {
+                k: Springs::Full(&k),
+                term: None,
+                diag,
+                groups: None,
+            };
+            let opts = RelaxedOptions {
+                tolerance: 1e-10,
+                max_iterations: 200,
+                ..Default::default()
+            };
+            let scale = column_dots(&b, &b).map(f64::sqrt);
+            let (wide, it_wide, _) =
+                pcg(&op, &b, &pre, (None, None), &scale, &opts, None).expect("converged");
+            assert!(it_narrow > 2, "{it_narrow}");
+            assert_eq!((narrow, it_narrow), (wide, it_wide), "{live} load cases");
         }
     }
 

@@ -6,6 +6,44 @@ use super::network::{csr, Block6, Network};
 use crate::{Error, Result};
 use rayon::prelude::*;
 
+/// A block of `C` load cases: each particle's six DOFs × `C` right-hand sides, column-major
+/// ([`Block6`] is `C` = 6). The relaxed tensor solves six load cases, a specimen one or two
+/// (issue 35): the CG and its preconditioner run on as many columns as are live.
+pub(crate) type Cols<const C: usize> = nalgebra::SMatrix<f64, 6, C>;
+
+/// The CG's blocks of `C` load cases seen as six, for the operators that only take six (the
+/// many-body term in factored form, its stiff groups, the multigrid): `None` below six.
+pub(crate) trait AsSix: Sized {
+    /// `x` as blocks of six load cases, when it is.
+    fn six(x: &[Self]) -> Option<&[Block6]>;
+    /// `x` as blocks of six load cases, when it is.
+    fn six_mut(x: &mut [Self]) -> Option<&mut [Block6]>;
+}
+
+impl AsSix for Block6 {
+    fn six(x: &[Self]) -> Option<&[Block6]> {
+        Some(x)
+    }
+    fn six_mut(x: &mut [Self]) -> Option<&mut [Block6]> {
+        Some(x)
+    }
+}
+
+/// [`AsSix`] of the narrow blocks: never six.
+macro_rules! narrow_cols {
+    ($($c:literal),*) => {$(
+        impl AsSix for Cols<$c> {
+            fn six(_: &[Self]) -> Option<&[Block6]> {
+                None
+            }
+            fn six_mut(_: &mut [Self]) -> Option<&mut [Block6]> {
+                None
+            }
+        }
+    )*};
+}
+narrow_cols!(1, 2);
+
 /// Block-sparse symmetric matrix with 6×6 blocks, stored by rows (both triangles).
 pub struct BlockSparse {
     row_start: Vec<usize>,
@@ -108,18 +146,18 @@ impl BlockSparse {
 
     /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
     /// solve with fewer than six right-hand sides does not pay for six.
-    pub fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+    pub fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
         y.par_iter_mut()
             .enumerate()
             .for_each(|(p, yp)| *yp = self.row_times(p, x, cols));
     }
 
-    /// Row `p` of K X on the first `cols` load cases, its blocks in column order.
+    /// Row `p` of K X on the first `n` load cases, its blocks in column order.
     #[inline(always)]
-    pub(crate) fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
-        let mut acc = Block6::zeros();
+    pub(crate) fn row_times<const C: usize>(&self, p: usize, x: &[Cols<C>], n: usize) -> Cols<C> {
+        let mut acc = Cols::<C>::zeros();
         for k in self.row_start[p]..self.row_start[p + 1] {
-            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
+            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], n);
         }
         acc
     }
@@ -483,16 +521,16 @@ impl UpperBlocks {
         }
     }
 
-    /// Row `p` of K X on the first `cols` load cases: the blocks in column order, as
+    /// Row `p` of K X on the first `n` load cases: the blocks in column order, as
     /// [`BlockSparse::row_times`].
     #[inline(always)]
-    pub(crate) fn row_times(&self, p: usize, x: &[Block6], cols: usize) -> Block6 {
-        let mut acc = Block6::zeros();
+    pub(crate) fn row_times<const C: usize>(&self, p: usize, x: &[Cols<C>], n: usize) -> Cols<C> {
+        let mut acc = Cols::<C>::zeros();
         for &(q, at) in &self.low[self.low_start[p]..self.low_start[p + 1]] {
-            mul_add6_transposed_cols(&mut acc, &self.block[at as usize], &x[q as usize], cols);
+            mul_add6_transposed_cols(&mut acc, &self.block[at as usize], &x[q as usize], n);
         }
         for k in self.row_start[p]..self.row_start[p + 1] {
-            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], cols);
+            mul_add6_cols(&mut acc, &self.block[k], &x[self.col[k] as usize], n);
         }
         acc
     }
@@ -500,20 +538,20 @@ impl UpperBlocks {
     /// Y = K X on the first `cols` load cases (as [`BlockSparse::apply_cols`]), with
     /// AVX2 where the processor has it: the same operations (no fused multiply-add) in the
     /// same order, so the same bits, four lanes wide instead of two.
-    pub(crate) fn apply_cols(&self, x: &[Block6], y: &mut [Block6], cols: usize) {
+    pub(crate) fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
         self.apply_cols_then(x, y, cols, 512, |_, _| ());
     }
 
     /// [`Self::apply_cols`] by chunks of `rows` rows, calling `then(first row, chunk of Y)`
     /// on each chunk as soon as it is computed (while it is in cache); the chunks' results
     /// in order.
-    pub(crate) fn apply_cols_then<T: Send>(
+    pub(crate) fn apply_cols_then<T: Send, const C: usize>(
         &self,
-        x: &[Block6],
-        y: &mut [Block6],
+        x: &[Cols<C>],
+        y: &mut [Cols<C>],
         cols: usize,
         rows: usize,
-        then: impl Fn(usize, &[Block6]) -> T + Sync,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
     ) -> Vec<T> {
         y.par_chunks_mut(rows)
             .enumerate()
@@ -526,7 +564,7 @@ impl UpperBlocks {
 
     /// Rows `first..` of K X into `ys`.
     #[inline(always)]
-    fn rows(&self, first: usize, x: &[Block6], ys: &mut [Block6], cols: usize) {
+    fn rows<const C: usize>(&self, first: usize, x: &[Cols<C>], ys: &mut [Cols<C>], cols: usize) {
         for (p, yp) in (first..).zip(ys.iter_mut()) {
             *yp = self.row_times(p, x, cols);
         }
@@ -562,12 +600,17 @@ pub(crate) fn mul_add6(acc: &mut Block6, a: &Block6, b: &Block6) {
     mul_add_columns(acc, a, b, 6);
 }
 
-/// [`mul_add6`] on the first `cols` columns of b (and of acc); all six when `cols` ≥ 6, by
-/// the same kernel and in the same order.
+/// [`mul_add6`] on the first `cols` columns of b (and of acc), of `C` load cases; all `C`
+/// when `cols` ≥ `C`, by the same kernel and in the same order.
 #[inline(always)]
-pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
-    if cols >= 6 {
-        return mul_add6(acc, a, b);
+pub(crate) fn mul_add6_cols<const C: usize>(
+    acc: &mut Cols<C>,
+    a: &Block6,
+    b: &Cols<C>,
+    cols: usize,
+) {
+    if cols >= C {
+        return mul_add_columns(acc, a, b, C);
     }
     mul_add_columns(acc, a, b, cols);
 }
@@ -575,7 +618,7 @@ pub(crate) fn mul_add6_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usiz
 /// The kernel of [`mul_add6`] and [`mul_add6_cols`]: acc[:, j] += a·b[:, j] for j < `cols`,
 /// column by column. Always inlined, so a constant `cols` (6 in [`mul_add6`]) unrolls.
 #[inline(always)]
-fn mul_add_columns(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
+fn mul_add_columns<const C: usize>(acc: &mut Cols<C>, a: &Block6, b: &Cols<C>, cols: usize) {
     let a: &[f64; 36] = a.as_slice().try_into().expect("a 6×6 block has 36 entries");
     mul_add_columns_of(acc, a, b, cols);
 }
@@ -583,7 +626,12 @@ fn mul_add_columns(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
 /// [`mul_add_columns`] with `a` as its 36 column-major entries (the multigrid's
 /// single-precision blocks widen into such an array first).
 #[inline(always)]
-pub(crate) fn mul_add_columns_of(acc: &mut Block6, a: &[f64; 36], b: &Block6, cols: usize) {
+pub(crate) fn mul_add_columns_of<const C: usize>(
+    acc: &mut Cols<C>,
+    a: &[f64; 36],
+    b: &Cols<C>,
+    cols: usize,
+) {
     let b = b.as_slice();
     let c = acc.as_mut_slice();
     for j in 0..cols {
@@ -604,18 +652,23 @@ pub(crate) fn mul_add_columns_of(acc: &mut Block6, a: &[f64; 36], b: &Block6, co
 /// products summed in the same order as [`mul_add6_cols`] on an explicitly transposed block,
 /// so the same bits without storing the transpose.
 #[inline(always)]
-pub(crate) fn mul_add6_transposed_cols(acc: &mut Block6, a: &Block6, b: &Block6, cols: usize) {
+pub(crate) fn mul_add6_transposed_cols<const C: usize>(
+    acc: &mut Cols<C>,
+    a: &Block6,
+    b: &Cols<C>,
+    cols: usize,
+) {
     let a = a.as_slice();
     // aᵀ column-major in registers: (aᵀ)[i, k] = a[k, i], stored at 6 i + k; the kernel
     // then reads contiguous columns (strided reads kept it scalar).
     let t: [f64; 36] = std::array::from_fn(|n| a[6 * (n % 6) + n / 6]);
-    mul_add_columns_of(acc, &t, b, cols.min(6));
+    mul_add_columns_of(acc, &t, b, cols.min(C));
 }
 
 /// a·b on the first `cols` columns of b (see [`mul_add6_cols`]).
 #[inline(always)]
-pub(crate) fn mul6_cols(a: &Block6, b: &Block6, cols: usize) -> Block6 {
-    let mut c = Block6::zeros();
+pub(crate) fn mul6_cols<const C: usize>(a: &Block6, b: &Cols<C>, cols: usize) -> Cols<C> {
+    let mut c = Cols::<C>::zeros();
     mul_add6_cols(&mut c, a, b, cols);
     c
 }

@@ -11,8 +11,7 @@
 use super::cholesky::BlockCholesky;
 use super::network::Block6;
 use super::sparse::{
-    mul6, mul6_cols, mul_add6, mul_add6_cols, mul_add6_transposed_cols, with_avx2, BlockRows,
-    BlockSparse,
+    mul6_cols, mul_add6_cols, mul_add6_transposed_cols, with_avx2, BlockRows, BlockSparse, Cols,
 };
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
@@ -605,24 +604,26 @@ impl TwoLevel {
         self.start.len() - 1
     }
 
-    /// Q r = P (PᵀKP)⁺ Pᵀ r into `q`, and K Q r = (KP)(PᵀKP)⁺ Pᵀ r into `kq`.
-    pub fn coarse_correction(
+    /// Q r = P (PᵀKP)⁺ Pᵀ r into `q`, and K Q r = (KP)(PᵀKP)⁺ Pᵀ r into `kq`, on `C` load
+    /// cases.
+    pub fn coarse_correction<const C: usize>(
         &self,
-        r: &[Block6],
-        q: &mut [Block6],
-        kq: &mut [Block6],
+        r: &[Cols<C>],
+        q: &mut [Cols<C>],
+        kq: &mut [Cols<C>],
     ) -> Result<()> {
         let layers = self.layers;
-        let restricted: Vec<Block6> = (0..self.aggregates() * layers)
+        let restricted: Vec<Cols<C>> = (0..self.aggregates() * layers)
             .into_par_iter()
             .map(|c| {
                 let (a, l) = (c / layers, c % layers);
-                let mut s = Block6::zeros();
+                let mut s = Cols::<C>::zeros();
                 for &p in &self.nodes[self.start[a]..self.start[a + 1]] {
-                    mul_add6(
+                    mul_add6_cols(
                         &mut s,
                         &self.prolongation[p as usize * layers + l].transpose(),
                         &r[p as usize],
+                        C,
                     );
                 }
                 s
@@ -634,13 +635,13 @@ impl TwoLevel {
             .enumerate()
             .for_each(|(p, (q, kq))| {
                 let c = self.aggregate[p] as usize * layers;
-                *q = mul6(&self.prolongation[p * layers], &xc[c]);
+                *q = mul6_cols(&self.prolongation[p * layers], &xc[c], C);
                 for l in 1..layers {
-                    mul_add6(q, &self.prolongation[p * layers + l], &xc[c + l]);
+                    mul_add6_cols(q, &self.prolongation[p * layers + l], &xc[c + l], C);
                 }
-                let mut s = Block6::zeros();
+                let mut s = Cols::<C>::zeros();
                 for (b, kpb) in &self.kp[self.kp_start[p]..self.kp_start[p + 1]] {
-                    mul_add6(&mut s, kpb, &xc[*b as usize]);
+                    mul_add6_cols(&mut s, kpb, &xc[*b as usize], C);
                 }
                 *kq = s;
             });
@@ -657,28 +658,33 @@ impl TwoLevel {
         self.prolong_coarse_of_k(w, out, cols, |_, o| o)
     }
 
-    /// w − Q K w into `z` on the first `cols` load cases (the bits of `w` less
+    /// w − Q K w into `z` on the first `cols` of `C` load cases (the bits of `w` less
     /// [`Self::coarse_of_k_cols`], in one pass: the two-level preconditioner's (I − QK) w).
-    pub(crate) fn deflate_cols(&self, w: &[Block6], z: &mut [Block6], cols: usize) -> Result<()> {
+    pub(crate) fn deflate_cols<const C: usize>(
+        &self,
+        w: &[Cols<C>],
+        z: &mut [Cols<C>],
+        cols: usize,
+    ) -> Result<()> {
         self.prolong_coarse_of_k(w, z, cols, |p, o| w[p] - o)
     }
 
     /// out_p = `finish`(p, (Q K w)_p) for every fine node p.
-    fn prolong_coarse_of_k(
+    fn prolong_coarse_of_k<const C: usize>(
         &self,
-        w: &[Block6],
-        out: &mut [Block6],
+        w: &[Cols<C>],
+        out: &mut [Cols<C>],
         cols: usize,
-        finish: impl Fn(usize, Block6) -> Block6 + Sync,
+        finish: impl Fn(usize, Cols<C>) -> Cols<C> + Sync,
     ) -> Result<()> {
         let layers = self.layers;
         let m = self.aggregate.len();
-        let partial: Vec<Vec<Block6>> = self
+        let partial: Vec<Vec<Cols<C>>> = self
             .chunk_slots
             .par_iter()
             .enumerate()
             .map(|(c, &slots)| {
-                let mut part = vec![Block6::zeros(); slots as usize];
+                let mut part = vec![Cols::<C>::zeros(); slots as usize];
                 with_avx2(|| {
                     let first = c * RESTRICT_ROWS;
                     let rows = &w[first..(first + RESTRICT_ROWS).min(m)];
@@ -696,10 +702,10 @@ impl TwoLevel {
                 part
             })
             .collect();
-        let restricted: Vec<Block6> = (0..self.aggregates() * layers)
+        let restricted: Vec<Cols<C>> = (0..self.aggregates() * layers)
             .into_par_iter()
             .map(|a| {
-                let mut s = Block6::zeros();
+                let mut s = Cols::<C>::zeros();
                 for &(c, at) in &self.parts[self.parts_start[a]..self.parts_start[a + 1]] {
                     s += partial[c as usize][at as usize];
                 }
