@@ -118,6 +118,9 @@ fn cg_amg_gives_the_simple_cubic_closed_form() {
     let direct = solved(&asm, &o, SolverChoice::Cholesky);
     amg_iterations(&amg);
     same_answer(&amg, &direct, 1e-8, "confined simple-cubic cylinder", true);
+    // The two-level CG on the two load cases alone (its coarse solve in halves of one).
+    let two_level = solved(&asm, &o, SolverChoice::Cg);
+    same_answer(&two_level, &direct, 1e-8, "confined, two-level CG", true);
 }
 
 /// A random free specimen (1,200 generated spheres read as free, Truszkowska's MRV model)
