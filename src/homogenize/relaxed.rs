@@ -835,13 +835,21 @@ pub(crate) fn block_jacobi_cg(
     held_cg(k, b, (None, None), tolerance, max_iterations)
 }
 
+/// Nodes with fewer bonds than this get a dense block-Jacobi patch with their bonded
+/// neighbours in [`two_level_cg`] ([`StiffGroups::loose`]): the slow modes of a free
+/// specimen's CG are the lateral surface's particles kept by one to three bonds. Measured on
+/// the free 100,000-sphere cluster (docs/specimens.md): 223 iterations without patches,
+/// 117 below 3 bonds, 88 below 4 (4,504 nodes in patches), 78 below 5 (13,693 nodes, slower).
+const LOOSE_BONDS: usize = 4;
+
 /// [`block_jacobi_cg`] with the two-level preconditioner of [`super::two_level`] (aggregates
 /// of about [`DEFAULT_PARTICLES_PER_AGGREGATE`] nodes on a grid over `box_lengths`, `positions`
 /// inside [0, box_lengths); the coarse space of the held structure, [`TwoLevel::held`]):
 /// iterations nearly independent of the size, for a held structure too large for the direct
 /// solve. Falls back to block-Jacobi when the coarse space cannot be built (only the
 /// preconditioner is weaker; the last value returned says whether the two-level one was
-/// used). Once the preconditioner is set up, `k` is kept by its upper triangle
+/// used). The loosely held nodes' patches ([`LOOSE_BONDS`]) are dense blocks of the
+/// block-Jacobi step. Once the preconditioner is set up, `k` is kept by its upper triangle
 /// ([`StoredSprings`]: the same bits, half the memory).
 pub(crate) fn two_level_cg(
     k: BlockSparse,
@@ -860,9 +868,10 @@ pub(crate) fn two_level_cg(
     )
     .ok();
     let pieces = jacobi_pieces(&k, None);
+    let groups = StiffGroups::loose(&k, LOOSE_BONDS);
     let stored = StoredSprings::of(k, true);
     let (x, iterations, residual) = held_cg_with(
-        (stored.springs(), pieces),
+        (stored.springs(), pieces, groups),
         b,
         (two_level.as_ref(), None),
         tolerance,
@@ -895,7 +904,7 @@ fn held_cg(
 ) -> Result<(Vec<Block6>, usize, f64)> {
     let pieces = jacobi_pieces(k, None);
     held_cg_with(
-        (Springs::Full(k), pieces),
+        (Springs::Full(k), pieces, None),
         b,
         coarse,
         tolerance,
@@ -911,7 +920,7 @@ type JacobiPieces = (Vec<(Block6, usize)>, Vec<[f64; 6]>);
 /// `b` has up to its last non-zero one (a specimen's one or two: the CG's vectors, products
 /// and coarse solves carry no dead columns; issue 35), six with the multigrid.
 fn held_cg_with(
-    (k, (pre, diag)): (Springs, JacobiPieces),
+    (k, (pre, diag), groups): (Springs, JacobiPieces, Option<StiffGroups>),
     b: &[Block6],
     coarse: (Option<&TwoLevel>, Option<&Amg>),
     tolerance: f64,
@@ -927,7 +936,7 @@ fn held_cg_with(
         k,
         term: None,
         diag,
-        groups: None,
+        groups,
     };
     let cols = scale.iter().rposition(|&s| s > 0.0).map_or(1, |c| c + 1);
     match (cols, coarse.1) {
@@ -1068,7 +1077,7 @@ where
     Cols<C>: AsSix,
 {
     let m = b.len();
-    if C != 6 && (k.term.is_some() || k.groups.is_some() || amg.is_some()) {
+    if C != 6 && (k.term.is_some() || amg.is_some()) {
         return Err(Error::Invalid(format!(
             "relaxed solver: the many-body term and the multigrid take six load cases, not {C}"
         )));
@@ -1219,9 +1228,6 @@ where
     /// cases: [`pcg`] refuses fewer with them).
     fn stiff_groups(groups: Option<&StiffGroups>, r: &[Cols<C>], z: &mut [Cols<C>], cols: usize) {
         if let Some(g) = groups {
-            let (Some(r), Some(z)) = (AsSix::six(r), AsSix::six_mut(z)) else {
-                unreachable!("pcg refuses the term's groups on fewer than six load cases");
-            };
             g.apply(r, z, cols);
         }
     }

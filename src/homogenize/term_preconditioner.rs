@@ -8,9 +8,12 @@
 //! space of smoothed/strain aggregation) leaves jumps of second order in the aggregate's size.
 //! The coarse operator is PᵀKP with K the springs' assembled blocks plus the term's Hessian
 //! applied in factored form ([`TermOperator::times_prolongation`]), built once per solve.
+//! Also dense block-Jacobi blocks: over the term's stiff stencils ([`StiffGroups::new`]),
+//! and over a held specimen's loosely bonded particles with their neighbours, the springs
+//! alone ([`StiffGroups::loose`]).
 
 use super::network::Block6;
-use super::sparse::BlockSparse;
+use super::sparse::{BlockSparse, Cols};
 use super::term_operator::{strain_map, TermOperator};
 use super::two_level::{CoarseLayer, TwoLevel};
 use crate::tensor::Stiffness6;
@@ -186,60 +189,37 @@ impl StiffGroups {
             .collect();
         stiff.sort_by(|&a, &b| share[b].total_cmp(&share[a]).then(a.cmp(&b)));
         stiff.truncate(share.len().div_ceil(MAX_STIFF_SHARE));
-        // Merge overlapping stencils, owners in order (deterministic); an owner whose merge
-        // would pass the size limit keeps its 6×6 blocks.
-        let mut group_of = vec![u32::MAX; m];
-        let mut members: Vec<Vec<u32>> = Vec::new();
-        for &o in &stiff {
-            let mut nodes = term.owner(o).2.to_vec();
-            nodes.sort_unstable();
-            nodes.dedup();
-            let mut touched: Vec<u32> = nodes
-                .iter()
-                .map(|&n| group_of[n as usize])
-                .filter(|&g| g != u32::MAX)
-                .collect();
-            touched.sort_unstable();
-            touched.dedup();
-            let fresh = nodes
-                .iter()
-                .filter(|&&n| group_of[n as usize] == u32::MAX)
-                .count();
-            let size = fresh
-                + touched
-                    .iter()
-                    .map(|&g| members[g as usize].len())
-                    .sum::<usize>();
-            if size > MAX_GROUP_NODES {
-                continue;
-            }
-            let target = match touched.first() {
-                Some(&g) => g,
-                None => {
-                    members.push(Vec::new());
-                    (members.len() - 1) as u32
-                }
-            };
-            for &g in touched.iter().skip(1) {
-                let moved = std::mem::take(&mut members[g as usize]);
-                for &n in &moved {
-                    group_of[n as usize] = target;
-                }
-                members[target as usize].extend(moved);
-            }
-            for &n in &nodes {
-                if group_of[n as usize] == u32::MAX {
-                    group_of[n as usize] = target;
-                    members[target as usize].push(n);
-                }
-            }
-        }
+        let members = merge_stencils(m, stiff.iter().map(|&o| term.owner(o).2.to_vec()));
         let groups: Vec<Group> = members
             .into_par_iter()
             .filter(|g| !g.is_empty())
             .map(|mut nodes| {
                 nodes.sort_unstable();
-                Group::new(nodes, springs, term)
+                Group::new(nodes, springs, Some(term))
+            })
+            .collect();
+        Some(StiffGroups { groups })
+    }
+
+    /// Groups over the loosely held nodes of the springs' K alone: each node with fewer than
+    /// `max_bonds` off-diagonal blocks (a free surface's particles kept by one or two bonds)
+    /// together with its bonded neighbours, overlapping patches merged ([`merge_stencils`]).
+    /// `None` when no node is loose.
+    pub(crate) fn loose(springs: &BlockSparse, max_bonds: usize) -> Option<StiffGroups> {
+        let m = springs.rows();
+        let patches: Vec<Vec<u32>> = (0..m)
+            .filter(|&n| springs.row(n).filter(|&(c, _)| c != n).count() < max_bonds)
+            .map(|n| springs.row(n).map(|(c, _)| c as u32).collect())
+            .collect();
+        if patches.is_empty() {
+            return None;
+        }
+        let groups: Vec<Group> = merge_stencils(m, patches.into_iter())
+            .into_par_iter()
+            .filter(|g| !g.is_empty())
+            .map(|mut nodes| {
+                nodes.sort_unstable();
+                Group::new(nodes, springs, None)
             })
             .collect();
         Some(StiffGroups { groups })
@@ -247,8 +227,8 @@ impl StiffGroups {
 
     /// z = M r on the groups' nodes (the first `cols` load cases), over the 6×6 block-Jacobi
     /// values there.
-    pub(crate) fn apply(&self, r: &[Block6], z: &mut [Block6], cols: usize) {
-        let out: Vec<Vec<Block6>> = self
+    pub(crate) fn apply<const C: usize>(&self, r: &[Cols<C>], z: &mut [Cols<C>], cols: usize) {
+        let out: Vec<Vec<Cols<C>>> = self
             .groups
             .par_iter()
             .map(|g| {
@@ -264,7 +244,7 @@ impl StiffGroups {
                 let y = &g.inverse * rv;
                 (0..n)
                     .map(|l| {
-                        let mut b = Block6::zeros();
+                        let mut b = Cols::<C>::zeros();
                         for c in 0..cols {
                             for i in 0..6 {
                                 b[(i, c)] = y[(6 * l + i, c)];
@@ -283,10 +263,62 @@ impl StiffGroups {
     }
 }
 
+/// Stencils (node lists) merged where they overlap, in order (deterministic), into groups of
+/// at most [`MAX_GROUP_NODES`] nodes: a stencil whose merge would pass the limit is skipped
+/// (its nodes keep their 6×6 blocks).
+fn merge_stencils(m: usize, stencils: impl Iterator<Item = Vec<u32>>) -> Vec<Vec<u32>> {
+    let mut group_of = vec![u32::MAX; m];
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    for mut nodes in stencils {
+        nodes.sort_unstable();
+        nodes.dedup();
+        let mut touched: Vec<u32> = nodes
+            .iter()
+            .map(|&n| group_of[n as usize])
+            .filter(|&g| g != u32::MAX)
+            .collect();
+        touched.sort_unstable();
+        touched.dedup();
+        let fresh = nodes
+            .iter()
+            .filter(|&&n| group_of[n as usize] == u32::MAX)
+            .count();
+        let size = fresh
+            + touched
+                .iter()
+                .map(|&g| members[g as usize].len())
+                .sum::<usize>();
+        if size > MAX_GROUP_NODES {
+            continue;
+        }
+        let target = match touched.first() {
+            Some(&g) => g,
+            None => {
+                members.push(Vec::new());
+                (members.len() - 1) as u32
+            }
+        };
+        for &g in touched.iter().skip(1) {
+            let moved = std::mem::take(&mut members[g as usize]);
+            for &n in &moved {
+                group_of[n as usize] = target;
+            }
+            members[target as usize].extend(moved);
+        }
+        for &n in &nodes {
+            if group_of[n as usize] == u32::MAX {
+                group_of[n as usize] = target;
+                members[target as usize].push(n);
+            }
+        }
+    }
+    members
+}
+
 impl Group {
     /// K (springs + term) on the DOFs of `nodes`, symmetrically scaled by its diagonal and
     /// inverted (Cholesky; a pseudo-inverse where it is singular), unscaled again.
-    fn new(nodes: Vec<u32>, springs: &BlockSparse, term: &TermOperator) -> Group {
+    fn new(nodes: Vec<u32>, springs: &BlockSparse, term: Option<&TermOperator>) -> Group {
         let n = nodes.len();
         let mut a = DMatrix::<f64>::zeros(6 * n, 6 * n);
         for (li, &r) in nodes.iter().enumerate() {
@@ -297,13 +329,16 @@ impl Group {
                 }
             }
         }
-        let mut owners: Vec<u32> = nodes
-            .iter()
-            .flat_map(|&r| term.owners_of_row(r as usize).iter().copied())
-            .collect();
+        let mut owners: Vec<u32> = match term {
+            Some(term) => nodes
+                .iter()
+                .flat_map(|&r| term.owners_of_row(r as usize).iter().copied())
+                .collect(),
+            None => Vec::new(),
+        };
         owners.sort_unstable();
         owners.dedup();
-        for o in owners {
+        for (o, term) in owners.into_iter().zip(std::iter::repeat(term).flatten()) {
             let (v, d, ns, cs) = term.owner(o as usize);
             let local: Vec<_> = ns
                 .iter()
@@ -335,7 +370,15 @@ impl Group {
                 b[(i, i)] = 1.0;
             }
         }
-        let inv = match b.clone().cholesky() {
+        // The springs alone (a held structure's loose patches) may have zero-energy modes
+        // (a particle's rotation about its one or two bonds) that a Cholesky factorisation
+        // passes with rounding-level pivots: their pseudo-inverse by eigenvalues, cut as
+        // `pinv_psd` cuts the 6×6 blocks.
+        let (attempt, cut) = match term {
+            Some(_) => (b.clone().cholesky(), 1e-14),
+            None => (None, 1e-10),
+        };
+        let inv = match attempt {
             Some(c) => c.inverse(),
             None => {
                 let eig = b.symmetric_eigen();
@@ -343,7 +386,7 @@ impl Group {
                 let mut inv = DMatrix::<f64>::zeros(dim, dim);
                 for k in 0..dim {
                     let lam = eig.eigenvalues[k];
-                    if lam > 1e-14 * max {
+                    if lam > cut * max {
                         let v = eig.eigenvectors.column(k);
                         inv += v * v.transpose() / lam;
                     }
@@ -366,13 +409,12 @@ mod tests {
     use crate::model::Model;
     use crate::packing::{generate, GenerateOptions};
 
-    /// Each group's block is the inverse of K on its nodes: against the principal submatrix
-    /// of K assembled independently (the springs' blocks plus `ManyBody::hessian`, not the
-    /// factored form the groups are built from), A·M·A = A and M·A = I where A is regular.
-    /// Also the stiff owners are found at all on a generated packing (nearly degenerate
-    /// particles), and `apply` writes M r on the groups' nodes only.
-    #[test]
-    fn group_blocks_invert_the_assembled_principal_submatrix() {
+    /// A generated 2,000-sphere packing bonded at gap 0.17 with Truszkowska's MRV springs.
+    fn bonded_packing() -> (
+        crate::packing::Packing,
+        crate::bonds::BondSet,
+        crate::bonds::BondStiffness,
+    ) {
         let p = generate(
             &GenerateOptions {
                 n_particles: 2000,
@@ -385,6 +427,92 @@ mod tests {
         let model = Model::truszkowska_mrv();
         let scheme = model.build_scheme(None).unwrap();
         let k = assign_stiffness(&p, &bonds, scheme.as_ref(), &model.geometry).unwrap();
+        (p, bonds, k)
+    }
+
+    /// The principal submatrix of `k` on the DOFs of `nodes` (ascending).
+    fn principal(k: &BlockSparse, nodes: &[u32]) -> DMatrix<f64> {
+        let n = nodes.len();
+        let mut a = DMatrix::<f64>::zeros(6 * n, 6 * n);
+        for (li, &r) in nodes.iter().enumerate() {
+            for (c, blk) in k.row(r as usize) {
+                if let Ok(lj) = nodes.binary_search(&(c as u32)) {
+                    a.fixed_view_mut::<6, 6>(6 * li, 6 * lj).copy_from(blk);
+                }
+            }
+        }
+        a
+    }
+
+    /// The loose patches of the springs alone (a generated packing's particles on fewer than
+    /// four bonds): every loose node whose patch is in a group has all its bonded neighbours
+    /// in that group, and each group's block is the pseudo-inverse of the principal submatrix
+    /// of the springs' K on its nodes (A M A = A and M A M = M, with the zero-energy rotations
+    /// of one- and two-bond particles), applied on one load case as the dense product.
+    #[test]
+    fn loose_patches_pseudo_invert_the_springs_on_their_nodes() {
+        let (p, bonds, k) = bonded_packing();
+        let opts = RelaxedOptions::default();
+        let (net, _, _) = network_with_term(&p, &bonds, &k, &opts, None, None).unwrap();
+        let springs = BlockSparse::assemble(&net);
+        let m = springs.rows();
+        let groups = StiffGroups::loose(&springs, 4).expect("loose nodes");
+        let mut group_of = vec![usize::MAX; m];
+        for (gi, g) in groups.groups.iter().enumerate() {
+            for &n in &g.nodes {
+                group_of[n as usize] = gi;
+            }
+        }
+        let mut covered = 0;
+        for n in 0..m {
+            let neighbours: Vec<usize> = springs.row(n).map(|(c, _)| c).collect();
+            if neighbours.len() - 1 < 4 && group_of[n] != usize::MAX {
+                covered += 1;
+                assert!(neighbours.iter().all(|&c| group_of[c] == group_of[n]));
+            }
+        }
+        assert!(covered > 0, "no loose node in a patch");
+        for g in &groups.groups {
+            let n = g.nodes.len();
+            assert!(n <= MAX_GROUP_NODES);
+            let a = principal(&springs, &g.nodes);
+            let ama = &a * &g.inverse * &a;
+            assert!((&ama - &a).amax() <= 1e-8 * a.amax(), "A M A − A");
+            let mam = &g.inverse * &a * &g.inverse;
+            assert!(
+                (&mam - &g.inverse).amax() <= 1e-8 * g.inverse.amax(),
+                "M A M − M"
+            );
+        }
+        let r: Vec<Cols<1>> = (0..m)
+            .map(|i| Cols::<1>::from_fn(|a, _| ((i * 7 + a * 3) % 11) as f64 - 5.0))
+            .collect();
+        let mut z = vec![Cols::<1>::from_element(9.0); m];
+        groups.apply(&r, &mut z, 1);
+        for (n, zn) in z.iter().enumerate() {
+            let Some(g) = groups.groups.get(group_of[n]) else {
+                assert_eq!(*zn, Cols::<1>::from_element(9.0));
+                continue;
+            };
+            let l = g.nodes.binary_search(&(n as u32)).unwrap();
+            let rv = DMatrix::<f64>::from_fn(6 * g.nodes.len(), 1, |i, _| {
+                r[g.nodes[i / 6] as usize][(i % 6, 0)]
+            });
+            let y = &g.inverse * rv;
+            for i in 0..6 {
+                assert_eq!(zn[(i, 0)], y[(6 * l + i, 0)]);
+            }
+        }
+    }
+
+    /// Each group's block is the inverse of K on its nodes: against the principal submatrix
+    /// of K assembled independently (the springs' blocks plus `ManyBody::hessian`, not the
+    /// factored form the groups are built from), A·M·A = A and M·A = I where A is regular.
+    /// Also the stiff owners are found at all on a generated packing (nearly degenerate
+    /// particles), and `apply` writes M r on the groups' nodes only.
+    #[test]
+    fn group_blocks_invert_the_assembled_principal_submatrix() {
+        let (p, bonds, k) = bonded_packing();
         let d = LocalTensor::Isotropic {
             bulk: 10e9,
             shear: 3e9,
@@ -404,14 +532,7 @@ mod tests {
         for g in &groups.groups {
             let n = g.nodes.len();
             assert!(n <= MAX_GROUP_NODES);
-            let mut a = DMatrix::<f64>::zeros(6 * n, 6 * n);
-            for (li, &r) in g.nodes.iter().enumerate() {
-                for (c, blk) in full.row(r as usize) {
-                    if let Ok(lj) = g.nodes.binary_search(&(c as u32)) {
-                        a.fixed_view_mut::<6, 6>(6 * li, 6 * lj).copy_from(blk);
-                    }
-                }
-            }
+            let a = principal(&full, &g.nodes);
             let ama = &a * &g.inverse * &a;
             let scale = a.amax();
             assert!((&ama - &a).amax() <= 1e-8 * scale, "A M A − A");
