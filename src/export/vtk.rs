@@ -103,15 +103,39 @@ pub fn strained_state(
 
 type XmlResult = std::io::Result<()>;
 
-fn join<T: std::fmt::Display>(values: impl IntoIterator<Item = T>) -> String {
-    let mut s = String::new();
-    for (k, v) in values.into_iter().enumerate() {
-        if k > 0 {
-            s.push(' ');
-        }
-        s.push_str(&v.to_string());
+/// Values per chunk formatted by one task of [`join_by`].
+const JOIN_CHUNK: usize = 8_192;
+
+/// The text `put` writes for each value (each ending in one space), chunks formatted in
+/// parallel and joined in order, the last space dropped: the same text on any thread count
+/// (a 1,000,000-particle specimen's files hold ~40 million numbers).
+fn join_by<T: Sync>(values: &[T], put: impl Fn(&mut String, &T) + Sync) -> String {
+    use rayon::prelude::*;
+    let parts: Vec<String> = values
+        .par_chunks(JOIN_CHUNK)
+        .map(|chunk| {
+            let mut s = String::with_capacity(chunk.len() * 24);
+            for v in chunk {
+                put(&mut s, v);
+            }
+            s
+        })
+        .collect();
+    let mut s = String::with_capacity(parts.iter().map(String::len).sum());
+    for part in &parts {
+        s.push_str(part);
     }
+    s.pop();
     s
+}
+
+/// The values' `Display` forms separated by single spaces ([`join_by`]).
+fn join<T: std::fmt::Display + Sync>(values: &[T]) -> String {
+    use std::fmt::Write as _;
+    // Writing to a String cannot fail.
+    join_by(values, |s, v| {
+        let _ = write!(s, "{v} ");
+    })
 }
 
 fn data_array<W: Write>(
@@ -129,13 +153,18 @@ fn data_array<W: Write>(
     if components > 1 {
         el = el.with_attribute(("NumberOfComponents", comps.as_str()));
     }
+    // Numbers only (digits, sign, point, exponent): nothing to escape, so not scanned.
     el.with_attribute(("format", "ascii"))
-        .write_text_content(BytesText::new(text))?;
+        .write_text_content(BytesText::from_escaped(text))?;
     Ok(())
 }
 
+/// The vectors' components x y z, all separated by single spaces ([`join_by`]).
 fn vectors(v: &[Vec3]) -> String {
-    join(v.iter().flat_map(|p| [p.x, p.y, p.z]))
+    use std::fmt::Write as _;
+    join_by(v, |s, p| {
+        let _ = write!(s, "{} {} {} ", p.x, p.y, p.z);
+    })
 }
 
 /// An unstructured grid: points, cells (connectivity, offsets, VTK types) and data arrays
@@ -154,7 +183,8 @@ fn write_grid(path: &Path, grid: &Grid) -> Result<()> {
     // ParaView a field it would plot as if it were data.
     let arrays = grid.point_data.iter().chain(&grid.cell_data);
     for (name, _, text) in arrays {
-        if text.split(' ').any(|t| t == "NaN" || t.ends_with("inf")) {
+        // The fields hold numbers only: `NaN` and `inf` appear in no finite value's text.
+        if text.contains("NaN") || text.contains("inf") {
             return Err(Error::Invalid(format!(
                 "{}: the field `{name}` has non-finite values (an overflow: check the strain \
                  and the model's magnitudes); nothing was written",
@@ -351,7 +381,11 @@ pub fn write_bonds_vtu_grains(
     ];
     if let Some(g) = grains {
         for (name, ends) in [("grain_i", &bonds.i), ("grain_j", &bonds.j)] {
-            cell_data.push((name.into(), 1, join(ends.iter().map(|&p| g[p as usize]))));
+            cell_data.push((
+                name.into(),
+                1,
+                join(&ends.iter().map(|&p| g[p as usize]).collect::<Vec<u32>>()),
+            ));
         }
     }
     let grid = Grid {
