@@ -232,32 +232,22 @@ fn write_particles_csv(
              px [N],py [N],pz [N]"
         )
         .map_err(io)?;
-        // Rows formatted by chunks in parallel, written in order: the same bytes on any
-        // thread count.
-        use rayon::prelude::*;
+        // Rows formatted by chunks in parallel, written in order (the same bytes on any
+        // thread count).
         use std::fmt::Write as _;
-        const ROWS: usize = 4096;
-        let chunks: Vec<String> = packing
-            .positions
-            .par_chunks(ROWS)
-            .enumerate()
-            .map(|(k, rows)| {
-                let mut s = String::with_capacity(rows.len() * 200);
-                for (p, x) in (k * ROWS..).zip(rows) {
-                    let rad = packing.radii[p];
-                    let (u, f, c) = (r.displacement_field[p], r.reaction[p], r.confining_force[p]);
-                    let group = ["", "held", "moved"][r.layer[p] as usize];
-                    let id = packing.ids.as_ref().map_or(p as u64, |ids| ids[p]);
-                    // Writing to a String cannot fail.
-                    let _ = writeln!(
-                        s,
-                        "{id},{:e},{:e},{:e},{rad:e},{group},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-                        x.x, x.y, x.z, u.x, u.y, u.z, f.x, f.y, f.z, c.x, c.y, c.z
-                    );
-                }
-                s
-            })
-            .collect();
+        let rows: Vec<usize> = (0..packing.len()).collect();
+        let chunks = anisobond::io::format_in_chunks(&rows, |s, &p| {
+            let (x, rad) = (packing.positions[p], packing.radii[p]);
+            let (u, f, c) = (r.displacement_field[p], r.reaction[p], r.confining_force[p]);
+            let group = ["", "held", "moved"][r.layer[p] as usize];
+            let id = packing.ids.as_ref().map_or(p as u64, |ids| ids[p]);
+            // Writing to a String cannot fail.
+            let _ = writeln!(
+                s,
+                "{id},{:e},{:e},{:e},{rad:e},{group},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+                x.x, x.y, x.z, u.x, u.y, u.z, f.x, f.y, f.z, c.x, c.y, c.z
+            );
+        });
         for chunk in &chunks {
             w.write_all(chunk.as_bytes()).map_err(io)?;
         }

@@ -103,28 +103,11 @@ pub fn strained_state(
 
 type XmlResult = std::io::Result<()>;
 
-/// Values per chunk formatted by one task of [`join_by`].
-const JOIN_CHUNK: usize = 8_192;
-
-/// The text `put` writes for each value (each ending in one space), chunks formatted in
-/// parallel and joined in order, the last space dropped: the same text on any thread count
-/// (a 1,000,000-particle specimen's files hold ~40 million numbers).
+/// The text `put` writes for each value (each ending in one space), formatted in parallel
+/// chunks ([`crate::io::format_in_chunks`]) and joined in order, the last space dropped (a
+/// 1,000,000-particle specimen's files hold ~40 million numbers).
 fn join_by<T: Sync>(values: &[T], put: impl Fn(&mut String, &T) + Sync) -> String {
-    use rayon::prelude::*;
-    let parts: Vec<String> = values
-        .par_chunks(JOIN_CHUNK)
-        .map(|chunk| {
-            let mut s = String::with_capacity(chunk.len() * 24);
-            for v in chunk {
-                put(&mut s, v);
-            }
-            s
-        })
-        .collect();
-    let mut s = String::with_capacity(parts.iter().map(String::len).sum());
-    for part in &parts {
-        s.push_str(part);
-    }
+    let mut s = crate::io::format_in_chunks(values, put).concat();
     s.pop();
     s
 }

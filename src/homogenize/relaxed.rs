@@ -522,7 +522,8 @@ struct Stiffness<'a> {
     k: Springs<'a>,
     term: Option<&'a TermOperator>,
     diag: Vec<[f64; 6]>,
-    /// Dense diagonal blocks of the preconditioner over the term's stiff stencils.
+    /// Dense diagonal blocks of the preconditioner: over the term's stiff stencils, or a
+    /// held structure's loose patches ([`LOOSE_BONDS`]).
     groups: Option<StiffGroups>,
 }
 
@@ -1158,7 +1159,8 @@ struct Preconditioner<'a, const C: usize> {
     w: Vec<Cols<C>>,
     /// The multigrid V-cycle, when used instead.
     amg: Option<&'a Amg<'a>>,
-    /// The term's stiff stencils as dense blocks of M (term_preconditioner.rs).
+    /// Dense blocks of M (term_preconditioner.rs): the term's stiff stencils, or a held
+    /// structure's loose patches.
     groups: Option<&'a StiffGroups>,
 }
 
@@ -1224,8 +1226,8 @@ where
         Ok(())
     }
 
-    /// The term's stiff groups' dense blocks into z = M r, when there are any (six load
-    /// cases: [`pcg`] refuses fewer with them).
+    /// The dense groups' blocks into z = M r, when there are any (the term's stiff
+    /// stencils, on six load cases; a held structure's loose patches, on any).
     fn stiff_groups(groups: Option<&StiffGroups>, r: &[Cols<C>], z: &mut [Cols<C>], cols: usize) {
         if let Some(g) = groups {
             g.apply(r, z, cols);

@@ -189,16 +189,8 @@ impl StiffGroups {
             .collect();
         stiff.sort_by(|&a, &b| share[b].total_cmp(&share[a]).then(a.cmp(&b)));
         stiff.truncate(share.len().div_ceil(MAX_STIFF_SHARE));
-        let members = merge_stencils(m, stiff.iter().map(|&o| term.owner(o).2.to_vec()));
-        let groups: Vec<Group> = members
-            .into_par_iter()
-            .filter(|g| !g.is_empty())
-            .map(|mut nodes| {
-                nodes.sort_unstable();
-                Group::new(nodes, springs, Some(term))
-            })
-            .collect();
-        Some(StiffGroups { groups })
+        let stencils = stiff.iter().map(|&o| term.owner(o).2.to_vec());
+        Some(Self::of_stencils(springs, stencils, Some(term)))
     }
 
     /// Groups over the loosely held nodes of the springs' K alone: each node with fewer than
@@ -214,15 +206,25 @@ impl StiffGroups {
         if patches.is_empty() {
             return None;
         }
-        let groups: Vec<Group> = merge_stencils(m, patches.into_iter())
+        Some(Self::of_stencils(springs, patches.into_iter(), None))
+    }
+
+    /// The groups of `stencils` merged where they overlap ([`merge_stencils`]), each with
+    /// the (pseudo-)inverse of K = `springs` (+ `term`) on its nodes.
+    fn of_stencils(
+        springs: &BlockSparse,
+        stencils: impl Iterator<Item = Vec<u32>>,
+        term: Option<&TermOperator>,
+    ) -> StiffGroups {
+        let groups: Vec<Group> = merge_stencils(springs.rows(), stencils)
             .into_par_iter()
             .filter(|g| !g.is_empty())
             .map(|mut nodes| {
                 nodes.sort_unstable();
-                Group::new(nodes, springs, None)
+                Group::new(nodes, springs, term)
             })
             .collect();
-        Some(StiffGroups { groups })
+        StiffGroups { groups }
     }
 
     /// z = M r on the groups' nodes (the first `cols` load cases), over the 6×6 block-Jacobi
@@ -315,6 +317,32 @@ fn merge_stencils(m: usize, stencils: impl Iterator<Item = Vec<u32>>) -> Vec<Vec
     members
 }
 
+/// The term's Hessian blocks on `nodes` (ascending) added to `a`, K on their DOFs: every
+/// owner whose stencil touches them, in owner order.
+fn add_term_blocks(a: &mut DMatrix<f64>, nodes: &[u32], term: &TermOperator) {
+    let mut owners: Vec<u32> = nodes
+        .iter()
+        .flat_map(|&r| term.owners_of_row(r as usize).iter().copied())
+        .collect();
+    owners.sort_unstable();
+    owners.dedup();
+    for o in owners {
+        let (v, d, ns, cs) = term.owner(o as usize);
+        let local: Vec<_> = ns
+            .iter()
+            .zip(cs)
+            .filter_map(|(&q, c)| nodes.binary_search(&q).ok().map(|l| (l, strain_map(c))))
+            .collect();
+        for (la, na) in &local {
+            let left = na.transpose() * d * v;
+            for (lb, nb) in &local {
+                let mut blk = a.fixed_view_mut::<3, 3>(6 * la, 6 * lb);
+                blk += left * nb;
+            }
+        }
+    }
+}
+
 impl Group {
     /// K (springs + term) on the DOFs of `nodes`, symmetrically scaled by its diagonal and
     /// inverted (Cholesky; a pseudo-inverse where it is singular), unscaled again.
@@ -329,29 +357,8 @@ impl Group {
                 }
             }
         }
-        let mut owners: Vec<u32> = match term {
-            Some(term) => nodes
-                .iter()
-                .flat_map(|&r| term.owners_of_row(r as usize).iter().copied())
-                .collect(),
-            None => Vec::new(),
-        };
-        owners.sort_unstable();
-        owners.dedup();
-        for (o, term) in owners.into_iter().zip(std::iter::repeat(term).flatten()) {
-            let (v, d, ns, cs) = term.owner(o as usize);
-            let local: Vec<_> = ns
-                .iter()
-                .zip(cs)
-                .filter_map(|(&q, c)| nodes.binary_search(&q).ok().map(|l| (l, strain_map(c))))
-                .collect();
-            for (la, na) in &local {
-                let left = na.transpose() * d * v;
-                for (lb, nb) in &local {
-                    let mut blk = a.fixed_view_mut::<3, 3>(6 * la, 6 * lb);
-                    blk += left * nb;
-                }
-            }
+        if let Some(term) = term {
+            add_term_blocks(&mut a, &nodes, term);
         }
         let dim = 6 * n;
         let s: Vec<f64> = (0..dim)
