@@ -11,7 +11,31 @@ use super::{
 use crate::assembly::Assembly;
 use crate::homogenize::network::Block6;
 use crate::homogenize::sparse::BlockSparse;
-use crate::{Error, Result, Vec3};
+use crate::{Error, Mat3, Result, Vec3};
+use rayon::prelude::*;
+
+/// Whether a node's bonds hold its centre when its neighbours are fixed: the Schur
+/// complement S = K_uu − K_uω K_ωω⁺ K_ωu of its 6×6 diagonal block (its spin free to follow)
+/// has full rank, each eigenvalue above 1e-10 of K_uu's largest ([`crate::homogenize::network::pinv_psd`]'s cut). A
+/// sphere on one bond at its contact point c swings (u = −ω × c) at no energy, S its normal
+/// stiffness alone; on normal springs only, K_uω = 0 and S = K_uu.
+fn holds_centre(block: &Block6) -> bool {
+    let kuu: Mat3 = block.fixed_view::<3, 3>(0, 0).into_owned();
+    let kuw: Mat3 = block.fixed_view::<3, 3>(0, 3).into_owned();
+    let kww: Mat3 = block.fixed_view::<3, 3>(3, 3).into_owned();
+    let eig = kww.symmetric_eigen();
+    let top = eig.eigenvalues.max();
+    let mut kww_pinv = Mat3::zeros();
+    for (l, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
+        if top > 0.0 && *l > 1e-10 * top {
+            kww_pinv += v * v.transpose() / *l;
+        }
+    }
+    let s = kuu - kuw * kww_pinv * kuw.transpose();
+    let scale = kuu.symmetric_eigenvalues().max();
+    let held = s.symmetric_eigenvalues();
+    scale > 0.0 && held.iter().all(|&l| l > 1e-10 * scale)
+}
 
 /// The solved specimen, to be measured.
 pub(super) struct Solved<'a> {
@@ -70,7 +94,7 @@ impl Solved<'_> {
         let area = self.area();
         let (delta0, length) = (self.bc.delta0, self.gauge.length);
         let strain0 = delta0 / length;
-        let middle = self.middle();
+        let middle = self.middle(kfull);
         let eps0 = self.lateral_strains(&middle, &|a, d| self.field.u[a][(d, 0)]);
         let eps = self.lateral_strains(&middle, &|a, d| self.combine(alpha, &self.field.u[a], d));
         // ν = −ε_lat/ε_axial with the axial strain −δ/L (compression) and the lateral ones
@@ -78,8 +102,8 @@ impl Solved<'_> {
         let poisson_lateral = [eps0[0] / strain0, eps0[1] / strain0];
         if !poisson_lateral.iter().chain(&eps).all(|v| v.is_finite()) {
             return Err(Error::Degenerate(format!(
-                "specimen: the middle third holds {} loaded particles, too few to measure the \
-                 lateral strain",
+                "specimen: the middle third holds {} loaded particles whose bonds hold their \
+                 centres, too few to measure the lateral strain",
                 middle.len()
             )));
         }
@@ -242,14 +266,23 @@ impl Solved<'_> {
         }
     }
 
-    /// The loaded nodes off the groups whose centres lie in the middle third of the gauge.
-    fn middle(&self) -> Vec<usize> {
+    /// The loaded nodes off the groups whose centres lie in the middle third of the gauge and
+    /// whose bonds hold their centre ([`holds_centre`] of their diagonal block of `k`).
+    /// Without bending springs a sphere on one bond, or two, swings about its contacts at no
+    /// energy: its displacement is whatever the solver left in that mode (it moved the free
+    /// 100,000-sphere cluster's ν by 1.0e-5 between two preconditioners), not the specimen's
+    /// strain.
+    fn middle(&self, k: &BlockSparse) -> Vec<usize> {
         let (original, layer, g) = (&self.net.original, &self.groups.layer, &self.gauge);
         let x = &self.assembly.packing.positions;
         (0..original.len())
+            .into_par_iter()
             .filter(|&a| {
                 let c = g.sign * (x[original[a]][self.opts.axis] - g.held_mean);
-                layer[original[a]] == 0 && c >= g.length / 3.0 && c <= 2.0 * g.length / 3.0
+                layer[original[a]] == 0
+                    && c >= g.length / 3.0
+                    && c <= 2.0 * g.length / 3.0
+                    && holds_centre(&k.diagonal(a))
             })
             .collect()
     }
