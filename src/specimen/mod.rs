@@ -369,7 +369,9 @@ const HOW: &str = "young = (F / area) / (displacement / length) of the unconfine
     periodic: the cell's face), length = distance between the groups' mean centres; \
     poisson_lateral = -(lateral strain) / (displacement / length), the lateral strain being the \
     least-squares slope of the lateral displacement over the lateral coordinate on the \
-    particles of the middle third (periodic: the change of the cell's lateral period)";
+    particles of the middle third whose bonds hold their centre (not the spheres that swing \
+    about one or two contacts at no energy; periodic: the change of the cell's lateral \
+    period)";
 
 /// How the specimen's equilibrium was solved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
