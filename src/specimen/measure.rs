@@ -16,9 +16,10 @@ use rayon::prelude::*;
 
 /// Whether a node's bonds hold its centre when its neighbours are fixed: the Schur
 /// complement S = K_uu − K_uω K_ωω⁺ K_ωu of its 6×6 diagonal block (its spin free to follow)
-/// has full rank, each eigenvalue above 1e-10 of K_uu's largest ([`crate::homogenize::network::pinv_psd`]'s cut). A
-/// sphere on one bond at its contact point c swings (u = −ω × c) at no energy, S its normal
-/// stiffness alone; on normal springs only, K_uω = 0 and S = K_uu.
+/// has full rank, each eigenvalue above 1e-10 of K_uu's largest (the cut of
+/// [`crate::homogenize::network::pinv_psd`]). A sphere on one bond at its contact point c
+/// swings (u = −ω × c) at no energy, S its normal stiffness alone; on normal springs only,
+/// K_uω = 0 and S = K_uu.
 fn holds_centre(block: &Block6) -> bool {
     let kuu: Mat3 = block.fixed_view::<3, 3>(0, 0).into_owned();
     let kuw: Mat3 = block.fixed_view::<3, 3>(0, 3).into_owned();
