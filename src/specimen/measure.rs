@@ -440,3 +440,42 @@ impl Solved<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The diagonal block Bᵀ D B of springs at contact points c = r n (outward unit n) of one
+    /// sphere: the contact's motion u + ω × c = B (u, ω), D = k_n nnᵀ + k_s (I − nnᵀ).
+    fn block(normals: &[Vec3], k_n: f64, k_s: f64) -> Block6 {
+        let r = 1.0e-3;
+        let mut k = Block6::zeros();
+        for n in normals {
+            let n = n.normalize();
+            let c = n * r;
+            let d = n * n.transpose() * k_n + (Mat3::identity() - n * n.transpose()) * k_s;
+            // ω × c = −[c]× ω.
+            let mut b = nalgebra::SMatrix::<f64, 3, 6>::zeros();
+            b.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+            b.fixed_view_mut::<3, 3>(0, 3)
+                .copy_from(&(-c.cross_matrix()));
+            k += b.transpose() * d * b;
+        }
+        k
+    }
+
+    /// One bond, or two, leave the centre free to swing about the contacts (S of rank 1, 2);
+    /// three non-collinear contacts hold it, with shear springs or with normal springs alone
+    /// (then K_uω = 0, S = K_uu).
+    #[test]
+    fn a_centre_is_held_by_three_non_collinear_contacts() {
+        let (x, y, z) = (Vec3::x(), Vec3::y(), Vec3::z());
+        let tilted = Vec3::new(0.3, -0.8, 0.52);
+        assert!(!holds_centre(&block(&[x], 1e8, 3e7)));
+        assert!(!holds_centre(&block(&[x, tilted], 1e8, 3e7)));
+        assert!(holds_centre(&block(&[x, y, tilted], 1e8, 3e7)));
+        assert!(holds_centre(&block(&[x, y, z], 1e8, 0.0)));
+        assert!(!holds_centre(&block(&[x, y], 1e8, 0.0)));
+        assert!(!holds_centre(&Block6::zeros()));
+    }
+}
