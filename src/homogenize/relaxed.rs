@@ -1196,14 +1196,11 @@ where
             .zip(r.par_chunks(CH))
             .zip(pre.par_chunks(CH))
             .for_each(|((z, r), pre)| {
-                super::sparse::with_avx2(
-                    #[inline(always)]
-                    || {
-                        for ((z, r), (p, _)) in z.iter_mut().zip(r).zip(pre) {
-                            *z = mul6_cols(p, r, cols);
-                        }
-                    },
-                )
+                super::sparse::avx2!({
+                    for ((z, r), (p, _)) in z.iter_mut().zip(r).zip(pre) {
+                        *z = mul6_cols(p, r, cols);
+                    }
+                })
             });
     }
 

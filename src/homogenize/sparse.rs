@@ -556,10 +556,7 @@ impl UpperBlocks {
         y.par_chunks_mut(rows)
             .enumerate()
             .map(|(c, ys)| {
-                with_avx2(
-                    #[inline(always)]
-                    || self.rows(c * rows, x, ys, cols),
-                );
+                avx2!(self.rows(c * rows, x, ys, cols));
                 then(c * rows, ys)
             })
             .collect()
@@ -579,11 +576,24 @@ impl UpperBlocks {
     }
 }
 
-/// `f()` compiled for AVX2 where the processor has it (`f` is inlined into a function with
-/// the feature): the 6×6 kernels below then run four lanes wide instead of two, with the
-/// same operations (no fused multiply-add) in the same order, so the same bits. Give the
-/// closure `#[inline(always)]`: a closure the compiler does not inline is compiled without
-/// the feature (the K product of every relaxed solve ran two lanes wide so: 18 % slower).
+/// `avx2!(expr)`: `expr` evaluated in code compiled for AVX2 where the processor has it
+/// ([`with_avx2`] of an always-inlined closure): the 6×6 kernels below then run four lanes
+/// wide instead of two, with the same operations (no fused multiply-add) in the same order,
+/// so the same bits. The closure must be inlined into the function with the feature, else
+/// it is compiled without it (the K product of every relaxed solve ran two lanes wide so:
+/// 18 % slower); the macro gives it `#[inline(always)]` so no caller can forget.
+macro_rules! avx2 {
+    ($body:expr) => {
+        $crate::homogenize::sparse::with_avx2(
+            #[inline(always)]
+            || $body,
+        )
+    };
+}
+pub(crate) use avx2;
+
+/// `f()` compiled for AVX2 where the processor has it, provided `f` is inlined into it:
+/// called through [`avx2!`], which makes sure it is.
 #[inline(always)]
 pub(crate) fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]

@@ -11,7 +11,7 @@
 use super::cholesky::BlockCholesky;
 use super::network::Block6;
 use super::sparse::{
-    mul6_cols, mul_add6_cols, mul_add6_transposed_cols, with_avx2, BlockRows, BlockSparse, Cols,
+    avx2, mul6_cols, mul_add6_cols, mul_add6_transposed_cols, BlockRows, BlockSparse, Cols,
 };
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
@@ -685,23 +685,20 @@ impl TwoLevel {
             .enumerate()
             .map(|(c, &slots)| {
                 let mut part = vec![Cols::<C>::zeros(); slots as usize];
-                with_avx2(
-                    #[inline(always)]
-                    || {
-                        let first = c * RESTRICT_ROWS;
-                        let rows = &w[first..(first + RESTRICT_ROWS).min(m)];
-                        for (p, wp) in (first..).zip(rows) {
-                            for at in self.kp_start[p]..self.kp_start[p + 1] {
-                                mul_add6_transposed_cols(
-                                    &mut part[self.slot[at] as usize],
-                                    &self.kp[at].1,
-                                    wp,
-                                    cols,
-                                );
-                            }
+                avx2!({
+                    let first = c * RESTRICT_ROWS;
+                    let rows = &w[first..(first + RESTRICT_ROWS).min(m)];
+                    for (p, wp) in (first..).zip(rows) {
+                        for at in self.kp_start[p]..self.kp_start[p + 1] {
+                            mul_add6_transposed_cols(
+                                &mut part[self.slot[at] as usize],
+                                &self.kp[at].1,
+                                wp,
+                                cols,
+                            );
                         }
-                    },
-                );
+                    }
+                });
                 part
             })
             .collect();
@@ -718,24 +715,16 @@ impl TwoLevel {
         let xc = self.coarse.solve_in_halves(&restricted)?;
         const CH: usize = 512;
         out.par_chunks_mut(CH).enumerate().for_each(|(k, outs)| {
-            with_avx2(
-                #[inline(always)]
-                || {
-                    for (p, o) in (k * CH..).zip(outs.iter_mut()) {
-                        let c = self.aggregate[p] as usize * layers;
-                        let mut s = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
-                        for l in 1..layers {
-                            mul_add6_cols(
-                                &mut s,
-                                &self.prolongation[p * layers + l],
-                                &xc[c + l],
-                                cols,
-                            );
-                        }
-                        *o = finish(p, s);
+            avx2!({
+                for (p, o) in (k * CH..).zip(outs.iter_mut()) {
+                    let c = self.aggregate[p] as usize * layers;
+                    let mut s = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
+                    for l in 1..layers {
+                        mul_add6_cols(&mut s, &self.prolongation[p * layers + l], &xc[c + l], cols);
                     }
-                },
-            )
+                    *o = finish(p, s);
+                }
+            })
         });
         Ok(())
     }
