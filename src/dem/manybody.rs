@@ -18,9 +18,12 @@
 //!
 //! Memory is what the term costs (docs/manybody.md "Integrator": without it the integrator's
 //! per-step data about fill the last-level cache), so its per-step arrays are lean: a_b per
-//! entry of the topology's CSR, read in sequence by the one pass; the halves unpadded (a
-//! packed load of three components reads one f64 beyond, whose lane is never used; they are
-//! stored by two and one components, as another thread may write the next).
+//! entry of the topology's CSR, read in sequence by the one pass, and so are the cell
+//! distances of the bonds across the cell (a list of their own, not the topology read by
+//! bond); the halves unpadded (a packed load of three components reads one f64 beyond, whose
+//! lane is never used; they are stored by two and one components, as another thread may
+//! write the next). Packed values are built in registers, never stored narrow and loaded
+//! back wide (such a load waits for the stores to retire: no store forwarding).
 
 use super::state::{deterministic_sum_mat3, BondTopology, Particles};
 use crate::manybody::term::Lanes4;
@@ -42,6 +45,11 @@ pub(crate) struct ManyBodyForces {
     /// Per entry of the topology's CSR (the term's, entry for entry): the bond's other
     /// particle, | [`IMAGE_LINK`] for a bond crossing the cell.
     other: Vec<u32>,
+    /// The cell distances c_b of the entries flagged [`IMAGE_LINK`], in CSR order: read in
+    /// sequence by the particle pass (not at random from the topology by bond).
+    image: Vec<Vec3>,
+    /// Per particle, its first entry in `image` (and the count at the end).
+    image_start: Vec<u32>,
     /// V_p·W_p of the last evaluation (J).
     energy: Vec<f64>,
     /// Per entry code `2·bond + side`, the bond's half-gradient (V_p P_p) a_b^p at that end
@@ -92,25 +100,38 @@ struct FitInputs<'a> {
     coef: &'a [Vec3],
     volume: &'a [f64],
     x: &'a [Vec3],
-    t: &'a BondTopology,
+    /// [`ManyBodyForces`]' `image` and `image_start`.
+    image: &'a [Vec3],
+    image_start: &'a [u32],
     h: Mat3,
 }
 
 impl FitInputs<'_> {
+    /// l_b of a bond across the cell seen from particle `p` at its end `side`, the other
+    /// particle `q`, cell distance `c`: x_j + H·c − x_i with [`branch`]'s operations.
+    #[inline(always)]
+    fn image_branch(&self, p: usize, q: usize, side: usize, c: &Vec3) -> Vec3 {
+        let hc = self.h * c;
+        if side == 0 {
+            self.x[q] + hc - self.x[p]
+        } else {
+            self.x[p] + hc - self.x[q]
+        }
+    }
+
     /// F_p = Σ_b l_b ⊗ a_b of an included particle, entry by entry (`ManyBody::fit`'s
     /// operations; l_b = x_j − x_i from whichever end p is).
     #[inline(always)]
     fn fit(&self, p: usize) -> Mat3 {
         let xp = self.x[p];
         let mut f = [0.0f64; 9];
+        let mut images = self.image[self.image_start[p] as usize..].iter();
         for k in self.start[p]..self.start[p + 1] {
-            let (b, side) = (
-                (self.entries[k] >> 1) as usize,
-                (self.entries[k] & 1) as usize,
-            );
+            let side = (self.entries[k] & 1) as usize;
             let q = self.other[k];
             let l = if q & IMAGE_LINK != 0 {
-                branch(self.x, self.t, &self.h, true, b)
+                let c = images.next().expect("an image per flagged entry");
+                self.image_branch(p, (q & !IMAGE_LINK) as usize, side, c)
             } else if side == 0 {
                 self.x[q as usize] - xp
             } else {
@@ -228,8 +249,9 @@ impl FitInputs<'_> {
             let span = self.start[p]..self.start[p + 1];
             let coef = &self.coef[span.clone()];
             let links = self.entries[span.clone()].iter().zip(&self.other[span]);
+            let mut images = self.image[self.image_start[p] as usize..].iter();
             for ((&e, &q), a) in links.zip(coef) {
-                let (b, side) = ((e >> 1) as usize, (e & 1) as usize);
+                let side = (e & 1) as usize;
                 let lb = if q & IMAGE_LINK == 0 {
                     debug_assert!((q as usize) < self.x.len());
                     // Every other particle is below the particle count (checked in
@@ -238,7 +260,14 @@ impl FitInputs<'_> {
                     let d = _mm256_sub_pd(load_x(q as usize), xp);
                     _mm256_xor_pd(d, _mm256_broadcast_sd(&FLIP[side]))
                 } else {
-                    load3(&branch(self.x, self.t, &self.h, true, b))
+                    // x_j + H·c − x_i as `image_branch` forms it, lane by lane, in registers
+                    // (a Vec3 stored and loaded back stalled the load on the stores).
+                    let c = images.next().expect("an image per flagged entry");
+                    let hc = self.h * c;
+                    let q = (q & !IMAGE_LINK) as usize;
+                    let (j, i) = if side == 0 { (q, p) } else { (p, q) };
+                    let hc = _mm256_set_pd(0.0, hc.z, hc.y, hc.x);
+                    _mm256_sub_pd(_mm256_add_pd(load_x(j), hc), load_x(i))
                 };
                 col[0] = _mm256_add_pd(col[0], _mm256_mul_pd(lb, _mm256_set1_pd(a.x)));
                 col[1] = _mm256_add_pd(col[1], _mm256_mul_pd(lb, _mm256_set1_pd(a.y)));
@@ -265,9 +294,12 @@ impl FitInputs<'_> {
                     self.term.lanes4_avx2_in_lanes(
                         &mut four,
                         #[inline(always)]
-                        |at, e, pk, m| {
-                            we[at] = e;
-                            self.put_halves_avx2(base + at, columns(&lane(pk, m)), half);
+                        |slots, e, pk| {
+                            let cols = lane_columns(pk);
+                            for m in 0..4 {
+                                we[slots[m]] = e[m];
+                                self.put_halves_avx2(base + slots[m], cols[m], half);
+                            }
                         },
                     );
                 }
@@ -305,14 +337,60 @@ unsafe fn columns(m: &[f64; 9]) -> [std::arch::x86_64::__m256d; 3] {
     ]
 }
 
-/// Lane `m` of four particles' column-major entries `pk`.
-#[inline(always)]
-fn lane(pk: &[[f64; 4]; 9], m: usize) -> [f64; 9] {
-    let mut out = [0.0; 9];
-    for (o, p) in out.iter_mut().zip(pk) {
-        *o = p[m];
+/// The columns of each of four particles' matrices from their lanes `pk` (lane m's entry
+/// (r, c) at `pk[r + 3c][m]`), the fourth lane zero: three 4×4 transposes in registers.
+/// Gathering a lane's nine entries into memory and reading them back as columns stalled each
+/// wide load on the narrow stores it spanned (no store forwarding): about a fifth of the
+/// particle pass's samples.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn lane_columns(pk: &[[f64; 4]; 9]) -> [[std::arch::x86_64::__m256d; 3]; 4] {
+    use std::arch::x86_64::*;
+    let mut rows = [_mm256_setzero_pd(); 9];
+    for (r, p) in rows.iter_mut().zip(pk) {
+        // SAFETY: four f64 of one entry's lanes.
+        *r = unsafe { _mm256_loadu_pd(p.as_ptr()) };
     }
-    out
+    let z = _mm256_setzero_pd();
+    let c0 = transpose4(rows[0], rows[1], rows[2], z);
+    let c1 = transpose4(rows[3], rows[4], rows[5], z);
+    let c2 = transpose4(rows[6], rows[7], rows[8], z);
+    [
+        [c0[0], c1[0], c2[0]],
+        [c0[1], c1[1], c2[1]],
+        [c0[2], c1[2], c2[2]],
+        [c0[3], c1[3], c2[3]],
+    ]
+}
+
+/// The 4×4 transpose of the rows `a`, `b`, `c`, `d`: lane m of the result k is row m's lane k.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn transpose4(
+    a: std::arch::x86_64::__m256d,
+    b: std::arch::x86_64::__m256d,
+    c: std::arch::x86_64::__m256d,
+    d: std::arch::x86_64::__m256d,
+) -> [std::arch::x86_64::__m256d; 4] {
+    use std::arch::x86_64::*;
+    let ab_lo = _mm256_unpacklo_pd(a, b); // a0 b0 a2 b2
+    let ab_hi = _mm256_unpackhi_pd(a, b); // a1 b1 a3 b3
+    let cd_lo = _mm256_unpacklo_pd(c, d); // c0 d0 c2 d2
+    let cd_hi = _mm256_unpackhi_pd(c, d); // c1 d1 c3 d3
+    [
+        _mm256_permute2f128_pd::<0x20>(ab_lo, cd_lo),
+        _mm256_permute2f128_pd::<0x20>(ab_hi, cd_hi),
+        _mm256_permute2f128_pd::<0x31>(ab_lo, cd_lo),
+        _mm256_permute2f128_pd::<0x31>(ab_hi, cd_hi),
+    ]
 }
 
 /// The entries of `m`, column-major.
@@ -499,6 +577,18 @@ impl ManyBodyForces {
             })
             .collect();
         let n = particles.len();
+        let mut image = Vec::new();
+        let mut image_start = Vec::with_capacity(n + 1);
+        for p in 0..n {
+            image_start.push(image.len() as u32);
+            let span = topology.start[p]..topology.start[p + 1];
+            for (&q, &e) in other[span.clone()].iter().zip(&topology.entries[span]) {
+                if q & IMAGE_LINK != 0 {
+                    image.push(topology.cell_dist[(e >> 1) as usize]);
+                }
+            }
+        }
+        image_start.push(image.len() as u32);
         // The AVX2 fit reads the positions of these particles unchecked.
         if other.iter().any(|&q: &u32| (q & !IMAGE_LINK) as usize >= n) {
             return Err(Error::Invalid(
@@ -508,6 +598,8 @@ impl ManyBodyForces {
         Ok(ManyBodyForces {
             term,
             other,
+            image,
+            image_start,
             energy: vec![0.0; n],
             half: vec![[0.0; 3]; 2 * topology.len() + 1],
         })
@@ -538,6 +630,8 @@ impl ManyBodyForces {
         let ManyBodyForces {
             term,
             other,
+            image,
+            image_start,
             energy,
             half,
         } = self;
@@ -555,7 +649,8 @@ impl ManyBodyForces {
             coef: term.fit_layout().coef,
             volume: term.particle_volumes(),
             x: &p.position,
-            t,
+            image,
+            image_start,
             h: h.copied().unwrap_or_else(Mat3::zeros),
         };
         let out = HalfOut(half.as_mut_ptr());

@@ -628,9 +628,9 @@ impl ManyBody {
         four.filled = 0;
     }
 
-    /// [`lanes4_avx2`](Self::lanes4_avx2) handing each particle's V·P as the lanes hold it:
-    /// `put(slot, V·W, pk, lane)` with V·P's entry (r, c) at `pk[r + 3c][lane]` (no matrix
-    /// built per particle); `four` emptied.
+    /// [`lanes4_avx2`](Self::lanes4_avx2) handing the four particles' V·P as the lanes hold
+    /// it: `put(slots, V·W, pk)` once, with lane m's entry (r, c) of V·P at `pk[r + 3c][m]`
+    /// (no matrix built per particle); `four` emptied.
     ///
     /// # Safety
     /// The CPU must have AVX2.
@@ -639,14 +639,12 @@ impl ManyBody {
     pub(crate) unsafe fn lanes4_avx2_in_lanes(
         &self,
         four: &mut Lanes4,
-        mut put: impl FnMut(usize, f64, &[[f64; 4]; 9], usize),
+        put: impl FnOnce(&[usize; 4], &[f64; 4], &[[f64; 4]; 9]),
     ) {
         debug_assert!(four.filled == 4 && self.d6.len() == 1);
         // SAFETY: the caller guarantees AVX2.
         let (e, pk) = unsafe { energy_piola_avx2(&self.d6[0], self.measure, &four.f, &four.v) };
-        for (m, &at) in four.slot.iter().enumerate() {
-            put(at, e[m], &pk, m);
-        }
+        put(&four.slot, &e, &pk);
         four.filled = 0;
     }
 
