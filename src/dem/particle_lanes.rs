@@ -3,13 +3,12 @@
 //! branches), so both give the same bits; checked by `tests/dem/lanes.rs`.
 
 use super::laws::lanes::{
-    add, div, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F, LANES, V,
+    add, div, each_lane, gt, ld, le, lt, movemask, mul, ne, select, splat, sqrt, st4, sub, F,
+    LANES, V,
 };
 use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
 use super::state::{BondLoad, UpdateConsts};
 
-// `update4` writes its four lanes out.
-const _: () = assert!(LANES == 4);
 use crate::{Mat3, Vec3};
 use std::arch::x86_64::*;
 
@@ -123,9 +122,8 @@ fn quat_mul(a: [F; 4], b: [F; 4]) -> [F; 4] {
 /// Four particles of the leapfrog update (see `sim::update_particle`): returns their
 /// kinetic energies and the six damping terms each, in the scalar summation order.
 ///
-/// Written without `map` and `from_fn`: those generic functions carry no target features,
-/// so where the compiler does not inline them their closures run as calls outside the AVX2
-/// code (a build's layout decides; one such build ran the term-free integrator 10 % slower).
+/// Arrays over the lanes are written out ([`each_lane!`](super::laws::lanes::each_lane)), never
+/// by `map` or `from_fn` (a build that did not inline two of them ran 10 % slower).
 ///
 /// # Safety
 /// The CPU must support AVX2; `x`, `v`, `w`, `q` have length [`LANES`].
@@ -145,9 +143,9 @@ pub(crate) unsafe fn update4(
     let dt = splat(c.dt);
     let half_dt = splat(0.5 * c.dt);
     let (m, inertia) = (ld(mass), ld(inertia));
-    let mut x = V::gather([xs[0], xs[1], xs[2], xs[3]]);
-    let mut v = V::gather([vs[0], vs[1], vs[2], vs[3]]);
-    let mut w = V::gather([ws[0], ws[1], ws[2], ws[3]]);
+    let mut x = V::gather(each_lane!(|l| xs[l]));
+    let mut v = V::gather(each_lane!(|l| vs[l]));
+    let mut w = V::gather(each_lane!(|l| ws[l]));
     let fluct = if c.periodic {
         v.sub(matvec(&c.prev_l, x))
     } else {
@@ -231,10 +229,10 @@ pub(crate) unsafe fn update4(
         sin_over_w = ld(s_l);
     }
     let b = [
-        ld([qs[0].w, qs[1].w, qs[2].w, qs[3].w]),
-        ld([qs[0].v.x, qs[1].v.x, qs[2].v.x, qs[3].v.x]),
-        ld([qs[0].v.y, qs[1].v.y, qs[2].v.y, qs[3].v.y]),
-        ld([qs[0].v.z, qs[1].v.z, qs[2].v.z, qs[3].v.z]),
+        ld(each_lane!(|l| qs[l].w)),
+        ld(each_lane!(|l| qs[l].v.x)),
+        ld(each_lane!(|l| qs[l].v.y)),
+        ld(each_lane!(|l| qs[l].v.z)),
     ];
     let dq = [
         cos_h,
@@ -244,12 +242,7 @@ pub(crate) unsafe fn update4(
     ];
     // dq·q, kept only on spinning lanes.
     let product = quat_mul(dq, b);
-    let q: [F; 4] = [
-        select(spinning, product[0], b[0]),
-        select(spinning, product[1], b[1]),
-        select(spinning, product[2], b[2]),
-        select(spinning, product[3], b[3]),
-    ];
+    let q: [F; 4] = each_lane!(|k| select(spinning, product[k], b[k]));
     // Quat::normalize.
     let [qw, qx, qy, qz] = q;
     let n = sqrt(add(
@@ -258,12 +251,7 @@ pub(crate) unsafe fn update4(
     ));
     let positive = gt(n, zero);
     let inv = div(splat(1.0), n);
-    let [qw, qx, qy, qz] = [
-        st4(select(positive, mul(q[0], inv), q[0])),
-        st4(select(positive, mul(q[1], inv), q[1])),
-        st4(select(positive, mul(q[2], inv), q[2])),
-        st4(select(positive, mul(q[3], inv), q[3])),
-    ];
+    let [qw, qx, qy, qz] = each_lane!(|k| st4(select(positive, mul(q[k], inv), q[k])));
     let (x, v, w) = (x.lanes(), v.lanes(), w.lanes());
     for l in 0..LANES {
         xs[l] = x[l];

@@ -250,22 +250,25 @@ impl ParticleUpdate<'_> {
     /// returns how many it updated.
     #[cfg(target_arch = "x86_64")]
     fn chunk_lanes(&self, base: usize, s: &mut ChunkSlices, sum: &mut ChunkEnergy) -> usize {
+        use super::laws::lanes::each_lane;
         const L: usize = super::laws::lanes::LANES;
         let mut l = 0;
         while l + L <= s.x.len() {
-            let ft: [(Vec3, Vec3); L] = std::array::from_fn(|m| self.resultants.at(base + l + m));
-            for (m, &(f, t)) in ft.iter().enumerate() {
-                (s.force[l + m], s.torque[l + m]) = (f, t);
+            // Loops, not `from_fn`/`map` (see `each_lane!`).
+            let (mut f, mut t) = ([Vec3::zeros(); L], [Vec3::zeros(); L]);
+            for m in 0..L {
+                (f[m], t[m]) = self.resultants.at(base + l + m);
+                (s.force[l + m], s.torque[l + m]) = (f[m], t[m]);
             }
             // SAFETY: AVX2 is available (the caller checked); every slice has L elements
             // from l on (l + L ≤ chunk length, all chunks alike).
             let (energy, terms) = unsafe {
                 super::particle_lanes::update4(
                     self.consts,
-                    std::array::from_fn(|m| self.mass[base + l + m]),
-                    std::array::from_fn(|m| self.inertia[base + l + m]),
-                    ft.map(|p| p.0),
-                    ft.map(|p| p.1),
+                    each_lane!(|m| self.mass[base + l + m]),
+                    each_lane!(|m| self.inertia[base + l + m]),
+                    f,
+                    t,
                     &mut s.x[l..l + L],
                     &mut s.v[l..l + L],
                     &mut s.w[l..l + L],

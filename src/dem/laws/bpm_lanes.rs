@@ -14,8 +14,8 @@
 
 use super::bpm_bond::{bond_step, BpmBond, BpmCoefficients, BpmResult, StepInputs};
 use super::lanes::{
-    abs, add, div, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4, sub,
-    transpose4, F, LANES, V,
+    abs, add, div, each_lane, gt, ld, le, lt, movemask, mul, ne, neg, select, splat, sqrt, st4,
+    sub, transpose4, F, LANES, V,
 };
 use crate::dem::quat::{Quat, ATAN_C, SMALL_ANGLE_LIMIT};
 use crate::dem::state::BondLoad;
@@ -63,7 +63,7 @@ fn xor(a: F, b: F) -> F {
 #[target_feature(enable = "avx2")]
 unsafe fn load_rows(p: [*const f64; LANES]) -> [F; LANES] {
     // SAFETY: the caller's guarantee.
-    transpose4(p.map(|q| unsafe { _mm256_loadu_pd(q) }))
+    transpose4(each_lane!(|l| unsafe { _mm256_loadu_pd(p[l]) }))
 }
 
 /// `s[i[l]]` of four lanes, loaded as two pairs and a single per vector (x, y) and z.
@@ -75,9 +75,9 @@ unsafe fn load_rows(p: [*const f64; LANES]) -> [F; LANES] {
 unsafe fn gather3(s: &[Vec3], i: [usize; LANES]) -> V {
     // SAFETY: the caller guarantees the indices; Vec3 is three contiguous f64 (checked below).
     unsafe {
-        let p = i.map(|k| {
-            debug_assert!(k < s.len());
-            s.as_ptr().add(k) as *const f64
+        let p = each_lane!(|l| {
+            debug_assert!(i[l] < s.len());
+            s.as_ptr().add(i[l]) as *const f64
         });
         let pair = |a: usize, b: usize| {
             _mm256_insertf128_pd::<1>(
@@ -125,7 +125,7 @@ const _: () = {
 #[target_feature(enable = "avx2")]
 unsafe fn gather_quat(s: &[Quat], i: [usize; LANES]) -> [F; LANES] {
     // SAFETY: the caller guarantees the indices; a Quat is four f64 (checked above).
-    let c = unsafe { load_rows(i.map(|k| s.as_ptr().add(k) as *const f64)) };
+    let c = unsafe { load_rows(each_lane!(|l| s.as_ptr().add(i[l]) as *const f64)) };
     [c[QUAT_W], c[QUAT_V], c[QUAT_V + 1], c[QUAT_V + 2]]
 }
 
@@ -150,9 +150,9 @@ unsafe fn kernel4(
     let p = inp.particles;
     // SAFETY (every unchecked index below): the caller's `idx` are below the length of
     // `bonds`, `coeffs`, `results` and `out` (checked once per chunk).
-    let bd = idx.map(|k| unsafe { bonds.get_unchecked(k) });
-    let ia = bd.map(|b| b.p1 as usize);
-    let ib = bd.map(|b| b.p2 as usize);
+    let bd = each_lane!(|l| unsafe { bonds.get_unchecked(idx[l]) });
+    let ia = each_lane!(|l| bd[l].p1 as usize);
+    let ib = each_lane!(|l| bd[l].p2 as usize);
     let zero = splat(0.0);
     let one = splat(1.0);
     let half = splat(0.5);
@@ -164,7 +164,7 @@ unsafe fn kernel4(
     let r_mag_inv = div(one, r_mag);
     let rhat = r.scale(r_mag_inv);
     // SAFETY: `r0` is four f64.
-    let [r0x, r0y, r0z, r0_mag] = unsafe { load_rows(bd.map(|b| b.r0.as_ptr())) };
+    let [r0x, r0y, r0z, r0_mag] = unsafe { load_rows(each_lane!(|l| bd[l].r0.as_ptr())) };
     let r0b = V {
         x: r0x,
         y: r0y,
@@ -196,8 +196,9 @@ unsafe fn kernel4(
         y: m1.dot(r0b),
         z: m2.dot(r0b),
     };
-    let cp =
-        idx.map(|k| unsafe { coeffs.get_unchecked(k) } as *const BpmCoefficients as *const f64);
+    let cp = each_lane!(
+        |l| unsafe { coeffs.get_unchecked(idx[l]) } as *const BpmCoefficients as *const f64
+    );
     // SAFETY: BpmCoefficients is eight f64 (repr(C), k_r k_s k_t k_b then the dampings).
     let [kr, ks, kt, kb] = unsafe { load_rows(cp) };
     let fr = mul(kr, sub(r_mag, r0_mag));
@@ -261,11 +262,11 @@ unsafe fn kernel4(
     let mut t21 = ts.sub(tt).sub(tb);
     let (fs2, tb2, tt2) = (fs.dot(fs), tb.dot(tb), tt.dot(tt));
     // Damping (`damping_loads`), where a lane has any coefficient.
-    let damped = bd.map(|b| b.damped);
+    let damped = each_lane!(|l| bd[l].damped);
     let mut power = [0.0; LANES];
     if damped.iter().any(|&d| d) {
         // SAFETY: as above (the dampings are the coefficients' last four f64).
-        let [gn, gs, gr, gt_] = unsafe { load_rows(cp.map(|q| q.add(4))) };
+        let [gn, gs, gr, gt_] = unsafe { load_rows(each_lane!(|l| cp[l].add(4))) };
         let v1 = unsafe { gather3(&p.velocity, ia) };
         let v2 = unsafe { gather3(&p.velocity, ib) };
         let w1 = unsafe { gather3(&p.angular_velocity, ia) };
@@ -303,7 +304,11 @@ unsafe fn kernel4(
             t21 = t21.add(dt21);
             power = st4(pw);
         } else {
-            let mask = ld(damped.map(|d| if d { f64::from_bits(u64::MAX) } else { 0.0 }));
+            let mask = ld(each_lane!(|l| if damped[l] {
+                f64::from_bits(u64::MAX)
+            } else {
+                0.0
+            }));
             force = V::select(mask, force.add(df), force);
             t12 = V::select(mask, t12.add(dt12), t12);
             t21 = V::select(mask, t21.add(dt21), t21);
@@ -313,7 +318,7 @@ unsafe fn kernel4(
     }
     // The flipped ends (topology i = particle 2): a sign flip by −0.0 and a blend on its
     // sign bit, as the scalar kernel's branch.
-    let flip = ld(bd.map(|b| b.flip));
+    let flip = ld(each_lane!(|l| bd[l].flip));
     let force_j = V {
         x: xor(force.x, flip),
         y: xor(force.y, flip),
@@ -334,8 +339,8 @@ unsafe fn kernel4(
     let (ob, rb) = (out.as_mut_ptr(), results.as_mut_ptr());
     // SAFETY: every index is in bounds (the caller's guarantee); a BondLoad is nine f64 and
     // a BpmResult ten (layouts checked above); the four bonds are distinct.
-    let o = idx.map(|k| unsafe { ob.add(k) } as *mut f64);
-    let rp = idx.map(|k| unsafe { rb.add(k) } as *mut f64);
+    let o = each_lane!(|l| unsafe { ob.add(idx[l]) } as *mut f64);
+    let rp = each_lane!(|l| unsafe { rb.add(idx[l]) } as *mut f64);
     // SAFETY: as above.
     unsafe {
         let rows = transpose4([force_i.x, force_i.y, force_i.z, torque_i.x]);
