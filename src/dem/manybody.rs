@@ -407,57 +407,21 @@ fn times(m: &[f64; 9], a: &Vec3) -> Vec3 {
     Vec3::from_fn(|r, _| m[r] * a[0] + m[3 + r] * a[1] + m[6 + r] * a[2])
 }
 
-/// `f` + Σ (±g_b) over the particle's CSR `entries` (`2·bond + side`: +g_b at the bond's i
-/// end, −g_b at its j end), in entry order, with g_b = half[2b] + half[2b + 1]: the term's
-/// share of a resultant, added as the particle update gathers the bond loads. `half` has an
-/// entry after the last bond's; `simd`: AVX2 is available.
+/// The term's force on a particle, Σ (±g_b) from zero over its CSR `entries`
+/// (`2·bond + side`: +g_b at the bond's i end, −g_b at its j end), in entry order, with
+/// g_b = half[2b] + half[2b + 1]: `ManyBody::evaluate_into`'s per-particle force, bit for
+/// bit. The particle update adds it to the resultant after the bond and contact loads; with
+/// AVX2 it is summed in the bond loads' pass (`particle_lanes::gather_bond_loads_and_term`,
+/// the same bits).
 #[inline(always)]
-pub(crate) fn gather(f: Vec3, entries: &[u32], half: &[[f64; 3]], simd: bool) -> Vec3 {
-    #[cfg(target_arch = "x86_64")]
-    if simd {
-        // SAFETY: the caller checked AVX2.
-        return unsafe { gather_avx2(f, entries, half) };
-    }
-    let _ = simd;
-    let mut f = f;
+pub(crate) fn term_force(entries: &[u32], half: &[[f64; 3]]) -> Vec3 {
+    let mut f = Vec3::zeros();
     for &e in entries {
         let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
         let b2 = (e & !1) as usize;
         f += (Vec3::from(half[b2]) + Vec3::from(half[b2 + 1])) * sign;
     }
     f
-}
-
-/// [`gather`] with AVX2 (each g_b one packed sum of its halves, ±g_b one packed product
-/// and sum: the same bits).
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(f: Vec3, entries: &[u32], half: &[[f64; 3]]) -> Vec3 {
-    use std::arch::x86_64::*;
-    const SIGN: [f64; 2] = [1.0, -1.0];
-    let mut acc = _mm256_set_pd(0.0, f.z, f.y, f.x);
-    let base = half.as_ptr().cast::<f64>();
-    for &e in entries {
-        let b2 = (e & !1) as usize;
-        debug_assert!(b2 + 2 < half.len());
-        let sign = _mm256_set1_pd(SIGN[(e & 1) as usize]);
-        // SAFETY: four f64 from 3·b2 and from 3·(b2 + 1): the two halves and one more each
-        // (b2 + 1 < 2·bonds, half has an entry more).
-        let g = unsafe {
-            _mm256_add_pd(
-                _mm256_loadu_pd(base.add(3 * b2)),
-                _mm256_loadu_pd(base.add(3 * b2 + 3)),
-            )
-        };
-        acc = _mm256_add_pd(acc, _mm256_mul_pd(g, sign));
-    }
-    let mut out = [0.0f64; 4];
-    // SAFETY: writes four f64 into a local array.
-    unsafe { _mm256_storeu_pd(out.as_mut_ptr(), acc) };
-    Vec3::new(out[0], out[1], out[2])
 }
 
 impl ManyBodyForces {
@@ -717,6 +681,7 @@ impl ManyBodyForces {
 mod tests {
     use super::*;
     use crate::bonds::{build_bonds, BondingRule};
+    use crate::dem::state::BondLoad;
     use crate::dem::MassOptions;
     use crate::manybody::{DegenerateParticles, LocalTensor, ManyBodyOptions};
     use crate::packing::{generate, GenerateOptions};
@@ -724,8 +689,8 @@ mod tests {
 
     /// The integrator's passes give `ManyBody::gradients_into`'s energy and g_b bit for bit,
     /// AVX2 and scalar, one tensor and one per grain, at a strained, perturbed state of a
-    /// periodic packing (bonds across the cell, rattlers excluded); the padded gather gives
-    /// the scalar Σ ±g_b's bits.
+    /// periodic packing (bonds across the cell, rattlers excluded); each particle's term force
+    /// is Σ ±g_b from zero, alone and gathered with the bond loads by the lanes.
     #[test]
     fn passes_have_the_bits_of_gradients_into() {
         let p = generate(
@@ -785,16 +750,42 @@ mod tests {
                 for (k, gk) in ws.gradient.iter().enumerate() {
                     assert_eq!(bits(forces.bond_force(k)), bits(*gk), "bond {k}, {simd}");
                 }
+                // Each particle's term force: evaluate's Σ ±g_b from zero, and the same bits
+                // from the lanes' gather that sums it beside (arbitrary) bond loads.
+                let loads: Vec<BondLoad> = (0..t.len())
+                    .map(|k| {
+                        let v = |s: f64| Vec3::new((s * k as f64).sin(), s, -(s * k as f64).cos());
+                        BondLoad {
+                            force_i: v(1.3),
+                            torque_i: v(0.7) * 1e-6,
+                            torque_j: v(-2.1) * 1e-6,
+                        }
+                    })
+                    .collect();
                 for q in 0..p.len() {
                     let entries = &t.entries[t.start[q]..t.start[q + 1]];
-                    let f0 = Vec3::new(1e-3, -2e-3, 0.5e-3);
-                    let mut expect = f0;
+                    let mut expect = Vec3::zeros();
                     for &e in entries {
                         let sign = if e & 1 == 1 { -1.0 } else { 1.0 };
                         expect += ws.gradient[(e >> 1) as usize] * sign;
                     }
-                    let got = gather(f0, entries, forces.bond_halves(), simd);
+                    let got = term_force(entries, forces.bond_halves());
                     assert_eq!(bits(got), bits(expect), "particle {q}, simd {simd}");
+                    #[cfg(target_arch = "x86_64")]
+                    if simd {
+                        use crate::dem::particle_lanes::{
+                            gather_bond_loads, gather_bond_loads_and_term,
+                        };
+                        let f0 = Vec3::new(1e-3, -2e-3, 0.5e-3);
+                        // SAFETY: AVX2 (`avx2`); the halves hold 2·bonds + 1 entries.
+                        let (f, tq, g) = unsafe {
+                            gather_bond_loads_and_term(f0, entries, &loads, forces.bond_halves())
+                        };
+                        // SAFETY: AVX2.
+                        let (f1, t1) = unsafe { gather_bond_loads(f0, entries, &loads) };
+                        assert_eq!((bits(f), bits(tq)), (bits(f1), bits(t1)), "particle {q}");
+                        assert_eq!(bits(g), bits(expect), "particle {q}");
+                    }
                 }
             }
         }

@@ -49,6 +49,59 @@ pub(crate) fn gather_bond_loads(f: Vec3, entries: &[u32], loads: &[BondLoad]) ->
     (Vec3::new(f[0], f[1], f[2]), Vec3::new(t[0], t[1], t[2]))
 }
 
+/// [`gather_bond_loads`] and, in the same pass over the entries, the many-body term's force
+/// Σ ±g_b from zero, g_b = half[2b] + half[2b + 1] (`dem::manybody::term_force`, the same
+/// bits: one packed sum of the halves and one packed product and sum per entry): a bond's
+/// two reads, its loads and its halves, issued together.
+///
+/// # Safety
+/// `half` holds 2·`loads.len()` + 1 entries (the halves and the zero entry after them: a
+/// packed load of a bond's second half reads one f64 beyond it).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn gather_bond_loads_and_term(
+    f: Vec3,
+    entries: &[u32],
+    loads: &[BondLoad],
+    half: &[[f64; 3]],
+) -> (Vec3, Vec3, Vec3) {
+    const SIGN: [f64; 2] = [1.0, -1.0];
+    debug_assert_eq!(half.len(), 2 * loads.len() + 1);
+    let mut fv = _mm256_setr_pd(f.x, f.y, f.z, 0.0);
+    let mut tv = _mm256_setzero_pd();
+    let mut gv = _mm256_setzero_pd();
+    let three = _mm256_setr_epi64x(-1, -1, -1, 0);
+    let halves = half.as_ptr().cast::<f64>();
+    for &e in entries {
+        let side = (e & 1) as usize;
+        let b = (e >> 1) as usize;
+        let p = &loads[b] as *const BondLoad as *const f64;
+        // SAFETY: as in `gather_bond_loads`; the halves: four f64 from 3·2b and from
+        // 3·(2b + 1), the two halves and one more each (2b + 1 < 2·bonds, and `half` has an
+        // entry more: this function's contract).
+        let (force, torque, g) = unsafe {
+            (
+                _mm256_loadu_pd(p),
+                _mm256_maskload_pd(p.add(3 + 3 * side), three),
+                _mm256_add_pd(
+                    _mm256_loadu_pd(halves.add(6 * b)),
+                    _mm256_loadu_pd(halves.add(6 * b + 3)),
+                ),
+            )
+        };
+        let sign = _mm256_set1_pd(SIGN[side]);
+        fv = _mm256_add_pd(fv, _mm256_mul_pd(force, sign));
+        tv = _mm256_add_pd(tv, torque);
+        gv = _mm256_add_pd(gv, _mm256_mul_pd(g, sign));
+    }
+    let (f, t, g) = (st4(fv), st4(tv), st4(gv));
+    (
+        Vec3::new(f[0], f[1], f[2]),
+        Vec3::new(t[0], t[1], t[2]),
+        Vec3::new(g[0], g[1], g[2]),
+    )
+}
+
 /// M·x for a matrix shared by all lanes, in nalgebra's order ((m₀·x + m₁·y) + m₂·z).
 #[inline]
 #[target_feature(enable = "avx2")]

@@ -132,12 +132,23 @@ impl Resultants<'_> {
         #[cfg(not(target_arch = "x86_64"))]
         let lanes = false;
         let mut t = Vec3::zeros();
+        // The term's force, when summed with the bond loads.
+        let mut term = None;
         if lanes {
             #[cfg(target_arch = "x86_64")]
             {
-                // SAFETY: `lanes` is set only where the CPU has AVX2.
-                (f, t) =
-                    unsafe { super::particle_lanes::gather_bond_loads(f, entries, self.loads) };
+                use super::particle_lanes::{gather_bond_loads, gather_bond_loads_and_term};
+                // SAFETY: `lanes` is set only where the CPU has AVX2; the halves hold
+                // 2·bonds + 1 entries (asserted in `Simulation::integrate_particles`).
+                (f, t) = match self.manybody {
+                    Some(half) => {
+                        let (f, t, g) =
+                            unsafe { gather_bond_loads_and_term(f, entries, self.loads, half) };
+                        term = Some(g);
+                        (f, t)
+                    }
+                    None => unsafe { gather_bond_loads(f, entries, self.loads) },
+                };
             }
         } else {
             for &e in entries {
@@ -157,9 +168,8 @@ impl Resultants<'_> {
             f += cf[k];
             t += ct[k];
         }
-        if let Some(g) = self.manybody {
-            let entries = &self.entries[self.start[k]..self.start[k + 1]];
-            f = super::manybody::gather(f, entries, g, self.lanes);
+        if let Some(half) = self.manybody {
+            f += term.unwrap_or_else(|| super::manybody::term_force(entries, half));
         }
         (f, t)
     }
@@ -1034,6 +1044,9 @@ impl Simulation {
         #[cfg(not(target_arch = "x86_64"))]
         let lanes = false;
         let p = &mut self.particles;
+        let halves = self.manybody.as_ref().map(|m| m.bond_halves());
+        // The lanes' gather reads a bond's halves four f64 wide (`Resultants::at`).
+        assert!(halves.is_none_or(|h| h.len() == 2 * self.loads.per_bond.len() + 1));
         let update = ParticleUpdate {
             consts: &consts,
             resultants: Resultants {
@@ -1042,7 +1055,7 @@ impl Simulation {
                 loads: &self.loads.per_bond[..],
                 external: self.external.as_ref(),
                 contact: self.contacts.as_ref().map(|c| (c.force(), c.torque())),
-                manybody: self.manybody.as_ref().map(|m| m.bond_halves()),
+                manybody: halves,
                 lanes,
             },
             mass: &p.mass[..],
