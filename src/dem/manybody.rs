@@ -1,7 +1,8 @@
 //! The many-body term (issue 33, docs/manybody.md "Integrator") in the reference integrator:
 //! every step, after the bond law, each particle's fitted Green–Lagrange strain gives the
-//! term's energy and its pair of forces ±g_b on every bond; the particle update adds ±g_b to
-//! each particle's resultant as it gathers the bond loads (no pass of its own), the energy
+//! term's energy and its pair of forces ±g_b on every bond; the particle update sums each
+//! particle's Σ ±g_b from zero as it gathers the bond loads ([`term_force`]: evaluate's
+//! force, bit for bit) and adds it after the bond and contact loads, the energy
 //! joins the ledger ([`super::Energies::manybody`]) and Σ g_b ⊗ l_b the Love stress. Built
 //! once from the intact bonds; refused with breakage.
 //!
@@ -11,7 +12,7 @@
 //! is summed (x_j − x_i, as the bond laws take it), then V·W and V·P four particles at a
 //! time, then at once, while a_b is still in cache, the half-gradient (V_p P_p) a_b^p of each
 //! of its bonds, stored at the bond's end (`2·bond + side`, the topology's entry code). The
-//! particle update adds g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j, the two halves side by side,
+//! particle update sums g_b = (V_i P_i) a_b^i + (V_j P_j) a_b^j, the two halves side by side,
 //! which is `ManyBody::gradient_in`'s sum: no pass over the bonds, no V·P array. Where AVX2
 //! runs (and [`super::DemOptions::simd`]), each sum of products is one packed operation per
 //! term; the scalar path is checked against it bit for bit (`passes_have_the_bits_of_gradients_into`).
