@@ -339,7 +339,8 @@ unsafe fn columns(m: &[f64; 9]) -> [std::arch::x86_64::__m256d; 3] {
 }
 
 /// The columns of each of four particles' matrices from their lanes `pk` (lane m's entry
-/// (r, c) at `pk[r + 3c][m]`), the fourth lane zero: three 4×4 transposes in registers.
+/// (r, c) at `pk[r + 3c][m]`), the fourth lane zero: three 4×4 transposes in registers
+/// (`lanes::transpose4`).
 /// Gathering a lane's nine entries into memory and reading them back as columns stalled each
 /// wide load on the narrow stores it spanned (no store forwarding): about a fifth of the
 /// particle pass's samples.
@@ -350,6 +351,7 @@ unsafe fn columns(m: &[f64; 9]) -> [std::arch::x86_64::__m256d; 3] {
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn lane_columns(pk: &[[f64; 4]; 9]) -> [[std::arch::x86_64::__m256d; 3]; 4] {
+    use super::laws::lanes::transpose4;
     use std::arch::x86_64::*;
     let mut rows = [_mm256_setzero_pd(); 9];
     for (r, p) in rows.iter_mut().zip(pk) {
@@ -357,40 +359,14 @@ unsafe fn lane_columns(pk: &[[f64; 4]; 9]) -> [[std::arch::x86_64::__m256d; 3]; 
         *r = unsafe { _mm256_loadu_pd(p.as_ptr()) };
     }
     let z = _mm256_setzero_pd();
-    let c0 = transpose4(rows[0], rows[1], rows[2], z);
-    let c1 = transpose4(rows[3], rows[4], rows[5], z);
-    let c2 = transpose4(rows[6], rows[7], rows[8], z);
+    let c0 = transpose4([rows[0], rows[1], rows[2], z]);
+    let c1 = transpose4([rows[3], rows[4], rows[5], z]);
+    let c2 = transpose4([rows[6], rows[7], rows[8], z]);
     [
         [c0[0], c1[0], c2[0]],
         [c0[1], c1[1], c2[1]],
         [c0[2], c1[2], c2[2]],
         [c0[3], c1[3], c2[3]],
-    ]
-}
-
-/// The 4×4 transpose of the rows `a`, `b`, `c`, `d`: lane m of the result k is row m's lane k.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-#[target_feature(enable = "avx2")]
-unsafe fn transpose4(
-    a: std::arch::x86_64::__m256d,
-    b: std::arch::x86_64::__m256d,
-    c: std::arch::x86_64::__m256d,
-    d: std::arch::x86_64::__m256d,
-) -> [std::arch::x86_64::__m256d; 4] {
-    use std::arch::x86_64::*;
-    let ab_lo = _mm256_unpacklo_pd(a, b); // a0 b0 a2 b2
-    let ab_hi = _mm256_unpackhi_pd(a, b); // a1 b1 a3 b3
-    let cd_lo = _mm256_unpacklo_pd(c, d); // c0 d0 c2 d2
-    let cd_hi = _mm256_unpackhi_pd(c, d); // c1 d1 c3 d3
-    [
-        _mm256_permute2f128_pd::<0x20>(ab_lo, cd_lo),
-        _mm256_permute2f128_pd::<0x20>(ab_hi, cd_hi),
-        _mm256_permute2f128_pd::<0x31>(ab_lo, cd_lo),
-        _mm256_permute2f128_pd::<0x31>(ab_hi, cd_hi),
     ]
 }
 

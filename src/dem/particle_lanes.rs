@@ -8,7 +8,6 @@ use super::laws::lanes::{
 };
 use super::quat::{spin_factors, Quat, SMALL_ANGLE_LIMIT};
 use super::state::{BondLoad, UpdateConsts};
-
 use crate::{Mat3, Vec3};
 use std::arch::x86_64::*;
 
@@ -26,27 +25,9 @@ const _: () = {
 #[inline]
 #[target_feature(enable = "avx2")]
 pub(crate) fn gather_bond_loads(f: Vec3, entries: &[u32], loads: &[BondLoad]) -> (Vec3, Vec3) {
-    const SIGN: [f64; 2] = [1.0, -1.0];
-    let mut fv = _mm256_setr_pd(f.x, f.y, f.z, 0.0);
-    let mut tv = _mm256_setzero_pd();
-    let three = _mm256_setr_epi64x(-1, -1, -1, 0);
-    for &e in entries {
-        let side = (e & 1) as usize;
-        let p = &loads[(e >> 1) as usize] as *const BondLoad as *const f64;
-        // SAFETY: a BondLoad is nine f64 (checked above): force_i and torque_i.x are its
-        // first four; the torque's three f64 at 3 or 6 are read under a mask (the fourth
-        // lane, past the record for torque_j, is not read).
-        let (force, torque) = unsafe {
-            (
-                _mm256_loadu_pd(p),
-                _mm256_maskload_pd(p.add(3 + 3 * side), three),
-            )
-        };
-        fv = _mm256_add_pd(fv, _mm256_mul_pd(force, _mm256_set1_pd(SIGN[side])));
-        tv = _mm256_add_pd(tv, torque);
-    }
-    let (f, t) = (st4(fv), st4(tv));
-    (Vec3::new(f[0], f[1], f[2]), Vec3::new(t[0], t[1], t[2]))
+    // SAFETY: no halves are read without the term.
+    let (f, t, _) = unsafe { gather::<false>(f, entries, loads, &[]) };
+    (f, t)
 }
 
 /// [`gather_bond_loads`] and, in the same pass over the entries, the many-body term's force
@@ -65,8 +46,25 @@ pub(crate) unsafe fn gather_bond_loads_and_term(
     loads: &[BondLoad],
     half: &[[f64; 3]],
 ) -> (Vec3, Vec3, Vec3) {
-    const SIGN: [f64; 2] = [1.0, -1.0];
     debug_assert_eq!(half.len(), 2 * loads.len() + 1);
+    // SAFETY: this function's contract.
+    unsafe { gather::<true>(f, entries, loads, half) }
+}
+
+/// The one loop of [`gather_bond_loads`] (`TERM` false: `half` unread, the term's sum zero)
+/// and [`gather_bond_loads_and_term`].
+///
+/// # Safety
+/// With `TERM`, `half` holds 2·`loads.len()` + 1 entries.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn gather<const TERM: bool>(
+    f: Vec3,
+    entries: &[u32],
+    loads: &[BondLoad],
+    half: &[[f64; 3]],
+) -> (Vec3, Vec3, Vec3) {
+    const SIGN: [f64; 2] = [1.0, -1.0];
     let mut fv = _mm256_setr_pd(f.x, f.y, f.z, 0.0);
     let mut tv = _mm256_setzero_pd();
     let mut gv = _mm256_setzero_pd();
@@ -76,23 +74,29 @@ pub(crate) unsafe fn gather_bond_loads_and_term(
         let side = (e & 1) as usize;
         let b = (e >> 1) as usize;
         let p = &loads[b] as *const BondLoad as *const f64;
-        // SAFETY: as in `gather_bond_loads`; the halves: four f64 from 3·2b and from
-        // 3·(2b + 1), the two halves and one more each (2b + 1 < 2·bonds, and `half` has an
-        // entry more: this function's contract).
-        let (force, torque, g) = unsafe {
+        // SAFETY: a BondLoad is nine f64 (checked above): force_i and torque_i.x are its
+        // first four; the torque's three f64 at 3 or 6 are read under a mask (the fourth
+        // lane, past the record for torque_j, is not read).
+        let (force, torque) = unsafe {
             (
                 _mm256_loadu_pd(p),
                 _mm256_maskload_pd(p.add(3 + 3 * side), three),
-                _mm256_add_pd(
-                    _mm256_loadu_pd(halves.add(6 * b)),
-                    _mm256_loadu_pd(halves.add(6 * b + 3)),
-                ),
             )
         };
         let sign = _mm256_set1_pd(SIGN[side]);
         fv = _mm256_add_pd(fv, _mm256_mul_pd(force, sign));
         tv = _mm256_add_pd(tv, torque);
-        gv = _mm256_add_pd(gv, _mm256_mul_pd(g, sign));
+        if TERM {
+            // SAFETY: four f64 from 3·2b and from 3·(2b + 1), the two halves and one more
+            // each (2b + 1 < 2·bonds, and `half` has an entry more: this function's contract).
+            let g = unsafe {
+                _mm256_add_pd(
+                    _mm256_loadu_pd(halves.add(6 * b)),
+                    _mm256_loadu_pd(halves.add(6 * b + 3)),
+                )
+            };
+            gv = _mm256_add_pd(gv, _mm256_mul_pd(g, sign));
+        }
     }
     let (f, t, g) = (st4(fv), st4(tv), st4(gv));
     (
