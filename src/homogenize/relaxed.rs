@@ -545,11 +545,14 @@ impl StoredSprings {
     }
 
     /// `k`, by its upper triangle when `products_only` and its mirrored blocks are
-    /// transposes bit for bit (then the full matrix is freed).
+    /// transposes bit for bit (compacted in its own storage, the rest freed).
     fn of(k: BlockSparse, products_only: bool) -> StoredSprings {
-        match products_only.then(|| UpperBlocks::of(&k)).flatten() {
-            Some(u) => StoredSprings::Upper(u),
-            None => StoredSprings::Full(k),
+        if !products_only {
+            return StoredSprings::Full(k);
+        }
+        match UpperBlocks::of_owned(k) {
+            Ok(u) => StoredSprings::Upper(u),
+            Err(k) => StoredSprings::Full(k),
         }
     }
 

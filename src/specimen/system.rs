@@ -185,11 +185,13 @@ fn dof_scale(a: usize, d: usize, loaded: usize, mean_radius: f64) -> f64 {
     }
 }
 
-/// The symmetric elimination of the prescribed DOFs: their rows and columns keep only their
-/// diagonal, and the right-hand side moves the prescribed values' coupling to the free rows;
-/// both scaled by [`dof_scale`].
-fn eliminate(kfull: &BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSparse, Vec<Block6>) {
+/// The symmetric elimination of the prescribed DOFs in place: their rows and columns keep
+/// only their diagonal, and the right-hand side moves the prescribed values' coupling to the
+/// free rows; both scaled by [`dof_scale`]. Rows in parallel, the same bits on any thread
+/// count.
+fn eliminate(mut k: BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSparse, Vec<Block6>) {
     let (prescribed, cases, nodes) = (&bc.prescribed, bc.cases, bc.prescribed.len());
+    debug_assert_eq!(k.rows(), nodes, "one block row per node");
     let scale = |a: usize, d: usize| dof_scale(a, d, bc.loaded, mean_radius);
     let value_block = |a: usize| {
         let mut v = Block6::zeros();
@@ -198,13 +200,18 @@ fn eliminate(kfull: &BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSpar
         }
         v
     };
+    // A node without prescribed DOFs adds exact zeros to acc below: skipped, the same bits.
+    let fixed: Vec<bool> = prescribed
+        .iter()
+        .map(|p| p.iter().any(Option::is_some))
+        .collect();
     let mut rhs = vec![Block6::zeros(); nodes];
-    for (a, r) in rhs.iter_mut().enumerate() {
+    rhs.par_iter_mut().enumerate().for_each(|(a, r)| {
         let mut acc = Block6::zeros();
-        for (c, blk) in kfull.row(a) {
+        for (c, blk) in k.row(a).filter(|&(c, _)| fixed[c]) {
             acc -= blk * value_block(c);
         }
-        let diag = kfull.diagonal(a);
+        let diag = k.diagonal(a);
         for d in 0..6 {
             for case in 0..cases {
                 r[(d, case)] = match (prescribed[a][d], case) {
@@ -216,43 +223,26 @@ fn eliminate(kfull: &BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSpar
                 r[(d, case)] *= scale(a, d);
             }
         }
-    }
-    // In chunks of rows: never a second copy of the whole matrix beside the two (issue 35).
-    const ROWS: usize = 4096;
-    let mut k = BlockSparse::from_rows(Vec::new());
-    for r0 in (0..nodes).step_by(ROWS) {
-        let rows: Vec<Vec<(u32, Block6)>> = (r0..(r0 + ROWS).min(nodes))
-            .into_par_iter()
-            .map(|a| {
-                kfull
-                    .row(a)
-                    .map(|(c, blk)| {
-                        let mut b = *blk;
-                        for r in 0..6 {
-                            for s in 0..6 {
-                                let fixed =
-                                    prescribed[a][r].is_some() || prescribed[c][s].is_some();
-                                let v = if fixed && !(a == c && r == s) {
-                                    0.0
-                                } else {
-                                    blk[(r, s)]
-                                };
-                                b[(r, s)] = v * scale(a, r) * scale(c, s);
-                            }
-                        }
-                        (c as u32, b)
-                    })
-                    .collect()
-            })
-            .collect();
-        k.push_rows(rows);
-    }
+    });
+    k.map_blocks(|a, c, b| {
+        for r in 0..6 {
+            for s in 0..6 {
+                let fixed = prescribed[a][r].is_some() || prescribed[c][s].is_some();
+                let v = if fixed && !(a == c && r == s) {
+                    0.0
+                } else {
+                    b[(r, s)]
+                };
+                b[(r, s)] = v * scale(a, r) * scale(c, s);
+            }
+        }
+    });
     (k, rhs)
 }
 
 /// Solve K u = f for the free DOFs with the prescribed ones eliminated ([`eliminate`]), back in
 /// radians with the prescribed DOFs at their values exactly, less the rigid turn about the axis
-/// that frictionless platens leave free ([`remove_turn`]). `kfull` is freed once eliminated.
+/// that frictionless platens leave free ([`remove_turn`]). `kfull` is eliminated in place.
 pub(super) fn solve_field(
     kfull: BlockSparse,
     bc: &Boundary,
@@ -261,8 +251,7 @@ pub(super) fn solve_field(
     opts: &SpecimenOptions,
     mean_radius: f64,
 ) -> Result<Field> {
-    let (kmod, rhs) = eliminate(&kfull, bc, mean_radius);
-    drop(kfull);
+    let (kmod, rhs) = eliminate(kfull, bc, mean_radius);
     let (mut u, unknowns, solver) = solve_system(kmod, &rhs, opts, packing, net, bc, mean_radius)?;
     for (a, ua) in u.iter_mut().enumerate() {
         for d in 0..6 {
