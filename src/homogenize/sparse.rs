@@ -81,6 +81,44 @@ impl BlockSparse {
         k
     }
 
+    /// (K X, the diagonal blocks of K) of the K that [`Self::assemble_rows`] would form,
+    /// without storing it: each chunk of rows multiplied as soon as it is formed, by the
+    /// kernel and in the order of [`Self::apply`], so the bits of `assemble_rows(..).apply(x)`
+    /// and of its `diagonal(p)` (a specimen's reactions after its solve: at a million
+    /// particles no second K's 2.5 GB; issue 35).
+    pub(crate) fn assemble_rows_times(
+        m: usize,
+        ends: &[(u32, u32)],
+        blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
+        x: &[Block6],
+    ) -> (Vec<Block6>, Vec<Block6>) {
+        let (mut kx, mut diagonal) = (Vec::with_capacity(m), Vec::with_capacity(m));
+        assemble_rows(m, ends, blocks, false, |rows| {
+            let first = kx.len();
+            let products: Vec<(Block6, Block6)> = rows
+                .par_iter()
+                .enumerate()
+                .map(|(k, row)| {
+                    let mut acc = Block6::zeros();
+                    for (c, b) in row {
+                        mul_add6_cols(&mut acc, b, &x[*c as usize], 6);
+                    }
+                    let p = (first + k) as u32;
+                    let diag = row
+                        .iter()
+                        .find(|(c, _)| *c == p)
+                        .map_or(Block6::zeros(), |d| d.1);
+                    (acc, diag)
+                })
+                .collect();
+            for (a, d) in products {
+                kx.push(a);
+                diagonal.push(d);
+            }
+        });
+        (kx, diagonal)
+    }
+
     /// Assemble a symmetric matrix over `m` nodes from per-edge blocks: edge e joining
     /// `ends[e] = (i, j)` adds `blocks(e) = (K_ii, K_jj, K_ij)` (and K_ijᵀ to K_ji), summed
     /// in edge order (so the result does not depend on the thread count).
@@ -911,8 +949,9 @@ mod tests {
     }
 
     /// K assembled row by row (each element formed at both of its rows) is K assembled from
-    /// all elements at once, bit for bit, with a repeated edge and a self edge; and the
-    /// in-place block map rewrites each block given its own row and column.
+    /// all elements at once, bit for bit, with a repeated edge and a self edge, and so are
+    /// its product and diagonal streamed without storing it; the in-place block map rewrites
+    /// each block given its own row and column.
     #[test]
     fn rows_assembled_in_place_equal_the_elementwise_assembly() {
         let n = 23;
@@ -926,6 +965,13 @@ mod tests {
         assert_eq!(rows.row_start, all.row_start);
         assert_eq!(rows.col, all.col);
         assert!(rows.block == all.block);
+        let x: Vec<Block6> = (0..n as usize).map(|p| block(p + 300)).collect();
+        let mut kx = vec![Block6::zeros(); n as usize];
+        all.apply(&x, &mut kx);
+        let (streamed, diagonal) = BlockSparse::assemble_rows_times(n as usize, &ends, blocks, &x);
+        assert_eq!(streamed, kx);
+        let stored: Vec<Block6> = (0..all.rows()).map(|p| all.diagonal(p)).collect();
+        assert_eq!(diagonal, stored);
         let mut mapped = all;
         mapped.map_blocks(|p, q, b| b[(0, 0)] = (100 * p + q) as f64);
         for p in 0..mapped.rows() {

@@ -10,7 +10,6 @@ use super::{
 };
 use crate::assembly::Assembly;
 use crate::homogenize::network::Block6;
-use crate::homogenize::sparse::BlockSparse;
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
 
@@ -82,9 +81,12 @@ impl Solved<'_> {
     /// Measure the solved specimen and write the report; refused when the solve's residual is
     /// too large, the response is not a positive finite stiffness, the lateral supports carry
     /// force, or the lateral strain cannot be measured.
-    pub fn measure(self, kfull: &BlockSparse) -> Result<SpecimenReport> {
-        let mut ku = vec![Block6::zeros(); self.net.nodes()];
-        kfull.apply(&self.field.u, &mut ku);
+    pub fn measure(self) -> Result<SpecimenReport> {
+        // K u formed row by row after the solve, K never stored beside the solve's matrix
+        // and work vectors (at a million particles 2.5 GB; issue 35). The same bits.
+        let (ku, diagonal) = self
+            .net
+            .stiffness_times(self.assembly, self.opts, &self.field.u);
         let relative_residual = self.residual(&ku)?;
         let (force_a, alpha, control) = self.platen_load(&ku)?;
         let (ax, sign) = (self.opts.axis, self.gauge.sign);
@@ -95,7 +97,7 @@ impl Solved<'_> {
         let area = self.area();
         let (delta0, length) = (self.bc.delta0, self.gauge.length);
         let strain0 = delta0 / length;
-        let middle = self.middle(kfull);
+        let middle = self.middle(&diagonal);
         let eps0 = self.lateral_strains(&middle, &|a, d| self.field.u[a][(d, 0)]);
         let eps = self.lateral_strains(&middle, &|a, d| self.combine(alpha, &self.field.u[a], d));
         // ν = −ε_lat/ε_axial with the axial strain −δ/L (compression) and the lateral ones
@@ -268,12 +270,12 @@ impl Solved<'_> {
     }
 
     /// The loaded nodes off the groups whose centres lie in the middle third of the gauge and
-    /// whose bonds hold their centre ([`holds_centre`] of their diagonal block of `k`).
+    /// whose bonds hold their centre ([`holds_centre`] of their `diagonal` block of K).
     /// Without bending springs a sphere on one bond, or two, swings about its contacts at no
     /// energy: its displacement is whatever the solver left in that mode (it moved the free
     /// 100,000-sphere cluster's ν by 1.0e-5 between two preconditioners), not the specimen's
     /// strain.
-    fn middle(&self, k: &BlockSparse) -> Vec<usize> {
+    fn middle(&self, diagonal: &[Block6]) -> Vec<usize> {
         let (original, layer, g) = (&self.net.original, &self.groups.layer, &self.gauge);
         let x = &self.assembly.packing.positions;
         (0..original.len())
@@ -283,7 +285,7 @@ impl Solved<'_> {
                 layer[original[a]] == 0
                     && c >= g.length / 3.0
                     && c <= 2.0 * g.length / 3.0
-                    && holds_centre(&k.diagonal(a))
+                    && holds_centre(&diagonal[a])
             })
             .collect()
     }

@@ -537,9 +537,6 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
     let gauge = Gauge::of(packing, opts.axis, &groups.layer, &net)?;
     let bc = Boundary::of(packing, opts, &groups, &net, &gauge, mean_radius)?;
     let field = system::solve_field(kfull, &bc, &net, packing, opts, mean_radius)?;
-    // K formed again for the reactions, after the solve: never beside the solve's matrix and
-    // work vectors (at a million particles 2.5 GB; issue 35). The same bits.
-    let kfull = net.stiffness(assembly, opts);
     let solved = measure::Solved {
         assembly,
         opts,
@@ -549,7 +546,7 @@ pub fn solve(assembly: &Assembly, opts: &SpecimenOptions) -> Result<SpecimenRepo
         bc,
         field,
     };
-    solved.measure(&kfull)
+    solved.measure()
 }
 
 /// `x`, `y` or `z`.

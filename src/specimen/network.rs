@@ -203,6 +203,36 @@ impl Network {
     /// with lateral periodicity the image of j across the lateral faces (n₀, n₁) is displaced
     /// by n₀a₀ + n₁a₁, which couples the bonds crossing them to the period changes' node.
     pub fn stiffness(&self, assembly: &Assembly, opts: &SpecimenOptions) -> BlockSparse {
+        self.with_elements(assembly, opts, |m, ends, blocks| {
+            BlockSparse::assemble_rows(m, ends, blocks)
+        })
+    }
+
+    /// (K u, the diagonal blocks of K) of [`Self::stiffness`] without storing K (the same
+    /// bits as forming it and multiplying; [`BlockSparse::assemble_rows_times`]).
+    pub fn stiffness_times(
+        &self,
+        assembly: &Assembly,
+        opts: &SpecimenOptions,
+        u: &[Block6],
+    ) -> (Vec<Block6>, Vec<Block6>) {
+        self.with_elements(assembly, opts, |m, ends, blocks| {
+            BlockSparse::assemble_rows_times(m, ends, blocks, u)
+        })
+    }
+
+    /// `use_them(nodes, edges, blocks of edge e)` on the network's edges: its bonds, and with
+    /// lateral periodicity the edges to the period changes' node.
+    fn with_elements<R>(
+        &self,
+        assembly: &Assembly,
+        opts: &SpecimenOptions,
+        use_them: impl FnOnce(
+            usize,
+            &[(u32, u32)],
+            &(dyn Fn(usize) -> (Block6, Block6, Block6) + Sync),
+        ) -> R,
+    ) -> R {
         let (packing, bonds) = (&assembly.packing, &assembly.bonds);
         let lateral = [(opts.axis + 1) % 3, (opts.axis + 2) % 3];
         let element_of = |b: usize| {
@@ -259,7 +289,7 @@ impl Network {
                 (Block6::zeros(), kaa, ki_t)
             }
         };
-        BlockSparse::assemble_rows(self.nodes(), &ends, blocks)
+        use_them(self.nodes(), &ends, &blocks)
     }
 }
 
