@@ -893,12 +893,17 @@ mod tests {
         let net = super::super::network::mrv_test_network();
         let cut = UpperBlocks::of(&BlockSparse::assemble(&net)).expect("mirrored");
         let direct = UpperBlocks::assemble(&net).expect("fewer than 2³² blocks");
-        assert_eq!(direct.row_start, cut.row_start);
-        assert_eq!(direct.col, cut.col);
-        assert!(direct.block == cut.block);
-        assert_eq!(direct.low_start, cut.low_start);
-        assert_eq!(direct.low, cut.low);
-        assert_eq!(direct.max_row_blocks, cut.max_row_blocks);
+        assert_same_triangle(&direct, &cut);
+    }
+
+    /// Two upper triangles are the same bit for bit: blocks, lower lists, the longest row.
+    fn assert_same_triangle(a: &UpperBlocks, b: &UpperBlocks) {
+        assert_eq!(a.row_start, b.row_start);
+        assert_eq!(a.col, b.col);
+        assert!(a.block == b.block);
+        assert_eq!(a.low_start, b.low_start);
+        assert_eq!(a.low, b.low);
+        assert_eq!(a.max_row_blocks, b.max_row_blocks);
     }
 
     /// A matrix whose mirrored blocks differ (in one bit, or a missing mirror) is refused.
@@ -940,12 +945,7 @@ mod tests {
         let Ok(owned) = UpperBlocks::of_owned(k) else {
             panic!("mirrored")
         };
-        assert_eq!(owned.row_start, copied.row_start);
-        assert_eq!(owned.col, copied.col);
-        assert!(owned.block == copied.block);
-        assert_eq!(owned.low_start, copied.low_start);
-        assert_eq!(owned.low, copied.low);
-        assert_eq!(owned.max_row_blocks, copied.max_row_blocks);
+        assert_same_triangle(&owned, &copied);
     }
 
     /// K assembled row by row (each element formed at both of its rows) is K assembled from
