@@ -94,21 +94,18 @@ impl BlockSparse {
     ) -> (Vec<Block6>, Vec<Block6>) {
         let (mut kx, mut diagonal) = (Vec::with_capacity(m), Vec::with_capacity(m));
         assemble_rows(m, ends, blocks, false, |rows| {
+            // The chunk's rows as a matrix of their own (columns stay global): its
+            // `row_times` is `apply`'s product of each row.
             let first = kx.len();
-            let products: Vec<(Block6, Block6)> = rows
-                .par_iter()
-                .enumerate()
-                .map(|(k, row)| {
-                    let mut acc = Block6::zeros();
-                    for (c, b) in row {
-                        mul_add6_cols(&mut acc, b, &x[*c as usize], 6);
-                    }
-                    let p = (first + k) as u32;
-                    let diag = row
-                        .iter()
-                        .find(|(c, _)| *c == p)
-                        .map_or(Block6::zeros(), |d| d.1);
-                    (acc, diag)
+            let chunk = BlockSparse::from_rows(rows);
+            let products: Vec<(Block6, Block6)> = (0..chunk.rows())
+                .into_par_iter()
+                .map(|k| {
+                    let diag = chunk
+                        .row(k)
+                        .find(|&(c, _)| c == first + k)
+                        .map_or(Block6::zeros(), |(_, d)| *d);
+                    (chunk.row_times(k, x, 6), diag)
                 })
                 .collect();
             for (a, d) in products {

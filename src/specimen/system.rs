@@ -201,14 +201,14 @@ fn eliminate(mut k: BlockSparse, bc: &Boundary, mean_radius: f64) -> (BlockSpars
         v
     };
     // A node without prescribed DOFs adds exact zeros to acc below: skipped, the same bits.
-    let fixed: Vec<bool> = prescribed
+    let any_prescribed: Vec<bool> = prescribed
         .iter()
         .map(|p| p.iter().any(Option::is_some))
         .collect();
     let mut rhs = vec![Block6::zeros(); nodes];
     rhs.par_iter_mut().enumerate().for_each(|(a, r)| {
         let mut acc = Block6::zeros();
-        for (c, blk) in k.row(a).filter(|&(c, _)| fixed[c]) {
+        for (c, blk) in k.row(a).filter(|&(c, _)| any_prescribed[c]) {
             acc -= blk * value_block(c);
         }
         let diag = k.diagonal(a);
