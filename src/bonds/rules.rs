@@ -25,6 +25,7 @@ use super::BondSet;
 use crate::packing::neighbours::{pairs_within, pairs_within_centre_distance, Pair};
 use crate::packing::Packing;
 use crate::{Error, Result};
+use rayon::prelude::*;
 
 /// A pair whose centre distance is below this fraction of R_i + R_j is refused as
 /// near-coincident: with equal radii one centre lies inside the other sphere. No DEM packing
@@ -106,11 +107,12 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
     let r_mean = packing.mean_radius();
     let candidates = gap_pairs(packing, COORDINATION_MAX_GAP)?;
     let mut ranked: Vec<(f64, Pair)> = candidates
-        .into_iter()
+        .into_par_iter()
         .map(|p| (p.gap(packing) / r_mean, p))
         .collect();
-    // Sort by gap; ties broken by the canonical order so the choice is deterministic.
-    ranked.sort_by(|a, b| {
+    // Sort by gap; ties broken by the canonical order (each pair's (i, j, image) is its
+    // own), so the order is unique: a parallel unstable sort gives it on any thread count.
+    ranked.par_sort_unstable_by(|a, b| {
         a.0.total_cmp(&b.0)
             .then((a.1.i, a.1.j, a.1.image).cmp(&(b.1.i, b.1.j, b.1.image)))
     });
@@ -146,7 +148,7 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
     };
     ranked.truncate(best_k);
     let mut pairs: Vec<Pair> = ranked.into_iter().map(|(_, p)| p).collect();
-    pairs.sort_by_key(|p| (p.i, p.j, p.image));
+    pairs.par_sort_unstable_by_key(|p| (p.i, p.j, p.image));
     Ok((gap, pairs))
 }
 

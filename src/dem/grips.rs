@@ -376,7 +376,7 @@ pub fn relax_gripped(
         }
         // Every `window` steps, also the change of the mean measurement-sphere strain and,
         // once both are steady, the equilibrium of the free particles.
-        if steps % window == 0 {
+        if steps.is_multiple_of(window) {
             let strain = to_voigt(
                 &mean_tensor(&setup.spheres.displacement_gradient(sim)?),
                 true,

@@ -1003,7 +1003,7 @@ impl Simulation {
         }
         self.iteration += 1;
         self.time += dt;
-        if self.check_interval > 0 && self.iteration % self.check_interval as u64 == 0 {
+        if self.check_interval > 0 && self.iteration.is_multiple_of(self.check_interval as u64) {
             self.watchdog()?;
         }
         Ok(())

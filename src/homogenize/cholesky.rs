@@ -327,7 +327,7 @@ impl BlockCholesky {
     /// and they are the CG's coarse solve in every iteration); the halves are the same on any
     /// thread count, so the bits. An odd `C` is solved at once.
     pub(crate) fn solve_in_halves<const C: usize>(&self, b: &[Cols<C>]) -> Result<Vec<Cols<C>>> {
-        self.solve_split(b, C % 2 == 0)
+        self.solve_split(b, C.is_multiple_of(2))
     }
 
     /// [`Self::solve`] of `C` load cases with the triangular solves on all at once, or

@@ -24,6 +24,7 @@ pub(crate) mod amg;
 mod amg_blocks;
 pub(crate) mod buckling;
 pub(crate) mod cholesky;
+pub(crate) mod fused;
 pub(crate) mod geometric;
 pub(crate) mod laf;
 pub(crate) mod local;

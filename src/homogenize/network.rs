@@ -17,6 +17,11 @@ use rayon::prelude::*;
 /// A 6×6 block (DOFs × DOFs, or DOFs × load cases).
 pub type Block6 = Matrix6<f64>;
 
+/// A block of `C` load cases: each particle's six DOFs × `C` right-hand sides, column-major
+/// ([`Block6`] is `C` = 6). The relaxed tensor solves six load cases, a specimen one or two
+/// (issue 35): the CG and its preconditioner run on as many columns as are live.
+pub(crate) type Cols<const C: usize> = nalgebra::SMatrix<f64, 6, C>;
+
 /// Where the contact point (lever arm) of a bond sits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -164,20 +164,33 @@ pub struct RelaxedResult {
 
 /// Per-column dot products Σ_p (a_p ∘ b_p) summed over rows, deterministic (fixed chunks).
 fn column_dots<const C: usize>(a: &[Cols<C>], b: &[Cols<C>]) -> [f64; C] {
-    const CH: usize = 2048;
     let parts: Vec<[f64; C]> = a
-        .par_chunks(CH)
-        .zip(b.par_chunks(CH))
+        .par_chunks(DOT_ROWS)
+        .zip(b.par_chunks(DOT_ROWS))
         .map(|(ca, cb)| {
             let mut s = [0.0; C];
             for (x, y) in ca.iter().zip(cb) {
-                for (c, sc) in s.iter_mut().enumerate() {
-                    *sc += x.column(c).dot(&y.column(c));
-                }
+                add_row_dots(&mut s, x, y);
             }
             s
         })
         .collect();
+    sum_chunks(parts)
+}
+
+/// Rows per chunk of [`column_dots`]' sums (fixed: the same bits on any thread count).
+const DOT_ROWS: usize = 2048;
+
+/// One row's terms of [`column_dots`] added to `s`.
+#[inline(always)]
+fn add_row_dots<const C: usize>(s: &mut [f64; C], x: &Cols<C>, y: &Cols<C>) {
+    for (c, sc) in s.iter_mut().enumerate() {
+        *sc += x.column(c).dot(&y.column(c));
+    }
+}
+
+/// The chunks' sums added in chunk order.
+fn sum_chunks<const C: usize>(parts: Vec<[f64; C]>) -> [f64; C] {
     let mut s = [0.0; C];
     for part in parts {
         for c in 0..C {
@@ -996,7 +1009,11 @@ fn worst_residual<const C: usize>(r: &[Cols<C>], live: &[bool; C], bnorm: &[f64;
 
 /// Relative residual ‖r_c‖/‖b_c‖ of every live column (0 for the others).
 fn column_residuals<const C: usize>(r: &[Cols<C>], live: &[bool; C], bnorm: &[f64; C]) -> [f64; C] {
-    let rr = column_dots(r, r);
+    residuals_of(&column_dots(r, r), live, bnorm)
+}
+
+/// [`column_residuals`] from the squared norms ‖r_c‖² (`rr`).
+fn residuals_of<const C: usize>(rr: &[f64; C], live: &[bool; C], bnorm: &[f64; C]) -> [f64; C] {
     std::array::from_fn(|c| {
         if live[c] {
             rr[c].sqrt() / bnorm[c]
@@ -1104,8 +1121,13 @@ where
     // Load cases whose search direction reached the rounding level after their residual met
     // the tolerance: no further steps (their residual stays as it is).
     let mut done = [false; C];
+    // ‖r_c‖² from the last step, when it computed them with the block-Jacobi step.
+    let mut rr: Option<[f64; C]> = None;
     for it in 0..=opts.max_iterations {
-        let residual = column_residuals(&r, &live, &bnorm);
+        let residual = match rr.take() {
+            Some(rr) => residuals_of(&rr, &live, &bnorm),
+            None => column_residuals(&r, &live, &bnorm),
+        };
         worst = residual.iter().fold(0.0, |a: f64, &b| a.max(b));
         if worst <= opts.tolerance {
             return Ok((x, it, worst));
@@ -1124,9 +1146,25 @@ where
                 0.0
             }
         });
-        cg_step(&mut x, &mut r, &p, &ap, &alpha);
-        precondition.apply(&r, &mut z)?;
-        let rz_new = column_dots(&r, &z);
+        // z = M r and rᵀz; without the multigrid or dense groups in fewer passes over the
+        // rows (the same bits).
+        let rz_new = if precondition.jacobi_alone() {
+            let w = match precondition.two_level {
+                Some(_) => &mut precondition.w,
+                None => &mut z,
+            };
+            let cols = precondition.cols;
+            let (rr_new, rw) = cg_step_jacobi(&mut x, &mut r, &p, &ap, &alpha, pre, cols, w);
+            rr = Some(rr_new);
+            match precondition.two_level {
+                Some(_) => precondition.deflate_with_dots(&r, &mut z)?,
+                None => rw,
+            }
+        } else {
+            cg_step(&mut x, &mut r, &p, &ap, &alpha);
+            precondition.apply(&r, &mut z)?;
+            column_dots(&r, &z)
+        };
         let beta: [f64; C] = std::array::from_fn(|c| {
             if rz[c] > 0.0 && !done[c] {
                 rz_new[c] / rz[c]
@@ -1199,12 +1237,51 @@ where
             .zip(r.par_chunks(CH))
             .zip(pre.par_chunks(CH))
             .for_each(|((z, r), pre)| {
+                if super::fused::available() {
+                    // SAFETY: the fused kernels run here (checked above).
+                    return unsafe { Self::jacobi_fused(pre, cols, r, z) };
+                }
                 super::sparse::avx2!({
                     for ((z, r), (p, _)) in z.iter_mut().zip(r).zip(pre) {
                         *z = mul6_cols(p, r, cols);
                     }
                 })
             });
+    }
+
+    /// [`Self::jacobi`] on one chunk by the fused kernel ([`super::fused::straight_sum`]).
+    ///
+    /// # Safety
+    /// Only where [`super::fused::available`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
+    unsafe fn jacobi_fused(pre: &[(Block6, usize)], cols: usize, r: &[Cols<C>], z: &mut [Cols<C>]) {
+        for ((z, r), (p, _)) in z.iter_mut().zip(r).zip(pre) {
+            *z = super::fused::straight_sum(std::iter::once((p, r)), cols);
+        }
+    }
+
+    /// Whether M starts with the block-Jacobi step alone (no multigrid, no dense groups):
+    /// then [`cg_step_jacobi`] takes that step and [`Self::deflate_with_dots`] the rest.
+    fn jacobi_alone(&self) -> bool {
+        self.amg.is_none() && self.groups.is_none()
+    }
+
+    /// [`Self::apply`] with the coarse space after its block-Jacobi step (in `w`):
+    /// z = (I − QK) w, and rᵀz summed chunk by chunk as z is written (the bits of
+    /// [`column_dots`]: its chunks are the prolongation's).
+    fn deflate_with_dots(&mut self, r: &[Cols<C>], z: &mut [Cols<C>]) -> Result<[f64; C]> {
+        const _: () = assert!(super::two_level::PROLONG_ROWS == DOT_ROWS);
+        let Some(tl) = self.two_level else {
+            return Ok(column_dots(r, z));
+        };
+        let parts = tl.deflate_cols_then(&self.w, z, self.cols, |first, zs| {
+            let mut s = [0.0; C];
+            for (x, y) in r[first..first + zs.len()].iter().zip(zs) {
+                add_row_dots(&mut s, x, y);
+            }
+            s
+        })?;
+        Ok(sum_chunks(parts))
     }
 
     /// z = M r, or with the coarse space z = (I − QK) M r: with r ⟂ range(P) (arranged by
@@ -1313,6 +1390,100 @@ fn cg_step<const C: usize>(
                 }
             }
         });
+}
+
+/// [`cg_step`] with, in the same pass over the rows (each while it is in cache), the
+/// block-Jacobi step w = M r into `w` ([`Preconditioner::jacobi`]'s bits) and the column
+/// sums (rᵀr, rᵀw) of the new residual (those of [`column_dots`]: the same chunks and order,
+/// so the same bits): two or three passes over r fewer per iteration.
+#[allow(clippy::too_many_arguments)]
+fn cg_step_jacobi<const C: usize>(
+    x: &mut [Cols<C>],
+    r: &mut [Cols<C>],
+    p: &[Cols<C>],
+    ap: &[Cols<C>],
+    alpha: &[f64; C],
+    pre: &[(Block6, usize)],
+    cols: usize,
+    w: &mut [Cols<C>],
+) -> ([f64; C], [f64; C]) {
+    let fused = super::fused::available();
+    let parts: Vec<([f64; C], [f64; C])> = x
+        .par_chunks_mut(DOT_ROWS)
+        .zip(r.par_chunks_mut(DOT_ROWS))
+        .zip(p.par_chunks(DOT_ROWS).zip(ap.par_chunks(DOT_ROWS)))
+        .zip(pre.par_chunks(DOT_ROWS).zip(w.par_chunks_mut(DOT_ROWS)))
+        .map(|(((x, r), (p, ap)), (pre, w))| {
+            let rows = StepRows {
+                x,
+                r,
+                p,
+                ap,
+                pre,
+                w,
+            };
+            if fused {
+                // SAFETY: the fused kernels run here (checked above).
+                unsafe { rows.run_fused(alpha, cols) }
+            } else {
+                super::sparse::avx2!(rows.run(alpha, |a, b| mul6_cols(a, b, cols)))
+            }
+        })
+        .collect();
+    let (rr, rw) = parts.into_iter().unzip();
+    (sum_chunks(rr), sum_chunks(rw))
+}
+
+/// One chunk of [`cg_step_jacobi`].
+struct StepRows<'a, const C: usize> {
+    x: &'a mut [Cols<C>],
+    r: &'a mut [Cols<C>],
+    p: &'a [Cols<C>],
+    ap: &'a [Cols<C>],
+    pre: &'a [(Block6, usize)],
+    w: &'a mut [Cols<C>],
+}
+
+impl<const C: usize> StepRows<'_, C> {
+    /// The chunk's rows in order, `jacobi(M_p, r_p)` the block-Jacobi product; the chunk's
+    /// (rᵀr, rᵀw) per column.
+    #[inline(always)]
+    fn run(
+        self,
+        alpha: &[f64; C],
+        jacobi: impl Fn(&Block6, &Cols<C>) -> Cols<C>,
+    ) -> ([f64; C], [f64; C]) {
+        let (mut rr, mut rw) = ([0.0; C], [0.0; C]);
+        let rows = self.x.iter_mut().zip(self.r.iter_mut());
+        let with = self
+            .p
+            .iter()
+            .zip(self.ap)
+            .zip(self.pre.iter().zip(self.w.iter_mut()));
+        for ((x, r), ((p, ap), ((m, _), w))) in rows.zip(with) {
+            for (c, &a) in alpha.iter().enumerate() {
+                for i in 0..6 {
+                    x[(i, c)] += p[(i, c)] * a;
+                    r[(i, c)] -= ap[(i, c)] * a;
+                }
+            }
+            add_row_dots(&mut rr, r, r);
+            *w = jacobi(m, r);
+            add_row_dots(&mut rw, r, w);
+        }
+        (rr, rw)
+    }
+
+    /// [`Self::run`] with the fused block-Jacobi kernel.
+    ///
+    /// # Safety
+    /// Only where [`super::fused::available`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
+    unsafe fn run_fused(self, alpha: &[f64; C], cols: usize) -> ([f64; C], [f64; C]) {
+        self.run(alpha, |m, r| unsafe {
+            super::fused::straight_sum(std::iter::once((m, r)), cols)
+        })
+    }
 }
 
 #[cfg(test)]

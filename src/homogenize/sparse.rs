@@ -2,14 +2,12 @@
 //! specimen, the cavity, buckling, LAF) and its unrolled 6×6 block kernels: the bottom layer
 //! of `homogenize`, below the solvers (`cholesky`, `two_level`, `relaxed`) that use it.
 
+use super::fused;
 use super::network::{csr, Block6, Network};
 use crate::{Error, Result};
 use rayon::prelude::*;
 
-/// A block of `C` load cases: each particle's six DOFs × `C` right-hand sides, column-major
-/// ([`Block6`] is `C` = 6). The relaxed tensor solves six load cases, a specimen one or two
-/// (issue 35): the CG and its preconditioner run on as many columns as are live.
-pub(crate) type Cols<const C: usize> = nalgebra::SMatrix<f64, 6, C>;
+pub(crate) use super::network::Cols;
 
 /// The CG's blocks of `C` load cases seen as six, for the operators that only take six (the
 /// many-body term in factored form, its stiff groups, the multigrid): `None` below six.
@@ -93,25 +91,32 @@ impl BlockSparse {
         x: &[Block6],
     ) -> (Vec<Block6>, Vec<Block6>) {
         let (mut kx, mut diagonal) = (Vec::with_capacity(m), Vec::with_capacity(m));
-        assemble_rows(m, ends, blocks, false, |rows| {
-            // The chunk's rows as a matrix of their own (columns stay global): its
-            // `row_times` is `apply`'s product of each row.
-            let first = kx.len();
-            let chunk = BlockSparse::from_rows(rows);
-            let products: Vec<(Block6, Block6)> = (0..chunk.rows())
-                .into_par_iter()
-                .map(|k| {
-                    let diag = chunk
-                        .row(k)
-                        .find(|&(c, _)| c == first + k)
-                        .map_or(Block6::zeros(), |(_, d)| *d);
-                    (chunk.row_times(k, x, 6), diag)
-                })
-                .collect();
-            for (a, d) in products {
-                kx.push(a);
-                diagonal.push(d);
-            }
+        fused::with_transposed(x, 6, |xt| {
+            assemble_rows(m, ends, blocks, false, |rows| {
+                // The chunk's rows as a matrix of their own (columns stay global): its
+                // `row_times` is `apply`'s product of each row.
+                let first = kx.len();
+                let chunk = BlockSparse::from_rows(rows);
+                let products: Vec<(Block6, Block6)> = (0..chunk.rows())
+                    .into_par_iter()
+                    .map(|k| {
+                        let diag = chunk
+                            .row(k)
+                            .find(|&(c, _)| c == first + k)
+                            .map_or(Block6::zeros(), |(_, d)| *d);
+                        let times = match xt {
+                            // SAFETY: `xt` is given only where the fused kernels run.
+                            Some(xt) => unsafe { chunk.fused_row(k, xt) },
+                            None => chunk.row_times(k, x, 6),
+                        };
+                        (times, diag)
+                    })
+                    .collect();
+                for (a, d) in products {
+                    kx.push(a);
+                    diagonal.push(d);
+                }
+            });
         });
         (kx, diagonal)
     }
@@ -182,9 +187,27 @@ impl BlockSparse {
     /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
     /// solve with fewer than six right-hand sides does not pay for six.
     pub fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
-        y.par_iter_mut()
-            .enumerate()
-            .for_each(|(p, yp)| *yp = self.row_times(p, x, cols));
+        fused::with_transposed(x, cols, |xt| match xt {
+            // SAFETY: `xt` is given only where the fused kernels run.
+            Some(xt) => y
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(p, yp)| *yp = unsafe { self.fused_row(p, xt) }),
+            None => y
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(p, yp)| *yp = self.row_times(p, x, cols)),
+        });
+    }
+
+    /// Row `p` of K X by the fused kernel, X transposed in `xt` ([`fused::row`]).
+    ///
+    /// # Safety
+    /// As [`fused::row`]: only where [`fused::available`].
+    #[inline(always)]
+    unsafe fn fused_row<const C: usize>(&self, p: usize, xt: &[fused::CaseRows]) -> Cols<C> {
+        let range = self.row_start[p]..self.row_start[p + 1];
+        fused::row(xt, &[], &[], &self.col[range.clone()], &self.block[range])
     }
 
     /// Row `p` of K X on the first `n` load cases, its blocks in column order.
@@ -661,13 +684,44 @@ impl UpperBlocks {
         rows: usize,
         then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
     ) -> Vec<T> {
-        y.par_chunks_mut(rows)
-            .enumerate()
-            .map(|(c, ys)| {
-                avx2!(self.rows(c * rows, x, ys, cols));
-                then(c * rows, ys)
-            })
-            .collect()
+        fused::with_transposed(x, cols, |xt| {
+            y.par_chunks_mut(rows)
+                .enumerate()
+                .map(|(c, ys)| {
+                    match xt {
+                        // SAFETY: `xt` is given only where the fused kernels run.
+                        Some(xt) => unsafe { self.fused_rows(c * rows, xt, ys) },
+                        None => avx2!(self.rows(c * rows, x, ys, cols)),
+                    }
+                    then(c * rows, ys)
+                })
+                .collect()
+        })
+    }
+
+    /// Rows `first..` of K X into `ys` by the fused kernel ([`fused::row`]): the lower
+    /// blocks read transposed, then the row's own, in column order.
+    ///
+    /// # Safety
+    /// As [`fused::row`]: only where [`fused::available`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
+    unsafe fn fused_rows<const C: usize>(
+        &self,
+        first: usize,
+        xt: &[fused::CaseRows],
+        ys: &mut [Cols<C>],
+    ) {
+        for (p, yp) in (first..).zip(ys.iter_mut()) {
+            let low = &self.low[self.low_start[p]..self.low_start[p + 1]];
+            let own = self.row_start[p]..self.row_start[p + 1];
+            *yp = fused::row(
+                xt,
+                low,
+                &self.block,
+                &self.col[own.clone()],
+                &self.block[own],
+            );
+        }
     }
 
     /// Rows `first..` of K X into `ys`.

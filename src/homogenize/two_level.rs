@@ -9,6 +9,7 @@
 //! block-Jacobi iteration count grow with N, so iterations stay nearly flat.
 
 use super::cholesky::BlockCholesky;
+use super::fused::{self, CaseRows};
 use super::network::Block6;
 use super::sparse::{
     avx2, mul6_cols, mul_add6_cols, mul_add6_transposed_cols, BlockRows, BlockSparse, Cols,
@@ -307,6 +308,10 @@ pub struct TwoLevel {
 /// Fine rows per chunk of the streamed restriction ([`TwoLevel::coarse_of_k_cols`]): fixed,
 /// so the sums are the same on any thread count.
 const RESTRICT_ROWS: usize = 8192;
+
+/// Fine rows per chunk of the prolongation ([`TwoLevel::deflate_cols_then`]): each chunk's
+/// `then` sums (the CG's rᵀz) in the chunks of its dot products.
+pub(crate) const PROLONG_ROWS: usize = 2048;
 
 /// The restriction's chunks of `RESTRICT_ROWS` rows of K P (CSR `kp_start`, `kp`): per
 /// block its slot in its chunk's partial sums, per chunk its number of slots, and per
@@ -655,7 +660,8 @@ impl TwoLevel {
 
     /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
     pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
-        self.prolong_coarse_of_k(w, out, cols, |_, o| o)
+        self.prolong_coarse_of_k(w, out, cols, |_, o| o, |_, _| ())
+            .map(|_| ())
     }
 
     /// w − Q K w into `z` on the first `cols` of `C` load cases (the bits of `w` less
@@ -666,24 +672,44 @@ impl TwoLevel {
         z: &mut [Cols<C>],
         cols: usize,
     ) -> Result<()> {
-        self.prolong_coarse_of_k(w, z, cols, |p, o| w[p] - o)
+        self.deflate_cols_then(w, z, cols, |_, _| ()).map(|_| ())
     }
 
-    /// out_p = `finish`(p, (Q K w)_p) for every fine node p.
-    fn prolong_coarse_of_k<const C: usize>(
+    /// [`Self::deflate_cols`], calling `then(first row, chunk of z)` on each chunk of
+    /// [`PROLONG_ROWS`] rows as soon as it is written (while it is in cache); the chunks'
+    /// results in order.
+    pub(crate) fn deflate_cols_then<T: Send, const C: usize>(
+        &self,
+        w: &[Cols<C>],
+        z: &mut [Cols<C>],
+        cols: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Result<Vec<T>> {
+        self.prolong_coarse_of_k(w, z, cols, |p, o| w[p] - o, then)
+    }
+
+    /// out_p = `finish`(p, (Q K w)_p) for every fine node p, by chunks of [`PROLONG_ROWS`]
+    /// rows, each then passed to `then`.
+    fn prolong_coarse_of_k<T: Send, const C: usize>(
         &self,
         w: &[Cols<C>],
         out: &mut [Cols<C>],
         cols: usize,
         finish: impl Fn(usize, Cols<C>) -> Cols<C> + Sync,
-    ) -> Result<()> {
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Result<Vec<T>> {
         let layers = self.layers;
         let m = self.aggregate.len();
+        let fused = fused::available();
         let partial: Vec<Vec<Cols<C>>> = self
             .chunk_slots
             .par_iter()
             .enumerate()
             .map(|(c, &slots)| {
+                if fused {
+                    // SAFETY: the fused kernels run here (checked above).
+                    return unsafe { self.restrict_chunk_fused(c, slots as usize, w, cols) };
+                }
                 let mut part = vec![Cols::<C>::zeros(); slots as usize];
                 avx2!({
                     let first = c * RESTRICT_ROWS;
@@ -713,8 +739,13 @@ impl TwoLevel {
             })
             .collect();
         let xc = self.coarse.solve_in_halves(&restricted)?;
-        const CH: usize = 512;
-        out.par_chunks_mut(CH).enumerate().for_each(|(k, outs)| {
+        const CH: usize = PROLONG_ROWS;
+        let done = out.par_chunks_mut(CH).enumerate().map(|(k, outs)| {
+            if fused {
+                // SAFETY: the fused kernels run here (checked above).
+                unsafe { self.prolong_chunk_fused(k * CH, outs, &xc, cols, &finish) };
+                return then(k * CH, outs);
+            }
             avx2!({
                 for (p, o) in (k * CH..).zip(outs.iter_mut()) {
                     let c = self.aggregate[p] as usize * layers;
@@ -724,9 +755,59 @@ impl TwoLevel {
                     }
                     *o = finish(p, s);
                 }
-            })
+            });
+            then(k * CH, outs)
         });
-        Ok(())
+        Ok(done.collect())
+    }
+
+    /// Chunk `c`'s partial restriction (K P)ᵀ w over its `slots` coarse nodes, by the fused
+    /// kernel: each fine row of w transposed once, the sums kept transposed.
+    ///
+    /// # Safety
+    /// As [`fused::add_transposed`]: only where [`fused::available`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
+    unsafe fn restrict_chunk_fused<const C: usize>(
+        &self,
+        c: usize,
+        slots: usize,
+        w: &[Cols<C>],
+        cols: usize,
+    ) -> Vec<Cols<C>> {
+        let mut part = vec![CaseRows::default(); slots];
+        let first = c * RESTRICT_ROWS;
+        let rows = &w[first..(first + RESTRICT_ROWS).min(self.aggregate.len())];
+        for (p, wp) in (first..).zip(rows) {
+            let wt = CaseRows::of(wp, cols);
+            for at in self.kp_start[p]..self.kp_start[p + 1] {
+                fused::add_transposed(&mut part[self.slot[at] as usize], &self.kp[at].1, &wt);
+            }
+        }
+        part.into_iter().map(CaseRows::to_cols).collect()
+    }
+
+    /// The prolongation of the coarse solution `xc` into the rows `first..` (`outs`), by the
+    /// fused kernel, each passed through `finish`.
+    ///
+    /// # Safety
+    /// As [`fused::straight_sum`]: only where [`fused::available`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
+    unsafe fn prolong_chunk_fused<const C: usize>(
+        &self,
+        first: usize,
+        outs: &mut [Cols<C>],
+        xc: &[Cols<C>],
+        cols: usize,
+        finish: &impl Fn(usize, Cols<C>) -> Cols<C>,
+    ) {
+        let layers = self.layers;
+        for (p, o) in (first..).zip(outs.iter_mut()) {
+            let c = self.aggregate[p] as usize * layers;
+            let terms = self.prolongation[p * layers..(p + 1) * layers]
+                .iter()
+                .zip(&xc[c..c + layers]);
+            *o = finish(p, fused::straight_sum(terms, cols));
+        }
     }
 }
 

@@ -486,14 +486,14 @@ impl FireSystem for FixedCell<'_> {
     /// Overlap-free (largest overlap below the target), or force balanced (checked every 10
     /// iterations); reports to `on_check` at the start and every 25 iterations.
     fn converged(&mut self, iterations: usize) -> bool {
-        if iterations % 25 == 0 {
+        if iterations.is_multiple_of(25) {
             (self.on_check)(iterations, self.worst);
         }
         if self.worst < self.target.max_overlap {
             return true;
         }
         if let Some(ratio) = self.target.force_balance {
-            if iterations % 10 == 0 && self.balanced(ratio) {
+            if iterations.is_multiple_of(10) && self.balanced(ratio) {
                 self.force_balanced = true;
                 return true;
             }
@@ -948,7 +948,7 @@ impl FireSystem for VariableCell<'_> {
             pressure: self.pressure,
             side,
         };
-        if iterations % 25 == 0 || residual <= 1.0 || iterations >= target.max_iterations {
+        if iterations.is_multiple_of(25) || residual <= 1.0 || iterations >= target.max_iterations {
             (self.on_check)(&check);
         }
         residual <= 1.0

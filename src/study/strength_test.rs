@@ -988,7 +988,7 @@ pub fn run(
     let (mut running_max, mut stop) = (0usize, "max-strain");
     while run.displacement < opts.max_strain * length {
         run.step()?;
-        if run.sim.iteration() % record_every != 0 {
+        if !run.sim.iteration().is_multiple_of(record_every) {
             continue;
         }
         let broken = run.sim.break_events().len();
