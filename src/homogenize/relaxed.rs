@@ -1237,7 +1237,7 @@ where
             .zip(r.par_chunks(CH))
             .zip(pre.par_chunks(CH))
             .for_each(|((z, r), pre)| {
-                if super::fused::available() {
+                if super::fused::runs::<C>() {
                     // SAFETY: the fused kernels run here (checked above).
                     return unsafe { Self::jacobi_fused(pre, cols, r, z) };
                 }
@@ -1407,7 +1407,7 @@ fn cg_step_jacobi<const C: usize>(
     cols: usize,
     w: &mut [Cols<C>],
 ) -> ([f64; C], [f64; C]) {
-    let fused = super::fused::available();
+    let fused = super::fused::runs::<C>();
     let parts: Vec<([f64; C], [f64; C])> = x
         .par_chunks_mut(DOT_ROWS)
         .zip(r.par_chunks_mut(DOT_ROWS))
@@ -1580,7 +1580,9 @@ mod tests {
 
     /// The CG on one or two live load cases runs on blocks of that many columns
     /// ([`narrow_pcg`]: a specimen's solve) and gives the six-column CG's solution on them
-    /// bit for bit, in as many iterations: every column's operations are the same.
+    /// bit for bit, in as many iterations: every column's operations are the same. Where the
+    /// six columns run the fused kernels and the narrow ones do not ([`super::super::fused::runs`]),
+    /// the same up to their rounding, in as many iterations.
     #[test]
     fn narrow_load_cases_give_the_six_column_solution() {
         let n = 16;
@@ -1618,7 +1620,18 @@ mod tests {
             let (wide, it_wide, _) =
                 pcg(&op, &b, &pre, (None, None), &scale, &opts, None).expect("converged");
             assert!(it_narrow > 2, "{it_narrow}");
-            assert_eq!((narrow, it_narrow), (wide, it_wide), "{live} load cases");
+            if super::super::fused::runs::<6>() {
+                assert_eq!(it_narrow, it_wide, "{live} load cases");
+                let scale = wide.iter().map(|w| w.amax()).fold(0.0, f64::max);
+                for (n, w) in narrow.iter().zip(&wide) {
+                    assert!(
+                        (n - w).amax() <= 1e-12 * scale,
+                        "{live} load cases: {n} {w}"
+                    );
+                }
+            } else {
+                assert_eq!((narrow, it_narrow), (wide, it_wide), "{live} load cases");
+            }
         }
     }
 

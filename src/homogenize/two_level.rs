@@ -700,7 +700,7 @@ impl TwoLevel {
     ) -> Result<Vec<T>> {
         let layers = self.layers;
         let m = self.aggregate.len();
-        let fused = fused::available();
+        let fused = fused::runs::<C>();
         let partial: Vec<Vec<Cols<C>>> = self
             .chunk_slots
             .par_iter()
