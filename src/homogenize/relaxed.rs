@@ -1382,14 +1382,24 @@ fn cg_step<const C: usize>(
     x.par_iter_mut()
         .zip(r.par_iter_mut())
         .zip(p.par_iter().zip(ap.par_iter()))
-        .for_each(|((x, r), (p, ap))| {
-            for (c, &a) in alpha.iter().enumerate() {
-                for i in 0..6 {
-                    x[(i, c)] += p[(i, c)] * a;
-                    r[(i, c)] -= ap[(i, c)] * a;
-                }
-            }
-        });
+        .for_each(|((x, r), (p, ap))| step_row(x, r, p, ap, alpha));
+}
+
+/// One row of [`cg_step`].
+#[inline(always)]
+fn step_row<const C: usize>(
+    x: &mut Cols<C>,
+    r: &mut Cols<C>,
+    p: &Cols<C>,
+    ap: &Cols<C>,
+    alpha: &[f64; C],
+) {
+    for (c, &a) in alpha.iter().enumerate() {
+        for i in 0..6 {
+            x[(i, c)] += p[(i, c)] * a;
+            r[(i, c)] -= ap[(i, c)] * a;
+        }
+    }
 }
 
 /// [`cg_step`] with, in the same pass over the rows (each while it is in cache), the
@@ -1461,12 +1471,7 @@ impl<const C: usize> StepRows<'_, C> {
             .zip(self.ap)
             .zip(self.pre.iter().zip(self.w.iter_mut()));
         for ((x, r), ((p, ap), ((m, _), w))) in rows.zip(with) {
-            for (c, &a) in alpha.iter().enumerate() {
-                for i in 0..6 {
-                    x[(i, c)] += p[(i, c)] * a;
-                    r[(i, c)] -= ap[(i, c)] * a;
-                }
-            }
+            step_row(x, r, p, ap, alpha);
             add_row_dots(&mut rr, r, r);
             *w = jacobi(m, r);
             add_row_dots(&mut rw, r, w);
