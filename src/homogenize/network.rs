@@ -150,6 +150,30 @@ impl BondLaw {
 
 /// Element matrices of a bond; `rotations = false` locks the particle rotations.
 pub fn element(law: &BondLaw, rotations: bool) -> Element {
+    let (s, bi, bj) = bond_maps(law, rotations);
+    let (kii, kjj, kij) = stiffness_of(law, rotations, &s, &bi, &bj);
+    let lmap = affine_map(&(law.normal * law.length));
+    let sl = s * lmap;
+    Element {
+        kii,
+        kjj,
+        kij,
+        gi: bi.transpose() * sl,
+        gj: bj.transpose() * sl,
+        h: lmap.transpose() * sl,
+    }
+}
+
+/// The stiffness blocks (K_ii, K_jj, K_ij) of [`element`] alone, the same bits, without its
+/// load terms G and H: all that K's assembly needs (half the element's arithmetic).
+pub(crate) fn element_stiffness(law: &BondLaw, rotations: bool) -> (Block6, Block6, Block6) {
+    let (s, bi, bj) = bond_maps(law, rotations);
+    stiffness_of(law, rotations, &s, &bi, &bj)
+}
+
+/// The bond's translational spring matrix S = k_s I + (k_n − k_s) n⊗n and the maps B_i, B_j
+/// of each end's (u, θ) to the relative displacement at the contact.
+fn bond_maps(law: &BondLaw, rotations: bool) -> (Mat3, Matrix3x6<f64>, Matrix3x6<f64>) {
     let n = law.normal;
     let nn = n * n.transpose();
     let s = Mat3::identity() * law.ks + nn * (law.kn - law.ks);
@@ -164,28 +188,31 @@ pub fn element(law: &BondLaw, rotations: bool) -> Element {
         bj.fixed_view_mut::<3, 3>(0, 3)
             .copy_from(&skew(&(n * law.arms.1)));
     }
-    let lmap = affine_map(&(n * law.length));
+    (s, bi, bj)
+}
+
+/// Bᵢᵀ S Bⱼ for the three pairs of ends, plus the bending and twisting springs.
+fn stiffness_of(
+    law: &BondLaw,
+    rotations: bool,
+    s: &Mat3,
+    bi: &Matrix3x6<f64>,
+    bj: &Matrix3x6<f64>,
+) -> (Block6, Block6, Block6) {
     let sbi = s * bi;
     let sbj = s * bj;
-    let sl = s * lmap;
     let mut kii = bi.transpose() * sbi;
     let mut kjj = bj.transpose() * sbj;
     let mut kij = bi.transpose() * sbj;
     if rotations && (law.kr != 0.0 || law.ktw != 0.0) {
+        let nn = law.normal * law.normal.transpose();
         let rm = (Mat3::identity() - nn) * law.kr + nn * law.ktw;
         for (blk, sign) in [(&mut kii, 1.0), (&mut kjj, 1.0), (&mut kij, -1.0)] {
             let mut v = blk.fixed_view_mut::<3, 3>(3, 3);
             v += rm * sign;
         }
     }
-    Element {
-        kii,
-        kjj,
-        kij,
-        gi: bi.transpose() * sl,
-        gj: bj.transpose() * sl,
-        h: lmap.transpose() * sl,
-    }
+    (kii, kjj, kij)
 }
 
 /// G = (N/|l|)(I − n⊗n): the geometric stiffness (N/m) of one bond on the relative
@@ -202,20 +229,50 @@ pub fn bond_geometric_stiffness(force: &Vec3, normal: &Vec3, length: f64) -> Mat
 /// S_g = (N/l)(I − nn) with no rotation coupling (the force acts along the centre line).
 /// Geometric terms of preloaded shear forces and moments are not included.
 pub fn geometric_element(normal: &Vec3, length: f64, axial_force: f64) -> Element {
-    let s = bond_geometric_stiffness(&(normal * axial_force), normal, length);
-    let mut bj = Matrix3x6::zeros();
-    bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
-    let bi = -bj;
+    let (s, bi, bj) = geometric_maps(normal, length, axial_force);
+    let (kii, kjj, kij) = geometric_stiffness_of(&s, &bi, &bj);
     let lmap = affine_map(&(normal * length));
-    let (sbj, sl) = (s * bj, s * lmap);
+    let sl = s * lmap;
     Element {
-        kii: bi.transpose() * (s * bi),
-        kjj: bj.transpose() * sbj,
-        kij: bi.transpose() * sbj,
+        kii,
+        kjj,
+        kij,
         gi: bi.transpose() * sl,
         gj: bj.transpose() * sl,
         h: lmap.transpose() * sl,
     }
+}
+
+/// The stiffness blocks of [`geometric_element`] alone (the same bits).
+fn geometric_stiffness(normal: &Vec3, length: f64, axial_force: f64) -> (Block6, Block6, Block6) {
+    let (s, bi, bj) = geometric_maps(normal, length, axial_force);
+    geometric_stiffness_of(&s, &bi, &bj)
+}
+
+/// S_g and the translation-only maps B_i = −B_j of [`geometric_element`].
+fn geometric_maps(
+    normal: &Vec3,
+    length: f64,
+    axial_force: f64,
+) -> (Mat3, Matrix3x6<f64>, Matrix3x6<f64>) {
+    let s = bond_geometric_stiffness(&(normal * axial_force), normal, length);
+    let mut bj = Matrix3x6::zeros();
+    bj.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+    (s, -bj, bj)
+}
+
+/// Bᵢᵀ S_g Bⱼ for the three pairs of ends.
+fn geometric_stiffness_of(
+    s: &Mat3,
+    bi: &Matrix3x6<f64>,
+    bj: &Matrix3x6<f64>,
+) -> (Block6, Block6, Block6) {
+    let sbj = s * bj;
+    (
+        bi.transpose() * (s * bi),
+        bj.transpose() * sbj,
+        bi.transpose() * sbj,
+    )
 }
 
 impl std::ops::AddAssign for Element {
@@ -472,6 +529,20 @@ impl Network {
         el
     }
 
+    /// The stiffness blocks (K_ii, K_jj, K_ij) of [`Network::element`] alone, the same bits:
+    /// what K's assembly forms at both rows of every bond.
+    pub(crate) fn stiffness_blocks(&self, e: usize) -> (Block6, Block6, Block6) {
+        let law = &self.laws[e];
+        let (mut kii, mut kjj, mut kij) = element_stiffness(law, self.rotations);
+        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+            let (gii, gjj, gij) = geometric_stiffness(&law.normal, law.length, f);
+            kii += gii;
+            kjj += gjj;
+            kij += gij;
+        }
+        (kii, kjj, kij)
+    }
+
     /// Free every bond's springs, geometry and preload once K is assembled (80 bytes a bond:
     /// 0.3 GB at a million particles, issue 35); [`Network::element`] then panics.
     pub(crate) fn release_springs(&mut self) {
@@ -683,6 +754,40 @@ mod tests {
         let (inv, rank) = pinv_psd(&b);
         assert_eq!(rank, 6);
         assert!((b * inv - Block6::identity()).abs().max() < 1e-12);
+    }
+
+    /// K's assembly forms the stiffness blocks alone: the element's, bit for bit, with and
+    /// without rotations, bending and twisting springs, and a preload.
+    #[test]
+    fn stiffness_blocks_are_the_elements_bit_for_bit() {
+        let n = Vec3::new(0.48, -0.6, 0.64);
+        for (rotations, kr, ktw) in [(true, 3.1e2, 1.7e2), (true, 0.0, 0.0), (false, 3.1e2, 0.0)] {
+            let law = BondLaw {
+                normal: n,
+                length: 2.1e-3,
+                arms: (1.0e-3, 1.1e-3),
+                kn: 2e8,
+                ks: 7e7,
+                kr,
+                ktw,
+            };
+            let el = element(&law, rotations);
+            assert_eq!(element_stiffness(&law, rotations), (el.kii, el.kjj, el.kij));
+            let g = geometric_element(&n, law.length, -3.7);
+            assert_eq!(
+                geometric_stiffness(&n, law.length, -3.7),
+                (g.kii, g.kjj, g.kij)
+            );
+        }
+        let net = mrv_test_network();
+        for e in 0..net.ends.len() {
+            let el = net.element(e);
+            assert_eq!(
+                net.stiffness_blocks(e),
+                (el.kii, el.kjj, el.kij),
+                "bond {e}"
+            );
+        }
     }
 
     #[test]

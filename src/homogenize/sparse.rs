@@ -370,10 +370,7 @@ impl BlockSparse {
 
 /// Edge e's blocks (K_ii, K_jj, K_ij) of a network, from its element.
 fn element_blocks(net: &Network) -> impl Fn(usize) -> (Block6, Block6, Block6) + Sync + '_ {
-    |e| {
-        let el = net.element(e);
-        (el.kii, el.kjj, el.kij)
-    }
+    |e| net.stiffness_blocks(e)
 }
 
 /// The block rows of K over `m` nodes and the edges `ends`, by chunks of rows handed to

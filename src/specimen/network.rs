@@ -4,7 +4,7 @@
 use super::{axis_name, Selection, SpecimenOptions};
 use crate::assembly::Assembly;
 use crate::bonds::BondSet;
-use crate::homogenize::network::{element, prune_dangling, Block6, BondLaw};
+use crate::homogenize::network::{element_stiffness, prune_dangling, Block6, BondLaw};
 use crate::homogenize::sparse::BlockSparse;
 use crate::packing::Packing;
 use crate::{Error, Result, Vec3};
@@ -237,7 +237,7 @@ impl Network {
         let lateral = [(opts.axis + 1) % 3, (opts.axis + 2) % 3];
         let element_of = |b: usize| {
             let law = BondLaw::of(packing, bonds, &assembly.springs, b, opts.lever_arm);
-            element(&law, true)
+            element_stiffness(&law, true)
         };
         let mut index = vec![u32::MAX; packing.len()];
         for (a, &p) in self.original.iter().enumerate() {
@@ -267,8 +267,7 @@ impl Network {
         }
         let blocks = |e: usize| -> (Block6, Block6, Block6) {
             if e < nb {
-                let el = element_of(self.loaded_bonds[e]);
-                return (el.kii, el.kjj, el.kij);
+                return element_of(self.loaded_bonds[e]);
             }
             let (b, at_j) = across[e - nb];
             // T (3×6) = [n₀ I | n₁ I] maps the period changes to j's extra translation.
@@ -279,13 +278,13 @@ impl Network {
                     t[(r, 3 * c + r)] = nd;
                 }
             }
-            let el = element_of(b);
+            let (_, kjj, kij) = element_of(b);
             if at_j {
-                let kj_t = el.kjj.fixed_view::<6, 3>(0, 0) * t;
+                let kj_t = kjj.fixed_view::<6, 3>(0, 0) * t;
                 (Block6::zeros(), Block6::zeros(), kj_t)
             } else {
-                let ki_t = el.kij.fixed_view::<6, 3>(0, 0) * t;
-                let kaa = t.transpose() * el.kjj.fixed_view::<3, 3>(0, 0) * t;
+                let ki_t = kij.fixed_view::<6, 3>(0, 0) * t;
+                let kaa = t.transpose() * kjj.fixed_view::<3, 3>(0, 0) * t;
                 (Block6::zeros(), kaa, ki_t)
             }
         };
