@@ -151,8 +151,21 @@ impl BondLaw {
 /// Element matrices of a bond; `rotations = false` locks the particle rotations.
 pub fn element(law: &BondLaw, rotations: bool) -> Element {
     let (s, bi, bj) = bond_maps(law, rotations);
-    let (kii, kjj, kij) = stiffness_of(law, rotations, &s, &bi, &bj);
-    let lmap = affine_map(&(law.normal * law.length));
+    let blocks = stiffness_of(law, rotations, &s, &bi, &bj);
+    with_load_terms(blocks, &s, &bi, &bj, &(law.normal * law.length))
+}
+
+/// The element of the stiffness `blocks` (K_ii, K_jj, K_ij) with its load terms: the
+/// affine map of the branch vector `branch` through S, G_i = B_iᵀ S L, G_j = B_jᵀ S L,
+/// H = Lᵀ S L.
+fn with_load_terms(
+    (kii, kjj, kij): (Block6, Block6, Block6),
+    s: &Mat3,
+    bi: &Matrix3x6<f64>,
+    bj: &Matrix3x6<f64>,
+    branch: &Vec3,
+) -> Element {
+    let lmap = affine_map(branch);
     let sl = s * lmap;
     Element {
         kii,
@@ -199,11 +212,7 @@ fn stiffness_of(
     bi: &Matrix3x6<f64>,
     bj: &Matrix3x6<f64>,
 ) -> (Block6, Block6, Block6) {
-    let sbi = s * bi;
-    let sbj = s * bj;
-    let mut kii = bi.transpose() * sbi;
-    let mut kjj = bj.transpose() * sbj;
-    let mut kij = bi.transpose() * sbj;
+    let (mut kii, mut kjj, mut kij) = spring_blocks(s, bi, bj);
     if rotations && (law.kr != 0.0 || law.ktw != 0.0) {
         let nn = law.normal * law.normal.transpose();
         let rm = (Mat3::identity() - nn) * law.kr + nn * law.ktw;
@@ -230,23 +239,19 @@ pub fn bond_geometric_stiffness(force: &Vec3, normal: &Vec3, length: f64) -> Mat
 /// Geometric terms of preloaded shear forces and moments are not included.
 pub fn geometric_element(normal: &Vec3, length: f64, axial_force: f64) -> Element {
     let (s, bi, bj) = geometric_maps(normal, length, axial_force);
-    let (kii, kjj, kij) = geometric_stiffness_of(&s, &bi, &bj);
-    let lmap = affine_map(&(normal * length));
-    let sl = s * lmap;
-    Element {
-        kii,
-        kjj,
-        kij,
-        gi: bi.transpose() * sl,
-        gj: bj.transpose() * sl,
-        h: lmap.transpose() * sl,
-    }
+    with_load_terms(
+        spring_blocks(&s, &bi, &bj),
+        &s,
+        &bi,
+        &bj,
+        &(normal * length),
+    )
 }
 
 /// The stiffness blocks of [`geometric_element`] alone (the same bits).
 fn geometric_stiffness(normal: &Vec3, length: f64, axial_force: f64) -> (Block6, Block6, Block6) {
     let (s, bi, bj) = geometric_maps(normal, length, axial_force);
-    geometric_stiffness_of(&s, &bi, &bj)
+    spring_blocks(&s, &bi, &bj)
 }
 
 /// S_g and the translation-only maps B_i = −B_j of [`geometric_element`].
@@ -261,15 +266,13 @@ fn geometric_maps(
     (s, -bj, bj)
 }
 
-/// Bᵢᵀ S_g Bⱼ for the three pairs of ends.
-fn geometric_stiffness_of(
-    s: &Mat3,
-    bi: &Matrix3x6<f64>,
-    bj: &Matrix3x6<f64>,
-) -> (Block6, Block6, Block6) {
+/// Bᵢᵀ S Bᵢ, Bⱼᵀ S Bⱼ and Bᵢᵀ S Bⱼ: the blocks of a translational spring matrix S between
+/// the ends' maps (the bond's springs, or a preload's geometric stiffness).
+fn spring_blocks(s: &Mat3, bi: &Matrix3x6<f64>, bj: &Matrix3x6<f64>) -> (Block6, Block6, Block6) {
+    let sbi = s * bi;
     let sbj = s * bj;
     (
-        bi.transpose() * (s * bi),
+        bi.transpose() * sbi,
         bj.transpose() * sbj,
         bi.transpose() * sbj,
     )

@@ -1157,7 +1157,7 @@ where
             let (rr_new, rw) = cg_step_jacobi(&mut x, &mut r, &p, &ap, &alpha, pre, cols, w);
             rr = Some(rr_new);
             match precondition.two_level {
-                Some(_) => precondition.deflate_with_dots(&r, &mut z)?,
+                Some(tl) => precondition.deflate_with_dots(tl, &r, &mut z)?,
                 None => rw,
             }
         } else {
@@ -1266,14 +1266,16 @@ where
         self.amg.is_none() && self.groups.is_none()
     }
 
-    /// [`Self::apply`] with the coarse space after its block-Jacobi step (in `w`):
+    /// [`Self::apply`] with the coarse space `tl` after its block-Jacobi step (in `w`):
     /// z = (I − QK) w, and rᵀz summed chunk by chunk as z is written (the bits of
     /// [`column_dots`]: its chunks are the prolongation's).
-    fn deflate_with_dots(&mut self, r: &[Cols<C>], z: &mut [Cols<C>]) -> Result<[f64; C]> {
+    fn deflate_with_dots(
+        &self,
+        tl: &TwoLevel,
+        r: &[Cols<C>],
+        z: &mut [Cols<C>],
+    ) -> Result<[f64; C]> {
         const _: () = assert!(super::two_level::PROLONG_ROWS == DOT_ROWS);
-        let Some(tl) = self.two_level else {
-            return Ok(column_dots(r, z));
-        };
         let parts = tl.deflate_cols_then(&self.w, z, self.cols, |first, zs| {
             let mut s = [0.0; C];
             for (x, y) in r[first..first + zs.len()].iter().zip(zs) {

@@ -104,12 +104,7 @@ impl BlockSparse {
                             .row(k)
                             .find(|&(c, _)| c == first + k)
                             .map_or(Block6::zeros(), |(_, d)| *d);
-                        let times = match xt {
-                            // SAFETY: `xt` is given only where the fused kernels run.
-                            Some(xt) => unsafe { chunk.fused_row(k, xt) },
-                            None => chunk.row_times(k, x, 6),
-                        };
-                        (times, diag)
+                        (chunk.row_times_with(k, x, xt, 6), diag)
                     })
                     .collect();
                 for (a, d) in products {
@@ -187,27 +182,29 @@ impl BlockSparse {
     /// [`Self::apply`] on the first `cols` load cases only (the others of Y are zero): a
     /// solve with fewer than six right-hand sides does not pay for six.
     pub fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
-        fused::with_transposed(x, cols, |xt| match xt {
-            // SAFETY: `xt` is given only where the fused kernels run.
-            Some(xt) => y
-                .par_iter_mut()
+        fused::with_transposed(x, cols, |xt| {
+            y.par_iter_mut()
                 .enumerate()
-                .for_each(|(p, yp)| *yp = unsafe { self.fused_row(p, xt) }),
-            None => y
-                .par_iter_mut()
-                .enumerate()
-                .for_each(|(p, yp)| *yp = self.row_times(p, x, cols)),
+                .for_each(|(p, yp)| *yp = self.row_times_with(p, x, xt, cols))
         });
     }
 
-    /// Row `p` of K X by the fused kernel, X transposed in `xt` ([`fused::row`]).
-    ///
-    /// # Safety
-    /// As [`fused::row`]: only where [`fused::available`].
+    /// Row `p` of K X: by the fused kernel on X transposed (`xt`, as
+    /// [`fused::with_transposed`] gives it), else by [`Self::row_times`].
     #[inline(always)]
-    unsafe fn fused_row<const C: usize>(&self, p: usize, xt: &[fused::CaseRows]) -> Cols<C> {
+    fn row_times_with<const C: usize>(
+        &self,
+        p: usize,
+        x: &[Cols<C>],
+        xt: Option<&[fused::CaseRows]>,
+        cols: usize,
+    ) -> Cols<C> {
+        let Some(xt) = xt else {
+            return self.row_times(p, x, cols);
+        };
         let range = self.row_start[p]..self.row_start[p + 1];
-        fused::row(xt, &[], &[], &self.col[range.clone()], &self.block[range])
+        // SAFETY: `with_transposed` gives `xt` only where the fused kernels run.
+        unsafe { fused::row(xt, &[], &[], &self.col[range.clone()], &self.block[range]) }
     }
 
     /// Row `p` of K X on the first `n` load cases, its blocks in column order.
