@@ -15,6 +15,7 @@
 
 use super::amg::Amg;
 use super::cholesky::BlockCholesky;
+use super::fused::CaseRows;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
 use super::sparse::{mul6_cols, AsSix, BlockRows, BlockSparse, Cols, UpperBlocks};
 use super::term_operator::TermOperator;
@@ -678,9 +679,11 @@ impl Stiffness<'_> {
     /// K p into `ap` and the curvatures of [`curvatures`] (the same bits), in one pass over
     /// the rows when K is the springs' upper triangle alone: each chunk's sums are taken as
     /// soon as its rows of K p are computed, while p and K p are in cache.
+    /// `pt`: p transposed, when the CG keeps it so ([`Self::takes_transposed`]).
     fn apply_curvatures<const C: usize>(
         &self,
         p: &[Cols<C>],
+        pt: Option<&[CaseRows]>,
         ap: &mut [Cols<C>],
         cols: usize,
     ) -> ([f64; C], [f64; C])
@@ -689,10 +692,14 @@ impl Stiffness<'_> {
     {
         match (self.k, self.term) {
             (Springs::Upper(k), None) => {
-                let parts = k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, |first, ys| {
+                let then = |first: usize, ys: &[Cols<C>]| {
                     let rows = first..first + ys.len();
                     curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
-                });
+                };
+                let parts = match pt {
+                    Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
+                    None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
+                };
                 sum_curvatures(parts)
             }
             _ => {
@@ -700,6 +707,12 @@ impl Stiffness<'_> {
                 curvatures(p, ap, &self.diag)
             }
         }
+    }
+
+    /// Whether [`Self::apply_curvatures`] reads p transposed on `C` load cases (the springs'
+    /// upper triangle alone, by the fused kernels): then the CG keeps p so as it updates it.
+    fn takes_transposed<const C: usize>(&self) -> bool {
+        matches!((self.k, self.term), (Springs::Upper(_), None)) && super::fused::runs::<C>()
     }
 
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
@@ -1114,7 +1127,21 @@ where
     precondition.apply(&r, &mut z)?;
     let mut p = z.clone();
     let mut ap = vec![Cols::<C>::zeros(); m];
-    let mut rz = column_dots(&r, &z);
+    // With the coarse space after the block-Jacobi step alone, z = (I − QK) w has rᵀz = rᵀw
+    // (Pᵀr = 0, see [`Preconditioner::apply`]): the CG takes rᵀw, and each step's z goes
+    // straight into the next direction ([`TwoLevel::deflated_direction`]), never stored.
+    let deflated = precondition.jacobi_alone() && precondition.two_level.is_some();
+    let mut rz = if deflated {
+        z = Vec::new();
+        column_dots(&r, &precondition.w)
+    } else {
+        column_dots(&r, &z)
+    };
+    // p transposed for the products with K, kept by the deflated direction update.
+    let mut pt: Vec<CaseRows> = match deflated && k.takes_transposed::<C>() {
+        true => p.par_iter().map(|q| CaseRows::of(q, cols)).collect(),
+        false => Vec::new(),
+    };
     let mut worst = 0.0;
     // |fl(pᵀKp) − pᵀKp| ≤ γ_n |p|ᵀ|K||p| ≤ γ_n w pᵀdiag(K)p ([`judge_curvature`]).
     let rounding = unit_rounding_bound(k.rounding_depth(m)) * k.row_width() as f64;
@@ -1135,7 +1162,8 @@ where
         if it == opts.max_iterations {
             break;
         }
-        let (pap, pdp) = k.apply_curvatures(&p, &mut ap, cols);
+        let kept = (!pt.is_empty()).then_some(&pt[..]);
+        let (pap, pdp) = k.apply_curvatures(&p, kept, &mut ap, cols);
         let judged: [bool; C] = std::array::from_fn(|c| live[c] && !done[c]);
         let bound: [f64; C] = std::array::from_fn(|c| rounding * pdp[c]);
         judge_curvature(&pap, &bound, &judged, &residual, opts.tolerance, &mut done)?;
@@ -1156,10 +1184,7 @@ where
             let cols = precondition.cols;
             let (rr_new, rw) = cg_step_jacobi(&mut x, &mut r, &p, &ap, &alpha, pre, cols, w);
             rr = Some(rr_new);
-            match precondition.two_level {
-                Some(tl) => precondition.deflate_with_dots(tl, &r, &mut z)?,
-                None => rw,
-            }
+            rw
         } else {
             cg_step(&mut x, &mut r, &p, &ap, &alpha);
             precondition.apply(&r, &mut z)?;
@@ -1172,13 +1197,19 @@ where
                 0.0
             }
         });
-        p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
-            for (c, &b) in beta.iter().enumerate() {
-                for i in 0..6 {
-                    p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
-                }
+        match precondition.two_level {
+            Some(tl) if deflated => {
+                let kept = (!pt.is_empty()).then_some(&mut pt[..]);
+                tl.deflated_direction(&precondition.w, &mut p, kept, &beta, cols)?
             }
-        });
+            _ => p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
+                for (c, &b) in beta.iter().enumerate() {
+                    for i in 0..6 {
+                        p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
+                    }
+                }
+            }),
+        }
         rz = rz_new;
     }
     Err(Error::NotConverged(format!(
@@ -1261,29 +1292,9 @@ where
     }
 
     /// Whether M starts with the block-Jacobi step alone (no multigrid, no dense groups):
-    /// then [`cg_step_jacobi`] takes that step and [`Self::deflate_with_dots`] the rest.
+    /// then [`cg_step_jacobi`] takes that step and [`TwoLevel::deflated_direction`] the rest.
     fn jacobi_alone(&self) -> bool {
         self.amg.is_none() && self.groups.is_none()
-    }
-
-    /// [`Self::apply`] with the coarse space `tl` after its block-Jacobi step (in `w`):
-    /// z = (I − QK) w, and rᵀz summed chunk by chunk as z is written (the bits of
-    /// [`column_dots`]: its chunks are the prolongation's).
-    fn deflate_with_dots(
-        &self,
-        tl: &TwoLevel,
-        r: &[Cols<C>],
-        z: &mut [Cols<C>],
-    ) -> Result<[f64; C]> {
-        const _: () = assert!(super::two_level::PROLONG_ROWS == DOT_ROWS);
-        let parts = tl.deflate_cols_then(&self.w, z, self.cols, |first, zs| {
-            let mut s = [0.0; C];
-            for (x, y) in r[first..first + zs.len()].iter().zip(zs) {
-                add_row_dots(&mut s, x, y);
-            }
-            s
-        })?;
-        Ok(sum_chunks(parts))
     }
 
     /// z = M r, or with the coarse space z = (I − QK) M r: with r ⟂ range(P) (arranged by

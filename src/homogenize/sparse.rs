@@ -678,19 +678,48 @@ impl UpperBlocks {
         rows: usize,
         then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
     ) -> Vec<T> {
-        fused::with_transposed(x, cols, |xt| {
-            y.par_chunks_mut(rows)
-                .enumerate()
-                .map(|(c, ys)| {
-                    match xt {
-                        // SAFETY: `xt` is given only where the fused kernels run.
-                        Some(xt) => unsafe { self.fused_rows(c * rows, xt, ys) },
-                        None => avx2!(self.rows(c * rows, x, ys, cols)),
-                    }
-                    then(c * rows, ys)
-                })
-                .collect()
-        })
+        fused::with_transposed(x, cols, |xt| self.chunks_then(x, xt, y, cols, rows, then))
+    }
+
+    /// [`Self::apply_cols_then`] with X also given transposed (`xt`, each row as
+    /// [`fused::CaseRows::of`] makes it): the fused kernels read it instead of transposing X
+    /// again. The same bits.
+    pub(crate) fn apply_transposed_then<T: Send, const C: usize>(
+        &self,
+        x: &[Cols<C>],
+        xt: &[fused::CaseRows],
+        y: &mut [Cols<C>],
+        cols: usize,
+        rows: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Vec<T> {
+        assert_eq!(xt.len(), x.len(), "X and X transposed differ in length");
+        let xt = fused::runs::<C>().then_some(xt);
+        self.chunks_then(x, xt, y, cols, rows, then)
+    }
+
+    /// The chunks of [`Self::apply_cols_then`]: by the fused kernel on `xt` when given (only
+    /// where the fused kernels run), else by the unfused one on `x`.
+    fn chunks_then<T: Send, const C: usize>(
+        &self,
+        x: &[Cols<C>],
+        xt: Option<&[fused::CaseRows]>,
+        y: &mut [Cols<C>],
+        cols: usize,
+        rows: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Vec<T> {
+        y.par_chunks_mut(rows)
+            .enumerate()
+            .map(|(c, ys)| {
+                match xt {
+                    // SAFETY: `xt` is given only where the fused kernels run.
+                    Some(xt) => unsafe { self.fused_rows(c * rows, xt, ys) },
+                    None => avx2!(self.rows(c * rows, x, ys, cols)),
+                }
+                then(c * rows, ys)
+            })
+            .collect()
     }
 
     /// Rows `first..` of K X into `ys` by the fused kernel ([`fused::row`]): the lower

@@ -309,9 +309,8 @@ pub struct TwoLevel {
 /// so the sums are the same on any thread count.
 const RESTRICT_ROWS: usize = 8192;
 
-/// Fine rows per chunk of the prolongation ([`TwoLevel::deflate_cols_then`]): each chunk's
-/// `then` sums (the CG's rᵀz) in the chunks of its dot products.
-pub(crate) const PROLONG_ROWS: usize = 2048;
+/// Fine rows per task of the prolongation ([`TwoLevel::deflate_cols`]).
+const PROLONG_ROWS: usize = 2048;
 
 /// The restriction's chunks of `RESTRICT_ROWS` rows of K P (CSR `kp_start`, `kp`): per
 /// block its slot in its chunk's partial sums, per chunk its number of slots, and per
@@ -660,8 +659,7 @@ impl TwoLevel {
 
     /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
     pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
-        self.prolong_coarse_of_k(w, out, cols, |_, o| o, |_, _| ())
-            .map(|_| ())
+        self.prolong_coarse_of_k(w, out, None, cols, |_, o, s| *o = s)
     }
 
     /// w − Q K w into `z` on the first `cols` of `C` load cases (the bits of `w` less
@@ -672,32 +670,42 @@ impl TwoLevel {
         z: &mut [Cols<C>],
         cols: usize,
     ) -> Result<()> {
-        self.deflate_cols_then(w, z, cols, |_, _| ()).map(|_| ())
+        self.prolong_coarse_of_k(w, z, None, cols, |p, o, s| *o = w[p] - s)
     }
 
-    /// [`Self::deflate_cols`], calling `then(first row, chunk of z)` on each chunk of
-    /// [`PROLONG_ROWS`] rows as soon as it is written (while it is in cache); the chunks'
-    /// results in order.
-    pub(crate) fn deflate_cols_then<T: Send, const C: usize>(
+    /// The CG's next search direction with the two-level preconditioner, p ← (I − QK) w + β p
+    /// column by column, in one pass over the rows: the deflated w (the bits of
+    /// [`Self::deflate_cols`]) is never stored. With `pt`, p is also written transposed
+    /// there, for the next product with K ([`fused::CaseRows`]).
+    pub(crate) fn deflated_direction<const C: usize>(
         &self,
         w: &[Cols<C>],
-        z: &mut [Cols<C>],
+        p: &mut [Cols<C>],
+        pt: Option<&mut [CaseRows]>,
+        beta: &[f64; C],
         cols: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Result<Vec<T>> {
-        self.prolong_coarse_of_k(w, z, cols, |p, o| w[p] - o, then)
+    ) -> Result<()> {
+        let finish = |q: usize, o: &mut Cols<C>, s: Cols<C>| {
+            let z = w[q] - s;
+            for (c, &b) in beta.iter().enumerate() {
+                for i in 0..6 {
+                    o[(i, c)] = z[(i, c)] + o[(i, c)] * b;
+                }
+            }
+        };
+        self.prolong_coarse_of_k(w, p, pt, cols, finish)
     }
 
-    /// out_p = `finish`(p, (Q K w)_p) for every fine node p, by chunks of [`PROLONG_ROWS`]
-    /// rows, each then passed to `then`.
-    fn prolong_coarse_of_k<T: Send, const C: usize>(
+    /// `finish`(p, out_p, (Q K w)_p) for every fine node p, by chunks of [`PROLONG_ROWS`]
+    /// rows; each out_p then also into `out_t` transposed, when given.
+    fn prolong_coarse_of_k<const C: usize>(
         &self,
         w: &[Cols<C>],
         out: &mut [Cols<C>],
+        out_t: Option<&mut [CaseRows]>,
         cols: usize,
-        finish: impl Fn(usize, Cols<C>) -> Cols<C> + Sync,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Result<Vec<T>> {
+        finish: impl Fn(usize, &mut Cols<C>, Cols<C>) + Sync,
+    ) -> Result<()> {
         let layers = self.layers;
         let m = self.aggregate.len();
         let fused = fused::runs::<C>();
@@ -740,25 +748,50 @@ impl TwoLevel {
             .collect();
         let xc = self.coarse.solve_in_halves(&restricted)?;
         const CH: usize = PROLONG_ROWS;
-        let done = out.par_chunks_mut(CH).enumerate().map(|(k, outs)| {
-            if fused {
-                // SAFETY: the fused kernels run here (checked above).
-                unsafe { self.prolong_chunk_fused(k * CH, outs, &xc, cols, &finish) };
-                return then(k * CH, outs);
-            }
-            avx2!({
-                for (p, o) in (k * CH..).zip(outs.iter_mut()) {
-                    let c = self.aggregate[p] as usize * layers;
-                    let mut s = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
-                    for l in 1..layers {
-                        mul_add6_cols(&mut s, &self.prolongation[p * layers + l], &xc[c + l], cols);
-                    }
-                    *o = finish(p, s);
+        let mut out_t: Vec<Option<&mut [CaseRows]>> = match out_t {
+            Some(t) => t.chunks_mut(CH).map(Some).collect(),
+            None => (0..out.len().div_ceil(CH)).map(|_| None).collect(),
+        };
+        out.par_chunks_mut(CH)
+            .zip(out_t.par_iter_mut())
+            .enumerate()
+            .for_each(|(k, (outs, ts))| {
+                if fused {
+                    // SAFETY: the fused kernels run here (checked above).
+                    unsafe {
+                        self.prolong_chunk_fused(
+                            k * CH,
+                            outs,
+                            ts.as_deref_mut(),
+                            &xc,
+                            cols,
+                            &finish,
+                        )
+                    };
+                    return;
                 }
+                avx2!({
+                    for (p, o) in (k * CH..).zip(outs.iter_mut()) {
+                        let c = self.aggregate[p] as usize * layers;
+                        let mut s = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
+                        for l in 1..layers {
+                            mul_add6_cols(
+                                &mut s,
+                                &self.prolongation[p * layers + l],
+                                &xc[c + l],
+                                cols,
+                            );
+                        }
+                        finish(p, o, s);
+                    }
+                    if let Some(ts) = ts {
+                        for (t, o) in ts.iter_mut().zip(outs.iter()) {
+                            *t = CaseRows::of(o, cols);
+                        }
+                    }
+                });
             });
-            then(k * CH, outs)
-        });
-        Ok(done.collect())
+        Ok(())
     }
 
     /// Chunk `c`'s partial restriction (K P)ᵀ w over its `slots` coarse nodes, by the fused
@@ -796,17 +829,21 @@ impl TwoLevel {
         &self,
         first: usize,
         outs: &mut [Cols<C>],
+        mut outs_t: Option<&mut [CaseRows]>,
         xc: &[Cols<C>],
         cols: usize,
-        finish: &impl Fn(usize, Cols<C>) -> Cols<C>,
+        finish: &impl Fn(usize, &mut Cols<C>, Cols<C>),
     ) {
         let layers = self.layers;
-        for (p, o) in (first..).zip(outs.iter_mut()) {
+        for (k, (p, o)) in (first..).zip(outs.iter_mut()).enumerate() {
             let c = self.aggregate[p] as usize * layers;
             let terms = self.prolongation[p * layers..(p + 1) * layers]
                 .iter()
                 .zip(&xc[c..c + layers]);
-            *o = finish(p, fused::straight_sum(terms, cols));
+            finish(p, o, fused::straight_sum(terms, cols));
+            if let Some(t) = outs_t.as_deref_mut() {
+                t[k] = CaseRows::of(o, cols);
+            }
         }
     }
 }
