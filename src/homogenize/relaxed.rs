@@ -17,7 +17,7 @@ use super::amg::Amg;
 use super::cholesky::BlockCholesky;
 use super::fused::CaseRows;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
-use super::sparse::{mul6_cols, AsSix, BlockRows, BlockSparse, Cols, UpperBlocks};
+use super::sparse::{copied, filled, mul6_cols, AsSix, BlockRows, BlockSparse, Cols, UpperBlocks};
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
 use super::two_level::{HeldSpace, TwoLevel};
@@ -718,7 +718,7 @@ impl Stiffness<'_> {
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in
     /// order) with the term's share of K.
     fn fluctuation_terms(&self, g: &[Block6], q: &[Block6]) -> (Block6, Block6) {
-        let mut kq = vec![Block6::zeros(); q.len()];
+        let mut kq = filled(q.len(), Block6::zeros());
         self.apply_cols(q, &mut kq, 6);
         super::sparse::fluctuation_sums(g, q, &kq)
     }
@@ -1122,11 +1122,11 @@ where
     let mut precondition = Preconditioner::new(pre, two_level, cols, m);
     precondition.amg = amg;
     precondition.groups = k.groups.as_ref();
-    let (mut x, mut r) = cg_start(k, b, start, &live, two_level)?;
-    let mut z = vec![Cols::<C>::zeros(); m];
+    // z and K p, first the scratch of the start's coarse correction.
+    let (mut z, mut ap) = (filled(m, Cols::<C>::zeros()), filled(m, Cols::<C>::zeros()));
+    let (mut x, mut r) = cg_start(k, b, start, &live, two_level, (&mut z, &mut ap))?;
     precondition.apply(&r, &mut z)?;
-    let mut p = z.clone();
-    let mut ap = vec![Cols::<C>::zeros(); m];
+    let mut p = copied(&z);
     // With the coarse space after the block-Jacobi step alone, z = (I − QK) w has rᵀz = rᵀw
     // (Pᵀr = 0, see [`Preconditioner::apply`]): the CG takes rᵀw, and each step's z goes
     // straight into the next direction ([`TwoLevel::deflated_direction`]), never stored.
@@ -1248,7 +1248,7 @@ where
         m: usize,
     ) -> Self {
         let w = match two_level {
-            Some(_) => vec![Cols::<C>::zeros(); m],
+            Some(_) => filled(m, Cols::<C>::zeros()),
             None => Vec::new(),
         };
         Preconditioner {
@@ -1329,13 +1329,15 @@ where
 }
 
 /// The start of [`pcg`]: X₀ = `start` (its dead load cases zeroed) or 0, R₀ = B − K X₀,
-/// then with the coarse space x += Q r, r −= K Q r on the live load cases, so that Pᵀ r = 0.
+/// then with the coarse space x += Q r, r −= K Q r on the live load cases, so that Pᵀ r = 0
+/// (Q r and K Q r computed into `q` and `kq`, the caller's scratch).
 fn cg_start<const C: usize>(
     k: &Stiffness,
     b: &[Cols<C>],
     start: Option<&[Cols<C>]>,
     live: &[bool; C],
     two_level: Option<&TwoLevel>,
+    (q, kq): (&mut [Cols<C>], &mut [Cols<C>]),
 ) -> Result<(Vec<Cols<C>>, Vec<Cols<C>>)>
 where
     Cols<C>: AsSix,
@@ -1353,20 +1355,18 @@ where
             }
             x
         }
-        None => vec![Cols::<C>::zeros(); m],
+        None => filled(m, Cols::<C>::zeros()),
     };
-    let mut r = b.to_vec();
+    let mut r = copied(b);
     if start.is_some() {
-        let mut kx = vec![Cols::<C>::zeros(); m];
+        let mut kx = filled(m, Cols::<C>::zeros());
         k.apply_cols(&x, &mut kx, C);
         r.par_iter_mut()
             .zip(kx.par_iter())
             .for_each(|(r, kx)| *r -= kx);
     }
     if let Some(tl) = two_level {
-        let mut q = vec![Cols::<C>::zeros(); m];
-        let mut kq = vec![Cols::<C>::zeros(); m];
-        tl.coarse_correction(&r, &mut q, &mut kq)?;
+        tl.coarse_correction(&r, q, kq)?;
         x.par_iter_mut()
             .zip(r.par_iter_mut())
             .zip(q.par_iter().zip(kq.par_iter()))

@@ -170,6 +170,29 @@ impl PeriodicCell {
         })
     }
 
+    /// [`Self::minimum_image`] of the difference of two positions inside the cell (every
+    /// |d_k| < 1.5 L_k, so the image shift is −1, 0 or 1): the same result, by comparisons
+    /// instead of a rounding call (the neighbour search's inner loop).
+    #[inline]
+    pub fn minimum_image_near(&self, d: Vec3) -> (Vec3, [i32; 3]) {
+        self.along_periodic_axes(d, |x, l| {
+            let q = x / l;
+            debug_assert!(
+                q.abs() < 1.5,
+                "minimum_image_near: |d| = {x} m ≥ 1.5 L = {l} m"
+            );
+            // round(q) for |q| < 1.5, halves away from zero as f64::round.
+            let s = if q >= 0.5 {
+                -1.0
+            } else if q <= -0.5 {
+                1.0
+            } else {
+                0.0
+            };
+            (x + s * l, s as i32)
+        })
+    }
+
     /// `v` with `f(v_k, L_k)` = (new component, image) applied along every periodic axis k;
     /// a non-periodic axis keeps its component, image 0.
     fn along_periodic_axes(&self, v: Vec3, f: impl Fn(f64, f64) -> (f64, i32)) -> (Vec3, [i32; 3]) {

@@ -134,7 +134,7 @@ pub(crate) fn pairs_in(
                         }
                         let d = positions[j] - xi;
                         let (branch, image) = match cell {
-                            Some(c) => c.minimum_image(d),
+                            Some(c) => c.minimum_image_near(d),
                             None => (d, [0; 3]),
                         };
                         let dist = branch.norm();

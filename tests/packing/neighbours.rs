@@ -130,3 +130,33 @@ fn degenerate_inputs() {
     assert_eq!(pairs.len(), 9);
     assert!(pairs_within(&p, |_, _| f64::NAN, f64::NAN).is_err());
 }
+
+/// The neighbour search's minimum image by comparisons is `minimum_image` bit for bit on
+/// every difference of two positions inside the cell, halves (±L/2) and ±L included.
+#[test]
+fn minimum_image_near_is_minimum_image() {
+    let cell = PeriodicCell::new(Vec3::new(0.7, 1.3, 0.059523)).expect("cell");
+    let l = cell.lengths;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut cases: Vec<Vec3> = (0..20_000)
+        .map(|_| {
+            Vec3::new(
+                (rng.gen::<f64>() * 2.0 - 1.0) * l.x * 1.49,
+                (rng.gen::<f64>() * 2.0 - 1.0) * l.y * 1.49,
+                (rng.gen::<f64>() * 2.0 - 1.0) * l.z * 1.49,
+            )
+        })
+        .collect();
+    for f in [-1.0, -0.5, 0.0, 0.5, 1.0] {
+        cases.push(l * f);
+        cases.push(Vec3::new(l.x * f, -l.y * f, 0.5 * l.z));
+    }
+    for d in cases {
+        let (a, ia) = cell.minimum_image(d);
+        let (b, ib) = cell.minimum_image_near(d);
+        assert_eq!(ia, ib, "image of {d:?}");
+        for k in 0..3 {
+            assert_eq!(a[k].to_bits(), b[k].to_bits(), "component {k} of {d:?}");
+        }
+    }
+}
