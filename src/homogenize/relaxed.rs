@@ -1182,7 +1182,9 @@ where
                 None => &mut z,
             };
             let cols = precondition.cols;
-            let (rr_new, rw) = cg_step_jacobi(&mut x, &mut r, &p, &ap, &alpha, pre, cols, w);
+            // The deflated direction update takes x += α p itself (it reads p anyway).
+            let step = (&alpha, !deflated);
+            let (rr_new, rw) = cg_step_jacobi(&mut x, &mut r, &p, &ap, step, pre, cols, w);
             rr = Some(rr_new);
             rw
         } else {
@@ -1200,7 +1202,8 @@ where
         match precondition.two_level {
             Some(tl) if deflated => {
                 let kept = (!pt.is_empty()).then_some(&mut pt[..]);
-                tl.deflated_direction(&precondition.w, &mut p, kept, &beta, cols)?
+                let step = (&mut x[..], &alpha);
+                tl.deflated_direction(&precondition.w, &mut p, kept, step, &beta, cols)?
             }
             _ => p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
                 for (c, &b) in beta.iter().enumerate() {
@@ -1415,6 +1418,16 @@ fn step_row<const C: usize>(
     }
 }
 
+/// r −= α K p on one row (the r half of [`step_row`], the same bits).
+#[inline(always)]
+fn residual_row<const C: usize>(r: &mut Cols<C>, ap: &Cols<C>, alpha: &[f64; C]) {
+    for (c, &a) in alpha.iter().enumerate() {
+        for i in 0..6 {
+            r[(i, c)] -= ap[(i, c)] * a;
+        }
+    }
+}
+
 /// [`cg_step`] with, in the same pass over the rows (each while it is in cache), the
 /// block-Jacobi step w = M r into `w` ([`Preconditioner::jacobi`]'s bits) and the column
 /// sums (rᵀr, rᵀw) of the new residual (those of [`column_dots`]: the same chunks and order,
@@ -1425,7 +1438,7 @@ fn cg_step_jacobi<const C: usize>(
     r: &mut [Cols<C>],
     p: &[Cols<C>],
     ap: &[Cols<C>],
-    alpha: &[f64; C],
+    (alpha, update_x): (&[f64; C], bool),
     pre: &[(Block6, usize)],
     cols: usize,
     w: &mut [Cols<C>],
@@ -1438,7 +1451,7 @@ fn cg_step_jacobi<const C: usize>(
         .zip(pre.par_chunks(DOT_ROWS).zip(w.par_chunks_mut(DOT_ROWS)))
         .map(|(((x, r), (p, ap)), (pre, w))| {
             let rows = StepRows {
-                x,
+                x: update_x.then_some(x),
                 r,
                 p,
                 ap,
@@ -1459,7 +1472,8 @@ fn cg_step_jacobi<const C: usize>(
 
 /// One chunk of [`cg_step_jacobi`].
 struct StepRows<'a, const C: usize> {
-    x: &'a mut [Cols<C>],
+    /// x, when this pass takes x += α p.
+    x: Option<&'a mut [Cols<C>]>,
     r: &'a mut [Cols<C>],
     p: &'a [Cols<C>],
     ap: &'a [Cols<C>],
@@ -1477,14 +1491,20 @@ impl<const C: usize> StepRows<'_, C> {
         jacobi: impl Fn(&Block6, &Cols<C>) -> Cols<C>,
     ) -> ([f64; C], [f64; C]) {
         let (mut rr, mut rw) = ([0.0; C], [0.0; C]);
-        let rows = self.x.iter_mut().zip(self.r.iter_mut());
-        let with = self
-            .p
-            .iter()
-            .zip(self.ap)
-            .zip(self.pre.iter().zip(self.w.iter_mut()));
-        for ((x, r), ((p, ap), ((m, _), w))) in rows.zip(with) {
-            step_row(x, r, p, ap, alpha);
+        let StepRows {
+            mut x,
+            r,
+            p,
+            ap,
+            pre,
+            w,
+        } = self;
+        let with = ap.iter().zip(pre.iter().zip(w.iter_mut()));
+        for (q, (r, (ap, ((m, _), w)))) in r.iter_mut().zip(with).enumerate() {
+            match x.as_deref_mut() {
+                Some(x) => step_row(&mut x[q], r, &p[q], ap, alpha),
+                None => residual_row(r, ap, alpha),
+            }
             add_row_dots(&mut rr, r, r);
             *w = jacobi(m, r);
             add_row_dots(&mut rw, r, w);

@@ -659,7 +659,7 @@ impl TwoLevel {
 
     /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
     pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
-        self.prolong_coarse_of_k(w, out, None, cols, |_, o, s| *o = s)
+        self.prolong_coarse_of_k(w, out, cols, |_, o, s, _: &mut ((), usize)| *o = s, |_| ())
     }
 
     /// w − Q K w into `z` on the first `cols` of `C` load cases (the bits of `w` less
@@ -670,41 +670,70 @@ impl TwoLevel {
         z: &mut [Cols<C>],
         cols: usize,
     ) -> Result<()> {
-        self.prolong_coarse_of_k(w, z, None, cols, |p, o, s| *o = w[p] - s)
+        self.prolong_coarse_of_k(
+            w,
+            z,
+            cols,
+            |p, o, s, _: &mut ((), usize)| *o = w[p] - s,
+            |_| (),
+        )
     }
 
     /// The CG's next search direction with the two-level preconditioner, p ← (I − QK) w + β p
     /// column by column, in one pass over the rows: the deflated w (the bits of
-    /// [`Self::deflate_cols`]) is never stored. With `pt`, p is also written transposed
-    /// there, for the next product with K ([`fused::CaseRows`]).
+    /// [`Self::deflate_cols`]) is never stored. Before p is overwritten, x += α p (the bits of
+    /// the CG's step, taken here where p is read anyway); with `pt`, the new p is also written
+    /// transposed there, for the next product with K ([`fused::CaseRows`]).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn deflated_direction<const C: usize>(
         &self,
         w: &[Cols<C>],
         p: &mut [Cols<C>],
         pt: Option<&mut [CaseRows]>,
+        (x, alpha): (&mut [Cols<C>], &[f64; C]),
         beta: &[f64; C],
         cols: usize,
     ) -> Result<()> {
-        let finish = |q: usize, o: &mut Cols<C>, s: Cols<C>| {
+        const CH: usize = PROLONG_ROWS;
+        type Rows<'a, const C: usize> = (Option<&'a mut [CaseRows]>, &'a mut [Cols<C>]);
+        let mut pts: Vec<Option<&mut [CaseRows]>> = match pt {
+            Some(t) => t.chunks_mut(CH).map(Some).collect(),
+            None => (0..p.len().div_ceil(CH)).map(|_| None).collect(),
+        };
+        let chunks: Vec<Rows<C>> = pts.drain(..).zip(x.chunks_mut(CH)).collect();
+        let finish = |q: usize, o: &mut Cols<C>, s: Cols<C>, (rows, k): &mut (Rows<C>, usize)| {
+            let xq = &mut rows.1[*k];
+            for (c, &a) in alpha.iter().enumerate() {
+                for i in 0..6 {
+                    xq[(i, c)] += o[(i, c)] * a;
+                }
+            }
             let z = w[q] - s;
             for (c, &b) in beta.iter().enumerate() {
                 for i in 0..6 {
                     o[(i, c)] = z[(i, c)] + o[(i, c)] * b;
                 }
             }
+            if let Some(t) = rows.0.as_deref_mut() {
+                t[*k] = CaseRows::of(o, cols);
+            }
         };
-        self.prolong_coarse_of_k(w, p, pt, cols, finish)
+        let mut chunks = chunks.into_iter();
+        self.prolong_coarse_of_k(w, p, cols, finish, |_| {
+            chunks.next().expect("one per chunk")
+        })
     }
 
-    /// `finish`(p, out_p, (Q K w)_p) for every fine node p, by chunks of [`PROLONG_ROWS`]
-    /// rows; each out_p then also into `out_t` transposed, when given.
-    fn prolong_coarse_of_k<const C: usize>(
+    /// `finish`(p, out_p, (Q K w)_p, (chunk's `aux`, p's index in its chunk)) for every fine
+    /// node p, by chunks of [`PROLONG_ROWS`] rows; `aux` is called once per chunk, in order,
+    /// before the chunks run.
+    fn prolong_coarse_of_k<A: Send, const C: usize>(
         &self,
         w: &[Cols<C>],
         out: &mut [Cols<C>],
-        out_t: Option<&mut [CaseRows]>,
         cols: usize,
-        finish: impl Fn(usize, &mut Cols<C>, Cols<C>) + Sync,
+        finish: impl Fn(usize, &mut Cols<C>, Cols<C>, &mut (A, usize)) + Sync,
+        mut aux: impl FnMut(usize) -> A,
     ) -> Result<()> {
         let layers = self.layers;
         let m = self.aggregate.len();
@@ -748,30 +777,18 @@ impl TwoLevel {
             .collect();
         let xc = self.coarse.solve_in_halves(&restricted)?;
         const CH: usize = PROLONG_ROWS;
-        let mut out_t: Vec<Option<&mut [CaseRows]>> = match out_t {
-            Some(t) => t.chunks_mut(CH).map(Some).collect(),
-            None => (0..out.len().div_ceil(CH)).map(|_| None).collect(),
-        };
+        let mut auxes: Vec<(A, usize)> = (0..out.len().div_ceil(CH)).map(|k| (aux(k), 0)).collect();
         out.par_chunks_mut(CH)
-            .zip(out_t.par_iter_mut())
+            .zip(auxes.par_iter_mut())
             .enumerate()
-            .for_each(|(k, (outs, ts))| {
+            .for_each(|(k, (outs, aux))| {
                 if fused {
                     // SAFETY: the fused kernels run here (checked above).
-                    unsafe {
-                        self.prolong_chunk_fused(
-                            k * CH,
-                            outs,
-                            ts.as_deref_mut(),
-                            &xc,
-                            cols,
-                            &finish,
-                        )
-                    };
+                    unsafe { self.prolong_chunk_fused(k * CH, outs, aux, &xc, cols, &finish) };
                     return;
                 }
                 avx2!({
-                    for (p, o) in (k * CH..).zip(outs.iter_mut()) {
+                    for (at, (p, o)) in (k * CH..).zip(outs.iter_mut()).enumerate() {
                         let c = self.aggregate[p] as usize * layers;
                         let mut s = mul6_cols(&self.prolongation[p * layers], &xc[c], cols);
                         for l in 1..layers {
@@ -782,12 +799,8 @@ impl TwoLevel {
                                 cols,
                             );
                         }
-                        finish(p, o, s);
-                    }
-                    if let Some(ts) = ts {
-                        for (t, o) in ts.iter_mut().zip(outs.iter()) {
-                            *t = CaseRows::of(o, cols);
-                        }
+                        aux.1 = at;
+                        finish(p, o, s, aux);
                     }
                 });
             });
@@ -825,25 +838,23 @@ impl TwoLevel {
     /// # Safety
     /// As [`fused::straight_sum`]: only where [`fused::available`].
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
-    unsafe fn prolong_chunk_fused<const C: usize>(
+    unsafe fn prolong_chunk_fused<A, const C: usize>(
         &self,
         first: usize,
         outs: &mut [Cols<C>],
-        mut outs_t: Option<&mut [CaseRows]>,
+        aux: &mut (A, usize),
         xc: &[Cols<C>],
         cols: usize,
-        finish: &impl Fn(usize, &mut Cols<C>, Cols<C>),
+        finish: &impl Fn(usize, &mut Cols<C>, Cols<C>, &mut (A, usize)),
     ) {
         let layers = self.layers;
-        for (k, (p, o)) in (first..).zip(outs.iter_mut()).enumerate() {
+        for (at, (p, o)) in (first..).zip(outs.iter_mut()).enumerate() {
             let c = self.aggregate[p] as usize * layers;
             let terms = self.prolongation[p * layers..(p + 1) * layers]
                 .iter()
                 .zip(&xc[c..c + layers]);
-            finish(p, o, fused::straight_sum(terms, cols));
-            if let Some(t) = outs_t.as_deref_mut() {
-                t[k] = CaseRows::of(o, cols);
-            }
+            aux.1 = at;
+            finish(p, o, fused::straight_sum(terms, cols), aux);
         }
     }
 }
