@@ -74,9 +74,10 @@ pub fn build_bonds(packing: &Packing, rule: BondingRule) -> Result<BondSet> {
 /// counts allow. The value returned lies midway between the gap of the last pair bonded
 /// and the next one, so `BondingRule::Gap(g)` rebuilds the same bonds.
 ///
-/// The candidate pairs are found once (gap ≤ [`COORDINATION_MAX_GAP`]·R̄) and sorted by
-/// gap: no repeated searches. Errors if the target exceeds the coordination reached with
-/// every candidate by more than one bond.
+/// The candidate pairs are found within a gap of 0.3·R̄ and sorted by gap, and again
+/// within [`COORDINATION_MAX_GAP`]·R̄ only when those do not settle the count. Errors if
+/// the target exceeds the coordination reached with every candidate by more than one
+/// bond.
 pub fn coordination_gap(packing: &Packing, target_z: f64) -> Result<f64> {
     check_rule_value("coordination", target_z)?;
     Ok(coordination_selection(packing, target_z)?.0)
@@ -96,7 +97,16 @@ fn gap_pairs(packing: &Packing, g: f64) -> Result<Vec<Pair>> {
     pairs_within(packing, |_, _| max_gap, max_gap)
 }
 
-/// (gap cutoff / R̄, selected pairs) for a coordination target.
+/// The coordination rule's first candidate search reaches gaps up to this · R̄: enough for
+/// the coordinations of bonded-particle models on dense packings (Z = 7.5 needs 0.16 R̄ on
+/// the standard assembly, whose candidates within [`COORDINATION_MAX_GAP`] are 1.6 times as
+/// many), widened to [`COORDINATION_MAX_GAP`] when the count it gives could differ.
+const COORDINATION_FIRST_GAP: f64 = 0.3;
+
+/// (gap cutoff / R̄, selected pairs) for a coordination target: the first `k` pairs by gap,
+/// `k` the count nearest the target N·Z/2 at which the gap strictly increases. Found among
+/// the candidates within [`COORDINATION_FIRST_GAP`] when they settle it, else among all
+/// within [`COORDINATION_MAX_GAP`]: the same pairs and cutoff either way.
 fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<Pair>)> {
     let n = packing.len();
     if n < 2 {
@@ -104,20 +114,19 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
             "bonding rule `coordination`: a packing of {n} sphere(s) cannot reach Z = {target_z}"
         )));
     }
-    let r_mean = packing.mean_radius();
-    let candidates = gap_pairs(packing, COORDINATION_MAX_GAP)?;
-    let mut ranked: Vec<(f64, Pair)> = candidates
-        .into_par_iter()
-        .map(|p| (p.gap(packing) / r_mean, p))
-        .collect();
-    // Sort by gap; ties broken by the canonical order (each pair's (i, j, image) is its
-    // own), so the order is unique: a parallel unstable sort gives it on any thread count.
-    ranked.par_sort_unstable_by(|a, b| {
-        a.0.total_cmp(&b.0)
-            .then((a.1.i, a.1.j, a.1.image).cmp(&(b.1.i, b.1.j, b.1.image)))
-    });
-    let m = ranked.len();
     let target_bonds = target_z * n as f64 / 2.0;
+    if let Ok(mut ranked) = ranked_candidates(packing, COORDINATION_FIRST_GAP) {
+        // Every pair outside this search has a gap > FIRST·R̄, so it sorts after the pairs
+        // below FIRST·(1 − 1e-9): those begin the complete ranking too.
+        let settled = ranked.partition_point(|(g, _)| *g < COORDINATION_FIRST_GAP * (1.0 - 1e-9));
+        let (k, miss) = nearest_count(&ranked[..settled], target_bonds, false);
+        // Any count at or past `settled` misses by at least settled − target.
+        if k > 0 && miss < settled as f64 - target_bonds {
+            return Ok(selected(&mut ranked, k, false));
+        }
+    }
+    let mut ranked = ranked_candidates(packing, COORDINATION_MAX_GAP)?;
+    let m = ranked.len();
     if (m as f64) < target_bonds - 1.0 {
         return Err(Error::Model(format!(
             "bonding rule `coordination`: target Z = {target_z} is unreachable; bonding every \
@@ -125,31 +134,63 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
             2.0 * m as f64 / n as f64
         )));
     }
-    // Admissible counts k: a cutoff can separate the first k pairs from the rest only
-    // where the gap strictly increases.
-    let mut best_k = 0usize;
-    let mut best_miss = target_bonds;
+    let (k, _) = nearest_count(&ranked, target_bonds, true);
+    Ok(selected(&mut ranked, k, true))
+}
+
+/// The pairs with a gap up to `g`·R̄, each with its gap / R̄, sorted by gap; ties broken by
+/// the canonical order (each pair's (i, j, image) is its own), so the order is unique: a
+/// parallel unstable sort gives it on any thread count.
+fn ranked_candidates(packing: &Packing, g: f64) -> Result<Vec<(f64, Pair)>> {
+    let r_mean = packing.mean_radius();
+    let candidates = gap_pairs(packing, g)?;
+    let mut ranked: Vec<(f64, Pair)> = candidates
+        .into_par_iter()
+        .map(|p| (p.gap(packing) / r_mean, p))
+        .collect();
+    ranked.par_sort_unstable_by(|a, b| {
+        a.0.total_cmp(&b.0)
+            .then((a.1.i, a.1.j, a.1.image).cmp(&(b.1.i, b.1.j, b.1.image)))
+    });
+    Ok(ranked)
+}
+
+/// (k, |k − target|) for the admissible count k nearest `target` (the first on a tie; 0
+/// when none is nearer than none at all): a cutoff can separate the first k pairs of
+/// `ranked` from the rest only where the gap strictly increases, and past the last one
+/// only when `ranked` holds every candidate (`complete`).
+fn nearest_count(ranked: &[(f64, Pair)], target: f64, complete: bool) -> (usize, f64) {
+    let m = ranked.len();
+    let mut best = (0usize, target);
     for k in 1..=m {
-        if k < m && ranked[k - 1].0 >= ranked[k].0 {
-            continue;
-        }
-        let miss = (k as f64 - target_bonds).abs();
-        if miss < best_miss {
-            best_miss = miss;
-            best_k = k;
+        let admissible = if k < m {
+            ranked[k - 1].0 < ranked[k].0
+        } else {
+            complete
+        };
+        let miss = (k as f64 - target).abs();
+        if admissible && miss < best.1 {
+            best = (k, miss);
         }
     }
-    let gap = if best_k == m {
+    best
+}
+
+/// (cutoff / R̄, the first `k` pairs of `ranked` in canonical order): the cutoff midway
+/// between the last pair bonded and the next ([`COORDINATION_MAX_GAP`] past the last of a
+/// `complete` ranking; below the first pair when k = 0).
+fn selected(ranked: &mut Vec<(f64, Pair)>, k: usize, complete: bool) -> (f64, Vec<Pair>) {
+    let gap = if k == ranked.len() && complete {
         COORDINATION_MAX_GAP
-    } else if best_k == 0 {
+    } else if k == 0 {
         ranked[0].0 - 0.5 * ranked[0].0.abs().max(1e-12)
     } else {
-        0.5 * (ranked[best_k - 1].0 + ranked[best_k].0)
+        0.5 * (ranked[k - 1].0 + ranked[k].0)
     };
-    ranked.truncate(best_k);
-    let mut pairs: Vec<Pair> = ranked.into_iter().map(|(_, p)| p).collect();
+    ranked.truncate(k);
+    let mut pairs: Vec<Pair> = ranked.drain(..).map(|(_, p)| p).collect();
     pairs.par_sort_unstable_by_key(|p| (p.i, p.j, p.image));
-    Ok((gap, pairs))
+    (gap, pairs)
 }
 
 /// Turn found pairs into bonds, refusing zero-length branch vectors and near-coincident

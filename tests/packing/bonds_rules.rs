@@ -169,6 +169,65 @@ fn coordination_target_is_hit_within_two_over_n() {
     assert!(err.to_string().contains("unreachable"), "{err}");
 }
 
+/// The coordination rule against a brute force over every pair: the pairs sorted by gap
+/// (ties by (i, j, image)), the admissible count nearest N·Z/2 (where the gap strictly
+/// increases), the cutoff midway to the next pair. Targets on both sides of the rule's
+/// first search (gaps up to 0.3 R̄) must give the same pairs and the same cutoff bits.
+#[test]
+fn coordination_matches_brute_force_on_both_sides_of_the_first_search() {
+    let opts = GenerateOptions {
+        n_particles: 500,
+        seed: 8,
+        ..GenerateOptions::default()
+    };
+    let p = generate(&opts, &|_| {}).unwrap();
+    let cell = p.cell.as_ref().expect("periodic");
+    let (n, r_bar) = (p.len(), p.mean_radius());
+    // (gap / R̄, (i, j, image)).
+    type Key = (u32, u32, [i32; 3]);
+    let mut all: Vec<(f64, Key)> = Vec::new();
+    for i in 0..n {
+        for j in i + 1..n {
+            let (branch, image) = cell.minimum_image(p.positions[j] - p.positions[i]);
+            let gap = (branch.norm() - p.radii[i] - p.radii[j]) / r_bar;
+            if gap <= COORDINATION_MAX_GAP {
+                all.push((gap, (i as u32, j as u32, image)));
+            }
+        }
+    }
+    all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut sides = [false; 2];
+    for z in [1.0, 3.0, 6.0, 7.5, 9.0, 10.5] {
+        let target = z * n as f64 / 2.0;
+        let mut best = (0usize, target);
+        for k in 1..all.len() {
+            let miss = (k as f64 - target).abs();
+            if all[k - 1].0 < all[k].0 && miss < best.1 {
+                best = (k, miss);
+            }
+        }
+        let k = best.0;
+        assert!(k > 0 && k < all.len(), "Z = {z} within the candidates");
+        let want_gap = 0.5 * (all[k - 1].0 + all[k].0);
+        sides[usize::from(want_gap > 0.3)] = true;
+        let mut want: Vec<_> = all[..k].iter().map(|(_, key)| *key).collect();
+        want.sort();
+        let b = build_bonds(&p, BondingRule::Coordination(z)).unwrap();
+        assert_eq!(keys(&b), want, "Z = {z}");
+        let g = coordination_gap(&p, z).unwrap();
+        assert_eq!(
+            g.to_bits(),
+            want_gap.to_bits(),
+            "Z = {z}: cutoff {g} against {want_gap}"
+        );
+    }
+    assert_eq!(
+        sides,
+        [true, true],
+        "targets below and above a 0.3 R̄ cutoff"
+    );
+}
+
 #[test]
 fn invalid_values_and_coincident_spheres_are_refused() {
     let p = rsa_packing(1, 50, 10.0, true);
