@@ -115,17 +115,17 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
         )));
     }
     let target_bonds = target_z * n as f64 / 2.0;
-    if let Ok(mut ranked) = ranked_candidates(packing, COORDINATION_FIRST_GAP) {
+    if let Ok(ranked) = ranked_candidates(packing, COORDINATION_FIRST_GAP) {
         // Every pair outside this search has a gap > FIRST·R̄, so it sorts after the pairs
         // below FIRST·(1 − 1e-9): those begin the complete ranking too.
         let settled = ranked.partition_point(|(g, _)| *g < COORDINATION_FIRST_GAP * (1.0 - 1e-9));
         let (k, miss) = nearest_count(&ranked[..settled], target_bonds, false);
         // Any count at or past `settled` misses by at least settled − target.
         if k > 0 && miss < settled as f64 - target_bonds {
-            return Ok(selected(&mut ranked, k, false));
+            return Ok(selected(ranked, k, false));
         }
     }
-    let mut ranked = ranked_candidates(packing, COORDINATION_MAX_GAP)?;
+    let ranked = ranked_candidates(packing, COORDINATION_MAX_GAP)?;
     let m = ranked.len();
     if (m as f64) < target_bonds - 1.0 {
         return Err(Error::Model(format!(
@@ -135,7 +135,7 @@ fn coordination_selection(packing: &Packing, target_z: f64) -> Result<(f64, Vec<
         )));
     }
     let (k, _) = nearest_count(&ranked, target_bonds, true);
-    Ok(selected(&mut ranked, k, true))
+    Ok(selected(ranked, k, true))
 }
 
 /// The pairs with a gap up to `g`·R̄, each with its gap / R̄, sorted by gap; ties broken by
@@ -179,7 +179,7 @@ fn nearest_count(ranked: &[(f64, Pair)], target: f64, complete: bool) -> (usize,
 /// (cutoff / R̄, the first `k` pairs of `ranked` in canonical order): the cutoff midway
 /// between the last pair bonded and the next ([`COORDINATION_MAX_GAP`] past the last of a
 /// `complete` ranking; below the first pair when k = 0).
-fn selected(ranked: &mut Vec<(f64, Pair)>, k: usize, complete: bool) -> (f64, Vec<Pair>) {
+fn selected(mut ranked: Vec<(f64, Pair)>, k: usize, complete: bool) -> (f64, Vec<Pair>) {
     let gap = if k == ranked.len() && complete {
         COORDINATION_MAX_GAP
     } else if k == 0 {
@@ -188,7 +188,7 @@ fn selected(ranked: &mut Vec<(f64, Pair)>, k: usize, complete: bool) -> (f64, Ve
         0.5 * (ranked[k - 1].0 + ranked[k].0)
     };
     ranked.truncate(k);
-    let mut pairs: Vec<Pair> = ranked.drain(..).map(|(_, p)| p).collect();
+    let mut pairs: Vec<Pair> = ranked.into_iter().map(|(_, p)| p).collect();
     pairs.par_sort_unstable_by_key(|p| (p.i, p.j, p.image));
     (gap, pairs)
 }

@@ -17,7 +17,10 @@ use super::amg::Amg;
 use super::cholesky::BlockCholesky;
 use super::fused::CaseRows;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
-use super::sparse::{copied, filled, mul6_cols, AsSix, BlockRows, BlockSparse, Cols, UpperBlocks};
+use super::sparse::{
+    add_scaled_cols, copied, direction_cols, filled, mul6_cols, AsSix, BlockRows, BlockSparse,
+    Cols, UpperBlocks,
+};
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
 use super::two_level::{HeldSpace, TwoLevel};
@@ -1138,10 +1141,8 @@ where
         column_dots(&r, &z)
     };
     // p transposed for the products with K, kept by the deflated direction update.
-    let mut pt: Vec<CaseRows> = match deflated && k.takes_transposed::<C>() {
-        true => p.par_iter().map(|q| CaseRows::of(q, cols)).collect(),
-        false => Vec::new(),
-    };
+    let mut pt: Option<Vec<CaseRows>> = (deflated && k.takes_transposed::<C>())
+        .then(|| p.par_iter().map(|q| CaseRows::of(q, cols)).collect());
     let mut worst = 0.0;
     // |fl(pᵀKp) − pᵀKp| ≤ γ_n |p|ᵀ|K||p| ≤ γ_n w pᵀdiag(K)p ([`judge_curvature`]).
     let rounding = unit_rounding_bound(k.rounding_depth(m)) * k.row_width() as f64;
@@ -1162,8 +1163,7 @@ where
         if it == opts.max_iterations {
             break;
         }
-        let kept = (!pt.is_empty()).then_some(&pt[..]);
-        let (pap, pdp) = k.apply_curvatures(&p, kept, &mut ap, cols);
+        let (pap, pdp) = k.apply_curvatures(&p, pt.as_deref(), &mut ap, cols);
         let judged: [bool; C] = std::array::from_fn(|c| live[c] && !done[c]);
         let bound: [f64; C] = std::array::from_fn(|c| rounding * pdp[c]);
         judge_curvature(&pap, &bound, &judged, &residual, opts.tolerance, &mut done)?;
@@ -1201,17 +1201,20 @@ where
         });
         match precondition.two_level {
             Some(tl) if deflated => {
-                let kept = (!pt.is_empty()).then_some(&mut pt[..]);
                 let step = (&mut x[..], &alpha);
-                tl.deflated_direction(&precondition.w, &mut p, kept, step, &beta, cols)?
+                tl.deflated_direction(
+                    &precondition.w,
+                    &mut p,
+                    pt.as_deref_mut(),
+                    step,
+                    &beta,
+                    cols,
+                )?
             }
-            _ => p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
-                for (c, &b) in beta.iter().enumerate() {
-                    for i in 0..6 {
-                        p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
-                    }
-                }
-            }),
+            _ => p
+                .par_iter_mut()
+                .zip(z.par_iter())
+                .for_each(|(p, z)| direction_cols(p, z, &beta)),
         }
         rz = rz_new;
     }
@@ -1410,15 +1413,11 @@ fn step_row<const C: usize>(
     ap: &Cols<C>,
     alpha: &[f64; C],
 ) {
-    for (c, &a) in alpha.iter().enumerate() {
-        for i in 0..6 {
-            x[(i, c)] += p[(i, c)] * a;
-            r[(i, c)] -= ap[(i, c)] * a;
-        }
-    }
+    add_scaled_cols(x, p, alpha);
+    residual_row(r, ap, alpha);
 }
 
-/// r −= α K p on one row (the r half of [`step_row`], the same bits).
+/// r −= α K p on one row (the r half of [`step_row`]).
 #[inline(always)]
 fn residual_row<const C: usize>(r: &mut Cols<C>, ap: &Cols<C>, alpha: &[f64; C]) {
     for (c, &a) in alpha.iter().enumerate() {

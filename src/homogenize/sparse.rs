@@ -913,6 +913,26 @@ pub(crate) fn fluctuation_sums(g: &[Block6], q: &[Block6], kq: &[Block6]) -> (Bl
     (gtq, qtkq)
 }
 
+/// y[:, c] += α_c x[:, c] for every load case c (the CG's x += α p, r += (−α) K p).
+#[inline(always)]
+pub(crate) fn add_scaled_cols<const C: usize>(y: &mut Cols<C>, x: &Cols<C>, alpha: &[f64; C]) {
+    for (c, &a) in alpha.iter().enumerate() {
+        for i in 0..6 {
+            y[(i, c)] += x[(i, c)] * a;
+        }
+    }
+}
+
+/// p[:, c] ← z[:, c] + β_c p[:, c] for every load case c (the CG's next search direction).
+#[inline(always)]
+pub(crate) fn direction_cols<const C: usize>(p: &mut Cols<C>, z: &Cols<C>, beta: &[f64; C]) {
+    for (c, &b) in beta.iter().enumerate() {
+        for i in 0..6 {
+            p[(i, c)] = z[(i, c)] + p[(i, c)] * b;
+        }
+    }
+}
+
 /// `n` copies of `zero`, written in parallel. `vec![zero; n]` of a block vector writes
 /// (and faults in) its pages on one thread: about 20 ms of the CG's start at 30,000 spheres,
 /// seven vectors of 8.6 MB (issue 35).

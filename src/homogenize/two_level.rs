@@ -12,7 +12,8 @@ use super::cholesky::BlockCholesky;
 use super::fused::{self, CaseRows};
 use super::network::Block6;
 use super::sparse::{
-    avx2, mul6_cols, mul_add6_cols, mul_add6_transposed_cols, BlockRows, BlockSparse, Cols,
+    add_scaled_cols, avx2, direction_cols, mul6_cols, mul_add6_cols, mul_add6_transposed_cols,
+    BlockRows, BlockSparse, Cols,
 };
 use crate::{Error, Mat3, Result, Vec3};
 use rayon::prelude::*;
@@ -659,7 +660,7 @@ impl TwoLevel {
 
     /// [`Self::coarse_of_k`] on the first `cols` load cases (the others of `out` are zero).
     pub fn coarse_of_k_cols(&self, w: &[Block6], out: &mut [Block6], cols: usize) -> Result<()> {
-        self.prolong_coarse_of_k(w, out, cols, |_, o, s, _: &mut ((), usize)| *o = s, |_| ())
+        self.prolong_coarse_of_k(w, out, cols, |_, _, o, s, _: &mut ()| *o = s, |_| ())
     }
 
     /// w − Q K w into `z` on the first `cols` of `C` load cases (the bits of `w` less
@@ -670,13 +671,7 @@ impl TwoLevel {
         z: &mut [Cols<C>],
         cols: usize,
     ) -> Result<()> {
-        self.prolong_coarse_of_k(
-            w,
-            z,
-            cols,
-            |p, o, s, _: &mut ((), usize)| *o = w[p] - s,
-            |_| (),
-        )
+        self.prolong_coarse_of_k(w, z, cols, |p, _, o, s, _: &mut ()| *o = w[p] - s, |_| ())
     }
 
     /// The CG's next search direction with the two-level preconditioner, p ← (I − QK) w + β p
@@ -695,44 +690,34 @@ impl TwoLevel {
         cols: usize,
     ) -> Result<()> {
         const CH: usize = PROLONG_ROWS;
+        // Each chunk's rows of p transposed (when kept) and of x.
         type Rows<'a, const C: usize> = (Option<&'a mut [CaseRows]>, &'a mut [Cols<C>]);
-        let mut pts: Vec<Option<&mut [CaseRows]>> = match pt {
+        let pts: Vec<Option<&mut [CaseRows]>> = match pt {
             Some(t) => t.chunks_mut(CH).map(Some).collect(),
             None => (0..p.len().div_ceil(CH)).map(|_| None).collect(),
         };
-        let chunks: Vec<Rows<C>> = pts.drain(..).zip(x.chunks_mut(CH)).collect();
-        let finish = |q: usize, o: &mut Cols<C>, s: Cols<C>, (rows, k): &mut (Rows<C>, usize)| {
-            let xq = &mut rows.1[*k];
-            for (c, &a) in alpha.iter().enumerate() {
-                for i in 0..6 {
-                    xq[(i, c)] += o[(i, c)] * a;
-                }
-            }
-            let z = w[q] - s;
-            for (c, &b) in beta.iter().enumerate() {
-                for i in 0..6 {
-                    o[(i, c)] = z[(i, c)] + o[(i, c)] * b;
-                }
-            }
+        let mut chunks = pts.into_iter().zip(x.chunks_mut(CH));
+        let finish = |q: usize, at: usize, o: &mut Cols<C>, s: Cols<C>, rows: &mut Rows<C>| {
+            add_scaled_cols(&mut rows.1[at], o, alpha);
+            direction_cols(o, &(w[q] - s), beta);
             if let Some(t) = rows.0.as_deref_mut() {
-                t[*k] = CaseRows::of(o, cols);
+                t[at] = CaseRows::of(o, cols);
             }
         };
-        let mut chunks = chunks.into_iter();
         self.prolong_coarse_of_k(w, p, cols, finish, |_| {
             chunks.next().expect("one per chunk")
         })
     }
 
-    /// `finish`(p, out_p, (Q K w)_p, (chunk's `aux`, p's index in its chunk)) for every fine
-    /// node p, by chunks of [`PROLONG_ROWS`] rows; `aux` is called once per chunk, in order,
-    /// before the chunks run.
+    /// `finish`(p, p's index in its chunk, out_p, (Q K w)_p, the chunk's `aux`) for every
+    /// fine node p, by chunks of [`PROLONG_ROWS`] rows; `aux` is called once per chunk, in
+    /// order, before the chunks run.
     fn prolong_coarse_of_k<A: Send, const C: usize>(
         &self,
         w: &[Cols<C>],
         out: &mut [Cols<C>],
         cols: usize,
-        finish: impl Fn(usize, &mut Cols<C>, Cols<C>, &mut (A, usize)) + Sync,
+        finish: impl Fn(usize, usize, &mut Cols<C>, Cols<C>, &mut A) + Sync,
         mut aux: impl FnMut(usize) -> A,
     ) -> Result<()> {
         let layers = self.layers;
@@ -777,7 +762,7 @@ impl TwoLevel {
             .collect();
         let xc = self.coarse.solve_in_halves(&restricted)?;
         const CH: usize = PROLONG_ROWS;
-        let mut auxes: Vec<(A, usize)> = (0..out.len().div_ceil(CH)).map(|k| (aux(k), 0)).collect();
+        let mut auxes: Vec<A> = (0..out.len().div_ceil(CH)).map(&mut aux).collect();
         out.par_chunks_mut(CH)
             .zip(auxes.par_iter_mut())
             .enumerate()
@@ -799,8 +784,7 @@ impl TwoLevel {
                                 cols,
                             );
                         }
-                        aux.1 = at;
-                        finish(p, o, s, aux);
+                        finish(p, at, o, s, aux);
                     }
                 });
             });
@@ -842,10 +826,10 @@ impl TwoLevel {
         &self,
         first: usize,
         outs: &mut [Cols<C>],
-        aux: &mut (A, usize),
+        aux: &mut A,
         xc: &[Cols<C>],
         cols: usize,
-        finish: &impl Fn(usize, &mut Cols<C>, Cols<C>, &mut (A, usize)),
+        finish: &impl Fn(usize, usize, &mut Cols<C>, Cols<C>, &mut A),
     ) {
         let layers = self.layers;
         for (at, (p, o)) in (first..).zip(outs.iter_mut()).enumerate() {
@@ -853,8 +837,7 @@ impl TwoLevel {
             let terms = self.prolongation[p * layers..(p + 1) * layers]
                 .iter()
                 .zip(&xc[c..c + layers]);
-            aux.1 = at;
-            finish(p, o, fused::straight_sum(terms, cols), aux);
+            finish(p, at, o, fused::straight_sum(terms, cols), aux);
         }
     }
 }
