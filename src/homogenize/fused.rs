@@ -175,6 +175,18 @@ impl CaseRows {
         t
     }
 
+    /// The six DOF rows.
+    #[inline(always)]
+    pub(crate) fn rows(&self) -> &[[f64; 8]; 6] {
+        &self.0
+    }
+
+    /// The six DOF rows, to write.
+    #[inline(always)]
+    pub(crate) fn rows_mut(&mut self) -> &mut [[f64; 8]; 6] {
+        &mut self.0
+    }
+
     /// Back to a block of `C` load cases.
     #[inline(always)]
     pub(crate) fn to_cols<const C: usize>(self) -> Cols<C> {

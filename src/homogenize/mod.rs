@@ -10,7 +10,8 @@
 //! - `laf.rs`: Kruyt 2014's local-adjustment-field estimates (stress- and energy-based).
 //! - `cholesky.rs`, `two_level.rs`, `amg.rs`: the relaxed solve's direct solver and CG
 //!   preconditioners (two-level; smoothed-aggregation multigrid).
-//! - `network.rs`: the linearised bond network the last two share.
+//! - `network.rs`: the linearised bond network the last two share; `bond_springs.rs`: its K
+//!   applied bond by bond (the CG's product, off-diagonal blocks never formed).
 //! - `term_operator.rs`: the many-body term's Hessian, load and affine tensor for the relaxed
 //!   solve, in factored form; `term_preconditioner.rs`: the two-level coarse space with it
 //!   (rigid and uniform-strain modes per aggregate).
@@ -22,6 +23,7 @@
 
 pub(crate) mod amg;
 mod amg_blocks;
+pub(crate) mod bond_springs;
 pub(crate) mod buckling;
 pub(crate) mod cholesky;
 pub(crate) mod fused;

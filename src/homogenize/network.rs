@@ -86,6 +86,29 @@ pub struct Element {
     pub h: Block6,
 }
 
+/// One bond end's off-diagonal block of K, K_ro = B_rᵀ S B_o − R (+ the preload's
+/// geometric stiffness), by its nine free numbers (N = [n]×, a and b the arms of r and o):
+/// K_ro = [[−`shear` I − `axial` nn, −`other_arm_shear` N],
+/// [−`own_arm_shear` N, `turn` I − `turn_axial` nn]] (derivation: bond_springs.rs).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
+pub(crate) struct HalfBond {
+    /// Unit normal from r to o.
+    pub normal: [f64; 3],
+    /// k_s + N_ax/l (N/m).
+    pub shear: f64,
+    /// k_n − k_s − N_ax/l (N/m).
+    pub axial: f64,
+    /// a k_s (N).
+    pub own_arm_shear: f64,
+    /// b k_s (N).
+    pub other_arm_shear: f64,
+    /// ab k_s − k_r (N·m/rad).
+    pub turn: f64,
+    /// ab k_s + k_tw − k_r (N·m/rad).
+    pub turn_axial: f64,
+}
+
 /// Skew matrix [a]× with [a]× v = a × v.
 fn skew(a: &Vec3) -> Mat3 {
     Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
@@ -546,6 +569,29 @@ impl Network {
         (kii, kjj, kij)
     }
 
+    /// The coefficients of K_ij and K_ji of active bond `e`, seen from end i and from end j
+    /// ([`HalfBond`]; bond_springs.rs).
+    pub(crate) fn half_bonds(&self, e: usize) -> (HalfBond, HalfBond) {
+        let law = &self.laws[e];
+        let preload = self.axial.as_ref().map_or(0.0, |f| f[e]) / law.length;
+        let (ai, aj) = if self.rotations { law.arms } else { (0.0, 0.0) };
+        let (kr, ktw) = if self.rotations {
+            (law.kr, law.ktw)
+        } else {
+            (0.0, 0.0)
+        };
+        let end = |normal: Vec3, own: f64, other: f64| HalfBond {
+            normal: normal.into(),
+            shear: law.ks + preload,
+            axial: (law.kn - law.ks) - preload,
+            own_arm_shear: own * law.ks,
+            other_arm_shear: other * law.ks,
+            turn: own * other * law.ks - kr,
+            turn_axial: own * other * law.ks + (ktw - kr),
+        };
+        (end(law.normal, ai, aj), end(-law.normal, aj, ai))
+    }
+
     /// Free every bond's springs, geometry and preload once K is assembled (80 bytes a bond:
     /// 0.3 GB at a million particles, issue 35); [`Network::element`] then panics.
     pub(crate) fn release_springs(&mut self) {
@@ -669,6 +715,13 @@ pub fn pinv_psd(m: &Block6) -> (Block6, usize) {
 /// fixture of the solvers' unit tests).
 #[cfg(test)]
 pub(crate) fn mrv_test_network() -> Network {
+    mrv_test_network_with(true, false)
+}
+
+/// [`mrv_test_network`] with or without rotations, and with an axial preload of alternating
+/// sign on every bond when `preloaded`.
+#[cfg(test)]
+pub(crate) fn mrv_test_network_with(rotations: bool, preloaded: bool) -> Network {
     use crate::packing::{generate, GenerateOptions};
     let opts = GenerateOptions {
         n_particles: 1500,
@@ -682,8 +735,14 @@ pub(crate) fn mrv_test_network() -> Network {
         &asm.bonds,
         &asm.springs,
         LeverArm::MidGap,
-        true,
-        None,
+        rotations,
+        preloaded
+            .then(|| {
+                (0..asm.bonds.len())
+                    .map(|b| if b % 2 == 0 { 3.7 } else { -2.9 })
+                    .collect::<Vec<f64>>()
+            })
+            .as_deref(),
     )
     .unwrap()
 }

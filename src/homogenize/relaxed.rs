@@ -14,6 +14,7 @@
 //! the right-hand sides are orthogonal to them, so CG converges in the range of K.
 
 use super::amg::Amg;
+use super::bond_springs::BondSprings;
 use super::cholesky::BlockCholesky;
 use super::fused::CaseRows;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
@@ -549,15 +550,17 @@ struct Stiffness<'a> {
 enum StoredSprings {
     Full(BlockSparse),
     Upper(UpperBlocks),
+    Bonds(BondSprings),
 }
 
 impl StoredSprings {
-    /// K of the network, by its upper triangle alone when `products_only` (assembled
-    /// directly: the full K is never formed), else in full.
+    /// K of the network, applied bond by bond when `products_only` ([`BondSprings`]: its
+    /// off-diagonal blocks never formed), else assembled in full.
     fn assemble(net: &Network, products_only: bool) -> StoredSprings {
-        match products_only.then(|| UpperBlocks::assemble(net)).flatten() {
-            Some(u) => StoredSprings::Upper(u),
-            None => StoredSprings::Full(BlockSparse::assemble(net)),
+        if products_only {
+            StoredSprings::Bonds(BondSprings::of(net))
+        } else {
+            StoredSprings::Full(BlockSparse::assemble(net))
         }
     }
 
@@ -577,6 +580,7 @@ impl StoredSprings {
         match self {
             StoredSprings::Full(k) => Springs::Full(k),
             StoredSprings::Upper(k) => Springs::Upper(k),
+            StoredSprings::Bonds(k) => Springs::Bonds(k),
         }
     }
 }
@@ -586,6 +590,7 @@ impl StoredSprings {
 enum Springs<'a> {
     Full(&'a BlockSparse),
     Upper(&'a UpperBlocks),
+    Bonds(&'a BondSprings),
 }
 
 impl<'a> Springs<'a> {
@@ -593,16 +598,31 @@ impl<'a> Springs<'a> {
     fn full(self) -> Result<&'a BlockSparse> {
         match self {
             Springs::Full(k) => Ok(k),
-            Springs::Upper(_) => Err(Error::Invalid(
+            Springs::Upper(_) | Springs::Bonds(_) => Err(Error::Invalid(
                 "relaxed solver: the full stiffness matrix was freed".into(),
             )),
         }
     }
 
-    fn max_row_blocks(self) -> usize {
+    /// The bound's width w of [`judge_curvature`]: 6 scalars per block of a row; applied
+    /// bond by bond, thrice that, as each end's terms (k_s u, (k_n − k_s)(n·u) n, the arms'
+    /// cross products) reach up to thrice its block's entries.
+    fn row_width(self) -> usize {
         match self {
-            Springs::Full(k) => k.max_row_blocks(),
-            Springs::Upper(k) => k.max_row_blocks(),
+            Springs::Full(k) => 6 * k.max_row_blocks(),
+            Springs::Upper(k) => 6 * k.max_row_blocks(),
+            Springs::Bonds(k) => 18 * k.max_row_blocks(),
+        }
+    }
+
+    /// The longest chain of roundings in one entry of K x: 6 per stored block; applied bond
+    /// by bond, 6 for the diagonal block and 10 per bond end (its dot or cross product, its
+    /// scaling, and its three terms added).
+    fn entry_depth(self) -> usize {
+        match self {
+            Springs::Full(k) => 6 * k.max_row_blocks(),
+            Springs::Upper(k) => 6 * k.max_row_blocks(),
+            Springs::Bonds(k) => 6 + 10 * (k.max_row_blocks() - 1),
         }
     }
 
@@ -610,6 +630,7 @@ impl<'a> Springs<'a> {
         match self {
             Springs::Full(k) => k.apply_cols(x, y, cols),
             Springs::Upper(k) => k.apply_cols(x, y, cols),
+            Springs::Bonds(k) => k.apply_cols(x, y, cols),
         }
     }
 
@@ -618,6 +639,7 @@ impl<'a> Springs<'a> {
         match self {
             Springs::Full(k) => k.row_times(p, x, cols),
             Springs::Upper(k) => k.row_times(p, x, cols),
+            Springs::Bonds(k) => k.row_times(p, x, cols),
         }
     }
 }
@@ -627,18 +649,21 @@ impl BlockRows for Springs<'_> {
         match *self {
             Springs::Full(k) => k.rows(),
             Springs::Upper(k) => BlockRows::rows(k),
+            Springs::Bonds(k) => BlockRows::rows(k),
         }
     }
     fn each_in_row(&self, p: usize, f: impl FnMut(usize, &Block6)) {
         match *self {
             Springs::Full(k) => BlockRows::each_in_row(k, p, f),
             Springs::Upper(k) => k.each_in_row(p, f),
+            Springs::Bonds(k) => k.each_in_row(p, f),
         }
     }
     fn diagonal(&self, p: usize) -> Block6 {
         match *self {
             Springs::Full(k) => k.diagonal(p),
             Springs::Upper(k) => BlockRows::diagonal(k, p),
+            Springs::Bonds(k) => BlockRows::diagonal(k, p),
         }
     }
 }
@@ -647,14 +672,14 @@ impl Stiffness<'_> {
     /// The most scalars in one row of K: 6 per stored block of the springs', plus the
     /// term's coupled nodes ([`TermOperator::coupling_width`]).
     fn row_width(&self) -> usize {
-        6 * (self.k.max_row_blocks() + self.term.map_or(0, |t| t.coupling_width()))
+        self.k.row_width() + 6 * self.term.map_or(0, |t| t.coupling_width())
     }
 
     /// The longest chain of additions in one computed x_cᵀ K x_c: one entry of K x (6 per
     /// stored block of a row, plus the term's, [`TermOperator::rounding_depth`]) and the dot
     /// product of [`column_dots`] (6 within a row, one per row of a chunk, one per chunk).
     fn rounding_depth(&self, rows: usize) -> usize {
-        let entry = 6 * self.k.max_row_blocks() + self.term.map_or(0, |t| t.rounding_depth());
+        let entry = self.k.entry_depth() + self.term.map_or(0, |t| t.rounding_depth());
         entry + 6 + rows.min(2048) + rows.div_ceil(2048)
     }
 
@@ -693,18 +718,19 @@ impl Stiffness<'_> {
     where
         Cols<C>: AsSix,
     {
+        let then = |first: usize, ys: &[Cols<C>]| {
+            let rows = first..first + ys.len();
+            curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
+        };
         match (self.k, self.term) {
-            (Springs::Upper(k), None) => {
-                let then = |first: usize, ys: &[Cols<C>]| {
-                    let rows = first..first + ys.len();
-                    curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
-                };
-                let parts = match pt {
-                    Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
-                    None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
-                };
-                sum_curvatures(parts)
-            }
+            (Springs::Upper(k), None) => sum_curvatures(match pt {
+                Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
+                None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
+            }),
+            (Springs::Bonds(k), None) => sum_curvatures(match pt {
+                Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
+                None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
+            }),
             _ => {
                 self.apply_cols(p, ap, cols);
                 curvatures(p, ap, &self.diag)
@@ -715,7 +741,10 @@ impl Stiffness<'_> {
     /// Whether [`Self::apply_curvatures`] reads p transposed on `C` load cases (the springs'
     /// upper triangle alone, by the fused kernels): then the CG keeps p so as it updates it.
     fn takes_transposed<const C: usize>(&self) -> bool {
-        matches!((self.k, self.term), (Springs::Upper(_), None)) && super::fused::runs::<C>()
+        matches!(
+            (self.k, self.term),
+            (Springs::Upper(_) | Springs::Bonds(_), None)
+        ) && super::fused::runs::<C>()
     }
 
     /// Gᵀq and qᵀKq (as [`BlockSparse::fluctuation_terms`], summed particle by particle in

@@ -56,13 +56,9 @@ impl BlockSparse {
     /// (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the bits are the same.
     pub fn assemble(net: &Network) -> BlockSparse {
         let mut k = BlockSparse::from_rows(Vec::new());
-        assemble_rows(
-            net.n_active,
-            &net.ends,
-            element_blocks(net),
-            false,
-            |rows| k.push_rows(rows),
-        );
+        assemble_rows(net.n_active, &net.ends, element_blocks(net), |rows| {
+            k.push_rows(rows)
+        });
         k
     }
 
@@ -75,7 +71,7 @@ impl BlockSparse {
         blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
     ) -> BlockSparse {
         let mut k = BlockSparse::from_rows(Vec::new());
-        assemble_rows(m, ends, blocks, false, |rows| k.push_rows(rows));
+        assemble_rows(m, ends, blocks, |rows| k.push_rows(rows));
         k
     }
 
@@ -92,7 +88,7 @@ impl BlockSparse {
     ) -> (Vec<Block6>, Vec<Block6>) {
         let (mut kx, mut diagonal) = (Vec::with_capacity(m), Vec::with_capacity(m));
         fused::with_transposed(x, 6, |xt| {
-            assemble_rows(m, ends, blocks, false, |rows| {
+            assemble_rows(m, ends, blocks, |rows| {
                 // The chunk's rows as a matrix of their own (columns stay global): its
                 // `row_times` is `apply`'s product of each row.
                 let first = kx.len();
@@ -375,12 +371,11 @@ fn element_blocks(net: &Network) -> impl Fn(usize) -> (Block6, Block6, Block6) +
 /// rows (never all elements at once:
 /// at a million particles they would take 6.6 GB; issue 35). Each block is summed in the
 /// order of [`BlockSparse::assemble_blocks`] (bond, then K_ii, K_jj, K_ij, K_ijᵀ), so the
-/// bits are the same; with `upper`, only the blocks on and right of the diagonal.
+/// bits are the same.
 fn assemble_rows(
     m: usize,
     ends: &[(u32, u32)],
     blocks: impl Fn(usize) -> (Block6, Block6, Block6) + Sync,
-    upper: bool,
     mut sink: impl FnMut(Vec<Vec<(u32, Block6)>>),
 ) {
     const ROWS: usize = 4096;
@@ -410,9 +405,6 @@ fn assemble_rows(
                         parts.push((pj, e, 1, at));
                         parts.push((pi, e, 3, at));
                     }
-                }
-                if upper {
-                    parts.retain(|&(c, ..)| c as usize >= r);
                 }
                 parts.sort_unstable();
                 let mut row: Vec<(u32, Block6)> = Vec::new();
@@ -573,52 +565,6 @@ impl UpperBlocks {
                 .all(|(q, _)| k.row(q).any(|(c, _)| c == p))
         });
         mirrored && k.blocks() < u32::MAX as usize
-    }
-
-    /// The upper triangle of K of a network assembled directly, by the rows of
-    /// [`BlockSparse::assemble`] cut at the diagonal: the same blocks bit for bit, and
-    /// K_qp = K_pqᵀ bit for bit by construction (each is the same bonds' blocks summed in the
-    /// same order, one set transposed), without the full K's transient memory and copy
-    /// (3.7 GB and 2.3 CPU s at 1,000,000 particles; issue 35). `None` when the blocks would
-    /// number 2³² or more.
-    pub(crate) fn assemble(net: &Network) -> Option<UpperBlocks> {
-        let m = net.n_active;
-        let mut row_start = Vec::with_capacity(m + 1);
-        row_start.push(0usize);
-        // At most one diagonal block per row and one block per bond right of it: the blocks'
-        // storage is allocated once and each chunk of rows copied in parallel (appending
-        // them one by one was a serial copy of every block, with the vector's regrowths).
-        let bound = m + net.ends.len();
-        let mut col = Vec::with_capacity(bound);
-        let mut block: Vec<Block6> = filled(bound, Block6::zeros());
-        assemble_rows(m, &net.ends, element_blocks(net), true, |rows| {
-            let first = col.len();
-            for r in &rows {
-                col.extend(r.iter().map(|(c, _)| *c));
-                row_start.push(col.len());
-            }
-            if col.len() > block.len() {
-                block.resize(col.len(), Block6::zeros());
-            }
-            let mut rest = &mut block[first..col.len()];
-            let mut dest = Vec::with_capacity(rows.len());
-            for r in &rows {
-                let (head, tail) = rest.split_at_mut(r.len());
-                dest.push(head);
-                rest = tail;
-            }
-            rows.par_iter().zip(dest).for_each(|(r, d)| {
-                for (to, (_, b)) in d.iter_mut().zip(r) {
-                    *to = *b;
-                }
-            });
-        });
-        block.truncate(col.len());
-        // Both triangles hold the off-diagonal blocks once each, plus the diagonal.
-        if 2 * block.len() >= u32::MAX as usize + m {
-            return None;
-        }
-        Some(UpperBlocks::of_rows(row_start, col, block))
     }
 
     /// The upper triangle from its rows (CSR, columns increasing from the diagonal): the
@@ -1010,16 +956,6 @@ mod tests {
             assert_eq!(read, want, "row {p}");
             assert_eq!(BlockRows::diagonal(&upper, p), k.diagonal(p));
         }
-    }
-
-    /// The upper triangle assembled directly from a network is the one cut from the full
-    /// assembled K, bit for bit (blocks, lower lists, the longest row).
-    #[test]
-    fn upper_triangle_assembled_directly_equals_the_cut_full_matrix() {
-        let net = super::super::network::mrv_test_network();
-        let cut = UpperBlocks::of(&BlockSparse::assemble(&net)).expect("mirrored");
-        let direct = UpperBlocks::assemble(&net).expect("fewer than 2³² blocks");
-        assert_same_triangle(&direct, &cut);
     }
 
     /// Two upper triangles are the same bit for bit: blocks, lower lists, the longest row.
