@@ -18,7 +18,7 @@
 
 use super::fused::{self, CaseRows};
 use super::network::{csr, Block6, Cols, HalfBond, Network};
-use super::sparse::{avx2, mul_add6_cols, BlockRows};
+use super::sparse::{avx2, filled, mul_add6_cols, BlockRows};
 use crate::{Mat3, Vec3};
 use rayon::prelude::*;
 
@@ -37,64 +37,75 @@ pub(crate) struct BondSprings {
 }
 
 impl BondSprings {
-    /// K of `net` (before its springs are released).
+    /// K of `net` (before its springs are released): each row's ends counted, then written
+    /// in parallel straight into their place.
     pub(crate) fn of(net: &Network) -> BondSprings {
+        const ROWS: usize = 1024;
         let m = net.n_active;
         let (start, edges) = csr(m, net.end_pairs(), |k, _| k as u32);
-        let rows: Vec<(Block6, Vec<(u32, HalfBond)>)> = (0..m)
+        let self_bond = |e: u32| {
+            let (pi, pj) = net.ends[e as usize];
+            pi == pj
+        };
+        // A bond to the particle's own image is listed twice in its row, and sits in the
+        // diagonal block instead of among the ends.
+        let counts: Vec<usize> = (0..m)
             .into_par_iter()
             .map(|r| {
-                let mut diag = Block6::zeros();
-                let mut ends = Vec::with_capacity(start[r + 1] - start[r]);
-                let mut last = u32::MAX;
-                for &e in &edges[start[r]..start[r + 1]] {
-                    if e == last {
-                        continue; // a bond to the particle's own image is listed twice
-                    }
-                    last = e;
-                    let (pi, pj) = net.ends[e as usize];
-                    let (kii, kjj, kij) = net.stiffness_blocks(e as usize);
-                    // The diagonal's parts in the order of the assembled rows: per bond,
-                    // K_ii, K_jj, K_ij, K_ijᵀ.
-                    if pi as usize == r {
-                        diag += kii;
-                    }
-                    if pj as usize == r {
-                        diag += kjj;
-                    }
-                    if pi == pj {
-                        diag += kij;
-                        diag += kij.transpose();
-                        continue;
-                    }
-                    let (hi, hj) = net.half_bonds(e as usize);
-                    if pi as usize == r {
-                        ends.push((pj, hi));
-                    } else {
-                        ends.push((pi, hj));
-                    }
-                }
-                (diag, ends)
+                let listed = &edges[start[r]..start[r + 1]];
+                listed.len() - listed.iter().filter(|&&e| self_bond(e)).count()
             })
             .collect();
         let mut row_start = Vec::with_capacity(m + 1);
         row_start.push(0);
-        let total: usize = rows.iter().map(|(_, e)| e.len()).sum();
-        let (mut other, mut half) = (Vec::with_capacity(total), Vec::with_capacity(total));
-        let mut diag = Vec::with_capacity(m);
-        for (d, ends) in rows {
-            diag.push(d);
-            for (o, h) in ends {
-                other.push(o);
-                half.push(h);
-            }
-            row_start.push(other.len());
+        for c in &counts {
+            row_start.push(row_start.last().copied().unwrap_or(0) + c);
         }
-        let max_row_blocks = 1
-            + (0..m)
-                .map(|r| row_start[r + 1] - row_start[r])
-                .max()
-                .unwrap_or(0);
+        let total = row_start[m];
+        let mut other = filled(total, 0u32);
+        let mut half = filled(total, HalfBond::default());
+        let mut diag = filled(m, Block6::zeros());
+        // Every chunk of ROWS rows with its share of the three arrays.
+        let mut parts = Vec::with_capacity(m.div_ceil(ROWS));
+        let (mut o_rest, mut h_rest, mut d_rest) = (&mut other[..], &mut half[..], &mut diag[..]);
+        for r0 in (0..m).step_by(ROWS) {
+            let r1 = (r0 + ROWS).min(m);
+            let len = row_start[r1] - row_start[r0];
+            let (o, ot) = o_rest.split_at_mut(len);
+            let (h, ht) = h_rest.split_at_mut(len);
+            let (d, dt) = d_rest.split_at_mut(r1 - r0);
+            (o_rest, h_rest, d_rest) = (ot, ht, dt);
+            parts.push((r0, o, h, d));
+        }
+        parts.into_par_iter().for_each(|(r0, o, h, d)| {
+            let mut at = 0;
+            for (r, dr) in (r0..).zip(d.iter_mut()) {
+                let mut last = u32::MAX;
+                for &e in &edges[start[r]..start[r + 1]] {
+                    if e == last {
+                        continue;
+                    }
+                    last = e;
+                    let (pi, pj) = net.ends[e as usize];
+                    if pi == pj {
+                        // The diagonal's parts in the order of the assembled rows: per bond,
+                        // K_ii, K_jj, K_ij, K_ijᵀ.
+                        let (kii, kjj, kij) = net.stiffness_blocks(e as usize);
+                        *dr += kii;
+                        *dr += kjj;
+                        *dr += kij;
+                        *dr += kij.transpose();
+                        continue;
+                    }
+                    let at_i = pi as usize == r;
+                    *dr += net.own_block(e as usize, at_i);
+                    o[at] = if at_i { pj } else { pi };
+                    h[at] = net.half_bond(e as usize, at_i);
+                    at += 1;
+                }
+            }
+        });
+        let max_row_blocks = 1 + counts.into_iter().max().unwrap_or(0);
         BondSprings {
             start: row_start,
             other,
