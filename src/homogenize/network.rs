@@ -188,12 +188,33 @@ fn with_load_terms(
     bj: &Matrix3x6<f64>,
     branch: &Vec3,
 ) -> Element {
-    let lmap = affine_map(branch);
-    let sl = s * lmap;
+    let LoadTerms { gi, gj, h } = load_terms_of(s, bi, bj, branch);
     Element {
         kii,
         kjj,
         kij,
+        gi,
+        gj,
+        h,
+    }
+}
+
+/// The load terms of an element: G_i = B_iᵀ S L, G_j = B_jᵀ S L and H = Lᵀ S L.
+pub(crate) struct LoadTerms {
+    /// G row block of particle i.
+    pub gi: Block6,
+    /// G row block of particle j.
+    pub gj: Block6,
+    /// Affine stiffness LᵀSL.
+    pub h: Block6,
+}
+
+/// The load terms of [`with_load_terms`]: the affine map of the branch vector `branch`
+/// through S between the ends' maps.
+fn load_terms_of(s: &Mat3, bi: &Matrix3x6<f64>, bj: &Matrix3x6<f64>, branch: &Vec3) -> LoadTerms {
+    let lmap = affine_map(branch);
+    let sl = s * lmap;
+    LoadTerms {
         gi: bi.transpose() * sl,
         gj: bj.transpose() * sl,
         h: lmap.transpose() * sl,
@@ -437,16 +458,23 @@ fn affine_sums(net: &Network, m: usize) -> (Block6, Vec<Block6>, [f64; 6]) {
     let mut norms2 = [0.0f64; 6];
     for start in (0..net.ends.len()).step_by(ELEMENT_CHUNK) {
         let end = (start + ELEMENT_CHUNK).min(net.ends.len());
-        let elements: Vec<Element> = (start..end)
+        // Each bond's load terms and its share of the norms, in parallel; then the sums.
+        let terms: Vec<(LoadTerms, [f64; 6])> = (start..end)
             .into_par_iter()
-            .map(|e| net.element(e))
+            .map(|e| {
+                let t = net.load_terms(e);
+                let norms = std::array::from_fn(|c| {
+                    t.gi.column(c).norm_squared() + t.gj.column(c).norm_squared()
+                });
+                (t, norms)
+            })
             .collect();
-        for (e, &(pi, pj)) in elements.iter().zip(&net.ends[start..end]) {
-            h += e.h;
-            g[pi as usize] += e.gi;
-            g[pj as usize] += e.gj;
-            for (c, n2) in norms2.iter_mut().enumerate() {
-                *n2 += e.gi.column(c).norm_squared() + e.gj.column(c).norm_squared();
+        for ((t, norms), &(pi, pj)) in terms.iter().zip(&net.ends[start..end]) {
+            h += t.h;
+            g[pi as usize] += t.gi;
+            g[pj as usize] += t.gj;
+            for (n2, v) in norms2.iter_mut().zip(norms) {
+                *n2 += v;
             }
         }
     }
@@ -553,6 +581,22 @@ impl Network {
             el += geometric_element(&law.normal, law.length, f);
         }
         el
+    }
+
+    /// The load terms (G_i, G_j, H) of [`Network::element`] alone, the same bits: what the
+    /// sums over the bonds need (half the element's arithmetic).
+    pub(crate) fn load_terms(&self, e: usize) -> LoadTerms {
+        let law = &self.laws[e];
+        let (s, bi, bj) = bond_maps(law, self.rotations);
+        let mut t = load_terms_of(&s, &bi, &bj, &(law.normal * law.length));
+        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+            let (s, bi, bj) = geometric_maps(&law.normal, law.length, f);
+            let g = load_terms_of(&s, &bi, &bj, &(law.normal * law.length));
+            t.gi += g.gi;
+            t.gj += g.gj;
+            t.h += g.h;
+        }
+        t
     }
 
     /// The stiffness blocks (K_ii, K_jj, K_ij) of [`Network::element`] alone, the same bits:
@@ -892,6 +936,8 @@ mod tests {
                     (net.own_block(e, true), net.own_block(e, false)),
                     (kii, kjj)
                 );
+                let (el, t) = (net.element(e), net.load_terms(e));
+                assert_eq!((t.gi, t.gj, t.h), (el.gi, el.gj, el.h), "bond {e}");
             }
         }
         let net = mrv_test_network();
