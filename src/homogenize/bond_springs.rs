@@ -16,9 +16,9 @@
 //! bits as [`super::sparse::UpperBlocks`]'): the block-Jacobi pieces and the coarse space
 //! read them.
 
-use super::fused::{self, CaseRows};
+use super::fused::CaseRows;
 use super::network::{csr, Block6, Cols, HalfBond, Network};
-use super::sparse::{avx2, filled, mul_add6_cols, BlockRows};
+use super::sparse::{filled, mul_add6_cols, BlockRows, RowProducts};
 use crate::{Mat3, Vec3};
 use rayon::prelude::*;
 
@@ -137,75 +137,17 @@ impl BondSprings {
         acc
     }
 
-    /// Y = K X on the first `cols` load cases.
-    pub(crate) fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
-        self.apply_cols_then(x, y, cols, 512, |_, _| ());
-    }
-
-    /// [`Self::apply_cols`] by chunks of `rows` rows, calling `then(first row, chunk of Y)`
-    /// on each chunk as soon as it is computed; the chunks' results in order.
-    pub(crate) fn apply_cols_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        fused::with_transposed(x, cols, |xt| self.chunks_then(x, xt, y, cols, rows, then))
-    }
-
-    /// [`Self::apply_cols_then`] with X also given transposed (`xt`, as
-    /// [`CaseRows::of`] makes it).
-    pub(crate) fn apply_transposed_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        xt: &[CaseRows],
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        assert_eq!(xt.len(), x.len(), "X and X transposed differ in length");
-        let xt = fused::runs::<C>().then_some(xt);
-        self.chunks_then(x, xt, y, cols, rows, then)
-    }
-
-    /// The chunks of [`Self::apply_cols_then`]: by the fused kernel on `xt` when given, else
-    /// row by row on `x`.
-    fn chunks_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        xt: Option<&[CaseRows]>,
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        y.par_chunks_mut(rows)
-            .enumerate()
-            .map(|(c, ys)| {
-                let first = c * rows;
-                match xt {
-                    // SAFETY: `xt` is given only where the fused kernels run.
-                    Some(xt) => unsafe { self.fused_rows(first, xt, ys) },
-                    None => avx2!({
-                        for (p, yp) in (first..).zip(ys.iter_mut()) {
-                            *yp = self.row_times(p, x, cols);
-                        }
-                    }),
-                }
-                then(first, ys)
-            })
-            .collect()
-    }
-
     /// Rows `first..` of K X into `ys` by the fused kernel ([`fused_row`]).
     ///
     /// # Safety
-    /// Only where [`fused::available`].
+    /// Only where [`super::fused::available`].
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
-    unsafe fn fused_rows<const C: usize>(&self, first: usize, xt: &[CaseRows], ys: &mut [Cols<C>]) {
+    unsafe fn fused_rows_avx512<const C: usize>(
+        &self,
+        first: usize,
+        xt: &[CaseRows],
+        ys: &mut [Cols<C>],
+    ) {
         for (p, yp) in (first..).zip(ys.iter_mut()) {
             let ends = self.start[p]..self.start[p + 1];
             *yp = fused_row(
@@ -216,6 +158,17 @@ impl BondSprings {
                 &self.half[ends],
             );
         }
+    }
+}
+
+impl RowProducts for BondSprings {
+    #[inline(always)]
+    fn row_product<const C: usize>(&self, p: usize, x: &[Cols<C>], cols: usize) -> Cols<C> {
+        self.row_times(p, x, cols)
+    }
+
+    unsafe fn fused_rows<const C: usize>(&self, first: usize, xt: &[CaseRows], ys: &mut [Cols<C>]) {
+        self.fused_rows_avx512(first, xt, ys)
     }
 }
 
@@ -271,7 +224,7 @@ impl HalfBond {
 /// `p`, then every bond end's K_ro X_o (module doc) in order, the load cases in the lanes.
 ///
 /// # Safety
-/// The processor must have AVX-512F ([`fused::available`]).
+/// The processor must have AVX-512F ([`super::fused::available`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn fused_row<const C: usize>(

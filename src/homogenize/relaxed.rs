@@ -20,7 +20,7 @@ use super::fused::CaseRows;
 use super::network::{pinv_psd, require_cell, Block6, LeverArm, Network, NullSpaceReport};
 use super::sparse::{
     add_scaled_cols, copied, direction_cols, filled, mul6_cols, AsSix, BlockRows, BlockSparse,
-    Cols, UpperBlocks,
+    Cols, RowProducts, UpperBlocks,
 };
 use super::term_operator::TermOperator;
 use super::term_preconditioner::StiffGroups;
@@ -718,24 +718,33 @@ impl Stiffness<'_> {
     where
         Cols<C>: AsSix,
     {
-        let then = |first: usize, ys: &[Cols<C>]| {
-            let rows = first..first + ys.len();
-            curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
-        };
         match (self.k, self.term) {
-            (Springs::Upper(k), None) => sum_curvatures(match pt {
-                Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
-                None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
-            }),
-            (Springs::Bonds(k), None) => sum_curvatures(match pt {
-                Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
-                None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
-            }),
+            (Springs::Upper(k), None) => self.product_curvatures(k, p, pt, ap, cols),
+            (Springs::Bonds(k), None) => self.product_curvatures(k, p, pt, ap, cols),
             _ => {
                 self.apply_cols(p, ap, cols);
                 curvatures(p, ap, &self.diag)
             }
         }
+    }
+
+    /// [`Self::apply_curvatures`] by the row products of `k`, chunk by chunk.
+    fn product_curvatures<const C: usize>(
+        &self,
+        k: &impl RowProducts,
+        p: &[Cols<C>],
+        pt: Option<&[CaseRows]>,
+        ap: &mut [Cols<C>],
+        cols: usize,
+    ) -> ([f64; C], [f64; C]) {
+        let then = |first: usize, ys: &[Cols<C>]| {
+            let rows = first..first + ys.len();
+            curvature_chunk(&p[rows.clone()], ys, &self.diag[rows])
+        };
+        sum_curvatures(match pt {
+            Some(pt) => k.apply_transposed_then(p, pt, ap, cols, CURVATURE_ROWS, then),
+            None => k.apply_cols_then(p, ap, cols, CURVATURE_ROWS, then),
+        })
     }
 
     /// Whether [`Self::apply_curvatures`] reads p transposed on `C` load cases (the springs'

@@ -626,75 +626,13 @@ impl UpperBlocks {
         acc
     }
 
-    /// Y = K X on the first `cols` load cases (as [`BlockSparse::apply_cols`]), with
-    /// AVX2 where the processor has it: the same operations (no fused multiply-add) in the
-    /// same order, so the same bits, four lanes wide instead of two.
-    pub(crate) fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
-        self.apply_cols_then(x, y, cols, 512, |_, _| ());
-    }
-
-    /// [`Self::apply_cols`] by chunks of `rows` rows, calling `then(first row, chunk of Y)`
-    /// on each chunk as soon as it is computed (while it is in cache); the chunks' results
-    /// in order.
-    pub(crate) fn apply_cols_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        fused::with_transposed(x, cols, |xt| self.chunks_then(x, xt, y, cols, rows, then))
-    }
-
-    /// [`Self::apply_cols_then`] with X also given transposed (`xt`, each row as
-    /// [`fused::CaseRows::of`] makes it): the fused kernels read it instead of transposing X
-    /// again. The same bits.
-    pub(crate) fn apply_transposed_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        xt: &[fused::CaseRows],
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        assert_eq!(xt.len(), x.len(), "X and X transposed differ in length");
-        let xt = fused::runs::<C>().then_some(xt);
-        self.chunks_then(x, xt, y, cols, rows, then)
-    }
-
-    /// The chunks of [`Self::apply_cols_then`]: by the fused kernel on `xt` when given (only
-    /// where the fused kernels run), else by the unfused one on `x`.
-    fn chunks_then<T: Send, const C: usize>(
-        &self,
-        x: &[Cols<C>],
-        xt: Option<&[fused::CaseRows]>,
-        y: &mut [Cols<C>],
-        cols: usize,
-        rows: usize,
-        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
-    ) -> Vec<T> {
-        y.par_chunks_mut(rows)
-            .enumerate()
-            .map(|(c, ys)| {
-                match xt {
-                    // SAFETY: `xt` is given only where the fused kernels run.
-                    Some(xt) => unsafe { self.fused_rows(c * rows, xt, ys) },
-                    None => avx2!(self.rows(c * rows, x, ys, cols)),
-                }
-                then(c * rows, ys)
-            })
-            .collect()
-    }
-
     /// Rows `first..` of K X into `ys` by the fused kernel ([`fused::row`]): the lower
     /// blocks read transposed, then the row's own, in column order.
     ///
     /// # Safety
     /// As [`fused::row`]: only where [`fused::available`].
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx512f"))]
-    unsafe fn fused_rows<const C: usize>(
+    unsafe fn fused_rows_avx512<const C: usize>(
         &self,
         first: usize,
         xt: &[fused::CaseRows],
@@ -713,17 +651,110 @@ impl UpperBlocks {
         }
     }
 
-    /// Rows `first..` of K X into `ys`.
-    #[inline(always)]
-    fn rows<const C: usize>(&self, first: usize, x: &[Cols<C>], ys: &mut [Cols<C>], cols: usize) {
-        for (p, yp) in (first..).zip(ys.iter_mut()) {
-            *yp = self.row_times(p, x, cols);
-        }
-    }
-
     /// The most blocks in one row of the full matrix.
     pub(crate) fn max_row_blocks(&self) -> usize {
         self.max_row_blocks
+    }
+}
+
+impl RowProducts for UpperBlocks {
+    #[inline(always)]
+    fn row_product<const C: usize>(&self, p: usize, x: &[Cols<C>], cols: usize) -> Cols<C> {
+        self.row_times(p, x, cols)
+    }
+
+    unsafe fn fused_rows<const C: usize>(
+        &self,
+        first: usize,
+        xt: &[fused::CaseRows],
+        ys: &mut [Cols<C>],
+    ) {
+        self.fused_rows_avx512(first, xt, ys)
+    }
+}
+
+/// K X of a matrix applied row by row (the springs' [`UpperBlocks`] and
+/// [`super::bond_springs::BondSprings`]): the chunked, parallel products the CG takes, from
+/// each one's row kernel and its fused kernel on X transposed.
+pub(crate) trait RowProducts: Sync {
+    /// Row `p` of K X on the first `cols` load cases (unfused; always inlined, so that it is
+    /// compiled for AVX2 inside [`avx2!`]).
+    fn row_product<const C: usize>(&self, p: usize, x: &[Cols<C>], cols: usize) -> Cols<C>;
+
+    /// Rows `first..` of K X into `ys` by the fused kernel on X transposed (`xt`).
+    ///
+    /// # Safety
+    /// Only where [`fused::available`].
+    unsafe fn fused_rows<const C: usize>(
+        &self,
+        first: usize,
+        xt: &[fused::CaseRows],
+        ys: &mut [Cols<C>],
+    );
+
+    /// Y = K X on the first `cols` load cases, with AVX2 where the processor has it.
+    fn apply_cols<const C: usize>(&self, x: &[Cols<C>], y: &mut [Cols<C>], cols: usize) {
+        self.apply_cols_then(x, y, cols, 512, |_, _| ());
+    }
+
+    /// [`Self::apply_cols`] by chunks of `rows` rows, calling `then(first row, chunk of Y)`
+    /// on each chunk as soon as it is computed (while it is in cache); the chunks' results
+    /// in order.
+    fn apply_cols_then<T: Send, const C: usize>(
+        &self,
+        x: &[Cols<C>],
+        y: &mut [Cols<C>],
+        cols: usize,
+        rows: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Vec<T> {
+        fused::with_transposed(x, cols, |xt| self.chunks_then(x, xt, y, cols, rows, then))
+    }
+
+    /// [`Self::apply_cols_then`] with X also given transposed (`xt`, each row as
+    /// [`fused::CaseRows::of`] makes it): the fused kernels read it instead of transposing X
+    /// again. The same bits.
+    fn apply_transposed_then<T: Send, const C: usize>(
+        &self,
+        x: &[Cols<C>],
+        xt: &[fused::CaseRows],
+        y: &mut [Cols<C>],
+        cols: usize,
+        rows: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Vec<T> {
+        assert_eq!(xt.len(), x.len(), "X and X transposed differ in length");
+        let xt = fused::runs::<C>().then_some(xt);
+        self.chunks_then(x, xt, y, cols, rows, then)
+    }
+
+    /// The chunks of [`Self::apply_cols_then`]: by the fused kernel on `xt` when given (only
+    /// where the fused kernels run), else row by row on `x`.
+    fn chunks_then<T: Send, const C: usize>(
+        &self,
+        x: &[Cols<C>],
+        xt: Option<&[fused::CaseRows]>,
+        y: &mut [Cols<C>],
+        cols: usize,
+        rows: usize,
+        then: impl Fn(usize, &[Cols<C>]) -> T + Sync,
+    ) -> Vec<T> {
+        y.par_chunks_mut(rows)
+            .enumerate()
+            .map(|(c, ys)| {
+                let first = c * rows;
+                match xt {
+                    // SAFETY: `xt` is given only where the fused kernels run.
+                    Some(xt) => unsafe { self.fused_rows(first, xt, ys) },
+                    None => avx2!({
+                        for (p, yp) in (first..).zip(ys.iter_mut()) {
+                            *yp = self.row_product(p, x, cols);
+                        }
+                    }),
+                }
+                then(first, ys)
+            })
+            .collect()
     }
 }
 
