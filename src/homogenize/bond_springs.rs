@@ -19,7 +19,6 @@
 use super::fused::CaseRows;
 use super::network::{csr, Block6, Cols, HalfBond, Network};
 use super::sparse::{filled, mul_add6_cols, BlockRows, RowProducts};
-use crate::{Mat3, Vec3};
 use rayon::prelude::*;
 
 /// The springs' K of a network: its diagonal blocks assembled, the rest applied bond end by
@@ -173,23 +172,6 @@ impl RowProducts for BondSprings {
 }
 
 impl HalfBond {
-    /// K_ro of this bond end as a block (module doc).
-    pub(crate) fn block(&self) -> Block6 {
-        let n = Vec3::from(self.normal);
-        let nn = n * n.transpose();
-        let cross = Mat3::new(0.0, -n.z, n.y, n.z, 0.0, -n.x, -n.y, n.x, 0.0);
-        let mut b = Block6::zeros();
-        b.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&(-(Mat3::identity() * self.shear + nn * self.axial)));
-        b.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&(-cross * self.other_arm_shear));
-        b.fixed_view_mut::<3, 3>(3, 0)
-            .copy_from(&(-cross * self.own_arm_shear));
-        b.fixed_view_mut::<3, 3>(3, 3)
-            .copy_from(&(Mat3::identity() * self.turn - nn * self.turn_axial));
-        b
-    }
-
     /// acc += K_ro x on the first `cols` load cases, column by column (module doc).
     #[inline(always)]
     fn mul_add<const C: usize>(&self, acc: &mut Cols<C>, x: &Cols<C>, cols: usize) {

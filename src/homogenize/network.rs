@@ -109,6 +109,24 @@ pub(crate) struct HalfBond {
     pub turn_axial: f64,
 }
 
+impl HalfBond {
+    /// K_ro of this bond end as a block.
+    pub(crate) fn block(&self) -> Block6 {
+        let n = Vec3::from(self.normal);
+        let (nn, cross) = (n * n.transpose(), skew(&n));
+        let mut b = Block6::zeros();
+        b.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(-(Mat3::identity() * self.shear + nn * self.axial)));
+        b.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(-cross * self.other_arm_shear));
+        b.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&(-cross * self.own_arm_shear));
+        b.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(Mat3::identity() * self.turn - nn * self.turn_axial));
+        b
+    }
+}
+
 /// Skew matrix [a]× with [a]× v = a × v.
 fn skew(a: &Vec3) -> Mat3 {
     Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
@@ -257,15 +275,22 @@ fn stiffness_of(
     bj: &Matrix3x6<f64>,
 ) -> (Block6, Block6, Block6) {
     let (mut kii, mut kjj, mut kij) = spring_blocks(s, bi, bj);
-    if rotations && (law.kr != 0.0 || law.ktw != 0.0) {
-        let nn = law.normal * law.normal.transpose();
-        let rm = (Mat3::identity() - nn) * law.kr + nn * law.ktw;
+    if let Some(rm) = rotation_springs(law, rotations) {
         for (blk, sign) in [(&mut kii, 1.0), (&mut kjj, 1.0), (&mut kij, -1.0)] {
             let mut v = blk.fixed_view_mut::<3, 3>(3, 3);
             v += rm * sign;
         }
     }
     (kii, kjj, kij)
+}
+
+/// The bending and twisting springs on the relative rotation, k_r (I − nn) + k_tw nn, when
+/// the particles rotate and the bond has either.
+fn rotation_springs(law: &BondLaw, rotations: bool) -> Option<Mat3> {
+    (rotations && (law.kr != 0.0 || law.ktw != 0.0)).then(|| {
+        let nn = law.normal * law.normal.transpose();
+        (Mat3::identity() - nn) * law.kr + nn * law.ktw
+    })
 }
 
 /// G = (N/|l|)(I − n⊗n): the geometric stiffness (N/m) of one bond on the relative
@@ -647,9 +672,7 @@ impl Network {
         let (s, bi, bj) = bond_maps(law, self.rotations);
         let b = if at_i { bi } else { bj };
         let mut own = b.transpose() * (s * b);
-        if self.rotations && (law.kr != 0.0 || law.ktw != 0.0) {
-            let nn = law.normal * law.normal.transpose();
-            let rm = (Mat3::identity() - nn) * law.kr + nn * law.ktw;
+        if let Some(rm) = rotation_springs(law, self.rotations) {
             let mut v = own.fixed_view_mut::<3, 3>(3, 3);
             v += rm * 1.0;
         }
