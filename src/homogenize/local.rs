@@ -21,7 +21,7 @@
 //! the same split gives Σ_p V_p σ_p = V σ with the term too (Hill's lemma for the particles).
 
 use super::network::{csr, LeverArm};
-use super::relaxed::{relaxed_solve, relaxed_solve_with_term, RelaxedOptions, RelaxedResult};
+use super::relaxed::{relaxed_solve_full, RelaxedOptions, RelaxedResult};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::manybody::ManyBody;
 use crate::packing::{Packing, PeriodicCell};
@@ -255,10 +255,7 @@ pub fn local_fields_with_term(
         )));
     }
     let ropts = &options.relaxed;
-    let sol = match term {
-        Some(_) => relaxed_solve_with_term(packing, bonds, springs, term, ropts)?,
-        None => relaxed_solve(packing, bonds, springs, ropts, None)?,
-    };
+    let sol = relaxed_solve_full(packing, bonds, springs, ropts, None, None, term)?;
     let n = packing.len();
     let nb = bonds.len();
     let eps = strain_tensor(strain);

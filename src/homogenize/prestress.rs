@@ -18,7 +18,7 @@
 //! C44, which no stress-free central-plus-shear network can (Truszkowska 2018 App. D; the
 //! Eq. 30 study in docs/prestress.md).
 
-use super::relaxed::{relaxed_solve_preloaded, RelaxedOptions, RelaxedResult};
+use super::relaxed::{relaxed_solve, relaxed_solve_full, RelaxedOptions, RelaxedResult};
 use crate::bonds::{BondSet, BondStiffness};
 use crate::packing::Packing;
 use crate::tensor::{strain_tensor, Stiffness6, Voigt6, VOIGT_PAIRS};
@@ -67,7 +67,7 @@ impl Prestress {
             rotations: false,
             ..*opts
         };
-        let sol = relaxed_solve_preloaded(packing, bonds, &central, &opts, None, None)?;
+        let sol = relaxed_solve(packing, bonds, &central, &opts, None)?;
         let mut index = vec![u32::MAX; packing.len()];
         for (a, &p) in sol.active.iter().enumerate() {
             index[p as usize] = a as u32;
@@ -197,7 +197,8 @@ pub fn prestressed_tensor(
             prestress.axial_force.len()
         )));
     }
-    let sol = relaxed_solve_preloaded(packing, bonds, k, opts, None, Some(&prestress.axial_force))?;
+    let preload = Some(prestress.axial_force.as_slice());
+    let sol = relaxed_solve_full(packing, bonds, k, opts, None, preload, None)?;
     let stress = prestress.stress(bonds, packing.volume());
     let c = sol.result.c + stress_measure_correction(&stress);
     Ok(PrestressedTensor {

@@ -289,21 +289,7 @@ pub fn relaxed_solve(
     opts: &RelaxedOptions,
     initial: Option<&[Block6]>,
 ) -> Result<RelaxedSolution> {
-    relaxed_solve_preloaded(packing, bonds, k, opts, initial, None)
-}
-
-/// [`relaxed_solve`] of the network linearised about a state where every bond carries the
-/// axial force `axial_force[b]` (N, tension positive; [`super::prestress`]): K, G and H gain
-/// the geometric terms, so the result is the energy (first Piola–Kirchhoff) tangent.
-pub(crate) fn relaxed_solve_preloaded(
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    opts: &RelaxedOptions,
-    initial: Option<&[Block6]>,
-    axial_force: Option<&[f64]>,
-) -> Result<RelaxedSolution> {
-    relaxed_solve_full(packing, bonds, k, opts, initial, axial_force, None)
+    relaxed_solve_full(packing, bonds, k, opts, initial, None, None)
 }
 
 /// The exact relaxed 6×6 stiffness (Pa) of the springs together with the many-body term
@@ -323,22 +309,14 @@ pub fn relaxed_tensor_with_term(
     Ok(relaxed_solve_full(packing, bonds, k, opts, None, None, term)?.result)
 }
 
-/// [`relaxed_solve`] with the many-body term `term` (as [`relaxed_tensor_with_term`]): the
-/// fluctuation field of the springs and the term together, for the local fields
-/// ([`super::local`]).
-pub(crate) fn relaxed_solve_with_term(
-    packing: &Packing,
-    bonds: &BondSet,
-    k: &BondStiffness,
-    term: Option<&ManyBody>,
-    opts: &RelaxedOptions,
-) -> Result<RelaxedSolution> {
-    relaxed_solve_full(packing, bonds, k, opts, None, None, term)
-}
-
-/// [`relaxed_solve_preloaded`] with a many-body term: with a term, dangling particles stay
-/// in the network (a term couples them to their neighbour's fitted strain).
-fn relaxed_solve_full(
+/// [`relaxed_solve`] in full: with `axial_force`, the network linearised about a state where
+/// every bond carries the axial force `axial_force[b]` (N, tension positive;
+/// [`super::prestress`]), so K, G and H gain the geometric terms and the result is the energy
+/// (first Piola–Kirchhoff) tangent; with the many-body term `term` (as
+/// [`relaxed_tensor_with_term`]), the fluctuation field of the springs and the term together
+/// ([`super::local`]), and dangling particles stay in the network (a term couples them to
+/// their neighbour's fitted strain).
+pub(crate) fn relaxed_solve_full(
     packing: &Packing,
     bonds: &BondSet,
     k: &BondStiffness,

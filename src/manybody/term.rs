@@ -791,6 +791,21 @@ impl ManyBody {
         owners
     }
 
+    /// The included particles whose stencil holds particle `r`, in
+    /// [`stencil_owners`](Self::stencil_owners)' order, each with r's coefficient a_r in
+    /// that stencil: the terms of row r of the Hessian and of the load.
+    fn owners_holding(&self, r: usize) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.stencil_owners(r).into_iter().filter_map(move |p| {
+            let p = p as usize;
+            if !self.included[p] {
+                return None;
+            }
+            let span = self.sten_start[p]..self.sten_start[p + 1];
+            let kr = span.clone().find(|&k| self.sten_node[k] as usize == r)?;
+            Some((p, self.sten_coef[kr]))
+        })
+    }
+
     /// The Hessian ∂²U/∂x∂x (N/m) at branch vectors `branch`, over every particle, in 6×6
     /// blocks of the relaxed solver's DOFs (translation first; the rotation rows are zero):
     /// particles sharing a bonded neighbour are coupled. Each block row is summed in a fixed
@@ -802,17 +817,10 @@ impl ManyBody {
         let rows: Vec<Vec<(u32, Block6)>> = (0..n)
             .into_par_iter()
             .map(|r| {
-                let owners = self.stencil_owners(r);
                 let mut entries: Vec<(u32, Mat3)> = Vec::new();
-                for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
-                    let p = p as usize;
-                    let span = self.sten_start[p]..self.sten_start[p + 1];
-                    let Some(kr) = span.clone().find(|&k| self.sten_node[k] as usize == r) else {
-                        continue;
-                    };
+                for (p, cr) in self.owners_holding(r) {
                     let (f, s) = &states[p];
-                    let cr = self.sten_coef[kr];
-                    for k in span {
+                    for k in self.sten_start[p]..self.sten_start[p + 1] {
                         let blk = self.pair_block(p, &cr, &self.sten_coef[k], f, s)
                             * self.particle_volume[p];
                         entries.push((self.sten_node[k], blk));
@@ -845,16 +853,9 @@ impl ManyBody {
         Ok((0..n)
             .into_par_iter()
             .map(|r| {
-                let owners = self.stencil_owners(r);
                 let mut g = nalgebra::Matrix3x6::<f64>::zeros();
-                for &p in owners.iter().filter(|&&p| self.included[p as usize]) {
-                    let p = p as usize;
-                    let span = self.sten_start[p]..self.sten_start[p + 1];
-                    let Some(kr) = span.clone().find(|&k| self.sten_node[k] as usize == r) else {
-                        continue;
-                    };
+                for (p, cr) in self.owners_holding(r) {
                     let (f, s) = &states[p];
-                    let cr = self.sten_coef[kr];
                     for k in self.inc_start[p]..self.inc_start[p + 1] {
                         let mb = affine_map(&self.reference[self.inc_bond[k] as usize]);
                         g += self.pair_block(p, &cr, &self.inc_coef[k], f, s)
