@@ -388,6 +388,7 @@ mod tests {
             .collect();
         let mut want = vec![Block6::zeros(); m];
         k.apply(&x, &mut want);
+        let scale = want.iter().map(|b| b.amax()).fold(0.0, f64::max);
         // The fused kernel (where it runs) on six and three load cases, and the row kernel.
         let by_rows = |cols| (0..m).map(|p| springs.row_times(p, &x, cols)).collect();
         for (cols, got) in [
@@ -402,7 +403,6 @@ mod tests {
                 y
             });
             for p in 0..m {
-                let scale = want.iter().map(|b| b.amax()).fold(0.0, f64::max);
                 for j in 0..6 {
                     let w = if j < cols {
                         want[p].column(j).into_owned()

@@ -596,13 +596,19 @@ impl Network {
         Ok(net)
     }
 
+    /// The axial preload N (N, tension positive) of active bond `e`, when it has one that is
+    /// not zero: what adds the geometric terms to its element.
+    fn preload(&self, e: usize) -> Option<f64> {
+        self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0)
+    }
+
     /// The element matrices of active bond `e` (`element()`, plus its
     /// `geometric_element` under an axial preload), formed from its stored springs and
     /// geometry: the same numbers every time.
     pub fn element(&self, e: usize) -> Element {
         let law = &self.laws[e];
         let mut el = element(law, self.rotations);
-        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+        if let Some(f) = self.preload(e) {
             el += geometric_element(&law.normal, law.length, f);
         }
         el
@@ -614,7 +620,7 @@ impl Network {
         let law = &self.laws[e];
         let (s, bi, bj) = bond_maps(law, self.rotations);
         let mut t = load_terms_of(&s, &bi, &bj, &(law.normal * law.length));
-        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+        if let Some(f) = self.preload(e) {
             let (s, bi, bj) = geometric_maps(&law.normal, law.length, f);
             let g = load_terms_of(&s, &bi, &bj, &(law.normal * law.length));
             t.gi += g.gi;
@@ -629,7 +635,7 @@ impl Network {
     pub(crate) fn stiffness_blocks(&self, e: usize) -> (Block6, Block6, Block6) {
         let law = &self.laws[e];
         let (mut kii, mut kjj, mut kij) = element_stiffness(law, self.rotations);
-        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+        if let Some(f) = self.preload(e) {
             let (gii, gjj, gij) = geometric_stiffness(&law.normal, law.length, f);
             kii += gii;
             kjj += gjj;
@@ -642,7 +648,7 @@ impl Network {
     /// ([`HalfBond`]; bond_springs.rs).
     pub(crate) fn half_bond(&self, e: usize, at_i: bool) -> HalfBond {
         let law = &self.laws[e];
-        let preload = self.axial.as_ref().map_or(0.0, |f| f[e]) / law.length;
+        let preload = self.preload(e).unwrap_or(0.0) / law.length;
         let (ai, aj) = if self.rotations { law.arms } else { (0.0, 0.0) };
         let (kr, ktw) = if self.rotations {
             (law.kr, law.ktw)
@@ -674,9 +680,9 @@ impl Network {
         let mut own = b.transpose() * (s * b);
         if let Some(rm) = rotation_springs(law, self.rotations) {
             let mut v = own.fixed_view_mut::<3, 3>(3, 3);
-            v += rm * 1.0;
+            v += rm;
         }
-        if let Some(f) = self.axial.as_ref().map(|f| f[e]).filter(|&f| f != 0.0) {
+        if let Some(f) = self.preload(e) {
             let (s, bi, bj) = geometric_maps(&law.normal, law.length, f);
             let b = if at_i { bi } else { bj };
             own += b.transpose() * (s * b);

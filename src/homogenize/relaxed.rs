@@ -345,7 +345,8 @@ pub(crate) fn relaxed_solve_full(
         });
     }
     // The two-level and block-Jacobi CG of the springs alone only read K's rows and multiply
-    // by it: its upper triangle serves (the same bits, half the memory; issue 35).
+    // by it: K applied bond by bond serves ([`BondSprings`]: its off-diagonal blocks never
+    // formed; issue 35).
     // With a term: the CG applies it in factored form (term_operator.rs) beside the springs'
     // assembled K; only the sparse Cholesky assembles it (below).
     let products_only = term.is_none()
@@ -647,14 +648,14 @@ impl BlockRows for Springs<'_> {
 }
 
 impl Stiffness<'_> {
-    /// The most scalars in one row of K: 6 per stored block of the springs', plus the
-    /// term's coupled nodes ([`TermOperator::coupling_width`]).
+    /// The most scalars in one row of K: the springs' ([`Springs::row_width`]), plus 6 per
+    /// node the term couples ([`TermOperator::coupling_width`]).
     fn row_width(&self) -> usize {
         self.k.row_width() + 6 * self.term.map_or(0, |t| t.coupling_width())
     }
 
-    /// The longest chain of additions in one computed x_cᵀ K x_c: one entry of K x (6 per
-    /// stored block of a row, plus the term's, [`TermOperator::rounding_depth`]) and the dot
+    /// The longest chain of additions in one computed x_cᵀ K x_c: one entry of K x (the
+    /// springs', [`Springs::entry_depth`], plus the term's, [`TermOperator::rounding_depth`]) and the dot
     /// product of [`column_dots`] (6 within a row, one per row of a chunk, one per chunk).
     fn rounding_depth(&self, rows: usize) -> usize {
         let entry = self.k.entry_depth() + self.term.map_or(0, |t| t.rounding_depth());
@@ -683,7 +684,8 @@ impl Stiffness<'_> {
     }
 
     /// K p into `ap` and the curvatures of [`curvatures`] (the same bits), in one pass over
-    /// the rows when K is the springs' upper triangle alone: each chunk's sums are taken as
+    /// the rows when K is the springs' alone, as an upper triangle or bond by bond (their
+    /// [`RowProducts`]): each chunk's sums are taken as
     /// soon as its rows of K p are computed, while p and K p are in cache.
     /// `pt`: p transposed, when the CG keeps it so ([`Self::takes_transposed`]).
     fn apply_curvatures<const C: usize>(
@@ -726,7 +728,8 @@ impl Stiffness<'_> {
     }
 
     /// Whether [`Self::apply_curvatures`] reads p transposed on `C` load cases (the springs'
-    /// upper triangle alone, by the fused kernels): then the CG keeps p so as it updates it.
+    /// alone, as an upper triangle or bond by bond, by the fused kernels): then the CG keeps p
+    /// so as it updates it.
     fn takes_transposed<const C: usize>(&self) -> bool {
         matches!(
             (self.k, self.term),
